@@ -1,0 +1,118 @@
+//! Integrators for piecewise-smooth systems.
+//!
+//! Problem definitions implement [`HybridSystem`]; integrators ([`rk`], [`exact`]) only see
+//! that trait (the split follows diffsol: solver traits apart from problem definitions).
+//!
+//! Discipline (see `shared/reference/numerics-notes.md` §2.1): the discrete mode (stiffness
+//! segment, contact state) is *frozen* inside a step; known-time switches are stops the
+//! integrator lands on exactly; state events are located on the dense output and the state is
+//! snapped onto the switching surface by the system before integration restarts.
+
+pub mod rk;
+
+use std::fmt;
+
+/// A piecewise-smooth ODE `y' = f(t, y; mode)`.
+///
+/// The discrete mode lives inside the system. It changes only through [`HybridSystem::on_stop`]
+/// (at a known time returned by [`HybridSystem::next_stop`]) or [`HybridSystem::on_event`]
+/// (when a guard function crosses zero). Between those calls `rhs` must be a smooth function of
+/// `(t, y)`, evaluated with the mode frozen even slightly outside the segment (RK stages may
+/// touch the segment end).
+pub trait HybridSystem {
+    /// Number of continuous states.
+    fn dim(&self) -> usize;
+
+    /// `dy = f(t, y)` in the current (frozen) mode.
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]);
+
+    /// Number of guard functions in the current mode. Zero means the scene has no state
+    /// events and the integrator does no event work at all.
+    fn guard_count(&self) -> usize {
+        0
+    }
+
+    /// Guard values `g_i(t, y)`, `i < guard_count()`. Every guard is `>= 0` while the current
+    /// mode is valid; a guard that becomes negative marks a mode change.
+    fn guards(&self, _t: f64, _y: &[f64], _g: &mut [f64]) {}
+
+    /// The first known switching time strictly after the start of the current segment, or
+    /// `f64::INFINITY`. The integrator never steps past it.
+    fn next_stop(&self) -> f64 {
+        f64::INFINITY
+    }
+
+    /// Called when the integrator has landed exactly on `next_stop()`: advance to the next
+    /// segment. The system may modify `y` (it must not, for continuous models).
+    fn on_stop(&mut self, _t: f64, _y: &mut [f64]) {}
+
+    /// Called at a located state event: guard `index` crossed zero at `t`. The system snaps `y`
+    /// onto the switching surface and switches mode.
+    fn on_event(&mut self, _t: f64, _y: &mut [f64], _index: usize) {}
+}
+
+/// Counters every integrator keeps (work measures for benchmarks).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SolverStats {
+    /// Accepted steps (for the exact propagator: segments propagated).
+    pub steps: u64,
+    /// Rejected steps.
+    pub rejected: u64,
+    /// Right-hand-side evaluations.
+    pub rhs_evals: u64,
+    /// Guard (root-function) evaluations, including those on the interpolant.
+    pub guard_evals: u64,
+    /// State events located and handled.
+    pub events: u64,
+    /// Known-time stops landed on.
+    pub stops: u64,
+}
+
+impl SolverStats {
+    /// Adds another counter set to this one.
+    pub fn accumulate(&mut self, other: &SolverStats) {
+        self.steps += other.steps;
+        self.rejected += other.rejected;
+        self.rhs_evals += other.rhs_evals;
+        self.guard_evals += other.guard_evals;
+        self.events += other.events;
+        self.stops += other.stops;
+    }
+}
+
+/// Why an integration could not continue.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SolveError {
+    /// The step size fell below the floating-point resolution of `t`.
+    StepSizeTooSmall { t: f64, h: f64 },
+    /// More steps than `max_steps` were needed for one `advance_to`.
+    TooManySteps { t: f64, max_steps: u64 },
+    /// A state or derivative became NaN or infinite.
+    NonFinite { t: f64 },
+    /// More state events at (almost) the same time than can be physical (Zeno behaviour).
+    EventStorm { t: f64, events: u64 },
+    /// The requested end time lies before the current time.
+    BackwardTime { t: f64, t_end: f64 },
+}
+
+impl fmt::Display for SolveError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SolveError::StepSizeTooSmall { t, h } => {
+                write!(f, "step size {h:e} too small at t = {t:e} s")
+            }
+            SolveError::TooManySteps { t, max_steps } => {
+                write!(f, "more than {max_steps} steps needed, stopped at t = {t:e} s")
+            }
+            SolveError::NonFinite { t } => write!(f, "state became non-finite at t = {t:e} s"),
+            SolveError::EventStorm { t, events } => {
+                write!(f, "{events} state events without progress at t = {t:e} s")
+            }
+            SolveError::BackwardTime { t, t_end } => {
+                write!(f, "end time {t_end:e} s lies before current time {t:e} s")
+            }
+        }
+    }
+}
+
+impl std::error::Error for SolveError {}
