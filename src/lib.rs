@@ -8,6 +8,7 @@
 // lint's `partial_cmp` rewrite would hide that intent.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod analysis;
 pub mod mesh;
 pub mod model;
 pub mod output;

@@ -72,6 +72,9 @@ pub struct ExactPropagator {
     a_key: u64,
     /// Events without time progress, to stop a Zeno cascade.
     stalled_events: u64,
+    /// `∂y(t)/∂y(t_track)` when tracking is on: the product of the `y` blocks of the applied
+    /// transition matrices (the forcing rows of `z` do not depend on `y`).
+    sensitivity: Option<DMatrix<f64>>,
 }
 
 /// Events allowed at one instant before the propagation gives up (Zeno guard).
@@ -91,7 +94,21 @@ impl ExactPropagator {
             rows: Vec::new(),
             a_key: u64::MAX,
             stalled_events: 0,
+            sensitivity: None,
         }
+    }
+
+    /// Starts (or stops) tracking `∂y/∂y0` from the current time: after `advance_to`,
+    /// [`ExactPropagator::sensitivity`] is the state-transition matrix of the linearised flow,
+    /// e.g. the monodromy matrix after one period (Floquet analysis). Trajectories with state
+    /// events are refused ([`SolveError::SensitivityAcrossEvent`]).
+    pub fn track_sensitivity(&mut self, on: bool) {
+        let n = self.y.len();
+        self.sensitivity = on.then(|| DMatrix::identity(n, n));
+    }
+
+    pub fn sensitivity(&self) -> Option<&DMatrix<f64>> {
+        self.sensitivity.as_ref()
     }
 
     /// (Re)starts at `(t, y)`.
@@ -152,10 +169,19 @@ impl ExactPropagator {
             }
             let phi = self.cache.get(key, tau, &self.a);
             phi.mul_to(&self.z, &mut self.z_next);
+            let phi_y = self
+                .sensitivity
+                .is_some()
+                .then(|| phi.view((0, 0), (n, n)).clone_owned());
             self.stats.steps += 1;
 
             if sys.guard_count() > 0 {
                 if let Some((tau_event, index)) = self.first_crossing(sys, tau)? {
+                    if self.sensitivity.is_some() {
+                        return Err(SolveError::SensitivityAcrossEvent {
+                            t: self.t + tau_event,
+                        });
+                    }
                     let z_event = (&self.a * tau_event).exp() * &self.z;
                     let t_event = self.t + tau_event;
                     self.stalled_events = if t_event > self.t {
@@ -178,6 +204,9 @@ impl ExactPropagator {
                 }
             }
             self.y.copy_from_slice(&self.z_next.as_slice()[..n]);
+            if let (Some(s), Some(phi_y)) = (&mut self.sensitivity, &phi_y) {
+                *s = phi_y * &*s;
+            }
             if !self.y.iter().all(|v| v.is_finite()) {
                 return Err(SolveError::NonFinite { t: self.t });
             }
