@@ -38,10 +38,10 @@ struct SimulateArgs {
     #[arg(long)]
     out: PathBuf,
     /// End time, s (default: the scene's `solver.stop_time`).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     stop_time: Option<f64>,
     /// Output interval, s (default: the scene's `solver.output_interval`).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     output_interval: Option<f64>,
     /// Propagator: auto | rk | exact.
     #[arg(long)]
@@ -50,10 +50,10 @@ struct SimulateArgs {
     #[arg(long)]
     rk_method: Option<String>,
     /// Relative tolerance of the RK path.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     rtol: Option<f64>,
     /// Absolute tolerance of the RK path (m and m/s).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     atol: Option<f64>,
     /// Do not print the summary.
     #[arg(long)]
