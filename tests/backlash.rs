@@ -44,9 +44,22 @@ fn spur_pair() -> Scene {
     Scene::example("spur_pair").expect("built-in scene")
 }
 
+/// `spur_pair` with a smaller clearance and a larger STE: drive-side and back-side impacts.
+fn double_sided() -> Scene {
+    let text = include_str!("../fmu/spur_pair/scene.toml")
+        .replacen("backlash = 1.0e-4", "backlash = 1.0e-5", 1)
+        .replacen("cos = [1.0e-6]", "cos = [3.0e-6]", 1);
+    Scene::from_toml_str(&text, "double_sided").expect("scene")
+}
+
 #[test]
 fn rk_and_exact_agree_with_identical_event_sequences() {
-    let scene = spur_pair();
+    agree_with_identical_event_sequences(&spur_pair(), false);
+    agree_with_identical_event_sequences(&double_sided(), true);
+}
+
+fn agree_with_identical_event_sequences(scene: &Scene, back_side: bool) {
+    let scene = scene.clone();
     let exact = run(&scene, MethodChoice::Exact, Method::Dop853, 0.0, 0.0);
     let separations = exact
         .events
@@ -65,6 +78,7 @@ fn rk_and_exact_agree_with_identical_event_sequences() {
     );
     assert!(exact.mesh_periods >= 50.0);
     assert!(separations >= 50, "repeated contact loss expected");
+    assert_eq!(back_hits > 0, back_side, "back-side contacts");
     for rk in [Method::Dop853, Method::Dp5] {
         let r = run(&scene, MethodChoice::Rk, rk, 1e-10, 1e-16);
         let err = common::max_abs_diff(&r.dte, &exact.dte) / exact.static_deflection;
