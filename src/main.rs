@@ -5,6 +5,7 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 
+use geardyn::analysis::{shoot, ShootingOptions};
 use geardyn::model::OUTPUT_NAMES;
 use geardyn::scene::{MethodChoice, Scene};
 use geardyn::{output, simulation};
@@ -24,6 +25,27 @@ struct Cli {
 enum Command {
     /// Simulate a scene and write its outputs to CSV.
     Simulate(SimulateArgs),
+    /// Periodic steady state by shooting, with Floquet multipliers and stability.
+    Periodic(PeriodicArgs),
+}
+
+#[derive(Args)]
+struct PeriodicArgs {
+    /// Scene file (`scene.toml`) or a folder holding one.
+    #[arg(required_unless_present = "example", conflicts_with = "example")]
+    scene: Option<PathBuf>,
+    /// A built-in example scene instead of a file (e.g. `spur_pair`).
+    #[arg(long)]
+    example: Option<String>,
+    /// Pinion speed, rad/s (default: the scene's `operating.pinion_speed`).
+    #[arg(long, allow_negative_numbers = true)]
+    speed: Option<f64>,
+    /// Orbit period in mesh periods (period-k orbits).
+    #[arg(long, default_value_t = 1)]
+    periods: u32,
+    /// Mesh periods integrated before Newton starts.
+    #[arg(long, default_value_t = 20)]
+    warmup: u32,
 }
 
 #[derive(Args)]
@@ -68,13 +90,52 @@ fn positive(name: &str, v: f64) -> Result<f64, String> {
     }
 }
 
-fn simulate(args: SimulateArgs) -> Result<(), String> {
-    let mut scene = match (&args.scene, &args.example) {
+/// The scene named on the command line: a file or folder, or a built-in example.
+fn load_scene(path: &Option<PathBuf>, example: &Option<String>) -> Result<Scene, String> {
+    match (path, example) {
         (_, Some(name)) => Scene::example(name),
         (Some(path), None) => Scene::from_path(path),
         (None, None) => unreachable!("clap requires a scene or --example"),
     }
-    .map_err(|e| e.to_string())?;
+    .map_err(|e| e.to_string())
+}
+
+fn periodic(args: PeriodicArgs) -> Result<(), String> {
+    let mut scene = load_scene(&args.scene, &args.example)?;
+    if let Some(speed) = args.speed {
+        scene.operating.pinion_speed = positive("speed", speed)?;
+    }
+    let options = ShootingOptions {
+        periods: args.periods,
+        warmup_periods: args.warmup,
+        ..ShootingOptions::default()
+    };
+    let orbit = shoot(&scene, &options)?;
+    println!(
+        "scene {}: period-{} orbit at pinion speed {} rad/s (T = {:.6e} s)",
+        scene.name, orbit.periods, scene.operating.pinion_speed, orbit.period
+    );
+    for (k, r) in orbit.residuals.iter().enumerate() {
+        println!("  Newton {k}: scaled residual {r:.3e}");
+    }
+    println!(
+        "  y0 = [x = {:e} m, x' = {:e} m/s]",
+        orbit.y0[0], orbit.y0[1]
+    );
+    for m in &orbit.multipliers {
+        println!(
+            "  multiplier {:+.12} {:+.12}i  |μ| = {:.12}",
+            m.re,
+            m.im,
+            m.norm()
+        );
+    }
+    println!("  stability: {:?}", orbit.stability());
+    Ok(())
+}
+
+fn simulate(args: SimulateArgs) -> Result<(), String> {
+    let mut scene = load_scene(&args.scene, &args.example)?;
     let s = &mut scene.solver;
     if let Some(m) = &args.method {
         s.method = m
@@ -124,6 +185,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Simulate(args) => simulate(args),
+        Command::Periodic(args) => periodic(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

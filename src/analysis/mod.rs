@@ -1,5 +1,7 @@
 //! Steady-state and stability analysis on top of the model and the propagators.
 
 pub mod floquet;
+pub mod shooting;
 
 pub use floquet::{exact_monodromy, Floquet};
+pub use shooting::{shoot, PeriodicOrbit, ShootingOptions, Stability};

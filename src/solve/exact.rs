@@ -100,8 +100,9 @@ impl ExactPropagator {
 
     /// Starts (or stops) tracking `∂y/∂y0` from the current time: after `advance_to`,
     /// [`ExactPropagator::sensitivity`] is the state-transition matrix of the linearised flow,
-    /// e.g. the monodromy matrix after one period (Floquet analysis). Trajectories with state
-    /// events are refused ([`SolveError::SensitivityAcrossEvent`]).
+    /// e.g. the monodromy matrix after one period (Floquet analysis, shooting). State events
+    /// contribute their saltation matrix; a grazing event, where it is unbounded, is an error
+    /// ([`SolveError::SingularSaltation`]).
     pub fn track_sensitivity(&mut self, on: bool) {
         let n = self.y.len();
         self.sensitivity = on.then(|| DMatrix::identity(n, n));
@@ -177,12 +178,8 @@ impl ExactPropagator {
 
             if sys.guard_count() > 0 {
                 if let Some((tau_event, index)) = self.first_crossing(sys, tau)? {
-                    if self.sensitivity.is_some() {
-                        return Err(SolveError::SensitivityAcrossEvent {
-                            t: self.t + tau_event,
-                        });
-                    }
-                    let z_event = (&self.a * tau_event).exp() * &self.z;
+                    let phi_event = (&self.a * tau_event).exp();
+                    let z_event = &phi_event * &self.z;
                     let t_event = self.t + tau_event;
                     self.stalled_events = if t_event > self.t {
                         0
@@ -195,9 +192,20 @@ impl ExactPropagator {
                             events: self.stalled_events,
                         });
                     }
+                    // Before the switch: the flow and the guard's rate of the old mode.
+                    let before = self.sensitivity.is_some().then(|| {
+                        let mut w = DVector::zeros(self.z.len());
+                        sys.guard_row(index, w.as_mut_slice());
+                        let flow = &self.a * &z_event;
+                        let rate = w.dot(&flow);
+                        (w, flow, rate)
+                    });
                     self.t = t_event;
                     self.y.copy_from_slice(&z_event.as_slice()[..n]);
                     sys.on_event(self.t, &mut self.y, index);
+                    if let Some((w, flow_before, rate)) = before {
+                        self.apply_saltation(sys, &phi_event, &w, &flow_before, rate)?;
+                    }
                     self.stats.events += 1;
                     self.a_key = u64::MAX;
                     continue;
@@ -216,6 +224,45 @@ impl ExactPropagator {
                 self.stats.stops += 1;
                 self.a_key = u64::MAX;
             }
+        }
+        Ok(())
+    }
+
+    /// Carries the tracked sensitivity across an event at `self.t`: the partial segment's
+    /// transition, then the saltation matrix
+    /// `S = I + (f⁺ − f⁻) ∇_y gᵀ / ġ⁻` (Aizerman & Gantmacher 1958; Leine & Nijmeijer 2004,
+    /// eq. 3.74) with `ġ⁻ = w·A⁻z` the guard's total rate before the switch (the harmonic
+    /// forcing states carry its explicit time dependence). The snap onto the surface only
+    /// removes rounding, so the jump map is the identity.
+    fn apply_saltation<S: PiecewiseLti>(
+        &mut self,
+        sys: &S,
+        phi_event: &DMatrix<f64>,
+        w: &DVector<f64>,
+        flow_before: &DVector<f64>,
+        rate: f64,
+    ) -> Result<(), SolveError> {
+        let n = self.y.len();
+        let nz = self.z.len();
+        let scale = w.abs().dot(&flow_before.abs());
+        if !(rate.abs() > 1e-9 * scale) {
+            return Err(SolveError::SingularSaltation { t: self.t });
+        }
+        let mut z_after = DVector::zeros(nz);
+        sys.lift(self.t, &self.y, z_after.as_mut_slice());
+        let mut a_after = DMatrix::zeros(nz, nz);
+        sys.lti_matrix(&mut a_after);
+        let flow_after = &a_after * &z_after;
+        let mut saltation = DMatrix::<f64>::identity(n, n);
+        for i in 0..n {
+            let jump = (flow_after[i] - flow_before[i]) / rate;
+            for j in 0..n {
+                saltation[(i, j)] += jump * w[j];
+            }
+        }
+        let phi_y = phi_event.view((0, 0), (n, n));
+        if let Some(s) = &mut self.sensitivity {
+            *s = &saltation * (phi_y * &*s);
         }
         Ok(())
     }

@@ -102,18 +102,17 @@ pub enum SolveError {
     StopNotAhead { t: f64, stop: f64 },
     /// The system's `dim()` differs from the integrator's.
     DimensionMismatch { expected: usize, got: usize },
-    /// A state event occurred while the sensitivity `∂y/∂y0` was tracked; crossing a switching
-    /// surface needs a saltation matrix, which the propagator does not form.
-    SensitivityAcrossEvent { t: f64 },
+    /// A grazing state event (the guard's rate vanishes) while the sensitivity `∂y/∂y0` was
+    /// tracked: the saltation matrix is unbounded there.
+    SingularSaltation { t: f64 },
 }
 
 impl fmt::Display for SolveError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
-            SolveError::SensitivityAcrossEvent { t } => write!(
+            SolveError::SingularSaltation { t } => write!(
                 f,
-                "state event at t = {t:e} s while tracking the sensitivity (monodromy): \
-                 only event-free trajectories are supported"
+                "grazing contact at t = {t:e} s: the sensitivity (monodromy) is unbounded there"
             ),
             SolveError::StepSizeTooSmall { t, h } => {
                 write!(f, "step size {h:e} too small at t = {t:e} s")
