@@ -5,8 +5,9 @@ use std::process::ExitCode;
 
 use clap::{Args, Parser, Subcommand};
 
-use geardyn::analysis::{shoot, ShootingOptions};
+use geardyn::analysis::{self, shoot, Direction, ShootingOptions, SweepOptions, SWEEP_COLUMNS};
 use geardyn::model::OUTPUT_NAMES;
+use geardyn::plot::{Plot, Series};
 use geardyn::scene::{MethodChoice, Scene};
 use geardyn::{output, simulation};
 
@@ -27,6 +28,36 @@ enum Command {
     Simulate(SimulateArgs),
     /// Periodic steady state by shooting, with Floquet multipliers and stability.
     Periodic(PeriodicArgs),
+    /// Frequency-response sweep over pinion speed (warm start, up/down branches).
+    Sweep(SweepArgs),
+}
+
+#[derive(Args)]
+struct SweepArgs {
+    /// Scene file (`scene.toml`) or a folder holding one.
+    #[arg(required_unless_present = "example", conflicts_with = "example")]
+    scene: Option<PathBuf>,
+    /// A built-in example scene instead of a file (e.g. `spur_pair`).
+    #[arg(long)]
+    example: Option<String>,
+    /// Pinion speeds `from:to:points`, rad/s.
+    #[arg(long, allow_hyphen_values = true)]
+    speed: String,
+    /// up | down | both (both runs the two branches in parallel).
+    #[arg(long, default_value = "both")]
+    direction: String,
+    /// Output CSV (one row per point and direction).
+    #[arg(long)]
+    out: PathBuf,
+    /// Also draw the DTE RMS against mesh frequency as SVG.
+    #[arg(long)]
+    plot: Option<PathBuf>,
+    /// Periodicity tolerance (scaled state residual).
+    #[arg(long, default_value_t = 1e-7)]
+    tolerance: f64,
+    /// Give up on a point after this many mesh periods (it is kept, marked not converged).
+    #[arg(long, default_value_t = 3000)]
+    max_periods: u32,
 }
 
 #[derive(Args)]
@@ -134,6 +165,73 @@ fn periodic(args: PeriodicArgs) -> Result<(), String> {
     Ok(())
 }
 
+fn sweep(args: SweepArgs) -> Result<(), String> {
+    let scene = load_scene(&args.scene, &args.example)?;
+    let speeds = SweepOptions::parse_range(&args.speed)?;
+    let direction = args
+        .direction
+        .parse()
+        .map_err(|e| format!("--direction: {e}"))?;
+    let options = SweepOptions {
+        tolerance: positive("tolerance", args.tolerance)?,
+        max_transient_periods: args.max_periods,
+        ..SweepOptions::new(speeds, direction)
+    };
+    let progress = |done: usize, total: usize| {
+        eprint!("\rsweep {done}/{total} points");
+        if done == total {
+            eprintln!();
+        }
+    };
+    let points = analysis::sweep(&scene, &options, &progress)?;
+    output::write_table(&args.out, &SWEEP_COLUMNS, points.iter().map(|p| p.row()))?;
+    if let Some(path) = &args.plot {
+        let branch = |d: Direction| -> Vec<(f64, f64)> {
+            points
+                .iter()
+                .filter(|p| p.direction == d)
+                .map(|p| (p.mesh_frequency, p.dte_rms))
+                .collect()
+        };
+        let series = [
+            (Direction::Up, "up sweep", "#c0392b", false),
+            (Direction::Down, "down sweep", "#2471a3", true),
+        ]
+        .into_iter()
+        .map(|(d, label, color, dashed)| Series {
+            label,
+            color,
+            points: branch(d),
+            dashed,
+            markers: true,
+        })
+        .filter(|s| !s.points.is_empty())
+        .collect();
+        let title = format!("{}: DTE RMS (mean removed)", scene.name);
+        let plot = Plot {
+            title: &title,
+            x_label: "mesh frequency (Hz)",
+            y_label: "DTE RMS (m)",
+            series,
+        };
+        std::fs::write(path, plot.to_svg())
+            .map_err(|e| format!("cannot write '{}': {e}", path.display()))?;
+    }
+    let unconverged = points.iter().filter(|p| !p.converged).count();
+    println!(
+        "scene {}: {} points → {}{}",
+        scene.name,
+        points.len(),
+        args.out.display(),
+        if unconverged > 0 {
+            format!(" ({unconverged} not converged, marked converged = 0)")
+        } else {
+            String::new()
+        }
+    );
+    Ok(())
+}
+
 fn simulate(args: SimulateArgs) -> Result<(), String> {
     let mut scene = load_scene(&args.scene, &args.example)?;
     let s = &mut scene.solver;
@@ -186,6 +284,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Simulate(args) => simulate(args),
         Command::Periodic(args) => periodic(args),
+        Command::Sweep(args) => sweep(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
