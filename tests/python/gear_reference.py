@@ -40,8 +40,8 @@ Readings of the specification where it leaves room (also listed in the report):
   event.
 * ``ste.cos`` / ``ste.sin`` (and the Fourier stiffness ``cos``/``sin``) may have different
   lengths; missing harmonics are zero. A missing ``[mesh.ste]`` means e ≡ 0.
-* Output grid of the CLI: t_k = k·H for k = 0 … floor(T/H) (plus T itself if T is not a
-  multiple of H).
+* Output grid of the CLI: t_k = k·H for k = 0 … floor(T/H), the last point snapped to T when
+  it is within rounding of it (plus T itself if T is not a multiple of H).
 """
 from __future__ import annotations
 
@@ -588,7 +588,9 @@ def simulate(scene: Scene, stop_time: float, output_times=None, output_interval=
             raise ValueError("need output_times or a positive output_interval")
         n = math.floor(stop_time / output_interval * (1.0 + 1e-12))
         output_times = [k * output_interval for k in range(n + 1)]
-        if stop_time - output_times[-1] > 1e-9 * output_interval:
+        if abs(stop_time - output_times[-1]) <= 1e-9 * output_interval:
+            output_times[-1] = stop_time  # k·H rounding past (or short of) the stop time
+        elif output_times[-1] < stop_time:
             output_times.append(stop_time)
     out_t = np.asarray(output_times, dtype=float)
     if atol is None:
