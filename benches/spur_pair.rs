@@ -158,14 +158,15 @@ fn main() {
             other => panic!("unknown argument {other:?} (--quick, --csv FILE, --write-scenes DIR)"),
         }
     }
-    // Simulated time per run and the least wall time spent per configuration.
+    // Simulated time per run, least wall time per configuration, least number of rounds.
     let (stop_time, min_wall, min_reps) = if quick {
         (0.05, 0.05, 2)
     } else {
-        (0.2, 0.3, 5)
+        (0.2, 0.5, 7)
     };
 
     let cases = cases();
+    let load_before = load_average();
     if let Some(dir) = &scene_dir {
         std::fs::create_dir_all(dir).expect("create scene directory");
         for case in &cases {
@@ -183,39 +184,43 @@ fn main() {
         let static_deflection = sim.model().static_deflection();
         for &h in &GRIDS {
             let grid = output_grid(stop_time, h);
-            let mut exact_dte: Option<Vec<f64>> = None;
-            for &prop in &PROPS {
-                let scene = scene_for(case, prop);
-                // Warm-up run (also the accuracy sample), then timed repetitions; the minimum
-                // is reported (least disturbed by other processes on shared cores).
-                let (dte, stats) = run_once(&scene, &grid);
-                let mut best = f64::INFINITY;
-                let mut reps = 0;
-                let started = Instant::now();
-                while reps < min_reps || started.elapsed().as_secs_f64() < min_wall {
+            let scenes: Vec<Scene> = PROPS.iter().map(|&p| scene_for(case, p)).collect();
+            // Warm-up run of every propagator (also the accuracy sample and the counters).
+            let samples: Vec<_> = scenes.iter().map(|s| run_once(s, &grid)).collect();
+            // Timed rounds, interleaved (one run of each propagator per round) so that load
+            // from other processes on shared cores hits all of them alike; the minimum per
+            // propagator is reported (the least disturbed run).
+            let mut best = [f64::INFINITY; PROPS.len()];
+            let mut rounds = 0;
+            let started = Instant::now();
+            while rounds < min_reps
+                || started.elapsed().as_secs_f64() < min_wall * PROPS.len() as f64
+            {
+                for (scene, b) in scenes.iter().zip(best.iter_mut()) {
                     let t0 = Instant::now();
-                    black_box(run_once(black_box(&scene), &grid));
-                    best = best.min(t0.elapsed().as_secs_f64());
-                    reps += 1;
+                    black_box(run_once(black_box(scene), &grid));
+                    *b = b.min(t0.elapsed().as_secs_f64());
                 }
-                let err_vs_exact = match (&exact_dte, prop) {
-                    (Some(reference), Prop::Rk(_)) => Some(
+                rounds += 1;
+            }
+            let exact_dte = &samples[0].0;
+            for (i, &prop) in PROPS.iter().enumerate() {
+                let (dte, stats) = &samples[i];
+                let err_vs_exact = match prop {
+                    Prop::Exact => None,
+                    Prop::Rk(_) => Some(
                         dte.iter()
-                            .zip(reference)
+                            .zip(exact_dte)
                             .map(|(a, b)| (a - b).abs())
                             .fold(0.0, f64::max)
                             / static_deflection,
                     ),
-                    _ => None,
                 };
-                if prop == Prop::Exact {
-                    exact_dte = Some(dte);
-                }
                 results.push(Measurement {
                     case: case.name,
                     prop,
                     grid: h,
-                    ns_per_period: best * 1e9 / periods,
+                    ns_per_period: best[i] * 1e9 / periods,
                     steps_per_period: stats.steps as f64 / periods,
                     rhs_per_period: stats.rhs_evals as f64 / periods,
                     events_per_period: stats.events as f64 / periods,
@@ -225,7 +230,7 @@ fn main() {
         }
     }
 
-    print_table(&cases, &results, stop_time);
+    print_table(&cases, &results, stop_time, &load_before);
     if let Some(path) = csv {
         let mut text = String::from(
             "case,method,grid_s,ns_per_period,steps_per_period,rhs_per_period,events_per_period,err_vs_exact\n",
@@ -254,9 +259,19 @@ fn find<'a>(results: &'a [Measurement], case: &str, prop: Prop, grid: f64) -> &'
         .expect("measured")
 }
 
-fn print_table(cases: &[Case], results: &[Measurement], stop_time: f64) {
+fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|_| "n/a".into())
+}
+
+fn print_table(cases: &[Case], results: &[Measurement], stop_time: f64, load_before: &str) {
     println!(
-        "geardyn benchmark: spur_pair, {stop_time} s simulated per run (best of repeated runs)"
+        "geardyn benchmark: spur_pair, {stop_time} s simulated per run, best of interleaved runs"
+    );
+    println!(
+        "load average before/after: {load_before} / {} (timings compare only on an idle machine)",
+        load_average()
     );
     for case in cases {
         println!("  {:10} {}", case.name, case.what);
