@@ -116,6 +116,31 @@ impl PeriodMap {
     }
 }
 
+/// The period map over `periods` mesh periods from `y0` at `t = 0` and its Jacobian (exact
+/// monodromy with saltation), for a piecewise-LTI scene at its operating point.
+pub fn period_map(
+    scene: &Scene,
+    y0: [f64; 2],
+    periods: u32,
+) -> Result<(Vec<f64>, DMatrix<f64>), String> {
+    let pair = GearPair::new(scene);
+    if !pair.is_piecewise_lti() {
+        return Err("period map: the exact monodromy needs a piecewise-constant stiffness".into());
+    }
+    if !(scene.operating.pinion_speed > 0.0) {
+        return Err("period map: the pinion speed must be > 0".into());
+    }
+    let duration = pair.mesh_period() * periods as f64;
+    let propagator = ExactPropagator::new(&pair);
+    let mut map = PeriodMap {
+        pair,
+        propagator,
+        duration,
+    };
+    let (y, m) = map.eval(&y0)?;
+    Ok((y.as_slice().to_vec(), m))
+}
+
 /// Finds the period-`k` orbit of a piecewise-LTI scene at its operating point by damped
 /// Newton shooting.
 pub fn shoot(scene: &Scene, options: &ShootingOptions) -> Result<PeriodicOrbit, String> {

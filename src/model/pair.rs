@@ -251,6 +251,79 @@ impl GearPair {
         self.stiffness_at(t) * (delta + offset) + self.damping * delta_rate
     }
 
+    /// The mesh force as a function of mesh phase and state, with the contact state taken from
+    /// the deflection rather than from the frozen mode: `(F, ∂F/∂x, ∂F/∂x')`. `f_m` is the mesh
+    /// frequency that turns `de/dp` into `ė`. For frequency-domain methods (harmonic balance),
+    /// which see the contact law as a static piecewise-linear function.
+    pub fn force_law(&self, p: f64, f_m: f64, x: f64, v: f64) -> (f64, f64, f64) {
+        let (e, slope) = self.ste.value_and_slope(p);
+        let delta = x - e;
+        let delta_rate = v - f_m * slope;
+        let k = self.stiffness.value(p);
+        let (engaged, offset) = match self.contact_law {
+            ContactLaw::Linear => (true, 0.0),
+            ContactLaw::ContactLoss => (delta > 0.0, 0.0),
+            ContactLaw::Backlash { clearance } => {
+                if delta > 0.0 {
+                    (true, 0.0)
+                } else if delta < -clearance {
+                    (true, clearance)
+                } else {
+                    (false, 0.0)
+                }
+            }
+        };
+        if engaged {
+            (
+                k * (delta + offset) + self.damping * delta_rate,
+                k,
+                self.damping,
+            )
+        } else {
+            (0.0, 0.0, 0.0)
+        }
+    }
+
+    /// Which side of the contact law a deflection `δ = x − e(p)` is on: +1 drive side (or any
+    /// δ for the linear law), 0 separated, −1 back side; the same rule as [`Self::force_law`].
+    pub fn contact_side(&self, p: f64, x: f64) -> (i8, f64) {
+        let delta = x - self.ste.value(p);
+        let side = match self.contact_law {
+            ContactLaw::Linear => 1,
+            ContactLaw::ContactLoss => i8::from(delta > 0.0),
+            ContactLaw::Backlash { clearance } => {
+                if delta > 0.0 {
+                    1
+                } else if delta < -clearance {
+                    -1
+                } else {
+                    0
+                }
+            }
+        };
+        (side, delta)
+    }
+
+    /// Viscous mesh damping `c_m`, N·s/m.
+    pub fn damping(&self) -> f64 {
+        self.damping
+    }
+
+    /// Clearance `2b` of the contact law (0 without backlash), m.
+    pub fn contact_clearance(&self) -> f64 {
+        self.clearance()
+    }
+
+    /// External force on the DTE coordinate `F_ext`, N.
+    pub fn external_force(&self) -> f64 {
+        self.f_ext
+    }
+
+    /// Upper bound of |e(p)|, m.
+    pub fn ste_amplitude_bound(&self) -> f64 {
+        self.ste.amplitude_bound()
+    }
+
     /// Starts recording contact changes (cleared on every call).
     pub fn record_events(&mut self) {
         self.event_log = Some(Vec::new());
