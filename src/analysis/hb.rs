@@ -723,6 +723,7 @@ mod tests {
         let p = Problem::new(&scene, &options).unwrap();
         let u = DVector::from_fn(p.dim(), |i, _| (i as f64 + 1.0).sin());
         let back = &p.projection * (&p.gamma * &u);
-        assert!((back - u).amax() < 1e-9, "{}", (back - u).amax());
+        let err = (back - u).amax();
+        assert!(err < 1e-9, "{err}");
     }
 }
