@@ -58,6 +58,85 @@ impl TransitionCache {
     }
 }
 
+/// A guard along the analytic solution of one sample interval as its Taylor series,
+/// `g(s) = w·e^{As} z = Σ_k c_k s^k / k!` with `c_k = w·A^k z` (Moler & Van Loan 2003,
+/// method 1). Sample intervals are at most a quarter of the fastest period, so `|λ s| ≤ π/2`
+/// and the terms fall factorially; root finding then costs a few flops per evaluation
+/// instead of a matrix exponential. Where the series does not settle (e.g. heavy damping
+/// outside the frequency bound) the coefficients fall back to exact `expm` evaluation.
+struct GuardSeries<'a> {
+    coefficients: Vec<f64>,
+    fallback: Option<(&'a DVector<f64>, &'a DMatrix<f64>, &'a DVector<f64>)>,
+}
+
+impl<'a> GuardSeries<'a> {
+    const MAX_TERMS: usize = 60;
+
+    fn new(
+        row: &'a DVector<f64>,
+        a: &'a DMatrix<f64>,
+        z: &'a DVector<f64>,
+        width: f64,
+    ) -> GuardSeries<'a> {
+        let mut coefficients = Vec::with_capacity(32);
+        let mut v = z.clone();
+        let mut next = DVector::zeros(z.len());
+        let mut magnitude = 0.0f64;
+        let mut previous_term = f64::INFINITY;
+        let mut factor = 1.0;
+        for k in 0..Self::MAX_TERMS {
+            let c = row.dot(&v);
+            coefficients.push(c);
+            // |c_k| width^k / k! bounds the k-th term over the interval; two small terms in a
+            // row, because odd or even terms alone can vanish (e.g. starting at rest).
+            let term = c.abs() * factor;
+            magnitude = magnitude.max(term);
+            let small = |t: f64| t <= 1e-20 * magnitude;
+            if k >= 8 && small(term) && small(previous_term) {
+                // One more coefficient for the slope series.
+                a.mul_to(&v, &mut next);
+                coefficients.push(row.dot(&next));
+                return GuardSeries {
+                    coefficients,
+                    fallback: None,
+                };
+            }
+            previous_term = term;
+            a.mul_to(&v, &mut next);
+            std::mem::swap(&mut v, &mut next);
+            factor *= width / (k + 1) as f64;
+        }
+        GuardSeries {
+            coefficients,
+            fallback: Some((row, a, z)),
+        }
+    }
+
+    /// `Σ_{k≥start} c_k s^{k−start} / (k−start)!` by Horner.
+    fn horner(&self, start: usize, s: f64) -> f64 {
+        let c = &self.coefficients[start..];
+        let mut acc = 0.0;
+        for k in (0..c.len()).rev() {
+            acc = c[k] + acc * s / (k + 1) as f64;
+        }
+        acc
+    }
+
+    fn value(&self, s: f64) -> f64 {
+        match self.fallback {
+            Some((row, a, z)) => row.dot(&((a * s).exp() * z)),
+            None => self.horner(0, s),
+        }
+    }
+
+    fn slope(&self, s: f64) -> f64 {
+        match self.fallback {
+            Some((row, a, z)) => row.dot(&(a * ((a * s).exp() * z))),
+            None => self.horner(1, s),
+        }
+    }
+}
+
 /// The exact propagator: same stateful interface as the RK stepper.
 pub struct ExactPropagator {
     t: f64,
@@ -333,12 +412,12 @@ impl ExactPropagator {
                         best = Some((0.0, i));
                         break;
                     }
-                    let z0 = z_left.clone();
+                    let series = GuardSeries::new(row, &a, &z_left, width);
                     let mut evals = 0u64;
                     let (_, after) = brent_bracket(
                         |s| {
                             evals += 1;
-                            row.dot(&((&a * s).exp() * &z0))
+                            series.value(s)
                         },
                         lo,
                         hi,
@@ -389,11 +468,12 @@ impl ExactPropagator {
         if d_right >= 0.0 {
             return None;
         }
+        let series = GuardSeries::new(row, a, z_left, width);
         let mut evals = 0u64;
         let (s_max, _) = brent_bracket(
             |s| {
                 evals += 1;
-                slope_row.dot(&((a * s).exp() * z_left))
+                series.slope(s)
             },
             0.0,
             width,
@@ -401,7 +481,7 @@ impl ExactPropagator {
             d_right,
             1e-13 * width,
         );
-        let g_max = row.dot(&((a * s_max).exp() * z_left));
+        let g_max = series.value(s_max);
         self.stats.guard_evals += evals + 1;
         if g_max > 0.0 {
             Some((s_max, width, g_max, g_right))
@@ -450,11 +530,12 @@ impl ExactPropagator {
         if hermite_min > 0.05 * scale {
             return None;
         }
+        let series = GuardSeries::new(row, a, z_left, width);
         let mut evals = 0u64;
         let (s_min, _) = brent_bracket(
             |s| {
                 evals += 1;
-                slope_row.dot(&((a * s).exp() * z_left))
+                series.slope(s)
             },
             0.0,
             width,
@@ -462,7 +543,7 @@ impl ExactPropagator {
             d_right,
             1e-13 * width,
         );
-        let g_min = row.dot(&((a * s_min).exp() * z_left));
+        let g_min = series.value(s_min);
         self.stats.guard_evals += evals + 1;
         (g_min < 0.0).then_some((0.0, s_min, g_left.max(0.0), g_min))
     }
