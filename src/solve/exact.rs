@@ -441,6 +441,34 @@ impl ExactPropagator {
         Ok(best)
     }
 
+    /// The stationary point of the guard inside a sample interval whose end slopes `d_left`
+    /// and `d_right` have opposite signs: `(s, g(s))`.
+    fn stationary_point(
+        &mut self,
+        row: &DVector<f64>,
+        a: &DMatrix<f64>,
+        z_left: &DVector<f64>,
+        width: f64,
+        d_left: f64,
+        d_right: f64,
+    ) -> (f64, f64) {
+        let series = GuardSeries::new(row, a, z_left, width);
+        let mut evals = 0u64;
+        let (s, _) = brent_bracket(
+            |s| {
+                evals += 1;
+                series.slope(s)
+            },
+            0.0,
+            width,
+            d_left,
+            d_right,
+            1e-13 * width,
+        );
+        self.stats.guard_evals += evals + 1;
+        (s, series.value(s))
+    }
+
     /// A guard that starts on its surface (`g <= 0` by rounding after a snap). If it rises, a
     /// later return below zero inside the interval is bracketed from its maximum; if it does
     /// not rise, the mode is left at once (returned as the bracket `(0, 0, 0, 0)`).
@@ -468,21 +496,7 @@ impl ExactPropagator {
         if d_right >= 0.0 {
             return None;
         }
-        let series = GuardSeries::new(row, a, z_left, width);
-        let mut evals = 0u64;
-        let (s_max, _) = brent_bracket(
-            |s| {
-                evals += 1;
-                series.slope(s)
-            },
-            0.0,
-            width,
-            d_left,
-            d_right,
-            1e-13 * width,
-        );
-        let g_max = series.value(s_max);
-        self.stats.guard_evals += evals + 1;
+        let (s_max, g_max) = self.stationary_point(row, a, z_left, width, d_left, d_right);
         if g_max > 0.0 {
             Some((s_max, width, g_max, g_right))
         } else {
@@ -530,21 +544,7 @@ impl ExactPropagator {
         if hermite_min > 0.05 * scale {
             return None;
         }
-        let series = GuardSeries::new(row, a, z_left, width);
-        let mut evals = 0u64;
-        let (s_min, _) = brent_bracket(
-            |s| {
-                evals += 1;
-                series.slope(s)
-            },
-            0.0,
-            width,
-            d_left,
-            d_right,
-            1e-13 * width,
-        );
-        let g_min = series.value(s_min);
-        self.stats.guard_evals += evals + 1;
+        let (s_min, g_min) = self.stationary_point(row, a, z_left, width, d_left, d_right);
         (g_min < 0.0).then_some((0.0, s_min, g_left.max(0.0), g_min))
     }
 }
