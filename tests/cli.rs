@@ -217,3 +217,18 @@ fn example_run_writes_documented_csv() {
         "{static_deflection}"
     );
 }
+
+#[test]
+fn trapezoid_transition_equal_to_the_zone_is_accepted() {
+    // f = 1.4 − 1 rounds below 0.4; the zone as written must still be allowed.
+    let text = SPUR_PAIR.replacen(
+        "kind = \"rectangular\"\nmean = 2.9831e8\npeak_to_peak_ratio = 0.35\ncontact_ratio = 1.504",
+        "kind = \"trapezoidal\"\nmean = 2.9831e8\npeak_to_peak_ratio = 0.35\ncontact_ratio = 1.4\ntransition = 0.4",
+        1,
+    );
+    assert!(text.contains("transition = 0.4"));
+    geardyn::scene::Scene::from_toml_str(&text, "t").expect("transition = zone accepted");
+    let too_long = text.replacen("transition = 0.4", "transition = 0.4001", 1);
+    let err = geardyn::scene::Scene::from_toml_str(&too_long, "t").unwrap_err();
+    assert!(err.to_string().contains("transition = 0.4001"), "{err}");
+}

@@ -283,7 +283,10 @@ fn stiffness(spec: &StiffnessSpec) -> Result<MeshStiffness> {
             wave_parameters(*mean, *peak_to_peak_ratio, *contact_ratio)?;
             let f = contact_ratio - contact_ratio.floor();
             let limit = f.min(1.0 - f);
-            if !(transition.is_finite() && *transition > 0.0 && *transition <= limit) {
+            // `contact_ratio − floor` rounds (1.4 − 1 = 0.3999…96): a transition equal to the
+            // zone as the user wrote it is accepted and taken as the zone itself.
+            let rounding = 8.0 * f64::EPSILON * contact_ratio.abs().max(1.0);
+            if !(transition.is_finite() && *transition > 0.0 && *transition <= limit + rounding) {
                 return err(format!(
                     "mesh.stiffness.transition = {transition}: must be > 0 and <= {limit} (the shorter of the \
                      single- and double-contact zones for contact_ratio = {contact_ratio})"
@@ -293,7 +296,7 @@ fn stiffness(spec: &StiffnessSpec) -> Result<MeshStiffness> {
                 *mean,
                 *peak_to_peak_ratio,
                 *contact_ratio,
-                *transition,
+                transition.min(limit),
                 phase(*p)?,
             )
         }
