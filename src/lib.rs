@@ -8,6 +8,10 @@
 // lint's `partial_cmp` rewrite would hide that intent.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod fmi;
+pub mod fmu_entry;
+pub mod fmu_model;
+pub mod fmu_state;
 pub mod mesh;
 pub mod model;
 pub mod output;

@@ -24,6 +24,8 @@ struct Cli {
 enum Command {
     /// Simulate a scene and write its outputs to CSV.
     Simulate(SimulateArgs),
+    /// FMI 2.0 Co-Simulation FMUs: build, print or check model descriptions.
+    Fmu(geardyn::fmi::cli::FmuArgs),
 }
 
 #[derive(Args)]
@@ -124,6 +126,7 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Simulate(args) => simulate(args),
+        Command::Fmu(args) => geardyn::fmi::cli::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -196,13 +196,7 @@ pub unsafe extern "C" fn fmi2Instantiate(
             unsafe { CStr::from_ptr(instance_name) }.to_owned()
         };
         let logger = Logger::new(callbacks, name, logging_on != 0);
-        match instantiate_inner(
-            &logger,
-            instance_name,
-            fmu_type,
-            fmu_guid,
-            fmu_resource_location,
-        ) {
+        match instantiate_inner(instance_name, fmu_type, fmu_guid, fmu_resource_location) {
             Ok((model, info)) => {
                 let inst = Box::new(Instance::new(logger, model, info));
                 Box::into_raw(inst) as Component
@@ -216,13 +210,9 @@ pub unsafe extern "C" fn fmi2Instantiate(
     r.unwrap_or(std::ptr::null_mut())
 }
 
-type Built = (
-    Box<dyn super::model::CoSimModel>,
-    super::model::ModelInfo,
-);
+type Built = (Box<dyn super::model::CoSimModel>, super::model::ModelInfo);
 
 unsafe fn instantiate_inner(
-    logger: &Logger,
     instance_name: *const c_char,
     fmu_type: c_int,
     fmu_guid: *const c_char,
@@ -248,7 +238,7 @@ unsafe fn instantiate_inner(
         .into_owned();
     let dir: PathBuf = super::uri::file_uri_to_path(&uri)
         .map_err(|e| format!("fmuResourceLocation '{uri}': {e}"))?;
-    let loaded = crate::fmu_entry::instantiate(&dir, logger.instance_name())?;
+    let loaded = crate::fmu_entry::instantiate(&dir)?;
     if loaded.info.guid != guid {
         return Err(format!(
             "fmuGUID '{guid}' does not match this binary and scene (expected '{}'): the modelDescription.xml was generated for another scene or geardyn version",
@@ -308,7 +298,9 @@ pub unsafe extern "C" fn fmi2SetupExperiment(
 /// `c` as returned by `fmi2Instantiate`.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2EnterInitializationMode(c: Component) -> Status {
-    guarded(c, Call::EnterInitializationMode, |i| i.enter_initialization_mode())
+    guarded(c, Call::EnterInitializationMode, |i| {
+        i.enter_initialization_mode()
+    })
 }
 
 /// `fmi2ExitInitializationMode` (§2.1.6).
@@ -317,7 +309,9 @@ pub unsafe extern "C" fn fmi2EnterInitializationMode(c: Component) -> Status {
 /// `c` as returned by `fmi2Instantiate`.
 #[no_mangle]
 pub unsafe extern "C" fn fmi2ExitInitializationMode(c: Component) -> Status {
-    guarded(c, Call::ExitInitializationMode, |i| i.exit_initialization_mode())
+    guarded(c, Call::ExitInitializationMode, |i| {
+        i.exit_initialization_mode()
+    })
 }
 
 /// `fmi2Terminate` (§2.1.6).
@@ -353,8 +347,15 @@ pub unsafe extern "C" fn fmi2GetReal(
     nvr: usize,
     value: *mut f64,
 ) -> Status {
-    array_call!(c, Call::GetReal, vr, nvr, value, slice_mut, |inst, vrs, vals| inst
-        .get_real(vrs, vals))
+    array_call!(
+        c,
+        Call::GetReal,
+        vr,
+        nvr,
+        value,
+        slice_mut,
+        |inst, vrs, vals| inst.get_real(vrs, vals)
+    )
 }
 
 /// `fmi2GetInteger` (§2.1.7).
@@ -368,8 +369,15 @@ pub unsafe extern "C" fn fmi2GetInteger(
     nvr: usize,
     value: *mut c_int,
 ) -> Status {
-    array_call!(c, Call::GetInteger, vr, nvr, value, slice_mut, |inst, vrs, vals| inst
-        .get_integer(vrs, vals))
+    array_call!(
+        c,
+        Call::GetInteger,
+        vr,
+        nvr,
+        value,
+        slice_mut,
+        |inst, vrs, vals| inst.get_integer(vrs, vals)
+    )
 }
 
 /// `fmi2GetBoolean` (§2.1.7).
@@ -383,8 +391,15 @@ pub unsafe extern "C" fn fmi2GetBoolean(
     nvr: usize,
     value: *mut c_int,
 ) -> Status {
-    array_call!(c, Call::GetBoolean, vr, nvr, value, slice_mut, |inst, vrs, vals| inst
-        .get_boolean(vrs, vals))
+    array_call!(
+        c,
+        Call::GetBoolean,
+        vr,
+        nvr,
+        value,
+        slice_mut,
+        |inst, vrs, vals| inst.get_boolean(vrs, vals)
+    )
 }
 
 /// `fmi2GetString` (§2.1.7). The model has no String variables.
@@ -398,8 +413,15 @@ pub unsafe extern "C" fn fmi2GetString(
     nvr: usize,
     value: *mut *const c_char,
 ) -> Status {
-    array_call!(c, Call::GetString, vr, nvr, value, slice_mut, |inst, vrs, _vals| inst
-        .no_strings(Call::GetString, vrs))
+    array_call!(
+        c,
+        Call::GetString,
+        vr,
+        nvr,
+        value,
+        slice_mut,
+        |inst, vrs, _vals| inst.no_strings(Call::GetString, vrs)
+    )
 }
 
 /// `fmi2SetReal` (§2.1.7).
@@ -413,8 +435,15 @@ pub unsafe extern "C" fn fmi2SetReal(
     nvr: usize,
     value: *const f64,
 ) -> Status {
-    array_call!(c, Call::SetReal, vr, nvr, value, slice, |inst, vrs, vals| inst
-        .set_real(vrs, vals))
+    array_call!(
+        c,
+        Call::SetReal,
+        vr,
+        nvr,
+        value,
+        slice,
+        |inst, vrs, vals| inst.set_real(vrs, vals)
+    )
 }
 
 /// `fmi2SetInteger` (§2.1.7).
@@ -428,8 +457,15 @@ pub unsafe extern "C" fn fmi2SetInteger(
     nvr: usize,
     value: *const c_int,
 ) -> Status {
-    array_call!(c, Call::SetInteger, vr, nvr, value, slice, |inst, vrs, vals| inst
-        .set_integer(vrs, vals))
+    array_call!(
+        c,
+        Call::SetInteger,
+        vr,
+        nvr,
+        value,
+        slice,
+        |inst, vrs, vals| inst.set_integer(vrs, vals)
+    )
 }
 
 /// `fmi2SetBoolean` (§2.1.7).
@@ -443,8 +479,15 @@ pub unsafe extern "C" fn fmi2SetBoolean(
     nvr: usize,
     value: *const c_int,
 ) -> Status {
-    array_call!(c, Call::SetBoolean, vr, nvr, value, slice, |inst, vrs, vals| inst
-        .set_boolean(vrs, vals))
+    array_call!(
+        c,
+        Call::SetBoolean,
+        vr,
+        nvr,
+        value,
+        slice,
+        |inst, vrs, vals| inst.set_boolean(vrs, vals)
+    )
 }
 
 /// `fmi2SetString` (§2.1.7). The model has no String variables.
@@ -458,8 +501,15 @@ pub unsafe extern "C" fn fmi2SetString(
     nvr: usize,
     value: *const *const c_char,
 ) -> Status {
-    array_call!(c, Call::SetString, vr, nvr, value, slice, |inst, vrs, _vals| inst
-        .no_strings(Call::SetString, vrs))
+    array_call!(
+        c,
+        Call::SetString,
+        vr,
+        nvr,
+        value,
+        slice,
+        |inst, vrs, _vals| inst.no_strings(Call::SetString, vrs)
+    )
 }
 
 // ---------------------------------------------------------------------------------------
@@ -703,7 +753,10 @@ pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
 ) -> Status {
     let call = Call::SetRealInputDerivatives;
     guarded(c, call, |i| {
-        i.unsupported(call, "inputs are held constant over a step (canInterpolateInputs=\"false\")")
+        i.unsupported(
+            call,
+            "inputs are held constant over a step (canInterpolateInputs=\"false\")",
+        )
     })
 }
 
@@ -721,7 +774,9 @@ pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
     _value: *mut f64,
 ) -> Status {
     let call = Call::GetRealOutputDerivatives;
-    guarded(c, call, |i| i.unsupported(call, "maxOutputDerivativeOrder=\"0\""))
+    guarded(c, call, |i| {
+        i.unsupported(call, "maxOutputDerivativeOrder=\"0\"")
+    })
 }
 
 // ---------------------------------------------------------------------------------------

@@ -119,10 +119,14 @@ impl<'a> Reader<'a> {
         Ok(self.take(1)?[0])
     }
     fn u32(&mut self) -> Result<u32, String> {
-        Ok(u32::from_le_bytes(self.take(4)?.try_into().unwrap_or([0; 4])))
+        Ok(u32::from_le_bytes(
+            self.take(4)?.try_into().unwrap_or([0; 4]),
+        ))
     }
     fn u64(&mut self) -> Result<u64, String> {
-        Ok(u64::from_le_bytes(self.take(8)?.try_into().unwrap_or([0; 8])))
+        Ok(u64::from_le_bytes(
+            self.take(8)?.try_into().unwrap_or([0; 8]),
+        ))
     }
     fn f64(&mut self) -> Result<f64, String> {
         Ok(f64::from_bits(self.u64()?))
@@ -130,7 +134,10 @@ impl<'a> Reader<'a> {
 }
 
 /// Checks and unpacks an envelope. `expected_guid` is this FMU's GUID.
-pub fn decode<'a>(bytes: &'a [u8], expected_guid: &str) -> Result<(LayerSnapshot, &'a [u8]), String> {
+pub fn decode<'a>(
+    bytes: &'a [u8],
+    expected_guid: &str,
+) -> Result<(LayerSnapshot, &'a [u8]), String> {
     if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
         return Err("not a geardyn FMU state (bad magic)".into());
     }
@@ -173,7 +180,8 @@ pub fn decode<'a>(bytes: &'a [u8], expected_guid: &str) -> Result<(LayerSnapshot
     let stop = r.f64()?;
     let last_successful_time = r.f64()?;
     let mlen = r.u64()?;
-    let model = r.take(usize::try_from(mlen).map_err(|_| "model payload too large".to_string())?)?;
+    let model =
+        r.take(usize::try_from(mlen).map_err(|_| "model payload too large".to_string())?)?;
     if r.pos != body.len() {
         return Err(format!(
             "FMU state has {} trailing bytes",
@@ -241,7 +249,10 @@ mod tests {
             for bit in 0..8 {
                 let mut c = b.clone();
                 c[i] ^= 1 << bit;
-                assert!(decode(&c, "{g}").is_err(), "flip at byte {i} bit {bit} accepted");
+                assert!(
+                    decode(&c, "{g}").is_err(),
+                    "flip at byte {i} bit {bit} accepted"
+                );
             }
         }
     }
@@ -257,6 +268,8 @@ mod tests {
         assert!(decode(&longer, "{g}").is_err());
         let e = decode(&b, "{other}").unwrap_err();
         assert!(e.contains("another FMU"), "{e}");
-        assert!(decode(b"hello world, not a state", "{g}").unwrap_err().contains("magic"));
+        assert!(decode(b"hello world, not a state", "{g}")
+            .unwrap_err()
+            .contains("magic"));
     }
 }

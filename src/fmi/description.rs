@@ -115,7 +115,10 @@ pub fn model_description(info: &ModelInfo, vars: &[Variable]) -> Result<String, 
             ("guid", info.guid.clone()),
             ("description", info.description.clone()),
             ("version", env!("CARGO_PKG_VERSION").into()),
-            ("generationTool", format!("geardyn {}", env!("CARGO_PKG_VERSION"))),
+            (
+                "generationTool",
+                format!("geardyn {}", env!("CARGO_PKG_VERSION")),
+            ),
             ("variableNamingConvention", "structured".into()),
             ("numberOfEventIndicators", "0".into()),
         ],
@@ -161,7 +164,10 @@ pub fn model_description(info: &ModelInfo, vars: &[Variable]) -> Result<String, 
         empty(
             &mut w,
             "Category",
-            &[("name", c.name().into()), ("description", c.description().into())],
+            &[
+                ("name", c.name().into()),
+                ("description", c.description().into()),
+            ],
         )?;
     }
     end(&mut w, "LogCategories")?;
@@ -221,7 +227,11 @@ pub fn model_description(info: &ModelInfo, vars: &[Variable]) -> Result<String, 
 
     // §2.2.8: Outputs lists every output; InitialUnknowns lists outputs with
     // initial = approx|calculated and all calculated parameters, sorted by index.
-    let index_of = |vr: u32| vars.iter().position(|v| v.value_reference == vr).map(|i| i + 1);
+    let index_of = |vr: u32| {
+        vars.iter()
+            .position(|v| v.value_reference == vr)
+            .map(|i| i + 1)
+    };
     start(&mut w, "ModelStructure", &[])?;
     let outputs: Vec<(usize, &Variable)> = vars
         .iter()
@@ -277,7 +287,11 @@ pub fn for_scene(scene_path: &Path) -> Result<(String, ModelInfo), String> {
 /// Compares (or with `write`, refreshes) the checked-in descriptions: every
 /// `<scenes_root>/<name>/scene.toml` must have `<md_dir>/<modelIdentifier>.xml` identical to
 /// the generator's output, and no stray XML may remain. Returns the problems found.
-pub fn check_checked_in(scenes_root: &Path, md_dir: &Path, write: bool) -> Result<Vec<String>, String> {
+pub fn check_checked_in(
+    scenes_root: &Path,
+    md_dir: &Path,
+    write: bool,
+) -> Result<Vec<String>, String> {
     let mut problems = Vec::new();
     let mut expected = Vec::new();
     let mut dirs: Vec<_> = match std::fs::read_dir(scenes_root) {

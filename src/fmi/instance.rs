@@ -587,7 +587,13 @@ impl Instance {
         self.last_successful_time = layer.last_successful_time;
         self.terminated = layer.terminated;
         self.setup_done = layer.setup_done;
-        self.event(|| format!("FMU state restored: state {}, t = {:e} s", self.state.name(), self.time));
+        self.event(|| {
+            format!(
+                "FMU state restored: state {}, t = {:e} s",
+                self.state.name(),
+                self.time
+            )
+        });
         Status::Ok
     }
 

@@ -236,7 +236,10 @@ mod tests {
         assert!(!l.is_enabled(Category::Events));
         assert!(l.set_categories(true, &["logEvents".into()]).is_empty());
         assert!(l.is_enabled(Category::Events));
-        assert_eq!(l.set_categories(true, &["nope".into()]), vec!["nope".to_string()]);
+        assert_eq!(
+            l.set_categories(true, &["nope".into()]),
+            vec!["nope".to_string()]
+        );
         l.set_categories(false, &[]);
         assert!(!l.is_enabled(Category::StatusError));
         l.set_categories(true, &["logAll".into()]);

@@ -11,10 +11,10 @@
 //! - [`blob`]: FMU-state envelope (version, length, checksum, GUID) and hashes,
 //! - [`description`]: `modelDescription.xml` writer (§2.2, §4.3),
 //! - [`package`]: the `.fmu` ZIP writer (§2.3), [`cli`]: the `geardyn fmu` subcommand,
-//! - [`uri`]: `file:` URI decoding, [`oscillator`]: a physics-free test model.
+//! - [`uri`]: `file:` URI decoding.
 //!
 //! The model is created by [`crate::fmu_entry`], the one factory used by both the binary and
-//! the packager.
+//! the packager; the gear model's adapter is [`crate::fmu_model`].
 
 pub mod abi;
 pub mod blob;
@@ -23,7 +23,6 @@ pub mod description;
 pub mod instance;
 pub mod logger;
 pub mod model;
-pub mod oscillator;
 pub mod package;
 pub mod state;
 pub mod uri;

@@ -178,16 +178,24 @@ pub trait CoSimModel: Send {
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String>;
 
     fn get_integer(&self, vr: u32) -> Result<i32, String> {
-        Err(format!("model has no Integer variable with value reference {vr}"))
+        Err(format!(
+            "model has no Integer variable with value reference {vr}"
+        ))
     }
     fn set_integer(&mut self, vr: u32, _value: i32) -> Result<(), String> {
-        Err(format!("model has no Integer variable with value reference {vr}"))
+        Err(format!(
+            "model has no Integer variable with value reference {vr}"
+        ))
     }
     fn get_boolean(&self, vr: u32) -> Result<bool, String> {
-        Err(format!("model has no Boolean variable with value reference {vr}"))
+        Err(format!(
+            "model has no Boolean variable with value reference {vr}"
+        ))
     }
     fn set_boolean(&mut self, vr: u32, _value: bool) -> Result<(), String> {
-        Err(format!("model has no Boolean variable with value reference {vr}"))
+        Err(format!(
+            "model has no Boolean variable with value reference {vr}"
+        ))
     }
 
     /// `fmi2SetupExperiment`: the start time becomes the model time.
@@ -273,7 +281,10 @@ pub fn validate_variables(vars: &[Variable]) -> Result<(), String> {
     for v in vars {
         let who = format!("variable '{}' (vr {})", v.name, v.value_reference);
         if v.name.is_empty() {
-            return Err(format!("variable with vr {} has an empty name", v.value_reference));
+            return Err(format!(
+                "variable with vr {} has an empty name",
+                v.value_reference
+            ));
         }
         if !names.insert(v.name.as_str()) {
             return Err(format!("{who}: duplicate name"));
@@ -290,7 +301,9 @@ pub fn validate_variables(vars: &[Variable]) -> Result<(), String> {
             return Err(format!("{who}: only Real variables may be continuous"));
         }
         if v.kind != VarKind::Real && (v.unit.is_some() || v.min.is_some() || v.max.is_some()) {
-            return Err(format!("{who}: unit/min/max are only supported on Real variables"));
+            return Err(format!(
+                "{who}: unit/min/max are only supported on Real variables"
+            ));
         }
         let legal = match v.causality {
             C::Parameter => {
@@ -322,13 +335,15 @@ pub fn validate_variables(vars: &[Variable]) -> Result<(), String> {
                 v.initial.map_or("(none)", Initial::as_str)
             ));
         }
-        let needs_start = v.causality == C::Input
-            || matches!(v.initial, Some(Initial::Exact | Initial::Approx));
+        let needs_start =
+            v.causality == C::Input || matches!(v.initial, Some(Initial::Exact | Initial::Approx));
         if needs_start && v.start.is_none() {
             return Err(format!("{who}: a start value is required"));
         }
         if !needs_start && v.start.is_some() {
-            return Err(format!("{who}: must not have a start value (initial=calculated)"));
+            return Err(format!(
+                "{who}: must not have a start value (initial=calculated)"
+            ));
         }
         if let Some(s) = v.start {
             if !s.is_finite() {
@@ -338,10 +353,14 @@ pub fn validate_variables(vars: &[Variable]) -> Result<(), String> {
                 return Err(format!("{who}: start value {s} outside [min, max]"));
             }
             if v.kind == VarKind::Boolean && s != 0.0 && s != 1.0 {
-                return Err(format!("{who}: Boolean start value must be 0 or 1, got {s}"));
+                return Err(format!(
+                    "{who}: Boolean start value must be 0 or 1, got {s}"
+                ));
             }
             if v.kind == VarKind::Integer && (s.fract() != 0.0 || s.abs() > i32::MAX as f64) {
-                return Err(format!("{who}: Integer start value {s} is not a 32-bit integer"));
+                return Err(format!(
+                    "{who}: Integer start value {s} is not a 32-bit integer"
+                ));
             }
         }
         if v.causality != C::Output && !v.depends_on.is_empty() {
@@ -385,10 +404,14 @@ mod tests {
         assert!(validate_variables(std::slice::from_ref(&ok)).is_ok());
         let mut bad = ok.clone();
         bad.variability = Variability::Continuous;
-        assert!(validate_variables(&[bad]).unwrap_err().contains("illegal combination"));
+        assert!(validate_variables(&[bad])
+            .unwrap_err()
+            .contains("illegal combination"));
         let mut bad = ok.clone();
         bad.start = None;
-        assert!(validate_variables(&[bad]).unwrap_err().contains("start value"));
+        assert!(validate_variables(&[bad])
+            .unwrap_err()
+            .contains("start value"));
         let mut dup = ok.clone();
         dup.name = "k2".into();
         assert!(validate_variables(&[ok.clone(), dup])
@@ -396,6 +419,8 @@ mod tests {
             .contains("duplicate value reference"));
         let mut bad = ok;
         bad.description.clear();
-        assert!(validate_variables(&[bad]).unwrap_err().contains("description"));
+        assert!(validate_variables(&[bad])
+            .unwrap_err()
+            .contains("description"));
     }
 }

@@ -68,7 +68,11 @@ pub fn build_fmu(scene_input: &Path, out_dir: &Path, cdylib: &Path) -> Result<Pa
         Some(p) => Some(std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?),
         None => None,
     };
-    let html = documentation(&loaded.info, loaded.model.variables(), readme_text.as_deref());
+    let html = documentation(
+        &loaded.info,
+        loaded.model.variables(),
+        readme_text.as_deref(),
+    );
     let id = model_identifier(&loaded.info.model_name);
 
     std::fs::create_dir_all(out_dir)
@@ -85,7 +89,8 @@ pub fn build_fmu(scene_input: &Path, out_dir: &Path, cdylib: &Path) -> Result<Pa
         ],
     )
     .and_then(|()| {
-        std::fs::rename(&tmp, &target).map_err(|e| format!("cannot write {}: {e}", target.display()))
+        std::fs::rename(&tmp, &target)
+            .map_err(|e| format!("cannot write {}: {e}", target.display()))
     });
     if r.is_err() {
         let _ = std::fs::remove_file(&tmp);
@@ -148,7 +153,10 @@ pub fn documentation(info: &ModelInfo, vars: &[Variable], readme: Option<&str>) 
     }
     h.push_str("</table>\n");
     if let Some(r) = readme {
-        h.push_str(&format!("<h2>Scene notes</h2>\n<pre>{}</pre>\n", html_escape(r)));
+        h.push_str(&format!(
+            "<h2>Scene notes</h2>\n<pre>{}</pre>\n",
+            html_escape(r)
+        ));
     }
     h.push_str("</body></html>\n");
     h

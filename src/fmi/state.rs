@@ -236,7 +236,10 @@ mod tests {
         assert!(check_settable(&p, FmuState::Instantiated).is_ok());
         assert!(check_settable(&p, FmuState::InitializationMode).is_ok());
         let e = check_settable(&p, FmuState::StepComplete).unwrap_err();
-        assert!(e.contains("'k'") && e.contains("fixed") && e.contains("stepComplete"), "{e}");
+        assert!(
+            e.contains("'k'") && e.contains("fixed") && e.contains("stepComplete"),
+            "{e}"
+        );
         assert!(check_settable(&param(Variability::Tunable), FmuState::StepComplete).is_ok());
     }
 

@@ -72,7 +72,10 @@ mod tests {
     fn forms() {
         let p = PathBuf::from("/tmp/a b/resources");
         assert_eq!(file_uri_to_path("file:///tmp/a%20b/resources").unwrap(), p);
-        assert_eq!(file_uri_to_path("file://localhost/tmp/a%20b/resources").unwrap(), p);
+        assert_eq!(
+            file_uri_to_path("file://localhost/tmp/a%20b/resources").unwrap(),
+            p
+        );
         assert_eq!(file_uri_to_path("FILE:/tmp/a b/resources").unwrap(), p);
         assert_eq!(
             file_uri_to_path("file:///tmp/%C3%A4/").unwrap(),
