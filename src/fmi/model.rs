@@ -243,6 +243,9 @@ pub struct ModelInfo {
     pub default_experiment: DefaultExperiment,
     /// Derived from the scene bytes and the crate version ([`crate::fmi::blob::guid`]).
     pub guid: String,
+    /// HTML fragment for `documentation/index.html` (FMI 2.0.x §2.3): what the model is and
+    /// its equations. The layer adds the variable table.
+    pub documentation: String,
 }
 
 /// What the factory returns: a ready model plus its description data.
