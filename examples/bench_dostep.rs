@@ -74,7 +74,10 @@ fn main() {
         let text = std::fs::read_to_string(dir.join("scene.toml")).unwrap();
         for (label, text) in [
             ("scene method", text.clone()),
-            ("rk forced", text.replace("method = \"auto\"", "method = \"rk\"")),
+            (
+                "rk forced",
+                text.replace("method = \"auto\"", "method = \"rk\""),
+            ),
         ] {
             let tmp = std::env::temp_dir().join(format!("geardyn-bench-{}", std::process::id()));
             std::fs::create_dir_all(&tmp).unwrap();
@@ -83,8 +86,12 @@ fn main() {
             let sim = Simulation::new(&scene).unwrap();
             let period = sim.model().mesh_period();
             let method = sim.method_name();
-            let n = (0..5).map(|_| native(&scene, period)).fold(f64::INFINITY, f64::min);
-            let f = (0..5).map(|_| fmu(&tmp, &text, period)).fold(f64::INFINITY, f64::min);
+            let n = (0..5)
+                .map(|_| native(&scene, period))
+                .fold(f64::INFINITY, f64::min);
+            let f = (0..5)
+                .map(|_| fmu(&tmp, &text, period))
+                .fold(f64::INFINITY, f64::min);
             println!(
                 "  {:<12} {label:<13} ({method:<6}) native {:8.2} µs  fmi2DoStep {:8.2} µs  ratio {:.3}",
                 dir.file_name().unwrap().to_string_lossy(),
