@@ -30,6 +30,8 @@ enum Command {
     Periodic(PeriodicArgs),
     /// Frequency-response sweep over pinion speed (warm start, up/down branches).
     Sweep(SweepArgs),
+    /// FMI 2.0 Co-Simulation FMUs: build, print or check model descriptions.
+    Fmu(geardyn::fmi::cli::FmuArgs),
 }
 
 #[derive(Args)]
@@ -285,6 +287,7 @@ fn main() -> ExitCode {
         Command::Simulate(args) => simulate(args),
         Command::Periodic(args) => periodic(args),
         Command::Sweep(args) => sweep(args),
+        Command::Fmu(args) => geardyn::fmi::cli::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

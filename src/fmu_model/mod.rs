@@ -1,0 +1,372 @@
+//! The gear pair as an FMI co-simulation model: adapts [`Simulation`] to
+//! [`CoSimModel`]. The FMI layer (`src/fmi/`) knows no gear physics; this module is the only
+//! place where the two meet.
+//!
+//! Time: the scene's `t = 0` is the experiment's `startTime` (FMI 2.0.x §2.1.6,
+//! `fmi2SetupExperiment`), so the model integrates in local time `τ = t − startTime`, which
+//! for the usual `startTime = 0` is the host's time bit for bit.
+//!
+//! Inputs (`pinion_speed`, `input_torque`, `load_torque`) are held constant over a
+//! communication step (`canInterpolateInputs = false`); a change re-anchors the mesh-phase
+//! clock at the current time ([`Simulation::set_inputs`]), so the phase stays continuous.
+//! Before initialization is finished the inputs are part of the initial operating point: the
+//! static initial DTE is computed from them.
+//!
+//! Parameters are `fixed` (FMI 2.0.x §2.2.7): they change the equations, so they may be set
+//! before `fmi2ExitInitializationMode` only; every accepted change rebuilds the simulation so
+//! outputs read in initialization mode are consistent.
+
+mod documentation;
+mod variables;
+
+use crate::fmi::model::{
+    Causality as C, CoSimModel, DefaultExperiment, ModelInfo, StepFailure, VarKind, Variable,
+};
+use crate::fmu_state::ModelSnapshot;
+use crate::model::Inputs;
+use crate::scene::{ContactLaw, InitialDte, Scene};
+use crate::simulation::Simulation;
+
+use documentation::DOCUMENTATION;
+use variables::variables;
+pub use variables::*;
+
+/// The gear pair behind an FMU instance.
+pub struct GearModel {
+    vars: Vec<Variable>,
+    /// The scene as loaded (restored by `fmi2Reset`).
+    base: Scene,
+    /// The scene with the parameter and start-input values set so far.
+    scene: Scene,
+    /// `initial.static_dte` and `initial.dte`, kept apart from `scene.initial_dte` so that a
+    /// value set for `initial.dte` survives while the static choice is on.
+    static_dte: bool,
+    initial_dte: f64,
+    sim: Simulation,
+    start_time: f64,
+    initialized: bool,
+}
+
+/// `field = value` must be finite and > 0 (or >= 0): the messages name the FMU variable.
+fn check(name: &str, value: f64, ok: bool, rule: &str) -> Result<(), String> {
+    if value.is_finite() && ok {
+        Ok(())
+    } else {
+        Err(format!("parameter '{name}' = {value}: must be {rule}"))
+    }
+}
+
+impl GearModel {
+    /// Builds the model of a validated scene and its description data.
+    pub fn new(scene: Scene, guid: String) -> Result<(GearModel, ModelInfo), String> {
+        let sim = Simulation::new(&scene)?;
+        let info = ModelInfo {
+            model_name: scene.name.clone(),
+            description: if scene.description.is_empty() {
+                "Single-mesh gear pair: dynamic transmission error, mesh force and contact loss (geardyn)".into()
+            } else {
+                scene.description.clone()
+            },
+            default_experiment: DefaultExperiment {
+                start_time: 0.0,
+                stop_time: scene.solver.stop_time,
+                step_size: scene.solver.output_interval,
+                tolerance: None,
+            },
+            guid,
+            documentation: DOCUMENTATION.to_string(),
+        };
+        let vars = variables(&scene);
+        let initial_dte = vars
+            .iter()
+            .find(|v| v.value_reference == VR_INITIAL_DTE)
+            .and_then(|v| v.start)
+            .unwrap_or(0.0);
+        let model = GearModel {
+            vars,
+            static_dte: scene.initial_dte == InitialDte::Static,
+            initial_dte,
+            base: scene.clone(),
+            scene,
+            sim,
+            start_time: 0.0,
+            initialized: false,
+        };
+        Ok((model, info))
+    }
+
+    fn name_of(&self, vr: u32) -> &str {
+        self.vars
+            .iter()
+            .find(|v| v.value_reference == vr)
+            .map_or("?", |v| v.name.as_str())
+    }
+
+    /// Applies a parameter or start-input value to the scene (validated, nothing clamped)
+    /// and rebuilds the simulation; on failure nothing changes.
+    fn set_before_init(&mut self, vr: u32, x: f64) -> Result<(), String> {
+        let name = self.name_of(vr).to_string();
+        let mut scene = self.scene.clone();
+        let (mut static_dte, mut initial_dte) = (self.static_dte, self.initial_dte);
+        let positive =
+            |unit: &str| check(&name, x, x > 0.0, &format!("a finite number > 0 {unit}"));
+        match vr {
+            VR_PINION_INERTIA => {
+                positive("kg.m2")?;
+                scene.pinion.inertia = x;
+            }
+            VR_GEAR_INERTIA => {
+                positive("kg.m2")?;
+                scene.gear.inertia = x;
+            }
+            VR_PINION_BASE_RADIUS => {
+                positive("m")?;
+                scene.pinion.base_radius = x;
+            }
+            VR_GEAR_BASE_RADIUS => {
+                positive("m")?;
+                scene.gear.base_radius = x;
+            }
+            VR_DAMPING => {
+                check(&name, x, x >= 0.0, "a finite number >= 0 N.s/m")?;
+                scene.mesh.damping = x;
+            }
+            VR_BACKLASH => {
+                positive("m")?;
+                scene.mesh.contact = ContactLaw::Backlash { clearance: x };
+            }
+            VR_INITIAL_PHASE => {
+                check(&name, x, true, "finite")?;
+                scene.mesh.initial_phase = x;
+            }
+            VR_INITIAL_DTE_RATE => {
+                check(&name, x, true, "finite")?;
+                scene.initial_dte_rate = x;
+            }
+            VR_INITIAL_DTE => {
+                check(&name, x, true, "finite")?;
+                initial_dte = x;
+            }
+            VR_INITIAL_STATIC => static_dte = x != 0.0,
+            VR_PINION_SPEED => {
+                check(&name, x, x >= 0.0, "a finite number >= 0 rad/s")?;
+                scene.operating.pinion_speed = x;
+            }
+            VR_INPUT_TORQUE => scene.operating.input_torque = x,
+            VR_LOAD_TORQUE => scene.operating.load_torque = x,
+            _ => return Err(format!("no settable variable with value reference {vr}")),
+        }
+        scene.initial_dte = if static_dte {
+            InitialDte::Static
+        } else {
+            InitialDte::Value(initial_dte)
+        };
+        let sim = Simulation::new(&scene)
+            .map_err(|e| format!("'{name}' = {x}: the model cannot be built: {e}"))?;
+        self.scene = scene;
+        (self.static_dte, self.initial_dte) = (static_dte, initial_dte);
+        self.sim = sim;
+        Ok(())
+    }
+
+    /// Parameters and start inputs by value reference: what, besides the run-time state,
+    /// distinguishes this instance from a freshly instantiated one.
+    fn snapshot(&self) -> ModelSnapshot {
+        let op = &self.scene.operating;
+        let params = self
+            .vars
+            .iter()
+            .filter(|v| v.kind == VarKind::Real && matches!(v.causality, C::Parameter | C::Input))
+            .map(|v| {
+                let x = match v.value_reference {
+                    VR_PINION_SPEED => op.pinion_speed,
+                    VR_INPUT_TORQUE => op.input_torque,
+                    VR_LOAD_TORQUE => op.load_torque,
+                    vr => self.get_real(vr).unwrap_or(f64::NAN),
+                };
+                (v.value_reference, x)
+            })
+            .collect();
+        ModelSnapshot {
+            params,
+            static_dte: self.static_dte,
+            initial_dte: self.initial_dte,
+            start_time: self.start_time,
+            initialized: self.initialized,
+            sim: self.sim.snapshot(),
+        }
+    }
+
+    /// Rebuilds the instance from a snapshot: the parameters go through the same checks as
+    /// `fmi2SetReal`, then the run-time state is restored. On failure nothing changes.
+    fn restore(&mut self, snap: &ModelSnapshot) -> Result<(), String> {
+        let mut m = GearModel {
+            vars: self.vars.clone(),
+            base: self.base.clone(),
+            scene: self.base.clone(),
+            static_dte: snap.static_dte,
+            initial_dte: snap.initial_dte,
+            sim: Simulation::new(&self.base)?,
+            start_time: snap.start_time,
+            initialized: false,
+        };
+        for &(vr, x) in &snap.params {
+            if !self.vars.iter().any(|v| v.value_reference == vr) {
+                return Err(format!("the state sets unknown value reference {vr}"));
+            }
+            m.set_before_init(vr, x)?;
+        }
+        if !snap.start_time.is_finite() {
+            return Err(format!("start time {} is not finite", snap.start_time));
+        }
+        m.sim.restore(&snap.sim)?;
+        m.initialized = snap.initialized;
+        *self = m;
+        Ok(())
+    }
+
+    /// The inputs with one of them replaced.
+    fn inputs_with(&self, vr: u32, x: f64) -> Inputs {
+        let mut u = self.sim.model().inputs();
+        match vr {
+            VR_PINION_SPEED => u.pinion_speed = x,
+            VR_INPUT_TORQUE => u.input_torque = x,
+            _ => u.load_torque = x,
+        }
+        u
+    }
+}
+
+impl CoSimModel for GearModel {
+    fn variables(&self) -> &[Variable] {
+        &self.vars
+    }
+
+    fn get_real(&self, vr: u32) -> Result<f64, String> {
+        let s = &self.scene;
+        let pair = self.sim.model();
+        let inputs = pair.inputs();
+        Ok(match vr {
+            VR_PINION_INERTIA => s.pinion.inertia,
+            VR_GEAR_INERTIA => s.gear.inertia,
+            VR_PINION_BASE_RADIUS => s.pinion.base_radius,
+            VR_GEAR_BASE_RADIUS => s.gear.base_radius,
+            VR_DAMPING => s.mesh.damping,
+            VR_BACKLASH => match s.mesh.contact {
+                ContactLaw::Backlash { clearance } => clearance,
+                _ => return Err(format!("no Real variable with value reference {vr}")),
+            },
+            VR_INITIAL_PHASE => s.mesh.initial_phase,
+            VR_INITIAL_DTE_RATE => s.initial_dte_rate,
+            VR_INITIAL_DTE => self.initial_dte,
+            VR_EQUIVALENT_MASS => pair.equivalent_mass(),
+            VR_MEAN_STIFFNESS => pair.mean_stiffness(),
+            VR_PINION_SPEED => inputs.pinion_speed,
+            VR_INPUT_TORQUE => inputs.input_torque,
+            VR_LOAD_TORQUE => inputs.load_torque,
+            vr if (VR_OUTPUT0..VR_OUTPUT0 + 7).contains(&vr) && vr != VR_CONTACT_STATE => {
+                self.sim.outputs()[(vr - VR_OUTPUT0) as usize]
+            }
+            _ => return Err(format!("no Real variable with value reference {vr}")),
+        })
+    }
+
+    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String> {
+        let is_input = matches!(vr, VR_PINION_SPEED | VR_INPUT_TORQUE | VR_LOAD_TORQUE);
+        if self.initialized {
+            if !is_input {
+                // The layer's causality/variability check comes first; this is a safety net.
+                return Err(format!(
+                    "'{}' is fixed after initialization",
+                    self.name_of(vr)
+                ));
+            }
+            let u = self.inputs_with(vr, value);
+            self.sim.set_inputs(u);
+            Ok(())
+        } else {
+            self.set_before_init(vr, value)
+        }
+    }
+
+    fn get_integer(&self, vr: u32) -> Result<i32, String> {
+        match vr {
+            VR_CONTACT_STATE => Ok(self.sim.model().contact_state() as i32),
+            _ => Err(format!("no Integer variable with value reference {vr}")),
+        }
+    }
+
+    fn get_boolean(&self, vr: u32) -> Result<bool, String> {
+        match vr {
+            VR_INITIAL_STATIC => Ok(self.static_dte),
+            _ => Err(format!("no Boolean variable with value reference {vr}")),
+        }
+    }
+
+    fn set_boolean(&mut self, vr: u32, value: bool) -> Result<(), String> {
+        match vr {
+            VR_INITIAL_STATIC if !self.initialized => {
+                self.set_before_init(vr, f64::from(u8::from(value)))
+            }
+            _ => Err(format!(
+                "no settable Boolean variable with value reference {vr}"
+            )),
+        }
+    }
+
+    fn setup_experiment(
+        &mut self,
+        start_time: f64,
+        _stop_time: Option<f64>,
+        _tolerance: Option<f64>,
+    ) -> Result<(), String> {
+        // The tolerance of the RK path is a scene setting; a host tolerance is ignored, as
+        // FMI 2.0.x §4.2.1 allows for co-simulation.
+        self.start_time = start_time;
+        Ok(())
+    }
+
+    fn exit_initialization(&mut self) -> Result<(), String> {
+        self.initialized = true;
+        Ok(())
+    }
+
+    /// Integrates the native propagator to exactly `t + h` (in local time); it never
+    /// evaluates the model beyond that point.
+    fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure> {
+        let target = ((t + h) - self.start_time).max(self.sim.t());
+        match self.sim.advance_to(target) {
+            Ok(()) => Ok(()),
+            Err(e) => Err(StepFailure::Discard {
+                reason: format!("the integrator stopped: {e}"),
+                // The propagators hold the last good state when they fail.
+                reached: self.start_time + self.sim.t(),
+                terminate: true,
+            }),
+        }
+    }
+
+    fn reset(&mut self) -> Result<(), String> {
+        let base = self.base.clone();
+        self.sim = Simulation::new(&base)?;
+        self.static_dte = base.initial_dte == InitialDte::Static;
+        self.initial_dte = self
+            .vars
+            .iter()
+            .find(|v| v.value_reference == VR_INITIAL_DTE)
+            .and_then(|v| v.start)
+            .unwrap_or(0.0);
+        self.scene = base;
+        self.start_time = 0.0;
+        self.initialized = false;
+        Ok(())
+    }
+
+    fn save_state(&self) -> Vec<u8> {
+        crate::fmu_state::encode(&self.snapshot())
+    }
+
+    fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        self.restore(&crate::fmu_state::decode(bytes)?)
+    }
+}
