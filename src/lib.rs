@@ -12,6 +12,7 @@ pub mod analysis;
 pub mod mesh;
 pub mod model;
 pub mod output;
+pub mod plot;
 pub mod scene;
 pub mod simulation;
 pub mod solve;

@@ -1,4 +1,4 @@
-//! CSV output: `time` first, then the outputs by name, full double precision.
+//! CSV (and plot) output: `time` first, then the outputs by name, full double precision.
 //!
 //! The file is written to a temporary sibling and renamed into place, so a failed run never
 //! leaves a partial CSV behind.
@@ -14,12 +14,7 @@ pub fn write_csv(
     times: &[f64],
     rows: &[impl AsRef<[f64]>],
 ) -> Result<(), String> {
-    let file_name = path
-        .file_name()
-        .ok_or_else(|| format!("output path '{}' names no file", path.display()))?;
-    let tmp = path.with_file_name(format!(".{}.partial", file_name.to_string_lossy()));
-    let result = (|| -> std::io::Result<()> {
-        let mut w = BufWriter::new(fs::File::create(&tmp)?);
+    write_atomic(path, |w| {
         write!(w, "time")?;
         for name in names {
             write!(w, ",{name}")?;
@@ -33,6 +28,39 @@ pub fn write_csv(
             }
             writeln!(w)?;
         }
+        Ok(())
+    })
+}
+
+/// Writes a table with the given column names (no implicit `time` column) atomically.
+pub fn write_table(path: &Path, names: &[&str], rows: &[impl AsRef<[f64]>]) -> Result<(), String> {
+    write_atomic(path, |w| {
+        writeln!(w, "{}", names.join(","))?;
+        for row in rows {
+            let cells: Vec<String> = row.as_ref().iter().map(|v| format!("{v:?}")).collect();
+            writeln!(w, "{}", cells.join(","))?;
+        }
+        Ok(())
+    })
+}
+
+/// Writes text (e.g. an SVG plot) atomically.
+pub fn write_text(path: &Path, text: &str) -> Result<(), String> {
+    write_atomic(path, |w| w.write_all(text.as_bytes()))
+}
+
+/// Writes through a temporary sibling renamed into place, so a failure leaves no partial file.
+fn write_atomic(
+    path: &Path,
+    body: impl FnOnce(&mut BufWriter<fs::File>) -> std::io::Result<()>,
+) -> Result<(), String> {
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| format!("output path '{}' names no file", path.display()))?;
+    let tmp = path.with_file_name(format!(".{}.partial", file_name.to_string_lossy()));
+    let result = (|| -> std::io::Result<()> {
+        let mut w = BufWriter::new(fs::File::create(&tmp)?);
+        body(&mut w)?;
         w.flush()?;
         drop(w);
         fs::rename(&tmp, path)
