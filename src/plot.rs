@@ -113,7 +113,13 @@ impl Plot<'_> {
                 format_tick(t)
             );
         }
-        for series in &self.series {
+        // Later series dashed, so that coinciding curves stay visible.
+        for (i, series) in self.series.iter().enumerate() {
+            let dash = if i == 0 {
+                ""
+            } else {
+                r#" stroke-dasharray="6 4""#
+            };
             let pts: Vec<String> = series
                 .points
                 .iter()
@@ -121,12 +127,20 @@ impl Plot<'_> {
                 .collect();
             let _ = writeln!(
                 s,
-                r#"<polyline fill="none" stroke="{}" stroke-width="1.8" points="{}"/>"#,
+                r#"<polyline fill="none" stroke="{}" stroke-width="1.8"{dash} points="{}"/>"#,
                 series.color,
                 pts.join(" ")
             );
         }
-        // Legend.
+        // Legend on a white box.
+        let rows = self.series.len() + usize::from(!self.bands.is_empty());
+        let _ = writeln!(
+            s,
+            r##"<rect x="{}" y="{}" width="200" height="{}" fill="white" stroke="#999999"/>"##,
+            w - right - 206.0,
+            top + 4.0,
+            16.0 * rows as f64 + 6.0
+        );
         let mut ly = top + 16.0;
         for series in &self.series {
             let _ = writeln!(
@@ -144,7 +158,7 @@ impl Plot<'_> {
         if !self.bands.is_empty() {
             let _ = writeln!(
                 s,
-                r##"<rect x="{}" y="{}" width="25" height="10" fill="#dde8f6"/><text x="{}" y="{}">{}</text>"##,
+                r##"<rect x="{}" y="{}" width="25" height="10" fill="#dde8f6" stroke="#999999"/><text x="{}" y="{}">{}</text>"##,
                 w - right - 200.0,
                 ly - 5.0,
                 w - right - 170.0,

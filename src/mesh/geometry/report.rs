@@ -56,12 +56,17 @@ pub fn svg(curves: &[(&str, &StiffnessCurve)], title: &str) -> String {
         .map(|((label, c), color)| Series {
             label,
             color,
-            points: c.knots().map(|k| (k.phase, k.stiffness / 1e8)).collect(),
+            // Wrapped onto [0, 1) through the pieces, so jumps show as vertical segments.
+            points: c
+                .pieces()
+                .iter()
+                .flat_map(|p| [(p.start, p.k_start / 1e8), (p.end, p.value(p.end) / 1e8)])
+                .collect(),
         })
         .collect();
     let bands = curves
         .first()
-        .map(|(_, c)| vec![(c.entry, 1.0 + c.exit)])
+        .map(|(_, c)| vec![(0.0, c.exit), (c.entry, 1.0)])
         .unwrap_or_default();
     Plot {
         title,
