@@ -53,3 +53,19 @@ pub fn within_fitted_range(coefficients: &[f64; 4]) -> bool {
         .zip(FITTED_RANGES)
         .all(|(&c, (lo, hi))| (lo..=hi).contains(&c))
 }
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn u_f_simplification_matches_the_notes_formula() {
+        // notes §1.4: u_f = r_b[(α_F+θ_b) sin α_F + cos α_F] − h_F tan α_F − r_f,
+        // h_F = r_b[(α_F+θ_b) cos α_F − sin α_F]; used here as r_b/cos α_F − r_f.
+        let (rb, tb, rf) = (0.0282, 0.093, 0.0262);
+        for a in [-0.05f64, 0.0, 0.1, 0.3, 0.5] {
+            let hf = rb * ((a + tb) * a.cos() - a.sin());
+            let notes = rb * ((a + tb) * a.sin() + a.cos()) - hf * a.tan() - rf;
+            let used = rb / a.cos() - rf;
+            assert!((notes - used).abs() < 1e-15, "α_F = {a}");
+        }
+    }
+}

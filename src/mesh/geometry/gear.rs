@@ -103,8 +103,9 @@ impl Gear {
         }
         let r_bore = positive(&f("bore_radius"), spec.bore_radius)?;
         let (sin_a, cos_a, tan_a) = (alpha.sin(), alpha.cos(), alpha.tan());
-        // Full-round cutter tip: the tip circle is tangent to the flank where the straight
-        // flank ends at depth h_a* (ISO 53: ρ* = 0.38 for h_f* = 1.25, α = 20°).
+        // Default: the full round of the standard clearance c* = 0.25, ρ* = c*/(1 − sin α)
+        // (tip circle tangent to the tip line and to the flank at depth h_f* − c*; ISO 53
+        // profile A rounds this to ρ_fP* = 0.38 at 20°, ROSS uses it exactly).
         let rho = match spec.cutter_tip_radius {
             Some(v) => {
                 if !(v.is_finite() && v >= 0.0) {
@@ -115,7 +116,7 @@ impl Gear {
                 }
                 v
             }
-            None => (hf - ha) / (1.0 - sin_a),
+            None => 0.25 / (1.0 - sin_a),
         };
         if hf <= ha {
             return Err(format!(

@@ -37,7 +37,8 @@ pub struct GearSpec {
     /// Dedendum coefficient h_f* = cutter addendum (root radius r − m(h_f* − x)), default 1.25.
     #[serde(default = "GearSpec::default_dedendum")]
     pub dedendum: f64,
-    /// Cutter tip radius coefficient ρ*; default: the full round `(h_f* − h_a*)/(1 − sin α)`.
+    /// Cutter tip radius coefficient ρ*; default: the full round of the standard clearance,
+    /// `0.25/(1 − sin α)` (= 0.380 at 20°, ISO 53 profile A).
     pub cutter_tip_radius: Option<f64>,
     /// Bore (or rim inner) radius r_int, m (Sainsot fillet foundation).
     pub bore_radius: f64,

@@ -112,3 +112,99 @@ pub fn root_segment(gear: &Gear, alpha_f: f64) -> BeamCompliance {
         shear: 1.2 * ca * ca * len / (el * g_over_e * 2.0 * hb),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::geometry::gear::{inv, Gear};
+    use crate::mesh::geometry::spec::GearSpec;
+
+    fn gear(teeth: i64) -> Gear {
+        let spec = GearSpec {
+            teeth,
+            profile_shift: 0.0,
+            addendum: 1.0,
+            dedendum: 1.25,
+            cutter_tip_radius: None,
+            bore_radius: 0.01,
+            youngs_modulus: 2.06e11,
+            poisson_ratio: 0.3,
+        };
+        Gear::new("g", &spec, 0.003, 20f64.to_radians(), 0.02).unwrap()
+    }
+
+    /// The same three potential-energy integrals in Cartesian form, `∫ M²/(EI) dy`,
+    /// `∫ 1.2 F_b²/(GA) dy`, `∫ F_a²/(EA) dy`, over a tooth described by the polar involute
+    /// (half angle `ψ(r) = θ_b − inv(acos(r_b/r))`, an independent parametrisation from the
+    /// string-tangent one of eq. (2)) plus the constant-section segment below the base circle,
+    /// integrated by the trapezoidal rule on a fine grid.
+    fn cartesian(g: &Gear, alpha_f: f64) -> BeamCompliance {
+        let (sa, ca) = alpha_f.sin_cos();
+        let rb = g.r_base;
+        let rc = rb * (1.0 + (g.theta_b + alpha_f).powi(2)).sqrt(); // load-point radius
+        let psi = |r: f64| g.theta_b - inv((rb / r).min(1.0).acos());
+        let yc = rc * psi(rc).cos();
+        let xc = rc * psi(rc).sin();
+        // (y, half thickness) from the root circle up to the load point.
+        let mut pts = Vec::new();
+        let hb = rb * g.theta_b.sin();
+        let y_root = (g.r_root * g.r_root - hb * hb).sqrt();
+        let y_base = rb * g.theta_b.cos();
+        let n = 40_000;
+        for i in 0..n {
+            pts.push((y_root + (y_base - y_root) * i as f64 / n as f64, hb));
+        }
+        for i in 0..=n {
+            // Cluster points near the base circle where dψ/dr varies fastest.
+            let t = (i as f64 / n as f64).powi(2);
+            let r = rb + (rc - rb) * t;
+            pts.push((r * psi(r).cos(), r * psi(r).sin()));
+        }
+        let el = g.e * g.face_width;
+        let ge = 1.0 / (2.0 * (1.0 + g.nu));
+        let (mut a, mut b, mut s) = (0.0, 0.0, 0.0);
+        for w in pts.windows(2) {
+            let f = |(y, h): (f64, f64)| {
+                let m = ca * (yc - y) - xc * sa;
+                let area = 2.0 * h;
+                let inertia = (2.0 * h).powi(3) / 12.0;
+                (sa * sa / area, m * m / inertia, 1.2 * ca * ca / (ge * area))
+            };
+            let dy = w[1].0 - w[0].0;
+            let (a0, b0, s0) = f(w[0]);
+            let (a1, b1, s1) = f(w[1]);
+            a += 0.5 * dy * (a0 + a1);
+            b += 0.5 * dy * (b0 + b1);
+            s += 0.5 * dy * (s0 + s1);
+        }
+        BeamCompliance {
+            axial: a / el,
+            bending: b / el,
+            shear: s / el,
+        }
+    }
+
+    #[test]
+    fn eq2_matches_cartesian_potential_energy() {
+        // z = 20: root circle below the base circle (straight segment active).
+        for teeth in [20, 30] {
+            let g = gear(teeth);
+            assert!(g.r_root < g.r_base);
+            let q = GaussLegendre::new(48);
+            for alpha_f in [0.05, 0.2, 0.35] {
+                let got = beam_compliance(&g, alpha_f, &q);
+                let want = cartesian(&g, alpha_f);
+                for (name, x, y) in [
+                    ("axial", got.axial, want.axial),
+                    ("bending", got.bending, want.bending),
+                    ("shear", got.shear, want.shear),
+                ] {
+                    assert!(
+                        (x / y - 1.0).abs() < 2e-6,
+                        "z = {teeth}, α_F = {alpha_f}, {name}: eq. (2) {x:e} vs Cartesian {y:e}"
+                    );
+                }
+            }
+        }
+    }
+}
