@@ -350,3 +350,138 @@ fn impossible_gears_are_rejected_naming_field_and_value() {
         &["pressure_angle = 50"],
     );
 }
+
+fn scene_rejected(text: &str, needles: &[&str]) {
+    let err = Scene::from_toml_str(text, "s")
+        .expect_err("must be rejected")
+        .0;
+    for n in needles {
+        assert!(err.contains(n), "message {err:?} lacks {n:?}");
+    }
+}
+
+#[test]
+fn geometry_scene_must_agree_with_its_gears() {
+    scene_rejected(
+        &SCENE.replacen("teeth = 62\nbase_radius", "teeth = 61\nbase_radius", 1),
+        &[
+            "mesh.pinion",
+            "teeth = 61",
+            "mesh.stiffness.geometry.pinion.teeth = 62",
+        ],
+    );
+    scene_rejected(
+        &SCENE.replacen("base_radius = 0.0582609393", "base_radius = 0.0583", 1),
+        &["base_radius = 0.0583", "0.05826"],
+    );
+    scene_rejected(
+        &SCENE.replace("form = \"table\"", "form = \"table\"\nharmonics = 3"),
+        &["mesh.stiffness.harmonics = 3"],
+    );
+    scene_rejected(
+        &SCENE.replace("input_torque = 100.0", "input_torque = 0.0"),
+        &["operating.input_torque = 0", "mesh.stiffness.torque"],
+    );
+    scene_rejected(
+        &SCENE.replace(
+            "[mesh.stiffness.geometry.gear]\nteeth = 62",
+            "[mesh.stiffness.geometry.gear]\nteeth = 12",
+        ),
+        &["mesh.stiffness.geometry.gear.teeth = 12", "undercut"],
+    );
+    scene_rejected(
+        &SCENE.replace("method = \"auto\"", "method = \"exact\""),
+        &["solver.method = \"exact\"", "geometry"],
+    );
+    // An explicit torque overrides the operating torque.
+    let explicit = Scene::from_toml_str(
+        &SCENE.replace("etc = true", "etc = true\ntorque = 400.0"),
+        "s",
+    )
+    .unwrap();
+    let default = Scene::from_toml_str(SCENE, "s").unwrap();
+    assert!(explicit.mesh.stiffness.mean() > default.mesh.stiffness.mean());
+}
+
+fn geardyn(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_geardyn"))
+        .args(args)
+        .output()
+        .expect("run geardyn")
+}
+
+#[test]
+fn stiffness_cli_writes_csv_plot_and_summary() {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("geometry-cli");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let (csv, svg) = (dir.join("k.csv"), dir.join("k.svg"));
+    let o = geardyn(&[
+        "stiffness",
+        "fmu/geometry_pair/gears.toml",
+        "--torque",
+        "100",
+        "--out",
+        csv.to_str().unwrap(),
+        "--plot",
+        svg.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for needle in [
+        "contact ratio ε = 1.78978",
+        "mean stiffness",
+        "N/(mm·µm)",
+        "eq. 6",
+        "h = 4",
+        "iterations",
+    ] {
+        assert!(
+            stdout.contains(needle),
+            "summary lacks {needle:?}:\n{stdout}"
+        );
+    }
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "phase,pinion_angle,stiffness,deflection,pairs_loaded,force_1,force_2"
+    );
+    // Every row: forces sum to W = T/r_b1 and stiffness = W/deflection.
+    let w = 100.0 / (0.062 * 20f64.to_radians().cos());
+    let mut rows = 0;
+    for line in lines {
+        let v: Vec<f64> = line.split(',').map(|x| x.parse().unwrap()).collect();
+        assert!((v[5] + v[6] - w).abs() < 1e-8 * w, "{line}");
+        assert!((v[2] * v[3] - w).abs() < 1e-8 * w, "{line}");
+        rows += 1;
+    }
+    assert!(rows > 100);
+    let plot = std::fs::read_to_string(&svg).unwrap();
+    assert!(plot.starts_with("<svg") && plot.contains("ETC off"));
+    // Bad input: non-zero exit, message names the value, no CSV written.
+    let bad = dir.join("bad.csv");
+    let o = geardyn(&[
+        "stiffness",
+        "fmu/geometry_pair/gears.toml",
+        "--torque",
+        "-1",
+        "--out",
+        bad.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("torque = -1"));
+    assert!(!bad.exists());
+    // The geometry scene runs through `geardyn simulate`.
+    let sim = dir.join("sim.csv");
+    let o = geardyn(&[
+        "simulate",
+        "fmu/geometry_pair",
+        "--out",
+        sim.to_str().unwrap(),
+        "--stop-time",
+        "0.005",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(std::fs::read_to_string(&sim).unwrap().lines().count() > 100);
+}

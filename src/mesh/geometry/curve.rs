@@ -374,3 +374,68 @@ impl StiffnessCurve {
         self.knots().map(|k| k.iterations).max().unwrap_or(0)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::geometry::spec::parse_gears_file;
+
+    fn curve(etc: bool) -> StiffnessCurve {
+        let text = include_str!("../../../fmu/geometry_pair/gears.toml");
+        let spec = parse_gears_file(text, "t").unwrap();
+        let model = MeshModel::new(&spec, "").unwrap();
+        // A high torque makes the ETC zones wide enough to matter for the coefficients.
+        model
+            .curve(CurveOptions {
+                torque: 1500.0,
+                etc,
+            })
+            .unwrap()
+    }
+
+    #[test]
+    fn pieces_tile_one_period_and_fourier_matches_quadrature() {
+        for etc in [false, true] {
+            let c = curve(etc);
+            let pieces = c.pieces();
+            assert_eq!(pieces[0].start, 0.0);
+            assert_eq!(pieces.last().unwrap().end, 1.0);
+            for w in pieces.windows(2) {
+                assert!((w[0].end - w[1].start).abs() < 1e-15);
+            }
+            // Coefficients by the midpoint rule on the evaluated source (an independent path
+            // through `MeshStiffness::value`), 2e5 points.
+            let k = c.to_table(0.0);
+            let n = 200_000;
+            for (h, &(a, b)) in c.fourier(6).iter().enumerate() {
+                let w = TAU * (h + 1) as f64;
+                let (mut qa, mut qb) = (0.0, 0.0);
+                for i in 0..n {
+                    let s = (i as f64 + 0.5) / n as f64;
+                    let v = k.value(s);
+                    qa += v * (w * s).cos();
+                    qb += v * (w * s).sin();
+                }
+                let (qa, qb) = (2.0 * qa / n as f64, 2.0 * qb / n as f64);
+                let scale = c.mean();
+                assert!(
+                    (a - qa).abs() < 1e-6 * scale,
+                    "etc {etc}, h {}: {a} vs {qa}",
+                    h + 1
+                );
+                assert!(
+                    (b - qb).abs() < 1e-6 * scale,
+                    "etc {etc}, h {}: {b} vs {qb}",
+                    h + 1
+                );
+            }
+            // ETC makes the knots continuous at the zone bounds; without it they jump.
+            let jump = (c.low.last().unwrap().stiffness - c.high[0].stiffness).abs();
+            if etc {
+                assert!(jump < 1e-9 * c.mean());
+            } else {
+                assert!(jump > 0.1 * c.mean());
+            }
+        }
+    }
+}
