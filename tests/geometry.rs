@@ -5,6 +5,7 @@
 //! 4. quadrature convergence and bounded load-sharing iterations;
 //! 5. the `geometry` scene source through `Scene::from_toml_str` + `Simulation::new`;
 //! 6. impossible gears rejected with the field and value named.
+//!
 //! (2, the comparison with ROSS, is in `tests/python/test_stiffness_ross.py`.)
 
 use std::f64::consts::{PI, TAU};

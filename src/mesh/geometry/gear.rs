@@ -236,7 +236,7 @@ impl Pair {
     pub fn new(spec: &GearPairSpec, prefix: &str) -> Result<Pair, String> {
         let module = positive(&format!("{prefix}module"), spec.module)?;
         let alpha_deg = spec.pressure_angle;
-        if !(alpha_deg.is_finite() && alpha_deg >= 10.0 && alpha_deg <= 35.0) {
+        if !(alpha_deg.is_finite() && (10.0..=35.0).contains(&alpha_deg)) {
             return Err(format!(
                 "{prefix}pressure_angle = {alpha_deg}: must lie in [10, 35] degrees"
             ));
