@@ -60,7 +60,19 @@ fn curve(m: &MeshModel, torque: f64, etc: bool) -> geardyn::mesh::geometry::Stif
 /// `r_a = m(z/2 + 1 + x)`, `r_b = m z cos α / 2`, and `inv α_w = inv α + 2 tan α (x1+x2)/(z1+z2)`
 /// solved here by bisection (the library uses Newton), `a = (r_b1 + r_b2)/cos α_w`.
 fn textbook_contact_ratio(m: f64, z1: f64, z2: f64, x1: f64, x2: f64) -> f64 {
-    let a0 = 20f64.to_radians();
+    textbook_contact_ratio_general(m, 20.0, 1.0, z1, z2, x1, x2)
+}
+
+fn textbook_contact_ratio_general(
+    m: f64,
+    alpha_deg: f64,
+    ha: f64,
+    z1: f64,
+    z2: f64,
+    x1: f64,
+    x2: f64,
+) -> f64 {
+    let a0 = alpha_deg.to_radians();
     let inv = |a: f64| a.tan() - a;
     let target = inv(a0) + 2.0 * a0.tan() * (x1 + x2) / (z1 + z2);
     let (mut lo, mut hi) = (1e-3, 1.5);
@@ -74,10 +86,49 @@ fn textbook_contact_ratio(m: f64, z1: f64, z2: f64, x1: f64, x2: f64) -> f64 {
     }
     let aw = 0.5 * (lo + hi);
     let (rb1, rb2) = (m * z1 * a0.cos() / 2.0, m * z2 * a0.cos() / 2.0);
-    let (ra1, ra2) = (m * (z1 / 2.0 + 1.0 + x1), m * (z2 / 2.0 + 1.0 + x2));
+    let (ra1, ra2) = (m * (z1 / 2.0 + ha + x1), m * (z2 / 2.0 + ha + x2));
     let a = (rb1 + rb2) / aw.cos();
     ((ra1 * ra1 - rb1 * rb1).sqrt() + (ra2 * ra2 - rb2 * rb2).sqrt() - a * aw.sin())
         / (PI * m * a0.cos())
+}
+
+/// A high-contact-ratio pair (ε ≈ 2.59: two or three pairs in contact).
+const HIGH_CONTACT_RATIO: &str = r#"module = 0.003
+pressure_angle = 16.0
+face_width = 0.02
+[pinion]
+teeth = 50
+addendum = 1.35
+dedendum = 1.6
+bore_radius = 0.03
+youngs_modulus = 2.06e11
+poisson_ratio = 0.3
+[gear]
+teeth = 50
+addendum = 1.35
+dedendum = 1.6
+bore_radius = 0.03
+youngs_modulus = 2.06e11
+poisson_ratio = 0.3
+"#;
+
+#[test]
+fn high_contact_ratio_pairs_have_two_and_three_pair_zones() {
+    let m = model(HIGH_CONTACT_RATIO);
+    let eps = textbook_contact_ratio_general(0.003, 16.0, 1.35, 50.0, 50.0, 0.0, 0.0);
+    assert!(
+        (m.pair.contact_ratio - eps).abs() < 1e-12 && eps > 2.0,
+        "{eps}"
+    );
+    let c = curve(&m, 300.0, false);
+    assert_eq!(c.low_pairs, 2);
+    assert!((c.low_extent() - (3.0 - eps)).abs() < 1e-12);
+    let with_etc = curve(&m, 300.0, true);
+    assert!(with_etc.high_extent() > c.high_extent());
+    let floor = -1e-9 * with_etc.load;
+    assert!(with_etc
+        .knots()
+        .all(|k| k.forces.iter().all(|&f| f >= floor)));
 }
 
 #[test]

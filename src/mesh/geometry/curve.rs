@@ -106,7 +106,12 @@ impl MeshModel {
             .iter()
             .map(|&k| self.candidate(self.position(k, s)))
             .collect();
-        sharing::share(&pairs, &self.hertz, load, true)
+        sharing::share(&pairs, &self.hertz, load, true).map_err(|e| {
+            format!(
+                "{e} at phase {s} (pairs {ks:?}, gaps {:?})",
+                pairs.iter().map(|p| p.gap).collect::<Vec<_>>()
+            )
+        })
     }
 
     /// Load sharing at phase `s` among every pair within one base pitch of the path (ETC) or

@@ -89,18 +89,6 @@ pub fn share(
         for &i in &order[..active] {
             new_forces[i] = (delta - pairs[i].gap) / c[i];
         }
-        if all_active {
-            if let Some((i, f)) = new_forces
-                .iter()
-                .enumerate()
-                .find(|(_, &f)| f < -1e-9 * load)
-            {
-                return Err(format!(
-                    "load sharing: pair {i} of a contact zone carries a negative force {f:e} N \
-                     (zone bounds inconsistent)"
-                ));
-            }
-        }
         let change = new_forces
             .iter()
             .zip(&forces)
@@ -108,14 +96,16 @@ pub fn share(
             .fold(0.0, f64::max);
         forces = new_forces;
         deflection = delta;
-        if !hertz.is_nonlinear() {
-            return Ok(Sharing {
-                deflection,
-                forces,
-                iterations: iteration,
-            });
-        }
-        if iteration > 1 && change <= TOLERANCE * load {
+        if !hertz.is_nonlinear() || (iteration > 1 && change <= TOLERANCE * load) {
+            // Checked on the converged forces only: early iterates use a guessed Hertz law.
+            if all_active {
+                if let Some((i, f)) = forces.iter().enumerate().find(|(_, &f)| f < -1e-9 * load) {
+                    return Err(format!(
+                        "load sharing: pair {i} of a contact zone carries a negative force {f:e} N \
+                         (zone bounds inconsistent)"
+                    ));
+                }
+            }
             return Ok(Sharing {
                 deflection,
                 forces,
