@@ -8,7 +8,8 @@
 //! Data flow: [`spec`] (TOML) → [`gear`] (derived geometry, checks) → per contact position the
 //! compliances of [`tooth`], [`fillet`], [`hertz`] → [`sharing`] (load sharing with gaps) →
 //! [`curve`] (the secant stiffness over one mesh period, its contact zones, ETC angles and
-//! Fourier coefficients) → a [`crate::mesh::MeshStiffness`] for the dynamic model.
+//! Fourier coefficients) → a [`crate::mesh::MeshStiffness`] for the dynamic model, or the CSV,
+//! SVG and summary of [`report`] for `geardyn stiffness`.
 
 pub mod curve;
 pub mod fillet;
