@@ -1,7 +1,8 @@
-//! CSV output: a header of column names, then one row of full-precision doubles per line.
+//! File output: CSV tables (a header of column names, then one row of full-precision doubles
+//! per line) and text (SVG plots).
 //!
-//! The file is written to a temporary sibling and renamed into place, so a failed run never
-//! leaves a partial CSV behind.
+//! Every file is written to a temporary sibling and renamed into place, so a failed run never
+//! leaves a partial file behind.
 
 use std::fs;
 use std::io::{BufWriter, Write};
@@ -27,18 +28,13 @@ pub fn write_csv(
     )
 }
 
-/// Writes `columns` and `rows` to `path` atomically.
+/// Writes `columns` and `rows` (no implicit `time` column) to `path` atomically.
 pub fn write_table<R: IntoIterator<Item = f64>>(
     path: &Path,
     columns: &[&str],
     rows: impl IntoIterator<Item = R>,
 ) -> Result<(), String> {
-    let file_name = path
-        .file_name()
-        .ok_or_else(|| format!("output path '{}' names no file", path.display()))?;
-    let tmp = path.with_file_name(format!(".{}.partial", file_name.to_string_lossy()));
-    let result = (|| -> std::io::Result<()> {
-        let mut w = BufWriter::new(fs::File::create(&tmp)?);
+    write_atomic(path, |w| {
         writeln!(w, "{}", columns.join(","))?;
         for row in rows {
             for (i, v) in row.into_iter().enumerate() {
@@ -48,6 +44,27 @@ pub fn write_table<R: IntoIterator<Item = f64>>(
             }
             writeln!(w)?;
         }
+        Ok(())
+    })
+}
+
+/// Writes text (e.g. an SVG plot) atomically.
+pub fn write_text(path: &Path, text: &str) -> Result<(), String> {
+    write_atomic(path, |w| w.write_all(text.as_bytes()))
+}
+
+/// Writes through a temporary sibling renamed into place, so a failure leaves no partial file.
+fn write_atomic(
+    path: &Path,
+    body: impl FnOnce(&mut BufWriter<fs::File>) -> std::io::Result<()>,
+) -> Result<(), String> {
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| format!("output path '{}' names no file", path.display()))?;
+    let tmp = path.with_file_name(format!(".{}.partial", file_name.to_string_lossy()));
+    let result = (|| -> std::io::Result<()> {
+        let mut w = BufWriter::new(fs::File::create(&tmp)?);
+        body(&mut w)?;
         w.flush()?;
         drop(w);
         fs::rename(&tmp, path)

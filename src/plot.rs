@@ -20,6 +20,9 @@ pub struct Plot<'a> {
     pub x_label: &'a str,
     pub y_label: &'a str,
     pub series: Vec<Series<'a>>,
+    /// Shaded x-intervals (e.g. double-contact zones), with one legend label.
+    pub bands: Vec<(f64, f64)>,
+    pub band_label: &'a str,
 }
 
 const WIDTH: f64 = 800.0;
@@ -83,6 +86,17 @@ impl Plot<'_> {
             WIDTH / 2.0,
             escape(self.title)
         );
+        for &(a, b) in &self.bands {
+            let (a, b) = (a.max(x0), b.min(x1));
+            if b > a {
+                let _ = writeln!(
+                    s,
+                    r##"<rect x="{:.2}" y="{TOP}" width="{:.2}" height="{ph}" fill="#dde8f6"/>"##,
+                    sx(a),
+                    sx(b) - sx(a)
+                );
+            }
+        }
         let _ = writeln!(
             s,
             r##"<rect x="{LEFT}" y="{TOP}" width="{pw}" height="{ph}" fill="none" stroke="#333"/>"##
@@ -162,6 +176,18 @@ impl Plot<'_> {
                 escape(series.label)
             );
         }
+        if !self.bands.is_empty() {
+            let ly = TOP + 16.0 + 16.0 * self.series.len() as f64;
+            let _ = writeln!(
+                s,
+                r##"<rect x="{}" y="{}" width="25" height="10" fill="#dde8f6" stroke="#999"/><text x="{}" y="{}">{}</text>"##,
+                LEFT + pw - 150.0,
+                ly - 5.0,
+                LEFT + pw - 120.0,
+                ly + 4.0,
+                escape(self.band_label)
+            );
+        }
         s.push_str("</svg>\n");
         s
     }
@@ -210,6 +236,8 @@ mod tests {
                 dashed: false,
                 markers: true,
             }],
+            bands: vec![(0.2, 0.4)],
+            band_label: "zone",
         };
         let svg = plot.to_svg();
         assert_eq!(svg.matches("<polyline").count(), 1);

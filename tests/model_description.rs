@@ -23,6 +23,12 @@ fn drift_is_detected() {
     let tmp = std::env::temp_dir().join(format!("geardyn-md-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&tmp);
     std::fs::create_dir_all(&tmp).unwrap();
+    // Start from a faithful copy of every checked-in description.
+    for entry in std::fs::read_dir(root().join("modelDescription")).unwrap() {
+        let path = entry.unwrap().path();
+        std::fs::copy(&path, tmp.join(path.file_name().unwrap())).unwrap();
+    }
+    assert!(check_checked_in(&root().join("fmu"), &tmp, false).unwrap().is_empty());
     let md = root().join("modelDescription/spur_pair.xml");
     let text = std::fs::read_to_string(&md).unwrap();
     let copy = tmp.join("spur_pair.xml");

@@ -3,6 +3,7 @@
 //! [`spec`] mirrors the file; [`Scene`] is the validated, resolved description in SI units
 //! that the model is assembled from. The format is specified in `docs/model.md`.
 
+mod geometry;
 pub mod spec;
 mod validate;
 
@@ -127,8 +128,13 @@ pub struct Scene {
 }
 
 /// Names of the scenes shipped in `fmu/<name>/scene.toml`, compiled into the binary.
-pub const EXAMPLES: &[(&str, &str)] =
-    &[("spur_pair", include_str!("../../fmu/spur_pair/scene.toml"))];
+pub const EXAMPLES: &[(&str, &str)] = &[
+    ("spur_pair", include_str!("../../fmu/spur_pair/scene.toml")),
+    (
+        "geometry_pair",
+        include_str!("../../fmu/geometry_pair/scene.toml"),
+    ),
+];
 
 impl Scene {
     /// Parses and validates scene text. `origin` names the source in messages.

@@ -6,6 +6,8 @@
 
 use serde::Deserialize;
 
+pub use crate::mesh::geometry::GearPairSpec;
+
 /// A whole scene file.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -103,6 +105,36 @@ pub enum StiffnessSpec {
         #[serde(default)]
         phase: f64,
     },
+    /// Computed at scene load from gear geometry (`docs/stiffness.md`).
+    Geometry {
+        /// Pinion torque of the load-dependent curve, N·m (default `operating.input_torque`).
+        torque: Option<f64>,
+        /// Extended tooth contact (default on).
+        #[serde(default = "default_true")]
+        etc: bool,
+        /// `table` (piecewise linear through the knots, default) or `fourier`.
+        #[serde(default)]
+        form: GeometryForm,
+        /// Harmonics of the `fourier` form (default 4, as Liao et al. 2025 §3).
+        harmonics: Option<i64>,
+        #[serde(default)]
+        phase: f64,
+        /// The gear pair, as in a gears file.
+        geometry: Box<GearPairSpec>,
+    },
+}
+
+fn default_true() -> bool {
+    true
+}
+
+/// How a `geometry` stiffness enters the model.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GeometryForm {
+    #[default]
+    Table,
+    Fourier,
 }
 
 /// A Fourier series in mesh phase without mean (static transmission error), m.

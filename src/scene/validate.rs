@@ -9,12 +9,12 @@ use crate::mesh::{MeshStiffness, PhaseSeries};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
-fn err<T>(msg: String) -> Result<T> {
+pub(super) fn err<T>(msg: String) -> Result<T> {
     Err(SceneError(msg))
 }
 
 /// `field = value: must be finite and > 0`.
-fn positive(field: &str, value: f64) -> Result<f64> {
+pub(super) fn positive(field: &str, value: f64) -> Result<f64> {
     if value.is_finite() && value > 0.0 {
         Ok(value)
     } else {
@@ -30,7 +30,7 @@ fn non_negative(field: &str, value: f64) -> Result<f64> {
     }
 }
 
-fn finite(field: &str, value: f64) -> Result<f64> {
+pub(super) fn finite(field: &str, value: f64) -> Result<f64> {
     if value.is_finite() {
         Ok(value)
     } else {
@@ -112,7 +112,12 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
         ));
     }
 
-    let stiffness = stiffness(&m.stiffness)?;
+    let stiffness = match &m.stiffness {
+        StiffnessSpec::Geometry { .. } => {
+            super::geometry::stiffness(&m.stiffness, &spec.operating, &pinion, &gear)?
+        }
+        other => stiffness(other)?,
+    };
     let (k_min, s_min) = stiffness.minimum();
     if !(k_min > 0.0) {
         return err(format!(
@@ -242,6 +247,7 @@ fn stiffness_kind(spec: &StiffnessSpec) -> &'static str {
         StiffnessSpec::Trapezoidal { .. } => "trapezoidal",
         StiffnessSpec::Fourier { .. } => "fourier",
         StiffnessSpec::Table { .. } => "table",
+        StiffnessSpec::Geometry { .. } => "geometry",
     }
 }
 
@@ -348,5 +354,6 @@ fn stiffness(spec: &StiffnessSpec) -> Result<MeshStiffness> {
             }
             MeshStiffness::table(phase_points, values, phase(*p)?)
         }
+        StiffnessSpec::Geometry { .. } => unreachable!("resolved by scene::geometry"),
     })
 }

@@ -1,0 +1,29 @@
+//! The subcommands of the `geardyn` binary: argument structs and thin handlers over the
+//! library (one file per family of subcommands).
+
+use std::path::PathBuf;
+
+use geardyn::scene::Scene;
+
+pub mod analysis;
+pub mod simulate;
+pub mod stiffness;
+
+/// A finite, positive command-line number.
+pub fn positive(name: &str, v: f64) -> Result<f64, String> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("--{name} {v}: must be a finite number > 0"))
+    }
+}
+
+/// The scene named on the command line: a file or folder, or a built-in example.
+pub fn load_scene(path: &Option<PathBuf>, example: &Option<String>) -> Result<Scene, String> {
+    match (path, example) {
+        (_, Some(name)) => Scene::example(name),
+        (Some(path), None) => Scene::from_path(path),
+        (None, None) => unreachable!("clap requires a scene or --example"),
+    }
+    .map_err(|e| e.to_string())
+}
