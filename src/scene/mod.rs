@@ -4,6 +4,7 @@
 //! that the model is assembled from. The format is specified in `docs/model.md`.
 
 pub mod spec;
+pub mod train;
 mod validate;
 
 use std::fmt;
