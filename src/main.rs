@@ -9,6 +9,8 @@ use geardyn::model::OUTPUT_NAMES;
 use geardyn::scene::{MethodChoice, Scene};
 use geardyn::{output, simulation};
 
+mod train_cli;
+
 #[derive(Parser)]
 #[command(
     name = "geardyn",
@@ -22,8 +24,19 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Simulate a scene and write its outputs to CSV.
+    /// Simulate a scene (single mesh or drivetrain) and write its outputs to CSV.
     Simulate(SimulateArgs),
+    /// Natural frequencies and mode shapes of a drivetrain's mean system, and its statics.
+    Modes(ModesArgs),
+}
+
+#[derive(Args)]
+struct ModesArgs {
+    /// Scene file or folder (e.g. `fmu/idler_gearset`).
+    scene: PathBuf,
+    /// Remove the bearing translations (purely rotational model).
+    #[arg(long)]
+    rigid_bearings: bool,
 }
 
 #[derive(Args)]
@@ -69,6 +82,11 @@ fn positive(name: &str, v: f64) -> Result<f64, String> {
 }
 
 fn simulate(args: SimulateArgs) -> Result<(), String> {
+    if let Some(path) = &args.scene {
+        if geardyn::scene::train::is_train_file(path).map_err(|e| e.to_string())? {
+            return simulate_train(path, &args);
+        }
+    }
     let mut scene = match (&args.scene, &args.example) {
         (_, Some(name)) => Scene::example(name),
         (Some(path), None) => Scene::from_path(path),
@@ -120,10 +138,38 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
     Ok(())
 }
 
+/// Drivetrain scenes: the same solver options, applied to the train's settings.
+fn simulate_train(path: &std::path::Path, args: &SimulateArgs) -> Result<(), String> {
+    let apply = |s: &mut geardyn::scene::SolverSettings| -> Result<(f64, f64), String> {
+        if let Some(m) = &args.method {
+            s.method = m
+                .parse::<MethodChoice>()
+                .map_err(|e| format!("--method: {e}"))?;
+        }
+        if let Some(m) = &args.rk_method {
+            s.rk_method = m.parse().map_err(|e| format!("--rk-method: {e}"))?;
+        }
+        if let Some(v) = args.rtol {
+            s.rtol = positive("rtol", v)?;
+        }
+        if let Some(v) = args.atol {
+            s.atol = positive("atol", v)?;
+        }
+        let stop = positive("stop-time", args.stop_time.unwrap_or(s.stop_time))?;
+        let interval = positive(
+            "output-interval",
+            args.output_interval.unwrap_or(s.output_interval),
+        )?;
+        Ok((stop, interval))
+    };
+    train_cli::simulate(path, &args.out, apply, args.quiet)
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Simulate(args) => simulate(args),
+        Command::Modes(args) => train_cli::modes_command(&args.scene, args.rigid_bearings),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

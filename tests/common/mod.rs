@@ -6,6 +6,8 @@
 
 #![allow(dead_code)]
 
+pub mod idler2;
+
 use geardyn::scene::Scene;
 
 pub const M_E: f64 = 0.5;

@@ -310,17 +310,10 @@ impl Reduction {
         let rigid: Vec<usize> = (0..n)
             .filter(|&i| values[i].abs() <= RIGID_TOL * top)
             .collect();
-        let r = DMatrix::from_columns(
-            &rigid
-                .iter()
-                .map(|&i| vectors.column(i).clone_owned())
-                .collect::<Vec<_>>(),
-        );
-        let r = if rigid.is_empty() {
-            DMatrix::zeros(n, 0)
-        } else {
-            r
-        };
+        let mut r = DMatrix::zeros(n, rigid.len());
+        for (c, &i) in rigid.iter().enumerate() {
+            r.set_column(c, &vectors.column(i));
+        }
         if rigid.is_empty() {
             return Reduction {
                 q: DMatrix::identity(n, n),

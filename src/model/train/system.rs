@@ -212,6 +212,8 @@ pub struct GearTrain {
     names: Vec<String>,
     pair_outputs: Vec<usize>,
     event_log: Option<Vec<(f64, usize, usize, SlotContact)>>,
+    /// Free single pair: `(d_θ, J)` of the input and output bodies for the closed form.
+    pair_form: Option<[(f64, f64); 2]>,
 }
 
 fn row_major(a: &DMatrix<f64>) -> Vec<f64> {
@@ -373,7 +375,16 @@ impl GearTrain {
             names: Vec::new(),
             pair_outputs: Vec::new(),
             event_log: None,
+            pair_form: None,
         };
+        train.pair_form = pair_closed_form(scene, &train.asm, m, red.rigid_dim());
+        if let Some([(d_in, j_in), (d_out, j_out)]) = train.pair_form {
+            // One mesh between two free bodies: M̂ = 1/(d_θ,inᵀ²/J_in + d_θ,out²/J_out), the
+            // equivalent mass of docs/model.md, formed in the same order as the single pair.
+            let m_e = 1.0 / (d_in.powi(2) / j_in + d_out.powi(2) / j_out);
+            train.m_hat = vec![m_e];
+            train.minv = vec![1.0 / m_e];
+        }
         train.key_fits = train.key_bits() <= 63;
         train.names = train.build_names(scene);
         train.apply_inputs(0.0, train.inputs)?;
@@ -477,6 +488,11 @@ impl GearTrain {
         for i in 0..self.m {
             self.f_ext[i] = self.f_in[i] * inputs.input_torque + self.f_out[i] * inputs.load_torque;
         }
+        if let Some([(d_in, j_in), (d_out, j_out)]) = self.pair_form {
+            // F̂ = m_e (d_in T_in/J_in + d_out T_out/J_out), T_out = −T_load (docs/model.md).
+            self.f_ext[0] = self.m_hat[0]
+                * (d_in * inputs.input_torque / j_in + d_out * -inputs.load_torque / j_out);
+        }
         if torque_changed && self.meshes.iter().any(|m| m.model2.is_some()) {
             // Model-2 excitation: the loaded STE at the static mesh force (mean removed),
             // eq. (2.10); it depends on the load, so it is rebuilt when the torques change.
@@ -539,6 +555,7 @@ impl GearTrain {
                     false,
                 )
                 .ok();
+                let mut e0s = Vec::with_capacity(self.meshes.len());
                 for (n, mesh) in self.meshes.iter().enumerate() {
                     let a = DVector::from_column_slice(&mesh.a);
                     k += mesh.k_mean * &a * a.transpose();
@@ -555,12 +572,22 @@ impl GearTrain {
                         }
                     }
                     rhs += mesh.k_mean * e0 * a;
+                    e0s.push(e0);
                 }
-                let xi = k
-                    .lu()
-                    .solve(&rhs)
-                    .ok_or("the mean stiffness matrix is singular")?;
-                y[..m].copy_from_slice(xi.as_slice());
+                if m == 1 && self.meshes.len() == 1 {
+                    // One coordinate: ξ0 = F̂/K̄ + e0·(k̄a/K̄), which for the single pair is
+                    // `F_ext/k̄ + e(p0)` of docs/model.md, formed in the same order.
+                    let mesh = &self.meshes[0];
+                    let kk = k[(0, 0)];
+                    let e0 = e0s[0];
+                    y[0] = self.f_ext[0] / kk + e0 * (mesh.k_mean * mesh.a[0] / kk);
+                } else {
+                    let xi = k
+                        .lu()
+                        .solve(&rhs)
+                        .ok_or("the mean stiffness matrix is singular")?;
+                    y[..m].copy_from_slice(xi.as_slice());
+                }
             }
         }
         if scene.initial_dte_rate != 0.0 {
@@ -823,6 +850,43 @@ impl GearTrain {
     }
 }
 
+/// The closed form of a free single pair: one mesh, two rotating bodies (the input and the
+/// output), nothing else. Returns `(d_θ, J)` per body, `d_θ = ±r_b` the mesh vector in
+/// rotation angle and `J` the body inertia.
+fn pair_closed_form(
+    scene: &TrainScene,
+    asm: &Assembly,
+    m: usize,
+    rigid: usize,
+) -> Option<[(f64, f64); 2]> {
+    let single = m == 1
+        && rigid == 1
+        && asm.dim() == 2
+        && scene.meshes.len() == 1
+        && asm.k_base.iter().all(|&v| v == 0.0)
+        && asm
+            .dofs
+            .iter()
+            .all(|d| matches!(d, DofKind::Rotation { .. }));
+    if !single {
+        return None;
+    }
+    let mesh = &scene.meshes[0];
+    let body = |g: usize| -> (f64, f64) {
+        let b = asm.body_of[g];
+        let j: f64 = (0..scene.gears.len())
+            .filter(|&k| asm.body_of[k] == b)
+            .map(|k| scene.gears[k].inertia)
+            .sum();
+        let r = scene.gears[g].base_radius;
+        let d = if g == mesh.pinion { r } else { -r };
+        (d, j)
+    };
+    let (i, o) = (scene.input_gear, scene.output_gear);
+    let on_mesh = |g: usize| g == mesh.pinion || g == mesh.gear;
+    (on_mesh(i) && on_mesh(o) && asm.body_of[i] != asm.body_of[o]).then(|| [body(i), body(o)])
+}
+
 /// Model-3 table: one slot with the total engaged stiffness and the NLTE as gap (eq. 2.11).
 fn nlte_table(pairs: &CycleTable) -> CycleTable {
     let nlte = loaded_ste(pairs, 0.0);
@@ -963,8 +1027,11 @@ impl HybridSystem for GearTrain {
             let m = self.m;
             let a = &self.meshes[n].a;
             if m == 1 {
-                let target = (y[0] * a[0] - delta) + level;
-                y[0] = target / a[0];
+                // S = a·ξ must equal e + g + level; formed like the single pair (`x = e + surface`).
+                let mesh = &self.meshes[n];
+                let p = mesh.clock.phase_at(t);
+                let g = mesh.law(j).map_or(0.0, |l| l.g(mesh.local(p)));
+                y[0] = (mesh.ste.value(p) + g + level) / a[0];
             } else {
                 let w: Vec<f64> = (0..m)
                     .map(|i| (0..m).map(|k| self.minv[i * m + k] * a[k]).sum())

@@ -1,0 +1,248 @@
+//! Consistency oracles of the drivetrain model (issue 5, acceptance 3): a train with one mesh
+//! equals the core single-mesh pair; the idler with rigid bearings equals an independent
+//! implementation of the reduced rotational model (Liu 2007 eq. 3.1–3.2); a mesh-phase shift
+//! equals a time shift.
+
+mod common;
+
+use common::idler2::Idler2;
+use geardyn::mesh::MeshStiffness;
+use geardyn::model::train::TrainSimulation;
+use geardyn::scene::train::{MeshForceModel, TrainScene};
+use geardyn::scene::{ContactLaw, MethodChoice, Scene};
+use geardyn::simulation::Simulation;
+use geardyn::solve::rk::{Method, RkOptions, RkStepper};
+
+/// Runs the core pair and the one-mesh train side by side and returns the largest DTE and
+/// force differences relative to the largest |DTE| and |force|.
+fn pair_vs_train(text: &str, method: MethodChoice, periods: f64) -> (f64, f64, u64) {
+    let mut core_scene = Scene::from_toml_str(text, "core").unwrap();
+    let mut train_scene = TrainScene::from_toml_str(text, "train").unwrap();
+    core_scene.solver.method = method;
+    train_scene.solver.method = method;
+    let mut core = Simulation::new(&core_scene).unwrap();
+    let mut train = TrainSimulation::new(&train_scene).unwrap();
+    assert_eq!(train.model().elastic_dim(), 1);
+    let dte = train
+        .output_names()
+        .iter()
+        .position(|n| n == "mesh1_dte")
+        .unwrap();
+    let force = train
+        .output_names()
+        .iter()
+        .position(|n| n == "mesh1_force")
+        .unwrap();
+    let period = core.model().mesh_period();
+    let steps = (periods * 40.0) as usize;
+    let (mut d_dte, mut d_f, mut max_dte, mut max_f) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    let mut out = Vec::new();
+    for k in 1..=steps {
+        let t = k as f64 * period / 40.0;
+        core.advance_to(t).unwrap();
+        train.advance_to(t).unwrap();
+        let c = core.outputs();
+        train.outputs(&mut out);
+        d_dte = d_dte.max((c[0] - out[dte]).abs());
+        d_f = d_f.max((c[2] - out[force]).abs());
+        max_dte = max_dte.max(c[0].abs());
+        max_f = max_f.max(c[2].abs());
+    }
+    (d_dte / max_dte, d_f / max_f, core.stats().events)
+}
+
+#[test]
+fn one_mesh_train_equals_core_pair() {
+    // The shipped single-mesh scene: backlash, STE harmonic, rectangular stiffness, damping.
+    let spur = include_str!("../fmu/spur_pair/scene.toml");
+    for method in [MethodChoice::Exact, MethodChoice::Rk] {
+        let (e_dte, e_f, events) = pair_vs_train(spur, method, 200.0);
+        println!("spur_pair {method:?}: dte {e_dte:e}, force {e_f:e}, {events} events");
+        assert!(
+            e_dte <= 1e-12 && e_f <= 1e-12,
+            "{method:?}: {e_dte:e} {e_f:e}"
+        );
+    }
+    // A resonant case with contact loss on every cycle.
+    let text = common::scene_text(
+        "contact = \"contact_loss\"\ndamping_ratio = 0.02\n[mesh.stiffness]\nkind = \"rectangular\"\n\
+         mean = 2e8\npeak_to_peak_ratio = 0.4\ncontact_ratio = 1.4\n[mesh.ste]\ncos = [3e-6]\n",
+        &format!(
+            "pinion_speed = {}\ninput_torque = 20.0",
+            common::pinion_speed_for_mesh_frequency(3000.0)
+        ),
+        "",
+    );
+    let (e_dte, e_f, events) = pair_vs_train(&text, MethodChoice::Exact, 100.0);
+    println!("contact loss: dte {e_dte:e}, force {e_f:e}, {events} events");
+    assert!(
+        events > 20,
+        "the case must exercise contact loss ({events} events)"
+    );
+    assert!(e_dte <= 1e-12 && e_f <= 1e-12, "{e_dte:e} {e_f:e}");
+}
+
+/// The Table 2.1 idler with rigid bearings, no ground couplings, lumped rectangular meshes.
+fn rotational_idler(f_mesh: f64, damping: f64, phase2: f64) -> TrainScene {
+    let mut s = TrainScene::example("idler_gearset")
+        .unwrap()
+        .with_rigid_bearings();
+    for g in &mut s.gears {
+        g.ground_stiffness = 0.0;
+    }
+    s.modal_damping_ratio = 0.0;
+    let rect = [(2.9831e8, 0.35, 1.504), (3.2108e8, 0.4, 1.510)];
+    for (m, (mean, eps, c)) in s.meshes.iter_mut().zip(rect) {
+        m.force = MeshForceModel::Lumped {
+            stiffness: MeshStiffness::rectangular(mean, eps, c, 0.0),
+            ste: Default::default(),
+        };
+        m.damping = damping;
+        m.contact = ContactLaw::ContactLoss;
+    }
+    s.meshes[1].phase = phase2;
+    s.operating.input_speed = std::f64::consts::TAU * f_mesh / 38.0;
+    s
+}
+
+fn oracle(f_mesh: f64, damping: f64, phase2: f64) -> Idler2 {
+    Idler2::new(
+        [0.002621, 0.01091, 0.1193],
+        [0.04535, 0.06564, 0.11218],
+        100.0,
+        f_mesh,
+        [(2.9831e8, 0.35, 1.504), (3.2108e8, 0.4, 1.510)],
+        [damping; 2],
+        phase2,
+    )
+}
+
+#[test]
+fn rigid_bearing_idler_equals_reduced_rotational_model() {
+    let (f_mesh, damping, phase2) = (3050.0, 400.0, 0.3);
+    let scene = rotational_idler(f_mesh, damping, phase2);
+    let mut sim = TrainSimulation::new(&scene).unwrap();
+    assert_eq!(sim.method_name(), "exact");
+    // The elastic coordinates are the two mesh deflections and M̂ is eq. (3.2).
+    let model = sim.model();
+    assert_eq!(model.elastic_dim(), 2);
+    let mut sys = oracle(f_mesh, damping, phase2);
+    let m_hat = model.reduced_mass();
+    for i in 0..2 {
+        for j in 0..2 {
+            let rel = (m_hat[(i, j)] - sys.m[i][j]).abs() / sys.m[0][0];
+            assert!(
+                rel < 1e-13,
+                "M̂[{i}{j}] = {} vs {}",
+                m_hat[(i, j)],
+                sys.m[i][j]
+            );
+        }
+    }
+    let y0 = sys.static_state();
+    for j in 0..2 {
+        assert!((sim.state()[j] - y0[j]).abs() <= 1e-13 * y0[j]);
+    }
+    let mut rk = RkStepper::new(
+        RkOptions {
+            rtol: 1e-13,
+            atol: 1e-20,
+            ..RkOptions::new(Method::Dop853)
+        },
+        4,
+    )
+    .unwrap();
+    rk.set_state(0.0, &y0);
+    let names = sim.output_names().to_vec();
+    let col = |n: &str| names.iter().position(|x| x == n).unwrap();
+    let (c1, c2) = (col("mesh1_dte"), col("mesh2_dte"));
+    let mut out = Vec::new();
+    let (mut err, mut scale) = (0.0f64, 0.0f64);
+    let mut lost = [false; 2];
+    for k in 1..=60 * 20 {
+        let t = k as f64 / (20.0 * f_mesh);
+        sim.advance_to(t).unwrap();
+        rk.advance_to(&mut sys, t).unwrap();
+        sim.outputs(&mut out);
+        let y = rk.y();
+        err = err.max((out[c1] - y[0]).abs()).max((out[c2] - y[1]).abs());
+        scale = scale.max(y[0].abs()).max(y[1].abs());
+        for j in 0..2 {
+            lost[j] |= !sys.contact[j];
+        }
+    }
+    println!(
+        "rigid-bearing idler vs (3.1): {:e} relative, {} events, contact loss {lost:?}",
+        err / scale,
+        sim.stats().events
+    );
+    assert!(
+        lost[0] && lost[1],
+        "the case must lose contact on both meshes"
+    );
+    assert!(err <= 1e-9 * scale, "{:e}", err / scale);
+}
+
+#[test]
+fn mesh_phase_shift_equals_time_shift() {
+    // Model-1 idler with compliant bearings, tip relief, modal damping (exact propagator).
+    let a_scene = TrainScene::example("idler_gearset").unwrap();
+    let f1 = a_scene.mesh_frequency(0, a_scene.operating.input_speed);
+    let shift_cycles = 0.37;
+    let delta = shift_cycles / f1;
+    let mut a = TrainSimulation::new(&a_scene).unwrap();
+    a.advance_to(delta).unwrap();
+    let y_delta = a.state().to_vec();
+    let mut b_scene = a_scene.clone();
+    b_scene.meshes[0].initial_phase += shift_cycles;
+    let mut b = TrainSimulation::new(&b_scene).unwrap();
+    b.set_state(0.0, &y_delta);
+    let (mut oa, mut ob) = (Vec::new(), Vec::new());
+    let (mut err, mut scale) = (0.0f64, 0.0f64);
+    for k in 1..=400 {
+        let t = k as f64 / (10.0 * f1);
+        a.advance_to(delta + t).unwrap();
+        b.advance_to(t).unwrap();
+        a.outputs(&mut oa);
+        b.outputs(&mut ob);
+        for (name, (x, y)) in a.output_names().iter().zip(oa.iter().zip(&ob)) {
+            if name.ends_with("_dte") || name.ends_with("_force") {
+                err = err.max(
+                    (x - y).abs()
+                        / x.abs()
+                            .max(1e-30)
+                            .max(if name.ends_with("_dte") { 1e-5 } else { 2e3 }),
+                );
+            }
+            if name.ends_with("_pairs_in_contact") {
+                assert_eq!(x, y, "{name} at t = {t}");
+            }
+        }
+        scale = scale.max(oa[0].abs());
+    }
+    println!(
+        "phase shift vs time shift: {err:e} relative, {} events",
+        a.stats().events
+    );
+    assert!(
+        a.stats().events > 10,
+        "tooth pairs must make and lose contact"
+    );
+    assert!(err <= 1e-9, "{err:e}");
+    // Shifting mesh 2 alone is a different excitation: the response must change.
+    let mut c_scene = a_scene.clone();
+    c_scene.meshes[1].phase = 0.25;
+    let mut c = TrainSimulation::new(&c_scene).unwrap();
+    c.advance_to(delta + 400.0 / (10.0 * f1)).unwrap();
+    let mut oc = Vec::new();
+    c.outputs(&mut oc);
+    let idx = a
+        .output_names()
+        .iter()
+        .position(|n| n == "mesh2_force")
+        .unwrap();
+    assert!(
+        (oc[idx] - oa[idx]).abs() > 1.0,
+        "mesh phasing has no effect"
+    );
+}
