@@ -313,7 +313,7 @@ impl GearTrain {
                 }
             };
             let slots = match &stiffness {
-                Stiffness::Table(t) => t.slots,
+                Stiffness::Table(t) if model2.is_none() => t.slots,
                 _ => 1,
             };
             let ramp = match &stiffness {
@@ -503,6 +503,7 @@ impl GearTrain {
                 if let Some(pairs) = &mesh.model2 {
                     let table = loaded_ste_table(pairs, st.mesh_force[n], mesh.k_mean);
                     mesh.stiffness = Stiffness::Table(table);
+                    mesh.flags.resize(1, SlotContact::Drive);
                     mesh.locate(t);
                 }
             }
