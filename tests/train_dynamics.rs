@@ -159,6 +159,7 @@ fn rigid_bearing_idler_equals_reduced_rotational_model() {
     let mut out = Vec::new();
     let (mut err, mut scale) = (0.0f64, 0.0f64);
     let mut lost = [false; 2];
+    let mut lost_samples = [0usize; 2];
     for k in 1..=60 * 20 {
         let t = k as f64 / (20.0 * f_mesh);
         sim.advance_to(t).unwrap();
@@ -169,7 +170,15 @@ fn rigid_bearing_idler_equals_reduced_rotational_model() {
         scale = scale.max(y[0].abs()).max(y[1].abs());
         for j in 0..2 {
             lost[j] |= !sys.contact[j];
+            lost_samples[j] += usize::from(!sys.contact[j]);
         }
+    }
+    // The running contact-loss fraction against the oracle's share of separated samples.
+    for (j, name) in ["mesh1", "mesh2"].iter().enumerate() {
+        let model = out[col(&format!("{name}_contact_loss_fraction"))];
+        let oracle = lost_samples[j] as f64 / 1200.0;
+        println!("{name}: contact-loss fraction {model:.4} (oracle samples {oracle:.4})");
+        assert!((model - oracle).abs() < 0.01, "{name}: {model} vs {oracle}");
     }
     println!(
         "rigid-bearing idler vs (3.1): {:e} relative, {} events, contact loss {lost:?}",

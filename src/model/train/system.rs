@@ -214,6 +214,10 @@ pub struct GearTrain {
     event_log: Option<Vec<(f64, usize, usize, SlotContact)>>,
     /// Free single pair: `(d_θ, J)` of the input and output bodies for the closed form.
     pair_form: Option<[(f64, f64); 2]>,
+    /// Per mesh: time with total contact loss so far, and since when it is lost now.
+    loss: Vec<(f64, Option<f64>)>,
+    /// Start of the contact-loss bookkeeping (last (re)start).
+    loss_start: f64,
 }
 
 fn row_major(a: &DMatrix<f64>) -> Vec<f64> {
@@ -376,6 +380,8 @@ impl GearTrain {
             pair_outputs: Vec::new(),
             event_log: None,
             pair_form: None,
+            loss: Vec::new(),
+            loss_start: 0.0,
         };
         train.pair_form = pair_closed_form(scene, &train.asm, m, red.rigid_dim());
         if let Some([(d_in, j_in), (d_out, j_out)]) = train.pair_form {
@@ -406,6 +412,7 @@ impl GearTrain {
                 "pairs_in_contact",
                 "phase",
                 "stiffness",
+                "contact_loss_fraction",
             ] {
                 names.push(format!("{}_{q}", m.name));
             }
@@ -613,7 +620,44 @@ impl GearTrain {
                 self.meshes[n].flags[j] = self.classify(n, j, t, y);
             }
         }
+        self.loss_start = t;
+        self.loss = (0..self.meshes.len())
+            .map(|n| (0.0, self.totally_lost(n).then_some(t)))
+            .collect();
         self.refresh_guards();
+    }
+
+    /// Whether mesh n has lost contact on every pair.
+    fn totally_lost(&self, n: usize) -> bool {
+        !self.meshes[n]
+            .flags
+            .iter()
+            .any(|f| matches!(f, SlotContact::Drive | SlotContact::Back))
+    }
+
+    /// Books a possible change of mesh n's total contact loss at `t`.
+    fn book_loss(&mut self, n: usize, t: f64) {
+        let lost = self.totally_lost(n);
+        let entry = &mut self.loss[n];
+        match (lost, entry.1) {
+            (true, None) => entry.1 = Some(t),
+            (false, Some(since)) => {
+                entry.0 += t - since;
+                entry.1 = None;
+            }
+            _ => {}
+        }
+    }
+
+    /// Fraction of the time since the last (re)start during which mesh n had lost contact on
+    /// every tooth pair (total contact loss), at time `t`.
+    pub fn contact_loss_fraction(&self, n: usize, t: f64) -> f64 {
+        let span = t - self.loss_start;
+        if !(span > 0.0) {
+            return if self.totally_lost(n) { 1.0 } else { 0.0 };
+        }
+        let (total, since) = self.loss.get(n).copied().unwrap_or((0.0, None));
+        (total + since.map_or(0.0, |s| t - s)) / span
     }
 
     /// Deflection of slot j relative to its gap, and its rate.
@@ -802,6 +846,7 @@ impl GearTrain {
                 st.in_contact as f64,
                 st.phase,
                 st.stiffness,
+                self.contact_loss_fraction(n, t),
             ]);
             let slots = self.pair_outputs[n];
             if slots > 0 {
@@ -1009,6 +1054,7 @@ impl HybridSystem for GearTrain {
             .collect();
         for n in due {
             self.on_mesh_stop(n, t, y);
+            self.book_loss(n, t);
         }
         self.refresh_guards();
     }
@@ -1045,6 +1091,7 @@ impl HybridSystem for GearTrain {
             }
         }
         self.meshes[n].flags[j] = next;
+        self.book_loss(n, t);
         if let Some(log) = &mut self.event_log {
             log.push((t, n, j, next));
         }
