@@ -194,7 +194,7 @@ fn model_force_laws() {
             if !(0.0..C).contains(&xi) {
                 continue;
             }
-            let k = if xi < C - 1.0 || xi >= 1.0 {
+            let k = if !(C - 1.0..1.0).contains(&xi) {
                 k_double() / 2.0
             } else {
                 k_single()
@@ -226,7 +226,7 @@ fn model_force_laws() {
         let k: f64 = xis
             .iter()
             .map(|&xi| {
-                if xi < C - 1.0 || xi >= 1.0 {
+                if !(C - 1.0..1.0).contains(&xi) {
                     k_double() / 2.0
                 } else {
                     k_single()

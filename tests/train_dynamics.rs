@@ -43,6 +43,16 @@ fn pair_vs_train(text: &str, method: MethodChoice, periods: f64) -> (f64, f64, u
         train.advance_to(t).unwrap();
         let c = core.outputs();
         train.outputs(&mut out);
+        // dte_rate, contact_state, mesh_phase, mesh_stiffness: the same numbers.
+        for (core_index, name) in [
+            (1, "mesh1_dte_rate"),
+            (3, "mesh1_contact_state"),
+            (4, "mesh1_phase"),
+            (5, "mesh1_stiffness"),
+        ] {
+            let i = train.output_names().iter().position(|n| n == name).unwrap();
+            assert_eq!(c[core_index], out[i], "{name} at t = {t}");
+        }
         d_dte = d_dte.max((c[0] - out[dte]).abs());
         d_f = d_f.max((c[2] - out[force]).abs());
         max_dte = max_dte.max(c[0].abs());
@@ -140,8 +150,8 @@ fn rigid_bearing_idler_equals_reduced_rotational_model() {
         }
     }
     let y0 = sys.static_state();
-    for j in 0..2 {
-        assert!((sim.state()[j] - y0[j]).abs() <= 1e-13 * y0[j]);
+    for (x, x0) in sim.state().iter().zip(&y0[..2]) {
+        assert!((x - x0).abs() <= 1e-13 * x0);
     }
     let mut rk = RkStepper::new(
         RkOptions {

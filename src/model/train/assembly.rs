@@ -135,10 +135,10 @@ impl Assembly {
         let mut body_dof = vec![usize::MAX; body_first.len()];
         let mut trans = vec![[usize::MAX; 2]; ng];
         for g in 0..ng {
-            if let Some(_b) = scene.gears[g].bearing {
-                for axis in 0..2 {
+            if scene.gears[g].bearing.is_some() {
+                for (axis, slot) in trans[g].iter_mut().enumerate() {
                     if coupled(g, axis) {
-                        trans[g][axis] = dofs.len();
+                        *slot = dofs.len();
                         dofs.push(if axis == 0 {
                             DofKind::X { gear: g }
                         } else {
@@ -175,8 +175,7 @@ impl Assembly {
             k_ground[(u, u)] += gear.ground_stiffness / (rho * rho);
             c_base[(u, u)] += gear.ground_damping / (rho * rho);
             if let Some(bearing) = gear.bearing {
-                for axis in 0..2 {
-                    let i = trans[g][axis];
+                for (axis, &i) in trans[g].iter().enumerate() {
                     if i != usize::MAX {
                         mass[(i, i)] += gear.mass.expect("validated: bearing has mass");
                         k_base[(i, i)] += bearing.stiffness[axis];

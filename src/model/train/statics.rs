@@ -217,10 +217,10 @@ pub fn equilibrium(
     let n = asm.dim();
     let mut q = DVector::zeros(n);
     let fnorm = f.norm();
-    for i in 0..n {
+    for (i, value) in values.iter().enumerate() {
         let phi = vectors.column(i);
         let modal_force = phi.dot(&f);
-        if values[i].abs() <= 1e-10 * top {
+        if value.abs() <= 1e-10 * top {
             if modal_force.abs() > 1e-9 * fnorm * phi.norm() {
                 return Err(format!(
                     "no static equilibrium: the torques (input {t_in} N·m, load {t_load} N·m) are \
@@ -229,7 +229,7 @@ pub fn equilibrium(
             }
             continue;
         }
-        q += phi * (modal_force / values[i]);
+        q += phi * (modal_force / value);
     }
     let deflection: Vec<f64> = asm.mesh.iter().map(|d| d.dot(&q)).collect();
     Ok(Statics {
