@@ -90,6 +90,24 @@ fn one_mesh_train_equals_core_pair() {
         "the case must exercise contact loss ({events} events)"
     );
     assert!(e_dte <= 1e-12 && e_f <= 1e-12, "{e_dte:e} {e_f:e}");
+    // Smooth (Fourier) and sloped (trapezoidal) stiffness take the RK path with stops.
+    for stiffness in [
+        "kind = \"fourier\"\nmean = 2e8\ncos = [3e7, 5e6]\nsin = [1e7]\nphase = 0.1",
+        "kind = \"trapezoidal\"\nmean = 2e8\npeak_to_peak_ratio = 0.4\ncontact_ratio = 1.4\ntransition = 0.1",
+    ] {
+        let text = common::scene_text(
+            &format!("contact = \"backlash\"\nbacklash = 2e-6\ndamping_ratio = 0.03\n[mesh.stiffness]\n{stiffness}\n[mesh.ste]\ncos = [1e-6]\n"),
+            &format!(
+                "pinion_speed = {}\ninput_torque = 5.0",
+                common::pinion_speed_for_mesh_frequency(2800.0)
+            ),
+            "",
+        );
+        let (e_dte, e_f, events) = pair_vs_train(&text, MethodChoice::Rk, 100.0);
+        println!("{stiffness:?}: dte {e_dte:e}, force {e_f:e}, {events} events");
+        assert!(events > 10, "contact events expected ({events})");
+        assert!(e_dte <= 1e-12 && e_f <= 1e-12, "{e_dte:e} {e_f:e}");
+    }
 }
 
 /// The Table 2.1 idler with rigid bearings, no ground couplings, lumped rectangular meshes.
