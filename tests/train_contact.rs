@@ -284,3 +284,66 @@ fn back_side_contact_uses_the_corrected_sign() {
     // Inside the clearance: no force.
     assert_eq!(force_at(&scene, 0.2, -b / 2.0).0, 0.0);
 }
+
+/// Tabulated gaps: a table holding the linear relief gives the same loaded STE, and the NLTE
+/// of an arbitrary table is the minimum of the linearly interpolated gaps.
+#[test]
+fn tabulated_gaps() {
+    use geardyn::scene::train::GapTable;
+    let pair = PairStiffness::rectangular(K_HAT, EPS, C);
+    let l = C - 1.0;
+    let rho = 4e-6;
+    let as_table = GapTable {
+        points: vec![0.0, l, 1.0, C],
+        values: vec![rho, 0.0, 0.0, rho],
+    };
+    let a = loaded_ste(&CycleTable::pairs(&pair, &as_table), F);
+    let b = loaded_ste(&CycleTable::pairs(&pair, &relief((rho, l), (rho, l))), F);
+    for i in 0..500 {
+        let s = (i as f64 + 0.5) / 500.0;
+        assert!((a.value(s) - b.value(s)).abs() < 1e-18, "s = {s}");
+    }
+    let points = [0.0, 0.2, 0.7, 1.1, C];
+    let values = [3e-6, -1e-6, 2e-6, 0.5e-6, 5e-6];
+    let table = GapTable {
+        points: points.to_vec(),
+        values: values.to_vec(),
+    };
+    let interp = |xi: f64| {
+        let k = points
+            .windows(2)
+            .position(|w| xi >= w[0] && xi < w[1])
+            .unwrap();
+        values[k] + (values[k + 1] - values[k]) * (xi - points[k]) / (points[k + 1] - points[k])
+    };
+    let nlte = loaded_ste(&CycleTable::pairs(&pair, &table), 0.0);
+    for i in 0..1000 {
+        let s = (i as f64 + 0.5) / 1000.0;
+        let min = (0..2)
+            .map(|j| s + C - 1.0 - j as f64)
+            .filter(|xi| (0.0..C).contains(xi))
+            .map(interp)
+            .fold(f64::INFINITY, f64::min);
+        assert!(
+            (nlte.value(s) - min).abs() < 1e-18,
+            "s = {s}: {} vs {min}",
+            nlte.value(s)
+        );
+    }
+    // Scene syntax, and the table must span the window.
+    let scene = pair_scene("pairs", 0.0, "contact = \"contact_loss\"");
+    let text = scene.source.replace(
+        "[mesh.tip_relief]\ndriver_magnitude = 0\n",
+        "[mesh.gaps]\npoints = [0.0, 1.504]\nvalues = [1e-6, 2e-6]\n[mesh.tip_relief]\ndriver_magnitude = 0\n",
+    );
+    let e = TrainScene::from_toml_str(&text, "gaps").unwrap_err().0;
+    assert!(e.contains("tip_relief or gaps"), "{e}");
+    let text = text.replace(
+        "[mesh.tip_relief]\ndriver_magnitude = 0\ndriver_length = 0.504\ndriven_magnitude = 0\ndriven_length = 0.504\n",
+        "",
+    );
+    TrainScene::from_toml_str(&text, "gaps").unwrap();
+    let bad = text.replace("points = [0.0, 1.504]", "points = [0.0, 1.4]");
+    let e = TrainScene::from_toml_str(&bad, "gaps").unwrap_err().0;
+    assert!(e.contains("mesh[0].gaps.points[1] = 1.4"), "{e}");
+}

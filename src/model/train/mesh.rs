@@ -12,7 +12,7 @@
 //! and 3 are one slot whose gap is the loaded STE or the NLTE ([`super::statics`]).
 
 use crate::mesh::Piece;
-use crate::scene::train::{PairStiffness, TipRelief};
+use crate::scene::train::{GapFunction, PairStiffness};
 
 /// Stiffness `k0 + k1·r` and gap `g0 + g1·r` of one slot, `r = s − start`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -75,8 +75,8 @@ impl CycleTable {
         }
     }
 
-    /// Model-1 tooth-pair slots with tip-relief gaps.
-    pub fn pairs(pair: &PairStiffness, relief: &TipRelief) -> CycleTable {
+    /// Model-1 tooth-pair slots with the gaps of `relief` (tip relief or a gap table).
+    pub fn pairs(pair: &PairStiffness, relief: &impl GapFunction) -> CycleTable {
         let c = pair.contact_ratio;
         let slots = c.floor() as usize + 1;
         let mut xi_knots: Vec<f64> = vec![0.0, c];

@@ -191,6 +191,75 @@ impl TipRelief {
     }
 }
 
+/// The gap of a tooth pair as a function of `ξ ∈ [0, c)`: what the pair-based models need.
+pub trait GapFunction {
+    /// Gap (m) and `dg/dξ` at `ξ` (right-sided slope at kinks).
+    fn gap_and_slope(&self, c: f64, xi: f64) -> (f64, f64);
+    /// The kinks in `ξ` (the gap is affine between them).
+    fn kinks(&self, c: f64) -> Vec<f64>;
+}
+
+impl GapFunction for TipRelief {
+    fn gap_and_slope(&self, c: f64, xi: f64) -> (f64, f64) {
+        TipRelief::gap_and_slope(self, c, xi)
+    }
+    fn kinks(&self, c: f64) -> Vec<f64> {
+        TipRelief::kinks(self, c)
+    }
+}
+
+/// A tabulated pair gap (profile modification or error seen along the line of action),
+/// piecewise linear over `points` = `[0, …, c]` in mesh cycles of the pair's window.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GapTable {
+    pub points: Vec<f64>,
+    pub values: Vec<f64>,
+}
+
+impl GapFunction for GapTable {
+    fn gap_and_slope(&self, _c: f64, xi: f64) -> (f64, f64) {
+        let n = self.points.len();
+        let j = self
+            .points
+            .partition_point(|&p| p <= xi)
+            .saturating_sub(1)
+            .min(n - 2);
+        let slope = (self.values[j + 1] - self.values[j]) / (self.points[j + 1] - self.points[j]);
+        (self.values[j] + slope * (xi - self.points[j]), slope)
+    }
+    fn kinks(&self, _c: f64) -> Vec<f64> {
+        self.points[1..self.points.len() - 1].to_vec()
+    }
+}
+
+/// The gap source of a pair-based mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PairGap {
+    Relief(TipRelief),
+    Table(GapTable),
+}
+
+impl Default for PairGap {
+    fn default() -> Self {
+        PairGap::Relief(TipRelief::default())
+    }
+}
+
+impl GapFunction for PairGap {
+    fn gap_and_slope(&self, c: f64, xi: f64) -> (f64, f64) {
+        match self {
+            PairGap::Relief(r) => r.gap_and_slope(c, xi),
+            PairGap::Table(t) => t.gap_and_slope(c, xi),
+        }
+    }
+    fn kinks(&self, c: f64) -> Vec<f64> {
+        match self {
+            PairGap::Relief(r) => r.kinks(c),
+            PairGap::Table(t) => t.kinks(c),
+        }
+    }
+}
+
 /// How the mesh force of a mesh is formed.
 #[derive(Debug, Clone, PartialEq)]
 pub enum MeshForceModel {
@@ -203,7 +272,8 @@ pub enum MeshForceModel {
     Pairs {
         model: PairModel,
         pair: PairStiffness,
-        relief: TipRelief,
+        /// Tip relief or tabulated gaps.
+        relief: PairGap,
     },
 }
 

@@ -151,6 +151,16 @@ pub struct TrainMeshSpec {
     pub pairs: Option<PairStiffnessSpec>,
     /// Linear tip relief (pair-based models).
     pub tip_relief: Option<TipReliefSpec>,
+    /// Tabulated pair gap over the engagement window (instead of tip_relief).
+    pub gaps: Option<GapTableSpec>,
+}
+
+/// A pair gap table: `points` from 0 to the contact ratio (mesh cycles), `values` in m.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GapTableSpec {
+    pub points: Vec<f64>,
+    pub values: Vec<f64>,
 }
 
 /// Stiffness of one tooth pair over its engagement window `ξ ∈ [0, c)` (mesh cycles).

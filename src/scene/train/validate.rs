@@ -5,8 +5,8 @@ use std::collections::VecDeque;
 
 use super::spec::{PairStiffnessSpec, ShaftSpec, TrainMeshSpec, TrainSpec};
 use super::{
-    Bearing, MeshForceModel, PairModel, PairStiffness, Shaft, ShaftCoupling, TipRelief, TrainGear,
-    TrainMesh, TrainOperating, TrainScene,
+    Bearing, GapTable, MeshForceModel, PairGap, PairModel, PairStiffness, Shaft, ShaftCoupling,
+    TipRelief, TrainGear, TrainMesh, TrainOperating, TrainScene,
 };
 use crate::mesh::PhaseSeries;
 use crate::scene::spec::{ContactLawSpec, InitialDteSpec};
@@ -408,7 +408,7 @@ fn mesh(
     };
     let force = match model {
         None => {
-            if m.pairs.is_some() || m.tip_relief.is_some() {
+            if m.pairs.is_some() || m.tip_relief.is_some() || m.gaps.is_some() {
                 return err(format!(
                     "{}: pairs/tip_relief need model = \"pairs\", \"loaded_ste\" or \"nlte\" (model is lumped)",
                     f("model")
@@ -455,7 +455,13 @@ fn mesh(
                 ));
             };
             let pair = pair_stiffness(&f("pairs"), spec)?;
-            let relief = tip_relief(&f("tip_relief"), m, pair.contact_ratio)?;
+            let relief = match (&m.tip_relief, &m.gaps) {
+                (Some(_), Some(_)) => {
+                    return err(format!("{}: give tip_relief or gaps, not both", f("gaps")))
+                }
+                (_, Some(g)) => PairGap::Table(gap_table(&f("gaps"), g, pair.contact_ratio)?),
+                _ => PairGap::Relief(tip_relief(&f("tip_relief"), m, pair.contact_ratio)?),
+            };
             MeshForceModel::Pairs {
                 model,
                 pair,
@@ -647,6 +653,46 @@ fn pair_stiffness(field: &str, spec: &PairStiffnessSpec) -> Result<PairStiffness
             Ok(pair)
         }
     }
+}
+
+fn gap_table(field: &str, g: &super::spec::GapTableSpec, c: f64) -> Result<GapTable> {
+    if g.points.len() != g.values.len() || g.points.len() < 2 {
+        return err(format!(
+            "{field}.values: {} values for {} points; need the same number, at least 2",
+            g.values.len(),
+            g.points.len()
+        ));
+    }
+    if g.points[0] != 0.0 {
+        return err(format!(
+            "{field}.points[0] = {}: the engagement window starts at 0",
+            g.points[0]
+        ));
+    }
+    let last = g.points.len() - 1;
+    if g.points[last] != c {
+        return err(format!(
+            "{field}.points[{last}] = {}: the window ends at the pair contact_ratio = {c}",
+            g.points[last]
+        ));
+    }
+    for k in 1..g.points.len() {
+        if !(g.points[k] > g.points[k - 1]) {
+            return err(format!(
+                "{field}.points[{k}] = {}: must be greater than points[{}] = {}",
+                g.points[k],
+                k - 1,
+                g.points[k - 1]
+            ));
+        }
+    }
+    for (k, v) in g.values.iter().enumerate() {
+        finite(&format!("{field}.values[{k}]"), *v)?;
+    }
+    Ok(GapTable {
+        points: g.points.clone(),
+        values: g.values.clone(),
+    })
 }
 
 fn tip_relief(field: &str, m: &TrainMeshSpec, c: f64) -> Result<TipRelief> {
