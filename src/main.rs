@@ -44,7 +44,8 @@ struct SimulateArgs {
     /// Scene file (`scene.toml`) or a folder holding one (e.g. `fmu/spur_pair`).
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     scene: Option<PathBuf>,
-    /// A built-in example scene instead of a file (e.g. `spur_pair`).
+    /// A built-in example scene instead of a file (`spur_pair`, `idler_gearset`,
+    /// `countershaft_gearset`).
     #[arg(long)]
     example: Option<String>,
     /// Output CSV file.
@@ -82,10 +83,17 @@ fn positive(name: &str, v: f64) -> Result<f64, String> {
 }
 
 fn simulate(args: SimulateArgs) -> Result<(), String> {
-    if let Some(path) = &args.scene {
-        if geardyn::scene::train::is_train_file(path).map_err(|e| e.to_string())? {
-            return simulate_train(path, &args);
+    use geardyn::scene::train::{is_train_file, TrainScene, TRAIN_EXAMPLES};
+    match (&args.scene, &args.example) {
+        (Some(path), None) if is_train_file(path).map_err(|e| e.to_string())? => {
+            let scene = TrainScene::from_path(path).map_err(|e| e.to_string())?;
+            return simulate_train(scene, &args);
         }
+        (None, Some(name)) if TRAIN_EXAMPLES.iter().any(|(n, _)| n == name) => {
+            let scene = TrainScene::example(name).map_err(|e| e.to_string())?;
+            return simulate_train(scene, &args);
+        }
+        _ => {}
     }
     let mut scene = match (&args.scene, &args.example) {
         (_, Some(name)) => Scene::example(name),
@@ -139,7 +147,10 @@ fn simulate(args: SimulateArgs) -> Result<(), String> {
 }
 
 /// Drivetrain scenes: the same solver options, applied to the train's settings.
-fn simulate_train(path: &std::path::Path, args: &SimulateArgs) -> Result<(), String> {
+fn simulate_train(
+    scene: geardyn::scene::train::TrainScene,
+    args: &SimulateArgs,
+) -> Result<(), String> {
     let apply = |s: &mut geardyn::scene::SolverSettings| -> Result<(f64, f64), String> {
         if let Some(m) = &args.method {
             s.method = m
@@ -162,7 +173,7 @@ fn simulate_train(path: &std::path::Path, args: &SimulateArgs) -> Result<(), Str
         )?;
         Ok((stop, interval))
     };
-    train_cli::simulate(path, &args.out, apply, args.quiet)
+    train_cli::simulate(scene, &args.out, apply, args.quiet)
 }
 
 fn main() -> ExitCode {

@@ -57,12 +57,11 @@ pub fn modes_command(path: &Path, rigid_bearings: bool) -> Result<(), String> {
 
 /// `geardyn simulate` for a drivetrain scene.
 pub fn simulate(
-    path: &Path,
+    mut scene: TrainScene,
     out: &Path,
     settings: impl FnOnce(&mut SolverSettings) -> Result<(f64, f64), String>,
     quiet: bool,
 ) -> Result<(), String> {
-    let mut scene = TrainScene::from_path(path).map_err(|e| e.to_string())?;
     let (stop_time, interval) = settings(&mut scene.solver)?;
     let run = run_train(&scene, stop_time, interval)?;
     let names: Vec<&str> = run.names.iter().map(String::as_str).collect();

@@ -128,3 +128,24 @@ fn simulate_rejects_bad_topology() {
     assert!(err.contains("mesh[1].gear = \"ghost\""), "{err}");
     assert!(!out.exists());
 }
+
+#[test]
+fn built_in_drivetrain_examples() {
+    let dir = workdir("examples");
+    for name in ["idler_gearset", "countershaft_gearset"] {
+        let out = dir.join(format!("{name}.csv"));
+        let o = geardyn(&[
+            "simulate",
+            "--example",
+            name,
+            "--out",
+            out.to_str().unwrap(),
+            "--stop-time",
+            "1e-3",
+            "--quiet",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let csv = std::fs::read_to_string(&out).unwrap();
+        assert!(csv.starts_with("time,mesh1_dte,"), "{name}");
+    }
+}
