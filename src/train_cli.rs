@@ -2,9 +2,10 @@
 
 use std::path::Path;
 
+use geardyn::model::train::mesh::CycleTable;
 use geardyn::model::train::{modes, run_train, statics, Assembly};
 use geardyn::output;
-use geardyn::scene::train::TrainScene;
+use geardyn::scene::train::{MeshForceModel, TrainScene};
 use geardyn::scene::SolverSettings;
 
 /// `geardyn modes`: natural frequencies and mode shapes of the mean system, and the statics.
@@ -48,6 +49,19 @@ pub fn modes_command(path: &Path, rigid_bearings: bool) -> Result<(), String> {
                     "  {:<10} mesh force {:>12.4} N   mean deflection {:>12.6e} m   DTE {:>12.6e} m",
                     m.name, st.mesh_force[n], st.deflection[n], st.dte[n]
                 );
+                if let MeshForceModel::Pairs { pair, relief, .. } = &m.force {
+                    // Loaded STE and NLTE by active set (Liu 2007 eq. 2.8).
+                    let table = CycleTable::pairs(pair, relief);
+                    let ste = statics::loaded_ste(&table, st.mesh_force[n]);
+                    let nlte = statics::loaded_ste(&table, 0.0);
+                    println!(
+                        "  {:<10} loaded STE mean {:.6e} m, p-p {:.6e} m; NLTE p-p {:.6e} m",
+                        "",
+                        ste.mean(),
+                        ste.peak_to_peak(),
+                        nlte.peak_to_peak()
+                    );
+                }
             }
         }
         Err(e) => println!("  {e}"),
