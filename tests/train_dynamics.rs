@@ -382,3 +382,61 @@ fn model_1_without_relief_equals_lumped_mesh() {
     assert!(lost > 10, "the case must lose contact");
     assert!(err <= 1e-9 * scale, "{err:e}");
 }
+
+/// The Table 2.1 idler with rigid bearings and its ground couplings (grounded: physical
+/// coordinates, no reduction) against eq. (2.7) coded independently in
+/// `tests/common/idler3.rs`.
+#[test]
+fn rigid_bearing_idler_with_couplings_equals_eq_2_7() {
+    let (f_mesh, damping, phase2) = (3050.0, 400.0, 0.3);
+    let mut scene = rotational_idler(f_mesh, damping, phase2);
+    let ground = [3389.6, 0.0, 11297.9];
+    for (g, k) in scene.gears.iter_mut().zip(ground) {
+        g.ground_stiffness = k;
+    }
+    let mut sim = TrainSimulation::new(&scene).unwrap();
+    assert_eq!(sim.model().elastic_dim(), 3);
+    let mut sys = common::idler3::Idler3::new(
+        [0.002621, 0.01091, 0.1193],
+        [0.04535, 0.06564, 0.11218],
+        ground,
+        100.0,
+        f_mesh,
+        [(2.9831e8, 0.35, 1.504), (3.2108e8, 0.4, 1.510)],
+        damping,
+        phase2,
+    );
+    let mut rk = RkStepper::new(
+        RkOptions {
+            rtol: 1e-13,
+            atol: 1e-20,
+            ..RkOptions::new(Method::Dop853)
+        },
+        6,
+    )
+    .unwrap();
+    rk.set_state(0.0, &sys.static_state());
+    let names = sim.output_names().to_vec();
+    let col = |n: &str| names.iter().position(|x| x == n).unwrap();
+    let (c1, c2) = (col("mesh1_dte"), col("mesh2_dte"));
+    let mut out = Vec::new();
+    let (mut err, mut scale, mut lost) = (0.0f64, 0.0f64, [false; 2]);
+    for k in 1..=60 * 20 {
+        let t = k as f64 / (20.0 * f_mesh);
+        sim.advance_to(t).unwrap();
+        rk.advance_to(&mut sys, t).unwrap();
+        sim.outputs(&mut out);
+        let z = common::idler3::Idler3::dte(rk.y());
+        err = err.max((out[c1] - z[0]).abs()).max((out[c2] - z[1]).abs());
+        scale = scale.max(z[0].abs()).max(z[1].abs());
+        for j in 0..2 {
+            lost[j] |= !sys.contact[j];
+        }
+    }
+    println!(
+        "grounded rotational idler vs (2.7): {:e} relative",
+        err / scale
+    );
+    assert!(lost[0] && lost[1], "contact loss on both meshes");
+    assert!(err <= 1e-9 * scale, "{:e}", err / scale);
+}

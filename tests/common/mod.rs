@@ -7,6 +7,7 @@
 #![allow(dead_code)]
 
 pub mod idler2;
+pub mod idler3;
 
 use geardyn::scene::Scene;
 
