@@ -429,8 +429,8 @@ fn rigid_bearing_idler_with_couplings_equals_eq_2_7() {
         let z = common::idler3::Idler3::dte(rk.y());
         err = err.max((out[c1] - z[0]).abs()).max((out[c2] - z[1]).abs());
         scale = scale.max(z[0].abs()).max(z[1].abs());
-        for j in 0..2 {
-            lost[j] |= !sys.contact[j];
+        for (l, c) in lost.iter_mut().zip(sys.contact) {
+            *l |= !c;
         }
     }
     println!(
