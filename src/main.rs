@@ -20,8 +20,10 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Simulate a scene and write its outputs to CSV.
+    /// Simulate a scene (single mesh or drivetrain) and write its outputs to CSV.
     Simulate(cli::simulate::SimulateArgs),
+    /// Natural frequencies and mode shapes of a drivetrain's mean system, and its statics.
+    Modes(cli::train::ModesArgs),
     /// Periodic steady state by shooting, with Floquet multipliers and stability.
     Periodic(cli::analysis::PeriodicArgs),
     /// Frequency-response sweep over pinion speed (warm start, up/down branches).
@@ -35,6 +37,7 @@ enum Command {
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Simulate(args) => cli::simulate::run(args),
+        Command::Modes(args) => cli::train::modes_command(&args.scene, args.rigid_bearings),
         Command::Periodic(args) => cli::analysis::periodic(args),
         Command::Sweep(args) => cli::analysis::sweep(args),
         Command::Stiffness(args) => cli::stiffness::run(args),

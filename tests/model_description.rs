@@ -28,7 +28,9 @@ fn drift_is_detected() {
         let path = entry.unwrap().path();
         std::fs::copy(&path, tmp.join(path.file_name().unwrap())).unwrap();
     }
-    assert!(check_checked_in(&root().join("fmu"), &tmp, false).unwrap().is_empty());
+    assert!(check_checked_in(&root().join("fmu"), &tmp, false)
+        .unwrap()
+        .is_empty());
     let md = root().join("modelDescription/spur_pair.xml");
     let text = std::fs::read_to_string(&md).unwrap();
     let copy = tmp.join("spur_pair.xml");

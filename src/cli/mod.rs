@@ -8,6 +8,7 @@ use geardyn::scene::Scene;
 pub mod analysis;
 pub mod simulate;
 pub mod stiffness;
+pub mod train;
 
 /// A finite, positive command-line number.
 pub fn positive(name: &str, v: f64) -> Result<f64, String> {

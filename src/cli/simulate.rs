@@ -5,7 +5,8 @@ use std::path::PathBuf;
 use clap::Args;
 
 use geardyn::model::OUTPUT_NAMES;
-use geardyn::scene::MethodChoice;
+use geardyn::scene::train::TrainScene;
+use geardyn::scene::{MethodChoice, SolverSettings};
 use geardyn::{output, simulation};
 
 use super::{load_scene, positive};
@@ -45,27 +46,20 @@ pub struct SimulateArgs {
 }
 
 pub fn run(args: SimulateArgs) -> Result<(), String> {
+    use geardyn::scene::train::{is_train_file, TRAIN_EXAMPLES};
+    match (&args.scene, &args.example) {
+        (Some(path), None) if is_train_file(path).map_err(|e| e.to_string())? => {
+            let scene = TrainScene::from_path(path).map_err(|e| e.to_string())?;
+            return simulate_train(scene, &args);
+        }
+        (None, Some(name)) if TRAIN_EXAMPLES.iter().any(|(n, _)| n == name) => {
+            let scene = TrainScene::example(name).map_err(|e| e.to_string())?;
+            return simulate_train(scene, &args);
+        }
+        _ => {}
+    }
     let mut scene = load_scene(&args.scene, &args.example)?;
-    let s = &mut scene.solver;
-    if let Some(m) = &args.method {
-        s.method = m
-            .parse::<MethodChoice>()
-            .map_err(|e| format!("--method: {e}"))?;
-    }
-    if let Some(m) = &args.rk_method {
-        s.rk_method = m.parse().map_err(|e| format!("--rk-method: {e}"))?;
-    }
-    if let Some(v) = args.rtol {
-        s.rtol = positive("rtol", v)?;
-    }
-    if let Some(v) = args.atol {
-        s.atol = positive("atol", v)?;
-    }
-    let stop_time = positive("stop-time", args.stop_time.unwrap_or(s.stop_time))?;
-    let interval = positive(
-        "output-interval",
-        args.output_interval.unwrap_or(s.output_interval),
-    )?;
+    let (stop_time, interval) = apply_solver_options(&mut scene.solver, &args)?;
     let run = simulation::run(&scene, stop_time, interval)?;
     output::write_csv(&args.out, &OUTPUT_NAMES, &run.times, &run.rows)?;
     if !args.quiet {
@@ -89,4 +83,39 @@ pub fn run(args: SimulateArgs) -> Result<(), String> {
         );
     }
     Ok(())
+}
+
+/// The command-line solver options applied to a scene's settings; returns the stop time and
+/// the output interval.
+fn apply_solver_options(s: &mut SolverSettings, args: &SimulateArgs) -> Result<(f64, f64), String> {
+    if let Some(m) = &args.method {
+        s.method = m
+            .parse::<MethodChoice>()
+            .map_err(|e| format!("--method: {e}"))?;
+    }
+    if let Some(m) = &args.rk_method {
+        s.rk_method = m.parse().map_err(|e| format!("--rk-method: {e}"))?;
+    }
+    if let Some(v) = args.rtol {
+        s.rtol = positive("rtol", v)?;
+    }
+    if let Some(v) = args.atol {
+        s.atol = positive("atol", v)?;
+    }
+    let stop = positive("stop-time", args.stop_time.unwrap_or(s.stop_time))?;
+    let interval = positive(
+        "output-interval",
+        args.output_interval.unwrap_or(s.output_interval),
+    )?;
+    Ok((stop, interval))
+}
+
+/// Drivetrain scenes: the same solver options, applied to the train's settings.
+fn simulate_train(scene: TrainScene, args: &SimulateArgs) -> Result<(), String> {
+    super::train::simulate(
+        scene,
+        &args.out,
+        |s| apply_solver_options(s, args),
+        args.quiet,
+    )
 }

@@ -9,6 +9,7 @@
 
 mod clock;
 mod pair;
+pub mod train;
 
 pub use clock::PhaseClock;
 pub use pair::{ContactState, GearPair, Inputs, PairState, OUTPUT_NAMES};

@@ -5,6 +5,7 @@
 
 mod geometry;
 pub mod spec;
+pub mod train;
 mod validate;
 
 use std::fmt;

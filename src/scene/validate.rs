@@ -264,7 +264,7 @@ fn wave_parameters(mean: f64, ratio: f64, contact_ratio: f64) -> Result<()> {
     Ok(())
 }
 
-fn stiffness(spec: &StiffnessSpec) -> Result<MeshStiffness> {
+pub(crate) fn stiffness(spec: &StiffnessSpec) -> Result<MeshStiffness> {
     let phase = |p: f64| finite("mesh.stiffness.phase", p);
     Ok(match spec {
         StiffnessSpec::Constant { value } => {

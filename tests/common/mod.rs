@@ -6,6 +6,9 @@
 
 #![allow(dead_code)]
 
+pub mod idler2;
+pub mod idler3;
+
 use geardyn::scene::Scene;
 
 pub const M_E: f64 = 0.5;

@@ -1,0 +1,383 @@
+//! Assembly of a drivetrain into mass, base stiffness and damping matrices and one mesh vector
+//! per mesh, in physical coordinates, and the reduction to elastic coordinates.
+//!
+//! # Coordinates and sign convention
+//!
+//! Gears joined by rigid shafts form one rotating *body* with one coordinate
+//! `u_b = ρ_b θ_b` (m), `ρ_b` the base radius of the body's first gear and `θ_b` the vibratory
+//! rotation **positive in the body's nominal rotation sense**. A gear with compliant bearings
+//! adds translations `x, y` (m) in the scene frame. The deflection of mesh n (pinion a drives
+//! gear b) along its line of action `ℓ_n` is
+//!
+//! `S_n = d_nᵀ q = r_a θ_a − r_b θ_b + (w_a − w_b)·ℓ_n`,  `ℓ_n = (cos β_n, sin β_n)`,
+//! `β_n = centre_angle_n + σ_a·pressure_angle_n` (σ_a = +1 if the pinion turns ccw, −1 cw),
+//!
+//! positive when the drive flanks are compressed. This is Liu 2007 eq. (2.3) with the idler's
+//! rotation counted in its own nominal sense (Liu's `u_2` is `−r_2θ_2` here) and
+//! `β_2 = χ + π`; the mesh forces enter every equation through `d_n` (generalised force
+//! `−F_n ∂S_n/∂q`), which is the energy-consistent form and carries the corrected `y_2` sign
+//! (notes §1.2 [R], erratum §8 item 1). For one mesh, `S = r_b1θ1 + r_b2θ2` of
+//! `docs/model.md` (θ2 there is counted against the gear's rotation).
+//!
+//! Equations (Liu 2007 eq. 2.6): `M q'' + C q' + K_b q + Σ_n d_n F_n = F_T`.
+//!
+//! # Rigid-body modes
+//!
+//! A train without ground coupling can turn freely: `R` spans the null space of
+//! `K_b + Σ k̄_n d_n d_nᵀ` (it also lies in the null space of every `d_n`, whatever the contact
+//! state). The motion is split as `q = Q ξ + R η` with `D Q = I` and `Rᵀ M Q = 0`, where the rows
+//! of `D` are the mesh vectors first (then shaft twists, then unit vectors), chosen greedily
+//! (Liu 2007 eq. 3.2: `u = Qx + rigid body`, `Q` mass-orthogonal to the rigid mode; notes §2.1
+//! and §3.1). The elastic coordinates `ξ` are then the mesh deflections themselves where
+//! possible, and `M̂ = QᵀMQ` reproduces eq. (3.2) and the missing `M̂` of Ch. 4 (notes §3.1).
+//! The rigid motion decouples exactly: `η'' = (RᵀMR)⁻¹ Rᵀ F_T`, zero for balanced torques.
+
+use nalgebra::{DMatrix, DVector, SymmetricEigen};
+
+use crate::scene::train::{ShaftCoupling, TrainScene};
+
+/// What a physical coordinate is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DofKind {
+    /// Rotation of a body, `u_b = ρ_b θ_b` (m); `gear` is the body's first gear.
+    Rotation { gear: usize },
+    /// Bearing translation of a gear along the scene's x axis (m).
+    X { gear: usize },
+    /// Bearing translation along y (m).
+    Y { gear: usize },
+}
+
+/// The assembled drivetrain in physical coordinates.
+#[derive(Debug, Clone)]
+pub struct Assembly {
+    pub dofs: Vec<DofKind>,
+    pub labels: Vec<String>,
+    /// Body index of every gear.
+    pub body_of: Vec<usize>,
+    /// Rotation DOF of every body.
+    pub body_dof: Vec<usize>,
+    /// Reference radius `ρ_b` of every body.
+    pub body_radius: Vec<f64>,
+    pub mass: DMatrix<f64>,
+    /// Bearings, shafts and ground couplings.
+    pub k_base: DMatrix<f64>,
+    pub c_base: DMatrix<f64>,
+    /// The ground couplings alone (part of `k_base`).
+    pub k_ground: DMatrix<f64>,
+    /// Mesh deflection vectors `d_n`.
+    pub mesh: Vec<DVector<f64>>,
+    /// Rotational part of `d_n`: the DTE `r_a θ_a − r_b θ_b`.
+    pub dte: Vec<DVector<f64>>,
+    /// Mean mesh stiffness `k̄_n`.
+    pub mean_stiffness: Vec<f64>,
+    /// Generalised force per N·m of input torque.
+    pub input_load: DVector<f64>,
+    /// Generalised force per N·m of load torque (magnitude, resisting).
+    pub output_load: DVector<f64>,
+    /// Twist vectors of the elastic shafts (candidates for elastic coordinates).
+    pub shaft_twist: Vec<DVector<f64>>,
+}
+
+impl Assembly {
+    pub fn new(scene: &TrainScene) -> Assembly {
+        let ng = scene.gears.len();
+        // Bodies: gears joined by rigid shafts (union-find).
+        let mut parent: Vec<usize> = (0..ng).collect();
+        fn root(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        for s in &scene.shafts {
+            if s.coupling == ShaftCoupling::Rigid {
+                let (a, b) = (root(&mut parent, s.gears[0]), root(&mut parent, s.gears[1]));
+                if a != b {
+                    parent[a.max(b)] = a.min(b);
+                }
+            }
+        }
+        let mut body_of = vec![usize::MAX; ng];
+        let mut body_first = Vec::new();
+        for g in 0..ng {
+            let r = root(&mut parent, g);
+            if body_of[r] == usize::MAX {
+                body_of[r] = body_first.len();
+                body_first.push(r);
+            }
+            body_of[g] = body_of[r];
+        }
+        let body_radius: Vec<f64> = body_first
+            .iter()
+            .map(|&g| scene.gears[g].base_radius)
+            .collect();
+
+        // Lines of action.
+        let loa: Vec<(f64, f64)> = scene
+            .meshes
+            .iter()
+            .map(|m| {
+                let beta = m.centre_angle + scene.rotation[m.pinion] * m.pressure_angle;
+                let (s, c) = beta.sin_cos();
+                (c, s)
+            })
+            .collect();
+        // A bearing direction no line of action has a component along carries no force and
+        // is never excited: its DOF is omitted (Liu 2007 §2.2 drops y_1 for this reason).
+        let coupled = |g: usize, axis: usize| {
+            scene.meshes.iter().zip(&loa).any(|(m, l)| {
+                (m.pinion == g || m.gear == g) && (if axis == 0 { l.0 } else { l.1 }) != 0.0
+            })
+        };
+
+        let mut dofs = Vec::new();
+        let mut body_dof = vec![usize::MAX; body_first.len()];
+        let mut trans = vec![[usize::MAX; 2]; ng];
+        for g in 0..ng {
+            if scene.gears[g].bearing.is_some() {
+                for (axis, slot) in trans[g].iter_mut().enumerate() {
+                    if coupled(g, axis) {
+                        *slot = dofs.len();
+                        dofs.push(if axis == 0 {
+                            DofKind::X { gear: g }
+                        } else {
+                            DofKind::Y { gear: g }
+                        });
+                    }
+                }
+            }
+            let b = body_of[g];
+            if body_dof[b] == usize::MAX {
+                body_dof[b] = dofs.len();
+                dofs.push(DofKind::Rotation { gear: g });
+            }
+        }
+        let n = dofs.len();
+        let labels = dofs
+            .iter()
+            .map(|d| match *d {
+                DofKind::Rotation { gear } => format!("{}.u", scene.gears[gear].name),
+                DofKind::X { gear } => format!("{}.x", scene.gears[gear].name),
+                DofKind::Y { gear } => format!("{}.y", scene.gears[gear].name),
+            })
+            .collect();
+
+        let mut mass = DMatrix::zeros(n, n);
+        let mut k_base = DMatrix::zeros(n, n);
+        let mut c_base = DMatrix::zeros(n, n);
+        let mut k_ground = DMatrix::zeros(n, n);
+        for (g, gear) in scene.gears.iter().enumerate() {
+            let b = body_of[g];
+            let (u, rho) = (body_dof[b], body_radius[b]);
+            mass[(u, u)] += gear.inertia / (rho * rho);
+            k_base[(u, u)] += gear.ground_stiffness / (rho * rho);
+            k_ground[(u, u)] += gear.ground_stiffness / (rho * rho);
+            c_base[(u, u)] += gear.ground_damping / (rho * rho);
+            if let Some(bearing) = gear.bearing {
+                for (axis, &i) in trans[g].iter().enumerate() {
+                    if i != usize::MAX {
+                        mass[(i, i)] += gear.mass.expect("validated: bearing has mass");
+                        k_base[(i, i)] += bearing.stiffness[axis];
+                        c_base[(i, i)] += bearing.damping[axis];
+                    }
+                }
+            }
+        }
+        let rot = |g: usize| -> DVector<f64> {
+            let b = body_of[g];
+            let mut v = DVector::zeros(n);
+            v[body_dof[b]] = 1.0 / body_radius[b];
+            v
+        };
+        let mut shaft_twist = Vec::new();
+        for s in &scene.shafts {
+            if let ShaftCoupling::Elastic { stiffness, damping } = s.coupling {
+                let v = rot(s.gears[0]) - rot(s.gears[1]);
+                k_base += stiffness * &v * v.transpose();
+                c_base += damping * &v * v.transpose();
+                shaft_twist.push(v);
+            }
+        }
+
+        let mut mesh = Vec::new();
+        let mut dte = Vec::new();
+        for (m, l) in scene.meshes.iter().zip(&loa) {
+            let (a, b) = (m.pinion, m.gear);
+            let r_a = scene.gears[a].base_radius;
+            let r_b = scene.gears[b].base_radius;
+            let mut d = DVector::zeros(n);
+            d[body_dof[body_of[a]]] += r_a / body_radius[body_of[a]];
+            d[body_dof[body_of[b]]] -= r_b / body_radius[body_of[b]];
+            dte.push(d.clone());
+            for (g, sign) in [(a, 1.0), (b, -1.0)] {
+                if trans[g][0] != usize::MAX {
+                    d[trans[g][0]] += sign * l.0;
+                }
+                if trans[g][1] != usize::MAX {
+                    d[trans[g][1]] += sign * l.1;
+                }
+            }
+            mesh.push(d);
+        }
+        let mean_stiffness = scene.meshes.iter().map(|m| m.mean_stiffness()).collect();
+        // A torque T on a gear of body b does work T δθ = (T/ρ_b) δu_b.
+        let input_load = rot(scene.input_gear);
+        let output_load = -rot(scene.output_gear);
+        Assembly {
+            dofs,
+            labels,
+            body_of,
+            body_dof,
+            body_radius,
+            mass,
+            k_base,
+            c_base,
+            k_ground,
+            mesh,
+            dte,
+            mean_stiffness,
+            input_load,
+            output_load,
+            shaft_twist,
+        }
+    }
+
+    pub fn dim(&self) -> usize {
+        self.dofs.len()
+    }
+
+    /// Mean stiffness matrix `K_b + Σ k̄_n d_n d_nᵀ` (all pairs in contact).
+    pub fn mean_stiffness_matrix(&self) -> DMatrix<f64> {
+        let mut k = self.k_base.clone();
+        for (d, &kn) in self.mesh.iter().zip(&self.mean_stiffness) {
+            k += kn * d * d.transpose();
+        }
+        k
+    }
+
+    /// Generalised external force for input torque `t_in` and load torque `t_load`.
+    pub fn load(&self, t_in: f64, t_load: f64) -> DVector<f64> {
+        &self.input_load * t_in + &self.output_load * t_load
+    }
+}
+
+/// Eigen-decomposition of `(K, M)` for symmetric `K` and symmetric positive definite `M`:
+/// eigenvalues `ω²` ascending and `M`-orthonormal vectors (columns).
+pub fn generalized_eigen(k: &DMatrix<f64>, m: &DMatrix<f64>) -> (Vec<f64>, DMatrix<f64>) {
+    let n = k.nrows();
+    let chol = m
+        .clone()
+        .cholesky()
+        .expect("mass matrix is positive definite");
+    let l = chol.l();
+    let l_inv = l
+        .clone()
+        .try_inverse()
+        .expect("Cholesky factor is invertible");
+    let a = &l_inv * k * l_inv.transpose();
+    let a = (&a + a.transpose()) * 0.5;
+    let eig = SymmetricEigen::new(a);
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
+    let values = order.iter().map(|&i| eig.eigenvalues[i]).collect();
+    let mut vectors = DMatrix::zeros(n, n);
+    for (c, &i) in order.iter().enumerate() {
+        let v = l_inv.transpose() * eig.eigenvectors.column(i);
+        vectors.set_column(c, &v);
+    }
+    (values, vectors)
+}
+
+/// Relative size below which an eigenvalue of the mean system counts as a rigid-body mode.
+const RIGID_TOL: f64 = 1e-10;
+
+/// The split `q = Q ξ + R η` into elastic and rigid-body coordinates.
+#[derive(Debug, Clone)]
+pub struct Reduction {
+    /// `n × m`, `m = n − r`.
+    pub q: DMatrix<f64>,
+    /// `n × r`, `M`-orthonormal rigid-body modes.
+    pub r: DMatrix<f64>,
+}
+
+impl Reduction {
+    pub fn new(asm: &Assembly) -> Reduction {
+        let n = asm.dim();
+        let (values, vectors) = generalized_eigen(&asm.mean_stiffness_matrix(), &asm.mass);
+        let top = values.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
+        let rigid: Vec<usize> = (0..n)
+            .filter(|&i| values[i].abs() <= RIGID_TOL * top)
+            .collect();
+        let mut r = DMatrix::zeros(n, rigid.len());
+        for (c, &i) in rigid.iter().enumerate() {
+            r.set_column(c, &vectors.column(i));
+        }
+        if rigid.is_empty() {
+            return Reduction {
+                q: DMatrix::identity(n, n),
+                r,
+            };
+        }
+        let rm = r.transpose() * &asm.mass; // r × n
+        let mut rows: Vec<DVector<f64>> = Vec::new();
+        let candidates = asm
+            .mesh
+            .iter()
+            .cloned()
+            .chain(asm.shaft_twist.iter().cloned())
+            .chain((0..n).map(|i| {
+                let mut e = DVector::zeros(n);
+                e[i] = 1.0;
+                e
+            }));
+        let m_el = n - rigid.len();
+        for c in candidates {
+            if rows.len() == m_el {
+                break;
+            }
+            let mut trial = rows.clone();
+            trial.push(c.clone());
+            let stacked = stack(&trial, &rm);
+            if full_row_rank(&stacked) {
+                rows = trial;
+            }
+        }
+        let t = stack(&rows, &rm);
+        let t_inv = t
+            .try_inverse()
+            .expect("[D; RᵀM] is invertible by construction");
+        Reduction {
+            q: t_inv.columns(0, m_el).clone_owned(),
+            r,
+        }
+    }
+
+    pub fn elastic_dim(&self) -> usize {
+        self.q.ncols()
+    }
+
+    pub fn rigid_dim(&self) -> usize {
+        self.r.ncols()
+    }
+}
+
+fn stack(rows: &[DVector<f64>], rm: &DMatrix<f64>) -> DMatrix<f64> {
+    let n = rm.ncols();
+    let mut t = DMatrix::zeros(rows.len() + rm.nrows(), n);
+    for (i, row) in rows.iter().enumerate() {
+        t.set_row(i, &row.transpose());
+    }
+    for i in 0..rm.nrows() {
+        t.set_row(rows.len() + i, &rm.row(i));
+    }
+    t
+}
+
+fn full_row_rank(a: &DMatrix<f64>) -> bool {
+    let svd = a.clone().svd(false, false);
+    let s = &svd.singular_values;
+    let max = s.iter().fold(0.0f64, |a, &b| a.max(b));
+    let min = s.iter().fold(f64::INFINITY, |a, &b| a.min(b));
+    s.len() == a.nrows().min(a.ncols()) && min > 1e-9 * max
+}

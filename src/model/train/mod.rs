@@ -1,0 +1,22 @@
+//! The drivetrain graph model (Liu 2007 Ch. 2–4): gears with rotation and optional bearing
+//! translations, shafts, and meshes with lumped or per-tooth-pair contact, assembled into one
+//! hybrid system for the solvers.
+//!
+//! - [`assembly`]: DOFs, `M`, `K_b`, `C_b`, mesh vectors `d_n`, rigid-body reduction;
+//! - [`mesh`]: the mesh cycle as tooth-pair slots with stiffness and tip-relief gaps;
+//! - [`statics`]: loaded STE / NLTE by active set, static equilibrium;
+//! - [`modes`]: natural frequencies and shapes of the mean system;
+//! - [`system`]: [`GearTrain`], the `HybridSystem` + `PiecewiseLti` model;
+//! - [`simulation`]: [`TrainSimulation`], the propagator driver.
+
+pub mod assembly;
+pub mod mesh;
+pub mod modes;
+pub mod simulation;
+pub mod statics;
+pub mod system;
+
+pub use assembly::{Assembly, DofKind, Reduction};
+pub use modes::{modes, Mode};
+pub use simulation::{run_train, TrainSimulation, TrainTrajectory};
+pub use system::{GearTrain, MeshState, SlotContact, TrainInputs};

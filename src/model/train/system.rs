@@ -1,0 +1,1298 @@
+//! The drivetrain as a hybrid system in elastic coordinates: `y = [ξ, ξ']`,
+//!
+//! `M̂ ξ'' + Ĉ ξ' + K̂_b ξ + Σ_n a_n F_n = F̂`,  `a_n = Qᵀ d_n`,  `S_n = a_nᵀ ξ`
+//!
+//! (Liu 2007 eq. 2.6 projected on the elastic coordinates of [`super::assembly`]). Mesh n has
+//! the force of its cycle table ([`super::mesh`]): per slot j in contact
+//! `F_nj = k_j(s)(S_n − e_n(p) − g_j(s) + o_j)`, `o_j = 2b` on the back side, else 0
+//! (eq. 2.2 with the back-side sign corrected, notes §1.3 [R], erratum §8 item 2), plus the
+//! mesh damping `c_n(Ṡ_n − ė_n)` while any slot is in contact. The mesh phase of mesh n is
+//! `p_n(t) = φ_n + (f_n/f_1)·p_1(0) + f_n t` with `f_n` its mesh frequency (eq. 2.1 phasing
+//! `k_2(t − φT)`), turned from time into phase by one [`PhaseClock`] per mesh.
+//!
+//! Contact changes of every slot are state events (guards linear in the state), stiffness and
+//! gap knots are stops; the discrete mode is frozen in between (numerics-notes §2.1). When all
+//! stiffnesses are piecewise constant the segments are LTI in an augmented state (harmonics of
+//! the STE, one phase ramp per mesh for affine gaps, a constant), so the exact propagator
+//! applies.
+
+use std::cell::RefCell;
+use std::f64::consts::TAU;
+
+use nalgebra::{DMatrix, DVector};
+
+use super::assembly::{generalized_eigen, Assembly, DofKind, Reduction};
+use super::mesh::{CycleTable, Interval, SlotLaw};
+use super::statics::{equilibrium, loaded_ste, Ste};
+use crate::mesh::{MeshStiffness, PhaseSeries};
+use crate::model::PhaseClock;
+use crate::scene::train::{MeshForceModel, PairModel, TrainScene};
+use crate::scene::{ContactLaw, InitialDte};
+use crate::solve::exact::PiecewiseLti;
+use crate::solve::HybridSystem;
+
+/// Contact flag of one tooth-pair slot.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SlotContact {
+    /// The slot's pair is not engaged (outside its window).
+    Inactive = 3,
+    Drive = 1,
+    Separated = 0,
+    Back = 2,
+}
+
+/// Operating inputs, held constant between communication points.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrainInputs {
+    /// Nominal speed of the input gear, rad/s (>= 0).
+    pub input_speed: f64,
+    /// N·m.
+    pub input_torque: f64,
+    /// Load torque magnitude on the output gear, N·m.
+    pub load_torque: f64,
+}
+
+#[derive(Debug, Clone)]
+enum Stiffness {
+    Table(CycleTable),
+    /// A smooth (Fourier) stiffness: `mean + series(p + phase)`.
+    Smooth {
+        mean: f64,
+        series: PhaseSeries,
+        phase: f64,
+    },
+}
+
+#[derive(Debug, Clone)]
+struct MeshRt {
+    a: Vec<f64>,
+    dte: Vec<f64>,
+    clock: PhaseClock,
+    cycles_per_rev: f64,
+    stiffness: Stiffness,
+    /// `s = frac(p + offset)`: the lumped source's phase shift, 0 for pair tables.
+    offset: f64,
+    ste: PhaseSeries,
+    contact: ContactLaw,
+    damping: f64,
+    k_mean: f64,
+    /// Model-2 meshes rebuild their table when the load changes.
+    model2: Option<CycleTable>,
+    /// A phase-ramp state in the augmented LTI state (affine gaps).
+    ramp: bool,
+    cycle: f64,
+    interval: usize,
+    flags: Vec<SlotContact>,
+}
+
+impl MeshRt {
+    fn clearance(&self) -> f64 {
+        match self.contact {
+            ContactLaw::Backlash { clearance } => clearance,
+            _ => 0.0,
+        }
+    }
+
+    fn table(&self) -> Option<&CycleTable> {
+        match &self.stiffness {
+            Stiffness::Table(t) => Some(t),
+            Stiffness::Smooth { .. } => None,
+        }
+    }
+
+    fn slots(&self) -> usize {
+        self.table().map_or(1, |t| t.slots)
+    }
+
+    fn current(&self) -> Option<&Interval> {
+        self.table().map(|t| &t.intervals[self.interval])
+    }
+
+    /// `r = s − interval start` at phase `p`.
+    fn local(&self, p: f64) -> f64 {
+        let start = self.current().map_or(0.0, |iv| iv.start);
+        (p + self.offset - self.cycle) - start
+    }
+
+    fn law(&self, j: usize) -> Option<SlotLaw> {
+        match &self.stiffness {
+            Stiffness::Table(t) => t.intervals[self.interval].laws[j],
+            Stiffness::Smooth { .. } => Some(SlotLaw {
+                k0: 0.0,
+                k1: 0.0,
+                g0: 0.0,
+                g1: 0.0,
+            }),
+        }
+    }
+
+    /// Stiffness of slot j at phase p (frozen interval).
+    fn k(&self, j: usize, p: f64, law: &SlotLaw) -> f64 {
+        match &self.stiffness {
+            Stiffness::Smooth {
+                mean,
+                series,
+                phase,
+            } => mean + series.value(p + phase),
+            Stiffness::Table(_) => {
+                let _ = j;
+                law.k(self.local(p))
+            }
+        }
+    }
+
+    fn locate(&mut self, t: f64) {
+        let u = self.clock.phase_at(t) + self.offset;
+        self.cycle = u.floor();
+        let s = u - self.cycle;
+        self.interval = self.table().map_or(0, |tb| tb.interval_at(s));
+    }
+
+    fn next_stop(&self) -> f64 {
+        match self.table() {
+            Some(t) if t.has_stops() => {
+                let end = self.cycle + t.intervals[self.interval].end;
+                self.clock.time_of(end - self.offset)
+            }
+            _ => f64::INFINITY,
+        }
+    }
+}
+
+/// One guard: mesh, slot and which surface.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Surface {
+    /// In drive contact: `δ >= 0`.
+    Drive,
+    /// Separated, watching the drive side: `−δ >= 0`.
+    SepDrive,
+    /// Separated, watching the back side: `δ + 2b >= 0`.
+    SepBack,
+    /// In back contact: `−(δ + 2b) >= 0`.
+    Back,
+}
+
+/// Evaluated quantities of one mesh.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct MeshState {
+    pub deflection: f64,
+    pub deflection_rate: f64,
+    pub dte: f64,
+    pub dte_rate: f64,
+    pub force: f64,
+    /// Sum of the engaged slots' stiffness.
+    pub stiffness: f64,
+    pub in_contact: usize,
+    pub any_back: bool,
+    pub phase: f64,
+}
+
+/// The drivetrain model.
+#[derive(Debug, Clone)]
+pub struct GearTrain {
+    m: usize,
+    m_hat: Vec<f64>,
+    minv: Vec<f64>,
+    k_b: Vec<f64>,
+    c: Vec<f64>,
+    f_in: Vec<f64>,
+    f_out: Vec<f64>,
+    f_ext: Vec<f64>,
+    /// Rigid-body acceleration per N·m of input / load torque.
+    rigid_in: Vec<f64>,
+    rigid_out: Vec<f64>,
+    meshes: Vec<MeshRt>,
+    q: DMatrix<f64>,
+    asm: Assembly,
+    scene_translations: Vec<(usize, String)>,
+    inputs: TrainInputs,
+    guards: Vec<(usize, usize, Surface)>,
+    scratch: RefCell<Vec<f64>>,
+    key_fits: bool,
+    names: Vec<String>,
+    pair_outputs: Vec<usize>,
+    event_log: Option<Vec<(f64, usize, usize, SlotContact)>>,
+    /// Free single pair: `(d_θ, J)` of the input and output bodies for the closed form.
+    pair_form: Option<[(f64, f64); 2]>,
+    /// Per mesh: time with total contact loss so far, and since when it is lost now.
+    loss: Vec<(f64, Option<f64>)>,
+    /// Start of the contact-loss bookkeeping (last (re)start).
+    loss_start: f64,
+}
+
+fn row_major(a: &DMatrix<f64>) -> Vec<f64> {
+    let (r, c) = a.shape();
+    (0..r)
+        .flat_map(|i| (0..c).map(move |j| (i, j)))
+        .map(|(i, j)| a[(i, j)])
+        .collect()
+}
+
+impl GearTrain {
+    /// Assembles the model at `t = 0` with the scene's inputs.
+    pub fn new(scene: &TrainScene) -> Result<GearTrain, String> {
+        let asm = Assembly::new(scene);
+        let red = Reduction::new(&asm);
+        let q = red.q.clone();
+        let m = red.elastic_dim();
+        if m == 0 {
+            return Err("the train has no elastic coordinate".into());
+        }
+        let mass = q.transpose() * &asm.mass * &q;
+        let k_b = q.transpose() * &asm.k_base * &q;
+        let mut c = q.transpose() * &asm.c_base * &q;
+        let mut k_mean = k_b.clone();
+        let a_vecs: Vec<DVector<f64>> = asm.mesh.iter().map(|d| q.transpose() * d).collect();
+        for (a, &k) in a_vecs.iter().zip(&asm.mean_stiffness) {
+            k_mean += k * a * a.transpose();
+        }
+        let zeta = scene.modal_damping_ratio;
+        if zeta > 0.0 {
+            // Modal damping on the mean-stiffness modes: C = M̂ Φ diag(2ζω) Φᵀ M̂ with Φ
+            // mass-normalised (Liu 2007 eq. 2.14, ζ = εμ/2); rigid modes are already removed.
+            let (w2, phi) = generalized_eigen(&k_mean, &mass);
+            let diag = DMatrix::from_diagonal(&DVector::from_iterator(
+                m,
+                w2.iter().map(|&w| 2.0 * zeta * w.max(0.0).sqrt()),
+            ));
+            c += &mass * &phi * diag * phi.transpose() * &mass;
+        }
+        let minv = mass
+            .clone()
+            .try_inverse()
+            .ok_or("the reduced mass matrix is singular")?;
+        let f_in = q.transpose() * &asm.input_load;
+        let f_out = q.transpose() * &asm.output_load;
+        let (rigid_in, rigid_out) = if red.rigid_dim() > 0 {
+            (
+                (red.r.transpose() * &asm.input_load).as_slice().to_vec(),
+                (red.r.transpose() * &asm.output_load).as_slice().to_vec(),
+            )
+        } else {
+            (Vec::new(), Vec::new())
+        };
+
+        let mut meshes = Vec::new();
+        let ratio1 = scene.meshes[0].cycles_per_input_rev;
+        for (n, sm) in scene.meshes.iter().enumerate() {
+            let p0 = if ratio1 > 0.0 {
+                sm.phase + sm.cycles_per_input_rev / ratio1 * scene.meshes[0].initial_phase
+            } else {
+                sm.phase
+            };
+            let (stiffness, offset, ste, model2) = match &sm.force {
+                MeshForceModel::Lumped { stiffness, ste } => {
+                    let st = match stiffness {
+                        MeshStiffness::Piecewise { phase, pieces } => {
+                            (Stiffness::Table(CycleTable::lumped(pieces)), *phase)
+                        }
+                        MeshStiffness::Fourier {
+                            phase,
+                            mean,
+                            series,
+                        } => (
+                            Stiffness::Smooth {
+                                mean: *mean,
+                                series: series.clone(),
+                                phase: *phase,
+                            },
+                            0.0,
+                        ),
+                    };
+                    (st.0, st.1, ste.clone(), None)
+                }
+                MeshForceModel::Pairs {
+                    model,
+                    pair,
+                    relief,
+                } => {
+                    let pairs = CycleTable::pairs(pair, relief);
+                    let table = match model {
+                        PairModel::PerPair => pairs.clone(),
+                        PairModel::Nlte => nlte_table(&pairs),
+                        PairModel::LoadedSte => pairs.clone(),
+                    };
+                    let model2 = (*model == PairModel::LoadedSte).then_some(pairs);
+                    (Stiffness::Table(table), 0.0, PhaseSeries::default(), model2)
+                }
+            };
+            let slots = match &stiffness {
+                Stiffness::Table(t) if model2.is_none() => t.slots,
+                _ => 1,
+            };
+            let ramp = match &stiffness {
+                Stiffness::Table(t) => t
+                    .intervals
+                    .iter()
+                    .any(|iv| iv.laws.iter().flatten().any(|l| l.g1 != 0.0)),
+                _ => false,
+            } || model2.is_some();
+            meshes.push(MeshRt {
+                a: a_vecs[n].as_slice().to_vec(),
+                dte: (q.transpose() * &asm.dte[n]).as_slice().to_vec(),
+                clock: PhaseClock::new(0.0, p0, 0.0),
+                cycles_per_rev: sm.cycles_per_input_rev,
+                stiffness,
+                offset,
+                ste,
+                contact: sm.contact,
+                damping: sm.damping,
+                k_mean: asm.mean_stiffness[n],
+                model2,
+                ramp,
+                cycle: 0.0,
+                interval: 0,
+                flags: vec![SlotContact::Drive; slots],
+            });
+        }
+
+        let scene_translations = asm
+            .dofs
+            .iter()
+            .enumerate()
+            .filter(|(_, d)| !matches!(d, DofKind::Rotation { .. }))
+            .map(|(i, _)| (i, asm.labels[i].replace('.', "_")))
+            .collect();
+        let mut train = GearTrain {
+            m,
+            m_hat: row_major(&mass),
+            minv: row_major(&minv),
+            k_b: row_major(&k_b),
+            c: row_major(&c),
+            f_in: f_in.as_slice().to_vec(),
+            f_out: f_out.as_slice().to_vec(),
+            f_ext: vec![0.0; m],
+            rigid_in,
+            rigid_out,
+            meshes,
+            q,
+            asm,
+            scene_translations,
+            inputs: TrainInputs {
+                input_speed: scene.operating.input_speed,
+                input_torque: scene.operating.input_torque,
+                load_torque: scene.operating.load_torque,
+            },
+            guards: Vec::new(),
+            scratch: RefCell::new(vec![0.0; m]),
+            key_fits: true,
+            names: Vec::new(),
+            pair_outputs: Vec::new(),
+            event_log: None,
+            pair_form: None,
+            loss: Vec::new(),
+            loss_start: 0.0,
+        };
+        train.pair_form = pair_closed_form(scene, &train.asm, m, red.rigid_dim());
+        if let Some([(d_in, j_in), (d_out, j_out)]) = train.pair_form {
+            // One mesh between two free bodies: M̂ = 1/(d_θ,inᵀ²/J_in + d_θ,out²/J_out), the
+            // equivalent mass of docs/model.md, formed in the same order as the single pair.
+            let m_e = 1.0 / (d_in.powi(2) / j_in + d_out.powi(2) / j_out);
+            train.m_hat = vec![m_e];
+            train.minv = vec![1.0 / m_e];
+        }
+        train.key_fits = train.key_bits() <= 63;
+        train.names = train.build_names(scene);
+        train.apply_inputs(0.0, train.inputs)?;
+        for mesh in &mut train.meshes {
+            mesh.locate(0.0);
+        }
+        Ok(train)
+    }
+
+    fn build_names(&mut self, scene: &TrainScene) -> Vec<String> {
+        let mut names = Vec::new();
+        for (n, m) in scene.meshes.iter().enumerate() {
+            for q in [
+                "dte",
+                "dte_rate",
+                "deflection",
+                "force",
+                "contact_state",
+                "pairs_in_contact",
+                "phase",
+                "stiffness",
+                "contact_loss_fraction",
+            ] {
+                names.push(format!("{}_{q}", m.name));
+            }
+            let per_pair = matches!(
+                m.force,
+                MeshForceModel::Pairs {
+                    model: PairModel::PerPair,
+                    ..
+                }
+            );
+            let slots = if per_pair { self.meshes[n].slots() } else { 0 };
+            for j in 0..slots {
+                names.push(format!("{}_pair{j}_force", m.name));
+            }
+            self.pair_outputs.push(slots);
+        }
+        for (_, label) in &self.scene_translations {
+            names.push(label.clone());
+        }
+        names
+    }
+
+    /// Output names in [`GearTrain::outputs`] order.
+    pub fn output_names(&self) -> &[String] {
+        &self.names
+    }
+
+    /// Number of elastic coordinates `m` (the state has `2m` entries).
+    pub fn elastic_dim(&self) -> usize {
+        self.m
+    }
+
+    pub fn assembly(&self) -> &Assembly {
+        &self.asm
+    }
+
+    /// `Q` of the split `q = Q ξ + R η`.
+    pub fn reduction_matrix(&self) -> &DMatrix<f64> {
+        &self.q
+    }
+
+    /// The reduced mass matrix `M̂ = QᵀMQ` (row-major, `m × m`).
+    pub fn reduced_mass(&self) -> DMatrix<f64> {
+        DMatrix::from_row_slice(self.m, self.m, &self.m_hat)
+    }
+
+    /// Mesh deflection row `a_n` over ξ.
+    pub fn mesh_row(&self, n: usize) -> &[f64] {
+        &self.meshes[n].a
+    }
+
+    pub fn inputs(&self) -> TrainInputs {
+        self.inputs
+    }
+
+    /// Rigid-body accelerations `η''` (M-normalised rigid coordinates) of unbalanced torques;
+    /// empty for a grounded train. They do not enter the elastic motion.
+    pub fn rigid_body_acceleration(&self) -> Vec<f64> {
+        self.rigid_in
+            .iter()
+            .zip(&self.rigid_out)
+            .map(|(a, b)| a * self.inputs.input_torque + b * self.inputs.load_torque)
+            .collect()
+    }
+
+    /// Sets new inputs at `t`: phases stay continuous, frequencies change from `t` on.
+    pub fn set_inputs(&mut self, t: f64, inputs: TrainInputs) -> Result<(), String> {
+        self.apply_inputs(t, inputs)
+    }
+
+    fn apply_inputs(&mut self, t: f64, inputs: TrainInputs) -> Result<(), String> {
+        let torque_changed = inputs.input_torque != self.inputs.input_torque
+            || inputs.load_torque != self.inputs.load_torque
+            || t == 0.0;
+        self.inputs = inputs;
+        for mesh in &mut self.meshes {
+            let f = mesh.cycles_per_rev * inputs.input_speed / TAU;
+            mesh.clock.reanchor(t, f);
+        }
+        for i in 0..self.m {
+            self.f_ext[i] = self.f_in[i] * inputs.input_torque + self.f_out[i] * inputs.load_torque;
+        }
+        if let Some([(d_in, j_in), (d_out, j_out)]) = self.pair_form {
+            // F̂ = m_e (d_in T_in/J_in + d_out T_out/J_out), T_out = −T_load (docs/model.md).
+            self.f_ext[0] = self.m_hat[0]
+                * (d_in * inputs.input_torque / j_in + d_out * -inputs.load_torque / j_out);
+        }
+        if torque_changed && self.meshes.iter().any(|m| m.model2.is_some()) {
+            // Model-2 excitation: the loaded STE at the static mesh force (mean removed),
+            // eq. (2.10); it depends on the load, so it is rebuilt when the torques change.
+            let st = equilibrium(&self.asm, inputs.input_torque, inputs.load_torque, false)
+                .or_else(|_| equilibrium(&self.asm, inputs.input_torque, inputs.load_torque, true))
+                .map_err(|e| format!("Model-2 (loaded_ste) needs a static load: {e}"))?;
+            for (n, mesh) in self.meshes.iter_mut().enumerate() {
+                if let Some(pairs) = &mesh.model2 {
+                    let table = loaded_ste_table(pairs, st.mesh_force[n], mesh.k_mean);
+                    mesh.stiffness = Stiffness::Table(table);
+                    mesh.flags.resize(1, SlotContact::Drive);
+                    mesh.locate(t);
+                }
+            }
+            self.key_fits = self.key_bits() <= 63;
+        }
+        Ok(())
+    }
+
+    fn key_bits(&self) -> u32 {
+        self.meshes
+            .iter()
+            .map(|m| {
+                let intervals = m.table().map_or(1, |t| t.intervals.len()) as u64;
+                (64 - intervals.saturating_sub(1).leading_zeros()) + 2 * m.slots() as u32
+            })
+            .sum()
+    }
+
+    /// Whether every segment is LTI in the augmented state (exact propagator).
+    pub fn is_piecewise_lti(&self) -> bool {
+        self.key_fits
+            && self.meshes.iter().all(|m| match &m.stiffness {
+                Stiffness::Table(t) => t.stiffness_piecewise_constant(),
+                Stiffness::Smooth { .. } => false,
+            })
+    }
+
+    /// The scene's initial state `[ξ0, ξ0']`; also sets the contact flags to match it.
+    pub fn initial_state(&mut self, scene: &TrainScene) -> Result<Vec<f64>, String> {
+        let m = self.m;
+        let mut y = vec![0.0; 2 * m];
+        match scene.initial_dte {
+            InitialDte::Value(x) => {
+                if m != 1 {
+                    return Err(format!(
+                        "initial.dte = {x}: a number is only allowed for a train with one elastic \
+                         coordinate (this one has {m}); use \"static\""
+                    ));
+                }
+                y[0] = x / self.meshes[0].a[0];
+            }
+            InitialDte::Static => {
+                // K̄ ξ = F̂ + Σ k̄_n a_n e_n(p0): mean stiffness, excitation at the start phase.
+                let mut k = DMatrix::from_row_slice(m, m, &self.k_b);
+                let mut rhs = DVector::from_column_slice(&self.f_ext);
+                let nominal = equilibrium(
+                    &self.asm,
+                    self.inputs.input_torque,
+                    self.inputs.load_torque,
+                    false,
+                )
+                .ok();
+                let mut e0s = Vec::with_capacity(self.meshes.len());
+                for (n, mesh) in self.meshes.iter().enumerate() {
+                    let a = DVector::from_column_slice(&mesh.a);
+                    k += mesh.k_mean * &a * a.transpose();
+                    let p0 = mesh.clock.phase_at(0.0);
+                    let mut e0 = mesh.ste.value(p0);
+                    if let Some(tb) = mesh.table() {
+                        let s0 = (p0 + mesh.offset).rem_euclid(1.0);
+                        if tb.slots > 1 {
+                            let f = nominal.as_ref().map_or(0.0, |st| st.mesh_force[n]);
+                            e0 += loaded_ste(tb, f).value(s0) - f / mesh.k_mean;
+                        } else {
+                            let iv = &tb.intervals[tb.interval_at(s0)];
+                            e0 += iv.laws[0].map_or(0.0, |l| l.g(s0 - iv.start));
+                        }
+                    }
+                    rhs += mesh.k_mean * e0 * a;
+                    e0s.push(e0);
+                }
+                if m == 1 && self.meshes.len() == 1 {
+                    // One coordinate: ξ0 = F̂/K̄ + e0·(k̄a/K̄), which for the single pair is
+                    // `F_ext/k̄ + e(p0)` of docs/model.md, formed in the same order.
+                    let mesh = &self.meshes[0];
+                    let kk = k[(0, 0)];
+                    let e0 = e0s[0];
+                    y[0] = self.f_ext[0] / kk + e0 * (mesh.k_mean * mesh.a[0] / kk);
+                } else {
+                    let xi = k
+                        .lu()
+                        .solve(&rhs)
+                        .ok_or("the mean stiffness matrix is singular")?;
+                    y[..m].copy_from_slice(xi.as_slice());
+                }
+            }
+        }
+        if scene.initial_dte_rate != 0.0 {
+            if m != 1 {
+                return Err(format!(
+                    "initial.dte_rate = {}: only allowed for a train with one elastic coordinate",
+                    scene.initial_dte_rate
+                ));
+            }
+            y[1] = scene.initial_dte_rate / self.meshes[0].a[0];
+        }
+        self.resynchronise(0.0, &y);
+        Ok(y)
+    }
+
+    /// Re-derives the discrete mode (intervals, contact flags) from a state at `t`.
+    pub fn resynchronise(&mut self, t: f64, y: &[f64]) {
+        for n in 0..self.meshes.len() {
+            self.meshes[n].locate(t);
+            let slots = self.meshes[n].slots();
+            for j in 0..slots {
+                self.meshes[n].flags[j] = self.classify(n, j, t, y);
+            }
+        }
+        self.loss_start = t;
+        self.loss = (0..self.meshes.len())
+            .map(|n| (0.0, self.totally_lost(n).then_some(t)))
+            .collect();
+        self.refresh_guards();
+    }
+
+    /// Whether mesh n has lost contact on every pair.
+    fn totally_lost(&self, n: usize) -> bool {
+        !self.meshes[n]
+            .flags
+            .iter()
+            .any(|f| matches!(f, SlotContact::Drive | SlotContact::Back))
+    }
+
+    /// Books a possible change of mesh n's total contact loss at `t`.
+    fn book_loss(&mut self, n: usize, t: f64) {
+        let lost = self.totally_lost(n);
+        let entry = &mut self.loss[n];
+        match (lost, entry.1) {
+            (true, None) => entry.1 = Some(t),
+            (false, Some(since)) => {
+                entry.0 += t - since;
+                entry.1 = None;
+            }
+            _ => {}
+        }
+    }
+
+    /// Fraction of the time since the last (re)start during which mesh n had lost contact on
+    /// every tooth pair (total contact loss), at time `t`.
+    pub fn contact_loss_fraction(&self, n: usize, t: f64) -> f64 {
+        let span = t - self.loss_start;
+        if !(span > 0.0) {
+            return if self.totally_lost(n) { 1.0 } else { 0.0 };
+        }
+        let (total, since) = self.loss.get(n).copied().unwrap_or((0.0, None));
+        (total + since.map_or(0.0, |s| t - s)) / span
+    }
+
+    /// Deflection of slot j relative to its gap, and its rate.
+    fn slot_gap(&self, n: usize, j: usize, t: f64, y: &[f64]) -> Option<(f64, f64, SlotLaw)> {
+        let mesh = &self.meshes[n];
+        let law = mesh.law(j)?;
+        let p = mesh.clock.phase_at(t);
+        let f = mesh.clock.mesh_frequency();
+        let (e, slope) = mesh.ste.value_and_slope(p);
+        let (s, sd) = self.deflection(n, y);
+        let r = mesh.local(p);
+        Some((s - e - law.g(r), sd - slope * f - law.g1 * f, law))
+    }
+
+    fn classify(&self, n: usize, j: usize, t: f64, y: &[f64]) -> SlotContact {
+        let Some((delta, rate, _)) = self.slot_gap(n, j, t, y) else {
+            return SlotContact::Inactive;
+        };
+        match self.meshes[n].contact {
+            ContactLaw::Linear => SlotContact::Drive,
+            ContactLaw::ContactLoss => {
+                if delta > 0.0 || (delta == 0.0 && rate > 0.0) {
+                    SlotContact::Drive
+                } else {
+                    SlotContact::Separated
+                }
+            }
+            ContactLaw::Backlash { clearance } => {
+                let back = delta + clearance;
+                if delta > 0.0 || (delta == 0.0 && rate > 0.0) {
+                    SlotContact::Drive
+                } else if back < 0.0 || (back == 0.0 && rate < 0.0) {
+                    SlotContact::Back
+                } else {
+                    SlotContact::Separated
+                }
+            }
+        }
+    }
+
+    fn refresh_guards(&mut self) {
+        self.guards.clear();
+        for (n, mesh) in self.meshes.iter().enumerate() {
+            if mesh.contact == ContactLaw::Linear {
+                continue;
+            }
+            let backlash = matches!(mesh.contact, ContactLaw::Backlash { .. });
+            for (j, flag) in mesh.flags.iter().enumerate() {
+                match flag {
+                    SlotContact::Inactive => {}
+                    SlotContact::Drive => self.guards.push((n, j, Surface::Drive)),
+                    SlotContact::Separated => {
+                        self.guards.push((n, j, Surface::SepDrive));
+                        if backlash {
+                            self.guards.push((n, j, Surface::SepBack));
+                        }
+                    }
+                    SlotContact::Back => self.guards.push((n, j, Surface::Back)),
+                }
+            }
+        }
+    }
+
+    fn deflection(&self, n: usize, y: &[f64]) -> (f64, f64) {
+        let a = &self.meshes[n].a;
+        let m = self.m;
+        let mut s = 0.0;
+        let mut sd = 0.0;
+        for i in 0..m {
+            s += a[i] * y[i];
+            sd += a[i] * y[m + i];
+        }
+        (s, sd)
+    }
+
+    /// Force of mesh n in the current mode; per-slot forces into `slots` when given.
+    fn mesh_force(&self, n: usize, t: f64, y: &[f64], mut slots: Option<&mut [f64]>) -> f64 {
+        let mesh = &self.meshes[n];
+        let p = mesh.clock.phase_at(t);
+        let f = mesh.clock.mesh_frequency();
+        let (e, e_slope) = mesh.ste.value_and_slope(p);
+        let (s, sd) = self.deflection(n, y);
+        let r = mesh.local(p);
+        let clearance = mesh.clearance();
+        let mut force = 0.0;
+        let mut touching = false;
+        let mut g_rate = 0.0;
+        for (j, flag) in mesh.flags.iter().enumerate() {
+            let offset = match flag {
+                SlotContact::Inactive | SlotContact::Separated => {
+                    if let Some(out) = slots.as_deref_mut() {
+                        out[j] = 0.0;
+                    }
+                    continue;
+                }
+                SlotContact::Drive => 0.0,
+                SlotContact::Back => clearance,
+            };
+            let law = mesh.law(j).expect("a slot in contact is engaged");
+            let delta = s - e - law.g(r);
+            let fj = mesh.k(j, p, &law) * (delta + offset);
+            if let Some(out) = slots.as_deref_mut() {
+                out[j] = fj;
+            }
+            force += fj;
+            touching = true;
+            g_rate = law.g1 * f;
+        }
+        if touching && mesh.damping != 0.0 {
+            // A single slot damps the rate of its own gap too; tooth pairs damp Ṡ − ė.
+            let g_rate = if mesh.flags.len() == 1 { g_rate } else { 0.0 };
+            force += mesh.damping * (sd - e_slope * f - g_rate);
+        }
+        force
+    }
+
+    /// Starts recording contact changes `(t, mesh, slot, new flag)`.
+    pub fn record_events(&mut self) {
+        self.event_log = Some(Vec::new());
+    }
+
+    pub fn events(&self) -> &[(f64, usize, usize, SlotContact)] {
+        self.event_log.as_deref().unwrap_or(&[])
+    }
+
+    /// Contact flags of mesh n's slots.
+    pub fn slot_flags(&self, n: usize) -> &[SlotContact] {
+        &self.meshes[n].flags
+    }
+
+    /// Evaluated quantities of mesh n at `(t, y)`.
+    pub fn mesh_state(&self, n: usize, t: f64, y: &[f64]) -> MeshState {
+        let mesh = &self.meshes[n];
+        let (deflection, deflection_rate) = self.deflection(n, y);
+        let m = self.m;
+        let mut dte = 0.0;
+        let mut dte_rate = 0.0;
+        for i in 0..m {
+            dte += mesh.dte[i] * y[i];
+            dte_rate += mesh.dte[i] * y[m + i];
+        }
+        let p = mesh.clock.phase_at(t);
+        let stiffness = (0..mesh.slots())
+            .filter_map(|j| mesh.law(j).map(|l| mesh.k(j, p, &l)))
+            .sum();
+        MeshState {
+            deflection,
+            deflection_rate,
+            dte,
+            dte_rate,
+            force: self.mesh_force(n, t, y, None),
+            stiffness,
+            in_contact: mesh
+                .flags
+                .iter()
+                .filter(|f| matches!(f, SlotContact::Drive | SlotContact::Back))
+                .count(),
+            any_back: mesh.flags.contains(&SlotContact::Back),
+            phase: p.rem_euclid(1.0),
+        }
+    }
+
+    /// Mesh period of mesh n at the current speed, s.
+    pub fn mesh_period(&self, n: usize) -> f64 {
+        1.0 / self.meshes[n].clock.mesh_frequency()
+    }
+
+    /// All outputs at `(t, y)` in [`GearTrain::output_names`] order.
+    pub fn outputs(&self, t: f64, y: &[f64], out: &mut Vec<f64>) {
+        out.clear();
+        for n in 0..self.meshes.len() {
+            let st = self.mesh_state(n, t, y);
+            let state = if st.in_contact == 0 {
+                0.0
+            } else if st.any_back && !self.meshes[n].flags.contains(&SlotContact::Drive) {
+                -1.0
+            } else {
+                1.0
+            };
+            out.extend([
+                st.dte,
+                st.dte_rate,
+                st.deflection,
+                st.force,
+                state,
+                st.in_contact as f64,
+                st.phase,
+                st.stiffness,
+                self.contact_loss_fraction(n, t),
+            ]);
+            let slots = self.pair_outputs[n];
+            if slots > 0 {
+                let start = out.len();
+                out.resize(start + slots, 0.0);
+                self.mesh_force(n, t, y, Some(&mut out[start..]));
+            }
+        }
+        for (i, _) in &self.scene_translations {
+            let row = self.q.row(*i);
+            out.push((0..self.m).map(|k| row[k] * y[k]).sum());
+        }
+    }
+
+    fn on_mesh_stop(&mut self, n: usize, t: f64, y: &[f64]) {
+        let mesh = &mut self.meshes[n];
+        let Stiffness::Table(table) = &mesh.stiffness else {
+            return;
+        };
+        let count = table.intervals.len();
+        let shift = table.shift_on_wrap;
+        mesh.interval += 1;
+        let wrapped = mesh.interval == count;
+        if wrapped {
+            mesh.interval = 0;
+            mesh.cycle += 1.0;
+        }
+        let slots = mesh.flags.len();
+        let old = mesh.flags.clone();
+        for j in 0..slots {
+            let carried = if wrapped && shift {
+                old.get(j + 1).copied().unwrap_or(SlotContact::Inactive)
+            } else {
+                old[j]
+            };
+            mesh.flags[j] = carried;
+        }
+        for j in 0..slots {
+            let engaged = self.meshes[n].law(j).is_some();
+            let flag = self.meshes[n].flags[j];
+            self.meshes[n].flags[j] = match (engaged, flag) {
+                (false, _) => SlotContact::Inactive,
+                (true, SlotContact::Inactive) => self.classify(n, j, t, y),
+                (true, f) => f,
+            };
+        }
+    }
+}
+
+/// The closed form of a free single pair: one mesh, two rotating bodies (the input and the
+/// output), nothing else. Returns `(d_θ, J)` per body, `d_θ = ±r_b` the mesh vector in
+/// rotation angle and `J` the body inertia.
+fn pair_closed_form(
+    scene: &TrainScene,
+    asm: &Assembly,
+    m: usize,
+    rigid: usize,
+) -> Option<[(f64, f64); 2]> {
+    let single = m == 1
+        && rigid == 1
+        && asm.dim() == 2
+        && scene.meshes.len() == 1
+        && asm.k_base.iter().all(|&v| v == 0.0)
+        && asm
+            .dofs
+            .iter()
+            .all(|d| matches!(d, DofKind::Rotation { .. }));
+    if !single {
+        return None;
+    }
+    let mesh = &scene.meshes[0];
+    let body = |g: usize| -> (f64, f64) {
+        let b = asm.body_of[g];
+        let j: f64 = (0..scene.gears.len())
+            .filter(|&k| asm.body_of[k] == b)
+            .map(|k| scene.gears[k].inertia)
+            .sum();
+        let r = scene.gears[g].base_radius;
+        let d = if g == mesh.pinion { r } else { -r };
+        (d, j)
+    };
+    let (i, o) = (scene.input_gear, scene.output_gear);
+    let on_mesh = |g: usize| g == mesh.pinion || g == mesh.gear;
+    (on_mesh(i) && on_mesh(o) && asm.body_of[i] != asm.body_of[o]).then(|| [body(i), body(o)])
+}
+
+/// Model-3 table: one slot with the total engaged stiffness and the NLTE as gap (eq. 2.11).
+fn nlte_table(pairs: &CycleTable) -> CycleTable {
+    let nlte = loaded_ste(pairs, 0.0);
+    single_slot_table(pairs, &nlte, |iv, r| {
+        let k0: f64 = iv.laws.iter().flatten().map(|l| l.k(r)).sum();
+        let k1: f64 = iv.laws.iter().flatten().map(|l| l.k1).sum();
+        (k0, k1)
+    })
+}
+
+/// Model-2 table: one slot with the mean stiffness and the loaded STE minus its mean as gap
+/// (eq. 2.10), at the static mesh force `force`.
+fn loaded_ste_table(pairs: &CycleTable, force: f64, k_mean: f64) -> CycleTable {
+    let ste = loaded_ste(pairs, force);
+    let mean = ste.mean();
+    let shifted = Ste {
+        pieces: ste
+            .pieces
+            .iter()
+            .map(|p| super::statics::LinPiece {
+                v0: p.v0 - mean,
+                ..*p
+            })
+            .collect(),
+    };
+    single_slot_table(pairs, &shifted, |_, _| (k_mean, 0.0))
+}
+
+fn single_slot_table(
+    pairs: &CycleTable,
+    gap: &Ste,
+    k: impl Fn(&Interval, f64) -> (f64, f64),
+) -> CycleTable {
+    let intervals = gap
+        .pieces
+        .iter()
+        .filter(|p| p.end > p.start)
+        .map(|p| {
+            let iv = &pairs.intervals[pairs.interval_at(0.5 * (p.start + p.end))];
+            let (k0, k1) = k(iv, p.start - iv.start);
+            Interval {
+                start: p.start,
+                end: p.end,
+                laws: vec![Some(SlotLaw {
+                    k0,
+                    k1,
+                    g0: p.v0,
+                    g1: p.slope,
+                })],
+            }
+        })
+        .collect();
+    CycleTable {
+        slots: 1,
+        shift_on_wrap: false,
+        intervals,
+    }
+}
+
+impl HybridSystem for GearTrain {
+    fn dim(&self) -> usize {
+        2 * self.m
+    }
+
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        let m = self.m;
+        let mut acc = self.scratch.borrow_mut();
+        for i in 0..m {
+            dy[i] = y[m + i];
+            let mut f = self.f_ext[i];
+            for k in 0..m {
+                f -= self.k_b[i * m + k] * y[k] + self.c[i * m + k] * y[m + k];
+            }
+            acc[i] = f;
+        }
+        for n in 0..self.meshes.len() {
+            let force = self.mesh_force(n, t, y, None);
+            let a = &self.meshes[n].a;
+            for i in 0..m {
+                acc[i] -= a[i] * force;
+            }
+        }
+        if m == 1 {
+            dy[1] = acc[0] / self.m_hat[0];
+        } else {
+            for i in 0..m {
+                dy[m + i] = (0..m).map(|k| self.minv[i * m + k] * acc[k]).sum();
+            }
+        }
+    }
+
+    fn guard_count(&self) -> usize {
+        self.guards.len()
+    }
+
+    fn guards(&self, t: f64, y: &[f64], g: &mut [f64]) {
+        for (slot, &(n, j, surface)) in g.iter_mut().zip(&self.guards) {
+            let delta = self.slot_gap(n, j, t, y).map_or(0.0, |v| v.0);
+            let back = delta + self.meshes[n].clearance();
+            *slot = match surface {
+                Surface::Drive => delta,
+                Surface::SepDrive => -delta,
+                Surface::SepBack => back,
+                Surface::Back => -back,
+            };
+        }
+    }
+
+    fn next_stop(&self) -> f64 {
+        self.meshes
+            .iter()
+            .map(MeshRt::next_stop)
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    fn on_stop(&mut self, t: f64, y: &mut [f64]) {
+        let due: Vec<usize> = (0..self.meshes.len())
+            .filter(|&n| self.meshes[n].next_stop() <= t)
+            .collect();
+        for n in due {
+            self.on_mesh_stop(n, t, y);
+            self.book_loss(n, t);
+        }
+        self.refresh_guards();
+    }
+
+    fn on_event(&mut self, t: f64, y: &mut [f64], index: usize) {
+        let (n, j, surface) = self.guards[index];
+        let clearance = self.meshes[n].clearance();
+        let (level, next) = match surface {
+            Surface::Drive => (0.0, SlotContact::Separated),
+            Surface::SepDrive => (0.0, SlotContact::Drive),
+            Surface::SepBack => (-clearance, SlotContact::Back),
+            Surface::Back => (-clearance, SlotContact::Separated),
+        };
+        // Snap onto the surface δ = level (numerics-notes §2.1): the smallest mass-weighted
+        // change of ξ that puts S_n − e_n − g_j at `level`.
+        if let Some((delta, _, _)) = self.slot_gap(n, j, t, y) {
+            let m = self.m;
+            let a = &self.meshes[n].a;
+            if m == 1 {
+                // S = a·ξ must equal e + g + level; formed like the single pair (`x = e + surface`).
+                let mesh = &self.meshes[n];
+                let p = mesh.clock.phase_at(t);
+                let g = mesh.law(j).map_or(0.0, |l| l.g(mesh.local(p)));
+                y[0] = (mesh.ste.value(p) + g + level) / a[0];
+            } else {
+                let w: Vec<f64> = (0..m)
+                    .map(|i| (0..m).map(|k| self.minv[i * m + k] * a[k]).sum())
+                    .collect();
+                let aw: f64 = (0..m).map(|i| a[i] * w[i]).sum();
+                let step = (level - delta) / aw;
+                for i in 0..m {
+                    y[i] += w[i] * step;
+                }
+            }
+        }
+        self.meshes[n].flags[j] = next;
+        self.book_loss(n, t);
+        if let Some(log) = &mut self.event_log {
+            log.push((t, n, j, next));
+        }
+        self.refresh_guards();
+    }
+}
+
+impl GearTrain {
+    fn harmonic_base(&self) -> Vec<usize> {
+        let mut base = Vec::with_capacity(self.meshes.len());
+        let mut k = 2 * self.m;
+        for mesh in &self.meshes {
+            base.push(k);
+            k += 2 * mesh.ste.harmonics() + usize::from(mesh.ramp);
+        }
+        base
+    }
+
+    /// Row of the slot deflection `δ_j = S − e − g_j` over the augmented state.
+    fn delta_row(&self, n: usize, j: usize, base: usize, w: &mut [f64]) {
+        let mesh = &self.meshes[n];
+        w[..self.m].copy_from_slice(&mesh.a);
+        for (i, &(ah, bh)) in mesh.ste.coefficients().iter().enumerate() {
+            w[base + 2 * i] -= ah;
+            w[base + 2 * i + 1] -= bh;
+        }
+        if let Some(l) = mesh.law(j) {
+            let last = w.len() - 1;
+            w[last] -= l.g0;
+            if mesh.ramp {
+                w[base + 2 * mesh.ste.harmonics()] -= l.g1;
+            }
+        }
+    }
+}
+
+impl PiecewiseLti for GearTrain {
+    fn lti_dim(&self) -> usize {
+        2 * self.m
+            + self
+                .meshes
+                .iter()
+                .map(|m| 2 * m.ste.harmonics() + usize::from(m.ramp))
+                .sum::<usize>()
+            + 1
+    }
+
+    /// `z = [ξ, ξ', per mesh (cos 2πhp, sin 2πhp)_h and the ramp r = s − start, 1]`.
+    fn lift(&self, t: f64, y: &[f64], z: &mut [f64]) {
+        z[..2 * self.m].copy_from_slice(y);
+        for (mesh, base) in self.meshes.iter().zip(self.harmonic_base()) {
+            let p = mesh.clock.phase_at(t);
+            let pf = p.rem_euclid(1.0);
+            for h in 1..=mesh.ste.harmonics() {
+                let (s, c) = (TAU * h as f64 * pf).sin_cos();
+                z[base + 2 * (h - 1)] = c;
+                z[base + 2 * (h - 1) + 1] = s;
+            }
+            if mesh.ramp {
+                z[base + 2 * mesh.ste.harmonics()] = mesh.local(p);
+            }
+        }
+        let last = z.len() - 1;
+        z[last] = 1.0;
+    }
+
+    fn lti_matrix(&self, a: &mut DMatrix<f64>) {
+        a.fill(0.0);
+        let nz = a.nrows();
+        let last = nz - 1;
+        let m = self.m;
+        // Generalised force rows over z (before M̂⁻¹): f_ext − K_b ξ − C ξ' − Σ a_n F_n.
+        let mut force = DMatrix::<f64>::zeros(m, nz);
+        for i in 0..m {
+            force[(i, last)] = self.f_ext[i];
+            for k in 0..m {
+                force[(i, k)] -= self.k_b[i * m + k];
+                force[(i, m + k)] -= self.c[i * m + k];
+            }
+        }
+        let bases = self.harmonic_base();
+        let mut w = vec![0.0; nz];
+        let mut row = vec![0.0; nz];
+        for (n, mesh) in self.meshes.iter().enumerate() {
+            let base = bases[n];
+            let omega = TAU * mesh.clock.mesh_frequency();
+            let f = mesh.clock.mesh_frequency();
+            row.fill(0.0);
+            let mut touching = false;
+            let mut g_rate = 0.0;
+            for (j, flag) in mesh.flags.iter().enumerate() {
+                let offset = match flag {
+                    SlotContact::Inactive | SlotContact::Separated => continue,
+                    SlotContact::Drive => 0.0,
+                    SlotContact::Back => mesh.clearance(),
+                };
+                let law = mesh.law(j).expect("engaged");
+                w.fill(0.0);
+                self.delta_row(n, j, base, &mut w);
+                w[last] += offset;
+                for (r, v) in row.iter_mut().zip(&w) {
+                    *r += law.k0 * v;
+                }
+                touching = true;
+                g_rate = law.g1 * f;
+            }
+            if touching && mesh.damping != 0.0 {
+                let c = mesh.damping;
+                for i in 0..m {
+                    row[m + i] += c * mesh.a[i];
+                }
+                for (i, &(ah, bh)) in mesh.ste.coefficients().iter().enumerate() {
+                    let h = (i + 1) as f64;
+                    // ė = Σ hω(−a_h sin + b_h cos).
+                    row[base + 2 * i] -= c * h * omega * bh;
+                    row[base + 2 * i + 1] += c * h * omega * ah;
+                }
+                if mesh.flags.len() == 1 {
+                    row[last] -= c * g_rate;
+                }
+            }
+            for i in 0..m {
+                for col in 0..nz {
+                    force[(i, col)] -= mesh.a[i] * row[col];
+                }
+            }
+            for (i, _) in mesh.ste.coefficients().iter().enumerate() {
+                let h = (i + 1) as f64;
+                let (ci, si) = (base + 2 * i, base + 2 * i + 1);
+                a[(ci, si)] = -h * omega;
+                a[(si, ci)] = h * omega;
+            }
+            if mesh.ramp {
+                a[(base + 2 * mesh.ste.harmonics(), last)] = f;
+            }
+        }
+        for i in 0..m {
+            a[(i, m + i)] = 1.0;
+            for col in 0..nz {
+                a[(m + i, col)] = if m == 1 {
+                    force[(0, col)] / self.m_hat[0]
+                } else {
+                    (0..m).map(|k| self.minv[i * m + k] * force[(k, col)]).sum()
+                };
+            }
+        }
+    }
+
+    fn guard_row(&self, index: usize, w: &mut [f64]) {
+        w.fill(0.0);
+        let (n, j, surface) = self.guards[index];
+        let base = self.harmonic_base()[n];
+        self.delta_row(n, j, base, w);
+        let last = w.len() - 1;
+        let clearance = self.meshes[n].clearance();
+        let (sign, offset) = match surface {
+            Surface::Drive => (1.0, 0.0),
+            Surface::SepDrive => (-1.0, 0.0),
+            Surface::SepBack => (1.0, clearance),
+            Surface::Back => (-1.0, clearance),
+        };
+        w[last] += offset;
+        for v in w.iter_mut() {
+            *v *= sign;
+        }
+    }
+
+    fn mode_key(&self) -> u64 {
+        let mut key: u64 = 0;
+        for mesh in &self.meshes {
+            let intervals = mesh.table().map_or(1, |t| t.intervals.len()) as u64;
+            key = key * intervals + mesh.interval as u64;
+            for f in &mesh.flags {
+                key = key * 4 + *f as u64;
+            }
+        }
+        key
+    }
+
+    fn max_frequency(&self) -> f64 {
+        // ‖M̂⁻¹ K_max‖_∞ bounds the largest ω² of any mode.
+        let m = self.m;
+        let mut k = DMatrix::from_row_slice(m, m, &self.k_b);
+        for mesh in &self.meshes {
+            let kmax = match &mesh.stiffness {
+                Stiffness::Table(t) => t.max_total_stiffness(),
+                Stiffness::Smooth { mean, series, .. } => mean + series.amplitude_bound(),
+            };
+            let a = DVector::from_column_slice(&mesh.a);
+            k += kmax * &a * a.transpose();
+        }
+        let minv = DMatrix::from_row_slice(m, m, &self.minv);
+        let prod = minv * k;
+        let bound = (0..m)
+            .map(|i| (0..m).map(|j| prod[(i, j)].abs()).sum::<f64>())
+            .fold(0.0, f64::max);
+        let harmonic = self
+            .meshes
+            .iter()
+            .map(|mesh| TAU * mesh.clock.mesh_frequency() * mesh.ste.harmonics() as f64)
+            .fold(0.0, f64::max);
+        bound.sqrt().max(harmonic)
+    }
+}

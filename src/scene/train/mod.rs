@@ -1,0 +1,431 @@
+//! Drivetrain scenes: a graph of gears (rotation, optional translations on bearings), shafts
+//! and meshes (Liu 2007, Ch. 2–4; notes `models-liu-parker-2007.md` §1–§3).
+//!
+//! [`spec`] mirrors the file; [`TrainScene`] is the validated scene with the kinematics
+//! resolved (nominal speed ratio and rotation sense of every gear). The format is specified in
+//! `docs/train.md`. A single-mesh scene of `docs/model.md` is read here as a train with one
+//! mesh, so the single pair is one case of the graph.
+
+pub mod spec;
+mod validate;
+
+use std::path::Path;
+
+use crate::mesh::{MeshStiffness, PhaseSeries, Piece};
+use crate::scene::{ContactLaw, InitialDte, SceneError, SolverSettings};
+
+pub use spec::TrainSpec;
+
+/// Bearing stiffness and damping of a gear with translational DOFs.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Bearing {
+    pub stiffness: [f64; 2],
+    pub damping: [f64; 2],
+}
+
+/// A gear body.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainGear {
+    pub name: String,
+    pub teeth: u32,
+    pub base_radius: f64,
+    pub inertia: f64,
+    /// Mass, kg (present whenever `bearing` is).
+    pub mass: Option<f64>,
+    /// Bearing with translational DOFs (`None`: rigidly supported, or bearings = "rigid").
+    pub bearing: Option<Bearing>,
+    /// Torsional coupling to ground, N·m/rad.
+    pub ground_stiffness: f64,
+    pub ground_damping: f64,
+}
+
+/// How two coaxial gears are coupled.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ShaftCoupling {
+    /// The gears share one rotation DOF.
+    Rigid,
+    /// A torsional spring and damper, N·m/rad and N·m·s/rad.
+    Elastic { stiffness: f64, damping: f64 },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Shaft {
+    pub gears: [usize; 2],
+    pub coupling: ShaftCoupling,
+}
+
+/// Which of Liu's (2007, §2.2–2.3) mesh-force models a pair-based mesh uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum PairModel {
+    /// Model-1: per-tooth-pair stiffness, gaps and contact flags (eq. 2.2, 2.4).
+    PerPair,
+    /// Model-2: mean stiffness with the loaded STE (mean removed) as excitation (eq. 2.10).
+    LoadedSte,
+    /// Model-3: total stiffness with the no-load TE as excitation (eq. 2.11).
+    Nlte,
+}
+
+/// Stiffness of one tooth pair over its engagement window `ξ ∈ [0, c)` in mesh cycles,
+/// replicated every mesh cycle (Liu 2007 §2.2, Fig. 2.2).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairStiffness {
+    pub contact_ratio: f64,
+    /// Linear pieces covering `[0, c)`.
+    pub pieces: Vec<Piece>,
+}
+
+impl PairStiffness {
+    /// Liu 2007 §2.5 rectangular idealisation, with the single/double labels of the printed
+    /// text swapped back (notes §1.4 [R], erratum §8 item 4): `K_s = k̂[1 + ε(1 − c)]` alone,
+    /// `K_d/2` per pair in double contact with `K_d = k̂[1 + ε(2 − c)]`; mean `k̂`, p-p `εk̂`.
+    pub fn rectangular(mean: f64, ratio: f64, c: f64) -> Self {
+        let k_single = mean * (1.0 + ratio * (1.0 - c));
+        let k_double = mean * (1.0 + ratio * (2.0 - c));
+        let flat = |start: f64, end: f64, k: f64| Piece {
+            start,
+            end,
+            k_start: k,
+            slope: 0.0,
+        };
+        PairStiffness {
+            contact_ratio: c,
+            pieces: vec![
+                flat(0.0, c - 1.0, 0.5 * k_double),
+                flat(c - 1.0, 1.0, k_single),
+                flat(1.0, c, 0.5 * k_double),
+            ],
+        }
+    }
+
+    /// Piecewise-linear interpolation of `(points, values)`, `points[0] = 0`, last `= c`.
+    pub fn table(c: f64, points: &[f64], values: &[f64]) -> Self {
+        let pieces = points
+            .windows(2)
+            .zip(values.windows(2))
+            .map(|(s, k)| Piece {
+                start: s[0],
+                end: s[1],
+                k_start: k[0],
+                slope: (k[1] - k[0]) / (s[1] - s[0]),
+            })
+            .collect();
+        PairStiffness {
+            contact_ratio: c,
+            pieces,
+        }
+    }
+
+    /// The piece containing `ξ` (the last one at `ξ = c`).
+    pub fn piece_at(&self, xi: f64) -> &Piece {
+        let j = self
+            .pieces
+            .partition_point(|p| p.start <= xi)
+            .saturating_sub(1);
+        &self.pieces[j]
+    }
+
+    pub fn value(&self, xi: f64) -> f64 {
+        self.piece_at(xi).value(xi)
+    }
+
+    /// Mean of the total mesh stiffness `Σ_p k_p` over a mesh cycle = `∫_0^c k dξ`.
+    pub fn mesh_mean(&self) -> f64 {
+        self.pieces
+            .iter()
+            .map(|p| {
+                let w = p.end - p.start;
+                w * (p.k_start + 0.5 * p.slope * w)
+            })
+            .sum()
+    }
+}
+
+/// Linear tip relief (Liu 2007 §2.4, notes §1.5 [R]): magnitudes in m, lengths in mesh cycles
+/// (roll-angle length over the angular pitch). A zero magnitude means no relief.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct TipRelief {
+    pub driver_magnitude: f64,
+    pub driver_length: f64,
+    pub driven_magnitude: f64,
+    pub driven_length: f64,
+}
+
+impl TipRelief {
+    /// Gap of a pair at `ξ ∈ [0, c)` (notes §1.5 [R]):
+    /// `g = ρ_dr·max(0, ξ − (c − ς_dr))/ς_dr + ρ_dn·max(0, ς_dn − ξ)/ς_dn`.
+    /// The driver's tip meets the driven flank at the end of the window (recess), the driven
+    /// tip at its start (approach).
+    pub fn gap(&self, c: f64, xi: f64) -> f64 {
+        self.gap_and_slope(c, xi).0
+    }
+
+    /// Gap and `dg/dξ` at `ξ` (right-sided slope at the kinks).
+    pub fn gap_and_slope(&self, c: f64, xi: f64) -> (f64, f64) {
+        let mut g = 0.0;
+        let mut slope = 0.0;
+        if self.driver_magnitude > 0.0 && xi >= c - self.driver_length {
+            g += self.driver_magnitude * (xi - (c - self.driver_length)) / self.driver_length;
+            slope += self.driver_magnitude / self.driver_length;
+        }
+        if self.driven_magnitude > 0.0 && xi < self.driven_length {
+            g += self.driven_magnitude * (self.driven_length - xi) / self.driven_length;
+            slope -= self.driven_magnitude / self.driven_length;
+        }
+        (g, slope)
+    }
+
+    /// The kinks of the gap in `ξ`.
+    pub fn kinks(&self, c: f64) -> Vec<f64> {
+        let mut k = Vec::new();
+        if self.driver_magnitude > 0.0 {
+            k.push(c - self.driver_length);
+        }
+        if self.driven_magnitude > 0.0 {
+            k.push(self.driven_length);
+        }
+        k
+    }
+
+    pub fn is_zero(&self) -> bool {
+        self.driver_magnitude == 0.0 && self.driven_magnitude == 0.0
+    }
+}
+
+/// The gap of a tooth pair as a function of `ξ ∈ [0, c)`: what the pair-based models need.
+pub trait GapFunction {
+    /// Gap (m) and `dg/dξ` at `ξ` (right-sided slope at kinks).
+    fn gap_and_slope(&self, c: f64, xi: f64) -> (f64, f64);
+    /// The kinks in `ξ` (the gap is affine between them).
+    fn kinks(&self, c: f64) -> Vec<f64>;
+}
+
+impl GapFunction for TipRelief {
+    fn gap_and_slope(&self, c: f64, xi: f64) -> (f64, f64) {
+        TipRelief::gap_and_slope(self, c, xi)
+    }
+    fn kinks(&self, c: f64) -> Vec<f64> {
+        TipRelief::kinks(self, c)
+    }
+}
+
+/// A tabulated pair gap (profile modification or error seen along the line of action),
+/// piecewise linear over `points` = `[0, …, c]` in mesh cycles of the pair's window.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GapTable {
+    pub points: Vec<f64>,
+    pub values: Vec<f64>,
+}
+
+impl GapFunction for GapTable {
+    fn gap_and_slope(&self, _c: f64, xi: f64) -> (f64, f64) {
+        let n = self.points.len();
+        let j = self
+            .points
+            .partition_point(|&p| p <= xi)
+            .saturating_sub(1)
+            .min(n - 2);
+        let slope = (self.values[j + 1] - self.values[j]) / (self.points[j + 1] - self.points[j]);
+        (self.values[j] + slope * (xi - self.points[j]), slope)
+    }
+    fn kinks(&self, _c: f64) -> Vec<f64> {
+        self.points[1..self.points.len() - 1].to_vec()
+    }
+}
+
+/// The gap source of a pair-based mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub enum PairGap {
+    Relief(TipRelief),
+    Table(GapTable),
+}
+
+impl Default for PairGap {
+    fn default() -> Self {
+        PairGap::Relief(TipRelief::default())
+    }
+}
+
+impl GapFunction for PairGap {
+    fn gap_and_slope(&self, c: f64, xi: f64) -> (f64, f64) {
+        match self {
+            PairGap::Relief(r) => r.gap_and_slope(c, xi),
+            PairGap::Table(t) => t.gap_and_slope(c, xi),
+        }
+    }
+    fn kinks(&self, c: f64) -> Vec<f64> {
+        match self {
+            PairGap::Relief(r) => r.kinks(c),
+            PairGap::Table(t) => t.kinks(c),
+        }
+    }
+}
+
+/// How the mesh force of a mesh is formed.
+#[derive(Debug, Clone, PartialEq)]
+pub enum MeshForceModel {
+    /// One spring `k(p)` on the deflection minus the static TE `e(p)` (`docs/model.md`).
+    Lumped {
+        stiffness: MeshStiffness,
+        ste: PhaseSeries,
+    },
+    /// Tooth-pair based: Model-1, 2 or 3 (Liu 2007 §2.2–2.3).
+    Pairs {
+        model: PairModel,
+        pair: PairStiffness,
+        /// Tip relief or tabulated gaps.
+        relief: PairGap,
+    },
+}
+
+/// A mesh between a driving gear (`pinion`) and a driven gear (`gear`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainMesh {
+    pub name: String,
+    pub pinion: usize,
+    pub gear: usize,
+    pub contact: ContactLaw,
+    /// Viscous mesh damping, N·s/m.
+    pub damping: f64,
+    /// Mesh phase at t = 0 of the first mesh, mesh cycles (0 for the others).
+    pub initial_phase: f64,
+    /// Mesh phasing φ relative to the first mesh, cycles of this mesh (0 for the first).
+    pub phase: f64,
+    /// Operating pressure angle, rad (0 when no translation is coupled).
+    pub pressure_angle: f64,
+    /// Centre-line direction from pinion to gear, rad.
+    pub centre_angle: f64,
+    pub force: MeshForceModel,
+    /// Mesh cycles per revolution of the input gear: `z_pinion·ω_pinion/ω_input`.
+    pub cycles_per_input_rev: f64,
+}
+
+impl TrainMesh {
+    /// Mean mesh stiffness `k̄`, N/m.
+    pub fn mean_stiffness(&self) -> f64 {
+        match &self.force {
+            MeshForceModel::Lumped { stiffness, .. } => stiffness.mean(),
+            MeshForceModel::Pairs { pair, .. } => pair.mesh_mean(),
+        }
+    }
+}
+
+/// Operating point (inputs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrainOperating {
+    /// Nominal speed of the input gear, rad/s (>= 0).
+    pub input_speed: f64,
+    /// Torque driving the input gear, N·m.
+    pub input_torque: f64,
+    /// Load torque magnitude on the output gear, N·m.
+    pub load_torque: f64,
+}
+
+/// A validated drivetrain scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainScene {
+    pub name: String,
+    pub description: String,
+    pub gears: Vec<TrainGear>,
+    pub shafts: Vec<Shaft>,
+    pub meshes: Vec<TrainMesh>,
+    /// Modal damping ratio on the mean-stiffness modes.
+    pub modal_damping_ratio: f64,
+    pub input_gear: usize,
+    pub output_gear: usize,
+    /// Nominal speed of each gear over the input speed (0 for a grounded, undriven part).
+    pub speed_ratio: Vec<f64>,
+    /// Nominal rotation sense of each gear: +1 as the input gear's `input_rotation` says
+    /// counter-clockwise, −1 clockwise.
+    pub rotation: Vec<f64>,
+    pub operating: TrainOperating,
+    pub initial_dte: InitialDte,
+    pub initial_dte_rate: f64,
+    pub solver: SolverSettings,
+    pub source: String,
+}
+
+/// Built-in drivetrain scenes (`fmu/<name>/scene.toml`).
+pub const TRAIN_EXAMPLES: &[(&str, &str)] = &[
+    (
+        "idler_gearset",
+        include_str!("../../../fmu/idler_gearset/scene.toml"),
+    ),
+    (
+        "countershaft_gearset",
+        include_str!("../../../fmu/countershaft_gearset/scene.toml"),
+    ),
+];
+
+impl TrainScene {
+    /// Parses and validates scene text; `origin` names the source in messages.
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<TrainScene, SceneError> {
+        let spec: TrainSpec = toml::from_str(text)
+            .map_err(|e| SceneError(format!("{origin}: {}", e.to_string().trim_end())))?;
+        validate::validate(spec, text).map_err(|e| SceneError(format!("{origin}: {}", e.0)))
+    }
+
+    /// Reads a scene file, or the `scene.toml` inside a folder.
+    pub fn from_path(path: &Path) -> Result<TrainScene, SceneError> {
+        let file = scene_file(path);
+        let text = std::fs::read_to_string(&file)
+            .map_err(|e| SceneError(format!("cannot read scene file '{}': {e}", file.display())))?;
+        Self::from_toml_str(&text, &file.display().to_string())
+    }
+
+    /// A built-in drivetrain scene by name.
+    pub fn example(name: &str) -> Result<TrainScene, SceneError> {
+        let (_, text) = TRAIN_EXAMPLES
+            .iter()
+            .find(|(n, _)| *n == name)
+            .ok_or_else(|| SceneError(format!("no built-in drivetrain example named '{name}'")))?;
+        Self::from_toml_str(text, &format!("example '{name}'"))
+    }
+
+    /// Index of a gear by name.
+    pub fn gear_index(&self, name: &str) -> Option<usize> {
+        self.gears.iter().position(|g| g.name == name)
+    }
+
+    /// Mesh frequency of mesh `n` at the input speed `omega`, Hz.
+    pub fn mesh_frequency(&self, n: usize, omega: f64) -> f64 {
+        self.meshes[n].cycles_per_input_rev * omega / std::f64::consts::TAU
+    }
+
+    /// The same scene with every bearing rigid (translational DOFs removed).
+    pub fn with_rigid_bearings(&self) -> TrainScene {
+        let mut s = self.clone();
+        for g in &mut s.gears {
+            g.bearing = None;
+        }
+        s
+    }
+}
+
+fn scene_file(path: &Path) -> std::path::PathBuf {
+    if path.is_dir() {
+        path.join("scene.toml")
+    } else {
+        path.to_path_buf()
+    }
+}
+
+/// Whether a scene file is a drivetrain scene (`[[mesh]]` array, `[[shaft]]` or `[model]`)
+/// rather than the single-mesh format of `docs/model.md`.
+pub fn is_train_file(path: &Path) -> Result<bool, SceneError> {
+    let file = scene_file(path);
+    let text = std::fs::read_to_string(&file)
+        .map_err(|e| SceneError(format!("cannot read scene file '{}': {e}", file.display())))?;
+    Ok(is_train_text(&text))
+}
+
+/// See [`is_train_file`]; unparsable text is left to the single-mesh reader's messages.
+pub fn is_train_text(text: &str) -> bool {
+    match text.parse::<toml::Table>() {
+        Ok(table) => {
+            matches!(table.get("mesh"), Some(toml::Value::Array(_)))
+                || table.contains_key("shaft")
+                || table.contains_key("model")
+        }
+        Err(_) => false,
+    }
+}

@@ -1,0 +1,861 @@
+//! Validation of drivetrain scenes: ranges, topology and kinematics. Every message names the
+//! field as a TOML path and its value; nothing is clamped.
+
+use std::collections::VecDeque;
+
+use super::spec::{PairStiffnessSpec, ShaftSpec, TrainMeshSpec, TrainSpec};
+use super::{
+    Bearing, GapTable, MeshForceModel, PairGap, PairModel, PairStiffness, Shaft, ShaftCoupling,
+    TipRelief, TrainGear, TrainMesh, TrainOperating, TrainScene,
+};
+use crate::mesh::PhaseSeries;
+use crate::scene::spec::{ContactLawSpec, InitialDteSpec};
+use crate::scene::{ContactLaw, InitialDte, MethodChoice, SceneError, SolverSettings};
+
+type Result<T> = std::result::Result<T, SceneError>;
+
+fn err<T>(msg: String) -> Result<T> {
+    Err(SceneError(msg))
+}
+
+fn positive(field: &str, v: f64) -> Result<f64> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        err(format!("{field} = {v}: must be a finite number > 0"))
+    }
+}
+
+fn non_negative(field: &str, v: f64) -> Result<f64> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(v)
+    } else {
+        err(format!("{field} = {v}: must be a finite number >= 0"))
+    }
+}
+
+fn finite(field: &str, v: f64) -> Result<f64> {
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        err(format!("{field} = {v}: must be a finite number"))
+    }
+}
+
+fn identifier(name: &str) -> bool {
+    let mut c = name.chars();
+    matches!(c.next(), Some(ch) if ch.is_ascii_alphabetic() || ch == '_')
+        && c.all(|ch| ch.is_ascii_alphanumeric() || ch == '_')
+}
+
+/// Relative tolerance of the kinematic consistency checks (speed ratios around loops).
+const KINEMATIC_TOL: f64 = 1e-9;
+/// Largest relative difference of the base pitches `2π r_b/z` of two meshing gears.
+const BASE_PITCH_TOL: f64 = 0.01;
+
+pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
+    if !identifier(&spec.name) {
+        return err(format!(
+            "name = {:?}: must be an identifier ([A-Za-z_][A-Za-z0-9_]*), it names the FMU",
+            spec.name
+        ));
+    }
+    let compliant = match spec.model.bearings.as_str() {
+        "compliant" => true,
+        "rigid" => false,
+        other => {
+            return err(format!(
+                "model.bearings = {other:?}: must be \"compliant\" or \"rigid\""
+            ))
+        }
+    };
+    let input_sense = match spec.model.input_rotation.as_str() {
+        "ccw" => 1.0,
+        "cw" => -1.0,
+        other => {
+            return err(format!(
+                "model.input_rotation = {other:?}: must be \"ccw\" or \"cw\""
+            ))
+        }
+    };
+    let modal = non_negative("model.modal_damping_ratio", spec.model.modal_damping_ratio)?;
+
+    if spec.gear.is_empty() {
+        return err("gear: no [[gear]] given; a train needs at least 2".into());
+    }
+    let mut gears = Vec::with_capacity(spec.gear.len());
+    for (i, g) in spec.gear.iter().enumerate() {
+        let f = |name: &str| format!("gear[{i}].{name}");
+        if !identifier(&g.name) {
+            return err(format!(
+                "{} = {:?}: must be an identifier (it names output columns)",
+                f("name"),
+                g.name
+            ));
+        }
+        if let Some(j) = spec.gear[..i].iter().position(|o| o.name == g.name) {
+            return err(format!(
+                "{} = {:?}: duplicates gear[{j}].name",
+                f("name"),
+                g.name
+            ));
+        }
+        if g.teeth < 1 || g.teeth > 100_000 {
+            return err(format!(
+                "{} = {}: must be an integer >= 1",
+                f("teeth"),
+                g.teeth
+            ));
+        }
+        let mass = g.mass.map(|m| positive(&f("mass"), m)).transpose()?;
+        let bearing = match (g.bearing_stiffness, compliant) {
+            (Some(k), true) => {
+                for (axis, v) in ["x", "y"].iter().zip(k) {
+                    if !(v.is_finite() && v > 0.0) {
+                        return err(format!(
+                            "{}[{axis}] = {v}: bearing stiffness must be > 0 when translations are \
+                             enabled (model.bearings = \"compliant\"); omit bearing_stiffness for a \
+                             rigidly supported gear",
+                            f("bearing_stiffness")
+                        ));
+                    }
+                }
+                let c = g.bearing_damping.unwrap_or([0.0, 0.0]);
+                non_negative(&format!("{}[x]", f("bearing_damping")), c[0])?;
+                non_negative(&format!("{}[y]", f("bearing_damping")), c[1])?;
+                if mass.is_none() {
+                    return err(format!(
+                        "{}: missing; gear {:?} has bearing_stiffness, so its translations need a mass in kg",
+                        f("mass"),
+                        g.name
+                    ));
+                }
+                Some(Bearing {
+                    stiffness: k,
+                    damping: c,
+                })
+            }
+            (None, _) if g.bearing_damping.is_some() => {
+                return err(format!(
+                    "{}: given without bearing_stiffness",
+                    f("bearing_damping")
+                ))
+            }
+            _ => None,
+        };
+        gears.push(TrainGear {
+            name: g.name.clone(),
+            teeth: g.teeth as u32,
+            base_radius: positive(&f("base_radius"), g.base_radius)?,
+            inertia: positive(&f("inertia"), g.inertia)?,
+            mass,
+            bearing,
+            ground_stiffness: non_negative(&f("ground_stiffness"), g.ground_stiffness)?,
+            ground_damping: non_negative(&f("ground_damping"), g.ground_damping)?,
+        });
+    }
+    let find = |field: &str, name: &str| -> Result<usize> {
+        gears.iter().position(|g| g.name == name).ok_or_else(|| {
+            let names: Vec<_> = gears.iter().map(|g| g.name.as_str()).collect();
+            SceneError(format!(
+                "{field} = {name:?}: no gear of that name (gears: {})",
+                names.join(", ")
+            ))
+        })
+    };
+
+    let shafts = spec
+        .shaft
+        .iter()
+        .enumerate()
+        .map(|(i, s)| shaft(i, s, &find))
+        .collect::<Result<Vec<_>>>()?;
+
+    let mesh_specs = spec.mesh.into_vec();
+    if mesh_specs.is_empty() {
+        return err("mesh: no mesh given; a train needs at least one".into());
+    }
+    let mut meshes = Vec::with_capacity(mesh_specs.len());
+    for (i, m) in mesh_specs.iter().enumerate() {
+        meshes.push(mesh(i, m, &gears, &find)?);
+    }
+    for (i, m) in meshes.iter().enumerate() {
+        if let Some(j) = meshes[..i].iter().position(|o: &TrainMesh| {
+            (o.pinion, o.gear) == (m.pinion, m.gear) || (o.pinion, o.gear) == (m.gear, m.pinion)
+        }) {
+            return err(format!(
+                "mesh[{i}]: gears {:?} and {:?} already mesh in mesh[{j}]",
+                gears[m.pinion].name, gears[m.gear].name
+            ));
+        }
+    }
+    for (i, m) in meshes.iter().enumerate() {
+        if m.name.is_empty() || !identifier(&m.name) {
+            return err(format!(
+                "mesh[{i}].name = {:?}: must be an identifier",
+                m.name
+            ));
+        }
+        if let Some(j) = meshes[..i].iter().position(|o| o.name == m.name) {
+            return err(format!(
+                "mesh[{i}].name = {:?}: duplicates mesh[{j}].name",
+                m.name
+            ));
+        }
+    }
+
+    let op = &spec.operating;
+    let input_gear = match &op.input_gear {
+        Some(name) => find("operating.input_gear", name)?,
+        None => meshes[0].pinion,
+    };
+    let (speed_ratio, rotation) = kinematics(&gears, &shafts, &meshes, input_gear, input_sense)?;
+    let output_gear = match &op.output_gear {
+        Some(name) => find("operating.output_gear", name)?,
+        None => meshes[meshes.len() - 1].gear,
+    };
+    if input_gear == output_gear {
+        return err(format!(
+            "operating.output_gear = {:?}: the same gear as the input gear",
+            gears[output_gear].name
+        ));
+    }
+
+    for m in meshes.iter_mut() {
+        m.cycles_per_input_rev = gears[m.pinion].teeth as f64 * speed_ratio[m.pinion];
+    }
+    if speed_ratio[output_gear] == 0.0 {
+        return err(format!(
+            "operating.output_gear = {:?}: not connected to the input gear {:?}",
+            gears[output_gear].name, gears[input_gear].name
+        ));
+    }
+
+    let input_speed = non_negative("operating.input_speed", op.input_speed)?;
+    let input_torque = finite("operating.input_torque", op.input_torque)?;
+    // Balanced load: the moment balance along the base circles, T_out = T_in·Π r_gear/r_pinion
+    // over the meshes from input to output (Liu 2007 Table 2.1: T_3 = −T_1 r_3/r_1; Table 4.1
+    // corrected to −542.4 N·m, notes §3.5 [C]). With exact involute data this is the speed
+    // ratio; the radii are used so that the rigid-body mode is not driven by rounding of the
+    // tabulated radii (Table 2.1: r/z differs by 1e-5 between the gears).
+    let load_torque = match op.load_torque {
+        Some(t) => finite("operating.load_torque", t)?,
+        None => input_torque * radius_ratio(&gears, &shafts, &meshes, input_gear, output_gear),
+    };
+
+    let initial_dte = match &spec.initial.dte {
+        InitialDteSpec::Value(v) => InitialDte::Value(finite("initial.dte", *v)?),
+        InitialDteSpec::Keyword(k) if k == "static" => InitialDte::Static,
+        InitialDteSpec::Keyword(k) => {
+            return err(format!(
+                "initial.dte = {k:?}: must be \"static\" or a number in m"
+            ))
+        }
+    };
+
+    let solver = solver(&spec.solver)?;
+    if solver.method == MethodChoice::Exact {
+        for (i, m) in meshes.iter().enumerate() {
+            if !piecewise_constant(m) {
+                return err(format!(
+                    "solver.method = \"exact\": mesh[{i}] has a stiffness that is not piecewise \
+                     constant, so its segments are not time-invariant; use \"rk\" or \"auto\""
+                ));
+            }
+        }
+    }
+
+    Ok(TrainScene {
+        name: spec.name,
+        description: spec.description,
+        gears,
+        shafts,
+        meshes,
+        modal_damping_ratio: modal,
+        input_gear,
+        output_gear,
+        speed_ratio,
+        rotation,
+        operating: TrainOperating {
+            input_speed,
+            input_torque,
+            load_torque,
+        },
+        initial_dte,
+        initial_dte_rate: finite("initial.dte_rate", spec.initial.dte_rate)?,
+        solver,
+        source: source.to_owned(),
+    })
+}
+
+/// Whether the mesh's stiffness is piecewise constant in mesh phase (exact propagation).
+pub(crate) fn piecewise_constant(m: &TrainMesh) -> bool {
+    match &m.force {
+        MeshForceModel::Lumped { stiffness, .. } => stiffness.is_piecewise_constant(),
+        MeshForceModel::Pairs { pair, .. } => pair.pieces.iter().all(|p| p.slope == 0.0),
+    }
+}
+
+fn solver(s: &crate::scene::spec::SolverSpec) -> Result<SolverSettings> {
+    let method = s
+        .method
+        .parse::<MethodChoice>()
+        .map_err(|e| SceneError(format!("solver.method = {:?}: {e}", s.method)))?;
+    let rk_method = s
+        .rk_method
+        .parse()
+        .map_err(|e| SceneError(format!("solver.rk_method = {:?}: {e}", s.rk_method)))?;
+    let stop_time = positive("solver.stop_time", s.stop_time)?;
+    let output_interval = match s.output_interval {
+        Some(h) => positive("solver.output_interval", h)?,
+        None => stop_time / 500.0,
+    };
+    let rtol = positive("solver.rtol", s.rtol)?;
+    if rtol >= 1.0 {
+        return err(format!("solver.rtol = {rtol}: must be < 1"));
+    }
+    Ok(SolverSettings {
+        method,
+        rk_method,
+        rtol,
+        atol: positive("solver.atol", s.atol)?,
+        stop_time,
+        output_interval,
+    })
+}
+
+fn shaft(i: usize, s: &ShaftSpec, find: &dyn Fn(&str, &str) -> Result<usize>) -> Result<Shaft> {
+    let a = find(&format!("shaft[{i}].gears[0]"), &s.gears[0])?;
+    let b = find(&format!("shaft[{i}].gears[1]"), &s.gears[1])?;
+    if a == b {
+        return err(format!(
+            "shaft[{i}].gears = [{:?}, {:?}]: a shaft joins two different gears",
+            s.gears[0], s.gears[1]
+        ));
+    }
+    let coupling = match (s.rigid, s.stiffness) {
+        (true, None) => {
+            if s.damping != 0.0 {
+                return err(format!(
+                    "shaft[{i}].damping = {}: a rigid shaft has no damping",
+                    s.damping
+                ));
+            }
+            ShaftCoupling::Rigid
+        }
+        (false, Some(k)) => ShaftCoupling::Elastic {
+            stiffness: positive(&format!("shaft[{i}].stiffness"), k)?,
+            damping: non_negative(&format!("shaft[{i}].damping"), s.damping)?,
+        },
+        (true, Some(k)) => {
+            return err(format!(
+                "shaft[{i}].stiffness = {k}: not allowed with rigid = true"
+            ))
+        }
+        (false, None) => {
+            return err(format!(
+                "shaft[{i}].stiffness: missing; give the torsional stiffness in N·m/rad or rigid = true"
+            ))
+        }
+    };
+    Ok(Shaft {
+        gears: [a, b],
+        coupling,
+    })
+}
+
+fn mesh(
+    i: usize,
+    m: &TrainMeshSpec,
+    gears: &[TrainGear],
+    find: &dyn Fn(&str, &str) -> Result<usize>,
+) -> Result<TrainMesh> {
+    let f = |name: &str| format!("mesh[{i}].{name}");
+    let pinion = find(&f("pinion"), &m.pinion)?;
+    let gear = find(&f("gear"), &m.gear)?;
+    if pinion == gear {
+        return err(format!(
+            "{} = {:?}: the same gear as {}",
+            f("gear"),
+            m.gear,
+            f("pinion")
+        ));
+    }
+    let (gp, gg) = (&gears[pinion], &gears[gear]);
+    let pitch_p = gp.base_radius / gp.teeth as f64;
+    let pitch_g = gg.base_radius / gg.teeth as f64;
+    if (pitch_p - pitch_g).abs() > BASE_PITCH_TOL * pitch_p.max(pitch_g) {
+        return err(format!(
+            "mesh[{i}]: base pitches differ ({:?}: base_radius/teeth = {pitch_p:e} m, {:?}: {pitch_g:e} m, \
+             more than {} %), so these gears cannot mesh",
+            gp.name,
+            gg.name,
+            BASE_PITCH_TOL * 100.0
+        ));
+    }
+
+    let model = match m.model.as_deref() {
+        None | Some("lumped") => None,
+        Some("pairs") => Some(PairModel::PerPair),
+        Some("loaded_ste") => Some(PairModel::LoadedSte),
+        Some("nlte") => Some(PairModel::Nlte),
+        Some(other) => {
+            return err(format!(
+                "{} = {other:?}: must be lumped | pairs | loaded_ste | nlte",
+                f("model")
+            ))
+        }
+    };
+    let force = match model {
+        None => {
+            if m.pairs.is_some() || m.tip_relief.is_some() || m.gaps.is_some() {
+                return err(format!(
+                    "{}: pairs/tip_relief need model = \"pairs\", \"loaded_ste\" or \"nlte\" (model is lumped)",
+                    f("model")
+                ));
+            }
+            let Some(spec) = &m.stiffness else {
+                return err(format!("{}: missing (lumped mesh)", f("stiffness")));
+            };
+            let stiffness = crate::scene::validate::stiffness(spec)
+                .map_err(|e| SceneError(e.0.replacen("mesh.", &format!("mesh[{i}]."), 1)))?;
+            let (k_min, s_min) = stiffness.minimum();
+            if !(k_min > 0.0) {
+                return err(format!(
+                    "{}: the stiffness reaches {k_min:e} N/m at shifted phase {s_min}; it must stay > 0",
+                    f("stiffness")
+                ));
+            }
+            let ste = match &m.ste {
+                Some(s) => {
+                    for (k, v) in s.cos.iter().enumerate() {
+                        finite(&format!("{}[{k}]", f("ste.cos")), *v)?;
+                    }
+                    for (k, v) in s.sin.iter().enumerate() {
+                        finite(&format!("{}[{k}]", f("ste.sin")), *v)?;
+                    }
+                    PhaseSeries::new(&s.cos, &s.sin)
+                }
+                None => PhaseSeries::default(),
+            };
+            MeshForceModel::Lumped { stiffness, ste }
+        }
+        Some(model) => {
+            if m.stiffness.is_some() || m.ste.is_some() {
+                return err(format!(
+                    "{}: stiffness/ste belong to model = \"lumped\"; a pair-based mesh takes [mesh.pairs]",
+                    f("model")
+                ));
+            }
+            let Some(spec) = &m.pairs else {
+                return err(format!(
+                    "{}: missing; model = {:?} needs the single-pair stiffness",
+                    f("pairs"),
+                    m.model.as_deref().unwrap_or("")
+                ));
+            };
+            let pair = pair_stiffness(&f("pairs"), spec)?;
+            let relief = match (&m.tip_relief, &m.gaps) {
+                (Some(_), Some(_)) => {
+                    return err(format!("{}: give tip_relief or gaps, not both", f("gaps")))
+                }
+                (_, Some(g)) => PairGap::Table(gap_table(&f("gaps"), g, pair.contact_ratio)?),
+                _ => PairGap::Relief(tip_relief(&f("tip_relief"), m, pair.contact_ratio)?),
+            };
+            MeshForceModel::Pairs {
+                model,
+                pair,
+                relief,
+            }
+        }
+    };
+
+    let contact = match (m.contact, m.backlash) {
+        (ContactLawSpec::Backlash, Some(b)) => ContactLaw::Backlash {
+            clearance: non_negative(&f("backlash"), b)?,
+        },
+        (ContactLawSpec::Backlash, None) => {
+            return err(format!(
+                "{}: missing; contact = \"backlash\" needs the total clearance 2b in m",
+                f("backlash")
+            ))
+        }
+        (other, Some(b)) => {
+            return err(format!(
+                "{} = {b}: only allowed with contact = \"backlash\" (contact is {other:?})",
+                f("backlash")
+            ))
+        }
+        (ContactLawSpec::Linear, None) => ContactLaw::Linear,
+        (ContactLawSpec::ContactLoss, None) => ContactLaw::ContactLoss,
+    };
+
+    let k_mean = match &force {
+        MeshForceModel::Lumped { stiffness, .. } => stiffness.mean(),
+        MeshForceModel::Pairs { pair, .. } => pair.mesh_mean(),
+    };
+    // Equivalent mass of the two gears alone, as for the single pair (docs/model.md).
+    let m_e = 1.0 / (gp.base_radius.powi(2) / gp.inertia + gg.base_radius.powi(2) / gg.inertia);
+    let damping = match (m.damping, m.damping_ratio) {
+        (Some(c), None) => non_negative(&f("damping"), c)?,
+        (None, Some(z)) => 2.0 * non_negative(&f("damping_ratio"), z)? * (k_mean * m_e).sqrt(),
+        (None, None) => 0.0,
+        (Some(_), Some(_)) => {
+            return err(format!(
+                "{} and {}: give one of them, not both",
+                f("damping"),
+                f("damping_ratio")
+            ))
+        }
+    };
+
+    let initial_phase = match (i, m.initial_phase) {
+        (0, p) => finite(&f("initial_phase"), p.unwrap_or(0.0))?,
+        (_, None) => 0.0,
+        (_, Some(p)) => {
+            return err(format!(
+                "{} = {p}: only the first mesh has an initial phase; give this mesh's phasing \
+                 relative to the first mesh as `phase`",
+                f("initial_phase")
+            ))
+        }
+    };
+    let phase = match (i, m.phase) {
+        (_, None) => 0.0,
+        (0, Some(p)) => {
+            return err(format!(
+                "{} = {p}: the first mesh is the phase reference; use initial_phase",
+                f("phase")
+            ))
+        }
+        (_, Some(p)) => finite(&f("phase"), p)?,
+    };
+
+    let translations = gp.bearing.is_some() || gg.bearing.is_some();
+    let pressure_angle = match m.pressure_angle {
+        Some(a) if a.is_finite() && a > 0.0 && a < std::f64::consts::FRAC_PI_2 => a,
+        Some(a) => {
+            return err(format!(
+                "{} = {a}: must lie in (0, π/2) rad",
+                f("pressure_angle")
+            ))
+        }
+        None if translations => {
+            return err(format!(
+                "{}: missing; gear {:?} or {:?} has translational DOFs, so the line of action \
+                 needs the operating pressure angle (rad)",
+                f("pressure_angle"),
+                gp.name,
+                gg.name
+            ))
+        }
+        None => 0.0,
+    };
+    let centre_angle = match m.centre_angle {
+        Some(a) => finite(&f("centre_angle"), a)?,
+        None if translations => {
+            return err(format!(
+                "{}: missing; translational DOFs need the centre-line direction (rad)",
+                f("centre_angle")
+            ))
+        }
+        None => 0.0,
+    };
+
+    Ok(TrainMesh {
+        name: m.name.clone().unwrap_or_else(|| format!("mesh{}", i + 1)),
+        pinion,
+        gear,
+        contact,
+        damping,
+        initial_phase,
+        phase,
+        pressure_angle,
+        centre_angle,
+        force,
+        cycles_per_input_rev: 0.0,
+    })
+}
+
+fn pair_stiffness(field: &str, spec: &PairStiffnessSpec) -> Result<PairStiffness> {
+    match spec {
+        PairStiffnessSpec::Rectangular {
+            mean,
+            peak_to_peak_ratio,
+            contact_ratio,
+        } => {
+            positive(&format!("{field}.mean"), *mean)?;
+            non_negative(&format!("{field}.peak_to_peak_ratio"), *peak_to_peak_ratio)?;
+            let c = *contact_ratio;
+            if !(c.is_finite() && c > 1.0 && c < 2.0) {
+                return err(format!(
+                    "{field}.contact_ratio = {c}: the rectangular pair idealisation (Liu 2007 §2.5) \
+                     needs 1 < c < 2; use kind = \"table\" otherwise"
+                ));
+            }
+            let k_single = mean * (1.0 + peak_to_peak_ratio * (1.0 - c));
+            if !(k_single > 0.0) {
+                return err(format!(
+                    "{field}.peak_to_peak_ratio = {peak_to_peak_ratio}: gives a single-pair stiffness \
+                     K_s = {k_single:e} N/m <= 0 for contact_ratio = {c}"
+                ));
+            }
+            Ok(PairStiffness::rectangular(*mean, *peak_to_peak_ratio, c))
+        }
+        PairStiffnessSpec::Table {
+            contact_ratio,
+            points,
+            values,
+        } => {
+            let c = *contact_ratio;
+            if !(c.is_finite() && c >= 1.0) {
+                return err(format!("{field}.contact_ratio = {c}: must be >= 1"));
+            }
+            if points.len() != values.len() || points.len() < 2 {
+                return err(format!(
+                    "{field}.values: {} values for {} points; need the same number, at least 2",
+                    values.len(),
+                    points.len()
+                ));
+            }
+            if points[0] != 0.0 {
+                return err(format!(
+                    "{field}.points[0] = {}: the engagement window starts at 0",
+                    points[0]
+                ));
+            }
+            let last = points[points.len() - 1];
+            if last != c {
+                return err(format!(
+                    "{field}.points[{}] = {last}: the window ends at contact_ratio = {c}",
+                    points.len() - 1
+                ));
+            }
+            for k in 1..points.len() {
+                if !(points[k] > points[k - 1]) {
+                    return err(format!(
+                        "{field}.points[{k}] = {}: must be greater than points[{}] = {}",
+                        points[k],
+                        k - 1,
+                        points[k - 1]
+                    ));
+                }
+            }
+            for (k, v) in values.iter().enumerate() {
+                non_negative(&format!("{field}.values[{k}]"), *v)?;
+            }
+            let pair = PairStiffness::table(c, points, values);
+            if !(pair.mesh_mean() > 0.0) {
+                return err(format!(
+                    "{field}.values: all zero; the mesh has no stiffness"
+                ));
+            }
+            Ok(pair)
+        }
+    }
+}
+
+fn gap_table(field: &str, g: &super::spec::GapTableSpec, c: f64) -> Result<GapTable> {
+    if g.points.len() != g.values.len() || g.points.len() < 2 {
+        return err(format!(
+            "{field}.values: {} values for {} points; need the same number, at least 2",
+            g.values.len(),
+            g.points.len()
+        ));
+    }
+    if g.points[0] != 0.0 {
+        return err(format!(
+            "{field}.points[0] = {}: the engagement window starts at 0",
+            g.points[0]
+        ));
+    }
+    let last = g.points.len() - 1;
+    if g.points[last] != c {
+        return err(format!(
+            "{field}.points[{last}] = {}: the window ends at the pair contact_ratio = {c}",
+            g.points[last]
+        ));
+    }
+    for k in 1..g.points.len() {
+        if !(g.points[k] > g.points[k - 1]) {
+            return err(format!(
+                "{field}.points[{k}] = {}: must be greater than points[{}] = {}",
+                g.points[k],
+                k - 1,
+                g.points[k - 1]
+            ));
+        }
+    }
+    for (k, v) in g.values.iter().enumerate() {
+        finite(&format!("{field}.values[{k}]"), *v)?;
+    }
+    Ok(GapTable {
+        points: g.points.clone(),
+        values: g.values.clone(),
+    })
+}
+
+fn tip_relief(field: &str, m: &TrainMeshSpec, c: f64) -> Result<TipRelief> {
+    let Some(spec) = &m.tip_relief else {
+        return Ok(TipRelief::default());
+    };
+    let side = |name: &str, mag: f64, len: Option<f64>| -> Result<(f64, f64)> {
+        let mag = non_negative(&format!("{field}.{name}_magnitude"), mag)?;
+        match (mag > 0.0, len) {
+            (false, None) => Ok((0.0, 1.0)),
+            (false, Some(l)) => Ok((0.0, positive(&format!("{field}.{name}_length"), l)?)),
+            (true, None) => err(format!(
+                "{field}.{name}_length: missing; a relief of magnitude {mag:e} m needs its length \
+                 in mesh cycles (c − 1 starts it at the highest point of single contact)"
+            )),
+            (true, Some(l)) => {
+                if !(l.is_finite() && l > 0.0 && l <= c) {
+                    return err(format!(
+                        "{field}.{name}_length = {l}: must lie in (0, contact_ratio = {c}]"
+                    ));
+                }
+                Ok((mag, l))
+            }
+        }
+    };
+    let (dm, dl) = side("driver", spec.driver_magnitude, spec.driver_length)?;
+    let (nm, nl) = side("driven", spec.driven_magnitude, spec.driven_length)?;
+    Ok(TipRelief {
+        driver_magnitude: dm,
+        driver_length: dl,
+        driven_magnitude: nm,
+        driven_length: nl,
+    })
+}
+
+/// `Π r_gear/r_pinion` along the path from `input` to `output` (torque amplification).
+fn radius_ratio(
+    gears: &[TrainGear],
+    shafts: &[Shaft],
+    meshes: &[TrainMesh],
+    input: usize,
+    output: usize,
+) -> f64 {
+    let mut ratio: Vec<Option<f64>> = vec![None; gears.len()];
+    ratio[input] = Some(1.0);
+    let mut queue = VecDeque::from([input]);
+    while let Some(a) = queue.pop_front() {
+        let ra = ratio[a].expect("queued");
+        let mut visit = |b: usize, factor: f64, queue: &mut VecDeque<usize>| {
+            if ratio[b].is_none() {
+                ratio[b] = Some(ra * factor);
+                queue.push_back(b);
+            }
+        };
+        for m in meshes {
+            let (rp, rg) = (gears[m.pinion].base_radius, gears[m.gear].base_radius);
+            if m.pinion == a {
+                visit(m.gear, rg / rp, &mut queue);
+            } else if m.gear == a {
+                visit(m.pinion, rp / rg, &mut queue);
+            }
+        }
+        for s in shafts {
+            if s.gears[0] == a {
+                visit(s.gears[1], 1.0, &mut queue);
+            } else if s.gears[1] == a {
+                visit(s.gears[0], 1.0, &mut queue);
+            }
+        }
+    }
+    ratio[output].unwrap_or(0.0)
+}
+
+/// Nominal speed ratios and rotation senses by a walk from the input gear: a mesh reverses
+/// the sense and scales the speed by `z_pinion/z_gear`; a shaft keeps both. A second path to a
+/// gear must agree (otherwise the kinematics are inconsistent). Parts not reached from the
+/// input must be held by a ground coupling (they then stand still); a floating part without
+/// drive or ground has no defined motion.
+fn kinematics(
+    gears: &[TrainGear],
+    shafts: &[Shaft],
+    meshes: &[TrainMesh],
+    input: usize,
+    input_sense: f64,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let n = gears.len();
+    // Edges: (other gear, speed factor, sense factor, description).
+    let mut edges: Vec<Vec<(usize, f64, f64, String)>> = vec![Vec::new(); n];
+    for (i, m) in meshes.iter().enumerate() {
+        let zp = gears[m.pinion].teeth as f64;
+        let zg = gears[m.gear].teeth as f64;
+        edges[m.pinion].push((m.gear, zp / zg, -1.0, format!("mesh[{i}]")));
+        edges[m.gear].push((m.pinion, zg / zp, -1.0, format!("mesh[{i}]")));
+    }
+    for (i, s) in shafts.iter().enumerate() {
+        let [a, b] = s.gears;
+        edges[a].push((b, 1.0, 1.0, format!("shaft[{i}]")));
+        edges[b].push((a, 1.0, 1.0, format!("shaft[{i}]")));
+    }
+    let mut ratio: Vec<Option<f64>> = vec![None; n];
+    let mut sense = vec![0.0; n];
+    ratio[input] = Some(1.0);
+    sense[input] = input_sense;
+    let mut queue = VecDeque::from([input]);
+    while let Some(a) = queue.pop_front() {
+        let ra = ratio[a].expect("queued gears have a ratio");
+        for (b, factor, flip, what) in &edges[a] {
+            let rb = ra * factor;
+            let sb = sense[a] * flip;
+            match ratio[*b] {
+                None => {
+                    ratio[*b] = Some(rb);
+                    sense[*b] = sb;
+                    queue.push_back(*b);
+                }
+                Some(r) => {
+                    if (r - rb).abs() > KINEMATIC_TOL * r.max(rb) || sense[*b] != sb {
+                        return err(format!(
+                            "{what}: inconsistent kinematics: gear {:?} would turn at {rb} × the input \
+                             speed ({}) through {what}, but at {r} × ({}) through another path",
+                            gears[*b].name,
+                            if sb > 0.0 { "ccw" } else { "cw" },
+                            if sense[*b] > 0.0 { "ccw" } else { "cw" },
+                        ));
+                    }
+                }
+            }
+        }
+    }
+    // Parts not driven by the input: each connected part needs a ground coupling.
+    let mut part: Vec<Option<usize>> = vec![None; n];
+    for start in 0..n {
+        if ratio[start].is_some() || part[start].is_some() {
+            continue;
+        }
+        let mut members = vec![start];
+        part[start] = Some(start);
+        let mut k = 0;
+        while k < members.len() {
+            for (b, ..) in &edges[members[k]] {
+                if part[*b].is_none() {
+                    part[*b] = Some(start);
+                    members.push(*b);
+                }
+            }
+            k += 1;
+        }
+        if !members.iter().any(|&g| gears[g].ground_stiffness > 0.0) {
+            let names: Vec<_> = members.iter().map(|&g| gears[g].name.as_str()).collect();
+            return err(format!(
+                "gear {:?}: disconnected from the input gear {:?} and not held by a ground coupling \
+                 (ground_stiffness) — the part [{}] would float freely",
+                gears[start].name,
+                gears[input].name,
+                names.join(", ")
+            ));
+        }
+    }
+    Ok((
+        ratio.iter().map(|r| r.unwrap_or(0.0)).collect(),
+        sense
+            .iter()
+            .map(|&s| if s == 0.0 { 1.0 } else { s })
+            .collect(),
+    ))
+}

@@ -1,0 +1,199 @@
+"""Independent scipy reference for the 2-DOF idler (issue 5, acceptance 5).
+
+The model is Liu (2007) Ch. 3, eq. (3.1)-(3.2) and (3.11), written here from the notes
+(`models-liu-parker-2007.md` §2.1-2.3), not from the Rust code:
+
+    M x'' + C x' + diag(H_1 k_1, H_2 k_2) x = [T, T],  x = DTEs of the two meshes,
+    M = 1/Σm [[(m2+m3) m1, m1 m3], [m1 m3, (m1+m2) m3]],  m_i = I_i / r_i²,  T = T_1 / r_1,
+    C = M S diag(2 ζ ω) Sᵀ M  (modal damping on the mean-stiffness modes, Sᵀ M S = I),
+    H_j = 1 while x_j > 0, else 0 (contact loss, no back side),
+    k_j rectangular (docs/model.md): k_low on s ∈ [0, 1 − f), k_high on [1 − f, 1),
+    s = frac(p_j), p_1 = f_m t, p_2 = φ + f_m t.
+
+Table 3.1 data with the gear inertia corrected to 0.119 kg m² and λ = k̄_2/k̄_1 = 1.08
+(notes §2.9 [C], which gives c = ω_2/ω_1 = 2.762). Integrated with scipy's DOP853 at
+rtol 1e-12 piece by piece: stiffness switches are known times, contact changes are located as
+events and the state is put on the switching surface before restarting.
+"""
+
+import math
+import subprocess
+
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+from scipy.linalg import eigh
+
+I = [2.62e-3, 3.27e-3, 0.119]
+R = [0.04535, 0.06564, 0.1122]
+Z = [38, 55, 94]
+K_MEAN = [2.98e8, 2.98e8 * 1.08]
+EPS = 0.4
+CONTACT_RATIO = 1.5
+ZETA = 0.04
+T1 = 100.0
+SPEED = 260.0  # rad/s of the pinion: f_m = 38·260/2π ≈ 1572 Hz, below the 1784 Hz mode
+PHASE2 = 0.25  # mesh phasing of mesh 2, mesh cycles
+PERIODS = 100
+SAMPLES_PER_PERIOD = 20
+
+SCENE = f"""
+name = "idler_2dof"
+[model]
+bearings = "rigid"
+modal_damping_ratio = {ZETA}
+[[gear]]
+name = "pinion"
+teeth = {Z[0]}
+base_radius = {R[0]}
+inertia = {I[0]}
+[[gear]]
+name = "idler"
+teeth = {Z[1]}
+base_radius = {R[1]}
+inertia = {I[1]}
+[[gear]]
+name = "gear"
+teeth = {Z[2]}
+base_radius = {R[2]}
+inertia = {I[2]}
+[[mesh]]
+pinion = "pinion"
+gear = "idler"
+contact = "contact_loss"
+[mesh.stiffness]
+kind = "rectangular"
+mean = {K_MEAN[0]!r}
+peak_to_peak_ratio = {EPS}
+contact_ratio = {CONTACT_RATIO}
+[[mesh]]
+pinion = "idler"
+gear = "gear"
+contact = "contact_loss"
+phase = {PHASE2}
+[mesh.stiffness]
+kind = "rectangular"
+mean = {K_MEAN[1]!r}
+peak_to_peak_ratio = {EPS}
+contact_ratio = {CONTACT_RATIO}
+[operating]
+input_speed = {SPEED!r}
+input_torque = {T1}
+[solver]
+method = "exact"
+"""
+
+
+def mesh_frequency():
+    return Z[0] * SPEED / (2 * math.pi)
+
+
+def model_matrices():
+    m = [I[i] / R[i] ** 2 for i in range(3)]
+    s = sum(m)
+    mass = np.array([[(m[1] + m[2]) * m[0], m[0] * m[2]], [m[0] * m[2], (m[0] + m[1]) * m[2]]]) / s
+    w2, vecs = eigh(np.diag(K_MEAN), mass)
+    damping = mass @ vecs @ np.diag(2 * ZETA * np.sqrt(w2)) @ vecs.T @ mass
+    return mass, damping, np.sqrt(w2) / (2 * math.pi)
+
+
+def stiffness(j, p):
+    f = CONTACT_RATIO - math.floor(CONTACT_RATIO)
+    low = K_MEAN[j] * (1 - f * EPS)
+    s = p - math.floor(p)
+    return low if s < 1 - f else low + EPS * K_MEAN[j]
+
+
+def reference(times):
+    """DTEs at `times` and the contact-loss flags seen."""
+    mass, damping, _ = model_matrices()
+    minv = np.linalg.inv(mass)
+    force = T1 / R[0]
+    fm = mesh_frequency()
+    phases = [0.0, PHASE2]
+    t_end = times[-1]
+    # Known switching times of both rectangular waves (s = 0 and s = 1 − f).
+    switches = set()
+    for j in range(2):
+        n = math.floor(phases[j])
+        while True:
+            for b in (n, n + 0.5):
+                t = (b - phases[j]) / fm
+                if 0 < t < t_end:
+                    switches.add(t)
+            if (n - phases[j]) / fm > t_end:
+                break
+            n += 1
+    breaks = sorted(switches) + [t_end]
+    y = np.array([force / K_MEAN[0], force / K_MEAN[1], 0.0, 0.0])
+    contact = [True, True]
+    lost = [False, False]
+    out = np.empty((len(times), 2))
+    k_out = 0
+    t = 0.0
+    out[0] = y[:2]
+    k_out = 1
+    for t_break in breaks:
+        while t < t_break:
+            mid = 0.5 * (t + t_break)
+            k = [stiffness(j, phases[j] + fm * mid) for j in range(2)]
+
+            def rhs(_t, state, k=k):
+                x, v = state[:2], state[2:]
+                f_mesh = np.array([k[j] * x[j] if contact[j] else 0.0 for j in range(2)])
+                return np.concatenate([v, minv @ (force - f_mesh - damping @ v)])
+
+            events = []
+            for j in range(2):
+                def ev(_t, state, j=j):
+                    return state[j]
+                ev.terminal = True
+                ev.direction = -1.0 if contact[j] else 1.0
+                events.append(ev)
+            sol = solve_ivp(rhs, (t, t_break), y, method="DOP853", rtol=1e-12, atol=1e-20,
+                            events=events, dense_output=True)
+            hit = [j for j in range(2) if sol.t_events[j].size > 0 and sol.t_events[j][0] > t]
+            t_stop = min((sol.t_events[j][0] for j in hit), default=t_break)
+            while k_out < len(times) and times[k_out] <= t_stop:
+                out[k_out] = sol.sol(times[k_out])[:2]
+                k_out += 1
+            if hit:
+                j = min(hit, key=lambda i: sol.t_events[i][0])
+                y = sol.y_events[j][0].copy()
+                y[j] = 0.0
+                contact[j] = not contact[j]
+                lost[j] |= not contact[j]
+                t = t_stop
+            else:
+                y = sol.y[:, -1].copy()
+                t = t_break
+    return out, lost
+
+
+def test_reference_modes_match_notes():
+    """Notes §2.9 [C]: with these data c = ω_2/ω_1 = 2.762 and f_1 = 1784 Hz."""
+    _, _, f = model_matrices()
+    assert abs(f[1] / f[0] - 2.762) < 5e-4
+    assert abs(f[0] - 1784.0) < 1.0
+
+
+def test_geardyn_matches_scipy_reference(tmp_path, geardyn_bin):
+    scene = tmp_path / "idler_2dof.toml"
+    scene.write_text(SCENE)
+    fm = mesh_frequency()
+    h = 1.0 / (fm * SAMPLES_PER_PERIOD)
+    stop = PERIODS / fm
+    csv = tmp_path / "out.csv"
+    subprocess.run([str(geardyn_bin), "simulate", str(scene), "--out", str(csv),
+                    "--stop-time", repr(stop), "--output-interval", repr(h), "--quiet"],
+                   check=True)
+    data = np.genfromtxt(csv, delimiter=",", names=True)
+    times = data["time"]
+    assert len(times) == PERIODS * SAMPLES_PER_PERIOD + 1
+    ours = np.column_stack([data["mesh1_dte"], data["mesh2_dte"]])
+    ref, lost = reference(times)
+    assert lost[0] and lost[1], "the case must lose contact on both meshes"
+    assert (data["mesh1_contact_state"] == 0).any() and (data["mesh2_contact_state"] == 0).any()
+    err = np.max(np.abs(ours - ref)) / np.max(np.abs(ref))
+    print(f"geardyn vs scipy over {PERIODS} mesh periods: {err:.3e} relative")
+    assert err <= 1e-7, err

@@ -1,0 +1,151 @@
+//! The drivetrain CLI: `geardyn modes` prints Table 2.2 (issue 5, acceptance 1) and the
+//! statics; `geardyn simulate` runs drivetrain scenes and rejects bad topology with a message.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn geardyn(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_geardyn"))
+        .args(args)
+        .output()
+        .expect("run geardyn")
+}
+
+fn repo(path: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join(path)
+        .display()
+        .to_string()
+}
+
+fn workdir(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("train-cli-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The frequencies column of `geardyn modes`.
+fn frequencies(stdout: &str) -> Vec<f64> {
+    stdout
+        .lines()
+        .filter_map(|l| {
+            let mut f = l.split_whitespace();
+            let first = f.next()?;
+            first.parse::<usize>().ok()?;
+            f.next()?.parse::<f64>().ok()
+        })
+        .collect()
+}
+
+#[test]
+fn modes_reproduce_table_2_2() {
+    let o = geardyn(&["modes", &repo("fmu/idler_gearset")]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let text = String::from_utf8_lossy(&o.stdout);
+    let f = frequencies(&text);
+    let printed = [69.0, 446.0, 499.0, 640.0, 890.0, 1076.0, 2530.0, 3850.0];
+    assert_eq!(f.len(), 8, "{text}");
+    for (g, p) in f.iter().zip(printed) {
+        assert!((g - p).abs() <= 0.005 * p, "{g} vs {p}\n{text}");
+    }
+    assert!(text.contains("mesh force    2205.0717 N"), "{text}");
+
+    let o = geardyn(&["modes", &repo("fmu/idler_gearset"), "--rigid-bearings"]);
+    let f = frequencies(&String::from_utf8_lossy(&o.stdout));
+    for (g, p) in f.iter().zip([69.5, 1605.0, 3231.0]) {
+        assert!((g - p).abs() <= 0.005 * p, "{g} vs {p}");
+    }
+}
+
+#[test]
+fn simulate_writes_train_outputs() {
+    let dir = workdir("simulate");
+    let out = dir.join("out.csv");
+    let o = geardyn(&[
+        "simulate",
+        &repo("fmu/countershaft_gearset"),
+        "--out",
+        out.to_str().unwrap(),
+        "--stop-time",
+        "0.002",
+        "--output-interval",
+        "1e-4",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let csv = std::fs::read_to_string(&out).unwrap();
+    let header = csv.lines().next().unwrap();
+    for col in [
+        "time",
+        "mesh1_dte",
+        "mesh1_force",
+        "mesh1_contact_loss_fraction",
+        "mesh2_dte",
+        "mesh2_phase",
+    ] {
+        assert!(
+            header.split(',').any(|c| c == col),
+            "{col} missing: {header}"
+        );
+    }
+    assert_eq!(csv.lines().count(), 22);
+    // Mesh 2 runs at 19/72 of mesh 1's frequency, from phase φ = 0.257.
+    let row: Vec<f64> = csv
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .map(|v| v.parse().unwrap())
+        .collect();
+    let names: Vec<&str> = header.split(',').collect();
+    let col = |n: &str| names.iter().position(|c| *c == n).unwrap();
+    let f1 = 51.0 * 246.39942381096415 / std::f64::consts::TAU;
+    let p2 = (0.257 + 19.0 / 72.0 * f1 * 0.002f64).rem_euclid(1.0);
+    assert!(
+        (row[col("mesh2_phase")] - p2).abs() < 1e-9,
+        "{}",
+        row[col("mesh2_phase")]
+    );
+}
+
+#[test]
+fn simulate_rejects_bad_topology() {
+    let dir = workdir("bad");
+    let text = std::fs::read_to_string(repo("fmu/idler_gearset/scene.toml"))
+        .unwrap()
+        .replace("gear = \"follower\"", "gear = \"ghost\"");
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, text).unwrap();
+    let out = dir.join("out.csv");
+    let o = geardyn(&[
+        "simulate",
+        path.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("mesh[1].gear = \"ghost\""), "{err}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn built_in_drivetrain_examples() {
+    let dir = workdir("examples");
+    for name in ["idler_gearset", "countershaft_gearset"] {
+        let out = dir.join(format!("{name}.csv"));
+        let o = geardyn(&[
+            "simulate",
+            "--example",
+            name,
+            "--out",
+            out.to_str().unwrap(),
+            "--stop-time",
+            "1e-3",
+            "--quiet",
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let csv = std::fs::read_to_string(&out).unwrap();
+        assert!(csv.starts_with("time,mesh1_dte,"), "{name}");
+    }
+}
