@@ -316,8 +316,9 @@ impl Problem {
                 }
             }
             // Boundary terms of the interior cuts.
+            // Only damping switched off in separation jumps at a cut.
             let damping = self.pair.damping();
-            if damping != 0.0 {
+            if damping != 0.0 && !self.pair.damping_always() {
                 for &cut in &cuts[1..cuts.len() - 1] {
                     let eps = 1e-9 * (b - a);
                     let left = side_at(cut - eps).0 != 0;

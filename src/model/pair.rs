@@ -88,6 +88,8 @@ pub struct GearPair {
     ste: PhaseSeries,
     contact_law: ContactLaw,
     damping: f64,
+    /// Damping also during separation (Kahraman–Singh form).
+    damping_always: bool,
     // Inputs and what follows from them.
     inputs: Inputs,
     f_ext: f64,
@@ -122,6 +124,7 @@ impl GearPair {
             ste: scene.mesh.ste.clone(),
             contact_law: scene.mesh.contact,
             damping: scene.mesh.damping,
+            damping_always: scene.mesh.damping_always,
             inputs: Inputs {
                 pinion_speed: scene.operating.pinion_speed,
                 input_torque: scene.operating.input_torque,
@@ -298,12 +301,13 @@ impl GearPair {
 
     /// Mesh force in the current contact state.
     pub fn mesh_force(&self, t: f64, y: &[f64]) -> f64 {
+        let (delta, delta_rate) = self.deflection(t, y);
         let offset = match self.contact {
+            ContactState::Separated if self.damping_always => return self.damping * delta_rate,
             ContactState::Separated => return 0.0,
             ContactState::Drive => 0.0,
             ContactState::Back => self.clearance(),
         };
-        let (delta, delta_rate) = self.deflection(t, y);
         self.stiffness_at(t) * (delta + offset) + self.damping * delta_rate
     }
 
@@ -335,6 +339,8 @@ impl GearPair {
                 k,
                 self.damping,
             )
+        } else if self.damping_always {
+            (self.damping * delta_rate, 0.0, self.damping)
         } else {
             (0.0, 0.0, 0.0)
         }
@@ -363,6 +369,11 @@ impl GearPair {
     /// Viscous mesh damping `c_m`, N·s/m.
     pub fn damping(&self) -> f64 {
         self.damping
+    }
+
+    /// Whether the damping also acts while the teeth are separated.
+    pub fn damping_always(&self) -> bool {
+        self.damping_always
     }
 
     /// Clearance `2b` of the contact law (0 without backlash), m.
@@ -540,6 +551,7 @@ impl PiecewiseLti for GearPair {
         let n = a.nrows();
         let last = n - 1;
         let (k, c, offset) = match self.contact {
+            ContactState::Separated if self.damping_always => (0.0, self.damping, 0.0),
             ContactState::Separated => (0.0, 0.0, 0.0),
             ContactState::Drive => (self.segment_stiffness(), self.damping, 0.0),
             ContactState::Back => (self.segment_stiffness(), self.damping, self.clearance()),

@@ -57,6 +57,8 @@ pub struct Mesh {
     pub ste: PhaseSeries,
     /// Viscous mesh damping `c_m`, N·s/m (resolved from a ratio if given so).
     pub damping: f64,
+    /// Damping also acts while the teeth are separated (`damping_acts = "always"`).
+    pub damping_always: bool,
     /// Mesh phase at t = 0, mesh cycles.
     pub initial_phase: f64,
 }

@@ -51,6 +51,9 @@ pub struct MeshSpec {
     pub damping: Option<f64>,
     /// Damping ratio on the mean stiffness and the equivalent mass.
     pub damping_ratio: Option<f64>,
+    /// Where the viscous damping acts: `in_contact` (default) or `always` (the
+    /// Kahraman–Singh form `x'' + 2ζx' + k f(x) = F`, damping also during separation).
+    pub damping_acts: Option<String>,
     /// Mesh phase at t = 0, mesh cycles.
     #[serde(default)]
     pub initial_phase: f64,

@@ -156,6 +156,16 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
         }
     };
 
+    let damping_always = match m.damping_acts.as_deref() {
+        None | Some("in_contact") => false,
+        Some("always") => true,
+        Some(other) => {
+            return err(format!(
+                "mesh.damping_acts = \"{other}\": expected \"in_contact\" or \"always\""
+            ))
+        }
+    };
+
     let ste = match &m.ste {
         Some(series) => {
             finite_list("mesh.ste.cos", &series.cos)?;
@@ -219,6 +229,7 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
             stiffness,
             ste,
             damping,
+            damping_always,
             initial_phase: finite("mesh.initial_phase", m.initial_phase)?,
         },
         operating: Operating {
