@@ -23,7 +23,7 @@ pub(super) fn positive(field: &str, value: f64) -> Result<f64> {
     }
 }
 
-fn non_negative(field: &str, value: f64) -> Result<f64> {
+pub(super) fn non_negative(field: &str, value: f64) -> Result<f64> {
     if value.is_finite() && value >= 0.0 {
         Ok(value)
     } else {

@@ -10,36 +10,13 @@ use super::{
 };
 use crate::mesh::PhaseSeries;
 use crate::scene::spec::{ContactLawSpec, InitialDteSpec};
+use crate::scene::validate::{finite, non_negative, positive};
 use crate::scene::{ContactLaw, InitialDte, MethodChoice, SceneError, SolverSettings};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
 fn err<T>(msg: String) -> Result<T> {
     Err(SceneError(msg))
-}
-
-fn positive(field: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        err(format!("{field} = {v}: must be a finite number > 0"))
-    }
-}
-
-fn non_negative(field: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(v)
-    } else {
-        err(format!("{field} = {v}: must be a finite number >= 0"))
-    }
-}
-
-fn finite(field: &str, v: f64) -> Result<f64> {
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        err(format!("{field} = {v}: must be a finite number"))
-    }
 }
 
 fn identifier(name: &str) -> bool {
