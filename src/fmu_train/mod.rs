@@ -90,6 +90,10 @@ fn apply(scene: &mut TrainScene, name: &str, vr: u32, x: f64) -> Result<(), Stri
 impl TrainModel {
     /// Builds the model of a validated drivetrain scene and its description data.
     pub fn new(scene: TrainScene, guid: String) -> Result<(TrainModel, ModelInfo), String> {
+        // The first mesh carries the phase parameter; validation already requires one.
+        if scene.meshes.is_empty() {
+            return Err("the drivetrain has no mesh".into());
+        }
         let sim = TrainSimulation::new(&scene)?;
         let info = ModelInfo {
             model_name: scene.name.clone(),
