@@ -228,3 +228,30 @@ fn single_mesh_scene_reads_as_a_train() {
     assert_eq!(s.gears.len(), 2);
     assert!(!geardyn::scene::train::is_train_text(text));
 }
+
+#[test]
+fn mesh_driven_backwards_is_rejected() {
+    // The input gear is "a" (first gear); naming the driven gear as the pinion of the second
+    // mesh would make that mesh unable to carry load.
+    rejects(
+        &format!("{GEARS}{}{}", mesh("a", "b"), mesh("c", "b")),
+        &[
+            "mesh[1].pinion = \"c\"",
+            "driven through mesh[1]",
+            "swap pinion and gear",
+        ],
+    );
+}
+
+#[test]
+fn ground_damper_on_a_freely_turning_train_is_rejected() {
+    let gears = GEARS.replacen(
+        "inertia = 0.01\n",
+        "inertia = 0.01\nground_damping = 2.0\n",
+        1,
+    );
+    rejects(
+        &format!("{gears}{}", mesh("a", "b")),
+        &["gear[1].ground_damping = 2", "turns freely"],
+    );
+}

@@ -122,7 +122,8 @@ impl HbSolution {
 struct Problem {
     pair: GearPair,
     mass: f64,
-    external: f64,
+    /// Galerkin projection of the external force (mean and torque ripple).
+    external: DVector<f64>,
     /// Mesh phases of the quadrature nodes.
     phases: Vec<f64>,
     /// The nodes in mesh cycles since p0, three per cell.
@@ -177,9 +178,13 @@ impl Problem {
             second[2 * j - 1] = -w * w;
             second[2 * j] = -w * w;
         }
+        let external_samples = DVector::from_iterator(
+            phases.len(),
+            phases.iter().map(|&p| pair.external_force_at_phase(p)),
+        );
         Ok(Problem {
             mass: pair.equivalent_mass(),
-            external: pair.external_force(),
+            external: &projection * external_samples,
             pair,
             phases,
             nodes,
@@ -316,8 +321,9 @@ impl Problem {
                 }
             }
             // Boundary terms of the interior cuts.
+            // Only damping switched off in separation jumps at a cut.
             let damping = self.pair.damping();
-            if damping != 0.0 {
+            if damping != 0.0 && !self.pair.damping_always() {
                 for &cut in &cuts[1..cuts.len() - 1] {
                     let eps = 1e-9 * (b - a);
                     let left = side_at(cut - eps).0 != 0;
@@ -335,7 +341,7 @@ impl Problem {
         }
         let inertia = self.second.component_mul(u) * (self.mass * f * f);
         let mut r = inertia + &self.projection * &force + r_extra;
-        r[0] -= self.external;
+        r -= &self.external;
         // ∂(P F)/∂u = P diag(∂F/∂x) Γ + f P diag(∂F/∂v) Γ'.
         let mut weighted = self.gamma.clone();
         for i in 0..n {

@@ -15,7 +15,7 @@ use nalgebra::DMatrix;
 
 use super::PhaseClock;
 use crate::mesh::{MeshStiffness, PhaseSeries};
-use crate::scene::{ContactLaw, InitialDte, Scene};
+use crate::scene::{ContactLaw, InitialDte, Scene, SmoothTerms};
 use crate::solve::exact::PiecewiseLti;
 use crate::solve::HybridSystem;
 
@@ -88,6 +88,12 @@ pub struct GearPair {
     ste: PhaseSeries,
     contact_law: ContactLaw,
     damping: f64,
+    /// Damping also during separation (Kahraman–Singh form).
+    damping_always: bool,
+    /// Smooth terms (Bugaru 2006): cubic springs, damping variation, torque ripple.
+    smooth: SmoothTerms,
+    /// Force amplitude of the torque ripple, `m_e r_b1 T̃1 / I1`, N.
+    ripple_force: f64,
     // Inputs and what follows from them.
     inputs: Inputs,
     f_ext: f64,
@@ -122,6 +128,9 @@ impl GearPair {
             ste: scene.mesh.ste.clone(),
             contact_law: scene.mesh.contact,
             damping: scene.mesh.damping,
+            damping_always: scene.mesh.damping_always,
+            smooth: scene.mesh.smooth,
+            ripple_force: 0.0,
             inputs: Inputs {
                 pinion_speed: scene.operating.pinion_speed,
                 input_torque: scene.operating.input_torque,
@@ -170,6 +179,7 @@ impl GearPair {
         self.f_ext = self.m_e
             * (self.r_b1 * inputs.input_torque / self.inertia1
                 + self.r_b2 * inputs.load_torque / self.inertia2);
+        self.ripple_force = self.m_e * self.r_b1 * self.smooth.torque_ripple / self.inertia1;
     }
 
     /// Places the stiffness segment from the phase at `t` (only at (re)start: during
@@ -298,13 +308,24 @@ impl GearPair {
 
     /// Mesh force in the current contact state.
     pub fn mesh_force(&self, t: f64, y: &[f64]) -> f64 {
+        let (delta, delta_rate) = self.deflection(t, y);
         let offset = match self.contact {
+            ContactState::Separated if self.damping_always => return self.damping * delta_rate,
             ContactState::Separated => return 0.0,
             ContactState::Drive => 0.0,
             ContactState::Back => self.clearance(),
         };
-        let (delta, delta_rate) = self.deflection(t, y);
-        self.stiffness_at(t) * (delta + offset) + self.damping * delta_rate
+        let k = self.stiffness_at(t);
+        if self.smooth.is_zero() {
+            return k * (delta + offset) + self.damping * delta_rate;
+        }
+        // Bugaru 2006 eq. 13 (linear contact law only, so offset = 0).
+        let p = self.clock.phase_at(t);
+        let cubic = delta * delta * delta;
+        let c = self.damping + self.smooth.damping_variation * (TAU * p).cos();
+        k * (delta + self.smooth.cubic_factor * cubic)
+            + self.smooth.cubic_spring * cubic
+            + c * delta_rate
     }
 
     /// The mesh force as a function of mesh phase and state, with the contact state taken from
@@ -329,12 +350,25 @@ impl GearPair {
                 }
             }
         };
-        if engaged {
+        if engaged && !self.smooth.is_zero() {
+            let s = &self.smooth;
+            let c = self.damping + s.damping_variation * (TAU * p).cos();
+            let d2 = delta * delta;
+            (
+                k * (delta + s.cubic_factor * d2 * delta)
+                    + s.cubic_spring * d2 * delta
+                    + c * delta_rate,
+                k * (1.0 + 3.0 * s.cubic_factor * d2) + 3.0 * s.cubic_spring * d2,
+                c,
+            )
+        } else if engaged {
             (
                 k * (delta + offset) + self.damping * delta_rate,
                 k,
                 self.damping,
             )
+        } else if self.damping_always {
+            (self.damping * delta_rate, 0.0, self.damping)
         } else {
             (0.0, 0.0, 0.0)
         }
@@ -365,14 +399,24 @@ impl GearPair {
         self.damping
     }
 
+    /// Whether the damping also acts while the teeth are separated.
+    pub fn damping_always(&self) -> bool {
+        self.damping_always
+    }
+
     /// Clearance `2b` of the contact law (0 without backlash), m.
     pub fn contact_clearance(&self) -> f64 {
         self.clearance()
     }
 
-    /// External force on the DTE coordinate `F_ext`, N.
+    /// Mean external force on the DTE coordinate `F_ext`, N.
     pub fn external_force(&self) -> f64 {
         self.f_ext
+    }
+
+    /// External force at mesh phase `p`, with the torque ripple, N.
+    pub fn external_force_at_phase(&self, p: f64) -> f64 {
+        self.f_ext + self.ripple_force * (TAU * p).cos()
     }
 
     /// Upper bound of |e(p)|, m.
@@ -438,7 +482,7 @@ impl GearPair {
 
     /// Whether every segment is linear time-invariant (the exact propagator applies).
     pub fn is_piecewise_lti(&self) -> bool {
-        self.stiffness.is_piecewise_constant()
+        self.stiffness.is_piecewise_constant() && self.smooth.is_zero()
     }
 }
 
@@ -449,7 +493,8 @@ impl HybridSystem for GearPair {
 
     fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
         dy[0] = y[1];
-        dy[1] = (self.f_ext - self.mesh_force(t, y)) / self.m_e;
+        let external = self.external_force_at_phase(self.clock.phase_at(t));
+        dy[1] = (external - self.mesh_force(t, y)) / self.m_e;
     }
 
     fn guard_count(&self) -> usize {
@@ -540,6 +585,7 @@ impl PiecewiseLti for GearPair {
         let n = a.nrows();
         let last = n - 1;
         let (k, c, offset) = match self.contact {
+            ContactState::Separated if self.damping_always => (0.0, self.damping, 0.0),
             ContactState::Separated => (0.0, 0.0, 0.0),
             ContactState::Drive => (self.segment_stiffness(), self.damping, 0.0),
             ContactState::Back => (self.segment_stiffness(), self.damping, self.clearance()),

@@ -57,8 +57,32 @@ pub struct Mesh {
     pub ste: PhaseSeries,
     /// Viscous mesh damping `c_m`, N·s/m (resolved from a ratio if given so).
     pub damping: f64,
+    /// Damping also acts while the teeth are separated (`damping_acts = "always"`).
+    pub damping_always: bool,
+    /// Smooth additions to the mesh force (Bugaru 2006); all zero by default.
+    pub smooth: SmoothTerms,
     /// Mesh phase at t = 0, mesh cycles.
     pub initial_phase: f64,
+}
+
+/// Smooth terms of the mesh force and excitation (Bugaru et al. 2006, eqs. 8 and 13):
+/// `c(p) = c + c̃ cos 2πp`, `F = k(p)(δ + δ̄ δ³) + γ δ³ + c(p) δ'`, and an input-torque ripple.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct SmoothTerms {
+    /// δ̄, 1/m².
+    pub cubic_factor: f64,
+    /// γ, N/m³.
+    pub cubic_spring: f64,
+    /// c̃, N·s/m.
+    pub damping_variation: f64,
+    /// T̃1, N·m.
+    pub torque_ripple: f64,
+}
+
+impl SmoothTerms {
+    pub fn is_zero(&self) -> bool {
+        *self == SmoothTerms::default()
+    }
 }
 
 /// Operating point (inputs of the FMU).
@@ -134,6 +158,10 @@ pub const EXAMPLES: &[(&str, &str)] = &[
     (
         "geometry_pair",
         include_str!("../../fmu/geometry_pair/scene.toml"),
+    ),
+    (
+        "bugaru_pair",
+        include_str!("../../fmu/bugaru_pair/scene.toml"),
     ),
 ];
 

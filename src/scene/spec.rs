@@ -51,6 +51,14 @@ pub struct MeshSpec {
     pub damping: Option<f64>,
     /// Damping ratio on the mean stiffness and the equivalent mass.
     pub damping_ratio: Option<f64>,
+    /// Amplitude `c̃` of a mesh-damping variation `c(p) = c + c̃ cos 2πp`, N·s/m (Bugaru 2006
+    /// eq. 8; only with `contact = "linear"`).
+    pub damping_variation: Option<f64>,
+    /// Cubic spring terms (Bugaru 2006 eq. 13; only with `contact = "linear"`).
+    pub cubic: Option<CubicSpec>,
+    /// Where the viscous damping acts: `in_contact` (default) or `always` (the
+    /// Kahraman–Singh form `x'' + 2ζx' + k f(x) = F`, damping also during separation).
+    pub damping_acts: Option<String>,
     /// Mesh phase at t = 0, mesh cycles.
     #[serde(default)]
     pub initial_phase: f64,
@@ -157,6 +165,20 @@ pub struct OperatingSpec {
     pub input_torque: f64,
     /// Load torque magnitude on the gear, N·m; `None` means balanced (`T1·r_b2/r_b1`).
     pub load_torque: Option<f64>,
+    /// Amplitude of an input-torque ripple at mesh frequency, `T1 + T̃1 cos 2πp`, N·m.
+    pub torque_ripple: Option<f64>,
+}
+
+/// Cubic terms of the mesh force: `k(p)(δ + stiffness_factor·δ³) + spring·δ³`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CubicSpec {
+    /// δ̄, 1/m²: the cubic "backlash spring" scaled by the time-varying stiffness.
+    #[serde(default)]
+    pub stiffness_factor: f64,
+    /// γ, N/m³: a constant cubic spring (e.g. the input/output linkage).
+    #[serde(default)]
+    pub spring: f64,
 }
 
 /// Initial DTE: the mean static deflection or a value in metres.

@@ -2,6 +2,7 @@
 //! Every message names the field as a TOML path and its value; nothing is clamped.
 
 use super::spec::{ContactLawSpec, InitialDteSpec, SceneSpec, StiffnessSpec};
+use super::SmoothTerms;
 use super::{
     ContactLaw, Gear, InitialDte, Mesh, MethodChoice, Operating, Scene, SceneError, SolverSettings,
 };
@@ -22,7 +23,7 @@ pub(super) fn positive(field: &str, value: f64) -> Result<f64> {
     }
 }
 
-fn non_negative(field: &str, value: f64) -> Result<f64> {
+pub(super) fn non_negative(field: &str, value: f64) -> Result<f64> {
     if value.is_finite() && value >= 0.0 {
         Ok(value)
     } else {
@@ -156,6 +157,50 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
         }
     };
 
+    let damping_always = match m.damping_acts.as_deref() {
+        None | Some("in_contact") => false,
+        Some("always") => true,
+        Some(other) => {
+            return err(format!(
+                "mesh.damping_acts = \"{other}\": expected \"in_contact\" or \"always\""
+            ))
+        }
+    };
+
+    let smooth = SmoothTerms {
+        cubic_factor: match &m.cubic {
+            Some(c) => non_negative("mesh.cubic.stiffness_factor", c.stiffness_factor)?,
+            None => 0.0,
+        },
+        cubic_spring: match &m.cubic {
+            Some(c) => non_negative("mesh.cubic.spring", c.spring)?,
+            None => 0.0,
+        },
+        damping_variation: match m.damping_variation {
+            Some(v) => {
+                let v = finite("mesh.damping_variation", v)?;
+                if v.abs() > damping {
+                    return err(format!(
+                        "mesh.damping_variation = {v}: |c̃| must not exceed the damping {damping} \
+                         N·s/m (the damping would turn negative)"
+                    ));
+                }
+                v
+            }
+            None => 0.0,
+        },
+        torque_ripple: match spec.operating.torque_ripple {
+            Some(t) => finite("operating.torque_ripple", t)?,
+            None => 0.0,
+        },
+    };
+    if (m.cubic.is_some() || m.damping_variation.is_some()) && contact != ContactLaw::Linear {
+        return err(format!(
+            "mesh.cubic / mesh.damping_variation: only with contact = \"linear\" (the cubic \
+             spring models the backlash, Bugaru 2006); contact is {contact:?}"
+        ));
+    }
+
     let ste = match &m.ste {
         Some(series) => {
             finite_list("mesh.ste.cos", &series.cos)?;
@@ -219,6 +264,8 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
             stiffness,
             ste,
             damping,
+            damping_always,
+            smooth,
             initial_phase: finite("mesh.initial_phase", m.initial_phase)?,
         },
         operating: Operating {

@@ -30,7 +30,9 @@
 //! (Liu 2007 eq. 3.2: `u = Qx + rigid body`, `Q` mass-orthogonal to the rigid mode; notes §2.1
 //! and §3.1). The elastic coordinates `ξ` are then the mesh deflections themselves where
 //! possible, and `M̂ = QᵀMQ` reproduces eq. (3.2) and the missing `M̂` of Ch. 4 (notes §3.1).
-//! The rigid motion decouples exactly: `η'' = (RᵀMR)⁻¹ Rᵀ F_T`, zero for balanced torques.
+//! The rigid motion decouples exactly (ground dampers on a freely turning train, which would
+//! couple it, are rejected by the scene validation): `η'' = (RᵀMR)⁻¹ Rᵀ F_T`, zero for
+//! balanced torques.
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 

@@ -7,8 +7,9 @@
 //! `F_nj = k_j(s)(S_n − e_n(p) − g_j(s) + o_j)`, `o_j = 2b` on the back side, else 0
 //! (eq. 2.2 with the back-side sign corrected, notes §1.3 [R], erratum §8 item 2), plus the
 //! mesh damping `c_n(Ṡ_n − ė_n)` while any slot is in contact. The mesh phase of mesh n is
-//! `p_n(t) = φ_n + (f_n/f_1)·p_1(0) + f_n t` with `f_n` its mesh frequency (eq. 2.1 phasing
-//! `k_2(t − φT)`), turned from time into phase by one [`PhaseClock`] per mesh.
+//! `p_n(t) = φ_n + (f_n/f_1)·p_1(0) + f_n t` with `f_n` its mesh frequency: mesh n leads mesh 1
+//! by `φ_n` cycles, `k_n(t) = k̃_n(t + φ_n T_n)` (Ch. 4 Fig. 4.2; eq. 2.1 writes the opposite
+//! sign), turned from time into phase by one [`PhaseClock`] per mesh.
 //!
 //! Contact changes of every slot are state events (guards linear in the state), stiffness and
 //! gap knots are stops; the discrete mode is frozen in between (numerics-notes §2.1). When all
@@ -747,7 +748,6 @@ impl GearTrain {
         let clearance = mesh.clearance();
         let mut force = 0.0;
         let mut touching = false;
-        let mut g_rate = 0.0;
         for (j, flag) in mesh.flags.iter().enumerate() {
             let offset = match flag {
                 SlotContact::Inactive | SlotContact::Separated => {
@@ -767,12 +767,12 @@ impl GearTrain {
             }
             force += fj;
             touching = true;
-            g_rate = law.g1 * f;
         }
         if touching && mesh.damping != 0.0 {
-            // A single slot damps the rate of its own gap too; tooth pairs damp Ṡ − ė.
-            let g_rate = if mesh.flags.len() == 1 { g_rate } else { 0.0 };
-            force += mesh.damping * (sd - e_slope * f - g_rate);
+            // The damper acts on Ṡ − ė, never on the rate of a gap: Models 2 and 3 put the
+            // loaded STE / NLTE into the gap and damp the velocities only (eqs. 2.10, 2.11:
+            // `C U̇`), like Model-1's tooth pairs.
+            force += mesh.damping * (sd - e_slope * f);
         }
         force
     }
@@ -1184,7 +1184,6 @@ impl PiecewiseLti for GearTrain {
             let f = mesh.clock.mesh_frequency();
             row.fill(0.0);
             let mut touching = false;
-            let mut g_rate = 0.0;
             for (j, flag) in mesh.flags.iter().enumerate() {
                 let offset = match flag {
                     SlotContact::Inactive | SlotContact::Separated => continue,
@@ -1199,7 +1198,6 @@ impl PiecewiseLti for GearTrain {
                     *r += law.k0 * v;
                 }
                 touching = true;
-                g_rate = law.g1 * f;
             }
             if touching && mesh.damping != 0.0 {
                 let c = mesh.damping;
@@ -1211,9 +1209,6 @@ impl PiecewiseLti for GearTrain {
                     // ė = Σ hω(−a_h sin + b_h cos).
                     row[base + 2 * i] -= c * h * omega * bh;
                     row[base + 2 * i + 1] += c * h * omega * ah;
-                }
-                if mesh.flags.len() == 1 {
-                    row[last] -= c * g_rate;
                 }
             }
             for i in 0..m {

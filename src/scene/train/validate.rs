@@ -10,36 +10,13 @@ use super::{
 };
 use crate::mesh::PhaseSeries;
 use crate::scene::spec::{ContactLawSpec, InitialDteSpec};
+use crate::scene::validate::{finite, non_negative, positive};
 use crate::scene::{ContactLaw, InitialDte, MethodChoice, SceneError, SolverSettings};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
 fn err<T>(msg: String) -> Result<T> {
     Err(SceneError(msg))
-}
-
-fn positive(field: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        err(format!("{field} = {v}: must be a finite number > 0"))
-    }
-}
-
-fn non_negative(field: &str, v: f64) -> Result<f64> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(v)
-    } else {
-        err(format!("{field} = {v}: must be a finite number >= 0"))
-    }
-}
-
-fn finite(field: &str, v: f64) -> Result<f64> {
-    if v.is_finite() {
-        Ok(v)
-    } else {
-        err(format!("{field} = {v}: must be a finite number"))
-    }
 }
 
 fn identifier(name: &str) -> bool {
@@ -153,6 +130,23 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
             ground_stiffness: non_negative(&f("ground_stiffness"), g.ground_stiffness)?,
             ground_damping: non_negative(&f("ground_damping"), g.ground_damping)?,
         });
+    }
+    // A train without any ground stiffness turns freely; its rigid-body rotation is removed
+    // from the state (docs/train.md), which is exact only if nothing couples it to the
+    // elastic motion. A ground damper does.
+    if !gears.iter().any(|g| g.ground_stiffness > 0.0) {
+        if let Some((i, g)) = gears
+            .iter()
+            .enumerate()
+            .find(|(_, g)| g.ground_damping > 0.0)
+        {
+            return err(format!(
+                "gear[{i}].ground_damping = {}: the train has no ground stiffness, so it turns \
+                 freely; a ground damper couples that free rotation to the elastic motion, which \
+                 the reduced model omits (add a ground_stiffness or remove the damper)",
+                g.ground_damping
+            ));
+        }
     }
     let find = |field: &str, name: &str| -> Result<usize> {
         gears.iter().position(|g| g.name == name).ok_or_else(|| {
@@ -794,6 +788,8 @@ fn kinematics(
     }
     let mut ratio: Vec<Option<f64>> = vec![None; n];
     let mut sense = vec![0.0; n];
+    // The connection through which each gear is first reached from the input (power flow).
+    let mut reached_via: Vec<Option<String>> = vec![None; n];
     ratio[input] = Some(1.0);
     sense[input] = input_sense;
     let mut queue = VecDeque::from([input]);
@@ -806,6 +802,7 @@ fn kinematics(
                 None => {
                     ratio[*b] = Some(rb);
                     sense[*b] = sb;
+                    reached_via[*b] = Some(what.clone());
                     queue.push_back(*b);
                 }
                 Some(r) => {
@@ -820,6 +817,18 @@ fn kinematics(
                     }
                 }
             }
+        }
+    }
+    // The mesh deflection compresses the pinion's drive flanks (docs/train.md), so the pinion
+    // must be the member that drives the mesh: one reached from the input through that very
+    // mesh is driven by it and could never carry load.
+    for (i, m) in meshes.iter().enumerate() {
+        if reached_via[m.pinion].as_deref() == Some(format!("mesh[{i}]").as_str()) {
+            return err(format!(
+                "mesh[{i}].pinion = {:?}: this gear is driven through mesh[{i}] by {:?} (power \
+                 flows from the input gear {:?}); swap pinion and gear",
+                gears[m.pinion].name, gears[m.gear].name, gears[input].name
+            ));
         }
     }
     // Parts not driven by the input: each connected part needs a ground coupling.
