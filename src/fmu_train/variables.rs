@@ -240,8 +240,8 @@ pub(super) fn variables(scene: &TrainScene, outputs: &[String]) -> Result<Vec<Va
             o.variability = V::Discrete;
         }
         // Direct feedthrough (ModelStructure/Outputs, FMI 2.0.x §2.2.8): the damping term of
-        // a mesh force holds the rate of the STE and gaps, which scales with the speed; a
-        // Model-2 mesh's excitation is the loaded STE at the static load of the torques.
+        // a mesh force holds the rate of the STE, which scales with the speed; a Model-2
+        // mesh's excitation is the loaded STE at the static load of the torques.
         if let Some(mesh) = scene
             .meshes
             .iter()
