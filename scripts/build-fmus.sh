@@ -13,10 +13,5 @@ if [ ${#scenes[@]} -eq 0 ]; then
   exit 1
 fi
 for scene in "${scenes[@]}"; do
-  # Drivetrain scenes ([[mesh]] arrays) are not exported yet (issue 5: FMU adapter pending).
-  if grep -q '^\[\[mesh\]\]' "$scene"; then
-    echo "skipping $scene: drivetrain FMU export pending" >&2
-    continue
-  fi
   target/release/geardyn fmu build "$(dirname "$scene")" --out "$out"
 done

@@ -8,6 +8,8 @@ use std::path::Path;
 use crate::fmi::blob;
 use crate::fmi::model::{CoSimModel, LoadedModel};
 use crate::fmu_model::GearModel;
+use crate::fmu_train::TrainModel;
+use crate::scene::train::{is_train_text, TrainScene};
 use crate::scene::Scene;
 
 /// Name of the scene file inside an FMU's `resources/` folder.
@@ -25,7 +27,26 @@ pub fn load_scene(scene_path: &Path) -> Result<LoadedModel, String> {
         .map_err(|e| format!("cannot read scene '{}': {e}", scene_path.display()))?;
     let text = std::str::from_utf8(&bytes)
         .map_err(|e| format!("scene '{}' is not UTF-8: {e}", scene_path.display()))?;
-    load_gear_scene(text, &scene_path.display().to_string(), blob::guid(&bytes))
+    let origin = scene_path.display().to_string();
+    let guid = blob::guid(&bytes);
+    // Drivetrain scenes (`[[mesh]]`, `[[shaft]]` or `[model]`, `docs/train.md`) go to the
+    // drivetrain adapter; the single-mesh format of `docs/model.md` to the pair adapter.
+    if is_train_text(text) {
+        load_train_scene(text, &origin, guid)
+    } else {
+        load_gear_scene(text, &origin, guid)
+    }
+}
+
+/// Validates a drivetrain scene and adapts its [`crate::model::train::TrainSimulation`].
+fn load_train_scene(text: &str, origin: &str, guid: String) -> Result<LoadedModel, String> {
+    let scene = TrainScene::from_toml_str(text, origin).map_err(|e| e.to_string())?;
+    let (model, info) =
+        TrainModel::new(scene, guid).map_err(|e| format!("scene '{origin}': {e}"))?;
+    Ok(LoadedModel {
+        model: Box::new(model) as Box<dyn CoSimModel>,
+        info,
+    })
 }
 
 /// Validates the scene text (messages name the field and value) and adapts its simulation

@@ -9,6 +9,7 @@
 //! cycle, `u64` segment piece, `i8` contact state, and for RK `f64` proposal, `f64`
 //! previous error, `u32` non-finite trials.
 
+use crate::fmi::bytes::Reader;
 use crate::model::{ContactState, Inputs, PairState, PhaseClock};
 use crate::simulation::SimState;
 use crate::solve::rk::ControllerMemory;
@@ -67,33 +68,8 @@ pub fn encode(s: &ModelSnapshot) -> Vec<u8> {
     out
 }
 
-struct Reader<'a> {
-    bytes: &'a [u8],
-    pos: usize,
-}
-
-impl<'a> Reader<'a> {
-    fn take<const N: usize>(&mut self) -> Result<[u8; N], String> {
-        let end = self.pos + N;
-        let b = self
-            .bytes
-            .get(self.pos..end)
-            .ok_or_else(|| format!("model state truncated at byte {}", self.pos))?;
-        self.pos = end;
-        let mut a = [0u8; N];
-        a.copy_from_slice(b);
-        Ok(a)
-    }
-    fn f64(&mut self) -> Result<f64, String> {
-        Ok(f64::from_le_bytes(self.take()?))
-    }
-    fn u32(&mut self) -> Result<u32, String> {
-        Ok(u32::from_le_bytes(self.take()?))
-    }
-}
-
 pub fn decode(bytes: &[u8]) -> Result<ModelSnapshot, String> {
-    let mut r = Reader { bytes, pos: 0 };
+    let mut r = Reader::new(bytes);
     let n = r.u32()? as usize;
     // Each entry takes 12 bytes: a count beyond the payload is corrupt, not a huge alloc.
     if n > bytes.len() / 12 {
@@ -107,13 +83,13 @@ pub fn decode(bytes: &[u8]) -> Result<ModelSnapshot, String> {
         let vr = r.u32()?;
         params.push((vr, r.f64()?));
     }
-    let [flags] = r.take::<1>()?;
+    let flags = r.u8()?;
     let mut f = [0.0; 12];
     for x in &mut f {
         *x = r.f64()?;
     }
-    let piece = u64::from_le_bytes(r.take()?);
-    let [contact] = r.take::<1>()?;
+    let piece = r.u64()?;
+    let contact = r.u8()?;
     let contact = match contact as i8 {
         1 => ContactState::Drive,
         0 => ContactState::Separated,
@@ -133,12 +109,7 @@ pub fn decode(bytes: &[u8]) -> Result<ModelSnapshot, String> {
     } else {
         None
     };
-    if r.pos != bytes.len() {
-        return Err(format!(
-            "model state has {} trailing bytes",
-            bytes.len() - r.pos
-        ));
-    }
+    r.finish("model state")?;
     Ok(ModelSnapshot {
         params,
         static_dte: flags & 1 != 0,

@@ -10,9 +10,11 @@
 
 pub mod analysis;
 pub mod fmi;
+pub mod fmu_common;
 pub mod fmu_entry;
 pub mod fmu_model;
 pub mod fmu_state;
+pub mod fmu_train;
 pub mod mesh;
 pub mod model;
 pub mod output;

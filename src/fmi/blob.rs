@@ -14,6 +14,7 @@
 //! "foreign" blob from another FMU) is rejected before anything reaches the model. The same
 //! bytes are the in-memory `fmi2FMUstate`, so get/set and (de)serialize share one path.
 
+use super::bytes::Reader;
 use super::state::FmuState;
 
 const MAGIC: &[u8; 8] = b"GDFMUST\0";
@@ -99,40 +100,6 @@ pub fn encode(guid: &str, layer: &LayerSnapshot, model: &[u8]) -> Vec<u8> {
     out
 }
 
-struct Reader<'a> {
-    bytes: &'a [u8],
-    pos: usize,
-}
-
-impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
-        let end = self
-            .pos
-            .checked_add(n)
-            .filter(|e| *e <= self.bytes.len())
-            .ok_or_else(|| format!("truncated at byte {}", self.pos))?;
-        let s = &self.bytes[self.pos..end];
-        self.pos = end;
-        Ok(s)
-    }
-    fn u8(&mut self) -> Result<u8, String> {
-        Ok(self.take(1)?[0])
-    }
-    fn u32(&mut self) -> Result<u32, String> {
-        Ok(u32::from_le_bytes(
-            self.take(4)?.try_into().unwrap_or([0; 4]),
-        ))
-    }
-    fn u64(&mut self) -> Result<u64, String> {
-        Ok(u64::from_le_bytes(
-            self.take(8)?.try_into().unwrap_or([0; 8]),
-        ))
-    }
-    fn f64(&mut self) -> Result<f64, String> {
-        Ok(f64::from_bits(self.u64()?))
-    }
-}
-
 /// Checks and unpacks an envelope. `expected_guid` is this FMU's GUID.
 pub fn decode<'a>(
     bytes: &'a [u8],
@@ -141,7 +108,8 @@ pub fn decode<'a>(
     if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
         return Err("not a geardyn FMU state (bad magic)".into());
     }
-    let mut r = Reader { bytes, pos: 8 };
+    let mut r = Reader::new(bytes);
+    r.take(MAGIC.len())?;
     let version = r.u32()?;
     if version != FORMAT_VERSION {
         return Err(format!(
@@ -182,10 +150,10 @@ pub fn decode<'a>(
     let mlen = r.u64()?;
     let model =
         r.take(usize::try_from(mlen).map_err(|_| "model payload too large".to_string())?)?;
-    if r.pos != body.len() {
+    if r.pos() != body.len() {
         return Err(format!(
             "FMU state has {} trailing bytes",
-            body.len() - r.pos
+            body.len() - r.pos()
         ));
     }
     let layer = LayerSnapshot {

@@ -322,10 +322,6 @@ pub fn check_checked_in(
         if !scene.is_file() {
             continue;
         }
-        // Drivetrain scenes are not exported yet (issue 5: FMU adapter pending).
-        if crate::scene::train::is_train_file(&scene).unwrap_or(false) {
-            continue;
-        }
         let (xml, info) = for_scene(&scene)?;
         let file = format!("{}.xml", model_identifier(&info.model_name));
         let path = md_dir.join(&file);

@@ -9,15 +9,18 @@
 //! - [`instance`]: the semantics of every call on one instance,
 //! - [`abi`]: the 34 exported `extern "C"` functions (thin, panic-free),
 //! - [`blob`]: FMU-state envelope (version, length, checksum, GUID) and hashes,
+//!   [`bytes`]: the little-endian reader the envelope and the models' payloads share,
 //! - [`description`]: `modelDescription.xml` writer (§2.2, §4.3),
 //! - [`package`]: the `.fmu` ZIP writer (§2.3), [`cli`]: the `geardyn fmu` subcommand,
 //! - [`uri`]: `file:` URI decoding.
 //!
 //! The model is created by [`crate::fmu_entry`], the one factory used by both the binary and
-//! the packager; the gear model's adapter is [`crate::fmu_model`].
+//! the packager; the gear models' adapters are [`crate::fmu_model`] (single mesh) and
+//! [`crate::fmu_train`] (drivetrains).
 
 pub mod abi;
 pub mod blob;
+pub mod bytes;
 pub mod cli;
 pub mod description;
 pub mod instance;

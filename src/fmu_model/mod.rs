@@ -19,9 +19,8 @@
 mod documentation;
 mod variables;
 
-use crate::fmi::model::{
-    Causality as C, CoSimModel, DefaultExperiment, ModelInfo, StepFailure, VarKind, Variable,
-};
+use crate::fmi::model::{CoSimModel, DefaultExperiment, ModelInfo, StepFailure, Variable};
+use crate::fmu_common::{check, check_known, name_of, settable_reals};
 use crate::fmu_state::ModelSnapshot;
 use crate::model::Inputs;
 use crate::scene::{ContactLaw, InitialDte, Scene};
@@ -45,15 +44,6 @@ pub struct GearModel {
     sim: Simulation,
     start_time: f64,
     initialized: bool,
-}
-
-/// `field = value` must be finite and > 0 (or >= 0): the messages name the FMU variable.
-fn check(name: &str, value: f64, ok: bool, rule: &str) -> Result<(), String> {
-    if value.is_finite() && ok {
-        Ok(())
-    } else {
-        Err(format!("parameter '{name}' = {value}: must be {rule}"))
-    }
 }
 
 impl GearModel {
@@ -95,17 +85,10 @@ impl GearModel {
         Ok((model, info))
     }
 
-    fn name_of(&self, vr: u32) -> &str {
-        self.vars
-            .iter()
-            .find(|v| v.value_reference == vr)
-            .map_or("?", |v| v.name.as_str())
-    }
-
     /// Applies a parameter or start-input value to the scene (validated, nothing clamped)
     /// and rebuilds the simulation; on failure nothing changes.
     fn set_before_init(&mut self, vr: u32, x: f64) -> Result<(), String> {
-        let name = self.name_of(vr).to_string();
+        let name = name_of(&self.vars, vr).to_string();
         let mut scene = self.scene.clone();
         let (mut static_dte, mut initial_dte) = (self.static_dte, self.initial_dte);
         let positive =
@@ -173,10 +156,7 @@ impl GearModel {
     /// distinguishes this instance from a freshly instantiated one.
     fn snapshot(&self) -> ModelSnapshot {
         let op = &self.scene.operating;
-        let params = self
-            .vars
-            .iter()
-            .filter(|v| v.kind == VarKind::Real && matches!(v.causality, C::Parameter | C::Input))
+        let params = settable_reals(&self.vars)
             .map(|v| {
                 let x = match v.value_reference {
                     VR_PINION_SPEED => op.pinion_speed,
@@ -210,10 +190,8 @@ impl GearModel {
             start_time: snap.start_time,
             initialized: false,
         };
+        check_known(&self.vars, &snap.params)?;
         for &(vr, x) in &snap.params {
-            if !self.vars.iter().any(|v| v.value_reference == vr) {
-                return Err(format!("the state sets unknown value reference {vr}"));
-            }
             m.set_before_init(vr, x)?;
         }
         if !snap.start_time.is_finite() {
@@ -278,7 +256,7 @@ impl CoSimModel for GearModel {
                 // The layer's causality/variability check comes first; this is a safety net.
                 return Err(format!(
                     "'{}' is fixed after initialization",
-                    self.name_of(vr)
+                    name_of(&self.vars, vr)
                 ));
             }
             let u = self.inputs_with(vr, value);

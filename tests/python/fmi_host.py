@@ -1,9 +1,16 @@
 """A raw ctypes host for one FMU binary, for tests that need to pass what fmpy's wrappers
 refuse (NULL arrays, unknown value references, calls in the wrong state) and to capture log
 messages. The logger goes through fmpy's native proxy (`addLoggerProxy`), which formats the
-variadic arguments in C, as every real host must (FMI 2.0.x §2.1.5)."""
+variadic arguments in C, as every real host must (FMI 2.0.x §2.1.5).
+
+fmpy's proxy keeps ONE Python target for the whole process (the last one registered), shared
+with fmpy's own default callbacks. So every Host registers the same module-level dispatcher,
+which lives as long as the process (a per-Host target would dangle once that Host is garbage
+collected, and the next FMU that logs through fmpy would call freed memory), and messages are
+routed to their Host by the `componentEnvironment` the FMU passes back (§2.1.5)."""
 
 import ctypes as C
+import itertools
 import pathlib
 
 import fmpy
@@ -48,6 +55,22 @@ _SIGS = {
 }
 
 
+_MESSAGES = {}  # componentEnvironment -> that Host's message list
+_KEYS = itertools.count(1)
+
+
+def _dispatch(env, name, status, category, message):
+    entry = ((name or b"").decode(), status, (category or b"").decode(), (message or b"").decode())
+    target = _MESSAGES.get(env)
+    if target is None:  # fmpy's default callbacks (no environment): print, as fmpy does
+        print(f"[{status}] {entry[3]}")
+    else:
+        target.append(entry)
+
+
+_DISPATCH = fmi2CallbackLoggerTYPE(_dispatch)
+
+
 class Host:
     """Loads an extracted FMU's binary once; instantiates any number of instances."""
 
@@ -63,13 +86,12 @@ class Host:
             f.restype, f.argtypes = res, args
         self.resources = (pathlib.Path(unzip_dir) / "resources").as_uri().encode()
         self.messages = []  # (instance, status, category, message)
-        self._logger = fmi2CallbackLoggerTYPE(self._log)
+        key = next(_KEYS)
+        _MESSAGES[key] = self.messages
         self.callbacks = fmi2CallbackFunctions()
-        self.callbacks.logger = self._logger
+        self.callbacks.logger = _DISPATCH
+        self.callbacks.componentEnvironment = key
         addLoggerProxy(C.byref(self.callbacks))
-
-    def _log(self, env, name, status, category, message):
-        self.messages.append((name.decode(), status, (category or b"").decode(), message.decode()))
 
     def __getattr__(self, name):
         return getattr(self.dll, name)

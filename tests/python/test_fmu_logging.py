@@ -106,3 +106,23 @@ def test_callback_struct_is_copied_at_instantiation(host):
     assert host.fmi2DoStep(c, 0.0, 1e-5, 1) == ERROR
     assert [m[0] for m in host.messages] == ["copied"]
     host.fmi2FreeInstance(c)
+
+
+@pytest.mark.parametrize("name, var, value", [
+    ("idler_gearset", "follower.inertia", -2.5),
+    ("idler_gearset", "model.modal_damping_ratio", -0.125),
+    ("countershaft_gearset", "mesh2.damping", -7.75),
+])
+def test_drivetrain_bad_parameter_message_names_variable_and_value(name, var, value, shipped_fmus, tmp_path):
+    from conftest import FMU_DIR
+
+    fmu = FMU_DIR / f"{name}.fmu"
+    h = Host(fmu, extract(str(fmu), str(tmp_path)))
+    c = h.instantiate(logging_on=0)
+    h.messages.clear()
+    vr = (C.c_uint * 1)(h.vr(var))
+    x = (C.c_double * 1)(value)
+    assert h.fmi2SetReal(c, vr, 1, x) == ERROR
+    (_, _, _, msg), = h.messages
+    assert f"'{var}'" in msg and repr(value) in msg, msg
+    h.fmi2FreeInstance(c)

@@ -1,6 +1,7 @@
 """FMU state through fmpy (issue 3, acceptance 4): get state -> 5 steps -> set state -> the
 same 5 steps is bit-identical; serialize -> deserialize (also into a fresh instance and through
 `simulate_fmu(fmu_state=...)`) likewise; a corrupted or foreign blob is an error, not a crash.
+For the single-mesh FMU and the drivetrain FMUs alike.
 
 Oracle: the first run itself (bit equality), and for continuation the uninterrupted run."""
 
@@ -14,12 +15,28 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 
 H = 3.7e-5
-OUT = ["dte", "dte_rate", "mesh_force", "mesh_phase", "mesh_stiffness"]
+# Per FMU: outputs compared, and the DTE followed by simulate_fmu; a scene edit that makes
+# another FMU of the same model name (another GUID).
+OUTPUTS = {
+    "spur_pair": ["dte", "dte_rate", "mesh_force", "mesh_phase", "mesh_stiffness"],
+    "idler_gearset": ["mesh1_dte", "mesh1_dte_rate", "mesh1_force", "mesh1_phase", "mesh1_stiffness",
+                      "mesh2_dte", "mesh2_force", "mesh1_pair0_force", "follower_y",
+                      "mesh1_contact_loss_fraction"],
+    "countershaft_gearset": ["mesh1_dte", "mesh1_dte_rate", "mesh1_force", "mesh1_phase",
+                             "mesh2_dte", "mesh2_force", "mesh2_stiffness"],
+}
+DTE = {"spur_pair": "dte", "idler_gearset": "mesh2_dte", "countershaft_gearset": "mesh2_dte"}
+EDITS = {
+    "spur_pair": ("damping_ratio = 0.05", "damping_ratio = 0.06"),
+    "idler_gearset": ("modal_damping_ratio = 0.02", "modal_damping_ratio = 0.03"),
+    "countershaft_gearset": ("modal_damping_ratio = 0.04", "modal_damping_ratio = 0.05"),
+}
 
 
 class Slave:
     def __init__(self, fmu, unzip):
         md = read_model_description(str(fmu))
+        self.out = OUTPUTS[md.modelName]
         self.vr = {v.name: v.valueReference for v in md.modelVariables}
         self.s = FMU2Slave(guid=md.guid, unzipDirectory=unzip,
                            modelIdentifier=md.coSimulation.modelIdentifier, instanceName="s")
@@ -31,7 +48,7 @@ class Slave:
         self.s.exitInitializationMode()
 
     def outputs(self):
-        return self.s.getReal([self.vr[n] for n in OUT])
+        return self.s.getReal([self.vr[n] for n in self.out])
 
     def steps(self, times):
         """Steps from each recorded communication point; outputs after each."""
@@ -46,9 +63,14 @@ class Slave:
         self.s.fmi2FreeInstance(self.s.component)
 
 
+@pytest.fixture(scope="module", params=sorted(OUTPUTS))
+def fmu(request, shipped_fmus):
+    return REPO / "out/fmus" / f"{request.param}.fmu"
+
+
 @pytest.fixture(scope="module")
-def unzip(spur_fmu, tmp_path_factory):
-    return extract(str(spur_fmu), str(tmp_path_factory.mktemp("spur")))
+def unzip(fmu, tmp_path_factory):
+    return extract(str(fmu), str(tmp_path_factory.mktemp(fmu.stem)))
 
 
 def _advance(slave, n):
@@ -59,8 +81,8 @@ def _advance(slave, n):
     return t
 
 
-def test_get_set_state_rollback_is_bit_identical(unzip):
-    a = Slave(REPO / "out/fmus/spur_pair.fmu", unzip)
+def test_get_set_state_rollback_is_bit_identical(fmu, unzip):
+    a = Slave(fmu, unzip)
     a.init()
     t = _advance(a, 137)
     state = a.s.getFMUstate()
@@ -79,8 +101,8 @@ def test_get_set_state_rollback_is_bit_identical(unzip):
     a.free()
 
 
-def test_serialize_round_trip_into_fresh_instance(unzip):
-    a = Slave(REPO / "out/fmus/spur_pair.fmu", unzip)
+def test_serialize_round_trip_into_fresh_instance(fmu, unzip):
+    a = Slave(fmu, unzip)
     a.init()
     t = _advance(a, 211)
     state = a.s.getFMUstate()
@@ -95,7 +117,7 @@ def test_serialize_round_trip_into_fresh_instance(unzip):
     a.s.freeFMUstate(s2)
     a.free()
     # Fresh instance that never went through initialization (as simulate_fmu(fmu_state=)).
-    b = Slave(REPO / "out/fmus/spur_pair.fmu", unzip)
+    b = Slave(fmu, unzip)
     s3 = b.s.deSerializeFMUstate(blob)
     b.s.setFMUstate(s3)
     b.s.freeFMUstate(s3)
@@ -103,11 +125,12 @@ def test_serialize_round_trip_into_fresh_instance(unzip):
     b.free()
 
 
-def test_simulate_fmu_continues_from_a_serialized_state(spur_fmu, unzip, report):
+def test_simulate_fmu_continues_from_a_serialized_state(fmu, unzip, report):
     from fmpy import simulate_fmu
 
-    full = simulate_fmu(str(spur_fmu), output_interval=1e-5, stop_time=0.004, output=["dte"])
-    a = Slave(spur_fmu, unzip)
+    dte = DTE[fmu.stem]
+    full = simulate_fmu(str(fmu), output_interval=1e-5, stop_time=0.004, output=[dte])
+    a = Slave(fmu, unzip)
     a.init()
     t = 0.0
     for k in range(200):
@@ -117,18 +140,18 @@ def test_simulate_fmu_continues_from_a_serialized_state(spur_fmu, unzip, report)
     blob = a.s.serializeFMUstate(state)
     a.s.freeFMUstate(state)
     a.free()
-    rest = simulate_fmu(str(spur_fmu), start_time=0.002, output_interval=1e-5, stop_time=0.004,
-                        output=["dte"], fmu_state=blob)
+    rest = simulate_fmu(str(fmu), start_time=0.002, output_interval=1e-5, stop_time=0.004,
+                        output=[dte], fmu_state=blob)
     tail = full[full["time"] >= 0.002 - 1e-12]
     n = min(len(tail), len(rest))
     assert n >= 190
-    err = np.abs(rest["dte"][:n] - tail["dte"][:n]).max()
-    report(f"continued run vs uninterrupted: max|dDTE| = {err:.3e} m")
-    assert err <= 1e-12 * np.abs(full["dte"]).max()
+    err = np.abs(rest[dte][:n] - tail[dte][:n]).max()
+    report(f"{fmu.stem} continued run vs uninterrupted: max|d{dte}| = {err:.3e} m")
+    assert err <= 1e-12 * np.abs(full[dte]).max()
 
 
-def test_corrupt_blob_is_an_error_not_a_crash(unzip):
-    a = Slave(REPO / "out/fmus/spur_pair.fmu", unzip)
+def test_corrupt_blob_is_an_error_not_a_crash(fmu, unzip):
+    a = Slave(fmu, unzip)
     a.init()
     _advance(a, 10)
     state = a.s.getFMUstate()
@@ -141,7 +164,7 @@ def test_corrupt_blob_is_an_error_not_a_crash(unzip):
         bad[i] ^= 1 << int(rng.integers(8))
         cases.append(bytes(bad))
     for bad in cases:
-        b = Slave(REPO / "out/fmus/spur_pair.fmu", unzip)
+        b = Slave(fmu, unzip)
         with pytest.raises(FMICallException) as e:
             b.s.deSerializeFMUstate(bad)
         assert e.value.status == 3  # fmi2Error
@@ -149,13 +172,16 @@ def test_corrupt_blob_is_an_error_not_a_crash(unzip):
     a.free()
 
 
-def test_foreign_blob_is_rejected(unzip, tmp_path, geardyn_bin):
+def test_foreign_blob_is_rejected(fmu, unzip, tmp_path, geardyn_bin):
     # Another FMU (same model name, another scene, hence another GUID).
-    scene = (REPO / "fmu/spur_pair/scene.toml").read_text().replace("damping_ratio = 0.05", "damping_ratio = 0.06")
+    old, new = EDITS[fmu.stem]
+    text = (REPO / "fmu" / fmu.stem / "scene.toml").read_text()
+    assert old in text
+    scene = text.replace(old, new)
     (tmp_path / "other").mkdir()
     (tmp_path / "other/scene.toml").write_text(scene)
     run_geardyn("fmu", "build", tmp_path / "other", "--out", tmp_path / "fmus")
-    other = tmp_path / "fmus/spur_pair.fmu"
+    other = tmp_path / "fmus" / fmu.name
     other_unzip = extract(str(other), str(tmp_path / "other_unzip"))
     o = Slave(other, other_unzip)
     o.init()
@@ -164,7 +190,7 @@ def test_foreign_blob_is_rejected(unzip, tmp_path, geardyn_bin):
     blob = o.s.serializeFMUstate(st)
     o.s.freeFMUstate(st)
     o.free()
-    a = Slave(REPO / "out/fmus/spur_pair.fmu", unzip)
+    a = Slave(fmu, unzip)
     with pytest.raises(FMICallException):
         a.s.deSerializeFMUstate(blob)
     a.s.fmi2FreeInstance(a.s.component)

@@ -18,5 +18,6 @@ pub mod system;
 
 pub use assembly::{Assembly, DofKind, Reduction};
 pub use modes::{modes, Mode};
+pub use simulation::TrainSimState;
 pub use simulation::{run_train, TrainSimulation, TrainTrajectory};
-pub use system::{GearTrain, MeshState, SlotContact, TrainInputs};
+pub use system::{GearTrain, MeshRunState, MeshState, SlotContact, TrainInputs, TrainRunState};

@@ -2,12 +2,12 @@
 //! (the exact propagator when every segment is LTI, RK otherwise). Same interface as
 //! `crate::simulation::Simulation` for the single pair, so the FMU adapter can drive either.
 
-use super::system::{GearTrain, TrainInputs};
+use super::system::{GearTrain, TrainInputs, TrainRunState};
 use crate::scene::train::TrainScene;
 use crate::scene::MethodChoice;
 use crate::simulation::output_grid;
 use crate::solve::exact::ExactPropagator;
-use crate::solve::rk::{RkOptions, RkStepper};
+use crate::solve::rk::{ControllerMemory, RkOptions, RkStepper};
 use crate::solve::{SolveError, SolverStats};
 
 enum Propagator {
@@ -138,6 +138,69 @@ impl TrainSimulation {
     pub fn outputs(&self, out: &mut Vec<f64>) {
         let y = self.state().to_vec();
         self.train.outputs(self.t(), &y, out);
+    }
+}
+
+/// Everything that determines how a [`TrainSimulation`] continues, given the scene it was
+/// built from: time, `[ξ, ξ']`, the train's run-time state and the RK controller memory (`None`
+/// for the exact propagator, whose steps depend on `(t, y)` and the mode only). Restoring it
+/// continues bit-identically (FMU state get/set, FMI 2.0.x §2.1.8); the drivetrain
+/// counterpart of `crate::simulation::SimState`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainSimState {
+    pub t: f64,
+    pub y: Vec<f64>,
+    pub train: TrainRunState,
+    pub controller: Option<ControllerMemory>,
+}
+
+impl TrainSimulation {
+    /// Snapshot of the run (see [`TrainSimState`]).
+    pub fn snapshot(&self) -> TrainSimState {
+        TrainSimState {
+            t: self.t(),
+            y: self.state().to_vec(),
+            train: self.train.run_state(),
+            controller: match &self.propagator {
+                Propagator::Rk(p) => Some(p.controller_memory()),
+                Propagator::Exact(_) => None,
+            },
+        }
+    }
+
+    /// Restores a snapshot taken from a simulation of the same scene. Rejects one of another
+    /// dimension, taken with the other propagator, or with a mode this train cannot have;
+    /// on failure nothing changes.
+    pub fn restore(&mut self, s: &TrainSimState) -> Result<(), String> {
+        let dim = self.state().len();
+        if s.y.len() != dim {
+            return Err(format!(
+                "the state has {} entries, this train {dim}",
+                s.y.len()
+            ));
+        }
+        if !(s.t.is_finite() && s.y.iter().all(|v| v.is_finite())) {
+            return Err(format!("state (t = {}, y = {:?}) is not finite", s.t, s.y));
+        }
+        match (&mut self.propagator, &s.controller) {
+            (Propagator::Rk(p), Some(memory)) => {
+                self.train.restore_run_state(&s.train)?;
+                p.invalidate();
+                p.restore(s.t, &s.y, memory);
+            }
+            (Propagator::Exact(p), None) => {
+                self.train.restore_run_state(&s.train)?;
+                p.invalidate();
+                p.set_state(s.t, &s.y);
+            }
+            _ => {
+                return Err(format!(
+                    "the snapshot was taken with another propagator than '{}'",
+                    self.method_name()
+                ))
+            }
+        }
+        Ok(())
     }
 }
 

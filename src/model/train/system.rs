@@ -32,6 +32,9 @@ use crate::scene::{ContactLaw, InitialDte};
 use crate::solve::exact::PiecewiseLti;
 use crate::solve::HybridSystem;
 
+mod snapshot;
+pub use snapshot::{MeshRunState, TrainRunState};
+
 /// Contact flag of one tooth-pair slot.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SlotContact {

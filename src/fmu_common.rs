@@ -1,0 +1,42 @@
+//! Pieces both gear adapters ([`crate::fmu_model`], [`crate::fmu_train`]) share: parameter
+//! checks whose messages name the FMU variable and the value, and lookups in a variable table
+//! (FMI 2.0.x §2.2.7). Physics-free.
+
+use crate::fmi::model::{Causality, VarKind, Variable};
+
+/// `name = value` must be finite and satisfy `ok` (`rule` says what is expected).
+pub fn check(name: &str, value: f64, ok: bool, rule: &str) -> Result<(), String> {
+    if value.is_finite() && ok {
+        Ok(())
+    } else {
+        Err(format!("parameter '{name}' = {value}: must be {rule}"))
+    }
+}
+
+/// Name of the variable with value reference `vr` (`?` when there is none).
+pub fn name_of(vars: &[Variable], vr: u32) -> &str {
+    vars.iter()
+        .find(|v| v.value_reference == vr)
+        .map_or("?", |v| v.name.as_str())
+}
+
+/// The Real parameters and inputs: what an FMU state must carry besides the run-time state
+/// to rebuild an instance (their values set before initialization define its equations and
+/// initial operating point).
+pub fn settable_reals(vars: &[Variable]) -> impl Iterator<Item = &Variable> {
+    vars.iter().filter(|v| {
+        v.kind == VarKind::Real && matches!(v.causality, Causality::Parameter | Causality::Input)
+    })
+}
+
+/// Rejects value references a snapshot sets but the table does not have (a state of
+/// another model).
+pub fn check_known(vars: &[Variable], params: &[(u32, f64)]) -> Result<(), String> {
+    match params
+        .iter()
+        .find(|(vr, _)| !vars.iter().any(|v| v.value_reference == *vr))
+    {
+        Some((vr, _)) => Err(format!("the state sets unknown value reference {vr}")),
+        None => Ok(()),
+    }
+}

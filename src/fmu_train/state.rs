@@ -1,0 +1,300 @@
+//! Byte layout of the drivetrain model's part of an FMU state (FMI 2.0.x §2.1.8). The FMI
+//! layer wraps it in its versioned, checksummed envelope ([`crate::fmi::blob`]); this module
+//! only turns a [`TrainSnapshot`] into bytes and back, rejecting anything malformed.
+//!
+//! Layout, little-endian: tag `"GDTR"` and `u32` format version (so a single-mesh payload,
+//! which starts with its parameter count, is never read as a drivetrain one), `u32 n` then
+//! `n × (u32 vr, f64 value)`, `u8 flags` (bit 0 initialized, bit 1 RK controller present,
+//! bit 2 controller step proposal present, bit 3 last step rejected), `f64` start time, t,
+//! the three inputs, loss start; `u32 dim` and `dim × f64` state; `u32` meshes, each
+//! `f64` clock t0, p0, f, cycle, loss total, `u8` loss-since present, `f64` loss since,
+//! `u64` interval, `u32` slots and `slots × u8` flag codes; for RK `f64` proposal, `f64`
+//! previous error, `u32` non-finite trials.
+
+use crate::fmi::bytes::{put_f64s, Reader};
+use crate::model::train::{MeshRunState, SlotContact, TrainInputs, TrainRunState, TrainSimState};
+use crate::model::PhaseClock;
+use crate::solve::rk::ControllerMemory;
+
+const TAG: &[u8; 4] = b"GDTR";
+/// Bumped whenever the layout above changes.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// Everything the drivetrain model needs to continue bit-identically.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainSnapshot {
+    /// Values of the parameters and start inputs, by value reference.
+    pub params: Vec<(u32, f64)>,
+    pub start_time: f64,
+    pub initialized: bool,
+    pub sim: TrainSimState,
+}
+
+pub fn encode(s: &TrainSnapshot) -> Vec<u8> {
+    let mut out = Vec::with_capacity(256 + 8 * s.sim.y.len());
+    out.extend_from_slice(TAG);
+    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&(s.params.len() as u32).to_le_bytes());
+    for (vr, x) in &s.params {
+        out.extend_from_slice(&vr.to_le_bytes());
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+    let c = s.sim.controller;
+    out.push(
+        u8::from(s.initialized)
+            | u8::from(c.is_some()) << 1
+            | u8::from(c.is_some_and(|c| c.h.is_some())) << 2
+            | u8::from(c.is_some_and(|c| c.last_rejected)) << 3,
+    );
+    let tr = &s.sim.train;
+    let u = tr.inputs;
+    put_f64s(
+        &mut out,
+        &[
+            s.start_time,
+            s.sim.t,
+            u.input_speed,
+            u.input_torque,
+            u.load_torque,
+            tr.loss_start,
+        ],
+    );
+    out.extend_from_slice(&(s.sim.y.len() as u32).to_le_bytes());
+    put_f64s(&mut out, &s.sim.y);
+    out.extend_from_slice(&(tr.meshes.len() as u32).to_le_bytes());
+    for m in &tr.meshes {
+        let (t0, p0) = m.clock.anchor();
+        put_f64s(
+            &mut out,
+            &[t0, p0, m.clock.mesh_frequency(), m.cycle, m.loss_total],
+        );
+        out.push(u8::from(m.loss_since.is_some()));
+        put_f64s(&mut out, &[m.loss_since.unwrap_or(0.0)]);
+        out.extend_from_slice(&(m.interval as u64).to_le_bytes());
+        out.extend_from_slice(&(m.flags.len() as u32).to_le_bytes());
+        out.extend(m.flags.iter().map(|f| f.code()));
+    }
+    if let Some(c) = c {
+        put_f64s(&mut out, &[c.h.unwrap_or(0.0), c.err_old]);
+        out.extend_from_slice(&c.nonfinite_trials.to_le_bytes());
+    }
+    out
+}
+
+/// A count read from the payload, bounded by what the remaining bytes can hold (a corrupt
+/// count is an error, not a huge allocation).
+fn count(r: &mut Reader, what: &str, bytes_each: usize) -> Result<usize, String> {
+    let n = r.u32()? as usize;
+    if n > r.remaining() / bytes_each {
+        return Err(format!(
+            "drivetrain state lists {n} {what} in {} remaining bytes",
+            r.remaining()
+        ));
+    }
+    Ok(n)
+}
+
+pub fn decode(bytes: &[u8]) -> Result<TrainSnapshot, String> {
+    let mut r = Reader::new(bytes);
+    let tag = r.take(4).map_err(|_| "model state too short".to_string())?;
+    if tag != TAG {
+        return Err(format!(
+            "model state is not a drivetrain state (tag {tag:02x?}, expected \"GDTR\"): \
+             a state of another model kind"
+        ));
+    }
+    let version = r.u32()?;
+    if version != FORMAT_VERSION {
+        return Err(format!(
+            "drivetrain state format version {version} is not supported (expected {FORMAT_VERSION})"
+        ));
+    }
+    let n = count(&mut r, "parameters", 12)?;
+    let mut params = Vec::with_capacity(n);
+    for _ in 0..n {
+        let vr = r.u32()?;
+        params.push((vr, r.f64()?));
+    }
+    let flags = r.u8()?;
+    if flags & !0b1111 != 0 {
+        return Err(format!("drivetrain state has unknown flags {flags:#04x}"));
+    }
+    let mut f = [0.0; 6];
+    for x in &mut f {
+        *x = r.f64()?;
+    }
+    let dim = count(&mut r, "state entries", 8)?;
+    let y = (0..dim).map(|_| r.f64()).collect::<Result<Vec<_>, _>>()?;
+    let meshes = count(&mut r, "meshes", 61)?;
+    let mut ms = Vec::with_capacity(meshes);
+    for n in 0..meshes {
+        let mut g = [0.0; 5];
+        for x in &mut g {
+            *x = r.f64()?;
+        }
+        let has_since = r.u8()?;
+        let since = r.f64()?;
+        let interval = r.u64()?;
+        let slots = count(&mut r, "slots", 1)?;
+        let flags = r
+            .take(slots)?
+            .iter()
+            .map(|&c| {
+                SlotContact::from_code(c)
+                    .ok_or_else(|| format!("mesh {n}: contact flag code {c} does not exist"))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        ms.push(MeshRunState {
+            clock: PhaseClock::new(g[0], g[1], g[2]),
+            cycle: g[3],
+            interval: usize::try_from(interval)
+                .map_err(|_| format!("mesh {n}: interval {interval}"))?,
+            flags,
+            loss_total: g[4],
+            loss_since: match has_since {
+                0 => None,
+                1 => Some(since),
+                b => return Err(format!("mesh {n}: loss flag {b} is not 0 or 1")),
+            },
+        });
+    }
+    let controller = if flags & 2 != 0 {
+        let h = r.f64()?;
+        let err_old = r.f64()?;
+        let nonfinite_trials = r.u32()?;
+        Some(ControllerMemory {
+            h: (flags & 4 != 0).then_some(h),
+            err_old,
+            last_rejected: flags & 8 != 0,
+            nonfinite_trials,
+        })
+    } else {
+        None
+    };
+    r.finish("drivetrain state")?;
+    Ok(TrainSnapshot {
+        params,
+        start_time: f[0],
+        initialized: flags & 1 != 0,
+        sim: TrainSimState {
+            t: f[1],
+            y,
+            train: TrainRunState {
+                inputs: TrainInputs {
+                    input_speed: f[2],
+                    input_torque: f[3],
+                    load_torque: f[4],
+                },
+                loss_start: f[5],
+                meshes: ms,
+            },
+            controller,
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(controller: Option<ControllerMemory>) -> TrainSnapshot {
+        let mesh = |k: f64| MeshRunState {
+            clock: PhaseClock::new(0.1 * k, 3.25 + k, 2000.0 / k),
+            cycle: 3.0 + k,
+            interval: 2,
+            flags: vec![SlotContact::Drive, SlotContact::Inactive, SlotContact::Back],
+            loss_total: 1e-4 * k,
+            loss_since: (k > 1.0).then_some(0.0125),
+        };
+        TrainSnapshot {
+            params: vec![(0, 0.02), (1000, 0.5), (31, -1.25)],
+            start_time: 0.5,
+            initialized: true,
+            sim: TrainSimState {
+                t: 0.125,
+                y: vec![1e-6, -2e-3, 3.0, 4.5],
+                train: TrainRunState {
+                    inputs: TrainInputs {
+                        input_speed: 330.0,
+                        input_torque: 100.0,
+                        load_torque: 247.0,
+                    },
+                    loss_start: 0.01,
+                    meshes: vec![mesh(1.0), mesh(2.0)],
+                },
+                controller,
+            },
+        }
+    }
+
+    #[test]
+    fn round_trip_both_propagators() {
+        for c in [
+            None,
+            Some(ControllerMemory {
+                h: Some(1e-6),
+                err_old: 0.3,
+                last_rejected: true,
+                nonfinite_trials: 2,
+            }),
+            Some(ControllerMemory {
+                h: None,
+                err_old: 1e-4,
+                last_rejected: false,
+                nonfinite_trials: 0,
+            }),
+        ] {
+            let s = sample(c);
+            assert_eq!(decode(&encode(&s)).unwrap(), s);
+        }
+    }
+
+    #[test]
+    fn malformed_payloads_are_rejected() {
+        let b = encode(&sample(None));
+        for n in 0..b.len() {
+            assert!(decode(&b[..n]).is_err(), "truncation to {n} accepted");
+        }
+        let mut longer = b.clone();
+        longer.push(0);
+        assert!(decode(&longer).unwrap_err().contains("trailing"));
+        let mut version = b.clone();
+        version[4] = 2;
+        assert!(decode(&version).unwrap_err().contains("version 2"));
+        let mut huge = b;
+        huge[8..12].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert!(decode(&huge).unwrap_err().contains("parameters"));
+    }
+
+    #[test]
+    fn a_single_mesh_payload_is_not_a_drivetrain_state() {
+        // Oracle: the single-mesh layout (crate::fmu_state) written by its own encoder.
+        let single = crate::fmu_state::encode(&crate::fmu_state::ModelSnapshot {
+            params: vec![(0, 0.002621)],
+            static_dte: true,
+            initial_dte: 0.0,
+            start_time: 0.0,
+            initialized: true,
+            sim: crate::simulation::SimState {
+                t: 0.0,
+                y: [0.0; 2],
+                pair: crate::model::PairState {
+                    inputs: crate::model::Inputs {
+                        pinion_speed: 1.0,
+                        input_torque: 0.0,
+                        load_torque: 0.0,
+                    },
+                    clock: PhaseClock::new(0.0, 0.0, 1.0),
+                    segment_cycle: 0.0,
+                    segment_piece: 0,
+                    contact: crate::model::ContactState::Drive,
+                },
+                controller: None,
+            },
+        });
+        let e = decode(&single).unwrap_err();
+        assert!(e.contains("not a drivetrain state"), "{e}");
+        // And the other way round: the single-mesh reader refuses a drivetrain payload.
+        assert!(crate::fmu_state::decode(&encode(&sample(None))).is_err());
+    }
+}

@@ -1,0 +1,264 @@
+//! The drivetrain model's variable table (FMI 2.0.x §2.2.7): value references, causality,
+//! variability, start values from the scene, units and descriptions. The same table drives
+//! the C ABI and the generated `modelDescription.xml`; the outputs are exactly
+//! `TrainSimulation::output_names`, in that order, so FMU and `geardyn simulate` columns
+//! have the same names.
+
+use crate::fmi::model::{Causality as C, Initial, VarKind, Variability as V, Variable};
+use crate::scene::train::{MeshForceModel, PairModel, TrainScene};
+
+// Value references: stable per meaning, grouped by causality; per-gear and per-mesh blocks
+// are 1000 wide (index = gear or mesh number in the scene).
+pub const VR_MODAL_DAMPING: u32 = 0;
+pub const VR_INITIAL_PHASE: u32 = 1;
+pub const VR_INPUT_SPEED: u32 = 30;
+pub const VR_INPUT_TORQUE: u32 = 31;
+pub const VR_LOAD_TORQUE: u32 = 32;
+pub const VR_GEAR_INERTIA0: u32 = 1000;
+pub const VR_MESH_DAMPING0: u32 = 2000;
+pub const VR_MEAN_STIFFNESS0: u32 = 3000;
+/// Outputs in `TrainSimulation::output_names` order: `VR_OUTPUT0 + i`.
+pub const VR_OUTPUT0: u32 = 10000;
+/// Width of a per-gear or per-mesh block.
+pub const BLOCK: usize = 1000;
+
+/// Per-mesh output quantities: (suffix, unit, Integer?, description).
+const MESH_OUTPUTS: [(&str, Option<&str>, bool, &str); 9] = [
+    (
+        "dte",
+        Some("m"),
+        false,
+        "Dynamic transmission error (rotational part r_a*theta_a - r_b*theta_b along the line of action)",
+    ),
+    ("dte_rate", Some("m/s"), false, "Rate of the dynamic transmission error"),
+    (
+        "deflection",
+        Some("m"),
+        false,
+        "Mesh deflection S = d'q (rotations and bearing translations along the line of action)",
+    ),
+    (
+        "force",
+        Some("N"),
+        false,
+        "Total dynamic mesh force (sum over the tooth pairs in contact plus mesh damping)",
+    ),
+    (
+        "contact_state",
+        None,
+        true,
+        "Contact state: 1 drive side, 0 total contact loss, -1 back side",
+    ),
+    (
+        "pairs_in_contact",
+        None,
+        true,
+        "Number of tooth pairs in contact",
+    ),
+    ("phase", Some("cycle"), false, "Mesh phase frac(p), in mesh cycles"),
+    (
+        "stiffness",
+        Some("N/m"),
+        false,
+        "Mesh stiffness: sum over the engaged tooth pairs",
+    ),
+    (
+        "contact_loss_fraction",
+        None,
+        false,
+        "Fraction of the time since the (re)start with total contact loss",
+    ),
+];
+
+fn param(name: &str, vr: u32, start: f64, unit: Option<&str>, desc: &str) -> Variable {
+    Variable::real(
+        name,
+        vr,
+        C::Parameter,
+        V::Fixed,
+        Some(Initial::Exact),
+        Some(start),
+        unit,
+        desc,
+    )
+}
+
+fn input(name: &str, vr: u32, start: f64, unit: &str, desc: &str) -> Variable {
+    Variable::real(
+        name,
+        vr,
+        C::Input,
+        V::Continuous,
+        None,
+        Some(start),
+        Some(unit),
+        desc,
+    )
+}
+
+/// Unit, kind and description of output `name` (one of `output_names`), or an error naming
+/// it when the table does not know it (a new output must be described here before it ships).
+fn describe_output(
+    scene: &TrainScene,
+    name: &str,
+) -> Result<(Option<&'static str>, bool, String), String> {
+    for m in &scene.meshes {
+        let Some(q) = name
+            .strip_prefix(m.name.as_str())
+            .and_then(|r| r.strip_prefix('_'))
+        else {
+            continue;
+        };
+        if let Some((_, unit, int, desc)) = MESH_OUTPUTS.iter().find(|o| o.0 == q) {
+            return Ok((*unit, *int, format!("{}: {desc}", m.name)));
+        }
+        if let Some(j) = q
+            .strip_prefix("pair")
+            .and_then(|r| r.strip_suffix("_force"))
+        {
+            return Ok((
+                Some("N"),
+                false,
+                format!(
+                    "{}: force of tooth-pair slot {j} (Model-1, 0 when not in contact)",
+                    m.name
+                ),
+            ));
+        }
+    }
+    for g in &scene.gears {
+        for axis in ["x", "y"] {
+            if name == format!("{}_{axis}", g.name) {
+                return Ok((
+                    Some("m"),
+                    false,
+                    format!(
+                        "Bearing translation {axis} of gear {} (scene frame)",
+                        g.name
+                    ),
+                ));
+            }
+        }
+    }
+    Err(format!(
+        "output '{name}' has no description in the FMU variable table"
+    ))
+}
+
+/// The variable table of a scene (start values from the scene) for the simulation's outputs.
+pub(super) fn variables(scene: &TrainScene, outputs: &[String]) -> Result<Vec<Variable>, String> {
+    if scene.gears.len() > BLOCK || scene.meshes.len() > BLOCK {
+        return Err(format!(
+            "{} gears and {} meshes: the FMU variable table holds at most {BLOCK} of each",
+            scene.gears.len(),
+            scene.meshes.len()
+        ));
+    }
+    let mut v = vec![
+        param(
+            "model.modal_damping_ratio",
+            VR_MODAL_DAMPING,
+            scene.modal_damping_ratio,
+            None,
+            "Modal damping ratio on the mean-stiffness modes",
+        ),
+        param(
+            &format!("{}.initial_phase", scene.meshes[0].name),
+            VR_INITIAL_PHASE,
+            scene.meshes[0].initial_phase,
+            Some("cycle"),
+            "Mesh phase of the first mesh at the start time; the other meshes follow with their phasing",
+        ),
+    ];
+    for (g, gear) in scene.gears.iter().enumerate() {
+        v.push(param(
+            &format!("{}.inertia", gear.name),
+            VR_GEAR_INERTIA0 + g as u32,
+            gear.inertia,
+            Some("kg.m2"),
+            &format!("Polar mass moment of inertia of gear {}", gear.name),
+        ));
+    }
+    for (n, mesh) in scene.meshes.iter().enumerate() {
+        v.push(param(
+            &format!("{}.damping", mesh.name),
+            VR_MESH_DAMPING0 + n as u32,
+            mesh.damping,
+            Some("N.s/m"),
+            "Viscous mesh damping (a damping_ratio in the scene is resolved with the scene's inertias and not recomputed when they change)",
+        ));
+    }
+    for (n, mesh) in scene.meshes.iter().enumerate() {
+        v.push(Variable::real(
+            &format!("{}.mean_stiffness", mesh.name),
+            VR_MEAN_STIFFNESS0 + n as u32,
+            C::CalculatedParameter,
+            V::Fixed,
+            Some(Initial::Calculated),
+            None,
+            Some("N/m"),
+            "Mean mesh stiffness over one mesh period",
+        ));
+    }
+    let mut speed = input(
+        "input_speed",
+        VR_INPUT_SPEED,
+        scene.operating.input_speed,
+        "rad/s",
+        "Nominal speed of the input gear; every mesh phase advances with it by the train's kinematics",
+    );
+    speed.min = Some(0.0);
+    v.push(speed);
+    v.push(input(
+        "input_torque",
+        VR_INPUT_TORQUE,
+        scene.operating.input_torque,
+        "N.m",
+        "Torque driving the input gear",
+    ));
+    v.push(input(
+        "load_torque",
+        VR_LOAD_TORQUE,
+        scene.operating.load_torque,
+        "N.m",
+        "Load torque magnitude on the output gear (positive resists its rotation)",
+    ));
+    for (i, name) in outputs.iter().enumerate() {
+        let (unit, integer, desc) = describe_output(scene, name)?;
+        let mut o = Variable::real(
+            name,
+            VR_OUTPUT0 + i as u32,
+            C::Output,
+            V::Continuous,
+            Some(Initial::Calculated),
+            None,
+            unit,
+            &desc,
+        );
+        if integer {
+            o.kind = VarKind::Integer;
+            o.variability = V::Discrete;
+        }
+        // Direct feedthrough (ModelStructure/Outputs, FMI 2.0.x §2.2.8): the damping term of
+        // a mesh force holds the rate of the STE, which scales with the speed; a Model-2
+        // mesh's excitation is the loaded STE at the static load of the torques.
+        if let Some(mesh) = scene
+            .meshes
+            .iter()
+            .find(|m| *name == format!("{}_force", m.name))
+        {
+            o.depends_on = vec![VR_INPUT_SPEED];
+            if matches!(
+                mesh.force,
+                MeshForceModel::Pairs {
+                    model: PairModel::LoadedSte,
+                    ..
+                }
+            ) {
+                o.depends_on.extend([VR_INPUT_TORQUE, VR_LOAD_TORQUE]);
+            }
+        }
+        v.push(o);
+    }
+    Ok(v)
+}

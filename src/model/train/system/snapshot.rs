@@ -1,0 +1,152 @@
+//! The run-time state of a [`GearTrain`]: what, besides `(t, ξ, ξ')` and the scene it was
+//! assembled from, determines how it continues. Taken and restored bit for bit so an FMU
+//! state (FMI 2.0.x §2.1.8) replays identically; the drivetrain counterpart of
+//! `GearPair::pair_state`.
+
+use super::{GearTrain, SlotContact, TrainInputs};
+use crate::model::PhaseClock;
+use crate::scene::ContactLaw;
+
+/// Discrete mode and clock of one mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshRunState {
+    /// Kept as the anchor itself (re-deriving it from a phase would change rounding).
+    pub clock: PhaseClock,
+    /// Integer-valued cycle of the shifted phase and the interval index within it.
+    pub cycle: f64,
+    pub interval: usize,
+    /// Contact flag of every tooth-pair slot.
+    pub flags: Vec<SlotContact>,
+    /// Contact-loss bookkeeping: time with total loss so far, and since when it is lost now.
+    pub loss_total: f64,
+    pub loss_since: Option<f64>,
+}
+
+/// Snapshot of a [`GearTrain`]'s run-time state.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TrainRunState {
+    pub inputs: TrainInputs,
+    /// Start of the contact-loss bookkeeping.
+    pub loss_start: f64,
+    pub meshes: Vec<MeshRunState>,
+}
+
+impl SlotContact {
+    /// The flag's code in [`SlotContact`]'s discriminants (stable: used in FMU states).
+    pub fn code(self) -> u8 {
+        self as u8
+    }
+
+    pub fn from_code(code: u8) -> Option<SlotContact> {
+        [
+            SlotContact::Inactive,
+            SlotContact::Drive,
+            SlotContact::Separated,
+            SlotContact::Back,
+        ]
+        .into_iter()
+        .find(|f| f.code() == code)
+    }
+}
+
+impl GearTrain {
+    /// Snapshot of the run-time state ([`TrainRunState`]).
+    pub fn run_state(&self) -> TrainRunState {
+        TrainRunState {
+            inputs: self.inputs,
+            loss_start: self.loss_start,
+            meshes: self
+                .meshes
+                .iter()
+                .zip(&self.loss)
+                .map(|(m, &(loss_total, loss_since))| MeshRunState {
+                    clock: m.clock,
+                    cycle: m.cycle,
+                    interval: m.interval,
+                    flags: m.flags.clone(),
+                    loss_total,
+                    loss_since,
+                })
+                .collect(),
+        }
+    }
+
+    /// Restores a [`TrainRunState`] taken from a train assembled from the same scene.
+    /// Everything is checked before anything changes: a state from another scene (mesh or
+    /// slot count, interval index, a flag the contact law or the slot's engagement excludes,
+    /// a non-finite number) is rejected with a message naming the mesh and the value, so the
+    /// force evaluation can rely on an engaged slot having a stiffness law.
+    pub fn restore_run_state(&mut self, s: &TrainRunState) -> Result<(), String> {
+        let i = s.inputs;
+        let finite = [i.input_speed, i.input_torque, i.load_torque, s.loss_start];
+        if !finite.iter().all(|v| v.is_finite()) || i.input_speed < 0.0 {
+            return Err(format!(
+                "inputs {i:?} / loss start {} are not finite or the speed is negative",
+                s.loss_start
+            ));
+        }
+        if s.meshes.len() != self.meshes.len() {
+            return Err(format!(
+                "the state has {} meshes, this train {}",
+                s.meshes.len(),
+                self.meshes.len()
+            ));
+        }
+        // The inputs first: a Model-2 mesh rebuilds its table for the torques, which fixes
+        // the interval and slot counts the mode is checked against.
+        let mut train = self.clone();
+        train.apply_inputs(0.0, s.inputs)?;
+        for (n, (mesh, ms)) in train.meshes.iter_mut().zip(&s.meshes).enumerate() {
+            let (t0, p0) = ms.clock.anchor();
+            let numbers = [t0, p0, ms.clock.mesh_frequency(), ms.cycle, ms.loss_total];
+            if !numbers.iter().all(|v| v.is_finite())
+                || ms.cycle.fract() != 0.0
+                || !ms.loss_since.is_none_or(f64::is_finite)
+            {
+                return Err(format!(
+                    "mesh {n}: clock/cycle/loss values {numbers:?}, {:?} are not valid",
+                    ms.loss_since
+                ));
+            }
+            let intervals = mesh.table().map_or(1, |t| t.intervals.len());
+            if ms.interval >= intervals || ms.flags.len() != mesh.flags.len() {
+                return Err(format!(
+                    "mesh {n}: interval {} of {intervals} with {} slots (this mesh has {})",
+                    ms.interval,
+                    ms.flags.len(),
+                    mesh.flags.len()
+                ));
+            }
+            mesh.clock = ms.clock;
+            mesh.cycle = ms.cycle;
+            mesh.interval = ms.interval;
+            for (j, &flag) in ms.flags.iter().enumerate() {
+                let engaged = mesh.law(j).is_some();
+                let allowed = match (engaged, flag, mesh.contact) {
+                    (false, f, _) => f == SlotContact::Inactive,
+                    (true, SlotContact::Inactive, _) => false,
+                    (true, f, ContactLaw::Linear) => f == SlotContact::Drive,
+                    (true, f, ContactLaw::ContactLoss) => f != SlotContact::Back,
+                    (true, _, ContactLaw::Backlash { .. }) => true,
+                };
+                if !allowed {
+                    return Err(format!(
+                        "mesh {n}, slot {j}: contact flag {flag:?} is impossible here \
+                         (engaged: {engaged}, contact law {:?})",
+                        mesh.contact
+                    ));
+                }
+            }
+            mesh.flags.clone_from(&ms.flags);
+        }
+        train.loss = s
+            .meshes
+            .iter()
+            .map(|m| (m.loss_total, m.loss_since))
+            .collect();
+        train.loss_start = s.loss_start;
+        train.refresh_guards();
+        *self = train;
+        Ok(())
+    }
+}
