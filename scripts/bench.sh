@@ -19,6 +19,9 @@ done
 out=target/bench
 mkdir -p "$out"
 cargo bench --locked --bench spur_pair -- --csv "$out/spur_pair.csv" --write-scenes "$out/scenes" "${bench_args[@]}"
+echo
+# Steady-state tools: 400-point sweep vs brute force, HB continuation with stability.
+cargo bench --locked --bench analysis
 if [ "$scipy" = 1 ]; then
   echo
   bash scripts/setup-python.sh >/dev/null

@@ -28,6 +28,8 @@ enum Command {
     Periodic(cli::analysis::PeriodicArgs),
     /// Frequency-response sweep over pinion speed (warm start, up/down branches).
     Sweep(cli::analysis::SweepArgs),
+    /// Harmonic balance with arclength continuation and stability (FRF branch).
+    Hb(cli::analysis::HbArgs),
     /// Mesh stiffness over one mesh period from gear geometry (docs/stiffness.md).
     Stiffness(cli::stiffness::StiffnessArgs),
     /// FMI 2.0 Co-Simulation FMUs: build, print or check model descriptions.
@@ -40,6 +42,7 @@ fn main() -> ExitCode {
         Command::Modes(args) => cli::train::modes_command(&args.scene, args.rigid_bearings),
         Command::Periodic(args) => cli::analysis::periodic(args),
         Command::Sweep(args) => cli::analysis::sweep(args),
+        Command::Hb(args) => cli::analysis::hb(args),
         Command::Stiffness(args) => cli::stiffness::run(args),
         Command::Fmu(args) => geardyn::fmi::cli::run(args),
     };

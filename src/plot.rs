@@ -10,8 +10,10 @@ pub struct Series<'a> {
     pub color: &'a str,
     pub points: Vec<(f64, f64)>,
     pub dashed: bool,
-    /// Draw a small circle at each point (sweep samples) instead of only the line.
+    /// Draw a small circle at each point (sweep samples).
     pub markers: bool,
+    /// Join the points by a line (off for scattered samples).
+    pub line: bool,
 }
 
 /// A plot with labelled axes.
@@ -136,7 +138,8 @@ impl Plot<'_> {
             TOP + ph / 2.0,
             escape(self.y_label)
         );
-        for (i, series) in self.series.iter().enumerate() {
+        let mut legend_rows = 0;
+        for series in &self.series {
             let pts: Vec<String> = series
                 .points
                 .iter()
@@ -148,12 +151,14 @@ impl Plot<'_> {
             } else {
                 ""
             };
-            let _ = writeln!(
-                s,
-                r#"<polyline fill="none" stroke="{}" stroke-width="1.5"{dash} points="{}"/>"#,
-                series.color,
-                pts.join(" ")
-            );
+            if series.line {
+                let _ = writeln!(
+                    s,
+                    r#"<polyline fill="none" stroke="{}" stroke-width="1.5"{dash} points="{}"/>"#,
+                    series.color,
+                    pts.join(" ")
+                );
+            }
             if series.markers {
                 for p in &pts {
                     let (x, y) = p.split_once(',').expect("formatted pair");
@@ -164,7 +169,12 @@ impl Plot<'_> {
                     );
                 }
             }
-            let ly = TOP + 16.0 + 16.0 * i as f64;
+            // Segments of one curve repeat its label only once (empty labels).
+            if series.label.is_empty() {
+                continue;
+            }
+            let ly = TOP + 16.0 + 16.0 * legend_rows as f64;
+            legend_rows += 1;
             let _ = writeln!(
                 s,
                 r#"<line x1="{}" y1="{ly}" x2="{}" y2="{ly}" stroke="{}" stroke-width="2"{dash}/><text x="{}" y="{}">{}</text>"#,
@@ -177,7 +187,7 @@ impl Plot<'_> {
             );
         }
         if !self.bands.is_empty() {
-            let ly = TOP + 16.0 + 16.0 * self.series.len() as f64;
+            let ly = TOP + 16.0 + 16.0 * legend_rows as f64;
             let _ = writeln!(
                 s,
                 r##"<rect x="{}" y="{}" width="25" height="10" fill="#dde8f6" stroke="#999"/><text x="{}" y="{}">{}</text>"##,
@@ -235,6 +245,7 @@ mod tests {
                 points: vec![(0.0, 1.0), (1.0, 2.0)],
                 dashed: false,
                 markers: true,
+                line: true,
             }],
             bands: vec![(0.2, 0.4)],
             band_label: "zone",

@@ -66,6 +66,7 @@ pub fn svg(curves: &[(&str, &StiffnessCurve)], title: &str) -> String {
             // Later curves dashed, so that coinciding curves stay visible.
             dashed: i > 0,
             markers: false,
+            line: true,
         })
         .collect();
     let bands = curves
