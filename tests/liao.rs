@@ -127,6 +127,39 @@ fn multiplier_product_obeys_liouville_and_hsu_converges() {
 }
 
 #[test]
+fn hsu_converges_to_the_smooth_monodromy() {
+    // The smooth system's multipliers from RK variational equations with saltation (the
+    // "exact" monodromy next to Hsu's approximation, Liao 2025 §4).
+    let mut smooth = liao_scene(0.898, "always");
+    smooth.solver.method = geardyn::scene::MethodChoice::Rk;
+    smooth.solver.rtol = 1e-12;
+    smooth.solver.atol = 1e-20;
+    let exact = shoot(&smooth, &ShootingOptions::default()).expect("smooth orbit");
+    let key = |m: &nalgebra::Complex<f64>| (m.re, m.im);
+    let mut mu_exact = exact.multipliers.clone();
+    mu_exact.sort_by(|a, b| key(a).partial_cmp(&key(b)).unwrap());
+    println!("smooth (RK variational): μ = {mu_exact:.6?}");
+    let mut last = f64::INFINITY;
+    for parts in [32, 64, 128, 256] {
+        let orbit = shoot(&hsu(&smooth, parts), &ShootingOptions::default()).expect("orbit");
+        let mut mu = orbit.multipliers.clone();
+        mu.sort_by(|a, b| key(a).partial_cmp(&key(b)).unwrap());
+        let diff = mu
+            .iter()
+            .zip(&mu_exact)
+            .map(|(a, b)| (a - b).norm())
+            .fold(0.0, f64::max);
+        println!("  Hsu {parts:3} parts: max |μ_Hsu − μ| = {diff:.2e}");
+        assert!(
+            diff < last / 2.5,
+            "Hsu must converge (second order) to the smooth multipliers"
+        );
+        last = diff;
+    }
+    assert!(last < 1e-3);
+}
+
+#[test]
 fn damping_switched_off_in_separation_breaks_the_identity() {
     // Oracle that the check can fail: with damping only in contact the trace is not constant
     // around an orbit that separates, so the product differs from exp(−4πξ/ω).

@@ -147,3 +147,18 @@ fn bad_options_are_rejected() {
     .unwrap_err();
     assert!(err.contains("tolerance = NaN"), "{err}");
 }
+
+#[test]
+fn smooth_scene_orbit_by_rk_variational_equations() {
+    // Trapezoidal stiffness with contact loss: not piecewise LTI, so the period map and its
+    // Jacobian come from RK variational equations with saltation matrices.
+    let text = include_str!("../fmu/spur_pair/scene.toml")
+        .replacen(
+            "kind = \"rectangular\"\nmean = 2.9831e8\npeak_to_peak_ratio = 0.35\ncontact_ratio = 1.504",
+            "kind = \"trapezoidal\"\nmean = 2.9831e8\npeak_to_peak_ratio = 0.35\ncontact_ratio = 1.504\ntransition = 0.1",
+            1,
+        )
+        .replacen("method = \"auto\"", "method = \"rk\"\nrtol = 1e-12\natol = 1e-20", 1);
+    let scene = Scene::from_toml_str(&text, "trapezoidal").unwrap();
+    check_scene("trapezoidal (RK variational)", &scene);
+}

@@ -3,13 +3,18 @@
 //! Nonlinear Dynamics*, §7.3). For piecewise-LTI scenes the monodromy is the product of the
 //! segment transition matrices and, at each contact change, the saltation matrix
 //! ([`ExactPropagator::track_sensitivity`]), so Newton converges quadratically also through
-//! contact loss and back-side impacts.
+//! contact loss and back-side impacts. Other scenes (smooth stiffness, cubic terms) use the
+//! variational equations carried along the RK integration ([`Variational`]), with the same
+//! saltation matrices.
 
 use nalgebra::{Complex, DMatrix, DVector};
 
 use crate::model::GearPair;
 use crate::scene::Scene;
+use crate::simulation::Simulation;
 use crate::solve::exact::{ExactPropagator, PiecewiseLti};
+use crate::solve::rk::{RkOptions, RkStepper};
+use crate::solve::variational::Variational;
 
 /// Settings of [`shoot`].
 #[derive(Debug, Clone)]
@@ -91,58 +96,97 @@ impl PeriodicOrbit {
 }
 
 /// The period map with its Jacobian, on a pair assembled once.
+/// The period map with its Jacobian, on a pair assembled once: the exact propagator's
+/// sensitivity for piecewise-LTI scenes, RK variational equations otherwise (both with
+/// saltation matrices at contact changes).
 struct PeriodMap {
     pair: GearPair,
-    propagator: ExactPropagator,
+    propagator: MapPropagator,
     duration: f64,
 }
 
+enum MapPropagator {
+    Exact(Box<ExactPropagator>),
+    Rk(RkOptions),
+}
+
 impl PeriodMap {
+    fn new(scene: &Scene, periods: u32) -> Result<PeriodMap, String> {
+        if !(scene.operating.pinion_speed > 0.0) {
+            return Err(format!(
+                "operating.pinion_speed = {}: a period map needs a positive speed",
+                scene.operating.pinion_speed
+            ));
+        }
+        let pair = GearPair::new(scene);
+        let duration = pair.mesh_period() * periods as f64;
+        let propagator = if pair.is_piecewise_lti() {
+            MapPropagator::Exact(Box::new(ExactPropagator::new(&pair)))
+        } else {
+            let settings = &scene.solver;
+            MapPropagator::Rk(RkOptions {
+                rtol: settings.rtol,
+                atol: settings.atol,
+                ..RkOptions::new(settings.rk_method)
+            })
+        };
+        Ok(PeriodMap {
+            pair,
+            propagator,
+            duration,
+        })
+    }
+
     fn eval(&mut self, y0: &[f64]) -> Result<(DVector<f64>, DMatrix<f64>), String> {
         self.pair.resynchronise(0.0, y0);
-        self.propagator.invalidate();
-        self.propagator.set_state(0.0, y0);
-        self.propagator.track_sensitivity(true);
-        self.propagator
-            .advance_to(&mut self.pair, self.duration)
-            .map_err(|e| format!("period map: {e}"))?;
-        let y = DVector::from_column_slice(self.propagator.y());
-        let m = self
-            .propagator
-            .sensitivity()
-            .expect("tracking is on")
-            .clone();
-        Ok((y, m))
+        match &mut self.propagator {
+            MapPropagator::Exact(p) => {
+                p.invalidate();
+                p.set_state(0.0, y0);
+                p.track_sensitivity(true);
+                p.advance_to(&mut self.pair, self.duration)
+                    .map_err(|e| format!("period map: {e}"))?;
+                let y = DVector::from_column_slice(p.y());
+                Ok((y, p.sensitivity().expect("tracking is on").clone()))
+            }
+            MapPropagator::Rk(options) => {
+                let mut system = Variational::new(&mut self.pair, 0.0, y0)?;
+                let z0 = system.initial_state(y0);
+                let mut stepper = RkStepper::new(options.clone(), z0.len())?;
+                stepper.set_state(0.0, &z0);
+                stepper
+                    .advance_to(&mut system, self.duration)
+                    .map_err(|e| format!("period map: {e}"))?;
+                if let Some(failure) = system.failure.take() {
+                    return Err(format!("period map: {failure}"));
+                }
+                let n = y0.len();
+                let z = stepper.y();
+                let phi = system.transition(z);
+                Ok((
+                    DVector::from_column_slice(&z[..n]),
+                    DMatrix::from_row_slice(n, n, &phi),
+                ))
+            }
+        }
     }
 }
 
 /// The period map over `periods` mesh periods from `y0` at `t = 0` and its Jacobian (exact
-/// monodromy with saltation), for a piecewise-LTI scene at its operating point.
+/// monodromy for piecewise-LTI scenes, RK variational equations otherwise; saltation at
+/// contact changes), at the scene's operating point.
 pub fn period_map(
     scene: &Scene,
     y0: [f64; 2],
     periods: u32,
 ) -> Result<(Vec<f64>, DMatrix<f64>), String> {
-    let pair = GearPair::new(scene);
-    if !pair.is_piecewise_lti() {
-        return Err("period map: the exact monodromy needs a piecewise-constant stiffness".into());
-    }
-    if !(scene.operating.pinion_speed > 0.0) {
-        return Err("period map: the pinion speed must be > 0".into());
-    }
-    let duration = pair.mesh_period() * periods as f64;
-    let propagator = ExactPropagator::new(&pair);
-    let mut map = PeriodMap {
-        pair,
-        propagator,
-        duration,
-    };
+    let mut map = PeriodMap::new(scene, periods)?;
     let (y, m) = map.eval(&y0)?;
     Ok((y.as_slice().to_vec(), m))
 }
 
-/// Finds the period-`k` orbit of a piecewise-LTI scene at its operating point by damped
-/// Newton shooting.
+/// Finds the period-`k` orbit of a scene at its operating point by damped Newton shooting
+/// (exact monodromy for piecewise-LTI scenes, RK variational equations otherwise).
 pub fn shoot(scene: &Scene, options: &ShootingOptions) -> Result<PeriodicOrbit, String> {
     if options.periods == 0 {
         return Err("periods = 0: an orbit spans at least one mesh period".into());
@@ -159,26 +203,16 @@ pub fn shoot(scene: &Scene, options: &ShootingOptions) -> Result<PeriodicOrbit, 
             scene.operating.pinion_speed
         ));
     }
-    let mut pair = GearPair::new(scene);
-    if !pair.is_piecewise_lti() {
-        return Err(
-            "mesh.stiffness: shooting with the exact monodromy needs a piecewise-constant \
-             stiffness (constant or rectangular)"
-                .into(),
-        );
-    }
-    let mesh_period = pair.mesh_period();
-    let duration = mesh_period * options.periods as f64;
-    let mut guess = pair.initial_state(scene).to_vec();
-    let mut propagator = ExactPropagator::new(&pair);
+    let mut map = PeriodMap::new(scene, options.periods)?;
+    let mesh_period = map.duration / options.periods as f64;
+    let mut guess = map.pair.initial_state(scene).to_vec();
     if options.warmup_periods > 0 {
-        propagator.set_state(0.0, &guess);
-        let t_warm = mesh_period * options.warmup_periods as f64;
-        propagator
-            .advance_to(&mut pair, t_warm)
+        let mut sim = Simulation::new(scene)?;
+        sim.advance_to(mesh_period * options.warmup_periods as f64)
             .map_err(|e| format!("warm-up: {e}"))?;
-        guess.copy_from_slice(propagator.y());
+        guess.copy_from_slice(&sim.state());
     }
+    let pair = &map.pair;
     // Residual scale: the static deflection (or the clearance when unloaded) for x, times the
     // fastest frequency for x'.
     let x_scale = pair.static_deflection().abs().max(1e-9).max(guess[0].abs());
@@ -190,11 +224,6 @@ pub fn shoot(scene: &Scene, options: &ShootingOptions) -> Result<PeriodicOrbit, 
             .fold(0.0, f64::max)
     };
 
-    let mut map = PeriodMap {
-        pair,
-        propagator,
-        duration,
-    };
     let mut y = DVector::from_vec(guess);
     let (mut py, mut m) = map.eval(y.as_slice())?;
     let mut residual = scaled_norm(&(&py - &y));
@@ -204,7 +233,7 @@ pub fn shoot(scene: &Scene, options: &ShootingOptions) -> Result<PeriodicOrbit, 
             let multipliers = m.complex_eigenvalues().iter().copied().collect();
             return Ok(PeriodicOrbit {
                 y0: y.as_slice().to_vec(),
-                period: duration,
+                period: map.duration,
                 periods: options.periods,
                 monodromy: m,
                 multipliers,

@@ -542,6 +542,44 @@ impl HybridSystem for GearPair {
         }
     }
 
+    /// `∂f/∂y` of the frozen mode: `[[0, 1], [−∂F/∂x / m, −∂F/∂x' / m]]`.
+    fn jacobian(&self, t: f64, y: &[f64], jac: &mut [f64]) -> bool {
+        let (kx, cv) = match self.contact {
+            ContactState::Separated if self.damping_always => (0.0, self.damping),
+            ContactState::Separated => (0.0, 0.0),
+            ContactState::Drive | ContactState::Back => {
+                let k = self.stiffness_at(t);
+                if self.smooth.is_zero() {
+                    (k, self.damping)
+                } else {
+                    let s = &self.smooth;
+                    let d2 = self.deflection(t, y).0.powi(2);
+                    let p = self.clock.phase_at(t);
+                    (
+                        k * (1.0 + 3.0 * s.cubic_factor * d2) + 3.0 * s.cubic_spring * d2,
+                        self.damping + s.damping_variation * (TAU * p).cos(),
+                    )
+                }
+            }
+        };
+        jac.copy_from_slice(&[0.0, 1.0, -kx / self.m_e, -cv / self.m_e]);
+        true
+    }
+
+    /// Guards are `±δ` or `±(δ + 2b)` with `δ = x − e(p(t))`: gradient `[±1, 0]`, explicit
+    /// time derivative `∓ė`.
+    fn guard_gradient(&self, t: f64, _y: &[f64], index: usize, grad: &mut [f64]) -> Option<f64> {
+        let sign = match (self.contact, index) {
+            (ContactState::Drive, _) => 1.0,
+            (ContactState::Separated, 0) => -1.0,
+            (ContactState::Separated, _) => 1.0,
+            (ContactState::Back, _) => -1.0,
+        };
+        let e_rate = self.ste_at(t).1;
+        grad.copy_from_slice(&[sign, 0.0]);
+        Some(-sign * e_rate)
+    }
+
     fn on_event(&mut self, t: f64, y: &mut [f64], index: usize) {
         let e = self.ste_at(t).0;
         let clearance = self.clearance();

@@ -11,6 +11,7 @@
 pub mod exact;
 pub mod rk;
 pub mod roots;
+pub mod variational;
 
 use std::fmt;
 
@@ -51,6 +52,18 @@ pub trait HybridSystem {
     /// Called at a located state event: guard `index` crossed zero at `t`. The system snaps `y`
     /// onto the switching surface and switches mode.
     fn on_event(&mut self, _t: f64, _y: &mut [f64], _index: usize) {}
+
+    /// The Jacobian `∂f/∂y` of the current mode, row-major `n × n`, for variational equations.
+    /// Returns `false` when the system does not provide it.
+    fn jacobian(&self, _t: f64, _y: &[f64], _jac: &mut [f64]) -> bool {
+        false
+    }
+
+    /// Gradient `∂g_i/∂y` of guard `index` into `grad`, returning `∂g_i/∂t`; `None` when the
+    /// system does not provide it. Needed for saltation matrices.
+    fn guard_gradient(&self, _t: f64, _y: &[f64], _index: usize, _grad: &mut [f64]) -> Option<f64> {
+        None
+    }
 }
 
 /// Counters every integrator keeps (work measures for benchmarks).
