@@ -4,4 +4,5 @@
 //! Data flow (see `DESIGN.md`): [`scene`] (TOML) → [`model`] (one specialised system) →
 //! [`solve`] (RK with events | exact piecewise-LTI propagator) → outputs.
 
+pub mod host;
 pub mod solve;
