@@ -81,7 +81,8 @@ macro_rules! str_enum {
             pub fn as_str(self) -> &'static str {
                 match self { $($ty::$var => $text),* }
             }
-            fn parse(s: &str) -> Option<Self> {
+            /// Parse the XML spelling.
+            pub fn parse(s: &str) -> Option<Self> {
                 match s { $($text => Some($ty::$var),)* _ => None }
             }
         }

@@ -8,3 +8,7 @@
 
 pub mod csv;
 pub mod description;
+pub mod check;
+pub mod archive;
+pub mod library;
+pub mod logger;
