@@ -8,7 +8,9 @@
 //! integrator lands on exactly; state events are located on the dense output and the state is
 //! snapped onto the switching surface by the system before integration restarts.
 
+pub mod exact;
 pub mod rk;
+pub mod roots;
 
 use std::fmt;
 
@@ -93,6 +95,13 @@ pub enum SolveError {
     EventStorm { t: f64, events: u64 },
     /// The requested end time lies before the current time.
     BackwardTime { t: f64, t_end: f64 },
+    /// The requested end time is NaN or infinite.
+    InvalidEndTime { t: f64, t_end: f64 },
+    /// The system's `next_stop()` lies before the current time (or is NaN), or did not move
+    /// past it after `on_stop`: the segment bookkeeping of the system is inconsistent.
+    StopNotAhead { t: f64, stop: f64 },
+    /// The system's `dim()` differs from the integrator's.
+    DimensionMismatch { expected: usize, got: usize },
 }
 
 impl fmt::Display for SolveError {
@@ -102,7 +111,10 @@ impl fmt::Display for SolveError {
                 write!(f, "step size {h:e} too small at t = {t:e} s")
             }
             SolveError::TooManySteps { t, max_steps } => {
-                write!(f, "more than {max_steps} steps needed, stopped at t = {t:e} s")
+                write!(
+                    f,
+                    "more than {max_steps} steps needed, stopped at t = {t:e} s"
+                )
             }
             SolveError::NonFinite { t } => write!(f, "state became non-finite at t = {t:e} s"),
             SolveError::EventStorm { t, events } => {
@@ -110,6 +122,21 @@ impl fmt::Display for SolveError {
             }
             SolveError::BackwardTime { t, t_end } => {
                 write!(f, "end time {t_end:e} s lies before current time {t:e} s")
+            }
+            SolveError::InvalidEndTime { t, t_end } => {
+                write!(f, "end time {t_end} is not finite (current time {t:e} s)")
+            }
+            SolveError::StopNotAhead { t, stop } => {
+                write!(
+                    f,
+                    "next stop {stop:e} s is not after the current time {t:e} s"
+                )
+            }
+            SolveError::DimensionMismatch { expected, got } => {
+                write!(
+                    f,
+                    "system has {got} states, integrator was built for {expected}"
+                )
             }
         }
     }

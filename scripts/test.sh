@@ -1,0 +1,12 @@
+#!/usr/bin/env bash
+# Runs every test of the project on a fresh machine: installs the Python test environment
+# (./.venv), builds the release binary and cdylib, runs the Rust tests, then pytest.
+# Long stress runs are behind GEARDYN_STRESS=1 (see README).
+set -euo pipefail
+root=$(cd "$(dirname "$0")/.." && pwd)
+cd "$root"
+bash scripts/setup-python.sh
+cargo build --release --locked
+cargo test --release --locked
+# pytest exits 5 when it collects no test; that is a failure of the harness, not a pass.
+.venv/bin/python -m pytest -q tests/python "$@"

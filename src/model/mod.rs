@@ -1,0 +1,14 @@
+//! Model assembly: turns a validated scene into one specialised system for the solvers.
+//!
+//! # Sign convention (the one place it is stated)
+//!
+//! The dynamic transmission error (DTE) is `x = r_b1·θ1 + r_b2·θ2` in metres along the line of
+//! action, with `θ1` positive in the pinion's driving direction and `θ2` positive **against**
+//! the gear's nominal rotation, so `x > 0` compresses the drive flanks. `T1` drives the pinion,
+//! `T2` is the magnitude of the load torque on the gear. See `docs/model.md`.
+
+mod clock;
+mod pair;
+
+pub use clock::PhaseClock;
+pub use pair::{ContactState, GearPair, Inputs, OUTPUT_NAMES};

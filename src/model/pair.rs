@@ -1,0 +1,469 @@
+//! The single-mesh torsional gear pair in the DTE coordinate (`docs/model.md`).
+//!
+//! `m_e x'' + F(x, x', p) = F_ext` with the mesh force of the contact law, the mesh stiffness
+//! `k(p)` and the static transmission error `e(p)` as functions of the mesh phase `p`.
+//! Kahraman & Singh (1990, JSV 142:49–75) form with Liu (2007) conventions; the back-side
+//! branch uses the corrected sign `k(δ + 2b)` (Liu 2007 eq. 2.4 erratum,
+//! `models-liu-parker-2007.md` §8 item 2).
+//!
+//! Only the terms the scene uses are active: without contact loss there are no guards (no event
+//! work); without STE the harmonic terms vanish; a constant or smooth stiffness has no stops.
+
+use std::f64::consts::TAU;
+
+use nalgebra::DMatrix;
+
+use super::PhaseClock;
+use crate::mesh::{MeshStiffness, PhaseSeries};
+use crate::scene::{ContactLaw, InitialDte, Scene};
+use crate::solve::exact::PiecewiseLti;
+use crate::solve::HybridSystem;
+
+/// Contact state of the mesh; the value is the `contact_state` output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ContactState {
+    Drive = 1,
+    Separated = 0,
+    Back = -1,
+}
+
+/// The operating inputs (FMU inputs), held constant between communication points.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Inputs {
+    /// Nominal pinion speed Ω, rad/s (>= 0).
+    pub pinion_speed: f64,
+    /// T1, N·m.
+    pub input_torque: f64,
+    /// T2 (magnitude, resisting the gear), N·m.
+    pub load_torque: f64,
+}
+
+/// Output names in CSV/FMU order (`docs/model.md`, "Outputs").
+pub const OUTPUT_NAMES: [&str; 7] = [
+    "dte",
+    "dte_rate",
+    "mesh_force",
+    "contact_state",
+    "mesh_phase",
+    "mesh_stiffness",
+    "static_deflection",
+];
+
+/// Position in the piecewise stiffness: `cycle` (integer-valued) and `piece` index of the
+/// shifted phase `u = p + phase`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Segment {
+    cycle: f64,
+    piece: usize,
+}
+
+/// The gear pair as a hybrid system with state `y = [x, x']`.
+#[derive(Debug, Clone)]
+pub struct GearPair {
+    // Parameters (fixed after assembly).
+    r_b1: f64,
+    r_b2: f64,
+    inertia1: f64,
+    inertia2: f64,
+    pinion_teeth: f64,
+    m_e: f64,
+    k_mean: f64,
+    stiffness: MeshStiffness,
+    /// Whether the stiffness has pieces whose boundaries must be stops.
+    has_stops: bool,
+    ste: PhaseSeries,
+    contact_law: ContactLaw,
+    damping: f64,
+    // Inputs and what follows from them.
+    inputs: Inputs,
+    f_ext: f64,
+    // Discrete mode.
+    clock: PhaseClock,
+    segment: Segment,
+    contact: ContactState,
+    /// Contact changes `(t, new state)`, recorded only when enabled (tests, analysis).
+    event_log: Option<Vec<(f64, ContactState)>>,
+}
+
+impl GearPair {
+    /// Assembles the pair at `t = 0` with the scene's inputs; call [`GearPair::initial_state`]
+    /// for the matching initial state.
+    pub fn new(scene: &Scene) -> GearPair {
+        let m_e = scene.equivalent_mass();
+        let pieces = scene.mesh.stiffness.pieces();
+        let has_stops = match pieces {
+            Some(pieces) => pieces.len() > 1 || pieces[0].slope != 0.0,
+            None => false,
+        };
+        let mut pair = GearPair {
+            r_b1: scene.pinion.base_radius,
+            r_b2: scene.gear.base_radius,
+            inertia1: scene.pinion.inertia,
+            inertia2: scene.gear.inertia,
+            pinion_teeth: scene.pinion.teeth as f64,
+            m_e,
+            k_mean: scene.mesh.stiffness.mean(),
+            stiffness: scene.mesh.stiffness.clone(),
+            has_stops,
+            ste: scene.mesh.ste.clone(),
+            contact_law: scene.mesh.contact,
+            damping: scene.mesh.damping,
+            inputs: Inputs {
+                pinion_speed: scene.operating.pinion_speed,
+                input_torque: scene.operating.input_torque,
+                load_torque: scene.operating.load_torque,
+            },
+            f_ext: 0.0,
+            clock: PhaseClock::new(0.0, scene.mesh.initial_phase, 0.0),
+            segment: Segment {
+                cycle: 0.0,
+                piece: 0,
+            },
+            contact: ContactState::Drive,
+            event_log: None,
+        };
+        pair.apply_inputs(0.0, pair.inputs);
+        pair.locate_segment(0.0);
+        pair
+    }
+
+    /// The scene's initial state `[x0, x0']`; also sets the contact state to match it.
+    pub fn initial_state(&mut self, scene: &Scene) -> [f64; 2] {
+        let e0 = self.ste_at(0.0).0;
+        let x0 = match scene.initial_dte {
+            InitialDte::Static => self.static_deflection() + e0,
+            InitialDte::Value(x) => x,
+        };
+        let y = [x0, scene.initial_dte_rate];
+        self.classify_contact(0.0, &y);
+        y
+    }
+
+    /// Sets new inputs at time `t` (between communication points). The mesh phase stays
+    /// continuous; the nominal speed changes from `t` on.
+    pub fn set_inputs(&mut self, t: f64, inputs: Inputs) {
+        self.apply_inputs(t, inputs);
+    }
+
+    pub fn inputs(&self) -> Inputs {
+        self.inputs
+    }
+
+    fn apply_inputs(&mut self, t: f64, inputs: Inputs) {
+        self.inputs = inputs;
+        let f_m = self.pinion_teeth * inputs.pinion_speed / TAU;
+        self.clock.reanchor(t, f_m);
+        self.f_ext = self.m_e
+            * (self.r_b1 * inputs.input_torque / self.inertia1
+                + self.r_b2 * inputs.load_torque / self.inertia2);
+    }
+
+    /// Places the stiffness segment from the phase at `t` (only at (re)start: during
+    /// integration the segment advances through `on_stop`, never from a rounded phase).
+    fn locate_segment(&mut self, t: f64) {
+        let u = self.clock.phase_at(t) + self.stiffness.phase();
+        let cycle = u.floor();
+        let s = u - cycle;
+        let piece = match self.stiffness.pieces() {
+            Some(pieces) => pieces
+                .partition_point(|piece| piece.start <= s)
+                .saturating_sub(1),
+            None => 0,
+        };
+        self.segment = Segment { cycle, piece };
+    }
+
+    /// Resets the discrete mode from a state at time `t`: used at start and after a state is
+    /// restored from outside (FMU `SetFMUstate`).
+    pub fn resynchronise(&mut self, t: f64, y: &[f64]) {
+        self.locate_segment(t);
+        self.classify_contact(t, y);
+    }
+
+    /// Sets the contact state from the deflection, ties broken by the deflection rate.
+    fn classify_contact(&mut self, t: f64, y: &[f64]) {
+        let (delta, delta_rate) = self.deflection(t, y);
+        self.contact = match self.contact_law {
+            ContactLaw::Linear => ContactState::Drive,
+            ContactLaw::ContactLoss => {
+                if delta > 0.0 || (delta == 0.0 && delta_rate > 0.0) {
+                    ContactState::Drive
+                } else {
+                    ContactState::Separated
+                }
+            }
+            ContactLaw::Backlash { clearance } => {
+                let back = delta + clearance;
+                if delta > 0.0 || (delta == 0.0 && delta_rate > 0.0) {
+                    ContactState::Drive
+                } else if back < 0.0 || (back == 0.0 && delta_rate < 0.0) {
+                    ContactState::Back
+                } else {
+                    ContactState::Separated
+                }
+            }
+        };
+    }
+
+    /// `e(p(t))` and `de/dt`.
+    fn ste_at(&self, t: f64) -> (f64, f64) {
+        let (e, slope) = self.ste.value_and_slope(self.clock.phase_at(t));
+        (e, slope * self.clock.mesh_frequency())
+    }
+
+    /// Mesh deflection `δ = x − e` and its rate.
+    fn deflection(&self, t: f64, y: &[f64]) -> (f64, f64) {
+        let (e, e_rate) = self.ste_at(t);
+        (y[0] - e, y[1] - e_rate)
+    }
+
+    /// Stiffness of the frozen segment at time `t`.
+    fn stiffness_at(&self, t: f64) -> f64 {
+        match &self.stiffness {
+            MeshStiffness::Piecewise { phase, pieces } => {
+                let u = self.clock.phase_at(t) + phase;
+                pieces[self.segment.piece].value(u - self.segment.cycle)
+            }
+            MeshStiffness::Fourier {
+                phase,
+                mean,
+                series,
+            } => mean + series.value(self.clock.phase_at(t) + phase),
+        }
+    }
+
+    /// Clearance 2b (0 unless backlash).
+    fn clearance(&self) -> f64 {
+        match self.contact_law {
+            ContactLaw::Backlash { clearance } => clearance,
+            _ => 0.0,
+        }
+    }
+
+    /// Mesh force in the current contact state.
+    pub fn mesh_force(&self, t: f64, y: &[f64]) -> f64 {
+        let offset = match self.contact {
+            ContactState::Separated => return 0.0,
+            ContactState::Drive => 0.0,
+            ContactState::Back => self.clearance(),
+        };
+        let (delta, delta_rate) = self.deflection(t, y);
+        self.stiffness_at(t) * (delta + offset) + self.damping * delta_rate
+    }
+
+    /// Starts recording contact changes (cleared on every call).
+    pub fn record_events(&mut self) {
+        self.event_log = Some(Vec::new());
+    }
+
+    /// The recorded contact changes `(t, new state)`.
+    pub fn events(&self) -> &[(f64, ContactState)] {
+        self.event_log.as_deref().unwrap_or(&[])
+    }
+
+    pub fn contact_state(&self) -> ContactState {
+        self.contact
+    }
+
+    /// Mean static deflection `F_ext / k̄`, m.
+    pub fn static_deflection(&self) -> f64 {
+        self.f_ext / self.k_mean
+    }
+
+    pub fn equivalent_mass(&self) -> f64 {
+        self.m_e
+    }
+
+    pub fn mean_stiffness(&self) -> f64 {
+        self.k_mean
+    }
+
+    /// Mesh period at the current nominal speed, s (`inf` at standstill).
+    pub fn mesh_period(&self) -> f64 {
+        1.0 / self.clock.mesh_frequency()
+    }
+
+    pub fn mesh_phase(&self, t: f64) -> f64 {
+        self.clock.phase_at(t)
+    }
+
+    /// All outputs at `(t, y)` in [`OUTPUT_NAMES`] order.
+    pub fn outputs(&self, t: f64, y: &[f64], out: &mut [f64; 7]) {
+        *out = [
+            y[0],
+            y[1],
+            self.mesh_force(t, y),
+            self.contact as i8 as f64,
+            self.clock.phase_at(t).rem_euclid(1.0),
+            self.stiffness_at(t),
+            self.static_deflection(),
+        ];
+    }
+
+    /// The constant stiffness of the current piece (piecewise-constant sources only).
+    fn segment_stiffness(&self) -> f64 {
+        self.stiffness
+            .pieces()
+            .map_or(self.k_mean, |pieces| pieces[self.segment.piece].k_start)
+    }
+
+    /// Whether every segment is linear time-invariant (the exact propagator applies).
+    pub fn is_piecewise_lti(&self) -> bool {
+        self.stiffness.is_piecewise_constant()
+    }
+}
+
+impl HybridSystem for GearPair {
+    fn dim(&self) -> usize {
+        2
+    }
+
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        dy[0] = y[1];
+        dy[1] = (self.f_ext - self.mesh_force(t, y)) / self.m_e;
+    }
+
+    fn guard_count(&self) -> usize {
+        match (self.contact_law, self.contact) {
+            (ContactLaw::Linear, _) => 0,
+            (ContactLaw::Backlash { .. }, ContactState::Separated) => 2,
+            _ => 1,
+        }
+    }
+
+    /// Guards of the current mode: drive `[δ]`, separated `[−δ, δ + 2b]`, back `[−(δ + 2b)]`.
+    fn guards(&self, t: f64, y: &[f64], g: &mut [f64]) {
+        let delta = self.deflection(t, y).0;
+        let back = delta + self.clearance();
+        match self.contact {
+            ContactState::Drive => g[0] = delta,
+            ContactState::Separated => {
+                g[0] = -delta;
+                if g.len() > 1 {
+                    g[1] = back;
+                }
+            }
+            ContactState::Back => g[0] = -back,
+        }
+    }
+
+    fn next_stop(&self) -> f64 {
+        if !self.has_stops {
+            return f64::INFINITY;
+        }
+        let pieces = self
+            .stiffness
+            .pieces()
+            .expect("stops only for piecewise stiffness");
+        let end = self.segment.cycle + pieces[self.segment.piece].end;
+        self.clock.time_of(end - self.stiffness.phase())
+    }
+
+    fn on_stop(&mut self, _t: f64, _y: &mut [f64]) {
+        let count = self.stiffness.pieces().map_or(1, <[_]>::len);
+        self.segment.piece += 1;
+        if self.segment.piece == count {
+            self.segment.piece = 0;
+            self.segment.cycle += 1.0;
+        }
+    }
+
+    fn on_event(&mut self, t: f64, y: &mut [f64], index: usize) {
+        let e = self.ste_at(t).0;
+        let clearance = self.clearance();
+        // Snap x so that δ sits exactly on the surface that was crossed (numerics-notes §2.1,
+        // lesson 4), then switch.
+        let (surface, next) = match (self.contact, index) {
+            (ContactState::Drive, _) => (0.0, ContactState::Separated),
+            (ContactState::Separated, 0) => (0.0, ContactState::Drive),
+            (ContactState::Separated, _) => (-clearance, ContactState::Back),
+            (ContactState::Back, _) => (-clearance, ContactState::Separated),
+        };
+        y[0] = e + surface;
+        self.contact = next;
+        if let Some(log) = &mut self.event_log {
+            log.push((t, next));
+        }
+    }
+}
+
+impl PiecewiseLti for GearPair {
+    fn lti_dim(&self) -> usize {
+        3 + 2 * self.ste.harmonics()
+    }
+
+    /// `z = [x, x', cos 2πp, sin 2πp, …, cos 2πHp, sin 2πHp, 1]`.
+    fn lift(&self, t: f64, y: &[f64], z: &mut [f64]) {
+        z[0] = y[0];
+        z[1] = y[1];
+        let p = self.clock.phase_at(t).rem_euclid(1.0);
+        for h in 1..=self.ste.harmonics() {
+            let (s, c) = (TAU * h as f64 * p).sin_cos();
+            z[2 * h] = c;
+            z[2 * h + 1] = s;
+        }
+        let last = z.len() - 1;
+        z[last] = 1.0;
+    }
+
+    fn lti_matrix(&self, a: &mut DMatrix<f64>) {
+        a.fill(0.0);
+        let n = a.nrows();
+        let last = n - 1;
+        let (k, c, offset) = match self.contact {
+            ContactState::Separated => (0.0, 0.0, 0.0),
+            ContactState::Drive => (self.segment_stiffness(), self.damping, 0.0),
+            ContactState::Back => (self.segment_stiffness(), self.damping, self.clearance()),
+        };
+        let m = self.m_e;
+        let omega = TAU * self.clock.mesh_frequency();
+        a[(0, 1)] = 1.0;
+        a[(1, 0)] = -k / m;
+        a[(1, 1)] = -c / m;
+        a[(1, last)] = (self.f_ext - k * offset) / m;
+        for (i, &(ah, bh)) in self.ste.coefficients().iter().enumerate() {
+            let h = (i + 1) as f64;
+            let (ci, si) = (2 * (i + 1), 2 * (i + 1) + 1);
+            // F contains −k·e − c·ė with e = Σ a c_h + b s_h, ė = Σ hω(−a s_h + b c_h).
+            a[(1, ci)] = (k * ah + c * h * omega * bh) / m;
+            a[(1, si)] = (k * bh - c * h * omega * ah) / m;
+            a[(ci, si)] = -h * omega;
+            a[(si, ci)] = h * omega;
+        }
+    }
+
+    fn guard_row(&self, index: usize, w: &mut [f64]) {
+        w.fill(0.0);
+        // δ = x − e as a row over z.
+        w[0] = 1.0;
+        for (i, &(ah, bh)) in self.ste.coefficients().iter().enumerate() {
+            w[2 * (i + 1)] = -ah;
+            w[2 * (i + 1) + 1] = -bh;
+        }
+        let last = w.len() - 1;
+        let clearance = self.clearance();
+        let (sign, offset) = match (self.contact, index) {
+            (ContactState::Drive, _) => (1.0, 0.0),
+            (ContactState::Separated, 0) => (-1.0, 0.0),
+            (ContactState::Separated, _) => (1.0, clearance),
+            (ContactState::Back, _) => (-1.0, clearance),
+        };
+        for v in w.iter_mut() {
+            *v *= sign;
+        }
+        w[last] = sign * offset;
+    }
+
+    fn mode_key(&self) -> u64 {
+        (self.segment.piece as u64) << 2 | (self.contact as i8 + 1) as u64
+    }
+
+    fn max_frequency(&self) -> f64 {
+        let k_max = match self.stiffness.pieces() {
+            Some(pieces) => pieces.iter().map(|p| p.k_start).fold(0.0, f64::max),
+            None => self.k_mean,
+        };
+        let natural = (k_max / self.m_e).sqrt();
+        natural.max(TAU * self.clock.mesh_frequency() * self.ste.harmonics() as f64)
+    }
+}

@@ -1,0 +1,179 @@
+//! Scene description: TOML via serde, defaults, validation with located messages.
+//!
+//! [`spec`] mirrors the file; [`Scene`] is the validated, resolved description in SI units
+//! that the model is assembled from. The format is specified in `docs/model.md`.
+
+pub mod spec;
+mod validate;
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+
+use crate::mesh::{MeshStiffness, PhaseSeries};
+
+pub use spec::SceneSpec;
+
+/// A scene error: the message names the field (as a TOML path) and the offending value, or
+/// the file position where the TOML parser gives one.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneError(pub String);
+
+impl fmt::Display for SceneError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for SceneError {}
+
+/// A gear body.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Gear {
+    pub name: String,
+    pub teeth: u32,
+    pub base_radius: f64,
+    pub inertia: f64,
+}
+
+/// Contact law of a mesh with its clearance.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ContactLaw {
+    /// The mesh spring acts in tension too: no contact loss, no events.
+    Linear,
+    /// Single-sided contact: the force vanishes when the deflection is negative.
+    ContactLoss,
+    /// Drive side, separation and back side with total clearance `clearance` (= 2b), m.
+    Backlash { clearance: f64 },
+}
+
+/// The single mesh between the pinion and the gear.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Mesh {
+    pub contact: ContactLaw,
+    pub stiffness: MeshStiffness,
+    /// Static transmission error `e(p)`, m.
+    pub ste: PhaseSeries,
+    /// Viscous mesh damping `c_m`, N·s/m (resolved from a ratio if given so).
+    pub damping: f64,
+    /// Mesh phase at t = 0, mesh cycles.
+    pub initial_phase: f64,
+}
+
+/// Operating point (inputs of the FMU).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Operating {
+    /// Nominal pinion speed Ω, rad/s.
+    pub pinion_speed: f64,
+    /// T1, N·m.
+    pub input_torque: f64,
+    /// T2 (magnitude, resisting), N·m.
+    pub load_torque: f64,
+}
+
+/// Initial DTE choice.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum InitialDte {
+    /// The mean static deflection plus the STE at the initial phase.
+    Static,
+    Value(f64),
+}
+
+/// How to integrate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MethodChoice {
+    /// The exact propagator when the scene is piecewise LTI, RK otherwise.
+    Auto,
+    Rk,
+    Exact,
+}
+
+impl std::str::FromStr for MethodChoice {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(MethodChoice::Auto),
+            "rk" => Ok(MethodChoice::Rk),
+            "exact" => Ok(MethodChoice::Exact),
+            other => Err(format!("'{other}' is not a method (auto | rk | exact)")),
+        }
+    }
+}
+
+/// Solver settings and the default experiment.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolverSettings {
+    pub method: MethodChoice,
+    pub rk_method: crate::solve::rk::Method,
+    pub rtol: f64,
+    pub atol: f64,
+    pub stop_time: f64,
+    pub output_interval: f64,
+}
+
+/// A validated scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Scene {
+    pub name: String,
+    pub description: String,
+    pub pinion: Gear,
+    pub gear: Gear,
+    pub mesh: Mesh,
+    pub operating: Operating,
+    pub initial_dte: InitialDte,
+    pub initial_dte_rate: f64,
+    pub solver: SolverSettings,
+    /// The TOML text the scene was read from (the FMU GUID is derived from it).
+    pub source: String,
+}
+
+/// Names of the scenes shipped in `fmu/<name>/scene.toml`, compiled into the binary.
+pub const EXAMPLES: &[(&str, &str)] =
+    &[("spur_pair", include_str!("../../fmu/spur_pair/scene.toml"))];
+
+impl Scene {
+    /// Parses and validates scene text. `origin` names the source in messages.
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<Scene, SceneError> {
+        let spec: SceneSpec = toml::from_str(text)
+            .map_err(|e| SceneError(format!("{origin}: {}", e.to_string().trim_end())))?;
+        validate::validate(spec, text).map_err(|e| SceneError(format!("{origin}: {}", e.0)))
+    }
+
+    /// Reads and validates a scene file.
+    pub fn from_file(path: &Path) -> Result<Scene, SceneError> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| SceneError(format!("cannot read scene file '{}': {e}", path.display())))?;
+        Self::from_toml_str(&text, &path.display().to_string())
+    }
+
+    /// A built-in example by name.
+    pub fn example(name: &str) -> Result<Scene, SceneError> {
+        let (_, text) = EXAMPLES.iter().find(|(n, _)| *n == name).ok_or_else(|| {
+            let names: Vec<_> = EXAMPLES.iter().map(|(n, _)| *n).collect();
+            SceneError(format!(
+                "no built-in example named '{name}' (available: {})",
+                names.join(", ")
+            ))
+        })?;
+        Self::from_toml_str(text, &format!("example '{name}'"))
+    }
+
+    /// Resolves a scene argument: a `.toml` file, or a folder holding `scene.toml`
+    /// (such as `fmu/spur_pair`).
+    pub fn from_path(path: &Path) -> Result<Scene, SceneError> {
+        let file: PathBuf = if path.is_dir() {
+            path.join("scene.toml")
+        } else {
+            path.to_path_buf()
+        };
+        Self::from_file(&file)
+    }
+
+    /// Equivalent mass on the line of action, `m_e = 1/(r_b1²/I1 + r_b2²/I2)`, kg.
+    pub fn equivalent_mass(&self) -> f64 {
+        equivalent_mass(&self.pinion, &self.gear)
+    }
+}
+
+pub(crate) fn equivalent_mass(pinion: &Gear, gear: &Gear) -> f64 {
+    1.0 / (pinion.base_radius.powi(2) / pinion.inertia + gear.base_radius.powi(2) / gear.inertia)
+}

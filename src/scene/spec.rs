@@ -1,0 +1,209 @@
+//! The scene file as written by the user: serde types that mirror the TOML one to one.
+//!
+//! These types only describe *syntax* (unknown keys are rejected here). Meaning and ranges are
+//! checked in [`super::validate`], which turns a [`SceneSpec`] into a validated
+//! [`super::Scene`]. The format is specified in `docs/model.md`.
+
+use serde::Deserialize;
+
+/// A whole scene file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneSpec {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    pub gear: Vec<GearSpec>,
+    pub mesh: MeshSpec,
+    pub operating: OperatingSpec,
+    #[serde(default)]
+    pub initial: InitialSpec,
+    #[serde(default)]
+    pub solver: SolverSpec,
+}
+
+/// One gear body.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GearSpec {
+    pub name: String,
+    pub teeth: i64,
+    /// Base-circle radius, m.
+    pub base_radius: f64,
+    /// Polar mass moment of inertia, kg·m².
+    pub inertia: f64,
+}
+
+/// The mesh between the two gears.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MeshSpec {
+    /// Name of the driving gear (its nominal speed sets the mesh phase).
+    pub pinion: String,
+    /// Name of the driven gear.
+    pub gear: String,
+    pub contact: ContactLawSpec,
+    /// Total clearance 2b, m (only with `contact = "backlash"`).
+    pub backlash: Option<f64>,
+    /// Viscous mesh damping, N·s/m.
+    pub damping: Option<f64>,
+    /// Damping ratio on the mean stiffness and the equivalent mass.
+    pub damping_ratio: Option<f64>,
+    /// Mesh phase at t = 0, mesh cycles.
+    #[serde(default)]
+    pub initial_phase: f64,
+    pub stiffness: StiffnessSpec,
+    #[serde(default)]
+    pub ste: Option<FourierSpec>,
+}
+
+/// Contact law of a mesh (`docs/model.md`, "Mesh force and contact law").
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ContactLawSpec {
+    Linear,
+    ContactLoss,
+    Backlash,
+}
+
+/// Mesh-stiffness source, a function of mesh phase.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum StiffnessSpec {
+    Constant {
+        value: f64,
+    },
+    Rectangular {
+        mean: f64,
+        peak_to_peak_ratio: f64,
+        contact_ratio: f64,
+        #[serde(default)]
+        phase: f64,
+    },
+    Trapezoidal {
+        mean: f64,
+        peak_to_peak_ratio: f64,
+        contact_ratio: f64,
+        transition: f64,
+        #[serde(default)]
+        phase: f64,
+    },
+    Fourier {
+        mean: f64,
+        #[serde(default)]
+        cos: Vec<f64>,
+        #[serde(default)]
+        sin: Vec<f64>,
+        #[serde(default)]
+        phase: f64,
+    },
+    Table {
+        phase_points: Vec<f64>,
+        values: Vec<f64>,
+        #[serde(default)]
+        phase: f64,
+    },
+}
+
+/// A Fourier series in mesh phase without mean (static transmission error), m.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FourierSpec {
+    #[serde(default)]
+    pub cos: Vec<f64>,
+    #[serde(default)]
+    pub sin: Vec<f64>,
+}
+
+/// Operating point; every field is an input of the FMU.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OperatingSpec {
+    /// Nominal pinion speed, rad/s.
+    pub pinion_speed: f64,
+    /// Torque driving the pinion, N·m.
+    pub input_torque: f64,
+    /// Load torque magnitude on the gear, N·m; `None` means balanced (`T1·r_b2/r_b1`).
+    pub load_torque: Option<f64>,
+}
+
+/// Initial DTE: the mean static deflection or a value in metres.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum InitialDteSpec {
+    Value(f64),
+    Keyword(String),
+}
+
+/// Initial conditions.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct InitialSpec {
+    #[serde(default = "InitialSpec::default_dte")]
+    pub dte: InitialDteSpec,
+    #[serde(default)]
+    pub dte_rate: f64,
+}
+
+impl InitialSpec {
+    fn default_dte() -> InitialDteSpec {
+        InitialDteSpec::Keyword("static".to_owned())
+    }
+}
+
+impl Default for InitialSpec {
+    fn default() -> Self {
+        InitialSpec {
+            dte: Self::default_dte(),
+            dte_rate: 0.0,
+        }
+    }
+}
+
+/// Solver settings and the default experiment.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverSpec {
+    #[serde(default = "SolverSpec::default_method")]
+    pub method: String,
+    #[serde(default = "SolverSpec::default_rk_method")]
+    pub rk_method: String,
+    #[serde(default = "SolverSpec::default_rtol")]
+    pub rtol: f64,
+    #[serde(default = "SolverSpec::default_atol")]
+    pub atol: f64,
+    #[serde(default = "SolverSpec::default_stop_time")]
+    pub stop_time: f64,
+    pub output_interval: Option<f64>,
+}
+
+impl SolverSpec {
+    fn default_method() -> String {
+        "auto".to_owned()
+    }
+    fn default_rk_method() -> String {
+        "dop853".to_owned()
+    }
+    fn default_rtol() -> f64 {
+        1e-9
+    }
+    fn default_atol() -> f64 {
+        1e-15
+    }
+    fn default_stop_time() -> f64 {
+        0.05
+    }
+}
+
+impl Default for SolverSpec {
+    fn default() -> Self {
+        SolverSpec {
+            method: Self::default_method(),
+            rk_method: Self::default_rk_method(),
+            rtol: Self::default_rtol(),
+            atol: Self::default_atol(),
+            stop_time: Self::default_stop_time(),
+            output_interval: None,
+        }
+    }
+}

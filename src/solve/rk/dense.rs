@@ -1,0 +1,90 @@
+//! Continuous extensions (dense output) of the last accepted step.
+//!
+//! Both methods use Hairer's Hermite-like representation (HNW I §II.6, `dopri5.f`/`dop853.f`):
+//! `u(θ) = r0 + θ(r1 + (1-θ)(r2 + θ(r3 + (1-θ) P(θ))))` with `r0 = y0`, `r1 = y1 - y0`,
+//! `r2 = h f0 - r1`, `r3 = r1 - h f1 - r2`, so `u` matches `y` and `f` at both ends whatever
+//! `P` is; `P` carries the higher-order correction. Storing the rows once per step makes every
+//! evaluation a short Horner scheme (no right-hand-side calls), which is what event location on
+//! the interpolant needs.
+
+use super::tableau::{DOP853_D, DOP853_D_STAGES, DP5_D};
+use super::Method;
+
+/// Number of coefficient rows per component.
+pub(crate) fn rows(method: Method) -> usize {
+    match method {
+        Method::Dp5 => 5,
+        Method::Dop853 => 8,
+    }
+}
+
+/// Fills `r` (`rows(method) * n` values, row-major) from the step `y0 → y1` of size `h` with
+/// stages `k` (`total * n`, row-major; the FSAL stage `f(t0 + h, y1)` and, for DOP853, the three
+/// dense-output stages must already be there).
+pub(crate) fn build(method: Method, h: f64, y0: &[f64], y1: &[f64], k: &[f64], r: &mut [f64]) {
+    let n = y0.len();
+    let fsal = match method {
+        Method::Dp5 => 6,
+        Method::Dop853 => 12,
+    };
+    let (r0, rest) = r.split_at_mut(n);
+    let (r1, rest) = rest.split_at_mut(n);
+    let (r2, rest) = rest.split_at_mut(n);
+    let (r3, rest) = rest.split_at_mut(n);
+    for m in 0..n {
+        let dy = y1[m] - y0[m];
+        let bspl = h * k[m] - dy;
+        r0[m] = y0[m];
+        r1[m] = dy;
+        r2[m] = bspl;
+        r3[m] = dy - h * k[fsal * n + m] - bspl;
+    }
+    match method {
+        Method::Dp5 => {
+            let r4 = &mut rest[..n];
+            for (m, r4m) in r4.iter_mut().enumerate() {
+                let mut s = 0.0;
+                for (j, &d) in DP5_D.iter().enumerate() {
+                    if d != 0.0 {
+                        s += d * k[j * n + m];
+                    }
+                }
+                *r4m = h * s;
+            }
+        }
+        Method::Dop853 => {
+            for (row, d) in DOP853_D.iter().enumerate() {
+                let rr = &mut rest[row * n..(row + 1) * n];
+                for (m, rm) in rr.iter_mut().enumerate() {
+                    let mut s = 0.0;
+                    for (&j, &dj) in DOP853_D_STAGES.iter().zip(d.iter()) {
+                        s += dj * k[j * n + m];
+                    }
+                    *rm = h * s;
+                }
+            }
+        }
+    }
+}
+
+/// Evaluates the interpolant at `θ = (t - t0)/h` into `out`.
+pub(crate) fn eval(method: Method, theta: f64, r: &[f64], out: &mut [f64]) {
+    let n = out.len();
+    let s = theta;
+    let s1 = 1.0 - theta;
+    match method {
+        Method::Dp5 => {
+            for (m, o) in out.iter_mut().enumerate() {
+                *o = r[m]
+                    + s * (r[n + m] + s1 * (r[2 * n + m] + s * (r[3 * n + m] + s1 * r[4 * n + m])));
+            }
+        }
+        Method::Dop853 => {
+            for (m, o) in out.iter_mut().enumerate() {
+                let conpar =
+                    r[4 * n + m] + s * (r[5 * n + m] + s1 * (r[6 * n + m] + s * r[7 * n + m]));
+                *o = r[m] + s * (r[n + m] + s1 * (r[2 * n + m] + s * (r[3 * n + m] + s1 * conpar)));
+            }
+        }
+    }
+}

@@ -1,0 +1,122 @@
+//! Bracketed scalar root finding shared by the integrators' event location.
+
+/// Brent's method (Brent 1973, *Algorithms for Minimization without Derivatives*, ch. 4) on a
+/// bracket `[a, b]` with `f(a)·f(b) <= 0`, `fa = f(a)`, `fb = f(b)`.
+///
+/// Returns the bracket `(lo, hi)` of width `<= tol` (or an exact zero as `(x, x)`) such that
+/// `f(lo)` has the sign of `fa` and `f(hi)` the sign of `fb`: event location wants the point
+/// *after* the crossing so that the guard has really changed sign there.
+pub fn brent_bracket<F: FnMut(f64) -> f64>(
+    mut f: F,
+    a: f64,
+    b: f64,
+    fa: f64,
+    fb: f64,
+    tol: f64,
+) -> (f64, f64) {
+    debug_assert!(fa * fb <= 0.0);
+    if fa == 0.0 {
+        return (a, a);
+    }
+    if fb == 0.0 {
+        return (b, b);
+    }
+    // Brent state: b_ is the best estimate, a_ the previous one, c_ the counter-point.
+    let (mut a_, mut fa_) = (a, fa);
+    let (mut b_, mut fb_) = (b, fb);
+    let (mut c_, mut fc_) = (a_, fa_);
+    let mut d = b_ - a_;
+    let mut e = d;
+    for _ in 0..200 {
+        if fb_.signum() == fc_.signum() {
+            c_ = a_;
+            fc_ = fa_;
+            d = b_ - a_;
+            e = d;
+        }
+        if fc_.abs() < fb_.abs() {
+            a_ = b_;
+            fa_ = fb_;
+            b_ = c_;
+            fb_ = fc_;
+            c_ = a_;
+            fc_ = fa_;
+        }
+        let m = 0.5 * (c_ - b_);
+        let tol1 = 0.5 * tol;
+        if m.abs() <= tol1 || fb_ == 0.0 {
+            break;
+        }
+        if e.abs() >= tol1 && fa_.abs() > fb_.abs() {
+            let s = fb_ / fa_;
+            let (mut p, mut q);
+            if a_ == c_ {
+                p = 2.0 * m * s;
+                q = 1.0 - s;
+            } else {
+                let qq = fa_ / fc_;
+                let r = fb_ / fc_;
+                p = s * (2.0 * m * qq * (qq - r) - (b_ - a_) * (r - 1.0));
+                q = (qq - 1.0) * (r - 1.0) * (s - 1.0);
+            }
+            if p > 0.0 {
+                q = -q;
+            } else {
+                p = -p;
+            }
+            if 2.0 * p < (3.0 * m * q - (tol1 * q).abs()).min((e * q).abs()) {
+                e = d;
+                d = p / q;
+            } else {
+                d = m;
+                e = m;
+            }
+        } else {
+            d = m;
+            e = m;
+        }
+        a_ = b_;
+        fa_ = fb_;
+        b_ += if d.abs() > tol1 { d } else { tol1.copysign(m) };
+        fb_ = f(b_);
+        if fb_ == 0.0 {
+            return (b_, b_);
+        }
+    }
+    if fb_.signum() == fc_.signum() {
+        c_ = a_;
+    }
+    // [b_, c_] brackets the root; order it by sign.
+    if fb_.signum() == fa.signum() {
+        (b_, c_)
+    } else {
+        (c_, b_)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn finds_roots_with_the_sign_convention() {
+        let (lo, hi) = brent_bracket(|x| x.cos() - x, 0.0, 1.0, 1.0, 1f64.cos() - 1.0, 1e-15);
+        let root = 0.739_085_133_215_160_6;
+        assert!((lo - root).abs() < 2e-15 && (hi - root).abs() < 2e-15);
+        assert!(lo.cos() - lo >= 0.0 && hi.cos() - hi <= 0.0);
+        let mut calls = 0;
+        let (lo, hi) = brent_bracket(
+            |x| {
+                calls += 1;
+                x.powi(3) - 2.0
+            },
+            2.0,
+            0.0,
+            6.0,
+            -2.0,
+            1e-14,
+        );
+        assert!((lo - 2f64.cbrt()).abs() < 1e-14 && (hi - 2f64.cbrt()).abs() < 1e-14);
+        assert!(calls < 20, "{calls} evaluations");
+    }
+}
