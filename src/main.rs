@@ -24,6 +24,12 @@ struct Cli {
 enum Command {
     /// Simulate a scene and write its outputs to CSV.
     Simulate(SimulateArgs),
+    /// Run any FMI 2.0 Co-Simulation FMU (the host runner, like `fmpy simulate`).
+    Run(geardyn::host::cli::RunArgs),
+    /// Show an FMU's model description: capabilities and variables.
+    Info(geardyn::host::cli::FmuArg),
+    /// Check an FMU (modelDescription.xml and its linux64 binary); exit 1 on problems.
+    Validate(geardyn::host::cli::FmuArg),
 }
 
 #[derive(Args)]
@@ -124,6 +130,9 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Simulate(args) => simulate(args),
+        Command::Run(args) => geardyn::host::cli::run(args),
+        Command::Info(args) => geardyn::host::cli::info(args),
+        Command::Validate(args) => geardyn::host::cli::validate(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -64,8 +64,12 @@ pub fn unpack(fmu: &Path) -> Result<Unpacked, String> {
         });
     }
     let file = fs::File::open(fmu).map_err(|e| format!("{}: cannot open: {e}", fmu.display()))?;
-    let mut zip = zip::ZipArchive::new(io::BufReader::new(file))
-        .map_err(|e| format!("{}: not an FMU: not a valid ZIP archive ({e})", fmu.display()))?;
+    let mut zip = zip::ZipArchive::new(io::BufReader::new(file)).map_err(|e| {
+        format!(
+            "{}: not an FMU: not a valid ZIP archive ({e})",
+            fmu.display()
+        )
+    })?;
     let temp = tempfile::Builder::new()
         .prefix("geardyn-fmu-")
         .tempdir()

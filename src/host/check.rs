@@ -108,12 +108,20 @@ fn legal(c: Causality, v: Variability, i: Option<Initial>) -> bool {
     matches!(
         (c, v, i),
         (C::Parameter, V::Fixed | V::Tunable, Some(I::Exact))
-            | (C::CalculatedParameter, V::Fixed | V::Tunable, Some(I::Calculated | I::Approx))
+            | (
+                C::CalculatedParameter,
+                V::Fixed | V::Tunable,
+                Some(I::Calculated | I::Approx)
+            )
             | (C::Input, V::Discrete | V::Continuous, None)
             | (C::Output, V::Constant, Some(I::Exact))
             | (C::Output, V::Discrete | V::Continuous, Some(_))
             | (C::Local, V::Constant, Some(I::Exact))
-            | (C::Local, V::Fixed | V::Tunable, Some(I::Calculated | I::Approx))
+            | (
+                C::Local,
+                V::Fixed | V::Tunable,
+                Some(I::Calculated | I::Approx)
+            )
             | (C::Local, V::Discrete | V::Continuous, Some(_))
             | (C::Independent, V::Continuous, None)
     )
@@ -151,9 +159,7 @@ fn check_variables(md: &ModelDescription, p: &mut Vec<String>) {
             ));
         }
         // Given explicitly, `initial` is not allowed for input/independent (spec table).
-        if v.initial.is_some()
-            && matches!(v.causality, Causality::Input | Causality::Independent)
-        {
+        if v.initial.is_some() && matches!(v.causality, Causality::Input | Causality::Independent) {
             p.push(format!(
                 "{}: causality=\"{}\" must not have an initial attribute (initial=\"{}\")",
                 v.loc(),
@@ -213,7 +219,10 @@ fn check_variables(md: &ModelDescription, p: &mut Vec<String>) {
         }
         if let (Some(min), Some(max)) = (v.min, v.max) {
             if min > max {
-                p.push(format!("{}: min=\"{min}\" is greater than max=\"{max}\"", v.loc()));
+                p.push(format!(
+                    "{}: min=\"{min}\" is greater than max=\"{max}\"",
+                    v.loc()
+                ));
             }
         }
         if v.causality == Causality::Independent {
@@ -252,7 +261,10 @@ fn check_variables(md: &ModelDescription, p: &mut Vec<String>) {
         } else {
             v.var_type
         };
-        aliases.entry((base, v.value_reference)).or_default().push(v);
+        aliases
+            .entry((base, v.value_reference))
+            .or_default()
+            .push(v);
     }
     if independents > 1 {
         p.push(format!(
@@ -392,8 +404,10 @@ fn check_model_structure(md: &ModelDescription, p: &mut Vec<String>) {
     let n = md.variables.len();
     let var = |i: usize| md.variables.get(i.wrapping_sub(1));
     let ms = &md.model_structure;
-    let mut lists: Vec<(&str, &Vec<super::description::Unknown>)> =
-        vec![("Outputs", &ms.outputs), ("InitialUnknowns", &ms.initial_unknowns)];
+    let mut lists: Vec<(&str, &Vec<super::description::Unknown>)> = vec![
+        ("Outputs", &ms.outputs),
+        ("InitialUnknowns", &ms.initial_unknowns),
+    ];
     if let Some(d) = &ms.derivatives {
         lists.push(("Derivatives", d));
     }
@@ -492,7 +506,8 @@ fn check_model_structure(md: &ModelDescription, p: &mut Vec<String>) {
             v.effective_initial(),
             Some(Initial::Approx | Initial::Calculated)
         );
-        if (v.causality == Causality::Output && ac) || v.causality == Causality::CalculatedParameter {
+        if (v.causality == Causality::Output && ac) || v.causality == Causality::CalculatedParameter
+        {
             want.insert(v.index);
         }
     }

@@ -208,7 +208,10 @@ impl ScalarVariable {
 
     /// Short location used in messages: `variable "x" (#3, line 12)`.
     pub fn loc(&self) -> String {
-        format!("variable \"{}\" (#{}, line {})", self.name, self.index, self.line)
+        format!(
+            "variable \"{}\" (#{}, line {})",
+            self.name, self.index, self.line
+        )
     }
 }
 
@@ -473,11 +476,9 @@ pub fn parse(xml: &str, file: &str) -> Result<ModelDescription, String> {
                 "{file}: fmiModelDescription has fmiVersion=\"{v}\"; expected \"2.0\""
             ))
         }
-        None => {
-            return Err(format!(
-                "{file}: fmiModelDescription has no fmiVersion attribute (required, FMI 2.0.5 §2.2.1)"
-            ))
-        }
+        None => return Err(format!(
+            "{file}: fmiModelDescription has no fmiVersion attribute (required, FMI 2.0.5 §2.2.1)"
+        )),
     }
     let raw: RawRoot = quick_xml::de::from_str(xml)
         .map_err(|e| format!("{file}: not a valid FMI 2.0 modelDescription: {e}"))?;
@@ -566,7 +567,10 @@ fn parse_f64(s: &str, what: &dyn Fn() -> String) -> Result<f64, String> {
         "NaN" => return Ok(f64::NAN),
         _ => {}
     }
-    if t.is_empty() || t.chars().any(|c| c.is_ascii_alphabetic() && c != 'e' && c != 'E') {
+    if t.is_empty()
+        || t.chars()
+            .any(|c| c.is_ascii_alphabetic() && c != 'e' && c != 'E')
+    {
         return Err(format!("{}=\"{s}\" is not a real number", what()));
     }
     t.parse::<f64>()
@@ -683,7 +687,9 @@ fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription, String> {
                 b.attrs
                     .iter()
                     .filter_map(|(k, v)| match v {
-                        AttrValue::Text(t) => k.strip_prefix('@').map(|k| (k.to_string(), t.clone())),
+                        AttrValue::Text(t) => {
+                            k.strip_prefix('@').map(|k| (k.to_string(), t.clone()))
+                        }
                         AttrValue::Other(_) => None,
                     })
                     .collect()
@@ -699,9 +705,9 @@ fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription, String> {
         }
         let mut display_units = Vec::new();
         for d in &u.display_units {
-            let dname = d
-                .get("name")
-                .ok_or_else(|| format!("{ctx}/<DisplayUnit>: required attribute name is missing"))?;
+            let dname = d.get("name").ok_or_else(|| {
+                format!("{ctx}/<DisplayUnit>: required attribute name is missing")
+            })?;
             let dctx = format!("{ctx}/<DisplayUnit name=\"{dname}\">");
             display_units.push(DisplayUnit {
                 name: dname.to_string(),
@@ -725,7 +731,10 @@ fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription, String> {
         .enumerate()
     {
         let name = t.name.ok_or_else(|| {
-            format!("<SimpleType> #{}: required attribute name is missing", i + 1)
+            format!(
+                "<SimpleType> #{}: required attribute name is missing",
+                i + 1
+            )
         })?;
         let ctx = format!("<SimpleType name=\"{name}\">");
         let present: Vec<(VarType, RawTyped)> = [
@@ -749,7 +758,10 @@ fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription, String> {
         let mut items = Vec::new();
         for (j, it) in typed.items.iter().enumerate() {
             let iname = it.get("name").ok_or_else(|| {
-                format!("{ctx}/<Item> #{}: required attribute name is missing", j + 1)
+                format!(
+                    "{ctx}/<Item> #{}: required attribute name is missing",
+                    j + 1
+                )
             })?;
             let value = it.get("value").ok_or_else(|| {
                 format!("{ctx}/<Item name=\"{iname}\">: required attribute value is missing")
@@ -792,7 +804,10 @@ fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription, String> {
                 name: c
                     .get("name")
                     .ok_or_else(|| {
-                        format!("<LogCategories>/<Category> #{}: required attribute name is missing", i + 1)
+                        format!(
+                            "<LogCategories>/<Category> #{}: required attribute name is missing",
+                            i + 1
+                        )
                     })?
                     .to_string(),
                 description: c.get("description").map(str::to_string),
@@ -819,7 +834,11 @@ fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription, String> {
         .variables;
     let mut variables = Vec::with_capacity(raw_vars.len());
     for (i, rv) in raw_vars.into_iter().enumerate() {
-        variables.push(convert_variable(rv, i + 1, lines.get(i).copied().unwrap_or(0))?);
+        variables.push(convert_variable(
+            rv,
+            i + 1,
+            lines.get(i).copied().unwrap_or(0),
+        )?);
     }
 
     let ms = raw
@@ -837,7 +856,9 @@ fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription, String> {
                 .get("dependencies")
                 .map(|s| {
                     s.split_whitespace()
-                        .map(|d| parse_u32(d, &|| format!("{ctx}: dependencies")).map(|x| x as usize))
+                        .map(|d| {
+                            parse_u32(d, &|| format!("{ctx}: dependencies")).map(|x| x as usize)
+                        })
                         .collect::<Result<Vec<_>, _>>()
                 })
                 .transpose()?;
@@ -884,7 +905,11 @@ fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription, String> {
     })
 }
 
-fn convert_variable(rv: RawScalarVariable, index: usize, line: usize) -> Result<ScalarVariable, String> {
+fn convert_variable(
+    rv: RawScalarVariable,
+    index: usize,
+    line: usize,
+) -> Result<ScalarVariable, String> {
     let name = rv.name.ok_or_else(|| {
         format!("<ScalarVariable> #{index} (line {line}): required attribute name is missing")
     })?;

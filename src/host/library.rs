@@ -225,9 +225,7 @@ impl FmuLibrary {
         // an FMU. RTLD_LOCAL (libloading's default) keeps its fmi2* symbols out of the global
         // namespace, so several FMUs can be loaded side by side.
         let lib = unsafe { Library::new(&path) }.map_err(|e| {
-            format!(
-                "binaries/{PLATFORM}/{model_identifier}.so: cannot load the library: {e}"
-            )
+            format!("binaries/{PLATFORM}/{model_identifier}.so: cannot load the library: {e}")
         })?;
         // SAFETY: symbols are FMI 2.0 functions with the signatures of fmi2FunctionTypes.h.
         let fns = unsafe { Functions::resolve(&lib, &path) }?;

@@ -52,7 +52,11 @@ impl LogSink {
             eprintln!(
                 "[{}] [{}] {}",
                 rec.status,
-                if rec.category.is_empty() { "-" } else { &rec.category },
+                if rec.category.is_empty() {
+                    "-"
+                } else {
+                    &rec.category
+                },
                 rec.message
             );
         }

@@ -1,0 +1,271 @@
+//! The `geardyn run | info | validate` commands. `main.rs` only dispatches here.
+//!
+//! Every error is returned as a message (printed by `main` as `error: …`, exit code 1); nothing
+//! panics on a bad FMU or bad arguments. The temporary folder of the unpacked FMU is owned by
+//! [`Unpacked`] and removed on every return path.
+
+use super::archive::{unpack, Unpacked};
+use super::check::check;
+use super::description::{parse, ModelDescription};
+use super::input::Input;
+use super::instance::Instance;
+use super::library::{FmuLibrary, Status};
+use super::logger::Logger;
+use super::runner::{self, Experiment};
+use super::start;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args, Debug)]
+pub struct RunArgs {
+    /// The FMU (.fmu file or an extracted FMU folder).
+    pub fmu: PathBuf,
+    /// Stop time, s (default: DefaultExperiment stopTime, else start + 1).
+    #[arg(long)]
+    pub stop_time: Option<f64>,
+    /// Output interval = communication step, s (default: DefaultExperiment stepSize, doubled
+    /// until ≤ 1000 steps; else 500–1000 round steps; as fmpy).
+    #[arg(long)]
+    pub output_interval: Option<f64>,
+    /// Start value NAME=VALUE of a parameter or input (repeatable).
+    #[arg(long = "start", value_name = "NAME=VALUE")]
+    pub start: Vec<String>,
+    /// Input signals: CSV with a `time` column and one column per input (fmpy's convention:
+    /// continuous Reals interpolated linearly at each step start, others held).
+    #[arg(long)]
+    pub input: Option<PathBuf>,
+    /// Output CSV (fmpy layout: "time" then the variables). Default: stdout.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Variables to record, comma separated (default: all outputs).
+    #[arg(long, value_delimiter = ',')]
+    pub outputs: Option<Vec<String>>,
+    /// Print FMU log messages at or above this status: all | warning | discard | error | fatal.
+    /// `all` also switches on the FMU's debug logging (fmi2SetDebugLogging, all categories).
+    #[arg(long, default_value = "warning")]
+    pub log_level: String,
+    /// Trace every FMI call with its arguments and status to stderr.
+    #[arg(long)]
+    pub fmi_trace: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct FmuArg {
+    /// The FMU (.fmu file or an extracted FMU folder).
+    pub fmu: PathBuf,
+}
+
+/// Unpack and parse: the first two steps of every command.
+fn open(fmu: &Path) -> Result<(Unpacked, ModelDescription), String> {
+    let unpacked = unpack(fmu)?;
+    let text = unpacked.model_description_text()?;
+    let md = parse(&text, "modelDescription.xml")?;
+    Ok((unpacked, md))
+}
+
+/// `geardyn info`.
+pub fn info(args: FmuArg) -> Result<(), String> {
+    let (_u, md) = open(&args.fmu)?;
+    print!("{}", super::info::render(&md));
+    Ok(())
+}
+
+/// `geardyn validate`: the modelDescription checks plus loading the linux64 binary with all
+/// 34 functions. Returns an error (exit 1) when anything is wrong.
+pub fn validate(args: FmuArg) -> Result<(), String> {
+    let (u, md) = open(&args.fmu)?;
+    let mut problems = check(&md);
+    if let Some(cs) = &md.co_simulation {
+        if let Err(e) = FmuLibrary::load(u.root(), &cs.model_identifier) {
+            problems.push(e);
+        }
+    }
+    if problems.is_empty() {
+        println!("No problems found.");
+        return Ok(());
+    }
+    for p in &problems {
+        println!("- {p}");
+    }
+    Err(format!(
+        "{}: {} problem{} found",
+        args.fmu.display(),
+        problems.len(),
+        if problems.len() == 1 { "" } else { "s" }
+    ))
+}
+
+fn positive(name: &str, v: f64) -> Result<f64, String> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("--{name} {v}: must be a finite number > 0"))
+    }
+}
+
+/// `file://` URI of a folder (FMI 2.0.5 §2.1.5 fmuResourceLocation), percent-encoded exactly
+/// like Python's `pathlib.Path.as_uri` (`urllib.parse.quote`, safe = "/"), which fmpy passes.
+fn file_uri(p: &Path) -> String {
+    let mut s = String::from("file://");
+    for b in p.to_string_lossy().bytes() {
+        if b.is_ascii_alphanumeric() || b"/-._~".contains(&b) {
+            s.push(b as char);
+        } else {
+            s.push_str(&format!("%{b:02X}"));
+        }
+    }
+    s
+}
+
+/// `geardyn run`.
+pub fn run(args: RunArgs) -> Result<(), String> {
+    let log_level = Status::parse_level(&args.log_level).ok_or_else(|| {
+        format!(
+            "--log-level \"{}\": expected all, warning, discard, error or fatal",
+            args.log_level
+        )
+    })?;
+    let pairs = args
+        .start
+        .iter()
+        .map(|a| start::parse_arg(a))
+        .collect::<Result<Vec<_>, _>>()?;
+    if let Some(h) = args.output_interval {
+        positive("output-interval", h)?;
+    }
+    let (u, md) = open(&args.fmu)?;
+    let Some(cs) = md.co_simulation.clone() else {
+        return Err(match &md.model_exchange {
+            Some(id) => format!("{}: the FMU is Model Exchange only (<ModelExchange modelIdentifier=\"{id}\">, no <CoSimulation>); geardyn run needs an FMI 2.0 Co-Simulation FMU", args.fmu.display()),
+            None => format!("{}: the FMU declares no <CoSimulation> interface", args.fmu.display()),
+        });
+    };
+    let problems = check(&md);
+    if !problems.is_empty() {
+        eprintln!(
+            "warning: modelDescription.xml has {} problem(s) (see `geardyn validate`); running anyway",
+            problems.len()
+        );
+    }
+    let start_values = start::resolve(&md, &pairs)?;
+    let de = md.default_experiment.clone().unwrap_or_default();
+    let start_time = de.start_time.unwrap_or(0.0);
+    let stop_time = args.stop_time.or(de.stop_time).unwrap_or(start_time + 1.0);
+    if !stop_time.is_finite() || stop_time <= start_time {
+        return Err(format!(
+            "stop time {stop_time} must be finite and after the start time {start_time}"
+        ));
+    }
+    let output_interval = args
+        .output_interval
+        .unwrap_or_else(|| runner::default_interval(&md, start_time, stop_time));
+    let input = match &args.input {
+        Some(p) => {
+            let inp = Input::from_csv(p, &md)?;
+            for w in &inp.warnings {
+                eprintln!("warning: {}: {w}", p.display());
+            }
+            Some(inp)
+        }
+        None => None,
+    };
+    let outputs = match &args.outputs {
+        Some(names) => {
+            let n: Vec<&str> = names
+                .iter()
+                .map(|s| s.trim())
+                .filter(|s| !s.is_empty())
+                .collect();
+            runner::recorded(&md, &n, true)?
+        }
+        None => runner::recorded(&md, &runner::default_outputs(&md), false)?,
+    };
+    let exp = Experiment {
+        start_time,
+        stop_time,
+        tolerance: de.tolerance,
+        output_interval,
+        start_values,
+        input,
+        outputs,
+    };
+
+    let lib = FmuLibrary::load(u.root(), &cs.model_identifier)?;
+    let debug = log_level == Status::Ok;
+    let mut inst = Instance::instantiate(
+        &lib,
+        &cs.model_identifier,
+        &md.guid,
+        &file_uri(&u.resources()),
+        Logger::new(log_level),
+        debug,
+        args.fmi_trace,
+    )?;
+    if debug {
+        // Not fatal: debug logging is a convenience.
+        if let Err(e) = inst.set_debug_logging(true) {
+            eprintln!("warning: {e}");
+        }
+    }
+    let outcome = runner::run(
+        &mut inst,
+        &exp,
+        cs.can_handle_variable_communication_step_size,
+    );
+    drop(inst); // fmi2FreeInstance before the library is unloaded and the folder removed
+
+    let written = write_outcome(&args.out, &outcome);
+    for n in &outcome.notes {
+        eprintln!("note: {n}");
+    }
+    match (&outcome.failure, written) {
+        (Some(f), Ok(())) => Err(format!(
+            "{f}{}",
+            match &args.out {
+                Some(p) if !outcome.times.is_empty() => format!(
+                    " ({} rows up to t = {} were written to {})",
+                    outcome.times.len(),
+                    outcome.times.last().copied().unwrap_or(f64::NAN),
+                    p.display()
+                ),
+                _ => String::new(),
+            }
+        )),
+        (Some(f), Err(w)) => Err(format!("{f}; also: {w}")),
+        (None, r) => r,
+    }
+}
+
+fn write_outcome(out: &Option<PathBuf>, o: &runner::Outcome) -> Result<(), String> {
+    match out {
+        Some(p) => {
+            let f = std::fs::File::create(p)
+                .map_err(|e| format!("{}: cannot create: {e}", p.display()))?;
+            let mut w = std::io::BufWriter::new(f);
+            super::csv::write_result(&mut w, &o.names, &o.times, &o.rows)
+                .and_then(|_| w.flush())
+                .map_err(|e| format!("{}: cannot write: {e}", p.display()))
+        }
+        None => {
+            let stdout = std::io::stdout();
+            let mut w = std::io::BufWriter::new(stdout.lock());
+            super::csv::write_result(&mut w, &o.names, &o.times, &o.rows)
+                .and_then(|_| w.flush())
+                .map_err(|e| format!("stdout: {e}"))
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::file_uri;
+    use std::path::Path;
+
+    #[test]
+    fn uri_is_percent_encoded() {
+        assert_eq!(
+            file_uri(Path::new("/tmp/a b/résources")),
+            "file:///tmp/a%20b/r%C3%A9sources"
+        );
+    }
+}

@@ -1,0 +1,391 @@
+//! The co-simulation master loop for one FMI 2.0 CS FMU (FMI 2.0.5 §4.2.4, the calling
+//! sequence of Co-Simulation): instantiate → setup experiment → start values → initialization
+//! mode (start values, inputs) → step loop on the output grid → terminate → free.
+//!
+//! The grid, the time defaults and the input handling follow fmpy 0.3.32 `simulate_fmu` /
+//! `simulateCS` so that the two give the same rows, bit for bit, on the same FMU:
+//! * start time: `DefaultExperiment.startTime` or 0; stop time: `--stop-time`,
+//!   `DefaultExperiment.stopTime`, or start + 1; tolerance: `DefaultExperiment.tolerance`
+//!   (passed to `fmi2SetupExperiment` only when given); the stop time is always passed.
+//! * output interval `h`: `--output-interval`, else `DefaultExperiment.stepSize` doubled until
+//!   there are at most 1000 steps, else fmpy's `auto_interval` (500–1000 steps).
+//! * communication points `start + n·h` (not accumulated), shortened to an input event when the
+//!   FMU can handle a variable step size; the last step is shortened to the stop time only if
+//!   `canHandleVariableCommunicationStepSize="true"` (§4.3.1), otherwise the run ends at the
+//!   last full grid point before the stop time (and says so).
+//! * one output row at the start time and one after every `fmi2DoStep`.
+//!
+//! A failing call ends the loop: the rows computed until then are kept and returned together
+//! with the failure (time and reason), so the caller can still write them.
+
+use super::csv::Cell;
+use super::description::{Causality, ModelDescription, Value, VarType};
+use super::input::{isclose, Input, Values};
+use super::instance::{CallError, Instance};
+use super::start::{Phase, StartValue};
+
+/// What the user asked for (already checked against the model description).
+pub struct Experiment {
+    pub start_time: f64,
+    pub stop_time: f64,
+    pub tolerance: Option<f64>,
+    pub output_interval: f64,
+    pub start_values: Vec<StartValue>,
+    pub input: Option<Input>,
+    pub outputs: Vec<Recorded>,
+}
+
+/// One recorded variable.
+#[derive(Debug, Clone)]
+pub struct Recorded {
+    pub name: String,
+    pub vr: u32,
+    pub var_type: VarType,
+}
+
+/// The rows of a run, and why it ended early (if it did).
+pub struct Outcome {
+    pub names: Vec<String>,
+    pub times: Vec<f64>,
+    pub rows: Vec<Vec<Cell>>,
+    /// `Some(reason)` when the run failed; the rows up to the failure are still there.
+    pub failure: Option<String>,
+    /// Notes that are not failures (early stop, FMU-requested termination).
+    pub notes: Vec<String>,
+}
+
+/// fmpy `util.auto_interval`: a round interval giving 500–1000 steps over `t`.
+pub fn auto_interval(t: f64) -> f64 {
+    // np.round rounds half to even, as f64::round_ties_even does.
+    let mut h = 10f64.powf((t.log10()).round_ties_even() - 3.0);
+    let n = t / h;
+    if n >= 2500.0 {
+        h *= 5.0;
+    } else if n >= 2000.0 {
+        h *= 4.0;
+    } else if n >= 1000.0 {
+        h *= 2.0;
+    } else if n <= 200.0 {
+        h /= 5.0;
+    } else if n <= 250.0 {
+        h /= 4.0;
+    } else if n <= 500.0 {
+        h /= 2.0;
+    }
+    h
+}
+
+/// The default output interval (fmpy `simulate_fmu`, CS branch).
+pub fn default_interval(md: &ModelDescription, start: f64, stop: f64) -> f64 {
+    match md.default_experiment.as_ref().and_then(|d| d.step_size) {
+        Some(mut h) if h > 0.0 && h.is_finite() => {
+            while (stop - start) / h > 1000.0 {
+                h *= 2.0;
+            }
+            h
+        }
+        _ => auto_interval(stop - start),
+    }
+}
+
+/// The variables recorded when `--outputs` is not given (fmpy `_get_output_variables`): all
+/// outputs; else up to 5 continuous states (the targets of `derivative=`); else the first 5
+/// variables. String variables are never recorded (fmpy records Real, Integer, Boolean), nor
+/// a variable named `time` (the time column).
+pub fn default_outputs(md: &ModelDescription) -> Vec<&str> {
+    let outs: Vec<&str> = md
+        .variables
+        .iter()
+        .filter(|v| v.causality == Causality::Output)
+        .map(|v| v.name.as_str())
+        .collect();
+    if !outs.is_empty() {
+        return outs;
+    }
+    let states: Vec<&str> = md
+        .model_structure
+        .derivatives
+        .iter()
+        .flatten()
+        .filter_map(|u| md.variables.get(u.index.wrapping_sub(1)))
+        .filter_map(|d| d.derivative)
+        .filter_map(|s| md.variables.get((s as usize).wrapping_sub(1)))
+        .map(|v| v.name.as_str())
+        .take(5)
+        .collect();
+    if !states.is_empty() {
+        return states;
+    }
+    md.variables
+        .iter()
+        .take(5)
+        .map(|v| v.name.as_str())
+        .collect()
+}
+
+/// Resolve output names to recorded columns, in fmpy's column order: Reals, then Integers
+/// (and Enumerations), then Booleans, each in document order. An unknown name or a String
+/// variable is an error when `explicit` (the user named it), skipped otherwise.
+pub fn recorded(
+    md: &ModelDescription,
+    names: &[&str],
+    explicit: bool,
+) -> Result<Vec<Recorded>, String> {
+    if explicit {
+        for n in names {
+            match md.variable(n) {
+                None => return Err(format!("--outputs: the FMU has no variable named \"{n}\"")),
+                Some(v) if v.var_type == VarType::String => {
+                    return Err(format!("--outputs: \"{n}\" is a String variable; only Real, Integer, Enumeration and Boolean variables can be recorded"))
+                }
+                Some(_) if *n == "time" => {
+                    return Err("--outputs: \"time\" is always the first column".into())
+                }
+                _ => {}
+            }
+        }
+    }
+    let mut out = Vec::new();
+    for kind in [VarType::Real, VarType::Integer, VarType::Boolean] {
+        for v in &md.variables {
+            let base = if v.var_type == VarType::Enumeration {
+                VarType::Integer
+            } else {
+                v.var_type
+            };
+            if base == kind && v.name != "time" && names.contains(&v.name.as_str()) {
+                out.push(Recorded {
+                    name: v.name.clone(),
+                    vr: v.value_reference,
+                    var_type: base,
+                });
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Reads the recorded variables with one `fmi2Get*` call per type.
+struct Sampler {
+    real_vr: Vec<u32>,
+    int_vr: Vec<u32>,
+    bool_vr: Vec<u32>,
+    real: Vec<f64>,
+    int: Vec<i32>,
+    boolean: Vec<i32>,
+}
+
+impl Sampler {
+    fn new(outputs: &[Recorded]) -> Sampler {
+        let vrs = |t: VarType| -> Vec<u32> {
+            outputs
+                .iter()
+                .filter(|o| o.var_type == t)
+                .map(|o| o.vr)
+                .collect()
+        };
+        let (real_vr, int_vr, bool_vr) = (
+            vrs(VarType::Real),
+            vrs(VarType::Integer),
+            vrs(VarType::Boolean),
+        );
+        Sampler {
+            real: vec![0.0; real_vr.len()],
+            int: vec![0; int_vr.len()],
+            boolean: vec![0; bool_vr.len()],
+            real_vr,
+            int_vr,
+            bool_vr,
+        }
+    }
+
+    fn sample(&mut self, inst: &mut Instance) -> Result<Vec<Cell>, CallError> {
+        if !self.real_vr.is_empty() {
+            inst.get_real(&self.real_vr, &mut self.real)?;
+        }
+        if !self.int_vr.is_empty() {
+            inst.get_integer(&self.int_vr, &mut self.int)?;
+        }
+        if !self.bool_vr.is_empty() {
+            inst.get_boolean(&self.bool_vr, &mut self.boolean)?;
+        }
+        let mut row = Vec::with_capacity(self.real.len() + self.int.len() + self.boolean.len());
+        row.extend(self.real.iter().map(|&v| Cell::Real(v)));
+        row.extend(self.int.iter().map(|&v| Cell::Int(v)));
+        row.extend(self.boolean.iter().map(|&v| Cell::Bool(v != 0)));
+        Ok(row)
+    }
+}
+
+fn set_start(inst: &mut Instance, s: &StartValue) -> Result<(), String> {
+    let r = match &s.value {
+        Value::Real(v) => inst.set_real(&[s.vr], &[*v]),
+        Value::Integer(v) => inst.set_integer(&[s.vr], &[*v]),
+        Value::Boolean(v) => inst.set_boolean(&[s.vr], &[i32::from(*v)]),
+        Value::String(v) => inst.set_string(&[s.vr], std::slice::from_ref(v)),
+    };
+    r.map(|_| ())
+        .map_err(|e| format!("setting the start value of \"{}\": {e}", s.name))
+}
+
+fn apply_input(
+    inst: &mut Instance,
+    input: &Input,
+    t: f64,
+    after_event: bool,
+) -> Result<(), CallError> {
+    for g in &input.groups {
+        match (input.values(g, t, after_event), g.setter) {
+            (Values::Real(v), _) => inst.set_real(&g.vrs, &v)?,
+            (Values::Int(v), super::input::Setter::Boolean) => {
+                // fmi2Boolean is 0/1; numpy's cast of e.g. 2.0 gives 2, which FMUs treat as true.
+                inst.set_boolean(&g.vrs, &v)?
+            }
+            (Values::Int(v), _) => inst.set_integer(&g.vrs, &v)?,
+        };
+    }
+    Ok(())
+}
+
+/// Initialize and run the instance; never panics, always returns the rows computed.
+pub fn run(inst: &mut Instance, exp: &Experiment, can_handle_variable_step: bool) -> Outcome {
+    let mut out = Outcome {
+        names: exp.outputs.iter().map(|o| o.name.clone()).collect(),
+        times: Vec::new(),
+        rows: Vec::new(),
+        failure: None,
+        notes: Vec::new(),
+    };
+    let mut sampler = Sampler::new(&exp.outputs);
+    let t0 = exp.start_time;
+
+    // Initialization (FMI 2.0.5 §4.2.4 state machine: instantiated → initialization mode).
+    let init = (|| -> Result<(), String> {
+        let e = |err: CallError| format!("initialization at t = {t0}: {err}");
+        inst.setup_experiment(exp.tolerance, t0, Some(exp.stop_time))
+            .map_err(e)?;
+        for s in exp
+            .start_values
+            .iter()
+            .filter(|s| s.phase == Phase::Instantiated)
+        {
+            set_start(inst, s)?;
+        }
+        inst.enter_initialization_mode().map_err(e)?;
+        for s in exp
+            .start_values
+            .iter()
+            .filter(|s| s.phase == Phase::Initialization)
+        {
+            set_start(inst, s)?;
+        }
+        if let Some(input) = &exp.input {
+            apply_input(inst, input, t0, false).map_err(e)?;
+        }
+        inst.exit_initialization_mode().map_err(e)?;
+        Ok(())
+    })();
+    if let Err(msg) = init {
+        out.failure = Some(msg);
+        return out;
+    }
+    match sampler.sample(inst) {
+        Ok(row) => {
+            out.times.push(t0);
+            out.rows.push(row);
+        }
+        Err(err) => {
+            out.failure = Some(format!("reading outputs at t = {t0}: {err}"));
+            return out;
+        }
+    }
+
+    let h = exp.output_interval;
+    let stop = exp.stop_time;
+    let mut time = t0;
+    let mut n_steps: u64 = 0;
+    loop {
+        if time > stop || isclose(time, stop) {
+            break;
+        }
+        let next_regular = t0 + (n_steps + 1) as f64 * h;
+        let mut next = next_regular;
+        if let Some(input) = &exp.input {
+            let ev = input.next_event(time);
+            if can_handle_variable_step && next > ev && !isclose(next, ev) {
+                next = ev;
+            }
+        }
+        if next > stop && !isclose(next, stop) {
+            if can_handle_variable_step {
+                next = stop;
+            } else {
+                out.notes.push(format!(
+                    "stopped at t = {time}, before the stop time {stop}: the next grid point {next} is past it and the FMU cannot shorten a step (canHandleVariableCommunicationStepSize is false)"
+                ));
+                break;
+            }
+        }
+        let step = next - time;
+        if let Some(input) = &exp.input {
+            if let Err(err) = apply_input(inst, input, time, true) {
+                out.failure = Some(format!("setting inputs at t = {time}: {err}"));
+                return out;
+            }
+        }
+        if let Err(err) = inst.do_step(time, step) {
+            let mut msg = format!("step from t = {time} with h = {step}: {err}");
+            if err.status == super::library::Status::Discard {
+                let (terminated, last) = inst.discard_details();
+                if let Some(tl) = last {
+                    msg.push_str(&format!("; last successful time {tl}"));
+                    // Keep what the FMU did compute (fmpy samples at lastSuccessfulTime too).
+                    if tl > time && terminated == Some(true) {
+                        if let Ok(row) = sampler.sample(inst) {
+                            out.times.push(tl);
+                            out.rows.push(row);
+                        }
+                    }
+                }
+                if terminated == Some(true) {
+                    out.notes
+                        .push(format!("the FMU asked to terminate the simulation: {msg}"));
+                    let _ = inst.terminate();
+                    return out;
+                }
+            }
+            out.failure = Some(msg);
+            return out;
+        }
+        time = next;
+        match sampler.sample(inst) {
+            Ok(row) => {
+                out.times.push(time);
+                out.rows.push(row);
+            }
+            Err(err) => {
+                out.failure = Some(format!("reading outputs at t = {time}: {err}"));
+                return out;
+            }
+        }
+        if isclose(time, next_regular) {
+            n_steps += 1;
+        }
+    }
+    if let Err(err) = inst.terminate() {
+        out.failure = Some(format!("at the end (t = {time}): {err}"));
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fmpy_auto_interval() {
+        // Values computed with fmpy.util.auto_interval.
+        assert_eq!(auto_interval(1.0), 0.002);
+        assert_eq!(auto_interval(10.0), 0.02);
+    }
+}
