@@ -47,6 +47,10 @@ pub struct RunArgs {
     /// Trace every FMI call with its arguments and status to stderr.
     #[arg(long)]
     pub fmi_trace: bool,
+    /// Load this shared library globally before the FMU (repeatable), for FMUs that need an
+    /// execution tool in the process, e.g. `--preload libpython3.11.so` for a PythonFMU.
+    #[arg(long, value_name = "LIB")]
+    pub preload: Vec<PathBuf>,
 }
 
 #[derive(clap::Args, Debug)]
@@ -190,7 +194,14 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         outputs,
     };
 
-    let lib = FmuLibrary::load(u.root(), &cs.model_identifier)?;
+    super::library::preload(&args.preload)?;
+    let lib = FmuLibrary::load(u.root(), &cs.model_identifier).map_err(|e| {
+        if cs.needs_execution_tool && e.contains("undefined symbol") {
+            format!("{e}\n  hint: the FMU declares needsExecutionTool=\"true\"; load the tool's library first with --preload (a PythonFMU needs libpython3.X.so)")
+        } else {
+            e
+        }
+    })?;
     let debug = log_level == Status::Ok;
     let mut inst = Instance::instantiate(
         &lib,

@@ -458,8 +458,8 @@ struct RawUnknowns {
 /// unknown enumeration literals, unparsable numbers, and a `<ScalarVariable>` without exactly
 /// one type element.
 pub fn parse(xml: &str, file: &str) -> Result<ModelDescription, String> {
-    let version = root_version(xml).map_err(|e| format!("{file}: {e}"))?;
-    match version.as_deref() {
+    let scan = scan(xml).map_err(|e| format!("{file}: {e}"))?;
+    match scan.version.as_deref() {
         Some("2.0") => {}
         Some(v) if v.starts_with("1.") => {
             return Err(format!(
@@ -476,44 +476,76 @@ pub fn parse(xml: &str, file: &str) -> Result<ModelDescription, String> {
                 "{file}: fmiModelDescription has fmiVersion=\"{v}\"; expected \"2.0\""
             ))
         }
-        None => return Err(format!(
+        None => {
+            return Err(format!(
             "{file}: fmiModelDescription has no fmiVersion attribute (required, FMI 2.0.5 §2.2.1)"
-        )),
+        ))
+        }
     }
     let raw: RawRoot = quick_xml::de::from_str(xml)
         .map_err(|e| format!("{file}: not a valid FMI 2.0 modelDescription: {e}"))?;
-    let lines = variable_lines(xml);
-    convert(raw, &lines).map_err(|e| format!("{file}: {e}"))
+    convert(raw, &scan.variable_lines).map_err(|e| format!("{file}: {e}"))
 }
 
-/// Read the root element and its `fmiVersion` with the streaming reader, checking the whole
-/// document is well-formed XML (quick-xml's serde layer tolerates some truncation at the end;
-/// a validator must not).
-fn root_version(xml: &str) -> Result<Option<String>, String> {
+/// 1-based line and column of a byte offset, for messages.
+fn line_col(xml: &str, pos: u64) -> (usize, usize) {
+    let pos = (pos as usize).min(xml.len());
+    let before = &xml.as_bytes()[..pos];
+    let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+    let col = pos
+        - before
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map_or(0, |p| p + 1)
+        + 1;
+    (line, col)
+}
+
+/// What the streaming pass learns before the serde pass: the root's `fmiVersion` and the line
+/// of every `<ScalarVariable>` start tag (serde does not report positions).
+struct Scan {
+    version: Option<String>,
+    variable_lines: Vec<usize>,
+}
+
+/// Read the whole document with the streaming reader: checks it is well-formed XML (quick-xml's
+/// serde layer tolerates some truncation at the end; a validator must not), reads the root and
+/// its `fmiVersion`, and records the line of each `<ScalarVariable>`.
+fn scan(xml: &str) -> Result<Scan, String> {
     use quick_xml::events::Event;
     let mut reader = quick_xml::Reader::from_str(xml);
     reader.config_mut().check_end_names = true;
     let mut version = None;
+    let mut variable_lines = Vec::new();
     let mut depth: i64 = 0;
     let mut seen_root = false;
     loop {
         let pos = reader.buffer_position();
-        let ev = reader
-            .read_event()
-            .map_err(|e| format!("malformed XML at byte {pos}: {e}"))?;
+        let ev = reader.read_event().map_err(|e| {
+            let (l, c) = line_col(xml, reader.error_position());
+            format!("malformed XML at line {l}, column {c}: {e}")
+        })?;
         match ev {
             Event::Start(ref e) | Event::Empty(ref e) => {
+                let name = e.name();
+                let name: &str = name.as_ref();
+                let (line, _) = line_col(xml, pos);
+                if name == "ScalarVariable" {
+                    variable_lines.push(line);
+                }
+                for a in e.attributes() {
+                    a.map_err(|err| {
+                        format!("malformed attribute on <{name}> at line {line}: {err}")
+                    })?;
+                }
                 if !seen_root {
                     seen_root = true;
-                    let name = e.name();
-                    let name: &str = name.as_ref();
                     if name != "fmiModelDescription" {
                         return Err(format!(
-                            "root element is <{name}>, expected <fmiModelDescription>"
+                            "root element is <{name}> (line {line}), expected <fmiModelDescription>"
                         ));
                     }
-                    for a in e.attributes() {
-                        let a = a.map_err(|e| format!("malformed attribute on root: {e}"))?;
+                    for a in e.attributes().flatten() {
                         let key: &str = a.key.as_ref();
                         if key == "fmiVersion" {
                             let v = a
@@ -523,7 +555,9 @@ fn root_version(xml: &str) -> Result<Option<String>, String> {
                         }
                     }
                 } else if depth == 0 {
-                    return Err("more than one root element".into());
+                    return Err(format!(
+                        "more than one root element (<{name}> at line {line})"
+                    ));
                 }
                 if matches!(ev, Event::Start(_)) {
                     depth += 1;
@@ -538,24 +572,15 @@ fn root_version(xml: &str) -> Result<Option<String>, String> {
         return Err("no XML element found (empty or not XML)".into());
     }
     if depth != 0 {
+        let (l, _) = line_col(xml, xml.len() as u64);
         return Err(format!(
-            "truncated XML: {depth} element(s) not closed at end of file"
+            "truncated XML: {depth} element(s) not closed at the end of the file (line {l})"
         ));
     }
-    Ok(version)
-}
-
-/// Line number of every `<ScalarVariable` start tag, in order (for messages only).
-fn variable_lines(xml: &str) -> Vec<usize> {
-    let mut out = Vec::new();
-    for (i, line) in xml.lines().enumerate() {
-        let mut rest = line;
-        while let Some(p) = rest.find("<ScalarVariable") {
-            out.push(i + 1);
-            rest = &rest[p + 1..];
-        }
-    }
-    out
+    Ok(Scan {
+        version,
+        variable_lines,
+    })
 }
 
 fn parse_f64(s: &str, what: &dyn Fn() -> String) -> Result<f64, String> {

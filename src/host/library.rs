@@ -164,6 +164,33 @@ fmi2_functions! {
     get_string_status = "fmi2GetStringStatus": fn(Component, c_int, *mut *const c_char) -> c_int;
 }
 
+/// libloading's `Display` says only "dlopen failed"; the reason (`undefined symbol: …`,
+/// `wrong ELF class`, …) is in its source.
+fn describe(e: &libloading::Error) -> String {
+    match std::error::Error::source(e) {
+        Some(s) => format!("{e}: {s}"),
+        None => e.to_string(),
+    }
+}
+
+/// Load shared libraries into the global symbol namespace (`RTLD_NOW | RTLD_GLOBAL`) before
+/// the FMU, for FMUs with `needsExecutionTool="true"` (FMI 2.0.5 §4.3.1) whose binary expects
+/// the tool's symbols to be present in the host process: a PythonFMU, for instance, resolves
+/// the CPython API from the process, so it needs `libpython3.X.so` loaded first.
+///
+/// The libraries are never unloaded: an embedded interpreter may have registered exit
+/// handlers that live in them.
+pub fn preload(paths: &[PathBuf]) -> Result<(), String> {
+    use libloading::os::unix::{Library as UnixLibrary, RTLD_GLOBAL, RTLD_NOW};
+    for p in paths {
+        // SAFETY: loading a library runs its initialisers; the user asked for this library.
+        let lib = unsafe { UnixLibrary::open(Some(p), RTLD_NOW | RTLD_GLOBAL) }
+            .map_err(|e| format!("--preload {}: cannot load: {}", p.display(), describe(&e)))?;
+        std::mem::forget(lib);
+    }
+    Ok(())
+}
+
 /// A loaded FMU library with its resolved function table. The function pointers are only
 /// valid while this value (which owns the `dlopen` handle) is alive.
 pub struct FmuLibrary {
@@ -225,7 +252,10 @@ impl FmuLibrary {
         // an FMU. RTLD_LOCAL (libloading's default) keeps its fmi2* symbols out of the global
         // namespace, so several FMUs can be loaded side by side.
         let lib = unsafe { Library::new(&path) }.map_err(|e| {
-            format!("binaries/{PLATFORM}/{model_identifier}.so: cannot load the library: {e}")
+            format!(
+                "binaries/{PLATFORM}/{model_identifier}.so: cannot load the library: {}",
+                describe(&e)
+            )
         })?;
         // SAFETY: symbols are FMI 2.0 functions with the signatures of fmi2FunctionTypes.h.
         let fns = unsafe { Functions::resolve(&lib, &path) }?;
