@@ -8,10 +8,12 @@
 // lint's `partial_cmp` rewrite would hide that intent.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+pub mod analysis;
 pub mod host;
 pub mod mesh;
 pub mod model;
 pub mod output;
+pub mod plot;
 pub mod scene;
 pub mod simulation;
 pub mod solve;

@@ -102,11 +102,18 @@ pub enum SolveError {
     StopNotAhead { t: f64, stop: f64 },
     /// The system's `dim()` differs from the integrator's.
     DimensionMismatch { expected: usize, got: usize },
+    /// A grazing state event (the guard's rate vanishes) while the sensitivity `∂y/∂y0` was
+    /// tracked: the saltation matrix is unbounded there.
+    SingularSaltation { t: f64 },
 }
 
 impl fmt::Display for SolveError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            SolveError::SingularSaltation { t } => write!(
+                f,
+                "grazing contact at t = {t:e} s: the sensitivity (monodromy) is unbounded there"
+            ),
             SolveError::StepSizeTooSmall { t, h } => {
                 write!(f, "step size {h:e} too small at t = {t:e} s")
             }

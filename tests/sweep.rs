@@ -1,0 +1,140 @@
+//! Frequency sweeps: a linear scene against the closed-form frequency response, the softening
+//! jump of the backlash scene (up and down branches differ only near resonance), and the
+//! handling of bad ranges and non-converged points.
+
+mod common;
+
+use std::f64::consts::TAU;
+
+use common::M_E;
+use geardyn::analysis::{sweep, Direction, SweepOptions};
+use geardyn::scene::Scene;
+
+fn quiet(_: usize, _: usize) {}
+
+#[test]
+fn linear_scene_matches_closed_form_frequency_response() {
+    // m x'' + c(x' − ė) + k(x − e) = F with e = a cos(ω t): |X| = a |k + icω| / |k − mω² + icω|.
+    let (k, c, a) = (2.0e8, 400.0, 1.0e-6);
+    let scene = common::scene(
+        &format!(
+            "contact = \"linear\"\ndamping = {c}\n[mesh.stiffness]\nkind = \"constant\"\n\
+             value = {k:e}\n[mesh.ste]\ncos = [{a:e}]"
+        ),
+        "pinion_speed = 500.0\ninput_torque = 100.0",
+        "",
+    );
+    let f_n = (k / M_E).sqrt() / TAU;
+    // Mesh frequencies 0.5 … 1.5 f_n.
+    let speeds: Vec<f64> = (0..11)
+        .map(|i| common::pinion_speed_for_mesh_frequency(f_n * (0.5 + 0.1 * i as f64)))
+        .collect();
+    let options = SweepOptions {
+        tolerance: 1e-9,
+        ..SweepOptions::new(speeds, Direction::Both)
+    };
+    let points = sweep(&scene, &options, &quiet).unwrap();
+    let mut worst: f64 = 0.0;
+    for p in &points {
+        let w = TAU * p.mesh_frequency;
+        let num = (k * k + (c * w).powi(2)).sqrt();
+        let den = ((k - M_E * w * w).powi(2) + (c * w).powi(2)).sqrt();
+        let expected = a * num / den;
+        let rel = (p.harmonics[0] - expected).abs() / expected;
+        worst = worst.max(rel);
+        assert!(p.converged && p.response_periods == Some(1), "{p:?}");
+        // The RMS of a pure harmonic is A/√2; the mean is the static deflection F/k.
+        assert!((p.dte_rms - p.harmonics[0] / 2f64.sqrt()).abs() <= 1e-6 * expected);
+        assert!((p.dte_mean - 2000.0 / k).abs() <= 1e-9 * 2000.0 / k + 1e-6 * expected);
+        assert!(
+            p.harmonics[1] < 1e-6 * expected,
+            "no second harmonic in a linear response"
+        );
+    }
+    println!("linear sweep: max relative |A1 − closed form| = {worst:.2e}");
+    assert!(worst <= 1e-6);
+}
+
+#[test]
+fn backlash_scene_shows_softening_jump() {
+    let scene = Scene::example("spur_pair").unwrap();
+    let speeds: Vec<f64> = (0..21).map(|i| 300.0 + 15.0 * i as f64).collect();
+    let points = sweep(
+        &scene,
+        &SweepOptions::new(speeds.clone(), Direction::Both),
+        &quiet,
+    )
+    .unwrap();
+    let up: Vec<_> = points
+        .iter()
+        .filter(|p| p.direction == Direction::Up)
+        .collect();
+    let mut down: Vec<_> = points
+        .iter()
+        .filter(|p| p.direction == Direction::Down)
+        .collect();
+    down.reverse();
+    println!("speed   up RMS      down RMS    up loss  down loss");
+    let mut branches_differ = 0;
+    for (u, d) in up.iter().zip(&down) {
+        assert_eq!(u.speed, d.speed);
+        assert!(u.converged && d.converged);
+        println!(
+            "{:6.1}  {:.4e}  {:.4e}  {:.3}    {:.3}",
+            u.speed, u.dte_rms, d.dte_rms, u.contact_loss_fraction, d.contact_loss_fraction
+        );
+        if (u.dte_rms - d.dte_rms).abs() > 0.2 * u.dte_rms {
+            branches_differ += 1;
+            // Softening: the down sweep stays on the upper, contact-losing branch.
+            assert!(d.dte_rms > u.dte_rms && d.contact_loss_fraction > u.contact_loss_fraction);
+        }
+    }
+    assert!(
+        branches_differ >= 2,
+        "expected coexisting branches (a jump)"
+    );
+    // Above the resonance the two sweeps land on the same orbit (below it, the contact-losing
+    // branch of a backlash pair persists far down: a classic of impact softening).
+    let (u, d) = (up[20], down[20]);
+    assert!(
+        (u.dte_rms - d.dte_rms).abs() <= 1e-5 * u.dte_rms,
+        "{} vs {}",
+        u.dte_rms,
+        d.dte_rms
+    );
+    // The jump up on the up sweep: one step multiplies the RMS.
+    let jump = up
+        .windows(2)
+        .map(|w| w[1].dte_rms / w[0].dte_rms)
+        .fold(0.0, f64::max);
+    println!("largest step ratio on the up sweep: {jump:.2}");
+    assert!(jump > 1.3);
+}
+
+#[test]
+fn bad_ranges_and_unconverged_points() {
+    for (range, needle) in [
+        ("100:50:10", "to = 50"),
+        ("0:50:10", "from = 0"),
+        ("100:200:1", "points = 1"),
+        ("100:200", "from:to:points"),
+        ("a:200:3", "from 'a'"),
+    ] {
+        let err = SweepOptions::parse_range(range).unwrap_err();
+        assert!(err.contains(needle), "{range}: {err}");
+    }
+    let scene = Scene::example("spur_pair").unwrap();
+    let err = sweep(&scene, &SweepOptions::new(vec![], Direction::Up), &quiet).unwrap_err();
+    assert!(err.contains("zero points"), "{err}");
+    // Too short a transient: the point is kept and marked.
+    let options = SweepOptions {
+        min_transient_periods: 1,
+        max_transient_periods: 2,
+        ..SweepOptions::new(vec![450.0, 460.0], Direction::Up)
+    };
+    let points = sweep(&scene, &options, &quiet).unwrap();
+    assert_eq!(points.len(), 2);
+    assert!(points
+        .iter()
+        .all(|p| !p.converged && p.response_periods.is_none()));
+}
