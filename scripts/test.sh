@@ -8,5 +8,7 @@ cd "$root"
 bash scripts/setup-python.sh
 cargo build --release --locked
 cargo test --release --locked
+# The shipped FMUs (out/fmus/*.fmu) that the Python tests load.
+bash scripts/build-fmus.sh
 # pytest exits 5 when it collects no test; that is a failure of the harness, not a pass.
 .venv/bin/python -m pytest -q tests/python "$@"

@@ -9,6 +9,10 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod analysis;
+pub mod fmi;
+pub mod fmu_entry;
+pub mod fmu_model;
+pub mod fmu_state;
 pub mod host;
 pub mod mesh;
 pub mod model;

@@ -36,6 +36,8 @@ enum Command {
     Periodic(PeriodicArgs),
     /// Frequency-response sweep over pinion speed (warm start, up/down branches).
     Sweep(SweepArgs),
+    /// FMI 2.0 Co-Simulation FMUs: build, print or check model descriptions.
+    Fmu(geardyn::fmi::cli::FmuArgs),
 }
 
 #[derive(Args)]
@@ -294,6 +296,7 @@ fn main() -> ExitCode {
         Command::Validate(args) => geardyn::host::cli::validate(args),
         Command::Periodic(args) => periodic(args),
         Command::Sweep(args) => sweep(args),
+        Command::Fmu(args) => geardyn::fmi::cli::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

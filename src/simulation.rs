@@ -2,10 +2,10 @@
 //!
 //! Used by `geardyn simulate` and by the FMU adapter alike, so both integrate the same way.
 
-use crate::model::{GearPair, Inputs, OUTPUT_NAMES};
+use crate::model::{GearPair, Inputs, PairState, OUTPUT_NAMES};
 use crate::scene::{MethodChoice, Scene};
 use crate::solve::exact::ExactPropagator;
-use crate::solve::rk::{RkOptions, RkStepper};
+use crate::solve::rk::{ControllerMemory, RkOptions, RkStepper};
 use crate::solve::{SolveError, SolverStats};
 
 /// The propagator actually used.
@@ -138,6 +138,60 @@ impl Simulation {
         let mut out = [0.0; OUTPUT_NAMES.len()];
         self.pair.outputs(self.t(), &self.state(), &mut out);
         out
+    }
+}
+
+/// Everything that determines how a [`Simulation`] continues, given the scene it was built
+/// from: time, state, the model's run-time state and the RK controller memory (`None` for the
+/// exact propagator, whose steps depend on `(t, y)` and the mode only). Restoring it continues
+/// bit-identically (FMU state get/set, FMI 2.0.x §2.1.8).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SimState {
+    pub t: f64,
+    pub y: [f64; 2],
+    pub pair: PairState,
+    pub controller: Option<ControllerMemory>,
+}
+
+impl Simulation {
+    /// Snapshot of the run (see [`SimState`]).
+    pub fn snapshot(&self) -> SimState {
+        SimState {
+            t: self.t(),
+            y: self.state(),
+            pair: self.pair.pair_state(),
+            controller: match &self.propagator {
+                Propagator::Rk(p) => Some(p.controller_memory()),
+                Propagator::Exact(_) => None,
+            },
+        }
+    }
+
+    /// Restores a snapshot taken from a simulation of the same scene. Rejects one taken with
+    /// the other propagator or with a mode this scene cannot have.
+    pub fn restore(&mut self, s: &SimState) -> Result<(), String> {
+        if !(s.t.is_finite() && s.y.iter().all(|v| v.is_finite())) {
+            return Err(format!("state (t = {}, y = {:?}) is not finite", s.t, s.y));
+        }
+        match (&mut self.propagator, &s.controller) {
+            (Propagator::Rk(p), Some(memory)) => {
+                self.pair.restore_pair_state(&s.pair)?;
+                p.invalidate();
+                p.restore(s.t, &s.y, memory);
+            }
+            (Propagator::Exact(p), None) => {
+                self.pair.restore_pair_state(&s.pair)?;
+                p.invalidate();
+                p.set_state(s.t, &s.y);
+            }
+            _ => {
+                return Err(format!(
+                    "the snapshot was taken with another propagator than '{}'",
+                    self.method_name()
+                ))
+            }
+        }
+        Ok(())
     }
 }
 

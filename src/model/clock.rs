@@ -25,6 +25,12 @@ impl PhaseClock {
         self.p0 + self.mesh_frequency * (t - self.t0)
     }
 
+    /// The anchor `(t0, p0)`: with [`PhaseClock::new`] it rebuilds this clock bit for bit
+    /// (FMU state snapshots; re-deriving the anchor would change rounding).
+    pub fn anchor(&self) -> (f64, f64) {
+        (self.t0, self.p0)
+    }
+
     /// Mesh frequency f_m, Hz.
     pub fn mesh_frequency(&self) -> f64 {
         self.mesh_frequency

@@ -11,4 +11,4 @@ mod clock;
 mod pair;
 
 pub use clock::PhaseClock;
-pub use pair::{ContactState, GearPair, Inputs, OUTPUT_NAMES};
+pub use pair::{ContactState, GearPair, Inputs, PairState, OUTPUT_NAMES};

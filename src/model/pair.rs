@@ -49,6 +49,20 @@ pub const OUTPUT_NAMES: [&str; 7] = [
     "static_deflection",
 ];
 
+/// The part of a [`GearPair`] that changes during a run: inputs, phase clock, stiffness
+/// segment and contact state. Restoring it (instead of re-deriving the mode with
+/// [`GearPair::resynchronise`]) continues a run bit-identically, also from a state sitting
+/// exactly on a switching surface (FMU state get/set, FMI 2.0.x §2.1.8).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PairState {
+    pub inputs: Inputs,
+    pub clock: PhaseClock,
+    /// Stiffness cycle (integer-valued) and piece index.
+    pub segment_cycle: f64,
+    pub segment_piece: usize,
+    pub contact: ContactState,
+}
+
 /// Position in the piecewise stiffness: `cycle` (integer-valued) and `piece` index of the
 /// shifted phase `u = p + phase`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -171,6 +185,48 @@ impl GearPair {
             None => 0,
         };
         self.segment = Segment { cycle, piece };
+    }
+
+    /// Snapshot of the run-time state ([`PairState`]).
+    pub fn pair_state(&self) -> PairState {
+        PairState {
+            inputs: self.inputs,
+            clock: self.clock,
+            segment_cycle: self.segment.cycle,
+            segment_piece: self.segment.piece,
+            contact: self.contact,
+        }
+    }
+
+    /// Restores a [`PairState`] taken from a pair assembled from the same scene. Rejects a
+    /// piece index or contact state this pair cannot have (a state from another scene).
+    pub fn restore_pair_state(&mut self, s: &PairState) -> Result<(), String> {
+        let pieces = self.stiffness.pieces().map_or(1, <[_]>::len);
+        if s.segment_piece >= pieces {
+            return Err(format!(
+                "stiffness piece {} does not exist (the stiffness has {pieces})",
+                s.segment_piece
+            ));
+        }
+        let contact_ok = match self.contact_law {
+            ContactLaw::Linear => s.contact == ContactState::Drive,
+            ContactLaw::ContactLoss => s.contact != ContactState::Back,
+            ContactLaw::Backlash { .. } => true,
+        };
+        if !contact_ok {
+            return Err(format!(
+                "contact state {:?} is impossible with this contact law",
+                s.contact
+            ));
+        }
+        self.apply_inputs(0.0, s.inputs);
+        self.clock = s.clock;
+        self.segment = Segment {
+            cycle: s.segment_cycle,
+            piece: s.segment_piece,
+        };
+        self.contact = s.contact;
+        Ok(())
     }
 
     /// Resets the discrete mode from a state at time `t`: used at start and after a state is

@@ -28,3 +28,31 @@ def geardyn_bin() -> pathlib.Path:
 def run_geardyn(*args, check=True):
     """Runs the binary, returning the CompletedProcess (text mode)."""
     return subprocess.run([str(GEARDYN), *map(str, args)], capture_output=True, text=True, check=check)
+
+
+FMU_DIR = REPO / "out" / "fmus"
+SCENES = sorted(p.parent for p in (REPO / "fmu").glob("*/scene.toml"))
+
+
+@pytest.fixture(scope="session")
+def shipped_fmus() -> list:
+    """Every FMU built by `scripts/build-fmus.sh` (one per `fmu/*/scene.toml`)."""
+    fmus = [FMU_DIR / f"{s.name}.fmu" for s in SCENES]
+    missing = [str(f) for f in fmus if not f.exists()]
+    if not SCENES or missing:
+        pytest.fail(f"FMUs missing: {missing or 'no fmu/*/scene.toml'}; run `bash scripts/build-fmus.sh`")
+    return fmus
+
+
+@pytest.fixture(scope="session")
+def spur_fmu(shipped_fmus) -> pathlib.Path:
+    return FMU_DIR / "spur_pair.fmu"
+
+
+def native_run(scene, out_csv, output_interval, stop_time):
+    """`geardyn simulate` on a grid; returns the CSV as a numpy structured array."""
+    import numpy as np
+
+    run_geardyn("simulate", scene, "--out", out_csv, "--output-interval", repr(output_interval),
+                "--stop-time", repr(stop_time), "--quiet")
+    return np.genfromtxt(out_csv, delimiter=",", names=True)

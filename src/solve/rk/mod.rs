@@ -187,6 +187,17 @@ pub struct RkStepper {
     stats: SolverStats,
 }
 
+/// The step-size controller's memory: with `(t, y)` it determines every future step (FSAL
+/// stage and guard values are pure functions of `(t, y)` and are recomputed bit-identically).
+/// Saved and restored for FMU state snapshots.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ControllerMemory {
+    pub h: Option<f64>,
+    pub err_old: f64,
+    pub last_rejected: bool,
+    pub nonfinite_trials: u32,
+}
+
 #[derive(Debug, Clone)]
 struct ControllerState {
     c: Controller,
@@ -263,6 +274,26 @@ impl RkStepper {
         self.ctl.h = self.opts.h_init;
         self.ctl.err_old = 1e-4;
         self.ctl.last_rejected = false;
+    }
+
+    /// The controller memory (see [`ControllerMemory`]).
+    pub fn controller_memory(&self) -> ControllerMemory {
+        ControllerMemory {
+            h: self.ctl.h,
+            err_old: self.ctl.err_old,
+            last_rejected: self.ctl.last_rejected,
+            nonfinite_trials: self.ctl.nonfinite_trials,
+        }
+    }
+
+    /// Restarts at `(t, y)` with a saved controller memory, so the run continues exactly as it
+    /// would have from the moment the memory was taken.
+    pub fn restore(&mut self, t: f64, y: &[f64], memory: &ControllerMemory) {
+        self.set_state(t, y);
+        self.ctl.h = memory.h;
+        self.ctl.err_old = memory.err_old;
+        self.ctl.last_rejected = memory.last_rejected;
+        self.ctl.nonfinite_trials = memory.nonfinite_trials;
     }
 
     /// The system's inputs or parameters changed at the current time: drop the stage `f(t, y)`

@@ -1,0 +1,339 @@
+//! `modelDescription.xml` writer (FMI 2.0.x §2.2 common schema, §4.3 CS schema), generated
+//! with quick-xml from the same variable table the C ABI uses.
+//!
+//! The output is deterministic (no generation date): the checked-in copies under
+//! `modelDescription/` must be byte-identical to what this writer produces.
+
+use std::io::Cursor;
+use std::path::Path;
+
+use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
+use quick_xml::Writer;
+
+use super::logger::Category;
+use super::model::{model_identifier, Causality, Initial, ModelInfo, VarKind, Variable};
+
+/// SI base-unit exponents of a unit (`<BaseUnit>`, FMI 2.0.x §2.2.2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct BaseUnit {
+    pub kg: i8,
+    pub m: i8,
+    pub s: i8,
+    pub rad: i8,
+}
+
+/// Units the generator knows. A variable with another unit fails packaging with a message,
+/// rather than producing a description that fmpy rejects ("unit not defined").
+pub fn base_unit(unit: &str) -> Option<BaseUnit> {
+    let u = |kg, m, s, rad| BaseUnit { kg, m, s, rad };
+    Some(match unit {
+        "m" => u(0, 1, 0, 0),
+        "m/s" => u(0, 1, -1, 0),
+        "m/s2" => u(0, 1, -2, 0),
+        "s" => u(0, 0, 1, 0),
+        "Hz" | "1/s" => u(0, 0, -1, 0),
+        "kg" => u(1, 0, 0, 0),
+        "kg.m2" => u(1, 2, 0, 0),
+        "N" => u(1, 1, -2, 0),
+        "N/m" => u(1, 0, -2, 0),
+        "N.s/m" => u(1, 0, -1, 0),
+        "N.m" => u(1, 2, -2, 0),
+        "N.m/rad" => u(1, 2, -2, -1),
+        "N.m.s/rad" => u(1, 2, -1, -1),
+        "J" => u(1, 2, -2, 0),
+        "W" => u(1, 2, -3, 0),
+        "Pa" => u(1, -1, -2, 0),
+        "rad" => u(0, 0, 0, 1),
+        "rad/s" => u(0, 0, -1, 1),
+        "rad/s2" => u(0, 0, -2, 1),
+        _ => return None,
+    })
+}
+
+/// `f64` in the shortest form that round-trips (`1.0`, `1e-5`, `2.5e8`), valid `xs:double`.
+fn real(x: f64) -> String {
+    format!("{x:?}")
+}
+
+type W = Writer<Cursor<Vec<u8>>>;
+
+fn io(e: std::io::Error) -> String {
+    format!("XML writer: {e}")
+}
+
+fn empty(w: &mut W, name: &str, attrs: &[(&str, String)]) -> Result<(), String> {
+    let mut el = BytesStart::new(name);
+    for (k, v) in attrs {
+        el.push_attribute((*k, v.as_str()));
+    }
+    w.write_event(Event::Empty(el)).map_err(io)
+}
+
+fn start(w: &mut W, name: &str, attrs: &[(&str, String)]) -> Result<(), String> {
+    let mut el = BytesStart::new(name);
+    for (k, v) in attrs {
+        el.push_attribute((*k, v.as_str()));
+    }
+    w.write_event(Event::Start(el)).map_err(io)
+}
+
+fn end(w: &mut W, name: &str) -> Result<(), String> {
+    w.write_event(Event::End(BytesEnd::new(name))).map_err(io)
+}
+
+/// Writes the complete `modelDescription.xml`.
+pub fn model_description(info: &ModelInfo, vars: &[Variable]) -> Result<String, String> {
+    super::model::validate_variables(vars)?;
+    let mut units: Vec<&str> = Vec::new();
+    for v in vars {
+        if let Some(u) = v.unit.as_deref() {
+            if base_unit(u).is_none() {
+                return Err(format!(
+                    "variable '{}': unit '{u}' has no BaseUnit definition (add it to fmi::description::base_unit)",
+                    v.name
+                ));
+            }
+            if !units.contains(&u) {
+                units.push(u);
+            }
+        }
+    }
+    units.sort_unstable();
+    let id = model_identifier(&info.model_name);
+    let yes = || "true".to_string();
+    let no = || "false".to_string();
+
+    let mut w = Writer::new_with_indent(Cursor::new(Vec::new()), b' ', 2);
+    w.write_event(Event::Decl(BytesDecl::new("1.0", Some("UTF-8"), None)))
+        .map_err(io)?;
+    start(
+        &mut w,
+        "fmiModelDescription",
+        &[
+            ("fmiVersion", "2.0".into()),
+            ("modelName", info.model_name.clone()),
+            ("guid", info.guid.clone()),
+            ("description", info.description.clone()),
+            ("version", env!("CARGO_PKG_VERSION").into()),
+            (
+                "generationTool",
+                format!("geardyn {}", env!("CARGO_PKG_VERSION")),
+            ),
+            ("variableNamingConvention", "structured".into()),
+            ("numberOfEventIndicators", "0".into()),
+        ],
+    )?;
+    // §4.3.1: capability flags. Async, input interpolation, output derivatives and
+    // directional derivatives are not provided (their functions return fmi2Error).
+    empty(
+        &mut w,
+        "CoSimulation",
+        &[
+            ("modelIdentifier", id),
+            ("needsExecutionTool", no()),
+            ("canHandleVariableCommunicationStepSize", yes()),
+            ("canInterpolateInputs", no()),
+            ("maxOutputDerivativeOrder", "0".into()),
+            ("canRunAsynchronuously", no()),
+            ("canBeInstantiatedOnlyOncePerProcess", no()),
+            ("canNotUseMemoryManagementFunctions", yes()),
+            ("canGetAndSetFMUstate", yes()),
+            ("canSerializeFMUstate", yes()),
+            ("providesDirectionalDerivative", no()),
+        ],
+    )?;
+    // §2.2.2: a present list must not be empty, so leave the element out without units.
+    if !units.is_empty() {
+        start(&mut w, "UnitDefinitions", &[])?;
+        for u in &units {
+            let b = base_unit(u).unwrap_or_default();
+            start(&mut w, "Unit", &[("name", (*u).to_string())])?;
+            let mut attrs = Vec::new();
+            for (k, e) in [("kg", b.kg), ("m", b.m), ("s", b.s), ("rad", b.rad)] {
+                if e != 0 {
+                    attrs.push((k, e.to_string()));
+                }
+            }
+            empty(&mut w, "BaseUnit", &attrs)?;
+            end(&mut w, "Unit")?;
+        }
+        end(&mut w, "UnitDefinitions")?;
+    }
+    start(&mut w, "LogCategories", &[])?;
+    for c in Category::ALL {
+        empty(
+            &mut w,
+            "Category",
+            &[
+                ("name", c.name().into()),
+                ("description", c.description().into()),
+            ],
+        )?;
+    }
+    end(&mut w, "LogCategories")?;
+    let d = info.default_experiment;
+    let mut de = vec![
+        ("startTime", real(d.start_time)),
+        ("stopTime", real(d.stop_time)),
+    ];
+    if let Some(t) = d.tolerance {
+        de.push(("tolerance", real(t)));
+    }
+    de.push(("stepSize", real(d.step_size)));
+    empty(&mut w, "DefaultExperiment", &de)?;
+
+    start(&mut w, "ModelVariables", &[])?;
+    for (i, v) in vars.iter().enumerate() {
+        w.write_event(Event::Comment(quick_xml::events::BytesText::new(&format!(
+            " index {} ",
+            i + 1
+        ))))
+        .map_err(io)?;
+        let mut attrs = vec![
+            ("name", v.name.clone()),
+            ("valueReference", v.value_reference.to_string()),
+            ("description", v.description.clone()),
+            ("causality", v.causality.as_str().into()),
+            ("variability", v.variability.as_str().into()),
+        ];
+        if let Some(init) = v.initial {
+            attrs.push(("initial", init.as_str().into()));
+        }
+        start(&mut w, "ScalarVariable", &attrs)?;
+        let mut ta = Vec::new();
+        if let Some(s) = v.start {
+            ta.push((
+                "start",
+                match v.kind {
+                    VarKind::Real => real(s),
+                    VarKind::Integer => (s as i64).to_string(),
+                    VarKind::Boolean => (s != 0.0).to_string(),
+                },
+            ));
+        }
+        if let Some(u) = &v.unit {
+            ta.push(("unit", u.clone()));
+        }
+        if let Some(m) = v.min {
+            ta.push(("min", real(m)));
+        }
+        if let Some(m) = v.max {
+            ta.push(("max", real(m)));
+        }
+        empty(&mut w, v.kind.as_str(), &ta)?;
+        end(&mut w, "ScalarVariable")?;
+    }
+    end(&mut w, "ModelVariables")?;
+
+    // §2.2.8: Outputs lists every output; InitialUnknowns lists outputs with
+    // initial = approx|calculated and all calculated parameters, sorted by index.
+    let index_of = |vr: u32| {
+        vars.iter()
+            .position(|v| v.value_reference == vr)
+            .map(|i| i + 1)
+    };
+    start(&mut w, "ModelStructure", &[])?;
+    let outputs: Vec<(usize, &Variable)> = vars
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.causality == Causality::Output)
+        .map(|(i, v)| (i + 1, v))
+        .collect();
+    if !outputs.is_empty() {
+        start(&mut w, "Outputs", &[])?;
+        for (i, v) in &outputs {
+            let mut deps: Vec<usize> = v.depends_on.iter().filter_map(|d| index_of(*d)).collect();
+            deps.sort_unstable();
+            let deps: Vec<String> = deps.iter().map(usize::to_string).collect();
+            empty(
+                &mut w,
+                "Unknown",
+                &[("index", i.to_string()), ("dependencies", deps.join(" "))],
+            )?;
+        }
+        end(&mut w, "Outputs")?;
+    }
+    let initial: Vec<usize> = vars
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| {
+            (v.causality == Causality::Output
+                && matches!(v.initial, Some(Initial::Approx | Initial::Calculated)))
+                || v.causality == Causality::CalculatedParameter
+        })
+        .map(|(i, _)| i + 1)
+        .collect();
+    if !initial.is_empty() {
+        start(&mut w, "InitialUnknowns", &[])?;
+        for i in initial {
+            empty(&mut w, "Unknown", &[("index", i.to_string())])?;
+        }
+        end(&mut w, "InitialUnknowns")?;
+    }
+    end(&mut w, "ModelStructure")?;
+    end(&mut w, "fmiModelDescription")?;
+    let mut s = String::from_utf8(w.into_inner().into_inner()).map_err(|e| e.to_string())?;
+    s.push('\n');
+    Ok(s)
+}
+
+/// Generates the description of a scene through the crate's factory.
+pub fn for_scene(scene_path: &Path) -> Result<(String, ModelInfo), String> {
+    let loaded = crate::fmu_entry::load_scene(scene_path)?;
+    let xml = model_description(&loaded.info, loaded.model.variables())?;
+    Ok((xml, loaded.info))
+}
+
+/// Compares (or with `write`, refreshes) the checked-in descriptions: every
+/// `<scenes_root>/<name>/scene.toml` must have `<md_dir>/<modelIdentifier>.xml` identical to
+/// the generator's output, and no stray XML may remain. Returns the problems found.
+pub fn check_checked_in(
+    scenes_root: &Path,
+    md_dir: &Path,
+    write: bool,
+) -> Result<Vec<String>, String> {
+    let mut problems = Vec::new();
+    let mut expected = Vec::new();
+    let mut dirs: Vec<_> = match std::fs::read_dir(scenes_root) {
+        Ok(rd) => rd.filter_map(Result::ok).map(|e| e.path()).collect(),
+        Err(_) => Vec::new(), // no shipped FMUs yet
+    };
+    dirs.sort();
+    for dir in dirs {
+        let scene = dir.join(crate::fmu_entry::SCENE_FILE);
+        if !scene.is_file() {
+            continue;
+        }
+        let (xml, info) = for_scene(&scene)?;
+        let file = format!("{}.xml", model_identifier(&info.model_name));
+        let path = md_dir.join(&file);
+        expected.push(file);
+        let current = std::fs::read_to_string(&path).ok();
+        if current.as_deref() != Some(xml.as_str()) {
+            if write {
+                std::fs::create_dir_all(md_dir).map_err(|e| e.to_string())?;
+                std::fs::write(&path, &xml).map_err(|e| format!("{}: {e}", path.display()))?;
+            } else {
+                problems.push(format!(
+                    "{} is {} (generated from {}); regenerate with `geardyn fmu descriptions --write`",
+                    path.display(),
+                    if current.is_some() { "out of date" } else { "missing" },
+                    scene.display()
+                ));
+            }
+        }
+    }
+    if let Ok(rd) = std::fs::read_dir(md_dir) {
+        for e in rd.filter_map(Result::ok) {
+            let name = e.file_name().to_string_lossy().into_owned();
+            if name.ends_with(".xml") && !expected.contains(&name) {
+                problems.push(format!(
+                    "{} has no scene under {}",
+                    e.path().display(),
+                    scenes_root.display()
+                ));
+            }
+        }
+    }
+    Ok(problems)
+}

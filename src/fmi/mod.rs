@@ -1,0 +1,28 @@
+//! FMI 2.0 Co-Simulation export (FMI 2.0.x, modelica/fmi-standard v2.0.5).
+//!
+//! A generic layer that knows no gear physics and talks to a model through
+//! [`model::CoSimModel`]:
+//!
+//! - [`model`]: the trait and the variable table (shared by the C ABI and the XML writer),
+//! - [`state`]: the CS state machine and the set rules (§4.2.4, §2.2.7),
+//! - [`logger`]: the host's variadic logger with log categories (§2.1.5),
+//! - [`instance`]: the semantics of every call on one instance,
+//! - [`abi`]: the 34 exported `extern "C"` functions (thin, panic-free),
+//! - [`blob`]: FMU-state envelope (version, length, checksum, GUID) and hashes,
+//! - [`description`]: `modelDescription.xml` writer (§2.2, §4.3),
+//! - [`package`]: the `.fmu` ZIP writer (§2.3), [`cli`]: the `geardyn fmu` subcommand,
+//! - [`uri`]: `file:` URI decoding.
+//!
+//! The model is created by [`crate::fmu_entry`], the one factory used by both the binary and
+//! the packager; the gear model's adapter is [`crate::fmu_model`].
+
+pub mod abi;
+pub mod blob;
+pub mod cli;
+pub mod description;
+pub mod instance;
+pub mod logger;
+pub mod model;
+pub mod package;
+pub mod state;
+pub mod uri;

@@ -1,0 +1,429 @@
+//! The contract between the generic FMI layer and a concrete model.
+//!
+//! The layer in [`crate::fmi`] knows no physics. It owns the FMI state machine, the
+//! causality/variability rules, logging, FMU-state envelopes and the C ABI; a model only
+//! provides its variable table ([`Variable`]) and the operations of [`CoSimModel`]. The same
+//! table drives the C ABI (value-reference lookup, set rules) and the generated
+//! `modelDescription.xml`, so value references cannot drift between the two.
+
+use std::collections::HashSet;
+
+/// Base type of a scalar variable (FMI 2.0.x §2.2.7, `ScalarVariable` child element).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum VarKind {
+    Real,
+    Integer,
+    Boolean,
+}
+
+/// `causality` attribute (FMI 2.0.x §2.2.7).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Causality {
+    Parameter,
+    CalculatedParameter,
+    Input,
+    Output,
+    Local,
+}
+
+/// `variability` attribute (FMI 2.0.x §2.2.7).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Variability {
+    Constant,
+    Fixed,
+    Tunable,
+    Discrete,
+    Continuous,
+}
+
+/// `initial` attribute (FMI 2.0.x §2.2.7).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Initial {
+    Exact,
+    Approx,
+    Calculated,
+}
+
+impl VarKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            VarKind::Real => "Real",
+            VarKind::Integer => "Integer",
+            VarKind::Boolean => "Boolean",
+        }
+    }
+}
+
+impl Causality {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Causality::Parameter => "parameter",
+            Causality::CalculatedParameter => "calculatedParameter",
+            Causality::Input => "input",
+            Causality::Output => "output",
+            Causality::Local => "local",
+        }
+    }
+}
+
+impl Variability {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Variability::Constant => "constant",
+            Variability::Fixed => "fixed",
+            Variability::Tunable => "tunable",
+            Variability::Discrete => "discrete",
+            Variability::Continuous => "continuous",
+        }
+    }
+}
+
+impl Initial {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Initial::Exact => "exact",
+            Initial::Approx => "approx",
+            Initial::Calculated => "calculated",
+        }
+    }
+}
+
+/// One row of the variable table: everything the C ABI and `modelDescription.xml` need.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Variable {
+    /// Unique name (structured naming convention, e.g. `mesh.dte`).
+    pub name: String,
+    pub value_reference: u32,
+    pub kind: VarKind,
+    pub causality: Causality,
+    pub variability: Variability,
+    /// Must be `None` for inputs (FMI 2.0.x §2.2.7 table of legal combinations).
+    pub initial: Option<Initial>,
+    /// Start value; required for inputs and for `initial = exact | approx`, forbidden for
+    /// `initial = calculated`. Integer/Boolean start values are stored as `f64` (0/1 for
+    /// Boolean) and written as integers.
+    pub start: Option<f64>,
+    /// SI unit symbol (`m`, `N/m`, `rad/s`, …). Must be known to
+    /// [`crate::fmi::description::base_unit`]; `None` for dimensionless quantities.
+    pub unit: Option<String>,
+    /// Inclusive bounds the layer checks before a set reaches the model (Real only).
+    pub min: Option<f64>,
+    pub max: Option<f64>,
+    /// Shown by every FMI tool; required (non-empty) for every variable.
+    pub description: String,
+    /// For outputs: value references of the inputs this output depends on directly
+    /// (`ModelStructure/Outputs/Unknown/@dependencies`). Empty = no direct feedthrough.
+    pub depends_on: Vec<u32>,
+}
+
+impl Variable {
+    /// A Real variable with no bounds and no dependencies; adjust fields afterwards.
+    pub fn real(
+        name: &str,
+        value_reference: u32,
+        causality: Causality,
+        variability: Variability,
+        initial: Option<Initial>,
+        start: Option<f64>,
+        unit: Option<&str>,
+        description: &str,
+    ) -> Variable {
+        Variable {
+            name: name.to_string(),
+            value_reference,
+            kind: VarKind::Real,
+            causality,
+            variability,
+            initial,
+            start,
+            unit: unit.map(str::to_string),
+            min: None,
+            max: None,
+            description: description.to_string(),
+            depends_on: Vec::new(),
+        }
+    }
+}
+
+/// Why `do_step` did not complete the communication step.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StepFailure {
+    /// Only part of the step was done (`fmi2Discard`, FMI 2.0.x §4.2.2): the state is valid at
+    /// `reached` (`tc <= reached < tc + h`). `terminate` asks the master to stop the run
+    /// (reported through `fmi2GetBooleanStatus(fmi2Terminated)`), e.g. a non-finite state.
+    Discard {
+        reason: String,
+        reached: f64,
+        terminate: bool,
+    },
+    /// The step failed and the state is unusable (`fmi2Error`); the master may only
+    /// `fmi2Reset` or `fmi2SetFMUstate`.
+    Error(String),
+}
+
+/// A co-simulation model as the FMI layer sees it. Physics-free on purpose.
+///
+/// The layer guarantees before each call: the instance is in a state where the call is
+/// allowed (FMI 2.0.x §4.2.4), value references exist and have the right base type, a set
+/// respects causality/variability/initial (§2.2.7) and `min`/`max`, Real values are finite.
+/// The model still validates physics (e.g. a mass must be positive) and returns a message
+/// that names the variable and the value.
+pub trait CoSimModel: Send {
+    /// The variable table. Must not change during the lifetime of the model.
+    fn variables(&self) -> &[Variable];
+
+    /// Current value of a Real variable. In initialization mode outputs must already be
+    /// consistent with the parameters and inputs set so far (compute lazily).
+    fn get_real(&self, vr: u32) -> Result<f64, String>;
+    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String>;
+
+    fn get_integer(&self, vr: u32) -> Result<i32, String> {
+        Err(format!(
+            "model has no Integer variable with value reference {vr}"
+        ))
+    }
+    fn set_integer(&mut self, vr: u32, _value: i32) -> Result<(), String> {
+        Err(format!(
+            "model has no Integer variable with value reference {vr}"
+        ))
+    }
+    fn get_boolean(&self, vr: u32) -> Result<bool, String> {
+        Err(format!(
+            "model has no Boolean variable with value reference {vr}"
+        ))
+    }
+    fn set_boolean(&mut self, vr: u32, _value: bool) -> Result<(), String> {
+        Err(format!(
+            "model has no Boolean variable with value reference {vr}"
+        ))
+    }
+
+    /// `fmi2SetupExperiment`: the start time becomes the model time.
+    fn setup_experiment(
+        &mut self,
+        start_time: f64,
+        stop_time: Option<f64>,
+        tolerance: Option<f64>,
+    ) -> Result<(), String>;
+
+    /// `fmi2ExitInitializationMode`: parameters are final; build whatever depends on them.
+    fn exit_initialization(&mut self) -> Result<(), String>;
+
+    /// Integrate from `t` to exactly `t + h` (computed once as `t + h` in `f64`), inputs held
+    /// constant over the step. `h > 0` and finite; uneven steps are normal. On success the
+    /// model time is `t + h`.
+    fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure>;
+
+    /// `fmi2Reset`: back to the state right after instantiation (start values).
+    fn reset(&mut self) -> Result<(), String>;
+
+    /// Everything needed to continue bit-identically: continuous and discrete states, time,
+    /// parameters, inputs, initialization stage. The layer wraps it in a versioned,
+    /// checksummed envelope ([`crate::fmi::blob`]); the model only sees its own bytes.
+    fn save_state(&self) -> Vec<u8>;
+    fn load_state(&mut self, bytes: &[u8]) -> Result<(), String>;
+}
+
+/// `DefaultExperiment` element (FMI 2.0.x §2.2.5). For co-simulation `step_size` is the
+/// preferred communication step.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DefaultExperiment {
+    pub start_time: f64,
+    pub stop_time: f64,
+    pub step_size: f64,
+    pub tolerance: Option<f64>,
+}
+
+/// Description-level data the factory derives from the scene together with the model.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelInfo {
+    /// `modelName`; the `modelIdentifier` is derived from it by [`model_identifier`].
+    pub model_name: String,
+    pub description: String,
+    pub default_experiment: DefaultExperiment,
+    /// Derived from the scene bytes and the crate version ([`crate::fmi::blob::guid`]).
+    pub guid: String,
+    /// HTML fragment for `documentation/index.html` (FMI 2.0.x §2.3): what the model is and
+    /// its equations. The layer adds the variable table.
+    pub documentation: String,
+}
+
+/// What the factory returns: a ready model plus its description data.
+pub struct LoadedModel {
+    pub model: Box<dyn CoSimModel>,
+    pub info: ModelInfo,
+}
+
+/// `modelIdentifier` from a model name: a C identifier (FMI 2.0.x §4.3.1, "short class name
+/// according to C syntax"), which is also the name of the shared library in the FMU.
+pub fn model_identifier(model_name: &str) -> String {
+    let mut id: String = model_name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if id.is_empty() || id.starts_with(|c: char| c.is_ascii_digit()) {
+        id.insert(0, '_');
+    }
+    id
+}
+
+/// Checks a variable table against the legal combinations of FMI 2.0.x §2.2.7 and the
+/// layer's own requirements (unique names and value references, a description everywhere).
+/// Used at instantiation and before packaging, so a bad table never ships.
+pub fn validate_variables(vars: &[Variable]) -> Result<(), String> {
+    use Causality as C;
+    use Variability as V;
+    let mut names = HashSet::new();
+    let mut refs = HashSet::new();
+    for v in vars {
+        let who = format!("variable '{}' (vr {})", v.name, v.value_reference);
+        if v.name.is_empty() {
+            return Err(format!(
+                "variable with vr {} has an empty name",
+                v.value_reference
+            ));
+        }
+        if !names.insert(v.name.as_str()) {
+            return Err(format!("{who}: duplicate name"));
+        }
+        // Value references are unique per base type in FMI 2.0; we make them unique overall
+        // so that a log line `#r<vr>#` or a vr in an error message is unambiguous.
+        if !refs.insert(v.value_reference) {
+            return Err(format!("{who}: duplicate value reference"));
+        }
+        if v.description.trim().is_empty() {
+            return Err(format!("{who}: missing description"));
+        }
+        if v.kind != VarKind::Real && v.variability == V::Continuous {
+            return Err(format!("{who}: only Real variables may be continuous"));
+        }
+        if v.kind != VarKind::Real && (v.unit.is_some() || v.min.is_some() || v.max.is_some()) {
+            return Err(format!(
+                "{who}: unit/min/max are only supported on Real variables"
+            ));
+        }
+        let legal = match v.causality {
+            C::Parameter => {
+                matches!(v.variability, V::Fixed | V::Tunable) && v.initial == Some(Initial::Exact)
+            }
+            C::CalculatedParameter => {
+                matches!(v.variability, V::Fixed | V::Tunable)
+                    && matches!(v.initial, Some(Initial::Calculated | Initial::Approx))
+            }
+            C::Input => matches!(v.variability, V::Discrete | V::Continuous) && v.initial.is_none(),
+            C::Output => match v.variability {
+                V::Constant => v.initial == Some(Initial::Exact),
+                V::Discrete | V::Continuous => v.initial.is_some(),
+                _ => false,
+            },
+            C::Local => match v.variability {
+                V::Constant => v.initial == Some(Initial::Exact),
+                V::Fixed | V::Tunable => {
+                    matches!(v.initial, Some(Initial::Calculated | Initial::Approx))
+                }
+                V::Discrete | V::Continuous => v.initial.is_some(),
+            },
+        };
+        if !legal {
+            return Err(format!(
+                "{who}: illegal combination causality={} variability={} initial={}",
+                v.causality.as_str(),
+                v.variability.as_str(),
+                v.initial.map_or("(none)", Initial::as_str)
+            ));
+        }
+        let needs_start =
+            v.causality == C::Input || matches!(v.initial, Some(Initial::Exact | Initial::Approx));
+        if needs_start && v.start.is_none() {
+            return Err(format!("{who}: a start value is required"));
+        }
+        if !needs_start && v.start.is_some() {
+            return Err(format!(
+                "{who}: must not have a start value (initial=calculated)"
+            ));
+        }
+        if let Some(s) = v.start {
+            if !s.is_finite() {
+                return Err(format!("{who}: start value {s} is not finite"));
+            }
+            if v.min.is_some_and(|m| s < m) || v.max.is_some_and(|m| s > m) {
+                return Err(format!("{who}: start value {s} outside [min, max]"));
+            }
+            if v.kind == VarKind::Boolean && s != 0.0 && s != 1.0 {
+                return Err(format!(
+                    "{who}: Boolean start value must be 0 or 1, got {s}"
+                ));
+            }
+            if v.kind == VarKind::Integer && (s.fract() != 0.0 || s.abs() > i32::MAX as f64) {
+                return Err(format!(
+                    "{who}: Integer start value {s} is not a 32-bit integer"
+                ));
+            }
+        }
+        if v.causality != C::Output && !v.depends_on.is_empty() {
+            return Err(format!("{who}: only outputs declare dependencies"));
+        }
+        for d in &v.depends_on {
+            let ok = vars
+                .iter()
+                .any(|u| u.value_reference == *d && u.causality == C::Input);
+            if !ok {
+                return Err(format!("{who}: dependency vr {d} is not an input"));
+            }
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identifier_is_c_syntax() {
+        assert_eq!(model_identifier("Gear Mesh-1"), "Gear_Mesh_1");
+        assert_eq!(model_identifier("1stage"), "_1stage");
+        assert_eq!(model_identifier(""), "_");
+    }
+
+    #[test]
+    fn illegal_combinations_are_rejected() {
+        let ok = Variable::real(
+            "k",
+            0,
+            Causality::Parameter,
+            Variability::Fixed,
+            Some(Initial::Exact),
+            Some(1.0),
+            Some("N/m"),
+            "stiffness",
+        );
+        assert!(validate_variables(std::slice::from_ref(&ok)).is_ok());
+        let mut bad = ok.clone();
+        bad.variability = Variability::Continuous;
+        assert!(validate_variables(&[bad])
+            .unwrap_err()
+            .contains("illegal combination"));
+        let mut bad = ok.clone();
+        bad.start = None;
+        assert!(validate_variables(&[bad])
+            .unwrap_err()
+            .contains("start value"));
+        let mut dup = ok.clone();
+        dup.name = "k2".into();
+        assert!(validate_variables(&[ok.clone(), dup])
+            .unwrap_err()
+            .contains("duplicate value reference"));
+        let mut bad = ok;
+        bad.description.clear();
+        assert!(validate_variables(&[bad])
+            .unwrap_err()
+            .contains("description"));
+    }
+}

@@ -1,0 +1,164 @@
+//! FMU packager (FMI 2.0.x §2.3 "FMU Distribution"): one generic cdylib, one scene per FMU.
+//!
+//! Layout: `modelDescription.xml`, `binaries/linux64/<modelIdentifier>.so` (a copy of
+//! `libgeardyn.so`), `resources/scene.toml`, `documentation/index.html`. ZIP rules of §2.3:
+//! deflate only, forward slashes, no zip64, no encryption; entries carry a fixed timestamp
+//! so the same inputs give the same archive.
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use zip::write::SimpleFileOptions;
+use zip::{CompressionMethod, DateTime, ZipWriter};
+
+use super::description;
+use super::model::{model_identifier, ModelInfo, Variable};
+use crate::fmu_entry::{load_scene, SCENE_FILE};
+
+/// Resolves `scene.toml | fmu/<name>` into the scene file and an optional README.
+pub fn resolve_scene(input: &Path) -> Result<(PathBuf, Option<PathBuf>), String> {
+    if input.is_dir() {
+        let scene = input.join(SCENE_FILE);
+        if !scene.is_file() {
+            return Err(format!("{} has no {SCENE_FILE}", input.display()));
+        }
+        let readme = input.join("README.md");
+        Ok((scene, readme.is_file().then_some(readme)))
+    } else if input.is_file() {
+        Ok((input.to_path_buf(), None))
+    } else {
+        Err(format!("scene '{}' does not exist", input.display()))
+    }
+}
+
+/// `libgeardyn.so` next to the running executable (`target/<profile>/`), or one level up
+/// (test binaries live in `deps/`, examples in `examples/`).
+pub fn find_cdylib() -> Result<PathBuf, String> {
+    let exe = std::env::current_exe().map_err(|e| format!("cannot locate executable: {e}"))?;
+    let mut dir = exe.parent();
+    for _ in 0..2 {
+        let Some(d) = dir else { break };
+        let lib = d.join("libgeardyn.so");
+        if lib.is_file() {
+            return Ok(lib);
+        }
+        dir = d.parent();
+    }
+    Err(format!(
+        "libgeardyn.so not found next to {} (build it with `cargo build --release` or pass --cdylib)",
+        exe.display()
+    ))
+}
+
+/// Builds `<out_dir>/<modelIdentifier>.fmu` and returns its path. The scene is loaded and
+/// validated through the same factory the binary uses before anything is written; the
+/// archive is written to a temporary name and renamed, so a failure leaves no FMU behind.
+pub fn build_fmu(scene_input: &Path, out_dir: &Path, cdylib: &Path) -> Result<PathBuf, String> {
+    let (scene, readme) = resolve_scene(scene_input)?;
+    let scene_bytes =
+        std::fs::read(&scene).map_err(|e| format!("cannot read {}: {e}", scene.display()))?;
+    let loaded = load_scene(&scene)?;
+    let xml = description::model_description(&loaded.info, loaded.model.variables())?;
+    let lib = std::fs::read(cdylib)
+        .map_err(|e| format!("cannot read shared library {}: {e}", cdylib.display()))?;
+    if !lib.starts_with(b"\x7fELF") {
+        return Err(format!("{} is not an ELF shared library", cdylib.display()));
+    }
+    let readme_text = match &readme {
+        Some(p) => Some(std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))?),
+        None => None,
+    };
+    let html = documentation(
+        &loaded.info,
+        loaded.model.variables(),
+        readme_text.as_deref(),
+    );
+    let id = model_identifier(&loaded.info.model_name);
+
+    std::fs::create_dir_all(out_dir)
+        .map_err(|e| format!("cannot create {}: {e}", out_dir.display()))?;
+    let target = out_dir.join(format!("{id}.fmu"));
+    let tmp = out_dir.join(format!(".{id}.fmu.partial"));
+    let r = write_zip(
+        &tmp,
+        &[
+            ("modelDescription.xml", xml.as_bytes(), 0o644),
+            (&format!("binaries/linux64/{id}.so"), &lib, 0o755),
+            (&format!("resources/{SCENE_FILE}"), &scene_bytes, 0o644),
+            ("documentation/index.html", html.as_bytes(), 0o644),
+        ],
+    )
+    .and_then(|()| {
+        std::fs::rename(&tmp, &target)
+            .map_err(|e| format!("cannot write {}: {e}", target.display()))
+    });
+    if r.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    r.map(|()| target)
+}
+
+fn write_zip(path: &Path, entries: &[(&str, &[u8], u32)]) -> Result<(), String> {
+    let err = |e: &dyn std::fmt::Display| format!("writing {}: {e}", path.display());
+    let file = std::fs::File::create(path).map_err(|e| err(&e))?;
+    let mut zip = ZipWriter::new(file);
+    for (name, data, mode) in entries {
+        // Deflate, no zip64 (large_file stays false): "version needed to extract" 2.0.
+        let opts = SimpleFileOptions::default()
+            .compression_method(CompressionMethod::Deflated)
+            .last_modified_time(DateTime::default())
+            .unix_permissions(*mode);
+        zip.start_file(*name, opts).map_err(|e| err(&e))?;
+        zip.write_all(data).map_err(|e| err(&e))?;
+    }
+    let mut file = zip.finish().map_err(|e| err(&e))?;
+    file.flush().map_err(|e| err(&e))?;
+    Ok(())
+}
+
+fn html_escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// `documentation/index.html`: the model's variables (from the same table) and the scene's
+/// README, if any.
+pub fn documentation(info: &ModelInfo, vars: &[Variable], readme: Option<&str>) -> String {
+    let mut h = String::new();
+    let name = html_escape(&info.model_name);
+    h.push_str(&format!(
+        "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>{name}</title></head><body>\n<h1>{name}</h1>\n<p>{}</p>\n",
+        html_escape(&info.description)
+    ));
+    h.push_str(&info.documentation);
+    h.push_str(&format!(
+        "<p>FMI 2.0 Co-Simulation FMU generated by geardyn {}. GUID {}.</p>\n",
+        env!("CARGO_PKG_VERSION"),
+        html_escape(&info.guid)
+    ));
+    h.push_str("<h2>Variables</h2>\n<table border=\"1\">\n<tr><th>name</th><th>vr</th><th>type</th><th>causality</th><th>variability</th><th>start</th><th>unit</th><th>description</th></tr>\n");
+    for v in vars {
+        h.push_str(&format!(
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>\n",
+            html_escape(&v.name),
+            v.value_reference,
+            v.kind.as_str(),
+            v.causality.as_str(),
+            v.variability.as_str(),
+            v.start.map(|s| format!("{s:?}")).unwrap_or_default(),
+            html_escape(v.unit.as_deref().unwrap_or("")),
+            html_escape(&v.description)
+        ));
+    }
+    h.push_str("</table>\n");
+    if let Some(r) = readme {
+        h.push_str(&format!(
+            "<h2>Scene notes</h2>\n<pre>{}</pre>\n",
+            html_escape(r)
+        ));
+    }
+    h.push_str("</body></html>\n");
+    h
+}

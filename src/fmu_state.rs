@@ -1,0 +1,233 @@
+//! Byte layout of the gear model's part of an FMU state (FMI 2.0.x §2.1.8). The FMI layer
+//! wraps it in its versioned, checksummed envelope ([`crate::fmi::blob`]); this module only
+//! turns a [`ModelSnapshot`] into bytes and back, rejecting anything malformed with a reason.
+//!
+//! Layout, little-endian: `u32 n` then `n × (u32 vr, f64 value)` (parameters and start
+//! inputs), `u8 flags` (bit 0 static initial DTE, bit 1 initialized, bit 2 RK controller
+//! present, bit 3 controller step proposal present, bit 4 last step rejected), `f64`
+//! initial DTE, start time, t, x, x', the three inputs, the clock (t0, p0, f_m), segment
+//! cycle, `u64` segment piece, `i8` contact state, and for RK `f64` proposal, `f64`
+//! previous error, `u32` non-finite trials.
+
+use crate::model::{ContactState, Inputs, PairState, PhaseClock};
+use crate::simulation::SimState;
+use crate::solve::rk::ControllerMemory;
+
+/// Everything the gear model needs to continue bit-identically.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ModelSnapshot {
+    /// Values of the parameters and start inputs, by value reference.
+    pub params: Vec<(u32, f64)>,
+    pub static_dte: bool,
+    pub initial_dte: f64,
+    pub start_time: f64,
+    pub initialized: bool,
+    pub sim: SimState,
+}
+
+pub fn encode(s: &ModelSnapshot) -> Vec<u8> {
+    let mut out = Vec::with_capacity(256);
+    out.extend_from_slice(&(s.params.len() as u32).to_le_bytes());
+    for (vr, x) in &s.params {
+        out.extend_from_slice(&vr.to_le_bytes());
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+    let c = s.sim.controller;
+    let flags = u8::from(s.static_dte)
+        | u8::from(s.initialized) << 1
+        | u8::from(c.is_some()) << 2
+        | u8::from(c.is_some_and(|c| c.h.is_some())) << 3
+        | u8::from(c.is_some_and(|c| c.last_rejected)) << 4;
+    out.push(flags);
+    let p = &s.sim.pair;
+    let (t0, p0) = p.clock.anchor();
+    for x in [
+        s.initial_dte,
+        s.start_time,
+        s.sim.t,
+        s.sim.y[0],
+        s.sim.y[1],
+        p.inputs.pinion_speed,
+        p.inputs.input_torque,
+        p.inputs.load_torque,
+        t0,
+        p0,
+        p.clock.mesh_frequency(),
+        p.segment_cycle,
+    ] {
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+    out.extend_from_slice(&(p.segment_piece as u64).to_le_bytes());
+    out.push(p.contact as i8 as u8);
+    if let Some(c) = c {
+        out.extend_from_slice(&c.h.unwrap_or(0.0).to_le_bytes());
+        out.extend_from_slice(&c.err_old.to_le_bytes());
+        out.extend_from_slice(&c.nonfinite_trials.to_le_bytes());
+    }
+    out
+}
+
+struct Reader<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+}
+
+impl<'a> Reader<'a> {
+    fn take<const N: usize>(&mut self) -> Result<[u8; N], String> {
+        let end = self.pos + N;
+        let b = self
+            .bytes
+            .get(self.pos..end)
+            .ok_or_else(|| format!("model state truncated at byte {}", self.pos))?;
+        self.pos = end;
+        let mut a = [0u8; N];
+        a.copy_from_slice(b);
+        Ok(a)
+    }
+    fn f64(&mut self) -> Result<f64, String> {
+        Ok(f64::from_le_bytes(self.take()?))
+    }
+    fn u32(&mut self) -> Result<u32, String> {
+        Ok(u32::from_le_bytes(self.take()?))
+    }
+}
+
+pub fn decode(bytes: &[u8]) -> Result<ModelSnapshot, String> {
+    let mut r = Reader { bytes, pos: 0 };
+    let n = r.u32()? as usize;
+    // Each entry takes 12 bytes: a count beyond the payload is corrupt, not a huge alloc.
+    if n > bytes.len() / 12 {
+        return Err(format!(
+            "model state lists {n} parameters in {} bytes",
+            bytes.len()
+        ));
+    }
+    let mut params = Vec::with_capacity(n);
+    for _ in 0..n {
+        let vr = r.u32()?;
+        params.push((vr, r.f64()?));
+    }
+    let [flags] = r.take::<1>()?;
+    let mut f = [0.0; 12];
+    for x in &mut f {
+        *x = r.f64()?;
+    }
+    let piece = u64::from_le_bytes(r.take()?);
+    let [contact] = r.take::<1>()?;
+    let contact = match contact as i8 {
+        1 => ContactState::Drive,
+        0 => ContactState::Separated,
+        -1 => ContactState::Back,
+        other => return Err(format!("model state has contact state {other}")),
+    };
+    let controller = if flags & 4 != 0 {
+        let h = r.f64()?;
+        let err_old = r.f64()?;
+        let nonfinite_trials = r.u32()?;
+        Some(ControllerMemory {
+            h: (flags & 8 != 0).then_some(h),
+            err_old,
+            last_rejected: flags & 16 != 0,
+            nonfinite_trials,
+        })
+    } else {
+        None
+    };
+    if r.pos != bytes.len() {
+        return Err(format!(
+            "model state has {} trailing bytes",
+            bytes.len() - r.pos
+        ));
+    }
+    Ok(ModelSnapshot {
+        params,
+        static_dte: flags & 1 != 0,
+        initial_dte: f[0],
+        start_time: f[1],
+        initialized: flags & 2 != 0,
+        sim: SimState {
+            t: f[2],
+            y: [f[3], f[4]],
+            pair: PairState {
+                inputs: Inputs {
+                    pinion_speed: f[5],
+                    input_torque: f[6],
+                    load_torque: f[7],
+                },
+                clock: PhaseClock::new(f[8], f[9], f[10]),
+                segment_cycle: f[11],
+                segment_piece: usize::try_from(piece)
+                    .map_err(|_| format!("model state has segment piece {piece}"))?,
+                contact,
+            },
+            controller,
+        },
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sample(controller: Option<ControllerMemory>) -> ModelSnapshot {
+        ModelSnapshot {
+            params: vec![(0, 0.5), (7, -1.25)],
+            static_dte: true,
+            initial_dte: 7e-6,
+            start_time: 0.5,
+            initialized: true,
+            sim: SimState {
+                t: 0.125,
+                y: [1e-6, -2e-3],
+                pair: PairState {
+                    inputs: Inputs {
+                        pinion_speed: 400.0,
+                        input_torque: 100.0,
+                        load_torque: 140.0,
+                    },
+                    clock: PhaseClock::new(0.1, 3.25, 2500.0),
+                    segment_cycle: 3.0,
+                    segment_piece: 1,
+                    contact: ContactState::Back,
+                },
+                controller,
+            },
+        }
+    }
+
+    #[test]
+    fn round_trip_both_propagators() {
+        for c in [
+            None,
+            Some(ControllerMemory {
+                h: Some(1e-6),
+                err_old: 0.3,
+                last_rejected: true,
+                nonfinite_trials: 2,
+            }),
+            Some(ControllerMemory {
+                h: None,
+                err_old: 1e-4,
+                last_rejected: false,
+                nonfinite_trials: 0,
+            }),
+        ] {
+            let s = sample(c);
+            assert_eq!(decode(&encode(&s)).unwrap(), s);
+        }
+    }
+
+    #[test]
+    fn malformed_payloads_are_rejected() {
+        let b = encode(&sample(None));
+        for n in 0..b.len() {
+            assert!(decode(&b[..n]).is_err(), "truncation to {n} accepted");
+        }
+        let mut longer = b.clone();
+        longer.push(0);
+        assert!(decode(&longer).unwrap_err().contains("trailing"));
+        let mut huge = b;
+        huge[..4].copy_from_slice(&u32::MAX.to_le_bytes());
+        assert!(decode(&huge).unwrap_err().contains("parameters"));
+    }
+}
