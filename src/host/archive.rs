@@ -58,10 +58,10 @@ pub fn unpack(fmu: &Path) -> Result<Unpacked, String> {
                 fmu.display()
             ));
         }
-        return Ok(Unpacked {
-            _temp: None,
-            root: fmu.to_path_buf(),
-        });
+        // Absolute, because the resource location passed to the FMU is a file:// URI.
+        let root = fs::canonicalize(fmu)
+            .map_err(|e| format!("{}: cannot resolve the path: {e}", fmu.display()))?;
+        return Ok(Unpacked { _temp: None, root });
     }
     let file = fs::File::open(fmu).map_err(|e| format!("{}: cannot open: {e}", fmu.display()))?;
     let mut zip = zip::ZipArchive::new(io::BufReader::new(file)).map_err(|e| {

@@ -51,6 +51,9 @@ pub struct RunArgs {
     /// execution tool in the process, e.g. `--preload libpython3.11.so` for a PythonFMU.
     #[arg(long, value_name = "LIB")]
     pub preload: Vec<PathBuf>,
+    /// Report where the time went: the step loop, the part inside the FMU's calls, CSV writing.
+    #[arg(long)]
+    pub timing: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -192,6 +195,7 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         start_values,
         input,
         outputs,
+        timing: args.timing,
     };
 
     super::library::preload(&args.preload)?;
@@ -225,7 +229,17 @@ pub fn run(args: RunArgs) -> Result<(), String> {
     );
     drop(inst); // fmi2FreeInstance before the library is unloaded and the folder removed
 
+    let write_start = std::time::Instant::now();
     let written = write_outcome(&args.out, &outcome);
+    if let Some((total, fmu)) = outcome.timing {
+        eprintln!(
+            "timing: {} steps; step loop {total:.3} s, of which inside fmi2DoStep/fmi2Get* {fmu:.3} s ({:.1}%), runner {:.3} s; CSV writing {:.3} s",
+            outcome.times.len().saturating_sub(1),
+            100.0 * fmu / total.max(1e-300),
+            total - fmu,
+            write_start.elapsed().as_secs_f64()
+        );
+    }
     for n in &outcome.notes {
         eprintln!("note: {n}");
     }
@@ -253,14 +267,14 @@ fn write_outcome(out: &Option<PathBuf>, o: &runner::Outcome) -> Result<(), Strin
             let f = std::fs::File::create(p)
                 .map_err(|e| format!("{}: cannot create: {e}", p.display()))?;
             let mut w = std::io::BufWriter::new(f);
-            super::csv::write_result(&mut w, &o.names, &o.times, &o.rows)
+            super::csv::write_result(&mut w, &o.names, &o.times, &o.cells)
                 .and_then(|_| w.flush())
                 .map_err(|e| format!("{}: cannot write: {e}", p.display()))
         }
         None => {
             let stdout = std::io::stdout();
             let mut w = std::io::BufWriter::new(stdout.lock());
-            super::csv::write_result(&mut w, &o.names, &o.times, &o.rows)
+            super::csv::write_result(&mut w, &o.names, &o.times, &o.cells)
                 .and_then(|_| w.flush())
                 .map_err(|e| format!("stdout: {e}"))
         }

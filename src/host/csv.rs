@@ -11,25 +11,36 @@
 /// notation when the decimal exponent is < -4 or >= 16, exponent with sign and at least two
 /// digits (`1e-05`, `1.5e+16`), `inf`/`-inf`/`nan`.
 pub fn format_real(v: f64) -> String {
+    let mut s = String::with_capacity(24);
+    write_real(&mut s, v);
+    s
+}
+
+/// [`format_real`] appended to `out` without allocating (the output hot path).
+pub fn write_real(out: &mut String, v: f64) {
+    use std::fmt::Write as _;
     if v.is_nan() {
-        return "nan".into();
+        out.push_str("nan");
+        return;
     }
     if v.is_infinite() {
-        return if v > 0.0 { "inf".into() } else { "-inf".into() };
+        out.push_str(if v > 0.0 { "inf" } else { "-inf" });
+        return;
     }
     // Rust's `{:?}` uses the same shortest-digits algorithm and the same thresholds as
-    // Python's repr; only the exponent spelling differs.
-    let s = format!("{v:?}");
-    match s.find('e') {
-        None => s,
-        Some(p) => {
-            let (mant, exp) = s.split_at(p);
-            let exp = &exp[1..];
-            let (sign, digits) = match exp.strip_prefix('-') {
-                Some(d) => ('-', d),
-                None => ('+', exp),
-            };
-            format!("{mant}e{sign}{digits:0>2}")
+    // Python's repr; only the exponent spelling differs (`1e-5` vs `1e-05`, `1e16` vs `1e+16`).
+    let start = out.len();
+    let _ = write!(out, "{v:?}");
+    if let Some(p) = out.as_bytes()[start..].iter().rposition(|&b| b == b'e') {
+        let mut at = start + p + 1;
+        if out.as_bytes()[at] == b'-' {
+            at += 1;
+        } else {
+            out.insert(at, '+');
+            at += 1;
+        }
+        if out.len() - at < 2 {
+            out.insert(at, '0');
         }
     }
 }
@@ -122,22 +133,27 @@ pub enum Cell {
     Bool(bool),
 }
 
-impl std::fmt::Display for Cell {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+impl Cell {
+    /// Append the cell as fmpy writes it (`str()` of the numpy scalar).
+    pub fn write(&self, out: &mut String) {
+        use std::fmt::Write as _;
         match self {
-            Cell::Real(v) => f.write_str(&format_real(*v)),
-            Cell::Int(v) => write!(f, "{v}"),
-            Cell::Bool(v) => f.write_str(if *v { "True" } else { "False" }),
+            Cell::Real(v) => write_real(out, *v),
+            Cell::Int(v) => {
+                let _ = write!(out, "{v}");
+            }
+            Cell::Bool(v) => out.push_str(if *v { "True" } else { "False" }),
         }
     }
 }
 
-/// Write a result like `fmpy.util.write_csv`: `"time","a","b"` then one line per sample.
+/// Write a result like `fmpy.util.write_csv`: `"time","a","b"` then one line per sample;
+/// `cells` holds `names.len()` values per time, row after row.
 pub fn write_result(
     out: &mut dyn std::io::Write,
     names: &[String],
     times: &[f64],
-    rows: &[Vec<Cell>],
+    cells: &[Cell],
 ) -> std::io::Result<()> {
     use std::fmt::Write as _;
     let mut s = String::from("\"time\"");
@@ -146,11 +162,14 @@ pub fn write_result(
     }
     s.push('\n');
     out.write_all(s.as_bytes())?;
+    let width = names.len().max(1);
+    let rows = cells.chunks(width).chain(std::iter::repeat(&[][..]));
     for (t, row) in times.iter().zip(rows) {
         s.clear();
-        s.push_str(&format_real(*t));
+        write_real(&mut s, *t);
         for c in row {
-            let _ = write!(s, ",{c}");
+            s.push(',');
+            c.write(&mut s);
         }
         s.push('\n');
         out.write_all(s.as_bytes())?;

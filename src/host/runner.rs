@@ -33,6 +33,8 @@ pub struct Experiment {
     pub start_values: Vec<StartValue>,
     pub input: Option<Input>,
     pub outputs: Vec<Recorded>,
+    /// Measure the time spent inside `fmi2DoStep` and the output getters (`--timing`).
+    pub timing: bool,
 }
 
 /// One recorded variable.
@@ -47,11 +49,15 @@ pub struct Recorded {
 pub struct Outcome {
     pub names: Vec<String>,
     pub times: Vec<f64>,
-    pub rows: Vec<Vec<Cell>>,
+    /// The recorded values, row after row (`names.len()` cells per row, one row per time).
+    pub cells: Vec<Cell>,
     /// `Some(reason)` when the run failed; the rows up to the failure are still there.
     pub failure: Option<String>,
     /// Notes that are not failures (early stop, FMU-requested termination).
     pub notes: Vec<String>,
+    /// With [`Experiment::timing`]: `(seconds in the step loop, of which inside the FMU's
+    /// fmi2DoStep/fmi2Get* calls)`, so the runner's own share can be reported.
+    pub timing: Option<(f64, f64)>,
 }
 
 /// fmpy `util.auto_interval`: a round interval giving 500–1000 steps over `t`.
@@ -199,7 +205,8 @@ impl Sampler {
         }
     }
 
-    fn sample(&mut self, inst: &mut Instance) -> Result<Vec<Cell>, CallError> {
+    /// Append one row to `cells` (nothing on error).
+    fn sample(&mut self, inst: &mut Instance, cells: &mut Vec<Cell>) -> Result<(), CallError> {
         if !self.real_vr.is_empty() {
             inst.get_real(&self.real_vr, &mut self.real)?;
         }
@@ -209,11 +216,10 @@ impl Sampler {
         if !self.bool_vr.is_empty() {
             inst.get_boolean(&self.bool_vr, &mut self.boolean)?;
         }
-        let mut row = Vec::with_capacity(self.real.len() + self.int.len() + self.boolean.len());
-        row.extend(self.real.iter().map(|&v| Cell::Real(v)));
-        row.extend(self.int.iter().map(|&v| Cell::Int(v)));
-        row.extend(self.boolean.iter().map(|&v| Cell::Bool(v != 0)));
-        Ok(row)
+        cells.extend(self.real.iter().map(|&v| Cell::Real(v)));
+        cells.extend(self.int.iter().map(|&v| Cell::Int(v)));
+        cells.extend(self.boolean.iter().map(|&v| Cell::Bool(v != 0)));
+        Ok(())
     }
 }
 
@@ -252,9 +258,10 @@ pub fn run(inst: &mut Instance, exp: &Experiment, can_handle_variable_step: bool
     let mut out = Outcome {
         names: exp.outputs.iter().map(|o| o.name.clone()).collect(),
         times: Vec::new(),
-        rows: Vec::new(),
+        cells: Vec::new(),
         failure: None,
         notes: Vec::new(),
+        timing: None,
     };
     let mut sampler = Sampler::new(&exp.outputs);
     let t0 = exp.start_time;
@@ -289,11 +296,8 @@ pub fn run(inst: &mut Instance, exp: &Experiment, can_handle_variable_step: bool
         out.failure = Some(msg);
         return out;
     }
-    match sampler.sample(inst) {
-        Ok(row) => {
-            out.times.push(t0);
-            out.rows.push(row);
-        }
+    match sampler.sample(inst, &mut out.cells) {
+        Ok(()) => out.times.push(t0),
         Err(err) => {
             out.failure = Some(format!("reading outputs at t = {t0}: {err}"));
             return out;
@@ -304,6 +308,8 @@ pub fn run(inst: &mut Instance, exp: &Experiment, can_handle_variable_step: bool
     let stop = exp.stop_time;
     let mut time = t0;
     let mut n_steps: u64 = 0;
+    let loop_start = std::time::Instant::now();
+    let mut in_fmu = std::time::Duration::ZERO;
     loop {
         if time > stop || isclose(time, stop) {
             break;
@@ -333,7 +339,9 @@ pub fn run(inst: &mut Instance, exp: &Experiment, can_handle_variable_step: bool
                 return out;
             }
         }
-        if let Err(err) = inst.do_step(time, step) {
+        let call_start = exp.timing.then(std::time::Instant::now);
+        let stepped = inst.do_step(time, step);
+        if let Err(err) = stepped {
             let mut msg = format!("step from t = {time} with h = {step}: {err}");
             if err.status == super::library::Status::Discard {
                 let (terminated, last) = inst.discard_details();
@@ -341,9 +349,8 @@ pub fn run(inst: &mut Instance, exp: &Experiment, can_handle_variable_step: bool
                     msg.push_str(&format!("; last successful time {tl}"));
                     // Keep what the FMU did compute (fmpy samples at lastSuccessfulTime too).
                     if tl > time && terminated == Some(true) {
-                        if let Ok(row) = sampler.sample(inst) {
+                        if sampler.sample(inst, &mut out.cells).is_ok() {
                             out.times.push(tl);
-                            out.rows.push(row);
                         }
                     }
                 }
@@ -358,11 +365,12 @@ pub fn run(inst: &mut Instance, exp: &Experiment, can_handle_variable_step: bool
             return out;
         }
         time = next;
-        match sampler.sample(inst) {
-            Ok(row) => {
-                out.times.push(time);
-                out.rows.push(row);
-            }
+        let sampled = sampler.sample(inst, &mut out.cells);
+        if let Some(t) = call_start {
+            in_fmu += t.elapsed();
+        }
+        match sampled {
+            Ok(()) => out.times.push(time),
             Err(err) => {
                 out.failure = Some(format!("reading outputs at t = {time}: {err}"));
                 return out;
@@ -371,6 +379,9 @@ pub fn run(inst: &mut Instance, exp: &Experiment, can_handle_variable_step: bool
         if isclose(time, next_regular) {
             n_steps += 1;
         }
+    }
+    if exp.timing {
+        out.timing = Some((loop_start.elapsed().as_secs_f64(), in_fmu.as_secs_f64()));
     }
     if let Err(err) = inst.terminate() {
         out.failure = Some(format!("at the end (t = {time}): {err}"));
