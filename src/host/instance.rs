@@ -131,7 +131,9 @@ impl<'a> Instance<'a> {
         if status >= Status::Fatal {
             self.fatal = true;
         }
-        if status >= Status::Discard {
+        if status < Status::Discard {
+            self.logger.clear();
+        } else {
             let why = self.logger.reasons(Status::Warning);
             return Err(CallError {
                 function,

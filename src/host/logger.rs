@@ -6,6 +6,7 @@
 
 use super::library::Status;
 use std::ffi::{c_char, c_int, c_void, CStr};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Mutex;
 
 extern "C" {
@@ -40,6 +41,9 @@ pub struct LogRecord {
 pub struct LogSink {
     print_level: Status,
     records: Mutex<Vec<LogRecord>>,
+    /// Whether `records` may be non-empty: lets [`Logger::clear`] skip the lock on the hot
+    /// path (an FMU that logs nothing costs one atomic load per call).
+    dirty: AtomicBool,
 }
 
 /// Only this many warning/error messages are kept per instance (the reasons for a failure are
@@ -66,6 +70,7 @@ impl LogSink {
                     r.remove(0);
                 }
                 r.push(rec);
+                self.dirty.store(true, Ordering::Release);
             }
         }
     }
@@ -84,6 +89,7 @@ impl Logger {
         let sink = Box::new(LogSink {
             print_level,
             records: Mutex::new(Vec::new()),
+            dirty: AtomicBool::new(false),
         });
         let env = Box::new(LogEnv {
             forward,
@@ -97,12 +103,25 @@ impl Logger {
         &*self.env as *const LogEnv as *mut c_void
     }
 
+    /// Forget the kept messages: called after every call that did not fail, so the reasons
+    /// reported for a failure are the ones logged during that call.
+    pub fn clear(&self) {
+        if self.sink.dirty.swap(false, Ordering::AcqRel) {
+            if let Ok(mut r) = self.sink.records.lock() {
+                r.clear();
+            }
+        }
+    }
+
     /// Remove and return the kept warning/error messages.
     pub fn take_records(&self) -> Vec<LogRecord> {
         self.sink
             .records
             .lock()
-            .map(|mut r| std::mem::take(&mut *r))
+            .map(|mut r| {
+                self.sink.dirty.store(false, Ordering::Release);
+                std::mem::take(&mut *r)
+            })
             .unwrap_or_default()
     }
 

@@ -67,6 +67,11 @@ class Host:
         self.callbacks = fmi2CallbackFunctions()
         self.callbacks.logger = self._logger
         addLoggerProxy(C.byref(self.callbacks))
+        # fmpy's logging.so keeps the forwarding target in one process-global pointer, which
+        # addLoggerProxy overwrites; fmpy's own default callbacks then also forward here.
+        # The ctypes closure must therefore outlive this Host, or a later FMU log message
+        # (e.g. from FMU2Slave in another test module) jumps into freed memory (segfault).
+        _KEEP_ALIVE.append(self._logger)
 
     def _log(self, env, name, status, category, message):
         self.messages.append((name.decode(), status, (category or b"").decode(), message.decode()))
@@ -80,6 +85,9 @@ class Host:
 
     def vr(self, name):
         return self.vars[name].valueReference
+
+
+_KEEP_ALIVE = []
 
 
 def reals(*xs):
