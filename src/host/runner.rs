@@ -348,10 +348,11 @@ pub fn run(inst: &mut Instance, exp: &Experiment, can_handle_variable_step: bool
                 if let Some(tl) = last {
                     msg.push_str(&format!("; last successful time {tl}"));
                     // Keep what the FMU did compute (fmpy samples at lastSuccessfulTime too).
-                    if tl > time && terminated == Some(true) {
-                        if sampler.sample(inst, &mut out.cells).is_ok() {
-                            out.times.push(tl);
-                        }
+                    if tl > time
+                        && terminated == Some(true)
+                        && sampler.sample(inst, &mut out.cells).is_ok()
+                    {
+                        out.times.push(tl);
                     }
                 }
                 if terminated == Some(true) {
