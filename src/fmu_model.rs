@@ -63,7 +63,7 @@ const OUTPUTS: [(&str, Option<&str>, &str); 7] = [
         None,
         "Contact state: 1 drive side, 0 separated, -1 back side",
     ),
-    ("mesh_phase", None, "Mesh phase frac(p), mesh cycles"),
+    ("mesh_phase", Some("cycle"), "Mesh phase frac(p), in mesh cycles"),
     ("mesh_stiffness", Some("N/m"), "Mesh stiffness k(p) of the current segment"),
     (
         "static_deflection",
@@ -218,8 +218,8 @@ fn variables(scene: &Scene) -> Vec<Variable> {
             "mesh.initial_phase",
             VR_INITIAL_PHASE,
             scene.mesh.initial_phase,
-            None,
-            "Mesh phase p0 at the start time, mesh cycles",
+            Some("cycle"),
+            "Mesh phase p0 at the start time, in mesh cycles",
         ),
         param(
             "initial.dte_rate",

@@ -62,7 +62,8 @@ pub fn run(args: FmuArgs) -> Result<(), String> {
         FmuCommand::Descriptions { scenes, dir, write } => {
             let problems = description::check_checked_in(&scenes, &dir, write)?;
             if problems.is_empty() {
-                println!("{}: up to date", dir.display());
+                let what = if write { "refreshed" } else { "up to date" };
+                println!("{}: {what}", dir.display());
                 Ok(())
             } else {
                 Err(problems.join("\n"))

@@ -14,19 +14,32 @@ use super::logger::Category;
 use super::model::{model_identifier, Causality, Initial, ModelInfo, VarKind, Variable};
 
 /// SI base-unit exponents of a unit (`<BaseUnit>`, FMI 2.0.x §2.2.2).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BaseUnit {
     pub kg: i8,
     pub m: i8,
     pub s: i8,
     pub rad: i8,
+    /// `value in SI = factor · value in this unit` (1 for coherent SI units).
+    pub factor: f64,
 }
 
 /// Units the generator knows. A variable with another unit fails packaging with a message,
 /// rather than producing a description that fmpy rejects ("unit not defined").
 pub fn base_unit(unit: &str) -> Option<BaseUnit> {
-    let u = |kg, m, s, rad| BaseUnit { kg, m, s, rad };
+    let u = |kg, m, s, rad| BaseUnit {
+        kg,
+        m,
+        s,
+        rad,
+        factor: 1.0,
+    };
     Some(match unit {
+        // A mesh cycle (one tooth passage) is 2π rad of mesh phase.
+        "cycle" => BaseUnit {
+            factor: std::f64::consts::TAU,
+            ..u(0, 0, 0, 1)
+        },
         "m" => u(0, 1, 0, 0),
         "m/s" => u(0, 1, -1, 0),
         "m/s2" => u(0, 1, -2, 0),
@@ -146,13 +159,18 @@ pub fn model_description(info: &ModelInfo, vars: &[Variable]) -> Result<String, 
     if !units.is_empty() {
         start(&mut w, "UnitDefinitions", &[])?;
         for u in &units {
-            let b = base_unit(u).unwrap_or_default();
+            let Some(b) = base_unit(u) else {
+                return Err(format!("unit '{u}' has no BaseUnit definition"));
+            };
             start(&mut w, "Unit", &[("name", (*u).to_string())])?;
             let mut attrs = Vec::new();
             for (k, e) in [("kg", b.kg), ("m", b.m), ("s", b.s), ("rad", b.rad)] {
                 if e != 0 {
                     attrs.push((k, e.to_string()));
                 }
+            }
+            if b.factor != 1.0 {
+                attrs.push(("factor", real(b.factor)));
             }
             empty(&mut w, "BaseUnit", &attrs)?;
             end(&mut w, "Unit")?;

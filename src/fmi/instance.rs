@@ -256,55 +256,47 @@ impl Instance {
         Ok(var)
     }
 
-    pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Status {
-        let call = Call::GetReal;
+    /// Shared body of the getters: state check, then per value reference the type check
+    /// and the model's answer; the first failure is the call's error.
+    fn get_values<T>(
+        &mut self,
+        call: Call,
+        kind: VarKind,
+        vrs: &[u32],
+        out: &mut [T],
+        get: impl Fn(&dyn CoSimModel, u32) -> Result<T, String>,
+    ) -> Status {
         if let Err(s) = self.check(call) {
             return s;
         }
         for (vr, slot) in vrs.iter().zip(out.iter_mut()) {
             let r = self
-                .lookup(*vr, VarKind::Real)
-                .and_then(|_| self.model.get_real(*vr));
+                .lookup(*vr, kind)
+                .and_then(|_| get(self.model.as_ref(), *vr));
             match r {
                 Ok(x) => *slot = x,
                 Err(e) => return self.error(call, e),
             }
         }
         Status::Ok
+    }
+
+    pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Status {
+        self.get_values(Call::GetReal, VarKind::Real, vrs, out, |m, vr| {
+            m.get_real(vr)
+        })
     }
 
     pub fn get_integer(&mut self, vrs: &[u32], out: &mut [i32]) -> Status {
-        let call = Call::GetInteger;
-        if let Err(s) = self.check(call) {
-            return s;
-        }
-        for (vr, slot) in vrs.iter().zip(out.iter_mut()) {
-            let r = self
-                .lookup(*vr, VarKind::Integer)
-                .and_then(|_| self.model.get_integer(*vr));
-            match r {
-                Ok(x) => *slot = x,
-                Err(e) => return self.error(call, e),
-            }
-        }
-        Status::Ok
+        self.get_values(Call::GetInteger, VarKind::Integer, vrs, out, |m, vr| {
+            m.get_integer(vr)
+        })
     }
 
     pub fn get_boolean(&mut self, vrs: &[u32], out: &mut [i32]) -> Status {
-        let call = Call::GetBoolean;
-        if let Err(s) = self.check(call) {
-            return s;
-        }
-        for (vr, slot) in vrs.iter().zip(out.iter_mut()) {
-            let r = self
-                .lookup(*vr, VarKind::Boolean)
-                .and_then(|_| self.model.get_boolean(*vr));
-            match r {
-                Ok(x) => *slot = i32::from(x),
-                Err(e) => return self.error(call, e),
-            }
-        }
-        Status::Ok
+        self.get_values(Call::GetBoolean, VarKind::Boolean, vrs, out, |m, vr| {
+            m.get_boolean(vr).map(i32::from)
+        })
     }
 
     /// The model has no String variables: any value reference is an error.
@@ -345,60 +337,65 @@ impl Instance {
         Ok(())
     }
 
-    pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Status {
-        let call = Call::SetReal;
+    /// Shared body of the setters. Everything is validated first so that a rejected call
+    /// changes nothing at layer level; then the model applies the values in order.
+    fn set_values<T: Copy>(
+        &mut self,
+        call: Call,
+        kind: VarKind,
+        vrs: &[u32],
+        values: &[T],
+        as_f64: impl Fn(T) -> f64,
+        set: impl Fn(&mut dyn CoSimModel, u32, T) -> Result<(), String>,
+    ) -> Status {
         if let Err(s) = self.check(call) {
             return s;
         }
-        // Validate everything first so that a rejected call changes nothing at layer level.
         for (vr, x) in vrs.iter().zip(values) {
-            if let Err(e) = self.check_set(*vr, VarKind::Real, *x) {
+            if let Err(e) = self.check_set(*vr, kind, as_f64(*x)) {
                 return self.error(call, e);
             }
         }
         for (vr, x) in vrs.iter().zip(values) {
-            if let Err(e) = self.model.set_real(*vr, *x) {
+            if let Err(e) = set(self.model.as_mut(), *vr, *x) {
                 return self.error(call, e);
             }
         }
         Status::Ok
+    }
+
+    pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Status {
+        self.set_values(
+            Call::SetReal,
+            VarKind::Real,
+            vrs,
+            values,
+            |x| x,
+            |m, vr, x| m.set_real(vr, x),
+        )
     }
 
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Status {
-        let call = Call::SetInteger;
-        if let Err(s) = self.check(call) {
-            return s;
-        }
-        for (vr, x) in vrs.iter().zip(values) {
-            if let Err(e) = self.check_set(*vr, VarKind::Integer, f64::from(*x)) {
-                return self.error(call, e);
-            }
-        }
-        for (vr, x) in vrs.iter().zip(values) {
-            if let Err(e) = self.model.set_integer(*vr, *x) {
-                return self.error(call, e);
-            }
-        }
-        Status::Ok
+        self.set_values(
+            Call::SetInteger,
+            VarKind::Integer,
+            vrs,
+            values,
+            f64::from,
+            |m, vr, x| m.set_integer(vr, x),
+        )
     }
 
+    /// C code often passes any non-zero int as true.
     pub fn set_boolean(&mut self, vrs: &[u32], values: &[i32]) -> Status {
-        let call = Call::SetBoolean;
-        if let Err(s) = self.check(call) {
-            return s;
-        }
-        for (vr, x) in vrs.iter().zip(values) {
-            if let Err(e) = self.check_set(*vr, VarKind::Boolean, f64::from(*x)) {
-                return self.error(call, e);
-            }
-        }
-        for (vr, x) in vrs.iter().zip(values) {
-            // C code often passes any non-zero int as true.
-            if let Err(e) = self.model.set_boolean(*vr, *x != 0) {
-                return self.error(call, e);
-            }
-        }
-        Status::Ok
+        self.set_values(
+            Call::SetBoolean,
+            VarKind::Boolean,
+            vrs,
+            values,
+            |x| f64::from(i32::from(x != 0)),
+            |m, vr, x| m.set_boolean(vr, x != 0),
+        )
     }
 
     /// `fmi2DoStep` (FMI 2.0.x §4.2.2).

@@ -118,6 +118,8 @@ pub struct Variable {
 
 impl Variable {
     /// A Real variable with no bounds and no dependencies; adjust fields afterwards.
+    /// The arguments are the `ScalarVariable` attributes in the order of the schema.
+    #[allow(clippy::too_many_arguments)]
     pub fn real(
         name: &str,
         value_reference: u32,

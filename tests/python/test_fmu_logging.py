@@ -90,3 +90,19 @@ def test_instantiate_failure_is_logged(host):
     assert c is None
     (name, status, cat, msg), = host.messages
     assert name == "bad-guid" and status == ERROR and "fmuGUID" in msg
+
+
+def test_callback_struct_is_copied_at_instantiation(host):
+    # FMI 2.0.x §2.1.5: the `functions` pointer is only valid during fmi2Instantiate. Give
+    # the FMU a struct of its own, then wipe it: logging must still reach the host.
+    from fmpy.fmi2 import fmi2CallbackFunctions
+
+    cb = fmi2CallbackFunctions()
+    C.memmove(C.byref(cb), C.byref(host.callbacks), C.sizeof(cb))
+    c = host.dll.fmi2Instantiate(b"copied", 1, host.guid, host.resources, C.byref(cb), 0, 0)
+    assert c
+    C.memset(C.byref(cb), 0, C.sizeof(cb))
+    host.messages.clear()
+    assert host.fmi2DoStep(c, 0.0, 1e-5, 1) == ERROR
+    assert [m[0] for m in host.messages] == ["copied"]
+    host.fmi2FreeInstance(c)
