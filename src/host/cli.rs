@@ -6,6 +6,7 @@
 
 use super::archive::{unpack, Unpacked};
 use super::check::check;
+use super::csv::CsvWriter;
 use super::description::{parse, ModelDescription};
 use super::input::Input;
 use super::instance::Instance;
@@ -132,6 +133,7 @@ pub fn run(args: RunArgs) -> Result<(), String> {
             args.log_level
         )
     })?;
+    let setup = std::time::Instant::now();
     let pairs = args
         .start
         .iter()
@@ -222,35 +224,56 @@ pub fn run(args: RunArgs) -> Result<(), String> {
             eprintln!("warning: {e}");
         }
     }
+    let names: Vec<String> = exp.outputs.iter().map(|o| o.name.clone()).collect();
+    let target: Box<dyn Write> = match &args.out {
+        Some(p) => Box::new(
+            std::fs::File::create(p).map_err(|e| format!("{}: cannot create: {e}", p.display()))?,
+        ),
+        None => Box::new(std::io::stdout().lock()),
+    };
+    let where_to = args
+        .out
+        .as_ref()
+        .map_or_else(|| "stdout".to_string(), |p| p.display().to_string());
+    let mut csv = CsvWriter::new(std::io::BufWriter::with_capacity(1 << 16, target), &names)
+        .map_err(|e| format!("{where_to}: cannot write: {e}"))?;
     let outcome = runner::run(
         &mut inst,
         &exp,
         cs.can_handle_variable_communication_step_size,
+        &mut csv,
     );
     drop(inst); // fmi2FreeInstance before the library is unloaded and the folder removed
+    let flushed = csv
+        .flush()
+        .map_err(|e| format!("{where_to}: cannot write: {e}"));
 
-    let write_start = std::time::Instant::now();
-    let written = write_outcome(&args.out, &outcome);
-    if let Some((total, fmu)) = outcome.timing {
+    if let Some(t) = outcome.timing {
+        let pct = |x: f64| 100.0 * x / t.loop_seconds.max(1e-300);
+        let own = t.loop_seconds - t.fmu_seconds - t.sink_seconds;
         eprintln!(
-            "timing: {} steps; step loop {total:.3} s, of which inside fmi2DoStep/fmi2Get* {fmu:.3} s ({:.1}%), runner {:.3} s; CSV writing {:.3} s",
-            outcome.times.len().saturating_sub(1),
-            100.0 * fmu / total.max(1e-300),
-            total - fmu,
-            write_start.elapsed().as_secs_f64()
+            "timing: {} steps in {:.3} s: inside fmi2DoStep/fmi2Get* {:.3} s ({:.1}%), CSV formatting {:.3} s ({:.1}%), runner {:.3} s ({:.1}%); outside the loop (unzip, load, instantiate, initialize, free) {:.3} s",
+            outcome.rows.saturating_sub(1),
+            t.loop_seconds,
+            t.fmu_seconds,
+            pct(t.fmu_seconds),
+            t.sink_seconds,
+            pct(t.sink_seconds),
+            own,
+            pct(own),
+            setup.elapsed().as_secs_f64() - t.loop_seconds,
         );
     }
     for n in &outcome.notes {
         eprintln!("note: {n}");
     }
-    match (&outcome.failure, written) {
+    let (rows, last) = csv.written();
+    match (&outcome.failure, flushed) {
         (Some(f), Ok(())) => Err(format!(
             "{f}{}",
-            match &args.out {
-                Some(p) if !outcome.times.is_empty() => format!(
-                    " ({} rows up to t = {} were written to {})",
-                    outcome.times.len(),
-                    outcome.times.last().copied().unwrap_or(f64::NAN),
+            match (&args.out, last) {
+                (Some(p), Some(t)) => format!(
+                    " ({rows} rows up to t = {t} were written to {})",
                     p.display()
                 ),
                 _ => String::new(),
@@ -258,26 +281,6 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         )),
         (Some(f), Err(w)) => Err(format!("{f}; also: {w}")),
         (None, r) => r,
-    }
-}
-
-fn write_outcome(out: &Option<PathBuf>, o: &runner::Outcome) -> Result<(), String> {
-    match out {
-        Some(p) => {
-            let f = std::fs::File::create(p)
-                .map_err(|e| format!("{}: cannot create: {e}", p.display()))?;
-            let mut w = std::io::BufWriter::new(f);
-            super::csv::write_result(&mut w, &o.names, &o.times, &o.cells)
-                .and_then(|_| w.flush())
-                .map_err(|e| format!("{}: cannot write: {e}", p.display()))
-        }
-        None => {
-            let stdout = std::io::stdout();
-            let mut w = std::io::BufWriter::new(stdout.lock());
-            super::csv::write_result(&mut w, &o.names, &o.times, &o.cells)
-                .and_then(|_| w.flush())
-                .map_err(|e| format!("stdout: {e}"))
-        }
     }
 }
 

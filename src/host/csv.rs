@@ -147,34 +147,57 @@ impl Cell {
     }
 }
 
-/// Write a result like `fmpy.util.write_csv`: `"time","a","b"` then one line per sample;
-/// `cells` holds `names.len()` values per time, row after row.
-pub fn write_result(
-    out: &mut dyn std::io::Write,
-    names: &[String],
-    times: &[f64],
-    cells: &[Cell],
-) -> std::io::Result<()> {
-    use std::fmt::Write as _;
-    let mut s = String::from("\"time\"");
-    for n in names {
-        let _ = write!(s, ",\"{n}\"");
-    }
-    s.push('\n');
-    out.write_all(s.as_bytes())?;
-    let width = names.len().max(1);
-    let rows = cells.chunks(width).chain(std::iter::repeat(&[][..]));
-    for (t, row) in times.iter().zip(rows) {
-        s.clear();
-        write_real(&mut s, *t);
-        for c in row {
-            s.push(',');
-            c.write(&mut s);
+/// Streams a result like `fmpy.util.write_csv`: `"time","a","b"`, then one line per sample,
+/// written as the samples are taken (so the rows computed before a failure, or before the
+/// FMU crashes the process, are on disk, and memory does not grow with the run length).
+pub struct CsvWriter<W: std::io::Write> {
+    out: W,
+    line: String,
+    rows: usize,
+    last_time: Option<f64>,
+}
+
+impl<W: std::io::Write> CsvWriter<W> {
+    /// Write the header.
+    pub fn new(mut out: W, names: &[String]) -> std::io::Result<Self> {
+        use std::fmt::Write as _;
+        let mut line = String::from("\"time\"");
+        for n in names {
+            let _ = write!(line, ",\"{n}\"");
         }
-        s.push('\n');
-        out.write_all(s.as_bytes())?;
+        line.push('\n');
+        out.write_all(line.as_bytes())?;
+        Ok(CsvWriter {
+            out,
+            line,
+            rows: 0,
+            last_time: None,
+        })
     }
-    Ok(())
+
+    /// Write one row.
+    pub fn row(&mut self, t: f64, cells: &[Cell]) -> std::io::Result<()> {
+        self.line.clear();
+        write_real(&mut self.line, t);
+        for c in cells {
+            self.line.push(',');
+            c.write(&mut self.line);
+        }
+        self.line.push('\n');
+        self.out.write_all(self.line.as_bytes())?;
+        self.rows += 1;
+        self.last_time = Some(t);
+        Ok(())
+    }
+
+    /// Rows written so far and the time of the last one.
+    pub fn written(&self) -> (usize, Option<f64>) {
+        (self.rows, self.last_time)
+    }
+
+    pub fn flush(&mut self) -> std::io::Result<()> {
+        self.out.flush()
+    }
 }
 
 #[cfg(test)]

@@ -45,19 +45,37 @@ pub struct Recorded {
     pub var_type: VarType,
 }
 
-/// The rows of a run, and why it ended early (if it did).
+/// Where the step loop's time went (`--timing`).
+#[derive(Debug, Clone, Copy)]
+pub struct Timing {
+    pub loop_seconds: f64,
+    pub fmu_seconds: f64,
+    pub sink_seconds: f64,
+}
+
+/// Receives each output row as soon as it is sampled.
+pub trait RowSink {
+    fn row(&mut self, t: f64, cells: &[Cell]) -> std::io::Result<()>;
+}
+
+impl<W: std::io::Write> RowSink for super::csv::CsvWriter<W> {
+    fn row(&mut self, t: f64, cells: &[Cell]) -> std::io::Result<()> {
+        super::csv::CsvWriter::row(self, t, cells)
+    }
+}
+
+/// How a run ended (the rows went to the [`RowSink`]).
 pub struct Outcome {
-    pub names: Vec<String>,
-    pub times: Vec<f64>,
-    /// The recorded values, row after row (`names.len()` cells per row, one row per time).
-    pub cells: Vec<Cell>,
+    /// Rows delivered to the sink.
+    pub rows: usize,
     /// `Some(reason)` when the run failed; the rows up to the failure are still there.
     pub failure: Option<String>,
     /// Notes that are not failures (early stop, FMU-requested termination).
     pub notes: Vec<String>,
-    /// With [`Experiment::timing`]: `(seconds in the step loop, of which inside the FMU's
-    /// fmi2DoStep/fmi2Get* calls)`, so the runner's own share can be reported.
-    pub timing: Option<(f64, f64)>,
+    /// With [`Experiment::timing`]: seconds in the step loop, of which inside the FMU's
+    /// fmi2DoStep/fmi2Get* calls and in the row sink (CSV formatting), so the runner's own
+    /// share can be reported.
+    pub timing: Option<Timing>,
 }
 
 /// fmpy `util.auto_interval`: a round interval giving 500–1000 steps over `t`.
@@ -205,8 +223,8 @@ impl Sampler {
         }
     }
 
-    /// Append one row to `cells` (nothing on error).
-    fn sample(&mut self, inst: &mut Instance, cells: &mut Vec<Cell>) -> Result<(), CallError> {
+    /// Read the outputs into `row` (replacing its contents).
+    fn sample(&mut self, inst: &mut Instance, row: &mut Vec<Cell>) -> Result<(), CallError> {
         if !self.real_vr.is_empty() {
             inst.get_real(&self.real_vr, &mut self.real)?;
         }
@@ -216,9 +234,10 @@ impl Sampler {
         if !self.bool_vr.is_empty() {
             inst.get_boolean(&self.bool_vr, &mut self.boolean)?;
         }
-        cells.extend(self.real.iter().map(|&v| Cell::Real(v)));
-        cells.extend(self.int.iter().map(|&v| Cell::Int(v)));
-        cells.extend(self.boolean.iter().map(|&v| Cell::Bool(v != 0)));
+        row.clear();
+        row.extend(self.real.iter().map(|&v| Cell::Real(v)));
+        row.extend(self.int.iter().map(|&v| Cell::Int(v)));
+        row.extend(self.boolean.iter().map(|&v| Cell::Bool(v != 0)));
         Ok(())
     }
 }
@@ -253,12 +272,35 @@ fn apply_input(
     Ok(())
 }
 
-/// Initialize and run the instance; never panics, always returns the rows computed.
-pub fn run(inst: &mut Instance, exp: &Experiment, can_handle_variable_step: bool) -> Outcome {
+/// Sample the outputs at `t` and hand the row to the sink; a failure message on error.
+fn record(
+    sampler: &mut Sampler,
+    inst: &mut Instance,
+    row: &mut Vec<Cell>,
+    sink: &mut dyn RowSink,
+    out: &mut Outcome,
+    t: f64,
+) -> Result<(), String> {
+    sampler
+        .sample(inst, row)
+        .map_err(|err| format!("reading outputs at t = {t}: {err}"))?;
+    sink.row(t, row)
+        .map_err(|e| format!("writing the output row at t = {t}: {e}"))?;
+    out.rows += 1;
+    Ok(())
+}
+
+/// Initialize and run the instance, giving every output row to `sink` as it is computed.
+/// Never panics; on failure the rows up to then have been delivered.
+pub fn run(
+    inst: &mut Instance,
+    exp: &Experiment,
+    can_handle_variable_step: bool,
+    sink: &mut dyn RowSink,
+) -> Outcome {
+    let mut row: Vec<Cell> = Vec::with_capacity(exp.outputs.len());
     let mut out = Outcome {
-        names: exp.outputs.iter().map(|o| o.name.clone()).collect(),
-        times: Vec::new(),
-        cells: Vec::new(),
+        rows: 0,
         failure: None,
         notes: Vec::new(),
         timing: None,
@@ -296,12 +338,9 @@ pub fn run(inst: &mut Instance, exp: &Experiment, can_handle_variable_step: bool
         out.failure = Some(msg);
         return out;
     }
-    match sampler.sample(inst, &mut out.cells) {
-        Ok(()) => out.times.push(t0),
-        Err(err) => {
-            out.failure = Some(format!("reading outputs at t = {t0}: {err}"));
-            return out;
-        }
+    if let Err(msg) = record(&mut sampler, inst, &mut row, sink, &mut out, t0) {
+        out.failure = Some(msg);
+        return out;
     }
 
     let h = exp.output_interval;
@@ -310,6 +349,7 @@ pub fn run(inst: &mut Instance, exp: &Experiment, can_handle_variable_step: bool
     let mut n_steps: u64 = 0;
     let loop_start = std::time::Instant::now();
     let mut in_fmu = std::time::Duration::ZERO;
+    let mut in_sink = std::time::Duration::ZERO;
     loop {
         if time > stop || isclose(time, stop) {
             break;
@@ -348,11 +388,10 @@ pub fn run(inst: &mut Instance, exp: &Experiment, can_handle_variable_step: bool
                 if let Some(tl) = last {
                     msg.push_str(&format!("; last successful time {tl}"));
                     // Keep what the FMU did compute (fmpy samples at lastSuccessfulTime too).
-                    if tl > time
-                        && terminated == Some(true)
-                        && sampler.sample(inst, &mut out.cells).is_ok()
-                    {
-                        out.times.push(tl);
+                    if tl > time && terminated == Some(true) {
+                        if let Err(m) = record(&mut sampler, inst, &mut row, sink, &mut out, tl) {
+                            msg.push_str(&format!("; {m}"));
+                        }
                     }
                 }
                 if terminated == Some(true) {
@@ -366,23 +405,34 @@ pub fn run(inst: &mut Instance, exp: &Experiment, can_handle_variable_step: bool
             return out;
         }
         time = next;
-        let sampled = sampler.sample(inst, &mut out.cells);
+        let sampled = sampler.sample(inst, &mut row);
         if let Some(t) = call_start {
             in_fmu += t.elapsed();
         }
-        match sampled {
-            Ok(()) => out.times.push(time),
-            Err(err) => {
-                out.failure = Some(format!("reading outputs at t = {time}: {err}"));
-                return out;
-            }
+        if let Err(err) = sampled {
+            out.failure = Some(format!("reading outputs at t = {time}: {err}"));
+            return out;
         }
+        let sink_start = exp.timing.then(std::time::Instant::now);
+        let sunk = sink.row(time, &row);
+        if let Some(t) = sink_start {
+            in_sink += t.elapsed();
+        }
+        if let Err(e) = sunk {
+            out.failure = Some(format!("writing the output row at t = {time}: {e}"));
+            return out;
+        }
+        out.rows += 1;
         if isclose(time, next_regular) {
             n_steps += 1;
         }
     }
     if exp.timing {
-        out.timing = Some((loop_start.elapsed().as_secs_f64(), in_fmu.as_secs_f64()));
+        out.timing = Some(Timing {
+            loop_seconds: loop_start.elapsed().as_secs_f64(),
+            fmu_seconds: in_fmu.as_secs_f64(),
+            sink_seconds: in_sink.as_secs_f64(),
+        });
     }
     if let Err(err) = inst.terminate() {
         out.failure = Some(format!("at the end (t = {time}): {err}"));
