@@ -94,6 +94,12 @@ fn good_description_parses_and_validates() {
 }
 
 #[test]
+fn byte_order_mark_is_accepted() {
+    let md = parse(&format!("\u{feff}{GOOD}"), "modelDescription.xml").unwrap();
+    assert_eq!(md.variable("k").unwrap().line, 17);
+}
+
+#[test]
 fn malformed_and_truncated_xml_name_the_line() {
     let e = parse_err(&with("<Real start=\"1e8\"/>", "<Real start=\"1e8\">"));
     assert!(

@@ -148,8 +148,8 @@ impl Cell {
 }
 
 /// Streams a result like `fmpy.util.write_csv`: `"time","a","b"`, then one line per sample,
-/// written as the samples are taken (so the rows computed before a failure, or before the
-/// FMU crashes the process, are on disk, and memory does not grow with the run length).
+/// written as the samples are taken: memory does not grow with the run length, and if the FMU
+/// crashes the whole process, the rows up to the last buffer flush are already on disk.
 pub struct CsvWriter<W: std::io::Write> {
     out: W,
     line: String,

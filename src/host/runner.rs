@@ -15,8 +15,12 @@
 //!   last full grid point before the stop time (and says so).
 //! * one output row at the start time and one after every `fmi2DoStep`.
 //!
-//! A failing call ends the loop: the rows computed until then are kept and returned together
-//! with the failure (time and reason), so the caller can still write them.
+//! Rows go to a [`RowSink`] as they are sampled. A failing call ends the loop: the rows computed
+//! until then have been delivered, and the failure (call, time, status, the FMU's logged
+//! reason) is returned. After `fmi2Discard`, `fmi2GetBooleanStatus(fmi2Terminated)` and
+//! `fmi2GetRealStatus(fmi2LastSuccessfulTime)` are asked (FMI 2.0.5 §4.2.3): an FMU that asks
+//! to terminate ends the run normally (with a row at the last successful time); any other
+//! Discard is a failure (fmpy would retry the same step forever).
 
 use super::csv::Cell;
 use super::description::{Causality, ModelDescription, Value, VarType};
