@@ -25,6 +25,7 @@ fn stub_md(can_vary: bool) -> String {
     <ScalarVariable name="u" valueReference="3" causality="input"><Real start="0"/></ScalarVariable>
     <ScalarVariable name="y" valueReference="4" causality="output"><Real/></ScalarVariable>
     <ScalarVariable name="t" valueReference="5" causality="output"><Real/></ScalarVariable>
+    <ScalarVariable name="quit_at" valueReference="6" causality="parameter" variability="fixed"><Real start="1e300"/></ScalarVariable>
   </ModelVariables>
   <ModelStructure>
     <Outputs><Unknown index="5"/><Unknown index="6"/></Outputs>
@@ -195,6 +196,40 @@ fn discard_is_reported_with_time_and_reason_and_rows_are_kept() {
     assert!(e.contains("last successful time 0.35"), "{e}");
     assert!(e.contains("4 rows up to t = 0.30000000000000004"), "{e}");
     assert_eq!(read_rows(&out).1.len(), 4);
+}
+
+#[test]
+fn discard_with_terminated_ends_the_run_normally_at_the_last_successful_time() {
+    let d = scratch("terminated");
+    let fmu = stub_fmu(&d, "stub.fmu", &stub_md(true), Some(stub_so(false)));
+    let out = d.join("out.csv");
+    let o = geardyn(
+        &d,
+        &[
+            &"run",
+            &fmu,
+            &"--out",
+            &out,
+            &"--start",
+            &"quit_at=0.25",
+            &"--start",
+            &"u=1",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let e = stderr(&o);
+    assert!(
+        e.contains("the FMU asked to terminate") && e.contains("end of the load cycle reached"),
+        "{e}"
+    );
+    let rows = read_rows(&out).1;
+    // Rows at 0, 0.1, 0.2, then the last successful time 0.2 + 0.1/4.
+    assert_eq!(rows.len(), 4);
+    let last = rows.last().unwrap();
+    assert!(
+        (last[0] - 0.225).abs() < 1e-15 && last[2] == last[0],
+        "{last:?}"
+    );
 }
 
 #[test]
