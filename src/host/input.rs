@@ -93,6 +93,9 @@ impl Input {
         mut columns: Vec<Vec<f64>>,
         md: &ModelDescription,
     ) -> Result<Input, String> {
+        if columns.is_empty() || columns[0].is_empty() || names.len() != columns.len() {
+            return Err("the input table has no time column or no rows".into());
+        }
         let t = columns.remove(0);
         let names = &names[1..];
         if let Some(w) = t.windows(2).position(|w| !(w[1] >= w[0])) {

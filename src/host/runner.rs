@@ -377,6 +377,13 @@ pub fn run(
             }
         }
         let step = next - time;
+        if !(step > 0.0) {
+            // Possible when h is below the resolution of the time (start + n·h == t).
+            out.failure = Some(format!(
+                "the communication step from t = {time} is {step}: the output interval {h} is too small for the time's floating-point resolution"
+            ));
+            return out;
+        }
         if let Some(input) = &exp.input {
             if let Err(err) = apply_input(inst, input, time, true) {
                 out.failure = Some(format!("setting inputs at t = {time}: {err}"));
