@@ -483,3 +483,47 @@ fn bad_inputs_give_clear_errors() {
         assert!(e.contains(needle), "expected {needle:?} in: {e}");
     }
 }
+
+/// Ctrl-C (SIGINT) stops the loop cleanly: FMU terminated and freed, temporary folder removed,
+/// exit code 1 with the time reached.
+#[test]
+fn interrupt_stops_cleanly() {
+    let d = scratch("interrupt");
+    let fmu = stub_fmu(&d, "stub.fmu", &stub_md(true), Some(stub_so(false)));
+    let t = d.join("tmp");
+    std::fs::create_dir_all(&t).unwrap();
+    let child = Command::new(BIN)
+        .args([
+            "run",
+            fmu.to_str().unwrap(),
+            "--out",
+            "/dev/null",
+            "--stop-time",
+            "1e12",
+            "--output-interval",
+            "0.1",
+        ])
+        .env("TMPDIR", &t)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Wait until the FMU is unpacked (the handler is installed before that), then a bit more.
+    let t0 = std::time::Instant::now();
+    while std::fs::read_dir(&t).unwrap().next().is_none() && t0.elapsed().as_secs() < 30 {
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    let st = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(st.success());
+    let o = child.wait_with_output().unwrap();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("error: interrupted at t = "), "{e}");
+    assert!(
+        std::fs::read_dir(&t).unwrap().next().is_none(),
+        "temporary folder left behind"
+    );
+}

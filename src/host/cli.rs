@@ -14,8 +14,10 @@ use super::library::{FmuLibrary, Status};
 use super::logger::Logger;
 use super::runner::{self, Experiment};
 use super::start;
+use std::ffi::c_int;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 #[derive(clap::Args, Debug)]
 pub struct RunArgs {
@@ -61,6 +63,37 @@ pub struct RunArgs {
 pub struct FmuArg {
     /// The FMU (.fmu file or an extracted FMU folder).
     pub fmu: PathBuf,
+}
+
+/// Set by SIGINT/SIGTERM during `geardyn run`, polled by the step loop, so an interrupted run
+/// still terminates and frees the FMU, flushes the CSV and removes its temporary folder
+/// (a default signal disposition would kill the process without running any destructor).
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+
+const SIGINT: c_int = 2;
+const SIGTERM: c_int = 15;
+/// `SIG_DFL`.
+const SIG_DFL: usize = 0;
+
+extern "C" {
+    /// POSIX `signal(2)` (Linux x86-64/aarch64 ABI: the handler is a pointer-sized value).
+    fn signal(signum: c_int, handler: usize) -> usize;
+}
+
+extern "C" fn on_interrupt(sig: c_int) {
+    // Only async-signal-safe work: an atomic store, and the default disposition again so a
+    // second Ctrl-C ends the process at once.
+    INTERRUPTED.store(true, Ordering::SeqCst);
+    // SAFETY: signal() is async-signal-safe.
+    unsafe { signal(sig, SIG_DFL) };
+}
+
+fn catch_interrupts() {
+    // SAFETY: installs a handler that only touches an atomic.
+    unsafe {
+        signal(SIGINT, on_interrupt as extern "C" fn(c_int) as usize);
+        signal(SIGTERM, on_interrupt as extern "C" fn(c_int) as usize);
+    }
 }
 
 /// Unpack and parse: the first two steps of every command.
@@ -134,6 +167,7 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         )
     })?;
     let setup = std::time::Instant::now();
+    catch_interrupts();
     let pairs = args
         .start
         .iter()
@@ -198,6 +232,7 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         input,
         outputs,
         timing: args.timing,
+        interrupt: Some(&INTERRUPTED),
     };
 
     super::library::preload(&args.preload)?;

@@ -39,6 +39,8 @@ pub struct Experiment {
     pub outputs: Vec<Recorded>,
     /// Measure the time spent inside `fmi2DoStep` and the output getters (`--timing`).
     pub timing: bool,
+    /// Polled before every step: when set, the run stops as after a failure.
+    pub interrupt: Option<&'static std::sync::atomic::AtomicBool>,
 }
 
 /// One recorded variable.
@@ -357,6 +359,14 @@ pub fn run(
     loop {
         if time > stop || isclose(time, stop) {
             break;
+        }
+        if exp
+            .interrupt
+            .is_some_and(|f| f.load(std::sync::atomic::Ordering::Relaxed))
+        {
+            out.failure = Some(format!("interrupted at t = {time}"));
+            let _ = inst.terminate();
+            return out;
         }
         let next_regular = t0 + (n_steps + 1) as f64 * h;
         let mut next = next_regular;
