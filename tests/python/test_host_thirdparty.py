@@ -58,10 +58,15 @@ def geardyn_run(fmu, out, *args):
     return out
 
 
+def _num(cell):
+    """fmpy writes Booleans as True/False."""
+    return {"True": 1.0, "False": 0.0}[cell] if cell in ("True", "False") else float(cell)
+
+
 def read(path):
     lines = pathlib.Path(path).read_text().splitlines()
     header = lines[0]
-    data = np.array([[float(c) for c in line.split(",")] for line in lines[1:]])
+    data = np.array([[_num(c) for c in line.split(",")] for line in lines[1:]])
     return header, data
 
 
@@ -119,14 +124,14 @@ def test_input_csv_matches_fmpy_input_file(oscillator, tmp_path):
     and a tunable parameter column changing off-grid (an input event that cuts the step)."""
     csv = tmp_path / "in.csv"
     csv.write_text(
-        '"time","F","c"\n'
-        "0.05,0.0,0.4\n"
-        "0.3,2.0,0.4\n"
-        "0.55,2.0,0.4\n"
-        "0.55,-1.0,3.0\n"
-        "0.8,0.5,3.0\n"
-        "1.234,0.5,0.1\n"
-        "1.5,4.0,0.1\n"
+        '"time","F","c","gain","enabled"\n'
+        "0.05,0.0,0.4,1,1\n"
+        "0.3,2.0,0.4,1,1\n"
+        "0.55,2.0,0.4,2.7,1\n"
+        "0.55,-1.0,3.0,2.7,1\n"
+        "0.8,0.5,3.0,-3,0\n"
+        "1.234,0.5,0.1,-3,1\n"
+        "1.5,4.0,0.1,1,1\n"
     )
     g = geardyn_run(oscillator, tmp_path / "g.csv", "--input", csv, "--stop-time", "2", "--output-interval", "0.1")
     f = fmpy_cli(oscillator, tmp_path / "f.csv", "--input-file", csv, "--stop-time", "2", "--output-interval", "0.1")
@@ -134,6 +139,10 @@ def test_input_csv_matches_fmpy_input_file(oscillator, tmp_path):
     _, a = read(g)
     # The events at 0.55 and 1.234 add rows off the 0.1 grid, as in fmpy.
     assert 0.55 in a[:, 0] and 1.234 in a[:, 0]
+    # Columns: Reals, then Integers, then Booleans (fmpy's order); discrete values as fmpy writes them.
+    assert read(g)[0] == '"time","x","v","steps","moving"'
+    assert "True" in g.read_text() and "False" in g.read_text()
+    assert g.read_text() == f.read_text()
     # And the input matters: without it the trajectory differs.
     _, free = read(geardyn_run(oscillator, tmp_path / "n.csv", "--stop-time", "2", "--output-interval", "0.1"))
     assert free.shape != a.shape or not np.allclose(free, a)
