@@ -14,10 +14,8 @@ use super::library::{FmuLibrary, Status};
 use super::logger::Logger;
 use super::runner::{self, Experiment};
 use super::start;
-use std::ffi::c_int;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
 
 #[derive(clap::Args, Debug)]
 pub struct RunArgs {
@@ -63,37 +61,6 @@ pub struct RunArgs {
 pub struct FmuArg {
     /// The FMU (.fmu file or an extracted FMU folder).
     pub fmu: PathBuf,
-}
-
-/// Set by SIGINT/SIGTERM during `geardyn run`, polled by the step loop, so an interrupted run
-/// still terminates and frees the FMU, flushes the CSV and removes its temporary folder
-/// (a default signal disposition would kill the process without running any destructor).
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
-
-const SIGINT: c_int = 2;
-const SIGTERM: c_int = 15;
-/// `SIG_DFL`.
-const SIG_DFL: usize = 0;
-
-extern "C" {
-    /// POSIX `signal(2)` (Linux x86-64/aarch64 ABI: the handler is a pointer-sized value).
-    fn signal(signum: c_int, handler: usize) -> usize;
-}
-
-extern "C" fn on_interrupt(sig: c_int) {
-    // Only async-signal-safe work: an atomic store, and the default disposition again so a
-    // second Ctrl-C ends the process at once.
-    INTERRUPTED.store(true, Ordering::SeqCst);
-    // SAFETY: signal() is async-signal-safe.
-    unsafe { signal(sig, SIG_DFL) };
-}
-
-fn catch_interrupts() {
-    // SAFETY: installs a handler that only touches an atomic.
-    unsafe {
-        signal(SIGINT, on_interrupt as extern "C" fn(c_int) as usize);
-        signal(SIGTERM, on_interrupt as extern "C" fn(c_int) as usize);
-    }
 }
 
 /// Unpack and parse: the first two steps of every command.
@@ -158,6 +125,61 @@ fn file_uri(p: &Path) -> String {
     s
 }
 
+/// Check the user's request against the model description and build the experiment: start
+/// values, time grid defaults (fmpy's), input signals, recorded variables.
+fn plan(
+    args: &RunArgs,
+    md: &ModelDescription,
+    pairs: &[(String, String)],
+) -> Result<Experiment, String> {
+    let start_values = start::resolve(md, pairs)?;
+    let de = md.default_experiment.clone().unwrap_or_default();
+    let start_time = de.start_time.unwrap_or(0.0);
+    let stop_time = args.stop_time.or(de.stop_time).unwrap_or(start_time + 1.0);
+    if !stop_time.is_finite() || stop_time <= start_time {
+        return Err(format!(
+            "stop time {stop_time} must be finite and after the start time {start_time}"
+        ));
+    }
+    let output_interval = args
+        .output_interval
+        .unwrap_or_else(|| runner::default_interval(md, start_time, stop_time));
+    let input = match &args.input {
+        Some(p) => {
+            let inp = Input::from_csv(p, md)?;
+            for w in &inp.warnings {
+                eprintln!("warning: {}: {w}", p.display());
+            }
+            Some(inp)
+        }
+        None => None,
+    };
+    let outputs = match &args.outputs {
+        Some(names) => {
+            let n: Vec<&str> = names
+                .iter()
+                .map(|s| s.trim())
+                .filter(|s| !s.is_empty())
+                .collect();
+            runner::recorded(md, &n, true)?
+        }
+        None => runner::recorded(md, &runner::default_outputs(md), false)?,
+    };
+    let exp = Experiment {
+        start_time,
+        stop_time,
+        tolerance: de.tolerance,
+        output_interval,
+        start_values,
+        input,
+        outputs,
+        timing: args.timing,
+        interrupt: Some(&super::interrupt::INTERRUPTED),
+    };
+
+    Ok(exp)
+}
+
 /// `geardyn run`.
 pub fn run(args: RunArgs) -> Result<(), String> {
     let log_level = Status::parse_level(&args.log_level).ok_or_else(|| {
@@ -167,7 +189,7 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         )
     })?;
     let setup = std::time::Instant::now();
-    catch_interrupts();
+    super::interrupt::catch_interrupts();
     let pairs = args
         .start
         .iter()
@@ -190,50 +212,7 @@ pub fn run(args: RunArgs) -> Result<(), String> {
             problems.len()
         );
     }
-    let start_values = start::resolve(&md, &pairs)?;
-    let de = md.default_experiment.clone().unwrap_or_default();
-    let start_time = de.start_time.unwrap_or(0.0);
-    let stop_time = args.stop_time.or(de.stop_time).unwrap_or(start_time + 1.0);
-    if !stop_time.is_finite() || stop_time <= start_time {
-        return Err(format!(
-            "stop time {stop_time} must be finite and after the start time {start_time}"
-        ));
-    }
-    let output_interval = args
-        .output_interval
-        .unwrap_or_else(|| runner::default_interval(&md, start_time, stop_time));
-    let input = match &args.input {
-        Some(p) => {
-            let inp = Input::from_csv(p, &md)?;
-            for w in &inp.warnings {
-                eprintln!("warning: {}: {w}", p.display());
-            }
-            Some(inp)
-        }
-        None => None,
-    };
-    let outputs = match &args.outputs {
-        Some(names) => {
-            let n: Vec<&str> = names
-                .iter()
-                .map(|s| s.trim())
-                .filter(|s| !s.is_empty())
-                .collect();
-            runner::recorded(&md, &n, true)?
-        }
-        None => runner::recorded(&md, &runner::default_outputs(&md), false)?,
-    };
-    let exp = Experiment {
-        start_time,
-        stop_time,
-        tolerance: de.tolerance,
-        output_interval,
-        start_values,
-        input,
-        outputs,
-        timing: args.timing,
-        interrupt: Some(&INTERRUPTED),
-    };
+    let exp = plan(&args, &md, &pairs)?;
 
     super::library::preload(&args.preload)?;
     let lib = FmuLibrary::load(u.root(), &cs.model_identifier).map_err(|e| {
@@ -284,20 +263,7 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         .map_err(|e| format!("{where_to}: cannot write: {e}"));
 
     if let Some(t) = outcome.timing {
-        let pct = |x: f64| 100.0 * x / t.loop_seconds.max(1e-300);
-        let own = t.loop_seconds - t.fmu_seconds - t.sink_seconds;
-        eprintln!(
-            "timing: {} steps in {:.3} s: inside fmi2DoStep/fmi2Get* {:.3} s ({:.1}%), CSV formatting {:.3} s ({:.1}%), runner {:.3} s ({:.1}%); outside the loop (unzip, load, instantiate, initialize, free) {:.3} s",
-            outcome.rows.saturating_sub(1),
-            t.loop_seconds,
-            t.fmu_seconds,
-            pct(t.fmu_seconds),
-            t.sink_seconds,
-            pct(t.sink_seconds),
-            own,
-            pct(own),
-            setup.elapsed().as_secs_f64() - t.loop_seconds,
-        );
+        report_timing(&t, outcome.rows, setup.elapsed().as_secs_f64());
     }
     for n in &outcome.notes {
         eprintln!("note: {n}");
@@ -317,6 +283,24 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         (Some(f), Err(w)) => Err(format!("{f}; also: {w}")),
         (None, r) => r,
     }
+}
+
+/// The `--timing` line: where the step loop's time went, and the time outside it.
+fn report_timing(t: &runner::Timing, rows: usize, total_seconds: f64) {
+    let pct = |x: f64| 100.0 * x / t.loop_seconds.max(1e-300);
+    let own = t.loop_seconds - t.fmu_seconds - t.sink_seconds;
+    eprintln!(
+        "timing: {} steps in {:.3} s: inside fmi2DoStep/fmi2Get* {:.3} s ({:.1}%), CSV formatting {:.3} s ({:.1}%), runner {:.3} s ({:.1}%); outside the loop (unzip, load, instantiate, initialize, free) {:.3} s",
+        rows.saturating_sub(1),
+        t.loop_seconds,
+        t.fmu_seconds,
+        pct(t.fmu_seconds),
+        t.sink_seconds,
+        pct(t.sink_seconds),
+        own,
+        pct(own),
+        total_seconds - t.loop_seconds,
+    );
 }
 
 #[cfg(test)]

@@ -16,6 +16,7 @@ pub mod description;
 pub mod info;
 pub mod input;
 pub mod instance;
+pub mod interrupt;
 pub mod library;
 pub mod logger;
 pub mod runner;
