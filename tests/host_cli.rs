@@ -460,7 +460,7 @@ fn bad_inputs_give_clear_errors() {
             "--output-interval 0: must be a finite number > 0",
         ),
         (
-            vec![&"run", &good, &"--stop-time=-1"],
+            vec![&"run", &good, &"--stop-time", &"-1"],
             "stop time -1 must be finite and after the start time 0",
         ),
         (

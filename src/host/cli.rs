@@ -22,11 +22,11 @@ pub struct RunArgs {
     /// The FMU (.fmu file or an extracted FMU folder).
     pub fmu: PathBuf,
     /// Stop time, s (default: DefaultExperiment stopTime, else start + 1).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub stop_time: Option<f64>,
     /// Output interval = communication step, s (default: DefaultExperiment stepSize, doubled
     /// until ≤ 1000 steps; else 500–1000 round steps; as fmpy).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     pub output_interval: Option<f64>,
     /// Start value NAME=VALUE of a parameter or input (repeatable).
     #[arg(long = "start", value_name = "NAME=VALUE")]
