@@ -13,6 +13,9 @@ pub struct Unpacked {
     /// Keeps the temporary folder alive; `None` when the FMU was given as a folder.
     _temp: Option<tempfile::TempDir>,
     root: PathBuf,
+    /// Departures from the ZIP rules of FMI 2.0.5 §2.3 that still allowed extraction (for
+    /// `geardyn validate`).
+    pub zip_problems: Vec<String>,
 }
 
 impl Unpacked {
@@ -61,7 +64,11 @@ pub fn unpack(fmu: &Path) -> Result<Unpacked, String> {
         // Absolute, because the resource location passed to the FMU is a file:// URI.
         let root = fs::canonicalize(fmu)
             .map_err(|e| format!("{}: cannot resolve the path: {e}", fmu.display()))?;
-        return Ok(Unpacked { _temp: None, root });
+        return Ok(Unpacked {
+            _temp: None,
+            root,
+            zip_problems: Vec::new(),
+        });
     }
     let file = fs::File::open(fmu).map_err(|e| format!("{}: cannot open: {e}", fmu.display()))?;
     let mut zip = zip::ZipArchive::new(io::BufReader::new(file)).map_err(|e| {
@@ -75,6 +82,7 @@ pub fn unpack(fmu: &Path) -> Result<Unpacked, String> {
         .tempdir()
         .map_err(|e| format!("cannot create a temporary folder: {e}"))?;
     let mut has_md = false;
+    let mut zip_problems = Vec::new();
     for i in 0..zip.len() {
         let mut entry = zip
             .by_index(i)
@@ -84,6 +92,22 @@ pub fn unpack(fmu: &Path) -> Result<Unpacked, String> {
             return Err(format!(
                 "{}: ZIP entry \"{raw_name}\" uses a backslash; FMI 2.0.5 §2.3 requires '/' as separator",
                 fmu.display()
+            ));
+        }
+        if entry.encrypted() {
+            return Err(format!(
+                "{}: ZIP entry \"{raw_name}\" is encrypted; FMI 2.0.5 §2.3 forbids encryption",
+                fmu.display()
+            ));
+        }
+        // §2.3: "compression method ... must be either 8 (deflate), or 0 (store)".
+        let method = entry.compression();
+        if !matches!(
+            method,
+            zip::CompressionMethod::Stored | zip::CompressionMethod::Deflated
+        ) {
+            zip_problems.push(format!(
+                "ZIP entry \"{raw_name}\" uses compression method {method:?}; FMI 2.0.5 §2.3 allows only deflate (8) and store (0)"
             ));
         }
         if entry.is_symlink() {
@@ -138,5 +162,6 @@ pub fn unpack(fmu: &Path) -> Result<Unpacked, String> {
     Ok(Unpacked {
         _temp: Some(temp),
         root,
+        zip_problems,
     })
 }

@@ -82,7 +82,8 @@ pub fn info(args: FmuArg) -> Result<(), String> {
 /// 34 functions. Returns an error (exit 1) when anything is wrong.
 pub fn validate(args: FmuArg) -> Result<(), String> {
     let (u, md) = open(&args.fmu)?;
-    let mut problems = check(&md);
+    let mut problems = u.zip_problems.clone();
+    problems.extend(check(&md));
     if let Some(cs) = &md.co_simulation {
         if let Err(e) = FmuLibrary::load(u.root(), &cs.model_identifier) {
             problems.push(e);
