@@ -900,3 +900,82 @@ pub unsafe extern "C" fn fmi2GetStringStatus(
 ) -> Status {
     status_out(c, Call::GetStringStatus, kind, value, |_| None)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fmi::model::{CoSimModel, DefaultExperiment, ModelInfo, StepFailure, Variable};
+
+    /// A model whose step panics: the panic must stay inside the FMU.
+    struct Panicky;
+
+    impl CoSimModel for Panicky {
+        fn variables(&self) -> &[Variable] {
+            &[]
+        }
+        fn get_real(&self, vr: u32) -> Result<f64, String> {
+            Err(format!("no {vr}"))
+        }
+        fn set_real(&mut self, vr: u32, _: f64) -> Result<(), String> {
+            Err(format!("no {vr}"))
+        }
+        fn setup_experiment(
+            &mut self,
+            _: f64,
+            _: Option<f64>,
+            _: Option<f64>,
+        ) -> Result<(), String> {
+            Ok(())
+        }
+        fn exit_initialization(&mut self) -> Result<(), String> {
+            Ok(())
+        }
+        fn do_step(&mut self, _: f64, _: f64) -> Result<(), StepFailure> {
+            panic!("bug in the model")
+        }
+        fn reset(&mut self) -> Result<(), String> {
+            Ok(())
+        }
+        fn save_state(&self) -> Vec<u8> {
+            Vec::new()
+        }
+        fn load_state(&mut self, _: &[u8]) -> Result<(), String> {
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_panic_becomes_fatal_and_the_instance_stays_dead() {
+        let cb = CallbackFunctions {
+            logger: None,
+            allocate_memory: None,
+            free_memory: None,
+            step_finished: None,
+            component_environment: std::ptr::null_mut(),
+        };
+        let info = ModelInfo {
+            model_name: "p".into(),
+            description: String::new(),
+            default_experiment: DefaultExperiment {
+                start_time: 0.0,
+                stop_time: 1.0,
+                step_size: 0.1,
+                tolerance: None,
+            },
+            guid: "{p}".into(),
+            documentation: String::new(),
+        };
+        let logger = Logger::new(cb, CString::new("p").unwrap(), false);
+        let c =
+            Box::into_raw(Box::new(Instance::new(logger, Box::new(Panicky), info))) as Component;
+        unsafe {
+            assert_eq!(fmi2EnterInitializationMode(c), Status::Ok);
+            assert_eq!(fmi2ExitInitializationMode(c), Status::Ok);
+            assert_eq!(fmi2DoStep(c, 0.0, 0.1, 1), Status::Fatal);
+            // fmi2Fatal: nothing but fmi2FreeInstance is allowed any more (FMI 2.0.x §2.1.3).
+            assert_eq!(fmi2Reset(c), Status::Error);
+            assert_eq!(fmi2DoStep(c, 0.0, 0.1, 1), Status::Error);
+            fmi2FreeInstance(c);
+        }
+    }
+}

@@ -56,3 +56,23 @@ def native_run(scene, out_csv, output_interval, stop_time):
     run_geardyn("simulate", scene, "--out", out_csv, "--output-interval", repr(output_interval),
                 "--stop-time", repr(stop_time), "--quiet")
     return np.genfromtxt(out_csv, delimiter=",", names=True)
+
+
+_MEASUREMENTS = []
+
+
+@pytest.fixture
+def report(request):
+    """Records a measured number; all of them are printed in the summary of the run."""
+
+    def add(text):
+        _MEASUREMENTS.append(f"{request.node.name}: {text}")
+
+    return add
+
+
+def pytest_terminal_summary(terminalreporter):
+    if _MEASUREMENTS:
+        terminalreporter.section("measurements")
+        for line in _MEASUREMENTS:
+            terminalreporter.write_line(line)

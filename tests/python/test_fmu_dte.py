@@ -33,13 +33,13 @@ def _at(times, t):
     return idx
 
 
-def test_same_partition_is_identical(spur_fmu, native):
+def test_same_partition_is_identical(spur_fmu, native, report):
     r = _fmpy(spur_fmu, H)
     assert len(r) == len(native)
     assert np.array_equal(r["time"], native["time"]) or np.allclose(r["time"], native["time"], rtol=1e-15, atol=0)
     amp = np.abs(native["dte"]).max()
     err = np.abs(r["dte"] - native["dte"]).max()
-    print(f"fmpy vs native, h = {H}: max|dDTE| = {err:.3e} m = {err / amp:.3e} of max|DTE|")
+    report(f"fmpy vs native, h = {H}: max|dDTE| = {err:.3e} m = {err / amp:.3e} of max|DTE|")
     assert err <= 1e-12 * amp
     # The run is not trivial: contact is lost on part of the grid.
     assert (native["contact_state"] != 1).any()
@@ -47,20 +47,20 @@ def test_same_partition_is_identical(spur_fmu, native):
 
 
 @pytest.mark.parametrize("factor", [0.1, 10.0])
-def test_other_communication_steps_agree(spur_fmu, native, factor):
+def test_other_communication_steps_agree(spur_fmu, native, factor, report):
     r = _fmpy(spur_fmu, H * factor)
     common = r["time"] if factor > 1 else native["time"]
     i_r = _at(r["time"], common)
     i_n = _at(native["time"], common)
     static = native["static_deflection"][0]
     err = np.abs(r["dte"][i_r] - native["dte"][i_n]).max()
-    print(f"fmpy h = {H * factor:g} vs native h = {H:g} at {len(common)} points: "
+    report(f"fmpy h = {H * factor:g} vs native h = {H:g} at {len(common)} points: "
           f"max|dDTE| = {err:.3e} m = {err / static:.3e} of the static deflection")
     assert len(common) >= 200
     assert err <= 1e-8 * static
 
 
-def test_libcosim_agrees(spur_fmu, native):
+def test_libcosim_agrees(spur_fmu, native, report):
     from libcosimpy.CosimExecution import CosimExecution
     from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
     from libcosimpy.CosimObserver import CosimObserver
@@ -83,7 +83,7 @@ def test_libcosim_agrees(spur_fmu, native):
     ref = native["dte"][1:n + 1]
     amp = np.abs(native["dte"]).max()
     err = np.abs(dte - ref).max()
-    print(f"libcosim vs native, h = {H}: max|dDTE| = {err:.3e} m = {err / amp:.3e} of max|DTE|")
+    report(f"libcosim vs native, h = {H}: max|dDTE| = {err:.3e} m = {err / amp:.3e} of max|DTE|")
     # libcosim keeps time in integer nanoseconds: communication points are k*1e4 ns
     # converted to seconds, equal to k*1e-5 up to rounding, so same partition.
     assert err <= 1e-12 * amp

@@ -38,7 +38,7 @@ def _rss_kib():
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") // 1024
 
 
-def test_instantiate_free_cycles_keep_memory_flat(host):
+def test_instantiate_free_cycles_keep_memory_flat(host, report):
     vr_dte = vrs(host.vr("dte"))
     out = reals(0.0)
     state = C.c_void_p()
@@ -63,7 +63,7 @@ def test_instantiate_free_cycles_keep_memory_flat(host):
     for _ in range(9000):
         cycle()
     growth = _rss_kib() - before
-    print(f"RSS growth over 9,000 instantiate/free cycles (after 1,000 warm-up): {growth} KiB")
+    report(f"RSS growth over 9,000 instantiate/free cycles (after 1,000 warm-up): {growth} KiB")
     # One leaked instance is several KiB; a leak per cycle would show as megabytes.
     assert growth < 1024
 
@@ -336,7 +336,7 @@ def _one_call(host, c, o, rng, held):
     return None
 
 
-def test_random_call_sequences_match_the_oracle(host):
+def test_random_call_sequences_match_the_oracle(host, report):
     rng = random.Random(20261121)
     errors = calls = steps = 0
     for seq in range(10_000):
@@ -361,7 +361,7 @@ def test_random_call_sequences_match_the_oracle(host):
         for st, _ in held:
             host.fmi2FreeFMUstate(c, C.byref(st))
         host.fmi2FreeInstance(c)
-    print(f"{calls} random calls in 10,000 sequences: {errors} returned fmi2Error as predicted, "
+    report(f"{calls} random calls in 10,000 sequences: {errors} returned fmi2Error as predicted, "
           f"{steps} successful fmi2DoStep")
     assert errors > 10_000 and calls - errors > 50_000 and steps > 4000  # all paths exercised
 

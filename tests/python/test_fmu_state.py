@@ -103,7 +103,7 @@ def test_serialize_round_trip_into_fresh_instance(unzip):
     b.free()
 
 
-def test_simulate_fmu_continues_from_a_serialized_state(spur_fmu, unzip):
+def test_simulate_fmu_continues_from_a_serialized_state(spur_fmu, unzip, report):
     from fmpy import simulate_fmu
 
     full = simulate_fmu(str(spur_fmu), output_interval=1e-5, stop_time=0.004, output=["dte"])
@@ -123,7 +123,7 @@ def test_simulate_fmu_continues_from_a_serialized_state(spur_fmu, unzip):
     n = min(len(tail), len(rest))
     assert n >= 190
     err = np.abs(rest["dte"][:n] - tail["dte"][:n]).max()
-    print(f"continued run vs uninterrupted: max|dDTE| = {err:.3e} m")
+    report(f"continued run vs uninterrupted: max|dDTE| = {err:.3e} m")
     assert err <= 1e-12 * np.abs(full["dte"]).max()
 
 
