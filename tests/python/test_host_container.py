@@ -16,7 +16,7 @@ from test_host_geardyn_fmus import shipped
 from test_host_thirdparty import MODELS, assert_same, fmpy_cli, read
 
 
-def test_container_fmu_matches_fmpy_and_the_inner_fmu(tmp_path):
+def test_container_fmu_matches_fmpy_and_the_inner_fmu(tmp_path, report):
     inner = shipped("spur_pair")
     container = tmp_path / "GearContainer.fmu"
     subprocess.run([sys.executable, str(MODELS / "make_container.py"), str(inner), str(container)],
@@ -43,4 +43,4 @@ def test_container_fmu_matches_fmpy_and_the_inner_fmu(tmp_path):
     assert a.shape == b.shape
     dev = float(np.max(np.abs(a[:, 1:] - b[:, 1:]) / np.abs(b[:, 1:]).max(axis=0)))
     assert dev < 1e-9, dev
-    print(f"container: geardyn vs fmpy max rel diff {rel:.3g} (byte-identical); vs inner FMU {dev:.2e}")
+    report(f"fmpy container FMU, geardyn run vs fmpy simulate: max rel diff {rel:.3g} (byte-identical); vs inner FMU {dev:.2e}")

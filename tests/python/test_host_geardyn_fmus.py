@@ -39,17 +39,17 @@ def test_every_scene_is_shipped():
 
 
 @pytest.mark.parametrize("scene", SCENES, ids=lambda p: p.name)
-def test_default_experiment_matches_fmpy(scene, tmp_path):
+def test_default_experiment_matches_fmpy(scene, tmp_path, report):
     fmu = shipped(scene.name)
     g = geardyn_run(fmu, tmp_path / "g.csv")
     f = fmpy_cli(fmu, tmp_path / "f.csv")
     rel = assert_same(g, f)
     assert g.read_text() == f.read_text()
-    print(f"{scene.name} default grid: {len(read(g)[1])} rows, max rel diff {rel:.3g}, byte-identical")
+    report(f"{scene.name}.fmu, geardyn run vs fmpy simulate, default grid: {len(read(g)[1])} rows, max rel diff {rel:.3g}, byte-identical")
 
 
 @pytest.mark.parametrize("scene", SCENES, ids=lambda p: p.name)
-def test_start_values_and_last_step_match_fmpy(scene, tmp_path):
+def test_start_values_and_last_step_match_fmpy(scene, tmp_path, report):
     fmu = shipped(scene.name)
     g = geardyn_run(fmu, tmp_path / "g.csv", "--stop-time", "0.0123", "--output-interval", "1e-4",
                     "--start", "input_torque=150", "--start", "mesh.damping=900")
@@ -57,11 +57,11 @@ def test_start_values_and_last_step_match_fmpy(scene, tmp_path):
                  "--start-values", "input_torque", "150", "mesh.damping", "900")
     rel = assert_same(g, f)
     assert read(g)[1][-1, 0] == 0.0123
-    print(f"{scene.name} start values: max rel diff {rel:.3g}")
+    report(f"{scene.name}.fmu, geardyn run vs fmpy, start values + shortened last step: max rel diff {rel:.3g}")
 
 
 @pytest.mark.parametrize("scene", SCENES, ids=lambda p: p.name)
-def test_input_csv_matches_fmpy(scene, tmp_path):
+def test_input_csv_matches_fmpy(scene, tmp_path, report):
     fmu = shipped(scene.name)
     csv = tmp_path / "in.csv"
     csv.write_text(
@@ -80,4 +80,4 @@ def test_input_csv_matches_fmpy(scene, tmp_path):
     # The input changes the result.
     base = geardyn_run(fmu, tmp_path / "b.csv", "--stop-time", "0.015", "--output-interval", "1e-4")
     assert base.read_text() != g.read_text()
-    print(f"{scene.name} input file: max rel diff {rel:.3g}")
+    report(f"{scene.name}.fmu, geardyn run --input vs fmpy --input-file: max rel diff {rel:.3g}")

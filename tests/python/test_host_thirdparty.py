@@ -100,15 +100,15 @@ def test_without_preload_the_error_explains_why(oscillator, tmp_path):
     assert "undefined symbol" in r.stderr and "--preload" in r.stderr
 
 
-def test_default_experiment_grid_matches_fmpy(oscillator, tmp_path):
+def test_default_experiment_grid_matches_fmpy(oscillator, tmp_path, report):
     # No DefaultExperiment: stop = 1 s, and the interval is fmpy's auto_interval (2 ms).
     rel = assert_same(geardyn_run(oscillator, tmp_path / "g.csv"), fmpy_cli(oscillator, tmp_path / "f.csv"))
     _, a = read(tmp_path / "g.csv")
     assert len(a) == 501 and a[-1, 0] == 1.0
-    print(f"default grid: {len(a)} rows, max rel diff {rel:.3g}")
+    report(f"PythonFMU oscillator, geardyn run vs fmpy simulate, default grid: {len(a)} rows, max rel diff {rel:.3g}")
 
 
-def test_start_values_and_shortened_last_step_match_fmpy(oscillator, tmp_path):
+def test_start_values_and_shortened_last_step_match_fmpy(oscillator, tmp_path, report):
     g = geardyn_run(oscillator, tmp_path / "g.csv", "--start", "k=90", "--start", "c=1.5", "--start", "F=0.25",
                     "--stop-time", "2.05", "--output-interval", "0.1")
     f = fmpy_cli(oscillator, tmp_path / "f.csv", "--start-values", "k", "90", "c", "1.5", "F", "0.25",
@@ -116,10 +116,10 @@ def test_start_values_and_shortened_last_step_match_fmpy(oscillator, tmp_path):
     rel = assert_same(g, f)
     _, a = read(g)
     assert a[-1, 0] == 2.05  # canHandleVariableCommunicationStepSize="true": last step shortened
-    print(f"start values: max rel diff {rel:.3g}")
+    report(f"PythonFMU oscillator, geardyn run vs fmpy, start values + shortened last step: max rel diff {rel:.3g}")
 
 
-def test_input_csv_matches_fmpy_input_file(oscillator, tmp_path):
+def test_input_csv_matches_fmpy_input_file(oscillator, tmp_path, report):
     """Acceptance item 3: a ramp, a jump (repeated time), a hold before and after the table,
     and a tunable parameter column changing off-grid (an input event that cuts the step)."""
     csv = tmp_path / "in.csv"
@@ -146,7 +146,7 @@ def test_input_csv_matches_fmpy_input_file(oscillator, tmp_path):
     # And the input matters: without it the trajectory differs.
     _, free = read(geardyn_run(oscillator, tmp_path / "n.csv", "--stop-time", "2", "--output-interval", "0.1"))
     assert free.shape != a.shape or not np.allclose(free, a)
-    print(f"input file: {len(a)} rows, max rel diff {rel:.3g}")
+    report(f"PythonFMU oscillator, geardyn run --input vs fmpy --input-file: {len(a)} rows, max rel diff {rel:.3g}")
 
 
 def test_fmi_trace_and_outputs_subset(oscillator, tmp_path):
