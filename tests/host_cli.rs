@@ -467,6 +467,10 @@ fn bad_inputs_give_clear_errors() {
             vec![&"run", &good, &"--log-level", &"loud"],
             "--log-level \"loud\"",
         ),
+        (
+            vec![&"run", &good, &"--out", &"/nonexistent-dir/o.csv"],
+            "/nonexistent-dir/o.csv: cannot create",
+        ),
         (vec![&"info", &truncated], "XML"),
         (vec![&"validate", &not_zip], "not a valid ZIP archive"),
     ];
