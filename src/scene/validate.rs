@@ -121,23 +121,22 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
     }
     let k_mean = stiffness.mean();
 
-    let contact =
-        match (m.contact, m.backlash) {
-            (ContactLawSpec::Backlash, Some(b)) => ContactLaw::Backlash {
-                clearance: non_negative("mesh.backlash", b)?,
-            },
-            (ContactLawSpec::Backlash, None) => return err(
+    let contact = match (m.contact, m.backlash) {
+        (ContactLawSpec::Backlash, Some(b)) => ContactLaw::Backlash {
+            clearance: non_negative("mesh.backlash", b)?,
+        },
+        (ContactLawSpec::Backlash, None) => {
+            return err(
                 "mesh.backlash: missing; contact = \"backlash\" needs the total clearance 2b in m"
                     .into(),
-            ),
-            (other, Some(b)) => {
-                return err(format!(
+            )
+        }
+        (other, Some(b)) => return err(format!(
             "mesh.backlash = {b}: only allowed with contact = \"backlash\" (contact is {other:?})"
-        ))
-            }
-            (ContactLawSpec::Linear, None) => ContactLaw::Linear,
-            (ContactLawSpec::ContactLoss, None) => ContactLaw::ContactLoss,
-        };
+        )),
+        (ContactLawSpec::Linear, None) => ContactLaw::Linear,
+        (ContactLawSpec::ContactLoss, None) => ContactLaw::ContactLoss,
+    };
 
     let m_e = super::equivalent_mass(&pinion, &gear);
     let damping = match (m.damping, m.damping_ratio) {
