@@ -5,7 +5,7 @@
 //! path leaves files behind.
 
 use std::fs;
-use std::io;
+use std::io::{self, Read};
 use std::path::{Path, PathBuf};
 
 /// An FMU extracted to disk (or an already extracted FMU folder, which is used in place).
@@ -50,6 +50,15 @@ impl Unpacked {
 /// must not be used"), a backslash in an entry name (§2.3 requires `/`), no
 /// `modelDescription.xml` at the top level, or an I/O error while extracting.
 pub fn unpack(fmu: &Path) -> Result<Unpacked, String> {
+    unpack_limited(fmu, MAX_UNPACKED_BYTES)
+}
+
+/// Refuse to write more than this many bytes when unpacking: a crafted archive ("zip bomb")
+/// must not fill the disk. Far above any real FMU.
+pub const MAX_UNPACKED_BYTES: u64 = 8 << 30;
+
+/// [`unpack`] with an explicit limit on the bytes extracted.
+pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
     let meta = fs::metadata(fmu).map_err(|e| match e.kind() {
         io::ErrorKind::NotFound => format!("{}: no such file", fmu.display()),
         _ => format!("{}: cannot access: {e}", fmu.display()),
@@ -82,6 +91,7 @@ pub fn unpack(fmu: &Path) -> Result<Unpacked, String> {
         .tempdir()
         .map_err(|e| format!("cannot create a temporary folder: {e}"))?;
     let mut has_md = false;
+    let mut written: u64 = 0;
     let mut zip_problems = Vec::new();
     for i in 0..zip.len() {
         let mut entry = zip
@@ -138,12 +148,21 @@ pub fn unpack(fmu: &Path) -> Result<Unpacked, String> {
         }
         let mut f = fs::File::create(&out)
             .map_err(|e| format!("{}: cannot create {}: {e}", fmu.display(), out.display()))?;
-        io::copy(&mut entry, &mut f).map_err(|e| {
+        // Count actual bytes (the sizes in the ZIP headers can lie), stop one past the limit.
+        let budget = max_bytes - written;
+        let n = io::copy(&mut (&mut entry).take(budget + 1), &mut f).map_err(|e| {
             format!(
                 "{}: cannot extract ZIP entry \"{raw_name}\": {e}",
                 fmu.display()
             )
         })?;
+        if n > budget {
+            return Err(format!(
+                "{}: the archive expands to more than {max_bytes} bytes (at ZIP entry \"{raw_name}\"); refusing to unpack it",
+                fmu.display()
+            ));
+        }
+        written += n;
         // Keep the executable bit of shared libraries (dlopen does not need it, but tools
         // that exec helper binaries from resources/ do).
         #[cfg(unix)]
@@ -164,4 +183,34 @@ pub fn unpack(fmu: &Path) -> Result<Unpacked, String> {
         root,
         zip_problems,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    #[test]
+    fn expansion_limit_and_cleanup() {
+        let dir = tempfile::tempdir().unwrap();
+        let fmu = dir.path().join("big.fmu");
+        let mut z = zip::ZipWriter::new(fs::File::create(&fmu).unwrap());
+        let opts = zip::write::SimpleFileOptions::default()
+            .compression_method(zip::CompressionMethod::Deflated);
+        z.start_file("modelDescription.xml", opts).unwrap();
+        z.write_all(b"<x/>").unwrap();
+        z.start_file("resources/zeros.bin", opts).unwrap();
+        z.write_all(&vec![0u8; 100_000]).unwrap();
+        z.finish().unwrap();
+        let e = unpack_limited(&fmu, 50_000).err().unwrap();
+        assert!(
+            e.contains("expands to more than 50000 bytes") && e.contains("zeros.bin"),
+            "{e}"
+        );
+        let u = unpack_limited(&fmu, 200_000).unwrap();
+        let root = u.root().to_path_buf();
+        assert!(root.join("resources/zeros.bin").is_file());
+        drop(u);
+        assert!(!root.exists(), "temporary folder not removed");
+    }
 }
