@@ -15,6 +15,7 @@ pub mod fmu_entry;
 pub mod fmu_model;
 pub mod fmu_state;
 pub mod fmu_train;
+pub mod host;
 pub mod mesh;
 pub mod model;
 pub mod output;

@@ -34,6 +34,12 @@ enum Command {
     Stiffness(cli::stiffness::StiffnessArgs),
     /// FMI 2.0 Co-Simulation FMUs: build, print or check model descriptions.
     Fmu(geardyn::fmi::cli::FmuArgs),
+    /// Run any FMI 2.0 Co-Simulation FMU (the host runner, like `fmpy simulate`).
+    Run(geardyn::host::cli::RunArgs),
+    /// Show an FMU's model description: capabilities and variables.
+    Info(geardyn::host::cli::FmuArg),
+    /// Check an FMU (modelDescription.xml and its linux64 binary); exit 1 on problems.
+    Validate(geardyn::host::cli::FmuArg),
 }
 
 fn main() -> ExitCode {
@@ -45,6 +51,9 @@ fn main() -> ExitCode {
         Command::Hb(args) => cli::analysis::hb(args),
         Command::Stiffness(args) => cli::stiffness::run(args),
         Command::Fmu(args) => geardyn::fmi::cli::run(args),
+        Command::Run(args) => geardyn::host::cli::run(args),
+        Command::Info(args) => geardyn::host::cli::info(args),
+        Command::Validate(args) => geardyn::host::cli::validate(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,216 @@
+//! Unpacking an FMU (a ZIP file, FMI 2.0.5 §2.3 "FMU Distribution") into a temporary folder.
+//!
+//! The folder is a [`tempfile::TempDir`] owned by [`Unpacked`]: it is removed when the value is
+//! dropped, which also happens on every early `return Err(..)` and on unwinding, so no error
+//! path leaves files behind.
+
+use std::fs;
+use std::io::{self, Read};
+use std::path::{Path, PathBuf};
+
+/// An FMU extracted to disk (or an already extracted FMU folder, which is used in place).
+pub struct Unpacked {
+    /// Keeps the temporary folder alive; `None` when the FMU was given as a folder.
+    _temp: Option<tempfile::TempDir>,
+    root: PathBuf,
+    /// Departures from the ZIP rules of FMI 2.0.5 §2.3 that still allowed extraction (for
+    /// `geardyn validate`).
+    pub zip_problems: Vec<String>,
+}
+
+impl Unpacked {
+    /// The folder holding `modelDescription.xml`, `binaries/`, `resources/`.
+    pub fn root(&self) -> &Path {
+        &self.root
+    }
+
+    /// `resources/` inside the extracted FMU (it may not exist; hosts pass its URI anyway).
+    pub fn resources(&self) -> PathBuf {
+        self.root.join("resources")
+    }
+
+    /// Read `modelDescription.xml` as UTF-8 text.
+    pub fn model_description_text(&self) -> Result<String, String> {
+        let p = self.root.join("modelDescription.xml");
+        let bytes = fs::read(&p).map_err(|e| format!("{}: cannot read: {e}", p.display()))?;
+        String::from_utf8(bytes).map_err(|e| {
+            format!(
+                "{}: not UTF-8 text (byte {} is invalid); FMI 2.0.5 §2.2 requires UTF-8",
+                p.display(),
+                e.utf8_error().valid_up_to()
+            )
+        })
+    }
+}
+
+/// Unpack `fmu` (a `.fmu` ZIP file, or a folder that already holds `modelDescription.xml`).
+///
+/// Errors name the file and the reason: missing file, not a ZIP archive, an entry that would
+/// escape the target folder (`../`, absolute path), a symbolic link (FMI 2.0.5 §2.3: "Links
+/// must not be used"), a backslash in an entry name (§2.3 requires `/`), no
+/// `modelDescription.xml` at the top level, or an I/O error while extracting.
+pub fn unpack(fmu: &Path) -> Result<Unpacked, String> {
+    unpack_limited(fmu, MAX_UNPACKED_BYTES)
+}
+
+/// Refuse to write more than this many bytes when unpacking: a crafted archive ("zip bomb")
+/// must not fill the disk. Far above any real FMU.
+pub const MAX_UNPACKED_BYTES: u64 = 8 << 30;
+
+/// [`unpack`] with an explicit limit on the bytes extracted.
+pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
+    let meta = fs::metadata(fmu).map_err(|e| match e.kind() {
+        io::ErrorKind::NotFound => format!("{}: no such file", fmu.display()),
+        _ => format!("{}: cannot access: {e}", fmu.display()),
+    })?;
+    if meta.is_dir() {
+        if !fmu.join("modelDescription.xml").is_file() {
+            return Err(format!(
+                "{}: folder has no modelDescription.xml (not an extracted FMU)",
+                fmu.display()
+            ));
+        }
+        // Absolute, because the resource location passed to the FMU is a file:// URI.
+        let root = fs::canonicalize(fmu)
+            .map_err(|e| format!("{}: cannot resolve the path: {e}", fmu.display()))?;
+        return Ok(Unpacked {
+            _temp: None,
+            root,
+            zip_problems: Vec::new(),
+        });
+    }
+    let file = fs::File::open(fmu).map_err(|e| format!("{}: cannot open: {e}", fmu.display()))?;
+    let mut zip = zip::ZipArchive::new(io::BufReader::new(file)).map_err(|e| {
+        format!(
+            "{}: not an FMU: not a valid ZIP archive ({e})",
+            fmu.display()
+        )
+    })?;
+    let temp = tempfile::Builder::new()
+        .prefix("geardyn-fmu-")
+        .tempdir()
+        .map_err(|e| format!("cannot create a temporary folder: {e}"))?;
+    let mut has_md = false;
+    let mut written: u64 = 0;
+    let mut zip_problems = Vec::new();
+    for i in 0..zip.len() {
+        let mut entry = zip
+            .by_index(i)
+            .map_err(|e| format!("{}: ZIP entry #{i}: {e}", fmu.display()))?;
+        let raw_name = entry.name().map(|n| n.into_owned()).unwrap_or_default();
+        if raw_name.contains('\\') {
+            return Err(format!(
+                "{}: ZIP entry \"{raw_name}\" uses a backslash; FMI 2.0.5 §2.3 requires '/' as separator",
+                fmu.display()
+            ));
+        }
+        if entry.encrypted() {
+            return Err(format!(
+                "{}: ZIP entry \"{raw_name}\" is encrypted; FMI 2.0.5 §2.3 forbids encryption",
+                fmu.display()
+            ));
+        }
+        // §2.3: "compression method ... must be either 8 (deflate), or 0 (store)".
+        let method = entry.compression();
+        if !matches!(
+            method,
+            zip::CompressionMethod::Stored | zip::CompressionMethod::Deflated
+        ) {
+            zip_problems.push(format!(
+                "ZIP entry \"{raw_name}\" uses compression method {method:?}; FMI 2.0.5 §2.3 allows only deflate (8) and store (0)"
+            ));
+        }
+        if entry.is_symlink() {
+            return Err(format!(
+                "{}: ZIP entry \"{raw_name}\" is a symbolic link; FMI 2.0.5 §2.3 forbids links",
+                fmu.display()
+            ));
+        }
+        let Some(rel) = entry.enclosed_name() else {
+            return Err(format!(
+                "{}: ZIP entry \"{raw_name}\" has an unsafe path (absolute or outside the archive)",
+                fmu.display()
+            ));
+        };
+        if rel == Path::new("modelDescription.xml") {
+            has_md = true;
+        }
+        let out = temp.path().join(&rel);
+        if entry.is_dir() {
+            fs::create_dir_all(&out)
+                .map_err(|e| format!("{}: cannot create {}: {e}", fmu.display(), out.display()))?;
+            continue;
+        }
+        if let Some(parent) = out.parent() {
+            fs::create_dir_all(parent).map_err(|e| {
+                format!("{}: cannot create {}: {e}", fmu.display(), parent.display())
+            })?;
+        }
+        let mut f = fs::File::create(&out)
+            .map_err(|e| format!("{}: cannot create {}: {e}", fmu.display(), out.display()))?;
+        // Count actual bytes (the sizes in the ZIP headers can lie), stop one past the limit.
+        let budget = max_bytes - written;
+        let n = io::copy(&mut (&mut entry).take(budget + 1), &mut f).map_err(|e| {
+            format!(
+                "{}: cannot extract ZIP entry \"{raw_name}\": {e}",
+                fmu.display()
+            )
+        })?;
+        if n > budget {
+            return Err(format!(
+                "{}: the archive expands to more than {max_bytes} bytes (at ZIP entry \"{raw_name}\"); refusing to unpack it",
+                fmu.display()
+            ));
+        }
+        written += n;
+        // Keep the executable bit of shared libraries (dlopen does not need it, but tools
+        // that exec helper binaries from resources/ do).
+        #[cfg(unix)]
+        if let Some(mode) = entry.unix_mode() {
+            use std::os::unix::fs::PermissionsExt;
+            let _ = fs::set_permissions(&out, fs::Permissions::from_mode(mode & 0o755 | 0o600));
+        }
+    }
+    if !has_md {
+        return Err(format!(
+            "{}: not an FMU: the ZIP archive has no modelDescription.xml at its top level",
+            fmu.display()
+        ));
+    }
+    let root = temp.path().to_path_buf();
+    Ok(Unpacked {
+        _temp: Some(temp),
+        root,
+        zip_problems,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Write;
+
+    #[test]
+    fn expansion_limit_and_cleanup() {
+        let dir = tempfile::tempdir().unwrap();
+        let fmu = dir.path().join("big.fmu");
+        let mut z = zip::ZipWriter::new(fs::File::create(&fmu).unwrap());
+        let opts = zip::write::SimpleFileOptions::default()
+            .compression_method(zip::CompressionMethod::Deflated);
+        z.start_file("modelDescription.xml", opts).unwrap();
+        z.write_all(b"<x/>").unwrap();
+        z.start_file("resources/zeros.bin", opts).unwrap();
+        z.write_all(&vec![0u8; 100_000]).unwrap();
+        z.finish().unwrap();
+        let e = unpack_limited(&fmu, 50_000).err().unwrap();
+        assert!(
+            e.contains("expands to more than 50000 bytes") && e.contains("zeros.bin"),
+            "{e}"
+        );
+        let u = unpack_limited(&fmu, 200_000).unwrap();
+        let root = u.root().to_path_buf();
+        assert!(root.join("resources/zeros.bin").is_file());
+        drop(u);
+        assert!(!root.exists(), "temporary folder not removed");
+    }
+}

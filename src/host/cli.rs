@@ -1,0 +1,319 @@
+//! The `geardyn run | info | validate` commands. `main.rs` only dispatches here.
+//!
+//! Every error is returned as a message (printed by `main` as `error: …`, exit code 1); nothing
+//! panics on a bad FMU or bad arguments. The temporary folder of the unpacked FMU is owned by
+//! [`Unpacked`] and removed on every return path.
+
+use super::archive::{unpack, Unpacked};
+use super::check::check;
+use super::csv::CsvWriter;
+use super::description::{parse, ModelDescription};
+use super::input::Input;
+use super::instance::Instance;
+use super::library::{FmuLibrary, Status};
+use super::logger::Logger;
+use super::runner::{self, Experiment};
+use super::start;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args, Debug)]
+pub struct RunArgs {
+    /// The FMU (.fmu file or an extracted FMU folder).
+    pub fmu: PathBuf,
+    /// Stop time, s (default: DefaultExperiment stopTime, else start + 1).
+    #[arg(long, allow_negative_numbers = true)]
+    pub stop_time: Option<f64>,
+    /// Output interval = communication step, s (default: DefaultExperiment stepSize, doubled
+    /// until ≤ 1000 steps; else 500–1000 round steps; as fmpy).
+    #[arg(long, allow_negative_numbers = true)]
+    pub output_interval: Option<f64>,
+    /// Start value NAME=VALUE of a parameter or input (repeatable).
+    #[arg(long = "start", value_name = "NAME=VALUE")]
+    pub start: Vec<String>,
+    /// Input signals: CSV with a `time` column and one column per input (fmpy's convention:
+    /// continuous Reals interpolated linearly at each step start, others held).
+    #[arg(long)]
+    pub input: Option<PathBuf>,
+    /// Output CSV (fmpy layout: "time" then the variables). Default: stdout.
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Variables to record, comma separated (default: all outputs).
+    #[arg(long, value_delimiter = ',')]
+    pub outputs: Option<Vec<String>>,
+    /// Print FMU log messages at or above this status: all | warning | discard | error | fatal.
+    /// `all` also switches on the FMU's debug logging (fmi2SetDebugLogging, all categories).
+    #[arg(long, default_value = "warning")]
+    pub log_level: String,
+    /// Trace every FMI call with its arguments and status to stderr.
+    #[arg(long)]
+    pub fmi_trace: bool,
+    /// Load this shared library globally before the FMU (repeatable), for FMUs that need an
+    /// execution tool in the process, e.g. `--preload libpython3.11.so` for a PythonFMU.
+    #[arg(long, value_name = "LIB")]
+    pub preload: Vec<PathBuf>,
+    /// Report where the time went: the step loop, the part inside the FMU's calls, CSV writing.
+    #[arg(long)]
+    pub timing: bool,
+}
+
+#[derive(clap::Args, Debug)]
+pub struct FmuArg {
+    /// The FMU (.fmu file or an extracted FMU folder).
+    pub fmu: PathBuf,
+}
+
+/// Unpack and parse: the first two steps of every command.
+fn open(fmu: &Path) -> Result<(Unpacked, ModelDescription), String> {
+    let unpacked = unpack(fmu)?;
+    let text = unpacked.model_description_text()?;
+    let md = parse(&text, "modelDescription.xml")?;
+    Ok((unpacked, md))
+}
+
+/// `geardyn info`.
+pub fn info(args: FmuArg) -> Result<(), String> {
+    let (_u, md) = open(&args.fmu)?;
+    print!("{}", super::info::render(&md));
+    Ok(())
+}
+
+/// `geardyn validate`: the modelDescription checks plus loading the linux64 binary with all
+/// 34 functions. Returns an error (exit 1) when anything is wrong.
+pub fn validate(args: FmuArg) -> Result<(), String> {
+    let (u, md) = open(&args.fmu)?;
+    let mut problems = u.zip_problems.clone();
+    problems.extend(check(&md));
+    if let Some(cs) = &md.co_simulation {
+        if let Err(e) = FmuLibrary::load(u.root(), &cs.model_identifier) {
+            problems.push(e);
+        }
+    }
+    if problems.is_empty() {
+        println!("No problems found.");
+        return Ok(());
+    }
+    for p in &problems {
+        println!("- {p}");
+    }
+    Err(format!(
+        "{}: {} problem{} found",
+        args.fmu.display(),
+        problems.len(),
+        if problems.len() == 1 { "" } else { "s" }
+    ))
+}
+
+fn positive(name: &str, v: f64) -> Result<f64, String> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("--{name} {v}: must be a finite number > 0"))
+    }
+}
+
+/// `file://` URI of a folder (FMI 2.0.5 §2.1.5 fmuResourceLocation), percent-encoded exactly
+/// like Python's `pathlib.Path.as_uri` (`urllib.parse.quote`, safe = "/"), which fmpy passes.
+fn file_uri(p: &Path) -> String {
+    let mut s = String::from("file://");
+    for b in p.to_string_lossy().bytes() {
+        if b.is_ascii_alphanumeric() || b"/-._~".contains(&b) {
+            s.push(b as char);
+        } else {
+            s.push_str(&format!("%{b:02X}"));
+        }
+    }
+    s
+}
+
+/// Check the user's request against the model description and build the experiment: start
+/// values, time grid defaults (fmpy's), input signals, recorded variables.
+fn plan(
+    args: &RunArgs,
+    md: &ModelDescription,
+    pairs: &[(String, String)],
+) -> Result<Experiment, String> {
+    let start_values = start::resolve(md, pairs)?;
+    let de = md.default_experiment.clone().unwrap_or_default();
+    let start_time = de.start_time.unwrap_or(0.0);
+    let stop_time = args.stop_time.or(de.stop_time).unwrap_or(start_time + 1.0);
+    if !stop_time.is_finite() || stop_time <= start_time {
+        return Err(format!(
+            "stop time {stop_time} must be finite and after the start time {start_time}"
+        ));
+    }
+    let output_interval = args
+        .output_interval
+        .unwrap_or_else(|| runner::default_interval(md, start_time, stop_time));
+    let input = match &args.input {
+        Some(p) => {
+            let inp = Input::from_csv(p, md)?;
+            for w in &inp.warnings {
+                eprintln!("warning: {}: {w}", p.display());
+            }
+            Some(inp)
+        }
+        None => None,
+    };
+    let outputs = match &args.outputs {
+        Some(names) => {
+            let n: Vec<&str> = names
+                .iter()
+                .map(|s| s.trim())
+                .filter(|s| !s.is_empty())
+                .collect();
+            runner::recorded(md, &n, true)?
+        }
+        None => runner::recorded(md, &runner::default_outputs(md), false)?,
+    };
+    let exp = Experiment {
+        start_time,
+        stop_time,
+        tolerance: de.tolerance,
+        output_interval,
+        start_values,
+        input,
+        outputs,
+        timing: args.timing,
+        interrupt: Some(&super::interrupt::INTERRUPTED),
+    };
+
+    Ok(exp)
+}
+
+/// `geardyn run`.
+pub fn run(args: RunArgs) -> Result<(), String> {
+    let log_level = Status::parse_level(&args.log_level).ok_or_else(|| {
+        format!(
+            "--log-level \"{}\": expected all, warning, discard, error or fatal",
+            args.log_level
+        )
+    })?;
+    let setup = std::time::Instant::now();
+    super::interrupt::catch_interrupts();
+    let pairs = args
+        .start
+        .iter()
+        .map(|a| start::parse_arg(a))
+        .collect::<Result<Vec<_>, _>>()?;
+    if let Some(h) = args.output_interval {
+        positive("output-interval", h)?;
+    }
+    let (u, md) = open(&args.fmu)?;
+    let Some(cs) = md.co_simulation.clone() else {
+        return Err(match &md.model_exchange {
+            Some(id) => format!("{}: the FMU is Model Exchange only (<ModelExchange modelIdentifier=\"{id}\">, no <CoSimulation>); geardyn run needs an FMI 2.0 Co-Simulation FMU", args.fmu.display()),
+            None => format!("{}: the FMU declares no <CoSimulation> interface", args.fmu.display()),
+        });
+    };
+    let problems = check(&md);
+    if !problems.is_empty() {
+        eprintln!(
+            "warning: modelDescription.xml has {} problem(s) (see `geardyn validate`); running anyway",
+            problems.len()
+        );
+    }
+    let exp = plan(&args, &md, &pairs)?;
+
+    super::library::preload(&args.preload)?;
+    let lib = FmuLibrary::load(u.root(), &cs.model_identifier).map_err(|e| {
+        if cs.needs_execution_tool && e.contains("undefined symbol") {
+            format!("{e}\n  hint: the FMU declares needsExecutionTool=\"true\"; load the tool's library first with --preload (a PythonFMU needs libpython3.X.so)")
+        } else {
+            e
+        }
+    })?;
+    let debug = log_level == Status::Ok;
+    let mut inst = Instance::instantiate(
+        &lib,
+        &cs.model_identifier,
+        &md.guid,
+        &file_uri(&u.resources()),
+        Logger::new(log_level),
+        debug,
+        args.fmi_trace,
+    )?;
+    if debug {
+        // Not fatal: debug logging is a convenience.
+        if let Err(e) = inst.set_debug_logging(true) {
+            eprintln!("warning: {e}");
+        }
+    }
+    let names: Vec<String> = exp.outputs.iter().map(|o| o.name.clone()).collect();
+    let target: Box<dyn Write> = match &args.out {
+        Some(p) => Box::new(
+            std::fs::File::create(p).map_err(|e| format!("{}: cannot create: {e}", p.display()))?,
+        ),
+        None => Box::new(std::io::stdout().lock()),
+    };
+    let where_to = args
+        .out
+        .as_ref()
+        .map_or_else(|| "stdout".to_string(), |p| p.display().to_string());
+    let mut csv = CsvWriter::new(std::io::BufWriter::with_capacity(1 << 16, target), &names)
+        .map_err(|e| format!("{where_to}: cannot write: {e}"))?;
+    let outcome = runner::run(
+        &mut inst,
+        &exp,
+        cs.can_handle_variable_communication_step_size,
+        &mut csv,
+    );
+    drop(inst); // fmi2FreeInstance before the library is unloaded and the folder removed
+    let flushed = csv
+        .flush()
+        .map_err(|e| format!("{where_to}: cannot write: {e}"));
+
+    if let Some(t) = outcome.timing {
+        report_timing(&t, outcome.rows, setup.elapsed().as_secs_f64());
+    }
+    for n in &outcome.notes {
+        eprintln!("note: {n}");
+    }
+    let (rows, last) = csv.written();
+    match (&outcome.failure, flushed) {
+        (Some(f), Ok(())) => Err(format!(
+            "{f}{}",
+            match (&args.out, last) {
+                (Some(p), Some(t)) => format!(
+                    " ({rows} rows up to t = {t} were written to {})",
+                    p.display()
+                ),
+                _ => String::new(),
+            }
+        )),
+        (Some(f), Err(w)) => Err(format!("{f}; also: {w}")),
+        (None, r) => r,
+    }
+}
+
+/// The `--timing` line: where the step loop's time went, and the time outside it.
+fn report_timing(t: &runner::Timing, rows: usize, total_seconds: f64) {
+    let pct = |x: f64| 100.0 * x / t.loop_seconds.max(1e-300);
+    let own = t.loop_seconds - t.fmu_seconds - t.sink_seconds;
+    eprintln!(
+        "timing: {} steps in {:.3} s: inside fmi2DoStep/fmi2Get* {:.3} s ({:.1}%), CSV formatting {:.3} s ({:.1}%), runner {:.3} s ({:.1}%); outside the loop (unzip, load, instantiate, initialize, free) {:.3} s",
+        rows.saturating_sub(1),
+        t.loop_seconds,
+        t.fmu_seconds,
+        pct(t.fmu_seconds),
+        t.sink_seconds,
+        pct(t.sink_seconds),
+        own,
+        pct(own),
+        total_seconds - t.loop_seconds,
+    );
+}
+
+#[cfg(test)]
+mod tests {
+    use super::file_uri;
+    use std::path::Path;
+
+    #[test]
+    fn uri_is_percent_encoded() {
+        assert_eq!(
+            file_uri(Path::new("/tmp/a b/résources")),
+            "file:///tmp/a%20b/r%C3%A9sources"
+        );
+    }
+}

@@ -1,0 +1,350 @@
+//! One FMU instance: a safe wrapper over the raw FMI 2.0 function table.
+//!
+//! Every call goes through [`Instance::call`], which (a) optionally traces the call and its
+//! status to stderr (`--fmi-trace`), and (b) turns a status of `fmi2Discard` or worse into an
+//! error naming the function, its arguments, the status and the reasons the FMU logged
+//! (FMI 2.0.5 §2.1.3: the logger is where an FMU explains a failing call).
+//!
+//! The instance owns its [`Logger`] and the `fmi2CallbackFunctions` struct: both must stay at a
+//! fixed address until `fmi2FreeInstance`, since the FMU keeps pointers to them. `Drop` frees
+//! the instance (unless the FMU reported `fmi2Fatal`, after which no call is allowed, §2.1.3).
+
+use super::library::{CallbackFunctions, Component, FmuLibrary, Status};
+use super::logger::{geardyn_host_logger, Logger};
+use std::ffi::{c_char, c_int, CStr, CString};
+
+/// `fmi2Type` (fmi2TypesPlatform.h): we only instantiate Co-Simulation slaves.
+const FMI2_COSIMULATION: c_int = 1;
+/// `fmi2StatusKind` values used after `fmi2Discard` (FMI 2.0.5 §4.2.3).
+const FMI2_LAST_SUCCESSFUL_TIME: c_int = 2;
+const FMI2_TERMINATED: c_int = 3;
+
+/// A failed FMI call, with everything needed to explain it.
+#[derive(Debug, Clone)]
+pub struct CallError {
+    pub function: &'static str,
+    pub status: Status,
+    pub message: String,
+}
+
+impl std::fmt::Display for CallError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.message)
+    }
+}
+
+pub struct Instance<'a> {
+    lib: &'a FmuLibrary,
+    c: Component,
+    trace: bool,
+    /// Set once the FMU returned fmi2Fatal: it must not be called again, not even freed.
+    fatal: bool,
+    // Dropped after `c` is freed (field order does not matter: Drop::drop runs first).
+    _callbacks: Box<CallbackFunctions>,
+    logger: Box<Logger>,
+}
+
+/// Format a value list for the trace, like fmpy's `[FMI]` lines.
+fn list<T: std::fmt::Debug>(v: &[T]) -> String {
+    format!("{v:?}")
+}
+
+impl<'a> Instance<'a> {
+    /// `fmi2Instantiate` (FMI 2.0.5 §2.1.5) as a Co-Simulation slave, not visible.
+    ///
+    /// `resource_uri` is the `file://` URI of the extracted `resources/` folder. `logging_on`
+    /// enables the FMU's debug logging from the start.
+    pub fn instantiate(
+        lib: &'a FmuLibrary,
+        instance_name: &str,
+        guid: &str,
+        resource_uri: &str,
+        logger: Logger,
+        logging_on: bool,
+        trace: bool,
+    ) -> Result<Instance<'a>, String> {
+        let cstring = |what: &str, s: &str| {
+            CString::new(s).map_err(|_| format!("{what} \"{s}\" contains a NUL character"))
+        };
+        let name = cstring("instance name", instance_name)?;
+        let guid_c = cstring("guid", guid)?;
+        let uri = cstring("resource location", resource_uri)?;
+        let logger = Box::new(logger);
+        let callbacks = Box::new(CallbackFunctions {
+            logger: Some(geardyn_host_logger),
+            allocate_memory: Some(super::library::calloc),
+            free_memory: Some(super::library::free),
+            step_finished: None,
+            component_environment: logger.component_environment(),
+        });
+        // SAFETY: all pointers are valid NUL-terminated strings / a callbacks struct that
+        // outlives the instance (owned by it, boxed so its address is stable).
+        let c = unsafe {
+            (lib.fns.instantiate)(
+                name.as_ptr(),
+                FMI2_COSIMULATION,
+                guid_c.as_ptr(),
+                uri.as_ptr(),
+                &*callbacks,
+                0,
+                c_int::from(logging_on),
+            )
+        };
+        if trace {
+            eprintln!(
+                "[FMI] fmi2Instantiate(instanceName=\"{instance_name}\", fmuType=fmi2CoSimulation, fmuGUID=\"{guid}\", fmuResourceLocation=\"{resource_uri}\", visible=fmi2False, loggingOn={}) -> {c:?}",
+                if logging_on { "fmi2True" } else { "fmi2False" }
+            );
+        }
+        if c.is_null() {
+            let why = logger.reasons(Status::Ok);
+            return Err(format!(
+                "fmi2Instantiate returned NULL{}",
+                if why.is_empty() {
+                    " (the FMU logged no reason)".to_string()
+                } else {
+                    format!(": {why}")
+                }
+            ));
+        }
+        Ok(Instance {
+            lib,
+            c,
+            trace,
+            fatal: false,
+            _callbacks: callbacks,
+            logger,
+        })
+    }
+
+    /// Check a status: trace it, and make `fmi2Discard` or worse an error.
+    fn call(
+        &mut self,
+        function: &'static str,
+        raw: c_int,
+        args: impl FnOnce() -> String,
+    ) -> Result<Status, CallError> {
+        let status = Status::from_raw(raw);
+        if self.trace {
+            eprintln!("[FMI] {function}({}) -> {status}", args());
+        }
+        if status >= Status::Fatal {
+            self.fatal = true;
+        }
+        if status < Status::Discard {
+            self.logger.clear();
+        } else {
+            let why = self.logger.reasons(Status::Warning);
+            return Err(CallError {
+                function,
+                status,
+                message: format!(
+                    "{function} returned {status}{}",
+                    if why.is_empty() {
+                        " (the FMU logged no reason)".to_string()
+                    } else {
+                        format!(": {why}")
+                    }
+                ),
+            });
+        }
+        Ok(status)
+    }
+
+    /// `fmi2SetDebugLogging(c, on, 0, NULL)`: zero categories means all of them (§2.1.5).
+    pub fn set_debug_logging(&mut self, on: bool) -> Result<Status, CallError> {
+        // SAFETY: valid instance; nCategories = 0 with a null array is allowed.
+        let r = unsafe {
+            (self.lib.fns.set_debug_logging)(self.c, c_int::from(on), 0, std::ptr::null())
+        };
+        self.call("fmi2SetDebugLogging", r, || {
+            format!("loggingOn={on}, nCategories=0")
+        })
+    }
+
+    /// `fmi2SetupExperiment` (§2.1.6).
+    pub fn setup_experiment(
+        &mut self,
+        tolerance: Option<f64>,
+        start: f64,
+        stop: Option<f64>,
+    ) -> Result<Status, CallError> {
+        // SAFETY: valid instance, plain values.
+        let r = unsafe {
+            (self.lib.fns.setup_experiment)(
+                self.c,
+                c_int::from(tolerance.is_some()),
+                tolerance.unwrap_or(0.0),
+                start,
+                c_int::from(stop.is_some()),
+                stop.unwrap_or(0.0),
+            )
+        };
+        self.call("fmi2SetupExperiment", r, || {
+            format!("toleranceDefined={}, tolerance={}, startTime={start}, stopTimeDefined={}, stopTime={}",
+                tolerance.is_some(), tolerance.unwrap_or(0.0), stop.is_some(), stop.unwrap_or(0.0))
+        })
+    }
+
+    pub fn enter_initialization_mode(&mut self) -> Result<Status, CallError> {
+        // SAFETY: valid instance.
+        let r = unsafe { (self.lib.fns.enter_initialization_mode)(self.c) };
+        self.call("fmi2EnterInitializationMode", r, String::new)
+    }
+
+    pub fn exit_initialization_mode(&mut self) -> Result<Status, CallError> {
+        // SAFETY: valid instance.
+        let r = unsafe { (self.lib.fns.exit_initialization_mode)(self.c) };
+        self.call("fmi2ExitInitializationMode", r, String::new)
+    }
+
+    pub fn terminate(&mut self) -> Result<Status, CallError> {
+        // SAFETY: valid instance.
+        let r = unsafe { (self.lib.fns.terminate)(self.c) };
+        self.call("fmi2Terminate", r, String::new)
+    }
+
+    /// `fmi2DoStep` (§4.2.2). `fmi2Discard` is returned as an error like any other failure;
+    /// the caller asks [`Instance::discard_details`] what happened.
+    pub fn do_step(&mut self, t: f64, h: f64) -> Result<Status, CallError> {
+        // SAFETY: valid instance. noSetFMUStatePriorToCurrentPoint = true: we never roll back.
+        let r = unsafe { (self.lib.fns.do_step)(self.c, t, h, 1) };
+        self.call("fmi2DoStep", r, || {
+            format!("currentCommunicationPoint={t:?}, communicationStepSize={h:?}, noSetFMUStatePriorToCurrentPoint=fmi2True")
+        })
+    }
+
+    /// After `fmi2DoStep` returned `fmi2Discard` (§4.2.3): `(terminated, lastSuccessfulTime)`,
+    /// each `None` when the FMU cannot answer.
+    pub fn discard_details(&mut self) -> (Option<bool>, Option<f64>) {
+        let mut term: c_int = 0;
+        let mut last: f64 = f64::NAN;
+        // SAFETY: valid instance, valid out-pointers.
+        let r1 = unsafe { (self.lib.fns.get_boolean_status)(self.c, FMI2_TERMINATED, &mut term) };
+        let terminated = self
+            .call("fmi2GetBooleanStatus", r1, || "s=fmi2Terminated".into())
+            .ok()
+            .map(|_| term != 0);
+        // SAFETY: as above.
+        let r2 =
+            unsafe { (self.lib.fns.get_real_status)(self.c, FMI2_LAST_SUCCESSFUL_TIME, &mut last) };
+        let last = self
+            .call("fmi2GetRealStatus", r2, || {
+                "s=fmi2LastSuccessfulTime".into()
+            })
+            .ok()
+            .filter(|_| last.is_finite())
+            .map(|_| last);
+        (terminated, last)
+    }
+
+    pub fn set_real(&mut self, vr: &[u32], v: &[f64]) -> Result<Status, CallError> {
+        debug_assert_eq!(vr.len(), v.len());
+        // SAFETY: both slices have len() elements.
+        let r = unsafe { (self.lib.fns.set_real)(self.c, vr.as_ptr(), vr.len(), v.as_ptr()) };
+        self.call("fmi2SetReal", r, || {
+            format!("vr={}, value={}", list(vr), list(v))
+        })
+    }
+
+    pub fn set_integer(&mut self, vr: &[u32], v: &[i32]) -> Result<Status, CallError> {
+        // SAFETY: both slices have len() elements.
+        let r = unsafe { (self.lib.fns.set_integer)(self.c, vr.as_ptr(), vr.len(), v.as_ptr()) };
+        self.call("fmi2SetInteger", r, || {
+            format!("vr={}, value={}", list(vr), list(v))
+        })
+    }
+
+    /// Values are fmi2Boolean (`int`, 0 or 1).
+    pub fn set_boolean(&mut self, vr: &[u32], v: &[i32]) -> Result<Status, CallError> {
+        // SAFETY: both slices have len() elements.
+        let r = unsafe { (self.lib.fns.set_boolean)(self.c, vr.as_ptr(), vr.len(), v.as_ptr()) };
+        self.call("fmi2SetBoolean", r, || {
+            format!("vr={}, value={}", list(vr), list(v))
+        })
+    }
+
+    pub fn set_string(&mut self, vr: &[u32], v: &[String]) -> Result<Status, CallError> {
+        let owned: Vec<CString> = v
+            .iter()
+            .map(|s| CString::new(s.replace('\0', "")).unwrap_or_default())
+            .collect();
+        let ptrs: Vec<*const c_char> = owned.iter().map(|s| s.as_ptr()).collect();
+        // SAFETY: vr and ptrs have the same length; the strings live until the call returns.
+        let r = unsafe { (self.lib.fns.set_string)(self.c, vr.as_ptr(), vr.len(), ptrs.as_ptr()) };
+        self.call("fmi2SetString", r, || {
+            format!("vr={}, value={}", list(vr), list(v))
+        })
+    }
+
+    pub fn get_real(&mut self, vr: &[u32], out: &mut [f64]) -> Result<Status, CallError> {
+        debug_assert_eq!(vr.len(), out.len());
+        // SAFETY: out has vr.len() elements.
+        let r = unsafe { (self.lib.fns.get_real)(self.c, vr.as_ptr(), vr.len(), out.as_mut_ptr()) };
+        let trace = self.trace;
+        self.call("fmi2GetReal", r, || {
+            if trace {
+                format!("vr={}, value={}", list(vr), list(out))
+            } else {
+                String::new()
+            }
+        })
+    }
+
+    pub fn get_integer(&mut self, vr: &[u32], out: &mut [i32]) -> Result<Status, CallError> {
+        // SAFETY: out has vr.len() elements.
+        let r =
+            unsafe { (self.lib.fns.get_integer)(self.c, vr.as_ptr(), vr.len(), out.as_mut_ptr()) };
+        self.call("fmi2GetInteger", r, || {
+            format!("vr={}, value={}", list(vr), list(out))
+        })
+    }
+
+    pub fn get_boolean(&mut self, vr: &[u32], out: &mut [i32]) -> Result<Status, CallError> {
+        // SAFETY: out has vr.len() elements.
+        let r =
+            unsafe { (self.lib.fns.get_boolean)(self.c, vr.as_ptr(), vr.len(), out.as_mut_ptr()) };
+        self.call("fmi2GetBoolean", r, || {
+            format!("vr={}, value={}", list(vr), list(out))
+        })
+    }
+
+    /// `fmi2GetString`; the FMU owns the returned strings only until its next call, so they
+    /// are copied at once (§2.1.7).
+    pub fn get_string(&mut self, vr: &[u32]) -> Result<Vec<String>, CallError> {
+        let mut ptrs: Vec<*const c_char> = vec![std::ptr::null(); vr.len()];
+        // SAFETY: ptrs has vr.len() elements.
+        let r =
+            unsafe { (self.lib.fns.get_string)(self.c, vr.as_ptr(), vr.len(), ptrs.as_mut_ptr()) };
+        self.call("fmi2GetString", r, || format!("vr={}", list(vr)))?;
+        Ok(ptrs
+            .iter()
+            .map(|&p| {
+                if p.is_null() {
+                    String::new()
+                } else {
+                    // SAFETY: the FMU returned NUL-terminated strings, valid until its next call.
+                    unsafe { CStr::from_ptr(p) }.to_string_lossy().into_owned()
+                }
+            })
+            .collect())
+    }
+}
+
+impl Drop for Instance<'_> {
+    fn drop(&mut self) {
+        if self.fatal {
+            // §2.1.3: after fmi2Fatal "it is not possible to call any other function";
+            // leaking the instance is the only safe choice.
+            if self.trace {
+                eprintln!("[FMI] fmi2FreeInstance skipped: the FMU returned fmi2Fatal");
+            }
+            return;
+        }
+        // SAFETY: c came from fmi2Instantiate of this library and is freed exactly once.
+        unsafe { (self.lib.fns.free_instance)(self.c) };
+        if self.trace {
+            eprintln!("[FMI] fmi2FreeInstance()");
+        }
+    }
+}

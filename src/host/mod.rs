@@ -1,0 +1,23 @@
+//! FMI 2.0 Co-Simulation importer and runner (issue 4).
+//!
+//! Data flow: [`archive`] unpacks the FMU into a temporary folder → [`description`] parses
+//! `modelDescription.xml` → [`check`] reports validator problems → [`library`] loads
+//! `binaries/linux64/<modelIdentifier>.so` and resolves the 34 FMI 2.0 CS functions →
+//! [`instance`] wraps one FMU instance (with the [`logger`] C shim for the variadic logger) →
+//! [`runner`] drives the co-simulation loop with [`start`] values and [`input`] signals →
+//! [`csv`] writes the result. [`cli`] holds the `run`/`info`/`validate` commands, [`info`]
+//! renders `geardyn info`.
+
+pub mod archive;
+pub mod check;
+pub mod cli;
+pub mod csv;
+pub mod description;
+pub mod info;
+pub mod input;
+pub mod instance;
+pub mod interrupt;
+pub mod library;
+pub mod logger;
+pub mod runner;
+pub mod start;
