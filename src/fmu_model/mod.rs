@@ -25,6 +25,7 @@ use crate::fmu_state::ModelSnapshot;
 use crate::model::Inputs;
 use crate::scene::{ContactLaw, InitialDte, Scene};
 use crate::simulation::Simulation;
+use std::cell::Cell;
 
 use documentation::DOCUMENTATION;
 use variables::variables;
@@ -44,7 +45,13 @@ pub struct GearModel {
     sim: Simulation,
     start_time: f64,
     initialized: bool,
+    /// The outputs of the last evaluated state: a host reads them one value reference at a
+    /// time, and each evaluation computes all of them. Keyed by everything they depend on.
+    outputs: Cell<Option<(OutputKey, [f64; 7])>>,
 }
+
+/// `(t, x, x', inputs, contact state)` as bits: equal keys give identical outputs.
+type OutputKey = [u64; 7];
 
 impl GearModel {
     /// Builds the model of a validated scene and its description data.
@@ -81,6 +88,7 @@ impl GearModel {
             sim,
             start_time: 0.0,
             initialized: false,
+            outputs: Cell::new(None),
         };
         Ok((model, info))
     }
@@ -149,6 +157,8 @@ impl GearModel {
         self.scene = scene;
         (self.static_dte, self.initial_dte) = (static_dte, initial_dte);
         self.sim = sim;
+        // New parameters: the same state may now give other outputs.
+        self.outputs.set(None);
         Ok(())
     }
 
@@ -189,6 +199,7 @@ impl GearModel {
             sim: Simulation::new(&self.base)?,
             start_time: snap.start_time,
             initialized: false,
+            outputs: Cell::new(None),
         };
         check_known(&self.vars, &snap.params)?;
         for &(vr, x) in &snap.params {
@@ -212,6 +223,31 @@ impl GearModel {
             _ => u.load_torque = x,
         }
         u
+    }
+}
+
+impl GearModel {
+    /// The simulation's outputs, evaluated once per state.
+    fn current_outputs(&self) -> [f64; 7] {
+        let [x, v] = self.sim.state();
+        let inputs = self.sim.model().inputs();
+        let key = [
+            self.sim.t().to_bits(),
+            x.to_bits(),
+            v.to_bits(),
+            inputs.pinion_speed.to_bits(),
+            inputs.input_torque.to_bits(),
+            inputs.load_torque.to_bits(),
+            self.sim.model().contact_state() as i8 as u64,
+        ];
+        if let Some((cached, values)) = self.outputs.get() {
+            if cached == key {
+                return values;
+            }
+        }
+        let values = self.sim.outputs();
+        self.outputs.set(Some((key, values)));
+        values
     }
 }
 
@@ -243,7 +279,7 @@ impl CoSimModel for GearModel {
             VR_INPUT_TORQUE => inputs.input_torque,
             VR_LOAD_TORQUE => inputs.load_torque,
             vr if (VR_OUTPUT0..VR_OUTPUT0 + 7).contains(&vr) && vr != VR_CONTACT_STATE => {
-                self.sim.outputs()[(vr - VR_OUTPUT0) as usize]
+                self.current_outputs()[(vr - VR_OUTPUT0) as usize]
             }
             _ => return Err(format!("no Real variable with value reference {vr}")),
         })
@@ -327,6 +363,7 @@ impl CoSimModel for GearModel {
     fn reset(&mut self) -> Result<(), String> {
         let base = self.base.clone();
         self.sim = Simulation::new(&base)?;
+        self.outputs.set(None);
         self.static_dte = base.initial_dte == InitialDte::Static;
         self.initial_dte = self
             .vars
