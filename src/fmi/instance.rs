@@ -5,7 +5,6 @@
 //! with the call name and the state or variable and value, and an `fmi2Error` moves the
 //! instance into the `error` state (FMI 2.0.x §2.1.3: "the simulation cannot be continued").
 
-use std::collections::HashMap;
 use std::fmt::Display;
 
 use super::blob::{self, LayerSnapshot};
@@ -35,8 +34,9 @@ pub struct Instance {
     pub logger: Logger,
     model: Box<dyn CoSimModel>,
     info: ModelInfo,
-    /// value reference → index into `model.variables()`.
-    index: HashMap<u32, usize>,
+    /// `(value reference, index into model.variables())`, sorted by value reference: a host
+    /// reads every output after every step, so the lookup is a binary search, not a hash.
+    index: Vec<(u32, usize)>,
     pub state: FmuState,
     time: f64,
     start_time: f64,
@@ -48,12 +48,13 @@ pub struct Instance {
 
 impl Instance {
     pub fn new(logger: Logger, model: Box<dyn CoSimModel>, info: ModelInfo) -> Instance {
-        let index = model
+        let mut index: Vec<(u32, usize)> = model
             .variables()
             .iter()
             .enumerate()
             .map(|(i, v)| (v.value_reference, i))
             .collect();
+        index.sort_unstable();
         Instance {
             magic: INSTANCE_MAGIC,
             logger,
@@ -242,8 +243,9 @@ impl Instance {
     fn lookup(&self, vr: u32, kind: VarKind) -> Result<&Variable, String> {
         let var = self
             .index
-            .get(&vr)
-            .map(|i| &self.model.variables()[*i])
+            .binary_search_by_key(&vr, |&(r, _)| r)
+            .ok()
+            .map(|k| &self.model.variables()[self.index[k].1])
             .ok_or_else(|| format!("unknown value reference {vr}"))?;
         if var.kind != kind {
             return Err(format!(
