@@ -1,8 +1,9 @@
 //! Pieces both gear adapters ([`crate::fmu_model`], [`crate::fmu_train`]) share: parameter
 //! checks whose messages name the FMU variable and the value, and lookups in a variable table
-//! (FMI 2.0.x §2.2.7). Physics-free.
+//! (FMI 2.0.x §2.2.7), and the step through the shared [`Driver`]. Physics-free.
 
-use crate::fmi::model::{Causality, VarKind, Variable};
+use crate::fmi::model::{Causality, StepFailure, VarKind, Variable};
+use crate::simulation::{DrivenModel, Driver};
 
 /// `name = value` must be finite and satisfy `ok` (`rule` says what is expected).
 pub fn check(name: &str, value: f64, ok: bool, rule: &str) -> Result<(), String> {
@@ -39,4 +40,22 @@ pub fn check_known(vars: &[Variable], params: &[(u32, f64)]) -> Result<(), Strin
         Some((vr, _)) => Err(format!("the state sets unknown value reference {vr}")),
         None => Ok(()),
     }
+}
+
+/// One co-simulation step of either adapter: integrates to exactly `t + h` in the host's
+/// time (the simulation runs in local time from `start_time`), never backwards, and never
+/// evaluates the model beyond that point. A failing integrator discards the step at the last
+/// good state it holds and ends the run.
+pub fn do_step<M: DrivenModel>(
+    sim: &mut Driver<M>,
+    start_time: f64,
+    t: f64,
+    h: f64,
+) -> Result<(), StepFailure> {
+    let target = ((t + h) - start_time).max(sim.t());
+    sim.advance_to(target).map_err(|e| StepFailure::Discard {
+        reason: format!("the integrator stopped: {e}"),
+        reached: start_time + sim.t(),
+        terminate: true,
+    })
 }
