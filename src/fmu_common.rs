@@ -1,8 +1,9 @@
 //! Pieces both gear adapters ([`crate::fmu_model`], [`crate::fmu_train`]) share: parameter
-//! checks whose messages name the FMU variable and the value, and lookups in a variable table
-//! (FMI 2.0.x §2.2.7), and the step through the shared [`Driver`]. Physics-free.
+//! checks whose messages name the FMU variable and the value, variable constructors and
+//! lookups in a variable table (FMI 2.0.x §2.2.7), and the step through the shared
+//! [`Driver`]. Physics-free.
 
-use crate::fmi::model::{Causality, StepFailure, VarKind, Variable};
+use crate::fmi::model::{Causality, Initial, StepFailure, VarKind, Variability, Variable};
 use crate::simulation::{DrivenModel, Driver};
 
 /// `name = value` must be finite and satisfy `ok` (`rule` says what is expected).
@@ -12,6 +13,34 @@ pub fn check(name: &str, value: f64, ok: bool, rule: &str) -> Result<(), String>
     } else {
         Err(format!("parameter '{name}' = {value}: must be {rule}"))
     }
+}
+
+/// A tunable-before-initialization Real parameter (`fixed`, `initial = exact`).
+pub fn param(name: &str, vr: u32, start: f64, unit: Option<&str>, desc: &str) -> Variable {
+    Variable::real(
+        name,
+        vr,
+        Causality::Parameter,
+        Variability::Fixed,
+        Some(Initial::Exact),
+        Some(start),
+        unit,
+        desc,
+    )
+}
+
+/// A continuous Real input with a start value.
+pub fn input(name: &str, vr: u32, start: f64, unit: &str, desc: &str) -> Variable {
+    Variable::real(
+        name,
+        vr,
+        Causality::Input,
+        Variability::Continuous,
+        None,
+        Some(start),
+        Some(unit),
+        desc,
+    )
 }
 
 /// Name of the variable with value reference `vr` (`?` when there is none).

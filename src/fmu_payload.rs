@@ -58,3 +58,24 @@ pub fn read_controller(r: &mut Reader, bits: u8) -> Result<Option<ControllerMemo
         nonfinite_trials,
     }))
 }
+
+/// The controller memories a payload round trip must preserve: none (exact propagator), one
+/// with every flag set, one with none. Shared by both layouts' tests.
+#[cfg(test)]
+pub fn sample_controllers() -> [Option<ControllerMemory>; 3] {
+    [
+        None,
+        Some(ControllerMemory {
+            h: Some(1e-6),
+            err_old: 0.3,
+            last_rejected: true,
+            nonfinite_trials: 2,
+        }),
+        Some(ControllerMemory {
+            h: None,
+            err_old: 1e-4,
+            last_rejected: false,
+            nonfinite_trials: 0,
+        }),
+    ]
+}

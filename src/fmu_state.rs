@@ -143,21 +143,7 @@ mod tests {
 
     #[test]
     fn round_trip_both_propagators() {
-        for c in [
-            None,
-            Some(ControllerMemory {
-                h: Some(1e-6),
-                err_old: 0.3,
-                last_rejected: true,
-                nonfinite_trials: 2,
-            }),
-            Some(ControllerMemory {
-                h: None,
-                err_old: 1e-4,
-                last_rejected: false,
-                nonfinite_trials: 0,
-            }),
-        ] {
+        for c in crate::fmu_payload::sample_controllers() {
             let s = sample(c);
             assert_eq!(decode(&encode(&s)).unwrap(), s);
         }
