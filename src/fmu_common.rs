@@ -1,8 +1,10 @@
 //! Pieces both gear adapters ([`crate::fmu_model`], [`crate::fmu_train`]) share: parameter
-//! checks whose messages name the FMU variable and the value, and lookups in a variable table
-//! (FMI 2.0.x §2.2.7). Physics-free.
+//! checks whose messages name the FMU variable and the value, variable constructors and
+//! lookups in a variable table (FMI 2.0.x §2.2.7), and the step through the shared
+//! [`Driver`]. Physics-free.
 
-use crate::fmi::model::{Causality, VarKind, Variable};
+use crate::fmi::model::{Causality, Initial, StepFailure, VarKind, Variability, Variable};
+use crate::simulation::{DrivenModel, Driver};
 
 /// `name = value` must be finite and satisfy `ok` (`rule` says what is expected).
 pub fn check(name: &str, value: f64, ok: bool, rule: &str) -> Result<(), String> {
@@ -11,6 +13,34 @@ pub fn check(name: &str, value: f64, ok: bool, rule: &str) -> Result<(), String>
     } else {
         Err(format!("parameter '{name}' = {value}: must be {rule}"))
     }
+}
+
+/// A tunable-before-initialization Real parameter (`fixed`, `initial = exact`).
+pub fn param(name: &str, vr: u32, start: f64, unit: Option<&str>, desc: &str) -> Variable {
+    Variable::real(
+        name,
+        vr,
+        Causality::Parameter,
+        Variability::Fixed,
+        Some(Initial::Exact),
+        Some(start),
+        unit,
+        desc,
+    )
+}
+
+/// A continuous Real input with a start value.
+pub fn input(name: &str, vr: u32, start: f64, unit: &str, desc: &str) -> Variable {
+    Variable::real(
+        name,
+        vr,
+        Causality::Input,
+        Variability::Continuous,
+        None,
+        Some(start),
+        Some(unit),
+        desc,
+    )
 }
 
 /// Name of the variable with value reference `vr` (`?` when there is none).
@@ -39,4 +69,22 @@ pub fn check_known(vars: &[Variable], params: &[(u32, f64)]) -> Result<(), Strin
         Some((vr, _)) => Err(format!("the state sets unknown value reference {vr}")),
         None => Ok(()),
     }
+}
+
+/// One co-simulation step of either adapter: integrates to exactly `t + h` in the host's
+/// time (the simulation runs in local time from `start_time`), never backwards, and never
+/// evaluates the model beyond that point. A failing integrator discards the step at the last
+/// good state it holds and ends the run.
+pub fn do_step<M: DrivenModel>(
+    sim: &mut Driver<M>,
+    start_time: f64,
+    t: f64,
+    h: f64,
+) -> Result<(), StepFailure> {
+    let target = ((t + h) - start_time).max(sim.t());
+    sim.advance_to(target).map_err(|e| StepFailure::Discard {
+        reason: format!("the integrator stopped: {e}"),
+        reached: start_time + sim.t(),
+        terminate: true,
+    })
 }

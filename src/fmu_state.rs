@@ -10,9 +10,11 @@
 //! previous error, `u32` non-finite trials.
 
 use crate::fmi::bytes::Reader;
+use crate::fmu_payload::{
+    controller_bits, put_controller, put_params, read_controller, read_params,
+};
 use crate::model::{ContactState, Inputs, PairState, PhaseClock};
 use crate::simulation::SimState;
-use crate::solve::rk::ControllerMemory;
 
 /// Everything the gear model needs to continue bit-identically.
 #[derive(Debug, Clone, PartialEq)]
@@ -28,17 +30,9 @@ pub struct ModelSnapshot {
 
 pub fn encode(s: &ModelSnapshot) -> Vec<u8> {
     let mut out = Vec::with_capacity(256);
-    out.extend_from_slice(&(s.params.len() as u32).to_le_bytes());
-    for (vr, x) in &s.params {
-        out.extend_from_slice(&vr.to_le_bytes());
-        out.extend_from_slice(&x.to_le_bytes());
-    }
+    put_params(&mut out, &s.params);
     let c = s.sim.controller;
-    let flags = u8::from(s.static_dte)
-        | u8::from(s.initialized) << 1
-        | u8::from(c.is_some()) << 2
-        | u8::from(c.is_some_and(|c| c.h.is_some())) << 3
-        | u8::from(c.is_some_and(|c| c.last_rejected)) << 4;
+    let flags = u8::from(s.static_dte) | u8::from(s.initialized) << 1 | controller_bits(c) << 2;
     out.push(flags);
     let p = &s.sim.pair;
     let (t0, p0) = p.clock.anchor();
@@ -60,11 +54,7 @@ pub fn encode(s: &ModelSnapshot) -> Vec<u8> {
     }
     out.extend_from_slice(&(p.segment_piece as u64).to_le_bytes());
     out.push(p.contact as i8 as u8);
-    if let Some(c) = c {
-        out.extend_from_slice(&c.h.unwrap_or(0.0).to_le_bytes());
-        out.extend_from_slice(&c.err_old.to_le_bytes());
-        out.extend_from_slice(&c.nonfinite_trials.to_le_bytes());
-    }
+    put_controller(&mut out, c);
     out
 }
 
@@ -78,11 +68,7 @@ pub fn decode(bytes: &[u8]) -> Result<ModelSnapshot, String> {
             bytes.len()
         ));
     }
-    let mut params = Vec::with_capacity(n);
-    for _ in 0..n {
-        let vr = r.u32()?;
-        params.push((vr, r.f64()?));
-    }
+    let params = read_params(&mut r, n)?;
     let flags = r.u8()?;
     let mut f = [0.0; 12];
     for x in &mut f {
@@ -96,19 +82,7 @@ pub fn decode(bytes: &[u8]) -> Result<ModelSnapshot, String> {
         -1 => ContactState::Back,
         other => return Err(format!("model state has contact state {other}")),
     };
-    let controller = if flags & 4 != 0 {
-        let h = r.f64()?;
-        let err_old = r.f64()?;
-        let nonfinite_trials = r.u32()?;
-        Some(ControllerMemory {
-            h: (flags & 8 != 0).then_some(h),
-            err_old,
-            last_rejected: flags & 16 != 0,
-            nonfinite_trials,
-        })
-    } else {
-        None
-    };
+    let controller = read_controller(&mut r, flags >> 2)?;
     r.finish("model state")?;
     Ok(ModelSnapshot {
         params,
@@ -139,6 +113,7 @@ pub fn decode(bytes: &[u8]) -> Result<ModelSnapshot, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::solve::rk::ControllerMemory;
 
     fn sample(controller: Option<ControllerMemory>) -> ModelSnapshot {
         ModelSnapshot {
@@ -168,21 +143,7 @@ mod tests {
 
     #[test]
     fn round_trip_both_propagators() {
-        for c in [
-            None,
-            Some(ControllerMemory {
-                h: Some(1e-6),
-                err_old: 0.3,
-                last_rejected: true,
-                nonfinite_trials: 2,
-            }),
-            Some(ControllerMemory {
-                h: None,
-                err_old: 1e-4,
-                last_rejected: false,
-                nonfinite_trials: 0,
-            }),
-        ] {
+        for c in crate::fmu_payload::sample_controllers() {
             let s = sample(c);
             assert_eq!(decode(&encode(&s)).unwrap(), s);
         }

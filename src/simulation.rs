@@ -1,143 +1,93 @@
 //! One simulation of a scene: the assembled model plus the propagator chosen for it.
 //!
 //! Used by `geardyn simulate` and by the FMU adapter alike, so both integrate the same way.
+//! The propagator logic is the generic [`Driver`] (shared with the drivetrain); this file adds
+//! what is particular to one pair (its `[x, x']` state and fixed output row).
+
+mod driver;
+
+pub use driver::{DrivenModel, Driver, Propagator};
 
 use crate::model::{GearPair, Inputs, PairState, OUTPUT_NAMES};
-use crate::scene::{MethodChoice, Scene};
-use crate::solve::exact::ExactPropagator;
-use crate::solve::rk::{ControllerMemory, RkOptions, RkStepper};
-use crate::solve::{SolveError, SolverStats};
+use crate::scene::Scene;
+use crate::solve::rk::ControllerMemory;
+use crate::solve::SolverStats;
 
-/// The propagator actually used.
-pub enum Propagator {
-    Rk(Box<RkStepper>),
-    Exact(Box<ExactPropagator>),
+/// A running simulation of one gear pair.
+pub type Simulation = Driver<GearPair>;
+
+impl DrivenModel for GearPair {
+    type RunState = PairState;
+    fn is_piecewise_lti(&self) -> bool {
+        GearPair::is_piecewise_lti(self)
+    }
+    fn resynchronise(&mut self, t: f64, y: &[f64]) {
+        GearPair::resynchronise(self, t, y)
+    }
+    fn run_state(&self) -> PairState {
+        self.pair_state()
+    }
+    fn restore_run_state(&mut self, s: &PairState) -> Result<(), String> {
+        self.restore_pair_state(s)
+    }
 }
 
-/// A running simulation: model state, mode and propagator.
-pub struct Simulation {
-    pair: GearPair,
-    propagator: Propagator,
-}
-
-impl Simulation {
+impl Driver<GearPair> {
     /// Assembles the model and picks the propagator (`auto`: exact when the scene is piecewise
     /// LTI). Starts at `t = 0` from the scene's initial state.
     pub fn new(scene: &Scene) -> Result<Simulation, String> {
         let mut pair = GearPair::new(scene);
         let y0 = pair.initial_state(scene);
-        let settings = &scene.solver;
-        let exact = match settings.method {
-            MethodChoice::Exact => {
-                if !pair.is_piecewise_lti() {
-                    return Err(
-                        "method = exact: the stiffness is not piecewise constant (use rk or auto)"
-                            .into(),
-                    );
-                }
-                true
-            }
-            MethodChoice::Auto => pair.is_piecewise_lti(),
-            MethodChoice::Rk => false,
-        };
-        let propagator = if exact {
-            let mut p = ExactPropagator::new(&pair);
-            p.set_state(0.0, &y0);
-            Propagator::Exact(Box::new(p))
-        } else {
-            let options = RkOptions {
-                rtol: settings.rtol,
-                atol: settings.atol,
-                ..RkOptions::new(settings.rk_method)
-            };
-            let mut p = RkStepper::new(options, 2)?;
-            p.set_state(0.0, &y0);
-            Propagator::Rk(Box::new(p))
-        };
-        Ok(Simulation { pair, propagator })
-    }
-
-    /// Name of the propagator in use (`exact`, `dp5`, `dop853`).
-    pub fn method_name(&self) -> String {
-        match &self.propagator {
-            Propagator::Exact(_) => "exact".into(),
-            Propagator::Rk(p) => p.options().method.to_string(),
-        }
-    }
-
-    pub fn t(&self) -> f64 {
-        match &self.propagator {
-            Propagator::Rk(p) => p.t(),
-            Propagator::Exact(p) => p.t(),
-        }
+        Driver::with_model(
+            pair,
+            &y0,
+            &scene.solver,
+            "method = exact: the stiffness is not piecewise constant (use rk or auto)",
+        )
     }
 
     /// `[x, x']`.
     pub fn state(&self) -> [f64; 2] {
-        let y = match &self.propagator {
-            Propagator::Rk(p) => p.y(),
-            Propagator::Exact(p) => p.y(),
-        };
+        let y = self.y();
         [y[0], y[1]]
     }
 
-    pub fn stats(&self) -> SolverStats {
-        match &self.propagator {
-            Propagator::Rk(p) => *p.stats(),
-            Propagator::Exact(p) => *p.stats(),
-        }
-    }
-
-    pub fn model(&self) -> &GearPair {
-        &self.pair
-    }
-
-    /// Mutable access to the model for settings that do not change its equations
-    /// (e.g. [`GearPair::record_events`]).
-    pub fn model_mut(&mut self) -> &mut GearPair {
-        &mut self.pair
-    }
-
-    /// Integrates exactly to `t_end` with the inputs held constant.
-    pub fn advance_to(&mut self, t_end: f64) -> Result<(), SolveError> {
-        match &mut self.propagator {
-            Propagator::Rk(p) => p.advance_to(&mut self.pair, t_end),
-            Propagator::Exact(p) => p.advance_to(&mut self.pair, t_end),
-        }
-    }
-
-    /// New inputs from the current time on (phase continuous; cached matrices and FSAL
-    /// dropped because the right-hand side changed).
+    /// New inputs from the current time on (phase continuous).
     pub fn set_inputs(&mut self, inputs: Inputs) {
-        if inputs == self.pair.inputs() {
+        if inputs == self.model().inputs() {
             return;
         }
-        let t = self.t();
-        self.pair.set_inputs(t, inputs);
-        match &mut self.propagator {
-            Propagator::Rk(p) => p.invalidate(),
-            Propagator::Exact(p) => p.invalidate(),
-        }
+        let _ = self.change_model(|pair, t| {
+            pair.set_inputs(t, inputs);
+            Ok::<(), std::convert::Infallible>(())
+        });
     }
 
-    /// Restarts from `(t, [x, x'])` with the mode re-derived from the state (FMU state restore
-    /// and initial-value changes).
+    /// Restarts from `(t, [x, x'])` with the mode re-derived from the state.
     pub fn set_state(&mut self, t: f64, y: [f64; 2]) {
-        self.pair.resynchronise(t, &y);
-        match &mut self.propagator {
-            Propagator::Rk(p) => p.set_state(t, &y),
-            Propagator::Exact(p) => {
-                p.invalidate();
-                p.set_state(t, &y)
-            }
-        }
+        self.set_y(t, &y)
     }
 
     /// The outputs at the current time, in [`OUTPUT_NAMES`] order.
     pub fn outputs(&self) -> [f64; 7] {
         let mut out = [0.0; OUTPUT_NAMES.len()];
-        self.pair.outputs(self.t(), &self.state(), &mut out);
+        self.model().outputs(self.t(), &self.state(), &mut out);
         out
+    }
+
+    /// Snapshot of the run (see [`SimState`]).
+    pub fn snapshot(&self) -> SimState {
+        SimState {
+            t: self.t(),
+            y: self.state(),
+            pair: self.model().pair_state(),
+            controller: self.controller_memory(),
+        }
+    }
+
+    /// Restores a snapshot taken from a simulation of the same scene (see [`Driver::resume`]).
+    pub fn restore(&mut self, s: &SimState) -> Result<(), String> {
+        self.resume(s.t, &s.y, &s.pair, s.controller.as_ref())
     }
 }
 
@@ -151,48 +101,6 @@ pub struct SimState {
     pub y: [f64; 2],
     pub pair: PairState,
     pub controller: Option<ControllerMemory>,
-}
-
-impl Simulation {
-    /// Snapshot of the run (see [`SimState`]).
-    pub fn snapshot(&self) -> SimState {
-        SimState {
-            t: self.t(),
-            y: self.state(),
-            pair: self.pair.pair_state(),
-            controller: match &self.propagator {
-                Propagator::Rk(p) => Some(p.controller_memory()),
-                Propagator::Exact(_) => None,
-            },
-        }
-    }
-
-    /// Restores a snapshot taken from a simulation of the same scene. Rejects one taken with
-    /// the other propagator or with a mode this scene cannot have.
-    pub fn restore(&mut self, s: &SimState) -> Result<(), String> {
-        if !(s.t.is_finite() && s.y.iter().all(|v| v.is_finite())) {
-            return Err(format!("state (t = {}, y = {:?}) is not finite", s.t, s.y));
-        }
-        match (&mut self.propagator, &s.controller) {
-            (Propagator::Rk(p), Some(memory)) => {
-                self.pair.restore_pair_state(&s.pair)?;
-                p.invalidate();
-                p.restore(s.t, &s.y, memory);
-            }
-            (Propagator::Exact(p), None) => {
-                self.pair.restore_pair_state(&s.pair)?;
-                p.invalidate();
-                p.set_state(s.t, &s.y);
-            }
-            _ => {
-                return Err(format!(
-                    "the snapshot was taken with another propagator than '{}'",
-                    self.method_name()
-                ))
-            }
-        }
-        Ok(())
-    }
 }
 
 /// A sampled run on an output grid.
@@ -242,12 +150,7 @@ pub fn output_grid(stop_time: f64, interval: f64) -> Vec<f64> {
 pub fn run(scene: &Scene, stop_time: f64, interval: f64) -> Result<Trajectory, String> {
     let mut sim = Simulation::new(scene)?;
     let times = output_grid(stop_time, interval);
-    let mut rows = Vec::with_capacity(times.len());
-    for &t in &times {
-        sim.advance_to(t)
-            .map_err(|e| format!("integration failed: {e}"))?;
-        rows.push(sim.outputs());
-    }
+    let rows = sim.sample(&times, Simulation::outputs)?;
     Ok(Trajectory {
         times,
         rows,

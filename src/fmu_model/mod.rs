@@ -345,19 +345,8 @@ impl CoSimModel for GearModel {
         Ok(())
     }
 
-    /// Integrates the native propagator to exactly `t + h` (in local time); it never
-    /// evaluates the model beyond that point.
     fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure> {
-        let target = ((t + h) - self.start_time).max(self.sim.t());
-        match self.sim.advance_to(target) {
-            Ok(()) => Ok(()),
-            Err(e) => Err(StepFailure::Discard {
-                reason: format!("the integrator stopped: {e}"),
-                // The propagators hold the last good state when they fail.
-                reached: self.start_time + self.sim.t(),
-                terminate: true,
-            }),
-        }
+        crate::fmu_common::do_step(&mut self.sim, self.start_time, t, h)
     }
 
     fn reset(&mut self) -> Result<(), String> {

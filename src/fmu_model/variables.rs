@@ -3,6 +3,7 @@
 //! the C ABI and the generated `modelDescription.xml`.
 
 use crate::fmi::model::{Causality as C, Initial, VarKind, Variability as V, Variable};
+use crate::fmu_common::{input, param};
 use crate::scene::{ContactLaw, InitialDte, Scene};
 use crate::simulation::Simulation;
 
@@ -53,19 +54,6 @@ const OUTPUTS: [(&str, Option<&str>, &str); 7] = [
     ),
 ];
 
-fn param(name: &str, vr: u32, start: f64, unit: Option<&str>, desc: &str) -> Variable {
-    Variable::real(
-        name,
-        vr,
-        C::Parameter,
-        V::Fixed,
-        Some(Initial::Exact),
-        Some(start),
-        unit,
-        desc,
-    )
-}
-
 fn calculated(name: &str, vr: u32, unit: &str, desc: &str) -> Variable {
     Variable::real(
         name,
@@ -74,19 +62,6 @@ fn calculated(name: &str, vr: u32, unit: &str, desc: &str) -> Variable {
         V::Fixed,
         Some(Initial::Calculated),
         None,
-        Some(unit),
-        desc,
-    )
-}
-
-fn input(name: &str, vr: u32, start: f64, unit: &str, desc: &str) -> Variable {
-    Variable::real(
-        name,
-        vr,
-        C::Input,
-        V::Continuous,
-        None,
-        Some(start),
         Some(unit),
         desc,
     )

@@ -290,18 +290,12 @@ impl CoSimModel for TrainModel {
         Ok(())
     }
 
-    /// Integrates the native propagator to exactly `t + h` (in local time); it never
-    /// evaluates the model beyond that point.
+    /// The outputs are refreshed also after a failed step: they then show the last good
+    /// state the propagator holds.
     fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure> {
-        let target = ((t + h) - self.start_time).max(self.sim.t());
-        let result = self.sim.advance_to(target);
+        let result = crate::fmu_common::do_step(&mut self.sim, self.start_time, t, h);
         self.refresh();
-        result.map_err(|e| StepFailure::Discard {
-            reason: format!("the integrator stopped: {e}"),
-            // The propagators hold the last good state when they fail.
-            reached: self.start_time + self.sim.t(),
-            terminate: true,
-        })
+        result
     }
 
     fn reset(&mut self) -> Result<(), String> {

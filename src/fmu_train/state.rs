@@ -12,9 +12,11 @@
 //! previous error, `u32` non-finite trials.
 
 use crate::fmi::bytes::{put_f64s, Reader};
+use crate::fmu_payload::{
+    controller_bits, put_controller, put_params, read_controller, read_params,
+};
 use crate::model::train::{MeshRunState, SlotContact, TrainInputs, TrainRunState, TrainSimState};
 use crate::model::PhaseClock;
-use crate::solve::rk::ControllerMemory;
 
 const TAG: &[u8; 4] = b"GDTR";
 /// Bumped whenever the layout above changes.
@@ -34,18 +36,9 @@ pub fn encode(s: &TrainSnapshot) -> Vec<u8> {
     let mut out = Vec::with_capacity(256 + 8 * s.sim.y.len());
     out.extend_from_slice(TAG);
     out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
-    out.extend_from_slice(&(s.params.len() as u32).to_le_bytes());
-    for (vr, x) in &s.params {
-        out.extend_from_slice(&vr.to_le_bytes());
-        out.extend_from_slice(&x.to_le_bytes());
-    }
+    put_params(&mut out, &s.params);
     let c = s.sim.controller;
-    out.push(
-        u8::from(s.initialized)
-            | u8::from(c.is_some()) << 1
-            | u8::from(c.is_some_and(|c| c.h.is_some())) << 2
-            | u8::from(c.is_some_and(|c| c.last_rejected)) << 3,
-    );
+    out.push(u8::from(s.initialized) | controller_bits(c) << 1);
     let tr = &s.sim.train;
     let u = tr.inputs;
     put_f64s(
@@ -74,10 +67,7 @@ pub fn encode(s: &TrainSnapshot) -> Vec<u8> {
         out.extend_from_slice(&(m.flags.len() as u32).to_le_bytes());
         out.extend(m.flags.iter().map(|f| f.code()));
     }
-    if let Some(c) = c {
-        put_f64s(&mut out, &[c.h.unwrap_or(0.0), c.err_old]);
-        out.extend_from_slice(&c.nonfinite_trials.to_le_bytes());
-    }
+    put_controller(&mut out, c);
     out
 }
 
@@ -110,11 +100,7 @@ pub fn decode(bytes: &[u8]) -> Result<TrainSnapshot, String> {
         ));
     }
     let n = count(&mut r, "parameters", 12)?;
-    let mut params = Vec::with_capacity(n);
-    for _ in 0..n {
-        let vr = r.u32()?;
-        params.push((vr, r.f64()?));
-    }
+    let params = read_params(&mut r, n)?;
     let flags = r.u8()?;
     if flags & !0b1111 != 0 {
         return Err(format!("drivetrain state has unknown flags {flags:#04x}"));
@@ -158,19 +144,7 @@ pub fn decode(bytes: &[u8]) -> Result<TrainSnapshot, String> {
             },
         });
     }
-    let controller = if flags & 2 != 0 {
-        let h = r.f64()?;
-        let err_old = r.f64()?;
-        let nonfinite_trials = r.u32()?;
-        Some(ControllerMemory {
-            h: (flags & 4 != 0).then_some(h),
-            err_old,
-            last_rejected: flags & 8 != 0,
-            nonfinite_trials,
-        })
-    } else {
-        None
-    };
+    let controller = read_controller(&mut r, flags >> 1)?;
     r.finish("drivetrain state")?;
     Ok(TrainSnapshot {
         params,
@@ -196,6 +170,7 @@ pub fn decode(bytes: &[u8]) -> Result<TrainSnapshot, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::solve::rk::ControllerMemory;
 
     fn sample(controller: Option<ControllerMemory>) -> TrainSnapshot {
         let mesh = |k: f64| MeshRunState {
@@ -229,21 +204,7 @@ mod tests {
 
     #[test]
     fn round_trip_both_propagators() {
-        for c in [
-            None,
-            Some(ControllerMemory {
-                h: Some(1e-6),
-                err_old: 0.3,
-                last_rejected: true,
-                nonfinite_trials: 2,
-            }),
-            Some(ControllerMemory {
-                h: None,
-                err_old: 1e-4,
-                last_rejected: false,
-                nonfinite_trials: 0,
-            }),
-        ] {
+        for c in crate::fmu_payload::sample_controllers() {
             let s = sample(c);
             assert_eq!(decode(&encode(&s)).unwrap(), s);
         }

@@ -5,6 +5,7 @@
 //! have the same names.
 
 use crate::fmi::model::{Causality as C, Initial, VarKind, Variability as V, Variable};
+use crate::fmu_common::{input, param};
 use crate::scene::train::{MeshForceModel, PairModel, TrainScene};
 
 // Value references: stable per meaning, grouped by causality; per-gear and per-mesh blocks
@@ -69,32 +70,6 @@ const MESH_OUTPUTS: [(&str, Option<&str>, bool, &str); 9] = [
         "Fraction of the time since the (re)start with total contact loss",
     ),
 ];
-
-fn param(name: &str, vr: u32, start: f64, unit: Option<&str>, desc: &str) -> Variable {
-    Variable::real(
-        name,
-        vr,
-        C::Parameter,
-        V::Fixed,
-        Some(Initial::Exact),
-        Some(start),
-        unit,
-        desc,
-    )
-}
-
-fn input(name: &str, vr: u32, start: f64, unit: &str, desc: &str) -> Variable {
-    Variable::real(
-        name,
-        vr,
-        C::Input,
-        V::Continuous,
-        None,
-        Some(start),
-        Some(unit),
-        desc,
-    )
-}
 
 /// Unit, kind and description of output `name` (one of `output_names`), or an error naming
 /// it when the table does not know it (a new output must be described here before it ships).

@@ -1,0 +1,81 @@
+//! The pieces the two model payload layouts ([`crate::fmu_state`] for a pair,
+//! [`crate::fmu_train::state`] for a drivetrain) write the same way: the parameter list and
+//! the RK controller memory of [`crate::simulation::Driver`]. Each layout places them itself
+//! (its own flag byte, its own order), so only the encoding is shared and both layouts stay
+//! byte-for-byte what they were.
+
+use crate::fmi::bytes::{put_f64s, Reader};
+use crate::solve::rk::ControllerMemory;
+
+/// `u32 n` then `n × (u32 vr, f64 value)`.
+pub fn put_params(out: &mut Vec<u8>, params: &[(u32, f64)]) {
+    out.extend_from_slice(&(params.len() as u32).to_le_bytes());
+    for (vr, x) in params {
+        out.extend_from_slice(&vr.to_le_bytes());
+        out.extend_from_slice(&x.to_le_bytes());
+    }
+}
+
+/// The `n` entries after a parameter count the caller has read and bounded.
+pub fn read_params(r: &mut Reader, n: usize) -> Result<Vec<(u32, f64)>, String> {
+    let mut params = Vec::with_capacity(n);
+    for _ in 0..n {
+        let vr = r.u32()?;
+        params.push((vr, r.f64()?));
+    }
+    Ok(params)
+}
+
+/// Three flag bits, to be shifted into the layout's flag byte: bit 0 controller present,
+/// bit 1 step proposal present, bit 2 last step rejected.
+pub fn controller_bits(c: Option<ControllerMemory>) -> u8 {
+    u8::from(c.is_some())
+        | u8::from(c.is_some_and(|c| c.h.is_some())) << 1
+        | u8::from(c.is_some_and(|c| c.last_rejected)) << 2
+}
+
+/// For RK: `f64` proposal (0 when absent), `f64` previous error, `u32` non-finite trials;
+/// nothing for the exact propagator.
+pub fn put_controller(out: &mut Vec<u8>, c: Option<ControllerMemory>) {
+    if let Some(c) = c {
+        put_f64s(out, &[c.h.unwrap_or(0.0), c.err_old]);
+        out.extend_from_slice(&c.nonfinite_trials.to_le_bytes());
+    }
+}
+
+/// Reads what [`put_controller`] wrote, given the [`controller_bits`] shifted back to bit 0.
+pub fn read_controller(r: &mut Reader, bits: u8) -> Result<Option<ControllerMemory>, String> {
+    if bits & 1 == 0 {
+        return Ok(None);
+    }
+    let h = r.f64()?;
+    let err_old = r.f64()?;
+    let nonfinite_trials = r.u32()?;
+    Ok(Some(ControllerMemory {
+        h: (bits & 2 != 0).then_some(h),
+        err_old,
+        last_rejected: bits & 4 != 0,
+        nonfinite_trials,
+    }))
+}
+
+/// The controller memories a payload round trip must preserve: none (exact propagator), one
+/// with every flag set, one with none. Shared by both layouts' tests.
+#[cfg(test)]
+pub fn sample_controllers() -> [Option<ControllerMemory>; 3] {
+    [
+        None,
+        Some(ControllerMemory {
+            h: Some(1e-6),
+            err_old: 0.3,
+            last_rejected: true,
+            nonfinite_trials: 2,
+        }),
+        Some(ControllerMemory {
+            h: None,
+            err_old: 1e-4,
+            last_rejected: false,
+            nonfinite_trials: 0,
+        }),
+    ]
+}

@@ -1,0 +1,219 @@
+//! The propagator driver shared by the single pair ([`crate::simulation::Simulation`]) and the
+//! drivetrain ([`crate::model::train::TrainSimulation`]): choosing between the exact and the RK
+//! propagator, stepping, restarting and snapshotting are the same for any model, so they live
+//! here once and the two simulations only add what their model makes different (construction,
+//! inputs, outputs, the shape of their state).
+
+use crate::scene::{MethodChoice, SolverSettings};
+use crate::solve::exact::{ExactPropagator, PiecewiseLti};
+use crate::solve::rk::{ControllerMemory, RkOptions, RkStepper};
+use crate::solve::{SolveError, SolverStats};
+
+/// What the driver needs from a model beyond its equations: the run-time state (mode, phase
+/// clock, contact bookkeeping) that is not in `y` but decides how the run continues.
+pub trait DrivenModel: PiecewiseLti {
+    /// The model's part of a snapshot.
+    type RunState;
+    /// Whether every segment is LTI, so the exact propagator applies.
+    fn is_piecewise_lti(&self) -> bool;
+    /// Re-derives the mode from `(t, y)` after a jump of the state.
+    fn resynchronise(&mut self, t: f64, y: &[f64]);
+    fn run_state(&self) -> Self::RunState;
+    /// Restores a run state; on failure the model is unchanged.
+    fn restore_run_state(&mut self, s: &Self::RunState) -> Result<(), String>;
+}
+
+/// The propagator actually used.
+pub enum Propagator {
+    Rk(Box<RkStepper>),
+    Exact(Box<ExactPropagator>),
+}
+
+/// A running simulation: the model (which holds the mode) and its propagator (which holds
+/// `(t, y)`).
+pub struct Driver<M> {
+    model: M,
+    propagator: Propagator,
+}
+
+impl<M: DrivenModel> Driver<M> {
+    /// Picks the propagator (`auto`: exact when the model is piecewise LTI) and starts at
+    /// `t = 0` from `y0`. `not_lti` is the error for `method = exact` on a model that is not
+    /// piecewise LTI, worded for the scene the user wrote.
+    pub fn with_model(
+        model: M,
+        y0: &[f64],
+        settings: &SolverSettings,
+        not_lti: &str,
+    ) -> Result<Driver<M>, String> {
+        let exact = match settings.method {
+            MethodChoice::Exact => {
+                if !model.is_piecewise_lti() {
+                    return Err(not_lti.into());
+                }
+                true
+            }
+            MethodChoice::Auto => model.is_piecewise_lti(),
+            MethodChoice::Rk => false,
+        };
+        let propagator = if exact {
+            let mut p = ExactPropagator::new(&model);
+            p.set_state(0.0, y0);
+            Propagator::Exact(Box::new(p))
+        } else {
+            let options = RkOptions {
+                rtol: settings.rtol,
+                atol: settings.atol,
+                ..RkOptions::new(settings.rk_method)
+            };
+            let mut p = RkStepper::new(options, y0.len())?;
+            p.set_state(0.0, y0);
+            Propagator::Rk(Box::new(p))
+        };
+        Ok(Driver { model, propagator })
+    }
+
+    /// Name of the propagator in use (`exact`, `dp5`, `dop853`).
+    pub fn method_name(&self) -> String {
+        match &self.propagator {
+            Propagator::Exact(_) => "exact".into(),
+            Propagator::Rk(p) => p.options().method.to_string(),
+        }
+    }
+
+    pub fn t(&self) -> f64 {
+        match &self.propagator {
+            Propagator::Rk(p) => p.t(),
+            Propagator::Exact(p) => p.t(),
+        }
+    }
+
+    /// The continuous state at [`Driver::t`].
+    pub fn y(&self) -> &[f64] {
+        match &self.propagator {
+            Propagator::Rk(p) => p.y(),
+            Propagator::Exact(p) => p.y(),
+        }
+    }
+
+    pub fn stats(&self) -> SolverStats {
+        match &self.propagator {
+            Propagator::Rk(p) => *p.stats(),
+            Propagator::Exact(p) => *p.stats(),
+        }
+    }
+
+    pub fn model(&self) -> &M {
+        &self.model
+    }
+
+    /// Mutable access to the model for settings that do not change its equations (e.g.
+    /// recording events); changes that do go through [`Driver::change_model`].
+    pub fn model_mut(&mut self) -> &mut M {
+        &mut self.model
+    }
+
+    /// Integrates exactly to `t_end` with the inputs held constant.
+    pub fn advance_to(&mut self, t_end: f64) -> Result<(), SolveError> {
+        match &mut self.propagator {
+            Propagator::Rk(p) => p.advance_to(&mut self.model, t_end),
+            Propagator::Exact(p) => p.advance_to(&mut self.model, t_end),
+        }
+    }
+
+    /// Applies `change(model, t)`, which alters the right-hand side from the current time on
+    /// (new inputs), and on success drops the propagator's cached matrices and FSAL stage.
+    /// On failure the model is expected unchanged, so nothing is dropped.
+    pub fn change_model<E>(
+        &mut self,
+        change: impl FnOnce(&mut M, f64) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let t = self.t();
+        change(&mut self.model, t)?;
+        match &mut self.propagator {
+            Propagator::Rk(p) => p.invalidate(),
+            Propagator::Exact(p) => p.invalidate(),
+        }
+        Ok(())
+    }
+
+    /// Restarts from `(t, y)` with the mode re-derived from the state (FMU state restore and
+    /// initial-value changes).
+    pub fn set_y(&mut self, t: f64, y: &[f64]) {
+        self.model.resynchronise(t, y);
+        match &mut self.propagator {
+            Propagator::Rk(p) => p.set_state(t, y),
+            Propagator::Exact(p) => {
+                p.invalidate();
+                p.set_state(t, y)
+            }
+        }
+    }
+
+    /// The RK controller memory, `None` for the exact propagator, whose steps depend on
+    /// `(t, y)` and the mode only.
+    pub fn controller_memory(&self) -> Option<ControllerMemory> {
+        match &self.propagator {
+            Propagator::Rk(p) => Some(p.controller_memory()),
+            Propagator::Exact(_) => None,
+        }
+    }
+
+    /// Continues from a snapshot `(t, y, run, controller)` taken from a driver of the same
+    /// scene, bit-identically to the run it was taken from (FMU state get/set, FMI 2.0.x
+    /// §2.1.8). Rejects a state of another dimension, a non-finite one, one taken with the
+    /// other propagator, or a run state the model cannot have; on failure nothing changes.
+    pub fn resume(
+        &mut self,
+        t: f64,
+        y: &[f64],
+        run: &M::RunState,
+        controller: Option<&ControllerMemory>,
+    ) -> Result<(), String> {
+        let dim = self.y().len();
+        if y.len() != dim {
+            return Err(format!(
+                "the state has {} entries, this model {dim}",
+                y.len()
+            ));
+        }
+        if !(t.is_finite() && y.iter().all(|v| v.is_finite())) {
+            return Err(format!("state (t = {t}, y = {y:?}) is not finite"));
+        }
+        match (&mut self.propagator, controller) {
+            (Propagator::Rk(p), Some(memory)) => {
+                self.model.restore_run_state(run)?;
+                p.invalidate();
+                p.restore(t, y, memory);
+            }
+            (Propagator::Exact(p), None) => {
+                self.model.restore_run_state(run)?;
+                p.invalidate();
+                p.set_state(t, y);
+            }
+            _ => {
+                return Err(format!(
+                    "the snapshot was taken with another propagator than '{}'",
+                    self.method_name()
+                ))
+            }
+        }
+        Ok(())
+    }
+
+    /// Advances through `times` (an [`crate::simulation::output_grid`]) and records
+    /// `row(self)` at each point.
+    pub fn sample<R>(
+        &mut self,
+        times: &[f64],
+        mut row: impl FnMut(&Self) -> R,
+    ) -> Result<Vec<R>, String> {
+        let mut rows = Vec::with_capacity(times.len());
+        for &t in times {
+            self.advance_to(t)
+                .map_err(|e| format!("integration failed: {e}"))?;
+            rows.push(row(self));
+        }
+        Ok(rows)
+    }
+}
