@@ -228,25 +228,8 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
         }
     };
 
-    let s = &spec.solver;
-    let method = s
-        .method
-        .parse::<MethodChoice>()
-        .map_err(|e| SceneError(format!("solver.method = {:?}: {e}", s.method)))?;
-    let rk_method = s
-        .rk_method
-        .parse()
-        .map_err(|e| SceneError(format!("solver.rk_method = {:?}: {e}", s.rk_method)))?;
-    let stop_time = positive("solver.stop_time", s.stop_time)?;
-    let output_interval = match s.output_interval {
-        Some(h) => positive("solver.output_interval", h)?,
-        None => stop_time / 500.0,
-    };
-    let rtol = positive("solver.rtol", s.rtol)?;
-    if rtol >= 1.0 {
-        return err(format!("solver.rtol = {rtol}: must be < 1"));
-    }
-    if method == MethodChoice::Exact && !stiffness.is_piecewise_constant() {
+    let solver = solver(&spec.solver)?;
+    if solver.method == MethodChoice::Exact && !stiffness.is_piecewise_constant() {
         return err(format!(
             "solver.method = \"exact\": the {} stiffness is not piecewise constant, so its segments are not \
              time-invariant; use \"rk\" or \"auto\"",
@@ -275,15 +258,37 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
         },
         initial_dte,
         initial_dte_rate: finite("initial.dte_rate", spec.initial.dte_rate)?,
-        solver: SolverSettings {
-            method,
-            rk_method,
-            rtol,
-            atol: positive("solver.atol", s.atol)?,
-            stop_time,
-            output_interval,
-        },
+        solver,
         source: source.to_owned(),
+    })
+}
+
+/// The `[solver]` table (single-mesh and drivetrain scenes alike).
+pub(super) fn solver(s: &super::spec::SolverSpec) -> Result<SolverSettings> {
+    let method = s
+        .method
+        .parse::<MethodChoice>()
+        .map_err(|e| SceneError(format!("solver.method = {:?}: {e}", s.method)))?;
+    let rk_method = s
+        .rk_method
+        .parse()
+        .map_err(|e| SceneError(format!("solver.rk_method = {:?}: {e}", s.rk_method)))?;
+    let stop_time = positive("solver.stop_time", s.stop_time)?;
+    let output_interval = match s.output_interval {
+        Some(h) => positive("solver.output_interval", h)?,
+        None => stop_time / 500.0,
+    };
+    let rtol = positive("solver.rtol", s.rtol)?;
+    if rtol >= 1.0 {
+        return err(format!("solver.rtol = {rtol}: must be < 1"));
+    }
+    Ok(SolverSettings {
+        method,
+        rk_method,
+        rtol,
+        atol: positive("solver.atol", s.atol)?,
+        stop_time,
+        output_interval,
     })
 }
 

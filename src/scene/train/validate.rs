@@ -10,8 +10,8 @@ use super::{
 };
 use crate::mesh::PhaseSeries;
 use crate::scene::spec::{ContactLawSpec, InitialDteSpec};
-use crate::scene::validate::{finite, non_negative, positive};
-use crate::scene::{ContactLaw, InitialDte, MethodChoice, SceneError, SolverSettings};
+use crate::scene::validate::{finite, non_negative, positive, solver};
+use crate::scene::{ContactLaw, InitialDte, MethodChoice, SceneError};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -288,34 +288,6 @@ pub(crate) fn piecewise_constant(m: &TrainMesh) -> bool {
         MeshForceModel::Lumped { stiffness, .. } => stiffness.is_piecewise_constant(),
         MeshForceModel::Pairs { pair, .. } => pair.pieces.iter().all(|p| p.slope == 0.0),
     }
-}
-
-fn solver(s: &crate::scene::spec::SolverSpec) -> Result<SolverSettings> {
-    let method = s
-        .method
-        .parse::<MethodChoice>()
-        .map_err(|e| SceneError(format!("solver.method = {:?}: {e}", s.method)))?;
-    let rk_method = s
-        .rk_method
-        .parse()
-        .map_err(|e| SceneError(format!("solver.rk_method = {:?}: {e}", s.rk_method)))?;
-    let stop_time = positive("solver.stop_time", s.stop_time)?;
-    let output_interval = match s.output_interval {
-        Some(h) => positive("solver.output_interval", h)?,
-        None => stop_time / 500.0,
-    };
-    let rtol = positive("solver.rtol", s.rtol)?;
-    if rtol >= 1.0 {
-        return err(format!("solver.rtol = {rtol}: must be < 1"));
-    }
-    Ok(SolverSettings {
-        method,
-        rk_method,
-        rtol,
-        atol: positive("solver.atol", s.atol)?,
-        stop_time,
-        output_interval,
-    })
 }
 
 fn shaft(i: usize, s: &ShaftSpec, find: &dyn Fn(&str, &str) -> Result<usize>) -> Result<Shaft> {
