@@ -59,6 +59,24 @@ pub fn read_controller(r: &mut Reader, bits: u8) -> Result<Option<ControllerMemo
     }))
 }
 
+/// Checks shared by both layouts' tests: every truncation of a valid payload and one with a
+/// trailing byte are rejected by `decode`.
+#[cfg(test)]
+pub fn assert_truncation_and_trailing_rejected<T, E: std::fmt::Display>(
+    bytes: &[u8],
+    decode: impl Fn(&[u8]) -> Result<T, E>,
+) {
+    for n in 0..bytes.len() {
+        assert!(decode(&bytes[..n]).is_err(), "truncation to {n} accepted");
+    }
+    let mut longer = bytes.to_vec();
+    longer.push(0);
+    match decode(&longer) {
+        Ok(_) => panic!("a trailing byte was accepted"),
+        Err(e) => assert!(e.to_string().contains("trailing"), "{e}"),
+    }
+}
+
 /// The controller memories a payload round trip must preserve: none (exact propagator), one
 /// with every flag set, one with none. Shared by both layouts' tests.
 #[cfg(test)]

@@ -213,12 +213,7 @@ mod tests {
     #[test]
     fn malformed_payloads_are_rejected() {
         let b = encode(&sample(None));
-        for n in 0..b.len() {
-            assert!(decode(&b[..n]).is_err(), "truncation to {n} accepted");
-        }
-        let mut longer = b.clone();
-        longer.push(0);
-        assert!(decode(&longer).unwrap_err().contains("trailing"));
+        crate::fmu_payload::assert_truncation_and_trailing_rejected(&b, decode);
         let mut version = b.clone();
         version[4] = 2;
         assert!(decode(&version).unwrap_err().contains("version 2"));
