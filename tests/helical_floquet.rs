@@ -152,7 +152,7 @@ fn paper_stability_statement_holds() {
         let amp = rk_period_amplitudes(&s, periods);
         let growth = amp[periods - 1] / amp[0];
         println!(
-            "μ = 0.2, {rpm_} rpm: tr Φ = {trace:.9}, max |μ| = {rho:.9}, RK amplitude ratio              period {periods} / period 1 = {growth:.3e}, max over all periods / first = {:.3}",
+            "μ = 0.2, {rpm_} rpm: tr Φ = {trace:.9}, max |μ| = {rho:.9}, RK amplitude ratio period {periods} / period 1 = {growth:.3e}, max over all periods / first = {:.3}",
             amp.iter().fold(0.0f64, |a, &b| a.max(b)) / amp[0]
         );
         assert_eq!(trace.abs() > 2.0, unstable, "trace {trace}");
