@@ -316,7 +316,8 @@ fn without_helix_the_stiffness_is_the_rectangular_spur_wave() {
 #[test]
 fn bad_geometry_is_rejected_naming_field_and_value() {
     let p = HelixAngleReference::Pitch;
-    let cases: Vec<(Box<dyn Fn(&mut HelicalPairSpec)>, &str)> = vec![
+    type Edit = Box<dyn Fn(&mut HelicalPairSpec)>;
+    let cases: Vec<(Edit, &str)> = vec![
         (Box::new(|s| s.helix_angle = 90.0), "h.helix_angle = 90"),
         (Box::new(|s| s.helix_angle = -1.0), "h.helix_angle = -1"),
         (

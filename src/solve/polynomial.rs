@@ -39,9 +39,9 @@ pub fn shift(coefficients: &[DMatrix<f64>], tau0: f64) -> Vec<DMatrix<f64>> {
             // Σ_{k ≥ j} C(k, j) τ0^{k−j} G_k.
             let mut sum = coefficients[j].clone();
             let mut binomial_power = 1.0;
-            for k in j + 1..=degree {
+            for (k, g) in coefficients.iter().enumerate().skip(j + 1) {
                 binomial_power *= k as f64 / (k - j) as f64 * tau0;
-                sum += &coefficients[k] * binomial_power;
+                sum += g * binomial_power;
             }
             sum
         })
