@@ -334,3 +334,57 @@ fn bad_scene_input_is_rejected_naming_field_and_value() {
     let err = Scene::from_toml_str(&text, "bad").unwrap_err().to_string();
     assert!(err.contains("teeth = 24"), "{err}");
 }
+
+#[test]
+fn phase_offsets_shift_the_segments_consistently() {
+    // A start inside a stiffness piece (mesh.initial_phase and the source's own phase): the
+    // closed-form map must walk the pieces from there, as the simulation does.
+    let text = SCENE
+        .replace(
+            "contact = \"linear\"",
+            "contact = \"linear\"\ninitial_phase = 0.37",
+        )
+        .replace(
+            "friction_coefficient = 0.2",
+            "friction_coefficient = 0.4\nphase = 0.1",
+        )
+        .replace("rtol = 1e-10", "rtol = 1e-11\nmethod = \"rk\"")
+        .replace("atol = 1e-16", "atol = 1e-18");
+    let mut s = Scene::from_toml_str(&text, "phase test").unwrap();
+    s.operating.pinion_speed = from_rpm(3000.0);
+    let map = LinearPeriodMap::new(&s).unwrap();
+    assert_eq!(map.segments().len(), 7, "a start inside a piece splits it");
+    let times: Vec<f64> = (1..=300)
+        .map(|i| i as f64 * 3.0 * map.period / 300.0)
+        .collect();
+    let closed: Vec<[f64; 2]> = times.iter().map(|&t| map.response(Y0, t)).collect();
+    let dev = relative_deviation(&closed, &rk(&s, Y0, &times));
+    println!("initial_phase 0.37, phase 0.1, μ = 0.4, 3000 rpm, forced: dev {dev:.2e}");
+    assert!(dev <= 1e-8, "{dev:e}");
+}
+
+#[test]
+fn cli_rejects_friction_override_on_other_sources_and_bad_ranges() {
+    let bin = env!("CARGO_BIN_EXE_geardyn");
+    let run = |args: &[&str]| {
+        let out = std::process::Command::new(bin).args(args).output().unwrap();
+        assert!(!out.status.success(), "{args:?} must fail");
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    let err = run(&["floquet", "--example", "bugaru_pair", "--mu", "0.1"]);
+    assert!(
+        err.contains("--mu 0.1") && err.contains("not \"helical\""),
+        "{err}"
+    );
+    let err = run(&[
+        "band",
+        "fmu/helical_pair_friction",
+        "--from-rpm",
+        "2000",
+        "--to-rpm",
+        "1000",
+    ]);
+    assert!(err.contains("--to-rpm 1000"), "{err}");
+    let err = run(&["floquet", "--example", "spur_pair"]);
+    assert!(err.contains("mesh.contact"), "{err}");
+}
