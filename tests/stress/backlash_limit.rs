@@ -78,9 +78,10 @@ fn deviation(scene: &Scene, prop: Propagator, periods: usize) -> (f64, f64) {
 }
 
 fn check(periods: usize) {
-    // The floor is each propagator's own error on the linear law.
+    // The floor: each propagator's own error on the linear law (at least 10 × what it
+    // measured on the linear scene over the same run).
     for (prop, floor) in [
-        (Propagator::Exact, 1e-12),
+        (Propagator::Exact, 1e-12_f64),
         (Propagator::Rk(Method::Dop853, 1e-11), 3e-11),
     ] {
         let (lin, _) = deviation(&pair_scene("contact = \"linear\""), prop, periods);
@@ -101,7 +102,7 @@ fn check(periods: usize) {
             assert!(events <= 4.5, "event count out of bounds: {events}");
             // Measured: 3.0 b (the gap lets the teeth travel b without force twice a period).
             assert!(
-                err <= 5.0 * rel + floor,
+                err <= 5.0 * rel + floor.max(10.0 * lin),
                 "{prop:?}, b = {b:e}: error {err:e} δ_s is not O(b)"
             );
         }

@@ -4,7 +4,7 @@
 //!
 //! Every check compares against an expectation computed independently of the solver: closed
 //! forms (free and forced linear responses, ballistic flight, grazing geometry), energy
-//! bookkeeping written here (stiffness-jump work ½Δk δ², Simpson quadrature of the damping
+//! bookkeeping written here (stiffness-jump work ½Δk δ², Boole quadrature of the damping
 //! dissipation), the closed-form Meissner monodromy, or the other propagator (exact vs RK).
 
 #[path = "../common/mod.rs"]

@@ -5,14 +5,15 @@
 //! must produce the identical event sequence, with event times and DTE that agree. A failing
 //! case prints its seed and parameters, so it can be replayed with `case(seed)`.
 //!
-//! Known defects, accounted for separately: both propagators can miss a short flight (a
-//! separation and the return to the same flank within a fraction of a mesh period) — RK when
-//! the flight is shorter than the spacing of its guard samples (`grazing.rs`), the exact
-//! propagator in some cases too (seed 229: a 14 µs back-side flight, 8.6 % of a mesh period,
-//! found by RK at rtol 1e-10…1e-13 and by the exact propagator itself with 1.5 µs output
-//! stops, missed by the exact propagator without stops). A case whose sequences differ only by
-//! such short flights (< 10 % of a mesh period) is counted and printed, not failed; the strict
-//! variant and the seed-229 regression are `#[ignore]`d with the defect.
+//! Known defect, accounted for separately: either propagator can miss an excursion that falls
+//! between its guard samples — a separation and the return to the same flank, or a shallow
+//! touch of a flank during a flight (RK: between the interior samples of a step, which grow
+//! long in ballistic flight, see `grazing.rs`; the exact propagator in some cases too, seed
+//! 229: a 14 µs back-side flight, 8.6 % of a mesh period, found by RK at rtol 1e-10…1e-13 and
+//! by the exact propagator itself with 1.5 µs output stops). A case whose sequences first
+//! differ by such an excursion (within a mesh period) is counted and printed, and the motion
+//! after it is not compared (it differs); its share must stay small (measured: 2 of 300, 23 of
+//! 5000). The strict variant and the seed-229 regression are `#[ignore]`d with the defect.
 
 use std::f64::consts::TAU;
 
@@ -82,28 +83,38 @@ fn case(seed: u64) -> (Scene, String) {
     (scene, text)
 }
 
-/// The events without the short flights (a separation followed, within `max_flight`, by a
-/// return to the flank that was left).
-fn without_short_flights(
-    events: &[(f64, ContactState)],
-    max_flight: f64,
-) -> Vec<(f64, ContactState)> {
-    let mut out: Vec<(f64, ContactState)> = Vec::new();
-    let mut i = 0;
-    while i < events.len() {
-        let before = out.last().map(|e| e.1);
-        if i + 1 < events.len()
-            && events[i].1 == ContactState::Separated
-            && Some(events[i + 1].1) == before
-            && events[i + 1].0 - events[i].0 < max_flight
-        {
-            i += 2;
-            continue;
-        }
-        out.push(events[i]);
-        i += 1;
+/// Whether the two event lists first differ by an excursion in one of them: at the first
+/// difference, one list has an event followed within `max` by the return to the state before
+/// it (a short flight from a flank, or a short touch of a flank during a flight), and the other
+/// list continues with the event after that excursion. The motion after a missed excursion
+/// differs, so nothing after it is compared.
+fn first_difference_is_short_excursion(
+    a: &[(f64, ContactState)],
+    b: &[(f64, ContactState)],
+    max: f64,
+) -> bool {
+    // The first differing state, or the end of the shorter list.
+    let i = (0..a.len().min(b.len()))
+        .find(|&k| a[k].1 != b[k].1)
+        .unwrap_or(a.len().min(b.len()));
+    if a.len() == b.len() && i == a.len() {
+        return false;
     }
-    out
+    // An excursion in `l` starting at `j` (the first differing state is at `j` or `j + 1`).
+    let excursion = |l: &[(f64, ContactState)], o: &[(f64, ContactState)], j: usize| {
+        j >= 1
+            && j + 1 < l.len()
+            && l[j + 1].1 == l[j - 1].1
+            && l[j + 1].0 - l[j].0 < max
+            // The other list continues after the excursion, or ends where it starts.
+            && if j + 2 < l.len() {
+                j < o.len() && l[j + 2].1 == o[j].1
+            } else {
+                o.len() == j
+            }
+    };
+    let at = |j: usize| excursion(a, b, j) || excursion(b, a, j);
+    at(i) || (i >= 1 && at(i - 1))
 }
 
 /// Runs cases `first..first + n`; returns the total event count and the number of cases
@@ -123,29 +134,22 @@ fn run_cases(first: u64, n: u64, strict: bool) -> (usize, usize) {
             1e-6 * DELTA_S,
         );
         rk.advance_to(stop).expect("rk");
-        let (mut a, mut b) = (
+        let (a, b) = (
             exact.model().events().to_vec(),
             rk.model().events().to_vec(),
         );
         let period = exact.model().mesh_period();
-        if !strict && states(&a) != states(&b) {
-            let short = 0.1 * period;
-            let (fa, fb) = (
-                without_short_flights(&a, short),
-                without_short_flights(&b, short),
+        if !strict && first_difference_is_short_excursion(&a, &b, period) {
+            short_flight_cases += 1;
+            println!(
+                "  seed {seed}: a short excursion is missing in one run (known defect); \
+                 exact {} events, RK {}",
+                a.len(),
+                b.len()
             );
-            if states(&fa) == states(&fb) {
-                short_flight_cases += 1;
-                println!(
-                    "  seed {seed}: short flights differ (exact {} events, RK {}; known defect)",
-                    a.len(),
-                    b.len()
-                );
-                (a, b) = (fa, fb);
-            }
+            total += a.len();
+            continue;
         }
-        let differed =
-            a.len() != exact.model().events().len() || b.len() != rk.model().events().len();
         assert_eq!(
             states(&b),
             states(&a),
@@ -153,12 +157,6 @@ fn run_cases(first: u64, n: u64, strict: bool) -> (usize, usize) {
             a.len(),
             b.len()
         );
-        total += a.len();
-        if differed {
-            // The missed flight changed the motion after it: only the sequence is compared.
-            assert_eq!(states(&b), states(&a), "seed {seed}\n  {text}");
-            continue;
-        }
         let dt = max_time_difference(&a, &b) / period;
         let dx = (exact.state()[0] - rk.state()[0]).abs() / DELTA_S;
         assert!(
@@ -166,9 +164,10 @@ fn run_cases(first: u64, n: u64, strict: bool) -> (usize, usize) {
             "seed {seed}: event times differ by {dt:e} mesh periods, final DTE by {dx:e} δ_s\n  {text}"
         );
         worst = (worst.0.max(dt), worst.1.max(dx));
+        total += a.len();
     }
     println!(
-        "{n} random cases from seed {first}: {total} events, sequences identical ({short_flight_cases} cases only after removing short flights one propagator missed); max |Δt| = {:.2e} mesh periods, max |ΔDTE| = {:.2e} δ_s",
+        "{n} random cases from seed {first}: {total} events, sequences identical except {short_flight_cases} cases with a short excursion missing in one run; max |Δt| = {:.2e} mesh periods, max |ΔDTE| = {:.2e} δ_s",
         worst.0, worst.1
     );
     (total, short_flight_cases)
@@ -178,13 +177,20 @@ fn run_cases(first: u64, n: u64, strict: bool) -> (usize, usize) {
 fn random_scenes_have_identical_event_sequences() {
     let (events, short) = run_cases(0, 300, false);
     assert!(events >= 300, "the cases must exercise contact changes");
-    assert!(short <= 15, "{short} of 300 cases differ by short flights");
+    assert!(
+        short <= 6,
+        "{short} of 300 cases differ by a missed excursion"
+    );
 }
 
 #[test]
 #[ignore = "long: 5000 random cases; bash scripts/stress.sh"]
 fn random_scenes_have_identical_event_sequences_long() {
-    run_cases(1_000_000, 5_000, false);
+    let (_, short) = run_cases(1_000_000, 5_000, false);
+    assert!(
+        short <= 100,
+        "{short} of 5000 cases differ by a missed excursion"
+    );
 }
 
 #[test]
@@ -209,4 +215,24 @@ fn exact_finds_the_short_back_side_flight_of_seed_229() {
     );
     rk.advance_to(1.35e-3).expect("rk");
     assert_eq!(states(exact.model().events()), states(rk.model().events()));
+}
+
+/// Regression (fixed with the suite): after snapping onto the back-side surface, rounding left
+/// the new contact's guard a few ulp below 0, so RK never saw the end of a 0.5 µs back-side
+/// touch and stayed in back-side contact for the remaining 13 mesh periods.
+#[test]
+fn rk_leaves_a_short_back_side_touch_seed_1001012() {
+    let (scene, text) = case(1_001_012);
+    let mut exact = simulation(&scene, Propagator::Exact, DELTA_S);
+    let stop = PERIODS * exact.model().mesh_period();
+    exact.advance_to(stop).expect("exact");
+    let mut rk = simulation(
+        &scene,
+        Propagator::Rk(Method::Dop853, 1e-10),
+        1e-6 * DELTA_S,
+    );
+    rk.advance_to(stop).expect("rk");
+    let (a, b) = (exact.model().events(), rk.model().events());
+    assert_eq!(states(b), states(a), "{text}");
+    assert!(max_time_difference(a, b) <= 1e-6 * exact.model().mesh_period());
 }

@@ -134,9 +134,12 @@ fn rectangular_cost(periods: usize) {
         steps.push(per_period);
     }
     assert!(
+        // The scenes are the same in dimensionless form, but the response is not periodic
+        // (events per period vary by a few %); a stiffness-driven step limit would scale the
+        // cost with √k, ×3.2 from 1e8 to 1e9.
         steps
             .iter()
-            .all(|s| (s - steps[0]).abs() <= 0.05 * steps[0]),
+            .all(|s| (s - steps[0]).abs() <= 0.15 * steps[0]),
         "exact cost per mesh period depends on k: {steps:?}"
     );
 }
