@@ -1,53 +1,83 @@
 #!/usr/bin/env bash
 # Benchmark of the FMI host runner (issue 4, acceptance 5): `geardyn run` on the shipped
 # spur_pair FMU against `geardyn simulate` on the same scene, 1e5 communication steps
-# (stop 1 s, interval 1e-5 s), both writing all outputs to CSV. Also: `geardyn run` recording
-# one output (the FMU's own cost plus minimal host work) and `fmpy simulate` for scale.
-# Reports the best of N runs (wall clock) and the ratios, then one `--timing` breakdown (time
-# inside the FMU's calls vs the runner's own loop). Not a test: timings depend on load.
-# Usage: bash scripts/bench-host.sh [N]   (default 5)
+# (stop 1 s, interval 1e-5 s), both writing all outputs to CSV (same grid, same columns, one
+# file each). Also: `geardyn run` recording one output (the FMU's own cost plus minimal host
+# work) and `fmpy simulate` for scale.
+# The commands run in alternating rounds (simulate, run, run --outputs dte, ...) so that a
+# change of machine load hits all of them alike; reported: the median wall time and the median
+# CPU time (user + system, less sensitive to other processes) of each, and the ratios side by
+# side. Then one `--timing` breakdown (time inside the FMU's calls vs CSV formatting vs the
+# runner's own loop). Not a test: timings depend on the machine and its load.
+# With --instructions (needs valgrind): also the instructions executed by one run of each
+# (callgrind, ~1 min), a measure that does not depend on the load at all.
+# Usage: bash scripts/bench-host.sh [ROUNDS] [--instructions]   (default 9 rounds)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
-n=${1:-5}
+rounds=9
+instructions=false
+for arg in "$@"; do
+  case "$arg" in
+    --instructions) instructions=true ;;
+    *) rounds=$arg ;;
+  esac
+done
 bin=target/release/geardyn
 fmu=out/fmus/spur_pair.fmu
 [ -x "$bin" ] || cargo build --release --locked
 [ -f "$fmu" ] || bash scripts/build-fmus.sh
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-args=(--stop-time 1 --output-interval 1e-5)
-
-best() { # best wall time of n runs of "$@", in seconds
-  local b=""
-  for _ in $(seq "$n"); do
-    local s e
-    s=$(date +%s.%N)
-    "$@" >/dev/null 2>&1
-    e=$(date +%s.%N)
-    b=$(python3 -c "import sys; t=$e-$s; b='$b'; print(t if not b else min(t, float(b)))")
-  done
-  echo "$b"
+fmpy=""
+[ -x .venv/bin/python ] && fmpy=.venv/bin/python
+python3 - "$rounds" "$bin" "$fmu" "$tmp" "$fmpy" <<'EOF_PY'
+import os, statistics, subprocess, sys, time
+rounds, exe, fmu, tmp, fmpy = int(sys.argv[1]), *sys.argv[2:6]
+grid = ["--stop-time", "1", "--output-interval", "1e-5"]
+commands = {
+    "geardyn simulate (native, CSV)": [exe, "simulate", "fmu/spur_pair", "--out", f"{tmp}/s.csv", *grid, "--quiet"],
+    "geardyn run      (FMU, all outputs)": [exe, "run", fmu, "--out", f"{tmp}/r.csv", *grid],
+    "geardyn run      (FMU, --outputs dte)": [exe, "run", fmu, "--out", f"{tmp}/o.csv", *grid, "--outputs", "dte"],
 }
 
-sim=$(best "$bin" simulate fmu/spur_pair --out "$tmp/s.csv" "${args[@]}" --quiet)
-run=$(best "$bin" run "$fmu" --out "$tmp/r.csv" "${args[@]}")
-one=$(best "$bin" run "$fmu" --out "$tmp/o.csv" "${args[@]}" --outputs dte)
-rows=$(($(wc -l <"$tmp/r.csv") - 1))
-fmpy=""
-if [ -x .venv/bin/python ]; then
-  fmpy=$(n=1 best .venv/bin/python -m fmpy simulate "$fmu" --output-file "$tmp/f.csv" "${args[@]}")
-fi
-python3 - "$sim" "$run" "$one" "$rows" "$fmpy" <<'EOF'
-import sys
-sim, run, one, rows = map(float, sys.argv[1:5])
-fmpy = sys.argv[5]
-print(f"spur_pair, {int(rows)} communication steps (stop 1 s, interval 1e-5 s), best of runs:")
-print(f"  geardyn simulate (native, CSV)          {sim:8.3f} s")
-print(f"  geardyn run      (FMU, all outputs)     {run:8.3f} s   ratio run/simulate = {run / sim:.3f}")
-print(f"  geardyn run      (FMU, --outputs dte)   {one:8.3f} s   ratio = {one / sim:.3f}")
+def timed(cmd):
+    """Wall and CPU (user + system) seconds of one run of `cmd`."""
+    start = time.perf_counter()
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    _, status, usage = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - start
+    if os.waitstatus_to_exitcode(status) != 0:
+        sys.exit(f"failed: {' '.join(cmd)}")
+    return wall, usage.ru_utime + usage.ru_stime
+
+samples = {name: [] for name in commands}
+for _ in range(rounds):
+    for name, cmd in commands.items():
+        samples[name].append(timed(cmd))
+rows = sum(1 for _ in open(f"{tmp}/r.csv")) - 1
+base_name = next(iter(commands))
+median = lambda xs: statistics.median(xs)
+base_wall = median([w for w, _ in samples[base_name]])
+base_cpu = median([c for _, c in samples[base_name]])
+print(f"spur_pair, {rows} communication steps (stop 1 s, interval 1e-5 s), median of {rounds} alternating rounds:")
+print(f"  {'':38}  {'wall':>8}  {'ratio':>6}  {'CPU':>8}  {'ratio':>6}")
+for name, xs in samples.items():
+    wall, cpu = median([w for w, _ in xs]), median([c for _, c in xs])
+    print(f"  {name:38}  {wall:7.3f}s  {wall / base_wall:6.3f}  {cpu:7.3f}s  {cpu / base_cpu:6.3f}")
 if fmpy:
-    print(f"  fmpy simulate    (FMU, all outputs)     {float(fmpy):8.3f} s   ratio = {float(fmpy) / sim:.3f}")
-EOF
+    wall, cpu = timed([fmpy, "-m", "fmpy", "simulate", fmu, "--output-file", f"{tmp}/f.csv", *grid])
+    print(f"  {'fmpy simulate    (FMU, all outputs)':38}  {wall:7.3f}s  {wall / base_wall:6.3f}  {cpu:7.3f}s  {cpu / base_cpu:6.3f}   (one run)")
+EOF_PY
 # Where the time of one `geardyn run` goes: inside the FMU's calls vs the runner itself.
-"$bin" run "$fmu" --out "$tmp/t.csv" "${args[@]}" --timing 2>&1 >/dev/null | sed 's/^/  /'
+"$bin" run "$fmu" --out "$tmp/t.csv" --stop-time 1 --output-interval 1e-5 --timing 2>&1 >/dev/null | sed 's/^/  /'
+if $instructions; then
+  # callgrind's "Collected" total: every instruction of the process, FMU library included.
+  ir() {
+    valgrind --tool=callgrind --callgrind-out-file="$tmp/cg" "$@" 2>&1 >/dev/null |
+      sed -n 's/.*Collected : //p'
+  }
+  sim_ir=$(ir "$bin" simulate fmu/spur_pair --out "$tmp/s.csv" --stop-time 1 --output-interval 1e-5 --quiet)
+  run_ir=$(ir "$bin" run "$fmu" --out "$tmp/r.csv" --stop-time 1 --output-interval 1e-5)
+  python3 -c "s, r = $sim_ir, $run_ir; print(f'  instructions (callgrind): simulate {s / 1e6:.0f} M, run {r / 1e6:.0f} M, ratio run/simulate = {r / s:.3f}')"
+fi

@@ -11,6 +11,7 @@ use super::blob::{self, LayerSnapshot};
 use super::logger::{Category, Logger, Status};
 use super::model::{CoSimModel, ModelInfo, StepFailure, VarKind, Variable};
 use super::state::{check_settable, Call, FmuState};
+use super::vr_index::VrIndex;
 
 /// Marks a live instance so that a stale or foreign `fmi2Component` is caught (best effort).
 pub const INSTANCE_MAGIC: u64 = 0x6765_6172_6479_6e49; // "gearydnI"
@@ -29,14 +30,32 @@ pub struct StateBox {
     pub bytes: Vec<u8>,
 }
 
+/// Why [`Instance::lookup`] failed: `found` is the variable with that value reference, if any.
+#[cold]
+fn lookup_error(vr: u32, kind: VarKind, found: Option<&Variable>) -> String {
+    match found {
+        None => format!("unknown value reference {vr}"),
+        Some(var) => format!(
+            "value reference {vr} ('{}') is a {} variable, not {}",
+            var.name,
+            var.kind.as_str(),
+            kind.as_str()
+        ),
+    }
+}
+
 pub struct Instance {
     pub magic: u64,
     pub logger: Logger,
     model: Box<dyn CoSimModel>,
     info: ModelInfo,
-    /// `(value reference, index into model.variables())`, sorted by value reference: a host
-    /// reads every output after every step, so the lookup is a binary search, not a hash.
-    index: Vec<(u32, usize)>,
+    /// Value reference → position in `model.variables()` (a host reads every output after
+    /// every step).
+    index: VrIndex,
+    /// The value references of the Real outputs, checked for finiteness after every step.
+    real_outputs: Vec<u32>,
+    /// Their values after the last step (kept to reuse the allocation).
+    output_values: Vec<f64>,
     pub state: FmuState,
     time: f64,
     start_time: f64,
@@ -48,19 +67,21 @@ pub struct Instance {
 
 impl Instance {
     pub fn new(logger: Logger, model: Box<dyn CoSimModel>, info: ModelInfo) -> Instance {
-        let mut index: Vec<(u32, usize)> = model
+        let index = VrIndex::new(model.variables().iter().map(|v| v.value_reference));
+        let real_outputs = model
             .variables()
             .iter()
-            .enumerate()
-            .map(|(i, v)| (v.value_reference, i))
+            .filter(|v| v.kind == VarKind::Real && v.causality == super::model::Causality::Output)
+            .map(|v| v.value_reference)
             .collect();
-        index.sort_unstable();
         Instance {
             magic: INSTANCE_MAGIC,
             logger,
             model,
             info,
             index,
+            real_outputs,
+            output_values: Vec::new(),
             state: FmuState::Instantiated,
             time: 0.0,
             start_time: 0.0,
@@ -239,23 +260,13 @@ impl Instance {
         Status::Ok
     }
 
-    /// Finds `vr` and checks its base type.
+    /// Finds `vr` and checks its base type (inlined: on the path of every get and set).
+    #[inline]
     fn lookup(&self, vr: u32, kind: VarKind) -> Result<&Variable, String> {
-        let var = self
-            .index
-            .binary_search_by_key(&vr, |&(r, _)| r)
-            .ok()
-            .map(|k| &self.model.variables()[self.index[k].1])
-            .ok_or_else(|| format!("unknown value reference {vr}"))?;
-        if var.kind != kind {
-            return Err(format!(
-                "value reference {vr} ('{}') is a {} variable, not {}",
-                var.name,
-                var.kind.as_str(),
-                kind.as_str()
-            ));
+        match self.index.position(vr).map(|k| &self.model.variables()[k]) {
+            Some(var) if var.kind == kind => Ok(var),
+            found => Err(lookup_error(vr, kind, found)),
         }
-        Ok(var)
     }
 
     /// Shared body of the getters: state check, then per value reference the type check
@@ -283,10 +294,23 @@ impl Instance {
         Status::Ok
     }
 
+    /// Like [`Self::get_values`], but the model answers the whole vector in one call: a host
+    /// reads every output after every step.
     pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Status {
-        self.get_values(Call::GetReal, VarKind::Real, vrs, out, |m, vr| {
-            m.get_real(vr)
-        })
+        let call = Call::GetReal;
+        if let Err(s) = self.check(call) {
+            return s;
+        }
+        if let Some(e) = vrs
+            .iter()
+            .find_map(|&vr| self.lookup(vr, VarKind::Real).err())
+        {
+            return self.error(call, e);
+        }
+        match self.model.get_reals(vrs, out) {
+            Ok(()) => Status::Ok,
+            Err(e) => self.error(call, e),
+        }
     }
 
     pub fn get_integer(&mut self, vrs: &[u32], out: &mut [i32]) -> Status {
@@ -482,23 +506,20 @@ impl Instance {
         }
     }
 
-    fn non_finite_output(&self) -> Option<String> {
-        use super::model::Causality;
-        for v in self.model.variables() {
-            if v.kind == VarKind::Real && v.causality == Causality::Output {
-                match self.model.get_real(v.value_reference) {
-                    Ok(x) if x.is_finite() => {}
-                    Ok(x) => {
-                        return Some(format!(
-                            "output '{}' (vr {}) = {x} is not finite",
-                            v.name, v.value_reference
-                        ))
-                    }
-                    Err(e) => return Some(e),
-                }
-            }
-        }
-        None
+    fn non_finite_output(&mut self) -> Option<String> {
+        let mut values = std::mem::take(&mut self.output_values);
+        values.resize(self.real_outputs.len(), 0.0);
+        let found = match self.model.get_reals(&self.real_outputs, &mut values) {
+            Err(e) => Some(e),
+            Ok(()) => self.real_outputs.iter().zip(&values).find_map(|(&vr, &x)| {
+                (!x.is_finite()).then(|| {
+                    let name = self.lookup(vr, VarKind::Real).map_or("?", |v| &v.name);
+                    format!("output '{name}' (vr {vr}) = {x} is not finite")
+                })
+            }),
+        };
+        self.output_values = values;
+        found
     }
 
     /// Refusal of an unsupported capability, after the state check.

@@ -12,7 +12,7 @@
 //!   [`bytes`]: the little-endian reader the envelope and the models' payloads share,
 //! - [`description`]: `modelDescription.xml` writer (§2.2, §4.3),
 //! - [`package`]: the `.fmu` ZIP writer (§2.3), [`cli`]: the `geardyn fmu` subcommand,
-//! - [`uri`]: `file:` URI decoding.
+//! - [`uri`]: `file:` URI decoding, [`vr_index`]: value reference → variable lookup.
 //!
 //! The model is created by [`crate::fmu_entry`], the one factory used by both the binary and
 //! the packager; the gear models' adapters are [`crate::fmu_model`] (single mesh) and
@@ -29,3 +29,4 @@ pub mod model;
 pub mod package;
 pub mod state;
 pub mod uri;
+pub mod vr_index;

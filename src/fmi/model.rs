@@ -177,6 +177,16 @@ pub trait CoSimModel: Send {
     /// Current value of a Real variable. In initialization mode outputs must already be
     /// consistent with the parameters and inputs set so far (compute lazily).
     fn get_real(&self, vr: u32) -> Result<f64, String>;
+    /// Several Real variables at once (`fmi2GetReal` with a vector; the layer has checked
+    /// that every value reference is a Real variable). The default asks [`Self::get_real`]
+    /// for each; a model whose outputs are read after every step may answer them in one
+    /// pass. The first failure is the call's error.
+    fn get_reals(&self, vrs: &[u32], out: &mut [f64]) -> Result<(), String> {
+        for (&vr, slot) in vrs.iter().zip(out.iter_mut()) {
+            *slot = self.get_real(vr)?;
+        }
+        Ok(())
+    }
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String>;
 
     fn get_integer(&self, vr: u32) -> Result<i32, String> {

@@ -25,7 +25,7 @@ use crate::fmu_state::ModelSnapshot;
 use crate::model::Inputs;
 use crate::scene::{ContactLaw, InitialDte, Scene};
 use crate::simulation::Simulation;
-use std::cell::Cell;
+use std::cell::OnceCell;
 
 use documentation::DOCUMENTATION;
 use variables::variables;
@@ -45,13 +45,12 @@ pub struct GearModel {
     sim: Simulation,
     start_time: f64,
     initialized: bool,
-    /// The outputs of the last evaluated state: a host reads them one value reference at a
-    /// time, and each evaluation computes all of them. Keyed by everything they depend on.
-    outputs: Cell<Option<(OutputKey, [f64; 7])>>,
+    /// The outputs of the current state, evaluated on the first read: a host reads them one
+    /// value reference at a time (and the FMI layer checks them after every step), and each
+    /// evaluation computes all of them. Emptied by every change of the simulation or its
+    /// parameters: all of those go through `&mut self` (see [`GearModel::sim_mut`]).
+    outputs: OnceCell<[f64; 7]>,
 }
-
-/// `(t, x, x', inputs, contact state)` as bits: equal keys give identical outputs.
-type OutputKey = [u64; 7];
 
 impl GearModel {
     /// Builds the model of a validated scene and its description data.
@@ -88,7 +87,7 @@ impl GearModel {
             sim,
             start_time: 0.0,
             initialized: false,
-            outputs: Cell::new(None),
+            outputs: OnceCell::new(),
         };
         Ok((model, info))
     }
@@ -158,7 +157,7 @@ impl GearModel {
         (self.static_dte, self.initial_dte) = (static_dte, initial_dte);
         self.sim = sim;
         // New parameters: the same state may now give other outputs.
-        self.outputs.set(None);
+        self.outputs = OnceCell::new();
         Ok(())
     }
 
@@ -199,7 +198,7 @@ impl GearModel {
             sim: Simulation::new(&self.base)?,
             start_time: snap.start_time,
             initialized: false,
-            outputs: Cell::new(None),
+            outputs: OnceCell::new(),
         };
         check_known(&self.vars, &snap.params)?;
         for &(vr, x) in &snap.params {
@@ -226,28 +225,24 @@ impl GearModel {
     }
 }
 
+/// The position of a Real output in [`Simulation::outputs`] (the contact state is an Integer).
+#[inline]
+fn output_position(vr: u32) -> Option<usize> {
+    ((VR_OUTPUT0..VR_OUTPUT0 + 7).contains(&vr) && vr != VR_CONTACT_STATE)
+        .then(|| (vr - VR_OUTPUT0) as usize)
+}
+
 impl GearModel {
     /// The simulation's outputs, evaluated once per state.
-    fn current_outputs(&self) -> [f64; 7] {
-        let [x, v] = self.sim.state();
-        let inputs = self.sim.model().inputs();
-        let key = [
-            self.sim.t().to_bits(),
-            x.to_bits(),
-            v.to_bits(),
-            inputs.pinion_speed.to_bits(),
-            inputs.input_torque.to_bits(),
-            inputs.load_torque.to_bits(),
-            self.sim.model().contact_state() as i8 as u64,
-        ];
-        if let Some((cached, values)) = self.outputs.get() {
-            if cached == key {
-                return values;
-            }
-        }
-        let values = self.sim.outputs();
-        self.outputs.set(Some((key, values)));
-        values
+    fn current_outputs(&self) -> &[f64; 7] {
+        self.outputs.get_or_init(|| self.sim.outputs())
+    }
+
+    /// The simulation, for a change of its state or inputs: the cached outputs are dropped
+    /// first, so no read after the change can see the outputs of the state before it.
+    fn sim_mut(&mut self) -> &mut Simulation {
+        self.outputs = OnceCell::new();
+        &mut self.sim
     }
 }
 
@@ -257,6 +252,9 @@ impl CoSimModel for GearModel {
     }
 
     fn get_real(&self, vr: u32) -> Result<f64, String> {
+        if let Some(k) = output_position(vr) {
+            return Ok(self.current_outputs()[k]);
+        }
         let s = &self.scene;
         let pair = self.sim.model();
         let inputs = pair.inputs();
@@ -278,11 +276,19 @@ impl CoSimModel for GearModel {
             VR_PINION_SPEED => inputs.pinion_speed,
             VR_INPUT_TORQUE => inputs.input_torque,
             VR_LOAD_TORQUE => inputs.load_torque,
-            vr if (VR_OUTPUT0..VR_OUTPUT0 + 7).contains(&vr) && vr != VR_CONTACT_STATE => {
-                self.current_outputs()[(vr - VR_OUTPUT0) as usize]
-            }
             _ => return Err(format!("no Real variable with value reference {vr}")),
         })
+    }
+
+    /// The outputs without a call per value reference: a host reads them after every step.
+    fn get_reals(&self, vrs: &[u32], out: &mut [f64]) -> Result<(), String> {
+        for (&vr, slot) in vrs.iter().zip(out.iter_mut()) {
+            *slot = match output_position(vr) {
+                Some(k) => self.current_outputs()[k],
+                None => self.get_real(vr)?,
+            };
+        }
+        Ok(())
     }
 
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String> {
@@ -296,7 +302,7 @@ impl CoSimModel for GearModel {
                 ));
             }
             let u = self.inputs_with(vr, value);
-            self.sim.set_inputs(u);
+            self.sim_mut().set_inputs(u);
             Ok(())
         } else {
             self.set_before_init(vr, value)
@@ -346,13 +352,14 @@ impl CoSimModel for GearModel {
     }
 
     fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure> {
-        crate::fmu_common::do_step(&mut self.sim, self.start_time, t, h)
+        let start_time = self.start_time;
+        crate::fmu_common::do_step(self.sim_mut(), start_time, t, h)
     }
 
     fn reset(&mut self) -> Result<(), String> {
         let base = self.base.clone();
         self.sim = Simulation::new(&base)?;
-        self.outputs.set(None);
+        self.outputs = OnceCell::new();
         self.static_dte = base.initial_dte == InitialDte::Static;
         self.initial_dte = self
             .vars

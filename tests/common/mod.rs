@@ -8,6 +8,7 @@
 
 pub mod idler2;
 pub mod idler3;
+pub mod meissner;
 
 use geardyn::scene::Scene;
 

@@ -55,6 +55,15 @@ impl EventState {
         }
         self.m = m;
         sys.guards(t, y, &mut self.g0[..m]);
+        // A guard starts >= 0 (the mode matches the state), but after an event the state is
+        // snapped onto the surface and rounding (x = e − c, then δ + c = x − e + c) can leave
+        // it a few ulp below 0. Such a guard could never go from >= 0 to < 0: a contact shorter
+        // than the first step would then never end (found by the stress suite: DOP853 stuck in
+        // back-side contact for 13 mesh periods). Start it at 0, so the first negative sample
+        // is the event.
+        for g in &mut self.g0[..m] {
+            *g = g.max(0.0);
+        }
         stats.guard_evals += 1;
         self.valid = true;
     }
