@@ -528,6 +528,37 @@ fn mesh(
         None => 0.0,
     };
 
+    if m.friction.is_some() && matches!(contact, ContactLaw::Backlash { .. }) {
+        return err(format!(
+            "{}: tooth friction is modelled on the drive flanks only; contact = \"backlash\" \
+             (back-side contact on the other line of action) is not supported with it",
+            f("friction")
+        ));
+    }
+    let friction = match (&m.friction, &force) {
+        (None, _) => None,
+        (
+            Some(spec),
+            MeshForceModel::Pairs {
+                model: PairModel::PerPair,
+                pair,
+                ..
+            },
+        ) => Some(super::friction::validate(
+            &f("friction"),
+            spec,
+            gp,
+            gg,
+            pressure_angle,
+            pair.contact_ratio,
+        )?),
+        (Some(_), _) => return err(format!(
+            "{}: tooth friction acts per tooth pair and needs model = \"pairs\" (model is {:?})",
+            f("friction"),
+            m.model.as_deref().unwrap_or("lumped")
+        )),
+    };
+
     Ok(TrainMesh {
         name: m.name.clone().unwrap_or_else(|| format!("mesh{}", i + 1)),
         pinion,
@@ -539,6 +570,7 @@ fn mesh(
         pressure_angle,
         centre_angle,
         force,
+        friction,
         cycles_per_input_rev: 0.0,
     })
 }
@@ -549,6 +581,7 @@ fn pair_stiffness(field: &str, spec: &PairStiffnessSpec) -> Result<PairStiffness
             mean,
             peak_to_peak_ratio,
             contact_ratio,
+            load_share,
         } => {
             positive(&format!("{field}.mean"), *mean)?;
             non_negative(&format!("{field}.peak_to_peak_ratio"), *peak_to_peak_ratio)?;
@@ -566,7 +599,15 @@ fn pair_stiffness(field: &str, spec: &PairStiffnessSpec) -> Result<PairStiffness
                      K_s = {k_single:e} N/m <= 0 for contact_ratio = {c}"
                 ));
             }
-            Ok(PairStiffness::rectangular(*mean, *peak_to_peak_ratio, c))
+            match *load_share {
+                None => Ok(PairStiffness::rectangular(*mean, *peak_to_peak_ratio, c)),
+                Some(a) if a.is_finite() && (0.0..=1.0).contains(&a) => Ok(
+                    PairStiffness::rectangular_shared(*mean, *peak_to_peak_ratio, c, a),
+                ),
+                Some(a) => err(format!(
+                    "{field}.load_share = {a}: the leaving pair's share of K_d must lie in [0, 1]"
+                )),
+            }
         }
         PairStiffnessSpec::Table {
             contact_ratio,
