@@ -4,6 +4,7 @@
 //! model turns time into phase with its nominal-speed clock (`docs/model.md`, "Mesh phase").
 
 pub mod geometry;
+pub mod helical;
 pub mod series;
 pub mod stiffness;
 
