@@ -218,8 +218,6 @@ pub struct GearTrain {
     inputs: TrainInputs,
     guards: Vec<(usize, usize, Surface)>,
     scratch: RefCell<Vec<f64>>,
-    /// Per-slot forces of a friction mesh inside `rhs`.
-    slot_scratch: RefCell<Vec<f64>>,
     key_fits: bool,
     names: Vec<String>,
     pair_outputs: Vec<usize>,
@@ -320,10 +318,7 @@ impl GearTrain {
                 } => {
                     let pairs = match &sm.friction {
                         // Eq. (4.42): k(1 ± β) per pair, split at the pitch point.
-                        Some(fr) => CycleTable::pairs(
-                            &pair.with_friction_bending(fr.pitch_point, fr.bending()),
-                            relief,
-                        ),
+                        Some(fr) => CycleTable::pairs(&fr.pair_stiffness(pair), relief),
                         None => CycleTable::pairs(pair, relief),
                     };
                     let table = match model {
@@ -352,13 +347,16 @@ impl GearTrain {
                     Stiffness::Table(table),
                     MeshForceModel::Pairs { pair, .. },
                     Some(vectors),
-                ) => Some(FrictionTable::new(
-                    table,
-                    pair.contact_ratio,
-                    fr,
-                    (q.transpose() * &vectors.base).as_slice().to_vec(),
-                    (q.transpose() * &vectors.per_arm).as_slice().to_vec(),
-                )),
+                ) => {
+                    let bent = fr.pair_stiffness(pair);
+                    Some(FrictionTable::new(
+                        table,
+                        pair.contact_ratio,
+                        |xi| fr.weights(&bent, xi),
+                        (q.transpose() * &vectors.base).as_slice().to_vec(),
+                        (q.transpose() * &vectors.per_arm).as_slice().to_vec(),
+                    ))
+                }
                 _ => None,
             };
             meshes.push(MeshRt {
@@ -410,7 +408,6 @@ impl GearTrain {
             },
             guards: Vec::new(),
             scratch: RefCell::new(vec![0.0; m]),
-            slot_scratch: RefCell::new(Vec::new()),
             key_fits: true,
             names: Vec::new(),
             pair_outputs: Vec::new(),
@@ -1325,15 +1322,15 @@ impl PiecewiseLti for GearTrain {
             let a = DVector::from_column_slice(&mesh.a);
             k += kmax * &a * a.transpose();
             if let Some(fr) = &mesh.friction {
-                // The friction stiffness μ k t(l) aᵀ at the longest arm D.
+                // The friction stiffness (w0 b0 + w1 b1) aᵀ at its largest weights.
                 let t = DVector::from_iterator(
                     m,
                     fr.b0
                         .iter()
                         .zip(&fr.b1)
-                        .map(|(b0, b1)| b0 + fr.loa_length * b1),
+                        .map(|(b0, b1)| b0.abs() * fr.bound.0 + b1.abs() * fr.bound.1),
                 );
-                k += fr.coefficient * kmax * t * a.transpose();
+                k += t * a.abs().transpose();
             }
         }
         let minv = DMatrix::from_row_slice(m, m, &self.minv);

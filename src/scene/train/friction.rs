@@ -12,7 +12,7 @@
 //! mesh phase alone (`v_i ≈ v̄_i`, §5.2).
 
 use super::spec::FrictionSpec;
-use super::TrainGear;
+use super::{PairStiffness, TrainGear};
 use crate::scene::SceneError;
 
 /// Tooth friction of one mesh.
@@ -50,6 +50,20 @@ impl MeshFriction {
         } else {
             -1.0
         }
+    }
+
+    /// The pair stiffness with friction bending, eq. (4.42): `k(1 + β)` in approach,
+    /// `k(1 − β)` in recess, split at the pitch point (a knot even for β = 0).
+    pub fn pair_stiffness(&self, pair: &PairStiffness) -> PairStiffness {
+        pair.with_friction_bending(self.pitch_point, self.bending())
+    }
+
+    /// Friction weights of a spur pair at window position `ξ` with (bent) pair stiffness
+    /// `pair`: `w0 = μ sgn(v) k(ξ)` (friction force on the pinion per metre of deflection) and
+    /// `w1 = w0 l(ξ)` (its moment about the pinion's base tangent point), eq. (4.44).
+    pub fn weights(&self, pair: &PairStiffness, xi: f64) -> (f64, f64) {
+        let w0 = self.coefficient * self.sliding_sign(xi) * pair.value(xi);
+        (w0, w0 * self.pinion_arm(xi))
     }
 
     /// The pitch point in the window of a pair with contact ratio `c` when the gears have

@@ -552,11 +552,13 @@ fn mesh(
             pressure_angle,
             pair.contact_ratio,
         )?),
-        (Some(_), _) => return err(format!(
+        (Some(_), _) => {
+            return err(format!(
             "{}: tooth friction acts per tooth pair and needs model = \"pairs\" (model is {:?})",
             f("friction"),
             m.model.as_deref().unwrap_or("lumped")
-        )),
+        ))
+        }
     };
 
     Ok(TrainMesh {

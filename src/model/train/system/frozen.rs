@@ -16,14 +16,15 @@ pub struct FrozenStatics {
     pub friction_force: Vec<f64>,
 }
 
-/// One engaged slot at the frozen phase: stiffness, gap (STE included), generalised
-/// direction of its force over ξ (`a_n − μ sgn(v) t(l)`, eq. 4.44's `K + L`).
+/// One engaged slot at the frozen phase: stiffness, gap (STE included), and the column of its
+/// generalised force per metre of deflection, `k a_n − (w0 b0 + w1 b1)` (eq. 4.44's `K + L`).
 struct FrozenSlot {
     mesh: usize,
     k: f64,
     gap: f64,
-    direction: DVector<f64>,
-    signed_coefficient: f64,
+    column: DVector<f64>,
+    /// Friction force on the pinion per metre of deflection.
+    w0: f64,
 }
 
 impl GearTrain {
@@ -47,13 +48,16 @@ impl GearTrain {
                     mean,
                     series,
                     phase,
-                } => slots.push(FrozenSlot {
-                    mesh: n,
-                    k: mean + series.value(p + phase),
-                    gap: e,
-                    direction: a.clone(),
-                    signed_coefficient: 0.0,
-                }),
+                } => {
+                    let k = mean + series.value(p + phase);
+                    slots.push(FrozenSlot {
+                        mesh: n,
+                        k,
+                        gap: e,
+                        column: k * &a,
+                        w0: 0.0,
+                    })
+                }
                 Stiffness::Table(table) => {
                     let u = p + mesh.offset;
                     let s = u - u.floor();
@@ -62,26 +66,24 @@ impl GearTrain {
                     let r = s - iv.start;
                     for (j, law) in iv.laws.iter().enumerate() {
                         let Some(law) = law else { continue };
-                        let mut direction = a.clone();
-                        let mut signed_coefficient = 0.0;
-                        if let Some(sf) = mesh
-                            .friction
-                            .as_ref()
-                            .and_then(|f| f.intervals[index][j].map(|sf| (sf, &f.b0, &f.b1)))
-                        {
-                            let (law_f, b0, b1) = sf;
-                            let arm = law_f.arm(r);
-                            signed_coefficient = law_f.signed_coefficient;
-                            for i in 0..m {
-                                direction[i] -= signed_coefficient * (b0[i] + arm * b1[i]);
+                        let k = law.k(r);
+                        let mut column = k * &a;
+                        let mut w0 = 0.0;
+                        if let Some(fr) = &mesh.friction {
+                            if let Some(sf) = fr.intervals[index][j] {
+                                let (u0, u1) = sf.weights(r);
+                                w0 = u0;
+                                for i in 0..m {
+                                    column[i] -= u0 * fr.b0[i] + u1 * fr.b1[i];
+                                }
                             }
                         }
                         slots.push(FrozenSlot {
                             mesh: n,
-                            k: law.k(r),
+                            k,
                             gap: e + law.g(r),
-                            direction,
-                            signed_coefficient,
+                            column,
+                            w0,
                         });
                     }
                 }
@@ -93,20 +95,25 @@ impl GearTrain {
             let mut rhs = DVector::from_column_slice(&self.f_ext);
             for (slot, _) in slots.iter().zip(&active).filter(|(_, &on)| on) {
                 let a = DVector::from_column_slice(&self.meshes[slot.mesh].a);
-                k += slot.k * &slot.direction * a.transpose();
-                rhs += slot.k * slot.gap * &slot.direction;
+                k += &slot.column * a.transpose();
+                rhs += slot.gap * &slot.column;
             }
             let xi = k
                 .lu()
                 .solve(&rhs)
                 .ok_or("no static equilibrium: the stiffness matrix at this phase is singular")?;
-            let forces: Vec<f64> = slots
+            let deflections: Vec<f64> = slots
                 .iter()
                 .map(|slot| {
                     let a = &self.meshes[slot.mesh].a;
                     let s: f64 = (0..m).map(|i| a[i] * xi[i]).sum();
-                    slot.k * (s - slot.gap)
+                    s - slot.gap
                 })
+                .collect();
+            let forces: Vec<f64> = slots
+                .iter()
+                .zip(&deflections)
+                .map(|(slot, d)| slot.k * d)
                 .collect();
             let mut changed = false;
             for (i, slot) in slots.iter().enumerate() {
@@ -121,7 +128,7 @@ impl GearTrain {
                 let mut friction_force = vec![0.0; self.meshes.len()];
                 for (i, slot) in slots.iter().enumerate().filter(|(i, _)| active[*i]) {
                     mesh_force[slot.mesh] += forces[i];
-                    friction_force[slot.mesh] += slot.signed_coefficient * forces[i];
+                    friction_force[slot.mesh] += slot.w0 * deflections[i];
                 }
                 return Ok(FrozenStatics {
                     xi: xi.as_slice().to_vec(),
