@@ -352,7 +352,11 @@ impl GearTrain {
                     Some(FrictionTable::new(
                         table,
                         pair.contact_ratio,
-                        |xi| fr.weights(&bent, xi),
+                        |xi| match &sm.helical {
+                            // Friction distributed along the contact line (He & Singh 2007).
+                            Some(h) => h.weights(fr.coefficient, xi),
+                            None => fr.weights(&bent, xi),
+                        },
                         (q.transpose() * &vectors.base).as_slice().to_vec(),
                         (q.transpose() * &vectors.per_arm).as_slice().to_vec(),
                     ))

@@ -13,7 +13,89 @@
 
 use super::spec::FrictionSpec;
 use super::{PairStiffness, TrainGear};
+use crate::mesh::helical::HelicalGeometry;
 use crate::scene::SceneError;
+
+/// A helical tooth-pair mesh (He & Singh 2007): the contact-line geometry and the stiffness
+/// density `k` along the lines.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HelicalPair {
+    pub geometry: HelicalGeometry,
+    pub density: f64,
+}
+
+impl HelicalPair {
+    /// The contact-line integrals of a pair whose line's top end has advanced `ξ` base pitches
+    /// from the start of active contact A (He & Singh eq. 11, `x_i = L_T1A + (s + i)λ`), or
+    /// `None` out of contact.
+    pub fn integrals(&self, xi: f64) -> Option<crate::mesh::helical::ContactLineIntegrals> {
+        self.geometry.contact_line(0, xi).map(|l| l.integrals())
+    }
+
+    /// Window of a pair in mesh cycles: the total contact ratio `(L_AD + W tan β_b)/λ`.
+    pub fn window(&self) -> f64 {
+        self.geometry.total_contact_ratio()
+    }
+
+    /// Positions in the window (mesh cycles) where an end of the line crosses A, P or D: the
+    /// pair stiffness is affine and the friction integrals quadratic between them.
+    pub fn knots(&self) -> Vec<f64> {
+        let g = &self.geometry;
+        let c = self.window();
+        let adv = g.helix_advance();
+        let mut k: Vec<f64> = [g.l_t1a, g.l_t1p, g.l_t1d]
+            .iter()
+            .flat_map(|&x| [x, x + adv])
+            .map(|x| (x - g.l_t1a) / g.base_pitch)
+            .filter(|&xi| xi > 0.0 && xi < c)
+            .collect();
+        k.push(0.0);
+        k.push(c);
+        k.sort_by(f64::total_cmp);
+        k.dedup_by(|a, b| (*a - *b).abs() < 1e-12);
+        k
+    }
+
+    /// Pair stiffness `k cos β_b Δz(ξ)` over the window, piecewise linear between the knots
+    /// (the one-sided limits at the knots from two interior samples: a spur line enters whole).
+    pub fn pair_stiffness(&self) -> PairStiffness {
+        let cos_b = self.geometry.base_helix_angle.cos();
+        let k = |xi: f64| {
+            self.integrals(xi)
+                .map_or(0.0, |i| self.density * cos_b * i.length)
+        };
+        let knots = self.knots();
+        let pieces = knots
+            .windows(2)
+            .map(|w| {
+                let width = w[1] - w[0];
+                let (q1, q3) = (k(w[0] + 0.25 * width), k(w[0] + 0.75 * width));
+                crate::mesh::Piece {
+                    start: w[0],
+                    end: w[1],
+                    k_start: 1.5 * q1 - 0.5 * q3,
+                    slope: (q3 - q1) / (0.5 * width),
+                }
+            })
+            .collect();
+        PairStiffness {
+            contact_ratio: self.window(),
+            pieces,
+        }
+    }
+
+    /// Distributed friction weights at window position `ξ` (He & Singh eqs. 7 and 10 with the
+    /// approach part of the line pushing the pinion along the sliding direction):
+    /// `w0 = μk(Δz_app − Δz_rec)`, `w1 = μk(∫_app x dz − ∫_rec x dz)`.
+    pub fn weights(&self, mu: f64, xi: f64) -> (f64, f64) {
+        self.integrals(xi).map_or((0.0, 0.0), |i| {
+            (
+                mu * self.density * (i.approach_length - i.recess_length),
+                mu * self.density * (i.approach_moment - i.recess_moment),
+            )
+        })
+    }
+}
 
 /// Tooth friction of one mesh.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -84,7 +166,8 @@ impl MeshFriction {
 }
 
 /// Validates `[mesh.friction]` (`field` is its name in messages) for a Model-1 mesh with
-/// contact ratio `c` and operating pressure angle `phi` (0 when not given).
+/// contact ratio `c` and operating pressure angle `phi` (0 when not given); a helical pair
+/// fixes the pitch line and has no friction-bending factor.
 pub(super) fn validate(
     field: &str,
     spec: &FrictionSpec,
@@ -92,6 +175,7 @@ pub(super) fn validate(
     gear: &TrainGear,
     phi: f64,
     c: f64,
+    helical: Option<&HelicalPair>,
 ) -> Result<MeshFriction, SceneError> {
     let err = |msg: String| Err(SceneError(msg));
     let mu = spec.coefficient;
@@ -116,6 +200,27 @@ pub(super) fn validate(
         return err(format!(
             "{field}: the friction arms need the mesh's pressure_angle (operating, rad)"
         ));
+    }
+    if let Some(h) = helical {
+        if bt != 0.0 {
+            return err(format!(
+                "{field}.bending_factor = {bt}: not part of the helical model (He & Singh 2007)"
+            ));
+        }
+        if let Some(p) = spec.pitch_point {
+            return err(format!(
+                "{field}.pitch_point = {p}: a helical pair's pitch line comes from its geometry"
+            ));
+        }
+        let g = &h.geometry;
+        return Ok(MeshFriction {
+            coefficient: mu,
+            bending_factor: 0.0,
+            pitch_point: (g.l_t1p - g.l_t1a) / g.base_pitch,
+            pitch_arm: g.l_t1p,
+            loa_length: g.x_g,
+            base_pitch: g.base_pitch,
+        });
     }
     let pitch_point = match spec.pitch_point {
         Some(p) if p.is_finite() && p > 0.0 && p < c => p,

@@ -15,7 +15,7 @@ use std::path::Path;
 use crate::mesh::{MeshStiffness, PhaseSeries, Piece};
 use crate::scene::{ContactLaw, InitialDte, SceneError, SolverSettings};
 
-pub use friction::MeshFriction;
+pub use friction::{HelicalPair, MeshFriction};
 pub use spec::TrainSpec;
 
 /// Bearing stiffness and damping of a gear with translational DOFs.
@@ -369,6 +369,8 @@ pub struct TrainMesh {
     pub force: MeshForceModel,
     /// Coulomb tooth friction (Model-1 meshes only).
     pub friction: Option<MeshFriction>,
+    /// Helical pairs (`kind = "helical"`): contact-line geometry for the distributed friction.
+    pub helical: Option<HelicalPair>,
     /// Mesh cycles per revolution of the input gear: `z_pinion·ω_pinion/ω_input`.
     pub cycles_per_input_rev: f64,
 }

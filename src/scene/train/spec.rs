@@ -193,6 +193,14 @@ pub enum PairStiffnessSpec {
         /// starts, falling linearly to `1 − α` (default ½: the constant halves of §2.5).
         load_share: Option<f64>,
     },
+    /// Helical pair of He & Singh (2007): a constant stiffness density along the contact lines
+    /// of the helical geometry (`src/mesh/helical`, `docs/helical.md`); the pair stiffness is
+    /// `k cos β_b Δz(ξ)`, its window the total contact ratio ε_α + ε_β.
+    Helical {
+        /// Stiffness density k per unit contact-line length projected on the face, N/m².
+        density: f64,
+        geometry: crate::mesh::helical::HelicalPairSpec,
+    },
     /// Piecewise-linear table over `ξ ∈ [0, contact_ratio]`.
     Table {
         contact_ratio: f64,

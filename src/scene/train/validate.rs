@@ -5,8 +5,8 @@ use std::collections::VecDeque;
 
 use super::spec::{PairStiffnessSpec, ShaftSpec, TrainMeshSpec, TrainSpec};
 use super::{
-    Bearing, GapTable, MeshForceModel, PairGap, PairModel, PairStiffness, Shaft, ShaftCoupling,
-    TipRelief, TrainGear, TrainMesh, TrainOperating, TrainScene,
+    Bearing, GapTable, HelicalPair, MeshForceModel, PairGap, PairModel, PairStiffness, Shaft,
+    ShaftCoupling, TipRelief, TrainGear, TrainMesh, TrainOperating, TrainScene,
 };
 use crate::mesh::PhaseSeries;
 use crate::scene::spec::{ContactLawSpec, InitialDteSpec};
@@ -535,6 +535,14 @@ fn mesh(
             f("friction")
         ));
     }
+    let helical = match &m.pairs {
+        Some(PairStiffnessSpec::Helical { density, geometry }) => {
+            let h = helical_pair(&f("pairs"), *density, geometry)?;
+            check_helical(&f("pairs"), &h, gp, gg, pressure_angle)?;
+            Some(h)
+        }
+        _ => None,
+    };
     let friction = match (&m.friction, &force) {
         (None, _) => None,
         (
@@ -551,6 +559,7 @@ fn mesh(
             gg,
             pressure_angle,
             pair.contact_ratio,
+            helical.as_ref(),
         )?),
         (Some(_), _) => {
             return err(format!(
@@ -573,12 +582,63 @@ fn mesh(
         centre_angle,
         force,
         friction,
+        helical,
         cycles_per_input_rev: 0.0,
     })
 }
 
+/// The helical pair of `kind = "helical"` (geometry checks by [`HelicalGeometry::new`]).
+fn helical_pair(
+    field: &str,
+    density: f64,
+    geometry: &crate::mesh::helical::HelicalPairSpec,
+) -> Result<HelicalPair> {
+    positive(&format!("{field}.density"), density)?;
+    let geometry =
+        crate::mesh::helical::HelicalGeometry::new(geometry, &format!("{field}.geometry."))
+            .map_err(SceneError)?;
+    Ok(HelicalPair { geometry, density })
+}
+
+/// A helical pair must be the gears of the mesh: teeth, base radii and pressure angle agree.
+fn check_helical(
+    field: &str,
+    h: &HelicalPair,
+    pinion: &TrainGear,
+    gear: &TrainGear,
+    pressure_angle: f64,
+) -> Result<()> {
+    for (name, g, hg) in [
+        ("pinion", pinion, &h.geometry.pinion),
+        ("gear", gear, &h.geometry.gear),
+    ] {
+        if g.teeth != hg.teeth {
+            return err(format!(
+                "{field}.geometry.{name}.teeth = {}: gear {:?} has {} teeth",
+                hg.teeth, g.name, g.teeth
+            ));
+        }
+        if (g.base_radius - hg.base_radius).abs() > 1e-9 * hg.base_radius {
+            return err(format!(
+                "{field}.geometry: the {name}'s base radius is {:e} m, gear {:?} has base_radius = {:e} m",
+                hg.base_radius, g.name, g.base_radius
+            ));
+        }
+    }
+    if pressure_angle != 0.0 && (pressure_angle - h.geometry.pressure_angle).abs() > 1e-12 {
+        return err(format!(
+            "{field}.geometry.transverse_pressure_angle: {} rad, but the mesh's pressure_angle = {pressure_angle}",
+            h.geometry.pressure_angle
+        ));
+    }
+    Ok(())
+}
+
 fn pair_stiffness(field: &str, spec: &PairStiffnessSpec) -> Result<PairStiffness> {
     match spec {
+        PairStiffnessSpec::Helical { density, geometry } => {
+            Ok(helical_pair(field, *density, geometry)?.pair_stiffness())
+        }
         PairStiffnessSpec::Rectangular {
             mean,
             peak_to_peak_ratio,

@@ -1,0 +1,226 @@
+//! He & Singh (2007) 6-DOF helical pair with sliding friction in the drivetrain graph (issue 6,
+//! part B, acceptance 4): per-tooth-pair stiffness `k cos β_b Δz` and friction distributed along
+//! the contact lines (eqs. 7, 10; restoring signs of notes §2.4 [SIGN]) on a mesh between two
+//! gears with bearings (x along the line of action, y off it, θ_z). As the bearings stiffen the
+//! DTE must approach the SDOF torsional model of eq. (24), `m_e δ̈ + K_e(t) δ = F_e`, whose
+//! `K_e` comes from the helical geometry module's own closed form (`K_p`, `K_g` of eqs. 18–21,
+//! inertia-weighted), integrated here by a fixed-step RK4.
+//!
+//! Data: the NASA-ART pair of the paper (notes §1, SI conversions §1.1), μ = 0.2,
+//! T_p = 2000 lb·in, 1000 rpm, undamped (as every result of the paper), stiffness density
+//! k = 8.23e5 lb/in² (notes §3 calibration: f_n ≈ 9.5 f_mesh).
+
+use std::f64::consts::TAU;
+
+use geardyn::mesh::helical::{FrictionStiffness, HelicalGeometry, HelicalPairSpec};
+use geardyn::model::train::{run_train, GearTrain};
+use geardyn::scene::train::TrainScene;
+
+const GEOMETRY: &str = r#"
+transverse_diametral_pitch = 314.96062992125985   # 8 per inch
+transverse_pressure_angle = 25.0
+helix_angle = 21.5
+helix_angle_reference = "pitch"
+face_width = 0.03175                              # 1.25 in
+centre_distance = 0.0889                          # 3.5 in
+[pinion]
+teeth = 25
+outside_diameter = 0.085852                       # 3.38 in
+[gear]
+teeth = 31
+outside_diameter = 0.104902                       # 4.13 in
+"#;
+
+const DENSITY: f64 = 8.23e5 * 6894.757293168; // lb/in² → N/m²
+const MU: f64 = 0.2;
+const J_P: f64 = 8.33e-3 * 0.1129848290276167;
+const J_G: f64 = 1.64e-2 * 0.1129848290276167;
+const M_P: f64 = 1.26e-2 * 175.12683524647636;
+const M_G: f64 = 1.58e-2 * 175.12683524647636;
+const T_P: f64 = 2000.0 * 0.1129848290276167;
+const RPM: f64 = 1000.0;
+
+fn geometry() -> HelicalGeometry {
+    let spec: HelicalPairSpec = toml::from_str(GEOMETRY).unwrap();
+    HelicalGeometry::new(&spec, "").unwrap()
+}
+
+/// The pair as a drivetrain scene; `bearing = None` means rigid bearings.
+fn scene(bearing: Option<f64>) -> TrainScene {
+    let g = geometry();
+    let bearings = |m: f64| match bearing {
+        Some(k) => format!("mass = {m:?}\nbearing_stiffness = [{k:?}, {k:?}]\n"),
+        None => String::new(),
+    };
+    let geometry_tables = GEOMETRY
+        .replace("[pinion]", "[mesh.pairs.geometry.pinion]")
+        .replace("[gear]", "[mesh.pairs.geometry.gear]");
+    let alpha = 25f64.to_radians();
+    let text = format!(
+        r#"
+name = "nasa_art_helical"
+[model]
+bearings = "{}"
+[[gear]]
+name = "pinion"
+teeth = 25
+base_radius = {:?}
+inertia = {J_P:?}
+{}
+[[gear]]
+name = "gear"
+teeth = 31
+base_radius = {:?}
+inertia = {J_G:?}
+{}
+[[mesh]]
+pinion = "pinion"
+gear = "gear"
+contact = "linear"
+model = "pairs"
+pressure_angle = {alpha:?}
+centre_angle = {:?}
+[mesh.pairs]
+kind = "helical"
+density = {DENSITY:?}
+[mesh.pairs.geometry]
+{geometry_tables}
+[mesh.friction]
+coefficient = {MU:?}
+[operating]
+input_speed = {:?}
+input_torque = {T_P:?}
+[solver]
+method = "rk"
+rk_method = "dop853"
+rtol = 1e-11
+"#,
+        if bearing.is_some() {
+            "compliant"
+        } else {
+            "rigid"
+        },
+        g.pinion.base_radius,
+        bearings(M_P),
+        g.gear.base_radius,
+        bearings(M_G),
+        -alpha,
+        RPM * TAU / 60.0,
+    );
+    TrainScene::from_toml_str(&text, "helical").unwrap()
+}
+
+fn params() -> FrictionStiffness {
+    FrictionStiffness {
+        density: DENSITY,
+        friction: MU,
+        pinion_inertia: J_P,
+        gear_inertia: J_G,
+    }
+}
+
+/// `K_e` of the geometry module at the graph's mesh phase `p`. The graph's cycle starts where
+/// the number of pairs drops (docs/train.md: slot j holds the pair at window position
+/// `ξ = s + c − 1 − j`); the geometry's phase `s_h` has pair i at `ξ = s_h + i`, so
+/// `s_h = frac(p + c − 1)`.
+fn k_e(g: &HelicalGeometry, p: f64) -> f64 {
+    let c = g.total_contact_ratio();
+    g.stiffness_at((p + c - 1.0).rem_euclid(1.0), &params())
+        .effective
+}
+
+/// The SDOF model (eq. 24, C_e = 0, ε = 0) by classical RK4 with `n` steps per mesh period.
+fn sdof(delta0: f64, f_mesh: f64, times: &[f64], n: usize) -> Vec<f64> {
+    let g = geometry();
+    let r_bp = g.pinion.base_radius;
+    let r_bg = g.gear.base_radius;
+    let m_e = J_P * J_G / (r_bg * r_bg * J_P + r_bp * r_bp * J_G);
+    let f_e = T_P / r_bp;
+    let acc = |t: f64, x: f64| (f_e - k_e(&g, f_mesh * t) * x) / m_e;
+    let h = 1.0 / (f_mesh * n as f64);
+    let (mut t, mut x, mut v) = (0.0, delta0, 0.0);
+    let mut out = Vec::with_capacity(times.len());
+    for &target in times {
+        while t < target - 1e-12 * h {
+            let step = h.min(target - t);
+            let (k1x, k1v) = (v, acc(t, x));
+            let (k2x, k2v) = (
+                v + 0.5 * step * k1v,
+                acc(t + 0.5 * step, x + 0.5 * step * k1x),
+            );
+            let (k3x, k3v) = (
+                v + 0.5 * step * k2v,
+                acc(t + 0.5 * step, x + 0.5 * step * k2x),
+            );
+            let (k4x, k4v) = (v + step * k3v, acc(t + step, x + step * k3x));
+            x += step / 6.0 * (k1x + 2.0 * k2x + 2.0 * k3x + k4x);
+            v += step / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+            t += step;
+        }
+        out.push(x);
+    }
+    out
+}
+
+#[test]
+fn rigid_bearing_statics_give_the_geometry_stiffness() {
+    // One elastic coordinate: the frozen statics give δ = F_e/K_e(s) with the friction moments
+    // of the contact-line integrals; K_e is the geometry module's closed form.
+    let g = geometry();
+    for p in [0.0, 0.1, 0.37, 0.5, 0.74, 0.9] {
+        let mut sc = scene(None);
+        sc.meshes[0].initial_phase = p;
+        let train = GearTrain::new(&sc).unwrap();
+        let st = train.frozen_equilibrium(0.0).unwrap();
+        let delta = st.xi[0] * train.mesh_row(0)[0];
+        let closed = T_P / g.pinion.base_radius / k_e(&g, p);
+        println!("p = {p}: δ = {delta:e} m, F_e/K_e = {closed:e} m");
+        assert!(
+            (delta - closed).abs() < 1e-12 * closed,
+            "{delta} vs {closed}"
+        );
+    }
+}
+
+#[test]
+fn six_dof_approaches_sdof_as_bearings_stiffen() {
+    let f_mesh = 25.0 * RPM / 60.0;
+    let periods = 5.0;
+    let (stop, dt) = (periods / f_mesh, 0.02 / f_mesh);
+    let mut errors = Vec::new();
+    let mut cases: Vec<Option<f64>> = [1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14].map(Some).to_vec();
+    cases.push(None);
+    println!("6-DOF vs SDOF DTE over {periods} mesh periods (μ = {MU}, undamped):");
+    for kb in cases {
+        let sc = scene(kb);
+        let run = run_train(&sc, stop, dt).unwrap();
+        let col = run.column("mesh1_dte").unwrap();
+        let dte: Vec<f64> = run.rows.iter().map(|r| r[col]).collect();
+        let reference = sdof(dte[0], f_mesh, &run.times, 20_000);
+        let scale = reference.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        let err = dte
+            .iter()
+            .zip(&reference)
+            .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()))
+            / scale;
+        let label = kb.map_or("rigid".to_owned(), |k| format!("{k:.0e} N/m"));
+        let y = run.column("pinion_y").map_or(0.0, |c| {
+            run.rows.iter().fold(0.0f64, |a, r| a.max(r[c].abs()))
+        });
+        println!("  bearings {label:>10}: max |DTE_6dof − DTE_sdof| / max|DTE| = {err:.3e}  (max |pinion_y| {y:.2e} m)");
+        errors.push(err);
+    }
+    for w in errors[..7].windows(2) {
+        assert!(
+            w[1] < w[0],
+            "the error must fall as the bearings stiffen: {errors:?}"
+        );
+    }
+    // Once k_b ≫ k_mesh the compliance enters as k_mesh/k_b: a decade per decade of k_b.
+    for w in errors[3..7].windows(2) {
+        assert!(w[1] < 0.15 * w[0], "not first order in 1/k_b: {errors:?}");
+    }
+    assert!(errors[6] < 1e-4, "stiffest bearings: {}", errors[6]);
+    // Rigid bearings: the graph model is the SDOF model (up to the integrators' tolerances).
+    assert!(errors[7] < 1e-8, "rigid bearings: {}", errors[7]);
+}
