@@ -224,3 +224,51 @@ fn six_dof_approaches_sdof_as_bearings_stiffen() {
     // Rigid bearings: the graph model is the SDOF model (up to the integrators' tolerances).
     assert!(errors[7] < 1e-8, "rigid bearings: {}", errors[7]);
 }
+
+#[test]
+fn bad_helical_friction_input_is_rejected() {
+    let text = |from: &str, to: &str| {
+        let sc = scene(Some(1e9));
+        let mut t = sc.source.clone();
+        assert!(t.contains(from), "{from}");
+        t = t.replacen(from, to, 1);
+        TrainScene::from_toml_str(&t, "t").unwrap_err().0
+    };
+    let msg = text(
+        "coefficient = 0.2",
+        "coefficient = 0.2\nbending_factor = 0.5",
+    );
+    assert!(
+        msg.contains("mesh[0].friction.bending_factor = 0.5") && msg.contains("helical"),
+        "{msg}"
+    );
+    let msg = text("coefficient = 0.2", "coefficient = 0.2\npitch_point = 1.0");
+    assert!(
+        msg.contains("mesh[0].friction.pitch_point = 1") && msg.contains("geometry"),
+        "{msg}"
+    );
+    let msg = text("coefficient = 0.2", "coefficient = -0.2");
+    assert!(msg.contains("mesh[0].friction.coefficient = -0.2"), "{msg}");
+    let r = geometry().pinion.base_radius;
+    let msg = text(
+        &format!("base_radius = {r:?}"),
+        &format!("base_radius = {:?}", r * 1.000001),
+    );
+    assert!(
+        msg.contains("mesh[0].pairs.geometry") && msg.contains("base radius"),
+        "{msg}"
+    );
+    let msg = text("density = ", "density = -");
+    assert!(msg.contains("mesh[0].pairs.density = -"), "{msg}");
+    let msg = text("helix_angle = 21.5", "helix_angle = 95.0");
+    assert!(
+        msg.contains("mesh[0].pairs.geometry.helix_angle = 95"),
+        "{msg}"
+    );
+    let alpha = format!("pressure_angle = {:?}", 25f64.to_radians());
+    let msg = text(&alpha, "pressure_angle = 0.4");
+    assert!(
+        msg.contains("mesh[0].pairs.geometry.transverse_pressure_angle") && msg.contains("0.4"),
+        "{msg}"
+    );
+}
