@@ -30,6 +30,10 @@ enum Command {
     Sweep(cli::analysis::SweepArgs),
     /// Harmonic balance with arclength continuation and stability (FRF branch).
     Hb(cli::analysis::HbArgs),
+    /// Closed-form monodromy of a linear scene with piecewise-linear stiffness (docs/helical.md).
+    Floquet(cli::floquet::FloquetArgs),
+    /// Parametric instability bands over pinion speed in rpm, from the closed-form monodromy.
+    Band(cli::floquet::BandArgs),
     /// Mesh stiffness over one mesh period from gear geometry (docs/stiffness.md).
     Stiffness(cli::stiffness::StiffnessArgs),
     /// FMI 2.0 Co-Simulation FMUs: build, print or check model descriptions.
@@ -47,6 +51,8 @@ fn main() -> ExitCode {
         Command::Simulate(args) => cli::simulate::run(args),
         Command::Modes(args) => cli::train::modes_command(&args.scene, args.rigid_bearings),
         Command::Periodic(args) => cli::analysis::periodic(args),
+        Command::Floquet(args) => cli::floquet::floquet(args),
+        Command::Band(args) => cli::floquet::band(args),
         Command::Sweep(args) => cli::analysis::sweep(args),
         Command::Hb(args) => cli::analysis::hb(args),
         Command::Stiffness(args) => cli::stiffness::run(args),

@@ -22,7 +22,7 @@ fn nasa_art(reference: HelixAngleReference, helix: f64) -> HelicalPairSpec {
         transverse_diametral_pitch: Some(8.0),
         transverse_pressure_angle: 25.0,
         helix_angle: helix,
-        helix_angle_reference: reference,
+        helix_angle_reference: reference.as_str().to_owned(),
         face_width: 1.25,
         centre_distance: Some(3.5),
         pinion: HelicalGearSpec {
@@ -316,7 +316,8 @@ fn without_helix_the_stiffness_is_the_rectangular_spur_wave() {
 #[test]
 fn bad_geometry_is_rejected_naming_field_and_value() {
     let p = HelixAngleReference::Pitch;
-    let cases: Vec<(Box<dyn Fn(&mut HelicalPairSpec)>, &str)> = vec![
+    type Edit = Box<dyn Fn(&mut HelicalPairSpec)>;
+    let cases: Vec<(Edit, &str)> = vec![
         (Box::new(|s| s.helix_angle = 90.0), "h.helix_angle = 90"),
         (Box::new(|s| s.helix_angle = -1.0), "h.helix_angle = -1"),
         (
@@ -330,6 +331,10 @@ fn bad_geometry_is_rejected_naming_field_and_value() {
             "h.centre_distance = 3.6",
         ),
         (Box::new(|s| s.pinion.teeth = 3), "h.pinion.teeth = 3"),
+        (
+            Box::new(|s| s.helix_angle_reference = "normal".into()),
+            "h.helix_angle_reference = \"normal\"",
+        ),
         (
             Box::new(|s| s.transverse_pressure_angle = 50.0),
             "h.transverse_pressure_angle = 50",

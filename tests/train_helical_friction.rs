@@ -15,6 +15,8 @@ use std::f64::consts::TAU;
 use geardyn::mesh::helical::{FrictionStiffness, HelicalGeometry, HelicalPairSpec};
 use geardyn::model::train::{run_train, GearTrain};
 use geardyn::scene::train::TrainScene;
+use geardyn::scene::Scene;
+use geardyn::simulation::Simulation;
 
 const GEOMETRY: &str = r#"
 transverse_diametral_pitch = 314.96062992125985   # 8 per inch
@@ -265,10 +267,101 @@ fn bad_helical_friction_input_is_rejected() {
         msg.contains("mesh[0].pairs.geometry.helix_angle = 95"),
         "{msg}"
     );
+    // The single-mesh `[mesh.stiffness] kind = "helical"` source is not a graph source.
+    let lumped = sc_text_lumped();
+    let msg = TrainScene::from_toml_str(&lumped, "t").unwrap_err().0;
+    assert!(
+        msg.contains("mesh[0].stiffness.kind = \"helical\""),
+        "{msg}"
+    );
     let alpha = format!("pressure_angle = {:?}", 25f64.to_radians());
     let msg = text(&alpha, "pressure_angle = 0.4");
     assert!(
         msg.contains("mesh[0].pairs.geometry.transverse_pressure_angle") && msg.contains("0.4"),
         "{msg}"
     );
+}
+
+/// The single-mesh SDOF scene of the helical module (`[mesh.stiffness] kind = "helical"`:
+/// He & Singh's eq. 24 with the piecewise-linear K_e of eq. 25) for the same pair, its phase
+/// shifted to the graph's reference (`s = frac(p + phase)`, `phase = c − 1`, see [`k_e`]).
+fn single_mesh_text(delta0: f64) -> String {
+    let g = geometry();
+    let phase = g.total_contact_ratio() - 1.0;
+    let tables = GEOMETRY
+        .replace("[pinion]", "[mesh.stiffness.helical.pinion]")
+        .replace("[gear]", "[mesh.stiffness.helical.gear]");
+    format!(
+        r#"
+name = "nasa_art_sdof"
+[[gear]]
+name = "pinion"
+teeth = 25
+base_radius = {:?}
+inertia = {J_P:?}
+[[gear]]
+name = "gear"
+teeth = 31
+base_radius = {:?}
+inertia = {J_G:?}
+[mesh]
+pinion = "pinion"
+gear = "gear"
+contact = "linear"
+[mesh.stiffness]
+kind = "helical"
+stiffness_density = {DENSITY:?}
+friction_coefficient = {MU:?}
+phase = {phase:?}
+[mesh.stiffness.helical]
+{tables}
+[operating]
+pinion_speed = {:?}
+input_torque = {T_P:?}
+[initial]
+dte = {delta0:?}
+[solver]
+method = "rk"
+rk_method = "dop853"
+rtol = 1e-11
+"#,
+        g.pinion.base_radius,
+        g.gear.base_radius,
+        RPM * TAU / 60.0,
+    )
+}
+
+fn sc_text_lumped() -> String {
+    single_mesh_text(2.5e-5).replace("[mesh]\n", "[model]\nbearings = \"rigid\"\n[[mesh]]\n")
+}
+
+#[test]
+fn six_dof_approaches_the_single_mesh_helical_model() {
+    // The shipped single-mesh SDOF (`geardyn::Simulation`, K_e linear between the region
+    // boundaries, eq. 25): the 6-DOF converges to it down to the linearisation of K_e
+    // (< 2e-4 of the mean for these data, notes §2.5).
+    let f_mesh = 25.0 * RPM / 60.0;
+    let n = 100;
+    let dt = 0.05 / f_mesh;
+    println!("6-DOF vs the single-mesh helical SDOF (eq. 25 K_e), 5 mesh periods:");
+    let mut errors = Vec::new();
+    for kb in [1e8, 1e10, 1e12, 1e14] {
+        let run = run_train(&scene(Some(kb)), n as f64 * dt, dt).unwrap();
+        let col = run.column("mesh1_dte").unwrap();
+        let sdof_scene = Scene::from_toml_str(&single_mesh_text(run.rows[0][col]), "sdof").unwrap();
+        let mut sim = Simulation::new(&sdof_scene).unwrap();
+        let (mut err, mut scale) = (0.0f64, 0.0f64);
+        for (k, row) in run.rows.iter().enumerate().skip(1) {
+            sim.advance_to(k as f64 * dt).unwrap();
+            let d = sim.outputs()[0];
+            err = err.max((row[col] - d).abs());
+            scale = scale.max(d.abs());
+        }
+        println!("  bearings {kb:.0e} N/m: {:.3e}", err / scale);
+        errors.push(err / scale);
+    }
+    for w in errors.windows(2) {
+        assert!(w[1] < w[0], "{errors:?}");
+    }
+    assert!(errors[3] < 1e-3, "{errors:?}");
 }

@@ -6,7 +6,9 @@
 //! Floquet multipliers are its eigenvalues, the response grows like `|μ_max|^(t/T)`
 //! (Nayfeh & Mook, *Nonlinear Oscillations*, §5.2; numerics-notes §2.3). For a
 //! piecewise-constant stiffness `M` is the exact product of the segment transition matrices,
-//! which the exact propagator forms while it tracks `∂y/∂y0`.
+//! which the exact propagator forms while it tracks `∂y/∂y0`. For a piecewise-*linear*
+//! stiffness (sloped pieces) the closed-form monodromy is [`super::LinearPeriodMap`], whose
+//! segments are propagated by the polynomial (Peano–Baker) series of `solve::polynomial`.
 
 use nalgebra::{Complex, DMatrix};
 
@@ -55,7 +57,8 @@ pub fn exact_monodromy(scene: &Scene) -> Result<Floquet, String> {
     if !pair.is_piecewise_lti() {
         return Err(
             "mesh.stiffness: the exact monodromy needs a piecewise-constant stiffness \
-             (constant or rectangular)"
+             (constant or rectangular); for piecewise-linear stiffness (trapezoidal, table, \
+             helical) use LinearPeriodMap (`geardyn floquet`)"
                 .into(),
         );
     }

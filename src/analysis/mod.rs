@@ -1,10 +1,14 @@
 //! Steady-state and stability analysis on top of the model and the propagators.
 
+pub mod band;
 pub mod floquet;
 pub mod hb;
+pub mod linear_period;
 pub mod shooting;
 pub mod sweep;
 
+pub use band::{instability_bands, InstabilityBand};
 pub use floquet::{exact_monodromy, Floquet};
+pub use linear_period::LinearPeriodMap;
 pub use shooting::{period_map, shoot, PeriodicOrbit, ShootingOptions, Stability};
 pub use sweep::{sweep, Direction, SweepOptions, SweepPoint, SWEEP_COLUMNS};

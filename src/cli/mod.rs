@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use geardyn::scene::Scene;
 
 pub mod analysis;
+pub mod floquet;
 pub mod simulate;
 pub mod stiffness;
 pub mod train;

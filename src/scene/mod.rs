@@ -4,6 +4,7 @@
 //! that the model is assembled from. The format is specified in `docs/model.md`.
 
 mod geometry;
+mod helical;
 pub mod spec;
 pub mod train;
 mod validate;
@@ -162,6 +163,10 @@ pub const EXAMPLES: &[(&str, &str)] = &[
     (
         "bugaru_pair",
         include_str!("../../fmu/bugaru_pair/scene.toml"),
+    ),
+    (
+        "helical_pair_friction",
+        include_str!("../../fmu/helical_pair_friction/scene.toml"),
     ),
 ];
 

@@ -7,6 +7,7 @@
 use serde::Deserialize;
 
 pub use crate::mesh::geometry::GearPairSpec;
+pub use crate::mesh::helical::HelicalPairSpec;
 
 /// A whole scene file.
 #[derive(Debug, Clone, Deserialize)]
@@ -129,6 +130,19 @@ pub enum StiffnessSpec {
         phase: f64,
         /// The gear pair, as in a gears file.
         geometry: Box<GearPairSpec>,
+    },
+    /// Helical pair with sliding friction, constant stiffness density along the contact lines
+    /// (He & Singh 2007; `docs/helical.md`): the paper's piecewise-linear K_e(t), eq. (25).
+    Helical {
+        /// Stiffness density k per unit contact-line length (projected on the face), N/m².
+        stiffness_density: f64,
+        /// Coulomb friction coefficient μ >= 0 (default 0).
+        #[serde(default)]
+        friction_coefficient: f64,
+        #[serde(default)]
+        phase: f64,
+        /// The helical gear pair.
+        helical: Box<HelicalPairSpec>,
     },
 }
 

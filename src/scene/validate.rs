@@ -117,6 +117,7 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
         StiffnessSpec::Geometry { .. } => {
             super::geometry::stiffness(&m.stiffness, &spec.operating, &pinion, &gear)?
         }
+        StiffnessSpec::Helical { .. } => super::helical::stiffness(&m.stiffness, &pinion, &gear)?,
         other => stiffness(other)?,
     };
     let (k_min, s_min) = stiffness.minimum();
@@ -300,6 +301,7 @@ fn stiffness_kind(spec: &StiffnessSpec) -> &'static str {
         StiffnessSpec::Fourier { .. } => "fourier",
         StiffnessSpec::Table { .. } => "table",
         StiffnessSpec::Geometry { .. } => "geometry",
+        StiffnessSpec::Helical { .. } => "helical",
     }
 }
 
@@ -407,5 +409,6 @@ pub(crate) fn stiffness(spec: &StiffnessSpec) -> Result<MeshStiffness> {
             MeshStiffness::table(phase_points, values, phase(*p)?)
         }
         StiffnessSpec::Geometry { .. } => unreachable!("resolved by scene::geometry"),
+        StiffnessSpec::Helical { .. } => unreachable!("resolved by scene::helical"),
     })
 }

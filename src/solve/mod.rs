@@ -9,6 +9,7 @@
 //! snapped onto the switching surface by the system before integration restarts.
 
 pub mod exact;
+pub mod polynomial;
 pub mod rk;
 pub mod roots;
 pub mod variational;

@@ -103,7 +103,9 @@ impl HelicalGeometry {
             90.0,
             "must be a finite angle in [0°, 90°) (0 is a spur pair)",
         )?;
-        let (pitch_helix, base_helix) = match spec.helix_angle_reference {
+        let reference =
+            HelixAngleReference::parse(&f("helix_angle_reference"), &spec.helix_angle_reference)?;
+        let (pitch_helix, base_helix) = match reference {
             HelixAngleReference::Pitch => (helix, (helix.tan() * alpha.cos()).atan()),
             HelixAngleReference::Base => ((helix.tan() / alpha.cos()).atan(), helix),
         };

@@ -6,8 +6,7 @@ use serde::Deserialize;
 
 /// Which cylinder the given helix angle is measured on (He & Singh 2007 print "helix angle
 /// 21.5°" without saying; their eq. (2) uses it as the base helix angle β_b).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum HelixAngleReference {
     /// The standard reading: the angle on the pitch cylinder, `tan β_b = tan β cos α_t`.
     Pitch,
@@ -27,8 +26,9 @@ pub struct HelicalPairSpec {
     pub transverse_pressure_angle: f64,
     /// Helix angle, degrees, in [0, 90): 0 is a spur pair.
     pub helix_angle: f64,
-    /// Where `helix_angle` is measured: `"pitch"` or `"base"` (required: the paper is ambiguous).
-    pub helix_angle_reference: HelixAngleReference,
+    /// Where `helix_angle` is measured: `"pitch"` or `"base"` (required: the paper is
+    /// ambiguous); parsed by [`HelixAngleReference::parse`] so a bad value is named.
+    pub helix_angle_reference: String,
     /// Face width W (common to both gears).
     pub face_width: f64,
     /// Centre distance; must equal the sum of the pitch radii (no profile shift). Default: that sum.
@@ -49,4 +49,26 @@ pub struct HelicalGearSpec {
     pub outside_diameter: Option<f64>,
     /// Root diameter (checked for tip-to-root clearance only); default none.
     pub root_diameter: Option<f64>,
+}
+
+impl HelixAngleReference {
+    /// `"pitch"` or `"base"`.
+    pub fn parse(field: &str, text: &str) -> Result<HelixAngleReference, String> {
+        match text {
+            "pitch" => Ok(HelixAngleReference::Pitch),
+            "base" => Ok(HelixAngleReference::Base),
+            other => Err(format!(
+                "{field} = {other:?}: must be \"pitch\" (angle on the pitch cylinder) or \"base\" \
+                 (the base helix angle β_b)"
+            )),
+        }
+    }
+
+    /// The TOML spelling.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            HelixAngleReference::Pitch => "pitch",
+            HelixAngleReference::Base => "base",
+        }
+    }
 }

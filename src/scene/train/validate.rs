@@ -383,6 +383,21 @@ fn mesh(
             let Some(spec) = &m.stiffness else {
                 return err(format!("{}: missing (lumped mesh)", f("stiffness")));
             };
+            // Sources resolved from the gears of a single-mesh scene are not wired into the
+            // graph (they would reach `validate::stiffness`, which does not resolve them).
+            let from_gears = match spec {
+                crate::scene::spec::StiffnessSpec::Geometry { .. } => Some("geometry"),
+                crate::scene::spec::StiffnessSpec::Helical { .. } => Some("helical"),
+                _ => None,
+            };
+            if let Some(kind) = from_gears {
+                return err(format!(
+                    "{}.kind = {kind:?}: not available in drivetrain scenes (single-mesh format \
+                     only); for helical tooth pairs with friction use model = \"pairs\" with \
+                     [mesh.pairs] kind = \"helical\"",
+                    f("stiffness")
+                ));
+            }
             let stiffness = crate::scene::validate::stiffness(spec)
                 .map_err(|e| SceneError(e.0.replacen("mesh.", &format!("mesh[{i}]."), 1)))?;
             let (k_min, s_min) = stiffness.minimum();
