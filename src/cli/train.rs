@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 
 use geardyn::model::train::mesh::CycleTable;
-use geardyn::model::train::{modes, run_train, statics, Assembly};
+use geardyn::model::train::{modes, run_train, statics, Assembly, GearTrain};
 use geardyn::output;
 use geardyn::scene::train::{MeshForceModel, TrainScene};
 use geardyn::scene::SolverSettings;
@@ -76,6 +76,23 @@ pub fn modes_command(path: &Path, rigid_bearings: bool) -> Result<(), String> {
             }
         }
         Err(e) => println!("  {e}"),
+    }
+    if scene.meshes.iter().any(|m| m.friction.is_some()) {
+        // The statics above are of the frictionless mean system (modes too); with friction
+        // the static mesh force depends on the phase (Liu 2007 eq. 4.40).
+        let train = GearTrain::new(&scene)?;
+        println!("with tooth friction, frozen at the initial mesh phases (Liu 2007 eq. 4.40):");
+        match train.frozen_equilibrium(0.0) {
+            Ok(st) => {
+                for (n, m) in scene.meshes.iter().enumerate() {
+                    println!(
+                        "  {:<10} mesh force {:>12.4} N   friction force {:>12.4} N",
+                        m.name, st.mesh_force[n], st.friction_force[n]
+                    );
+                }
+            }
+            Err(e) => println!("  {e}"),
+        }
     }
     Ok(())
 }

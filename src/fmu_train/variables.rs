@@ -24,7 +24,7 @@ pub const VR_OUTPUT0: u32 = 10000;
 pub const BLOCK: usize = 1000;
 
 /// Per-mesh output quantities: (suffix, unit, Integer?, description).
-const MESH_OUTPUTS: [(&str, Option<&str>, bool, &str); 9] = [
+const MESH_OUTPUTS: [(&str, Option<&str>, bool, &str); 10] = [
     (
         "dte",
         Some("m"),
@@ -68,6 +68,12 @@ const MESH_OUTPUTS: [(&str, Option<&str>, bool, &str); 9] = [
         None,
         false,
         "Fraction of the time since the (re)start with total contact loss",
+    ),
+    (
+        "friction_force",
+        Some("N"),
+        false,
+        "Tooth friction force on the pinion along the flanks' sliding direction (meshes with [mesh.friction])",
     ),
 ];
 

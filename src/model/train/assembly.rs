@@ -78,6 +78,23 @@ pub struct Assembly {
     pub output_load: DVector<f64>,
     /// Twist vectors of the elastic shafts (candidates for elastic coordinates).
     pub shaft_twist: Vec<DVector<f64>>,
+    /// Per mesh with tooth friction: the sliding-direction vectors of [`FrictionVectors`].
+    pub friction: Vec<Option<FrictionVectors>>,
+}
+
+/// Generalised direction of the friction force of a tooth pair of a mesh with friction:
+/// `t(l) = base + l·per_arm`, `l` the pair's contact distance from the pinion's base tangent
+/// point. A friction force `f` (N, on the pinion along the flanks' common off-line-of-action
+/// velocity `ê_s = σ_a ẑ × ℓ`, equal and opposite on the gear) does the virtual work
+/// `f tᵀδq`: it turns the pinion with arm `l`, the gear with arm `D − l` (against its
+/// rotation) and pushes the bearings along `±ê_s` (Liu 2007 eq. 4.44's `L` matrix, formed by
+/// virtual work instead of transcribed: notes §4.3).
+#[derive(Debug, Clone)]
+pub struct FrictionVectors {
+    /// `−(D/ρ_b) e_{u_b} + ê_s·(e_{w_a} − e_{w_b})`.
+    pub base: DVector<f64>,
+    /// `e_{u_a}/ρ_a + e_{u_b}/ρ_b` (per metre of arm).
+    pub per_arm: DVector<f64>,
 }
 
 impl Assembly {
@@ -125,12 +142,31 @@ impl Assembly {
                 (c, s)
             })
             .collect();
+        // Direction of the tooth flanks' off-line-of-action velocity, `ê_s = σ_a ẑ × ℓ`, along
+        // which friction acts (Liu 2007 Ch. 5: the friction force is perpendicular to the
+        // line of action).
+        let sliding: Vec<(f64, f64)> = scene
+            .meshes
+            .iter()
+            .zip(&loa)
+            .map(|(m, l)| {
+                let s = scene.rotation[m.pinion];
+                (-s * l.1, s * l.0)
+            })
+            .collect();
         // A bearing direction no line of action has a component along carries no force and
         // is never excited: its DOF is omitted (Liu 2007 §2.2 drops y_1 for this reason).
+        // With tooth friction the off-line-of-action direction carries the friction force.
         let coupled = |g: usize, axis: usize| {
-            scene.meshes.iter().zip(&loa).any(|(m, l)| {
-                (m.pinion == g || m.gear == g) && (if axis == 0 { l.0 } else { l.1 }) != 0.0
-            })
+            let along = |v: &(f64, f64)| if axis == 0 { v.0 } else { v.1 };
+            scene
+                .meshes
+                .iter()
+                .zip(loa.iter().zip(&sliding))
+                .any(|(m, (l, e))| {
+                    (m.pinion == g || m.gear == g)
+                        && (along(l) != 0.0 || (m.friction.is_some() && along(e) != 0.0))
+                })
         };
 
         let mut dofs = Vec::new();
@@ -222,6 +258,29 @@ impl Assembly {
             }
             mesh.push(d);
         }
+        let friction = scene
+            .meshes
+            .iter()
+            .zip(&sliding)
+            .map(|(m, e)| {
+                let fr = m.friction.as_ref()?;
+                let (ba, bb) = (body_of[m.pinion], body_of[m.gear]);
+                let mut base = DVector::zeros(n);
+                let mut per_arm = DVector::zeros(n);
+                base[body_dof[bb]] -= fr.loa_length / body_radius[bb];
+                per_arm[body_dof[ba]] += 1.0 / body_radius[ba];
+                per_arm[body_dof[bb]] += 1.0 / body_radius[bb];
+                for (g, sign) in [(m.pinion, 1.0), (m.gear, -1.0)] {
+                    if trans[g][0] != usize::MAX {
+                        base[trans[g][0]] += sign * e.0;
+                    }
+                    if trans[g][1] != usize::MAX {
+                        base[trans[g][1]] += sign * e.1;
+                    }
+                }
+                Some(FrictionVectors { base, per_arm })
+            })
+            .collect();
         let mean_stiffness = scene.meshes.iter().map(|m| m.mean_stiffness()).collect();
         // A torque T on a gear of body b does work T δθ = (T/ρ_b) δu_b.
         let input_load = rot(scene.input_gear);
@@ -242,6 +301,7 @@ impl Assembly {
             input_load,
             output_load,
             shaft_twist,
+            friction,
         }
     }
 

@@ -3,6 +3,7 @@
 //! hybrid system for the solvers.
 //!
 //! - [`assembly`]: DOFs, `M`, `K_b`, `C_b`, mesh vectors `d_n`, rigid-body reduction;
+//! - [`friction`]: tooth friction of Model-1 meshes over the mesh cycle (Ch. 5);
 //! - [`mesh`]: the mesh cycle as tooth-pair slots with stiffness and tip-relief gaps;
 //! - [`statics`]: loaded STE / NLTE by active set, static equilibrium;
 //! - [`modes`]: natural frequencies and shapes of the mean system;
@@ -10,6 +11,7 @@
 //! - [`simulation`]: [`TrainSimulation`], the propagator driver.
 
 pub mod assembly;
+pub mod friction;
 pub mod mesh;
 pub mod modes;
 pub mod simulation;
@@ -20,4 +22,6 @@ pub use assembly::{Assembly, DofKind, Reduction};
 pub use modes::{modes, Mode};
 pub use simulation::TrainSimState;
 pub use simulation::{run_train, TrainSimulation, TrainTrajectory};
-pub use system::{GearTrain, MeshRunState, MeshState, SlotContact, TrainInputs, TrainRunState};
+pub use system::{
+    FrozenStatics, GearTrain, MeshRunState, MeshState, SlotContact, TrainInputs, TrainRunState,
+};

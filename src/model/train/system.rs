@@ -23,6 +23,7 @@ use std::f64::consts::TAU;
 use nalgebra::{DMatrix, DVector};
 
 use super::assembly::{generalized_eigen, Assembly, DofKind, Reduction};
+use super::friction::FrictionTable;
 use super::mesh::{CycleTable, Interval, SlotLaw};
 use super::statics::{equilibrium, loaded_ste, Ste};
 use crate::mesh::{MeshStiffness, PhaseSeries};
@@ -32,7 +33,10 @@ use crate::scene::{ContactLaw, InitialDte};
 use crate::solve::exact::PiecewiseLti;
 use crate::solve::HybridSystem;
 
+mod friction;
+mod frozen;
 mod snapshot;
+pub use frozen::FrozenStatics;
 pub use snapshot::{MeshRunState, TrainRunState};
 
 /// Contact flag of one tooth-pair slot.
@@ -84,6 +88,8 @@ struct MeshRt {
     model2: Option<CycleTable>,
     /// A phase-ramp state in the augmented LTI state (affine gaps).
     ramp: bool,
+    /// Tooth friction (Model-1 meshes with `[mesh.friction]`).
+    friction: Option<FrictionTable>,
     cycle: f64,
     interval: usize,
     flags: Vec<SlotContact>,
@@ -310,7 +316,11 @@ impl GearTrain {
                     pair,
                     relief,
                 } => {
-                    let pairs = CycleTable::pairs(pair, relief);
+                    let pairs = match &sm.friction {
+                        // Eq. (4.42): k(1 ± β) per pair, split at the pitch point.
+                        Some(fr) => CycleTable::pairs(&fr.pair_stiffness(pair), relief),
+                        None => CycleTable::pairs(pair, relief),
+                    };
                     let table = match model {
                         PairModel::PerPair => pairs.clone(),
                         PairModel::Nlte => nlte_table(&pairs),
@@ -331,6 +341,28 @@ impl GearTrain {
                     .any(|iv| iv.laws.iter().flatten().any(|l| l.g1 != 0.0)),
                 _ => false,
             } || model2.is_some();
+            let friction = match (&sm.friction, &stiffness, &sm.force, &asm.friction[n]) {
+                (
+                    Some(fr),
+                    Stiffness::Table(table),
+                    MeshForceModel::Pairs { pair, .. },
+                    Some(vectors),
+                ) => {
+                    let bent = fr.pair_stiffness(pair);
+                    Some(FrictionTable::new(
+                        table,
+                        pair.contact_ratio,
+                        |xi| match &sm.helical {
+                            // Friction distributed along the contact line (He & Singh 2007).
+                            Some(h) => h.weights(fr.coefficient, xi),
+                            None => fr.weights(&bent, xi),
+                        },
+                        (q.transpose() * &vectors.base).as_slice().to_vec(),
+                        (q.transpose() * &vectors.per_arm).as_slice().to_vec(),
+                    ))
+                }
+                _ => None,
+            };
             meshes.push(MeshRt {
                 a: a_vecs[n].as_slice().to_vec(),
                 dte: (q.transpose() * &asm.dte[n]).as_slice().to_vec(),
@@ -344,6 +376,7 @@ impl GearTrain {
                 k_mean: asm.mean_stiffness[n],
                 model2,
                 ramp,
+                friction,
                 cycle: 0.0,
                 interval: 0,
                 flags: vec![SlotContact::Drive; slots],
@@ -430,6 +463,9 @@ impl GearTrain {
             let slots = if per_pair { self.meshes[n].slots() } else { 0 };
             for j in 0..slots {
                 names.push(format!("{}_pair{j}_force", m.name));
+            }
+            if self.meshes[n].friction.is_some() {
+                names.push(format!("{}_friction_force", m.name));
             }
             self.pair_outputs.push(slots);
         }
@@ -535,7 +571,9 @@ impl GearTrain {
 
     /// Whether every segment is LTI in the augmented state (exact propagator).
     pub fn is_piecewise_lti(&self) -> bool {
+        // Friction arms move with the phase: the friction moment is not piecewise constant.
         self.key_fits
+            && self.meshes.iter().all(|m| m.friction.is_none())
             && self.meshes.iter().all(|m| match &m.stiffness {
                 Stiffness::Table(t) => t.stiffness_piecewise_constant(),
                 Stiffness::Smooth { .. } => false,
@@ -857,6 +895,9 @@ impl GearTrain {
                 out.resize(start + slots, 0.0);
                 self.mesh_force(n, t, y, Some(&mut out[start..]));
             }
+            if self.meshes[n].friction.is_some() {
+                out.push(self.friction_force(n, t, y));
+            }
         }
         for (i, _) in &self.scene_translations {
             let row = self.q.row(*i);
@@ -1012,6 +1053,10 @@ impl HybridSystem for GearTrain {
             acc[i] = f;
         }
         for n in 0..self.meshes.len() {
+            if self.meshes[n].friction.is_some() {
+                self.add_friction_mesh_force(n, t, y, &mut acc);
+                continue;
+            }
             let force = self.mesh_force(n, t, y, None);
             let a = &self.meshes[n].a;
             for i in 0..m {
@@ -1280,6 +1325,17 @@ impl PiecewiseLti for GearTrain {
             };
             let a = DVector::from_column_slice(&mesh.a);
             k += kmax * &a * a.transpose();
+            if let Some(fr) = &mesh.friction {
+                // The friction stiffness (w0 b0 + w1 b1) aᵀ at its largest weights.
+                let t = DVector::from_iterator(
+                    m,
+                    fr.b0
+                        .iter()
+                        .zip(&fr.b1)
+                        .map(|(b0, b1)| b0.abs() * fr.bound.0 + b1.abs() * fr.bound.1),
+                );
+                k += t * a.abs().transpose();
+            }
         }
         let minv = DMatrix::from_row_slice(m, m, &self.minv);
         let prod = minv * k;

@@ -6,6 +6,7 @@
 //! `docs/train.md`. A single-mesh scene of `docs/model.md` is read here as a train with one
 //! mesh, so the single pair is one case of the graph.
 
+mod friction;
 pub mod spec;
 mod validate;
 
@@ -14,6 +15,7 @@ use std::path::Path;
 use crate::mesh::{MeshStiffness, PhaseSeries, Piece};
 use crate::scene::{ContactLaw, InitialDte, SceneError, SolverSettings};
 
+pub use friction::{HelicalPair, MeshFriction};
 pub use spec::TrainSpec;
 
 /// Bearing stiffness and damping of a gear with translational DOFs.
@@ -94,6 +96,76 @@ impl PairStiffness {
                 flat(c - 1.0, 1.0, k_single),
                 flat(1.0, c, 0.5 * k_double),
             ],
+        }
+    }
+
+    /// Liu 2007 §5.2 (frictionless part of eq. 4.43): the rectangular idealisation with a
+    /// linear load share in double contact. The leaving pair carries `α K_d` when double
+    /// contact starts and `(1 − α) K_d` when it ends, the entering pair the rest, so the mesh
+    /// stiffness is the rectangular wave of [`PairStiffness::rectangular`] (which is `α = ½`).
+    pub fn rectangular_shared(mean: f64, ratio: f64, c: f64, alpha: f64) -> Self {
+        let k_single = mean * (1.0 + ratio * (1.0 - c));
+        let k_double = mean * (1.0 + ratio * (2.0 - c));
+        let slope = (2.0 * alpha - 1.0) * k_double / (c - 1.0);
+        PairStiffness {
+            contact_ratio: c,
+            pieces: vec![
+                Piece {
+                    start: 0.0,
+                    end: c - 1.0,
+                    k_start: (1.0 - alpha) * k_double,
+                    slope,
+                },
+                Piece {
+                    start: c - 1.0,
+                    end: 1.0,
+                    k_start: k_single,
+                    slope: 0.0,
+                },
+                Piece {
+                    start: 1.0,
+                    end: c,
+                    k_start: alpha * k_double,
+                    slope: -slope,
+                },
+            ],
+        }
+    }
+
+    /// The friction-bending pair stiffness of Liu 2007 eq. (4.42), applied pair by pair (the
+    /// "physical" variant of notes §4.2 [R]): `k(1 + β)` in approach (`ξ < pitch`, sliding
+    /// velocity positive), `k(1 − β)` in recess, `β = β̃μ`. The pieces are split at the pitch
+    /// point, which therefore is a knot of the mesh cycle even for `β = 0`.
+    pub fn with_friction_bending(&self, pitch: f64, beta: f64) -> Self {
+        let mut pieces = Vec::with_capacity(self.pieces.len() + 1);
+        for p in &self.pieces {
+            let mut parts = vec![*p];
+            if p.start < pitch && pitch < p.end {
+                parts = vec![
+                    Piece { end: pitch, ..*p },
+                    Piece {
+                        start: pitch,
+                        k_start: p.value(pitch),
+                        ..*p
+                    },
+                ];
+            }
+            for q in parts {
+                let scale = if q.start < pitch {
+                    1.0 + beta
+                } else {
+                    1.0 - beta
+                };
+                pieces.push(Piece {
+                    k_start: q.k_start * scale,
+                    slope: q.slope * scale,
+                    ..q
+                });
+            }
+        }
+        PairStiffness {
+            contact_ratio: self.contact_ratio,
+            pieces,
         }
     }
 
@@ -295,6 +367,10 @@ pub struct TrainMesh {
     /// Centre-line direction from pinion to gear, rad.
     pub centre_angle: f64,
     pub force: MeshForceModel,
+    /// Coulomb tooth friction (Model-1 meshes only).
+    pub friction: Option<MeshFriction>,
+    /// Helical pairs (`kind = "helical"`): contact-line geometry for the distributed friction.
+    pub helical: Option<HelicalPair>,
     /// Mesh cycles per revolution of the input gear: `z_pinion·ω_pinion/ω_input`.
     pub cycles_per_input_rev: f64,
 }
@@ -344,7 +420,7 @@ pub struct TrainScene {
     pub source: String,
 }
 
-/// Built-in drivetrain scenes (`fmu/<name>/scene.toml`).
+/// Built-in drivetrain scenes (`fmu/<name>/scene.toml`, `examples/<name>.toml`).
 pub const TRAIN_EXAMPLES: &[(&str, &str)] = &[
     (
         "idler_gearset",
@@ -353,6 +429,10 @@ pub const TRAIN_EXAMPLES: &[(&str, &str)] = &[
     (
         "countershaft_gearset",
         include_str!("../../../fmu/countershaft_gearset/scene.toml"),
+    ),
+    (
+        "friction_pair",
+        include_str!("../../../examples/friction_pair.toml"),
     ),
 ];
 

@@ -153,6 +153,22 @@ pub struct TrainMeshSpec {
     pub tip_relief: Option<TipReliefSpec>,
     /// Tabulated pair gap over the engagement window (instead of tip_relief).
     pub gaps: Option<GapTableSpec>,
+    /// Coulomb tooth friction of the tooth pairs (Model-1 only; Liu 2007 Ch. 5).
+    pub friction: Option<FrictionSpec>,
+}
+
+/// `[mesh.friction]`: Coulomb sliding friction on every tooth pair (Liu 2007 Ch. 5).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FrictionSpec {
+    /// Friction coefficient μ (>= 0).
+    pub coefficient: f64,
+    /// Friction-bending factor β̃ of eq. (4.42): pair stiffness `k(1 ± β̃μ)` (default 0).
+    #[serde(default)]
+    pub bending_factor: f64,
+    /// Position of the pitch point in the pair's engagement window, mesh cycles
+    /// (default: from the gear geometry with standard addenda).
+    pub pitch_point: Option<f64>,
 }
 
 /// A pair gap table: `points` from 0 to the contact ratio (mesh cycles), `values` in m.
@@ -173,6 +189,17 @@ pub enum PairStiffnessSpec {
         mean: f64,
         peak_to_peak_ratio: f64,
         contact_ratio: f64,
+        /// Liu 2007 §5.2: share α of `K_d` the leaving pair carries when double contact
+        /// starts, falling linearly to `1 − α` (default ½: the constant halves of §2.5).
+        load_share: Option<f64>,
+    },
+    /// Helical pair of He & Singh (2007): a constant stiffness density along the contact lines
+    /// of the helical geometry (`src/mesh/helical`, `docs/helical.md`); the pair stiffness is
+    /// `k cos β_b Δz(ξ)`, its window the total contact ratio ε_α + ε_β.
+    Helical {
+        /// Stiffness density k per unit contact-line length projected on the face, N/m².
+        density: f64,
+        geometry: crate::mesh::helical::HelicalPairSpec,
     },
     /// Piecewise-linear table over `ξ ∈ [0, contact_ratio]`.
     Table {

@@ -5,8 +5,8 @@ use std::collections::VecDeque;
 
 use super::spec::{PairStiffnessSpec, ShaftSpec, TrainMeshSpec, TrainSpec};
 use super::{
-    Bearing, GapTable, MeshForceModel, PairGap, PairModel, PairStiffness, Shaft, ShaftCoupling,
-    TipRelief, TrainGear, TrainMesh, TrainOperating, TrainScene,
+    Bearing, GapTable, HelicalPair, MeshForceModel, PairGap, PairModel, PairStiffness, Shaft,
+    ShaftCoupling, TipRelief, TrainGear, TrainMesh, TrainOperating, TrainScene,
 };
 use crate::mesh::PhaseSeries;
 use crate::scene::spec::{ContactLawSpec, InitialDteSpec};
@@ -383,6 +383,21 @@ fn mesh(
             let Some(spec) = &m.stiffness else {
                 return err(format!("{}: missing (lumped mesh)", f("stiffness")));
             };
+            // Sources resolved from the gears of a single-mesh scene are not wired into the
+            // graph (they would reach `validate::stiffness`, which does not resolve them).
+            let from_gears = match spec {
+                crate::scene::spec::StiffnessSpec::Geometry { .. } => Some("geometry"),
+                crate::scene::spec::StiffnessSpec::Helical { .. } => Some("helical"),
+                _ => None,
+            };
+            if let Some(kind) = from_gears {
+                return err(format!(
+                    "{}.kind = {kind:?}: not available in drivetrain scenes (single-mesh format \
+                     only); for helical tooth pairs with friction use model = \"pairs\" with \
+                     [mesh.pairs] kind = \"helical\"",
+                    f("stiffness")
+                ));
+            }
             let stiffness = crate::scene::validate::stiffness(spec)
                 .map_err(|e| SceneError(e.0.replacen("mesh.", &format!("mesh[{i}]."), 1)))?;
             let (k_min, s_min) = stiffness.minimum();
@@ -528,6 +543,48 @@ fn mesh(
         None => 0.0,
     };
 
+    if m.friction.is_some() && matches!(contact, ContactLaw::Backlash { .. }) {
+        return err(format!(
+            "{}: tooth friction is modelled on the drive flanks only; contact = \"backlash\" \
+             (back-side contact on the other line of action) is not supported with it",
+            f("friction")
+        ));
+    }
+    let helical = match &m.pairs {
+        Some(PairStiffnessSpec::Helical { density, geometry }) => {
+            let h = helical_pair(&f("pairs"), *density, geometry)?;
+            check_helical(&f("pairs"), &h, gp, gg, pressure_angle)?;
+            Some(h)
+        }
+        _ => None,
+    };
+    let friction = match (&m.friction, &force) {
+        (None, _) => None,
+        (
+            Some(spec),
+            MeshForceModel::Pairs {
+                model: PairModel::PerPair,
+                pair,
+                ..
+            },
+        ) => Some(super::friction::validate(
+            &f("friction"),
+            spec,
+            gp,
+            gg,
+            pressure_angle,
+            pair.contact_ratio,
+            helical.as_ref(),
+        )?),
+        (Some(_), _) => {
+            return err(format!(
+            "{}: tooth friction acts per tooth pair and needs model = \"pairs\" (model is {:?})",
+            f("friction"),
+            m.model.as_deref().unwrap_or("lumped")
+        ))
+        }
+    };
+
     Ok(TrainMesh {
         name: m.name.clone().unwrap_or_else(|| format!("mesh{}", i + 1)),
         pinion,
@@ -539,16 +596,69 @@ fn mesh(
         pressure_angle,
         centre_angle,
         force,
+        friction,
+        helical,
         cycles_per_input_rev: 0.0,
     })
 }
 
+/// The helical pair of `kind = "helical"` (geometry checks by [`HelicalGeometry::new`]).
+fn helical_pair(
+    field: &str,
+    density: f64,
+    geometry: &crate::mesh::helical::HelicalPairSpec,
+) -> Result<HelicalPair> {
+    positive(&format!("{field}.density"), density)?;
+    let geometry =
+        crate::mesh::helical::HelicalGeometry::new(geometry, &format!("{field}.geometry."))
+            .map_err(SceneError)?;
+    Ok(HelicalPair { geometry, density })
+}
+
+/// A helical pair must be the gears of the mesh: teeth, base radii and pressure angle agree.
+fn check_helical(
+    field: &str,
+    h: &HelicalPair,
+    pinion: &TrainGear,
+    gear: &TrainGear,
+    pressure_angle: f64,
+) -> Result<()> {
+    for (name, g, hg) in [
+        ("pinion", pinion, &h.geometry.pinion),
+        ("gear", gear, &h.geometry.gear),
+    ] {
+        if g.teeth != hg.teeth {
+            return err(format!(
+                "{field}.geometry.{name}.teeth = {}: gear {:?} has {} teeth",
+                hg.teeth, g.name, g.teeth
+            ));
+        }
+        if (g.base_radius - hg.base_radius).abs() > 1e-9 * hg.base_radius {
+            return err(format!(
+                "{field}.geometry: the {name}'s base radius is {:e} m, gear {:?} has base_radius = {:e} m",
+                hg.base_radius, g.name, g.base_radius
+            ));
+        }
+    }
+    if pressure_angle != 0.0 && (pressure_angle - h.geometry.pressure_angle).abs() > 1e-12 {
+        return err(format!(
+            "{field}.geometry.transverse_pressure_angle: {} rad, but the mesh's pressure_angle = {pressure_angle}",
+            h.geometry.pressure_angle
+        ));
+    }
+    Ok(())
+}
+
 fn pair_stiffness(field: &str, spec: &PairStiffnessSpec) -> Result<PairStiffness> {
     match spec {
+        PairStiffnessSpec::Helical { density, geometry } => {
+            Ok(helical_pair(field, *density, geometry)?.pair_stiffness())
+        }
         PairStiffnessSpec::Rectangular {
             mean,
             peak_to_peak_ratio,
             contact_ratio,
+            load_share,
         } => {
             positive(&format!("{field}.mean"), *mean)?;
             non_negative(&format!("{field}.peak_to_peak_ratio"), *peak_to_peak_ratio)?;
@@ -566,7 +676,15 @@ fn pair_stiffness(field: &str, spec: &PairStiffnessSpec) -> Result<PairStiffness
                      K_s = {k_single:e} N/m <= 0 for contact_ratio = {c}"
                 ));
             }
-            Ok(PairStiffness::rectangular(*mean, *peak_to_peak_ratio, c))
+            match *load_share {
+                None => Ok(PairStiffness::rectangular(*mean, *peak_to_peak_ratio, c)),
+                Some(a) if a.is_finite() && (0.0..=1.0).contains(&a) => Ok(
+                    PairStiffness::rectangular_shared(*mean, *peak_to_peak_ratio, c, a),
+                ),
+                Some(a) => err(format!(
+                    "{field}.load_share = {a}: the leaving pair's share of K_d must lie in [0, 1]"
+                )),
+            }
         }
         PairStiffnessSpec::Table {
             contact_ratio,
