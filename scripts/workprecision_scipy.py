@@ -32,7 +32,7 @@ import gear_reference as ref  # noqa: E402
 METHODS = ["DOP853", "RK45", "Radau"]
 REFERENCE_TOL = 1e-13
 # A rung slower than this (s per run) ends the method's ladder on that problem.
-SLOW = 60.0
+SLOW = 30.0
 
 
 def join(values) -> str:

@@ -62,8 +62,8 @@ pub fn exact_eligible(problem: &Problem) -> bool {
 }
 
 enum Sim {
-    Pair(Simulation),
-    Train(TrainSimulation),
+    Pair(Box<Simulation>),
+    Train(Box<TrainSimulation>),
 }
 
 fn run_setup(problem: &Problem, prop: Propagator, rtol: f64, atol: f64) -> Result<Sim, String> {
@@ -80,7 +80,7 @@ fn run_setup(problem: &Problem, prop: Propagator, rtol: f64, atol: f64) -> Resul
             scene.solver.atol = atol;
             let mut sim = Simulation::new(&scene)?;
             sim.model_mut().record_events();
-            Ok(Sim::Pair(sim))
+            Ok(Sim::Pair(Box::new(sim)))
         }
         Kind::Train => {
             let mut scene = problem.train_scene();
@@ -90,7 +90,7 @@ fn run_setup(problem: &Problem, prop: Propagator, rtol: f64, atol: f64) -> Resul
             scene.solver.atol = atol;
             let mut sim = TrainSimulation::new(&scene)?;
             sim.model_mut().record_events();
-            Ok(Sim::Train(sim))
+            Ok(Sim::Train(Box::new(sim)))
         }
     }
 }

@@ -14,7 +14,7 @@
 //!
 //! Usage: `geardyn-peer-bench DIR [--quick]`, DIR written by `cargo bench --bench workprecision
 //! -- --write-problems DIR` (problems.csv + scenes/*.toml); writes DIR/peer.csv in the row
-//! format of `scripts/workprecision_scipy.py`.
+//! format of `scripts/workprecision_scipy.py`. `PEER_ONLY=NAME` runs one problem only.
 
 use std::f64::consts::TAU;
 use std::fmt::Write as _;
@@ -464,9 +464,9 @@ impl Solout<f64, [f64; 2]> for GridSolout<'_> {
         while self.next < self.grid.len() && self.grid[self.next] <= t_curr {
             let tg = self.grid[self.next];
             if tg >= t_prev {
+                // At the step end (and at the start call, where t_prev == t_curr) the state
+                // itself; inside the step the dense output.
                 let y = if tg == t_curr {
-                    *y_curr
-                } else if tg == t_prev && t_prev == t_curr {
                     *y_curr
                 } else {
                     interpolator
@@ -490,12 +490,141 @@ enum PeerMethod {
     Dopri5,
 }
 
-impl PeerMethod {
-    fn label(self) -> &'static str {
-        match self {
-            PeerMethod::Dop853 => "differential-equations DOP853",
-            PeerMethod::Dopri5 => "differential-equations DOPRI5",
+/// How contact changes are located on the crate's dense output.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum EventMode {
+    /// The crate's own `IVP::event` (`EventWrappedSolout`, Brent–Dekker).
+    Crate,
+    /// The crate's sign-change test per step, then a bracketing Illinois iteration on the
+    /// crate's interpolant (`RefinedEventSolout`): what a user does after finding that the
+    /// crate's Brent–Dekker loses its bracket (see `RefinedEventSolout`).
+    Refined,
+}
+
+fn label(method: PeerMethod, mode: EventMode) -> &'static str {
+    match (method, mode) {
+        (PeerMethod::Dop853, EventMode::Refined) => "differential-equations DOP853",
+        (PeerMethod::Dopri5, EventMode::Refined) => "differential-equations DOPRI5",
+        (PeerMethod::Dop853, EventMode::Crate) => "differential-equations DOP853 (crate events)",
+        (PeerMethod::Dopri5, EventMode::Crate) => "differential-equations DOPRI5 (crate events)",
+    }
+}
+
+/// One `solve` of the crate from `(t0, y0)` to `tb` with the given output strategy.
+#[allow(clippy::too_many_arguments)]
+fn solve_with<O: Solout<f64, [f64; 2]>>(
+    ode: &SegmentOde,
+    t0: f64,
+    tb: f64,
+    y0: [f64; 2],
+    solout: O,
+    method: PeerMethod,
+    rtol: f64,
+    atol: f64,
+) -> Result<Solution<f64, [f64; 2]>, String> {
+    let ivp = IVP::ode(ode, t0, tb, y0).solout(solout);
+    match method {
+        PeerMethod::Dop853 => ivp
+            .method(
+                ExplicitRungeKutta::dop853()
+                    .rtol(rtol)
+                    .atol(atol)
+                    .max_steps(10_000_000),
+            )
+            .solve(),
+        PeerMethod::Dopri5 => ivp
+            .method(
+                ExplicitRungeKutta::dopri5()
+                    .rtol(rtol)
+                    .atol(atol)
+                    .max_steps(10_000_000),
+            )
+            .solve(),
+    }
+    .map_err(|e| format!("{e:?}").replace([',', '\n'], ";"))
+}
+
+/// Grid output plus event location with a bracket that is kept: on a sign change of the guard
+/// over a step (`g > 0` → `g ≤ 0`), the Illinois variant of regula falsi (Dowell & Jarratt
+/// 1971) on `g(t, interpolant(t))` down to a few ulps of `t`, then the event point is pushed
+/// last and the solve terminates (the same contract as the crate's terminal events).
+///
+/// Why not the crate's `EventWrappedSolout`: its Brent–Dekker iteration (0.7.0,
+/// `src/solout/event.rs`) sets the contrapoint `c` to the previous iterate after every step, so
+/// once two iterates fall on the same side of the root the bracket is lost and the iteration
+/// "converges" on a point that is no root (seen here: guard values of 1e-10…1e-6 m at the
+/// reported event, event times off by up to 1e-5 s at every tolerance).
+struct RefinedEventSolout<'a, 'g> {
+    grid: GridSolout<'g>,
+    guard: &'a Guard<'a>,
+    last_g: Option<f64>,
+}
+
+impl Solout<f64, [f64; 2]> for RefinedEventSolout<'_, '_> {
+    fn solout<I>(
+        &mut self,
+        t_curr: f64,
+        t_prev: f64,
+        y_curr: &[f64; 2],
+        y_prev: &[f64; 2],
+        interpolator: &mut I,
+        solution: &mut Solution<f64, [f64; 2]>,
+    ) -> ControlFlag<f64, [f64; 2]>
+    where
+        I: Interpolation<f64, [f64; 2]> + ?Sized,
+    {
+        let g_curr = self.guard.event(t_curr, y_curr);
+        let Some(g_prev) = self.last_g.replace(g_curr) else {
+            // The call at the start of the solve (t_prev == t_curr).
+            return self
+                .grid
+                .solout(t_curr, t_prev, y_curr, y_prev, interpolator, solution);
+        };
+        if !(g_prev > 0.0 && g_curr <= 0.0) {
+            return self
+                .grid
+                .solout(t_curr, t_prev, y_curr, y_prev, interpolator, solution);
         }
+        let mut g_at = |t: f64| {
+            let y = interpolator.interpolate(t).expect("inside the step");
+            (self.guard.event(t, &y), y)
+        };
+        let (mut a, mut fa, mut b, mut fb) = (t_prev, g_prev, t_curr, g_curr);
+        let mut side = 0i8;
+        for _ in 0..200 {
+            if b - a <= 4.0 * f64::EPSILON * b.abs() {
+                break;
+            }
+            let mut t = (a * fb - b * fa) / (fb - fa);
+            if !(t > a && t < b) {
+                t = 0.5 * (a + b);
+            }
+            let (ft, _) = g_at(t);
+            if ft > 0.0 {
+                a = t;
+                fa = ft;
+                if side == 1 {
+                    fb *= 0.5;
+                }
+                side = 1;
+            } else {
+                b = t;
+                fb = ft;
+                if side == -1 {
+                    fa *= 0.5;
+                }
+                side = -1;
+            }
+        }
+        // The first point at or past the crossing, as the crate's terminal event reports.
+        let (_, y_event) = g_at(b);
+        let _ = self
+            .grid
+            .solout(b, t_prev, &y_event, y_prev, interpolator, solution);
+        if solution.t.last() != Some(&b) {
+            solution.push(b, y_event);
+        }
+        ControlFlag::Terminate
     }
 }
 
@@ -514,6 +643,7 @@ fn simulate(
     t_end: f64,
     grid: &[f64],
     method: PeerMethod,
+    mode: EventMode,
     rtol: f64,
     atol: f64,
 ) -> Result<Run, String> {
@@ -544,27 +674,20 @@ fn simulate(
                 grid: &grid[next..],
                 next: 0,
             };
-            let solout = EventWrappedSolout::new(base, &guard, t, tb);
-            let ivp = IVP::ode(&ode, t, tb, y).solout(solout);
-            let solution = match method {
-                PeerMethod::Dop853 => ivp
-                    .method(
-                        ExplicitRungeKutta::dop853()
-                            .rtol(rtol)
-                            .atol(atol)
-                            .max_steps(10_000_000),
-                    )
-                    .solve(),
-                PeerMethod::Dopri5 => ivp
-                    .method(
-                        ExplicitRungeKutta::dopri5()
-                            .rtol(rtol)
-                            .atol(atol)
-                            .max_steps(10_000_000),
-                    )
-                    .solve(),
-            }
-            .map_err(|e| format!("{e:?}").replace([',', '\n'], ";"))?;
+            let solution = match mode {
+                EventMode::Crate => {
+                    let solout = EventWrappedSolout::new(base, &guard, t, tb);
+                    solve_with(&ode, t, tb, y, solout, method, rtol, atol)?
+                }
+                EventMode::Refined => {
+                    let solout = RefinedEventSolout {
+                        grid: base,
+                        guard: &guard,
+                        last_g: None,
+                    };
+                    solve_with(&ode, t, tb, y, solout, method, rtol, atol)?
+                }
+            };
             run.rhs += solution.evals.function;
             run.steps += solution.steps.accepted;
             run.rejected += solution.steps.rejected;
@@ -693,22 +816,28 @@ fn main() {
                 }
             })
             .collect();
-        for method in [PeerMethod::Dopri5, PeerMethod::Dop853] {
+        let variants = [
+            (PeerMethod::Dopri5, EventMode::Refined),
+            (PeerMethod::Dop853, EventMode::Refined),
+            (PeerMethod::Dopri5, EventMode::Crate),
+            (PeerMethod::Dop853, EventMode::Crate),
+        ];
+        for (method, mode) in variants {
             for &tol in &p.ladder {
                 let (rtol, atol) = (tol, tol * p.x_scale);
                 // Warm-up run, also the one whose output is compared.
-                let first = simulate(&pair, p.stop_time, &grid, method, rtol, atol);
+                let first = simulate(&pair, p.stop_time, &grid, method, mode, rtol, atol);
                 let line = match first {
                     Err(e) => format!(
                         "{},{},{tol:e},{rtol:e},{atol:e},failed: {e},,,,,,,,,,\n",
                         p.name,
-                        method.label()
+                        label(method, mode)
                     ),
                     Ok(run) => {
                         let (mut best, mut runs, started) = (f64::INFINITY, 0, Instant::now());
                         while runs < min_runs || started.elapsed().as_secs_f64() < min_wall {
                             let t0 = Instant::now();
-                            let r = simulate(&pair, p.stop_time, &grid, method, rtol, atol);
+                            let r = simulate(&pair, p.stop_time, &grid, method, mode, rtol, atol);
                             best = best.min(t0.elapsed().as_secs_f64());
                             std::hint::black_box(r).ok();
                             runs += 1;
@@ -719,7 +848,7 @@ fn main() {
                         format!(
                             "{},{},{tol:e},{rtol:e},{atol:e},ok,{best:e},{runs},{},{},{},{},{:e},{:e},{},{}\n",
                             p.name,
-                            method.label(),
+                            label(method, mode),
                             run.rhs,
                             run.steps,
                             run.rejected,
@@ -732,7 +861,12 @@ fn main() {
                     }
                 };
                 let mut summary = String::new();
-                let _ = write!(summary, "peer {} {} tol {tol:e}", p.name, method.label());
+                let _ = write!(
+                    summary,
+                    "peer {} {} tol {tol:e}",
+                    p.name,
+                    label(method, mode)
+                );
                 eprintln!("{summary}");
                 out += &line;
             }
