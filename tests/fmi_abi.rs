@@ -341,6 +341,53 @@ fn arrays_value_references_and_types() {
     }
 }
 
+/// A host reads the same Real outputs after every step, so the layer skips the type check
+/// of a repeated list and the model answers the full output list in one pass: a list that
+/// differs from the last good one must still be checked, and the one-pass answer must equal
+/// the per-reference one.
+#[test]
+fn repeated_get_real_lists_are_still_checked_when_they_change() {
+    let f = Fmu::ready();
+    let reals: Vec<u32> = (VR_OUTPUT0..VR_OUTPUT0 + 7)
+        .filter(|&vr| vr != VR_CONTACT_STATE)
+        .collect();
+    unsafe {
+        let mut all = vec![f64::NAN; reals.len()];
+        for _ in 0..2 {
+            assert_eq!(
+                fmi2GetReal(f.0, reals.as_ptr(), reals.len(), all.as_mut_ptr()),
+                OK
+            );
+        }
+        for (&vr, &x) in reals.iter().zip(&all) {
+            let mut one = f64::NAN;
+            assert_eq!(fmi2GetReal(f.0, &vr, 1, &mut one), OK);
+            assert_eq!(one.to_bits(), x.to_bits(), "vr {vr}");
+        }
+        // Same length, one reference replaced by the Integer contact state.
+        let mut wrong = reals.clone();
+        wrong[2] = VR_CONTACT_STATE;
+        let mut x = vec![0.0; wrong.len()];
+        assert_eq!(
+            fmi2GetReal(f.0, wrong.as_ptr(), wrong.len(), x.as_mut_ptr()),
+            ERR
+        );
+        // A longer list that starts with the good one.
+        let f = Fmu::ready();
+        assert_eq!(
+            fmi2GetReal(f.0, reals.as_ptr(), reals.len(), all.as_mut_ptr()),
+            OK
+        );
+        let mut longer = reals.clone();
+        longer.push(999);
+        let mut x = vec![0.0; longer.len()];
+        assert_eq!(
+            fmi2GetReal(f.0, longer.as_ptr(), longer.len(), x.as_mut_ptr()),
+            ERR
+        );
+    }
+}
+
 #[test]
 fn do_step_arguments_and_stop_time() {
     for (tc, h) in [

@@ -52,9 +52,16 @@ pub struct Instance {
     /// Value reference → position in `model.variables()` (a host reads every output after
     /// every step).
     index: VrIndex,
+    /// The base type of each variable, by position: the type check of a get needs no call
+    /// into the model's table.
+    kinds: Vec<VarKind>,
+    /// The value references of the last `fmi2GetReal` that passed the type check. A host
+    /// asks for the same ones after every step, and the variable table never changes
+    /// ([`CoSimModel::variables`]), so a repeated request needs no check per reference.
+    checked_real_vrs: Vec<u32>,
     /// The value references of the Real outputs, checked for finiteness after every step.
     real_outputs: Vec<u32>,
-    /// Their values after the last step (kept to reuse the allocation).
+    /// Their values after the last step (one buffer for the whole run).
     output_values: Vec<f64>,
     pub state: FmuState,
     time: f64,
@@ -68,20 +75,23 @@ pub struct Instance {
 impl Instance {
     pub fn new(logger: Logger, model: Box<dyn CoSimModel>, info: ModelInfo) -> Instance {
         let index = VrIndex::new(model.variables().iter().map(|v| v.value_reference));
+        let kinds = model.variables().iter().map(|v| v.kind).collect();
         let real_outputs = model
             .variables()
             .iter()
             .filter(|v| v.kind == VarKind::Real && v.causality == super::model::Causality::Output)
             .map(|v| v.value_reference)
-            .collect();
+            .collect::<Vec<u32>>();
         Instance {
             magic: INSTANCE_MAGIC,
             logger,
             model,
             info,
             index,
+            kinds,
+            checked_real_vrs: Vec::new(),
+            output_values: vec![0.0; real_outputs.len()],
             real_outputs,
-            output_values: Vec::new(),
             state: FmuState::Instantiated,
             time: 0.0,
             start_time: 0.0,
@@ -269,6 +279,20 @@ impl Instance {
         }
     }
 
+    /// Checks that `vr` names a variable of base type `kind` (the lookup of the getters, on
+    /// the hot path of a host: a table load and a compare per value reference).
+    #[inline(always)]
+    fn check_kind(&self, vr: u32, kind: VarKind) -> Result<(), String> {
+        match self.index.position(vr) {
+            Some(k) if self.kinds[k] == kind => Ok(()),
+            found => Err(lookup_error(
+                vr,
+                kind,
+                found.map(|k| &self.model.variables()[k]),
+            )),
+        }
+    }
+
     /// Shared body of the getters: state check, then per value reference the type check
     /// and the model's answer; the first failure is the call's error.
     fn get_values<T>(
@@ -284,8 +308,8 @@ impl Instance {
         }
         for (vr, slot) in vrs.iter().zip(out.iter_mut()) {
             let r = self
-                .lookup(*vr, kind)
-                .and_then(|_| get(self.model.as_ref(), *vr));
+                .check_kind(*vr, kind)
+                .and_then(|()| get(self.model.as_ref(), *vr));
             match r {
                 Ok(x) => *slot = x,
                 Err(e) => return self.error(call, e),
@@ -301,11 +325,15 @@ impl Instance {
         if let Err(s) = self.check(call) {
             return s;
         }
-        if let Some(e) = vrs
-            .iter()
-            .find_map(|&vr| self.lookup(vr, VarKind::Real).err())
-        {
-            return self.error(call, e);
+        if vrs != self.checked_real_vrs.as_slice() {
+            if let Some(e) = vrs
+                .iter()
+                .find_map(|&vr| self.check_kind(vr, VarKind::Real).err())
+            {
+                return self.error(call, e);
+            }
+            self.checked_real_vrs.clear();
+            self.checked_real_vrs.extend_from_slice(vrs);
         }
         match self.model.get_reals(vrs, out) {
             Ok(()) => Status::Ok,
@@ -506,20 +534,23 @@ impl Instance {
         }
     }
 
+    /// The first Real output that is not finite after a step, as a reason; `None` if all
+    /// are finite. Reads them through the model's `get_reals` (one pass over the outputs it
+    /// evaluates anyway for the host's `fmi2GetReal`), into a buffer sized once.
     fn non_finite_output(&mut self) -> Option<String> {
-        let mut values = std::mem::take(&mut self.output_values);
-        values.resize(self.real_outputs.len(), 0.0);
-        let found = match self.model.get_reals(&self.real_outputs, &mut values) {
-            Err(e) => Some(e),
-            Ok(()) => self.real_outputs.iter().zip(&values).find_map(|(&vr, &x)| {
-                (!x.is_finite()).then(|| {
-                    let name = self.lookup(vr, VarKind::Real).map_or("?", |v| &v.name);
-                    format!("output '{name}' (vr {vr}) = {x} is not finite")
-                })
-            }),
-        };
-        self.output_values = values;
-        found
+        if let Err(e) = self
+            .model
+            .get_reals(&self.real_outputs, &mut self.output_values)
+        {
+            return Some(e);
+        }
+        let (&vr, &x) = self
+            .real_outputs
+            .iter()
+            .zip(&self.output_values)
+            .find(|(_, x)| !x.is_finite())?;
+        let name = self.lookup(vr, VarKind::Real).map_or("?", |v| &v.name);
+        Some(format!("output '{name}' (vr {vr}) = {x} is not finite"))
     }
 
     /// Refusal of an unsupported capability, after the state check.

@@ -41,7 +41,7 @@ impl VrIndex {
     }
 
     /// The position of the variable with value reference `vr`, if any.
-    #[inline]
+    #[inline(always)]
     pub fn position(&self, vr: u32) -> Option<usize> {
         match self {
             VrIndex::Direct(table) => match table.get(vr as usize) {

@@ -232,6 +232,20 @@ fn output_position(vr: u32) -> Option<usize> {
         .then(|| (vr - VR_OUTPUT0) as usize)
 }
 
+/// The positions in [`Simulation::outputs`] of all Real outputs, in value-reference order.
+const REAL_OUTPUT_POSITIONS: [usize; 6] = [0, 1, 2, 4, 5, 6];
+/// Their value references: what a host that records every output asks for after every step
+/// (and the FMI layer's finiteness check after every step).
+const REAL_OUTPUT_VRS: [u32; 6] = {
+    let mut vrs = [0; 6];
+    let mut i = 0;
+    while i < 6 {
+        vrs[i] = VR_OUTPUT0 + REAL_OUTPUT_POSITIONS[i] as u32;
+        i += 1;
+    }
+    vrs
+};
+
 impl GearModel {
     /// The simulation's outputs, evaluated once per state.
     fn current_outputs(&self) -> &[f64; 7] {
@@ -282,9 +296,19 @@ impl CoSimModel for GearModel {
 
     /// The outputs without a call per value reference: a host reads them after every step.
     fn get_reals(&self, vrs: &[u32], out: &mut [f64]) -> Result<(), String> {
+        if vrs == REAL_OUTPUT_VRS && out.len() == REAL_OUTPUT_VRS.len() {
+            // The usual request: no search per value reference.
+            let outputs = self.current_outputs();
+            for (slot, &k) in out.iter_mut().zip(&REAL_OUTPUT_POSITIONS) {
+                *slot = outputs[k];
+            }
+            return Ok(());
+        }
+        // Fetched once per call, not per value reference.
+        let mut outputs: Option<&[f64; 7]> = None;
         for (&vr, slot) in vrs.iter().zip(out.iter_mut()) {
             *slot = match output_position(vr) {
-                Some(k) => self.current_outputs()[k],
+                Some(k) => outputs.get_or_insert_with(|| self.current_outputs())[k],
                 None => self.get_real(vr)?,
             };
         }
@@ -379,5 +403,23 @@ impl CoSimModel for GearModel {
 
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
         self.restore(&crate::fmu_state::decode(bytes)?)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The fast path of `get_reals` reads the same positions as the per-reference path, and
+    /// covers every Real output.
+    #[test]
+    fn real_output_table_agrees_with_output_position() {
+        let real_outputs: Vec<u32> = (0..VR_OUTPUT0 + 100)
+            .filter(|&vr| output_position(vr).is_some())
+            .collect();
+        assert_eq!(real_outputs, REAL_OUTPUT_VRS);
+        for (&vr, k) in REAL_OUTPUT_VRS.iter().zip(REAL_OUTPUT_POSITIONS) {
+            assert_eq!(output_position(vr), Some(k), "vr {vr}");
+        }
     }
 }
