@@ -7,9 +7,10 @@
 //! matrix has a Jordan block, is handled like any other.
 //!
 //! Cost (numerics-notes §2.3: O(1) per segment whatever the stiffness): each mode's `A` and
-//! transition operators are built once ([`transition`]); a whole segment (stop to stop) costs
-//! one mat-vec from a duration-binned `e^{Aτ}`, a partial segment (after an event) a few
-//! mat-vecs of a binary ladder, never a matrix exponential. Nothing is allocated per segment.
+//! transition operators are built once ([`transition`]); a segment whose duration recurs
+//! (stiffness pieces, output intervals, event times of a periodic steady state) costs one
+//! fused mat-vec of a duration-binned `e^{Aτ}`; a matrix exponential is paid only for a
+//! duration not met before. Nothing is allocated per segment.
 //!
 //! Events inside a segment ([`crossing`]): guards a model can prove positive for the whole
 //! segment ([`PiecewiseLti::guard_excluded`], e.g. an energy bound) are not evaluated at all;
@@ -108,7 +109,6 @@ pub struct ExactPropagator {
     z_event: Vec<f64>,
     /// A sensitivity column lifted into `z` (forcing entries zero) while it is propagated.
     column: Vec<f64>,
-    scratch: Vec<f64>,
     crossing: Workspace,
     /// Events without time progress, to stop a Zeno cascade.
     stalled_events: u64,
@@ -132,7 +132,6 @@ impl ExactPropagator {
             z_next: vec![0.0; n],
             z_event: vec![0.0; n],
             column: vec![0.0; n],
-            scratch: vec![0.0; 2 * n],
             crossing: Workspace::default(),
             stalled_events: 0,
             sensitivity: None,
@@ -193,7 +192,6 @@ impl ExactPropagator {
             self.z_next.resize(nz, 0.0);
             self.z_event.resize(nz, 0.0);
             self.column.resize(nz, 0.0);
-            self.scratch.resize(2 * nz, 0.0);
         }
         while self.t < t_end {
             let stop = sys.next_stop();
@@ -225,7 +223,7 @@ impl ExactPropagator {
                 let all_excluded = guards <= 64 && excluded.count_ones() as usize == guards;
                 if all_excluded {
                     self.stats.guard_exclusions += 1;
-                    mode.apply(tau, &self.z, &mut self.z_next, &mut self.scratch);
+                    mode.apply(tau, &self.z, &mut self.z_next);
                 } else if let Some(found) = first_crossing(
                     sys,
                     mode,
@@ -238,9 +236,9 @@ impl ExactPropagator {
                     excluded,
                 ) {
                     // The event state from the segment's start: in a periodic steady state
-                    // τ* recurs, so this is one mat-vec with its own exponential.
+                    // τ* recurs, so this is one mat-vec of a cached bin.
                     let z_event = &mut self.z_event;
-                    mode.apply(found.tau, &self.z, z_event, &mut self.scratch);
+                    mode.apply(found.tau, &self.z, z_event);
                     let t_event = self.t + found.tau;
                     self.stalled_events = if t_event > self.t {
                         0
@@ -268,7 +266,7 @@ impl ExactPropagator {
                     continue;
                 }
             } else {
-                mode.apply(tau, &self.z, &mut self.z_next, &mut self.scratch);
+                mode.apply(tau, &self.z, &mut self.z_next);
             }
             self.y.copy_from_slice(&self.z_next[..n]);
             if self.sensitivity.is_some() {
@@ -299,7 +297,7 @@ impl ExactPropagator {
         for j in 0..n {
             self.column.fill(0.0);
             self.column[..n].copy_from_slice(s.column(j).as_slice());
-            mode.apply(tau, &self.column, &mut out, &mut self.scratch);
+            mode.apply(tau, &self.column, &mut out);
             s.column_mut(j).copy_from_slice(&out[..n]);
         }
         self.z = out;

@@ -100,7 +100,7 @@ pub fn first_crossing<S: PiecewiseLti>(
         let last = left + h >= tau;
         let width = if last { tau - left } else { h };
         if last {
-            mode.apply(tau, z, z_end, &mut ws.scratch);
+            mode.apply(tau, z, z_end);
             ws.z_right.copy_from_slice(z_end);
         } else {
             mat_vec(mode.sample_increment(), &ws.z_left, &mut ws.z_right);
@@ -115,7 +115,7 @@ pub fn first_crossing<S: PiecewiseLti>(
             scratch: &mut ws.scratch,
         };
         for i in 0..m {
-            if excluded & (1 << i.min(63)) != 0 {
+            if i < 64 && excluded & (1 << i) != 0 {
                 continue;
             }
             let row = &ws.rows[i * nz..(i + 1) * nz];
