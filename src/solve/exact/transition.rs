@@ -43,10 +43,9 @@ fn mat_vec_fixed<const N: usize>(m: &[f64], z: &[f64], out: &mut [f64]) {
     let m = &m[..N * N];
     let z: &[f64; N] = z.try_into().expect("vector of the matrix size");
     let mut acc = [0.0; N];
-    for j in 0..N {
-        let zj = z[j];
-        for i in 0..N {
-            acc[i] += m[j * N + i] * zj;
+    for (j, &zj) in z.iter().enumerate() {
+        for (i, a) in acc.iter_mut().enumerate() {
+            *a += m[j * N + i] * zj;
         }
     }
     out[..N].copy_from_slice(&acc);
@@ -62,10 +61,10 @@ fn mat_vec_shifted(m: &[f64], p: &[f64], q: &[f64], delta: f64, z: &[f64], out: 
         9 => mat_vec_shifted_fixed::<9>(m, p, q, delta, z, out),
         n => {
             out.fill(0.0);
-            for j in 0..n {
-                for i in 0..n {
+            for (j, &zj) in z.iter().enumerate() {
+                for (i, o) in out[..n].iter_mut().enumerate() {
                     let k = j * n + i;
-                    out[i] += (m[k] + delta * (p[k] + delta * q[k])) * z[j];
+                    *o += (m[k] + delta * (p[k] + delta * q[k])) * zj;
                 }
             }
         }
@@ -84,11 +83,10 @@ fn mat_vec_shifted_fixed<const N: usize>(
     let (m, p, q) = (&m[..N * N], &p[..N * N], &q[..N * N]);
     let z: &[f64; N] = z.try_into().expect("vector of the matrix size");
     let mut acc = [0.0; N];
-    for j in 0..N {
-        let zj = z[j];
-        for i in 0..N {
+    for (j, &zj) in z.iter().enumerate() {
+        for (i, a) in acc.iter_mut().enumerate() {
             let k = j * N + i;
-            acc[i] += (m[k] + delta * (p[k] + delta * q[k])) * zj;
+            *a += (m[k] + delta * (p[k] + delta * q[k])) * zj;
         }
     }
     out[..N].copy_from_slice(&acc);
