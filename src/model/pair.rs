@@ -9,9 +9,14 @@
 //! Only the terms the scene uses are active: without contact loss there are no guards (no event
 //! work); without STE the harmonic terms vanish; a constant or smooth stiffness has no stops.
 
+mod guard_bound;
+mod kernel;
+
 use std::f64::consts::TAU;
 
 use nalgebra::DMatrix;
+
+use kernel::Kernel;
 
 use super::PhaseClock;
 use crate::mesh::{MeshStiffness, PhaseSeries};
@@ -103,6 +108,8 @@ pub struct GearPair {
     contact: ContactState,
     /// Contact changes `(t, new state)`, recorded only when enabled (tests, analysis).
     event_log: Option<Vec<(f64, ContactState)>>,
+    /// Right-hand side with only the terms this scene uses ([`kernel`]).
+    kernel: Kernel,
 }
 
 impl GearPair {
@@ -144,7 +151,9 @@ impl GearPair {
             },
             contact: ContactState::Drive,
             event_log: None,
+            kernel: Kernel::generic(),
         };
+        pair.kernel = Kernel::for_pair(&pair);
         pair.apply_inputs(0.0, pair.inputs);
         pair.locate_segment(0.0);
         pair
@@ -306,26 +315,21 @@ impl GearPair {
         }
     }
 
-    /// Mesh force in the current contact state.
+    /// Mesh force in the current contact state (Bugaru 2006 eq. 13; see [`kernel`]).
     pub fn mesh_force(&self, t: f64, y: &[f64]) -> f64 {
-        let (delta, delta_rate) = self.deflection(t, y);
-        let offset = match self.contact {
-            ContactState::Separated if self.damping_always => return self.damping * delta_rate,
-            ContactState::Separated => return 0.0,
-            ContactState::Drive => 0.0,
-            ContactState::Back => self.clearance(),
-        };
-        let k = self.stiffness_at(t);
-        if self.smooth.is_zero() {
-            return k * (delta + offset) + self.damping * delta_rate;
-        }
-        // Bugaru 2006 eq. 13 (linear contact law only, so offset = 0).
-        let p = self.clock.phase_at(t);
-        let cubic = delta * delta * delta;
-        let c = self.damping + self.smooth.damping_variation * (TAU * p).cos();
-        k * (delta + self.smooth.cubic_factor * cubic)
-            + self.smooth.cubic_spring * cubic
-            + c * delta_rate
+        (self.kernel.force)(self, t, y)
+    }
+
+    /// Switches to the kernel that evaluates every term, also those with zero coefficients:
+    /// the baseline of `benches/features.rs` and the oracle of the specialised kernels
+    /// (bit-identical results). The equations do not change.
+    pub fn use_generic_kernel(&mut self) {
+        self.kernel = Kernel::generic();
+    }
+
+    /// Name of the right-hand-side kernel in use (the terms it evaluates, or `generic`).
+    pub fn kernel_name(&self) -> &'static str {
+        self.kernel.name
     }
 
     /// The mesh force as a function of mesh phase and state, with the contact state taken from
@@ -492,9 +496,7 @@ impl HybridSystem for GearPair {
     }
 
     fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
-        dy[0] = y[1];
-        let external = self.external_force_at_phase(self.clock.phase_at(t));
-        dy[1] = (external - self.mesh_force(t, y)) / self.m_e;
+        (self.kernel.rhs)(self, t, y, dy)
     }
 
     fn guard_count(&self) -> usize {
@@ -669,6 +671,11 @@ impl PiecewiseLti for GearPair {
 
     fn mode_key(&self) -> u64 {
         (self.segment.piece as u64) << 2 | (self.contact as i8 + 1) as u64
+    }
+
+    /// Contact guards proved positive by the energy bound of [`guard_bound`].
+    fn guard_excluded(&self, _index: usize, z: &[f64]) -> bool {
+        guard_bound::contact_guard_lower_bound(self, z).is_some()
     }
 
     fn max_frequency(&self) -> f64 {

@@ -4,22 +4,31 @@
 //! augmented state `z` (harmonic and constant forcing folded in), so
 //! `z(t + τ) = expm(A τ) z(t)` exactly. `expm` is nalgebra's Padé scaling-and-squaring
 //! (Higham 2005; Al-Mohy & Higham 2009): no eigendecomposition, so the separated mode, whose
-//! matrix has a Jordan block, is handled like any other. Transition matrices are cached per
-//! (mode, duration).
+//! matrix has a Jordan block, is handled like any other.
 //!
-//! Events inside a segment: the guards are linear in `z`, so each one is a sum of damped
-//! exponentials and sinusoids in τ. They are sampled at a spacing of at most a quarter of the
-//! shortest period of the segment (π/(2ω_max)); a sign change is bracketed, and so is a dip
-//! between two samples (a minimum of the guard, found from its derivative `w·A·z`, that lies
-//! below zero: grazing contact), then Brent locates the crossing on the analytic solution and
-//! the system snaps the state onto the surface.
+//! Cost (numerics-notes §2.3: O(1) per segment whatever the stiffness): each mode's `A` and
+//! transition operators are built once ([`transition`]); a segment whose duration recurs
+//! (stiffness pieces, output intervals, event times of a periodic steady state) costs one
+//! fused mat-vec of a duration-binned `e^{Aτ}`; a matrix exponential is paid only for a
+//! duration not met before. Nothing is allocated per segment.
+//!
+//! Events inside a segment ([`crossing`]): guards a model can prove positive for the whole
+//! segment ([`PiecewiseLti::guard_excluded`], e.g. an energy bound) are not evaluated at all;
+//! the others are sampled at a quarter of the fastest period, bracketed and located by Brent
+//! on their Taylor series, and the system snaps the state onto the surface.
+
+mod crossing;
+mod guard_series;
+pub mod transition;
 
 use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::DMatrix;
 
-use super::roots::brent_bracket;
 use super::{HybridSystem, SolveError, SolverStats};
+use crossing::{first_crossing, Workspace};
+use transition::ModeTransitions;
 
 /// A hybrid system whose segments are linear time-invariant in an augmented state.
 pub trait PiecewiseLti: HybridSystem {
@@ -35,126 +44,57 @@ pub trait PiecewiseLti: HybridSystem {
     fn mode_key(&self) -> u64;
     /// An upper bound of the fastest angular frequency in any mode, rad/s.
     fn max_frequency(&self) -> f64;
+    /// Whether guard `index` of the current mode provably stays positive for all time from the
+    /// lifted state `z` while the mode lasts (e.g. an energy bound of the free response around
+    /// the forced one), so that no root function need be evaluated in this segment. Must never
+    /// return `true` for a guard that can cross; `false` is always safe.
+    fn guard_excluded(&self, _index: usize, _z: &[f64]) -> bool {
+        false
+    }
 }
 
-/// Cached transition matrices; cleared when parameters or inputs change.
+/// Mode keys are small integers chosen by the model: a multiplicative hash is enough (the
+/// default SipHash would cost more than a whole-segment mat-vec).
 #[derive(Default)]
-struct TransitionCache {
-    map: HashMap<(u64, u64), DMatrix<f64>>,
+struct ModeKeyHasher(u64);
+
+impl Hasher for ModeKeyHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = (self.0.rotate_left(8) ^ b as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        }
+    }
+    fn write_u64(&mut self, v: u64) {
+        self.0 = (self.0 ^ v).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    }
 }
 
-impl TransitionCache {
-    /// Partial segments (first and last of a run, FMU steps of any length) create new
-    /// durations; the cache is bounded so a long co-simulation cannot grow it without limit.
-    const CAPACITY: usize = 512;
+/// Transition operators per mode key; cleared when parameters or inputs change.
+#[derive(Default)]
+struct ModeCache {
+    map: HashMap<u64, ModeTransitions, BuildHasherDefault<ModeKeyHasher>>,
+}
 
-    /// `Φ(τ) = e^{Aτ}`. Durations that differ only in their last bits (a segment's length
-    /// recomputed as `t_stop − t` rounds differently every mesh period) share one entry at the
-    /// centre `τ_c` of a relative bin of 2⁻³², and the remainder `δ = τ − τ_c` is applied as
-    /// `Φ(τ_c)(I + Aδ + (Aδ)²/2)` — exact because `A` commutes with itself, with a truncation
-    /// of `|Aδ|³/6 ≈ 1e-28`. Without the bins nearly every segment would miss the cache and
-    /// pay a matrix exponential.
-    fn get(&mut self, key: u64, tau: f64, a: &DMatrix<f64>) -> DMatrix<f64> {
-        const LOW: u32 = 20;
-        let bits = tau.to_bits();
-        let centre_bits = bits.wrapping_add(1 << (LOW - 1)) & !((1u64 << LOW) - 1);
-        let tau_c = f64::from_bits(centre_bits);
-        if self.map.len() >= Self::CAPACITY && !self.map.contains_key(&(key, centre_bits)) {
+impl ModeCache {
+    /// Drivetrains can have many contact combinations; the cache is bounded so a long
+    /// co-simulation cannot grow it without limit.
+    const CAPACITY: usize = 256;
+
+    /// The current mode of `sys`, built on first use (its `A` from `lti_matrix`).
+    fn get<S: PiecewiseLti>(&mut self, sys: &S) -> &mut ModeTransitions {
+        let key = sys.mode_key();
+        if self.map.len() >= Self::CAPACITY && !self.map.contains_key(&key) {
             self.map.clear();
         }
-        let phi_c = self
-            .map
-            .entry((key, centre_bits))
-            .or_insert_with(|| (a * tau_c).exp());
-        let delta = tau - tau_c;
-        if delta == 0.0 {
-            return phi_c.clone();
-        }
-        let ad = a * delta;
-        let mut correction = &ad * &ad * 0.5 + &ad;
-        for i in 0..correction.nrows() {
-            correction[(i, i)] += 1.0;
-        }
-        &*phi_c * correction
-    }
-}
-
-/// A guard along the analytic solution of one sample interval as its Taylor series,
-/// `g(s) = w·e^{As} z = Σ_k c_k s^k / k!` with `c_k = w·A^k z` (Moler & Van Loan 2003,
-/// method 1). Sample intervals are at most a quarter of the fastest period, so `|λ s| ≤ π/2`
-/// and the terms fall factorially; root finding then costs a few flops per evaluation
-/// instead of a matrix exponential. Where the series does not settle (e.g. heavy damping
-/// outside the frequency bound) the coefficients fall back to exact `expm` evaluation.
-struct GuardSeries<'a> {
-    coefficients: Vec<f64>,
-    fallback: Option<(&'a DVector<f64>, &'a DMatrix<f64>, &'a DVector<f64>)>,
-}
-
-impl<'a> GuardSeries<'a> {
-    const MAX_TERMS: usize = 60;
-
-    fn new(
-        row: &'a DVector<f64>,
-        a: &'a DMatrix<f64>,
-        z: &'a DVector<f64>,
-        width: f64,
-    ) -> GuardSeries<'a> {
-        let mut coefficients = Vec::with_capacity(32);
-        let mut v = z.clone();
-        let mut next = DVector::zeros(z.len());
-        let mut magnitude = 0.0f64;
-        let mut previous_term = f64::INFINITY;
-        let mut factor = 1.0;
-        for k in 0..Self::MAX_TERMS {
-            let c = row.dot(&v);
-            coefficients.push(c);
-            // |c_k| width^k / k! bounds the k-th term over the interval; two small terms in a
-            // row, because odd or even terms alone can vanish (e.g. starting at rest).
-            let term = c.abs() * factor;
-            magnitude = magnitude.max(term);
-            let small = |t: f64| t <= 1e-20 * magnitude;
-            if k >= 8 && small(term) && small(previous_term) {
-                // One more coefficient for the slope series.
-                a.mul_to(&v, &mut next);
-                coefficients.push(row.dot(&next));
-                return GuardSeries {
-                    coefficients,
-                    fallback: None,
-                };
-            }
-            previous_term = term;
-            a.mul_to(&v, &mut next);
-            std::mem::swap(&mut v, &mut next);
-            factor *= width / (k + 1) as f64;
-        }
-        GuardSeries {
-            coefficients,
-            fallback: Some((row, a, z)),
-        }
-    }
-
-    /// `Σ_{k≥start} c_k s^{k−start} / (k−start)!` by Horner.
-    fn horner(&self, start: usize, s: f64) -> f64 {
-        let c = &self.coefficients[start..];
-        let mut acc = 0.0;
-        for k in (0..c.len()).rev() {
-            acc = c[k] + acc * s / (k + 1) as f64;
-        }
-        acc
-    }
-
-    fn value(&self, s: f64) -> f64 {
-        match self.fallback {
-            Some((row, a, z)) => row.dot(&((a * s).exp() * z)),
-            None => self.horner(0, s),
-        }
-    }
-
-    fn slope(&self, s: f64) -> f64 {
-        match self.fallback {
-            Some((row, a, z)) => row.dot(&(a * ((a * s).exp() * z))),
-            None => self.horner(1, s),
-        }
+        self.map.entry(key).or_insert_with(|| {
+            let nz = sys.lti_dim();
+            let mut a = DMatrix::zeros(nz, nz);
+            sys.lti_matrix(&mut a);
+            ModeTransitions::new(a, sys.max_frequency())
+        })
     }
 }
 
@@ -163,13 +103,13 @@ pub struct ExactPropagator {
     t: f64,
     y: Vec<f64>,
     stats: SolverStats,
-    cache: TransitionCache,
-    a: DMatrix<f64>,
-    z: DVector<f64>,
-    z_next: DVector<f64>,
-    rows: Vec<DVector<f64>>,
-    /// Mode key of the cached matrix `a` (`u64::MAX`: stale).
-    a_key: u64,
+    modes: ModeCache,
+    z: Vec<f64>,
+    z_next: Vec<f64>,
+    z_event: Vec<f64>,
+    /// A sensitivity column lifted into `z` (forcing entries zero) while it is propagated.
+    column: Vec<f64>,
+    crossing: Workspace,
     /// Events without time progress, to stop a Zeno cascade.
     stalled_events: u64,
     /// `∂y(t)/∂y(t_track)` when tracking is on: the product of the `y` blocks of the applied
@@ -187,12 +127,12 @@ impl ExactPropagator {
             t: 0.0,
             y: vec![0.0; sys.dim()],
             stats: SolverStats::default(),
-            cache: TransitionCache::default(),
-            a: DMatrix::zeros(n, n),
-            z: DVector::zeros(n),
-            z_next: DVector::zeros(n),
-            rows: Vec::new(),
-            a_key: u64::MAX,
+            modes: ModeCache::default(),
+            z: vec![0.0; n],
+            z_next: vec![0.0; n],
+            z_event: vec![0.0; n],
+            column: vec![0.0; n],
+            crossing: Workspace::default(),
             stalled_events: 0,
             sensitivity: None,
         }
@@ -219,10 +159,9 @@ impl ExactPropagator {
         self.stalled_events = 0;
     }
 
-    /// The system's parameters or inputs changed: drop every cached matrix.
+    /// The system's parameters or inputs changed: drop every cached operator.
     pub fn invalidate(&mut self) {
-        self.cache.map.clear();
-        self.a_key = u64::MAX;
+        self.modes.map.clear();
     }
 
     pub fn t(&self) -> f64 {
@@ -247,6 +186,13 @@ impl ExactPropagator {
             return Err(SolveError::BackwardTime { t: self.t, t_end });
         }
         let n = sys.dim();
+        let nz = sys.lti_dim();
+        if self.z.len() != nz {
+            self.z.resize(nz, 0.0);
+            self.z_next.resize(nz, 0.0);
+            self.z_event.resize(nz, 0.0);
+            self.column.resize(nz, 0.0);
+        }
         while self.t < t_end {
             let stop = sys.next_stop();
             let target = stop.min(t_end);
@@ -257,30 +203,43 @@ impl ExactPropagator {
                 if stop <= self.t {
                     sys.on_stop(self.t, &mut self.y);
                     self.stats.stops += 1;
-                    self.a_key = u64::MAX;
                     continue;
                 }
                 return Err(SolveError::StepSizeTooSmall { t: self.t, h: tau });
             }
-            sys.lift(self.t, &self.y, self.z.as_mut_slice());
-            let key = sys.mode_key();
-            if key != self.a_key {
-                sys.lti_matrix(&mut self.a);
-                self.a_key = key;
-            }
-            let phi = self.cache.get(key, tau, &self.a);
-            phi.mul_to(&self.z, &mut self.z_next);
-            let phi_y = self
-                .sensitivity
-                .is_some()
-                .then(|| phi.view((0, 0), (n, n)).clone_owned());
+            sys.lift(self.t, &self.y, &mut self.z);
+            let mode = self.modes.get(sys);
             self.stats.steps += 1;
 
-            if sys.guard_count() > 0 {
-                if let Some((tau_event, index)) = self.first_crossing(sys, tau)? {
-                    let phi_event = (&self.a * tau_event).exp();
-                    let z_event = &phi_event * &self.z;
-                    let t_event = self.t + tau_event;
+            let guards = sys.guard_count();
+            if guards > 0 {
+                // Guards the model proves positive for the whole mode need no root function.
+                let mut excluded = 0u64;
+                for i in 0..guards.min(64) {
+                    if sys.guard_excluded(i, &self.z) {
+                        excluded |= 1 << i;
+                    }
+                }
+                let all_excluded = guards <= 64 && excluded.count_ones() as usize == guards;
+                if all_excluded {
+                    self.stats.guard_exclusions += 1;
+                    mode.apply(tau, &self.z, &mut self.z_next);
+                } else if let Some(found) = first_crossing(
+                    sys,
+                    mode,
+                    &mut self.crossing,
+                    &mut self.stats,
+                    self.t,
+                    &self.z,
+                    &mut self.z_next,
+                    tau,
+                    excluded,
+                ) {
+                    // The event state from the segment's start: in a periodic steady state
+                    // τ* recurs, so this is one mat-vec of a cached bin.
+                    let z_event = &mut self.z_event;
+                    mode.apply(found.tau, &self.z, z_event);
+                    let t_event = self.t + found.tau;
                     self.stalled_events = if t_event > self.t {
                         0
                     } else {
@@ -292,28 +251,26 @@ impl ExactPropagator {
                             events: self.stalled_events,
                         });
                     }
-                    // Before the switch: the flow and the guard's rate of the old mode.
-                    let before = self.sensitivity.is_some().then(|| {
-                        let mut w = DVector::zeros(self.z.len());
-                        sys.guard_row(index, w.as_mut_slice());
-                        let flow = &self.a * &z_event;
-                        let rate = w.dot(&flow);
-                        (w, flow, rate)
-                    });
-                    self.t = t_event;
-                    self.y.copy_from_slice(&z_event.as_slice()[..n]);
-                    sys.on_event(self.t, &mut self.y, index);
-                    if let Some((w, flow_before, rate)) = before {
-                        self.apply_saltation(sys, &phi_event, &w, &flow_before, rate)?;
+                    if self.sensitivity.is_some() {
+                        self.z_next.copy_from_slice(z_event);
+                        self.propagate_sensitivity(sys, found.tau);
+                        self.t = t_event;
+                        self.y.copy_from_slice(&self.z_next[..n]);
+                        self.apply_saltation(sys, found.index)?;
+                    } else {
+                        self.t = t_event;
+                        self.y.copy_from_slice(&z_event[..n]);
+                        sys.on_event(self.t, &mut self.y, found.index);
                     }
                     self.stats.events += 1;
-                    self.a_key = u64::MAX;
                     continue;
                 }
+            } else {
+                mode.apply(tau, &self.z, &mut self.z_next);
             }
-            self.y.copy_from_slice(&self.z_next.as_slice()[..n]);
-            if let (Some(s), Some(phi_y)) = (&mut self.sensitivity, &phi_y) {
-                *s = phi_y * &*s;
+            self.y.copy_from_slice(&self.z_next[..n]);
+            if self.sensitivity.is_some() {
+                self.propagate_sensitivity(sys, tau);
             }
             if !self.y.iter().all(|v| v.is_finite()) {
                 return Err(SolveError::NonFinite { t: self.t });
@@ -322,37 +279,62 @@ impl ExactPropagator {
             if target == stop {
                 sys.on_stop(self.t, &mut self.y);
                 self.stats.stops += 1;
-                self.a_key = u64::MAX;
             }
         }
         Ok(())
     }
 
-    /// Carries the tracked sensitivity across an event at `self.t`: the partial segment's
-    /// transition, then the saltation matrix
+    /// `S ← Φ_yy S` over the segment starting now: each column of `S`, lifted with zero
+    /// forcing entries, goes through the same transition as the state (the forcing rows of
+    /// `Φ` do not depend on `y`, so the `y` block is all that matters).
+    fn propagate_sensitivity<S: PiecewiseLti>(&mut self, sys: &S, tau: f64) {
+        let Some(s) = &mut self.sensitivity else {
+            return;
+        };
+        let n = s.nrows();
+        let mode = self.modes.get(sys);
+        let mut out = std::mem::take(&mut self.z);
+        for j in 0..n {
+            self.column.fill(0.0);
+            self.column[..n].copy_from_slice(s.column(j).as_slice());
+            mode.apply(tau, &self.column, &mut out);
+            s.column_mut(j).copy_from_slice(&out[..n]);
+        }
+        self.z = out;
+    }
+
+    /// Switches the mode at an event at `self.t` (state `self.y`, lifted event state in
+    /// `z_next`) and carries the tracked sensitivity across it with the saltation matrix
     /// `S = I + (f⁺ − f⁻) ∇_y gᵀ / ġ⁻` (Aizerman & Gantmacher 1958; Leine & Nijmeijer 2004,
     /// eq. 3.74) with `ġ⁻ = w·A⁻z` the guard's total rate before the switch (the harmonic
     /// forcing states carry its explicit time dependence). The snap onto the surface only
     /// removes rounding, so the jump map is the identity.
     fn apply_saltation<S: PiecewiseLti>(
         &mut self,
-        sys: &S,
-        phi_event: &DMatrix<f64>,
-        w: &DVector<f64>,
-        flow_before: &DVector<f64>,
-        rate: f64,
+        sys: &mut S,
+        index: usize,
     ) -> Result<(), SolveError> {
         let n = self.y.len();
-        let nz = self.z.len();
-        let scale = w.abs().dot(&flow_before.abs());
+        let nz = self.z_next.len();
+        // Before the switch: the guard row, the flow and the guard's rate of the old mode.
+        let mut w = vec![0.0; nz];
+        sys.guard_row(index, &mut w);
+        let mut flow_before = vec![0.0; nz];
+        transition::mat_vec(
+            self.modes.get(sys).a.as_slice(),
+            &self.z_next,
+            &mut flow_before,
+        );
+        let rate: f64 = w.iter().zip(&flow_before).map(|(a, b)| a * b).sum();
+        let scale: f64 = w.iter().zip(&flow_before).map(|(a, b)| (a * b).abs()).sum();
+        sys.on_event(self.t, &mut self.y, index);
         if !(rate.abs() > 1e-9 * scale) {
             return Err(SolveError::SingularSaltation { t: self.t });
         }
-        let mut z_after = DVector::zeros(nz);
-        sys.lift(self.t, &self.y, z_after.as_mut_slice());
-        let mut a_after = DMatrix::zeros(nz, nz);
-        sys.lti_matrix(&mut a_after);
-        let flow_after = &a_after * &z_after;
+        let mut z_after = vec![0.0; nz];
+        sys.lift(self.t, &self.y, &mut z_after);
+        let mut flow_after = vec![0.0; nz];
+        transition::mat_vec(self.modes.get(sys).a.as_slice(), &z_after, &mut flow_after);
         let mut saltation = DMatrix::<f64>::identity(n, n);
         for i in 0..n {
             let jump = (flow_after[i] - flow_before[i]) / rate;
@@ -360,211 +342,9 @@ impl ExactPropagator {
                 saltation[(i, j)] += jump * w[j];
             }
         }
-        let phi_y = phi_event.view((0, 0), (n, n));
         if let Some(s) = &mut self.sensitivity {
-            *s = &saltation * (phi_y * &*s);
+            *s = &saltation * &*s;
         }
         Ok(())
-    }
-
-    /// The earliest guard crossing in `(0, tau]` of the segment starting at `self.z`, as
-    /// `(τ*, guard index)` with τ* just past the crossing.
-    fn first_crossing<S: PiecewiseLti>(
-        &mut self,
-        sys: &S,
-        tau: f64,
-    ) -> Result<Option<(f64, usize)>, SolveError> {
-        let m = sys.guard_count();
-        let nz = self.z.len();
-        self.rows.resize(m, DVector::zeros(nz));
-        let mut rows = std::mem::take(&mut self.rows);
-        for (i, row) in rows.iter_mut().enumerate() {
-            if row.len() != nz {
-                *row = DVector::zeros(nz);
-            }
-            sys.guard_row(i, row.as_mut_slice());
-        }
-        let omega = sys.max_frequency().max(1.0 / tau);
-        let samples =
-            ((tau * omega * 2.0 / std::f64::consts::PI).ceil() as usize).clamp(1, 1 << 20);
-        let dt = tau / samples as f64;
-        let a = self.a.clone();
-        let step = if samples == 1 {
-            None
-        } else {
-            Some(
-                self.cache
-                    .get(sys.mode_key() ^ 0x8000_0000_0000_0000, dt, &a),
-            )
-        };
-
-        let mut best: Option<(f64, usize)> = None;
-        let mut z_left = self.z.clone();
-        let mut z_right = DVector::zeros(nz);
-        let time_scale = self.t.abs() + tau;
-        let tol = 4.0 * f64::EPSILON * time_scale;
-        for k in 0..samples {
-            let left = k as f64 * dt;
-            let right = if k + 1 == samples { tau } else { left + dt };
-            match &step {
-                Some(phi) if k + 1 < samples => phi.mul_to(&z_left, &mut z_right),
-                _ => z_right.copy_from(&self.z_next),
-            }
-            for (i, row) in rows.iter().enumerate() {
-                let g_left = row.dot(&z_left);
-                let g_right = row.dot(&z_right);
-                self.stats.guard_evals += 2;
-                let width = right - left;
-                let bracket = if g_left > 0.0 {
-                    if g_right < 0.0 {
-                        Some((0.0, width, g_left, g_right))
-                    } else {
-                        self.dip(row, &a, &z_left, &z_right, width, g_left, g_right)
-                    }
-                } else {
-                    // Only at a segment start right after an event: the state sits on the
-                    // surface, so the guard is zero up to rounding and its direction decides.
-                    self.leave_surface(row, &a, &z_left, &z_right, width, g_right)
-                };
-                if let Some((lo, hi, g_lo, g_hi)) = bracket {
-                    if hi == 0.0 {
-                        // The new mode is invalid from the start (grazing): switch at once.
-                        best = Some((0.0, i));
-                        break;
-                    }
-                    let series = GuardSeries::new(row, &a, &z_left, width);
-                    let mut evals = 0u64;
-                    let (_, after) = brent_bracket(
-                        |s| {
-                            evals += 1;
-                            series.value(s)
-                        },
-                        lo,
-                        hi,
-                        g_lo,
-                        g_hi,
-                        tol,
-                    );
-                    self.stats.guard_evals += evals;
-                    let candidate = left + after;
-                    if best.is_none_or(|(t_best, _)| candidate < t_best) {
-                        best = Some((candidate, i));
-                    }
-                }
-            }
-            if best.is_some() {
-                break;
-            }
-            std::mem::swap(&mut z_left, &mut z_right);
-        }
-        self.rows = rows;
-        Ok(best)
-    }
-
-    /// The stationary point of the guard inside a sample interval whose end slopes `d_left`
-    /// and `d_right` have opposite signs: `(s, g(s))`.
-    fn stationary_point(
-        &mut self,
-        row: &DVector<f64>,
-        a: &DMatrix<f64>,
-        z_left: &DVector<f64>,
-        width: f64,
-        d_left: f64,
-        d_right: f64,
-    ) -> (f64, f64) {
-        let series = GuardSeries::new(row, a, z_left, width);
-        let mut evals = 0u64;
-        let (s, _) = brent_bracket(
-            |s| {
-                evals += 1;
-                series.slope(s)
-            },
-            0.0,
-            width,
-            d_left,
-            d_right,
-            1e-13 * width,
-        );
-        self.stats.guard_evals += evals + 1;
-        (s, series.value(s))
-    }
-
-    /// A guard that starts on its surface (`g <= 0` by rounding after a snap). If it rises, a
-    /// later return below zero inside the interval is bracketed from its maximum; if it does
-    /// not rise, the mode is left at once (returned as the bracket `(0, 0, 0, 0)`).
-    #[allow(clippy::too_many_arguments)]
-    fn leave_surface(
-        &mut self,
-        row: &DVector<f64>,
-        a: &DMatrix<f64>,
-        z_left: &DVector<f64>,
-        z_right: &DVector<f64>,
-        width: f64,
-        g_right: f64,
-    ) -> Option<(f64, f64, f64, f64)> {
-        let slope_row = a.tr_mul(row);
-        let d_left = slope_row.dot(z_left);
-        self.stats.guard_evals += 1;
-        if d_left <= 0.0 {
-            return Some((0.0, 0.0, 0.0, 0.0));
-        }
-        if g_right > 0.0 {
-            return None;
-        }
-        let d_right = slope_row.dot(z_right);
-        self.stats.guard_evals += 1;
-        if d_right >= 0.0 {
-            return None;
-        }
-        let (s_max, g_max) = self.stationary_point(row, a, z_left, width, d_left, d_right);
-        if g_max > 0.0 {
-            Some((s_max, width, g_max, g_right))
-        } else {
-            Some((0.0, 0.0, 0.0, 0.0))
-        }
-    }
-
-    /// A guard that is non-negative at both ends of a sample interval may still dip below zero
-    /// in between (grazing). With a quarter-period spacing the guard has at most one interior
-    /// minimum; it is located from the derivative `w·A·z` and, if negative, returned as a
-    /// bracket `(lo, hi, g(lo), g(hi))` of the first crossing.
-    #[allow(clippy::too_many_arguments)]
-    fn dip(
-        &mut self,
-        row: &DVector<f64>,
-        a: &DMatrix<f64>,
-        z_left: &DVector<f64>,
-        z_right: &DVector<f64>,
-        width: f64,
-        g_left: f64,
-        g_right: f64,
-    ) -> Option<(f64, f64, f64, f64)> {
-        let slope_row = a.tr_mul(row);
-        let d_left = slope_row.dot(z_left);
-        let d_right = slope_row.dot(z_right);
-        self.stats.guard_evals += 2;
-        if !(d_left < 0.0 && d_right > 0.0) {
-            return None;
-        }
-        // Cubic Hermite estimate of the minimum; only a near-zero estimate is worth the search.
-        let hermite_min = {
-            let mut lowest = g_left.min(g_right);
-            for j in 1..16 {
-                let s = j as f64 / 16.0;
-                let h00 = 2.0 * s.powi(3) - 3.0 * s * s + 1.0;
-                let h10 = s.powi(3) - 2.0 * s * s + s;
-                let h01 = -2.0 * s.powi(3) + 3.0 * s * s;
-                let h11 = s.powi(3) - s * s;
-                let g = h00 * g_left + h10 * width * d_left + h01 * g_right + h11 * width * d_right;
-                lowest = lowest.min(g);
-            }
-            lowest
-        };
-        let scale = g_left.abs() + g_right.abs() + width * (d_left.abs() + d_right.abs());
-        if hermite_min > 0.05 * scale {
-            return None;
-        }
-        let (s_min, g_min) = self.stationary_point(row, a, z_left, width, d_left, d_right);
-        (g_min < 0.0).then_some((0.0, s_min, g_left.max(0.0), g_min))
     }
 }

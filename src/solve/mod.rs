@@ -82,6 +82,9 @@ pub struct SolverStats {
     pub events: u64,
     /// Known-time stops landed on.
     pub stops: u64,
+    /// Segments whose guards were all proved positive by a bound, so no root function was
+    /// evaluated in them (exact propagator, [`exact::PiecewiseLti::guard_excluded`]).
+    pub guard_exclusions: u64,
 }
 
 impl SolverStats {
@@ -93,6 +96,7 @@ impl SolverStats {
         self.guard_evals += other.guard_evals;
         self.events += other.events;
         self.stops += other.stops;
+        self.guard_exclusions += other.guard_exclusions;
     }
 }
 

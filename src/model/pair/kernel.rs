@@ -1,0 +1,152 @@
+//! Right-hand-side kernels of the single pair, specialised at assembly to the terms the scene
+//! uses ("pay only for what you use").
+//!
+//! The mesh force of `docs/model.md` (Kahraman & Singh 1990 with the smooth terms of Bugaru
+//! 2006 eq. 13) is
+//! `F = k(p)(δ + b + δ̄ δ³) + γ δ³ + (c + c̃ cos 2πp) δ'` in contact, `δ = x − e(p)`, and the
+//! external force `F_ext + F̃ cos 2πp` (torque ripple). A scene without STE, cubic springs,
+//! damping variation or torque ripple need not evaluate their transcendental functions and
+//! products at every stage: each combination of present terms is a monomorphised function
+//! (const generics), picked once by [`Kernel::for_pair`]. [`Kernel::generic`] evaluates every
+//! term with the scene's (possibly zero) coefficients; with zero coefficients every skipped
+//! term is an exact `+ 0.0` or `· 1`, so both give bit-identical results (tested), and the
+//! generic kernel serves as the oracle and the benchmark baseline.
+
+use std::f64::consts::TAU;
+
+use super::{ContactState, GearPair};
+
+/// `F(t, y)`, the mesh force in the frozen contact state.
+type ForceFn = fn(&GearPair, f64, &[f64]) -> f64;
+/// `ÿ = (external − F) / m_e` as `dy`.
+type RhsFn = fn(&GearPair, f64, &[f64], &mut [f64]);
+
+/// The selected kernel: function pointers chosen at assembly.
+#[derive(Clone, Copy)]
+pub struct Kernel {
+    pub force: ForceFn,
+    pub rhs: RhsFn,
+    /// Which terms the kernel evaluates (`generic`: all).
+    pub name: &'static str,
+}
+
+impl std::fmt::Debug for Kernel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Kernel({})", self.name)
+    }
+}
+
+macro_rules! kernel {
+    ($ste:literal, $cubic:literal, $dvar:literal, $ripple:literal, $name:literal) => {
+        Kernel {
+            force: force::<$ste, $cubic, $dvar>,
+            rhs: rhs::<$ste, $cubic, $dvar, $ripple>,
+            name: $name,
+        }
+    };
+}
+
+impl Kernel {
+    /// The kernel with only the terms `pair` uses.
+    pub fn for_pair(pair: &GearPair) -> Kernel {
+        let s = &pair.smooth;
+        let ste = !pair.ste.is_zero();
+        let cubic = s.cubic_factor != 0.0 || s.cubic_spring != 0.0;
+        let dvar = s.damping_variation != 0.0;
+        let ripple = s.torque_ripple != 0.0;
+        match (ste, cubic, dvar, ripple) {
+            (false, false, false, false) => kernel!(false, false, false, false, "linear"),
+            (false, false, false, true) => kernel!(false, false, false, true, "ripple"),
+            (false, false, true, false) => kernel!(false, false, true, false, "dvar"),
+            (false, false, true, true) => kernel!(false, false, true, true, "dvar+ripple"),
+            (false, true, false, false) => kernel!(false, true, false, false, "cubic"),
+            (false, true, false, true) => kernel!(false, true, false, true, "cubic+ripple"),
+            (false, true, true, false) => kernel!(false, true, true, false, "cubic+dvar"),
+            (false, true, true, true) => kernel!(false, true, true, true, "cubic+dvar+ripple"),
+            (true, false, false, false) => kernel!(true, false, false, false, "ste"),
+            (true, false, false, true) => kernel!(true, false, false, true, "ste+ripple"),
+            (true, false, true, false) => kernel!(true, false, true, false, "ste+dvar"),
+            (true, false, true, true) => kernel!(true, false, true, true, "ste+dvar+ripple"),
+            (true, true, false, false) => kernel!(true, true, false, false, "ste+cubic"),
+            (true, true, false, true) => kernel!(true, true, false, true, "ste+cubic+ripple"),
+            (true, true, true, false) => kernel!(true, true, true, false, "ste+cubic+dvar"),
+            (true, true, true, true) => Kernel::generic(),
+        }
+    }
+
+    /// Every term, whatever the coefficients.
+    pub fn generic() -> Kernel {
+        kernel!(true, true, true, true, "generic")
+    }
+}
+
+/// `(e, ė)` of the STE; with `STE = false` the scene has none and nothing is evaluated.
+#[inline(always)]
+fn ste<const STE: bool>(pair: &GearPair, p: f64) -> (f64, f64) {
+    if !STE {
+        return (0.0, 0.0);
+    }
+    // Generic form: one sin_cos and the harmonic recurrence, also with no harmonics.
+    let (s1, c1) = (TAU * p.rem_euclid(1.0)).sin_cos();
+    let (mut s, mut c) = (s1, c1);
+    let mut value = 0.0;
+    let mut slope = 0.0;
+    for (i, &(a, b)) in pair.ste.coefficients().iter().enumerate() {
+        let h = (i + 1) as f64;
+        value += a * c + b * s;
+        slope += TAU * h * (b * c - a * s);
+        let (sn, cn) = (s * c1 + c * s1, c * c1 - s * s1);
+        s = sn;
+        c = cn;
+    }
+    (value, slope * pair.clock.mesh_frequency())
+}
+
+#[inline(always)]
+fn force<const STE: bool, const CUBIC: bool, const DVAR: bool>(
+    pair: &GearPair,
+    t: f64,
+    y: &[f64],
+) -> f64 {
+    let p = pair.clock.phase_at(t);
+    let (e, e_rate) = ste::<STE>(pair, p);
+    let delta = y[0] - e;
+    let delta_rate = y[1] - e_rate;
+    let offset = match pair.contact {
+        ContactState::Separated if pair.damping_always => return pair.damping * delta_rate,
+        ContactState::Separated => return 0.0,
+        ContactState::Drive => 0.0,
+        ContactState::Back => pair.clearance(),
+    };
+    let k = pair.stiffness_at(t);
+    let damping = if DVAR {
+        pair.damping + pair.smooth.damping_variation * (TAU * p).cos()
+    } else {
+        pair.damping
+    };
+    if CUBIC {
+        // Bugaru 2006 eq. 13 (validation admits the cubic terms with the linear law only).
+        let cubic = delta * delta * delta;
+        k * ((delta + offset) + pair.smooth.cubic_factor * cubic)
+            + pair.smooth.cubic_spring * cubic
+            + damping * delta_rate
+    } else {
+        k * (delta + offset) + damping * delta_rate
+    }
+}
+
+#[inline(always)]
+fn rhs<const STE: bool, const CUBIC: bool, const DVAR: bool, const RIPPLE: bool>(
+    pair: &GearPair,
+    t: f64,
+    y: &[f64],
+    dy: &mut [f64],
+) {
+    dy[0] = y[1];
+    let external = if RIPPLE {
+        pair.f_ext + pair.ripple_force * (TAU * pair.clock.phase_at(t)).cos()
+    } else {
+        pair.f_ext
+    };
+    dy[1] = (external - force::<STE, CUBIC, DVAR>(pair, t, y)) / pair.m_e;
+}
