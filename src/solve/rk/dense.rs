@@ -140,3 +140,33 @@ pub(crate) fn functional_polynomial(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn functional_polynomial_matches_the_interpolant() {
+        // Arbitrary rows for n = 2; w·u(θ) by `eval` against the monomial form.
+        let n = 2;
+        let w = [0.7, -1.3];
+        for method in Method::ALL {
+            let r: Vec<f64> = (0..rows(method) * n)
+                .map(|i| ((i * 37 % 11) as f64 - 5.0) * 0.1)
+                .collect();
+            let mut q = [0.0; MAX_DEGREE + 1];
+            functional_polynomial(method, &r, &w, &mut q);
+            let mut u = [0.0; 2];
+            for k in 0..=10 {
+                let theta = k as f64 / 10.0;
+                eval(method, theta, &r, &mut u);
+                let direct = w[0] * u[0] + w[1] * u[1];
+                let monomial = q.iter().rev().fold(0.0, |acc, c| acc * theta + c);
+                assert!(
+                    (direct - monomial).abs() < 1e-14,
+                    "{method}: θ = {theta}: {direct} vs {monomial}"
+                );
+            }
+        }
+    }
+}
