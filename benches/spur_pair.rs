@@ -140,6 +140,8 @@ struct Measurement {
     steps_per_period: f64,
     rhs_per_period: f64,
     events_per_period: f64,
+    /// Guard (root-function) evaluations per period: the event search's work.
+    guards_per_period: f64,
     /// Max |DTE − DTE_exact| / static deflection on the grid (RK rows only).
     err_vs_exact: Option<f64>,
 }
@@ -224,6 +226,7 @@ fn main() {
                     steps_per_period: stats.steps as f64 / periods,
                     rhs_per_period: stats.rhs_evals as f64 / periods,
                     events_per_period: stats.events as f64 / periods,
+                    guards_per_period: stats.guard_evals as f64 / periods,
                     err_vs_exact,
                 });
             }
@@ -233,11 +236,11 @@ fn main() {
     print_table(&cases, &results, stop_time, &load_before);
     if let Some(path) = csv {
         let mut text = String::from(
-            "case,method,grid_s,ns_per_period,steps_per_period,rhs_per_period,events_per_period,err_vs_exact\n",
+            "case,method,grid_s,ns_per_period,steps_per_period,rhs_per_period,events_per_period,guards_per_period,err_vs_exact\n",
         );
         for m in &results {
             text += &format!(
-                "{},{},{},{:.1},{:.3},{:.3},{:.3},{}\n",
+                "{},{},{},{:.1},{:.3},{:.3},{:.3},{:.3},{}\n",
                 m.case,
                 m.prop.label(),
                 m.grid,
@@ -245,6 +248,7 @@ fn main() {
                 m.steps_per_period,
                 m.rhs_per_period,
                 m.events_per_period,
+                m.guards_per_period,
                 m.err_vs_exact.map_or(String::new(), |e| format!("{e:.3e}"))
             );
         }
@@ -278,7 +282,7 @@ fn print_table(cases: &[Case], results: &[Measurement], stop_time: f64, load_bef
     }
     println!();
     println!(
-        "{:10} {:12} {:>7} {:>12} {:>9} {:>10} {:>9} {:>8} {:>10}",
+        "{:10} {:12} {:>7} {:>12} {:>9} {:>10} {:>9} {:>8} {:>9} {:>10}",
         "scene",
         "method",
         "grid",
@@ -287,6 +291,7 @@ fn print_table(cases: &[Case], results: &[Measurement], stop_time: f64, load_bef
         "steps/per",
         "rhs/per",
         "ev/per",
+        "guard/per",
         "err/x_st"
     );
     for &grid in &GRIDS {
@@ -295,7 +300,7 @@ fn print_table(cases: &[Case], results: &[Measurement], stop_time: f64, load_bef
             for &prop in &PROPS {
                 let m = find(results, case.name, prop, grid);
                 println!(
-                    "{:10} {:12} {:>5.0}µs {:>12.0} {:>8.2}x {:>10.2} {:>9.1} {:>8.2} {:>10}",
+                    "{:10} {:12} {:>5.0}µs {:>12.0} {:>8.2}x {:>10.2} {:>9.1} {:>8.2} {:>9.1} {:>10}",
                     m.case,
                     prop.label(),
                     grid * 1e6,
@@ -304,6 +309,7 @@ fn print_table(cases: &[Case], results: &[Measurement], stop_time: f64, load_bef
                     m.steps_per_period,
                     m.rhs_per_period,
                     m.events_per_period,
+                    m.guards_per_period,
                     m.err_vs_exact
                         .map_or("-".to_string(), |e| format!("{e:.1e}"))
                 );

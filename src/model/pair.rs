@@ -582,6 +582,27 @@ impl HybridSystem for GearPair {
         Some(-sign * e_rate)
     }
 
+    /// `g = ±(x − e(p(t))) + offset`: `w = [±1, 0]`, and `|c''| = |ë| ≤ (2π f_m)² Σ_h h² |(a_h,
+    /// b_h)|` for the STE series `e(p) = Σ a_h cos 2πhp + b_h sin 2πhp` (the phase runs at the
+    /// constant mesh frequency between events and stops, `docs/model.md`).
+    fn affine_guard(&self, index: usize, _t0: f64, _t1: f64, w: &mut [f64]) -> Option<f64> {
+        let sign = match (self.contact, index) {
+            (ContactState::Drive, _) => 1.0,
+            (ContactState::Separated, 0) => -1.0,
+            (ContactState::Separated, _) => 1.0,
+            (ContactState::Back, _) => -1.0,
+        };
+        w.copy_from_slice(&[sign, 0.0]);
+        let omega = TAU * self.clock.mesh_frequency();
+        let curvature: f64 = (self.ste.coefficients().iter().enumerate())
+            .map(|(i, &(a, b))| {
+                let h = (i + 1) as f64;
+                (h * omega).powi(2) * a.hypot(b)
+            })
+            .sum();
+        Some(curvature)
+    }
+
     fn on_event(&mut self, t: f64, y: &mut [f64], index: usize) {
         let e = self.ste_at(t).0;
         let clearance = self.clearance();

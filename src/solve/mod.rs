@@ -65,6 +65,19 @@ pub trait HybridSystem {
     fn guard_gradient(&self, _t: f64, _y: &[f64], _index: usize, _grad: &mut [f64]) -> Option<f64> {
         None
     }
+
+    /// Declares guard `index` of the current mode affine in the state with a constant gradient,
+    /// `g(t, y) = w·y + c(t)`: fills `w` and returns a bound of `|c''(t)|` on `[t0, t1]`
+    /// (`c'` is the `∂g/∂t` of [`HybridSystem::guard_gradient`], which such a system must
+    /// provide). `None` (the default): no such structure is known.
+    ///
+    /// With it the RK event search bounds the guard along each step's interpolant rigorously
+    /// (the interpolant is a polynomial in the step fraction, so `w·u(θ)` is one too) and
+    /// cannot miss a grazing dip; without it the guard is only sampled
+    /// ([`rk::RkOptions::guard_samples`]).
+    fn affine_guard(&self, _index: usize, _t0: f64, _t1: f64, _w: &mut [f64]) -> Option<f64> {
+        None
+    }
 }
 
 /// Counters every integrator keeps (work measures for benchmarks).

@@ -128,6 +128,19 @@ impl<S: HybridSystem> HybridSystem for Variational<'_, S> {
         }
     }
 
+    /// The inner guard's gradient, padded with zeros over the sensitivity block.
+    fn guard_gradient(&self, t: f64, z: &[f64], index: usize, grad: &mut [f64]) -> Option<f64> {
+        let n = self.n;
+        grad[n..].fill(0.0);
+        self.inner.guard_gradient(t, &z[..n], index, &mut grad[..n])
+    }
+
+    fn affine_guard(&self, index: usize, t0: f64, t1: f64, w: &mut [f64]) -> Option<f64> {
+        let n = self.n;
+        w[n..].fill(0.0);
+        self.inner.affine_guard(index, t0, t1, &mut w[..n])
+    }
+
     fn jacobian(&self, _t: f64, _z: &[f64], _jac: &mut [f64]) -> bool {
         false
     }

@@ -163,19 +163,22 @@ fn wide_grazing_dips_are_found_by_rk() {
     );
 }
 
-/// Known defect (reported with the suite): the RK event search samples the guards at a fixed
-/// number of interior points of each step's interpolant and has no extremum check, so a dip
-/// shorter than the sample spacing is missed (η = 1e-4: a 1.4 µs flight inside a 16 µs step).
+/// Narrow dips: at η = 1e-4 the flight lasts 1.4 µs inside a 16 µs step, with the deflection
+/// positive at both step ends and at every interior sample (the sampled search found 38 of
+/// 100 events). The bounded search on the interpolant (`src/solve/rk/graze.rs`) finds them
+/// all. The event times are ill-conditioned as for the exact propagator: the interpolant's
+/// error `ε δ_s` moves a crossing by `ε δ_s/|δ'|`, `|δ'| = δ_s ω √(η(2+η))`, i.e. by about
+/// `ε/(2π√(2η))` natural periods; measured `ε` ≈ 5e-10 (DOP853) and 7e-9 (DP5) at rtol 1e-10.
 #[test]
-#[ignore = "known defect: RK misses grazing dips shorter than its guard-sample spacing"]
 fn narrow_grazing_dips_are_found_by_rk() {
-    for eta in [1e-4, 1e-6, 1e-8] {
+    for eta in [1e-4f64, 1e-6, 1e-8] {
+        let conditioning = 1.0 / (2.0 * PI * (2.0 * eta).sqrt());
         check(
             eta,
             50,
             &[
-                (rk(Method::Dop853, 1e-10), 1e-6),
-                (rk(Method::Dp5, 1e-10), 1e-6),
+                (rk(Method::Dop853, 1e-10), (1e-8 * conditioning).max(1e-6)),
+                (rk(Method::Dp5, 1e-10), (5e-8 * conditioning).max(1e-6)),
             ],
         );
     }

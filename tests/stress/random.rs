@@ -5,15 +5,18 @@
 //! must produce the identical event sequence, with event times and DTE that agree. A failing
 //! case prints its seed and parameters, so it can be replayed with `case(seed)`.
 //!
-//! Known defect, accounted for separately: either propagator can miss an excursion that falls
-//! between its guard samples — a separation and the return to the same flank, or a shallow
-//! touch of a flank during a flight (RK: between the interior samples of a step, which grow
-//! long in ballistic flight, see `grazing.rs`; the exact propagator in some cases too, seed
-//! 229: a 14 µs back-side flight, 8.6 % of a mesh period, found by RK at rtol 1e-10…1e-13 and
-//! by the exact propagator itself with 1.5 µs output stops). A case whose sequences first
-//! differ by such an excursion (within a mesh period) is counted and printed, and the motion
-//! after it is not compared (it differs); its share must stay small (measured: 2 of 300, 23 of
-//! 5000). The strict variant and the seed-229 regression are `#[ignore]`d with the defect.
+//! Known defect of the exact propagator, accounted for separately: it can miss an excursion
+//! that falls between its guard samples — a separation and the return to the same flank, or a
+//! shallow touch of a flank during a flight (seed 229: a 14 µs back-side flight, 8.6 % of a
+//! mesh period, found by RK at rtol 1e-10…1e-13 and by the exact propagator itself with 1.5 µs
+//! output stops; likewise seeds 1001515 and 1001995 of the long set, which the exact propagator
+//! with 1 µs output stops reproduces event for event). A case whose sequences first differ by an excursion that only RK has
+//! (within a mesh period) is counted and printed, and the motion after it is not compared (it
+//! differs); its share must stay small (measured: 1 of 300, 2 of 5000). RK may miss none: its
+//! event search bounds each guard along the step's interpolant (`src/solve/rk/graze.rs`;
+//! before that, sampled at 4 interior points per step, it missed 1 of 300 and 21 of 5000). The
+//! strict variant and the seed-229 regression are `#[ignore]`d with the exact propagator's
+//! defect.
 
 use std::f64::consts::TAU;
 
@@ -83,67 +86,94 @@ fn case(seed: u64) -> (Scene, String) {
     (scene, text)
 }
 
+/// Which propagator missed an excursion the other one found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Missed {
+    ByExact,
+    ByRk,
+}
+
 /// Whether the two event lists first differ by an excursion in one of them: at the first
 /// difference, one list has an event followed within `max` by the return to the state before
 /// it (a short flight from a flank, or a short touch of a flank during a flight), and the other
 /// list continues with the event after that excursion. The motion after a missed excursion
 /// differs, so nothing after it is compared.
-fn first_difference_is_short_excursion(
-    a: &[(f64, ContactState)],
-    b: &[(f64, ContactState)],
+fn missed_short_excursion(
+    exact: &[(f64, ContactState)],
+    rk: &[(f64, ContactState)],
     max: f64,
-) -> bool {
+) -> Option<Missed> {
+    let (a, b) = (exact, rk);
     // The first differing state, or the end of the shorter list.
     let i = (0..a.len().min(b.len()))
         .find(|&k| a[k].1 != b[k].1)
         .unwrap_or(a.len().min(b.len()));
     if a.len() == b.len() && i == a.len() {
-        return false;
+        return None;
     }
-    // An excursion in `l` starting at `j` (the first differing state is at `j` or `j + 1`).
+    // An excursion in `l` starting at `j` (the first differing state is at `j` or `j + 1`):
+    // `Some(|Δt|)` between the event after it and the other list's continuation there.
     let excursion = |l: &[(f64, ContactState)], o: &[(f64, ContactState)], j: usize| {
-        j >= 1
-            && j + 1 < l.len()
-            && l[j + 1].1 == l[j - 1].1
-            && l[j + 1].0 - l[j].0 < max
-            // The other list continues after the excursion, or ends where it starts.
-            && if j + 2 < l.len() {
-                j < o.len() && l[j + 2].1 == o[j].1
-            } else {
-                o.len() == j
-            }
+        let shape =
+            j >= 1 && j + 1 < l.len() && l[j + 1].1 == l[j - 1].1 && l[j + 1].0 - l[j].0 < max;
+        if !shape {
+            return None;
+        }
+        // The other list continues after the excursion, or ends where it starts.
+        if j + 2 < l.len() {
+            (j < o.len() && l[j + 2].1 == o[j].1).then(|| (l[j + 2].0 - o[j].0).abs())
+        } else {
+            (o.len() == j).then_some(0.0)
+        }
     };
-    let at = |j: usize| excursion(a, b, j) || excursion(b, a, j);
-    at(i) || (i >= 1 && at(i - 1))
+    // Alternating sequences can fit both readings; the one whose continuation matches in time
+    // is the real one.
+    let mut candidates = Vec::new();
+    for j in [i.saturating_sub(1), i] {
+        if let Some(dt) = excursion(a, b, j) {
+            candidates.push((dt, Missed::ByRk));
+        }
+        if let Some(dt) = excursion(b, a, j) {
+            candidates.push((dt, Missed::ByExact));
+        }
+    }
+    candidates
+        .into_iter()
+        .min_by(|x, y| x.0.total_cmp(&y.0))
+        .map(|c| c.1)
 }
 
 /// Runs cases `first..first + n`; returns the total event count and the number of cases
-/// that differ only by short flights missed by one of the propagators.
+/// that differ only by a short excursion the exact propagator missed (tolerated unless
+/// `strict`; an excursion RK missed always fails).
 fn run_cases(first: u64, n: u64, strict: bool) -> (usize, usize) {
     let mut total = 0;
-    let mut short_flight_cases = 0;
+    let mut exact_misses = 0;
     let mut worst = (0.0f64, 0.0f64);
     for seed in first..first + n {
         let (scene, text) = case(seed);
         let mut exact = simulation(&scene, Propagator::Exact, DELTA_S);
         let stop = PERIODS * exact.model().mesh_period();
-        exact.advance_to(stop).expect("exact");
+        exact
+            .advance_to(stop)
+            .unwrap_or_else(|e| panic!("seed {seed}: exact: {e}\n  {text}"));
         let mut rk = simulation(
             &scene,
             Propagator::Rk(Method::Dop853, 1e-10),
             1e-6 * DELTA_S,
         );
-        rk.advance_to(stop).expect("rk");
+        rk.advance_to(stop)
+            .unwrap_or_else(|e| panic!("seed {seed}: RK: {e}\n  {text}"));
         let (a, b) = (
             exact.model().events().to_vec(),
             rk.model().events().to_vec(),
         );
         let period = exact.model().mesh_period();
-        if !strict && first_difference_is_short_excursion(&a, &b, period) {
-            short_flight_cases += 1;
+        if !strict && missed_short_excursion(&a, &b, period) == Some(Missed::ByExact) {
+            exact_misses += 1;
             println!(
-                "  seed {seed}: a short excursion is missing in one run (known defect); \
-                 exact {} events, RK {}",
+                "  seed {seed}: a short excursion RK found is missing in the exact run (known \
+                 defect); exact {} events, RK {}",
                 a.len(),
                 b.len()
             );
@@ -153,9 +183,11 @@ fn run_cases(first: u64, n: u64, strict: bool) -> (usize, usize) {
         assert_eq!(
             states(&b),
             states(&a),
-            "seed {seed}: event sequences differ ({} exact, {} RK events)\n  {text}\n  exact {a:?}\n  RK    {b:?}",
+            "seed {seed}: event sequences differ ({} exact, {} RK events; missed excursion: \
+             {:?})\n  {text}\n  exact {a:?}\n  RK    {b:?}",
             a.len(),
-            b.len()
+            b.len(),
+            missed_short_excursion(&a, &b, period)
         );
         let dt = max_time_difference(&a, &b) / period;
         let dx = (exact.state()[0] - rk.state()[0]).abs() / DELTA_S;
@@ -167,34 +199,34 @@ fn run_cases(first: u64, n: u64, strict: bool) -> (usize, usize) {
         total += a.len();
     }
     println!(
-        "{n} random cases from seed {first}: {total} events, sequences identical except {short_flight_cases} cases with a short excursion missing in one run; max |Δt| = {:.2e} mesh periods, max |ΔDTE| = {:.2e} δ_s",
+        "{n} random cases from seed {first}: {total} events, sequences identical except {exact_misses} cases with a short excursion missing in the exact run; max |Δt| = {:.2e} mesh periods, max |ΔDTE| = {:.2e} δ_s",
         worst.0, worst.1
     );
-    (total, short_flight_cases)
+    (total, exact_misses)
 }
 
 #[test]
 fn random_scenes_have_identical_event_sequences() {
-    let (events, short) = run_cases(0, 300, false);
+    let (events, exact_misses) = run_cases(0, 300, false);
     assert!(events >= 300, "the cases must exercise contact changes");
     assert!(
-        short <= 6,
-        "{short} of 300 cases differ by a missed excursion"
+        exact_misses <= 3,
+        "{exact_misses} of 300 cases differ by an excursion the exact propagator missed"
     );
 }
 
 #[test]
 #[ignore = "long: 5000 random cases; bash scripts/stress.sh"]
 fn random_scenes_have_identical_event_sequences_long() {
-    let (_, short) = run_cases(1_000_000, 5_000, false);
+    let (_, exact_misses) = run_cases(1_000_000, 5_000, false);
     assert!(
-        short <= 100,
-        "{short} of 5000 cases differ by a missed excursion"
+        exact_misses <= 10,
+        "{exact_misses} of 5000 cases differ by an excursion the exact propagator missed"
     );
 }
 
 #[test]
-#[ignore = "known defect: RK misses grazing dips shorter than its guard-sample spacing"]
+#[ignore = "known defect: the exact propagator misses a short back-side flight (seed 229)"]
 fn random_scenes_have_identical_event_sequences_strict() {
     run_cases(0, 300, true);
 }

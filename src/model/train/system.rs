@@ -1036,6 +1036,14 @@ fn single_slot_table(
     }
 }
 
+/// The sign of a guard relative to the slot deflection.
+fn surface_sign(surface: Surface) -> f64 {
+    match surface {
+        Surface::Drive | Surface::SepBack => 1.0,
+        Surface::SepDrive | Surface::Back => -1.0,
+    }
+}
+
 impl HybridSystem for GearTrain {
     fn dim(&self) -> usize {
         2 * self.m
@@ -1087,6 +1095,39 @@ impl HybridSystem for GearTrain {
                 Surface::Back => -back,
             };
         }
+    }
+
+    /// Slot gaps `±(a·ξ − e(p) − g_j(r)) (+ clearance)`: gradient `±a` over the positions,
+    /// explicit time derivative `∓(ė + g1 f)`.
+    fn guard_gradient(&self, t: f64, _y: &[f64], index: usize, grad: &mut [f64]) -> Option<f64> {
+        let (n, j, surface) = self.guards[index];
+        let sign = surface_sign(surface);
+        let mesh = &self.meshes[n];
+        grad.fill(0.0);
+        // A slot without a law has the constant guard 0 (see `guards`).
+        let Some(law) = mesh.law(j) else {
+            return Some(0.0);
+        };
+        for (g, a) in grad.iter_mut().zip(&mesh.a) {
+            *g = sign * a;
+        }
+        let f = mesh.clock.mesh_frequency();
+        let slope = mesh.ste.value_and_slope(mesh.clock.phase_at(t)).1;
+        Some(-sign * (slope * f + law.g1 * f))
+    }
+
+    /// Slot gaps are affine in the state; the time part `e(p) + g0 + g1 r` has the STE's
+    /// curvature only (`r` runs linearly between stops): `|ë| ≤ (2π f)² Σ_h h² |(a_h, b_h)|`.
+    fn affine_guard(&self, index: usize, t0: f64, _t1: f64, w: &mut [f64]) -> Option<f64> {
+        let (n, _, _) = self.guards[index];
+        self.guard_gradient(t0, &[], index, w)?;
+        let mesh = &self.meshes[n];
+        let omega = TAU * mesh.clock.mesh_frequency();
+        Some(
+            (mesh.ste.coefficients().iter().enumerate())
+                .map(|(i, &(a, b))| ((i + 1) as f64 * omega).powi(2) * a.hypot(b))
+                .sum(),
+        )
     }
 
     fn next_stop(&self) -> f64 {

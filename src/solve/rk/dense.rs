@@ -88,3 +88,85 @@ pub(crate) fn eval(method: Method, theta: f64, r: &[f64], out: &mut [f64]) {
         }
     }
 }
+
+/// Exponents `(a, b)` of the basis `θ^a (1 − θ)^b` that multiplies each coefficient row in
+/// [`eval`] (expanding its nested form).
+fn basis(method: Method) -> &'static [(i32, i32)] {
+    match method {
+        Method::Dp5 => &[(0, 0), (1, 0), (1, 1), (2, 1), (2, 2)],
+        Method::Dop853 => &[
+            (0, 0),
+            (1, 0),
+            (1, 1),
+            (2, 1),
+            (2, 2),
+            (3, 2),
+            (3, 3),
+            (4, 3),
+        ],
+    }
+}
+
+/// Largest degree of the interpolant in `θ` (DOP853: 7).
+pub(crate) const MAX_DEGREE: usize = 7;
+
+/// Monomial coefficients `q_0 … q_7` of `w·u(θ)`, the linear functional `w` of the interpolant
+/// (`r` as filled by [`build`], `n` components). The interpolant is a polynomial in `θ` (degree
+/// 4 for DP5, 7 for DOP853), so an affine guard along it is this polynomial plus its explicit
+/// time part.
+pub(crate) fn functional_polynomial(
+    method: Method,
+    r: &[f64],
+    w: &[f64],
+    q: &mut [f64; MAX_DEGREE + 1],
+) {
+    let n = w.len();
+    q.fill(0.0);
+    for (row, &(a, b)) in basis(method).iter().enumerate() {
+        let weight: f64 = w
+            .iter()
+            .zip(&r[row * n..(row + 1) * n])
+            .map(|(wm, rm)| wm * rm)
+            .sum();
+        if weight == 0.0 {
+            continue;
+        }
+        // θ^a (1 − θ)^b = Σ_i C(b, i) (−1)^i θ^{a+i}.
+        let mut binomial = 1.0;
+        for i in 0..=b {
+            let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+            q[(a + i) as usize] += weight * sign * binomial;
+            binomial *= (b - i) as f64 / (i + 1) as f64;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn functional_polynomial_matches_the_interpolant() {
+        // Arbitrary rows for n = 2; w·u(θ) by `eval` against the monomial form.
+        let n = 2;
+        let w = [0.7, -1.3];
+        for method in Method::ALL {
+            let r: Vec<f64> = (0..rows(method) * n)
+                .map(|i| ((i * 37 % 11) as f64 - 5.0) * 0.1)
+                .collect();
+            let mut q = [0.0; MAX_DEGREE + 1];
+            functional_polynomial(method, &r, &w, &mut q);
+            let mut u = [0.0; 2];
+            for k in 0..=10 {
+                let theta = k as f64 / 10.0;
+                eval(method, theta, &r, &mut u);
+                let direct = w[0] * u[0] + w[1] * u[1];
+                let monomial = q.iter().rev().fold(0.0, |acc, c| acc * theta + c);
+                assert!(
+                    (direct - monomial).abs() < 1e-14,
+                    "{method}: θ = {theta}: {direct} vs {monomial}"
+                );
+            }
+        }
+    }
+}

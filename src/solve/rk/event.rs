@@ -2,15 +2,21 @@
 //!
 //! An event is a guard going from `>= 0` to `< 0` (a guard that is exactly 0 where integration
 //! restarts and stays `>= 0` is not one, so a state snapped onto the surface is not re-detected).
-//! Guards are sampled at `guard_samples` interior points of the dense output as well as at the
-//! step end, so a grazing excursion below zero inside one step is caught (Shampine & Thompson
-//! 2000, Comput. Math. Appl. 39:43–54). The first bracketed crossing is refined with the
+//! Guards the system declares affine in the state ([`HybridSystem::affine_guard`], the contact
+//! gaps of the gear models) are bounded along the whole interpolant ([`super::graze`]): a
+//! grazing dip below zero between the step ends is found however long the step, and an
+//! ordinary step costs one bound test. Other guards are sampled at `guard_samples` interior
+//! points of the dense output as well as at the step end, which catches an excursion longer
+//! than the sample spacing (Shampine & Thompson 2000, Comput. Math. Appl. 39:43–54). Touching
+//! the surface (a minimum exactly 0) is not an event, as for the exact propagator.
+//! The first bracketed crossing is refined with the
 //! Illinois variant of regula falsi (Dowell & Jarratt 1971; as used for event location by
 //! Hiebert & Shampine 1980, Sandia SAND80-0180), which costs only interpolant evaluations, to
 //! a bracket of a few ulp of `t`. The returned time is the bracket end where the guard is
 //! already negative: the event has happened there, so the system can switch mode consistently.
 
 use super::dense;
+use super::graze::GuardOnStep;
 use super::Method;
 use crate::solve::{HybridSystem, SolverStats};
 
@@ -21,6 +27,11 @@ pub(crate) struct EventState {
     ga: Vec<f64>,
     gb: Vec<f64>,
     gm: Vec<f64>,
+    /// Affine guards: gradients `w` (`m × n`), curvature bounds of their time parts, and a
+    /// gradient scratch row.
+    w: Vec<f64>,
+    time_curvature: Vec<f64>,
+    grad: Vec<f64>,
     m: usize,
     valid: bool,
     last_t: f64,
@@ -95,6 +106,9 @@ impl EventState {
         ytmp: &mut [f64],
         stats: &mut SolverStats,
     ) -> Option<(f64, usize)> {
+        if self.affine_structure(sys, m, (t0, t1), y1.len()) {
+            return self.locate_affine(sys, m, (t0, h, t1), y1, interp, ytmp, stats);
+        }
         let parts = samples + 1;
         self.ga[..m].copy_from_slice(&self.g0[..m]);
         let mut ta = t0;
@@ -129,6 +143,86 @@ impl EventState {
         }
         std::mem::swap(&mut self.g0, &mut self.ga);
         None
+    }
+
+    /// Whether every guard of the mode is affine with a gradient (`w` and the curvature bound
+    /// of each are then in `self.w`, `self.time_curvature`).
+    fn affine_structure<S: HybridSystem>(
+        &mut self,
+        sys: &S,
+        m: usize,
+        (t0, t1): (f64, f64),
+        n: usize,
+    ) -> bool {
+        if self.w.len() < m * n {
+            self.w.resize(m * n, 0.0);
+            self.grad.resize(n, 0.0);
+        }
+        if self.time_curvature.len() < m {
+            self.time_curvature.resize(m, 0.0);
+        }
+        for i in 0..m {
+            match sys.affine_guard(i, t0, t1, &mut self.w[i * n..(i + 1) * n]) {
+                Some(c) => self.time_curvature[i] = c,
+                None => return false,
+            }
+        }
+        true
+    }
+
+    /// Event search for affine guards ([`graze`]): a guard positive at both step ends is still
+    /// searched for an interior dip, but only where its bounds leave one possible.
+    #[allow(clippy::too_many_arguments)]
+    fn locate_affine<S: HybridSystem>(
+        &mut self,
+        sys: &S,
+        m: usize,
+        (t0, h, t1): (f64, f64, f64),
+        y1: &[f64],
+        interp: (Method, &[f64]),
+        ytmp: &mut [f64],
+        stats: &mut SolverStats,
+    ) -> Option<(f64, usize)> {
+        let n = y1.len();
+        sys.guards(t1, y1, &mut self.gb[..m]);
+        stats.guard_evals += 1;
+        let mut first: Option<(f64, usize)> = None;
+        for i in 0..m {
+            let (g_start, g_end) = (self.g0[i], self.gb[i]);
+            let bracket = {
+                let mut guard = GuardOnStep::new(
+                    sys,
+                    i,
+                    (t0, h, t1),
+                    interp,
+                    y1,
+                    ytmp,
+                    &mut self.gm[..m],
+                    &mut self.grad[..n],
+                    stats,
+                    &self.w[i * n..(i + 1) * n],
+                    self.time_curvature[i],
+                );
+                let start = guard.point(0.0, Some(g_start));
+                let end = guard.point(1.0, Some(g_end));
+                guard
+                    .first_crossing(start, end)
+                    .map(|(lo, hi)| ((guard.time(lo.theta), lo.g), (guard.time(hi.theta), hi.g)))
+            };
+            if let Some((a, b)) = bracket {
+                if matches!(first, Some((tf, _)) if tf <= a.0) {
+                    continue;
+                }
+                let tr = self.illinois(sys, i, a, b, (t0, h), interp, ytmp, stats);
+                if !matches!(first, Some((tf, _)) if tf <= tr) {
+                    first = Some((tr, i));
+                }
+            }
+        }
+        if first.is_none() {
+            std::mem::swap(&mut self.g0, &mut self.gb);
+        }
+        first
     }
 
     /// Illinois on guard `i` over `[ta, tb]` with `g(ta) >= 0 > g(tb)`; returns the final `tb`.

@@ -15,6 +15,7 @@
 mod control;
 mod dense;
 mod event;
+mod graze;
 mod tableau;
 #[cfg(test)]
 mod tableau_tests;
@@ -98,6 +99,9 @@ pub struct RkOptions {
     pub max_steps: u64,
     /// Interior points of each step's interpolant where guards are sampled in addition to the
     /// step end, to catch an even number of sign changes within a step (grazing contact).
+    /// Used only for guards the system does not declare affine
+    /// ([`HybridSystem::affine_guard`]); affine guards are bounded along the whole interpolant
+    /// instead and need no samples.
     pub guard_samples: usize,
     /// Build the interpolant of every accepted step even without guards, so that
     /// [`RkStepper::dense`] is available (for DOP853 this costs 3 evaluations per step).
