@@ -106,8 +106,11 @@ fn write_problems(dir: &Path) {
     std::fs::create_dir_all(dir.join("scenes")).expect("create scene directory");
     let mut csv = String::from("problem,kind,stop_time,samples,x_scale,exact_eligible,ladder\n");
     for p in problems() {
-        std::fs::write(dir.join("scenes").join(format!("{}.toml", p.name)), &p.toml)
-            .expect("write scene");
+        std::fs::write(
+            dir.join("scenes").join(format!("{}.toml", p.name)),
+            harness_scene_text(&p),
+        )
+        .expect("write scene");
         let ladder: Vec<String> = LADDER.iter().map(|t| format!("{t:e}")).collect();
         let _ = writeln!(
             csv,
@@ -126,6 +129,65 @@ fn write_problems(dir: &Path) {
         );
     }
     std::fs::write(dir.join("problems.csv"), csv).expect("write problems.csv");
+}
+
+/// The scene text given to the scipy and peer harnesses. Their models know the stiffness kinds
+/// of docs/model.md up to `table`; a `helical` stiffness (He & Singh 2007, docs/helical.md) is
+/// handed over as the `table` of its resolved piecewise-linear curve (knots and values, exact
+/// binary64 numbers). Only this stiffness data is shared: the dynamics, segment cutting and
+/// event location stay independent in each harness.
+fn harness_scene_text(p: &Problem) -> String {
+    if p.kind != Kind::Pair {
+        return p.toml.clone();
+    }
+    let mut doc: toml::Table = p.toml.parse().expect("problem scene is TOML");
+    let stiffness_kind = doc["mesh"]["stiffness"]["kind"].as_str().map(str::to_owned);
+    if stiffness_kind.as_deref() != Some("helical") {
+        return p.toml.clone();
+    }
+    let scene = p.pair_scene();
+    let source = &scene.mesh.stiffness;
+    let pieces = source
+        .pieces()
+        .expect("the helical source is piecewise linear");
+    // A table is continuous; the helical curve must be too (its pieces meet at the knots).
+    for (a, b) in pieces
+        .iter()
+        .zip(pieces.iter().skip(1).chain(pieces.first()))
+    {
+        let end = a.value(a.end);
+        assert!(
+            (end - b.k_start).abs() <= 1e-9 * end.abs(),
+            "{}: the helical stiffness jumps at s = {} ({end} → {}): not a table",
+            p.name,
+            a.end,
+            b.k_start
+        );
+    }
+    let mut table = toml::Table::new();
+    table.insert("kind".into(), "table".into());
+    table.insert("phase".into(), source.phase().into());
+    table.insert(
+        "phase_points".into(),
+        pieces.iter().map(|q| q.start).collect::<Vec<_>>().into(),
+    );
+    table.insert(
+        "values".into(),
+        pieces.iter().map(|q| q.k_start).collect::<Vec<_>>().into(),
+    );
+    doc["mesh"]
+        .as_table_mut()
+        .expect("[mesh] is a table")
+        .insert("stiffness".into(), toml::Value::Table(table));
+    format!(
+        "# Work-precision problem {} for the scipy and peer harnesses, written by `cargo bench --bench \
+         workprecision -- --write-problems`: benches/workprecision/problems/{}.toml with its helical \
+         stiffness (mean {:.6e} N/m) resolved into the equivalent table.\n{}",
+        p.id,
+        p.name,
+        source.mean(),
+        toml::to_string(&doc).expect("scene serialises")
+    )
 }
 
 /// The reference of one problem and how it was obtained.
