@@ -264,8 +264,8 @@ fn reference(
     let relative = e.dte_max * scale / amplitude;
     Ok(Reference {
         primary_method: primary.method.clone(),
-        primary: format!("{} (tol {})", primary.method, tol_text(&primary)),
-        secondary: format!("{} (tol {})", secondary.method, tol_text(&secondary)),
+        primary: labelled(&primary),
+        secondary: labelled(&secondary),
         difference: e.dte_max,
         relative,
         events: (primary.event_times.len(), secondary.event_times.len()),
@@ -277,11 +277,12 @@ fn reference(
     })
 }
 
-fn tol_text(row: &Row) -> String {
+/// A reference's name with its tolerance (none for the tolerance-free methods).
+fn labelled(row: &Row) -> String {
     if row.method == Propagator::Exact.label() || row.method == MPMATH {
-        "none".into()
+        format!("{} (no tolerance)", row.method)
     } else {
-        format!("{:.0e}", row.tol)
+        format!("{} (tol {:.0e})", row.method, row.tol)
     }
 }
 
@@ -650,7 +651,7 @@ fn main() {
                 md,
                 "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 r.method,
-                if r.method == Propagator::Exact.label() {
+                if r.method == Propagator::Exact.label() || r.method == MPMATH {
                     "–".into()
                 } else {
                     format!("{:.0e}", r.tol)

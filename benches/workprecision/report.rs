@@ -98,8 +98,20 @@ pub fn command_output(cmd: &str, args: &[&str]) -> String {
 
 pub fn footer() -> String {
     let commit = command_output("git", &["rev-parse", "--short", "HEAD"]);
-    let dirty =
-        !command_output("git", &["status", "--porcelain", "--untracked-files=no"]).is_empty();
+    // The run's own outputs (the plots, written before this footer) do not count as changes.
+    let dirty = !command_output(
+        "git",
+        &[
+            "status",
+            "--porcelain",
+            "--untracked-files=no",
+            "--",
+            ".",
+            ":!docs/benchmarks.md",
+            ":!docs/benchmarks",
+        ],
+    )
+    .is_empty();
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
         .and_then(|s| {
