@@ -3,7 +3,7 @@
 # geardyn's DP5, DOP853 and exact propagator, scipy's solve_ivp (DOP853, RK45, Radau) and the
 # Rust crate differential-equations (DOPRI5, DOP853; benches/peer, a separate cargo project)
 # on the problems of benches/workprecision/problems.rs along one tolerance ladder, all in this
-# one run, with the extended-precision reference scripts/workprecision_mpmath.py (about 12 min
+# one run, with the extended-precision reference scripts/workprecision_mpmath.py (about 10 min
 # on 2 cores, mostly scipy's Radau). --quick: fewer timed runs (for
 # iteration; every rung still runs).
 # Usage: scripts/bench-workprecision.sh [--quick]
