@@ -3,7 +3,8 @@
 # geardyn's DP5, DOP853 and exact propagator, scipy's solve_ivp (DOP853, RK45, Radau) and the
 # Rust crate differential-equations (DOPRI5, DOP853; benches/peer, a separate cargo project)
 # on the problems of benches/workprecision/problems.rs along one tolerance ladder, all in this
-# one run (about 12 min on 2 cores, mostly scipy's Radau). --quick: fewer timed runs (for
+# one run, with the extended-precision reference scripts/workprecision_mpmath.py (about 10 min
+# on 2 cores, mostly scipy's Radau). --quick: fewer timed runs (for
 # iteration; every rung still runs).
 # Usage: scripts/bench-workprecision.sh [--quick]
 set -euo pipefail
@@ -29,6 +30,9 @@ echo "peer done ($(( $(date +%s) - start )) s)"
 bash scripts/setup-python.sh >/dev/null
 .venv/bin/python scripts/workprecision_scipy.py "$out" "${quick[@]}"
 echo "scipy done ($(( $(date +%s) - start )) s)"
-# 4. geardyn, references, errors, report.
+# 4. The extended-precision reference (mpmath closed form) of the piecewise-constant problems.
+.venv/bin/python scripts/workprecision_mpmath.py "$out"
+echo "mpmath done ($(( $(date +%s) - start )) s)"
+# 5. geardyn, references, errors, report.
 cargo bench --locked --bench workprecision -- --report "$out" --doc docs/benchmarks.md "${quick[@]}"
 echo "total $(( $(date +%s) - start )) s"

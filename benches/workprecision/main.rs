@@ -5,7 +5,8 @@
 //!
 //! 1. `-- --write-problems DIR`: the scene files and `DIR/problems.csv` (name, kind, simulated
 //!    time, grid, error scale, ladder) for the other harnesses;
-//! 2. (the scipy and peer harnesses write `DIR/scipy.csv` and `DIR/peer.csv`)
+//! 2. (the scipy and peer harnesses write `DIR/scipy.csv` and `DIR/peer.csv`; the extended-
+//!    precision reference `scripts/workprecision_mpmath.py` writes `DIR/mpmath.csv`)
 //! 3. `-- --report DIR [--quick] [--doc FILE]`: runs geardyn's propagators, checks the
 //!    references, computes every error, writes `FILE` (default `docs/benchmarks.md`), its SVG
 //!    plots next to it (`docs/benchmarks/`) and `DIR/results.csv`.
@@ -35,6 +36,8 @@ use rows::{find, read_rows, Row};
 const AGREEMENT: f64 = 1e-9;
 /// The accuracy at which the acceptance ratios are read off each method's curve.
 const TARGET_ERROR: f64 = 1e-8;
+/// Method name of the extended-precision reference rows (`scripts/workprecision_mpmath.py`).
+const MPMATH: &str = "mpmath reference";
 
 /// Least time of `runs` after the warm-up, at least `min_runs` runs and `min_wall` seconds
 /// (a single run when it takes more than 1 s).
@@ -103,8 +106,11 @@ fn write_problems(dir: &Path) {
     std::fs::create_dir_all(dir.join("scenes")).expect("create scene directory");
     let mut csv = String::from("problem,kind,stop_time,samples,x_scale,exact_eligible,ladder\n");
     for p in problems() {
-        std::fs::write(dir.join("scenes").join(format!("{}.toml", p.name)), &p.toml)
-            .expect("write scene");
+        std::fs::write(
+            dir.join("scenes").join(format!("{}.toml", p.name)),
+            harness_scene_text(&p),
+        )
+        .expect("write scene");
         let ladder: Vec<String> = LADDER.iter().map(|t| format!("{t:e}")).collect();
         let _ = writeln!(
             csv,
@@ -125,9 +131,70 @@ fn write_problems(dir: &Path) {
     std::fs::write(dir.join("problems.csv"), csv).expect("write problems.csv");
 }
 
+/// The scene text given to the scipy and peer harnesses. Their models know the stiffness kinds
+/// of docs/model.md up to `table`; a `helical` stiffness (He & Singh 2007, docs/helical.md) is
+/// handed over as the `table` of its resolved piecewise-linear curve (knots and values, exact
+/// binary64 numbers). Only this stiffness data is shared: the dynamics, segment cutting and
+/// event location stay independent in each harness.
+fn harness_scene_text(p: &Problem) -> String {
+    if p.kind != Kind::Pair {
+        return p.toml.clone();
+    }
+    let mut doc: toml::Table = p.toml.parse().expect("problem scene is TOML");
+    let stiffness_kind = doc["mesh"]["stiffness"]["kind"].as_str().map(str::to_owned);
+    if stiffness_kind.as_deref() != Some("helical") {
+        return p.toml.clone();
+    }
+    let scene = p.pair_scene();
+    let source = &scene.mesh.stiffness;
+    let pieces = source
+        .pieces()
+        .expect("the helical source is piecewise linear");
+    // A table is continuous; the helical curve must be too (its pieces meet at the knots).
+    for (a, b) in pieces
+        .iter()
+        .zip(pieces.iter().skip(1).chain(pieces.first()))
+    {
+        let end = a.value(a.end);
+        assert!(
+            (end - b.k_start).abs() <= 1e-9 * end.abs(),
+            "{}: the helical stiffness jumps at s = {} ({end} → {}): not a table",
+            p.name,
+            a.end,
+            b.k_start
+        );
+    }
+    let mut table = toml::Table::new();
+    table.insert("kind".into(), "table".into());
+    table.insert("phase".into(), source.phase().into());
+    table.insert(
+        "phase_points".into(),
+        pieces.iter().map(|q| q.start).collect::<Vec<_>>().into(),
+    );
+    table.insert(
+        "values".into(),
+        pieces.iter().map(|q| q.k_start).collect::<Vec<_>>().into(),
+    );
+    doc["mesh"]
+        .as_table_mut()
+        .expect("[mesh] is a table")
+        .insert("stiffness".into(), toml::Value::Table(table));
+    format!(
+        "# Work-precision problem {} for the scipy and peer harnesses, written by `cargo bench --bench \
+         workprecision -- --write-problems`: benches/workprecision/problems/{}.toml with its helical \
+         stiffness (mean {:.6e} N/m) resolved into the equivalent table.\n{}",
+        p.id,
+        p.name,
+        source.mean(),
+        toml::to_string(&doc).expect("scene serialises")
+    )
+}
+
 /// The reference of one problem and how it was obtained.
 struct Reference {
     primary: String,
+    /// The primary's method name (its own row is measured against the secondary).
+    primary_method: String,
     secondary: String,
     /// Largest DTE difference of the two / x_scale, the same over the reference's largest
     /// |DTE|, and the contact-change counts.
@@ -137,7 +204,7 @@ struct Reference {
     agreed: bool,
     dte: Vec<Vec<f64>>,
     event_times: Vec<f64>,
-    /// The secondary's output (the exact propagator's error is measured against it).
+    /// The secondary's output (the primary's own row is measured against it).
     secondary_dte: Vec<Vec<f64>>,
     secondary_events: Vec<f64>,
 }
@@ -148,7 +215,16 @@ fn reference(
     rows: &[Row],
     scale: f64,
 ) -> Result<Reference, String> {
+    let mpmath = find(rows, problem.name, MPMATH);
     let (primary, secondary): (Row, Row) = match (problem.kind, eligible) {
+        // The extended-precision closed form is the reference of every method; the exact
+        // propagator must agree with it (and is measured against it).
+        (Kind::Pair, true) if mpmath.is_some() => (
+            mpmath.expect("checked").clone(),
+            find(rows, problem.name, Propagator::Exact.label())
+                .ok_or("the exact propagator failed")?
+                .clone(),
+        ),
         (_, true) => {
             let exact = find(rows, problem.name, Propagator::Exact.label())
                 .ok_or("the exact propagator failed")?
@@ -187,8 +263,9 @@ fn reference(
         .fold(0.0f64, |m, v| m.max(v.abs()));
     let relative = e.dte_max * scale / amplitude;
     Ok(Reference {
-        primary: format!("{} (tol {})", primary.method, tol_text(&primary)),
-        secondary: format!("{} (tol {})", secondary.method, tol_text(&secondary)),
+        primary_method: primary.method.clone(),
+        primary: labelled(&primary),
+        secondary: labelled(&secondary),
         difference: e.dte_max,
         relative,
         events: (primary.event_times.len(), secondary.event_times.len()),
@@ -200,11 +277,12 @@ fn reference(
     })
 }
 
-fn tol_text(row: &Row) -> String {
-    if row.method == Propagator::Exact.label() {
-        "none".into()
+/// A reference's name with its tolerance (none for the tolerance-free methods).
+fn labelled(row: &Row) -> String {
+    if row.method == Propagator::Exact.label() || row.method == MPMATH {
+        format!("{} (no tolerance)", row.method)
     } else {
-        format!("{:.0e}", row.tol)
+        format!("{} (tol {:.0e})", row.method, row.tol)
     }
 }
 
@@ -262,6 +340,7 @@ fn main() {
     for (file, who) in [
         ("scipy.csv", "scipy"),
         ("peer.csv", "differential-equations"),
+        ("mpmath.csv", "mpmath reference"),
     ] {
         match read_rows(&dir.join(file)) {
             Ok(r) => rows.extend(r),
@@ -324,9 +403,9 @@ fn main() {
                 .iter_mut()
                 .filter(|row| row.problem == p.name && row.ok())
             {
-                // The exact propagator is measured against the independent secondary
-                // reference (against itself its error would be 0 by construction).
-                let (dte, ev) = if row.method == Propagator::Exact.label() {
+                // The primary reference is measured against the independent secondary one
+                // (against itself its error would be 0 by construction).
+                let (dte, ev) = if row.method == reference.primary_method {
                     (&reference.secondary_dte, &reference.secondary_events)
                 } else {
                     (&reference.dte, &reference.event_times)
@@ -364,8 +443,10 @@ fn main() {
     md += "\n## References and their agreement\n\n";
     let _ = writeln!(md, "Each problem's reference comes from two independent methods that must agree \
         (largest DTE difference on the grid ≤ {AGREEMENT:.0e} of the largest |DTE|, same number of \
-        contact changes) before either is used. The first is the reference of every method; the \
-        exact propagator is measured against the second. The difference is also given in units of \
+        contact changes) before either is used. The first is the reference of every method; its own \
+        row is measured against the second. Where the stiffness is piecewise constant the first is the \
+        extended-precision closed form of `scripts/workprecision_mpmath.py` (mpmath, 30 digits, contact \
+        changes bisected to 1e-28 s) and the second the exact propagator. The difference is also given in units of \
         the static deflection, the unit of every error below: it bounds how far down the errors of a \
         problem can be resolved.\n");
     md += "| problem | reference | checked against | largest difference / max abs DTE | … / x_st | contact changes | agreed |\n|---|---|---|---|---|---|---|\n";
@@ -431,6 +512,14 @@ fn main() {
     .filter_map(|m| cost(m).map(|c| (c, *m)))
     .min_by(|a, b| a.0.partial_cmp(&b.0).unwrap());
     let exact_error = find(&rows, g1.name, Propagator::Exact.label()).and_then(|r| r.errors);
+    // Against what the exact propagator was measured: the primary reference, unless it is the
+    // primary itself (no mpmath rows), then the secondary.
+    let exact_measured_against = match &references[g1.name] {
+        Ok(r) if r.primary_method == Propagator::Exact.label() => r.secondary.clone(),
+        Ok(r) => r.primary.clone(),
+        Err(_) => "no reference".into(),
+    };
+    let scipy_error = find(&rows, g1.name, "scipy reference DOP853").and_then(|r| r.errors);
     // A third, tighter look at the exact propagator: against geardyn's DOP853 at 1e-13 (RK with
     // event location, an independent method in the same code base), and that run against
     // scipy's, to show which of the two checks limits the comparison.
@@ -469,18 +558,22 @@ fn main() {
         md,
         "\n- geardyn's best method at 1e-8: **{}**.\n- scipy DOP853 / geardyn best: **{}** (required ≥ 100): {}.\n\
          - Rust peer's best ({}) / geardyn best: **{}** (required ≥ 3): {}.\n\
-         - exact propagator's DTE error (RMS; max) against the independent reference (scipy DOP853 at 1e-13): **{}; {}** (required ≤ 1e-12): {}.\n\
-         - exact propagator against geardyn DOP853 at 1e-13: **{}; {}** ({}); scipy DOP853 at 1e-13 against geardyn DOP853 at 1e-13: {}; {}. \
-         When the last pair is as large as the first, the scipy run is what limits the first comparison.",
+         - exact propagator's DTE error (RMS; max) against the independent reference ({}): **{}; {}** (required ≤ 1e-12): {}.\n\
+         - scipy DOP853 at rtol 1e-13 against the same reference: {}; {}.\n\
+         - exact propagator against geardyn DOP853 at 1e-13: **{}; {}** ({}); scipy DOP853 at 1e-13 against geardyn DOP853 at 1e-13: {}; {} \
+         (RK checks of the exact propagator, limited by the RK runs' own error).",
         geardyn_best.map_or("none reached 1e-8".into(), |g| format!("{} ({:.3} ms)", g.1, g.0 * 1e3)),
         r_scipy.map_or("n/a".into(), |r| format!("{r:.0}×")),
         pass(r_scipy.map(|r| r >= 100.0)),
         peer_best.map_or("none", |p| p.1),
         r_peer.map_or("n/a".into(), |r| format!("{r:.1}×")),
         pass(r_peer.map(|r| r >= 3.0)),
+        exact_measured_against,
         fmt_e(exact_error.map(|e| e.dte_l2)),
         fmt_e(exact_error.map(|e| e.dte_max)),
         pass(exact_error.map(|e| e.dte_l2 <= 1e-12)),
+        fmt_e(scipy_error.map(|e| e.dte_l2)),
+        fmt_e(scipy_error.map(|e| e.dte_max)),
         fmt_e(exact_vs_rk.map(|e| e.dte_l2)),
         fmt_e(exact_vs_rk.map(|e| e.dte_max)),
         pass(exact_vs_rk.map(|e| e.dte_l2 <= 1e-12)),
@@ -521,7 +614,7 @@ fn main() {
     // Per problem: plots and the full table.
     md += "\n## Results per problem\n\nColumns: DTE error = RMS over the grid of |x − x_ref| / x_st; max = largest; \
         final = at the end time; RMS err = |RMS(x) − RMS(x_ref)| / x_st (mean removed); event-time error = largest \
-        |t_i − t_ref,i| over the contact changes (s; – when the counts differ); Δevents = count minus the \
+        |t_i − t_ref,i| over the contact changes (s; – when the counts differ or there are none); Δevents = count minus the \
         reference's; wall = least of the timed runs after a warm-up; rhs, steps (accepted), rej (rejected; scipy \
         does not report it), events = contact changes located. Dashed lines in the plots are the other \
         libraries.\n";
@@ -558,7 +651,7 @@ fn main() {
                 md,
                 "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 r.method,
-                if r.method == Propagator::Exact.label() {
+                if r.method == Propagator::Exact.label() || r.method == MPMATH {
                     "–".into()
                 } else {
                     format!("{:.0e}", r.tol)
@@ -631,7 +724,8 @@ fn main() {
     std::fs::write(&doc, md).expect("write doc");
     println!(
         "wrote {} and {}/*.svg; G1 at 1e-8: geardyn best {}, scipy DOP853 / geardyn best = {}, \
-         peer best ({}) / geardyn best = {}, exact error {} (vs scipy), {} (vs geardyn DOP853 1e-13)",
+         peer best ({}) / geardyn best = {}, exact error {} (vs {}), {} (vs geardyn DOP853 1e-13), \
+         scipy DOP853 1e-13 error {}",
         doc.display(),
         doc_dir.display(),
         geardyn_best.map_or("none", |g| g.1),
@@ -639,6 +733,8 @@ fn main() {
         peer_best.map_or("none", |p| p.1),
         r_peer.map_or("n/a".into(), |r| format!("{r:.1}x")),
         fmt_e(exact_error.map(|e| e.dte_l2)),
+        exact_measured_against,
         fmt_e(exact_vs_rk.map(|e| e.dte_l2)),
+        fmt_e(scipy_error.map(|e| e.dte_l2)),
     );
 }

@@ -15,7 +15,8 @@ pub struct Errors {
     pub final_point: f64,
     /// `|rms(x) − rms(x_ref)| / x_scale` with the mean removed (the engineering quantity).
     pub dte_rms: f64,
-    /// Largest `|t_i − t_ref,i|` over the contact changes, s; `None` when the counts differ.
+    /// Largest `|t_i − t_ref,i|` over the contact changes, s; `None` when the counts differ or
+    /// the reference has none (nothing to measure).
     pub event_time: Option<f64>,
     /// Contact changes of the run minus those of the reference.
     pub event_count_mismatch: i64,
@@ -53,7 +54,7 @@ pub fn errors(
         final_point = final_point.max((x[x.len() - 1] - r[r.len() - 1]).abs() / x_scale);
         dte_rms = dte_rms.max((rms_about_mean(x) - rms_about_mean(r)).abs() / x_scale);
     }
-    let event_time = (events.len() == ref_events.len()).then(|| {
+    let event_time = (events.len() == ref_events.len() && !ref_events.is_empty()).then(|| {
         events
             .iter()
             .zip(ref_events)

@@ -98,8 +98,20 @@ pub fn command_output(cmd: &str, args: &[&str]) -> String {
 
 pub fn footer() -> String {
     let commit = command_output("git", &["rev-parse", "--short", "HEAD"]);
-    let dirty =
-        !command_output("git", &["status", "--porcelain", "--untracked-files=no"]).is_empty();
+    // The run's own outputs (the plots, written before this footer) do not count as changes.
+    let dirty = !command_output(
+        "git",
+        &[
+            "status",
+            "--porcelain",
+            "--untracked-files=no",
+            "--",
+            ".",
+            ":!docs/benchmarks.md",
+            ":!docs/benchmarks",
+        ],
+    )
+    .is_empty();
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
         .and_then(|s| {
@@ -151,10 +163,13 @@ the peer's DOP853 inherit this, so its curves level off near 1e-6…1e-7.\n\
 the stops (two stiffness switches per mesh period, the contact events and the 200 grid points), \
 so every step ends on a stop and the loosest rungs give the same steps and error \
 (`tests/tolerance_proportionality.rs` checks exactly this case).\n\
-- **References**: where the exact propagator applies it agrees with geardyn's DOP853 at 1e-13 to \
-a few 1e-13 of x_st, while scipy's DOP853 at rtol 1e-13 differs from both by a few 1e-12 (G1): \
-scipy's run is the coarser of the two checks. On `rattle` the difference is 4.7e-9 x_st (1.4e-11 \
-of the 50 µm motion, 112 impacts): errors below ~1e-8 x_st are not resolved there.\n";
+- **References**: where the stiffness is piecewise constant (G1, G6, G7) the reference is the \
+closed-form solution in 30-digit arithmetic (`scripts/workprecision_mpmath.py`, from docs/model.md; \
+unchanged to the last binary64 digit at 40 digits), checked against the exact propagator. scipy's \
+DOP853 at rtol 1e-13 is a few 1e-12 x_st from it on G1, the exact propagator a few 1e-14. On `rattle` \
+(50 µm motion, 112 impacts) the exact propagator is ~1e-10 x_st and scipy's DOP853 ~2e-9 x_st from it: \
+the impacts amplify every perturbation, so errors below ~1e-9 x_st are not resolved for the RK \
+methods there.\n";
 
 pub fn pass(ok: Option<bool>) -> &'static str {
     match ok {
@@ -201,10 +216,11 @@ pub fn write_doc_head(
     let _ = writeln!(
         md,
         "\nScene files: `benches/workprecision/problems/*.toml` (G3 is `fmu/idler_gearset` with its tip \
-         relief removed, so its segments are LTI). G4 is a **stand-in** until the `helical` stiffness \
-         source lands: a trapezoidal-stiffness pair with the NASA-ART helical pair's data that never \
-         loses contact; swapping in the helical scene is its one `toml:` line in \
-         `benches/workprecision/problems.rs`.\n\n\
+         relief removed, so its segments are LTI). G4 is the helical pair of `fmu/helical_pair_friction` \
+         (`helical` stiffness source, docs/helical.md) with damping and STE added; the scipy and peer \
+         models have no helical source, so `--write-problems` hands them its resolved piecewise-linear \
+         stiffness as the equivalent `table` (only the stiffness data is shared; each harness's \
+         dynamics, segment stops and event location stay its own).\n\n\
          ## Methods\n\n\
          - **geardyn DP5, DOP853** (`src/solve/rk`): the library path of `geardyn simulate` and the FMUs \
          (`Simulation::advance_to` at every grid point, stiffness switches as stops, contact changes \

@@ -100,6 +100,52 @@ fn list(v: Option<&toml::Value>) -> Vec<f64> {
         .unwrap_or_default()
 }
 
+/// The pieces of a `table` stiffness (docs/model.md, "Mesh stiffness": linear between the knots
+/// `s_0 < … < s_{n−1}` in `[0, 1)`, periodic, the last knot joined to `s_0 + 1`) and its exact
+/// mean (the trapezoid rule is exact for a piecewise-linear curve).
+fn table_pieces(s: &[f64], k: &[f64]) -> Result<(Vec<Piece>, f64), String> {
+    let n = s.len();
+    if n < 2 || k.len() != n {
+        return Err("table stiffness needs n ≥ 2 phase_points and as many values".into());
+    }
+    if s[0] < 0.0 || s[n - 1] >= 1.0 || s.windows(2).any(|w| w[0] >= w[1]) {
+        return Err("table phase_points must increase strictly in [0, 1)".into());
+    }
+    let line = |a: f64, b: f64, ka: f64, kb: f64| Piece {
+        start: a,
+        end: b,
+        k0: ka,
+        slope: (kb - ka) / (b - a),
+    };
+    // The wrap segment [s_{n−1}, s_0 + 1], cut at s = 1.
+    let wrap_slope = (k[0] - k[n - 1]) / (s[0] + 1.0 - s[n - 1]);
+    let k_at_one = k[n - 1] + wrap_slope * (1.0 - s[n - 1]);
+    let mut pieces = Vec::with_capacity(n + 1);
+    if s[0] > 0.0 {
+        pieces.push(line(0.0, s[0], k_at_one, k[0]));
+    }
+    for i in 0..n - 1 {
+        pieces.push(line(s[i], s[i + 1], k[i], k[i + 1]));
+    }
+    pieces.push(Piece {
+        start: s[n - 1],
+        end: 1.0,
+        k0: k[n - 1],
+        slope: wrap_slope,
+    });
+    let mean = (0..n)
+        .map(|i| {
+            let (b, kb) = if i + 1 < n {
+                (s[i + 1], k[i + 1])
+            } else {
+                (s[0] + 1.0, k[0])
+            };
+            0.5 * (k[i] + kb) * (b - s[i])
+        })
+        .sum();
+    Ok((pieces, mean))
+}
+
 fn harmonics(cos: &[f64], sin: &[f64]) -> Vec<(f64, f64)> {
     (0..cos.len().max(sin.len()))
         .map(|i| {
@@ -160,8 +206,16 @@ impl Pair {
             .and_then(|k| k.as_str())
             .ok_or("no stiffness kind")?;
         let phase = opt_num(st, "phase").unwrap_or(0.0);
-        let mean = num(st, "mean")?;
+        // A table's mean is that of its piecewise-linear curve; the other kinds state it.
+        let (table, mean) = if kind == "table" {
+            let (pieces, mean) =
+                table_pieces(&list(st.get("phase_points")), &list(st.get("values")))?;
+            (Some(Stiffness::Pieces { phase, pieces }), mean)
+        } else {
+            (None, num(st, "mean")?)
+        };
         let stiffness = match kind {
+            "table" => table.expect("built above for a table"),
             "rectangular" | "trapezoidal" => {
                 let eps = num(st, "peak_to_peak_ratio")?;
                 let c = num(st, "contact_ratio")?;
