@@ -18,6 +18,7 @@
 //! on their Taylor series, and the system snaps the state onto the surface.
 
 mod crossing;
+mod enclosure;
 mod guard_series;
 pub mod transition;
 
