@@ -99,30 +99,31 @@ pub fn first_crossing<S: PiecewiseLti>(
                 best = Some((0.0, i));
                 break;
             }
-            if g_right >= 0.0 {
-                // The cheap proof first: with |g''| ≤ C on the interval, the larger of the two
-                // Taylor minorants from the ends bounds the guard below (a start on the
-                // surface, rising, counts as zero).
-                if let Some(c) = rows.curvature_bound(&mode.a, h, &ws.z_left) {
-                    stats.guard_evals += 1;
-                    let ends = |sigma: f64, g: f64, slope: f64| Point {
-                        sigma,
-                        g,
-                        slope: slope * width,
-                    };
-                    let bound = taylor_lower_bound(
-                        ends(0.0, g_left.max(0.0), d_left),
-                        ends(1.0, g_right, d_right),
-                        -c * width * width,
-                    );
-                    if bound >= 0.0 {
-                        continue;
-                    }
+            // |g''| ≤ C on the interval (σ units: C width²), from the mode's weights.
+            let curvature = rows
+                .curvature_bound(&mode.a, h, &ws.z_left)
+                .map(|c| c * width * width);
+            stats.guard_evals += 1;
+            if let Some(c) = curvature.filter(|_| g_right >= 0.0) {
+                // The cheap proof first: the larger of the two Taylor minorants from the ends
+                // bounds the guard below (a start on the surface, rising, counts as zero).
+                let ends = |sigma: f64, g: f64, slope: f64| Point {
+                    sigma,
+                    g,
+                    slope: slope * width,
+                };
+                let bound = taylor_lower_bound(
+                    ends(0.0, g_left.max(0.0), d_left),
+                    ends(1.0, g_right, d_right),
+                    -c,
+                );
+                if bound >= 0.0 {
+                    continue;
                 }
             }
             let series = GuardSeries::from_rows(rows, &mode.a, &ws.z_left, width);
             stats.guard_evals += series.terms() as u64;
-            let mut guard = GuardOnInterval::new(&series);
+            let mut guard = GuardOnInterval::new(&series, curvature);
             // Both ends from the series (their values agree with the samples up to rounding;
             // a start on the surface counts as zero, rising).
             let start = Point {

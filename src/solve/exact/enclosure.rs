@@ -36,15 +36,19 @@ pub struct Point {
 /// One guard's polynomial over one sample interval.
 pub struct GuardOnInterval<'s, 'a> {
     series: &'s GuardSeries<'a>,
+    /// `C ≥ |p''|` on the whole interval, if known (one bound for every sub-interval: the
+    /// cheap first test before the centred enclosure).
+    curvature_bound: Option<f64>,
     /// Series evaluations (counted as guard evaluations by the caller).
     pub evals: u64,
     budget: u32,
 }
 
 impl<'s, 'a> GuardOnInterval<'s, 'a> {
-    pub fn new(series: &'s GuardSeries<'a>) -> Self {
+    pub fn new(series: &'s GuardSeries<'a>, curvature_bound: Option<f64>) -> Self {
         GuardOnInterval {
             series,
+            curvature_bound,
             evals: 0,
             budget: MAX_BISECTIONS,
         }
@@ -62,6 +66,11 @@ impl<'s, 'a> GuardOnInterval<'s, 'a> {
     /// A bracket `(lo, hi)` of the first crossing in `[a, b]` (`p(lo) >= 0 > p(hi)`, one
     /// crossing inside), or `None` when `p` stays `>= 0` there. Requires `a.g >= 0`.
     pub fn first_crossing(&mut self, a: Point, b: Point) -> Option<(Point, Point)> {
+        if let Some(c) = self.curvature_bound {
+            if b.g >= 0.0 && taylor_lower_bound(a, b, -c) >= 0.0 {
+                return None;
+            }
+        }
         let (lower, upper) = self.series.curvature_range(a.sigma, b.sigma);
         let width = b.sigma - a.sigma;
         let mid_sigma = a.sigma + 0.5 * width;
