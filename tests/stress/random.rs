@@ -231,6 +231,15 @@ fn random_scenes_have_identical_event_sequences_strict() {
     run_cases(0, 300, true);
 }
 
+/// Regression: the two cases of the long set whose excursion the exact propagator missed
+/// before its sample intervals were searched rigorously (`src/solve/exact/enclosure.rs`).
+#[test]
+fn exact_finds_the_short_excursions_of_seeds_1001515_and_1001995() {
+    for seed in [1_001_515, 1_001_995] {
+        run_cases(seed, 1, true);
+    }
+}
+
 /// Regression: without output stops, the exact propagator missed the back-side flight of
 /// seed 229 at t ≈ 1.230–1.244 ms that RK (rtol 1e-10 and 1e-13, both pairs) and the exact
 /// propagator itself with stops every 1.5 µs find.

@@ -91,7 +91,8 @@ impl<'s, 'a> GuardOnInterval<'s, 'a> {
             if lower >= 0.0 {
                 return self.convex_dip(a, b);
             }
-            if taylor_lower_bound(a, b, lower) >= 0.0 || !resolvable {
+            // (An unbounded curvature, the `expm` fallback, proves nothing: bisect.)
+            if (lower.is_finite() && taylor_lower_bound(a, b, lower) >= 0.0) || !resolvable {
                 return None;
             }
         }
