@@ -100,8 +100,8 @@ type TransitionBin = (u64, DMatrix<f64>, DMatrix<f64>);
 pub struct ModeTransitions {
     /// `A` of the mode.
     pub a: DMatrix<f64>,
-    /// Guard sample spacing `h`: a quarter of the fastest period of the mode (so the guard
-    /// has at most one extremum per sample interval).
+    /// Guard sample spacing `h`: a quarter of the fastest period of the mode (`|λh| ≤ π/2`,
+    /// so a guard's Taylor series over one interval settles within a few tens of terms).
     pub sample_step: f64,
     /// `e^{A h} − I`.
     sample_increment: DMatrix<f64>,
