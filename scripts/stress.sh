@@ -2,13 +2,9 @@
 # The numerical stress suite (issue 9, acceptance 4; tests/stress/): the short variants (run by
 # `cargo test` in CI, seconds) and the long ones marked #[ignore] (1e6 mesh periods, 1e5-period
 # energy balance, 1e4 grazing and rattle cycles, ...), in release mode. Prints the measured
-# numbers. The tests of the known defect (short excursions missed by the exact propagator; see
-# README) are skipped; run them by name to see them fail, e.g.
-# cargo test --release --test stress seed_229 -- --ignored --nocapture
+# numbers.
 # Usage: bash scripts/stress.sh [extra cargo-test args]
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
-cargo test --release --locked --test stress -- --include-ignored --nocapture --test-threads 1 \
-  --skip random_scenes_have_identical_event_sequences_strict \
-  --skip exact_finds_the_short_back_side_flight_of_seed_229 "$@"
+cargo test --release --locked --test stress -- --include-ignored --nocapture --test-threads 1 "$@"

@@ -5,18 +5,19 @@
 //! must produce the identical event sequence, with event times and DTE that agree. A failing
 //! case prints its seed and parameters, so it can be replayed with `case(seed)`.
 //!
-//! Known defect of the exact propagator, accounted for separately: it can miss an excursion
-//! that falls between its guard samples — a separation and the return to the same flank, or a
-//! shallow touch of a flank during a flight (seed 229: a 14 µs back-side flight, 8.6 % of a
-//! mesh period, found by RK at rtol 1e-10…1e-13 and by the exact propagator itself with 1.5 µs
-//! output stops; likewise seeds 1001515 and 1001995 of the long set, which the exact propagator
-//! with 1 µs output stops reproduces event for event). A case whose sequences first differ by an excursion that only RK has
-//! (within a mesh period) is counted and printed, and the motion after it is not compared (it
-//! differs); its share must stay small (measured: 1 of 300, 2 of 5000). RK may miss none: its
-//! event search bounds each guard along the step's interpolant (`src/solve/rk/graze.rs`;
-//! before that, sampled at 4 interior points per step, it missed 1 of 300 and 21 of 5000). The
-//! strict variant and the seed-229 regression are `#[ignore]`d with the exact propagator's
-//! defect.
+//! Fixed with the suite: the exact propagator missed an excursion that fell between its guard
+//! samples — a separation and the return to the same flank, or a shallow touch of a flank
+//! during a flight (seed 229: a 14 µs back-side flight, 8.6 % of a mesh period; seeds 1001515
+//! and 1001995 of the long set, each reproduced by the exact propagator with 1 µs output
+//! stops). Its sample-interval search only looked for a dip when the guard's slope went from
+//! − to + across the interval, and after an event only when the guard ended the interval
+//! below zero and falling; it now proves each interval free of crossings with a curvature
+//! bound or finds the first crossing on the guard's Taylor polynomial
+//! (`src/solve/exact/enclosure.rs`). The event search of RK bounds each guard along the
+//! step's interpolant (`src/solve/rk/graze.rs`). A case whose sequences first differ by an
+//! excursion that only one propagator has (within a mesh period) is classified and printed;
+//! none may remain (measured before the fix: 2 of 5000 missed by the exact propagator; RK,
+//! sampled at 4 interior points per step before its fix, 1 of 300 and 21 of 5000).
 
 use std::f64::consts::TAU;
 
@@ -144,8 +145,8 @@ fn missed_short_excursion(
 }
 
 /// Runs cases `first..first + n`; returns the total event count and the number of cases
-/// that differ only by a short excursion the exact propagator missed (tolerated unless
-/// `strict`; an excursion RK missed always fails).
+/// that differ only by a short excursion the exact propagator missed (counted unless
+/// `strict`, where it fails at once with the sequences; an excursion RK missed always fails).
 fn run_cases(first: u64, n: u64, strict: bool) -> (usize, usize) {
     let mut total = 0;
     let mut exact_misses = 0;
@@ -172,8 +173,8 @@ fn run_cases(first: u64, n: u64, strict: bool) -> (usize, usize) {
         if !strict && missed_short_excursion(&a, &b, period) == Some(Missed::ByExact) {
             exact_misses += 1;
             println!(
-                "  seed {seed}: a short excursion RK found is missing in the exact run (known \
-                 defect); exact {} events, RK {}",
+                "  seed {seed}: a short excursion RK found is missing in the exact run; exact {} \
+                 events, RK {}",
                 a.len(),
                 b.len()
             );
@@ -209,8 +210,8 @@ fn run_cases(first: u64, n: u64, strict: bool) -> (usize, usize) {
 fn random_scenes_have_identical_event_sequences() {
     let (events, exact_misses) = run_cases(0, 300, false);
     assert!(events >= 300, "the cases must exercise contact changes");
-    assert!(
-        exact_misses <= 3,
+    assert_eq!(
+        exact_misses, 0,
         "{exact_misses} of 300 cases differ by an excursion the exact propagator missed"
     );
 }
@@ -219,23 +220,30 @@ fn random_scenes_have_identical_event_sequences() {
 #[ignore = "long: 5000 random cases; bash scripts/stress.sh"]
 fn random_scenes_have_identical_event_sequences_long() {
     let (_, exact_misses) = run_cases(1_000_000, 5_000, false);
-    assert!(
-        exact_misses <= 10,
+    assert_eq!(
+        exact_misses, 0,
         "{exact_misses} of 5000 cases differ by an excursion the exact propagator missed"
     );
 }
 
 #[test]
-#[ignore = "known defect: the exact propagator misses a short back-side flight (seed 229)"]
 fn random_scenes_have_identical_event_sequences_strict() {
     run_cases(0, 300, true);
 }
 
-/// Known defect: without output stops, the exact propagator misses the back-side flight of
+/// Regression: the two cases of the long set whose excursion the exact propagator missed
+/// before its sample intervals were searched rigorously (`src/solve/exact/enclosure.rs`).
+#[test]
+fn exact_finds_the_short_excursions_of_seeds_1001515_and_1001995() {
+    for seed in [1_001_515, 1_001_995] {
+        run_cases(seed, 1, true);
+    }
+}
+
+/// Regression: without output stops, the exact propagator missed the back-side flight of
 /// seed 229 at t ≈ 1.230–1.244 ms that RK (rtol 1e-10 and 1e-13, both pairs) and the exact
 /// propagator itself with stops every 1.5 µs find.
 #[test]
-#[ignore = "known defect: the exact propagator misses a short back-side flight (seed 229)"]
 fn exact_finds_the_short_back_side_flight_of_seed_229() {
     let (scene, _) = case(229);
     let mut exact = simulation(&scene, Propagator::Exact, DELTA_S);

@@ -13,6 +13,8 @@
 
 use nalgebra::DMatrix;
 
+use super::guard_series::DerivativeRows;
+
 /// Duration bins kept per mode with their own `e^{Aτ}`; replaced round-robin.
 const RECURRING_CAPACITY: usize = 32;
 /// Low mantissa bits rounded away by the duration bins (relative bin width 2^(LOW−52) = 2⁻³²).
@@ -98,11 +100,13 @@ type TransitionBin = (u64, DMatrix<f64>, DMatrix<f64>);
 pub struct ModeTransitions {
     /// `A` of the mode.
     pub a: DMatrix<f64>,
-    /// Guard sample spacing `h`: a quarter of the fastest period of the mode (so the guard
-    /// has at most one extremum per sample interval).
+    /// Guard sample spacing `h`: a quarter of the fastest period of the mode (`|λh| ≤ π/2`,
+    /// so a guard's Taylor series over one interval settles within a few tens of terms).
     pub sample_step: f64,
     /// `e^{A h} − I`.
     sample_increment: DMatrix<f64>,
+    /// Per guard index: its row and derivative rows along this mode's flow (crossing search).
+    pub guard_rows: Vec<DerivativeRows>,
     /// `(centre bits of τ_c, Φ = e^{A τ_c}, ΦA)` per duration bin.
     recurring: Vec<TransitionBin>,
     next_recurring_slot: usize,
@@ -130,6 +134,7 @@ impl ModeTransitions {
             a,
             sample_step,
             sample_increment,
+            guard_rows: Vec::new(),
             recurring: Vec::new(),
             next_recurring_slot: 0,
         }
