@@ -9,6 +9,7 @@
 //! snapped onto the switching surface by the system before integration restarts.
 
 pub mod exact;
+pub mod first_crossing;
 pub mod polynomial;
 pub mod rk;
 pub mod roots;

@@ -108,7 +108,7 @@ pub fn first_crossing<S: PiecewiseLti>(
                 // The cheap proof first: the larger of the two Taylor minorants from the ends
                 // bounds the guard below (a start on the surface, rising, counts as zero).
                 let ends = |sigma: f64, g: f64, slope: f64| Point {
-                    sigma,
+                    at: sigma,
                     g,
                     slope: slope * width,
                 };
@@ -127,12 +127,12 @@ pub fn first_crossing<S: PiecewiseLti>(
             // Both ends from the series (their values agree with the samples up to rounding;
             // a start on the surface counts as zero, rising).
             let start = Point {
-                sigma: 0.0,
+                at: 0.0,
                 g: g_left.max(0.0),
                 slope: series.slope_sigma(0.0),
             };
             let end = Point {
-                sigma: 1.0,
+                at: 1.0,
                 g: g_right,
                 slope: series.slope_sigma(1.0),
             };
@@ -145,8 +145,8 @@ pub fn first_crossing<S: PiecewiseLti>(
                         evals += 1;
                         series.value(s)
                     },
-                    lo.sigma * width,
-                    hi.sigma * width,
+                    lo.at * width,
+                    hi.at * width,
                     lo.g,
                     hi.g,
                     tol,

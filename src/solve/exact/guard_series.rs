@@ -2,7 +2,7 @@
 
 use nalgebra::{DMatrix, DVector};
 
-use super::enclosure::polynomial_range;
+use crate::solve::first_crossing::polynomial_range;
 
 /// A guard row `w` and its time derivatives along the flow, `r_k = (Aᵀ)^k w`
 /// (`d^k g/dt^k = r_k · z`), built lazily and kept with the mode (the same `w` recurs in

@@ -207,7 +207,7 @@ impl EventState {
                 let end = guard.point(1.0, Some(g_end));
                 guard
                     .first_crossing(start, end)
-                    .map(|(lo, hi)| ((guard.time(lo.theta), lo.g), (guard.time(hi.theta), hi.g)))
+                    .map(|(lo, hi)| ((guard.time(lo.at), lo.g), (guard.time(hi.at), hi.g)))
             };
             if let Some((a, b)) = bracket {
                 if matches!(first, Some((tf, _)) if tf <= a.0) {
