@@ -58,6 +58,27 @@ def native_run(scene, out_csv, output_interval, stop_time):
     return np.genfromtxt(out_csv, delimiter=",", names=True)
 
 
+def fmpy_matches_native(name, output_interval, stop_time, tmp_path, report):
+    """Runs the shipped FMU `name` under fmpy and `geardyn simulate` on its scene on the same
+    grid (same step partition), asserts that DTE and mesh stiffness agree to 1e-12 of their
+    largest values, and returns fmpy's mesh-stiffness series."""
+    import fmpy
+    import numpy as np
+
+    native = native_run(REPO / "fmu" / name, tmp_path / "dte.csv", output_interval, stop_time)
+    r = fmpy.simulate_fmu(str(FMU_DIR / f"{name}.fmu"), fmi_type="CoSimulation",
+                          output_interval=output_interval, stop_time=stop_time,
+                          output=["dte", "mesh_stiffness"])
+    assert len(r) == len(native)
+    amp = np.abs(native["dte"]).max()
+    err = np.abs(r["dte"] - native["dte"]).max()
+    report(f"{name} fmpy vs native: max|dDTE| = {err:.3e} m = {err / amp:.3e} of max|DTE|")
+    assert err <= 1e-12 * amp
+    k = r["mesh_stiffness"]
+    assert np.abs(k - native["mesh_stiffness"]).max() <= 1e-12 * k.max()
+    return k
+
+
 _MEASUREMENTS = []
 
 
