@@ -89,7 +89,7 @@ impl LinearPeriodMap {
         let pair = GearPair::new(scene);
         let period = pair.mesh_period();
         // Shifted phase at t = 0, and the pieces in time from there over one period.
-        let s0 = (pair.mesh_phase(0.0) + scene.mesh.stiffness.phase()).rem_euclid(1.0);
+        let s0 = crate::mesh::cycle_fraction(pair.mesh_phase(0.0) + scene.mesh.stiffness.phase());
         let first = pieces.partition_point(|p| p.start <= s0).saturating_sub(1);
         let mut segments = Vec::with_capacity(pieces.len() + 1);
         let mut s = s0;

@@ -9,4 +9,12 @@ pub mod series;
 pub mod stiffness;
 
 pub use series::PhaseSeries;
+
+/// The fraction `p − ⌊p⌋ ∈ [0, 1]` of a mesh phase: the same value as `crate::mesh::cycle_fraction(p)`
+/// (both are one rounding of the exact fraction; only the sign of a zero may differ), without
+/// the software `fmod`, which costs as much as the `sin_cos` of a harmonic.
+#[inline]
+pub fn cycle_fraction(p: f64) -> f64 {
+    p - p.floor()
+}
 pub use stiffness::{MeshStiffness, Piece};

@@ -56,7 +56,14 @@ impl PhaseSeries {
         if self.coefficients.is_empty() {
             return (0.0, 0.0);
         }
-        let (s1, c1) = (TAU * p.rem_euclid(1.0)).sin_cos();
+        self.value_and_slope_unconditionally(p)
+    }
+
+    /// [`PhaseSeries::value_and_slope`] paying the `sin_cos` also without harmonics (the
+    /// generic right-hand-side kernel, the baseline that carries every term).
+    #[inline]
+    pub fn value_and_slope_unconditionally(&self, p: f64) -> (f64, f64) {
+        let (s1, c1) = (TAU * crate::mesh::cycle_fraction(p)).sin_cos();
         let (mut s, mut c) = (s1, c1);
         let mut value = 0.0;
         let mut slope = 0.0;

@@ -255,7 +255,7 @@ impl MeshStiffness {
     pub fn value(&self, p: f64) -> f64 {
         match self {
             MeshStiffness::Piecewise { phase, pieces } => {
-                let s = (p + phase).rem_euclid(1.0);
+                let s = crate::mesh::cycle_fraction(p + phase);
                 let j = pieces
                     .partition_point(|piece| piece.start <= s)
                     .saturating_sub(1);

@@ -471,7 +471,7 @@ impl GearPair {
             y[1],
             self.mesh_force(t, y),
             self.contact as i8 as f64,
-            self.clock.phase_at(t).rem_euclid(1.0),
+            crate::mesh::cycle_fraction(self.clock.phase_at(t)),
             self.stiffness_at(t),
             self.static_deflection(),
         ];
@@ -631,7 +631,7 @@ impl PiecewiseLti for GearPair {
     fn lift(&self, t: f64, y: &[f64], z: &mut [f64]) {
         z[0] = y[0];
         z[1] = y[1];
-        let p = self.clock.phase_at(t).rem_euclid(1.0);
+        let p = crate::mesh::cycle_fraction(self.clock.phase_at(t));
         for h in 1..=self.ste.harmonics() {
             let (s, c) = (TAU * h as f64 * p).sin_cos();
             z[2 * h] = c;

@@ -124,7 +124,7 @@ impl HelicalGeometry {
 
     /// Contact lines of all pairs in contact at mesh phase `s` (any real; reduced mod 1).
     pub fn pair_lines(&self, s: f64) -> Vec<ContactLine> {
-        let s = s.rem_euclid(1.0);
+        let s = crate::mesh::cycle_fraction(s);
         (0..self.pairs_tracked())
             .filter_map(|i| self.contact_line(i, s))
             .collect()
@@ -149,7 +149,9 @@ impl HelicalGeometry {
         for landmark in [self.l_t1a, self.l_t1p, self.l_t1d] {
             for end_offset in [0.0, advance] {
                 // Top end at landmark + end_offset puts the bottom end (or top end) on it.
-                let s = ((landmark + end_offset - self.l_t1a) / self.base_pitch).rem_euclid(1.0);
+                let s = crate::mesh::cycle_fraction(
+                    (landmark + end_offset - self.l_t1a) / self.base_pitch,
+                );
                 points.push(s);
             }
         }

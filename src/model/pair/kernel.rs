@@ -86,19 +86,7 @@ fn ste<const STE: bool>(pair: &GearPair, p: f64) -> (f64, f64) {
     if !STE {
         return (0.0, 0.0);
     }
-    // Generic form: one sin_cos and the harmonic recurrence, also with no harmonics.
-    let (s1, c1) = (TAU * p.rem_euclid(1.0)).sin_cos();
-    let (mut s, mut c) = (s1, c1);
-    let mut value = 0.0;
-    let mut slope = 0.0;
-    for (i, &(a, b)) in pair.ste.coefficients().iter().enumerate() {
-        let h = (i + 1) as f64;
-        value += a * c + b * s;
-        slope += TAU * h * (b * c - a * s);
-        let (sn, cn) = (s * c1 + c * s1, c * c1 - s * s1);
-        s = sn;
-        c = cn;
-    }
+    let (value, slope) = pair.ste.value_and_slope_unconditionally(p);
     (value, slope * pair.clock.mesh_frequency())
 }
 

@@ -612,7 +612,7 @@ impl GearTrain {
                     let p0 = mesh.clock.phase_at(0.0);
                     let mut e0 = mesh.ste.value(p0);
                     if let Some(tb) = mesh.table() {
-                        let s0 = (p0 + mesh.offset).rem_euclid(1.0);
+                        let s0 = crate::mesh::cycle_fraction(p0 + mesh.offset);
                         if tb.slots > 1 {
                             let f = nominal.as_ref().map_or(0.0, |st| st.mesh_force[n]);
                             e0 += loaded_ste(tb, f).value(s0) - f / mesh.k_mean;
@@ -857,7 +857,7 @@ impl GearTrain {
                 .filter(|f| matches!(f, SlotContact::Drive | SlotContact::Back))
                 .count(),
             any_back: mesh.flags.contains(&SlotContact::Back),
-            phase: p.rem_euclid(1.0),
+            phase: crate::mesh::cycle_fraction(p),
         }
     }
 
@@ -1233,7 +1233,7 @@ impl PiecewiseLti for GearTrain {
         z[..2 * self.m].copy_from_slice(y);
         for (mesh, base) in self.meshes.iter().zip(self.harmonic_base()) {
             let p = mesh.clock.phase_at(t);
-            let pf = p.rem_euclid(1.0);
+            let pf = crate::mesh::cycle_fraction(p);
             for h in 1..=mesh.ste.harmonics() {
                 let (s, c) = (TAU * h as f64 * pf).sin_cos();
                 z[base + 2 * (h - 1)] = c;

@@ -246,13 +246,37 @@ pub fn expm_balanced(a: &DMatrix<f64>, tau: f64) -> DMatrix<f64> {
             break;
         }
     }
-    let mut e = b.exp();
+    let mut e = exp_fixed_size(b);
     for i in 0..n {
         for j in 0..n {
             e[(i, j)] *= scale[i] / scale[j];
         }
     }
     e
+}
+
+/// `e^B` through nalgebra's stack-allocated matrices for the augmented sizes of the single
+/// pair (`3 + 2H`) and small drivetrains: the same Padé scaling-and-squaring as the dynamic
+/// `exp`, without its heap allocations (≈ 2× faster at 5 × 5; a short run meets many fresh
+/// segment durations, each one exponential).
+fn exp_fixed_size(b: DMatrix<f64>) -> DMatrix<f64> {
+    macro_rules! fixed {
+        ($n:literal) => {{
+            let s = nalgebra::SMatrix::<f64, $n, $n>::from_column_slice(b.as_slice());
+            DMatrix::from_column_slice($n, $n, s.exp().as_slice())
+        }};
+    }
+    match b.nrows() {
+        2 => fixed!(2),
+        3 => fixed!(3),
+        4 => fixed!(4),
+        5 => fixed!(5),
+        6 => fixed!(6),
+        7 => fixed!(7),
+        8 => fixed!(8),
+        9 => fixed!(9),
+        _ => b.exp(),
+    }
 }
 
 #[cfg(test)]
