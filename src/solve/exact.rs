@@ -19,8 +19,10 @@
 //! polynomial for its first crossing ([`enclosure`]), located by Brent, and the system snaps
 //! the state onto the surface.
 
+mod balanced;
 mod crossing;
 mod enclosure;
+mod expm;
 mod guard_series;
 pub mod transition;
 

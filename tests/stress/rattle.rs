@@ -67,7 +67,9 @@ fn next_contact(ta: f64, xa: f64, va: f64, t_max: f64) -> Option<(f64, ContactSt
                         a = c
                     }
                 }
-                return Some((b, side));
+                // The last sample step may reach past `t_max`: a contact there is not in
+                // this interval.
+                return (b <= t_max).then_some((b, side));
             }
         }
         t0 = t1;

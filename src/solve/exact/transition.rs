@@ -3,7 +3,7 @@
 //!
 //! Segment durations recur: whole stiffness pieces and output intervals at constant speed,
 //! and in a periodic steady state also the times to and from contact events. `Φ(τ) = e^{Aτ}`
-//! is therefore cached per mode and duration bin (nalgebra's Padé scaling-and-squaring,
+//! is therefore cached per mode and duration bin (Padé scaling-and-squaring on the stack,
 //! Higham 2005, on the balanced matrix), together with the first two remainder terms, so a
 //! steady run pays one fused mat-vec per segment and a matrix exponential only for a duration
 //! it has not met before. The guard sample step `e^{Ah} − I` is cached per mode too.
@@ -13,6 +13,7 @@
 
 use nalgebra::DMatrix;
 
+use super::balanced::BalancedMatrix;
 use super::guard_series::DerivativeRows;
 
 /// Duration bins kept per mode with their own `e^{Aτ}`; replaced round-robin.
@@ -100,6 +101,8 @@ type TransitionBin = (u64, DMatrix<f64>, DMatrix<f64>);
 pub struct ModeTransitions {
     /// `A` of the mode.
     pub a: DMatrix<f64>,
+    /// `A` balanced, for its exponentials.
+    balanced: BalancedMatrix,
     /// Guard sample spacing `h`: a quarter of the fastest period of the mode (`|λh| ≤ π/2`,
     /// so a guard's Taylor series over one interval settles within a few tens of terms).
     pub sample_step: f64,
@@ -129,9 +132,11 @@ impl ModeTransitions {
             // No dynamics at all (A nilpotent and zero rates): any step is exact.
             1.0
         };
-        let sample_increment = expm_balanced(&a, sample_step) - DMatrix::identity(n, n);
+        let balanced = BalancedMatrix::new(&a);
+        let sample_increment = balanced.exp(sample_step) - DMatrix::identity(n, n);
         ModeTransitions {
             a,
+            balanced,
             sample_step,
             sample_increment,
             guard_rows: Vec::new(),
@@ -151,7 +156,7 @@ impl ModeTransitions {
     ///
     /// Durations recur: whole stiffness pieces and output intervals at constant speed, and
     /// in a periodic steady state also the times to and from contact events, so `e^{A τ_c}` is
-    /// cached per duration bin (nalgebra's `expm` of the balanced matrix, once per bin) and a
+    /// cached per duration bin (the exponential of the balanced matrix, once per bin) and a
     /// steady run pays one mat-vec per segment. Durations that differ only in their last bits
     /// (`t_stop − t` rounds differently every period) share one bin of relative width 2⁻³²;
     /// the remainder `δ = τ − τ_c` (`|δ| ≤ 2⁻³³ τ`) is applied in one pass as
@@ -167,8 +172,9 @@ impl ModeTransitions {
         let slot = match self.recurring.iter().position(|e| e.0 == centre_bits) {
             Some(slot) => slot,
             None => {
-                let phi = expm_balanced(&self.a, f64::from_bits(centre_bits));
-                let phi_a = &phi * &self.a;
+                let (phi, phi_a) = self
+                    .balanced
+                    .exp_with_product(f64::from_bits(centre_bits), true);
                 let entry = (centre_bits, phi, phi_a);
                 if self.recurring.len() < RECURRING_CAPACITY {
                     self.recurring.push(entry);
@@ -188,94 +194,6 @@ impl ModeTransitions {
         } else {
             mat_vec_shifted(phi.as_slice(), phi_a.as_slice(), delta, z, out);
         }
-    }
-}
-
-/// `e^{A τ}` by nalgebra's Padé scaling-and-squaring applied to the *balanced* matrix
-/// `B = D⁻¹ A D` (Parlett & Reinsch 1969, as LAPACK `gebal`; `D` a diagonal of powers of two,
-/// so the scaling is exact): `e^{Aτ} = D e^{Bτ} D⁻¹`. The augmented gear states differ by
-/// many orders of magnitude (metres, m/s, unit harmonics), so `‖Aτ‖₁` is ~10⁴× the spectral
-/// radius; unbalanced, the scaling-and-squaring takes ~14 extra squarings and loses ~10⁻¹⁴
-/// relative accuracy — harmless once, but a cached transition reused on a periodic orbit
-/// would drift systematically (e.g. energy of an undamped rattle).
-pub fn expm_balanced(a: &DMatrix<f64>, tau: f64) -> DMatrix<f64> {
-    let n = a.nrows();
-    let mut b = a * tau;
-    if !b.iter().all(|v| v.is_finite()) {
-        // Overflowing inputs: nothing to balance; the caller detects the non-finite state.
-        return b.exp();
-    }
-    let mut scale = vec![1.0f64; n];
-    // LAPACK gebal converges in a few sweeps; the cap only guards against cycling.
-    for _sweep in 0..32 {
-        let mut converged = true;
-        for i in 0..n {
-            let (mut c, mut r) = (0.0f64, 0.0f64);
-            for j in 0..n {
-                if j != i {
-                    c += b[(j, i)].abs();
-                    r += b[(i, j)].abs();
-                }
-            }
-            if c == 0.0 || r == 0.0 {
-                continue;
-            }
-            let mut f = 1.0f64;
-            let (mut cc, mut rr) = (c, r);
-            while cc < rr / 2.0 {
-                cc *= 2.0;
-                rr /= 2.0;
-                f *= 2.0;
-            }
-            while cc >= rr * 2.0 {
-                cc /= 2.0;
-                rr *= 2.0;
-                f /= 2.0;
-            }
-            if (cc + rr) < 0.95 * (c + r) {
-                converged = false;
-                scale[i] *= f;
-                // B ← F⁻¹ B F with F = diag(.., f, ..): column i times f, row i over f.
-                for j in 0..n {
-                    b[(j, i)] *= f;
-                    b[(i, j)] /= f;
-                }
-            }
-        }
-        if converged {
-            break;
-        }
-    }
-    let mut e = exp_fixed_size(b);
-    for i in 0..n {
-        for j in 0..n {
-            e[(i, j)] *= scale[i] / scale[j];
-        }
-    }
-    e
-}
-
-/// `e^B` through nalgebra's stack-allocated matrices for the augmented sizes of the single
-/// pair (`3 + 2H`) and small drivetrains: the same Padé scaling-and-squaring as the dynamic
-/// `exp`, without its heap allocations (≈ 2× faster at 5 × 5; a short run meets many fresh
-/// segment durations, each one exponential).
-fn exp_fixed_size(b: DMatrix<f64>) -> DMatrix<f64> {
-    macro_rules! fixed {
-        ($n:literal) => {{
-            let s = nalgebra::SMatrix::<f64, $n, $n>::from_column_slice(b.as_slice());
-            DMatrix::from_column_slice($n, $n, s.exp().as_slice())
-        }};
-    }
-    match b.nrows() {
-        2 => fixed!(2),
-        3 => fixed!(3),
-        4 => fixed!(4),
-        5 => fixed!(5),
-        6 => fixed!(6),
-        7 => fixed!(7),
-        8 => fixed!(8),
-        9 => fixed!(9),
-        _ => b.exp(),
     }
 }
 

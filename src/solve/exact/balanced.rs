@@ -1,0 +1,152 @@
+//! `e^{Aτ}` of one mode through its balanced matrix, balanced once per mode.
+//!
+//! The augmented gear states differ by many orders of magnitude (metres, m/s, unit
+//! harmonics), so `‖Aτ‖₁` is ~10⁴× the spectral radius; unbalanced, the scaling-and-squaring
+//! takes ~14 extra squarings and loses ~10⁻¹⁴ relative accuracy — harmless once, but a cached
+//! transition reused on a periodic orbit would drift systematically (e.g. the energy of an
+//! undamped rattle). So `e^{Aτ} = D e^{Bτ} D⁻¹` with `B = D⁻¹ A D` (Parlett & Reinsch 1969, as
+//! LAPACK `gebal`; `D` a diagonal of powers of two, so the scaling is exact). Balancing is
+//! invariant under `A → Aτ` (it compares row and column sums), so `D` and `B` belong to the
+//! mode and every duration costs only the exponential itself: on the stack
+//! ([`super::expm`]) for the small augmented sizes, nalgebra's `exp` otherwise.
+
+use nalgebra::DMatrix;
+
+use super::expm::{expm, mul, Square};
+
+/// Sizes with a stack-allocated exponential (the single pair's `3 + 2H` up to four STE
+/// harmonics; small drivetrains).
+const MAX_FIXED: usize = 11;
+
+/// The balanced form of one mode matrix.
+#[derive(Clone)]
+pub struct BalancedMatrix {
+    /// `B = D⁻¹ A D`.
+    b: DMatrix<f64>,
+    /// The diagonal of `D`.
+    scale: Vec<f64>,
+}
+
+impl BalancedMatrix {
+    pub fn new(a: &DMatrix<f64>) -> BalancedMatrix {
+        let n = a.nrows();
+        let mut b = a.clone();
+        let mut scale = vec![1.0f64; n];
+        if !b.iter().all(|v| v.is_finite()) {
+            // Nothing to balance; the exponential is non-finite and the caller detects the
+            // non-finite state.
+            return BalancedMatrix { b, scale };
+        }
+        // LAPACK gebal converges in a few sweeps; the cap only guards against cycling.
+        for _sweep in 0..32 {
+            let mut converged = true;
+            for i in 0..n {
+                let (mut c, mut r) = (0.0f64, 0.0f64);
+                for j in 0..n {
+                    if j != i {
+                        c += b[(j, i)].abs();
+                        r += b[(i, j)].abs();
+                    }
+                }
+                if c == 0.0 || r == 0.0 {
+                    continue;
+                }
+                let mut f = 1.0f64;
+                let (mut cc, mut rr) = (c, r);
+                while cc < rr / 2.0 {
+                    cc *= 2.0;
+                    rr /= 2.0;
+                    f *= 2.0;
+                }
+                while cc >= rr * 2.0 {
+                    cc /= 2.0;
+                    rr *= 2.0;
+                    f /= 2.0;
+                }
+                if (cc + rr) < 0.95 * (c + r) {
+                    converged = false;
+                    scale[i] *= f;
+                    // B ← F⁻¹ B F with F = diag(.., f, ..): column i times f, row i over f.
+                    for j in 0..n {
+                        b[(j, i)] *= f;
+                        b[(i, j)] /= f;
+                    }
+                }
+            }
+            if converged {
+                break;
+            }
+        }
+        BalancedMatrix { b, scale }
+    }
+
+    /// `e^{Aτ}`.
+    pub fn exp(&self, tau: f64) -> DMatrix<f64> {
+        self.exp_with_product(tau, false).0
+    }
+
+    /// `e^{Aτ}` and, if `product`, `e^{Aτ} A` (else an empty matrix).
+    pub fn exp_with_product(&self, tau: f64, product: bool) -> (DMatrix<f64>, DMatrix<f64>) {
+        let n = self.b.nrows();
+        let fixed = match n {
+            1 => self.fixed::<1>(tau, product),
+            2 => self.fixed::<2>(tau, product),
+            3 => self.fixed::<3>(tau, product),
+            4 => self.fixed::<4>(tau, product),
+            5 => self.fixed::<5>(tau, product),
+            6 => self.fixed::<6>(tau, product),
+            7 => self.fixed::<7>(tau, product),
+            8 => self.fixed::<8>(tau, product),
+            9 => self.fixed::<9>(tau, product),
+            10 => self.fixed::<10>(tau, product),
+            MAX_FIXED => self.fixed::<MAX_FIXED>(tau, product),
+            _ => None,
+        };
+        fixed.unwrap_or_else(|| {
+            let e = (&self.b * tau).exp();
+            let eb = if product {
+                &e * &self.b
+            } else {
+                DMatrix::zeros(0, 0)
+            };
+            (self.unbalance(e), self.unbalance(eb))
+        })
+    }
+
+    /// `D M D⁻¹` (an empty `M` stays empty).
+    fn unbalance(&self, mut m: DMatrix<f64>) -> DMatrix<f64> {
+        for j in 0..m.ncols() {
+            for i in 0..m.nrows() {
+                m[(i, j)] *= self.scale[i] / self.scale[j];
+            }
+        }
+        m
+    }
+
+    fn fixed<const N: usize>(
+        &self,
+        tau: f64,
+        product: bool,
+    ) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+        let mut b: Square<N> = [[0.0; N]; N];
+        for (j, column) in b.iter_mut().enumerate() {
+            for (i, x) in column.iter_mut().enumerate() {
+                *x = self.b[(i, j)];
+            }
+        }
+        let mut bt = b;
+        for x in bt.iter_mut().flatten() {
+            *x *= tau;
+        }
+        let e = expm(&bt)?;
+        let to_dense = |m: &Square<N>| {
+            DMatrix::from_fn(N, N, |i, j| m[j][i] * (self.scale[i] / self.scale[j]))
+        };
+        let eb = if product {
+            to_dense(&mul(&e, &b))
+        } else {
+            DMatrix::zeros(0, 0)
+        };
+        Some((to_dense(&e), eb))
+    }
+}
