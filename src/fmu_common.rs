@@ -3,8 +3,40 @@
 //! lookups in a variable table (FMI 2.0.x §2.2.7), and the step through the shared
 //! [`Driver`]. Physics-free.
 
-use crate::fmi::model::{Causality, Initial, StepFailure, VarKind, Variability, Variable};
+use crate::fmi::model::{
+    Causality, DefaultExperiment, Initial, ModelInfo, StepFailure, VarKind, Variability, Variable,
+};
+use crate::scene::SolverSettings;
 use crate::simulation::{DrivenModel, Driver};
+
+/// The description-level data of a scene's FMU: its name, its description (`fallback` when
+/// the scene has none) and the scene's stop time and output interval as `DefaultExperiment`.
+pub fn model_info(
+    name: &str,
+    description: &str,
+    fallback: &str,
+    solver: &SolverSettings,
+    guid: String,
+    documentation: &str,
+) -> ModelInfo {
+    ModelInfo {
+        model_name: name.to_string(),
+        description: if description.is_empty() {
+            fallback
+        } else {
+            description
+        }
+        .to_string(),
+        default_experiment: DefaultExperiment {
+            start_time: 0.0,
+            stop_time: solver.stop_time,
+            step_size: solver.output_interval,
+            tolerance: None,
+        },
+        guid,
+        documentation: documentation.to_string(),
+    }
+}
 
 /// `name = value` must be finite and satisfy `ok` (`rule` says what is expected).
 pub fn check(name: &str, value: f64, ok: bool, rule: &str) -> Result<(), String> {

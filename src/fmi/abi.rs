@@ -904,10 +904,14 @@ pub unsafe extern "C" fn fmi2GetStringStatus(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::fmi::model::{CoSimModel, DefaultExperiment, ModelInfo, StepFailure, Variable};
+    use crate::fmi::model::{
+        CoSimModel, DefaultExperiment, Lifecycle, ModelInfo, StepFailure, Variable,
+    };
 
     /// A model whose step panics: the panic must stay inside the FMU.
-    struct Panicky;
+    struct Panicky {
+        lifecycle: Lifecycle,
+    }
 
     impl CoSimModel for Panicky {
         fn variables(&self) -> &[Variable] {
@@ -919,16 +923,8 @@ mod tests {
         fn set_real(&mut self, vr: u32, _: f64) -> Result<(), String> {
             Err(format!("no {vr}"))
         }
-        fn setup_experiment(
-            &mut self,
-            _: f64,
-            _: Option<f64>,
-            _: Option<f64>,
-        ) -> Result<(), String> {
-            Ok(())
-        }
-        fn exit_initialization(&mut self) -> Result<(), String> {
-            Ok(())
+        fn lifecycle_mut(&mut self) -> &mut Lifecycle {
+            &mut self.lifecycle
         }
         fn do_step(&mut self, _: f64, _: f64) -> Result<(), StepFailure> {
             panic!("bug in the model")
@@ -966,8 +962,13 @@ mod tests {
             documentation: String::new(),
         };
         let logger = Logger::new(cb, CString::new("p").unwrap(), false);
-        let c =
-            Box::into_raw(Box::new(Instance::new(logger, Box::new(Panicky), info))) as Component;
+        let c = Box::into_raw(Box::new(Instance::new(
+            logger,
+            Box::new(Panicky {
+                lifecycle: Lifecycle::default(),
+            }),
+            info,
+        ))) as Component;
         unsafe {
             assert_eq!(fmi2EnterInitializationMode(c), Status::Ok);
             assert_eq!(fmi2ExitInitializationMode(c), Status::Ok);

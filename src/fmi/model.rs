@@ -210,16 +210,27 @@ pub trait CoSimModel: Send {
         ))
     }
 
-    /// `fmi2SetupExperiment`: the start time becomes the model time.
+    /// The model's start time and initialization stage.
+    fn lifecycle_mut(&mut self) -> &mut Lifecycle;
+
+    /// `fmi2SetupExperiment`: the start time becomes the model time. A host tolerance is
+    /// ignored, as FMI 2.0.x §4.2.1 allows for co-simulation (a model's tolerances are its
+    /// own settings).
     fn setup_experiment(
         &mut self,
         start_time: f64,
-        stop_time: Option<f64>,
-        tolerance: Option<f64>,
-    ) -> Result<(), String>;
+        _stop_time: Option<f64>,
+        _tolerance: Option<f64>,
+    ) -> Result<(), String> {
+        self.lifecycle_mut().start_time = start_time;
+        Ok(())
+    }
 
     /// `fmi2ExitInitializationMode`: parameters are final; build whatever depends on them.
-    fn exit_initialization(&mut self) -> Result<(), String>;
+    fn exit_initialization(&mut self) -> Result<(), String> {
+        self.lifecycle_mut().initialized = true;
+        Ok(())
+    }
 
     /// Integrate from `t` to exactly `t + h` (computed once as `t + h` in `f64`), inputs held
     /// constant over the step. `h > 0` and finite; uneven steps are normal. On success the
@@ -234,6 +245,16 @@ pub trait CoSimModel: Send {
     /// checksummed envelope ([`crate::fmi::blob`]); the model only sees its own bytes.
     fn save_state(&self) -> Vec<u8>;
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String>;
+}
+
+/// Where a model instance stands in its life cycle: the start time of `fmi2SetupExperiment`
+/// (the model time before the first step) and whether `fmi2ExitInitializationMode` has
+/// made the parameters final (FMI 2.0.x §4.2.4). A fresh instance and `fmi2Reset` start from
+/// the default.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Lifecycle {
+    pub start_time: f64,
+    pub initialized: bool,
 }
 
 /// `DefaultExperiment` element (FMI 2.0.x §2.2.5). For co-simulation `step_size` is the

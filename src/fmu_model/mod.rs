@@ -19,8 +19,8 @@
 mod documentation;
 mod variables;
 
-use crate::fmi::model::{CoSimModel, DefaultExperiment, ModelInfo, StepFailure, Variable};
-use crate::fmu_common::{check, check_known, name_of, settable_reals};
+use crate::fmi::model::{CoSimModel, Lifecycle, ModelInfo, StepFailure, Variable};
+use crate::fmu_common::{check, check_known, model_info, name_of, settable_reals};
 use crate::fmu_state::ModelSnapshot;
 use crate::model::Inputs;
 use crate::scene::{ContactLaw, InitialDte, Scene};
@@ -43,8 +43,8 @@ pub struct GearModel {
     static_dte: bool,
     initial_dte: f64,
     sim: Simulation,
-    start_time: f64,
-    initialized: bool,
+    /// Start time and initialization stage (FMI life cycle).
+    lifecycle: Lifecycle,
     /// The outputs of the current state, evaluated on the first read: a host reads them one
     /// value reference at a time (and the FMI layer checks them after every step), and each
     /// evaluation computes all of them. Emptied by every change of the simulation or its
@@ -56,22 +56,14 @@ impl GearModel {
     /// Builds the model of a validated scene and its description data.
     pub fn new(scene: Scene, guid: String) -> Result<(GearModel, ModelInfo), String> {
         let sim = Simulation::new(&scene)?;
-        let info = ModelInfo {
-            model_name: scene.name.clone(),
-            description: if scene.description.is_empty() {
-                "Single-mesh gear pair: dynamic transmission error, mesh force and contact loss (geardyn)".into()
-            } else {
-                scene.description.clone()
-            },
-            default_experiment: DefaultExperiment {
-                start_time: 0.0,
-                stop_time: scene.solver.stop_time,
-                step_size: scene.solver.output_interval,
-                tolerance: None,
-            },
+        let info = model_info(
+            &scene.name,
+            &scene.description,
+            "Single-mesh gear pair: dynamic transmission error, mesh force and contact loss (geardyn)",
+            &scene.solver,
             guid,
-            documentation: DOCUMENTATION.to_string(),
-        };
+            DOCUMENTATION,
+        );
         let vars = variables(&scene);
         let initial_dte = vars
             .iter()
@@ -85,8 +77,7 @@ impl GearModel {
             base: scene.clone(),
             scene,
             sim,
-            start_time: 0.0,
-            initialized: false,
+            lifecycle: Lifecycle::default(),
             outputs: OnceCell::new(),
         };
         Ok((model, info))
@@ -180,8 +171,8 @@ impl GearModel {
             params,
             static_dte: self.static_dte,
             initial_dte: self.initial_dte,
-            start_time: self.start_time,
-            initialized: self.initialized,
+            start_time: self.lifecycle.start_time,
+            initialized: self.lifecycle.initialized,
             sim: self.sim.snapshot(),
         }
     }
@@ -196,8 +187,10 @@ impl GearModel {
             static_dte: snap.static_dte,
             initial_dte: snap.initial_dte,
             sim: Simulation::new(&self.base)?,
-            start_time: snap.start_time,
-            initialized: false,
+            lifecycle: Lifecycle {
+                start_time: snap.start_time,
+                initialized: false,
+            },
             outputs: OnceCell::new(),
         };
         check_known(&self.vars, &snap.params)?;
@@ -208,7 +201,7 @@ impl GearModel {
             return Err(format!("start time {} is not finite", snap.start_time));
         }
         m.sim.restore(&snap.sim)?;
-        m.initialized = snap.initialized;
+        m.lifecycle.initialized = snap.initialized;
         *self = m;
         Ok(())
     }
@@ -317,7 +310,7 @@ impl CoSimModel for GearModel {
 
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String> {
         let is_input = matches!(vr, VR_PINION_SPEED | VR_INPUT_TORQUE | VR_LOAD_TORQUE);
-        if self.initialized {
+        if self.lifecycle.initialized {
             if !is_input {
                 // The layer's causality/variability check comes first; this is a safety net.
                 return Err(format!(
@@ -349,7 +342,7 @@ impl CoSimModel for GearModel {
 
     fn set_boolean(&mut self, vr: u32, value: bool) -> Result<(), String> {
         match vr {
-            VR_INITIAL_STATIC if !self.initialized => {
+            VR_INITIAL_STATIC if !self.lifecycle.initialized => {
                 self.set_before_init(vr, f64::from(u8::from(value)))
             }
             _ => Err(format!(
@@ -358,25 +351,12 @@ impl CoSimModel for GearModel {
         }
     }
 
-    fn setup_experiment(
-        &mut self,
-        start_time: f64,
-        _stop_time: Option<f64>,
-        _tolerance: Option<f64>,
-    ) -> Result<(), String> {
-        // The tolerance of the RK path is a scene setting; a host tolerance is ignored, as
-        // FMI 2.0.x §4.2.1 allows for co-simulation.
-        self.start_time = start_time;
-        Ok(())
-    }
-
-    fn exit_initialization(&mut self) -> Result<(), String> {
-        self.initialized = true;
-        Ok(())
+    fn lifecycle_mut(&mut self) -> &mut Lifecycle {
+        &mut self.lifecycle
     }
 
     fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure> {
-        let start_time = self.start_time;
+        let start_time = self.lifecycle.start_time;
         crate::fmu_common::do_step(self.sim_mut(), start_time, t, h)
     }
 
@@ -392,8 +372,7 @@ impl CoSimModel for GearModel {
             .and_then(|v| v.start)
             .unwrap_or(0.0);
         self.scene = base;
-        self.start_time = 0.0;
-        self.initialized = false;
+        self.lifecycle = Lifecycle::default();
         Ok(())
     }
 

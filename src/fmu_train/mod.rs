@@ -18,8 +18,8 @@ mod documentation;
 mod state;
 mod variables;
 
-use crate::fmi::model::{CoSimModel, DefaultExperiment, ModelInfo, StepFailure, Variable};
-use crate::fmu_common::{check, check_known, name_of, settable_reals};
+use crate::fmi::model::{CoSimModel, Lifecycle, ModelInfo, StepFailure, Variable};
+use crate::fmu_common::{check, check_known, model_info, name_of, settable_reals};
 use crate::model::train::{TrainInputs, TrainSimulation};
 use crate::scene::train::TrainScene;
 
@@ -38,8 +38,8 @@ pub struct TrainModel {
     /// The outputs at the current time, in output-name order: refreshed after every change,
     /// so a `fmi2GetReal` of many outputs evaluates the mesh forces once.
     outputs: Vec<f64>,
-    start_time: f64,
-    initialized: bool,
+    /// Start time and initialization stage (FMI life cycle).
+    lifecycle: Lifecycle,
 }
 
 /// Applies one parameter or start-input value to a scene (validated, nothing clamped).
@@ -95,22 +95,14 @@ impl TrainModel {
             return Err("the drivetrain has no mesh".into());
         }
         let sim = TrainSimulation::new(&scene)?;
-        let info = ModelInfo {
-            model_name: scene.name.clone(),
-            description: if scene.description.is_empty() {
-                "Drivetrain of gears, shafts and meshes: per-mesh dynamic transmission error, mesh force and contact loss (geardyn)".into()
-            } else {
-                scene.description.clone()
-            },
-            default_experiment: DefaultExperiment {
-                start_time: 0.0,
-                stop_time: scene.solver.stop_time,
-                step_size: scene.solver.output_interval,
-                tolerance: None,
-            },
+        let info = model_info(
+            &scene.name,
+            &scene.description,
+            "Drivetrain of gears, shafts and meshes: per-mesh dynamic transmission error, mesh force and contact loss (geardyn)",
+            &scene.solver,
             guid,
-            documentation: DOCUMENTATION.to_string(),
-        };
+            DOCUMENTATION,
+        );
         let vars = variables(&scene, sim.output_names())?;
         let mut model = TrainModel {
             vars,
@@ -118,8 +110,7 @@ impl TrainModel {
             scene,
             sim,
             outputs: Vec::new(),
-            start_time: 0.0,
-            initialized: false,
+            lifecycle: Lifecycle::default(),
         };
         model.refresh();
         Ok((model, info))
@@ -160,8 +151,8 @@ impl TrainModel {
             .collect();
         TrainSnapshot {
             params,
-            start_time: self.start_time,
-            initialized: self.initialized,
+            start_time: self.lifecycle.start_time,
+            initialized: self.lifecycle.initialized,
             sim: self.sim.snapshot(),
         }
     }
@@ -183,8 +174,8 @@ impl TrainModel {
         sim.restore(&snap.sim)?;
         self.scene = scene;
         self.sim = sim;
-        self.start_time = snap.start_time;
-        self.initialized = snap.initialized;
+        self.lifecycle.start_time = snap.start_time;
+        self.lifecycle.initialized = snap.initialized;
         self.refresh();
         Ok(())
     }
@@ -233,7 +224,7 @@ impl CoSimModel for TrainModel {
     }
 
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String> {
-        if !self.initialized {
+        if !self.lifecycle.initialized {
             return self.set_before_init(vr, value);
         }
         let mut u = self.sim.model().inputs();
@@ -273,27 +264,14 @@ impl CoSimModel for TrainModel {
         }
     }
 
-    fn setup_experiment(
-        &mut self,
-        start_time: f64,
-        _stop_time: Option<f64>,
-        _tolerance: Option<f64>,
-    ) -> Result<(), String> {
-        // The tolerance of the RK path is a scene setting; a host tolerance is ignored, as
-        // FMI 2.0.x §4.2.1 allows for co-simulation.
-        self.start_time = start_time;
-        Ok(())
-    }
-
-    fn exit_initialization(&mut self) -> Result<(), String> {
-        self.initialized = true;
-        Ok(())
+    fn lifecycle_mut(&mut self) -> &mut Lifecycle {
+        &mut self.lifecycle
     }
 
     /// The outputs are refreshed also after a failed step: they then show the last good
     /// state the propagator holds.
     fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure> {
-        let result = crate::fmu_common::do_step(&mut self.sim, self.start_time, t, h);
+        let result = crate::fmu_common::do_step(&mut self.sim, self.lifecycle.start_time, t, h);
         self.refresh();
         result
     }
@@ -302,8 +280,7 @@ impl CoSimModel for TrainModel {
         let base = self.base.clone();
         self.sim = TrainSimulation::new(&base)?;
         self.scene = base;
-        self.start_time = 0.0;
-        self.initialized = false;
+        self.lifecycle = Lifecycle::default();
         self.refresh();
         Ok(())
     }
