@@ -80,7 +80,11 @@ pub fn first_crossing<G: GuardAlong>(guard: &mut G, a: Point, b: Point) -> Optio
             // to the surface (a grazing dip that closes at the sample point: there it is
             // rounding noise of either sign, and a root search may stop on it).
             let bottom = stationary(guard, a, b, true);
-            return Some(if bottom.g < 0.0 { (a, bottom) } else { (bottom, b) });
+            return Some(if bottom.g < 0.0 {
+                (a, bottom)
+            } else {
+                (bottom, b)
+            });
         }
         // Convex or concave: the set where G < 0 (resp. >= 0) is one interval, so there is one
         // crossing from >= 0 to < 0.

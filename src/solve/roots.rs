@@ -97,18 +97,20 @@ pub fn brent_bracket<F: FnMut(f64) -> f64>(
 /// Safeguarded Newton on a bracket `[a, b]` with `f(a)·f(b) <= 0`, `f` returning the value
 /// and the derivative, with the contract of [`brent_bracket`] (a bracket `(lo, hi)` of width
 /// `<= tol`, `f(lo)` with the sign of `fa`, `f(hi)` with that of `fb`, or an exact zero as
-/// `(x, x)`). It starts at the secant point; a Newton step that leaves the bracket or is not
+/// `(x, x)`). It starts at `guess` (e.g. the root of an interpolant), or at the secant point
+/// when `guess` is not inside the bracket; a Newton step that leaves the bracket or is not
 /// at most half the previous one is replaced by bisection (`rtsafe`, Press et al.,
 /// *Numerical Recipes* 3rd ed. §9.4). Converged (a step below `tol/4`), the next point lies
 /// `tol/4` past the estimated root, so the bracket closes from both sides. Where the
 /// derivative comes at the price of the value (a polynomial), this takes fewer evaluations
-/// than Brent: the estimate from the secant point is usually exact to rounding after three.
+/// than Brent.
 pub fn newton_bracket<F: FnMut(f64) -> (f64, f64)>(
     mut f: F,
     a: f64,
     b: f64,
     fa: f64,
     fb: f64,
+    guess: f64,
     tol: f64,
 ) -> (f64, f64) {
     debug_assert!(fa * fb <= 0.0);
@@ -122,7 +124,9 @@ pub fn newton_bracket<F: FnMut(f64) -> (f64, f64)>(
     let (mut same, mut other) = (a, b);
     let inside = |x: f64, p: f64, q: f64| x > p.min(q) && x < p.max(q);
     let secant = a + (b - a) * (fa / (fa - fb));
-    let mut x = if inside(secant, a, b) {
+    let mut x = if inside(guess, a, b) {
+        guess
+    } else if inside(secant, a, b) {
         secant
     } else {
         0.5 * (a + b)
@@ -199,6 +203,7 @@ mod tests {
                 b,
                 f(a).0,
                 f(b).0,
+                f64::NAN,
                 1e-15,
             );
             assert!((lo - root).abs() < 2e-15 && (hi - root).abs() < 2e-15);
@@ -209,7 +214,15 @@ mod tests {
         }
         // A flat start (zero derivative at the secant point's side) falls back to bisection:
         // x³ on [-1, 2] with the root at 0.
-        let (lo, hi) = newton_bracket(|x| (x * x * x, 3.0 * x * x), -1.0, 2.0, -1.0, 8.0, 1e-12);
+        let (lo, hi) = newton_bracket(
+            |x| (x * x * x, 3.0 * x * x),
+            -1.0,
+            2.0,
+            -1.0,
+            8.0,
+            f64::NAN,
+            1e-12,
+        );
         assert!(lo <= 0.0 && hi >= 0.0 && hi - lo <= 1e-12, "{lo} {hi}");
     }
 }

@@ -2,14 +2,28 @@
 //!
 //! The guards are linear in `z`, so each one is a sum of damped exponentials and sinusoids in
 //! τ. They are sampled every `h` (a quarter of the fastest period of the mode, one cached
-//! mat-vec `z + D_0 z` per sample). Within each sample interval a guard that is not below
-//! zero at its start is searched rigorously on its Taylor series ([`GuardSeries`], built from
-//! the mode's cached derivative rows): a curvature enclosure proves it non-negative, or
-//! bisection (left half first) brackets its first crossing ([`enclosure`]), also for a dip
-//! between two non-negative samples (grazing contact, a short excursion); Brent then locates
-//! the crossing on the series. A crossing needs a guard value `< 0`: a touch is not an event,
-//! as in the RK event search (`src/solve/rk/graze.rs`).
+//! mat-vec `z + D_0 z` per sample; a sample's guard value and rate serve both intervals it
+//! ends). Within each sample interval a guard that is not below zero at its start is decided
+//! in the cheapest way that is still rigorous:
 //!
+//! 1. a bound `|g''| ≤ C` (per-mode weights, [`DerivativeRows::curvature_bound`], one or two
+//!    dots) and the two-sided Taylor minorant from the ends prove most intervals free;
+//! 2. an interval that starts falling and ends below zero (the usual event interval) gets the
+//!    guard's Taylor series ([`GuardSeries`]), a safeguarded Newton search on it from the root
+//!    of the ends' cubic Hermite interpolant, and the same Taylor bound on `[0, root]`, whose
+//!    right end is a guard value `>= 0`: if it holds, the root found is the first crossing;
+//! 3. otherwise the rigorous search on the series: a curvature enclosure proves it
+//!    non-negative, or bisection (left half first) brackets its first crossing
+//!    ([`enclosure`]), also for a dip between two non-negative samples (grazing contact, a
+//!    short excursion); Brent then locates the crossing on the series.
+//!
+//! With the sampled weights, step 1 decides the intervals after an event and step 2 the
+//! event intervals of the `spur_pair` example, which separates every mesh period (the
+//! term-by-term weights were ~5× above `max |g''|` and sent four intervals per period to step
+//! 3; see `benches/features.rs`). A crossing needs a guard value `< 0`: a touch is not an
+//! event, as in the RK event search (`src/solve/rk/graze.rs`).
+//!
+//! [`DerivativeRows::curvature_bound`]: super::guard_series::DerivativeRows::curvature_bound
 //! [`enclosure`]: super::enclosure
 
 use super::enclosure::{taylor_lower_bound, GuardOnInterval, Point};
@@ -210,7 +224,32 @@ pub fn first_crossing<S: PiecewiseLti>(
     }
 }
 
-/// Safeguarded Newton on the series over `[start, end]` (`start.g > 0 > end.g`, σ units):
+/// The root of the cubic Hermite interpolant of the ends on `[0, 1]` (`start.g > 0 > end.g`),
+/// by Newton from the secant point: the start of the root search on the series, typically a
+/// few 1e-3 of the interval off where the secant point is a few 1e-1 (NaN if it fails).
+fn hermite_root(start: Point, end: Point) -> f64 {
+    let (p0, m0, p1, m1) = (start.g, start.slope, end.g, end.slope);
+    let mut x = p0 / (p0 - p1);
+    for _ in 0..4 {
+        let (x2, x3) = (x * x, x * x * x);
+        let value = (2.0 * x3 - 3.0 * x2 + 1.0) * p0
+            + (x3 - 2.0 * x2 + x) * m0
+            + (3.0 * x2 - 2.0 * x3) * p1
+            + (x3 - x2) * m1;
+        let slope = (6.0 * x2 - 6.0 * x) * (p0 - p1)
+            + (3.0 * x2 - 4.0 * x + 1.0) * m0
+            + (3.0 * x2 - 2.0 * x) * m1;
+        x -= value / slope;
+    }
+    if x > 0.0 && x < 1.0 {
+        x
+    } else {
+        f64::NAN
+    }
+}
+
+/// Safeguarded Newton on the series over the whole interval, `start` at `σ = 0` and `end` at
+/// `σ = 1` (`start.g > 0 > end.g`):
 /// `τ` just past the crossing it finds (from the segment's sample interval start, in s) and
 /// the guard with its slope at the bracket's left end (Newton's own evaluation there, or the
 /// start when the search never left it), for the proof that no crossing precedes it.
@@ -221,6 +260,7 @@ fn newton_on_series(
     tol: f64,
     stats: &mut SolverStats,
 ) -> (f64, Point) {
+    debug_assert!(start.at == 0.0 && end.at == 1.0);
     let width = series.width();
     let mut last_nonnegative: Option<(f64, Point)> = None;
     let (before, after) = newton_bracket(
@@ -229,7 +269,14 @@ fn newton_on_series(
             let (g, slope) = series.value_and_slope(s);
             if g >= 0.0 {
                 let at = s / width;
-                last_nonnegative = Some((s, Point { at, g, slope: slope * width }));
+                last_nonnegative = Some((
+                    s,
+                    Point {
+                        at,
+                        g,
+                        slope: slope * width,
+                    },
+                ));
             }
             (g, slope)
         },
@@ -237,6 +284,7 @@ fn newton_on_series(
         end.at * width,
         start.g,
         end.g,
+        hermite_root(start, end) * width,
         tol,
     );
     let at_root = match last_nonnegative {
