@@ -119,11 +119,17 @@ impl DerivativeRows {
         // Equilibrium directions: the right singular vectors of A's (numerically) zero
         // singular values, reduced so that each cancels one component of z (the one it weighs
         // most) and none of the others' (Gauss–Jordan on the pivots).
-        let svd = a.clone().svd(false, true);
-        let largest = svd.singular_values.iter().fold(0.0f64, |x, &v| x.max(v));
+        // (`try_svd` with an iteration limit: a mode with non-finite entries, e.g. an
+        // overflowing input, must not hang the propagator, which then reports the state.)
+        let svd = a
+            .iter()
+            .all(|v| v.is_finite())
+            .then(|| a.clone().try_svd(false, true, f64::EPSILON, 1000))
+            .flatten();
         let mut shifts: Vec<NullDirection> = Vec::new();
-        if let Some(v_t) = &svd.v_t {
-            for (i, &sigma) in svd.singular_values.iter().enumerate() {
+        if let Some((v_t, singular_values)) = svd.and_then(|s| Some((s.v_t?, s.singular_values))) {
+            let largest = singular_values.iter().fold(0.0f64, |x, &v| x.max(v));
+            for (i, &sigma) in singular_values.iter().enumerate() {
                 if !(sigma <= 1e-12 * largest) {
                     continue;
                 }
