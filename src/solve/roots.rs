@@ -101,7 +101,8 @@ pub fn brent_bracket<F: FnMut(f64) -> f64>(
 /// when `guess` is not inside the bracket; a Newton step that leaves the bracket or is not
 /// at most half the previous one is replaced by bisection (`rtsafe`, Press et al.,
 /// *Numerical Recipes* 3rd ed. §9.4). Converged (a step below `tol/4`), the next point lies
-/// `tol/4` past the estimated root, so the bracket closes from both sides. Where the
+/// just past the estimated root (twice the step or a few ulp, doubled after a miss, at most
+/// `tol/4`), so the bracket closes from both sides with the far end close to the root. Where the
 /// derivative comes at the price of the value (a polynomial), this takes fewer evaluations
 /// than Brent.
 pub fn newton_bracket<F: FnMut(f64) -> (f64, f64)>(
@@ -132,6 +133,7 @@ pub fn newton_bracket<F: FnMut(f64) -> (f64, f64)>(
         0.5 * (a + b)
     };
     let mut previous_step = (b - a).abs();
+    let mut past = 0.0;
     for _ in 0..200 {
         let (fx, slope) = f(x);
         if fx == 0.0 {
@@ -148,7 +150,17 @@ pub fn newton_bracket<F: FnMut(f64) -> (f64, f64)>(
         let step = fx / slope;
         let mut next = x - step;
         if step.abs() < 0.25 * tol {
-            next -= (0.25 * tol).copysign(step);
+            // Converged: the next point lies just past the estimated root, on the side away
+            // from x, and closes the bracket. The closer, the smaller the overshoot of the
+            // point after the crossing (an event snaps the state onto the surface there, so
+            // an overshoot of tol/4 every event adds up); twice as far after each miss.
+            past = if past == 0.0 {
+                (2.0 * step.abs()).max(16.0 * f64::EPSILON * x.abs())
+            } else {
+                2.0 * past
+            };
+            let away = if x == same { other - x } else { same - x };
+            next += past.min(0.25 * tol).copysign(away);
         }
         if !inside(next, same, other) || step.abs() > 0.5 * previous_step {
             next = 0.5 * (same + other);
