@@ -171,8 +171,10 @@ impl DerivativeRows {
                 d.weight += (dot.abs() + 4.0 * n as f64 * f64::EPSILON * size) * factor;
                 factor *= h / (k + 1) as f64;
             }
-            // The truncated tail is below 1e-20 of the sums (as for the weights).
-            d.weight = d.weight * (1.0 + 1e-12) + 1e-20 * loose.iter().sum::<f64>();
+            // The truncated tail is below 1e-20 of the term-by-term sums (as for the weights),
+            // which bound |r_{k+2}·q| through Σ_j |(r_{k+2})_j| |q_j|: a margin far above it.
+            let scale: f64 = loose.iter().zip(&d.q).map(|(l, x)| l * x.abs()).sum();
+            d.weight = d.weight * (1.0 + 1e-12) + 1e-16 * scale;
         }
         Some(CurvatureWeights { h, weights, shifts })
     }
