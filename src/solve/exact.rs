@@ -15,9 +15,10 @@
 //! Events inside a segment ([`crossing`]): guards a model can prove positive for the whole
 //! segment ([`PiecewiseLti::guard_excluded`], e.g. an energy bound) are not evaluated at all;
 //! the others are sampled at a quarter of the fastest period, each sample interval is proved
-//! free of crossings by a curvature bound or searched rigorously on the guard's Taylor
-//! polynomial for its first crossing ([`enclosure`]), located by Brent, and the system snaps
-//! the state onto the surface.
+//! free of crossings by a curvature bound, or its crossing is located on the guard's Taylor
+//! polynomial (Newton) and proved the first by the same bound, or the interval is searched
+//! rigorously for its first crossing ([`enclosure`], then Brent); the system snaps the state
+//! onto the surface.
 
 mod balanced;
 mod crossing;

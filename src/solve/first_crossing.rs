@@ -10,7 +10,10 @@
 //! difference is linear, so the bound is one closed-form value ([`taylor_lower_bound`]). A
 //! bound `≥ 0` proves there is no crossing (the usual case); a convex interval (`L ≥ 0`) is
 //! decided by the root of `G'` (Brent) and the guard there; otherwise the interval is bisected,
-//! left half first, so the crossing found is the first one.
+//! left half first, so the crossing found is the first one. A bracket never ends at a point
+//! where the guard returns to the surface: on a concave interval rising first it starts at the
+//! maximum, on a convex one rising at the end it stops at the minimum (at such points the guard
+//! is rounding noise of either sign, on which a root search may stop).
 //!
 //! Touching (`min G = 0`) is not an event: every decision rests on an evaluated guard value
 //! below zero; bounds only prune.
@@ -70,6 +73,18 @@ pub fn first_crossing<G: GuardAlong>(guard: &mut G, a: Point, b: Point) -> Optio
             // stop right there: an event storm).
             let top = stationary(guard, a, b, false);
             return Some(if top.g >= 0.0 { (top, b) } else { (a, top) });
+        }
+        if lower >= 0.0 && a.slope < 0.0 && b.slope > 0.0 {
+            // Convex and rising at the end: the crossing lies before the minimum. Bracketing
+            // to the minimum keeps the root search away from an end where the guard returns
+            // to the surface (a grazing dip that closes at the sample point: there it is
+            // rounding noise of either sign, and a root search may stop on it).
+            let bottom = stationary(guard, a, b, true);
+            return Some(if bottom.g < 0.0 {
+                (a, bottom)
+            } else {
+                (bottom, b)
+            });
         }
         // Convex or concave: the set where G < 0 (resp. >= 0) is one interval, so there is one
         // crossing from >= 0 to < 0.

@@ -195,7 +195,7 @@ fn grazing_dips_are_found_long() {
     for eta in [1e-2, 1e-4, 1e-6, 1e-8, 1e-10] {
         // The event times drift quadratically in time: each located event ends a few ulp of
         // t past the surface and is snapped onto it, a small systematic energy change
-        // (≈ 2e-9 s after 1e4 cycles at t ≈ 3 s, 1e-5 natural periods).
+        // (≈ 2e-9 s after 1e4 cycles at t ≈ 3 s, 3e-6 to 1e-5 natural periods).
         check(eta, 10_000, &[(EXACT, 1e-4)]);
     }
     check(

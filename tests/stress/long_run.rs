@@ -56,10 +56,13 @@ fn run(periods: u64, tol: f64) {
         "drifted off the periodic orbit by {worst:e} δ_s"
     );
     for k in 0..3 {
+        // 1 %: the checkpoints themselves add up to 0.01 steps per period, and the guard
+        // evaluations vary slightly with where events fall in a segment; and the root search
+        // stops at a tolerance 4ε·t that grows along the run, so late events may need one
+        // Newton evaluation (value and slope: 2 guard evaluations) fewer.
+        let slack = if k == 1 { 2.0 * first[2] } else { 0.0 };
         assert!(
-            // 1 %: the checkpoints themselves add up to 0.01 steps per period, and the guard
-            // evaluations vary slightly with where events fall in a segment.
-            (last[k] - first[k]).abs() <= 1e-2 * first[k],
+            (last[k] - first[k]).abs() <= 1e-2 * first[k] + slack,
             "work per period changed: first {first:?}, last {last:?}"
         );
     }

@@ -2,21 +2,35 @@
 //!
 //! The guards are linear in `z`, so each one is a sum of damped exponentials and sinusoids in
 //! τ. They are sampled every `h` (a quarter of the fastest period of the mode, one cached
-//! mat-vec `z + D_0 z` per sample). Within each sample interval a guard that is not below
-//! zero at its start is searched rigorously on its Taylor series ([`GuardSeries`], built from
-//! the mode's cached derivative rows): a curvature enclosure proves it non-negative, or
-//! bisection (left half first) brackets its first crossing ([`enclosure`]), also for a dip
-//! between two non-negative samples (grazing contact, a short excursion); Brent then locates
-//! the crossing on the series. A crossing needs a guard value `< 0`: a touch is not an event,
-//! as in the RK event search (`src/solve/rk/graze.rs`).
+//! mat-vec `z + D_0 z` per sample; a sample's guard value and rate serve both intervals it
+//! ends). Within each sample interval a guard that is not below zero at its start is decided
+//! in the cheapest way that is still rigorous:
 //!
+//! 1. a bound `|g''| ≤ C` (per-mode weights, [`DerivativeRows::curvature_bound`], one or two
+//!    dots) and the two-sided Taylor minorant from the ends prove most intervals free;
+//! 2. an interval that starts falling and ends below zero (the usual event interval) gets the
+//!    guard's Taylor series ([`GuardSeries`]), a safeguarded Newton search on it from the root
+//!    of the ends' cubic Hermite interpolant, and the same Taylor bound on `[0, root]`, whose
+//!    right end is a guard value `>= 0`: if it holds, the root found is the first crossing;
+//! 3. otherwise the rigorous search on the series: a curvature enclosure proves it
+//!    non-negative, or bisection (left half first) brackets its first crossing
+//!    ([`enclosure`]), also for a dip between two non-negative samples (grazing contact, a
+//!    short excursion); Brent then locates the crossing on the series.
+//!
+//! With the sampled weights, step 1 decides the intervals after an event and step 2 the
+//! event intervals of the `spur_pair` example, which separates every mesh period (the
+//! term-by-term weights were ~5× above `max |g''|` and sent four intervals per period to step
+//! 3; see `benches/features.rs`). A crossing needs a guard value `< 0`: a touch is not an
+//! event, as in the RK event search (`src/solve/rk/graze.rs`).
+//!
+//! [`DerivativeRows::curvature_bound`]: super::guard_series::DerivativeRows::curvature_bound
 //! [`enclosure`]: super::enclosure
 
 use super::enclosure::{taylor_lower_bound, GuardOnInterval, Point};
-use super::guard_series::GuardSeries;
+use super::guard_series::{dot, GuardSeries};
 use super::transition::{mat_vec, ModeTransitions};
 use super::PiecewiseLti;
-use crate::solve::roots::brent_bracket;
+use crate::solve::roots::{brent_bracket, newton_bracket};
 use crate::solve::SolverStats;
 
 /// Buffers of the crossing search, sized once per state dimension (no allocation per
@@ -27,6 +41,9 @@ pub struct Workspace {
     row: Vec<f64>,
     z_left: Vec<f64>,
     z_right: Vec<f64>,
+    /// Per guard `(g, dg/dτ)` at the current interval's right end: the next interval's left
+    /// end (the same state and row), so each sample costs two dots per guard, not four.
+    right_ends: Vec<(f64, f64)>,
 }
 
 /// The first crossing: `τ*` just past it and the guard.
@@ -56,6 +73,7 @@ pub fn first_crossing<S: PiecewiseLti>(
     ws.row.resize(nz, 0.0);
     ws.z_left.resize(nz, 0.0);
     ws.z_right.resize(nz, 0.0);
+    ws.right_ends.resize(m, (0.0, 0.0));
     if mode.guard_rows.len() < m {
         mode.guard_rows.resize_with(m, Default::default);
     }
@@ -86,12 +104,19 @@ pub fn first_crossing<S: PiecewiseLti>(
                 continue;
             }
             let rows = &mut mode.guard_rows[i];
-            let g_left = dot(rows.row(0), &ws.z_left);
+            let (g_left, d_left) = if k == 0 {
+                stats.guard_evals += 2;
+                (
+                    dot(rows.row(0), &ws.z_left),
+                    rows.coefficient(&mode.a, 1, &ws.z_left),
+                )
+            } else {
+                ws.right_ends[i]
+            };
             let g_right = dot(rows.row(0), &ws.z_right);
-            stats.guard_evals += 2;
-            let d_left = rows.coefficient(&mode.a, 1, &ws.z_left);
             let d_right = rows.coefficient(&mode.a, 1, &ws.z_right);
             stats.guard_evals += 2;
+            ws.right_ends[i] = (g_right, d_right);
             if g_left <= 0.0 && d_left <= 0.0 {
                 // Only right after an event: the state sits on the surface, so the guard is
                 // zero up to rounding and its direction decides. Not rising: the new mode is
@@ -123,35 +148,63 @@ pub fn first_crossing<S: PiecewiseLti>(
             }
             let series = GuardSeries::from_rows(rows, &mode.a, &ws.z_left, width);
             stats.guard_evals += series.terms() as u64;
-            let mut guard = GuardOnInterval::new(&series, curvature);
-            // Both ends from the series (their values agree with the samples up to rounding;
-            // a start on the surface counts as zero, rising).
             let start = Point {
                 at: 0.0,
                 g: g_left.max(0.0),
-                slope: series.slope_sigma(0.0),
+                slope: d_left * width,
             };
             let end = Point {
                 at: 1.0,
                 g: g_right,
-                slope: series.slope_sigma(1.0),
+                slope: d_right * width,
             };
-            let bracket = guard.first_crossing(start, end);
-            stats.guard_evals += guard.evals;
-            if let Some((lo, hi)) = bracket {
-                let mut evals = 0u64;
-                let (_, after) = brent_bracket(
-                    |s| {
-                        evals += 1;
-                        series.value(s)
-                    },
-                    lo.at * width,
-                    hi.at * width,
-                    lo.g,
-                    hi.g,
-                    tol,
-                );
-                stats.guard_evals += evals;
+            // Root first, then the proof that it is the first: on a falling start the crossing
+            // the root search finds is the first one when the guard provably stays >= 0 before
+            // it (the cheap Taylor bound on [0, root], whose right end is a guard value >= 0).
+            // The usual event interval needs no enclosure or bisection then.
+            let verified = match curvature {
+                Some(c) if g_right < 0.0 && d_left < 0.0 => {
+                    let (after, at_root) = newton_on_series(&series, start, end, tol, stats);
+                    (at_root.g >= 0.0 && taylor_lower_bound(start, at_root, -c) >= 0.0)
+                        .then_some(after)
+                }
+                _ => None,
+            };
+            let found = verified.or_else(|| {
+                // Otherwise the rigorous search: enclosures and bisection, left half first,
+                // then Brent on its bracket (the bracket holds one crossing, but an end at the
+                // rounding level of the guard can look like another: Brent's bisection steps
+                // do not settle there, where a Newton iteration may).
+                let mut guard = GuardOnInterval::new(&series, curvature);
+                // Both ends' slopes from the series (they agree with the rows' up to rounding).
+                let start = Point {
+                    slope: series.slope_sigma(0.0),
+                    ..start
+                };
+                let end = Point {
+                    slope: series.slope_sigma(1.0),
+                    ..end
+                };
+                let bracket = guard.first_crossing(start, end);
+                stats.guard_evals += guard.evals;
+                bracket.map(|(lo, hi)| {
+                    let mut evals = 0u64;
+                    let (_, after) = brent_bracket(
+                        |s| {
+                            evals += 1;
+                            series.value(s)
+                        },
+                        lo.at * width,
+                        hi.at * width,
+                        lo.g,
+                        hi.g,
+                        tol,
+                    );
+                    stats.guard_evals += evals;
+                    after
+                })
+            });
+            if let Some(after) = found {
                 if best.is_none_or(|(s_best, _)| after < s_best) {
                     best = Some((after, i));
                 }
@@ -171,6 +224,82 @@ pub fn first_crossing<S: PiecewiseLti>(
     }
 }
 
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
+/// The root of the cubic Hermite interpolant of the ends on `[0, 1]` (`start.g > 0 > end.g`),
+/// by Newton from the secant point: the start of the root search on the series (it uses the
+/// end slopes the sampling computed anyway, and saves about one series evaluation per event
+/// over the secant point on `spur_pair`); NaN if it leaves the interval.
+fn hermite_root(start: Point, end: Point) -> f64 {
+    let (p0, m0, p1, m1) = (start.g, start.slope, end.g, end.slope);
+    let mut x = p0 / (p0 - p1);
+    for _ in 0..4 {
+        let (x2, x3) = (x * x, x * x * x);
+        let value = (2.0 * x3 - 3.0 * x2 + 1.0) * p0
+            + (x3 - 2.0 * x2 + x) * m0
+            + (3.0 * x2 - 2.0 * x3) * p1
+            + (x3 - x2) * m1;
+        let slope = (6.0 * x2 - 6.0 * x) * (p0 - p1)
+            + (3.0 * x2 - 4.0 * x + 1.0) * m0
+            + (3.0 * x2 - 2.0 * x) * m1;
+        x -= value / slope;
+    }
+    if x > 0.0 && x < 1.0 {
+        x
+    } else {
+        f64::NAN
+    }
+}
+
+/// Safeguarded Newton on the series over the whole interval, `start` at `σ = 0` and `end` at
+/// `σ = 1` (`start.g > 0 > end.g`):
+/// `τ` just past the crossing it finds (from the segment's sample interval start, in s) and
+/// the guard with its slope at the bracket's left end (Newton's own evaluation there, or the
+/// start when the search never left it), for the proof that no crossing precedes it.
+fn newton_on_series(
+    series: &GuardSeries,
+    start: Point,
+    end: Point,
+    tol: f64,
+    stats: &mut SolverStats,
+) -> (f64, Point) {
+    debug_assert!(start.at == 0.0 && end.at == 1.0);
+    let width = series.width();
+    let mut last_nonnegative: Option<(f64, Point)> = None;
+    let (before, after) = newton_bracket(
+        |s| {
+            stats.guard_evals += 2;
+            let (g, slope) = series.value_and_slope(s);
+            if g >= 0.0 {
+                let at = s / width;
+                last_nonnegative = Some((
+                    s,
+                    Point {
+                        at,
+                        g,
+                        slope: slope * width,
+                    },
+                ));
+            }
+            (g, slope)
+        },
+        start.at * width,
+        end.at * width,
+        start.g,
+        end.g,
+        hermite_root(start, end) * width,
+        tol,
+    );
+    let at_root = match last_nonnegative {
+        Some((s, p)) if s == before => p,
+        _ if before == start.at * width => start,
+        _ => {
+            stats.guard_evals += 2;
+            let (g, slope) = series.value_and_slope(before);
+            Point {
+                at: before / width,
+                g,
+                slope: slope * width,
+            }
+        }
+    };
+    (after, at_root)
 }
