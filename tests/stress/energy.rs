@@ -12,6 +12,7 @@
 use super::{common, scene_with_mass, simulation, Propagator};
 use geardyn::scene::Scene;
 use geardyn::solve::rk::Method;
+use geardyn::solve::HybridSystem;
 
 const M: f64 = 0.5;
 const K_MEAN: f64 = 2.0e8;
@@ -102,9 +103,20 @@ fn balance(
     for segment in 0..2 * periods {
         let k = if segment % 2 == 0 { k_low() } else { k_high() };
         let h = half / n as f64;
+        // The jump instant as the model schedules it (its phase clock): the nominal
+        // `(segment + 1)·T/2` may differ from it in the last bit, and a sample one ulp off the
+        // switch books `Δk δ v·ulp(t)` of spurious jump work per jump, which at t ≈ 60 s
+        // adds up over 2e5 jumps to ~1e-8 E0 whenever the orbit keeps the sign of δv at
+        // the switches. The energy bookkeeping itself stays independent of the solver.
+        let switch = sim.model().next_stop();
+        let nominal = (segment + 1) as f64 * half;
+        assert!(
+            (switch - nominal).abs() <= 1e-12 * nominal,
+            "switch at {switch:e}, nominal {nominal:e}"
+        );
         for i in 1..=n {
             let t = if i == n {
-                (segment + 1) as f64 * half
+                switch
             } else {
                 (segment as f64 + i as f64 / n as f64) * half
             };
@@ -201,13 +213,13 @@ const DP5: Propagator = Propagator::Rk(Method::Dp5, 1e-10);
 
 #[test]
 fn undamped_backlash_energy_with_stiffness_jumps() {
-    undamped(1000, &[(EXACT, 1e-9), (DOP853, 1e-6), (DP5, 1e-6)]);
+    undamped(1000, &[(EXACT, 1e-11), (DOP853, 1e-6), (DP5, 1e-6)]);
 }
 
 #[test]
 #[ignore = "long: 1e5 mesh periods (exact), 1e4 (RK); bash scripts/stress.sh"]
 fn undamped_backlash_energy_with_stiffness_jumps_long() {
-    undamped(100_000, &[(EXACT, 1e-8)]);
+    undamped(100_000, &[(EXACT, 1e-9)]);
     undamped(10_000, &[(DOP853, 1e-5), (DP5, 1e-5)]);
 }
 
