@@ -4,10 +4,11 @@
 //!
 //! The bookkeeping is written here from the equation of motion (docs/model.md), not taken
 //! from the solver: `E = ½ m v² + ½ k(t) δ_c² − F x` with `δ_c` the compression of the flank
-//! in contact (from `x` and the clearance), the jump instants and levels of `k(t)` from the
-//! scene's numbers, and the damping dissipation `∫ c v² dt` by composite Boole quadrature
-//! (5-point Newton–Cotes, error O(h⁶)) of samples of `v`. A check that ignored the jump work would fail: the test asserts that
-//! the jump work is many times the tolerance.
+//! in contact (from `x` and the clearance), the levels of `k(t)` from the scene's numbers, the
+//! jump instants where the model schedules them (checked against the nominal `(j+1)·T/2`; see
+//! `balance`), and the damping dissipation `∫ c v² dt` by composite Boole quadrature (5-point
+//! Newton–Cotes, error O(h⁶)) of samples of `v`. A check that ignored the jump work would
+//! fail: the test asserts that the jump work is many times the tolerance.
 
 use super::{common, scene_with_mass, simulation, Propagator};
 use geardyn::scene::Scene;
