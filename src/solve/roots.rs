@@ -1,5 +1,18 @@
 //! Bracketed scalar root finding shared by the integrators' event location.
 
+/// An end of the bracket that is an exact zero, as `(x, x)` (the common start of the bracketed
+/// searches, which require `fa·fb <= 0`).
+fn zero_end(a: f64, b: f64, fa: f64, fb: f64) -> Option<(f64, f64)> {
+    debug_assert!(fa * fb <= 0.0);
+    if fa == 0.0 {
+        Some((a, a))
+    } else if fb == 0.0 {
+        Some((b, b))
+    } else {
+        None
+    }
+}
+
 /// Brent's method (Brent 1973, *Algorithms for Minimization without Derivatives*, ch. 4) on a
 /// bracket `[a, b]` with `f(a)·f(b) <= 0`, `fa = f(a)`, `fb = f(b)`.
 ///
@@ -14,12 +27,8 @@ pub fn brent_bracket<F: FnMut(f64) -> f64>(
     fb: f64,
     tol: f64,
 ) -> (f64, f64) {
-    debug_assert!(fa * fb <= 0.0);
-    if fa == 0.0 {
-        return (a, a);
-    }
-    if fb == 0.0 {
-        return (b, b);
+    if let Some(end) = zero_end(a, b, fa, fb) {
+        return end;
     }
     // Brent state: b_ is the best estimate, a_ the previous one, c_ the counter-point.
     let (mut a_, mut fa_) = (a, fa);
@@ -114,12 +123,8 @@ pub fn newton_bracket<F: FnMut(f64) -> (f64, f64)>(
     guess: f64,
     tol: f64,
 ) -> (f64, f64) {
-    debug_assert!(fa * fb <= 0.0);
-    if fa == 0.0 {
-        return (a, a);
-    }
-    if fb == 0.0 {
-        return (b, b);
+    if let Some(end) = zero_end(a, b, fa, fb) {
+        return end;
     }
     // `same` keeps the sign of fa, `other` the sign of fb.
     let (mut same, mut other) = (a, b);
