@@ -58,23 +58,13 @@ fn scene(bearing: Option<f64>) -> TrainScene {
         .replace("[pinion]", "[mesh.pairs.geometry.pinion]")
         .replace("[gear]", "[mesh.pairs.geometry.gear]");
     let alpha = 25f64.to_radians();
+    let gears = gear_blocks(&g, &bearings(M_P), &bearings(M_G));
     let text = format!(
         r#"
 name = "nasa_art_helical"
 [model]
 bearings = "{}"
-[[gear]]
-name = "pinion"
-teeth = 25
-base_radius = {:?}
-inertia = {J_P:?}
-{}
-[[gear]]
-name = "gear"
-teeth = 31
-base_radius = {:?}
-inertia = {J_G:?}
-{}
+{gears}
 [[mesh]]
 pinion = "pinion"
 gear = "gear"
@@ -92,20 +82,13 @@ coefficient = {MU:?}
 [operating]
 input_speed = {:?}
 input_torque = {T_P:?}
-[solver]
-method = "rk"
-rk_method = "dop853"
-rtol = 1e-11
+{SOLVER}
 "#,
         if bearing.is_some() {
             "compliant"
         } else {
             "rigid"
         },
-        g.pinion.base_radius,
-        bearings(M_P),
-        g.gear.base_radius,
-        bearings(M_G),
         -alpha,
         RPM * TAU / 60.0,
     );
@@ -282,6 +265,18 @@ fn bad_helical_friction_input_is_rejected() {
     );
 }
 
+/// Both scenes' solver: DOP853 at a tolerance far below the compared differences.
+const SOLVER: &str = "[solver]\nmethod = \"rk\"\nrk_method = \"dop853\"\nrtol = 1e-11";
+
+/// The NASA-ART pinion and gear (`extra_*`: further lines of each `[[gear]]` table).
+fn gear_blocks(g: &HelicalGeometry, extra_pinion: &str, extra_gear: &str) -> String {
+    format!(
+        "[[gear]]\nname = \"pinion\"\nteeth = 25\nbase_radius = {:?}\ninertia = {J_P:?}\n{extra_pinion}\n\
+         [[gear]]\nname = \"gear\"\nteeth = 31\nbase_radius = {:?}\ninertia = {J_G:?}\n{extra_gear}",
+        g.pinion.base_radius, g.gear.base_radius
+    )
+}
+
 /// The single-mesh SDOF scene of the helical module (`[mesh.stiffness] kind = "helical"`:
 /// He & Singh's eq. 24 with the piecewise-linear K_e of eq. 25) for the same pair, its phase
 /// shifted to the graph's reference (`s = frac(p + phase)`, `phase = c − 1`, see [`k_e`]).
@@ -291,19 +286,11 @@ fn single_mesh_text(delta0: f64) -> String {
     let tables = GEOMETRY
         .replace("[pinion]", "[mesh.stiffness.helical.pinion]")
         .replace("[gear]", "[mesh.stiffness.helical.gear]");
+    let gears = gear_blocks(&g, "", "");
     format!(
         r#"
 name = "nasa_art_sdof"
-[[gear]]
-name = "pinion"
-teeth = 25
-base_radius = {:?}
-inertia = {J_P:?}
-[[gear]]
-name = "gear"
-teeth = 31
-base_radius = {:?}
-inertia = {J_G:?}
+{gears}
 [mesh]
 pinion = "pinion"
 gear = "gear"
@@ -320,13 +307,8 @@ pinion_speed = {:?}
 input_torque = {T_P:?}
 [initial]
 dte = {delta0:?}
-[solver]
-method = "rk"
-rk_method = "dop853"
-rtol = 1e-11
+{SOLVER}
 "#,
-        g.pinion.base_radius,
-        g.gear.base_radius,
         RPM * TAU / 60.0,
     )
 }
