@@ -205,22 +205,19 @@ fn primary_instability_bands() {
     println!("{}", table.join("\n"));
 }
 
+/// `geardyn ARGS…` on the shipped helical FMU folder.
+fn geardyn_on_helical_fmu(command: &str, args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_geardyn"))
+        .args([command, "fmu/helical_pair_friction"])
+        .args(args)
+        .output()
+        .unwrap()
+}
+
 #[test]
 fn band_and_floquet_cli() {
-    let bin = env!("CARGO_BIN_EXE_geardyn");
-    let out = std::process::Command::new(bin)
-        .args([
-            "band",
-            "fmu/helical_pair_friction",
-            "--from-rpm",
-            "15000",
-            "--to-rpm",
-            "25000",
-            "--mu",
-            "0.2",
-        ])
-        .output()
-        .unwrap();
+    let band = ["--from-rpm", "15000", "--to-rpm", "25000", "--mu"];
+    let out = geardyn_on_helical_fmu("band", &[&band[..], &["0.2"]].concat());
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),
@@ -228,34 +225,13 @@ fn band_and_floquet_cli() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(text.contains("primary"), "{text}");
-    let out = std::process::Command::new(bin)
-        .args([
-            "floquet",
-            "fmu/helical_pair_friction",
-            "--rpm",
-            "19000",
-            "--json",
-        ])
-        .output()
-        .unwrap();
+    let out = geardyn_on_helical_fmu("floquet", &["--rpm", "19000", "--json"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains("\"monodromy\"") && text.contains("\"segments\""),
         "{text}"
     );
-    let out = std::process::Command::new(bin)
-        .args([
-            "band",
-            "fmu/helical_pair_friction",
-            "--from-rpm",
-            "15000",
-            "--to-rpm",
-            "25000",
-            "--mu",
-            "-0.1",
-        ])
-        .output()
-        .unwrap();
+    let out = geardyn_on_helical_fmu("band", &[&band[..], &["-0.1"]].concat());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert!(
