@@ -5,7 +5,8 @@
 //!
 //! 1. **1e6 mesh periods** of the built-in `spur_pair` example (rectangular stiffness,
 //!    backlash, STE; it separates every period) with the exact propagator: final state only
-//!    and with the outputs on a per-period grid; the same for a backlash scene that stays in
+//!    (with and without the decisions from recurring segments) and with the outputs on a
+//!    per-period grid; the same for a backlash scene that stays in
 //!    contact and for `contact = linear`. The floor is one `n × n` mat-vec per segment
 //!    (`n` = augmented state size), measured with the propagator's own mat-vec in the same
 //!    run; the ratio to it says how much the event work and bookkeeping add.
@@ -120,6 +121,9 @@ fn mesh_frequency(scene: &Scene) -> f64 {
 enum Drive {
     /// One `advance_to` to the end: the final state only.
     FinalOnly,
+    /// The same with the exact propagator's recurring-segment decisions off (the full
+    /// crossing search in every segment).
+    FinalOnlyFullSearch,
     /// `advance_to` every mesh period and all outputs there.
     EveryPeriod,
 }
@@ -131,9 +135,12 @@ fn run(scene: &Scene, periods: u64, drive: Drive, generic: bool) -> (f64, Solver
     if generic {
         sim.model_mut().use_generic_kernel();
     }
+    if matches!(drive, Drive::FinalOnlyFullSearch) {
+        sim.use_recurrences(false);
+    }
     let started = Instant::now();
     match drive {
-        Drive::FinalOnly => sim
+        Drive::FinalOnly | Drive::FinalOnlyFullSearch => sim
             .advance_to(periods as f64 * t_mesh)
             .expect("integration succeeds"),
         Drive::EveryPeriod => {
@@ -228,6 +235,11 @@ fn long_runs(periods: u64, quick: bool) {
             Drive::FinalOnly,
         ),
         (
+            "spur_pair, full crossing search in every segment",
+            scene(SPUR_PAIR, None),
+            Drive::FinalOnlyFullSearch,
+        ),
+        (
             "spur_pair, outputs every period",
             scene(SPUR_PAIR, None),
             Drive::EveryPeriod,
@@ -252,19 +264,20 @@ fn long_runs(periods: u64, quick: bool) {
     let times = best_of(&cases, rounds, |(_, s, d)| run(s, periods, *d, false).0);
     println!("### {periods} mesh periods, exact propagator\n");
     println!(
-        "| scene | time (s) | ns/period | segments/period | events/period | root-fn evals/period | excluded segments/period | floor: {n}×{n} mat-vec/segment (s) | ratio to floor |"
+        "| scene | time (s) | ns/period | segments/period | events/period | root-fn evals/period | excluded segments/period | recurring segments/period | floor: {n}×{n} mat-vec/segment (s) | ratio to floor |"
     );
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     for ((name, _, _), (time, st)) in cases.iter().zip(times.iter().zip(&counters)) {
         let segments = st.steps;
         let floor = segments as f64 * matvec * 1e-9;
         println!(
-            "| {name} | {time:.3} | {:.0} | {:.2} | {:.2} | {:.1} | {:.2} | {floor:.4} | {:.1}× |",
+            "| {name} | {time:.3} | {:.0} | {:.2} | {:.2} | {:.1} | {:.2} | {:.2} | {floor:.4} | {:.1}× |",
             time * 1e9 / periods as f64,
             per(segments, periods),
             per(st.events, periods),
             per(st.guard_evals, periods),
             per(st.guard_exclusions, periods),
+            per(st.recurring_segments, periods),
             time / floor
         );
     }

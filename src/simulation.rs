@@ -93,7 +93,8 @@ impl Driver<GearPair> {
 
 /// Everything that determines how a [`Simulation`] continues, given the scene it was built
 /// from: time, state, the model's run-time state and the RK controller memory (`None` for the
-/// exact propagator, whose steps depend on `(t, y)` and the mode only). Restoring it continues
+/// exact propagator, whose steps depend on `(t, y)` and the mode only, once its learned
+/// references are dropped: [`Driver::forget_recurrences`]). Restoring it continues
 /// bit-identically (FMU state get/set, FMI 2.0.x §2.1.8).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SimState {

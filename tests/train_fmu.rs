@@ -308,7 +308,7 @@ fn foreign_payloads_and_blobs_are_rejected() {
     let good = f.state_bytes();
     // A single-mesh model payload in an envelope with this FMU's GUID: only the payload's
     // own tag and version can refuse it.
-    let spur = geardyn::fmu_entry::load_scene(&dir("spur_pair").join("scene.toml")).unwrap();
+    let mut spur = geardyn::fmu_entry::load_scene(&dir("spur_pair").join("scene.toml")).unwrap();
     let layer = LayerSnapshot {
         state: FmuState::StepComplete,
         time: 1e-4,
@@ -322,7 +322,7 @@ fn foreign_payloads_and_blobs_are_rejected() {
     let forged = blob::encode(&guid, &layer, &spur.model.save_state());
     assert_eq!(f.load_bytes(&forged), ERR);
     // The countershaft's payload (another train) under the idler's GUID.
-    let other =
+    let mut other =
         geardyn::fmu_entry::load_scene(&dir("countershaft_gearset").join("scene.toml")).unwrap();
     let forged = blob::encode(&guid, &layer, &other.model.save_state());
     let g = Fmu::new("idler_gearset");

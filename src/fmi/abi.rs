@@ -932,7 +932,7 @@ mod tests {
         fn reset(&mut self) -> Result<(), String> {
             Ok(())
         }
-        fn save_state(&self) -> Vec<u8> {
+        fn save_state(&mut self) -> Vec<u8> {
             Vec::new()
         }
         fn load_state(&mut self, _: &[u8]) -> Result<(), String> {

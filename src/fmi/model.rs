@@ -243,7 +243,10 @@ pub trait CoSimModel: Send {
     /// Everything needed to continue bit-identically: continuous and discrete states, time,
     /// parameters, inputs, initialization stage. The layer wraps it in a versioned,
     /// checksummed envelope ([`crate::fmi::blob`]); the model only sees its own bytes.
-    fn save_state(&self) -> Vec<u8>;
+    /// `&mut`: the model may drop what it learned from the run so far (caches whose content
+    /// reaches the last bits of the results), so that the continuation from the captured state
+    /// is the same as from the restored one.
+    fn save_state(&mut self) -> Vec<u8>;
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String>;
 }
 

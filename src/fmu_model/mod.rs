@@ -376,7 +376,8 @@ impl CoSimModel for GearModel {
         Ok(())
     }
 
-    fn save_state(&self) -> Vec<u8> {
+    fn save_state(&mut self) -> Vec<u8> {
+        self.sim.forget_recurrences();
         crate::fmu_state::encode(&self.snapshot())
     }
 

@@ -285,7 +285,8 @@ impl CoSimModel for TrainModel {
         Ok(())
     }
 
-    fn save_state(&self) -> Vec<u8> {
+    fn save_state(&mut self) -> Vec<u8> {
+        self.sim.forget_recurrences();
         encode(&self.snapshot())
     }
 

@@ -137,6 +137,23 @@ impl<M: DrivenModel> Driver<M> {
         Ok(())
     }
 
+    /// Drops what the exact propagator learned from recurring segments (see
+    /// [`crate::solve::exact::ExactPropagator::forget_recurrences`]): called when a state is
+    /// captured, so that the run continues from it as it would from the restored state.
+    pub fn forget_recurrences(&mut self) {
+        if let Propagator::Exact(p) = &mut self.propagator {
+            p.forget_recurrences();
+        }
+    }
+
+    /// Switches the exact propagator's recurring-segment decisions on (the default) or off
+    /// (every segment gets the full crossing search); no effect on the RK path.
+    pub fn use_recurrences(&mut self, on: bool) {
+        if let Propagator::Exact(p) = &mut self.propagator {
+            p.use_recurrences(on);
+        }
+    }
+
     /// Restarts from `(t, y)` with the mode re-derived from the state (FMU state restore and
     /// initial-value changes).
     pub fn set_y(&mut self, t: f64, y: &[f64]) {
@@ -151,7 +168,8 @@ impl<M: DrivenModel> Driver<M> {
     }
 
     /// The RK controller memory, `None` for the exact propagator, whose steps depend on
-    /// `(t, y)` and the mode only.
+    /// `(t, y)` and the mode only (and, in the last bits of event times, on the recurring
+    /// segments it learned, which a capture drops: [`Driver::forget_recurrences`]).
     pub fn controller_memory(&self) -> Option<ControllerMemory> {
         match &self.propagator {
             Propagator::Rk(p) => Some(p.controller_memory()),

@@ -25,6 +25,7 @@ mod crossing;
 mod enclosure;
 mod expm;
 mod guard_series;
+mod recurrence;
 pub mod transition;
 
 use std::collections::HashMap;
@@ -33,7 +34,9 @@ use std::hash::{BuildHasherDefault, Hasher};
 use nalgebra::DMatrix;
 
 use super::{HybridSystem, SolveError, SolverStats};
-use crossing::{first_crossing, Workspace};
+use crossing::{first_crossing, root_tolerance, Crossing, Workspace};
+use guard_series::DerivativeRows;
+use recurrence::Decision;
 use transition::ModeTransitions;
 
 /// A hybrid system whose segments are linear time-invariant in an augmented state.
@@ -46,7 +49,8 @@ pub trait PiecewiseLti: HybridSystem {
     fn lti_matrix(&self, a: &mut DMatrix<f64>);
     /// Guard `index` of the current mode as a row: `g = w·z`.
     fn guard_row(&self, index: usize, w: &mut [f64]);
-    /// A key that identifies the current mode's matrix among the modes of one parameter set.
+    /// A key that identifies the current mode among the modes of one parameter set: its
+    /// matrix, its guard count and its guard rows.
     fn mode_key(&self) -> u64;
     /// An upper bound of the fastest angular frequency in any mode, rad/s.
     fn max_frequency(&self) -> f64;
@@ -99,7 +103,17 @@ impl ModeCache {
             let nz = sys.lti_dim();
             let mut a = DMatrix::zeros(nz, nz);
             sys.lti_matrix(&mut a);
-            ModeTransitions::new(a, sys.max_frequency())
+            let mut mode = ModeTransitions::new(a, sys.max_frequency());
+            let mut w = vec![0.0; nz];
+            mode.guard_rows = (0..sys.guard_count())
+                .map(|i| {
+                    sys.guard_row(i, &mut w);
+                    let mut rows = DerivativeRows::default();
+                    rows.set_row(&w);
+                    rows
+                })
+                .collect();
+            mode
         })
     }
 }
@@ -118,6 +132,8 @@ pub struct ExactPropagator {
     crossing: Workspace,
     /// Events without time progress, to stop a Zeno cascade.
     stalled_events: u64,
+    /// Whether recurring segments are decided by earlier ones ([`recurrence`]; on by default).
+    recurrences: bool,
     /// `∂y(t)/∂y(t_track)` when tracking is on: the product of the `y` blocks of the applied
     /// transition matrices (the forcing rows of `z` do not depend on `y`).
     sensitivity: Option<DMatrix<f64>>,
@@ -140,6 +156,7 @@ impl ExactPropagator {
             column: vec![0.0; n],
             crossing: Workspace::default(),
             stalled_events: 0,
+            recurrences: true,
             sensitivity: None,
         }
     }
@@ -168,6 +185,25 @@ impl ExactPropagator {
     /// The system's parameters or inputs changed: drop every cached operator.
     pub fn invalidate(&mut self) {
         self.modes.map.clear();
+    }
+
+    /// Switches the recurring-segment decisions ([`recurrence`]) on or off (then every
+    /// segment gets the full crossing search; for comparisons).
+    pub fn use_recurrences(&mut self, on: bool) {
+        self.recurrences = on;
+        if !on {
+            self.forget_recurrences();
+        }
+    }
+
+    /// Drops the recurring-segment references ([`recurrence`]) and keeps the rest of the
+    /// cache. A reference decides an event time to the same tolerance as the full search but
+    /// not to the same last bit, so a state that is captured (and later restored into a
+    /// fresh propagator) must continue without the references learned before it.
+    pub fn forget_recurrences(&mut self) {
+        for mode in self.modes.map.values_mut() {
+            mode.forget_recurring();
+        }
     }
 
     pub fn t(&self) -> f64 {
@@ -219,28 +255,58 @@ impl ExactPropagator {
 
             let guards = sys.guard_count();
             if guards > 0 {
-                // Guards the model proves positive for the whole mode need no root function.
-                let mut excluded = 0u64;
-                for i in 0..guards.min(64) {
-                    if sys.guard_excluded(i, &self.z) {
-                        excluded |= 1 << i;
+                // A recurring segment is decided by an earlier one of its mode; otherwise
+                // guards the model proves positive for the whole mode need no root function
+                // and the others get the full search, which may keep the segment as a
+                // reference.
+                let decided = if self.recurrences {
+                    let tol = root_tolerance(self.t, tau);
+                    mode.decide_recurring(&self.z, tau, tol, &mut self.stats)
+                } else {
+                    None
+                };
+                let found = match decided {
+                    Some(decision) => {
+                        self.stats.recurring_segments += 1;
+                        match decision {
+                            Decision::Free => {
+                                mode.apply(tau, &self.z, &mut self.z_next);
+                                None
+                            }
+                            Decision::Crossing { tau, index } => Some(Crossing { tau, index }),
+                        }
                     }
-                }
-                let all_excluded = guards <= 64 && excluded.count_ones() as usize == guards;
-                if all_excluded {
-                    self.stats.guard_exclusions += 1;
-                    mode.apply(tau, &self.z, &mut self.z_next);
-                } else if let Some(found) = first_crossing(
-                    sys,
-                    mode,
-                    &mut self.crossing,
-                    &mut self.stats,
-                    self.t,
-                    &self.z,
-                    &mut self.z_next,
-                    tau,
-                    excluded,
-                ) {
+                    None => {
+                        let mut excluded = 0u64;
+                        for i in 0..guards.min(64) {
+                            if sys.guard_excluded(i, &self.z) {
+                                excluded |= 1 << i;
+                            }
+                        }
+                        if guards <= 64 && excluded.count_ones() as usize == guards {
+                            self.stats.guard_exclusions += 1;
+                            mode.apply(tau, &self.z, &mut self.z_next);
+                            None
+                        } else {
+                            let found = first_crossing(
+                                mode,
+                                &mut self.crossing,
+                                &mut self.stats,
+                                self.t,
+                                &self.z,
+                                &mut self.z_next,
+                                tau,
+                                excluded,
+                            );
+                            if self.recurrences {
+                                let outcome = found.as_ref().map(|c| (c.tau, c.index));
+                                mode.learn_recurring(&self.z, tau, outcome);
+                            }
+                            found
+                        }
+                    }
+                };
+                if let Some(found) = found {
                     // The event state from the segment's start: in a periodic steady state
                     // τ* recurs, so this is one mat-vec of a cached bin.
                     let z_event = &mut self.z_event;

@@ -99,6 +99,9 @@ pub struct SolverStats {
     /// Segments whose guards were all proved positive by a bound, so no root function was
     /// evaluated in them (exact propagator, [`exact::PiecewiseLti::guard_excluded`]).
     pub guard_exclusions: u64,
+    /// Segments whose crossing (or its absence) an earlier segment of the same mode decided
+    /// (exact propagator, recurring segments of a periodic orbit).
+    pub recurring_segments: u64,
 }
 
 impl SolverStats {
@@ -111,6 +114,7 @@ impl SolverStats {
         self.events += other.events;
         self.stops += other.stops;
         self.guard_exclusions += other.guard_exclusions;
+        self.recurring_segments += other.recurring_segments;
     }
 }
 

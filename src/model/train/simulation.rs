@@ -88,7 +88,8 @@ impl Driver<GearTrain> {
 
 /// Everything that determines how a [`TrainSimulation`] continues, given the scene it was
 /// built from: time, `[ξ, ξ']`, the train's run-time state and the RK controller memory (`None`
-/// for the exact propagator, whose steps depend on `(t, y)` and the mode only). Restoring it
+/// for the exact propagator, whose steps depend on `(t, y)` and the mode only, once its
+/// learned references are dropped: `Driver::forget_recurrences`). Restoring it
 /// continues bit-identically (FMU state get/set, FMI 2.0.x §2.1.8); the drivetrain
 /// counterpart of `crate::simulation::SimState`.
 #[derive(Debug, Clone, PartialEq)]

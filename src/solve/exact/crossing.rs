@@ -29,7 +29,6 @@
 use super::enclosure::{taylor_lower_bound, GuardOnInterval, Point};
 use super::guard_series::{dot, GuardSeries};
 use super::transition::{mat_vec, ModeTransitions};
-use super::PiecewiseLti;
 use crate::solve::roots::{brent_bracket, newton_bracket};
 use crate::solve::SolverStats;
 
@@ -37,8 +36,6 @@ use crate::solve::SolverStats;
 /// segment).
 #[derive(Default)]
 pub struct Workspace {
-    /// One guard row `w_i` as the system writes it.
-    row: Vec<f64>,
     z_left: Vec<f64>,
     z_right: Vec<f64>,
     /// Per guard `(g, dg/dτ)` at the current interval's right end: the next interval's left
@@ -52,13 +49,13 @@ pub struct Crossing {
     pub index: usize,
 }
 
-/// The earliest crossing of a guard in `(0, tau]` of the segment from `z` (at time `t`),
-/// skipping guards in `excluded` (proved positive on the whole segment). Without a crossing,
+/// The earliest crossing of a guard of `mode` (its `guard_rows`) in `(0, tau]` of the segment
+/// from `z` (at time `t`), skipping guards in `excluded` (proved positive on the whole
+/// segment). Without a crossing,
 /// `z_end` receives the state at `tau` (computed only then: a segment cut short by an event
 /// never pays for its end state).
 #[allow(clippy::too_many_arguments)]
-pub fn first_crossing<S: PiecewiseLti>(
-    sys: &S,
+pub fn first_crossing(
     mode: &mut ModeTransitions,
     ws: &mut Workspace,
     stats: &mut SolverStats,
@@ -69,20 +66,13 @@ pub fn first_crossing<S: PiecewiseLti>(
     excluded: u64,
 ) -> Option<Crossing> {
     let nz = z.len();
-    let m = sys.guard_count();
-    ws.row.resize(nz, 0.0);
+    // The mode's guard rows were set when the mode was first met (the mode key fixes them).
+    let m = mode.guard_rows.len();
     ws.z_left.resize(nz, 0.0);
     ws.z_right.resize(nz, 0.0);
     ws.right_ends.resize(m, (0.0, 0.0));
-    if mode.guard_rows.len() < m {
-        mode.guard_rows.resize_with(m, Default::default);
-    }
-    for (i, rows) in mode.guard_rows.iter_mut().enumerate().take(m) {
-        sys.guard_row(i, &mut ws.row);
-        rows.set_row(&ws.row);
-    }
     let h = mode.sample_step;
-    let tol = 4.0 * f64::EPSILON * (t.abs() + tau);
+    let tol = root_tolerance(t, tau);
     ws.z_left.copy_from_slice(z);
     let mut k = 0u64;
     loop {
@@ -222,6 +212,12 @@ pub fn first_crossing<S: PiecewiseLti>(
         std::mem::swap(&mut ws.z_left, &mut ws.z_right);
         k += 1;
     }
+}
+
+/// The tolerance of an event time in the segment of duration `tau` from `t`: a few ulps of
+/// the time itself.
+pub fn root_tolerance(t: f64, tau: f64) -> f64 {
+    4.0 * f64::EPSILON * (t.abs() + tau)
 }
 
 /// The root of the cubic Hermite interpolant of the ends on `[0, 1]` (`start.g > 0 > end.g`),

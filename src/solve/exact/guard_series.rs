@@ -83,39 +83,15 @@ impl DerivativeRows {
         Some(plain.min(shifted))
     }
 
-    /// `M_j ≥ max_{s∈[0,h]} |f_j(s)|`, `f_j(s) = (e^{Aᵀs} r_2)_j = Σ_k (r_{k+2})_j s^k/k!`:
-    /// the largest `|f_j|` at 17 equidistant nodes plus the chord error `max|f_j''| Δ²/8`
-    /// between them (`max|f_j''|` bounded term by term from `r_4`), or the term-by-term
-    /// bound `Σ_k |(r_{k+2})_j| h^k/k!` where that is smaller. The sampled weights are close
-    /// to the true maxima; the term-by-term ones exceed them by up to `e^{|λh|} ≈ 4.8` for an
-    /// oscillation (`|λh| ≤ π/2`), which left a steady separating scene with several
-    /// polynomial searches per period that a tight bound proves free.
+    /// The curvature weights `M_j ≥ max_{s∈[0,h]} |(e^{Aᵀs} r_2)_j|` ([`Self::sup_weights`];
+    /// the term-by-term weights, up to `e^{|λh|} ≈ 4.8` above the maxima, left a steady
+    /// separating scene with several polynomial searches per period that a tight bound proves
+    /// free) and the mode's equilibrium directions.
     fn build_curvature_weights(&mut self, a: &DMatrix<f64>, h: f64) -> Option<CurvatureWeights> {
+        let weights = self.sup_weights(a, h, 2)?;
         let loose = self.series_magnitudes(a, h, 2)?;
-        let loose_second = self.series_magnitudes(a, h, 4)?;
         let n = self.n;
         let terms = self.rows.len() / n - 2;
-        let f = |rows: &[f64], s: f64, v: &dyn Fn(&[f64]) -> f64| {
-            // Horner in s over r_{k+2}: Σ_k v(r_{k+2}) s^k / k!.
-            let mut acc = 0.0;
-            for k in (0..terms).rev() {
-                acc = v(&rows[(k + 2) * n..(k + 3) * n]) + acc * s / (k + 1) as f64;
-            }
-            acc
-        };
-        let mut weights = vec![0.0f64; n];
-        for i in 0..=CURVATURE_NODES {
-            let s = h * i as f64 / CURVATURE_NODES as f64;
-            for (j, m) in weights.iter_mut().enumerate() {
-                *m = m.max(f(&self.rows, s, &|r| r[j]).abs());
-            }
-        }
-        // Between two nodes |f| exceeds the larger node value by at most max|f''| Δ²/8; the
-        // node values carry rounding of their terms' size.
-        let gap = h / CURVATURE_NODES as f64;
-        for ((m, l), l2) in weights.iter_mut().zip(&loose).zip(&loose_second) {
-            *m = l.min(*m + l2 * gap * gap / 8.0 + 1e-12 * l);
-        }
         // Equilibrium directions: the right singular vectors of A's (numerically) zero
         // singular values, reduced so that each cancels one component of z (the one it weighs
         // most) and none of the others' (Gauss–Jordan on the pivots).
@@ -179,10 +155,51 @@ impl DerivativeRows {
         Some(CurvatureWeights { h, weights, shifts })
     }
 
+    /// `M_j ≥ max_{s∈[0,h]} |f_j(s)|`, `f_j(s) = (e^{Aᵀs} r_first)_j = Σ_k (r_{k+first})_j s^k/k!`
+    /// (the guard's `first`-th time derivative along the flow is `f(s)·z`): the largest `|f_j|`
+    /// at 17 equidistant nodes plus the chord error `max|f_j''| Δ²/8` between them
+    /// (`max|f_j''|` bounded term by term from `r_{first+2}`), or the term-by-term bound
+    /// `Σ_k |(r_{k+first})_j| h^k/k!` where that is smaller. The sampled weights are close to
+    /// the true maxima; the term-by-term ones exceed them by up to `e^{|λh|} ≈ 4.8` for an
+    /// oscillation (`|λh| ≤ π/2`).
+    pub fn sup_weights(&mut self, a: &DMatrix<f64>, h: f64, first: usize) -> Option<Vec<f64>> {
+        let loose = self.series_magnitudes(a, h, first)?;
+        let loose_second = self.series_magnitudes(a, h, first + 2)?;
+        let n = self.n;
+        let terms = self.rows.len() / n - first;
+        let f = |rows: &[f64], s: f64, j: usize| {
+            // Horner in s over r_{k+first}: Σ_k (r_{k+first})_j s^k / k!.
+            let mut acc = 0.0;
+            for k in (0..terms).rev() {
+                acc = rows[(k + first) * n + j] + acc * s / (k + 1) as f64;
+            }
+            acc
+        };
+        let mut weights = vec![0.0f64; n];
+        for i in 0..=CURVATURE_NODES {
+            let s = h * i as f64 / CURVATURE_NODES as f64;
+            for (j, m) in weights.iter_mut().enumerate() {
+                *m = m.max(f(&self.rows, s, j).abs());
+            }
+        }
+        // Between two nodes |f| exceeds the larger node value by at most max|f''| Δ²/8; the
+        // node values carry rounding of their terms' size.
+        let gap = h / CURVATURE_NODES as f64;
+        for ((m, l), l2) in weights.iter_mut().zip(&loose).zip(&loose_second) {
+            *m = l.min(*m + l2 * gap * gap / 8.0 + 1e-12 * l);
+        }
+        Some(weights)
+    }
+
     /// `Σ_k |(r_{k+first})_j| h^k / k!` for each component `j` (an upper bound of
     /// `|(e^{Aᵀs} r_first)_j|` on `[0, h]`, term by term), extending the rows until the terms
     /// fall below `1e-20` of the sum; `None` if they do not settle.
-    fn series_magnitudes(&mut self, a: &DMatrix<f64>, h: f64, first: usize) -> Option<Vec<f64>> {
+    pub fn series_magnitudes(
+        &mut self,
+        a: &DMatrix<f64>,
+        h: f64,
+        first: usize,
+    ) -> Option<Vec<f64>> {
         let n = self.n;
         let mut sums = vec![0.0; n];
         let mut factor = 1.0;
@@ -225,7 +242,7 @@ impl DerivativeRows {
     }
 
     /// Builds the rows up to `r_k`.
-    fn extend_to(&mut self, a: &DMatrix<f64>, k: usize) {
+    pub fn extend_to(&mut self, a: &DMatrix<f64>, k: usize) {
         let n = self.n;
         while self.rows.len() < (k + 1) * n {
             let last = self.rows.len() - n;

@@ -15,6 +15,8 @@ use nalgebra::DMatrix;
 
 use super::balanced::BalancedMatrix;
 use super::guard_series::DerivativeRows;
+use super::recurrence::{Decision, Recurrences};
+use crate::solve::SolverStats;
 
 /// Duration bins kept per mode with their own `e^{Aτ}`; replaced round-robin.
 const RECURRING_CAPACITY: usize = 32;
@@ -113,6 +115,8 @@ pub struct ModeTransitions {
     /// `(centre bits of τ_c, Φ = e^{A τ_c}, ΦA)` per duration bin.
     recurring: Vec<TransitionBin>,
     next_recurring_slot: usize,
+    /// Earlier segments of the mode that decide the crossings of recurring ones.
+    recurrences: Recurrences,
 }
 
 impl ModeTransitions {
@@ -142,7 +146,40 @@ impl ModeTransitions {
             guard_rows: Vec::new(),
             recurring: Vec::new(),
             next_recurring_slot: 0,
+            recurrences: Recurrences::default(),
         }
+    }
+
+    /// The first crossing in the segment `(z, tau)` decided by a recurring reference of this
+    /// mode, if one holds ([`super::recurrence`]).
+    pub fn decide_recurring(
+        &mut self,
+        z: &[f64],
+        tau: f64,
+        tol: f64,
+        stats: &mut SolverStats,
+    ) -> Option<Decision> {
+        self.recurrences
+            .decide(&self.guard_rows, z, tau, tol, stats)
+    }
+
+    /// Keeps the segment `(z, tau)` whose full search found `outcome` (`(τ*, guard)`) as a
+    /// reference for recurring ones.
+    pub fn learn_recurring(&mut self, z: &[f64], tau: f64, outcome: Option<(f64, usize)>) {
+        self.recurrences.learn(
+            &self.a,
+            &self.balanced,
+            self.sample_step,
+            &mut self.guard_rows,
+            z,
+            tau,
+            outcome,
+        );
+    }
+
+    /// Drops the references (see [`super::ExactPropagator::forget_recurrences`]).
+    pub fn forget_recurring(&mut self) {
+        self.recurrences = Recurrences::default();
     }
 
     /// `e^{A h} − I` (one guard sample step), column-major.
