@@ -604,7 +604,14 @@ impl HybridSystem for GearPair {
     }
 
     fn on_event(&mut self, t: f64, y: &mut [f64], index: usize) {
-        let e = self.ste_at(t).0;
+        self.switch_contact(t, self.ste_at(t).0, y, index);
+    }
+}
+
+impl GearPair {
+    /// The contact switch at an event at `t` where the STE is `e`: snaps `x` onto the
+    /// surface that guard `index` crossed and changes the contact state.
+    fn switch_contact(&mut self, t: f64, e: f64, y: &mut [f64], index: usize) {
         let clearance = self.clearance();
         // Snap x so that δ sits exactly on the surface that was crossed (numerics-notes §2.1,
         // lesson 4), then switch.
@@ -697,6 +704,23 @@ impl PiecewiseLti for GearPair {
     /// Contact guards proved positive by the energy bound of [`guard_bound`].
     fn guard_excluded(&self, _index: usize, z: &[f64]) -> bool {
         guard_bound::contact_guard_lower_bound(self, z).is_some()
+    }
+
+    /// `z` beyond `y` is `cos`/`sin` of the mesh phase and the constant 1: continuous.
+    fn forcing_carries_over(&self) -> bool {
+        true
+    }
+
+    /// The STE at the event from the lifted state's harmonic entries (no `sin`/`cos`).
+    fn on_event_lifted(&mut self, t: f64, z: &[f64], y: &mut [f64], index: usize) {
+        let e = self
+            .ste
+            .coefficients()
+            .iter()
+            .enumerate()
+            .map(|(i, &(a, b))| a * z[2 * (i + 1)] + b * z[2 * (i + 1) + 1])
+            .sum();
+        self.switch_contact(t, e, y, index);
     }
 
     fn max_frequency(&self) -> f64 {

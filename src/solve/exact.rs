@@ -61,7 +61,26 @@ pub trait PiecewiseLti: HybridSystem {
     fn guard_excluded(&self, _index: usize, _z: &[f64]) -> bool {
         false
     }
+    /// [`HybridSystem::on_event`] with the lifted event state `z` at hand, so a jump map that
+    /// needs a forcing value at the event (e.g. the STE, to snap onto the surface) can read
+    /// it from the propagated forcing states instead of evaluating it again.
+    fn on_event_lifted(&mut self, t: f64, _z: &[f64], y: &mut [f64], index: usize) {
+        self.on_event(t, y, index)
+    }
+    /// Whether the entries of `z` beyond `y` (the forcing states) are continuous across stops
+    /// and events, so that the propagator may carry them from a segment's end into the next
+    /// segment instead of lifting again ([`ExactPropagator`] still lifts every
+    /// [`RELIFT_EVERY`]-th segment). `false` (the default) for forcing states that restart at
+    /// a stop, such as a ramp local to a stiffness piece.
+    fn forcing_carries_over(&self) -> bool {
+        false
+    }
 }
+
+/// Segments after which the propagator lifts `z` afresh even when the model's forcing states
+/// carry over: the carried `cos`/`sin` states pass through one rounded rotation per segment,
+/// and a fresh lift from the clock bounds what they can accumulate.
+pub const RELIFT_EVERY: u32 = 8;
 
 /// Mode keys are small integers chosen by the model: a multiplicative hash is enough (the
 /// default SipHash would cost more than a whole-segment mat-vec).
@@ -85,36 +104,64 @@ impl Hasher for ModeKeyHasher {
 /// Transition operators per mode key; cleared when parameters or inputs change.
 #[derive(Default)]
 struct ModeCache {
-    map: HashMap<u64, ModeTransitions, BuildHasherDefault<ModeKeyHasher>>,
+    modes: Vec<ModeTransitions>,
+    index: HashMap<u64, usize, BuildHasherDefault<ModeKeyHasher>>,
+    /// Direct-mapped `(key + 1, position)` by `key mod RECENT`: a periodic orbit cycles
+    /// through a few modes, and a segment then finds its mode without hashing (`0`: empty).
+    recent: [(u64, usize); ModeCache::RECENT],
 }
 
 impl ModeCache {
     /// Drivetrains can have many contact combinations; the cache is bounded so a long
     /// co-simulation cannot grow it without limit.
     const CAPACITY: usize = 256;
+    const RECENT: usize = 16;
 
     /// The current mode of `sys`, built on first use (its `A` from `lti_matrix`).
     fn get<S: PiecewiseLti>(&mut self, sys: &S) -> &mut ModeTransitions {
         let key = sys.mode_key();
-        if self.map.len() >= Self::CAPACITY && !self.map.contains_key(&key) {
-            self.map.clear();
+        let slot = (key % Self::RECENT as u64) as usize;
+        let (tag, position) = self.recent[slot];
+        if tag == key.wrapping_add(1) {
+            return &mut self.modes[position];
         }
-        self.map.entry(key).or_insert_with(|| {
-            let nz = sys.lti_dim();
-            let mut a = DMatrix::zeros(nz, nz);
-            sys.lti_matrix(&mut a);
-            let mut mode = ModeTransitions::new(a, sys.max_frequency());
-            let mut w = vec![0.0; nz];
-            mode.guard_rows = (0..sys.guard_count())
-                .map(|i| {
-                    sys.guard_row(i, &mut w);
-                    let mut rows = DerivativeRows::default();
-                    rows.set_row(&w);
-                    rows
-                })
-                .collect();
-            mode
-        })
+        let position = match self.index.get(&key) {
+            Some(&position) => position,
+            None => {
+                if self.modes.len() >= Self::CAPACITY {
+                    self.clear();
+                }
+                self.modes.push(Self::build(sys));
+                self.index.insert(key, self.modes.len() - 1);
+                self.modes.len() - 1
+            }
+        };
+        self.recent[slot] = (key.wrapping_add(1), position);
+        &mut self.modes[position]
+    }
+
+    fn clear(&mut self) {
+        self.modes.clear();
+        self.index.clear();
+        self.recent = Default::default();
+    }
+
+    /// The operators of the current mode: `A` from `lti_matrix`, the guard rows.
+    fn build<S: PiecewiseLti>(sys: &S) -> ModeTransitions {
+        let nz = sys.lti_dim();
+        let mut a = DMatrix::zeros(nz, nz);
+        sys.lti_matrix(&mut a);
+        let mut mode = ModeTransitions::new(a, sys.max_frequency());
+        let mut w = vec![0.0; nz];
+        mode.guard_rows = (0..sys.guard_count())
+            .map(|i| {
+                sys.guard_row(i, &mut w);
+                let mut rows = DerivativeRows::default();
+                rows.set_row(&w);
+                rows
+            })
+            .collect();
+        mode
     }
 }
 
@@ -134,6 +181,9 @@ pub struct ExactPropagator {
     stalled_events: u64,
     /// Whether recurring segments are decided by earlier ones ([`recurrence`]; on by default).
     recurrences: bool,
+    /// `z` holds the propagated state at `t` (the last segment's end) and this many segments
+    /// have started from a carried `z` since the last fresh lift; `None`: lift afresh.
+    carried: Option<u32>,
     /// `∂y(t)/∂y(t_track)` when tracking is on: the product of the `y` blocks of the applied
     /// transition matrices (the forcing rows of `z` do not depend on `y`).
     sensitivity: Option<DMatrix<f64>>,
@@ -157,6 +207,7 @@ impl ExactPropagator {
             crossing: Workspace::default(),
             stalled_events: 0,
             recurrences: true,
+            carried: None,
             sensitivity: None,
         }
     }
@@ -180,11 +231,13 @@ impl ExactPropagator {
         self.t = t;
         self.y.copy_from_slice(y);
         self.stalled_events = 0;
+        self.carried = None;
     }
 
     /// The system's parameters or inputs changed: drop every cached operator.
     pub fn invalidate(&mut self) {
-        self.modes.map.clear();
+        self.modes.clear();
+        self.carried = None;
     }
 
     /// Switches the recurring-segment decisions ([`recurrence`]) on or off (then every
@@ -201,9 +254,11 @@ impl ExactPropagator {
     /// not to the same last bit, so a state that is captured (and later restored into a
     /// fresh propagator) must continue without the references learned before it.
     pub fn forget_recurrences(&mut self) {
-        for mode in self.modes.map.values_mut() {
+        for mode in &mut self.modes.modes {
             mode.forget_recurring();
         }
+        // The carried forcing states are history too.
+        self.carried = None;
     }
 
     pub fn t(&self) -> f64 {
@@ -249,7 +304,19 @@ impl ExactPropagator {
                 }
                 return Err(SolveError::StepSizeTooSmall { t: self.t, h: tau });
             }
-            sys.lift(self.t, &self.y, &mut self.z);
+            match self.carried {
+                // The forcing states of the last segment's end, with the (possibly switched
+                // or snapped) y.
+                Some(count) if count < RELIFT_EVERY => {
+                    self.z[..n].copy_from_slice(&self.y);
+                    self.carried = Some(count + 1);
+                }
+                _ => {
+                    sys.lift(self.t, &self.y, &mut self.z);
+                    self.carried = Some(0);
+                }
+            }
+            let carries = self.sensitivity.is_none() && sys.forcing_carries_over();
             let mode = self.modes.get(sys);
             self.stats.steps += 1;
 
@@ -332,7 +399,11 @@ impl ExactPropagator {
                     } else {
                         self.t = t_event;
                         self.y.copy_from_slice(&z_event[..n]);
-                        sys.on_event(self.t, &mut self.y, found.index);
+                        sys.on_event_lifted(self.t, z_event, &mut self.y, found.index);
+                        std::mem::swap(&mut self.z, &mut self.z_event);
+                    }
+                    if !carries {
+                        self.carried = None;
                     }
                     self.stats.events += 1;
                     continue;
@@ -348,6 +419,11 @@ impl ExactPropagator {
                 return Err(SolveError::NonFinite { t: self.t });
             }
             self.t = target;
+            if carries {
+                std::mem::swap(&mut self.z, &mut self.z_next);
+            } else {
+                self.carried = None;
+            }
             if target == stop {
                 sys.on_stop(self.t, &mut self.y);
                 self.stats.stops += 1;

@@ -1149,6 +1149,15 @@ impl HybridSystem for GearTrain {
     }
 
     fn on_event(&mut self, t: f64, y: &mut [f64], index: usize) {
+        self.switch_slot(t, None, y, index);
+    }
+}
+
+impl GearTrain {
+    /// The contact switch of guard `index` at an event at `t`: snaps `ξ` onto the crossed
+    /// surface and switches the slot. With the lifted event state `z`, a one-DOF train reads
+    /// its STE from the propagated harmonic states (as the single pair does).
+    fn switch_slot(&mut self, t: f64, z: Option<&[f64]>, y: &mut [f64], index: usize) {
         let (n, j, surface) = self.guards[index];
         let clearance = self.meshes[n].clearance();
         let (level, next) = match surface {
@@ -1167,7 +1176,23 @@ impl HybridSystem for GearTrain {
                 let mesh = &self.meshes[n];
                 let p = mesh.clock.phase_at(t);
                 let g = mesh.law(j).map_or(0.0, |l| l.g(mesh.local(p)));
-                y[0] = (mesh.ste.value(p) + g + level) / a[0];
+                let e = match z {
+                    Some(z) => {
+                        let base = 2 * m
+                            + self.meshes[..n]
+                                .iter()
+                                .map(|k| 2 * k.ste.harmonics() + usize::from(k.ramp))
+                                .sum::<usize>();
+                        mesh.ste
+                            .coefficients()
+                            .iter()
+                            .enumerate()
+                            .map(|(i, &(a, b))| a * z[base + 2 * i] + b * z[base + 2 * i + 1])
+                            .sum()
+                    }
+                    None => mesh.ste.value(p),
+                };
+                y[0] = (e + g + level) / a[0];
             } else {
                 let w: Vec<f64> = (0..m)
                     .map(|i| (0..m).map(|k| self.minv[i * m + k] * a[k]).sum())
@@ -1186,9 +1211,7 @@ impl HybridSystem for GearTrain {
         }
         self.refresh_guards();
     }
-}
 
-impl GearTrain {
     fn harmonic_base(&self) -> Vec<usize> {
         let mut base = Vec::with_capacity(self.meshes.len());
         let mut k = 2 * self.m;
@@ -1218,6 +1241,18 @@ impl GearTrain {
 }
 
 impl PiecewiseLti for GearTrain {
+    /// The STE at the event from the propagated harmonic states (one-DOF trains, as the
+    /// single pair).
+    fn on_event_lifted(&mut self, t: f64, z: &[f64], y: &mut [f64], index: usize) {
+        self.switch_slot(t, Some(z), y, index);
+    }
+
+    /// Harmonic states and the constant are continuous; a stiffness ramp restarts at every
+    /// piece.
+    fn forcing_carries_over(&self) -> bool {
+        self.meshes.iter().all(|mesh| !mesh.ramp)
+    }
+
     fn lti_dim(&self) -> usize {
         2 * self.m
             + self

@@ -37,8 +37,15 @@ const PIECES_PER_STEP: usize = 16;
 /// flights before and after a stop); replaced round-robin.
 const CAPACITY: usize = 4;
 /// Full searches skipped at most between two reference builds of one mode while the
-/// references it builds are not used (a run that never settles pays ~1/1024 of a build).
-const MAX_BACKOFF: u32 = 1024;
+/// references it builds are not used: a build costs tens of full searches, so a run whose
+/// segments do not recur (output points at phases that never repeat, a chaotic rattle) pays
+/// a few percent at most.
+const MAX_BACKOFF: u32 = 4096;
+/// Decisions after which a reference has paid for its build (a build samples the guards and
+/// their weights over the whole segment, some tens of full searches of a steady run; with
+/// dense output points a search is far cheaper, and a reference met again only for a few
+/// periods by a nearly commensurate grid has not paid).
+const PAYBACK_HITS: u64 = 64;
 /// Sample steps a reference may span.
 const MAX_STEPS: usize = 64;
 /// Relative rounding margin of the reference guard's node values and rates (of their scale
@@ -58,17 +65,27 @@ pub enum Decision {
 #[derive(Default)]
 pub struct Recurrences {
     references: Vec<Reference>,
-    next_slot: usize,
     /// The reference that decided last (tried first).
     last_hit: usize,
-    /// Full searches still to skip before the next build, and the current backoff.
+    /// The reference built last, judged at the next build: it paid for itself
+    /// ([`PAYBACK_HITS`]) or not.
+    last_built: Option<usize>,
+    /// Decisions and builds so far: the clock of [`Reference::last_used`].
+    uses: u64,
+    /// Full searches still to skip before the next build, and the current backoff (doubled
+    /// after a build whose reference has not paid for itself, reset after one that has).
     wait: u32,
     backoff: u32,
-    /// `|z − z_r|` per component.
+    /// `|z − z_r|` and `|z|` per component.
     distance: Vec<f64>,
+    magnitude: Vec<f64>,
 }
 
 struct Reference {
+    /// When the reference was built or last decided a segment (the least recently used one
+    /// is replaced), and how many it decided.
+    last_used: u64,
+    hits: u64,
     z: Vec<f64>,
     /// The end of the certified range `[0, S]`.
     horizon: f64,
@@ -122,10 +139,21 @@ impl Recurrences {
         let count = self.references.len();
         for attempt in 0..count {
             let k = (self.last_hit + attempt) % count;
-            let decision = self.references[k].decide(rows, z, tau, tol, &mut self.distance, stats);
+            let decision = self.references[k].decide(
+                rows,
+                z,
+                tau,
+                tol,
+                &mut self.distance,
+                &mut self.magnitude,
+                stats,
+            );
             if decision.is_some() {
+                self.uses += 1;
+                let reference = &mut self.references[k];
+                reference.last_used = self.uses;
+                reference.hits += 1;
                 self.last_hit = k;
-                self.backoff = 0;
                 return decision;
             }
         }
@@ -149,20 +177,58 @@ impl Recurrences {
             self.wait -= 1;
             return;
         }
-        self.backoff = (2 * self.backoff).clamp(1, MAX_BACKOFF);
+        let used = self.last_built.is_some_and(|k| {
+            self.references
+                .get(k)
+                .is_some_and(|r| r.hits >= PAYBACK_HITS)
+        });
+        self.backoff = if used {
+            0
+        } else {
+            (2 * self.backoff).clamp(1, MAX_BACKOFF)
+        };
         self.wait = self.backoff;
-        let Some(reference) = Reference::build(a, balanced, h, rows, z, tau, outcome) else {
+        self.last_built = None;
+        let Some(mut reference) = Reference::build(a, balanced, h, rows, z, tau, outcome) else {
             return;
         };
-
-        if self.references.len() < CAPACITY {
+        self.uses += 1;
+        reference.last_used = self.uses;
+        let slot = if self.references.len() < CAPACITY {
             self.references.push(reference);
-            self.last_hit = self.references.len() - 1;
+            self.references.len() - 1
         } else {
-            self.references[self.next_slot] = reference;
-            self.last_hit = self.next_slot;
-            self.next_slot = (self.next_slot + 1) % CAPACITY;
-        }
+            let (slot, _) = self
+                .references
+                .iter()
+                .enumerate()
+                .min_by_key(|(_, r)| r.last_used)
+                .expect("a full set");
+            self.references[slot] = reference;
+            slot
+        };
+        self.last_hit = slot;
+        self.last_built = Some(slot);
+    }
+}
+
+/// `s` as a slice of the constant length `N` (`N = 0`: as it is), so that the loops over it in
+/// a function instantiated for the single pair's augmented sizes unroll.
+#[inline(always)]
+fn sized<const N: usize>(s: &[f64]) -> &[f64] {
+    if N == 0 {
+        s
+    } else {
+        &s[..N]
+    }
+}
+
+#[inline(always)]
+fn sized_mut<const N: usize>(s: &mut [f64]) -> &mut [f64] {
+    if N == 0 {
+        s
+    } else {
+        &mut s[..N]
     }
 }
 
@@ -175,19 +241,48 @@ impl Reference {
         tau: f64,
         tol: f64,
         distance: &mut Vec<f64>,
+        magnitude: &mut Vec<f64>,
         stats: &mut SolverStats,
     ) -> Option<Decision> {
-        if self.guards.len() != rows.len() || self.z.len() != z.len() {
+        let n = z.len();
+        if self.guards.len() != rows.len() || self.z.len() != n {
             return None;
         }
+        distance.resize(n, 0.0);
+        magnitude.resize(n, 0.0);
+        let (d, m) = (distance.as_mut_slice(), magnitude.as_mut_slice());
+        match n {
+            5 => self.decide_sized::<5>(rows, z, tau, tol, d, m, stats),
+            7 => self.decide_sized::<7>(rows, z, tau, tol, d, m, stats),
+            _ => self.decide_sized::<0>(rows, z, tau, tol, d, m, stats),
+        }
+    }
+
+    /// [`Reference::decide`] for vectors of length `N` (`0`: any).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn decide_sized<const N: usize>(
+        &self,
+        rows: &[DerivativeRows],
+        z: &[f64],
+        tau: f64,
+        tol: f64,
+        distance: &mut [f64],
+        magnitude: &mut [f64],
+        stats: &mut SolverStats,
+    ) -> Option<Decision> {
+        let z = sized::<N>(z);
+        let (distance, magnitude) = (sized_mut::<N>(distance), sized_mut::<N>(magnitude));
         // |fl(z − z_r) − (z − z_r)| ≤ ε |z − z_r|: one more ulp-level factor on the bounds.
-        distance.clear();
-        distance.extend(z.iter().zip(&self.z).map(|(a, b)| (a - b).abs()));
+        for ((d, a), b) in distance.iter_mut().zip(z).zip(sized::<N>(&self.z)) {
+            *d = (a - b).abs();
+        }
+        let mut magnitude_ready = false;
         let mut first: Option<(f64, usize)> = None;
         for (i, c) in self.guards.iter().enumerate() {
             let spread = 1.0 + 1e-12;
-            let e0 = dot(&c.value_weights, distance) * spread;
-            let e1 = dot(&c.rate_weights, distance) * spread;
+            let e0 = dot(sized::<N>(&c.value_weights), distance) * spread;
+            let e1 = dot(sized::<N>(&c.rate_weights), distance) * spread;
             if !(e0 < c.value_margin && e1 < c.rise_margin) {
                 return None;
             }
@@ -205,7 +300,13 @@ impl Reference {
                 }
             }
             stats.guard_evals += 4;
-            let (before, after) = crossing.locate(z, self.horizon, tol)?;
+            if !magnitude_ready {
+                for (m, x) in magnitude.iter_mut().zip(z) {
+                    *m = x.abs();
+                }
+                magnitude_ready = true;
+            }
+            let (before, after) = crossing.locate::<N>(z, magnitude, self.horizon, tol)?;
             if after <= tau {
                 first = Some((after, i));
             } else if before < tau {
@@ -370,6 +471,8 @@ impl Reference {
             });
         }
         Some(Reference {
+            last_used: 0,
+            hits: 0,
             z: z.to_vec(),
             horizon,
             guards,
@@ -572,31 +675,48 @@ impl CrossingCertificate {
     /// A bracket `(before, after)` of the crossing from `z` (`g(before) > 0 > g(after)`,
     /// `after − before ≤ tol`), from Newton on the cubic Taylor polynomial about the reference
     /// crossing with its remainder bounded; `None` if it cannot be proved.
-    fn locate(&self, z: &[f64], horizon: f64, tol: f64) -> Option<(f64, f64)> {
+    #[inline(always)]
+    fn locate<const N: usize>(
+        &self,
+        z: &[f64],
+        magnitude: &[f64],
+        horizon: f64,
+        tol: f64,
+    ) -> Option<(f64, f64)> {
         let n = z.len();
-        let row = |k: usize| &self.taylor_rows[k * n..(k + 1) * n];
+        let row = |k: usize| sized::<N>(&self.taylor_rows[k * n..(k + 1) * n]);
         let c = [
             dot(row(0), z),
             dot(row(1), z),
             0.5 * dot(row(2), z),
             dot(row(3), z) / 6.0,
         ];
-        let abs_z = |m: &[f64]| -> f64 { m.iter().zip(z).map(|(m, x)| m * x.abs()).sum() };
-        let noise = 4.0 * (n + 4) as f64 * f64::EPSILON * abs_z(&self.rounding_weights);
-        let fourth = abs_z(&self.remainder_weights);
+        let noise = 4.0
+            * (n + 4) as f64
+            * f64::EPSILON
+            * dot(sized::<N>(&self.rounding_weights), magnitude);
+        let fourth = dot(sized::<N>(&self.remainder_weights), magnitude);
         let p = |d: f64| ((c[3] * d + c[2]) * d + c[1]) * d + c[0];
-        let slope = |d: f64| (3.0 * c[3] * d + 2.0 * c[2]) * d + c[1];
         let error = |d: f64| noise + fourth * (d * d) * (d * d) + 4.0 * f64::EPSILON * p(d).abs();
+        // Newton with the slope at the reference crossing (one division): the crossing moves
+        // little between recurrences, where the slope changes by `2 c₂ δ / c₁ ≪ 1`, so this
+        // converges about as fast as Newton; the bracket below is checked either way.
+        let inverse_slope = 1.0 / c[1];
+        if !inverse_slope.is_finite() {
+            return None;
+        }
         let mut d = 0.0f64;
-        for _ in 0..8 {
-            let step = p(d) / slope(d);
-            if !step.is_finite() {
-                return None;
-            }
+        let mut converged = false;
+        for _ in 0..12 {
+            let step = p(d) * inverse_slope;
             d -= step;
             if step.abs() <= 0.125 * tol {
+                converged = true;
                 break;
             }
+        }
+        if !converged {
+            return None;
         }
         let before = self.at + (d - 0.5 * tol);
         let after = self.at + (d + 0.5 * tol);
