@@ -31,8 +31,11 @@ pub fn write_real(out: &mut String, v: f64) {
     // Python's repr; only the exponent spelling differs (`1e-5` vs `1e-05`, `1e16` vs `1e+16`).
     let start = out.len();
     let _ = write!(out, "{v:?}");
-    if let Some(p) = out.as_bytes()[start..].iter().rposition(|&b| b == b'e') {
-        let mut at = start + p + 1;
+    // The exponent is written last and has at most three digits and a sign ("1e-308"), so
+    // an 'e' is among the last five bytes (the digits before it are no 'e').
+    let tail = out.len().saturating_sub(5).max(start);
+    if let Some(p) = out.as_bytes()[tail..].iter().rposition(|&b| b == b'e') {
+        let mut at = tail + p + 1;
         if out.as_bytes()[at] == b'-' {
             at += 1;
         } else {
@@ -125,26 +128,13 @@ fn parse_number(s: &str) -> Option<f64> {
     s.parse::<f64>().ok()
 }
 
-/// One recorded value (fmpy records Real, Integer (and Enumeration) and Boolean variables).
+/// The recorded values at one communication point, in fmpy's column order: the Reals, then
+/// the Integers (and Enumerations), then the Booleans (fmi2Boolean: 0 is false).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Cell {
-    Real(f64),
-    Int(i32),
-    Bool(bool),
-}
-
-impl Cell {
-    /// Append the cell as fmpy writes it (`str()` of the numpy scalar).
-    pub fn write(&self, out: &mut String) {
-        use std::fmt::Write as _;
-        match self {
-            Cell::Real(v) => write_real(out, *v),
-            Cell::Int(v) => {
-                let _ = write!(out, "{v}");
-            }
-            Cell::Bool(v) => out.push_str(if *v { "True" } else { "False" }),
-        }
-    }
+pub struct Row<'a> {
+    pub reals: &'a [f64],
+    pub integers: &'a [i32],
+    pub booleans: &'a [i32],
 }
 
 /// Streams a result like `fmpy.util.write_csv`: `"time","a","b"`, then one line per sample,
@@ -175,15 +165,23 @@ impl<W: std::io::Write> CsvWriter<W> {
         })
     }
 
-    /// Write one row.
-    pub fn row(&mut self, t: f64, cells: &[Cell]) -> std::io::Result<()> {
-        self.line.clear();
-        write_real(&mut self.line, t);
-        for c in cells {
-            self.line.push(',');
-            c.write(&mut self.line);
+    /// Write one row, each value as fmpy writes it (`str()` of the numpy scalar).
+    pub fn row(&mut self, t: f64, row: &Row) -> std::io::Result<()> {
+        use std::fmt::Write as _;
+        let line = &mut self.line;
+        line.clear();
+        write_real(line, t);
+        for &v in row.reals {
+            line.push(',');
+            write_real(line, v);
         }
-        self.line.push('\n');
+        for &v in row.integers {
+            let _ = write!(line, ",{v}");
+        }
+        for &v in row.booleans {
+            line.push_str(if v != 0 { ",True" } else { ",False" });
+        }
+        line.push('\n');
         self.out.write_all(self.line.as_bytes())?;
         self.rows += 1;
         self.last_time = Some(t);
@@ -217,6 +215,12 @@ mod tests {
             (-2.5e-7, "-2.5e-07"),
             (1e100, "1e+100"),
             (0.0001, "0.0001"),
+            (5e-324, "5e-324"),
+            (-1e-300, "-1e-300"),
+            (1.7976931348623157e308, "1.7976931348623157e+308"),
+            (1e22, "1e+22"),
+            (123.0, "123.0"),
+            (-0.0, "-0.0"),
         ] {
             assert_eq!(format_real(v), s);
         }
