@@ -141,14 +141,21 @@ impl Instance {
         }
     }
 
-    /// State-machine check shared by every call.
+    /// State-machine check shared by every call (inlined: a mask test on the path of every
+    /// call; the refusal is out of line).
+    #[inline]
     pub fn check(&mut self, call: Call) -> Result<(), Status> {
         if call.allowed_in(self.state) {
             Ok(())
         } else {
-            let state = self.state.name();
-            Err(self.error(call, format!("not allowed in state {state}")))
+            Err(self.refuse(call))
         }
+    }
+
+    #[cold]
+    fn refuse(&mut self, call: Call) -> Status {
+        let state = self.state.name();
+        self.error(call, format!("not allowed in state {state}"))
     }
 
     pub fn set_debug_logging(&mut self, on: bool, categories: &[String]) -> Status {
