@@ -55,14 +55,13 @@ pub struct Instance {
     /// The base type of each variable, by position: the type check of a get needs no call
     /// into the model's table.
     kinds: Vec<VarKind>,
-    /// The value references of the last `fmi2GetReal` that passed the type check. A host
-    /// asks for the same ones after every step, and the variable table never changes
-    /// ([`CoSimModel::variables`]), so a repeated request needs no check per reference.
-    checked_real_vrs: Vec<u32>,
+    /// Per base type ([`VarKind`] as index), the value references of the last get that
+    /// passed the type check. A host asks for the same ones after every step, and the
+    /// variable table never changes ([`CoSimModel::variables`]), so a repeated request
+    /// needs no check per reference.
+    checked_gets: [Vec<u32>; 3],
     /// The value references of the Real outputs, checked for finiteness after every step.
     real_outputs: Vec<u32>,
-    /// Their values after the last step (one buffer for the whole run).
-    output_values: Vec<f64>,
     pub state: FmuState,
     time: f64,
     start_time: f64,
@@ -89,8 +88,7 @@ impl Instance {
             info,
             index,
             kinds,
-            checked_real_vrs: Vec::new(),
-            output_values: vec![0.0; real_outputs.len()],
+            checked_gets: Default::default(),
             real_outputs,
             state: FmuState::Instantiated,
             time: 0.0,
@@ -143,14 +141,21 @@ impl Instance {
         }
     }
 
-    /// State-machine check shared by every call.
+    /// State-machine check shared by every call (inlined: a mask test on the path of every
+    /// call; the refusal is out of line).
+    #[inline]
     pub fn check(&mut self, call: Call) -> Result<(), Status> {
         if call.allowed_in(self.state) {
             Ok(())
         } else {
-            let state = self.state.name();
-            Err(self.error(call, format!("not allowed in state {state}")))
+            Err(self.refuse(call))
         }
+    }
+
+    #[cold]
+    fn refuse(&mut self, call: Call) -> Status {
+        let state = self.state.name();
+        self.error(call, format!("not allowed in state {state}"))
     }
 
     pub fn set_debug_logging(&mut self, on: bool, categories: &[String]) -> Status {
@@ -293,8 +298,24 @@ impl Instance {
         }
     }
 
-    /// Shared body of the getters: state check, then per value reference the type check
-    /// and the model's answer; the first failure is the call's error.
+    /// The checks of every getter: the state, then that each of `vrs` names a variable of
+    /// base type `kind` (skipped when `vrs` is the last request of that type that passed).
+    fn check_get(&mut self, call: Call, kind: VarKind, vrs: &[u32]) -> Result<(), Status> {
+        self.check(call)?;
+        let checked = &self.checked_gets[kind as usize];
+        if vrs != checked.as_slice() {
+            if let Some(e) = vrs.iter().find_map(|&vr| self.check_kind(vr, kind).err()) {
+                return Err(self.error(call, e));
+            }
+            let checked = &mut self.checked_gets[kind as usize];
+            checked.clear();
+            checked.extend_from_slice(vrs);
+        }
+        Ok(())
+    }
+
+    /// Shared body of the Integer and Boolean getters: the checks, then the model's answer
+    /// per value reference; the first failure is the call's error.
     fn get_values<T>(
         &mut self,
         call: Call,
@@ -303,14 +324,11 @@ impl Instance {
         out: &mut [T],
         get: impl Fn(&dyn CoSimModel, u32) -> Result<T, String>,
     ) -> Status {
-        if let Err(s) = self.check(call) {
+        if let Err(s) = self.check_get(call, kind, vrs) {
             return s;
         }
         for (vr, slot) in vrs.iter().zip(out.iter_mut()) {
-            let r = self
-                .check_kind(*vr, kind)
-                .and_then(|()| get(self.model.as_ref(), *vr));
-            match r {
+            match get(self.model.as_ref(), *vr) {
                 Ok(x) => *slot = x,
                 Err(e) => return self.error(call, e),
             }
@@ -322,18 +340,8 @@ impl Instance {
     /// reads every output after every step.
     pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Status {
         let call = Call::GetReal;
-        if let Err(s) = self.check(call) {
+        if let Err(s) = self.check_get(call, VarKind::Real, vrs) {
             return s;
-        }
-        if vrs != self.checked_real_vrs.as_slice() {
-            if let Some(e) = vrs
-                .iter()
-                .find_map(|&vr| self.check_kind(vr, VarKind::Real).err())
-            {
-                return self.error(call, e);
-            }
-            self.checked_real_vrs.clear();
-            self.checked_real_vrs.extend_from_slice(vrs);
         }
         match self.model.get_reals(vrs, out) {
             Ok(()) => Status::Ok,
@@ -535,20 +543,13 @@ impl Instance {
     }
 
     /// The first Real output that is not finite after a step, as a reason; `None` if all
-    /// are finite. Reads them through the model's `get_reals` (one pass over the outputs it
-    /// evaluates anyway for the host's `fmi2GetReal`), into a buffer sized once.
-    fn non_finite_output(&mut self) -> Option<String> {
-        if let Err(e) = self
-            .model
-            .get_reals(&self.real_outputs, &mut self.output_values)
-        {
-            return Some(e);
-        }
-        let (&vr, &x) = self
-            .real_outputs
-            .iter()
-            .zip(&self.output_values)
-            .find(|(_, x)| !x.is_finite())?;
+    /// are finite (the model scans the outputs it evaluates anyway for the host's
+    /// `fmi2GetReal`, [`CoSimModel::first_non_finite`]).
+    fn non_finite_output(&self) -> Option<String> {
+        let (vr, x) = match self.model.first_non_finite(&self.real_outputs) {
+            Ok(found) => found?,
+            Err(e) => return Some(e),
+        };
         let name = self.lookup(vr, VarKind::Real).map_or("?", |v| &v.name);
         Some(format!("output '{name}' (vr {vr}) = {x} is not finite"))
     }
@@ -666,4 +667,153 @@ impl Instance {
 pub enum StatusAnswer {
     Real(f64),
     Boolean(bool),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fmi::logger::CallbackFunctions;
+    use crate::fmi::model::{Causality, DefaultExperiment, Initial, Lifecycle, Variability};
+    use std::ffi::CString;
+
+    /// One Real output `y` and one Integer output `n`: `y` becomes `y_after_step` with the
+    /// first step (the model itself reports success).
+    struct Outputs {
+        vars: Vec<Variable>,
+        y: f64,
+        y_after_step: f64,
+        lifecycle: Lifecycle,
+    }
+
+    impl CoSimModel for Outputs {
+        fn variables(&self) -> &[Variable] {
+            &self.vars
+        }
+        fn get_real(&self, vr: u32) -> Result<f64, String> {
+            match vr {
+                1 => Ok(self.y),
+                _ => Err(format!("no Real {vr}")),
+            }
+        }
+        fn set_real(&mut self, vr: u32, _: f64) -> Result<(), String> {
+            Err(format!("no settable {vr}"))
+        }
+        fn get_integer(&self, vr: u32) -> Result<i32, String> {
+            match vr {
+                2 => Ok(7),
+                _ => Err(format!("no Integer {vr}")),
+            }
+        }
+        fn lifecycle_mut(&mut self) -> &mut Lifecycle {
+            &mut self.lifecycle
+        }
+        fn do_step(&mut self, _: f64, _: f64) -> Result<(), StepFailure> {
+            self.y = self.y_after_step;
+            Ok(())
+        }
+        fn reset(&mut self) -> Result<(), String> {
+            Ok(())
+        }
+        fn save_state(&mut self) -> Vec<u8> {
+            Vec::new()
+        }
+        fn load_state(&mut self, _: &[u8]) -> Result<(), String> {
+            Ok(())
+        }
+    }
+
+    fn ready(y_after_step: f64) -> Instance {
+        let output = |name: &str, vr: u32| {
+            let mut v = Variable::real(
+                name,
+                vr,
+                Causality::Output,
+                Variability::Continuous,
+                Some(Initial::Calculated),
+                None,
+                None,
+                "an output",
+            );
+            if vr == 2 {
+                v.kind = VarKind::Integer;
+                v.variability = Variability::Discrete;
+            }
+            v
+        };
+        let model = Outputs {
+            vars: vec![output("y", 1), output("n", 2)],
+            y: 1.0,
+            y_after_step,
+            lifecycle: Lifecycle::default(),
+        };
+        let callbacks = CallbackFunctions {
+            logger: None,
+            allocate_memory: None,
+            free_memory: None,
+            step_finished: None,
+            component_environment: std::ptr::null_mut(),
+        };
+        let info = ModelInfo {
+            model_name: "outputs".into(),
+            description: String::new(),
+            default_experiment: DefaultExperiment {
+                start_time: 0.0,
+                stop_time: 1.0,
+                step_size: 0.1,
+                tolerance: None,
+            },
+            guid: "{outputs}".into(),
+            documentation: String::new(),
+        };
+        let logger = Logger::new(callbacks, CString::new("outputs").unwrap(), false);
+        let mut inst = Instance::new(logger, Box::new(model), info);
+        assert_eq!(inst.setup_experiment(None, 0.0, None), Status::Ok);
+        assert_eq!(inst.enter_initialization_mode(), Status::Ok);
+        assert_eq!(inst.exit_initialization_mode(), Status::Ok);
+        inst
+    }
+
+    /// The safety net: a step after which an output is not finite is discarded at its start
+    /// and asks the master to terminate, although the model reported success.
+    #[test]
+    fn a_non_finite_output_discards_the_step() {
+        for bad in [f64::NAN, f64::INFINITY] {
+            let mut inst = ready(bad);
+            assert_eq!(inst.do_step(0.0, 0.1), Status::Discard, "y = {bad}");
+            assert_eq!(inst.state, FmuState::StepFailed);
+            assert!(matches!(
+                inst.status_query(Call::GetBooleanStatus, TERMINATED),
+                Ok(StatusAnswer::Boolean(true))
+            ));
+            assert!(matches!(
+                inst.status_query(Call::GetRealStatus, LAST_SUCCESSFUL_TIME),
+                Ok(StatusAnswer::Real(t)) if t == 0.0
+            ));
+        }
+        let mut inst = ready(2.0);
+        assert_eq!(inst.do_step(0.0, 0.1), Status::Ok);
+        assert_eq!(inst.non_finite_output(), None);
+    }
+
+    /// A repeated get skips the type check only for the very request that passed it: a
+    /// different vector, or a value reference of another type, is checked again.
+    #[test]
+    fn repeated_gets_keep_their_type_check() {
+        let mut inst = ready(2.0);
+        let (mut x, mut n) = ([0.0], [0]);
+        for _ in 0..2 {
+            assert_eq!(inst.get_real(&[1], &mut x), Status::Ok);
+            assert_eq!(inst.get_integer(&[2], &mut n), Status::Ok);
+        }
+        assert_eq!((x, n), ([1.0], [7]));
+        let mut inst = ready(2.0);
+        assert_eq!(inst.get_real(&[1], &mut x), Status::Ok);
+        assert_eq!(inst.get_real(&[2], &mut x), Status::Error);
+        let mut inst = ready(2.0);
+        assert_eq!(inst.get_integer(&[2], &mut n), Status::Ok);
+        assert_eq!(inst.get_integer(&[1], &mut n), Status::Error);
+        let mut inst = ready(2.0);
+        assert_eq!(inst.get_integer(&[2, 2], &mut [0, 0]), Status::Ok);
+        assert_eq!(inst.get_integer(&[2, 9], &mut [0, 0]), Status::Error);
+    }
 }

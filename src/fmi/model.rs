@@ -187,6 +187,14 @@ pub trait CoSimModel: Send {
         }
         Ok(())
     }
+    /// The first of the Real variables `vrs` whose value is not finite, with that value;
+    /// `None` if all are finite. The layer asks for all Real outputs after every successful
+    /// step (its safety net: a non-finite output is never reported as a good step). The
+    /// default reads them one by one ([`first_non_finite_of`]); a model that keeps its
+    /// outputs in an array may scan that instead, without copying them.
+    fn first_non_finite(&self, vrs: &[u32]) -> Result<Option<(u32, f64)>, String> {
+        first_non_finite_of(self, vrs)
+    }
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String>;
 
     fn get_integer(&self, vr: u32) -> Result<i32, String> {
@@ -248,6 +256,21 @@ pub trait CoSimModel: Send {
     /// is the same as from the restored one.
     fn save_state(&mut self) -> Vec<u8>;
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String>;
+}
+
+/// [`CoSimModel::first_non_finite`] through [`CoSimModel::get_real`], one value reference at
+/// a time: the default, and the fallback of a model's faster scan for other requests.
+pub fn first_non_finite_of<M: CoSimModel + ?Sized>(
+    model: &M,
+    vrs: &[u32],
+) -> Result<Option<(u32, f64)>, String> {
+    for &vr in vrs {
+        let x = model.get_real(vr)?;
+        if !x.is_finite() {
+            return Ok(Some((vr, x)));
+        }
+    }
+    Ok(None)
 }
 
 /// Where a model instance stands in its life cycle: the start time of `fmi2SetupExperiment`

@@ -19,7 +19,9 @@
 mod documentation;
 mod variables;
 
-use crate::fmi::model::{CoSimModel, Lifecycle, ModelInfo, StepFailure, Variable};
+use crate::fmi::model::{
+    first_non_finite_of, CoSimModel, Lifecycle, ModelInfo, StepFailure, Variable,
+};
 use crate::fmu_common::{check, check_known, model_info, name_of, settable_reals};
 use crate::fmu_state::ModelSnapshot;
 use crate::model::Inputs;
@@ -308,6 +310,23 @@ impl CoSimModel for GearModel {
         Ok(())
     }
 
+    /// The layer's check after every step, on the cached outputs in place.
+    fn first_non_finite(&self, vrs: &[u32]) -> Result<Option<(u32, f64)>, String> {
+        if vrs != REAL_OUTPUT_VRS {
+            return first_non_finite_of(self, vrs);
+        }
+        let outputs = self.current_outputs();
+        // All finite (the contact state is stored as a whole number): one pass, no lookups.
+        if outputs.iter().all(|x| x.is_finite()) {
+            return Ok(None);
+        }
+        Ok(REAL_OUTPUT_VRS
+            .iter()
+            .zip(REAL_OUTPUT_POSITIONS)
+            .map(|(&vr, k)| (vr, outputs[k]))
+            .find(|(_, x)| !x.is_finite()))
+    }
+
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String> {
         let is_input = matches!(vr, VR_PINION_SPEED | VR_INPUT_TORQUE | VR_LOAD_TORQUE);
         if self.lifecycle.initialized {
@@ -401,5 +420,35 @@ mod tests {
         for (&vr, k) in REAL_OUTPUT_VRS.iter().zip(REAL_OUTPUT_POSITIONS) {
             assert_eq!(output_position(vr), Some(k), "vr {vr}");
         }
+    }
+
+    /// The FMI layer asks `first_non_finite` for the Real outputs in table order: that must
+    /// be the fast path's list, and the scan must agree with reading them one by one.
+    #[test]
+    fn non_finite_scan_covers_the_layers_request() {
+        use crate::fmi::model::{Causality, VarKind};
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/fmu/spur_pair/scene.toml");
+        let text = std::fs::read_to_string(path).unwrap();
+        let scene = Scene::from_toml_str(&text, path).unwrap();
+        let (mut model, _) = GearModel::new(scene, "{test}".into()).unwrap();
+        let asked: Vec<u32> = model
+            .variables()
+            .iter()
+            .filter(|v| v.kind == VarKind::Real && v.causality == Causality::Output)
+            .map(|v| v.value_reference)
+            .collect();
+        assert_eq!(asked, REAL_OUTPUT_VRS);
+        assert_eq!(model.first_non_finite(&asked), Ok(None));
+        assert_eq!(first_non_finite_of(&model, &asked), Ok(None));
+        // A NaN in the cached outputs (as a broken evaluation would leave it) is found, with
+        // its value reference, by the scan and by the per-reference fallback alike.
+        let mut bad = *model.current_outputs();
+        bad[REAL_OUTPUT_POSITIONS[2]] = f64::NAN;
+        model.outputs = OnceCell::from(bad);
+        let found = model.first_non_finite(&asked).unwrap().unwrap();
+        assert_eq!(found.0, REAL_OUTPUT_VRS[2]);
+        assert!(found.1.is_nan());
+        let slow = first_non_finite_of(&model, &asked[1..]).unwrap().unwrap();
+        assert_eq!(slow.0, REAL_OUTPUT_VRS[2]);
     }
 }

@@ -1,14 +1,19 @@
 //! Unpacking an FMU (a ZIP file, FMI 2.0.5 §2.3 "FMU Distribution") into a temporary folder.
 //!
+//! Every entry is checked, but `documentation/` and `sources/` are not written: no host
+//! command reads them (they are for people and for compiling), and each extra file and folder
+//! costs its creation and removal on every run.
+//!
 //! The folder is a [`tempfile::TempDir`] owned by [`Unpacked`]: it is removed when the value is
 //! dropped, which also happens on every early `return Err(..)` and on unwinding, so no error
 //! path leaves files behind.
 
 use std::fs;
-use std::io::{self, Read};
+use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
 
-/// An FMU extracted to disk (or an already extracted FMU folder, which is used in place).
+/// An FMU extracted to disk without its documentation and sources (or an already extracted
+/// FMU folder, which is used in place).
 pub struct Unpacked {
     /// Keeps the temporary folder alive; `None` when the FMU was given as a folder.
     _temp: Option<tempfile::TempDir>,
@@ -57,6 +62,29 @@ pub fn unpack(fmu: &Path) -> Result<Unpacked, String> {
 /// must not fill the disk. Far above any real FMU.
 pub const MAX_UNPACKED_BYTES: u64 = 8 << 30;
 
+/// Top-level folders that are checked but not written (see the module documentation).
+const NOT_EXTRACTED: [&str; 2] = ["documentation", "sources"];
+
+/// The copy buffer of the extraction: a shared library is megabytes, and a chunk this large
+/// costs one read and one write system call per 256 KiB (`io::copy` uses 8 KiB).
+const COPY_CHUNK: usize = 256 << 10;
+
+/// Copy `from` to the end into `to` through `chunk`; the bytes copied.
+fn copy_through(from: &mut impl Read, to: &mut impl Write, chunk: &mut [u8]) -> io::Result<u64> {
+    let mut n = 0;
+    loop {
+        match from.read(chunk) {
+            Ok(0) => return Ok(n),
+            Ok(k) => {
+                to.write_all(&chunk[..k])?;
+                n += k as u64;
+            }
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+}
+
 /// [`unpack`] with an explicit limit on the bytes extracted.
 pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
     let meta = fs::metadata(fmu).map_err(|e| match e.kind() {
@@ -93,6 +121,7 @@ pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
     let mut has_md = false;
     let mut written: u64 = 0;
     let mut zip_problems = Vec::new();
+    let mut chunk = vec![0; COPY_CHUNK];
     for i in 0..zip.len() {
         let mut entry = zip
             .by_index(i)
@@ -135,6 +164,9 @@ pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
         if rel == Path::new("modelDescription.xml") {
             has_md = true;
         }
+        if NOT_EXTRACTED.iter().any(|folder| rel.starts_with(folder)) {
+            continue;
+        }
         let out = temp.path().join(&rel);
         if entry.is_dir() {
             fs::create_dir_all(&out)
@@ -150,12 +182,13 @@ pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
             .map_err(|e| format!("{}: cannot create {}: {e}", fmu.display(), out.display()))?;
         // Count actual bytes (the sizes in the ZIP headers can lie), stop one past the limit.
         let budget = max_bytes - written;
-        let n = io::copy(&mut (&mut entry).take(budget + 1), &mut f).map_err(|e| {
-            format!(
-                "{}: cannot extract ZIP entry \"{raw_name}\": {e}",
-                fmu.display()
-            )
-        })?;
+        let n =
+            copy_through(&mut (&mut entry).take(budget + 1), &mut f, &mut chunk).map_err(|e| {
+                format!(
+                    "{}: cannot extract ZIP entry \"{raw_name}\": {e}",
+                    fmu.display()
+                )
+            })?;
         if n > budget {
             return Err(format!(
                 "{}: the archive expands to more than {max_bytes} bytes (at ZIP entry \"{raw_name}\"); refusing to unpack it",
@@ -201,6 +234,10 @@ mod tests {
         z.write_all(b"<x/>").unwrap();
         z.start_file("resources/zeros.bin", opts).unwrap();
         z.write_all(&vec![0u8; 100_000]).unwrap();
+        z.start_file("documentation/index.html", opts).unwrap();
+        z.write_all(b"<html/>").unwrap();
+        z.start_file("sources/model.c", opts).unwrap();
+        z.write_all(b"int x;").unwrap();
         z.finish().unwrap();
         let e = unpack_limited(&fmu, 50_000).err().unwrap();
         assert!(
@@ -210,6 +247,8 @@ mod tests {
         let u = unpack_limited(&fmu, 200_000).unwrap();
         let root = u.root().to_path_buf();
         assert!(root.join("resources/zeros.bin").is_file());
+        // Checked, but not needed by any command: not written.
+        assert!(!root.join("documentation").exists() && !root.join("sources").exists());
         drop(u);
         assert!(!root.exists(), "temporary folder not removed");
     }

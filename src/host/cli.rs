@@ -250,8 +250,9 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         .out
         .as_ref()
         .map_or_else(|| "stdout".to_string(), |p| p.display().to_string());
-    let mut csv = CsvWriter::new(std::io::BufWriter::with_capacity(1 << 16, target), &names)
-        .map_err(|e| format!("{where_to}: cannot write: {e}"))?;
+    // No BufWriter: the CSV writer formats and writes whole blocks of rows.
+    let mut csv =
+        CsvWriter::new(target, &names).map_err(|e| format!("{where_to}: cannot write: {e}"))?;
     let outcome = runner::run(
         &mut inst,
         &exp,

@@ -117,7 +117,9 @@ impl<'a> Instance<'a> {
         })
     }
 
-    /// Check a status: trace it, and make `fmi2Discard` or worse an error.
+    /// Check a status: trace it, and make `fmi2Discard` or worse an error. Inlined: it runs
+    /// after every call, and a good status costs a compare and the logger's clear.
+    #[inline]
     fn call(
         &mut self,
         function: &'static str,
@@ -128,27 +130,34 @@ impl<'a> Instance<'a> {
         if self.trace {
             eprintln!("[FMI] {function}({}) -> {status}", args());
         }
+        if status < Status::Discard {
+            self.logger.clear();
+            Ok(status)
+        } else {
+            Err(self.failed(function, status))
+        }
+    }
+
+    /// The error of a call that returned `status` (`fmi2Discard` or worse), with the reasons
+    /// the FMU logged during it.
+    #[cold]
+    fn failed(&mut self, function: &'static str, status: Status) -> CallError {
         if status >= Status::Fatal {
             self.fatal = true;
         }
-        if status < Status::Discard {
-            self.logger.clear();
-        } else {
-            let why = self.logger.reasons(Status::Warning);
-            return Err(CallError {
-                function,
-                status,
-                message: format!(
-                    "{function} returned {status}{}",
-                    if why.is_empty() {
-                        " (the FMU logged no reason)".to_string()
-                    } else {
-                        format!(": {why}")
-                    }
-                ),
-            });
+        let why = self.logger.reasons(Status::Warning);
+        CallError {
+            function,
+            status,
+            message: format!(
+                "{function} returned {status}{}",
+                if why.is_empty() {
+                    " (the FMU logged no reason)".to_string()
+                } else {
+                    format!(": {why}")
+                }
+            ),
         }
-        Ok(status)
     }
 
     /// `fmi2SetDebugLogging(c, on, 0, NULL)`: zero categories means all of them (§2.1.5).

@@ -22,7 +22,7 @@
 //! to terminate ends the run normally (with a row at the last successful time); any other
 //! Discard is a failure (fmpy would retry the same step forever).
 
-use super::csv::Cell;
+use super::csv::Row;
 use super::description::{Causality, ModelDescription, Value, VarType};
 use super::input::{isclose, Input, Values};
 use super::instance::{CallError, Instance};
@@ -61,12 +61,12 @@ pub struct Timing {
 
 /// Receives each output row as soon as it is sampled.
 pub trait RowSink {
-    fn row(&mut self, t: f64, cells: &[Cell]) -> std::io::Result<()>;
+    fn row(&mut self, t: f64, row: &Row) -> std::io::Result<()>;
 }
 
 impl<W: std::io::Write> RowSink for super::csv::CsvWriter<W> {
-    fn row(&mut self, t: f64, cells: &[Cell]) -> std::io::Result<()> {
-        super::csv::CsvWriter::row(self, t, cells)
+    fn row(&mut self, t: f64, row: &Row) -> std::io::Result<()> {
+        super::csv::CsvWriter::row(self, t, row)
     }
 }
 
@@ -195,7 +195,7 @@ pub fn recorded(
     Ok(out)
 }
 
-/// Reads the recorded variables with one `fmi2Get*` call per type.
+/// Reads the recorded variables with one `fmi2Get*` call per type, into buffers sized once.
 struct Sampler {
     real_vr: Vec<u32>,
     int_vr: Vec<u32>,
@@ -229,8 +229,8 @@ impl Sampler {
         }
     }
 
-    /// Read the outputs into `row` (replacing its contents).
-    fn sample(&mut self, inst: &mut Instance, row: &mut Vec<Cell>) -> Result<(), CallError> {
+    /// Read the outputs; the row borrows the buffers.
+    fn sample(&mut self, inst: &mut Instance) -> Result<Row<'_>, CallError> {
         if !self.real_vr.is_empty() {
             inst.get_real(&self.real_vr, &mut self.real)?;
         }
@@ -240,11 +240,11 @@ impl Sampler {
         if !self.bool_vr.is_empty() {
             inst.get_boolean(&self.bool_vr, &mut self.boolean)?;
         }
-        row.clear();
-        row.extend(self.real.iter().map(|&v| Cell::Real(v)));
-        row.extend(self.int.iter().map(|&v| Cell::Int(v)));
-        row.extend(self.boolean.iter().map(|&v| Cell::Bool(v != 0)));
-        Ok(())
+        Ok(Row {
+            reals: &self.real,
+            integers: &self.int,
+            booleans: &self.boolean,
+        })
     }
 }
 
@@ -282,15 +282,14 @@ fn apply_input(
 fn record(
     sampler: &mut Sampler,
     inst: &mut Instance,
-    row: &mut Vec<Cell>,
     sink: &mut dyn RowSink,
     out: &mut Outcome,
     t: f64,
 ) -> Result<(), String> {
-    sampler
-        .sample(inst, row)
+    let row = sampler
+        .sample(inst)
         .map_err(|err| format!("reading outputs at t = {t}: {err}"))?;
-    sink.row(t, row)
+    sink.row(t, &row)
         .map_err(|e| format!("writing the output row at t = {t}: {e}"))?;
     out.rows += 1;
     Ok(())
@@ -304,7 +303,6 @@ pub fn run(
     can_handle_variable_step: bool,
     sink: &mut dyn RowSink,
 ) -> Outcome {
-    let mut row: Vec<Cell> = Vec::with_capacity(exp.outputs.len());
     let mut out = Outcome {
         rows: 0,
         failure: None,
@@ -344,7 +342,7 @@ pub fn run(
         out.failure = Some(msg);
         return out;
     }
-    if let Err(msg) = record(&mut sampler, inst, &mut row, sink, &mut out, t0) {
+    if let Err(msg) = record(&mut sampler, inst, sink, &mut out, t0) {
         out.failure = Some(msg);
         return out;
     }
@@ -410,7 +408,7 @@ pub fn run(
                     msg.push_str(&format!("; last successful time {tl}"));
                     // Keep what the FMU did compute (fmpy samples at lastSuccessfulTime too).
                     if tl > time && terminated == Some(true) {
-                        if let Err(m) = record(&mut sampler, inst, &mut row, sink, &mut out, tl) {
+                        if let Err(m) = record(&mut sampler, inst, sink, &mut out, tl) {
                             msg.push_str(&format!("; {m}"));
                         }
                     }
@@ -426,14 +424,17 @@ pub fn run(
             return out;
         }
         time = next;
-        let sampled = sampler.sample(inst, &mut row);
+        let sampled = sampler.sample(inst);
         if let Some(t) = call_start {
             in_fmu += t.elapsed();
         }
-        if let Err(err) = sampled {
-            out.failure = Some(format!("reading outputs at t = {time}: {err}"));
-            return out;
-        }
+        let row = match sampled {
+            Ok(row) => row,
+            Err(err) => {
+                out.failure = Some(format!("reading outputs at t = {time}: {err}"));
+                return out;
+            }
+        };
         let sink_start = exp.timing.then(std::time::Instant::now);
         let sunk = sink.row(time, &row);
         if let Some(t) = sink_start {

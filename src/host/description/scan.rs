@@ -15,6 +15,25 @@ fn line_col(xml: &str, pos: u64) -> (usize, usize) {
     (line, col)
 }
 
+/// Line numbers of increasing byte offsets, counting each newline once (the tag positions of
+/// one pass only grow; [`line_col`] from the start for every tag would be quadratic).
+struct LineCounter {
+    pos: usize,
+    line: usize,
+}
+
+impl LineCounter {
+    fn line_at(&mut self, xml: &str, pos: u64) -> usize {
+        let pos = (pos as usize).clamp(self.pos, xml.len());
+        self.line += xml.as_bytes()[self.pos..pos]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        self.pos = pos;
+        self.line
+    }
+}
+
 /// What the streaming pass learns before the serde pass: the root's `fmiVersion` and the line
 /// of every `<ScalarVariable>` start tag (serde does not report positions).
 pub(super) struct Scan {
@@ -33,6 +52,7 @@ pub(super) fn scan(xml: &str) -> Result<Scan, String> {
     let mut variable_lines = Vec::new();
     let mut depth: i64 = 0;
     let mut seen_root = false;
+    let mut lines = LineCounter { pos: 0, line: 1 };
     loop {
         let pos = reader.buffer_position();
         let ev = reader.read_event().map_err(|e| {
@@ -43,7 +63,7 @@ pub(super) fn scan(xml: &str) -> Result<Scan, String> {
             Event::Start(ref e) | Event::Empty(ref e) => {
                 let name = e.name();
                 let name: &str = name.as_ref();
-                let (line, _) = line_col(xml, pos);
+                let line = lines.line_at(xml, pos);
                 if name == "ScalarVariable" {
                     variable_lines.push(line);
                 }
