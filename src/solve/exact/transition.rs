@@ -115,6 +115,9 @@ pub struct ModeTransitions {
     /// `(centre bits of τ_c, Φ = e^{A τ_c}, ΦA)` per duration bin.
     recurring: Vec<TransitionBin>,
     next_recurring_slot: usize,
+    /// The two bins used last (a mode's segments of a periodic orbit alternate between a few
+    /// durations; the bins of a transient before it can fill the rest).
+    recent_bins: [usize; 2],
     /// Earlier segments of the mode that decide the crossings of recurring ones.
     recurrences: Recurrences,
 }
@@ -146,6 +149,7 @@ impl ModeTransitions {
             guard_rows: Vec::new(),
             recurring: Vec::new(),
             next_recurring_slot: 0,
+            recent_bins: [0; 2],
             recurrences: Recurrences::default(),
         }
     }
@@ -206,7 +210,15 @@ impl ModeTransitions {
         const LOW: u32 = BIN_LOW_BITS;
         let bits = tau.to_bits();
         let centre_bits = bits.wrapping_add(1 << (LOW - 1)) & !((1u64 << LOW) - 1);
-        let slot = match self.recurring.iter().position(|e| e.0 == centre_bits) {
+        let is_bin = |slot: usize| self.recurring.get(slot).is_some_and(|e| e.0 == centre_bits);
+        let found = if is_bin(self.recent_bins[0]) {
+            Some(self.recent_bins[0])
+        } else if is_bin(self.recent_bins[1]) {
+            Some(self.recent_bins[1])
+        } else {
+            self.recurring.iter().position(|e| e.0 == centre_bits)
+        };
+        let slot = match found {
             Some(slot) => slot,
             None => {
                 let (phi, phi_a) = self
@@ -224,6 +236,9 @@ impl ModeTransitions {
                 }
             }
         };
+        if self.recent_bins[0] != slot {
+            self.recent_bins = [slot, self.recent_bins[0]];
+        }
         let delta = tau - f64::from_bits(centre_bits);
         let (_, phi, phi_a) = &self.recurring[slot];
         if delta == 0.0 {
