@@ -2,9 +2,9 @@
 //!
 //! Between stops and events every segment of an eligible scene is `z' = A_mode z` with an
 //! augmented state `z` (harmonic and constant forcing folded in), so
-//! `z(t + τ) = expm(A τ) z(t)` exactly. `expm` is nalgebra's Padé scaling-and-squaring
-//! (Higham 2005; Al-Mohy & Higham 2009): no eigendecomposition, so the separated mode, whose
-//! matrix has a Jordan block, is handled like any other.
+//! `z(t + τ) = expm(A τ) z(t)` exactly. `expm` is a Padé scaling-and-squaring on the stack
+//! ([`expm`]; Higham 2005) of the balanced matrix ([`balanced`]): no eigendecomposition, so the
+//! separated mode, whose matrix has a Jordan block, is handled like any other.
 //!
 //! Cost (numerics-notes §2.3: O(1) per segment whatever the stiffness): each mode's `A` and
 //! transition operators are built once ([`transition`]); a segment whose duration recurs
@@ -18,7 +18,10 @@
 //! free of crossings by a curvature bound, or its crossing is located on the guard's Taylor
 //! polynomial (Newton) and proved the first by the same bound, or the interval is searched
 //! rigorously for its first crossing ([`enclosure`], then Brent); the system snaps the state
-//! onto the surface.
+//! onto the surface. A segment that recurs (a periodic orbit repeats its segments) is decided
+//! instead by an earlier one of its mode and a perturbation bound ([`recurrence`]); and where
+//! the model's forcing states are continuous they are carried from a segment's end into the
+//! next instead of lifted again ([`PiecewiseLti::forcing_carries_over`]).
 
 mod balanced;
 mod crossing;

@@ -61,6 +61,24 @@ pub enum Decision {
     Crossing { tau: f64, index: usize },
 }
 
+/// What a reference is built from besides the guard rows: the mode's matrix, its balanced
+/// form (for exponentials) and its guard sample step.
+#[derive(Clone, Copy)]
+pub struct ModeOperators<'a> {
+    pub a: &'a DMatrix<f64>,
+    pub balanced: &'a BalancedMatrix,
+    pub sample_step: f64,
+}
+
+/// A segment after its full crossing search: start `z`, duration `tau`, and the crossing
+/// found (`τ*`, guard), if any.
+#[derive(Clone, Copy)]
+pub struct SearchedSegment<'a> {
+    pub z: &'a [f64],
+    pub tau: f64,
+    pub outcome: Option<(f64, usize)>,
+}
+
 /// The references of one mode.
 #[derive(Default)]
 pub struct Recurrences {
@@ -160,18 +178,13 @@ impl Recurrences {
         None
     }
 
-    /// After a full search of the segment `(z, tau)` with this `outcome`: keeps the segment as
-    /// a reference, unless the backoff says to wait.
-    #[allow(clippy::too_many_arguments)]
+    /// After a full search of `segment`: keeps it as a reference, unless the backoff says to
+    /// wait.
     pub fn learn(
         &mut self,
-        a: &DMatrix<f64>,
-        balanced: &BalancedMatrix,
-        h: f64,
+        mode: ModeOperators,
         rows: &mut [DerivativeRows],
-        z: &[f64],
-        tau: f64,
-        outcome: Option<(f64, usize)>,
+        segment: SearchedSegment,
     ) {
         if self.wait > 0 {
             self.wait -= 1;
@@ -189,7 +202,7 @@ impl Recurrences {
         };
         self.wait = self.backoff;
         self.last_built = None;
-        let Some(mut reference) = Reference::build(a, balanced, h, rows, z, tau, outcome) else {
+        let Some(mut reference) = Reference::build(mode, rows, segment) else {
             return;
         };
         self.uses += 1;
@@ -321,18 +334,19 @@ impl Reference {
         }
     }
 
-    /// The reference for the segment `(z, tau)` whose full search found `outcome`, or `None`
-    /// where a piece cannot be certified (a grazing minimum, a curvature bound too loose).
-    #[allow(clippy::too_many_arguments)]
+    /// The reference for `segment`, or `None` where a piece cannot be certified (a grazing
+    /// minimum, a curvature bound too loose).
     fn build(
-        a: &DMatrix<f64>,
-        balanced: &BalancedMatrix,
-        h: f64,
+        mode: ModeOperators,
         rows: &mut [DerivativeRows],
-        z: &[f64],
-        tau: f64,
-        outcome: Option<(f64, usize)>,
+        segment: SearchedSegment,
     ) -> Option<Reference> {
+        let ModeOperators {
+            a,
+            balanced,
+            sample_step: h,
+        } = mode;
+        let SearchedSegment { z, tau, outcome } = segment;
         let n = z.len();
         let m = rows.len();
         let (crossing_index, target) = match outcome {

@@ -15,7 +15,7 @@ use nalgebra::DMatrix;
 
 use super::balanced::BalancedMatrix;
 use super::guard_series::DerivativeRows;
-use super::recurrence::{Decision, Recurrences};
+use super::recurrence::{Decision, ModeOperators, Recurrences, SearchedSegment};
 use crate::solve::SolverStats;
 
 /// Duration bins kept per mode with their own `e^{Aτ}`; replaced round-robin.
@@ -170,15 +170,13 @@ impl ModeTransitions {
     /// Keeps the segment `(z, tau)` whose full search found `outcome` (`(τ*, guard)`) as a
     /// reference for recurring ones.
     pub fn learn_recurring(&mut self, z: &[f64], tau: f64, outcome: Option<(f64, usize)>) {
-        self.recurrences.learn(
-            &self.a,
-            &self.balanced,
-            self.sample_step,
-            &mut self.guard_rows,
-            z,
-            tau,
-            outcome,
-        );
+        let mode = ModeOperators {
+            a: &self.a,
+            balanced: &self.balanced,
+            sample_step: self.sample_step,
+        };
+        let segment = SearchedSegment { z, tau, outcome };
+        self.recurrences.learn(mode, &mut self.guard_rows, segment);
     }
 
     /// Drops the references (see [`super::ExactPropagator::forget_recurrences`]).
