@@ -46,6 +46,10 @@ const MAX_BACKOFF: u32 = 4096;
 /// dense output points a search is far cheaper, and a reference met again only for a few
 /// periods by a nearly commensurate grid has not paid).
 const PAYBACK_HITS: u64 = 64;
+/// Full searches of a mode before its first reference is built: a build costs tens of full
+/// searches, so only runs with many segments of the mode can pay for it (a 28-period run with
+/// dense output, as in the work-precision benchmark, builds none).
+const WARM_UP: u64 = 128;
 /// Sample steps a reference may span.
 const MAX_STEPS: usize = 64;
 /// Relative rounding margin of the reference guard's node values and rates (of their scale
@@ -90,6 +94,8 @@ pub struct Recurrences {
     last_built: Option<usize>,
     /// Decisions and builds so far: the clock of [`Reference::last_used`].
     uses: u64,
+    /// Full searches of the mode so far (up to [`WARM_UP`]).
+    searches: u64,
     /// Full searches still to skip before the next build, and the current backoff (doubled
     /// after a build whose reference has not paid for itself, reset after one that has).
     wait: u32,
@@ -186,6 +192,10 @@ impl Recurrences {
         rows: &mut [DerivativeRows],
         segment: SearchedSegment,
     ) {
+        if self.searches < WARM_UP {
+            self.searches += 1;
+            return;
+        }
         if self.wait > 0 {
             self.wait -= 1;
             return;
@@ -816,7 +826,10 @@ mod tests {
                 Decision::Crossing { tau, index } => Some((tau, index)),
                 Decision::Free => None,
             };
-            mode.learn_recurring(&z_ref, tau_ref, outcome);
+            // The mode's warm-up, then the build.
+            for _ in 0..=super::WARM_UP {
+                mode.learn_recurring(&z_ref, tau_ref, outcome);
+            }
             let (mut decided, mut refused) = (0, 0);
             for exponent in -12..=-1 {
                 let scale = 10f64.powi(exponent);
