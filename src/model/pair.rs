@@ -713,13 +713,7 @@ impl PiecewiseLti for GearPair {
 
     /// The STE at the event from the lifted state's harmonic entries (no `sin`/`cos`).
     fn on_event_lifted(&mut self, t: f64, z: &[f64], y: &mut [f64], index: usize) {
-        let e = self
-            .ste
-            .coefficients()
-            .iter()
-            .enumerate()
-            .map(|(i, &(a, b))| a * z[2 * (i + 1)] + b * z[2 * (i + 1) + 1])
-            .sum();
+        let e = self.ste.value_from_harmonics(&z[2..]);
         self.switch_contact(t, e, y, index);
     }
 

@@ -307,10 +307,14 @@ impl ExactPropagator {
                 }
                 return Err(SolveError::StepSizeTooSmall { t: self.t, h: tau });
             }
-            match self.carried {
+            let carries = self.sensitivity.is_none() && sys.forcing_carries_over();
+            match self
+                .carried
+                .filter(|&count| carries && count < RELIFT_EVERY)
+            {
                 // The forcing states of the last segment's end, with the (possibly switched
                 // or snapped) y.
-                Some(count) if count < RELIFT_EVERY => {
+                Some(count) => {
                     self.z[..n].copy_from_slice(&self.y);
                     self.carried = Some(count + 1);
                 }
@@ -319,7 +323,6 @@ impl ExactPropagator {
                     self.carried = Some(0);
                 }
             }
-            let carries = self.sensitivity.is_none() && sys.forcing_carries_over();
             let mode = self.modes.get(sys);
             self.stats.steps += 1;
 

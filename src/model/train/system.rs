@@ -1183,12 +1183,7 @@ impl GearTrain {
                                 .iter()
                                 .map(|k| 2 * k.ste.harmonics() + usize::from(k.ramp))
                                 .sum::<usize>();
-                        mesh.ste
-                            .coefficients()
-                            .iter()
-                            .enumerate()
-                            .map(|(i, &(a, b))| a * z[base + 2 * i] + b * z[base + 2 * i + 1])
-                            .sum()
+                        mesh.ste.value_from_harmonics(&z[base..])
                     }
                     None => mesh.ste.value(p),
                 };
