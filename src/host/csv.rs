@@ -203,32 +203,27 @@ impl Block {
         unsafe { &mut *self.memory.as_ptr().cast::<BlockState>() }
     }
 
+    /// The first value slot: `capacity` f64 follow the state (its size is a multiple of 8).
+    fn first_value(&self) -> *mut f64 {
+        // SAFETY: the offset stays inside the mapping made in `new`.
+        unsafe {
+            self.memory
+                .as_ptr()
+                .add(std::mem::size_of::<BlockState>())
+                .cast::<f64>()
+        }
+    }
+
     /// The values storage (all `capacity` slots).
     fn storage(&mut self) -> &mut [f64] {
-        // SAFETY: `capacity` f64 follow the state (size_of::<BlockState>() is a multiple of 8).
-        unsafe {
-            std::slice::from_raw_parts_mut(
-                self.memory
-                    .as_ptr()
-                    .add(std::mem::size_of::<BlockState>())
-                    .cast::<f64>(),
-                self.capacity,
-            )
-        }
+        // SAFETY: see `first_value`; `&mut self` makes the access unique in this process.
+        unsafe { std::slice::from_raw_parts_mut(self.first_value(), self.capacity) }
     }
 
     /// The values held.
     fn values(&self) -> &[f64] {
-        // SAFETY: as in `storage`; `len <= capacity` is kept by `push`.
-        unsafe {
-            std::slice::from_raw_parts(
-                self.memory
-                    .as_ptr()
-                    .add(std::mem::size_of::<BlockState>())
-                    .cast::<f64>(),
-                self.state().len,
-            )
-        }
+        // SAFETY: see `first_value`; `len <= capacity` is kept by `push`.
+        unsafe { std::slice::from_raw_parts(self.first_value(), self.state().len) }
     }
 
     /// Append one row; the caller made room (`len + 1 + shape <= capacity`).
