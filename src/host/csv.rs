@@ -380,6 +380,10 @@ impl<W: std::io::Write> CsvWriter<W> {
         self.text.clear();
         format_rows(&mut self.text, shape, values);
         self.out.write_all(self.text.as_bytes())?;
+        // The bookkeeping follows the write: if the process dies during the write, the parent
+        // cuts the file back to `bytes_written` and writes the rows still held, each once. Only
+        // a SIGKILL from the parent (after a second interrupt, or 0.9 s without a step) landing
+        // exactly between the stores of `bytes_written` and `len` below would repeat the block.
         let state = self.block.state_mut();
         state.bytes_written += self.text.len() as u64;
         state.rows_written += (len / row_len) as u64;

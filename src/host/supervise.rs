@@ -11,10 +11,10 @@
 //! the child ends without having reported its end, the parent names the signal or exit status,
 //! the call and the time, writes the pending rows, and removes the folder.
 //!
-//! Signals: the parent blocks SIGINT, SIGTERM and SIGCHLD and waits for them with
-//! `sigtimedwait` (no handler, no race between a signal and the wait). The child ignores
-//! SIGINT and SIGTERM (a Ctrl-C reaches the whole process group): the parent decides. The
-//! first signal asks the child to stop at its next step boundary (it then terminates and frees
+//! Signals: the parent blocks SIGINT, SIGTERM, SIGHUP ([`INTERRUPTS`]) and SIGCHLD from
+//! before it creates the temporary folder, and waits for them with `sigtimedwait` (no handler,
+//! no race between a signal and the wait). The child ignores the interrupts (a Ctrl-C reaches
+//! the whole process group): the parent decides. The first signal asks the child to stop at its next step boundary (it then terminates and frees
 //! the FMU and writes its rows, as after any failure); if it has not ended after
 //! [`STOP_GRACE`], or on a second signal, the parent kills it.
 
@@ -326,13 +326,11 @@ fn child(
             libc::_exit(1);
         }
     }
-    let code =
-        std::panic::catch_unwind(std::panic::AssertUnwindSafe(body)).unwrap_or(PANIC_EXIT_CODE);
-    if code != PANIC_EXIT_CODE {
-        activity
-            .reported_exit
-            .store(1 + u32::from(code), Ordering::SeqCst);
-    }
+    let (code, record) = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(body)) {
+        Ok(code) => (code, 1 + u32::from(code)),
+        Err(_) => (PANIC_EXIT_CODE, PANICKED),
+    };
+    activity.reported_exit.store(record, Ordering::SeqCst);
     activity.doing.store(HOST_EXITING, Ordering::SeqCst);
     use std::io::Write as _;
     let _ = std::io::stdout().flush();
@@ -341,6 +339,8 @@ fn child(
 
 /// Rust's exit code after a panic (the panic message is already printed).
 const PANIC_EXIT_CODE: u8 = 101;
+/// `Activity::reported_exit` after a panic of geardyn's own code in the child.
+const PANICKED: u32 = u32::MAX;
 
 /// Why the parent killed the child: the grace time after this first interrupt ran out, or a
 /// second interrupt came.
@@ -355,6 +355,11 @@ fn ending(status: libc::c_int, killed: Option<Kill>, activity: &Activity) -> Chi
     let doing = activity.describe();
     let what = if libc::WIFEXITED(status) {
         let code = libc::WEXITSTATUS(status);
+        if reported == PANICKED {
+            return ChildEnd::Abnormal(format!(
+                "geardyn panicked in the process running the FMU {doing} (a bug of geardyn; the panic message is above)"
+            ));
+        }
         if reported != 0 && reported - 1 == code as u32 {
             return ChildEnd::Reported(code as u8);
         }
