@@ -26,9 +26,10 @@ Exit status:
   0  the run reached the stop time, or the FMU ended it early by returning fmi2Discard with
      fmi2Terminated = true (it asked to terminate; a note names the time)
   1  anything else: a bad argument or FMU, fmi2Discard without fmi2Terminated, fmi2Error or
-     fmi2Fatal, the FMU crashing, exiting or blocking its process, SIGINT or SIGTERM.
-     The rows computed until then are kept, and the message says what happened, in which
-     FMI call and at which time.")]
+     fmi2Fatal, the FMU crashing or ending its process, SIGINT, SIGTERM or SIGHUP (also
+     how a blocked FMU is ended: the first asks the run to stop at its next step, a second
+     one or 0.9 s without reaching it kills the FMU's process). The rows computed until
+     then are kept, and the message says what happened, in which FMI call and at which time.")]
 pub struct RunArgs {
     /// The FMU (.fmu file or an extracted FMU folder).
     pub fmu: PathBuf,
