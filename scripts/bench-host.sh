@@ -72,10 +72,11 @@ EOF_PY
 # Where the time of one `geardyn run` goes: inside the FMU's calls vs the runner itself.
 "$bin" run "$fmu" --out "$tmp/t.csv" --stop-time 1 --output-interval 1e-5 --timing 2>&1 >/dev/null | sed 's/^/  /'
 if $instructions; then
-  # callgrind's "Collected" total: every instruction of the process, FMU library included.
+  # callgrind's "Collected" totals: every instruction, FMU library included, summed over the
+  # processes (`geardyn run` forks the one that runs the FMU; each reports its own total).
   ir() {
-    valgrind --tool=callgrind --callgrind-out-file="$tmp/cg" "$@" 2>&1 >/dev/null |
-      sed -n 's/.*Collected : //p'
+    valgrind --tool=callgrind --callgrind-out-file="$tmp/cg.%p" "$@" 2>&1 >/dev/null |
+      sed -n 's/.*Collected : //p' | awk '{ total += $1 } END { print total }'
   }
   sim_ir=$(ir "$bin" simulate fmu/spur_pair --out "$tmp/s.csv" --stop-time 1 --output-interval 1e-5 --quiet)
   run_ir=$(ir "$bin" run "$fmu" --out "$tmp/r.csv" --stop-time 1 --output-interval 1e-5)

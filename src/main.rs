@@ -57,7 +57,8 @@ fn main() -> ExitCode {
         Command::Hb(args) => cli::analysis::hb(args),
         Command::Stiffness(args) => cli::stiffness::run(args),
         Command::Fmu(args) => geardyn::fmi::cli::run(args),
-        Command::Run(args) => geardyn::host::cli::run(args),
+        // Prints its own errors: its exit status also tells how the FMU's process ended.
+        Command::Run(args) => return geardyn::host::cli::run(args),
         Command::Info(args) => geardyn::host::cli::info(args),
         Command::Validate(args) => geardyn::host::cli::validate(args),
     };

@@ -8,6 +8,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::sync::OnceLock;
+use std::time::{Duration, Instant};
 
 const BIN: &str = env!("CARGO_BIN_EXE_geardyn");
 
@@ -26,6 +27,8 @@ fn stub_md(can_vary: bool) -> String {
     <ScalarVariable name="y" valueReference="4" causality="output"><Real/></ScalarVariable>
     <ScalarVariable name="t" valueReference="5" causality="output"><Real/></ScalarVariable>
     <ScalarVariable name="quit_at" valueReference="6" causality="parameter" variability="fixed"><Real start="1e300"/></ScalarVariable>
+    <ScalarVariable name="misbehave_at" valueReference="7" causality="parameter" variability="fixed"><Real start="1e300"/></ScalarVariable>
+    <ScalarVariable name="misbehave" valueReference="8" causality="parameter" variability="fixed"><Real start="0"/></ScalarVariable>
   </ModelVariables>
   <ModelStructure>
     <Outputs><Unknown index="5"/><Unknown index="6"/></Outputs>
@@ -273,6 +276,10 @@ fn last_step_is_shortened_only_with_variable_step_capability() {
     );
     let rows = read_rows(&out).1;
     assert_eq!((rows.len(), rows.last().unwrap()[0]), (10, 0.9));
+    // --max-rows is a bound, not a target: exactly as many rows as the grid has are allowed.
+    let o = geardyn(&d, &[&"run", &fmu, &"--out", &out, &"--max-rows", &"11"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(read_rows(&out).1.len(), 11);
 }
 
 #[test]
@@ -405,6 +412,23 @@ fn bad_inputs_give_clear_errors() {
     let bad_csv2 = d.join("bad2.csv");
     std::fs::write(&bad_csv2, "u,time\n0,1\n").unwrap();
     let missing = d.join("missing.fmu");
+    let md_bytes = good_md.as_bytes().to_vec();
+    let absolute = d.join("absolute.fmu");
+    zip_fmu(
+        &absolute,
+        &[
+            ("modelDescription.xml", md_bytes.clone()),
+            ("/tmp/geardyn-absolute-entry.txt", b"x".to_vec()),
+        ],
+    );
+    let drive = d.join("drive.fmu");
+    zip_fmu(
+        &drive,
+        &[
+            ("modelDescription.xml", md_bytes.clone()),
+            ("C:/evil.dll", b"x".to_vec()),
+        ],
+    );
 
     let cases: Vec<(Vec<&dyn AsRef<std::ffi::OsStr>>, &str)> = vec![
         (vec![&"run", &missing], "missing.fmu: no such file"),
@@ -471,6 +495,30 @@ fn bad_inputs_give_clear_errors() {
             vec![&"run", &good, &"--out", &"/nonexistent-dir/o.csv"],
             "/nonexistent-dir/o.csv: cannot create",
         ),
+        (
+            vec![&"run", &absolute],
+            "ZIP entry \"/tmp/geardyn-absolute-entry.txt\" has an absolute path (it starts at the root)",
+        ),
+        (
+            vec![&"validate", &absolute],
+            "ZIP entry \"/tmp/geardyn-absolute-entry.txt\" has an absolute path",
+        ),
+        (
+            vec![&"validate", &drive],
+            "ZIP entry \"C:/evil.dll\" has an absolute path (a drive letter)",
+        ),
+        (
+            vec![&"run", &good, &"--output-interval", &"1e-300"],
+            "output interval 1e-300 s is below the resolution of the time at 1.0 s (2.220446049250313e-16 s)",
+        ),
+        (
+            vec![&"run", &good, &"--output-interval", &"1e-7"],
+            "output interval 1e-7 s from t = 0.0 to 1.0 s gives 10000001 output rows, more than the maximum of 10000000 (--max-rows raises it)",
+        ),
+        (
+            vec![&"run", &good, &"--max-rows", &"10"],
+            "output interval 0.1 s from t = 0.0 to 1.0 s gives 11 output rows, more than the maximum of 10",
+        ),
         (vec![&"info", &truncated], "XML"),
         (vec![&"validate", &not_zip], "not a valid ZIP archive"),
     ];
@@ -488,46 +536,261 @@ fn bad_inputs_give_clear_errors() {
     }
 }
 
-/// Ctrl-C (SIGINT) stops the loop cleanly: FMU terminated and freed, temporary folder removed,
-/// exit code 1 with the time reached.
+/// Start `geardyn run` in the background with TMPDIR at `<d>/tmp`, and wait until the FMU is
+/// unpacked and its step loop has had `settle` to get going.
+fn spawn_run(
+    d: &Path,
+    args: &[&dyn AsRef<std::ffi::OsStr>],
+    settle: Duration,
+) -> (std::process::Child, PathBuf) {
+    let t = d.join("tmp");
+    std::fs::create_dir_all(&t).unwrap();
+    let child = Command::new(BIN)
+        .arg("run")
+        .args(args.iter().map(|a| a.as_ref()))
+        .env("TMPDIR", &t)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    while std::fs::read_dir(&t).unwrap().next().is_none() && t0.elapsed().as_secs() < 30 {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    std::thread::sleep(settle);
+    (child, t)
+}
+
+/// Wait for a run, killing it and failing if it takes longer than `limit` (a run that ignores
+/// signals must fail this test, not hang it).
+fn finish_within(mut child: std::process::Child, limit: Duration) -> Output {
+    let t0 = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if t0.elapsed() > limit {
+            let _ = child.kill();
+            let o = child.wait_with_output().unwrap();
+            panic!("still running after {limit:?}: {}", stderr(&o));
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    child.wait_with_output().unwrap()
+}
+
+fn send(child: &std::process::Child, signal: &str) {
+    let st = Command::new("kill")
+        .args([signal, &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(st.success());
+}
+
+fn assert_empty(tmp: &Path) {
+    let left: Vec<_> = std::fs::read_dir(tmp).unwrap().collect();
+    assert!(left.is_empty(), "temporary files left behind: {left:?}");
+}
+
+/// Ctrl-C (SIGINT) stops the loop at the next step: FMU terminated and freed, rows written,
+/// temporary folder removed, exit code 1 with the time reached.
 #[test]
 fn interrupt_stops_cleanly() {
     let d = scratch("interrupt");
     let fmu = stub_fmu(&d, "stub.fmu", &stub_md(true), Some(stub_so(false)));
-    let t = d.join("tmp");
-    std::fs::create_dir_all(&t).unwrap();
-    let child = Command::new(BIN)
-        .args([
-            "run",
-            fmu.to_str().unwrap(),
-            "--out",
-            "/dev/null",
-            "--stop-time",
-            "1e12",
-            "--output-interval",
-            "0.1",
-        ])
-        .env("TMPDIR", &t)
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    // Wait until the FMU is unpacked (the handler is installed before that), then a bit more.
-    let t0 = std::time::Instant::now();
-    while std::fs::read_dir(&t).unwrap().next().is_none() && t0.elapsed().as_secs() < 30 {
-        std::thread::sleep(std::time::Duration::from_millis(10));
-    }
-    std::thread::sleep(std::time::Duration::from_millis(200));
-    let st = Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(st.success());
-    let o = child.wait_with_output().unwrap();
+    let out = d.join("out.csv");
+    let (child, t) = spawn_run(
+        &d,
+        &[
+            &fmu,
+            &"--out",
+            &out,
+            &"--stop-time",
+            &"1e12",
+            &"--output-interval",
+            &"0.1",
+            &"--max-rows",
+            &"100000000000000",
+        ],
+        Duration::from_millis(200),
+    );
+    send(&child, "-INT");
+    let o = finish_within(child, Duration::from_secs(10));
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{e}");
-    assert!(e.contains("error: interrupted at t = "), "{e}");
     assert!(
-        std::fs::read_dir(&t).unwrap().next().is_none(),
-        "temporary folder left behind"
+        e.contains("note: SIGINT received: stopping the run at its next step"),
+        "{e}"
+    );
+    assert!(e.contains("error: interrupted at t = "), "{e}");
+    assert!(!e.contains("killed"), "{e}");
+    let rows = read_rows(&out).1;
+    assert!(rows.len() > 1, "{}", rows.len());
+    for (n, r) in rows.iter().enumerate() {
+        assert_eq!(r[0], n as f64 * 0.1);
+    }
+    assert_empty(&t);
+}
+
+/// An FMU that aborts, crashes or exits inside fmi2DoStep (issue 17): exit code 1, a message
+/// naming the signal or exit status, the FMI call and the time, the rows computed before it
+/// in the CSV (whole blocks already written plus the pending rows from shared memory, each
+/// row once), and no temporary folder.
+#[test]
+fn an_fmu_that_aborts_crashes_or_exits_is_reported_and_its_rows_are_kept() {
+    let d = scratch("crash");
+    let fmu = stub_fmu(&d, "stub.fmu", &stub_md(true), Some(stub_so(false)));
+    for (how, what) in [
+        (
+            "1",
+            "the FMU's process was killed by signal 6 (SIGABRT: Aborted)",
+        ),
+        (
+            "2",
+            "the FMU's process was killed by signal 11 (SIGSEGV: Segmentation fault)",
+        ),
+        ("3", "the FMU ended its process with exit status 0"),
+    ] {
+        // 3500 rows before the failure: some blocks written, the rest pending.
+        let out = d.join(format!("out{how}.csv"));
+        let o = geardyn(
+            &d,
+            &[
+                &"run",
+                &fmu,
+                &"--out",
+                &out,
+                &"--output-interval",
+                &"1e-4",
+                &"--start",
+                &"misbehave_at=0.35",
+                &"--start",
+                &format!("misbehave={how}"),
+                &"--start",
+                &"u=1",
+            ],
+        );
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{e}");
+        let last = 3499.0 * 1e-4;
+        assert!(e.contains(what), "{e}");
+        assert!(
+            e.contains(&format!("during fmi2DoStep at t = {last}")),
+            "{e}"
+        );
+        assert!(
+            e.contains(&format!("(3500 rows up to t = {last} were written to")),
+            "{e}"
+        );
+        let rows = read_rows(&out).1;
+        assert_eq!(rows.len(), 3500);
+        for (n, r) in rows.iter().enumerate() {
+            assert_eq!(r[0], n as f64 * 1e-4);
+            assert!((r[1] - 2.0 * r[0]).abs() < 1e-12, "{r:?}");
+        }
+    }
+    // To stdout: the rows computed before the crash follow the header there too.
+    let o = geardyn(
+        &d,
+        &[
+            &"run",
+            &fmu,
+            &"--start",
+            &"misbehave_at=0.35",
+            &"--start",
+            &"misbehave=2",
+        ],
+    );
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert_eq!(text.lines().count(), 1 + 4, "{text}");
+    assert!(
+        text.ends_with("0.30000000000000004,0.0,0.30000000000000004\n"),
+        "{text}"
+    );
+}
+
+/// SIGTERM to a run whose FMU blocks forever inside fmi2DoStep: asked politely first, killed
+/// after the grace time, within a second or two in all; message, rows kept, folder removed.
+#[test]
+fn sigterm_ends_a_run_blocked_in_the_fmu() {
+    let d = scratch("blocked");
+    let fmu = stub_fmu(&d, "stub.fmu", &stub_md(true), Some(stub_so(false)));
+    let out = d.join("out.csv");
+    let (child, t) = spawn_run(
+        &d,
+        &[
+            &fmu,
+            &"--out",
+            &out,
+            &"--start",
+            &"misbehave_at=0.35",
+            &"--start",
+            &"misbehave=4",
+        ],
+        Duration::from_millis(300),
+    );
+    let sent = Instant::now();
+    send(&child, "-TERM");
+    let o = finish_within(child, Duration::from_secs(10));
+    let took = sent.elapsed();
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(took < Duration::from_secs(2), "{took:?}: {e}");
+    assert!(
+        took >= Duration::from_millis(800),
+        "not asked politely first: {took:?}: {e}"
+    );
+    assert!(
+        e.contains("SIGTERM received, and the FMU did not return within 0.9 s: its process was killed during fmi2DoStep at t = 0.30000000000000004"),
+        "{e}"
+    );
+    assert!(
+        e.contains("(4 rows up to t = 0.30000000000000004 were written to"),
+        "{e}"
+    );
+    assert_eq!(read_rows(&out).1.len(), 4);
+    assert_empty(&t);
+
+    // A second signal does not wait for the grace time.
+    let (child, t) = spawn_run(
+        &d,
+        &[
+            &fmu,
+            &"--out",
+            &out,
+            &"--start",
+            &"misbehave_at=0.35",
+            &"--start",
+            &"misbehave=4",
+        ],
+        Duration::from_millis(300),
+    );
+    send(&child, "-INT");
+    std::thread::sleep(Duration::from_millis(100));
+    send(&child, "-INT");
+    let o = finish_within(child, Duration::from_secs(10));
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("a second SIGINT received: the FMU's process was killed during fmi2DoStep at t = 0.30000000000000004"),
+        "{e}"
+    );
+    assert_eq!(read_rows(&out).1.len(), 4);
+    assert_empty(&t);
+}
+
+/// The exit status is documented in `--help`, and behaviour agrees (the discard tests above:
+/// fmi2Discard ends with 1, fmi2Discard with fmi2Terminated with 0).
+#[test]
+fn help_documents_the_exit_status() {
+    let o = Command::new(BIN).args(["run", "--help"]).output().unwrap();
+    let h = String::from_utf8_lossy(&o.stdout);
+    assert!(h.contains("Exit status:"), "{h}");
+    assert!(h.contains("0  the run reached the stop time, or the FMU ended it early by returning fmi2Discard with\n     fmi2Terminated = true"), "{h}");
+    assert!(
+        h.contains("1  anything else: a bad argument or FMU, fmi2Discard without fmi2Terminated"),
+        "{h}"
+    );
+    assert!(
+        h.contains("--max-rows <MAX_ROWS>") && h.contains("[default: 10000000]"),
+        "{h}"
     );
 }

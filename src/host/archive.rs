@@ -51,7 +51,7 @@ impl Unpacked {
 /// Unpack `fmu` (a `.fmu` ZIP file, or a folder that already holds `modelDescription.xml`).
 ///
 /// Errors name the file and the reason: missing file, not a ZIP archive, an entry that would
-/// escape the target folder (`../`, absolute path), a symbolic link (FMI 2.0.5 §2.3: "Links
+/// escape the target folder (`../`, an absolute path: `/x`, `//server/x`, `C:/x`), a symbolic link (FMI 2.0.5 §2.3: "Links
 /// must not be used"), a backslash in an entry name (§2.3 requires `/`), no
 /// `modelDescription.xml` at the top level, or an I/O error while extracting.
 pub fn unpack(fmu: &Path) -> Result<Unpacked, String> {
@@ -82,6 +82,22 @@ fn copy_through(from: &mut impl Read, to: &mut impl Write, chunk: &mut [u8]) -> 
             Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
             Err(e) => return Err(e),
         }
+    }
+}
+
+/// How an entry name is absolute, if it is: a leading `/` (also `//server/share`, UNC style)
+/// or a drive letter (`C:`, `C:/`). The ZIP reader's `enclosed_name` strips such prefixes and
+/// extracts the entry as if it were relative, which hides a malformed or hostile archive.
+fn absolute_kind(name: &str) -> Option<&'static str> {
+    let b = name.as_bytes();
+    if name.starts_with("//") || name.starts_with("\\\\") {
+        Some("a UNC network path")
+    } else if name.starts_with('/') || name.starts_with('\\') {
+        Some("it starts at the root")
+    } else if b.len() >= 2 && b[0].is_ascii_alphabetic() && b[1] == b':' {
+        Some("a drive letter")
+    } else {
+        None
     }
 }
 
@@ -127,6 +143,12 @@ pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
             .by_index(i)
             .map_err(|e| format!("{}: ZIP entry #{i}: {e}", fmu.display()))?;
         let raw_name = entry.name().map(|n| n.into_owned()).unwrap_or_default();
+        if let Some(kind) = absolute_kind(&raw_name) {
+            return Err(format!(
+                "{}: ZIP entry \"{raw_name}\" has an absolute path ({kind}); FMI 2.0.5 §2.3 entries are relative to the archive's root",
+                fmu.display()
+            ));
+        }
         if raw_name.contains('\\') {
             return Err(format!(
                 "{}: ZIP entry \"{raw_name}\" uses a backslash; FMI 2.0.5 §2.3 requires '/' as separator",
@@ -222,6 +244,29 @@ pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
 mod tests {
     use super::*;
     use std::io::Write;
+
+    #[test]
+    fn absolute_entry_names_are_recognised() {
+        assert_eq!(absolute_kind("/etc/passwd"), Some("it starts at the root"));
+        assert_eq!(
+            absolute_kind("//server/share/x"),
+            Some("a UNC network path")
+        );
+        assert_eq!(
+            absolute_kind("\\\\server\\share"),
+            Some("a UNC network path")
+        );
+        assert_eq!(absolute_kind("C:/x.dll"), Some("a drive letter"));
+        assert_eq!(absolute_kind("c:x"), Some("a drive letter"));
+        for relative in [
+            "modelDescription.xml",
+            "binaries/linux64/a.so",
+            "resources/a:b",
+            "1:x",
+        ] {
+            assert_eq!(absolute_kind(relative), None, "{relative}");
+        }
+    }
 
     #[test]
     fn expansion_limit_and_cleanup() {

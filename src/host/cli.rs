@@ -1,23 +1,35 @@
 //! The `geardyn run | info | validate` commands. `main.rs` only dispatches here.
 //!
-//! Every error is returned as a message (printed by `main` as `error: …`, exit code 1); nothing
-//! panics on a bad FMU or bad arguments. The temporary folder of the unpacked FMU is owned by
-//! [`Unpacked`] and removed on every return path.
+//! Every error is returned as a message (printed as `error: …`, exit code 1); nothing panics
+//! on a bad FMU or bad arguments. The temporary folder of the unpacked FMU is owned by
+//! [`Unpacked`] and removed on every return path. `run` loads and runs the FMU in a child
+//! process ([`super::supervise`]), so that this also holds when the FMU crashes, exits or
+//! blocks.
 
 use super::archive::{unpack, Unpacked};
 use super::check::check;
-use super::csv::CsvWriter;
-use super::description::{parse, ModelDescription};
+use super::csv::{CsvWriter, CutBack};
+use super::description::{parse, CoSimulation, ModelDescription};
 use super::input::Input;
 use super::instance::Instance;
 use super::library::{FmuLibrary, Status};
 use super::logger::Logger;
 use super::runner::{self, Experiment};
 use super::start;
-use std::io::Write;
+use super::supervise::{Activity, ChildEnd, HostPhase, SharedActivity, Supervisor};
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
 #[derive(clap::Args, Debug)]
+#[command(after_help = "\
+Exit status:
+  0  the run reached the stop time, or the FMU ended it early by returning fmi2Discard with
+     fmi2Terminated = true (it asked to terminate; a note names the time)
+  1  anything else: a bad argument or FMU, fmi2Discard without fmi2Terminated, fmi2Error or
+     fmi2Fatal, the FMU crashing or ending its process, SIGINT, SIGTERM or SIGHUP (also
+     how a blocked FMU is ended: the first asks the run to stop at its next step, a second
+     one or 0.9 s without reaching it kills the FMU's process). The rows computed until
+     then are kept, and the message says what happened, in which FMI call and at which time.")]
 pub struct RunArgs {
     /// The FMU (.fmu file or an extracted FMU folder).
     pub fmu: PathBuf,
@@ -25,9 +37,13 @@ pub struct RunArgs {
     #[arg(long, allow_negative_numbers = true)]
     pub stop_time: Option<f64>,
     /// Output interval = communication step, s (default: DefaultExperiment stepSize, doubled
-    /// until ≤ 1000 steps; else 500–1000 round steps; as fmpy).
+    /// until ≤ 1000 steps; else 500–1000 round steps; as fmpy). Refused when below the time's
+    /// floating-point resolution at the stop time, or when it gives more than --max-rows rows.
     #[arg(long, allow_negative_numbers = true)]
     pub output_interval: Option<f64>,
+    /// The most output rows (grid points from start to stop time) a run may have.
+    #[arg(long, default_value_t = runner::DEFAULT_MAX_ROWS)]
+    pub max_rows: u64,
     /// Start value NAME=VALUE of a parameter or input (repeatable).
     #[arg(long = "start", value_name = "NAME=VALUE")]
     pub start: Vec<String>,
@@ -128,11 +144,12 @@ fn file_uri(p: &Path) -> String {
 
 /// Check the user's request against the model description and build the experiment: start
 /// values, time grid defaults (fmpy's), input signals, recorded variables.
-fn plan(
+fn plan<'a>(
     args: &RunArgs,
     md: &ModelDescription,
     pairs: &[(String, String)],
-) -> Result<Experiment, String> {
+    activity: &'a Activity,
+) -> Result<Experiment<'a>, String> {
     let start_values = start::resolve(md, pairs)?;
     let de = md.default_experiment.clone().unwrap_or_default();
     let start_time = de.start_time.unwrap_or(0.0);
@@ -145,6 +162,7 @@ fn plan(
     let output_interval = args
         .output_interval
         .unwrap_or_else(|| runner::default_interval(md, start_time, stop_time));
+    runner::check_grid(start_time, stop_time, output_interval, args.max_rows)?;
     let input = match &args.input {
         Some(p) => {
             let inp = Input::from_csv(p, md)?;
@@ -175,14 +193,57 @@ fn plan(
         input,
         outputs,
         timing: args.timing,
-        interrupt: Some(&super::interrupt::INTERRUPTED),
+        interrupt: Some(activity.stop_request()),
     };
 
     Ok(exp)
 }
 
-/// `geardyn run`.
-pub fn run(args: RunArgs) -> Result<(), String> {
+/// `geardyn run`, with its exit status (see `RunArgs`' help).
+pub fn run(args: RunArgs) -> ExitCode {
+    ExitCode::from(match supervised_run(&args) {
+        Ok(code) => code,
+        Err(message) => report(Err(message)),
+    })
+}
+
+/// Print a failure as `main` does for the other commands; the exit code.
+fn report(result: Result<(), String>) -> u8 {
+    match result {
+        Ok(()) => 0,
+        Err(message) => {
+            eprintln!("error: {message}");
+            1
+        }
+    }
+}
+
+/// Where the rows go: a file can be cut back after a crash (see [`CutBack`]), stdout not.
+fn open_output(out: &Option<PathBuf>) -> Result<Box<dyn CutBack>, String> {
+    Ok(match out {
+        Some(p) => Box::new(
+            std::fs::File::create(p).map_err(|e| format!("{}: cannot create: {e}", p.display()))?,
+        ),
+        None => Box::new(std::io::stdout()),
+    })
+}
+
+/// " (12 rows up to t = 1.1 were written to out.csv)" after a failure, when written to a file.
+fn rows_kept(out: &Option<PathBuf>, (rows, last): (usize, Option<f64>)) -> String {
+    match (out, last) {
+        (Some(p), Some(t)) => format!(
+            " ({rows} rows up to t = {t} were written to {})",
+            p.display()
+        ),
+        _ => String::new(),
+    }
+}
+
+/// The parent's part: unpack, check and plan, write the CSV header, then run the FMU in a
+/// child process and wait. The child reports its own end (message, exit code); when it dies
+/// instead, its pending rows are written here and the message says how it ended. The
+/// temporary folder is removed when `unpacked` is dropped, in every case.
+fn supervised_run(args: &RunArgs) -> Result<u8, String> {
     let log_level = Status::parse_level(&args.log_level).ok_or_else(|| {
         format!(
             "--log-level \"{}\": expected all, warning, discard, error or fatal",
@@ -190,7 +251,9 @@ pub fn run(args: RunArgs) -> Result<(), String> {
         )
     })?;
     let setup = std::time::Instant::now();
-    super::interrupt::catch_interrupts();
+    // Before the temporary folder exists: from here on, an interrupt cannot end this process
+    // with the folder left behind.
+    let supervisor = Supervisor::new()?;
     let pairs = args
         .start
         .iter()
@@ -199,7 +262,7 @@ pub fn run(args: RunArgs) -> Result<(), String> {
     if let Some(h) = args.output_interval {
         positive("output-interval", h)?;
     }
-    let (u, md) = open(&args.fmu)?;
+    let (unpacked, md) = open(&args.fmu)?;
     let Some(cs) = md.co_simulation.clone() else {
         return Err(match &md.model_exchange {
             Some(id) => format!("{}: the FMU is Model Exchange only (<ModelExchange modelIdentifier=\"{id}\">, no <CoSimulation>); geardyn run needs an FMI 2.0 Co-Simulation FMU", args.fmu.display()),
@@ -213,77 +276,111 @@ pub fn run(args: RunArgs) -> Result<(), String> {
             problems.len()
         );
     }
-    let exp = plan(&args, &md, &pairs)?;
-
-    super::library::preload(&args.preload)?;
-    let lib = FmuLibrary::load(u.root(), &cs.model_identifier).map_err(|e| {
-        if cs.needs_execution_tool && e.contains("undefined symbol") {
-            format!("{e}\n  hint: the FMU declares needsExecutionTool=\"true\"; load the tool's library first with --preload (a PythonFMU needs libpython3.X.so)")
-        } else {
-            e
-        }
-    })?;
-    let debug = log_level == Status::Ok;
-    let mut inst = Instance::instantiate(
-        &lib,
-        &cs.model_identifier,
-        &md.guid,
-        &file_uri(&u.resources()),
-        Logger::new(log_level),
-        debug,
-        args.fmi_trace,
-    )?;
-    if debug {
-        // Not fatal: debug logging is a convenience.
-        if let Err(e) = inst.set_debug_logging(true) {
-            eprintln!("warning: {e}");
-        }
-    }
+    let shared = SharedActivity::new()?;
+    let activity = shared.get();
+    let exp = plan(args, &md, &pairs, activity)?;
     let names: Vec<String> = exp.outputs.iter().map(|o| o.name.clone()).collect();
-    let target: Box<dyn Write> = match &args.out {
-        Some(p) => Box::new(
-            std::fs::File::create(p).map_err(|e| format!("{}: cannot create: {e}", p.display()))?,
-        ),
-        None => Box::new(std::io::stdout().lock()),
-    };
     let where_to = args
         .out
         .as_ref()
         .map_or_else(|| "stdout".to_string(), |p| p.display().to_string());
     // No BufWriter: the CSV writer formats and writes whole blocks of rows.
-    let mut csv =
-        CsvWriter::new(target, &names).map_err(|e| format!("{where_to}: cannot write: {e}"))?;
-    let outcome = runner::run(
-        &mut inst,
-        &exp,
-        cs.can_handle_variable_communication_step_size,
-        &mut csv,
-    );
-    drop(inst); // fmi2FreeInstance before the library is unloaded and the folder removed
-    let flushed = csv
-        .flush()
-        .map_err(|e| format!("{where_to}: cannot write: {e}"));
+    let mut csv = CsvWriter::new(open_output(&args.out)?, &names)
+        .map_err(|e| format!("{where_to}: cannot write: {e}"))?;
+    let child = ChildRun {
+        args,
+        root: unpacked.root(),
+        cs: &cs,
+        guid: &md.guid,
+        exp: &exp,
+        activity,
+        log_level,
+        where_to: &where_to,
+        setup,
+    };
+    if let Some(signal) = supervisor.pending_interrupt() {
+        return Err(format!("interrupted by {signal} before the FMU was loaded"));
+    }
+    let end = supervisor.run(activity, || report(child.run(&mut csv)))?;
+    match end {
+        ChildEnd::Reported(code) => Ok(code),
+        ChildEnd::Abnormal(what) => {
+            let completed = csv.complete_after_writer_died();
+            Err(match completed {
+                Ok(()) => format!("{what}{}", rows_kept(&args.out, csv.written())),
+                Err(e) => {
+                    format!("{what}; also: {where_to}: cannot write the rows computed before: {e}")
+                }
+            })
+        }
+    }
+}
 
-    if let Some(t) = outcome.timing {
-        report_timing(&t, outcome.rows, setup.elapsed().as_secs_f64());
-    }
-    for n in &outcome.notes {
-        eprintln!("note: {n}");
-    }
-    let (rows, last) = csv.written();
-    match (&outcome.failure, flushed) {
-        (Some(f), Ok(())) => Err(format!(
-            "{f}{}",
-            match (&args.out, last) {
-                (Some(p), Some(t)) => format!(
-                    " ({rows} rows up to t = {t} were written to {})",
-                    p.display()
-                ),
-                _ => String::new(),
+/// What the parent prepared for the child: the unpacked FMU and the planned experiment.
+struct ChildRun<'a> {
+    args: &'a RunArgs,
+    root: &'a Path,
+    cs: &'a CoSimulation,
+    guid: &'a str,
+    exp: &'a Experiment<'a>,
+    activity: &'a Activity,
+    log_level: Status,
+    where_to: &'a str,
+    setup: std::time::Instant,
+}
+
+impl ChildRun<'_> {
+    /// The child's part: load the FMU, instantiate it, run the loop into `csv`, free it.
+    fn run(&self, csv: &mut CsvWriter<Box<dyn CutBack>>) -> Result<(), String> {
+        let (args, cs, activity) = (self.args, self.cs, self.activity);
+        activity.phase(HostPhase::Preloading);
+        super::library::preload(&args.preload)?;
+        activity.phase(HostPhase::LoadingLibrary);
+        let lib = FmuLibrary::load(self.root, &cs.model_identifier).map_err(|e| {
+            if cs.needs_execution_tool && e.contains("undefined symbol") {
+                format!("{e}\n  hint: the FMU declares needsExecutionTool=\"true\"; load the tool's library first with --preload (a PythonFMU needs libpython3.X.so)")
+            } else {
+                e
             }
-        )),
-        (Some(f), Err(w)) => Err(format!("{f}; also: {w}")),
-        (None, r) => r,
+        })?;
+        let logger = Logger::new(self.log_level);
+        let debug = logger.prints_all();
+        let mut inst = Instance::instantiate(
+            &lib,
+            &cs.model_identifier,
+            self.guid,
+            &file_uri(&self.root.join("resources")),
+            logger,
+            args.fmi_trace,
+            activity,
+        )?;
+        if debug {
+            // Not fatal: debug logging is a convenience.
+            if let Err(e) = inst.set_debug_logging(true) {
+                eprintln!("warning: {e}");
+            }
+        }
+        let outcome = runner::run(
+            &mut inst,
+            self.exp,
+            cs.can_handle_variable_communication_step_size,
+            csv,
+        );
+        drop(inst); // fmi2FreeInstance before the library is unloaded
+        let flushed = csv
+            .flush()
+            .map_err(|e| format!("{}: cannot write: {e}", self.where_to));
+        if let Some(t) = outcome.timing {
+            report_timing(&t, outcome.rows, self.setup.elapsed().as_secs_f64());
+        }
+        for n in &outcome.notes {
+            eprintln!("note: {n}");
+        }
+        match (&outcome.failure, flushed) {
+            (Some(f), Ok(())) => Err(format!("{f}{}", rows_kept(&args.out, csv.written()))),
+            (Some(f), Err(w)) => Err(format!("{f}; also: {w}")),
+            (None, r) => r,
+        }
     }
 }
 

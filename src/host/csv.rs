@@ -7,6 +7,8 @@
 //! Input (`fmpy.util.read_csv`): the first line holds the column names (quotes optional), the
 //! first column is the time, every cell is a number (read as `f64`, as fmpy does).
 
+use super::shared::SharedMemory;
+
 /// Format an `f64` exactly like Python's `repr(float)`: shortest round-trip digits, scientific
 /// notation when the decimal exponent is < -4 or >= 16, exponent with sign and at least two
 /// digits (`1e-05`, `1.5e+16`), `inf`/`-inf`/`nan`.
@@ -146,46 +148,125 @@ pub struct Row<'a> {
 /// About this many numbers are kept before they are formatted (32 KiB of `f64`).
 const BLOCK_VALUES: usize = 4096;
 
-/// Rows taken but not yet formatted: the times and the values of each type, flat. All rows
-/// of a block have the same number of values of each type (`shape`).
-#[derive(Default)]
+/// The bookkeeping of a [`CsvWriter`]. It sits in shared memory next to the pending rows, so
+/// that the supervising parent of `geardyn run` can complete the file when the process that
+/// was writing it died (the FMU crashed or was killed): it knows which rows are pending and
+/// how many bytes of the file are whole blocks.
+#[repr(C)]
+struct BlockState {
+    /// Values per row of each type: Reals, Integers, Booleans.
+    shape: [usize; 3],
+    /// Values held: whole rows of `1 + shape` values each (the time first).
+    len: usize,
+    /// Bytes written to the output (the header included).
+    bytes_written: u64,
+    /// Rows written to the output.
+    rows_written: u64,
+    /// The time of the last row written; NaN before the first.
+    last_time_written: f64,
+}
+
+/// Rows taken but not yet formatted, flat: per row the time, then the Reals, the Integers and
+/// the Booleans (fmi2Boolean), every value as an `f64` (exact for `i32`). All rows of a block
+/// have the same shape. The storage is a [`SharedMemory`] mapping (see [`BlockState`]).
 struct Block {
-    times: Vec<f64>,
-    reals: Vec<f64>,
-    integers: Vec<i32>,
-    booleans: Vec<i32>,
-    shape: (usize, usize, usize),
+    memory: SharedMemory,
+    /// Values the mapping holds after the state.
+    capacity: usize,
 }
 
 impl Block {
-    fn push(&mut self, t: f64, row: &Row) {
-        self.times.push(t);
-        self.reals.extend_from_slice(row.reals);
-        self.integers.extend_from_slice(row.integers);
-        self.booleans.extend_from_slice(row.booleans);
+    /// Room for [`BLOCK_VALUES`] values, or for one row of `row_len` values if that is more.
+    fn new(row_len: usize) -> std::io::Result<Block> {
+        let capacity = BLOCK_VALUES.max(row_len);
+        let memory = SharedMemory::new(
+            std::mem::size_of::<BlockState>() + capacity * std::mem::size_of::<f64>(),
+        )?;
+        let mut block = Block { memory, capacity };
+        *block.state_mut() = BlockState {
+            shape: [0; 3],
+            len: 0,
+            bytes_written: 0,
+            rows_written: 0,
+            last_time_written: f64::NAN,
+        };
+        Ok(block)
     }
 
-    /// The `k`-th row.
-    fn row(&self, k: usize) -> Row<'_> {
-        let (nr, ni, nb) = self.shape;
-        Row {
-            reals: &self.reals[k * nr..(k + 1) * nr],
-            integers: &self.integers[k * ni..(k + 1) * ni],
-            booleans: &self.booleans[k * nb..(k + 1) * nb],
+    fn state(&self) -> &BlockState {
+        // SAFETY: the mapping starts with a BlockState (page-aligned), written in `new`.
+        unsafe { &*self.memory.as_ptr().cast::<BlockState>() }
+    }
+
+    fn state_mut(&mut self) -> &mut BlockState {
+        // SAFETY: as in `state`; `&mut self` makes the access unique in this process.
+        unsafe { &mut *self.memory.as_ptr().cast::<BlockState>() }
+    }
+
+    /// The first value slot: `capacity` f64 follow the state (its size is a multiple of 8).
+    fn first_value(&self) -> *mut f64 {
+        // SAFETY: the offset stays inside the mapping made in `new`.
+        unsafe {
+            self.memory
+                .as_ptr()
+                .add(std::mem::size_of::<BlockState>())
+                .cast::<f64>()
         }
     }
 
-    fn clear(&mut self) {
-        self.times.clear();
-        self.reals.clear();
-        self.integers.clear();
-        self.booleans.clear();
+    /// The values storage (all `capacity` slots).
+    fn storage(&mut self) -> &mut [f64] {
+        // SAFETY: see `first_value`; `&mut self` makes the access unique in this process.
+        unsafe { std::slice::from_raw_parts_mut(self.first_value(), self.capacity) }
+    }
+
+    /// The values held.
+    fn values(&self) -> &[f64] {
+        // SAFETY: see `first_value`; `len <= capacity` is kept by `push`.
+        unsafe { std::slice::from_raw_parts(self.first_value(), self.state().len) }
+    }
+
+    /// Append one row; the caller made room (`len + 1 + shape <= capacity`).
+    fn push(&mut self, t: f64, row: &Row) {
+        let at = self.state().len;
+        let storage = self.storage();
+        let mut k = at;
+        storage[k] = t;
+        k += 1;
+        storage[k..k + row.reals.len()].copy_from_slice(row.reals);
+        k += row.reals.len();
+        for &v in row.integers.iter().chain(row.booleans) {
+            storage[k] = f64::from(v);
+            k += 1;
+        }
+        // Published after the values: a crash between the two loses this row, never garbles it.
+        self.state_mut().len = k;
+    }
+}
+
+/// Append the rows of `values` (laid out as in [`Block`], with `shape`) to `text`, each value
+/// as fmpy writes it (`str()` of the numpy scalar).
+fn format_rows(text: &mut String, shape: [usize; 3], values: &[f64]) {
+    use std::fmt::Write as _;
+    let [nr, ni, nb] = shape;
+    for row in values.chunks_exact(1 + nr + ni + nb) {
+        write_real(text, row[0]);
+        for &v in &row[1..1 + nr] {
+            text.push(',');
+            write_real(text, v);
+        }
+        for &v in &row[1 + nr..1 + nr + ni] {
+            let _ = write!(text, ",{}", v as i32);
+        }
+        for &v in &row[1 + nr + ni..] {
+            text.push_str(if v != 0.0 { ",True" } else { ",False" });
+        }
+        text.push('\n');
     }
 }
 
 /// Streams a result like `fmpy.util.write_csv`: `"time","a","b"`, then one line per sample.
-/// Memory does not grow with the run length, and if the FMU crashes the whole process, the
-/// rows up to the last block written are already on disk.
+/// Memory does not grow with the run length.
 ///
 /// The rows are formatted and written in blocks of about [`BLOCK_VALUES`] numbers (512 rows
 /// of 8 columns, 64 kB of text: one `write` each, so `out` needs no buffer of its own).
@@ -193,13 +274,52 @@ impl Block {
 /// and branch predictors, which cost about 5% of a run's CPU time (`scripts/bench-host.sh`);
 /// a block keeps each in its own stretch, like `geardyn simulate` that formats after the
 /// whole run.
+///
+/// The pending rows live in shared memory: when `geardyn run` forks the process that runs
+/// the FMU, the parent's copy of the writer sees the child's rows, and if the child dies,
+/// [`CsvWriter::complete_after_writer_died`] writes them. Nothing is written on drop (a
+/// parent's copy must not write what the child already wrote): call [`CsvWriter::flush`].
 pub struct CsvWriter<W: std::io::Write> {
     out: W,
     /// The text of a block, written to `out` at once.
     text: String,
     block: Block,
-    rows: usize,
-    last_time: Option<f64>,
+    /// Variables in the header (after the time): no row may be longer.
+    columns: usize,
+}
+
+/// An output that can be cut back to a length, so that a block left half-written by a
+/// process that died is replaced by the whole block. A stream (stdout) cannot be cut back,
+/// and keeps what reached it.
+pub trait CutBack: std::io::Write {
+    fn cut_back_to(&mut self, bytes: u64) -> std::io::Result<()>;
+}
+
+impl CutBack for std::fs::File {
+    fn cut_back_to(&mut self, bytes: u64) -> std::io::Result<()> {
+        use std::io::Seek as _;
+        self.set_len(bytes)?;
+        self.seek(std::io::SeekFrom::Start(bytes)).map(|_| ())
+    }
+}
+
+impl CutBack for std::io::Stdout {
+    fn cut_back_to(&mut self, _bytes: u64) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl<C: CutBack + ?Sized> CutBack for Box<C> {
+    fn cut_back_to(&mut self, bytes: u64) -> std::io::Result<()> {
+        (**self).cut_back_to(bytes)
+    }
+}
+
+impl CutBack for Vec<u8> {
+    fn cut_back_to(&mut self, bytes: u64) -> std::io::Result<()> {
+        self.truncate(usize::try_from(bytes).unwrap_or(usize::MAX));
+        Ok(())
+    }
 }
 
 impl<W: std::io::Write> CsvWriter<W> {
@@ -211,66 +331,75 @@ impl<W: std::io::Write> CsvWriter<W> {
             let _ = write!(text, ",\"{n}\"");
         }
         text.push('\n');
+        let mut block = Block::new(1 + names.len())?;
         out.write_all(text.as_bytes())?;
+        block.state_mut().bytes_written = text.len() as u64;
         Ok(CsvWriter {
             out,
             text,
-            block: Block::default(),
-            rows: 0,
-            last_time: None,
+            block,
+            columns: names.len(),
         })
     }
 
     /// Take one row; it is written with its block (at the latest by [`Self::flush`]).
     pub fn row(&mut self, t: f64, row: &Row) -> std::io::Result<()> {
-        let shape = (row.reals.len(), row.integers.len(), row.booleans.len());
-        if shape != self.block.shape {
+        let shape = [row.reals.len(), row.integers.len(), row.booleans.len()];
+        let row_len = 1 + shape[0] + shape[1] + shape[2];
+        if row_len - 1 > self.columns {
+            return Err(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!(
+                    "a row of {} values at t = {t} is longer than the header's {} variables",
+                    row_len - 1,
+                    self.columns
+                ),
+            ));
+        }
+        if shape != self.block.state().shape {
             self.write_block()?;
-            self.block.shape = shape;
+            self.block.state_mut().shape = shape;
         }
         self.block.push(t, row);
-        let block_rows = (BLOCK_VALUES / (1 + shape.0 + shape.1 + shape.2)).max(1);
-        if self.block.times.len() >= block_rows {
+        if self.block.state().len + row_len > BLOCK_VALUES {
             self.write_block()?;
         }
         Ok(())
     }
 
-    /// Format the block, each value as fmpy writes it (`str()` of the numpy scalar), and
-    /// write it.
+    /// Format the rows held and write them.
     fn write_block(&mut self) -> std::io::Result<()> {
-        use std::fmt::Write as _;
-        let Some(&last) = self.block.times.last() else {
+        let state = self.block.state();
+        let (shape, len) = (state.shape, state.len);
+        if len == 0 {
             return Ok(());
-        };
-        let text = &mut self.text;
-        text.clear();
-        for (k, &t) in self.block.times.iter().enumerate() {
-            let row = self.block.row(k);
-            write_real(text, t);
-            for &v in row.reals {
-                text.push(',');
-                write_real(text, v);
-            }
-            for &v in row.integers {
-                let _ = write!(text, ",{v}");
-            }
-            for &v in row.booleans {
-                text.push_str(if v != 0 { ",True" } else { ",False" });
-            }
-            text.push('\n');
         }
-        let n = self.block.times.len();
-        self.block.clear();
+        let row_len = 1 + shape.iter().sum::<usize>();
+        let values = self.block.values();
+        let last_time = values[len - row_len];
+        self.text.clear();
+        format_rows(&mut self.text, shape, values);
         self.out.write_all(self.text.as_bytes())?;
-        self.rows += n;
-        self.last_time = Some(last);
+        // The bookkeeping follows the write: if the process dies during the write, the parent
+        // cuts the file back to `bytes_written` and writes the rows still held, each once. Only
+        // a SIGKILL from the parent (after a second interrupt, or 0.9 s without a step) landing
+        // exactly between the stores of `bytes_written` and `len` below would repeat the block.
+        let state = self.block.state_mut();
+        state.bytes_written += self.text.len() as u64;
+        state.rows_written += (len / row_len) as u64;
+        state.last_time_written = last_time;
+        state.len = 0;
         Ok(())
     }
 
     /// Rows written so far and the time of the last one.
     pub fn written(&self) -> (usize, Option<f64>) {
-        (self.rows, self.last_time)
+        let state = self.block.state();
+        let last = state.last_time_written;
+        (
+            state.rows_written as usize,
+            (!last.is_nan()).then_some(last),
+        )
     }
 
     /// Write the rows taken so far and flush the output.
@@ -280,11 +409,14 @@ impl<W: std::io::Write> CsvWriter<W> {
     }
 }
 
-impl<W: std::io::Write> Drop for CsvWriter<W> {
-    /// The rows taken are written also without [`CsvWriter::flush`] (errors cannot be
-    /// reported here, as `BufWriter` does on drop).
-    fn drop(&mut self) {
-        let _ = self.write_block();
+impl<W: CutBack> CsvWriter<W> {
+    /// In the parent of the process that wrote through this writer (a copy made by `fork`,
+    /// sharing the pending rows), after that process died: cut the output back to the whole
+    /// blocks it wrote, then write the rows it had taken but not yet written.
+    pub fn complete_after_writer_died(&mut self) -> std::io::Result<()> {
+        let bytes = self.block.state().bytes_written;
+        self.out.cut_back_to(bytes)?;
+        self.flush()
     }
 }
 
@@ -362,6 +494,7 @@ mod tests {
         assert_eq!(csv.written(), (2501, Some(1.0)));
         assert_eq!(String::from_utf8(csv.out.clone()).unwrap(), expected);
 
+        // Nothing is written on drop: a forked parent's copy must not repeat the child's rows.
         let mut out = Vec::new();
         {
             let mut csv = CsvWriter::new(&mut out, &names[..1]).unwrap();
@@ -375,10 +508,48 @@ mod tests {
             )
             .unwrap();
         }
-        assert_eq!(
-            String::from_utf8(out).unwrap(),
-            "\"time\",\"x\"\n0.5,1e-07\n"
+        assert_eq!(String::from_utf8(out).unwrap(), "\"time\",\"x\"\n");
+        // A row longer than the header is refused, naming both lengths.
+        let mut csv = CsvWriter::new(Vec::new(), &names[..1]).unwrap();
+        let e = csv.row(
+            0.5,
+            &Row {
+                reals: &[1.0, 2.0],
+                integers: &[],
+                booleans: &[],
+            },
         );
+        assert!(e.unwrap_err().to_string().contains("2 values at t = 0.5"));
+    }
+
+    /// After the writing process died in the middle of a block, the output is cut back to
+    /// the whole blocks and the pending rows are written once.
+    #[test]
+    fn completion_after_the_writer_died_cuts_back_and_writes_pending_rows() {
+        let names = ["x".to_string()];
+        let mut csv = CsvWriter::new(Vec::new(), &names).unwrap();
+        let mut expected = String::from("\"time\",\"x\"\n");
+        for k in 0..3000 {
+            let t = k as f64;
+            csv.row(
+                t,
+                &Row {
+                    reals: &[-t],
+                    integers: &[],
+                    booleans: &[],
+                },
+            )
+            .unwrap();
+            expected += &format!("{},{}\n", format_real(t), format_real(-t));
+        }
+        let (rows, _) = csv.written();
+        assert!(rows > 0 && rows < 3000, "{rows}");
+        // The start of a block that a killed process did not finish writing.
+        let pending = &expected.lines().nth(1 + rows).unwrap()[..4];
+        csv.out.extend_from_slice(pending.as_bytes());
+        csv.complete_after_writer_died().unwrap();
+        assert_eq!(String::from_utf8(csv.out.clone()).unwrap(), expected);
+        assert_eq!(csv.written(), (3000, Some(2999.0)));
     }
 
     #[test]

@@ -9,9 +9,17 @@
 //! fixed address until `fmi2FreeInstance`, since the FMU keeps pointers to them. `Drop` frees
 //! the instance (unless the FMU reported `fmi2Fatal`, after which no call is allowed, §2.1.3).
 
-use super::library::{CallbackFunctions, Component, FmuLibrary, Status};
+use super::library::{CallbackFunctions, Component, FmiFunction, FmuLibrary, Status};
 use super::logger::{geardyn_host_logger, Logger};
+use super::supervise::Activity;
 use std::ffi::{c_char, c_int, CStr, CString};
+
+/// The [`FmiFunction`] of a function name, checked when compiling.
+macro_rules! f {
+    ($name:literal) => {
+        const { FmiFunction::named($name) }
+    };
+}
 
 /// `fmi2Type` (fmi2TypesPlatform.h): we only instantiate Co-Simulation slaves.
 const FMI2_COSIMULATION: c_int = 1;
@@ -36,6 +44,9 @@ impl std::fmt::Display for CallError {
 pub struct Instance<'a> {
     lib: &'a FmuLibrary,
     c: Component,
+    /// Where the call in progress is recorded before each call, for a supervising parent
+    /// that must say where the FMU crashed ([`super::supervise`]).
+    activity: &'a Activity,
     trace: bool,
     /// Set once the FMU returned fmi2Fatal: it must not be called again, not even freed.
     fatal: bool,
@@ -52,17 +63,19 @@ fn list<T: std::fmt::Debug>(v: &[T]) -> String {
 impl<'a> Instance<'a> {
     /// `fmi2Instantiate` (FMI 2.0.5 §2.1.5) as a Co-Simulation slave, not visible.
     ///
-    /// `resource_uri` is the `file://` URI of the extracted `resources/` folder. `logging_on`
-    /// enables the FMU's debug logging from the start.
+    /// `resource_uri` is the `file://` URI of the extracted `resources/` folder. A logger that
+    /// prints every message ([`Logger::prints_all`]) also enables the FMU's debug logging
+    /// from the start: asking for all messages means asking the FMU to produce them.
     pub fn instantiate(
         lib: &'a FmuLibrary,
         instance_name: &str,
         guid: &str,
         resource_uri: &str,
         logger: Logger,
-        logging_on: bool,
         trace: bool,
+        activity: &'a Activity,
     ) -> Result<Instance<'a>, String> {
+        let logging_on = logger.prints_all();
         let cstring = |what: &str, s: &str| {
             CString::new(s).map_err(|_| format!("{what} \"{s}\" contains a NUL character"))
         };
@@ -77,6 +90,7 @@ impl<'a> Instance<'a> {
             step_finished: None,
             component_environment: logger.component_environment(),
         });
+        activity.enter(f!("fmi2Instantiate"));
         // SAFETY: all pointers are valid NUL-terminated strings / a callbacks struct that
         // outlives the instance (owned by it, boxed so its address is stable).
         let c = unsafe {
@@ -90,6 +104,7 @@ impl<'a> Instance<'a> {
                 c_int::from(logging_on),
             )
         };
+        activity.leave();
         if trace {
             eprintln!(
                 "[FMI] fmi2Instantiate(instanceName=\"{instance_name}\", fmuType=fmi2CoSimulation, fmuGUID=\"{guid}\", fmuResourceLocation=\"{resource_uri}\", visible=fmi2False, loggingOn={}) -> {c:?}",
@@ -110,6 +125,7 @@ impl<'a> Instance<'a> {
         Ok(Instance {
             lib,
             c,
+            activity,
             trace,
             fatal: false,
             _callbacks: callbacks,
@@ -122,13 +138,14 @@ impl<'a> Instance<'a> {
     #[inline]
     fn call(
         &mut self,
-        function: &'static str,
+        function: FmiFunction,
         raw: c_int,
         args: impl FnOnce() -> String,
     ) -> Result<Status, CallError> {
+        self.activity.leave();
         let status = Status::from_raw(raw);
         if self.trace {
-            eprintln!("[FMI] {function}({}) -> {status}", args());
+            eprintln!("[FMI] {}({}) -> {status}", function.name(), args());
         }
         if status < Status::Discard {
             self.logger.clear();
@@ -141,7 +158,8 @@ impl<'a> Instance<'a> {
     /// The error of a call that returned `status` (`fmi2Discard` or worse), with the reasons
     /// the FMU logged during it.
     #[cold]
-    fn failed(&mut self, function: &'static str, status: Status) -> CallError {
+    fn failed(&mut self, function: FmiFunction, status: Status) -> CallError {
+        let function = function.name();
         if status >= Status::Fatal {
             self.fatal = true;
         }
@@ -160,13 +178,19 @@ impl<'a> Instance<'a> {
         }
     }
 
+    /// The record of the call in progress (the runner adds the communication time).
+    pub fn activity(&self) -> &'a Activity {
+        self.activity
+    }
+
     /// `fmi2SetDebugLogging(c, on, 0, NULL)`: zero categories means all of them (§2.1.5).
     pub fn set_debug_logging(&mut self, on: bool) -> Result<Status, CallError> {
+        self.activity.enter(f!("fmi2SetDebugLogging"));
         // SAFETY: valid instance; nCategories = 0 with a null array is allowed.
         let r = unsafe {
             (self.lib.fns.set_debug_logging)(self.c, c_int::from(on), 0, std::ptr::null())
         };
-        self.call("fmi2SetDebugLogging", r, || {
+        self.call(f!("fmi2SetDebugLogging"), r, || {
             format!("loggingOn={on}, nCategories=0")
         })
     }
@@ -178,6 +202,7 @@ impl<'a> Instance<'a> {
         start: f64,
         stop: Option<f64>,
     ) -> Result<Status, CallError> {
+        self.activity.enter(f!("fmi2SetupExperiment"));
         // SAFETY: valid instance, plain values.
         let r = unsafe {
             (self.lib.fns.setup_experiment)(
@@ -189,36 +214,40 @@ impl<'a> Instance<'a> {
                 stop.unwrap_or(0.0),
             )
         };
-        self.call("fmi2SetupExperiment", r, || {
+        self.call(f!("fmi2SetupExperiment"), r, || {
             format!("toleranceDefined={}, tolerance={}, startTime={start}, stopTimeDefined={}, stopTime={}",
                 tolerance.is_some(), tolerance.unwrap_or(0.0), stop.is_some(), stop.unwrap_or(0.0))
         })
     }
 
     pub fn enter_initialization_mode(&mut self) -> Result<Status, CallError> {
+        self.activity.enter(f!("fmi2EnterInitializationMode"));
         // SAFETY: valid instance.
         let r = unsafe { (self.lib.fns.enter_initialization_mode)(self.c) };
-        self.call("fmi2EnterInitializationMode", r, String::new)
+        self.call(f!("fmi2EnterInitializationMode"), r, String::new)
     }
 
     pub fn exit_initialization_mode(&mut self) -> Result<Status, CallError> {
+        self.activity.enter(f!("fmi2ExitInitializationMode"));
         // SAFETY: valid instance.
         let r = unsafe { (self.lib.fns.exit_initialization_mode)(self.c) };
-        self.call("fmi2ExitInitializationMode", r, String::new)
+        self.call(f!("fmi2ExitInitializationMode"), r, String::new)
     }
 
     pub fn terminate(&mut self) -> Result<Status, CallError> {
+        self.activity.enter(f!("fmi2Terminate"));
         // SAFETY: valid instance.
         let r = unsafe { (self.lib.fns.terminate)(self.c) };
-        self.call("fmi2Terminate", r, String::new)
+        self.call(f!("fmi2Terminate"), r, String::new)
     }
 
     /// `fmi2DoStep` (§4.2.2). `fmi2Discard` is returned as an error like any other failure;
     /// the caller asks [`Instance::discard_details`] what happened.
     pub fn do_step(&mut self, t: f64, h: f64) -> Result<Status, CallError> {
+        self.activity.enter(f!("fmi2DoStep"));
         // SAFETY: valid instance. noSetFMUStatePriorToCurrentPoint = true: we never roll back.
         let r = unsafe { (self.lib.fns.do_step)(self.c, t, h, 1) };
-        self.call("fmi2DoStep", r, || {
+        self.call(f!("fmi2DoStep"), r, || {
             format!("currentCommunicationPoint={t:?}, communicationStepSize={h:?}, noSetFMUStatePriorToCurrentPoint=fmi2True")
         })
     }
@@ -228,17 +257,19 @@ impl<'a> Instance<'a> {
     pub fn discard_details(&mut self) -> (Option<bool>, Option<f64>) {
         let mut term: c_int = 0;
         let mut last: f64 = f64::NAN;
+        self.activity.enter(f!("fmi2GetBooleanStatus"));
         // SAFETY: valid instance, valid out-pointers.
         let r1 = unsafe { (self.lib.fns.get_boolean_status)(self.c, FMI2_TERMINATED, &mut term) };
         let terminated = self
-            .call("fmi2GetBooleanStatus", r1, || "s=fmi2Terminated".into())
+            .call(f!("fmi2GetBooleanStatus"), r1, || "s=fmi2Terminated".into())
             .ok()
             .map(|_| term != 0);
+        self.activity.enter(f!("fmi2GetRealStatus"));
         // SAFETY: as above.
         let r2 =
             unsafe { (self.lib.fns.get_real_status)(self.c, FMI2_LAST_SUCCESSFUL_TIME, &mut last) };
         let last = self
-            .call("fmi2GetRealStatus", r2, || {
+            .call(f!("fmi2GetRealStatus"), r2, || {
                 "s=fmi2LastSuccessfulTime".into()
             })
             .ok()
@@ -249,26 +280,29 @@ impl<'a> Instance<'a> {
 
     pub fn set_real(&mut self, vr: &[u32], v: &[f64]) -> Result<Status, CallError> {
         debug_assert_eq!(vr.len(), v.len());
+        self.activity.enter(f!("fmi2SetReal"));
         // SAFETY: both slices have len() elements.
         let r = unsafe { (self.lib.fns.set_real)(self.c, vr.as_ptr(), vr.len(), v.as_ptr()) };
-        self.call("fmi2SetReal", r, || {
+        self.call(f!("fmi2SetReal"), r, || {
             format!("vr={}, value={}", list(vr), list(v))
         })
     }
 
     pub fn set_integer(&mut self, vr: &[u32], v: &[i32]) -> Result<Status, CallError> {
+        self.activity.enter(f!("fmi2SetInteger"));
         // SAFETY: both slices have len() elements.
         let r = unsafe { (self.lib.fns.set_integer)(self.c, vr.as_ptr(), vr.len(), v.as_ptr()) };
-        self.call("fmi2SetInteger", r, || {
+        self.call(f!("fmi2SetInteger"), r, || {
             format!("vr={}, value={}", list(vr), list(v))
         })
     }
 
     /// Values are fmi2Boolean (`int`, 0 or 1).
     pub fn set_boolean(&mut self, vr: &[u32], v: &[i32]) -> Result<Status, CallError> {
+        self.activity.enter(f!("fmi2SetBoolean"));
         // SAFETY: both slices have len() elements.
         let r = unsafe { (self.lib.fns.set_boolean)(self.c, vr.as_ptr(), vr.len(), v.as_ptr()) };
-        self.call("fmi2SetBoolean", r, || {
+        self.call(f!("fmi2SetBoolean"), r, || {
             format!("vr={}, value={}", list(vr), list(v))
         })
     }
@@ -279,19 +313,21 @@ impl<'a> Instance<'a> {
             .map(|s| CString::new(s.replace('\0', "")).unwrap_or_default())
             .collect();
         let ptrs: Vec<*const c_char> = owned.iter().map(|s| s.as_ptr()).collect();
+        self.activity.enter(f!("fmi2SetString"));
         // SAFETY: vr and ptrs have the same length; the strings live until the call returns.
         let r = unsafe { (self.lib.fns.set_string)(self.c, vr.as_ptr(), vr.len(), ptrs.as_ptr()) };
-        self.call("fmi2SetString", r, || {
+        self.call(f!("fmi2SetString"), r, || {
             format!("vr={}, value={}", list(vr), list(v))
         })
     }
 
     pub fn get_real(&mut self, vr: &[u32], out: &mut [f64]) -> Result<Status, CallError> {
         debug_assert_eq!(vr.len(), out.len());
+        self.activity.enter(f!("fmi2GetReal"));
         // SAFETY: out has vr.len() elements.
         let r = unsafe { (self.lib.fns.get_real)(self.c, vr.as_ptr(), vr.len(), out.as_mut_ptr()) };
         let trace = self.trace;
-        self.call("fmi2GetReal", r, || {
+        self.call(f!("fmi2GetReal"), r, || {
             if trace {
                 format!("vr={}, value={}", list(vr), list(out))
             } else {
@@ -301,19 +337,21 @@ impl<'a> Instance<'a> {
     }
 
     pub fn get_integer(&mut self, vr: &[u32], out: &mut [i32]) -> Result<Status, CallError> {
+        self.activity.enter(f!("fmi2GetInteger"));
         // SAFETY: out has vr.len() elements.
         let r =
             unsafe { (self.lib.fns.get_integer)(self.c, vr.as_ptr(), vr.len(), out.as_mut_ptr()) };
-        self.call("fmi2GetInteger", r, || {
+        self.call(f!("fmi2GetInteger"), r, || {
             format!("vr={}, value={}", list(vr), list(out))
         })
     }
 
     pub fn get_boolean(&mut self, vr: &[u32], out: &mut [i32]) -> Result<Status, CallError> {
+        self.activity.enter(f!("fmi2GetBoolean"));
         // SAFETY: out has vr.len() elements.
         let r =
             unsafe { (self.lib.fns.get_boolean)(self.c, vr.as_ptr(), vr.len(), out.as_mut_ptr()) };
-        self.call("fmi2GetBoolean", r, || {
+        self.call(f!("fmi2GetBoolean"), r, || {
             format!("vr={}, value={}", list(vr), list(out))
         })
     }
@@ -322,10 +360,11 @@ impl<'a> Instance<'a> {
     /// are copied at once (§2.1.7).
     pub fn get_string(&mut self, vr: &[u32]) -> Result<Vec<String>, CallError> {
         let mut ptrs: Vec<*const c_char> = vec![std::ptr::null(); vr.len()];
+        self.activity.enter(f!("fmi2GetString"));
         // SAFETY: ptrs has vr.len() elements.
         let r =
             unsafe { (self.lib.fns.get_string)(self.c, vr.as_ptr(), vr.len(), ptrs.as_mut_ptr()) };
-        self.call("fmi2GetString", r, || format!("vr={}", list(vr)))?;
+        self.call(f!("fmi2GetString"), r, || format!("vr={}", list(vr)))?;
         Ok(ptrs
             .iter()
             .map(|&p| {
@@ -350,8 +389,10 @@ impl Drop for Instance<'_> {
             }
             return;
         }
+        self.activity.enter(f!("fmi2FreeInstance"));
         // SAFETY: c came from fmi2Instantiate of this library and is freed exactly once.
         unsafe { (self.lib.fns.free_instance)(self.c) };
+        self.activity.leave();
         if self.trace {
             eprintln!("[FMI] fmi2FreeInstance()");
         }

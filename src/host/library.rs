@@ -164,6 +164,45 @@ fmi2_functions! {
     get_string_status = "fmi2GetStringStatus": fn(Component, c_int, *mut *const c_char) -> c_int;
 }
 
+/// One of the FMI 2.0 CS functions, as its index in [`FUNCTION_NAMES`]: a number that the
+/// process running an FMU can write to shared memory before each call, and its supervising
+/// parent can name after a crash ([`super::supervise::Activity`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FmiFunction(u32);
+
+impl FmiFunction {
+    /// The function called `name`; meant for constants, where an unknown name fails the build.
+    pub const fn named(name: &str) -> FmiFunction {
+        let mut i = 0;
+        while i < FUNCTION_NAMES.len() {
+            let (a, b) = (FUNCTION_NAMES[i].as_bytes(), name.as_bytes());
+            if a.len() == b.len() {
+                let mut k = 0;
+                while k < a.len() && a[k] == b[k] {
+                    k += 1;
+                }
+                if k == a.len() {
+                    return FmiFunction(i as u32);
+                }
+            }
+            i += 1;
+        }
+        panic!("not an FMI 2.0 Co-Simulation function name")
+    }
+
+    pub fn from_index(index: u32) -> Option<FmiFunction> {
+        ((index as usize) < FUNCTION_NAMES.len()).then_some(FmiFunction(index))
+    }
+
+    pub fn index(self) -> u32 {
+        self.0
+    }
+
+    pub fn name(self) -> &'static str {
+        FUNCTION_NAMES[self.0 as usize]
+    }
+}
+
 /// libloading's `Display` says only "dlopen failed"; the reason (`undefined symbol: …`,
 /// `wrong ELF class`, …) is in its source.
 fn describe(e: &libloading::Error) -> String {

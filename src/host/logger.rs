@@ -98,6 +98,11 @@ impl Logger {
         Logger { env, sink }
     }
 
+    /// Whether every message is printed (`--log-level all`), debug messages included.
+    pub fn prints_all(&self) -> bool {
+        self.sink.print_level == Status::Ok
+    }
+
     /// The value to pass as `componentEnvironment`.
     pub fn component_environment(&self) -> *mut c_void {
         &*self.env as *const LogEnv as *mut c_void

@@ -6,7 +6,8 @@
 //! [`instance`] wraps one FMU instance (with the [`logger`] C shim for the variadic logger) →
 //! [`runner`] drives the co-simulation loop with [`start`] values and [`input`] signals →
 //! [`csv`] writes the result. [`cli`] holds the `run`/`info`/`validate` commands, [`info`]
-//! renders `geardyn info`.
+//! renders `geardyn info`. [`supervise`] runs the FMU of `geardyn run` in a child process,
+//! with [`shared`] memory for what must survive its crash.
 
 pub mod archive;
 pub mod check;
@@ -16,8 +17,9 @@ pub mod description;
 pub mod info;
 pub mod input;
 pub mod instance;
-pub mod interrupt;
 pub mod library;
 pub mod logger;
 pub mod runner;
+pub mod shared;
 pub mod start;
+pub mod supervise;

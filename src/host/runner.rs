@@ -29,7 +29,7 @@ use super::instance::{CallError, Instance};
 use super::start::{Phase, StartValue};
 
 /// What the user asked for (already checked against the model description).
-pub struct Experiment {
+pub struct Experiment<'a> {
     pub start_time: f64,
     pub stop_time: f64,
     pub tolerance: Option<f64>,
@@ -40,7 +40,7 @@ pub struct Experiment {
     /// Measure the time spent inside `fmi2DoStep` and the output getters (`--timing`).
     pub timing: bool,
     /// Polled before every step: when set, the run stops as after a failure.
-    pub interrupt: Option<&'static std::sync::atomic::AtomicBool>,
+    pub interrupt: Option<&'a std::sync::atomic::AtomicBool>,
 }
 
 /// One recorded variable.
@@ -116,6 +116,38 @@ pub fn default_interval(md: &ModelDescription, start: f64, stop: f64) -> f64 {
         }
         _ => auto_interval(stop - start),
     }
+}
+
+/// The most output rows a run may have unless the user raises it (`geardyn run --max-rows`):
+/// ten million rows are a CSV of about a gigabyte for ten columns. A mistyped interval
+/// (`1e-300` for `1e-3`) must be refused, not fill the disk.
+pub const DEFAULT_MAX_ROWS: u64 = 10_000_000;
+
+/// Refuse a grid that cannot advance or would give more than `max_rows` rows: the output
+/// interval `h` must not be below the spacing of `f64` at the larger of the start and stop
+/// times (there, `start + n·h` would stop advancing or round unevenly), and the grid points
+/// from `start` to `stop`, both included, must be at most `max_rows` (rows added at input
+/// events are extra).
+pub fn check_grid(start: f64, stop: f64, h: f64, max_rows: u64) -> Result<(), String> {
+    let largest = start.abs().max(stop.abs());
+    let resolution = f64::from_bits(largest.to_bits() + 1) - largest;
+    if h < resolution {
+        return Err(format!(
+            "output interval {h:?} s is below the resolution of the time at {largest:?} s ({resolution:?} s): the communication points would not advance"
+        ));
+    }
+    let rows = ((stop - start) / h).ceil() + 1.0;
+    if rows > max_rows as f64 {
+        let shown = if rows < 1e15 {
+            format!("{rows:.0}")
+        } else {
+            format!("{rows:e}")
+        };
+        return Err(format!(
+            "output interval {h:?} s from t = {start:?} to {stop:?} s gives {shown} output rows, more than the maximum of {max_rows} (--max-rows raises it)"
+        ));
+    }
+    Ok(())
 }
 
 /// The variables recorded when `--outputs` is not given (fmpy `_get_output_variables`): all
@@ -311,6 +343,8 @@ pub fn run(
     };
     let mut sampler = Sampler::new(&exp.outputs);
     let t0 = exp.start_time;
+    let activity = inst.activity();
+    activity.at(t0);
 
     // Initialization (FMI 2.0.5 §4.2.4 state machine: instantiated → initialization mode).
     let init = (|| -> Result<(), String> {
@@ -408,6 +442,7 @@ pub fn run(
                     msg.push_str(&format!("; last successful time {tl}"));
                     // Keep what the FMU did compute (fmpy samples at lastSuccessfulTime too).
                     if tl > time && terminated == Some(true) {
+                        activity.at(tl);
                         if let Err(m) = record(&mut sampler, inst, sink, &mut out, tl) {
                             msg.push_str(&format!("; {m}"));
                         }
@@ -424,6 +459,7 @@ pub fn run(
             return out;
         }
         time = next;
+        activity.at(time);
         let sampled = sampler.sample(inst);
         if let Some(t) = call_start {
             in_fmu += t.elapsed();
@@ -465,6 +501,29 @@ pub fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn grid_bounds_name_the_interval_and_the_bound() {
+        assert!(check_grid(0.0, 1.0, 1e-5, DEFAULT_MAX_ROWS).is_ok());
+        // Exactly at the bound: 0, h, ..., 1 are 11 rows.
+        assert!(check_grid(0.0, 1.0, 0.1, 11).is_ok());
+        let e = check_grid(0.0, 1.0, 0.1, 10).unwrap_err();
+        assert!(
+            e.contains("gives 11 output rows, more than the maximum of 10"),
+            "{e}"
+        );
+        let e = check_grid(0.0, 1.0, 1e-300, u64::MAX).unwrap_err();
+        assert!(
+            e.contains(
+                "1e-300 s is below the resolution of the time at 1.0 s (2.220446049250313e-16 s)"
+            ),
+            "{e}"
+        );
+        let e = check_grid(0.0, 1.0, 1e-12, DEFAULT_MAX_ROWS).unwrap_err();
+        assert!(e.contains("gives 1000000000001 output rows"), "{e}");
+        let e = check_grid(1e20, 2e20, 1e-3, u64::MAX).unwrap_err();
+        assert!(e.contains("resolution of the time at 2e20 s"), "{e}");
+    }
 
     #[test]
     fn fmpy_auto_interval() {
