@@ -69,13 +69,10 @@ impl AtomicFile {
 
     fn commit(mut self) -> Result<(), String> {
         let w = self.w.take().expect("committed once");
-        let done = w
-            .into_inner()
-            .map_err(|e| e.into_error())
-            .and_then(|f| {
-                drop(f);
-                fs::rename(&self.tmp, &self.path)
-            });
+        let done = w.into_inner().map_err(|e| e.into_error()).and_then(|f| {
+            drop(f);
+            fs::rename(&self.tmp, &self.path)
+        });
         self.check(done)
     }
 }

@@ -183,7 +183,16 @@ pub fn simulate(
             let sim = Simulation::new(&scene)?;
             // Pair columns: dte 0, force 2, contact_state 3 (1 = drive-side contact).
             let names: Vec<String> = OUTPUT_NAMES.iter().map(|s| s.to_string()).collect();
-            let run = run_to_csv(sim, &names, &[(3, 1.0)], pair_row, stop_time, interval, opts, out)?;
+            let run = run_to_csv(
+                sim,
+                &names,
+                &[(3, 1.0)],
+                pair_row,
+                stop_time,
+                interval,
+                opts,
+                out,
+            )?;
             let meshes = vec![MeshSummary {
                 name: "mesh".into(),
                 dte_rms: run.summary.columns[0].rms_about_mean(),
@@ -214,7 +223,9 @@ pub fn simulate(
                     contact,
                 ));
             }
-            let run = run_to_csv(sim, &names, &tallies, train_row, stop_time, interval, opts, out)?;
+            let run = run_to_csv(
+                sim, &names, &tallies, train_row, stop_time, interval, opts, out,
+            )?;
             let meshes = cols
                 .into_iter()
                 .map(|(name, dte, force, contact)| MeshSummary {

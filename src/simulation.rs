@@ -38,6 +38,7 @@ impl DrivenModel for GearPair {
         RunScales {
             mesh_frequency: (1.0 / self.mesh_period()).abs(),
             start_phase: self.mesh_phase(0.0).abs(),
+            speed: ("operating.pinion_speed", self.inputs().pinion_speed),
             fastest_rate: self.fastest_rate(),
         }
     }

@@ -447,22 +447,41 @@ impl GearPair {
         self.f_ext / self.k_mean
     }
 
-    /// The fastest rate of the pair around its operating point, rad/s: the bound of
-    /// [`PiecewiseLti::max_frequency`] with the cubic springs' tangent stiffness
-    /// `3(k δ̄ + γ)δ²` at the static deflection added (Bugaru 2006 eq. 13: a cubic spring
-    /// stiffens the mesh with the load), or `2c/m_e`, which bounds the damping rate
-    /// `(c + |c̃|)/m_e` of an overdamped mesh (`|c̃| <= c`), whichever is larger. It sizes the
-    /// work of a run ([`crate::simulation::RunLimits`]).
-    pub fn fastest_rate(&self) -> f64 {
-        let linear = self.max_frequency();
+    /// The fastest rate of the pair around its operating point, rad/s, and the fields that set
+    /// it: the natural frequency at the stiffest piece, the STE harmonics at the mesh
+    /// frequency, the natural frequency with the cubic springs' tangent stiffness
+    /// `3(k δ̄ + γ)δ²` at the static deflection (Bugaru 2006 eq. 13: a cubic spring stiffens
+    /// the mesh with the load), or `2c/m_e`, which bounds the damping rate `(c + |c̃|)/m_e` of
+    /// an overdamped mesh (`|c̃| <= c`), whichever is largest. It sizes the work of a run
+    /// ([`crate::simulation::RunLimits`]).
+    pub fn fastest_rate(&self) -> (f64, &'static str) {
+        let k_max = match self.stiffness.pieces() {
+            Some(pieces) => pieces.iter().map(|p| p.k_start).fold(0.0, f64::max),
+            None => self.k_mean,
+        };
         let s = &self.smooth;
         let delta = self.static_deflection() + self.ste_amplitude_bound();
-        let k_max = linear.powi(2) * self.m_e;
         let cubic = 3.0 * (k_max * s.cubic_factor + s.cubic_spring) * delta * delta;
-        let stiffened = ((k_max + cubic) / self.m_e).sqrt();
-        linear
-            .max(stiffened)
-            .max(2.0 * self.damping / self.m_e)
+        [
+            (
+                (k_max / self.m_e).sqrt(),
+                "the mesh stiffness on the equivalent mass: mesh.stiffness, gear inertias and base radii",
+            ),
+            (
+                TAU * self.clock.mesh_frequency() * self.ste.harmonics() as f64,
+                "the highest STE harmonic: mesh.ste at operating.pinion_speed",
+            ),
+            (
+                ((k_max + cubic) / self.m_e).sqrt(),
+                "the cubic springs at the static deflection: mesh.cubic and the operating torques",
+            ),
+            (
+                2.0 * self.damping / self.m_e,
+                "the mesh damping on the equivalent mass: mesh.damping or mesh.damping_ratio",
+            ),
+        ]
+        .into_iter()
+        .fold((0.0, ""), |best, c| if !(c.0 <= best.0) { c } else { best })
     }
 
     pub fn equivalent_mass(&self) -> f64 {

@@ -96,6 +96,25 @@ pub(crate) fn gear_compliance(field: &str, base_radius: f64, inertia: f64) -> Re
     }
 }
 
+/// Largest mesh damping ratio `c/(2·sqrt(k̄ m_e))`: measured mesh damping ratios lie between
+/// 0.01 and 0.2; beyond 100 the mesh is a dashpot whose fast and slow time scales differ by
+/// `4ζ² = 4e4`, which makes any run stiff and tells of a unit error.
+pub(crate) const MAX_DAMPING_RATIO: f64 = 100.0;
+
+/// Checks the mesh damping against [`MAX_DAMPING_RATIO`]; `field` is the field that gave it
+/// (`damping` in N·s/m or `damping_ratio`).
+pub(crate) fn damping_ratio_range(field: &str, c: f64, k_mean: f64, m_e: f64) -> Result<()> {
+    let zeta = c / (2.0 * (k_mean * m_e).sqrt());
+    if zeta <= MAX_DAMPING_RATIO {
+        Ok(())
+    } else {
+        err(format!(
+            "{field}: the mesh damping {c:e} N·s/m is a damping ratio of {zeta:e} on the mean stiffness \
+             {k_mean:e} N/m and the equivalent mass {m_e:e} kg; it must be at most {MAX_DAMPING_RATIO}"
+        ))
+    }
+}
+
 /// Checks the mesh time scales that the model's arithmetic needs finite: the natural
 /// frequency `sqrt(k_max/m_e)` and the damping rate `c/m_e` (`field_k`, `field_c` name the
 /// stiffness and the damping in messages).
@@ -230,6 +249,7 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
     };
     let k_max = stiffness.maximum();
     mesh_rates("mesh.stiffness", k_max, damping_field, damping, m_e)?;
+    damping_ratio_range(damping_field, damping, k_mean, m_e)?;
 
     let damping_always = match m.damping_acts.as_deref() {
         None | Some("in_contact") => false,

@@ -54,9 +54,11 @@ pub struct RunScales {
     pub mesh_frequency: f64,
     /// Largest |mesh phase| at t = 0, cycles.
     pub start_phase: f64,
+    /// The input speed: its TOML field and value, rad/s.
+    pub speed: (&'static str, f64),
     /// An upper bound of the fastest rate of any mode (angular frequency or damping rate),
-    /// rad/s.
-    pub fastest_rate: f64,
+    /// rad/s, and what sets it (the fields to look at).
+    pub fastest_rate: (f64, &'static str),
 }
 
 impl RunLimits {
@@ -64,17 +66,19 @@ impl RunLimits {
     /// the limits; the message names the quantities, their values and the limit.
     pub fn check(&self, scales: &RunScales, stop_time: f64, interval: f64) -> Result<(), String> {
         if !(stop_time.is_finite() && stop_time > 0.0) {
-            return Err(format!("stop_time = {stop_time}: must be a finite number > 0"));
+            return Err(format!(
+                "stop_time = {stop_time:e}: must be a finite number > 0"
+            ));
         }
         if !(interval.is_finite() && interval > 0.0) {
             return Err(format!(
-                "output_interval = {interval}: must be a finite number > 0"
+                "output_interval = {interval:e}: must be a finite number > 0"
             ));
         }
         let rows = OutputGrid::rows_f64(stop_time, interval);
         if !(rows <= self.max_rows as f64) {
             return Err(format!(
-                "output_interval = {interval} s with stop_time = {stop_time} s gives {rows:.4e} output rows; \
+                "output_interval = {interval:e} s with stop_time = {stop_time:e} s gives {rows:.4e} output rows; \
                  the limit is {} rows per run (raise it with --max-rows)",
                 self.max_rows
             ));
@@ -82,26 +86,28 @@ impl RunLimits {
         let periods = scales.mesh_frequency * stop_time;
         if !(periods <= self.max_mesh_periods) {
             return Err(format!(
-                "stop_time = {stop_time} s at a mesh frequency of {:.4e} Hz (operating speed) is {periods:.4e} \
-                 mesh periods; the limit is {:e} mesh periods per run (raise it with --max-periods)",
-                scales.mesh_frequency, self.max_mesh_periods
+                "{} = {:e} rad/s with stop_time = {stop_time:e} s is {periods:.4e} mesh periods (mesh \
+                 frequency {:.4e} Hz); the limit is {:e} mesh periods per run (raise it with \
+                 --max-periods)",
+                scales.speed.0, scales.speed.1, scales.mesh_frequency, self.max_mesh_periods
             ));
         }
         let phase = scales.start_phase + periods;
         if !(phase <= MAX_PHASE_CYCLES) {
             return Err(format!(
-                "the mesh phase would reach {phase:.4e} cycles (initial phase {:e} + {periods:.4e} mesh \
+                "the mesh phase would reach {phase:.4e} cycles (initial_phase {:e} + {periods:.4e} mesh \
                  periods); beyond {MAX_PHASE_CYCLES:e} cycles a double cannot resolve the mesh cycle",
                 scales.start_phase
             ));
         }
-        let mode_periods = scales.fastest_rate / std::f64::consts::TAU * stop_time;
+        let (rate, source) = scales.fastest_rate;
+        let mode_periods = rate / std::f64::consts::TAU * stop_time;
         if !(mode_periods <= self.max_mode_periods) {
             return Err(format!(
-                "stop_time = {stop_time} s spans {mode_periods:.4e} periods of the fastest mode \
-                 ({:.4e} rad/s, from the mesh stiffness, damping, inertias and base radii); the limit is \
-                 {:e} per run (raise it with --max-periods)",
-                scales.fastest_rate, self.max_mode_periods
+                "stop_time = {stop_time:e} s spans {mode_periods:.4e} periods of the fastest mode \
+                 ({rate:.4e} rad/s, set by {source}); the limit is {:e} per run (raise it with \
+                 --max-periods)",
+                self.max_mode_periods
             ));
         }
         Ok(())
@@ -142,7 +148,12 @@ impl OutputGrid {
     /// The number of points as a float, defined for any ratio (no integer overflow), for the
     /// check against the row limit.
     pub fn rows_f64(stop_time: f64, interval: f64) -> f64 {
-        (stop_time / interval + 1e-9).floor() + 2.0
+        let n = (stop_time / interval + 1e-9).floor();
+        if n < 1e15 {
+            OutputGrid::new(stop_time, interval).rows() as f64
+        } else {
+            n + 1.0
+        }
     }
 
     /// The number of points.

@@ -891,7 +891,18 @@ impl GearTrain {
                 .iter()
                 .map(|mesh| (mesh.clock.phase_at(0.0) + mesh.offset).abs())
                 .fold(0.0, f64::max),
-            fastest_rate: self.max_frequency().max(damping_rate),
+            speed: ("operating.input_speed", self.inputs.input_speed),
+            fastest_rate: if !(damping_rate <= self.max_frequency()) {
+                (
+                    damping_rate,
+                    "the damping on the masses: mesh damping, bearing damping, modal damping ratio",
+                )
+            } else {
+                (
+                    self.max_frequency(),
+                    "the mesh and bearing stiffnesses on the masses (or the STE harmonics)",
+                )
+            },
         }
     }
 

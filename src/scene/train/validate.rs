@@ -496,6 +496,7 @@ fn mesh(
         f("damping_ratio")
     };
     crate::scene::validate::mesh_rates(&f("stiffness"), k_max, &damping_field, damping, m_e)?;
+    crate::scene::validate::damping_ratio_range(&damping_field, damping, k_mean, m_e)?;
 
     let initial_phase = match (i, m.initial_phase) {
         (0, p) => finite(&f("initial_phase"), p.unwrap_or(0.0))?,
