@@ -23,24 +23,9 @@ use geardyn::simulate::{simulate, AnyScene, SimulateOptions};
 use geardyn::simulation::RunLimits;
 use toml::Value;
 
-/// SplitMix64: a tiny, well-mixed generator, so a mutation depends only on (seed, index).
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n as u64) as usize
-    }
-    fn pick<'a, T>(&mut self, items: &'a [T]) -> &'a T {
-        &items[self.below(items.len())]
-    }
-}
+#[path = "common/rng.rs"]
+mod rng;
+use rng::SplitMix64 as Rng;
 
 /// A step into a TOML document: a key of a table or an index of an array.
 #[derive(Clone, Debug, PartialEq)]
@@ -519,8 +504,12 @@ fn fuzz(mutations: u64, seed: u64) {
 
 #[test]
 fn scene_mutations() {
+    // Debugging aids: SCENE_FUZZ_N and SCENE_FUZZ_SEED (hex) replay other runs.
     let n = std::env::var("SCENE_FUZZ_N").map_or(10_000, |v| v.parse().unwrap());
-    fuzz(n, 0x05CE_7E17);
+    let seed = std::env::var("SCENE_FUZZ_SEED").map_or(0x05CE_7E17, |v| {
+        u64::from_str_radix(v.trim_start_matches("0x"), 16).unwrap()
+    });
+    fuzz(n, seed);
 }
 
 #[test]

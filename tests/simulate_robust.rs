@@ -40,6 +40,11 @@ fn refused(text: &str, opts: &SimulateOptions, expected: &[&str]) -> String {
     msg
 }
 
+/// [`refused`] with the default options.
+fn refuses(text: &str, expected: &[&str]) -> String {
+    refused(text, &Default::default(), expected)
+}
+
 fn assert_no_output(dir: &Path, out: &Path) {
     assert!(!out.exists(), "output left behind");
     let left: Vec<_> = std::fs::read_dir(dir)
@@ -58,11 +63,7 @@ fn tiny_output_interval_is_refused_by_the_row_limit() {
         "output_interval = 1.0e-5",
         "output_interval = 1e-300",
     );
-    refused(
-        &scene,
-        &Default::default(),
-        &["output_interval = 1e-300", "rows", "--max-rows"],
-    );
+    refuses(&scene, &["output_interval = 1e-300", "rows", "--max-rows"]);
     // The same as a command-line option, and for a drivetrain.
     let opts = SimulateOptions {
         output_interval: Some(1e-300),
@@ -89,44 +90,28 @@ fn raising_the_row_limit_is_explicit() {
 fn huge_harmonic_lists_are_refused_before_allocating() {
     let cos = vec!["1.0e-9"; 100_000].join(",");
     let scene = edit(SPUR_PAIR, "cos = [1.0e-6]", &format!("cos = [{cos}]"));
-    refused(
-        &scene,
-        &Default::default(),
-        &["mesh.ste.cos", "100000", "256"],
-    );
+    refuses(&scene, &["mesh.ste.cos", "100000", "256"]);
     // A drivetrain mesh's STE.
     let scene = edit(
         COUNTERSHAFT,
         "[mesh.stiffness]",
         &format!("[mesh.ste]\ncos = [{cos}]\n\n[mesh.stiffness]"),
     );
-    refused(
-        &scene,
-        &Default::default(),
-        &["mesh[0].ste.cos", "100000", "256"],
-    );
+    refuses(&scene, &["mesh[0].ste.cos", "100000", "256"]);
 }
 
 #[test]
 fn overdamped_mesh_is_refused() {
     let scene = edit(SPUR_PAIR, "damping_ratio = 0.05", "damping_ratio = 1e300");
-    refused(
-        &scene,
-        &Default::default(),
-        &["mesh.damping_ratio", "1e300", "at most 100"],
-    );
+    refuses(&scene, &["mesh.damping_ratio", "1e300", "at most 100"]);
     let scene = edit(SPUR_PAIR, "damping_ratio = 0.05", "damping = 1e12");
-    refused(&scene, &Default::default(), &["mesh.damping", "1e12"]);
+    refuses(&scene, &["mesh.damping", "1e12"]);
 }
 
 #[test]
 fn stiff_mesh_exceeds_the_work_limit() {
     let scene = edit(SPUR_PAIR, "mean = 2.9831e8", "mean = 1e300");
-    refused(
-        &scene,
-        &Default::default(),
-        &["fastest mode", "mesh.stiffness", "--max-periods"],
-    );
+    refuses(&scene, &["fastest mode", "mesh.stiffness", "--max-periods"]);
 }
 
 #[test]
@@ -136,11 +121,7 @@ fn fast_pinion_exceeds_the_mesh_period_limit() {
         "pinion_speed = 471.238898038469",
         "pinion_speed = 1e12",
     );
-    refused(
-        &scene,
-        &Default::default(),
-        &["operating.pinion_speed = 1e12", "mesh periods"],
-    );
+    refuses(&scene, &["operating.pinion_speed = 1e12", "mesh periods"]);
     let opts = SimulateOptions {
         stop_time: Some(1e6),
         output_interval: Some(1e3),
@@ -152,46 +133,29 @@ fn fast_pinion_exceeds_the_mesh_period_limit() {
 #[test]
 fn phase_beyond_resolution_is_refused() {
     let scene = edit(IDLER, "initial_phase = 0.0", "initial_phase = 1e20");
-    refused(
-        &scene,
-        &Default::default(),
-        &["initial_phase 1e20", "resolve"],
-    );
+    refuses(&scene, &["initial_phase 1e20", "resolve"]);
 }
 
 #[test]
 fn huge_base_radius_names_the_field() {
     let scene = edit(SPUR_PAIR, "base_radius = 0.04535", "base_radius = 1e300");
-    refused(
-        &scene,
-        &Default::default(),
-        &["gear[0].base_radius = 1e300", "inertia"],
-    );
+    refuses(&scene, &["gear[0].base_radius = 1e300", "inertia"]);
     let scene = edit(IDLER, "base_radius = 0.04535", "base_radius = 1e300");
-    refused(
-        &scene,
-        &Default::default(),
-        &["gear[0].base_radius = 1e300"],
-    );
+    refuses(&scene, &["gear[0].base_radius = 1e300"]);
 }
 
 #[test]
 fn tooth_load_beyond_a_tooth_is_refused() {
     let scene = edit(SPUR_PAIR, "input_torque = 100.0", "input_torque = 1e9");
-    refused(
-        &scene,
-        &Default::default(),
-        &["operating.input_torque = 1e9", "base pitch"],
-    );
+    refuses(&scene, &["operating.input_torque = 1e9", "base pitch"]);
 }
 
 #[test]
 fn huge_tooth_count_says_too_large() {
     for scene in [SPUR_PAIR, IDLER] {
         let scene = edit(scene, "teeth = 38", "teeth = 9223372036854775807");
-        let msg = refused(
+        let msg = refuses(
             &scene,
-            &Default::default(),
             &["gear[0].teeth = 9223372036854775807", "too large", "100000"],
         );
         assert!(!msg.contains(">= 1"), "{msg}");
@@ -201,11 +165,7 @@ fn huge_tooth_count_says_too_large() {
 #[test]
 fn train_mass_spread_is_refused() {
     let scene = edit(IDLER, "inertia = 0.002621", "inertia = 9007199254740992.0");
-    refused(
-        &scene,
-        &Default::default(),
-        &["gear[0].inertia = 9.007199254740992e15", "ratio"],
-    );
+    refuses(&scene, &["gear[0].inertia = 9.007199254740992e15", "ratio"]);
 }
 
 /// The CSV columns of a run as numbers (header dropped).

@@ -450,8 +450,8 @@ impl GearPair {
     /// The fastest rate of the pair around its operating point, rad/s, and the fields that set
     /// it: the natural frequency at the stiffest piece, the STE harmonics at the mesh
     /// frequency, the natural frequency with the cubic springs' tangent stiffness
-    /// `3(k δ̄ + γ)δ²` at the static deflection (Bugaru 2006 eq. 13: a cubic spring stiffens
-    /// the mesh with the load), or `2c/m_e`, which bounds the damping rate `(c + |c̃|)/m_e` of
+    /// `3(k δ̄ + γ)δ²` at the static deflection plus the ripple's and the STE's (Bugaru 2006
+    /// eq. 13: a cubic spring stiffens the mesh with the load), or `2c/m_e`, which bounds the damping rate `(c + |c̃|)/m_e` of
     /// an overdamped mesh (`|c̃| <= c`), whichever is largest. It sizes the work of a run
     /// ([`crate::simulation::RunLimits`]).
     pub fn fastest_rate(&self) -> (f64, &'static str) {
@@ -460,7 +460,9 @@ impl GearPair {
             None => self.k_mean,
         };
         let s = &self.smooth;
-        let delta = self.static_deflection() + self.ste_amplitude_bound();
+        let delta = self.static_deflection().abs()
+            + self.ripple_force.abs() / self.k_mean
+            + self.ste_amplitude_bound();
         let cubic = 3.0 * (k_max * s.cubic_factor + s.cubic_spring) * delta * delta;
         [
             (

@@ -314,15 +314,15 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
 
     // A static deflection of a whole tooth means the load or the stiffness is not physical
     // (and a cubic spring would stiffen the mesh without bound).
-    let force = (input_torque / pinion.base_radius)
-        .abs()
+    let ripple = smooth.torque_ripple.abs();
+    let force = ((input_torque.abs() + ripple) / pinion.base_radius)
         .max((load_torque / gear.base_radius).abs());
     let deflection = force / k_mean;
     let base_pitch = std::f64::consts::TAU * pinion.base_radius / f64::from(pinion.teeth);
     if !(deflection <= base_pitch) {
         return err(format!(
-            "operating.input_torque = {input_torque:e} N·m, load torque {load_torque:e} N·m: the mean \
-             static mesh deflection {deflection:e} m (mesh force {force:e} N on the mean stiffness \
+            "operating.input_torque = {input_torque:e} N·m (torque_ripple {ripple:e} N·m), load torque \
+             {load_torque:e} N·m: the static mesh deflection {deflection:e} m (mesh force {force:e} N on the mean stiffness \
              {k_mean:e} N/m, base radii {:e} and {:e} m) exceeds the base pitch {base_pitch:e} m, a \
              whole tooth",
             pinion.base_radius, gear.base_radius
