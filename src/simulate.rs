@@ -186,7 +186,7 @@ pub fn simulate(
             let run = run_to_csv(
                 sim,
                 &names,
-                &[(3, 1.0)],
+                RunSummary::new(&[0, 2], &[(3, 1.0)]),
                 pair_row,
                 stop_time,
                 interval,
@@ -195,8 +195,8 @@ pub fn simulate(
             )?;
             let meshes = vec![MeshSummary {
                 name: "mesh".into(),
-                dte_rms: run.summary.columns[0].rms_about_mean(),
-                peak_force: run.summary.columns[2].max_abs(),
+                dte_rms: run.summary.column(0).rms_about_mean(),
+                peak_force: run.summary.column(2).max_abs(),
                 contact_loss: 1.0 - run.summary.fraction(3, 1.0),
             }];
             Ok(run.report(name, meshes, true))
@@ -223,15 +223,17 @@ pub fn simulate(
                     contact,
                 ));
             }
+            let summed: Vec<usize> = cols.iter().flat_map(|c| [c.1, c.2]).collect();
+            let summary = RunSummary::new(&summed, &tallies);
             let run = run_to_csv(
-                sim, &names, &tallies, train_row, stop_time, interval, opts, out,
+                sim, &names, summary, train_row, stop_time, interval, opts, out,
             )?;
             let meshes = cols
                 .into_iter()
                 .map(|(name, dte, force, contact)| MeshSummary {
                     name,
-                    dte_rms: run.summary.columns[dte].rms_about_mean(),
-                    peak_force: run.summary.columns[force].max_abs(),
+                    dte_rms: run.summary.column(dte).rms_about_mean(),
+                    peak_force: run.summary.column(force).max_abs(),
                     contact_loss: run.summary.fraction(contact, 0.0),
                 })
                 .collect();
@@ -263,12 +265,13 @@ impl Streamed {
     }
 }
 
-/// The one streaming run of pair and drivetrain: limits first, then the file, then the rows.
+/// The one streaming run of pair and drivetrain: limits first, then the file, then the rows,
+/// with `summary` accumulated on the way.
 #[allow(clippy::too_many_arguments)]
 fn run_to_csv<M: DrivenModel>(
     mut sim: Driver<M>,
     names: &[String],
-    tallies: &[(usize, f64)],
+    mut summary: RunSummary,
     outputs: impl FnMut(&Driver<M>, &mut Vec<f64>),
     stop_time: f64,
     interval: f64,
@@ -281,7 +284,6 @@ fn run_to_csv<M: DrivenModel>(
         .chain(names.iter().map(String::as_str))
         .collect();
     let mut writer = CsvWriter::create(out, &columns)?;
-    let mut summary = RunSummary::new(names.len(), tallies);
     stream(
         &mut sim,
         OutputGrid::new(stop_time, interval),

@@ -231,36 +231,48 @@ impl ColumnStats {
     }
 }
 
-/// Online summary of every column of a run, and how many rows had each of some
-/// `(column, value)` pairs (contact states).
+/// Online summary of some columns of a run (only those a report needs, so the cost per row
+/// stays a few operations), and how many rows had each of some `(column, value)` pairs
+/// (contact states).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RunSummary {
     pub rows: u64,
-    pub columns: Vec<ColumnStats>,
+    columns: Vec<(usize, ColumnStats)>,
     tallies: Vec<(usize, f64, u64)>,
 }
 
 impl RunSummary {
-    /// A summary of `width` columns counting the rows where column `c` equals `v` for each
-    /// `(c, v)` in `tallies`.
-    pub fn new(width: usize, tallies: &[(usize, f64)]) -> RunSummary {
+    /// A summary of the columns `columns`, counting the rows where column `c` equals `v` for
+    /// each `(c, v)` in `tallies`.
+    pub fn new(columns: &[usize], tallies: &[(usize, f64)]) -> RunSummary {
         RunSummary {
             rows: 0,
-            columns: vec![ColumnStats::default(); width],
+            columns: columns
+                .iter()
+                .map(|&c| (c, ColumnStats::default()))
+                .collect(),
             tallies: tallies.iter().map(|&(c, v)| (c, v, 0)).collect(),
         }
     }
 
     pub fn push(&mut self, values: &[f64]) {
         self.rows += 1;
-        for (s, &x) in self.columns.iter_mut().zip(values) {
-            s.push(x);
+        for (c, s) in &mut self.columns {
+            s.push(values[*c]);
         }
         for (c, v, n) in &mut self.tallies {
-            if values.get(*c) == Some(v) {
+            if values[*c] == *v {
                 *n += 1;
             }
         }
+    }
+
+    /// The statistics of column `c` (one given to [`RunSummary::new`]).
+    pub fn column(&self, c: usize) -> ColumnStats {
+        self.columns
+            .iter()
+            .find(|(tc, _)| *tc == c)
+            .map_or_else(ColumnStats::default, |t| t.1)
     }
 
     /// Fraction of rows where column `c` equalled `v` (a pair given to [`RunSummary::new`]).
