@@ -246,3 +246,65 @@ fn touching_trapezoidal_ramps_match_the_table() {
         .fold(0.0, f64::max);
     assert!(k_worst <= 1e-6 * mean, "stiffness differs by {k_worst:e}");
 }
+
+/// The same for a drivetrain mesh (lumped stiffness of `fmu/countershaft_gearset`, mesh 1):
+/// touching ramps against the table of the same function, RK at tight tolerance.
+#[test]
+fn touching_trapezoidal_ramps_in_a_train_match_the_table() {
+    let (mean, eps, f, w) = (4.24e9_f64, 0.3, 0.98, 0.02);
+    let low = mean * (1.0 - f * eps);
+    let high = low + eps * mean;
+    let mid = 0.5 * (low + high);
+    let original =
+        "kind = \"rectangular\"\nmean = 4.24e9\npeak_to_peak_ratio = 0.3\ncontact_ratio = 1.60";
+    let trapezoidal = edit(
+        COUNTERSHAFT,
+        original,
+        "kind = \"trapezoidal\"\nmean = 4.24e9\npeak_to_peak_ratio = 0.3\ncontact_ratio = 1.98\ntransition = 0.02",
+    );
+    let list = |v: &[f64]| {
+        v.iter()
+            .map(|x| format!("{x:?}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let tabled = edit(
+        COUNTERSHAFT,
+        original,
+        &format!(
+            "kind = \"table\"\nphase_points = [{}]\nvalues = [{}]",
+            list(&[0.0, 0.5 * w, 1.0 - f + 0.5 * w, 1.0 - 0.5 * w]),
+            list(&[mid, low, high, high])
+        ),
+    );
+    let opts = SimulateOptions {
+        method: Some("rk".into()),
+        rtol: Some(1e-11),
+        atol: Some(1e-17),
+        stop_time: Some(5e-3),
+        ..Default::default()
+    };
+    let (_d1, out1, r1) = run(&trapezoidal, &opts);
+    r1.expect("touching ramps run");
+    let (_d2, out2, r2) = run(&tabled, &opts);
+    r2.expect("table runs");
+    let (a, b) = (table(&out1), table(&out2));
+    assert_eq!(a.len(), b.len());
+    // mesh1_dte is column 1, mesh1_stiffness column 8.
+    let scale = a.iter().map(|r| r[1].abs()).fold(0.0, f64::max);
+    let worst = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| (x[1] - y[1]).abs())
+        .fold(0.0, f64::max);
+    assert!(
+        worst <= 1e-7 * scale,
+        "DTE differs by {worst:e} (scale {scale:e})"
+    );
+    let k_worst = a
+        .iter()
+        .zip(&b)
+        .map(|(x, y)| (x[8] - y[8]).abs())
+        .fold(0.0, f64::max);
+    assert!(k_worst <= 1e-6 * mean, "stiffness differs by {k_worst:e}");
+}
