@@ -8,3 +8,5 @@ set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 cargo test --release --locked --test stress -- --include-ignored --nocapture --test-threads 1 "$@"
+# The long scene-mutation fuzzer (issue 17: 1e5 mutations, no panic, hang or partial output).
+cargo test --release --locked --test scene_fuzz -- --ignored --nocapture

@@ -22,5 +22,6 @@ pub mod model;
 pub mod output;
 pub mod plot;
 pub mod scene;
+pub mod simulate;
 pub mod simulation;
 pub mod solve;

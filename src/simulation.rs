@@ -5,8 +5,12 @@
 //! what is particular to one pair (its `[x, x']` state and fixed output row).
 
 mod driver;
+pub mod stream;
 
 pub use driver::{DrivenModel, Driver, Propagator};
+pub use stream::{
+    stream, ColumnStats, OutputGrid, Progress, RowSink, RunLimits, RunScales, RunSummary,
+};
 
 use crate::model::{GearPair, Inputs, PairState, OUTPUT_NAMES};
 use crate::scene::Scene;
@@ -29,6 +33,14 @@ impl DrivenModel for GearPair {
     }
     fn restore_run_state(&mut self, s: &PairState) -> Result<(), String> {
         self.restore_pair_state(s)
+    }
+    fn run_scales(&self) -> RunScales {
+        RunScales {
+            mesh_frequency: (1.0 / self.mesh_period()).abs(),
+            start_phase: self.mesh_phase(0.0).abs(),
+            speed: ("operating.pinion_speed", self.inputs().pinion_speed),
+            fastest_rate: self.fastest_rate(),
+        }
     }
 }
 
@@ -104,7 +116,8 @@ pub struct SimState {
     pub controller: Option<ControllerMemory>,
 }
 
-/// A sampled run on an output grid.
+/// A sampled run on an output grid, held in memory (for callers that want arrays, such as the
+/// Python package; `geardyn simulate` streams instead, [`stream`]).
 pub struct Trajectory {
     pub times: Vec<f64>,
     pub rows: Vec<[f64; 7]>,
@@ -113,16 +126,22 @@ pub struct Trajectory {
 }
 
 impl Trajectory {
+    fn column(&self, c: usize) -> ColumnStats {
+        let mut s = ColumnStats::default();
+        for r in &self.rows {
+            s.push(r[c]);
+        }
+        s
+    }
+
     /// RMS of the DTE with its mean removed, m.
     pub fn dte_rms(&self) -> f64 {
-        let n = self.rows.len() as f64;
-        let mean = self.rows.iter().map(|r| r[0]).sum::<f64>() / n;
-        (self.rows.iter().map(|r| (r[0] - mean).powi(2)).sum::<f64>() / n).sqrt()
+        self.column(0).rms_about_mean()
     }
 
     /// Largest |mesh force|, N.
     pub fn peak_mesh_force(&self) -> f64 {
-        self.rows.iter().map(|r| r[2].abs()).fold(0.0, f64::max)
+        self.column(2).max_abs()
     }
 
     /// Fraction of output samples not in drive-side contact.
@@ -132,26 +151,48 @@ impl Trajectory {
     }
 }
 
-/// The output grid `t_k = k·h` up to `stop_time` (the last point is `stop_time` itself when
-/// it is not a multiple of `h`). Each point is computed from its index, not accumulated, so
-/// long runs carry no rounding drift.
+/// The output grid as a vector (see [`OutputGrid`], which produces the same points one at a
+/// time); for callers that step a [`Simulation`] themselves.
 pub fn output_grid(stop_time: f64, interval: f64) -> Vec<f64> {
-    let n = (stop_time / interval + 1e-9).floor() as u64;
-    let mut times: Vec<f64> = (0..=n).map(|k| k as f64 * interval).collect();
-    let last = times.last_mut().expect("grid has t = 0");
-    if (stop_time - *last).abs() <= 1e-9 * interval {
-        *last = stop_time;
-    } else if *last < stop_time {
-        times.push(stop_time);
-    }
-    times
+    OutputGrid::new(stop_time, interval).collect()
 }
 
-/// Runs a scene from t = 0 to `stop_time`, sampling every `interval`.
+/// A [`RowSink`] that hands every row to a closure.
+pub struct FnSink<F>(pub F);
+
+impl<F: FnMut(f64, &[f64]) -> Result<(), String>> RowSink for FnSink<F> {
+    fn row(&mut self, t: f64, values: &[f64]) -> Result<(), String> {
+        (self.0)(t, values)
+    }
+}
+
+/// The outputs of a pair as a row (see [`Simulation::outputs`]).
+pub fn pair_row(sim: &Simulation, row: &mut Vec<f64>) {
+    row.clear();
+    row.extend_from_slice(&sim.outputs());
+}
+
+/// Runs a scene from t = 0 to `stop_time`, sampling every `interval`, into memory. The run is
+/// checked against the default [`RunLimits`] first.
 pub fn run(scene: &Scene, stop_time: f64, interval: f64) -> Result<Trajectory, String> {
     let mut sim = Simulation::new(scene)?;
-    let times = output_grid(stop_time, interval);
-    let rows = sim.sample(&times, Simulation::outputs)?;
+    RunLimits::default().check(&sim.model().run_scales(), stop_time, interval)?;
+    let grid = OutputGrid::new(stop_time, interval);
+    let mut times = Vec::new();
+    let mut rows = Vec::new();
+    let mut sink = FnSink(|t: f64, row: &[f64]| {
+        times.push(t);
+        rows.push(<[f64; 7]>::try_from(row).expect("a pair row has 7 outputs"));
+        Ok(())
+    });
+    stream(
+        &mut sim,
+        grid,
+        pair_row,
+        &mut sink,
+        &mut RunSummary::default(),
+        &mut Progress::new(stop_time, false),
+    )?;
     Ok(Trajectory {
         times,
         rows,

@@ -271,6 +271,19 @@ impl MeshStiffness {
 
     /// The smallest value over a period: exact for piecewise sources, sampled for Fourier
     /// sources (64 points per harmonic, plus the amplitude bound as a shortcut).
+    /// An upper bound of the stiffness over the cycle, N/m (the largest knot of a piecewise
+    /// source, `mean + Σ|harmonic|` of a Fourier one): the stiffest the mesh gets, which sets
+    /// its fastest natural frequency.
+    pub fn maximum(&self) -> f64 {
+        match self {
+            MeshStiffness::Piecewise { pieces, .. } => pieces
+                .iter()
+                .flat_map(|piece| [piece.k_start, piece.k_end()])
+                .fold(0.0, f64::max),
+            MeshStiffness::Fourier { mean, series, .. } => mean + series.amplitude_bound(),
+        }
+    }
+
     pub fn minimum(&self) -> (f64, f64) {
         match self {
             MeshStiffness::Piecewise { pieces, .. } => pieces

@@ -447,6 +447,45 @@ impl GearPair {
         self.f_ext / self.k_mean
     }
 
+    /// The fastest rate of the pair around its operating point, rad/s, and the fields that set
+    /// it: the natural frequency at the stiffest piece, the STE harmonics at the mesh
+    /// frequency, the natural frequency with the cubic springs' tangent stiffness
+    /// `3(k δ̄ + γ)δ²` at the static deflection plus the ripple's and the STE's (Bugaru 2006
+    /// eq. 13: a cubic spring stiffens the mesh with the load), or `2c/m_e`, which bounds the damping rate `(c + |c̃|)/m_e` of
+    /// an overdamped mesh (`|c̃| <= c`), whichever is largest. It sizes the work of a run
+    /// ([`crate::simulation::RunLimits`]).
+    pub fn fastest_rate(&self) -> (f64, &'static str) {
+        let k_max = match self.stiffness.pieces() {
+            Some(pieces) => pieces.iter().map(|p| p.k_start).fold(0.0, f64::max),
+            None => self.k_mean,
+        };
+        let s = &self.smooth;
+        let delta = self.static_deflection().abs()
+            + self.ripple_force.abs() / self.k_mean
+            + self.ste_amplitude_bound();
+        let cubic = 3.0 * (k_max * s.cubic_factor + s.cubic_spring) * delta * delta;
+        [
+            (
+                (k_max / self.m_e).sqrt(),
+                "the mesh stiffness on the equivalent mass: mesh.stiffness, gear inertias and base radii",
+            ),
+            (
+                TAU * self.clock.mesh_frequency() * self.ste.harmonics() as f64,
+                "the highest STE harmonic: mesh.ste at operating.pinion_speed",
+            ),
+            (
+                ((k_max + cubic) / self.m_e).sqrt(),
+                "the cubic springs at the static deflection: mesh.cubic and the operating torques",
+            ),
+            (
+                2.0 * self.damping / self.m_e,
+                "the mesh damping on the equivalent mass: mesh.damping or mesh.damping_ratio",
+            ),
+        ]
+        .into_iter()
+        .fold((0.0, ""), |best, c| if !(c.0 <= best.0) { c } else { best })
+    }
+
     pub fn equivalent_mass(&self) -> f64 {
         self.m_e
     }
@@ -535,12 +574,22 @@ impl HybridSystem for GearPair {
         self.clock.time_of(end - self.stiffness.phase())
     }
 
-    fn on_stop(&mut self, _t: f64, _y: &mut [f64]) {
+    /// Moves to the next piece, and past any piece that ends at `t` too: a piece narrower
+    /// than the time resolution at `t` (the flat zone between trapezoidal ramps that touch,
+    /// `transition = 1 − f`, is zero up to rounding) lasts no time, and the stiffness is
+    /// continuous across it. At most one cycle of pieces is skipped, so a cycle shorter than
+    /// the time resolution still reaches the integrator's progress check.
+    fn on_stop(&mut self, t: f64, _y: &mut [f64]) {
         let count = self.stiffness.pieces().map_or(1, <[_]>::len);
-        self.segment.piece += 1;
-        if self.segment.piece == count {
-            self.segment.piece = 0;
-            self.segment.cycle += 1.0;
+        for _ in 0..count {
+            self.segment.piece += 1;
+            if self.segment.piece == count {
+                self.segment.piece = 0;
+                self.segment.cycle += 1.0;
+            }
+            if self.next_stop() > t {
+                break;
+            }
         }
     }
 

@@ -46,6 +46,96 @@ fn finite_list(field: &str, values: &[f64]) -> Result<()> {
     Ok(())
 }
 
+/// Most teeth on a gear: far beyond any real gear, and small enough that tooth counts, mesh
+/// cycles per revolution and their products stay exact in a double.
+pub(crate) const MAX_TEETH: i64 = 100_000;
+
+/// Most harmonics in a Fourier list (STE, Fourier stiffness): each harmonic adds two states to
+/// the exact propagator's dense matrices, whose memory grows with their square; 256 (as for
+/// the `geometry` stiffness' `harmonics`) is far beyond any measured STE spectrum.
+pub(crate) const MAX_HARMONICS: usize = 256;
+
+/// A tooth count: an integer in `1..=MAX_TEETH`.
+pub(crate) fn teeth(field: &str, value: i64) -> Result<u32> {
+    if value < 1 {
+        err(format!("{field} = {value}: must be an integer >= 1"))
+    } else if value > MAX_TEETH {
+        err(format!(
+            "{field} = {value}: too large, must be at most {MAX_TEETH} teeth"
+        ))
+    } else {
+        Ok(value as u32)
+    }
+}
+
+/// A list of Fourier coefficients: finite, and at most [`MAX_HARMONICS`] of them (checked
+/// before anything is sized by the list).
+pub(crate) fn harmonic_list(field: &str, values: &[f64]) -> Result<()> {
+    if values.len() > MAX_HARMONICS {
+        return err(format!(
+            "{field}: {} harmonics given; at most {MAX_HARMONICS} are allowed",
+            values.len()
+        ));
+    }
+    finite_list(field, values)
+}
+
+/// Checks that a gear's base radius and inertia give a usable compliance `r_b²/I` (1/kg on
+/// the line of action): a positive normal double, so that the equivalent mass and every
+/// mass-matrix entry built from it are neither zero nor infinite. `field` is the gear's TOML
+/// path (`gear[0]`).
+pub(crate) fn gear_compliance(field: &str, base_radius: f64, inertia: f64) -> Result<f64> {
+    let c = base_radius.powi(2) / inertia;
+    if c.is_normal() && c > 0.0 {
+        Ok(c)
+    } else {
+        err(format!(
+            "{field}.base_radius = {base_radius:e} with {field}.inertia = {inertia:e}: r_b²/I = {c:e} 1/kg \
+             is outside the range of a double; the base radius or the inertia is not physical"
+        ))
+    }
+}
+
+/// Largest mesh damping ratio `c/(2·sqrt(k̄ m_e))`: measured mesh damping ratios lie between
+/// 0.01 and 0.2; beyond 100 the mesh is a dashpot whose fast and slow time scales differ by
+/// `4ζ² = 4e4`, which makes any run stiff and tells of a unit error.
+pub(crate) const MAX_DAMPING_RATIO: f64 = 100.0;
+
+/// Checks the mesh damping against [`MAX_DAMPING_RATIO`]; `field` is the field that gave it
+/// (`damping` in N·s/m or `damping_ratio`).
+pub(crate) fn damping_ratio_range(field: &str, c: f64, k_mean: f64, m_e: f64) -> Result<()> {
+    let zeta = c / (2.0 * (k_mean * m_e).sqrt());
+    if zeta <= MAX_DAMPING_RATIO {
+        Ok(())
+    } else {
+        err(format!(
+            "{field}: the mesh damping {c:e} N·s/m is a damping ratio of {zeta:e} on the mean stiffness \
+             {k_mean:e} N/m and the equivalent mass {m_e:e} kg; it must be at most {MAX_DAMPING_RATIO}"
+        ))
+    }
+}
+
+/// Checks the mesh time scales that the model's arithmetic needs finite: the natural
+/// frequency `sqrt(k_max/m_e)` and the damping rate `c/m_e` (`field_k`, `field_c` name the
+/// stiffness and the damping in messages).
+pub(crate) fn mesh_rates(field_k: &str, k_max: f64, field_c: &str, c: f64, m_e: f64) -> Result<()> {
+    let omega2 = k_max / m_e;
+    if !omega2.is_finite() {
+        return err(format!(
+            "{field_k}: the stiffness {k_max:e} N/m on the equivalent mass {m_e:e} kg gives a natural \
+             frequency outside the range of a double"
+        ));
+    }
+    let rate = c / m_e;
+    if !rate.is_finite() {
+        return err(format!(
+            "{field_c}: the damping {c:e} N·s/m on the equivalent mass {m_e:e} kg gives a decay rate \
+             outside the range of a double"
+        ));
+    }
+    Ok(())
+}
+
 fn valid_identifier(name: &str) -> bool {
     let mut chars = name.chars();
     matches!(chars.next(), Some(c) if c.is_ascii_alphabetic() || c == '_')
@@ -71,19 +161,14 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
         if g.name.is_empty() {
             return err(format!("{} = \"\": must not be empty", field("name")));
         }
-        if g.teeth < 1 || g.teeth > 100_000 {
-            return err(format!(
-                "{} = {}: must be an integer >= 1",
-                field("teeth"),
-                g.teeth
-            ));
-        }
-        gears.push(Gear {
+        let gear = Gear {
             name: g.name.clone(),
-            teeth: g.teeth as u32,
+            teeth: teeth(&field("teeth"), g.teeth)?,
             base_radius: positive(&field("base_radius"), g.base_radius)?,
             inertia: positive(&field("inertia"), g.inertia)?,
-        });
+        };
+        gear_compliance(&format!("gear[{i}]"), gear.base_radius, gear.inertia)?;
+        gears.push(gear);
     }
     if gears[0].name == gears[1].name {
         return err(format!(
@@ -157,6 +242,14 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
             return err("mesh.damping and mesh.damping_ratio: give one of them, not both".into())
         }
     };
+    let damping_field = if m.damping.is_some() {
+        "mesh.damping"
+    } else {
+        "mesh.damping_ratio"
+    };
+    let k_max = stiffness.maximum();
+    mesh_rates("mesh.stiffness", k_max, damping_field, damping, m_e)?;
+    damping_ratio_range(damping_field, damping, k_mean, m_e)?;
 
     let damping_always = match m.damping_acts.as_deref() {
         None | Some("in_contact") => false,
@@ -204,8 +297,8 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
 
     let ste = match &m.ste {
         Some(series) => {
-            finite_list("mesh.ste.cos", &series.cos)?;
-            finite_list("mesh.ste.sin", &series.sin)?;
+            harmonic_list("mesh.ste.cos", &series.cos)?;
+            harmonic_list("mesh.ste.sin", &series.sin)?;
             PhaseSeries::new(&series.cos, &series.sin)
         }
         None => PhaseSeries::default(),
@@ -218,6 +311,23 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
         Some(t) => finite("operating.load_torque", t)?,
         None => input_torque * gear.base_radius / pinion.base_radius,
     };
+
+    // A static deflection of a whole tooth means the load or the stiffness is not physical
+    // (and a cubic spring would stiffen the mesh without bound).
+    let ripple = smooth.torque_ripple.abs();
+    let force = ((input_torque.abs() + ripple) / pinion.base_radius)
+        .max((load_torque / gear.base_radius).abs());
+    let deflection = force / k_mean;
+    let base_pitch = std::f64::consts::TAU * pinion.base_radius / f64::from(pinion.teeth);
+    if !(deflection <= base_pitch) {
+        return err(format!(
+            "operating.input_torque = {input_torque:e} N·m (torque_ripple {ripple:e} N·m), load torque \
+             {load_torque:e} N·m: the static mesh deflection {deflection:e} m (mesh force {force:e} N on the mean stiffness \
+             {k_mean:e} N/m, base radii {:e} and {:e} m) exceeds the base pitch {base_pitch:e} m, a \
+             whole tooth",
+            pinion.base_radius, gear.base_radius
+        ));
+    }
 
     let initial_dte = match &spec.initial.dte {
         InitialDteSpec::Value(v) => InitialDte::Value(finite("initial.dte", *v)?),
@@ -367,8 +477,8 @@ pub(crate) fn stiffness(spec: &StiffnessSpec) -> Result<MeshStiffness> {
             phase: p,
         } => {
             positive("mesh.stiffness.mean", *mean)?;
-            finite_list("mesh.stiffness.cos", cos)?;
-            finite_list("mesh.stiffness.sin", sin)?;
+            harmonic_list("mesh.stiffness.cos", cos)?;
+            harmonic_list("mesh.stiffness.sin", sin)?;
             MeshStiffness::fourier(*mean, cos, sin, phase(*p)?)
         }
         StiffnessSpec::Table {

@@ -21,7 +21,15 @@ pub trait DrivenModel: PiecewiseLti {
     fn run_state(&self) -> Self::RunState;
     /// Restores a run state; on failure the model is unchanged.
     fn restore_run_state(&mut self, s: &Self::RunState) -> Result<(), String>;
+    /// The time scales that decide the work of a run, checked against
+    /// [`crate::simulation::RunLimits`] before a streamed run starts.
+    fn run_scales(&self) -> crate::simulation::RunScales;
 }
+
+/// Largest augmented state the exact propagator accepts: its mode cache holds dense `n × n`
+/// matrices (transitions, guard series), `8n²` bytes each, so the size is checked before
+/// anything is allocated; 2048 is 34 MB per matrix.
+pub const MAX_EXACT_DIM: usize = 2048;
 
 /// The propagator actually used.
 pub enum Propagator {
@@ -56,6 +64,15 @@ impl<M: DrivenModel> Driver<M> {
             MethodChoice::Auto => model.is_piecewise_lti(),
             MethodChoice::Rk => false,
         };
+        let dim = model.lti_dim();
+        if exact && dim > MAX_EXACT_DIM {
+            return Err(format!(
+                "the exact propagator would hold {dim}×{dim} matrices ({:.0} MB each) for this \
+                 scene's {dim} augmented states (the state plus two per STE harmonic); the limit is \
+                 {MAX_EXACT_DIM}: use solver.method = \"rk\"",
+                (dim * dim * 8) as f64 / 1e6
+            ));
+        }
         let propagator = if exact {
             let mut p = ExactPropagator::new(&model);
             p.set_state(0.0, y0);
@@ -219,19 +236,19 @@ impl<M: DrivenModel> Driver<M> {
         Ok(())
     }
 
-    /// Advances through `times` (an [`crate::simulation::output_grid`]) and records
-    /// `row(self)` at each point.
-    pub fn sample<R>(
+    /// Advances through the points of `times` (an [`crate::simulation::OutputGrid`]) and
+    /// hands each point to `row(self, t)` as soon as it is reached, so that nothing is held
+    /// between points (the rows are streamed by [`crate::simulation::stream`]).
+    pub fn sample(
         &mut self,
-        times: &[f64],
-        mut row: impl FnMut(&Self) -> R,
-    ) -> Result<Vec<R>, String> {
-        let mut rows = Vec::with_capacity(times.len());
-        for &t in times {
+        times: impl IntoIterator<Item = f64>,
+        mut row: impl FnMut(&Self, f64) -> Result<(), String>,
+    ) -> Result<(), String> {
+        for t in times {
             self.advance_to(t)
                 .map_err(|e| format!("integration failed: {e}"))?;
-            rows.push(row(self));
+            row(self, t)?;
         }
-        Ok(rows)
+        Ok(())
     }
 }

@@ -26,28 +26,7 @@ use geardyn::model::ContactState;
 use geardyn::scene::Scene;
 use geardyn::solve::rk::Method;
 
-/// SplitMix64 (Steele, Lea & Flood 2014): a tiny, well-mixed 64-bit generator.
-struct SplitMix64(u64);
-
-impl SplitMix64 {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in `[lo, hi)`.
-    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-
-    /// Log-uniform in `[lo, hi)`.
-    fn log_uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        self.uniform(lo.ln(), hi.ln()).exp()
-    }
-}
+use crate::common::rng::SplitMix64;
 
 const K_MEAN: f64 = 2.0e8;
 /// δ_s = F/k̄ with F = 1000 N (50 N·m on r_b1 = 0.05 m).

@@ -11,6 +11,11 @@ use super::spec::{HelicalGearSpec, HelicalPairSpec, HelixAngleReference};
 /// contact-zone formulas lose meaning.
 pub const MIN_TEETH: i64 = 5;
 
+/// Largest total contact ratio `ε_α + ε_β` accepted: every tooth pair in contact is tracked
+/// (its contact line, integrals and breakpoints), so the work and memory of the stiffness grow
+/// with it; real helical pairs stay below about 5.
+pub const MAX_CONTACT_RATIO: f64 = 64.0;
+
 /// Relative tolerance on the centre distance against the sum of the pitch radii.
 pub const CENTRE_DISTANCE_TOLERANCE: f64 = 1e-4;
 
@@ -115,7 +120,7 @@ impl HelicalGeometry {
             let field = |name: &str| f(&format!("{which}.{name}"));
             if g.teeth < MIN_TEETH || g.teeth > 100_000 {
                 return Err(format!(
-                    "{} = {}: must be an integer >= {MIN_TEETH}",
+                    "{} = {}: must be an integer in {MIN_TEETH}..=100000",
                     field("teeth"),
                     g.teeth
                 ));
@@ -231,6 +236,14 @@ impl HelicalGeometry {
             return Err(format!(
                 "{}: the total contact ratio ε_α + ε_β = {total} is below 1 (the gears lose contact \
                  between tooth pairs)",
+                f("face_width")
+            ));
+        }
+        if !(total <= MAX_CONTACT_RATIO) {
+            return Err(format!(
+                "{} = {face_width:e}: the total contact ratio ε_α + ε_β = {total:e} exceeds \
+                 {MAX_CONTACT_RATIO} (every tooth pair in contact is tracked; real helical pairs \
+                 have a few)",
                 f("face_width")
             ));
         }

@@ -5,7 +5,10 @@
 
 use super::system::{GearTrain, TrainInputs, TrainRunState};
 use crate::scene::train::TrainScene;
-use crate::simulation::{output_grid, DrivenModel, Driver};
+use crate::simulation::{
+    stream, ColumnStats, DrivenModel, Driver, FnSink, OutputGrid, Progress, RunLimits, RunScales,
+    RunSummary,
+};
 use crate::solve::rk::ControllerMemory;
 use crate::solve::SolverStats;
 
@@ -25,6 +28,9 @@ impl DrivenModel for GearTrain {
     }
     fn restore_run_state(&mut self, s: &TrainRunState) -> Result<(), String> {
         GearTrain::restore_run_state(self, s)
+    }
+    fn run_scales(&self) -> RunScales {
+        GearTrain::run_scales(self)
     }
 }
 
@@ -126,31 +132,43 @@ impl TrainTrajectory {
 
     /// RMS with the mean removed of a column.
     pub fn rms(&self, column: usize) -> f64 {
-        let n = self.rows.len() as f64;
-        let mean = self.rows.iter().map(|r| r[column]).sum::<f64>() / n;
-        (self
-            .rows
-            .iter()
-            .map(|r| (r[column] - mean).powi(2))
-            .sum::<f64>()
-            / n)
-            .sqrt()
+        let mut s = ColumnStats::default();
+        for r in &self.rows {
+            s.push(r[column]);
+        }
+        s.rms_about_mean()
     }
 }
 
-/// Runs a drivetrain scene from 0 to `stop_time`, sampling every `interval`.
+/// The outputs of a train as a row (see [`TrainSimulation::outputs`]).
+pub fn train_row(sim: &TrainSimulation, row: &mut Vec<f64>) {
+    sim.outputs(row);
+}
+
+/// Runs a drivetrain scene from 0 to `stop_time`, sampling every `interval`, into memory. The
+/// run is checked against the default [`RunLimits`] first.
 pub fn run_train(
     scene: &TrainScene,
     stop_time: f64,
     interval: f64,
 ) -> Result<TrainTrajectory, String> {
     let mut sim = TrainSimulation::new(scene)?;
-    let times = output_grid(stop_time, interval);
-    let mut out = Vec::new();
-    let rows = sim.sample(&times, |sim| {
-        sim.outputs(&mut out);
-        out.clone()
-    })?;
+    RunLimits::default().check(&sim.model().run_scales(), stop_time, interval)?;
+    let mut times = Vec::new();
+    let mut rows = Vec::new();
+    let mut sink = FnSink(|t: f64, row: &[f64]| {
+        times.push(t);
+        rows.push(row.to_vec());
+        Ok(())
+    });
+    stream(
+        &mut sim,
+        OutputGrid::new(stop_time, interval),
+        train_row,
+        &mut sink,
+        &mut RunSummary::default(),
+        &mut Progress::new(stop_time, false),
+    )?;
     Ok(TrainTrajectory {
         names: sim.output_names().to_vec(),
         times,

@@ -861,6 +861,51 @@ impl GearTrain {
         }
     }
 
+    /// The time scales that decide the work of a run (checked against
+    /// [`crate::simulation::RunLimits`] before it starts): the fastest mesh frequency, the
+    /// largest |phase| at t = 0, and the fastest rate of any mode: the bound of
+    /// [`PiecewiseLti::max_frequency`] or the damping rate `‖M̂⁻¹C‖_∞`, whichever is larger
+    /// (an overdamped mode decays at about that rate, and the RK path must resolve it).
+    pub fn run_scales(&self) -> crate::simulation::RunScales {
+        let m = self.m;
+        let damping_rate = (0..m)
+            .map(|i| {
+                (0..m)
+                    .map(|j| {
+                        (0..m)
+                            .map(|l| self.minv[i * m + l] * self.c[l * m + j])
+                            .sum::<f64>()
+                            .abs()
+                    })
+                    .sum::<f64>()
+            })
+            .fold(0.0, f64::max);
+        crate::simulation::RunScales {
+            mesh_frequency: self
+                .meshes
+                .iter()
+                .map(|mesh| mesh.clock.mesh_frequency().abs())
+                .fold(0.0, f64::max),
+            start_phase: self
+                .meshes
+                .iter()
+                .map(|mesh| (mesh.clock.phase_at(0.0) + mesh.offset).abs())
+                .fold(0.0, f64::max),
+            speed: ("operating.input_speed", self.inputs.input_speed),
+            fastest_rate: if !(damping_rate <= self.max_frequency()) {
+                (
+                    damping_rate,
+                    "the damping on the masses: mesh damping, bearing damping, modal damping ratio",
+                )
+            } else {
+                (
+                    self.max_frequency(),
+                    "the mesh and bearing stiffnesses on the masses (or the STE harmonics)",
+                )
+            },
+        }
+    }
+
     /// Mesh period of mesh n at the current speed, s.
     pub fn mesh_period(&self, n: usize) -> f64 {
         1.0 / self.meshes[n].clock.mesh_frequency()
@@ -1137,12 +1182,21 @@ impl HybridSystem for GearTrain {
             .fold(f64::INFINITY, f64::min)
     }
 
+    /// Switches every mesh whose interval ends at `t`, each past any interval that ends at `t`
+    /// too: an interval narrower than the time resolution (trapezoidal ramps that touch) lasts
+    /// no time. At most one cycle of intervals per mesh, as for the single pair.
     fn on_stop(&mut self, t: f64, y: &mut [f64]) {
         let due: Vec<usize> = (0..self.meshes.len())
             .filter(|&n| self.meshes[n].next_stop() <= t)
             .collect();
         for n in due {
-            self.on_mesh_stop(n, t, y);
+            let count = self.meshes[n].table().map_or(1, |tb| tb.intervals.len());
+            for _ in 0..count {
+                self.on_mesh_stop(n, t, y);
+                if self.meshes[n].next_stop() > t {
+                    break;
+                }
+            }
             self.book_loss(n, t);
         }
         self.refresh_guards();

@@ -77,13 +77,7 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
                 g.name
             ));
         }
-        if g.teeth < 1 || g.teeth > 100_000 {
-            return err(format!(
-                "{} = {}: must be an integer >= 1",
-                f("teeth"),
-                g.teeth
-            ));
-        }
+        let teeth = crate::scene::validate::teeth(&f("teeth"), g.teeth)?;
         let mass = g.mass.map(|m| positive(&f("mass"), m)).transpose()?;
         let bearing = match (g.bearing_stiffness, compliant) {
             (Some(k), true) => {
@@ -122,7 +116,7 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
         };
         gears.push(TrainGear {
             name: g.name.clone(),
-            teeth: g.teeth as u32,
+            teeth,
             base_radius: positive(&f("base_radius"), g.base_radius)?,
             inertia: positive(&f("inertia"), g.inertia)?,
             mass,
@@ -130,7 +124,14 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
             ground_stiffness: non_negative(&f("ground_stiffness"), g.ground_stiffness)?,
             ground_damping: non_negative(&f("ground_damping"), g.ground_damping)?,
         });
+        let gear = &gears[gears.len() - 1];
+        crate::scene::validate::gear_compliance(
+            &format!("gear[{i}]"),
+            gear.base_radius,
+            gear.inertia,
+        )?;
     }
+    mass_spread(&gears)?;
     // A train without any ground stiffness turns freely; its rigid-body rotation is removed
     // from the state (docs/train.md), which is exact only if nothing couples it to the
     // elastic motion. A ground damper does.
@@ -409,12 +410,8 @@ fn mesh(
             }
             let ste = match &m.ste {
                 Some(s) => {
-                    for (k, v) in s.cos.iter().enumerate() {
-                        finite(&format!("{}[{k}]", f("ste.cos")), *v)?;
-                    }
-                    for (k, v) in s.sin.iter().enumerate() {
-                        finite(&format!("{}[{k}]", f("ste.sin")), *v)?;
-                    }
+                    crate::scene::validate::harmonic_list(&f("ste.cos"), &s.cos)?;
+                    crate::scene::validate::harmonic_list(&f("ste.sin"), &s.sin)?;
                     PhaseSeries::new(&s.cos, &s.sin)
                 }
                 None => PhaseSeries::default(),
@@ -489,6 +486,17 @@ fn mesh(
             ))
         }
     };
+    let k_max = match &force {
+        MeshForceModel::Lumped { stiffness, .. } => stiffness.maximum(),
+        MeshForceModel::Pairs { pair, .. } => pair.mesh_mean(),
+    };
+    let damping_field = if m.damping.is_some() {
+        f("damping")
+    } else {
+        f("damping_ratio")
+    };
+    crate::scene::validate::mesh_rates(&f("stiffness"), k_max, &damping_field, damping, m_e)?;
+    crate::scene::validate::damping_ratio_range(&damping_field, damping, k_mean, m_e)?;
 
     let initial_phase = match (i, m.initial_phase) {
         (0, p) => finite(&f("initial_phase"), p.unwrap_or(0.0))?,
@@ -957,4 +965,43 @@ fn kinematics(
             .map(|&s| if s == 0.0 { 1.0 } else { s })
             .collect(),
     ))
+}
+
+/// Largest ratio between the masses of a train on the line of action (`J/r_b²` of every gear,
+/// and `m` of every translating gear): far beyond any real train (a watch gear against a ship
+/// gear is about 1e9), and small enough that the rigid-body rotation can still be told apart
+/// from the elastic modes in double precision (the reduction works with `M`-orthonormal
+/// modes, whose separation degrades with the square root of this ratio).
+const MAX_MASS_SPREAD: f64 = 1e10;
+
+/// Checks that the train's masses lie within [`MAX_MASS_SPREAD`] of each other.
+fn mass_spread(gears: &[TrainGear]) -> Result<()> {
+    let masses = gears.iter().enumerate().flat_map(|(i, g)| {
+        let rotation = (
+            format!("gear[{i}].inertia = {:e}", g.inertia),
+            g.inertia / g.base_radius.powi(2),
+        );
+        let translation = g.mass.map(|m| (format!("gear[{i}].mass = {m:e}"), m));
+        std::iter::once(rotation).chain(translation)
+    });
+    let mut low: Option<(String, f64)> = None;
+    let mut high: Option<(String, f64)> = None;
+    for (field, m) in masses {
+        if low.as_ref().is_none_or(|l| m < l.1) {
+            low = Some((field.clone(), m));
+        }
+        if high.as_ref().is_none_or(|h| m > h.1) {
+            high = Some((field, m));
+        }
+    }
+    if let (Some((lf, l)), Some((hf, h))) = (low, high) {
+        if !(h <= MAX_MASS_SPREAD * l) {
+            return err(format!(
+                "{hf} against {lf}: the train's masses on the line of action (J/r_b² and m) span \
+                 {l:e} to {h:e} kg, a ratio above {MAX_MASS_SPREAD:e}; the rigid-body rotation \
+                 cannot be separated from the elastic modes in double precision"
+            ));
+        }
+    }
+    Ok(())
 }

@@ -1,0 +1,305 @@
+//! `geardyn simulate` as a library function: load a scene (single pair or drivetrain), apply
+//! the command-line solver options, check the run against its [`RunLimits`], and stream the
+//! rows to a CSV file while the summaries accumulate. The CLI is a thin wrapper over this, so
+//! the scene fuzzer (`tests/scene_fuzz.rs`) exercises exactly the path a user runs.
+
+use std::path::Path;
+
+use crate::model::train::{train_row, TrainSimulation};
+use crate::model::OUTPUT_NAMES;
+use crate::output::CsvWriter;
+use crate::scene::train::{is_train_file, TrainScene, TRAIN_EXAMPLES};
+use crate::scene::{MethodChoice, Scene, SolverSettings};
+use crate::simulation::{pair_row, stream, Progress, RunLimits, RunSummary, Simulation};
+use crate::simulation::{DrivenModel, Driver, OutputGrid};
+use crate::solve::SolverStats;
+
+/// A scene of either kind, as `geardyn simulate` accepts it.
+#[derive(Debug, Clone)]
+pub enum AnyScene {
+    Pair(Box<Scene>),
+    Train(Box<TrainScene>),
+}
+
+impl AnyScene {
+    /// A scene file, or a folder holding `scene.toml`; the kind is read from the file.
+    pub fn from_path(path: &Path) -> Result<AnyScene, String> {
+        if is_train_file(path).map_err(|e| e.to_string())? {
+            TrainScene::from_path(path).map(|s| AnyScene::Train(Box::new(s)))
+        } else {
+            Scene::from_path(path).map(|s| AnyScene::Pair(Box::new(s)))
+        }
+        .map_err(|e| e.to_string())
+    }
+
+    /// A built-in example by name (single-pair or drivetrain).
+    pub fn example(name: &str) -> Result<AnyScene, String> {
+        if TRAIN_EXAMPLES.iter().any(|(n, _)| *n == name) {
+            TrainScene::example(name).map(|s| AnyScene::Train(Box::new(s)))
+        } else {
+            Scene::example(name).map(|s| AnyScene::Pair(Box::new(s)))
+        }
+        .map_err(|e| e.to_string())
+    }
+
+    pub fn name(&self) -> &str {
+        match self {
+            AnyScene::Pair(s) => &s.name,
+            AnyScene::Train(s) => &s.name,
+        }
+    }
+
+    fn solver_mut(&mut self) -> &mut SolverSettings {
+        match self {
+            AnyScene::Pair(s) => &mut s.solver,
+            AnyScene::Train(s) => &mut s.solver,
+        }
+    }
+}
+
+/// The command-line options of `geardyn simulate` (each `None` keeps the scene's setting).
+#[derive(Debug, Clone, Default)]
+pub struct SimulateOptions {
+    pub stop_time: Option<f64>,
+    pub output_interval: Option<f64>,
+    pub method: Option<String>,
+    pub rk_method: Option<String>,
+    pub rtol: Option<f64>,
+    pub atol: Option<f64>,
+    pub limits: RunLimits,
+    /// Show a progress line on stderr when it is a terminal.
+    pub progress: bool,
+}
+
+/// A finite, positive command-line number.
+pub fn positive_option(name: &str, v: f64) -> Result<f64, String> {
+    if v.is_finite() && v > 0.0 {
+        Ok(v)
+    } else {
+        Err(format!("--{name} {v}: must be a finite number > 0"))
+    }
+}
+
+impl SimulateOptions {
+    /// Applies the options to a scene's settings; returns the stop time and the output
+    /// interval.
+    fn apply(&self, s: &mut SolverSettings) -> Result<(f64, f64), String> {
+        if let Some(m) = &self.method {
+            s.method = m
+                .parse::<MethodChoice>()
+                .map_err(|e| format!("--method: {e}"))?;
+        }
+        if let Some(m) = &self.rk_method {
+            s.rk_method = m.parse().map_err(|e| format!("--rk-method: {e}"))?;
+        }
+        if let Some(v) = self.rtol {
+            s.rtol = positive_option("rtol", v)?;
+        }
+        if let Some(v) = self.atol {
+            s.atol = positive_option("atol", v)?;
+        }
+        let stop = positive_option("stop-time", self.stop_time.unwrap_or(s.stop_time))?;
+        let interval = positive_option(
+            "output-interval",
+            self.output_interval.unwrap_or(s.output_interval),
+        )?;
+        Ok((stop, interval))
+    }
+}
+
+/// The summary of one mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct MeshSummary {
+    pub name: String,
+    /// RMS of the DTE with its mean removed, m.
+    pub dte_rms: f64,
+    /// Largest |mesh force|, N.
+    pub peak_force: f64,
+    /// Fraction of output rows in contact loss (single pair: not in drive-side contact;
+    /// drivetrain: no tooth pair in contact).
+    pub contact_loss: f64,
+}
+
+/// What a completed `simulate` run reports.
+#[derive(Debug, Clone)]
+pub struct SimulateReport {
+    pub scene: String,
+    pub rows: u64,
+    pub method: String,
+    pub stats: SolverStats,
+    pub meshes: Vec<MeshSummary>,
+    /// Whether the scene is a single pair (its summary is printed in the pair's layout).
+    pub pair: bool,
+    /// The most bytes of output the writer held at once (bounded by its buffer).
+    pub peak_buffered_bytes: usize,
+}
+
+impl SimulateReport {
+    /// The summary as `geardyn simulate` prints it.
+    pub fn print(&self, out: &Path) {
+        println!(
+            "scene {} → {} ({} rows)",
+            self.scene,
+            out.display(),
+            self.rows
+        );
+        println!("  method               {}", self.method);
+        if self.pair {
+            let m = &self.meshes[0];
+            println!("  DTE RMS (mean removed) {:.6e} m", m.dte_rms);
+            println!("  peak mesh force      {:.6e} N", m.peak_force);
+            println!(
+                "  contact-loss fraction {:.4} (of output samples)",
+                m.contact_loss
+            );
+        } else {
+            for m in &self.meshes {
+                println!(
+                    "  {:<10} DTE RMS {:.6e} m, peak force {:.6e} N, total contact loss {:.4} of samples",
+                    m.name, m.dte_rms, m.peak_force, m.contact_loss
+                );
+            }
+        }
+        let st = &self.stats;
+        println!(
+            "  solver: {} steps, {} rejected, {} rhs evals, {} events, {} stops, {} guard evals",
+            st.steps, st.rejected, st.rhs_evals, st.events, st.stops, st.guard_evals
+        );
+    }
+}
+
+/// Runs `scene` with `opts` and writes its outputs to the CSV file `out`, streaming: each row
+/// goes to `.<out>.partial` as it is computed, and the file is renamed into place when the
+/// run succeeds; on any error nothing is left at either path.
+pub fn simulate(
+    mut scene: AnyScene,
+    opts: &SimulateOptions,
+    out: &Path,
+) -> Result<SimulateReport, String> {
+    let (stop_time, interval) = opts.apply(scene.solver_mut())?;
+    let name = scene.name().to_owned();
+    match scene {
+        AnyScene::Pair(scene) => {
+            let sim = Simulation::new(&scene)?;
+            // Pair columns: dte 0, force 2, contact_state 3 (1 = drive-side contact).
+            let names: Vec<String> = OUTPUT_NAMES.iter().map(|s| s.to_string()).collect();
+            let run = run_to_csv(
+                sim,
+                &names,
+                RunSummary::new(&[0, 2], &[(3, 1.0)]),
+                pair_row,
+                stop_time,
+                interval,
+                opts,
+                out,
+            )?;
+            let meshes = vec![MeshSummary {
+                name: "mesh".into(),
+                dte_rms: run.summary.column(0).rms_about_mean(),
+                peak_force: run.summary.column(2).max_abs(),
+                contact_loss: 1.0 - run.summary.fraction(3, 1.0),
+            }];
+            Ok(run.report(name, meshes, true))
+        }
+        AnyScene::Train(scene) => {
+            let sim = TrainSimulation::new(&scene)?;
+            let names = sim.output_names().to_vec();
+            let column = |mesh: &str, q: &str| {
+                let c = format!("{mesh}_{q}");
+                names
+                    .iter()
+                    .position(|n| *n == c)
+                    .ok_or_else(|| format!("the train has no output '{c}'"))
+            };
+            let mut tallies = Vec::new();
+            let mut cols = Vec::new();
+            for m in &scene.meshes {
+                let contact = column(&m.name, "pairs_in_contact")?;
+                tallies.push((contact, 0.0));
+                cols.push((
+                    m.name.clone(),
+                    column(&m.name, "dte")?,
+                    column(&m.name, "force")?,
+                    contact,
+                ));
+            }
+            let summed: Vec<usize> = cols.iter().flat_map(|c| [c.1, c.2]).collect();
+            let summary = RunSummary::new(&summed, &tallies);
+            let run = run_to_csv(
+                sim, &names, summary, train_row, stop_time, interval, opts, out,
+            )?;
+            let meshes = cols
+                .into_iter()
+                .map(|(name, dte, force, contact)| MeshSummary {
+                    name,
+                    dte_rms: run.summary.column(dte).rms_about_mean(),
+                    peak_force: run.summary.column(force).max_abs(),
+                    contact_loss: run.summary.fraction(contact, 0.0),
+                })
+                .collect();
+            Ok(run.report(name, meshes, false))
+        }
+    }
+}
+
+/// A finished streamed run.
+struct Streamed {
+    rows: u64,
+    method: String,
+    stats: SolverStats,
+    summary: RunSummary,
+    peak_buffered_bytes: usize,
+}
+
+impl Streamed {
+    fn report(self, scene: String, meshes: Vec<MeshSummary>, pair: bool) -> SimulateReport {
+        SimulateReport {
+            scene,
+            rows: self.rows,
+            method: self.method,
+            stats: self.stats,
+            meshes,
+            pair,
+            peak_buffered_bytes: self.peak_buffered_bytes,
+        }
+    }
+}
+
+/// The one streaming run of pair and drivetrain: limits first, then the file, then the rows,
+/// with `summary` accumulated on the way.
+#[allow(clippy::too_many_arguments)]
+fn run_to_csv<M: DrivenModel>(
+    mut sim: Driver<M>,
+    names: &[String],
+    mut summary: RunSummary,
+    outputs: impl FnMut(&Driver<M>, &mut Vec<f64>),
+    stop_time: f64,
+    interval: f64,
+    opts: &SimulateOptions,
+    out: &Path,
+) -> Result<Streamed, String> {
+    opts.limits
+        .check(&sim.model().run_scales(), stop_time, interval)?;
+    let columns: Vec<&str> = std::iter::once("time")
+        .chain(names.iter().map(String::as_str))
+        .collect();
+    let mut writer = CsvWriter::create(out, &columns)?;
+    stream(
+        &mut sim,
+        OutputGrid::new(stop_time, interval),
+        outputs,
+        &mut writer,
+        &mut summary,
+        &mut Progress::new(stop_time, opts.progress),
+    )?;
+    let rows = writer.rows();
+    let peak_buffered_bytes = writer.peak_buffered_bytes();
+    writer.finish()?;
+    Ok(Streamed {
+        rows,
+        method: sim.method_name(),
+        stats: sim.stats(),
+        summary,
+        peak_buffered_bytes,
+    })
+}
