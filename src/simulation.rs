@@ -30,6 +30,9 @@ impl DrivenModel for GearPair {
     fn restore_run_state(&mut self, s: &PairState) -> Result<(), String> {
         self.restore_pair_state(s)
     }
+    fn check_advance(&self, t: f64, t_end: f64) -> Result<(), String> {
+        GearPair::check_advance(self, t, t_end)
+    }
 }
 
 impl Driver<GearPair> {
@@ -37,6 +40,7 @@ impl Driver<GearPair> {
     /// LTI). Starts at `t = 0` from the scene's initial state.
     pub fn new(scene: &Scene) -> Result<Simulation, String> {
         let mut pair = GearPair::new(scene);
+        pair.check_scales()?;
         let y0 = pair.initial_state(scene);
         Driver::with_model(
             pair,

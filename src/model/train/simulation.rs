@@ -26,6 +26,9 @@ impl DrivenModel for GearTrain {
     fn restore_run_state(&mut self, s: &TrainRunState) -> Result<(), String> {
         GearTrain::restore_run_state(self, s)
     }
+    fn check_advance(&self, t: f64, t_end: f64) -> Result<(), String> {
+        GearTrain::check_advance(self, t, t_end)
+    }
 }
 
 impl Driver<GearTrain> {
