@@ -8,7 +8,7 @@ mod fmu_harness;
 
 use std::time::Duration;
 
-use fmu_harness::{within, Fmu, DISCARD, ERR, OK};
+use fmu_harness::{within, Fmu, SplitMix, DISCARD, ERR, OK};
 use geardyn::fmi::blob;
 use geardyn::fmi::logger::Status;
 use geardyn::fmu_model::*;
@@ -310,19 +310,6 @@ fn restored_states_are_validated_like_set_values() {
             assert_eq!(f.load_bytes(&envelope(&layer, &payload)), OK);
         }
     });
-}
-
-/// SplitMix64 (Steele, Lea & Flood 2014): a seeded, dependency-free generator.
-struct SplitMix(u64);
-
-impl SplitMix {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
 }
 
 /// The mutation run: bits flipped in the numbers of a state's model part (parameters,

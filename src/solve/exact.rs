@@ -210,6 +210,16 @@ const MAX_STALLED_STOPS: u64 = 1024;
 /// [`crate::model::MAX_MESH_PERIODS_PER_ADVANCE`]) stay well within it.
 pub const MAX_GUARD_SAMPLES_PER_ADVANCE: f64 = 16_777_216.0;
 
+/// The work one [`ExactPropagator::advance_to`] may do, in units of `n_z³` per segment
+/// (2^30; `n_z` = [`PiecewiseLti::lti_dim`]): a segment's cost grows with the cube of the
+/// lifted dimension (a transition `e^{Aτ}` for a new duration, the mat-vecs and guard rows of
+/// its search), so the bound allows 8.6e6 segments of the single pair (`n_z = 5`, about
+/// 2.4e6 mesh periods; the driver's limit of 2^20 periods per advance comes first) and 1.6e5
+/// of the `idler_gearset` drivetrain (`n_z = 19`, a few seconds of work; 2^20 of its mesh
+/// periods would take minutes). Beyond it the advance stops with
+/// [`SolveError::TooManySteps`] at the last segment end (issue 17: no step may grind).
+pub const MAX_WORK_PER_ADVANCE: f64 = 1_073_741_824.0;
+
 impl ExactPropagator {
     pub fn new<S: PiecewiseLti>(sys: &S) -> Self {
         let n = sys.lti_dim();
@@ -309,6 +319,8 @@ impl ExactPropagator {
             self.column.resize(nz, 0.0);
         }
         let mut samples_left = MAX_GUARD_SAMPLES_PER_ADVANCE;
+        let max_segments = (MAX_WORK_PER_ADVANCE / (nz as f64).powi(3)) as u64;
+        let mut segments = 0u64;
         let mut stalled_stops = 0u64;
         while self.t < t_end {
             let stop = sys.next_stop();
@@ -329,6 +341,13 @@ impl ExactPropagator {
                 return Err(SolveError::StepSizeTooSmall { t: self.t, h: tau });
             }
             stalled_stops = 0;
+            segments += 1;
+            if segments > max_segments {
+                return Err(SolveError::TooManySteps {
+                    t: self.t,
+                    max_steps: max_segments,
+                });
+            }
             let carries = self.sensitivity.is_none() && sys.forcing_carries_over();
             match self
                 .carried

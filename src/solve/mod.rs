@@ -185,7 +185,8 @@ impl fmt::Display for SolveError {
             SolveError::TooManySteps { t, max_steps } => {
                 write!(
                     f,
-                    "more than {max_steps} steps needed, stopped at t = {t:e} s"
+                    "more than {max_steps} steps needed, stopped at t = {t:e} s (the work \
+                     bound of one advance: shorten the step)"
                 )
             }
             SolveError::NonFinite { t } => write!(f, "state became non-finite at t = {t:e} s"),

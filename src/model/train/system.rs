@@ -242,7 +242,7 @@ impl GearTrain {
     /// Assembles the model at `t = 0` with the scene's inputs.
     pub fn new(scene: &TrainScene) -> Result<GearTrain, String> {
         let asm = Assembly::new(scene);
-        let red = Reduction::new(&asm);
+        let red = Reduction::new(&asm)?;
         let q = red.q.clone();
         let m = red.elastic_dim();
         if m == 0 {
