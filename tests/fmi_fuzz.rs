@@ -30,10 +30,10 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use fmu_harness::{guid, scene_dir, SplitMix};
+use fmu_harness::{guid, quiet_logger, scene_dir, SplitMix};
 use geardyn::fmi::model::{Causality, VarKind};
 use geardyn::host::library::{CallbackFunctions, FmuLibrary, Functions};
-use geardyn::host::logger::{geardyn_host_logger, Logger};
+use geardyn::host::logger::Logger;
 
 /// The longest any one call may take. Every call the fuzzer makes is refused or computed in
 /// milliseconds (a step spans at most 2^20 mesh periods, and the fuzzer's finite steps are
@@ -378,14 +378,7 @@ struct Session<'a> {
 
 impl Session<'_> {
     fn run(t: &Target, seed: u64, tally: &mut Tally, current: &Mutex<Current>, calls: u64) {
-        let log = Logger::new(geardyn::host::library::Status::Invalid(i32::MAX));
-        let cb = CallbackFunctions {
-            logger: Some(geardyn_host_logger),
-            allocate_memory: None,
-            free_memory: None,
-            step_finished: None,
-            component_environment: log.component_environment(),
-        };
+        let (log, cb) = quiet_logger();
         let mut s = Session {
             t,
             f: t.lib.fns,
@@ -515,14 +508,14 @@ impl Session<'_> {
             }
         }
         // A NULL component cannot log (there is no instance to log for).
-        if (s == ERROR || s == DISCARD || s == WARNING) && !null_component && self.refusals_logged {
-            if self.log.take_records().is_empty() {
-                tally.silent += 1;
-                println!(
-                    "{name} returned {s} without a message (session seed {:#x})",
-                    self.seed
-                );
-            }
+        let refused = s == ERROR || s == DISCARD || s == WARNING;
+        if refused && !null_component && self.refusals_logged && self.log.take_records().is_empty()
+        {
+            tally.silent += 1;
+            println!(
+                "{name} returned {s} without a message (session seed {:#x})",
+                self.seed
+            );
         }
         s
     }

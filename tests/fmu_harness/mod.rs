@@ -11,8 +11,8 @@ use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 use geardyn::fmi::abi::*;
-use geardyn::fmi::logger::{CallbackFunctions, Status};
-use geardyn::host::library::Status as HostStatus;
+use geardyn::fmi::logger::Status;
+use geardyn::host::library::{CallbackFunctions, Status as HostStatus};
 use geardyn::host::logger::{geardyn_host_logger, Logger};
 
 pub const OK: Status = Status::Ok;
@@ -38,21 +38,29 @@ pub struct Fmu {
     log: Logger,
 }
 
+/// The host's logger shim with a sink that keeps the messages (of status Warning and worse)
+/// and prints none, and the callbacks that pass it to an FMU.
+pub fn quiet_logger() -> (Logger, CallbackFunctions) {
+    let log = Logger::new(HostStatus::Invalid(i32::MAX));
+    let cb = CallbackFunctions {
+        logger: Some(geardyn_host_logger),
+        allocate_memory: None,
+        free_memory: None,
+        step_finished: None,
+        component_environment: log.component_environment(),
+    };
+    (log, cb)
+}
+
 impl Fmu {
     pub fn new(name: &'static str) -> Fmu {
-        // Printing only above Fatal: nothing; the records are read by the tests.
-        let log = Logger::new(HostStatus::Invalid(i32::MAX));
-        let cb = CallbackFunctions {
-            logger: Some(geardyn_host_logger),
-            allocate_memory: None,
-            free_memory: None,
-            step_finished: None,
-            component_environment: log.component_environment(),
-        };
+        let (log, cb) = quiet_logger();
         let inst = CString::new(name).unwrap();
         let uri = CString::new(format!("file://{}", scene_dir(name).display())).unwrap();
         let g = guid(name);
-        let c = unsafe { fmi2Instantiate(inst.as_ptr(), 1, g.as_ptr(), uri.as_ptr(), &cb, 0, 1) };
+        // The host's fmi2CallbackFunctions and the FMU's are the same C struct.
+        let cb = &cb as *const CallbackFunctions as *const geardyn::fmi::logger::CallbackFunctions;
+        let c = unsafe { fmi2Instantiate(inst.as_ptr(), 1, g.as_ptr(), uri.as_ptr(), cb, 0, 1) };
         assert!(!c.is_null(), "instantiate {name}");
         Fmu { c, name, log }
     }
