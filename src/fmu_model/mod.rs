@@ -20,7 +20,9 @@ mod documentation;
 mod variables;
 
 use crate::fmi::model::{CoSimModel, Lifecycle, ModelInfo, StepFailure, Variable};
-use crate::fmu_common::{check, check_restored, model_info, name_of, settable_reals};
+use crate::fmu_common::{
+    check, check_initial_outputs, check_restored, model_info, name_of, settable_reals,
+};
 use crate::fmu_state::ModelSnapshot;
 use crate::model::Inputs;
 use crate::scene::{ContactLaw, InitialDte, Scene};
@@ -144,6 +146,7 @@ impl GearModel {
         };
         let sim = Simulation::new(&scene)
             .map_err(|e| format!("'{name}' = {x:?}: the model cannot be built: {e}"))?;
+        check_initial_outputs(&name, x, &crate::model::OUTPUT_NAMES, &sim.outputs())?;
         self.scene = scene;
         (self.static_dte, self.initial_dte) = (static_dte, initial_dte);
         self.sim = sim;

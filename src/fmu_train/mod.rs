@@ -19,7 +19,9 @@ mod state;
 mod variables;
 
 use crate::fmi::model::{CoSimModel, Lifecycle, ModelInfo, StepFailure, Variable};
-use crate::fmu_common::{check, check_restored, model_info, name_of, settable_reals};
+use crate::fmu_common::{
+    check, check_initial_outputs, check_restored, model_info, name_of, settable_reals,
+};
 use crate::model::train::{TrainInputs, TrainSimulation};
 use crate::scene::train::TrainScene;
 
@@ -128,6 +130,9 @@ impl TrainModel {
         apply(&mut scene, &name, vr, x)?;
         let sim = TrainSimulation::new(&scene)
             .map_err(|e| format!("'{name}' = {x:?}: the model cannot be built: {e}"))?;
+        let mut outputs = Vec::new();
+        sim.outputs(&mut outputs);
+        check_initial_outputs(&name, x, sim.output_names(), &outputs)?;
         self.scene = scene;
         self.sim = sim;
         self.refresh();
