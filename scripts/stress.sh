@@ -1,5 +1,6 @@
 #!/usr/bin/env bash
-# The numerical stress suite (issue 9, acceptance 4; tests/stress/): the short variants (run by
+# The numerical stress suite (issue 9, acceptance 4; tests/stress/) and the FMI fuzzer's long
+# variant (issue 17; tests/fmi_fuzz.rs): the short variants (run by
 # `cargo test` in CI, seconds) and the long ones marked #[ignore] (1e6 mesh periods, 1e5-period
 # energy balance, 1e4 grazing and rattle cycles, ...), in release mode. Prints the measured
 # numbers.
@@ -10,3 +11,5 @@ cd "$root"
 cargo test --release --locked --test stress -- --include-ignored --nocapture --test-threads 1 "$@"
 # The long scene-mutation fuzzer (issue 17: 1e5 mutations, no panic, hang or partial output).
 cargo test --release --locked --test scene_fuzz -- --ignored --nocapture
+# The FMI call-sequence fuzzer's long variant (issue 17): 1e6 seeded calls over the C ABI.
+cargo test --release --locked --test fmi_fuzz -- --ignored --nocapture --exact fmi_call_sequences_long

@@ -91,16 +91,41 @@ pub fn settable_reals(vars: &[Variable]) -> impl Iterator<Item = &Variable> {
     })
 }
 
-/// Rejects value references a snapshot sets but the table does not have (a state of
-/// another model).
-pub fn check_known(vars: &[Variable], params: &[(u32, f64)]) -> Result<(), String> {
-    match params
-        .iter()
-        .find(|(vr, _)| !vars.iter().any(|v| v.value_reference == *vr))
-    {
-        Some((vr, _)) => Err(format!("the state sets unknown value reference {vr}")),
+/// After `name = value` was set before initialization: the initial outputs of the rebuilt
+/// model must be finite. A start value the arithmetic cannot carry (an initial DTE rate of
+/// 1e308 gives an infinite damping force) is refused where it is set, naming the output,
+/// rather than read back as an infinite output (issue 17).
+pub fn check_initial_outputs(
+    name: &str,
+    value: f64,
+    names: &[impl AsRef<str>],
+    outputs: &[f64],
+) -> Result<(), String> {
+    match outputs.iter().position(|y| !y.is_finite()) {
         None => Ok(()),
+        Some(k) => Err(format!(
+            "'{name}' = {value:?}: the initial output '{}' would be {}",
+            names.get(k).map_or("?", |n| n.as_ref()),
+            outputs[k]
+        )),
     }
+}
+
+/// Checks the values a snapshot sets, by value reference, with the layer's check of every
+/// `fmi2SetReal` ([`Variable::check_value`]): a value reference the table does not have (a
+/// state of another model), a non-finite value or one outside `[min, max]` is refused. The
+/// model's own checks follow when the values are applied, as for a set (issue 17: a restored
+/// state holds nothing `fmi2SetReal` would refuse).
+pub fn check_restored(vars: &[Variable], values: &[(u32, f64)]) -> Result<(), String> {
+    for &(vr, x) in values {
+        let var = vars
+            .iter()
+            .find(|v| v.value_reference == vr)
+            .ok_or_else(|| format!("the state sets unknown value reference {vr}"))?;
+        var.check_value(x)
+            .map_err(|e| format!("the state holds {e}"))?;
+    }
+    Ok(())
 }
 
 /// One co-simulation step of either adapter: integrates to exactly `t + h` in the host's

@@ -42,6 +42,9 @@ impl DrivenModel for GearPair {
             fastest_rate: self.fastest_rate(),
         }
     }
+    fn check_advance(&self, t: f64, t_end: f64) -> Result<(), String> {
+        GearPair::check_advance(self, t, t_end)
+    }
 }
 
 impl Driver<GearPair> {
@@ -49,6 +52,7 @@ impl Driver<GearPair> {
     /// LTI). Starts at `t = 0` from the scene's initial state.
     pub fn new(scene: &Scene) -> Result<Simulation, String> {
         let mut pair = GearPair::new(scene);
+        pair.check_scales()?;
         let y0 = pair.initial_state(scene);
         Driver::with_model(
             pair,

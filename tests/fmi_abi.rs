@@ -507,12 +507,17 @@ fn corrupt_and_foreign_blobs_are_rejected() {
 }
 
 #[test]
-fn divergence_is_a_discard_with_status() {
+fn a_refused_step_is_a_discard_with_status() {
     let f = Fmu::ready();
     assert_eq!(f.step(0.0, 1e-4), OK);
-    // Finite inputs whose response overflows: the step cannot complete.
-    assert_eq!(f.set(VR_INPUT_TORQUE, 1e308), OK);
-    assert_eq!(f.set(VR_LOAD_TORQUE, 1e308), OK);
+    // Torques whose mean mesh force overflows are refused where they are set (issue 17:
+    // range checks where the arithmetic breaks down), so they no longer reach a step.
+    assert_eq!(f.set(VR_INPUT_TORQUE, 1e308), ERR);
+    let f = Fmu::ready();
+    assert_eq!(f.step(0.0, 1e-4), OK);
+    // A finite speed whose next step spans more mesh periods than one step may take: the
+    // step cannot complete.
+    assert_eq!(f.set(VR_PINION_SPEED, 1e11), OK);
     assert_eq!(f.step(1e-4, 1e-4), Status::Discard);
     let mut last = f64::NAN;
     let mut term: c_int = 0;

@@ -110,8 +110,12 @@ fn overdamped_mesh_is_refused() {
 
 #[test]
 fn stiff_mesh_exceeds_the_work_limit() {
-    let scene = edit(SPUR_PAIR, "mean = 2.9831e8", "mean = 1e300");
+    // Within f64's range but far too stiff for the run: the work limit says what sets the rate.
+    let scene = edit(SPUR_PAIR, "mean = 2.9831e8", "mean = 1e40");
     refuses(&scene, &["fastest mode", "mesh.stiffness", "--max-periods"]);
+    // Beyond what the propagators can square: refused by the range check, naming the value.
+    let scene = edit(SPUR_PAIR, "mean = 2.9831e8", "mean = 1e300");
+    refuses(&scene, &["mean stiffness 1e300 N/m", "beyond 1e150 1/s"]);
 }
 
 #[test]

@@ -60,8 +60,20 @@ pub struct Instance {
     /// variable table never changes ([`CoSimModel::variables`]), so a repeated request
     /// needs no check per reference.
     checked_gets: [Vec<u32>; 3],
-    /// The value references of the Real outputs, checked for finiteness after every step.
+    /// The value references of the Real outputs, read and checked for finiteness after every
+    /// step.
     real_outputs: Vec<u32>,
+    /// The last finite values of `real_outputs` (after initialization or a step) and their
+    /// time: what `fmi2GetReal` answers for the outputs after a failed step whose outputs are
+    /// not finite (issue 17: after `fmi2Discard` or `fmi2Error` the outputs are the last good
+    /// values, never NaN).
+    last_good_outputs: Vec<f64>,
+    last_good_time: f64,
+    /// The outputs just read after a step (a buffer; swapped into `last_good_outputs`).
+    step_outputs: Vec<f64>,
+    /// Whether the model's outputs are not finite after a failed step, so `fmi2GetReal`
+    /// answers the outputs from `last_good_outputs`.
+    hold_outputs: bool,
     pub state: FmuState,
     time: f64,
     start_time: f64,
@@ -81,6 +93,7 @@ impl Instance {
             .filter(|v| v.kind == VarKind::Real && v.causality == super::model::Causality::Output)
             .map(|v| v.value_reference)
             .collect::<Vec<u32>>();
+        let outputs = real_outputs.len();
         Instance {
             magic: INSTANCE_MAGIC,
             logger,
@@ -90,6 +103,10 @@ impl Instance {
             kinds,
             checked_gets: Default::default(),
             real_outputs,
+            last_good_outputs: vec![0.0; outputs],
+            last_good_time: 0.0,
+            step_outputs: vec![0.0; outputs],
+            hold_outputs: false,
             state: FmuState::Instantiated,
             time: 0.0,
             start_time: 0.0,
@@ -243,6 +260,9 @@ impl Instance {
         if let Err(e) = self.model.exit_initialization() {
             return self.error(call, e);
         }
+        if let Some(msg) = self.read_outputs() {
+            return self.error(call, format!("the initial outputs are not usable: {msg}"));
+        }
         self.state = FmuState::StepComplete;
         self.event(|| format!("initialized at t = {:e} s", self.time));
         Status::Ok
@@ -272,6 +292,7 @@ impl Instance {
         self.last_successful_time = 0.0;
         self.terminated = false;
         self.setup_done = false;
+        self.hold_outputs = false;
         Status::Ok
     }
 
@@ -343,9 +364,22 @@ impl Instance {
         if let Err(s) = self.check_get(call, VarKind::Real, vrs) {
             return s;
         }
-        match self.model.get_reals(vrs, out) {
-            Ok(()) => Status::Ok,
-            Err(e) => self.error(call, e),
+        if let Err(e) = self.model.get_reals(vrs, out) {
+            return self.error(call, e);
+        }
+        if self.hold_outputs {
+            self.answer_held_outputs(vrs, out);
+        }
+        Status::Ok
+    }
+
+    /// Replaces the outputs among `vrs` by their last good values (the failure path only).
+    #[cold]
+    fn answer_held_outputs(&self, vrs: &[u32], out: &mut [f64]) {
+        for (vr, slot) in vrs.iter().zip(out.iter_mut()) {
+            if let Some(k) = self.real_outputs.iter().position(|o| o == vr) {
+                *slot = self.last_good_outputs[k];
+            }
         }
     }
 
@@ -379,24 +413,11 @@ impl Instance {
     }
 
     /// Layer-side checks for one set: existence, base type, causality/variability/initial
-    /// against the current state, finiteness and bounds.
+    /// against the current state, finiteness and bounds ([`Variable::check_value`]).
     fn check_set(&self, vr: u32, kind: VarKind, value: f64) -> Result<(), String> {
         let var = self.lookup(vr, kind)?;
         check_settable(var, self.state)?;
-        if kind == VarKind::Real {
-            if !value.is_finite() {
-                return Err(format!("'{}' (vr {vr}) = {value} is not finite", var.name));
-            }
-            if var.min.is_some_and(|m| value < m) || var.max.is_some_and(|m| value > m) {
-                return Err(format!(
-                    "'{}' (vr {vr}) = {value} outside [{}, {}]",
-                    var.name,
-                    var.min.unwrap_or(f64::NEG_INFINITY),
-                    var.max.unwrap_or(f64::INFINITY)
-                ));
-            }
-        }
-        Ok(())
+        var.check_value(value)
     }
 
     /// Shared body of the setters. Everything is validated first so that a rejected call
@@ -485,6 +506,17 @@ impl Instance {
             );
         }
         let target = tc + h;
+        let resolution = MIN_STEP_IN_ULPS * ulp(tc);
+        if !(h >= resolution) {
+            return self.error(
+                call,
+                format!(
+                    "communicationStepSize = {h:e} is below the time resolution at \
+                     currentCommunicationPoint = {tc:?}: a step must be at least 2^20 ulps of \
+                     tc ({resolution:e} s), or rounding tc + h changes it by more than 1e-6"
+                ),
+            );
+        }
         if let Some(stop) = self.stop_time {
             let eps = 1e-12 * stop.abs().max(1.0);
             if target > stop + eps {
@@ -494,11 +526,12 @@ impl Instance {
                 );
             }
         }
+        self.time = target;
         match self.model.do_step(tc, h) {
             Ok(()) => {
                 // Safety net independent of the model: a non-finite output must never be
                 // reported as a good step.
-                if let Some(msg) = self.non_finite_output() {
+                if let Some(msg) = self.read_outputs() {
                     self.time = tc;
                     self.last_successful_time = tc;
                     self.terminated = true;
@@ -509,7 +542,6 @@ impl Instance {
                     );
                     return Status::Discard;
                 }
-                self.time = target;
                 self.last_successful_time = target;
                 Status::Ok
             }
@@ -524,6 +556,13 @@ impl Instance {
                     tc
                 };
                 self.time = reached;
+                // The model's state at `reached` is valid; if its outputs are not, the last
+                // good ones (at tc) are the answer, and tc the last successful time.
+                let reached = match self.read_outputs() {
+                    None => reached,
+                    Some(_) => self.last_good_time,
+                };
+                self.time = reached;
                 self.last_successful_time = reached;
                 self.terminated = terminate;
                 self.state = FmuState::StepFailed;
@@ -535,23 +574,48 @@ impl Instance {
                 );
                 Status::Discard
             }
-            Err(StepFailure::Error(e)) => self.error(
-                call,
-                format!("step from t = {tc:?} by h = {h:?} failed: {e}"),
-            ),
+            Err(StepFailure::Error(e)) => {
+                // The state is unusable: the outputs stay those of tc.
+                self.time = tc;
+                self.hold_outputs = true;
+                self.error(
+                    call,
+                    format!("step from t = {tc:?} by h = {h:?} failed: {e}"),
+                )
+            }
         }
     }
 
-    /// The first Real output that is not finite after a step, as a reason; `None` if all
-    /// are finite (the model scans the outputs it evaluates anyway for the host's
-    /// `fmi2GetReal`, [`CoSimModel::first_non_finite`]).
-    fn non_finite_output(&self) -> Option<String> {
-        let (vr, x) = match self.model.first_non_finite(&self.real_outputs) {
-            Ok(found) => found?,
-            Err(e) => return Some(e),
-        };
-        let name = self.lookup(vr, VarKind::Real).map_or("?", |v| &v.name);
-        Some(format!("output '{name}' (vr {vr}) = {x} is not finite"))
+    /// Reads the Real outputs of the model's current state (at `self.time`): if all are
+    /// finite they become the last good values and `None` is returned; otherwise the first
+    /// that is not, as a reason, and from then on `fmi2GetReal` answers the outputs from the
+    /// last good values. One vector read per step (the model evaluates its outputs once
+    /// per state and a host reads them all after every step anyway).
+    fn read_outputs(&mut self) -> Option<String> {
+        if let Err(e) = self
+            .model
+            .get_reals(&self.real_outputs, &mut self.step_outputs)
+        {
+            self.hold_outputs = true;
+            return Some(e);
+        }
+        match self.step_outputs.iter().position(|x| !x.is_finite()) {
+            None => {
+                std::mem::swap(&mut self.last_good_outputs, &mut self.step_outputs);
+                self.last_good_time = self.time;
+                self.hold_outputs = false;
+                None
+            }
+            Some(k) => {
+                self.hold_outputs = true;
+                let vr = self.real_outputs[k];
+                let name = self.lookup(vr, VarKind::Real).map_or("?", |v| &v.name);
+                Some(format!(
+                    "output '{name}' (vr {vr}) = {} is not finite",
+                    self.step_outputs[k]
+                ))
+            }
+        }
     }
 
     /// Refusal of an unsupported capability, after the state check.
@@ -639,6 +703,15 @@ impl Instance {
         self.last_successful_time = layer.last_successful_time;
         self.terminated = layer.terminated;
         self.setup_done = layer.setup_done;
+        // The restored state's outputs are the good ones from now on (a state is only taken
+        // in states whose outputs are finite, and a restored one was validated).
+        self.hold_outputs = false;
+        if matches!(
+            self.state,
+            FmuState::StepComplete | FmuState::StepFailed | FmuState::Terminated
+        ) {
+            let _ = self.read_outputs();
+        }
         self.event(|| {
             format!(
                 "FMU state restored: state {}, t = {:e} s",
@@ -661,6 +734,17 @@ impl Instance {
             Err(e) => self.error(call, e),
         }
     }
+}
+
+/// A step must be at least this many ulps of its communication point: then rounding
+/// `tc + h` changes the step by at most 2^-21 of itself (issue 17: a step that has lost its
+/// floating-point resolution is refused, not taken as a step of another length or none).
+const MIN_STEP_IN_ULPS: f64 = 1_048_576.0;
+
+/// The spacing of the `f64` values at `x` (`ulp(0)` is the smallest denormal).
+fn ulp(x: f64) -> f64 {
+    let a = x.abs();
+    f64::from_bits(a.to_bits() + 1) - a
 }
 
 /// Answer of a status query.
@@ -774,13 +858,17 @@ mod tests {
     }
 
     /// The safety net: a step after which an output is not finite is discarded at its start
-    /// and asks the master to terminate, although the model reported success.
+    /// and asks the master to terminate, although the model reported success; the output
+    /// then reads as its last good value, never the non-finite one (issue 17).
     #[test]
     fn a_non_finite_output_discards_the_step() {
         for bad in [f64::NAN, f64::INFINITY] {
             let mut inst = ready(bad);
             assert_eq!(inst.do_step(0.0, 0.1), Status::Discard, "y = {bad}");
             assert_eq!(inst.state, FmuState::StepFailed);
+            let mut y = [f64::NAN];
+            assert_eq!(inst.get_real(&[1], &mut y), Status::Ok);
+            assert_eq!(y, [1.0], "the value after initialization, not {bad}");
             assert!(matches!(
                 inst.status_query(Call::GetBooleanStatus, TERMINATED),
                 Ok(StatusAnswer::Boolean(true))
@@ -792,7 +880,7 @@ mod tests {
         }
         let mut inst = ready(2.0);
         assert_eq!(inst.do_step(0.0, 0.1), Status::Ok);
-        assert_eq!(inst.non_finite_output(), None);
+        assert_eq!(inst.read_outputs(), None);
     }
 
     /// A repeated get skips the type check only for the very request that passed it: a

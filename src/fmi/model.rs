@@ -147,6 +147,27 @@ impl Variable {
     }
 }
 
+impl Variable {
+    /// Whether `value` may be given to this variable: finite for Real, within `[min, max]`.
+    /// The layer's value check of every `fmi2SetXXX`, and of values a model restores from
+    /// an FMU state outside the setters (issue 17: a restored state must hold nothing a
+    /// setter would refuse).
+    pub fn check_value(&self, value: f64) -> Result<(), String> {
+        let (name, vr) = (&self.name, self.value_reference);
+        if self.kind == VarKind::Real && !value.is_finite() {
+            return Err(format!("'{name}' (vr {vr}) = {value} is not finite"));
+        }
+        if self.min.is_some_and(|m| value < m) || self.max.is_some_and(|m| value > m) {
+            return Err(format!(
+                "'{name}' (vr {vr}) = {value} outside [{}, {}]",
+                self.min.unwrap_or(f64::NEG_INFINITY),
+                self.max.unwrap_or(f64::INFINITY)
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Why `do_step` did not complete the communication step.
 #[derive(Debug, Clone, PartialEq)]
 pub enum StepFailure {
@@ -186,14 +207,6 @@ pub trait CoSimModel: Send {
             *slot = self.get_real(vr)?;
         }
         Ok(())
-    }
-    /// The first of the Real variables `vrs` whose value is not finite, with that value;
-    /// `None` if all are finite. The layer asks for all Real outputs after every successful
-    /// step (its safety net: a non-finite output is never reported as a good step). The
-    /// default reads them one by one ([`first_non_finite_of`]); a model that keeps its
-    /// outputs in an array may scan that instead, without copying them.
-    fn first_non_finite(&self, vrs: &[u32]) -> Result<Option<(u32, f64)>, String> {
-        first_non_finite_of(self, vrs)
     }
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String>;
 
@@ -256,21 +269,6 @@ pub trait CoSimModel: Send {
     /// is the same as from the restored one.
     fn save_state(&mut self) -> Vec<u8>;
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String>;
-}
-
-/// [`CoSimModel::first_non_finite`] through [`CoSimModel::get_real`], one value reference at
-/// a time: the default, and the fallback of a model's faster scan for other requests.
-pub fn first_non_finite_of<M: CoSimModel + ?Sized>(
-    model: &M,
-    vrs: &[u32],
-) -> Result<Option<(u32, f64)>, String> {
-    for &vr in vrs {
-        let x = model.get_real(vr)?;
-        if !x.is_finite() {
-            return Ok(Some((vr, x)));
-        }
-    }
-    Ok(None)
 }
 
 /// Where a model instance stands in its life cycle: the start time of `fmi2SetupExperiment`

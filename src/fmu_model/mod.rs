@@ -19,10 +19,10 @@
 mod documentation;
 mod variables;
 
-use crate::fmi::model::{
-    first_non_finite_of, CoSimModel, Lifecycle, ModelInfo, StepFailure, Variable,
+use crate::fmi::model::{CoSimModel, Lifecycle, ModelInfo, StepFailure, Variable};
+use crate::fmu_common::{
+    check, check_initial_outputs, check_restored, model_info, name_of, settable_reals,
 };
-use crate::fmu_common::{check, check_known, model_info, name_of, settable_reals};
 use crate::fmu_state::ModelSnapshot;
 use crate::model::Inputs;
 use crate::scene::{ContactLaw, InitialDte, Scene};
@@ -119,7 +119,7 @@ impl GearModel {
                 scene.mesh.contact = ContactLaw::Backlash { clearance: x };
             }
             VR_INITIAL_PHASE => {
-                check(&name, x, true, "finite")?;
+                crate::model::check_phase(&format!("parameter '{name}'"), x)?;
                 scene.mesh.initial_phase = x;
             }
             VR_INITIAL_DTE_RATE => {
@@ -145,7 +145,8 @@ impl GearModel {
             InitialDte::Value(initial_dte)
         };
         let sim = Simulation::new(&scene)
-            .map_err(|e| format!("'{name}' = {x}: the model cannot be built: {e}"))?;
+            .map_err(|e| format!("'{name}' = {x:?}: the model cannot be built: {e}"))?;
+        check_initial_outputs(&name, x, &crate::model::OUTPUT_NAMES, &sim.outputs())?;
         self.scene = scene;
         (self.static_dte, self.initial_dte) = (static_dte, initial_dte);
         self.sim = sim;
@@ -195,13 +196,24 @@ impl GearModel {
             },
             outputs: OnceCell::new(),
         };
-        check_known(&self.vars, &snap.params)?;
+        // Parameters and start inputs as fmi2SetReal before initialization takes them, the
+        // current inputs as it takes them at a communication point.
+        check_restored(&self.vars, &snap.params)?;
         for &(vr, x) in &snap.params {
             m.set_before_init(vr, x)?;
         }
         if !snap.start_time.is_finite() {
             return Err(format!("start time {} is not finite", snap.start_time));
         }
+        let u = snap.sim.pair.inputs;
+        check_restored(
+            &self.vars,
+            &[
+                (VR_PINION_SPEED, u.pinion_speed),
+                (VR_INPUT_TORQUE, u.input_torque),
+                (VR_LOAD_TORQUE, u.load_torque),
+            ],
+        )?;
         m.sim.restore(&snap.sim)?;
         m.lifecycle.initialized = snap.initialized;
         *self = m;
@@ -230,7 +242,7 @@ fn output_position(vr: u32) -> Option<usize> {
 /// The positions in [`Simulation::outputs`] of all Real outputs, in value-reference order.
 const REAL_OUTPUT_POSITIONS: [usize; 6] = [0, 1, 2, 4, 5, 6];
 /// Their value references: what a host that records every output asks for after every step
-/// (and the FMI layer's finiteness check after every step).
+/// (and the FMI layer's read of the outputs after every step).
 const REAL_OUTPUT_VRS: [u32; 6] = {
     let mut vrs = [0; 6];
     let mut i = 0;
@@ -310,23 +322,6 @@ impl CoSimModel for GearModel {
         Ok(())
     }
 
-    /// The layer's check after every step, on the cached outputs in place.
-    fn first_non_finite(&self, vrs: &[u32]) -> Result<Option<(u32, f64)>, String> {
-        if vrs != REAL_OUTPUT_VRS {
-            return first_non_finite_of(self, vrs);
-        }
-        let outputs = self.current_outputs();
-        // All finite (the contact state is stored as a whole number): one pass, no lookups.
-        if outputs.iter().all(|x| x.is_finite()) {
-            return Ok(None);
-        }
-        Ok(REAL_OUTPUT_VRS
-            .iter()
-            .zip(REAL_OUTPUT_POSITIONS)
-            .map(|(&vr, k)| (vr, outputs[k]))
-            .find(|(_, x)| !x.is_finite()))
-    }
-
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String> {
         let is_input = matches!(vr, VR_PINION_SPEED | VR_INPUT_TORQUE | VR_LOAD_TORQUE);
         if self.lifecycle.initialized {
@@ -338,6 +333,7 @@ impl CoSimModel for GearModel {
                 ));
             }
             let u = self.inputs_with(vr, value);
+            self.sim.model().check_inputs(&u)?;
             self.sim_mut().set_inputs(u);
             Ok(())
         } else {
@@ -422,15 +418,15 @@ mod tests {
         }
     }
 
-    /// The FMI layer asks `first_non_finite` for the Real outputs in table order: that must
-    /// be the fast path's list, and the scan must agree with reading them one by one.
+    /// The FMI layer reads the Real outputs in table order after every step: that must be
+    /// the fast path's list, and the fast path must agree with reading them one by one.
     #[test]
-    fn non_finite_scan_covers_the_layers_request() {
+    fn the_layers_output_read_takes_the_fast_path() {
         use crate::fmi::model::{Causality, VarKind};
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/fmu/spur_pair/scene.toml");
         let text = std::fs::read_to_string(path).unwrap();
         let scene = Scene::from_toml_str(&text, path).unwrap();
-        let (mut model, _) = GearModel::new(scene, "{test}".into()).unwrap();
+        let (model, _) = GearModel::new(scene, "{test}".into()).unwrap();
         let asked: Vec<u32> = model
             .variables()
             .iter()
@@ -438,17 +434,10 @@ mod tests {
             .map(|v| v.value_reference)
             .collect();
         assert_eq!(asked, REAL_OUTPUT_VRS);
-        assert_eq!(model.first_non_finite(&asked), Ok(None));
-        assert_eq!(first_non_finite_of(&model, &asked), Ok(None));
-        // A NaN in the cached outputs (as a broken evaluation would leave it) is found, with
-        // its value reference, by the scan and by the per-reference fallback alike.
-        let mut bad = *model.current_outputs();
-        bad[REAL_OUTPUT_POSITIONS[2]] = f64::NAN;
-        model.outputs = OnceCell::from(bad);
-        let found = model.first_non_finite(&asked).unwrap().unwrap();
-        assert_eq!(found.0, REAL_OUTPUT_VRS[2]);
-        assert!(found.1.is_nan());
-        let slow = first_non_finite_of(&model, &asked[1..]).unwrap().unwrap();
-        assert_eq!(slow.0, REAL_OUTPUT_VRS[2]);
+        let mut fast = [0.0; 6];
+        model.get_reals(&asked, &mut fast).unwrap();
+        for (&vr, x) in asked.iter().zip(fast) {
+            assert_eq!(model.get_real(vr), Ok(x), "vr {vr}");
+        }
     }
 }

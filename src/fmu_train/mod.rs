@@ -19,7 +19,9 @@ mod state;
 mod variables;
 
 use crate::fmi::model::{CoSimModel, Lifecycle, ModelInfo, StepFailure, Variable};
-use crate::fmu_common::{check, check_known, model_info, name_of, settable_reals};
+use crate::fmu_common::{
+    check, check_initial_outputs, check_restored, model_info, name_of, settable_reals,
+};
 use crate::model::train::{TrainInputs, TrainSimulation};
 use crate::scene::train::TrainScene;
 
@@ -57,7 +59,7 @@ fn apply(scene: &mut TrainScene, name: &str, vr: u32, x: f64) -> Result<(), Stri
             scene.modal_damping_ratio = x;
         }
         VR_INITIAL_PHASE => {
-            check(name, x, true, "finite")?;
+            crate::model::check_phase(&format!("parameter '{name}'"), x)?;
             scene.meshes[0].initial_phase = x;
         }
         VR_INPUT_SPEED => {
@@ -127,7 +129,10 @@ impl TrainModel {
         let mut scene = self.scene.clone();
         apply(&mut scene, &name, vr, x)?;
         let sim = TrainSimulation::new(&scene)
-            .map_err(|e| format!("'{name}' = {x}: the model cannot be built: {e}"))?;
+            .map_err(|e| format!("'{name}' = {x:?}: the model cannot be built: {e}"))?;
+        let mut outputs = Vec::new();
+        sim.outputs(&mut outputs);
+        check_initial_outputs(&name, x, sim.output_names(), &outputs)?;
         self.scene = scene;
         self.sim = sim;
         self.refresh();
@@ -161,7 +166,18 @@ impl TrainModel {
     /// `fmi2SetReal` (applied to the loaded scene, one rebuild), then the run-time state is
     /// restored. On failure nothing changes.
     fn restore(&mut self, snap: &TrainSnapshot) -> Result<(), String> {
-        check_known(&self.vars, &snap.params)?;
+        // Parameters and start inputs as fmi2SetReal before initialization takes them, the
+        // current inputs as it takes them at a communication point.
+        check_restored(&self.vars, &snap.params)?;
+        let u = snap.sim.train.inputs;
+        check_restored(
+            &self.vars,
+            &[
+                (VR_INPUT_SPEED, u.input_speed),
+                (VR_INPUT_TORQUE, u.input_torque),
+                (VR_LOAD_TORQUE, u.load_torque),
+            ],
+        )?;
         if !snap.start_time.is_finite() {
             return Err(format!("start time {} is not finite", snap.start_time));
         }

@@ -11,5 +11,5 @@ mod clock;
 mod pair;
 pub mod train;
 
-pub use clock::PhaseClock;
-pub use pair::{ContactState, GearPair, Inputs, PairState, OUTPUT_NAMES};
+pub use clock::{check_phase, PhaseClock, MAX_MESH_CYCLES, MAX_MESH_PERIODS_PER_ADVANCE};
+pub use pair::{ContactState, GearPair, Inputs, PairState, MAX_RATE, OUTPUT_NAMES};

@@ -18,7 +18,12 @@ use nalgebra::DMatrix;
 
 use kernel::Kernel;
 
-use super::PhaseClock;
+use super::{PhaseClock, MAX_MESH_CYCLES};
+
+/// The largest rate (1/s) a pair may have: the propagators square their rates (the exact
+/// propagator's estimate from `A²`, the `y''` of RK, the Taylor bounds of the crossing search),
+/// which overflows `f64` beyond ~1.3e154 1/s; 1e150 leaves room for the sums they enter.
+pub const MAX_RATE: f64 = 1e150;
 use crate::mesh::{MeshStiffness, PhaseSeries};
 use crate::scene::{ContactLaw, InitialDte, Scene, SmoothTerms};
 use crate::solve::exact::PiecewiseLti;
@@ -181,13 +186,23 @@ impl GearPair {
         self.inputs
     }
 
+    /// Mesh frequency `f_m = z1 Ω / 2π` at pinion speed `Ω` (`docs/model.md`, "Mesh phase").
+    fn mesh_frequency_at(&self, pinion_speed: f64) -> f64 {
+        self.pinion_teeth * pinion_speed / TAU
+    }
+
+    /// Mean external force on the DTE coordinate for torques `inputs`, N.
+    fn external_force_for(&self, inputs: &Inputs) -> f64 {
+        self.m_e
+            * (self.r_b1 * inputs.input_torque / self.inertia1
+                + self.r_b2 * inputs.load_torque / self.inertia2)
+    }
+
     fn apply_inputs(&mut self, t: f64, inputs: Inputs) {
         self.inputs = inputs;
-        let f_m = self.pinion_teeth * inputs.pinion_speed / TAU;
+        let f_m = self.mesh_frequency_at(inputs.pinion_speed);
         self.clock.reanchor(t, f_m);
-        self.f_ext = self.m_e
-            * (self.r_b1 * inputs.input_torque / self.inertia1
-                + self.r_b2 * inputs.load_torque / self.inertia2);
+        self.f_ext = self.external_force_for(&inputs);
         self.ripple_force = self.m_e * self.r_b1 * self.smooth.torque_ripple / self.inertia1;
     }
 
@@ -238,6 +253,16 @@ impl GearPair {
                 s.contact
             ));
         }
+        // The cycle of a phase within the clock's limit, shifted by the stiffness' phase.
+        let cycle_ok = s.segment_cycle.is_finite() && s.segment_cycle.fract() == 0.0;
+        if !cycle_ok || s.segment_cycle.abs() > 2.0 * MAX_MESH_CYCLES {
+            return Err(format!(
+                "stiffness cycle {} is not a whole number of magnitude <= 2^33",
+                s.segment_cycle
+            ));
+        }
+        s.clock
+            .check_restored(self.mesh_frequency_at(s.inputs.pinion_speed))?;
         self.apply_inputs(0.0, s.inputs);
         self.clock = s.clock;
         self.segment = Segment {
@@ -246,6 +271,82 @@ impl GearPair {
         };
         self.contact = s.contact;
         Ok(())
+    }
+
+    /// Checks that the parameters keep the model within the range of `f64` arithmetic: a
+    /// finite, positive equivalent mass, finite forces, and rates (natural and mesh
+    /// frequencies, `c/m_e`) up to [`MAX_RATE`]. Sign and finiteness of each parameter are
+    /// checked where it is given; this is where their combination breaks down (issue 17: an
+    /// inertia of 1e-300, a damping of 1e300 or a base radius of 1e300 made the first step
+    /// non-finite).
+    pub fn check_scales(&self) -> Result<(), String> {
+        let (m_e, c) = (self.m_e, self.damping);
+        let masses = || {
+            format!(
+                "the equivalent mass m_e = {m_e:e} kg (pinion inertia {:e} kg.m2, base radius \
+                 {:e} m; gear inertia {:e} kg.m2, base radius {:e} m)",
+                self.inertia1, self.r_b1, self.inertia2, self.r_b2
+            )
+        };
+        if !(m_e.is_finite() && m_e > 0.0) {
+            return Err(format!("{}: must be a finite number > 0", masses()));
+        }
+        let rates = [
+            (
+                "the fastest frequency (natural or mesh harmonic)",
+                self.max_frequency(),
+            ),
+            ("the damping rate c/m_e", c / m_e),
+        ];
+        for (what, rate) in rates {
+            if !(rate <= MAX_RATE) {
+                return Err(format!(
+                    "with {}, mean stiffness {:e} N/m and damping {c:e} N.s/m, {what} is \
+                     {rate:e} 1/s, beyond {MAX_RATE:e} 1/s (the propagators square it: A², y'')",
+                    masses(),
+                    self.k_mean
+                ));
+            }
+        }
+        self.check_inputs(&self.inputs)
+            .map_err(|e| format!("with {}: {e}", masses()))
+    }
+
+    /// Checks that inputs keep the pair within the range of `f64` arithmetic: the mesh
+    /// harmonics' rate `2π h f_m` up to [`MAX_RATE`] and a finite mean force and static
+    /// deflection. O(1): the check of every input set at a communication point (the pinion
+    /// speed of 1e308 rad/s gave an infinite mesh frequency and NaN outputs).
+    pub fn check_inputs(&self, inputs: &Inputs) -> Result<(), String> {
+        let speed = inputs.pinion_speed;
+        let harmonics = self.ste.harmonics().max(1) as f64;
+        let rate = TAU * self.mesh_frequency_at(speed) * harmonics;
+        if !(rate <= MAX_RATE) {
+            return Err(format!(
+                "pinion_speed = {speed:?} rad/s gives the mesh harmonics a rate of {rate:e} 1/s, \
+                 beyond {MAX_RATE:e} 1/s (the propagators square it)"
+            ));
+        }
+        let force = self.external_force_for(inputs);
+        if !(force.is_finite() && (force / self.k_mean).is_finite()) {
+            return Err(format!(
+                "input_torque = {:?} N.m and load_torque = {:?} N.m give the mean mesh force \
+                 {force:e} N: not finite",
+                inputs.input_torque, inputs.load_torque
+            ));
+        }
+        Ok(())
+    }
+
+    /// Whether advancing from `t` to `t_end` stays within the limits of one advance
+    /// ([`PhaseClock::check_advance`]).
+    pub fn check_advance(&self, t: f64, t_end: f64) -> Result<(), String> {
+        self.clock.check_advance(t, t_end).map_err(|e| {
+            format!(
+                "pinion_speed = {:e} rad/s, mesh phase {:e} cycles at t = {t:e} s: {e}",
+                self.inputs.pinion_speed,
+                self.clock.phase_at(t)
+            )
+        })
     }
 
     /// Resets the discrete mode from a state at time `t`: used at start and after a state is

@@ -11,7 +11,7 @@ use crate::solve::{SolveError, SolverStats};
 
 /// What the driver needs from a model beyond its equations: the run-time state (mode, phase
 /// clock, contact bookkeeping) that is not in `y` but decides how the run continues.
-pub trait DrivenModel: PiecewiseLti {
+pub trait DrivenModel: PiecewiseLti + Clone {
     /// The model's part of a snapshot.
     type RunState;
     /// Whether every segment is LTI, so the exact propagator applies.
@@ -24,6 +24,9 @@ pub trait DrivenModel: PiecewiseLti {
     /// The time scales that decide the work of a run, checked against
     /// [`crate::simulation::RunLimits`] before a streamed run starts.
     fn run_scales(&self) -> crate::simulation::RunScales;
+    /// Whether advancing from `t` to `t_end` stays within the limits of one advance: each
+    /// mesh clock's [`crate::model::PhaseClock::check_advance`]. O(1) per mesh.
+    fn check_advance(&self, t: f64, t_end: f64) -> Result<(), String>;
 }
 
 /// Largest augmented state the exact propagator accepts: its mode cache holds dense `n × n`
@@ -130,8 +133,17 @@ impl<M: DrivenModel> Driver<M> {
         &mut self.model
     }
 
-    /// Integrates exactly to `t_end` with the inputs held constant.
+    /// Integrates exactly to `t_end` with the inputs held constant. An advance beyond the
+    /// documented limits of one advance (mesh periods, phase and time resolution:
+    /// [`DrivenModel::check_advance`]) is refused before any work, the state unchanged
+    /// (issue 17: no step may grind without end or run on a phase that no longer advances).
     pub fn advance_to(&mut self, t_end: f64) -> Result<(), SolveError> {
+        let t = self.t();
+        if t_end != t {
+            if let Err(reason) = self.model.check_advance(t, t_end) {
+                return Err(SolveError::BeyondLimits { t, reason });
+            }
+        }
         match &mut self.propagator {
             Propagator::Rk(p) => p.advance_to(&mut self.model, t_end),
             Propagator::Exact(p) => p.advance_to(&mut self.model, t_end),
@@ -215,14 +227,24 @@ impl<M: DrivenModel> Driver<M> {
         if !(t.is_finite() && y.iter().all(|v| v.is_finite())) {
             return Err(format!("state (t = {t}, y = {y:?}) is not finite"));
         }
+        // The run state goes to a copy first: its clocks must also hold at `t` (phase and
+        // time within the limits of an advance), and on failure nothing may change.
+        let restored = || -> Result<M, String> {
+            let mut model = self.model.clone();
+            model.restore_run_state(run)?;
+            model
+                .check_advance(t, t)
+                .map_err(|e| format!("at the state's time t = {t:e} s: {e}"))?;
+            Ok(model)
+        };
         match (&mut self.propagator, controller) {
             (Propagator::Rk(p), Some(memory)) => {
-                self.model.restore_run_state(run)?;
+                self.model = restored()?;
                 p.invalidate();
                 p.restore(t, y, memory);
             }
             (Propagator::Exact(p), None) => {
-                self.model.restore_run_state(run)?;
+                self.model = restored()?;
                 p.invalidate();
                 p.set_state(t, y);
             }

@@ -195,6 +195,31 @@ pub struct ExactPropagator {
 /// Events allowed at one instant before the propagation gives up (Zeno guard).
 const MAX_STALLED_EVENTS: u64 = 64;
 
+/// Consecutive stops of zero length (a stop at the current time) allowed before the
+/// propagation gives up: a model whose stops no longer move forward (a mesh phase that lost
+/// its resolution) would otherwise switch pieces forever without time advancing.
+const MAX_STALLED_STOPS: u64 = 1024;
+
+/// Guard samples the crossing search may take in one [`ExactPropagator::advance_to`]
+/// (2^24 ≈ 1.7e7, a few tenths of a second): a segment is sampled every quarter of the
+/// fastest period of its mode, so a mode far faster than the span asked for (e.g. an
+/// equivalent mass of 1e-12 kg under ordinary damping: rate 1e15 1/s) would take billions of
+/// samples. Checked before each search from its segment length (O(1)); refused with
+/// [`SolveError::TooManyGuardSamples`]. A normal run takes a few samples per mesh period, and
+/// recurring segments none, so 2^20 mesh periods (the driver's limit of one advance,
+/// [`crate::model::MAX_MESH_PERIODS_PER_ADVANCE`]) stay well within it.
+pub const MAX_GUARD_SAMPLES_PER_ADVANCE: f64 = 16_777_216.0;
+
+/// The work one [`ExactPropagator::advance_to`] may do, in units of `n_z³` per segment
+/// (2^30; `n_z` = [`PiecewiseLti::lti_dim`]): a segment's cost grows with the cube of the
+/// lifted dimension (a transition `e^{Aτ}` for a new duration, the mat-vecs and guard rows of
+/// its search), so the bound allows 8.6e6 segments of the single pair (`n_z = 5`, about
+/// 2.4e6 mesh periods; the driver's limit of 2^20 periods per advance comes first) and 1.6e5
+/// of the `idler_gearset` drivetrain (`n_z = 19`, a few seconds of work; 2^20 of its mesh
+/// periods would take minutes). Beyond it the advance stops with
+/// [`SolveError::TooManySteps`] at the last segment end (issue 17: no step may grind).
+pub const MAX_WORK_PER_ADVANCE: f64 = 1_073_741_824.0;
+
 impl ExactPropagator {
     pub fn new<S: PiecewiseLti>(sys: &S) -> Self {
         let n = sys.lti_dim();
@@ -293,6 +318,10 @@ impl ExactPropagator {
             self.z_event.resize(nz, 0.0);
             self.column.resize(nz, 0.0);
         }
+        let mut samples_left = MAX_GUARD_SAMPLES_PER_ADVANCE;
+        let max_segments = (MAX_WORK_PER_ADVANCE / (nz as f64).powi(3)) as u64;
+        let mut segments = 0u64;
+        let mut stalled_stops = 0u64;
         while self.t < t_end {
             let stop = sys.next_stop();
             let target = stop.min(t_end);
@@ -301,11 +330,23 @@ impl ExactPropagator {
                 // The stop coincides with the current time (a segment of zero length in
                 // floating point): just switch.
                 if stop <= self.t {
+                    stalled_stops += 1;
+                    if stalled_stops > MAX_STALLED_STOPS {
+                        return Err(SolveError::StopNotAhead { t: self.t, stop });
+                    }
                     sys.on_stop(self.t, &mut self.y);
                     self.stats.stops += 1;
                     continue;
                 }
                 return Err(SolveError::StepSizeTooSmall { t: self.t, h: tau });
+            }
+            stalled_stops = 0;
+            segments += 1;
+            if segments > max_segments {
+                return Err(SolveError::TooManySteps {
+                    t: self.t,
+                    max_steps: max_segments,
+                });
             }
             let carries = self.sensitivity.is_none() && sys.forcing_carries_over();
             match self
@@ -361,6 +402,15 @@ impl ExactPropagator {
                             mode.apply(tau, &self.z, &mut self.z_next);
                             None
                         } else {
+                            let samples = (tau / mode.sample_step).ceil();
+                            if samples > samples_left {
+                                return Err(SolveError::TooManyGuardSamples {
+                                    t: self.t,
+                                    tau,
+                                    samples,
+                                    rate: std::f64::consts::FRAC_PI_2 / mode.sample_step,
+                                });
+                            }
                             let found = first_crossing(
                                 mode,
                                 &mut self.crossing,
@@ -371,6 +421,10 @@ impl ExactPropagator {
                                 tau,
                                 excluded,
                             );
+                            // The samples taken: up to the crossing, or all of them.
+                            samples_left -= found.as_ref().map_or(samples, |c| {
+                                (c.tau / mode.sample_step).ceil().min(samples)
+                            });
                             if self.recurrences {
                                 let outcome = found.as_ref().map(|c| (c.tau, c.index));
                                 mode.learn_recurring(&self.z, tau, outcome);
@@ -417,12 +471,14 @@ impl ExactPropagator {
             } else {
                 mode.apply(tau, &self.z, &mut self.z_next);
             }
+            // Checked before it replaces `y`: on error the propagator holds the last finite
+            // state at `t`, as the RK stepper does.
+            if !self.z_next[..n].iter().all(|v| v.is_finite()) {
+                return Err(SolveError::NonFinite { t: self.t });
+            }
             self.y.copy_from_slice(&self.z_next[..n]);
             if self.sensitivity.is_some() {
                 self.propagate_sensitivity(sys, tau);
-            }
-            if !self.y.iter().all(|v| v.is_finite()) {
-                return Err(SolveError::NonFinite { t: self.t });
             }
             self.t = target;
             if carries {

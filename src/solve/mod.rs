@@ -141,11 +141,40 @@ pub enum SolveError {
     /// A grazing state event (the guard's rate vanishes) while the sensitivity `∂y/∂y0` was
     /// tracked: the saltation matrix is unbounded there.
     SingularSaltation { t: f64 },
+    /// The advance would exceed a documented limit of one advance (mesh periods, phase or
+    /// time resolution: [`crate::model::PhaseClock::check_advance`]); refused before any work,
+    /// so the state is unchanged.
+    BeyondLimits { t: f64, reason: String },
+    /// The exact propagator's crossing search would need more guard samples than one advance
+    /// may take ([`exact::MAX_GUARD_SAMPLES_PER_ADVANCE`]): the mode's fastest rate is far
+    /// above the time span asked for (e.g. a tiny equivalent mass under heavy damping).
+    TooManyGuardSamples {
+        t: f64,
+        tau: f64,
+        samples: f64,
+        rate: f64,
+    },
 }
 
 impl fmt::Display for SolveError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            SolveError::BeyondLimits { t, reason } => {
+                write!(f, "refused at t = {t:e} s: {reason}")
+            }
+            SolveError::TooManyGuardSamples {
+                t,
+                tau,
+                samples,
+                rate,
+            } => write!(
+                f,
+                "at t = {t:e} s the contact search over {tau:e} s would need {samples:e} guard \
+                 samples (fastest rate of the mode {rate:e} 1/s), more than the {:e} one \
+                 advance may take: shorten the step, or check inertias, base radii, damping \
+                 and stiffness (a tiny equivalent mass makes the mode extremely fast)",
+                exact::MAX_GUARD_SAMPLES_PER_ADVANCE
+            ),
             SolveError::SingularSaltation { t } => write!(
                 f,
                 "grazing contact at t = {t:e} s: the sensitivity (monodromy) is unbounded there"
@@ -156,7 +185,8 @@ impl fmt::Display for SolveError {
             SolveError::TooManySteps { t, max_steps } => {
                 write!(
                     f,
-                    "more than {max_steps} steps needed, stopped at t = {t:e} s"
+                    "more than {max_steps} steps needed, stopped at t = {t:e} s (the work \
+                     bound of one advance: shorten the step)"
                 )
             }
             SolveError::NonFinite { t } => write!(f, "state became non-finite at t = {t:e} s"),

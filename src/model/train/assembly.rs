@@ -364,9 +364,39 @@ pub struct Reduction {
 }
 
 impl Reduction {
-    pub fn new(asm: &Assembly) -> Reduction {
+    /// The split of an assembly. Refuses, with the spread of its masses, an assembly whose
+    /// matrices are not finite or whose rigid-body modes cannot be told from its elastic ones
+    /// (issue 17: a gear inertia of 1e20 kg.m2 next to 1e-2 made the split panic): the
+    /// smallest elastic eigenvalue `~k/m_max` must stay above [`RIGID_TOL`] times the largest
+    /// `~k/m_min`, which fails once the masses span more than ~1/RIGID_TOL = 1e10.
+    pub fn new(asm: &Assembly) -> Result<Reduction, String> {
         let n = asm.dim();
-        let (values, vectors) = generalized_eigen(&asm.mean_stiffness_matrix(), &asm.mass);
+        let k_mean = asm.mean_stiffness_matrix();
+        let diagonal = asm.mass.diagonal();
+        let (m_min, m_max) = diagonal
+            .iter()
+            .fold((f64::INFINITY, 0.0f64), |(a, b), &m| (a.min(m), b.max(m)));
+        let spread = || {
+            format!(
+                "the drivetrain's masses (inertias over base radius squared, and bearing \
+                 masses) span {m_min:e} to {m_max:e} kg"
+            )
+        };
+        let finite = |m: &DMatrix<f64>| m.iter().all(|x| x.is_finite());
+        if !(finite(&asm.mass) && finite(&k_mean) && m_min > 0.0) {
+            return Err(format!(
+                "{}: its mass or mean stiffness matrix is not finite and positive",
+                spread()
+            ));
+        }
+        let unseparable = || {
+            format!(
+                "{}: beyond a ratio of ~1e10 the rigid-body modes cannot be told from the \
+                 elastic ones (eigenvalues resolved to a relative {RIGID_TOL:e})",
+                spread()
+            )
+        };
+        let (values, vectors) = generalized_eigen(&k_mean, &asm.mass);
         let top = values.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
         let rigid: Vec<usize> = (0..n)
             .filter(|&i| values[i].abs() <= RIGID_TOL * top)
@@ -376,10 +406,10 @@ impl Reduction {
             r.set_column(c, &vectors.column(i));
         }
         if rigid.is_empty() {
-            return Reduction {
+            return Ok(Reduction {
                 q: DMatrix::identity(n, n),
                 r,
-            };
+            });
         }
         let rm = r.transpose() * &asm.mass; // r × n
         let mut rows: Vec<DVector<f64>> = Vec::new();
@@ -405,14 +435,15 @@ impl Reduction {
                 rows = trial;
             }
         }
-        let t = stack(&rows, &rm);
-        let t_inv = t
-            .try_inverse()
-            .expect("[D; RᵀM] is invertible by construction");
-        Reduction {
+        if rows.len() != m_el {
+            return Err(unseparable());
+        }
+        // Square and of full rank by construction, up to rounding.
+        let t_inv = stack(&rows, &rm).try_inverse().ok_or_else(unseparable)?;
+        Ok(Reduction {
             q: t_inv.columns(0, m_el).clone_owned(),
             r,
-        }
+        })
     }
 
     pub fn elastic_dim(&self) -> usize {

@@ -32,6 +32,9 @@ impl DrivenModel for GearTrain {
     fn run_scales(&self) -> RunScales {
         GearTrain::run_scales(self)
     }
+    fn check_advance(&self, t: f64, t_end: f64) -> Result<(), String> {
+        GearTrain::check_advance(self, t, t_end)
+    }
 }
 
 impl Driver<GearTrain> {

@@ -242,7 +242,7 @@ impl GearTrain {
     /// Assembles the model at `t = 0` with the scene's inputs.
     pub fn new(scene: &TrainScene) -> Result<GearTrain, String> {
         let asm = Assembly::new(scene);
-        let red = Reduction::new(&asm);
+        let red = Reduction::new(&asm)?;
         let q = red.q.clone();
         let m = red.elastic_dim();
         if m == 0 {
@@ -524,6 +524,19 @@ impl GearTrain {
     }
 
     fn apply_inputs(&mut self, t: f64, inputs: TrainInputs) -> Result<(), String> {
+        // Before anything changes: every mesh frequency within the range the propagators
+        // can square (an input_speed of 1e308 rad/s made it infinite and the outputs NaN).
+        for (n, mesh) in self.meshes.iter().enumerate() {
+            let rate = mesh.cycles_per_rev * inputs.input_speed;
+            if !(rate <= crate::model::MAX_RATE) {
+                return Err(format!(
+                    "input_speed = {:?} rad/s gives mesh {n} a mesh rate of {rate:e} 1/s, \
+                     beyond {:e} 1/s (the propagators square it)",
+                    inputs.input_speed,
+                    crate::model::MAX_RATE
+                ));
+            }
+        }
         let torque_changed = inputs.input_torque != self.inputs.input_torque
             || inputs.load_torque != self.inputs.load_torque
             || t == 0.0;
@@ -904,6 +917,21 @@ impl GearTrain {
                 )
             },
         }
+    }
+
+    /// Whether advancing from `t` to `t_end` stays within the limits of one advance for
+    /// every mesh clock ([`PhaseClock::check_advance`]); the message names the mesh.
+    pub fn check_advance(&self, t: f64, t_end: f64) -> Result<(), String> {
+        for (n, mesh) in self.meshes.iter().enumerate() {
+            mesh.clock.check_advance(t, t_end).map_err(|e| {
+                format!(
+                    "input_speed = {:e} rad/s, mesh {n} phase {:e} cycles at t = {t:e} s: {e}",
+                    self.inputs.input_speed,
+                    mesh.clock.phase_at(t)
+                )
+            })?;
+        }
+        Ok(())
     }
 
     /// Mesh period of mesh n at the current speed, s.

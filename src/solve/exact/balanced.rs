@@ -53,12 +53,17 @@ impl BalancedMatrix {
                 }
                 let mut f = 1.0f64;
                 let (mut cc, mut rr) = (c, r);
-                while cc < rr / 2.0 {
+                // Scaling stops before a sum under- or overflows (LAPACK gebal's sfmin/sfmax
+                // guards): with entries of very different magnitude (a damping of 1.8e308)
+                // the halved sum reached 0, `cc >= 0 · 2` held for ever and the mode was
+                // never built (issue 17). Normal magnitudes never come near these limits.
+                let (low, high) = (4.0 * f64::MIN_POSITIVE, f64::MAX / 4.0);
+                while cc < rr / 2.0 && rr > low && cc < high {
                     cc *= 2.0;
                     rr /= 2.0;
                     f *= 2.0;
                 }
-                while cc >= rr * 2.0 {
+                while cc >= rr * 2.0 && cc > low && rr < high {
                     cc /= 2.0;
                     rr *= 2.0;
                     f /= 2.0;

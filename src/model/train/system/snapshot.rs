@@ -117,6 +117,10 @@ impl GearTrain {
                     mesh.flags.len()
                 ));
             }
+            // The anchor within the phase limit, the frequency the restored inputs give.
+            ms.clock
+                .check_restored(mesh.clock.mesh_frequency())
+                .map_err(|e| format!("mesh {n}: {e}"))?;
             mesh.clock = ms.clock;
             mesh.cycle = ms.cycle;
             mesh.interval = ms.interval;
