@@ -20,6 +20,11 @@ impl SplitMix64 {
         lo + (hi - lo) * (self.next() >> 11) as f64 / (1u64 << 53) as f64
     }
 
+    /// `true` with probability `p`.
+    pub fn chance(&mut self, p: f64) -> bool {
+        self.uniform(0.0, 1.0) < p
+    }
+
     /// Log-uniform in `[lo, hi)`.
     pub fn log_uniform(&mut self, lo: f64, hi: f64) -> f64 {
         self.uniform(lo.ln(), hi.ln()).exp()
