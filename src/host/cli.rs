@@ -23,9 +23,9 @@ use std::process::ExitCode;
 #[derive(clap::Args, Debug)]
 #[command(after_help = "\
 Exit status:
-  0  the run reached the stop time, or the FMU ended it early by returning fmi2Discard with
-     fmi2Terminated = true (it asked to terminate; a note names the time)
-  1  anything else: a bad argument or FMU, fmi2Discard without fmi2Terminated, fmi2Error or
+  0  the run reached the stop time
+  1  anything else: a bad argument or FMU, fmi2Discard (also with fmi2Terminated = true: the
+     FMU asked to end the run early; a row at its last successful time is kept), fmi2Error or
      fmi2Fatal, the FMU crashing or ending its process, SIGINT, SIGTERM or SIGHUP (also
      how a blocked FMU is ended: the first asks the run to stop at its next step, a second
      one or 0.9 s without reaching it kills the FMU's process). The rows computed until

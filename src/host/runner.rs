@@ -19,8 +19,8 @@
 //! until then have been delivered, and the failure (call, time, status, the FMU's logged
 //! reason) is returned. After `fmi2Discard`, `fmi2GetBooleanStatus(fmi2Terminated)` and
 //! `fmi2GetRealStatus(fmi2LastSuccessfulTime)` are asked (FMI 2.0.5 §4.2.3): an FMU that asks
-//! to terminate ends the run normally (with a row at the last successful time); any other
-//! Discard is a failure (fmpy would retry the same step forever).
+//! to terminate gets a row at the last successful time, as in fmpy. Every Discard ends the run
+//! as a failure: the run did not reach its stop time (exit 1; one rule for scripts).
 
 use super::csv::Row;
 use super::description::{Causality, ModelDescription, Value, VarType};
@@ -449,8 +449,11 @@ pub fn run(
                     }
                 }
                 if terminated == Some(true) {
-                    out.notes
-                        .push(format!("the FMU asked to terminate the simulation: {msg}"));
+                    // Ended early at the FMU's request: the rows are complete up to there, but
+                    // the run did not reach its stop time, so it is still a failure (exit 1).
+                    out.failure = Some(format!(
+                        "the FMU asked to terminate the simulation before the stop time: {msg}"
+                    ));
                     let _ = inst.terminate();
                     return out;
                 }
