@@ -7,18 +7,12 @@ use geardyn::scene::Scene;
 
 pub mod analysis;
 pub mod floquet;
+pub mod modes;
 pub mod simulate;
 pub mod stiffness;
 pub mod train;
 
-/// A finite, positive command-line number.
-pub fn positive(name: &str, v: f64) -> Result<f64, String> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(format!("--{name} {v}: must be a finite number > 0"))
-    }
-}
+pub use geardyn::commands::positive;
 
 /// The scene named on the command line: a file or folder, or a built-in example.
 pub fn load_scene(path: &Option<PathBuf>, example: &Option<String>) -> Result<Scene, String> {
