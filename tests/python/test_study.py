@@ -1,0 +1,198 @@
+"""Studies on a Dask LocalCluster with 2 worker processes (geardyn.study, docs/python.md).
+
+The reference for every study result is the same point run serially through the plain API
+(`Scene.update` + `geardyn.simulate`) with the result computed here from the time series.
+"""
+
+import os
+import signal
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import geardyn
+from geardyn import study as gs
+from conftest import REPO
+
+SPUR = REPO / "fmu" / "spur_pair"
+
+
+@pytest.fixture(scope="module")
+def client():
+    from distributed import Client, LocalCluster
+
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+    c = Client(cluster)
+    yield c
+    c.close()
+    cluster.close()
+
+
+def write_study(tmp_path, body, name="study.toml"):
+    path = tmp_path / name
+    path.write_text(f'scene = "{SPUR}"\n' + body)
+    return path
+
+
+def serial(point, solver):
+    """One point through the plain API: DTE RMS (mean removed) and peak |mesh force|."""
+    scene = geardyn.Scene.from_file(SPUR)
+    scene.update({**solver, **point})
+    run = geardyn.simulate(scene)
+    dte, force = run["dte"], run["mesh_force"]
+    return np.sqrt(np.mean((dte - dte.mean()) ** 2)), np.abs(force).max()
+
+
+def assert_exactly_once(study):
+    df = gs.stored(study.store)
+    assert df["key"].is_unique, "a point is stored twice"
+    assert sorted(df["index"]) == list(range(len(study.points()))), "a point is missing"
+    return df
+
+
+GRID = """
+results = ["dte_rms", "peak_force"]
+[[parameter]]
+path = "operating.pinion_speed"
+from = 350.0
+to = 500.0
+points = 4
+[[parameter]]
+path = "mesh.damping_ratio"
+values = [0.03, 0.08]
+[analysis]
+kind = "simulate"
+"""
+
+
+def test_grid_matches_the_points_run_serially(client, tmp_path):
+    study = gs.load(write_study(tmp_path, GRID))
+    summary = gs.run(study, client=client, progress=False)
+    assert (summary.total, summary.computed, summary.failed) == (8, 8, 0)
+    df = gs.results(study)
+    assert_exactly_once(study)
+    for row, point in zip(df.itertuples(), study.points()):
+        assert {p: getattr(row, "_" + str(3 + i)) for i, p in enumerate(point)} == point
+        rms, peak = serial(point, {})
+        assert row.dte_rms == rms and row.peak_force == peak
+    # A 2-parameter grid is the product of the values, speed outermost.
+    assert sorted(set(df["operating.pinion_speed"])) == [350.0, 400.0, 450.0, 500.0]
+
+
+def test_seeded_lhs_is_bit_identical_to_serial_and_failures_are_recorded(client, tmp_path):
+    body = """
+seed = 11
+results = ["dte_rms", "peak_force"]
+[sampling]
+method = "lhs"
+samples = 6
+[[parameter]]
+path = "mesh.stiffness.mean"
+distribution = "uniform"
+low = -1.0e8
+high = 4.0e8
+[analysis]
+kind = "simulate"
+"""
+    study = gs.load(write_study(tmp_path, body))
+    points = study.points()
+    assert points == gs.load(study.path).points(), "the seed alone fixes the points"
+    gs.run(study, client=client, progress=False)
+    df = gs.results(study)
+    assert_exactly_once(study)
+    failed = df[df["error"].notna()]
+    for row, point in zip(df.itertuples(), points):
+        if point["mesh.stiffness.mean"] > 0:
+            assert pd.isna(row.error)
+            assert (row.dte_rms, row.peak_force) == serial(point, {})
+    # The lowest of the 6 strata of U(-1e8, 4e8) is negative: that point fails, recorded.
+    assert len(failed) == 1
+    for row in failed.itertuples():
+        assert "mesh.stiffness.mean" in row.error and "must be" in row.error
+        assert np.isnan(row.dte_rms)
+
+
+SLOW = """
+chunk = 1
+results = ["dte_rms"]
+[[parameter]]
+path = "operating.pinion_speed"
+from = 300.0
+to = 520.0
+points = 24
+[analysis]
+kind = "simulate"
+"""
+
+
+def slow_study(tmp_path, name):
+    """24 points of ~0.1 s: the RK path over 0.2 s, set in a copy of the scene the study
+    names (the study varies numbers; the base scene carries the fixed settings)."""
+    scene = geardyn.Scene.from_file(SPUR)
+    scene.update({"solver.method": "rk", "solver.stop_time": 0.2})
+    (tmp_path / "scene.toml").write_text(scene.to_toml())
+    path = tmp_path / name
+    path.write_text('scene = "scene.toml"\n' + SLOW)
+    return gs.load(path)
+
+
+def test_a_worker_killed_midway_loses_no_point(client, tmp_path):
+    study = slow_study(tmp_path, "kill.toml")
+    pids = sorted(client.run(os.getpid).values())
+    assert len(pids) == 2
+    killed = []
+
+    def kill_one(record):
+        if not killed:
+            killed.append(pids[0])
+            os.kill(pids[0], signal.SIGKILL)
+
+    summary = gs.run(study, client=client, progress=False, on_result=kill_one)
+    assert killed and summary.failed == 0
+    df = assert_exactly_once(study)
+    assert df["error"].isna().all()
+    client.wait_for_workers(2, timeout=60)
+    assert pids[0] not in client.run(os.getpid).values(), "the worker was not killed"
+
+
+def test_rerun_after_an_interrupt_computes_only_the_missing_points(client, tmp_path):
+    study = slow_study(tmp_path, "interrupt.toml")
+    arrived = []
+
+    def interrupt(record):
+        arrived.append(record["key"])
+        if len(arrived) == 5:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        gs.run(study, client=client, progress=False, on_result=interrupt)
+    before = gs.stored_keys(study.store)
+    assert set(arrived) == before, "everything that arrived is stored"
+    total = len(study.points())
+    assert 5 <= len(before) < total
+    computed = []
+    summary = gs.run(study, client=client, progress=False, on_result=lambda r: computed.append(r["key"]))
+    assert summary.already == len(before)
+    assert summary.computed == len(computed) == total - len(before)
+    assert not set(computed) & before
+    assert_exactly_once(study)
+
+
+def test_study_errors_name_the_field(tmp_path):
+    bad = GRID.replace('kind = "simulate"', 'kind = "simulate"\nspeed = 3.0')
+    with pytest.raises(gs.StudyError, match=r"analysis.speed: not an option of simulate"):
+        gs.load(write_study(tmp_path, bad))
+    with pytest.raises(gs.StudyError, match=r"results: 'floquet_max' is not a result of simulate"):
+        gs.load(write_study(tmp_path, GRID.replace('"peak_force"', '"floquet_max"')))
+    mc = 'results = ["dte_rms"]\n[sampling]\nmethod = "monte_carlo"\nsamples = 4\n'
+    with pytest.raises(gs.StudyError, match=r"seed = None: monte_carlo needs a seed"):
+        gs.load(write_study(tmp_path, mc + '[[parameter]]\npath = "mesh.damping_ratio"\n'
+                            'distribution = "uniform"\nlow = 0.01\nhigh = 0.1\n[analysis]\nkind = "simulate"\n'))
+    with pytest.raises(gs.StudyError, match=r"mesh.stiffnes"):
+        gs.load(write_study(tmp_path, GRID.replace("mesh.damping_ratio", "mesh.stiffnes")))
+
+
+def test_the_documented_example_is_a_valid_study():
+    study = gs.load(REPO / "examples" / "study_spur.toml")
+    assert len(study.points()) == 69 and study.kind == "simulate"
