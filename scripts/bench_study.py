@@ -5,8 +5,9 @@
    bare loop of `simulate` calls on the same points;
 3. the extension's `simulate` against `geardyn simulate` (CLI), process start excluded.
 
-Run: .venv/bin/python scripts/bench_study.py [--points 160] [--stop-time 0.05]
-Prints a Markdown table. Timings are walls of this one run; on a shared machine rerun.
+Run: .venv/bin/python scripts/bench_study.py [--points 300] [--stop-time 0.05] [--repeat 2]
+Prints a Markdown table. Each wall is the best of `--repeat` runs within this one run (the
+least disturbed by other load); on a shared machine, rerun when the load average is high.
 """
 
 import argparse
@@ -48,10 +49,9 @@ def write_study(folder: Path, scene, points: int) -> Path:
 
 def study_seconds(path: Path, workers: int) -> float:
     """Wall of one study run on a started, warmed-up cluster (startup is not per point)."""
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                      dashboard_address=None) as cluster, Client(cluster) as client:
+    with gs.local_cluster(workers) as cluster, Client(cluster) as client:
         client.run(lambda: geardyn.simulate(geardyn.Scene.example("spur_pair")))  # warm-up
         study = gs.load(path)
         start = time.perf_counter()
@@ -101,23 +101,28 @@ def cli_vs_extension(repeats: int = 5):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--points", type=int, default=160)
+    parser.add_argument("--points", type=int, default=300)
     parser.add_argument("--stop-time", type=float, default=0.05)
+    parser.add_argument("--repeat", type=int, default=2)
     args = parser.parse_args()
     scene = base_scene(args.stop_time)
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
-        folders = {}
-        for name in ("bare", "w1", "w2"):
-            (tmp / name).mkdir()
-            folders[name] = write_study(tmp / name, scene, args.points)
-        bare = bare_seconds(folders["bare"])
-        one = study_seconds(folders["w1"], 1)
-        two = study_seconds(folders["w2"], 2)
+    walls = {"bare": [], "w1": [], "w2": []}
+    for r in range(args.repeat):
+        with tempfile.TemporaryDirectory() as tmp:
+            # Fresh stores: every run computes every point.
+            folders = {}
+            for name in walls:
+                (Path(tmp) / name).mkdir()
+                folders[name] = write_study(Path(tmp) / name, scene, args.points)
+            walls["bare"].append(bare_seconds(folders["bare"]))
+            walls["w1"].append(study_seconds(folders["w1"], 1))
+            walls["w2"].append(study_seconds(folders["w2"], 2))
+    bare, one, two = (min(walls[k]) for k in ("bare", "w1", "w2"))
     py, cli, start = cli_vs_extension()
     n = args.points
     per_point = bare / n
-    print(f"machine: {os.cpu_count()} cores; {n} points of spur_pair (RK, {args.stop_time} s of gear time)\n")
+    load = os.getloadavg()[0]
+    print(f"machine: {os.cpu_count()} cores, load average {load:.1f} at the end; {n} points of spur_pair (RK, {args.stop_time} s of gear time)\n")
     print("| measure | value |")
     print("|---|---|")
     print(f"| bare loop of `simulate` | {per_point * 1e3:.2f} ms/point ({n / bare:.1f} points/s) |")

@@ -485,6 +485,18 @@ fn matrix<'py>(
     Ok(a.into_pyarray(py))
 }
 
+/// A result table: column names and one row per point (the CLI's CSV).
+type Table<'py> = (Vec<String>, Bound<'py, PyArray2<f64>>);
+
+fn table<'py>(
+    py: Python<'py>,
+    columns: &[&str],
+    rows: &[impl AsRef<[f64]>],
+) -> PyResult<Table<'py>> {
+    let names = columns.iter().map(|c| c.to_string()).collect();
+    Ok((names, matrix(py, rows, columns.len())?))
+}
+
 /// Simulates the scene over its `[solver]` experiment (`stop_time`, `output_interval`):
 /// returns `(names, times, data, method, stats)`, `data` one row per output time.
 #[pyfunction]
@@ -581,7 +593,7 @@ fn sweep<'py>(
     direction: &str,
     tolerance: f64,
     max_periods: u32,
-) -> PyResult<(Vec<String>, Bound<'py, PyArray2<f64>>)> {
+) -> PyResult<Table<'py>> {
     let s = scene.pair("sweep")?;
     let request = commands::analysis::SweepRequest {
         speed,
@@ -591,13 +603,7 @@ fn sweep<'py>(
     };
     let points = py.detach(|| request.run(&s, &|_, _| {})).map_err(err)?;
     let rows: Vec<_> = points.iter().map(|p| p.row()).collect();
-    let columns = geardyn::analysis::SWEEP_COLUMNS
-        .map(str::to_string)
-        .to_vec();
-    Ok((
-        columns,
-        matrix(py, &rows, geardyn::analysis::SWEEP_COLUMNS.len())?,
-    ))
+    table(py, &geardyn::analysis::SWEEP_COLUMNS, &rows)
 }
 
 /// Harmonic balance with arclength continuation over `speed = "from:to"`; returns
@@ -610,7 +616,7 @@ fn hb<'py>(
     speed: &str,
     harmonics: usize,
     subharmonic: u32,
-) -> PyResult<(Vec<String>, Bound<'py, PyArray2<f64>>)> {
+) -> PyResult<Table<'py>> {
     let s = scene.pair("hb")?;
     let request = commands::analysis::HbRequest {
         speed,
@@ -618,9 +624,7 @@ fn hb<'py>(
         subharmonic,
     };
     let branch = py.detach(|| request.run(&s)).map_err(err)?;
-    let columns = commands::analysis::HB_COLUMNS.map(str::to_string).to_vec();
-    let data = matrix(py, &branch.rows(), columns.len())?;
-    Ok((columns, data))
+    table(py, &commands::analysis::HB_COLUMNS, &branch.rows())
 }
 
 /// Natural frequencies and mode shapes of a drivetrain's mean system; returns a dict with

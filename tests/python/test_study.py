@@ -20,9 +20,9 @@ SPUR = REPO / "fmu" / "spur_pair"
 
 @pytest.fixture(scope="module")
 def client():
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
-    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+    cluster = gs.local_cluster(2)
     c = Client(cluster)
     yield c
     c.close()
