@@ -199,7 +199,9 @@ def simulate(scene: Scene) -> Simulation:
 def periodic(scene: Scene, periods: int = 1, warmup: int = 20) -> Orbit:
     """Periodic steady state at ``operating.pinion_speed`` by Newton shooting, with Floquet
     multipliers and stability: a period-``periods`` orbit after ``warmup`` mesh periods."""
-    return Orbit(**_geardyn.periodic(scene, periods, warmup))
+    raw = _geardyn.periodic(scene, periods, warmup)
+    raw["multipliers"] = np.array([complex(re, im) for re, im in raw["multipliers"]])
+    return Orbit(**raw)
 
 
 def sweep(
@@ -222,7 +224,9 @@ def hb(scene: Scene, speed: str, harmonics: int = 20, subharmonic: int = 1) -> T
 
 def modes(scene: Scene, rigid_bearings: bool = False) -> Modes:
     """Natural frequencies and mode shapes of a drivetrain's mean system (``geardyn modes``)."""
-    return Modes(**_geardyn.modes(scene, rigid_bearings))
+    raw = _geardyn.modes(scene, rigid_bearings)
+    raw["rigid"] = np.array(raw["rigid"], dtype=bool)
+    return Modes(**raw)
 
 
 def stiffness(

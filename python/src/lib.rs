@@ -7,12 +7,10 @@
 use std::path::PathBuf;
 use std::sync::Arc;
 
-use numpy::ndarray::Array2;
-use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::create_exception;
 use pyo3::exceptions::{PyException, PyTypeError};
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use pyo3::types::{PyBool, PyByteArray, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 
 use geardyn::commands;
 use geardyn::model::train::run_train;
@@ -471,22 +469,53 @@ fn _restore_scene(text: String, origin: String, file: Option<PathBuf>) -> PyResu
     PyScene::new(text, origin, file)
 }
 
+/// A NumPy float64 array over one copy of `values`, shaped `shape`. Built through NumPy's
+/// `frombuffer` on a bytearray (writable, owned by the array) rather than with the `numpy`
+/// crate: that crate's `ndarray` turns on features of `num-complex` and `matrixmultiply`
+/// that the library does not use, and the different feature set made cargo rebuild the
+/// library each time the CLI and the module were built in turn in the shared `target/`.
+fn array<'py>(
+    py: Python<'py>,
+    values: impl Iterator<Item = f64>,
+    len: usize,
+    shape: &[usize],
+) -> PyResult<Bound<'py, PyAny>> {
+    let mut values = values;
+    let bytes = PyByteArray::new_with(py, 8 * len, |buf| {
+        for chunk in buf.chunks_exact_mut(8) {
+            let v = values.next().expect("len values");
+            chunk.copy_from_slice(&v.to_ne_bytes());
+        }
+        Ok(())
+    })?;
+    let np = py.import("numpy")?;
+    np.getattr("frombuffer")?
+        .call1((bytes, np.getattr("float64")?))?
+        .call_method1("reshape", (shape.to_vec(),))
+}
+
+fn vector<'py>(py: Python<'py>, values: &[f64]) -> PyResult<Bound<'py, PyAny>> {
+    array(py, values.iter().copied(), values.len(), &[values.len()])
+}
+
+/// Rows of equal width as a 2-D array.
 fn matrix<'py>(
     py: Python<'py>,
     rows: &[impl AsRef<[f64]>],
     width: usize,
-) -> PyResult<Bound<'py, PyArray2<f64>>> {
-    let flat: Vec<f64> = rows
-        .iter()
-        .flat_map(|r| r.as_ref().iter().copied())
-        .collect();
-    let a = Array2::from_shape_vec((rows.len(), width), flat)
-        .map_err(|e| err(format!("ragged result table: {e}")))?;
-    Ok(a.into_pyarray(py))
+) -> PyResult<Bound<'py, PyAny>> {
+    if let Some(r) = rows.iter().find(|r| r.as_ref().len() != width) {
+        return Err(err(format!(
+            "ragged result table: a row of {} values, {width} columns",
+            r.as_ref().len()
+        )));
+    }
+    let values = rows.iter().flat_map(|r| r.as_ref().iter().copied());
+    array(py, values, rows.len() * width, &[rows.len(), width])
 }
 
 /// A result table: column names and one row per point (the CLI's CSV).
-type Table<'py> = (Vec<String>, Bound<'py, PyArray2<f64>>);
+type Table<'py> = (Vec<String>, Bound<'py, PyAny>);
 
 fn table<'py>(
     py: Python<'py>,
@@ -506,8 +535,8 @@ fn simulate<'py>(
     scene: &PyScene,
 ) -> PyResult<(
     Vec<String>,
-    Bound<'py, PyArray1<f64>>,
-    Bound<'py, PyArray2<f64>>,
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
     String,
     Bound<'py, PyDict>,
 )> {
@@ -539,7 +568,7 @@ fn simulate<'py>(
     d.set_item("events", stats.events)?;
     d.set_item("stops", stats.stops)?;
     d.set_item("guard_evals", stats.guard_evals)?;
-    Ok((names, times.into_pyarray(py), data, method, d))
+    Ok((names, vector(py, &times)?, data, method, d))
 }
 
 /// Periodic steady state by shooting at the scene's pinion speed; returns a dict of the
@@ -563,16 +592,13 @@ fn periodic<'py>(
     let d = PyDict::new(py);
     d.set_item("period", orbit.period)?;
     d.set_item("periods", orbit.periods)?;
-    d.set_item("y0", orbit.y0.clone().into_pyarray(py))?;
-    let multipliers: Vec<numpy::Complex64> = orbit
-        .multipliers
-        .iter()
-        .map(|m| numpy::Complex64::new(m.re, m.im))
-        .collect();
-    d.set_item("multipliers", multipliers.into_pyarray(py))?;
+    d.set_item("y0", vector(py, &orbit.y0)?)?;
+    // (re, im) pairs: the Python wrapper makes them a complex array.
+    let multipliers: Vec<(f64, f64)> = orbit.multipliers.iter().map(|m| (m.re, m.im)).collect();
+    d.set_item("multipliers", multipliers)?;
     d.set_item("spectral_radius", orbit.spectral_radius())?;
     d.set_item("stability", format!("{:?}", orbit.stability()))?;
-    d.set_item("residuals", orbit.residuals.clone().into_pyarray(py))?;
+    d.set_item("residuals", vector(py, &orbit.residuals)?)?;
     let m = &orbit.monodromy;
     let rows: Vec<Vec<f64>> = (0..m.nrows())
         .map(|i| m.row(i).iter().copied().collect())
@@ -652,8 +678,8 @@ fn modes<'py>(
         .map(|m| m.shape.iter().copied().collect())
         .collect();
     d.set_item("labels", result.labels.clone())?;
-    d.set_item("frequencies", frequencies.into_pyarray(py))?;
-    d.set_item("rigid", rigid.into_pyarray(py))?;
+    d.set_item("frequencies", vector(py, &frequencies)?)?;
+    d.set_item("rigid", rigid)?;
     d.set_item("shapes", matrix(py, &shapes, result.labels.len())?)?;
     d.set_item("report", report)?;
     Ok(d)
@@ -669,7 +695,7 @@ fn stiffness<'py>(
     torque: f64,
     etc: bool,
     harmonics: usize,
-) -> PyResult<(Vec<String>, Bound<'py, PyArray2<f64>>, String)> {
+) -> PyResult<(Vec<String>, Bound<'py, PyAny>, String)> {
     let (columns, rows, summary) = py
         .detach(move || {
             commands::stiffness::stiffness(&gears, torque, etc)

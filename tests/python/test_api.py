@@ -287,6 +287,7 @@ def test_every_output_has_a_unit_and_the_views_carry_them():
         unknown = [n for n in run.names if run.units[n] is None]
         assert not unknown, f"{name}: outputs without a unit: {unknown}"
     run = geardyn.simulate(geardyn.Scene.example("spur_pair"))
+    assert run.data.flags.writeable and run.data.dtype == np.float64 and run.data.shape == (2001, 7)
     df = run.to_pandas()
     assert df.attrs["units"]["mesh_force"] == "N"
     identical(df["dte"].to_numpy(), run["dte"])
