@@ -538,6 +538,8 @@ def run(
     names = [p.path for p in study.parameters]
     columns = study.result_columns()
 
+    if not todo:
+        return Summary(len(points), len(already), 0, 0, 0.0, [])
     own = None
     if client is None:
         if scheduler is not None:
