@@ -196,3 +196,44 @@ def test_study_errors_name_the_field(tmp_path):
 def test_the_documented_example_is_a_valid_study():
     study = gs.load(REPO / "examples" / "study_spur.toml")
     assert len(study.points()) == 69 and study.kind == "simulate"
+
+
+def test_periodic_and_sweep_studies_match_serial(client, tmp_path):
+    periodic = """
+results = ["floquet_max", "stable", "period"]
+[[parameter]]
+path = "mesh.damping_ratio"
+values = [0.03, 0.06]
+[analysis]
+kind = "periodic"
+speed = 430.0
+"""
+    study = gs.load(write_study(tmp_path, periodic, "periodic.toml"))
+    gs.run(study, client=client, progress=False)
+    for row, point in zip(gs.results(study).itertuples(), study.points()):
+        scene = geardyn.Scene.from_file(SPUR)
+        scene.update({**point, "operating.pinion_speed": 430.0})
+        orbit = geardyn.periodic(scene)
+        assert (row.floquet_max, row.stable, row.period) == (
+            orbit.spectral_radius, float(orbit.stability == "Stable"), orbit.period)
+    sweep = """
+results = ["peak_dte_rms", "peak_mesh_frequency", "hysteresis"]
+[[parameter]]
+path = "mesh.damping_ratio"
+values = [0.03, 0.06]
+[analysis]
+kind = "sweep"
+speed = "400:480:5"
+"""
+    study = gs.load(write_study(tmp_path, sweep, "sweep.toml"))
+    gs.run(study, client=client, progress=False)
+    for row, point in zip(gs.results(study).itertuples(), study.points()):
+        scene = geardyn.Scene.from_file(SPUR)
+        scene.update(point)
+        table = geardyn.sweep(scene, "400:480:5")
+        rms = table["dte_rms"]
+        up, down = rms[table["direction"] > 0], rms[table["direction"] < 0]
+        # Both branches list the same speeds (down in reverse order).
+        assert row.peak_dte_rms == rms.max()
+        assert row.peak_mesh_frequency == table["mesh_frequency"][np.argmax(rms)]
+        assert row.hysteresis == np.abs(up - down[::-1]).max()
