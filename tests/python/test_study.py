@@ -199,15 +199,11 @@ def test_the_documented_example_is_a_valid_study():
 
 
 def test_periodic_and_sweep_studies_match_serial(client, tmp_path):
-    periodic = """
-results = ["floquet_max", "stable", "period"]
-[[parameter]]
-path = "mesh.damping_ratio"
-values = [0.03, 0.06]
-[analysis]
-kind = "periodic"
-speed = 430.0
-"""
+    def over_damping(results, analysis):
+        return (f"results = {results}\n[[parameter]]\npath = \"mesh.damping_ratio\"\n"
+                f"values = [0.03, 0.06]\n[analysis]\n{analysis}\n")
+
+    periodic = over_damping('["floquet_max", "stable", "period"]', 'kind = "periodic"\nspeed = 430.0')
     study = gs.load(write_study(tmp_path, periodic, "periodic.toml"))
     gs.run(study, client=client, progress=False)
     for row, point in zip(gs.results(study).itertuples(), study.points()):
@@ -216,15 +212,8 @@ speed = 430.0
         orbit = geardyn.periodic(scene)
         assert (row.floquet_max, row.stable, row.period) == (
             orbit.spectral_radius, float(orbit.stability == "Stable"), orbit.period)
-    sweep = """
-results = ["peak_dte_rms", "peak_mesh_frequency", "hysteresis"]
-[[parameter]]
-path = "mesh.damping_ratio"
-values = [0.03, 0.06]
-[analysis]
-kind = "sweep"
-speed = "400:480:5"
-"""
+    sweep = over_damping('["peak_dte_rms", "peak_mesh_frequency", "hysteresis"]',
+                         'kind = "sweep"\nspeed = "400:480:5"')
     study = gs.load(write_study(tmp_path, sweep, "sweep.toml"))
     gs.run(study, client=client, progress=False)
     for row, point in zip(gs.results(study).itertuples(), study.points()):
