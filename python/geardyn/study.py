@@ -381,16 +381,20 @@ def run_chunk(scene_text: str, origin: str, analysis: dict, results: Sequence[st
     the scheduler is spread; a failing point is recorded with its error and NaN results."""
     records = []
     for index, key, point in points:
-        record = {"index": index, "key": key, **point}
         try:
             values = run_point(scene_text, origin, analysis, results, point)
-            record.update({c: values[c] for c in columns})
-            record["error"] = None
-        except Exception as e:  # noqa: BLE001 -- every failure is data, not a crash
-            record.update({c: math.nan for c in columns})
-            record["error"] = str(e) if isinstance(e, geardyn.GeardynError) else f"{type(e).__name__}: {e}"
-        records.append(record)
+            records.append({"index": index, "key": key, **point,
+                            **{c: values[c] for c in columns}, "error": None})
+        except (KeyboardInterrupt, SystemExit):
+            raise
+        except BaseException as e:  # noqa: BLE001 -- a failure (a Rust panic too) is data
+            message = str(e) if isinstance(e, geardyn.GeardynError) else f"{type(e).__name__}: {e}"
+            records.append(_failed(index, key, point, columns, message))
     return records
+
+
+def _failed(index: int, key: str, point: Dict[str, float], columns: Sequence[str], message: str) -> dict:
+    return {"index": index, "key": key, **point, **{c: math.nan for c in columns}, "error": message}
 
 
 # --------------------------------------------------------------------------------------
@@ -458,7 +462,7 @@ class Summary:
             + (f" ({self.computed / self.seconds:.1f} points/s)" if self.seconds > 0 and self.computed else ""),
             f"  failed: {self.failed}" + "".join(f"\n    {e}" for e in self.errors[:5]),
         ]
-        df = stored(study.store)
+        df = results(study)
         if len(df):
             ok = df[df["error"].isna()]
             for c in study.result_columns():
@@ -533,7 +537,7 @@ def run(
     keys = [study.key(p) for p in points]
     if len(set(keys)) != len(keys):
         raise StudyError(f"{study.path}: the study draws the same point twice")
-    already = stored_keys(study.store)
+    already = stored_keys(study.store) & set(keys)
     todo = [(i, k, p) for i, (k, p) in enumerate(zip(keys, points)) if k not in already]
     names = [p.path for p in study.parameters]
     columns = study.result_columns()
@@ -568,14 +572,25 @@ def run(
         # points, and an interrupted run has little to cancel.
         window = 4 * slots
         pending = iter(batches)
-        futures = [submit(b) for b in itertools.islice(pending, window)]
-        done_iter = as_completed(futures, with_results=True)
-        for future, records in done_iter:
+        batch_of = {}
+        for b in itertools.islice(pending, window):
+            futures.append(submit(b))
+            batch_of[futures[-1].key] = b
+        done_iter = as_completed(futures)
+        for future in done_iter:
             nxt = next(pending, None)
             if nxt is not None:
-                f = submit(nxt)
-                futures.append(f)
-                done_iter.add(f)
+                futures.append(submit(nxt))
+                batch_of[futures[-1].key] = nxt
+                done_iter.add(futures[-1])
+            batch = batch_of.pop(future.key)
+            try:
+                records = future.result()
+            except Exception as e:  # noqa: BLE001
+                # The task itself failed: its points killed every worker that ran them
+                # (Dask gives up after `distributed.scheduler.allowed-failures` deaths).
+                # They are stored as failed rather than stopping the study.
+                records = [_failed(i, k, p, columns, f"{type(e).__name__}: {e}") for i, k, p in batch]
             for r in records:
                 computed += 1
                 if r["error"] is not None:
@@ -603,10 +618,16 @@ def run(
 
 
 def results(study):
-    """The stored results in point order (a pandas DataFrame)."""
+    """The stored results of the study's points, in point order (a pandas DataFrame). Rows
+    that an earlier version of the study left in the store (another base scene, analysis or
+    point set: other keys) are not among them."""
     study = study if isinstance(study, Study) else load(study)
     df = stored(study.store)
-    return df.sort_values("index").reset_index(drop=True) if len(df) else df
+    if not len(df):
+        return df
+    keys = {study.key(p) for p in study.points()}
+    df = df[df["key"].isin(keys)]
+    return df.sort_values("index").reset_index(drop=True)
 
 
 # --------------------------------------------------------------------------------------
