@@ -266,6 +266,8 @@ def test_scene_paths_dicts_and_pickling():
     scene = geardyn.Scene.example("spur_pair")
     assert "mesh.stiffness.mean" in scene.paths()
     assert scene["gear[0].name"] == "pinion"
+    scene["mesh.ste.cos[0]"] = 2e-6  # an element of an array of values
+    assert scene["mesh.ste.cos"] == [2e-6]
     assert "mesh.stiffness.mean" in scene and "mesh.nope" not in scene
     same = geardyn.Scene.from_dict(scene.to_dict())
     assert same.to_dict() == scene.to_dict()
