@@ -5,7 +5,7 @@
    bare loop of `simulate` calls on the same points;
 3. the extension's `simulate` against `geardyn simulate` (CLI), process start excluded.
 
-Run: .venv/bin/python scripts/bench_study.py [--points 300] [--stop-time 0.05] [--repeat 2]
+Run: .venv/bin/python scripts/bench_study.py [--points 300] [--stop-time 0.1] [--repeat 2]
 Prints a Markdown table. Each wall is the best of `--repeat` runs within this one run (the
 least disturbed by other load); on a shared machine, rerun when the load average is high.
 """
@@ -26,7 +26,7 @@ CLI = REPO / "target" / "release" / "geardyn"
 
 
 def base_scene(stop_time: float) -> "geardyn.Scene":
-    # The RK path: its cost per point is set by stop_time (~20 ms at 0.05 s of gear time).
+    # The RK path: its cost per point is set by stop_time (10-20 ms at 0.1 s of gear time).
     scene = geardyn.Scene.from_file(REPO / "fmu" / "spur_pair")
     scene.update({"solver.method": "rk", "solver.stop_time": stop_time})
     return scene
@@ -102,7 +102,7 @@ def cli_vs_extension(repeats: int = 5):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--points", type=int, default=300)
-    parser.add_argument("--stop-time", type=float, default=0.05)
+    parser.add_argument("--stop-time", type=float, default=0.1)
     parser.add_argument("--repeat", type=int, default=2)
     args = parser.parse_args()
     scene = base_scene(args.stop_time)

@@ -36,7 +36,7 @@ import tomllib
 import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Dict, Iterable, List, Optional, Sequence
+from typing import Callable, Dict, List, Optional, Sequence
 
 import numpy as np
 
@@ -376,9 +376,12 @@ def run_point(scene_text: str, origin: str, analysis: dict, results: Sequence[st
 
 
 def run_chunk(scene_text: str, origin: str, analysis: dict, results: Sequence[str],
-              columns: Sequence[str], points: Sequence[tuple]) -> List[dict]:
+              columns: Sequence[str], points: Sequence[tuple]) -> tuple:
     """A Dask task: several points (index, key, values) in one task so the per-task cost of
-    the scheduler is spread; a failing point is recorded with its error and NaN results."""
+    the scheduler is spread; a failing point is recorded with its error and NaN results.
+    Returns the records and the task's solve time (it sizes the next tasks; it is not
+    stored, so the store stays bit-identical from run to run)."""
+    start = time.perf_counter()
     records = []
     for index, key, point in points:
         try:
@@ -390,7 +393,7 @@ def run_chunk(scene_text: str, origin: str, analysis: dict, results: Sequence[st
         except BaseException as e:  # noqa: BLE001 -- a failure (a Rust panic too) is data
             message = str(e) if isinstance(e, geardyn.GeardynError) else f"{type(e).__name__}: {e}"
             records.append(_failed(index, key, point, columns, message))
-    return records
+    return records, time.perf_counter() - start
 
 
 def _failed(index: int, key: str, point: Dict[str, float], columns: Sequence[str], message: str) -> dict:
@@ -497,9 +500,8 @@ class _Progress:
         sys.stderr.flush()
 
 
-def _chunks(items: list, size: int) -> Iterable[list]:
-    for i in range(0, len(items), size):
-        yield items[i:i + size]
+# Aimed-at solve time of one task, s (see `run`).
+TASK_SECONDS = 0.25
 
 
 def local_cluster(workers: Optional[int] = None):
@@ -559,38 +561,57 @@ def run(
     futures = []
     try:
         slots = max(1, sum(client.nthreads().values()))
-        # Enough tasks per worker thread (16) that the last ones end together, few enough
-        # points per task (<= 8) that the idle tail stays short; the per-task cost of Dask
-        # (about a millisecond) is then shared by several points.
-        chunk = study.chunk or max(1, min(8, len(todo) // (16 * slots)))
-        batches = list(_chunks(todo, chunk))
+        # Points per task: few at first (about 16 tasks per worker thread, at most 8 points),
+        # then sized from the measured solve time so a task takes about TASK_SECONDS (the
+        # per-task cost of Dask, a millisecond or two, is then shared by many points), but
+        # never so large that fewer than 4 tasks per worker thread remain (the last tasks
+        # must end together, or one worker idles through the tail).
+        size = study.chunk or max(1, min(8, len(todo) // (16 * slots)))
+        next_point = 0
+
+        def next_batch():
+            nonlocal next_point
+            remaining = len(todo) - next_point
+            if remaining <= 0:
+                return None
+            n = min(size, remaining) if study.chunk else max(1, min(size, remaining // (4 * slots)))
+            batch = todo[next_point:next_point + n]
+            next_point += n
+            return batch
+
         submit = functools.partial(
             client.submit, run_chunk, study.scene_text, str(study.scene_path), study.analysis,
             study.results, columns, pure=False, retries=2,
         )
+        batch_of = {}
+
+        def submit_next():
+            batch = next_batch()
+            if batch is not None:
+                futures.append(submit(batch))
+                batch_of[futures[-1].key] = batch
+                return futures[-1]
+            return None
+
         # A window of tasks in flight (not all at once): the scheduler stays small for 1e6
         # points, and an interrupted run has little to cancel.
-        window = 4 * slots
-        pending = iter(batches)
-        batch_of = {}
-        for b in itertools.islice(pending, window):
-            futures.append(submit(b))
-            batch_of[futures[-1].key] = b
-        done_iter = as_completed(futures)
+        for _ in range(4 * slots):
+            submit_next()
+        done_iter = as_completed(list(futures))
         for future in done_iter:
-            nxt = next(pending, None)
-            if nxt is not None:
-                futures.append(submit(nxt))
-                batch_of[futures[-1].key] = nxt
-                done_iter.add(futures[-1])
             batch = batch_of.pop(future.key)
             try:
-                records = future.result()
+                records, seconds = future.result()
+                if not study.chunk and seconds > 0:
+                    size = max(1, min(1024, int(TASK_SECONDS * len(batch) / seconds)))
             except Exception as e:  # noqa: BLE001
                 # The task itself failed: its points killed every worker that ran them
                 # (Dask gives up after `distributed.scheduler.allowed-failures` deaths).
                 # They are stored as failed rather than stopping the study.
                 records = [_failed(i, k, p, columns, f"{type(e).__name__}: {e}") for i, k, p in batch]
+            f = submit_next()
+            if f is not None:
+                done_iter.add(f)
             for r in records:
                 computed += 1
                 if r["error"] is not None:
