@@ -5,6 +5,7 @@ The reference for every study result is the same point run serially through the 
 """
 
 import os
+import pathlib
 import signal
 
 import numpy as np
@@ -227,3 +228,34 @@ def test_periodic_and_sweep_studies_match_serial(client, tmp_path):
         assert row.peak_dte_rms == rms.max()
         assert row.peak_mesh_frequency == table["mesh_frequency"][np.argmax(rms)]
         assert row.hysteresis == np.abs(up - down[::-1]).max()
+
+
+def test_console_script_on_an_existing_scheduler_with_plots(client, tmp_path):
+    """`geardyn-study run --scheduler ADDRESS` uses the running cluster (and leaves it up);
+    `--plot` draws the response surface of the 2-parameter grid, `plot` a Monte Carlo
+    histogram."""
+    import subprocess
+    import sys
+
+    script = pathlib.Path(sys.executable).parent / "geardyn-study"
+    path = write_study(tmp_path, GRID)
+    p = subprocess.run([script, "run", path, "--scheduler", client.scheduler.address,
+                        "--no-progress", "--plot", tmp_path / "surface.png"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert "8 points, 0 already stored, 8 computed" in p.stdout
+    assert "dte_rms" in p.stdout and (tmp_path / "surface.png").stat().st_size > 10_000
+    assert len(client.nthreads()) == 2, "the cluster is still up"
+    mc = write_study(tmp_path, 'seed = 3\nresults = ["dte_rms"]\n'
+                     'sampling = { method = "monte_carlo", samples = 6 }\n'
+                     'parameter = [{ path = "mesh.damping_ratio", distribution = "lognormal", '
+                     'median = 0.05, sigma = 0.3 }]\nanalysis = { kind = "simulate" }\n', "mc.toml")
+    gs.run(mc, client=client, progress=False)
+    p = subprocess.run([script, "plot", mc, "--out", tmp_path / "hist.png"],
+                       capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert (tmp_path / "hist.png").stat().st_size > 5_000
+    bad = subprocess.run([script, "run", write_study(tmp_path, GRID.replace("simulate", "nope"), "bad.toml")],
+                         capture_output=True, text=True, timeout=120)
+    assert bad.returncode == 1
+    assert bad.stderr == "error: analysis.kind = 'nope': must be one of simulate, periodic, sweep\n"
