@@ -463,7 +463,7 @@ class Summary:
             f"study {study.path.name}: {self.total} points, {self.already} already stored, "
             f"{self.computed} computed in {self.seconds:.1f} s"
             + (f" ({self.computed / self.seconds:.1f} points/s)" if self.seconds > 0 and self.computed else ""),
-            f"  failed: {self.failed}" + "".join(f"\n    {e}" for e in self.errors[:5]),
+            f"  failed: {self.failed}" + "".join(f"\n    {e}" for e in self.errors),
         ]
         df = results(study)
         if len(df):
@@ -616,7 +616,8 @@ def run(
                 computed += 1
                 if r["error"] is not None:
                     failed += 1
-                    errors.append(f"point {r['index']} {({n: r[n] for n in names})}: {r['error']}")
+                    if len(errors) < 5:  # the summary shows the first few; all are stored
+                        errors.append(f"point {r['index']} {({n: r[n] for n in names})}: {r['error']}")
                 buffer.append(r)
                 if on_result is not None:
                     on_result(r)
