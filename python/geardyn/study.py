@@ -457,6 +457,9 @@ class Summary:
     failed: int
     seconds: float
     errors: List[str]
+    # Time the workers spent in the points' solves (the rest of `seconds` × workers is the
+    # study machinery, start-up and idle workers).
+    task_seconds: float = 0.0
 
     def text(self, study: Study) -> str:
         lines = [
@@ -554,6 +557,7 @@ def run(
             client = own = Client(local_cluster(workers))
     start = time.perf_counter()
     computed = failed = 0
+    task_seconds = 0.0
     errors: List[str] = []
     buffer: List[dict] = []
     last_flush = time.perf_counter()
@@ -602,6 +606,7 @@ def run(
             batch = batch_of.pop(future.key)
             try:
                 records, seconds = future.result()
+                task_seconds += seconds
                 if not study.chunk and seconds > 0:
                     size = max(1, min(1024, int(TASK_SECONDS * len(batch) / seconds)))
             except Exception as e:  # noqa: BLE001
@@ -636,7 +641,8 @@ def run(
             own.close()
             if cluster is not None and scheduler is None:
                 cluster.close()
-    return Summary(len(points), len(already), computed, failed, time.perf_counter() - start, errors)
+    return Summary(len(points), len(already), computed, failed, time.perf_counter() - start, errors,
+                   task_seconds)
 
 
 def results(study):
