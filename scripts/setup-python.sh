@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
-# Creates ./.venv (if missing) and installs the Python test dependencies into it.
-# Idempotent: a second run only checks that the pinned requirements are satisfied.
+# Creates ./.venv (if missing), installs the Python test dependencies into it, and builds the
+# geardyn Python module (python/, PyO3 + maturin) from source into it.
+# Idempotent: a second run only checks that the pinned requirements are satisfied and runs an
+# incremental build of the module (seconds when nothing changed; it shares target/ with the
+# main crate, see python/Cargo.toml).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 venv="$root/.venv"
@@ -16,4 +19,9 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$req"
   echo "$want" > "$stamp"
 fi
+# Editable install: python/geardyn is imported in place, the extension is built into it.
+# `--skip-install` is not used: the first run must register the package (and the
+# geardyn-study console script) in the venv; later runs reinstall only the small wheel stub.
+VIRTUAL_ENV="$venv" PATH="$venv/bin:$PATH" \
+  "$venv/bin/maturin" develop --release --locked --quiet -m "$root/python/Cargo.toml"
 echo "python test environment ready: $venv"

@@ -9,6 +9,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod analysis;
+pub mod commands;
 pub mod fmi;
 pub mod fmu_common;
 pub mod fmu_entry;
@@ -22,6 +23,5 @@ pub mod model;
 pub mod output;
 pub mod plot;
 pub mod scene;
-pub mod simulate;
 pub mod simulation;
 pub mod solve;

@@ -23,7 +23,7 @@ enum Command {
     /// Simulate a scene (single mesh or drivetrain) and write its outputs to CSV.
     Simulate(cli::simulate::SimulateArgs),
     /// Natural frequencies and mode shapes of a drivetrain's mean system, and its statics.
-    Modes(cli::train::ModesArgs),
+    Modes(cli::modes::ModesArgs),
     /// Periodic steady state by shooting, with Floquet multipliers and stability.
     Periodic(cli::analysis::PeriodicArgs),
     /// Frequency-response sweep over pinion speed (warm start, up/down branches).
@@ -49,7 +49,7 @@ enum Command {
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Simulate(args) => cli::simulate::run(args),
-        Command::Modes(args) => cli::train::modes_command(&args.scene, args.rigid_bearings),
+        Command::Modes(args) => cli::modes::run(args),
         Command::Periodic(args) => cli::analysis::periodic(args),
         Command::Floquet(args) => cli::floquet::floquet(args),
         Command::Band(args) => cli::floquet::band(args),

@@ -1,7 +1,7 @@
 //! Scene-mutation fuzzer (issue 17, acceptance 3): every shipped scene (`fmu/*/scene.toml`:
 //! single pairs, geometry, helical, Bugaru, drivetrains) is mutated at random, deterministically
 //! from a seed, and run through the path of `geardyn simulate` (scene file → load → validate →
-//! limits → streamed CSV, [`geardyn::simulate::simulate`]). Each mutation must end in a result
+//! limits → streamed CSV, [`geardyn::commands::simulate::simulate`]). Each mutation must end in a result
 //! or a message: no panic (caught), no hang (a watchdog bounds every mutation), and after an
 //! error neither the output nor its `.partial` sibling may exist.
 //!
@@ -19,7 +19,7 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use geardyn::simulate::{simulate, AnyScene, SimulateOptions};
+use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
 use geardyn::simulation::RunLimits;
 use toml::Value;
 

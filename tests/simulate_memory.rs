@@ -9,7 +9,7 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use geardyn::simulate::{simulate, AnyScene, SimulateOptions};
+use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
 
 struct Counting;
 

@@ -1,13 +1,13 @@
 //! Issue 17, acceptance 1 (`geardyn simulate`): every failing case of the reliability probe is
 //! a regression test here. Each runs the path of `geardyn simulate` (scene file → load →
-//! validate → limits → streamed CSV, [`geardyn::simulate::simulate`]) and gets either a
+//! validate → limits → streamed CSV, [`geardyn::commands::simulate::simulate`]) and gets either a
 //! message naming the field and its value, with neither the output nor its `.partial` sibling
 //! left behind, or (the touching trapezoidal ramps) a result checked against an independent
 //! form of the same stiffness.
 
 use std::path::{Path, PathBuf};
 
-use geardyn::simulate::{simulate, AnyScene, SimulateOptions};
+use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
 
 const SPUR_PAIR: &str = include_str!("../fmu/spur_pair/scene.toml");
 const IDLER: &str = include_str!("../fmu/idler_gearset/scene.toml");

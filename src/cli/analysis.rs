@@ -4,9 +4,9 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use geardyn::analysis::{self, shoot, Direction, ShootingOptions, SweepOptions, SWEEP_COLUMNS};
+use geardyn::analysis::SWEEP_COLUMNS;
+use geardyn::commands::analysis as commands;
 use geardyn::output;
-use geardyn::plot::{Plot, Series};
 
 use super::{load_scene, positive};
 
@@ -62,46 +62,18 @@ pub fn periodic(args: PeriodicArgs) -> Result<(), String> {
     if let Some(speed) = args.speed {
         scene.operating.pinion_speed = positive("speed", speed)?;
     }
-    let options = ShootingOptions {
-        periods: args.periods,
-        warmup_periods: args.warmup,
-        ..ShootingOptions::default()
-    };
-    let orbit = shoot(&scene, &options)?;
-    println!(
-        "scene {}: period-{} orbit at pinion speed {} rad/s (T = {:.6e} s)",
-        scene.name, orbit.periods, scene.operating.pinion_speed, orbit.period
-    );
-    for (k, r) in orbit.residuals.iter().enumerate() {
-        println!("  Newton {k}: scaled residual {r:.3e}");
-    }
-    println!(
-        "  y0 = [x = {:e} m, x' = {:e} m/s]",
-        orbit.y0[0], orbit.y0[1]
-    );
-    for m in &orbit.multipliers {
-        println!(
-            "  multiplier {:+.12} {:+.12}i  |μ| = {:.12}",
-            m.re,
-            m.im,
-            m.norm()
-        );
-    }
-    println!("  stability: {:?}", orbit.stability());
+    let orbit = commands::periodic(&scene, args.periods, args.warmup)?;
+    print!("{}", commands::periodic_report(&scene, &orbit));
     Ok(())
 }
 
 pub fn sweep(args: SweepArgs) -> Result<(), String> {
     let scene = load_scene(&args.scene, &args.example)?;
-    let speeds = SweepOptions::parse_range(&args.speed)?;
-    let direction = args
-        .direction
-        .parse()
-        .map_err(|e| format!("--direction: {e}"))?;
-    let options = SweepOptions {
-        tolerance: positive("tolerance", args.tolerance)?,
-        max_transient_periods: args.max_periods,
-        ..SweepOptions::new(speeds, direction)
+    let request = commands::SweepRequest {
+        speed: &args.speed,
+        direction: &args.direction,
+        tolerance: args.tolerance,
+        max_periods: args.max_periods,
     };
     let progress = |done: usize, total: usize| {
         eprint!("\rsweep {done}/{total} points");
@@ -109,54 +81,12 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
             eprintln!();
         }
     };
-    let points = analysis::sweep(&scene, &options, &progress)?;
+    let points = request.run(&scene, &progress)?;
     output::write_table(&args.out, &SWEEP_COLUMNS, points.iter().map(|p| p.row()))?;
     if let Some(path) = &args.plot {
-        let branch = |d: Direction| -> Vec<(f64, f64)> {
-            points
-                .iter()
-                .filter(|p| p.direction == d)
-                .map(|p| (p.mesh_frequency, p.dte_rms))
-                .collect()
-        };
-        let series = [
-            (Direction::Up, "up sweep", "#c0392b", false),
-            (Direction::Down, "down sweep", "#2471a3", true),
-        ]
-        .into_iter()
-        .map(|(d, label, color, dashed)| Series {
-            label,
-            color,
-            points: branch(d),
-            dashed,
-            markers: true,
-            line: true,
-        })
-        .filter(|s| !s.points.is_empty())
-        .collect();
-        let title = format!("{}: DTE RMS (mean removed)", scene.name);
-        let plot = Plot {
-            title: &title,
-            x_label: "mesh frequency (Hz)",
-            y_label: "DTE RMS (m)",
-            series,
-            bands: Vec::new(),
-            band_label: "",
-        };
-        output::write_text(path, &plot.to_svg())?;
+        output::write_text(path, &commands::sweep_plot(&scene, &points))?;
     }
-    let unconverged = points.iter().filter(|p| !p.converged).count();
-    println!(
-        "scene {}: {} points → {}{}",
-        scene.name,
-        points.len(),
-        args.out.display(),
-        if unconverged > 0 {
-            format!(" ({unconverged} not converged, marked converged = 0)")
-        } else {
-            String::new()
-        }
-    );
+    print!("{}", commands::sweep_summary(&scene, &points, &args.out));
     Ok(())
 }
 
@@ -189,147 +119,20 @@ pub struct HbArgs {
     pub sweep_points: usize,
 }
 
-/// Columns of the `geardyn hb` CSV.
-const HB_COLUMNS: [&str; 9] = [
-    "speed",
-    "mesh_frequency",
-    "dte_mean",
-    "dte_rms",
-    "a1",
-    "a2",
-    "spectral_radius",
-    "stable",
-    "fold",
-];
-
 /// `geardyn hb`: harmonic balance with pseudo-arclength continuation and stability.
 pub fn hb(args: HbArgs) -> Result<(), String> {
-    use geardyn::analysis::hb::{continuation, ContinuationOptions, HbOptions};
     let scene = load_scene(&args.scene, &args.example)?;
-    let (from, to) = args
-        .speed
-        .split_once(':')
-        .ok_or_else(|| format!("--speed '{}': expected from:to", args.speed))?;
-    let parse = |name: &str, v: &str| {
-        v.trim()
-            .parse::<f64>()
-            .map_err(|e| format!("--speed {name} '{v}': {e}"))
-    };
-    let (from, to) = (
-        positive("speed from", parse("from", from)?)?,
-        positive("speed to", parse("to", to)?)?,
-    );
-    let hb_options = HbOptions {
+    let request = commands::HbRequest {
+        speed: &args.speed,
+        harmonics: args.harmonics,
         subharmonic: args.subharmonic,
-        ..HbOptions::new(args.harmonics)
     };
-    let branch = continuation(&scene, &hb_options, &ContinuationOptions::new(from, to))?;
-    let rows = branch.iter().map(|p| {
-        let rho = p.spectral_radius().unwrap_or(f64::NAN);
-        [
-            p.speed,
-            p.solution.mesh_frequency,
-            p.solution.coefficients[0],
-            p.solution.dte_rms(),
-            p.solution.mesh_harmonic(1),
-            p.solution.mesh_harmonic(2),
-            rho,
-            p.stable().map_or(f64::NAN, |s| f64::from(u8::from(s))),
-            f64::from(u8::from(p.fold)),
-        ]
-    });
-    output::write_table(&args.out, &HB_COLUMNS, rows)?;
+    let branch = request.run(&scene)?;
+    output::write_table(&args.out, &commands::HB_COLUMNS, branch.rows())?;
     if let Some(path) = &args.plot {
-        let mut series: Vec<Series> = Vec::new();
-        // Consecutive points of equal stability form one segment (shared end points).
-        let mut start = 0;
-        let stable = |i: usize| branch[i].stable().unwrap_or(true);
-        let (mut stable_labelled, mut unstable_labelled) = (false, false);
-        for i in 1..=branch.len() {
-            if i == branch.len() || stable(i) != stable(start) {
-                let is_stable = stable(start);
-                let end = i.min(branch.len() - 1);
-                let label = match (is_stable, stable_labelled, unstable_labelled) {
-                    (true, false, _) => "HB stable",
-                    (false, _, false) => "HB unstable",
-                    _ => "",
-                };
-                if is_stable {
-                    stable_labelled = true;
-                } else {
-                    unstable_labelled = true;
-                }
-                series.push(Series {
-                    label,
-                    color: "#1f4e9c",
-                    points: branch[start..=end]
-                        .iter()
-                        .map(|p| (p.solution.mesh_frequency, p.solution.dte_rms()))
-                        .collect(),
-                    dashed: !is_stable,
-                    markers: false,
-                    line: true,
-                });
-                start = i;
-            }
-        }
-        if args.sweep_points >= 2 {
-            let (lo, hi) = (from.min(to), from.max(to));
-            let speeds = (0..args.sweep_points)
-                .map(|i| lo + (hi - lo) * i as f64 / (args.sweep_points - 1) as f64)
-                .collect();
-            let points = analysis::sweep(
-                &scene,
-                &SweepOptions::new(speeds, Direction::Both),
-                &|_, _| {},
-            )?;
-            for (d, label, color) in [
-                (Direction::Up, "sweep up", "#c0392b"),
-                (Direction::Down, "sweep down", "#27ae60"),
-            ] {
-                series.push(Series {
-                    label,
-                    color,
-                    points: points
-                        .iter()
-                        .filter(|p| p.direction == d)
-                        .map(|p| (p.mesh_frequency, p.dte_rms))
-                        .collect(),
-                    dashed: false,
-                    markers: true,
-                    line: false,
-                });
-            }
-        }
-        let title = format!(
-            "{}: harmonic balance, H = {} (DTE RMS, mean removed)",
-            scene.name, args.harmonics
-        );
-        let plot = Plot {
-            title: &title,
-            x_label: "mesh frequency (Hz)",
-            y_label: "DTE RMS (m)",
-            series,
-            bands: Vec::new(),
-            band_label: "",
-        };
-        output::write_text(path, &plot.to_svg())?;
+        let svg = branch.plot(&scene, args.harmonics, args.sweep_points)?;
+        output::write_text(path, &svg)?;
     }
-    let folds = branch.iter().filter(|p| p.fold).count();
-    println!(
-        "scene {}: {} branch points, {} folds → {}",
-        scene.name,
-        branch.len(),
-        folds,
-        args.out.display()
-    );
-    for p in branch.iter().filter(|p| p.fold) {
-        println!(
-            "  fold near {:.4} rad/s (mesh {:.2} Hz), DTE RMS {:.4e} m",
-            p.speed,
-            p.solution.mesh_frequency,
-            p.solution.dte_rms()
-        );
-    }
+    print!("{}", branch.summary(&scene, &args.out));
     Ok(())
 }

@@ -7,11 +7,11 @@ use geardyn::scene::Scene;
 
 pub mod analysis;
 pub mod floquet;
+pub mod modes;
 pub mod simulate;
 pub mod stiffness;
-pub mod train;
 
-pub use geardyn::simulate::positive_option as positive;
+pub use geardyn::commands::positive;
 
 /// The scene named on the command line: a file or folder, or a built-in example.
 pub fn load_scene(path: &Option<PathBuf>, example: &Option<String>) -> Result<Scene, String> {

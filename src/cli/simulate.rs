@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use geardyn::simulate::{simulate, AnyScene, SimulateOptions};
+use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
 use geardyn::simulation::stream::{DEFAULT_MAX_MESH_PERIODS, DEFAULT_MAX_ROWS};
 use geardyn::simulation::RunLimits;
 

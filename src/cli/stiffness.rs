@@ -31,38 +31,16 @@ pub struct StiffnessArgs {
 }
 
 pub fn run(args: StiffnessArgs) -> Result<(), String> {
-    use geardyn::mesh::geometry::{report, spec, CurveOptions, MeshModel};
-    let origin = args.gears.display().to_string();
-    let text = std::fs::read_to_string(&args.gears)
-        .map_err(|e| format!("cannot read gears file '{origin}': {e}"))?;
-    let spec = spec::parse_gears_file(&text, &origin)?;
-    let model = MeshModel::new(&spec, "").map_err(|e| format!("{origin}: {e}"))?;
-    let etc = args.etc == "on";
-    let curve = model
-        .curve(CurveOptions {
-            torque: args.torque,
-            etc,
-        })
-        .map_err(|e| format!("--torque {}: {e}", args.torque))?;
-    let names = report::csv_names(curve.low_pairs + 1);
+    let st = geardyn::commands::stiffness::stiffness(&args.gears, args.torque, args.etc == "on")?;
+    let names = st.columns();
     let names: Vec<&str> = names.iter().map(String::as_str).collect();
-    let rows = report::csv_rows(&curve);
+    let rows = st.rows();
     output::write_table(&args.out, &names, rows.iter().map(|r| r.iter().copied()))?;
     if let Some(path) = &args.plot {
-        let title = format!("Mesh stiffness, T = {} N·m", args.torque);
-        let svg = if etc {
-            let off = model.curve(CurveOptions {
-                etc: false,
-                ..curve.options
-            })?;
-            report::svg(&[("ETC on", &curve), ("ETC off", &off)], &title)
-        } else {
-            report::svg(&[("ETC off", &curve)], &title)
-        };
-        output::write_text(path, &svg)?;
+        output::write_text(path, &st.plot()?)?;
     }
     if !args.quiet {
-        print!("{}", report::summary(&model, &curve, args.harmonics));
+        print!("{}", st.summary(args.harmonics));
         println!("curve → {}", args.out.display());
     }
     Ok(())

@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use super::positive;
 use crate::model::train::{train_row, TrainSimulation};
 use crate::model::OUTPUT_NAMES;
 use crate::output::CsvWriter;
@@ -71,15 +72,6 @@ pub struct SimulateOptions {
     pub progress: bool,
 }
 
-/// A finite, positive command-line number.
-pub fn positive_option(name: &str, v: f64) -> Result<f64, String> {
-    if v.is_finite() && v > 0.0 {
-        Ok(v)
-    } else {
-        Err(format!("--{name} {v}: must be a finite number > 0"))
-    }
-}
-
 impl SimulateOptions {
     /// Applies the options to a scene's settings; returns the stop time and the output
     /// interval.
@@ -93,13 +85,13 @@ impl SimulateOptions {
             s.rk_method = m.parse().map_err(|e| format!("--rk-method: {e}"))?;
         }
         if let Some(v) = self.rtol {
-            s.rtol = positive_option("rtol", v)?;
+            s.rtol = positive("rtol", v)?;
         }
         if let Some(v) = self.atol {
-            s.atol = positive_option("atol", v)?;
+            s.atol = positive("atol", v)?;
         }
-        let stop = positive_option("stop-time", self.stop_time.unwrap_or(s.stop_time))?;
-        let interval = positive_option(
+        let stop = positive("stop-time", self.stop_time.unwrap_or(s.stop_time))?;
+        let interval = positive(
             "output-interval",
             self.output_interval.unwrap_or(s.output_interval),
         )?;

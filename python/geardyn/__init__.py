@@ -1,0 +1,273 @@
+"""geardyn: gear-mesh drivetrain dynamics from Python.
+
+The solves run in the Rust library (``geardyn._geardyn``, built with PyO3), through the same
+functions as the ``geardyn`` CLI, so a Python call and a CLI run of the same scene give
+bit-identical numbers and the same error messages. The GIL is released during every solve:
+threads run in parallel.
+
+>>> import geardyn
+>>> scene = geardyn.Scene.example("spur_pair")
+>>> scene["mesh.stiffness.mean"] = 2.5e8          # validated like the scene file
+>>> run = geardyn.simulate(scene)
+>>> run["dte"].std(), run.units["dte"]
+
+Scene parameters are addressed by their path in the TOML file (``mesh.stiffness.mean``,
+``gear[1].inertia``); the CLI's solver options (``--stop-time``, ``--rtol``, ``--speed`` of
+``periodic``, …) are the scene's ``solver.*`` and ``operating.*`` parameters here, so there
+is one way to set each of them. Parameter studies on Dask: :mod:`geardyn.study`.
+"""
+
+from __future__ import annotations
+
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Dict, List, Optional, Union
+
+import numpy as np
+
+from ._geardyn import GeardynError, Scene, __version__
+from . import _geardyn
+
+__all__ = [
+    "GeardynError",
+    "Scene",
+    "Simulation",
+    "Table",
+    "Orbit",
+    "Modes",
+    "Stiffness",
+    "simulate",
+    "periodic",
+    "sweep",
+    "hb",
+    "modes",
+    "stiffness",
+    "build_fmu",
+    "unit",
+    "__version__",
+]
+
+# Units of the outputs (docs/model.md "Outputs", docs/train.md): exact names of the
+# single-mesh outputs, then suffixes of the drivetrain's `<mesh>_<quantity>` columns.
+_PAIR_UNITS = {
+    "time": "s",
+    "dte": "m",
+    "dte_rate": "m/s",
+    "mesh_force": "N",
+    "contact_state": "1",
+    "mesh_phase": "cycles",
+    "mesh_stiffness": "N/m",
+    "static_deflection": "m",
+}
+_TRAIN_SUFFIX_UNITS = [
+    ("_dte_rate", "m/s"),
+    ("_dte", "m"),
+    ("_deflection", "m"),
+    ("_friction_force", "N"),
+    ("_force", "N"),
+    ("_contact_state", "1"),
+    ("_pairs_in_contact", "1"),
+    ("_phase", "cycles"),
+    ("_stiffness", "N/m"),
+    ("_contact_loss_fraction", "1"),
+    # Bearing translations of the gears, `<gear>_x`, `<gear>_y`.
+    ("_x", "m"),
+    ("_y", "m"),
+]
+
+
+def unit(name: str) -> Optional[str]:
+    """SI unit of a simulation output column, or None when the name is not a known output
+    (a test checks that every output of every example has one)."""
+    if name in _PAIR_UNITS:
+        return _PAIR_UNITS[name]
+    for suffix, u in _TRAIN_SUFFIX_UNITS:
+        if name.endswith(suffix):
+            return u
+    return None
+
+
+@dataclass
+class Simulation:
+    """A sampled run: ``time`` (s) and one column per output (``names``, SI ``units``)."""
+
+    names: List[str]
+    time: np.ndarray
+    data: np.ndarray  # shape (len(time), len(names))
+    method: str
+    stats: Dict[str, int]
+    scene_name: str
+    units: Dict[str, Optional[str]] = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.units = {n: unit(n) for n in ["time", *self.names]}
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name == "time":
+            return self.time
+        try:
+            return self.data[:, self.names.index(name)]
+        except ValueError:
+            raise KeyError(f"no output '{name}' (outputs: {', '.join(self.names)})") from None
+
+    def to_pandas(self):
+        """A DataFrame indexed by time; units in ``df.attrs["units"]`` (needs pandas)."""
+        import pandas as pd
+
+        df = pd.DataFrame(self.data, columns=self.names, index=pd.Index(self.time, name="time"))
+        df.attrs["units"] = dict(self.units)
+        df.attrs["scene"] = self.scene_name
+        df.attrs["method"] = self.method
+        return df
+
+    def to_xarray(self):
+        """An xarray Dataset over ``time``; each variable's unit in ``.attrs["units"]``."""
+        import xarray as xr
+
+        ds = xr.Dataset(
+            {n: ("time", self.data[:, i], {"units": self.units[n]}) for i, n in enumerate(self.names)},
+            coords={"time": ("time", self.time, {"units": "s"})},
+            attrs={"scene": self.scene_name, "method": self.method},
+        )
+        return ds
+
+
+@dataclass
+class Table:
+    """A result table (the CSV the CLI writes): ``columns`` and one ``data`` row per point."""
+
+    columns: List[str]
+    data: np.ndarray
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.data[:, self.columns.index(name)]
+        except ValueError:
+            raise KeyError(f"no column '{name}' (columns: {', '.join(self.columns)})") from None
+
+    def __len__(self) -> int:
+        return self.data.shape[0]
+
+    def to_pandas(self):
+        import pandas as pd
+
+        return pd.DataFrame(self.data, columns=self.columns)
+
+
+@dataclass
+class Orbit:
+    """A periodic orbit found by shooting (``geardyn periodic``)."""
+
+    period: float
+    periods: int
+    y0: np.ndarray
+    multipliers: np.ndarray
+    spectral_radius: float
+    stability: str
+    residuals: np.ndarray
+    monodromy: np.ndarray
+    report: str
+
+
+@dataclass
+class Modes:
+    """Natural frequencies (Hz) and mode shapes (rows, over ``labels``) of the mean system."""
+
+    labels: List[str]
+    frequencies: np.ndarray
+    rigid: np.ndarray
+    shapes: np.ndarray
+    report: str
+
+
+@dataclass
+class Stiffness(Table):
+    """A mesh-stiffness curve over one mesh period (``geardyn stiffness``), with its summary."""
+
+    summary: str = ""
+
+
+def simulate(scene: Scene) -> Simulation:
+    """Simulates ``scene`` from t = 0 to ``solver.stop_time``, sampled every
+    ``solver.output_interval`` (what ``geardyn simulate`` writes to CSV)."""
+    names, time, data, method, stats = _geardyn.simulate(scene)
+    return Simulation(names, time, data, method, stats, scene.name)
+
+
+def periodic(scene: Scene, periods: int = 1, warmup: int = 20) -> Orbit:
+    """Periodic steady state at ``operating.pinion_speed`` by Newton shooting, with Floquet
+    multipliers and stability: a period-``periods`` orbit after ``warmup`` mesh periods."""
+    raw = _geardyn.periodic(scene, periods, warmup)
+    raw["multipliers"] = np.array([complex(re, im) for re, im in raw["multipliers"]])
+    return Orbit(**raw)
+
+
+def sweep(
+    scene: Scene,
+    speed: str,
+    direction: str = "both",
+    tolerance: float = 1e-7,
+    max_periods: int = 3000,
+) -> Table:
+    """Frequency-response sweep over pinion speeds ``speed = "from:to:points"`` (rad/s),
+    ``direction`` up | down | both; the table of ``geardyn sweep``."""
+    return Table(*_geardyn.sweep(scene, speed, direction, tolerance, max_periods))
+
+
+def hb(scene: Scene, speed: str, harmonics: int = 20, subharmonic: int = 1) -> Table:
+    """Harmonic balance with arclength continuation over ``speed = "from:to"`` (rad/s); the
+    table of ``geardyn hb``."""
+    return Table(*_geardyn.hb(scene, speed, harmonics, subharmonic))
+
+
+def modes(scene: Scene, rigid_bearings: bool = False) -> Modes:
+    """Natural frequencies and mode shapes of a drivetrain's mean system (``geardyn modes``)."""
+    raw = _geardyn.modes(scene, rigid_bearings)
+    raw["rigid"] = np.array(raw["rigid"], dtype=bool)
+    return Modes(**raw)
+
+
+def stiffness(
+    gears: Union[str, os.PathLike], torque: float, etc: bool = True, harmonics: int = 4
+) -> Stiffness:
+    """Mesh stiffness over one mesh period from a gears file (``geardyn stiffness``) at
+    pinion torque ``torque`` (N·m), with extended tooth contact if ``etc``."""
+    columns, data, summary = _geardyn.stiffness(os.fspath(gears), torque, etc, harmonics)
+    return Stiffness(columns, data, summary)
+
+
+def _default_cdylib() -> Path:
+    """The FMU binary: ``$GEARDYN_CDYLIB``, else the source tree's ``target/release`` (the
+    module is installed from the source tree by scripts/setup-python.sh)."""
+    env = os.environ.get("GEARDYN_CDYLIB")
+    if env:
+        return Path(env)
+    lib = Path(__file__).resolve().parents[2] / "target" / "release" / "libgeardyn.so"
+    if not lib.is_file():
+        raise GeardynError(
+            f"libgeardyn.so not found at {lib} (build it with `cargo build --release`, "
+            "or pass cdylib= or set GEARDYN_CDYLIB)"
+        )
+    return lib
+
+
+def build_fmu(
+    scene: Union[Scene, str, os.PathLike],
+    out: Union[str, os.PathLike],
+    cdylib: Union[str, os.PathLike, None] = None,
+) -> Path:
+    """Builds ``<out>/<modelIdentifier>.fmu`` (``geardyn fmu build``) and returns its path.
+
+    ``scene`` is a scene file or folder, or a :class:`Scene`: one read from a file and left
+    unchanged ships that file (and the folder's README); a changed one ships its TOML text."""
+    lib = Path(cdylib) if cdylib is not None else _default_cdylib()
+    if isinstance(scene, Scene):
+        if scene.file is not None:
+            return Path(_geardyn.build_fmu(os.fspath(scene.file), os.fspath(out), os.fspath(lib)))
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "scene.toml"
+            path.write_text(scene.to_toml())
+            return Path(_geardyn.build_fmu(os.fspath(path), os.fspath(out), os.fspath(lib)))
+    return Path(_geardyn.build_fmu(os.fspath(scene), os.fspath(out), os.fspath(lib)))

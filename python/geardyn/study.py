@@ -1,0 +1,745 @@
+"""Parameter studies of a geardyn scene on Dask distributed (``geardyn-study run study.toml``).
+
+A study file names a base scene, the parameters to vary (a grid, a Latin hypercube or Monte
+Carlo draws from named distributions, with a seed), the analysis run at each point
+(``simulate``, ``periodic`` steady state, or a ``sweep``) and the scalar results to keep. The
+format is in docs/python.md.
+
+Why it is shaped this way:
+
+* Dask does the scheduling, the retries of tasks whose worker died, and the scaling to many
+  machines (``--scheduler ADDRESS``); this module only cuts the study into tasks, stores what
+  comes back and reports.
+* Every point is keyed by a hash of (base scene, analysis, parameter values). Results are
+  appended to a Parquet dataset (one file per flush, written to a temporary name and renamed)
+  as they arrive, so a run that is stopped — Ctrl-C, a dead client, a lost machine — and
+  started again computes only the keys that are not stored yet.
+* The points are drawn on the client from the seed before anything is scheduled, and each
+  point's solve is deterministic, so the stored results are bit-identical whatever the
+  number of workers or the order in which tasks finish.
+* A point whose solve fails is stored with its error message and NaN results: one bad corner
+  of a design space does not stop the study.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import hashlib
+import itertools
+import json
+import math
+import os
+import sys
+import time
+import tomllib
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Dict, List, Optional, Sequence
+
+import numpy as np
+
+import geardyn
+
+ANALYSES = ("simulate", "periodic", "sweep")
+
+# Scalar results per analysis, with what each means (also the docs' table).
+RESULTS = {
+    "simulate": {
+        "dte_rms": "RMS of the DTE with its mean removed, m",
+        "dte_mean": "mean DTE, m",
+        "dte_peak_to_peak": "peak-to-peak DTE, m",
+        "peak_force": "largest |mesh force|, N",
+        "dynamic_factor": "peak over mean mesh force (the static force in steady state), 1",
+        "contact_loss_fraction": "fraction of output samples without drive-side contact (a "
+        "drivetrain mesh: without any pair in contact), 1",
+    },
+    "periodic": {
+        "floquet_max": "largest Floquet multiplier magnitude (spectral radius), 1",
+        "stable": "1 if the orbit is stable, else 0",
+        "period": "orbit period, s",
+        "dte0": "DTE on the orbit at t = 0, m",
+    },
+    "sweep": {
+        "peak_dte_rms": "largest DTE RMS over the sweep, m",
+        "peak_mesh_frequency": "mesh frequency of that largest DTE RMS, Hz",
+        "hysteresis": "largest |up − down| DTE RMS at one speed (jump region), m",
+        "max_contact_loss_fraction": "largest contact-loss fraction over the sweep, 1",
+        "unconverged": "points without a periodic steady state, 1",
+    },
+}
+
+DISTRIBUTIONS = {
+    "uniform": ("low", "high"),
+    "normal": ("mean", "std"),
+    "lognormal": ("median", "sigma"),
+    "triangular": ("low", "mode", "high"),
+}
+
+
+class StudyError(ValueError):
+    """A study file that cannot be run; the message names the field and value."""
+
+
+@dataclass
+class Parameter:
+    """A scene path and how it varies: grid ``values``, or a ``distribution``."""
+
+    path: str
+    values: Optional[List[float]] = None
+    distribution: Optional[str] = None
+    args: Dict[str, float] = field(default_factory=dict)
+
+    def from_unit(self, u: np.ndarray) -> np.ndarray:
+        """Maps uniform draws u in (0, 1) through the distribution's inverse CDF (so LHS and
+        Monte Carlo share the distributions, and the draws depend on the seed alone)."""
+        from scipy import stats
+
+        a = self.args
+        d = self.distribution
+        if d == "uniform":
+            return a["low"] + (a["high"] - a["low"]) * u
+        if d == "normal":
+            return stats.norm.ppf(u, loc=a["mean"], scale=a["std"])
+        if d == "lognormal":
+            return a["median"] * np.exp(a["sigma"] * stats.norm.ppf(u))
+        if d == "triangular":
+            c = (a["mode"] - a["low"]) / (a["high"] - a["low"])
+            return stats.triang.ppf(u, c, loc=a["low"], scale=a["high"] - a["low"])
+        raise AssertionError(d)
+
+
+@dataclass
+class Study:
+    """A parsed study file. ``points()`` are the parameter values of every point, in order."""
+
+    path: Path
+    scene_path: Path
+    scene_text: str
+    method: str
+    parameters: List[Parameter]
+    samples: Optional[int]
+    seed: Optional[int]
+    analysis: Dict[str, object]
+    results: List[str]
+    store: Path
+    chunk: Optional[int]
+
+    @property
+    def kind(self) -> str:
+        return str(self.analysis["kind"])
+
+    def base_scene(self) -> "geardyn.Scene":
+        return geardyn.Scene.from_toml(self.scene_text, origin=str(self.scene_path))
+
+    def points(self) -> List[Dict[str, float]]:
+        names = [p.path for p in self.parameters]
+        if self.method == "grid":
+            grid = itertools.product(*[p.values for p in self.parameters])
+            return [dict(zip(names, map(float, values))) for values in grid]
+        rng = np.random.Generator(np.random.PCG64(self.seed))
+        n, d = self.samples, len(self.parameters)
+        if self.method == "lhs":
+            # One draw per stratum in every dimension, strata paired by random permutations.
+            u = (np.stack([rng.permutation(n) for _ in range(d)], axis=1) + rng.random((n, d))) / n
+        else:
+            u = rng.random((n, d))
+        columns = [p.from_unit(u[:, j]) for j, p in enumerate(self.parameters)]
+        return [dict(zip(names, (float(c[i]) for c in columns))) for i in range(n)]
+
+    def key(self, point: Dict[str, float]) -> str:
+        """The point's identity: base scene text, analysis and exact parameter values."""
+        blob = json.dumps(
+            {"scene": self.scene_text, "analysis": self.analysis, "point": point},
+            sort_keys=True,
+        )
+        return hashlib.sha256(blob.encode()).hexdigest()[:24]
+
+    def result_columns(self) -> List[str]:
+        if self.kind == "simulate" and self.base_scene().is_train:
+            meshes = _train_meshes(self.base_scene())
+            return [f"{m}_{r}" for m in meshes for r in self.results]
+        return list(self.results)
+
+
+def _need(table: dict, key: str, where: str):
+    if key not in table:
+        raise StudyError(f"{where}: missing '{key}'")
+    return table[key]
+
+
+def _number(v, where: str) -> float:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise StudyError(f"{where} = {v!r}: must be a finite number")
+    return float(v)
+
+
+def load(path) -> Study:
+    """Reads and checks a study file; paths in it are relative to the file."""
+    path = Path(path).resolve()
+    try:
+        data = tomllib.loads(path.read_text())
+    except OSError as e:
+        raise StudyError(f"cannot read study file '{path}': {e}") from None
+    except tomllib.TOMLDecodeError as e:
+        raise StudyError(f"{path}: {e}") from None
+    where = str(path)
+    known = {"scene", "seed", "store", "chunk", "sampling", "parameter", "analysis", "results"}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise StudyError(f"{where}: unknown key '{unknown[0]}' (known: {', '.join(sorted(known))})")
+    scene_path = (path.parent / _need(data, "scene", where)).resolve()
+    scene_file = scene_path / "scene.toml" if scene_path.is_dir() else scene_path
+    try:
+        scene_text = scene_file.read_text()
+    except OSError as e:
+        raise StudyError(f"{where}: scene = '{data['scene']}': {e}") from None
+    # Validates the base scene now, with the CLI's message, before any worker starts.
+    geardyn.Scene.from_toml(scene_text, origin=str(scene_file))
+
+    sampling = data.get("sampling", {})
+    method = sampling.get("method", "grid")
+    if method not in ("grid", "lhs", "monte_carlo"):
+        raise StudyError(f"sampling.method = {method!r}: must be grid, lhs or monte_carlo")
+    samples = seed = None
+    if method != "grid":
+        samples = sampling.get("samples")
+        if not isinstance(samples, int) or isinstance(samples, bool) or samples < 1:
+            raise StudyError(f"sampling.samples = {samples!r}: {method} needs a whole number of samples >= 1")
+        seed = data.get("seed")
+        if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+            raise StudyError(f"seed = {seed!r}: {method} needs a seed (a whole number >= 0)")
+    for k in sampling:
+        if k not in ("method", "samples"):
+            raise StudyError(f"sampling.{k}: unknown key (method, samples)")
+
+    parameters = []
+    for i, p in enumerate(_need(data, "parameter", where)):
+        at = f"parameter[{i}]"
+        name = _need(p, "path", at)
+        if method == "grid":
+            if "values" in p:
+                values = [_number(v, f"{at}.values") for v in p["values"]]
+            elif {"from", "to", "points"} <= set(p):
+                points = p["points"]
+                if not isinstance(points, int) or points < 1:
+                    raise StudyError(f"{at}.points = {points!r}: must be a whole number >= 1")
+                lo, hi = _number(p["from"], f"{at}.from"), _number(p["to"], f"{at}.to")
+                values = [lo] if points == 1 else [lo + (hi - lo) * k / (points - 1) for k in range(points)]
+            else:
+                raise StudyError(f"{at} ({name}): a grid parameter needs values = [...] or from, to, points")
+            if not values:
+                raise StudyError(f"{at}.values: empty")
+            parameters.append(Parameter(name, values=values))
+        else:
+            dist = _need(p, "distribution", at)
+            if dist not in DISTRIBUTIONS:
+                raise StudyError(f"{at}.distribution = {dist!r}: must be one of {', '.join(DISTRIBUTIONS)}")
+            args = {a: _number(_need(p, a, f"{at} ({dist})"), f"{at}.{a}") for a in DISTRIBUTIONS[dist]}
+            extra = sorted(set(p) - {"path", "distribution", *DISTRIBUTIONS[dist]})
+            if extra:
+                raise StudyError(f"{at}.{extra[0]}: not a parameter of the {dist} distribution")
+            bad = (
+                (dist in ("uniform", "triangular") and not args["low"] < args["high"])
+                or (dist == "triangular" and not args["low"] <= args["mode"] <= args["high"])
+                or (dist == "normal" and not args["std"] > 0)
+                or (dist == "lognormal" and not (args["median"] > 0 and args["sigma"] > 0))
+            )
+            if bad:
+                raise StudyError(f"{at} ({name}): {dist} {args} is not a distribution")
+            parameters.append(Parameter(name, distribution=dist, args=args))
+    names = [p.path for p in parameters]
+    if len(set(names)) != len(names):
+        raise StudyError(f"{where}: a parameter is varied twice ({names})")
+
+    analysis = dict(_need(data, "analysis", where))
+    kind = analysis.get("kind")
+    if kind not in ANALYSES:
+        raise StudyError(f"analysis.kind = {kind!r}: must be one of {', '.join(ANALYSES)}")
+    allowed = {
+        "simulate": set(),
+        "periodic": {"periods", "warmup", "speed"},
+        "sweep": {"speed", "direction", "tolerance", "max_periods"},
+    }[kind]
+    extra = sorted(set(analysis) - allowed - {"kind"})
+    if extra:
+        raise StudyError(f"analysis.{extra[0]}: not an option of {kind} ({', '.join(sorted(allowed)) or 'none'})")
+    if kind == "sweep" and "speed" not in analysis:
+        raise StudyError("analysis.speed: a sweep needs speed = \"from:to:points\" (rad/s)")
+    if kind == "periodic" and "speed" in analysis and "operating.pinion_speed" in names:
+        raise StudyError("analysis.speed: the pinion speed is also a varied parameter; give one of them")
+
+    results = _need(data, "results", where)
+    for r in results:
+        if r not in RESULTS[kind]:
+            raise StudyError(f"results: {r!r} is not a result of {kind} ({', '.join(RESULTS[kind])})")
+    store = path.parent / data.get("store", path.stem + ".parquet")
+    chunk = data.get("chunk")
+    if chunk is not None and (not isinstance(chunk, int) or chunk < 1):
+        raise StudyError(f"chunk = {chunk!r}: must be a whole number >= 1 (points per task)")
+    study = Study(path, scene_file, scene_text, method, parameters, samples, seed, analysis,
+                  list(results), store, chunk)
+    # A misspelt path fails at every point: catch it now rather than store a study of
+    # errors. Single bad points are data (stored with their error), so one good point of
+    # the first 100 is enough.
+    first_error = None
+    for point in itertools.islice(study.points(), 100):
+        try:
+            study.base_scene().update(point)
+            break
+        except geardyn.GeardynError as e:
+            first_error = first_error or f"point {point}: {e}"
+    else:
+        raise StudyError(f"{where}: no point of the first 100 makes a valid scene; {first_error}")
+    return study
+
+
+def _train_meshes(scene) -> List[str]:
+    return [m["name"] for m in scene.to_dict()["mesh"]]
+
+
+# --------------------------------------------------------------------------------------
+# One point (runs on the workers)
+
+
+@functools.lru_cache(maxsize=8)
+def _base(scene_text: str, origin: str) -> "geardyn.Scene":
+    """The validated base scene, parsed once per worker process and study."""
+    return geardyn.Scene.from_toml(scene_text, origin=origin)
+
+
+def _simulate_results(scene, results: Sequence[str]) -> Dict[str, float]:
+    run = geardyn.simulate(scene)
+    if scene.is_train:
+        out = {}
+        for m in _train_meshes(scene):
+            contact = run[f"{m}_pairs_in_contact"] == 0
+            out.update(_series_results(run[f"{m}_dte"], run[f"{m}_force"], contact, results, prefix=f"{m}_"))
+        return out
+    return _series_results(run["dte"], run["mesh_force"], run["contact_state"] != 1, results)
+
+
+def _series_results(dte, force, lost, results, prefix="") -> Dict[str, float]:
+    values = {
+        "dte_rms": lambda: float(np.sqrt(np.mean((dte - dte.mean()) ** 2))),
+        "dte_mean": lambda: float(dte.mean()),
+        "dte_peak_to_peak": lambda: float(dte.max() - dte.min()),
+        "peak_force": lambda: float(np.abs(force).max()),
+        "dynamic_factor": lambda: float(np.abs(force).max() / abs(force.mean())),
+        "contact_loss_fraction": lambda: float(lost.mean()),
+    }
+    return {prefix + r: values[r]() for r in results}
+
+
+def _sweep_results(table, results) -> Dict[str, float]:
+    rms, f, d = table["dte_rms"], table["mesh_frequency"], table["direction"]
+    i = int(np.argmax(rms))
+    up, down = {}, {}
+    for s, r, di in zip(table["speed"], rms, d):
+        (up if di > 0 else down)[s] = r
+    common = sorted(set(up) & set(down))
+    values = {
+        "peak_dte_rms": float(rms[i]),
+        "peak_mesh_frequency": float(f[i]),
+        "hysteresis": float(max((abs(up[s] - down[s]) for s in common), default=0.0)),
+        "max_contact_loss_fraction": float(table["contact_loss_fraction"].max()),
+        "unconverged": float((table["converged"] == 0).sum()),
+    }
+    return {r: values[r] for r in results}
+
+
+def run_point(scene_text: str, origin: str, analysis: dict, results: Sequence[str],
+              point: Dict[str, float]) -> Dict[str, float]:
+    """Runs one point and returns its scalar results; raises what the solve raises."""
+    scene = _base(scene_text, origin).copy()
+    values = dict(point)
+    if analysis["kind"] == "periodic" and "speed" in analysis:
+        values["operating.pinion_speed"] = float(analysis["speed"])
+    scene.update(values)
+    kind = analysis["kind"]
+    if kind == "simulate":
+        return _simulate_results(scene, results)
+    if kind == "periodic":
+        orbit = geardyn.periodic(scene, periods=int(analysis.get("periods", 1)),
+                                 warmup=int(analysis.get("warmup", 20)))
+        values = {
+            "floquet_max": float(orbit.spectral_radius),
+            "stable": 1.0 if orbit.stability == "Stable" else 0.0,
+            "period": float(orbit.period),
+            "dte0": float(orbit.y0[0]),
+        }
+        return {r: values[r] for r in results}
+    table = geardyn.sweep(scene, str(analysis["speed"]), str(analysis.get("direction", "both")),
+                          float(analysis.get("tolerance", 1e-7)), int(analysis.get("max_periods", 3000)))
+    return _sweep_results(table, results)
+
+
+def run_chunk(scene_text: str, origin: str, analysis: dict, results: Sequence[str],
+              columns: Sequence[str], points: Sequence[tuple]) -> tuple:
+    """A Dask task: several points (index, key, values) in one task so the per-task cost of
+    the scheduler is spread; a failing point is recorded with its error and NaN results.
+    Returns the records and the task's solve time (it sizes the next tasks; it is not
+    stored, so the store stays bit-identical from run to run)."""
+    start = time.perf_counter()
+    records = []
+    for index, key, point in points:
+        try:
+            values = run_point(scene_text, origin, analysis, results, point)
+            records.append({"index": index, "key": key, **point,
+                            **{c: values[c] for c in columns}, "error": None})
+        except (KeyboardInterrupt, SystemExit):
+            raise
+        except BaseException as e:  # noqa: BLE001 -- a failure (a Rust panic too) is data
+            message = str(e) if isinstance(e, geardyn.GeardynError) else f"{type(e).__name__}: {e}"
+            records.append(_failed(index, key, point, columns, message))
+    return records, time.perf_counter() - start
+
+
+def _failed(index: int, key: str, point: Dict[str, float], columns: Sequence[str], message: str) -> dict:
+    return {"index": index, "key": key, **point, **{c: math.nan for c in columns}, "error": message}
+
+
+# --------------------------------------------------------------------------------------
+# The store
+
+
+def stored(store: Path):
+    """Everything stored so far as a DataFrame (empty if nothing is)."""
+    import pandas as pd
+    import pyarrow.parquet as pq
+
+    parts = sorted(store.glob("part-*.parquet")) if store.is_dir() else []
+    if not parts:
+        return pd.DataFrame()
+    return pd.concat([pq.read_table(p).to_pandas() for p in parts], ignore_index=True)
+
+
+def stored_keys(store: Path) -> set:
+    import pyarrow.parquet as pq
+
+    if not store.is_dir():
+        return set()
+    keys = set()
+    for p in store.glob("part-*.parquet"):
+        keys.update(pq.read_table(p, columns=["key"]).column("key").to_pylist())
+    return keys
+
+
+def _write_part(store: Path, records: List[dict], names: List[str], columns: List[str]) -> None:
+    """One Parquet file per flush, renamed into place so a reader never sees half a file."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    store.mkdir(parents=True, exist_ok=True)
+    schema = pa.schema(
+        [("index", pa.int64()), ("key", pa.string())]
+        + [(n, pa.float64()) for n in names]
+        + [(c, pa.float64()) for c in columns]
+        + [("error", pa.string())]
+    )
+    table = pa.Table.from_pylist(records, schema=schema)
+    name = f"part-{time.strftime('%Y%m%dT%H%M%S')}-{uuid.uuid4().hex[:8]}.parquet"
+    tmp = store / f".{name}.partial"
+    pq.write_table(table, tmp)
+    os.replace(tmp, store / name)
+
+
+# --------------------------------------------------------------------------------------
+# Running a study
+
+
+@dataclass
+class Summary:
+    total: int
+    already: int
+    computed: int
+    failed: int
+    seconds: float
+    errors: List[str]
+    # Time the workers spent in the points' solves (the rest of `seconds` × workers is the
+    # study machinery, start-up and idle workers).
+    task_seconds: float = 0.0
+
+    def text(self, study: Study) -> str:
+        lines = [
+            f"study {study.path.name}: {self.total} points, {self.already} already stored, "
+            f"{self.computed} computed in {self.seconds:.1f} s"
+            + (f" ({self.computed / self.seconds:.1f} points/s)" if self.seconds > 0 and self.computed else ""),
+            f"  failed: {self.failed}" + "".join(f"\n    {e}" for e in self.errors),
+        ]
+        df = results(study)
+        if len(df):
+            ok = df[df["error"].isna()]
+            for c in study.result_columns():
+                v = ok[c].to_numpy()
+                if len(v):
+                    lines.append(f"  {c:<28} min {v.min():.6g}  median {np.median(v):.6g}  max {v.max():.6g}")
+        lines.append(f"  results → {study.store}")
+        return "\n".join(lines)
+
+
+class _Progress:
+    """A one-line progress bar on stderr, redrawn at most every 0.2 s."""
+
+    def __init__(self, total: int, enabled: bool):
+        self.total, self.enabled, self.start, self.last = total, enabled, time.perf_counter(), 0.0
+
+    def update(self, done: int, failed: int, final: bool = False) -> None:
+        now = time.perf_counter()
+        if not self.enabled or (not final and now - self.last < 0.2):
+            return
+        self.last = now
+        rate = done / (now - self.start) if now > self.start else 0.0
+        eta = (self.total - done) / rate if rate > 0 else float("inf")
+        width = 30
+        fill = int(width * done / self.total) if self.total else width
+        sys.stderr.write(
+            f"\r[{'#' * fill}{'.' * (width - fill)}] {done}/{self.total} points, "
+            f"{rate:.1f}/s, ETA {eta:.0f} s, {failed} failed "
+        )
+        if final:
+            sys.stderr.write("\n")
+        sys.stderr.flush()
+
+
+# Aimed-at solve time of one task, s (see `run`).
+TASK_SECONDS = 0.25
+
+
+def local_cluster(workers: Optional[int] = None):
+    """The default cluster: ``workers`` single-threaded worker processes (default: one per
+    core; the solves release the GIL, but processes also isolate a crashing solve). Dask's
+    statistical profiler is off in them: it samples every worker thread every 10 ms, a cost
+    paid on every point for a dashboard nobody looks at here."""
+    import dask
+    from distributed import LocalCluster
+
+    with dask.config.set({"distributed.worker.profile.enabled": False}):
+        return LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1,
+                            processes=True, dashboard_address=None)
+
+
+def run(
+    study,
+    client=None,
+    scheduler: Optional[str] = None,
+    workers: Optional[int] = None,
+    progress: bool = True,
+    on_result: Optional[Callable[[dict], None]] = None,
+    flush_seconds: float = 1.0,
+) -> Summary:
+    """Runs the points of ``study`` (a path or :class:`Study`) that are not stored yet.
+
+    The cluster is ``client`` if given, else the scheduler at ``scheduler``, else a new
+    ``LocalCluster`` with ``workers`` single-threaded worker processes (default: one per
+    core). ``on_result`` is called with every record as it arrives. Ctrl-C stops the study
+    after storing what has arrived; running it again continues it."""
+    from distributed import Client, as_completed
+
+    study = study if isinstance(study, Study) else load(study)
+    points = study.points()
+    keys = [study.key(p) for p in points]
+    if len(set(keys)) != len(keys):
+        raise StudyError(f"{study.path}: the study draws the same point twice")
+    already = stored_keys(study.store) & set(keys)
+    todo = [(i, k, p) for i, (k, p) in enumerate(zip(keys, points)) if k not in already]
+    names = [p.path for p in study.parameters]
+    columns = study.result_columns()
+
+    if not todo:
+        return Summary(len(points), len(already), 0, 0, 0.0, [])
+    own = None
+    if client is None:
+        if scheduler is not None:
+            client = own = Client(scheduler)
+        else:
+            client = own = Client(local_cluster(workers))
+    start = time.perf_counter()
+    computed = failed = 0
+    task_seconds = 0.0
+    errors: List[str] = []
+    buffer: List[dict] = []
+    last_flush = time.perf_counter()
+    bar = _Progress(len(todo), progress)
+    futures = []
+    try:
+        slots = max(1, sum(client.nthreads().values()))
+        # Points per task: few at first (about 16 tasks per worker thread, at most 8 points),
+        # then sized from the measured solve time so a task takes about TASK_SECONDS (the
+        # per-task cost of Dask, a millisecond or two, is then shared by many points), but
+        # never so large that fewer than 4 tasks per worker thread remain (the last tasks
+        # must end together, or one worker idles through the tail).
+        size = study.chunk or max(1, min(8, len(todo) // (16 * slots)))
+        next_point = 0
+
+        def next_batch():
+            nonlocal next_point
+            remaining = len(todo) - next_point
+            if remaining <= 0:
+                return None
+            n = min(size, remaining) if study.chunk else max(1, min(size, remaining // (4 * slots)))
+            batch = todo[next_point:next_point + n]
+            next_point += n
+            return batch
+
+        submit = functools.partial(
+            client.submit, run_chunk, study.scene_text, str(study.scene_path), study.analysis,
+            study.results, columns, pure=False, retries=2,
+        )
+        batch_of = {}
+
+        def submit_next():
+            batch = next_batch()
+            if batch is not None:
+                futures.append(submit(batch))
+                batch_of[futures[-1].key] = batch
+                return futures[-1]
+            return None
+
+        # A window of tasks in flight (not all at once): the scheduler stays small for 1e6
+        # points, and an interrupted run has little to cancel.
+        for _ in range(4 * slots):
+            submit_next()
+        done_iter = as_completed(list(futures))
+        for future in done_iter:
+            batch = batch_of.pop(future.key)
+            try:
+                records, seconds = future.result()
+                task_seconds += seconds
+                if not study.chunk and seconds > 0:
+                    size = max(1, min(1024, int(TASK_SECONDS * len(batch) / seconds)))
+            except Exception as e:  # noqa: BLE001
+                # The task itself failed: its points killed every worker that ran them
+                # (Dask gives up after `distributed.scheduler.allowed-failures` deaths).
+                # They are stored as failed rather than stopping the study.
+                records = [_failed(i, k, p, columns, f"{type(e).__name__}: {e}") for i, k, p in batch]
+            f = submit_next()
+            if f is not None:
+                done_iter.add(f)
+            for r in records:
+                computed += 1
+                if r["error"] is not None:
+                    failed += 1
+                    if len(errors) < 5:  # the summary shows the first few; all are stored
+                        errors.append(f"point {r['index']} {({n: r[n] for n in names})}: {r['error']}")
+                buffer.append(r)
+                if on_result is not None:
+                    on_result(r)
+            if time.perf_counter() - last_flush >= flush_seconds:
+                _write_part(study.store, buffer, names, columns)
+                buffer, last_flush = [], time.perf_counter()
+            bar.update(computed, failed)
+    finally:
+        if buffer:
+            _write_part(study.store, buffer, names, columns)
+        bar.update(computed, failed, final=True)
+        for f in futures:
+            f.cancel()
+        if own is not None:
+            cluster = getattr(own, "cluster", None)
+            own.close()
+            if cluster is not None and scheduler is None:
+                cluster.close()
+    return Summary(len(points), len(already), computed, failed, time.perf_counter() - start, errors,
+                   task_seconds)
+
+
+def results(study):
+    """The stored results of the study's points, in point order (a pandas DataFrame). Rows
+    that an earlier version of the study left in the store (another base scene, analysis or
+    point set: other keys) are not among them."""
+    study = study if isinstance(study, Study) else load(study)
+    df = stored(study.store)
+    if not len(df):
+        return df
+    keys = {study.key(p) for p in study.points()}
+    df = df[df["key"].isin(keys)]
+    return df.sort_values("index").reset_index(drop=True)
+
+
+# --------------------------------------------------------------------------------------
+# Plot
+
+
+def plot(study, out) -> Path:
+    """A response surface over the varied parameters (grid: a curve for one parameter, a
+    filled contour for two) or a histogram per result (Latin hypercube, Monte Carlo)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    study = study if isinstance(study, Study) else load(study)
+    df = results(study)
+    if not len(df):
+        raise StudyError(f"{study.store}: no results to plot yet")
+    ok = df[df["error"].isna()]
+    columns = study.result_columns()
+    names = [p.path for p in study.parameters]
+    fig, axes = plt.subplots(1, len(columns), figsize=(4.5 * len(columns), 3.8), squeeze=False)
+    for ax, c in zip(axes[0], columns):
+        if study.method != "grid":
+            ax.hist(ok[c], bins=max(10, int(np.sqrt(len(ok)))), color="#2471a3")
+            ax.set_xlabel(c)
+            ax.set_ylabel("points")
+        elif len(names) == 1:
+            ax.plot(ok[names[0]], ok[c], "o-", color="#c0392b")
+            ax.set_xlabel(names[0])
+            ax.set_ylabel(c)
+        elif len(names) == 2:
+            grid = ok.pivot_table(index=names[1], columns=names[0], values=c)
+            cs = ax.contourf(grid.columns, grid.index, grid.to_numpy(), levels=20)
+            fig.colorbar(cs, ax=ax, label=c)
+            ax.set_xlabel(names[0])
+            ax.set_ylabel(names[1])
+        else:
+            raise StudyError(f"plot: a response surface takes 1 or 2 varied parameters, this grid has {len(names)}")
+        ax.set_title(c)
+    fig.tight_layout()
+    out = Path(out)
+    fig.savefig(out, dpi=120)
+    plt.close(fig)
+    return out
+
+
+# --------------------------------------------------------------------------------------
+# Console script
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    parser = argparse.ArgumentParser(prog="geardyn-study", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="run the points not stored yet, then print a summary")
+    r.add_argument("study", type=Path)
+    r.add_argument("--scheduler", help="address of an existing Dask scheduler (default: a LocalCluster)")
+    r.add_argument("--workers", type=int, help="LocalCluster worker processes (default: one per core)")
+    r.add_argument("--no-progress", action="store_true")
+    r.add_argument("--plot", type=Path, help="also draw the plot (PNG/SVG/PDF)")
+    p = sub.add_parser("plot", help="response surface (grid) or histograms (lhs, monte_carlo)")
+    p.add_argument("study", type=Path)
+    p.add_argument("--out", type=Path, required=True)
+    args = parser.parse_args(argv)
+    try:
+        study = load(args.study)
+        if args.command == "run":
+            try:
+                summary = run(study, scheduler=args.scheduler, workers=args.workers,
+                              progress=not args.no_progress)
+            except KeyboardInterrupt:
+                print("interrupted: the points that arrived are stored; run again to continue",
+                      file=sys.stderr)
+                return 130
+            print(summary.text(study))
+            if args.plot:
+                print(f"plot → {plot(study, args.plot)}")
+        else:
+            print(f"plot → {plot(study, args.out)}")
+    except (StudyError, geardyn.GeardynError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

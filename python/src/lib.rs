@@ -1,0 +1,731 @@
+//! `geardyn._geardyn`: the Python extension module (PyO3). A thin adapter over the library:
+//! every solve calls the same function as the CLI (`geardyn::simulation::run`,
+//! `geardyn::model::train::run_train`, `geardyn::commands::*`), so results and error messages
+//! are the CLI's. The GIL is released around every solve so Python threads run in parallel.
+//! The public API, its result classes and docs are in `geardyn/__init__.py`.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use pyo3::create_exception;
+use pyo3::exceptions::{PyException, PyTypeError};
+use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyByteArray, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+
+use geardyn::commands;
+use geardyn::model::train::run_train;
+use geardyn::scene::train::{is_train_file, is_train_text, TrainScene, TRAIN_EXAMPLES};
+use geardyn::scene::{Scene, EXAMPLES};
+
+create_exception!(
+    _geardyn,
+    GeardynError,
+    PyException,
+    "A geardyn error: a bad scene or option, or a failed solve. The message is the CLI's."
+);
+
+fn err(message: impl Into<String>) -> PyErr {
+    GeardynError::new_err(message.into())
+}
+
+/// A validated scene of either format: the single-mesh pair or the drivetrain.
+#[derive(Clone)]
+enum Validated {
+    Pair(Arc<Scene>),
+    Train(Arc<TrainScene>),
+}
+
+/// Validates scene text the way the CLI does: a drivetrain file goes to the drivetrain reader,
+/// anything else to the single-mesh reader (whose messages then describe what is wrong).
+fn validate(text: &str, origin: &str) -> Result<Validated, String> {
+    if is_train_text(text) {
+        TrainScene::from_toml_str(text, origin).map(|s| Validated::Train(Arc::new(s)))
+    } else {
+        Scene::from_toml_str(text, origin).map(|s| Validated::Pair(Arc::new(s)))
+    }
+    .map_err(|e| e.to_string())
+}
+
+/// A scene: its TOML text, where it came from, and the validated model description. Changing
+/// a parameter edits the TOML and re-validates the whole text with the scene reader, so a bad
+/// value is rejected with the message the CLI gives for the same file.
+#[pyclass(module = "geardyn._geardyn", name = "Scene")]
+#[derive(Clone)]
+struct PyScene {
+    text: String,
+    table: toml::Table,
+    /// Names the source in messages (the file path for a file, as the CLI does).
+    origin: String,
+    /// The scene file, while the scene is unchanged since it was read (FMUs built from it
+    /// then carry the file itself, comments and README included).
+    file: Option<PathBuf>,
+    scene: Validated,
+}
+
+impl PyScene {
+    fn new(text: String, origin: String, file: Option<PathBuf>) -> PyResult<PyScene> {
+        let scene = validate(&text, &origin).map_err(err)?;
+        let table = text
+            .parse::<toml::Table>()
+            .map_err(|e| err(format!("{origin}: {e}")))?;
+        Ok(PyScene {
+            text,
+            table,
+            origin,
+            file,
+            scene,
+        })
+    }
+
+    fn pair(&self, command: &str) -> PyResult<Arc<Scene>> {
+        match &self.scene {
+            Validated::Pair(s) => Ok(s.clone()),
+            Validated::Train(_) => Err(err(format!(
+                "{}: `{command}` takes a single-mesh scene (docs/model.md), this is a drivetrain",
+                self.origin
+            ))),
+        }
+    }
+
+    fn train(&self, command: &str) -> PyResult<Arc<TrainScene>> {
+        match &self.scene {
+            Validated::Train(s) => Ok(s.clone()),
+            Validated::Pair(_) => Err(err(format!(
+                "{}: `{command}` takes a drivetrain scene (docs/train.md), this is a single mesh",
+                self.origin
+            ))),
+        }
+    }
+}
+
+/// One step of a scene path: a table key, optionally followed by an array index.
+struct Step<'a> {
+    key: &'a str,
+    index: Option<usize>,
+}
+
+/// Parses `mesh.stiffness.mean` or `gear[1].inertia`.
+fn parse_path(path: &str) -> PyResult<Vec<Step<'_>>> {
+    let bad = |why: &str| err(format!("scene path '{path}': {why}"));
+    path.split('.')
+        .map(|part| {
+            let (key, index) = match part.split_once('[') {
+                None => (part, None),
+                Some((key, rest)) => {
+                    let digits = rest
+                        .strip_suffix(']')
+                        .ok_or_else(|| bad("expected key[index]"))?;
+                    let i = digits
+                        .parse::<usize>()
+                        .map_err(|_| bad(&format!("'{digits}' is not an array index")))?;
+                    (key, Some(i))
+                }
+            };
+            if key.is_empty() {
+                return Err(bad("empty key"));
+            }
+            Ok(Step { key, index })
+        })
+        .collect()
+}
+
+/// The value at `steps` below `table`; `None` names the first step that does not exist.
+fn lookup<'t>(table: &'t toml::Table, path: &str) -> PyResult<&'t toml::Value> {
+    let steps = parse_path(path)?;
+    let missing = |what: String| err(format!("scene path '{path}': {what}"));
+    let mut current: Option<&toml::Value> = None;
+    let mut tab = table;
+    for (n, step) in steps.iter().enumerate() {
+        let v = tab
+            .get(step.key)
+            .ok_or_else(|| missing(format!("no key '{}'", step.key)))?;
+        let v = match step.index {
+            None => v,
+            Some(i) => index(v, i, step.key).map_err(missing)?,
+        };
+        if n + 1 < steps.len() {
+            tab = v
+                .as_table()
+                .ok_or_else(|| missing(format!("'{}' is not a table", step.key)))?;
+        }
+        current = Some(v);
+    }
+    Ok(current.expect("a path has at least one step"))
+}
+
+fn index<'v>(v: &'v toml::Value, i: usize, key: &str) -> Result<&'v toml::Value, String> {
+    let a = v
+        .as_array()
+        .ok_or_else(|| format!("'{key}' is not an array"))?;
+    a.get(i)
+        .ok_or_else(|| format!("index {i} out of range ('{key}' has {} elements)", a.len()))
+}
+
+/// Sets `path` in `table`; the last key may be new (the scene reader then says whether the
+/// format knows it).
+fn assign(table: &mut toml::Table, path: &str, value: toml::Value) -> PyResult<()> {
+    let steps = parse_path(path)?;
+    let missing = |what: String| err(format!("scene path '{path}': {what}"));
+    let mut tab = table;
+    let last = steps.len() - 1;
+    for (n, step) in steps.iter().enumerate() {
+        if n == last && step.index.is_none() {
+            tab.insert(step.key.to_string(), value);
+            return Ok(());
+        }
+        let v = tab
+            .get_mut(step.key)
+            .ok_or_else(|| missing(format!("no key '{}'", step.key)))?;
+        let v = match step.index {
+            None => v,
+            Some(i) => {
+                let a = v
+                    .as_array_mut()
+                    .ok_or_else(|| missing(format!("'{}' is not an array", step.key)))?;
+                let len = a.len();
+                a.get_mut(i).ok_or_else(|| {
+                    missing(format!(
+                        "index {i} out of range ('{}' has {len} elements)",
+                        step.key
+                    ))
+                })?
+            }
+        };
+        if n == last {
+            *v = value;
+            return Ok(());
+        }
+        tab = v
+            .as_table_mut()
+            .ok_or_else(|| missing(format!("'{}' is not a table", step.key)))?;
+    }
+    unreachable!("the last step returns")
+}
+
+/// Every leaf path below `table` (arrays of tables indexed, arrays of values as leaves).
+fn leaf_paths(prefix: &str, table: &toml::Table, out: &mut Vec<String>) {
+    for (k, v) in table {
+        let path = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        match v {
+            toml::Value::Table(t) => leaf_paths(&path, t, out),
+            toml::Value::Array(a) if !a.is_empty() && a.iter().all(toml::Value::is_table) => {
+                for (i, t) in a.iter().enumerate() {
+                    let t = t.as_table().expect("checked");
+                    leaf_paths(&format!("{path}[{i}]"), t, out);
+                }
+            }
+            _ => out.push(path),
+        }
+    }
+}
+
+/// A Python value as TOML. `bool` is tested before `int` (it is a subclass); NumPy scalars
+/// come in through `__index__`/`__float__`.
+fn to_toml(v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
+    if v.is_instance_of::<PyBool>() {
+        return Ok(toml::Value::Boolean(v.extract()?));
+    }
+    if v.is_instance_of::<PyInt>() {
+        return Ok(toml::Value::Integer(v.extract()?));
+    }
+    if v.is_instance_of::<PyFloat>() {
+        return Ok(toml::Value::Float(v.extract()?));
+    }
+    if v.is_instance_of::<PyString>() {
+        return Ok(toml::Value::String(v.extract()?));
+    }
+    if let Ok(d) = v.cast::<PyDict>() {
+        return Ok(toml::Value::Table(dict_to_table(d)?));
+    }
+    if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
+        let items: PyResult<Vec<toml::Value>> = v.try_iter()?.map(|i| to_toml(&i?)).collect();
+        return Ok(toml::Value::Array(items?));
+    }
+    if v.hasattr("tolist")? {
+        // NumPy arrays and scalars.
+        return to_toml(&v.call_method0("tolist")?);
+    }
+    Err(PyTypeError::new_err(format!(
+        "cannot put a {} into a scene (bool, int, float, str, list or dict)",
+        v.get_type().name()?
+    )))
+}
+
+fn dict_to_table(d: &Bound<'_, PyDict>) -> PyResult<toml::Table> {
+    let mut t = toml::Table::new();
+    for (k, v) in d.iter() {
+        let key: String = k
+            .extract()
+            .map_err(|_| PyTypeError::new_err(format!("scene keys are strings, not {k}")))?;
+        t.insert(key, to_toml(&v)?);
+    }
+    Ok(t)
+}
+
+fn to_python<'py>(py: Python<'py>, v: &toml::Value) -> PyResult<Bound<'py, PyAny>> {
+    Ok(match v {
+        toml::Value::String(s) => s.into_pyobject(py)?.into_any(),
+        toml::Value::Integer(i) => i.into_pyobject(py)?.into_any(),
+        toml::Value::Float(f) => f.into_pyobject(py)?.into_any(),
+        toml::Value::Boolean(b) => PyBool::new(py, *b).to_owned().into_any(),
+        toml::Value::Datetime(d) => d.to_string().into_pyobject(py)?.into_any(),
+        toml::Value::Array(a) => {
+            let items: PyResult<Vec<_>> = a.iter().map(|x| to_python(py, x)).collect();
+            PyList::new(py, items?)?.into_any()
+        }
+        toml::Value::Table(t) => {
+            let d = PyDict::new(py);
+            for (k, x) in t {
+                d.set_item(k, to_python(py, x)?)?;
+            }
+            d.into_any()
+        }
+    })
+}
+
+#[pymethods]
+impl PyScene {
+    /// Reads a scene file, or the `scene.toml` in a folder (such as `fmu/spur_pair`).
+    #[staticmethod]
+    fn from_file(path: PathBuf) -> PyResult<PyScene> {
+        // The CLI's order: the format check reads the file first (same message if missing).
+        is_train_file(&path).map_err(|e| err(e.to_string()))?;
+        let file = if path.is_dir() {
+            path.join("scene.toml")
+        } else {
+            path
+        };
+        let text = std::fs::read_to_string(&file)
+            .map_err(|e| err(format!("cannot read scene file '{}': {e}", file.display())))?;
+        let origin = file.display().to_string();
+        PyScene::new(text, origin, Some(file))
+    }
+
+    /// Parses scene text; `origin` names it in messages.
+    #[staticmethod]
+    #[pyo3(signature = (text, origin = "<string>"))]
+    fn from_toml(text: String, origin: &str) -> PyResult<PyScene> {
+        PyScene::new(text, origin.to_string(), None)
+    }
+
+    /// A scene from nested dicts shaped like the TOML file.
+    #[staticmethod]
+    #[pyo3(signature = (data, origin = "<dict>"))]
+    fn from_dict(data: &Bound<'_, PyDict>, origin: &str) -> PyResult<PyScene> {
+        let table = dict_to_table(data)?;
+        let text = toml::to_string(&table).map_err(|e| err(format!("{origin}: {e}")))?;
+        PyScene::new(text, origin.to_string(), None)
+    }
+
+    /// A built-in example (single mesh or drivetrain), as `--example NAME` on the CLI.
+    #[staticmethod]
+    fn example(name: &str) -> PyResult<PyScene> {
+        let origin = format!("example '{name}'");
+        if let Some((_, text)) = TRAIN_EXAMPLES.iter().find(|(n, _)| *n == name) {
+            return PyScene::new(text.to_string(), origin, None);
+        }
+        match EXAMPLES.iter().find(|(n, _)| *n == name) {
+            Some((_, text)) => PyScene::new(text.to_string(), origin, None),
+            // The single-mesh reader's message (it lists the available names).
+            None => Err(err(Scene::example(name).expect_err("not an example").0)),
+        }
+    }
+
+    /// Names of the built-in examples.
+    #[staticmethod]
+    fn examples() -> Vec<&'static str> {
+        EXAMPLES
+            .iter()
+            .chain(TRAIN_EXAMPLES)
+            .map(|(n, _)| *n)
+            .collect()
+    }
+
+    fn __getitem__<'py>(&self, py: Python<'py>, path: &str) -> PyResult<Bound<'py, PyAny>> {
+        to_python(py, lookup(&self.table, path)?)
+    }
+
+    fn __setitem__(&mut self, path: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
+        let mut table = self.table.clone();
+        assign(&mut table, path, to_toml(value)?)?;
+        self.replace(table)
+    }
+
+    fn __contains__(&self, path: &str) -> bool {
+        lookup(&self.table, path).is_ok()
+    }
+
+    /// Sets several parameters at once and validates once (for values that are only valid
+    /// together); on error the scene is unchanged.
+    fn update(&mut self, values: &Bound<'_, PyDict>) -> PyResult<()> {
+        let mut table = self.table.clone();
+        for (k, v) in values.iter() {
+            let path: String = k.extract()?;
+            assign(&mut table, &path, to_toml(&v)?)?;
+        }
+        self.replace(table)
+    }
+
+    /// Every parameter path of the scene as written (defaults not listed).
+    fn paths(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        leaf_paths("", &self.table, &mut out);
+        out
+    }
+
+    /// The scene as TOML text (the file's own text until a parameter is changed).
+    fn to_toml(&self) -> String {
+        self.text.clone()
+    }
+
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_python(py, &toml::Value::Table(self.table.clone()))
+    }
+
+    fn copy(&self) -> PyScene {
+        self.clone()
+    }
+
+    fn __copy__(&self) -> PyScene {
+        self.clone()
+    }
+
+    fn __deepcopy__(&self, _memo: &Bound<'_, PyAny>) -> PyScene {
+        self.clone()
+    }
+
+    /// Pickles as text and origin (Dask ships scenes to worker processes).
+    fn __reduce__<'py>(slf: &Bound<'py, Self>) -> PyResult<(Bound<'py, PyAny>, SceneState)> {
+        let this = slf.borrow();
+        let restore = slf
+            .py()
+            .import("geardyn._geardyn")?
+            .getattr("_restore_scene")?;
+        Ok((
+            restore,
+            (this.text.clone(), this.origin.clone(), this.file.clone()),
+        ))
+    }
+
+    #[getter]
+    fn name(&self) -> String {
+        match &self.scene {
+            Validated::Pair(s) => s.name.clone(),
+            Validated::Train(s) => s.name.clone(),
+        }
+    }
+
+    /// True for a drivetrain scene (docs/train.md), false for a single mesh (docs/model.md).
+    #[getter]
+    fn is_train(&self) -> bool {
+        matches!(self.scene, Validated::Train(_))
+    }
+
+    #[getter]
+    fn origin(&self) -> String {
+        self.origin.clone()
+    }
+
+    /// The file the scene was read from, while it is unchanged; else None.
+    #[getter]
+    fn file(&self) -> Option<PathBuf> {
+        self.file.clone()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "<geardyn.Scene {} ({}) from {}>",
+            self.name(),
+            if self.is_train() {
+                "drivetrain"
+            } else {
+                "single mesh"
+            },
+            self.origin
+        )
+    }
+}
+
+impl PyScene {
+    fn replace(&mut self, table: toml::Table) -> PyResult<()> {
+        let text = toml::to_string(&table).map_err(|e| err(format!("{}: {e}", self.origin)))?;
+        self.scene = validate(&text, &self.origin).map_err(err)?;
+        self.table = table;
+        self.text = text;
+        self.file = None;
+        Ok(())
+    }
+}
+
+/// What a pickled [`PyScene`] carries: text, origin, file.
+type SceneState = (String, String, Option<PathBuf>);
+
+#[pyfunction]
+fn _restore_scene(text: String, origin: String, file: Option<PathBuf>) -> PyResult<PyScene> {
+    PyScene::new(text, origin, file)
+}
+
+/// A NumPy float64 array over one copy of `values`, shaped `shape`. Built through NumPy's
+/// `frombuffer` on a bytearray (writable, owned by the array) rather than with the `numpy`
+/// crate: that crate's `ndarray` turns on features of `num-complex` and `matrixmultiply`
+/// that the library does not use, and the different feature set made cargo rebuild the
+/// library each time the CLI and the module were built in turn in the shared `target/`.
+fn array<'py>(
+    py: Python<'py>,
+    values: impl Iterator<Item = f64>,
+    len: usize,
+    shape: &[usize],
+) -> PyResult<Bound<'py, PyAny>> {
+    let mut values = values;
+    let bytes = PyByteArray::new_with(py, 8 * len, |buf| {
+        for chunk in buf.chunks_exact_mut(8) {
+            let v = values.next().expect("len values");
+            chunk.copy_from_slice(&v.to_ne_bytes());
+        }
+        Ok(())
+    })?;
+    let np = py.import("numpy")?;
+    np.getattr("frombuffer")?
+        .call1((bytes, np.getattr("float64")?))?
+        .call_method1("reshape", (shape.to_vec(),))
+}
+
+fn vector<'py>(py: Python<'py>, values: &[f64]) -> PyResult<Bound<'py, PyAny>> {
+    array(py, values.iter().copied(), values.len(), &[values.len()])
+}
+
+/// Rows of equal width as a 2-D array.
+fn matrix<'py>(
+    py: Python<'py>,
+    rows: &[impl AsRef<[f64]>],
+    width: usize,
+) -> PyResult<Bound<'py, PyAny>> {
+    if let Some(r) = rows.iter().find(|r| r.as_ref().len() != width) {
+        return Err(err(format!(
+            "ragged result table: a row of {} values, {width} columns",
+            r.as_ref().len()
+        )));
+    }
+    let values = rows.iter().flat_map(|r| r.as_ref().iter().copied());
+    array(py, values, rows.len() * width, &[rows.len(), width])
+}
+
+/// A result table: column names and one row per point (the CLI's CSV).
+type Table<'py> = (Vec<String>, Bound<'py, PyAny>);
+
+fn table<'py>(
+    py: Python<'py>,
+    columns: &[&str],
+    rows: &[impl AsRef<[f64]>],
+) -> PyResult<Table<'py>> {
+    let names = columns.iter().map(|c| c.to_string()).collect();
+    Ok((names, matrix(py, rows, columns.len())?))
+}
+
+/// Simulates the scene over its `[solver]` experiment (`stop_time`, `output_interval`):
+/// returns `(names, times, data, method, stats)`, `data` one row per output time.
+#[pyfunction]
+#[allow(clippy::type_complexity)]
+fn simulate<'py>(
+    py: Python<'py>,
+    scene: &PyScene,
+) -> PyResult<(
+    Vec<String>,
+    Bound<'py, PyAny>,
+    Bound<'py, PyAny>,
+    String,
+    Bound<'py, PyDict>,
+)> {
+    let (names, times, data, method, stats) = match &scene.scene {
+        Validated::Pair(s) => {
+            let s = s.clone();
+            let run = py
+                .detach(move || {
+                    geardyn::simulation::run(&s, s.solver.stop_time, s.solver.output_interval)
+                })
+                .map_err(err)?;
+            let names = geardyn::model::OUTPUT_NAMES.map(str::to_string).to_vec();
+            let data = matrix(py, &run.rows, names.len())?;
+            (names, run.times, data, run.method, run.stats)
+        }
+        Validated::Train(s) => {
+            let s = s.clone();
+            let run = py
+                .detach(move || run_train(&s, s.solver.stop_time, s.solver.output_interval))
+                .map_err(err)?;
+            let data = matrix(py, &run.rows, run.names.len())?;
+            (run.names, run.times, data, run.method, run.stats)
+        }
+    };
+    let d = PyDict::new(py);
+    d.set_item("steps", stats.steps)?;
+    d.set_item("rejected", stats.rejected)?;
+    d.set_item("rhs_evals", stats.rhs_evals)?;
+    d.set_item("events", stats.events)?;
+    d.set_item("stops", stats.stops)?;
+    d.set_item("guard_evals", stats.guard_evals)?;
+    Ok((names, vector(py, &times)?, data, method, d))
+}
+
+/// Periodic steady state by shooting at the scene's pinion speed; returns a dict of the
+/// orbit (with `report`, the text `geardyn periodic` prints).
+#[pyfunction]
+#[pyo3(signature = (scene, periods = 1, warmup = 20))]
+fn periodic<'py>(
+    py: Python<'py>,
+    scene: &PyScene,
+    periods: u32,
+    warmup: u32,
+) -> PyResult<Bound<'py, PyDict>> {
+    let s = scene.pair("periodic")?;
+    let (orbit, report) = py
+        .detach(move || {
+            commands::analysis::periodic(&s, periods, warmup)
+                .map(|o| (commands::analysis::periodic_report(&s, &o), o))
+        })
+        .map(|(r, o)| (o, r))
+        .map_err(err)?;
+    let d = PyDict::new(py);
+    d.set_item("period", orbit.period)?;
+    d.set_item("periods", orbit.periods)?;
+    d.set_item("y0", vector(py, &orbit.y0)?)?;
+    // (re, im) pairs: the Python wrapper makes them a complex array.
+    let multipliers: Vec<(f64, f64)> = orbit.multipliers.iter().map(|m| (m.re, m.im)).collect();
+    d.set_item("multipliers", multipliers)?;
+    d.set_item("spectral_radius", orbit.spectral_radius())?;
+    d.set_item("stability", format!("{:?}", orbit.stability()))?;
+    d.set_item("residuals", vector(py, &orbit.residuals)?)?;
+    let m = &orbit.monodromy;
+    let rows: Vec<Vec<f64>> = (0..m.nrows())
+        .map(|i| m.row(i).iter().copied().collect())
+        .collect();
+    d.set_item("monodromy", matrix(py, &rows, m.ncols())?)?;
+    d.set_item("report", report)?;
+    Ok(d)
+}
+
+/// Frequency-response sweep over pinion speed; returns `(columns, data)` as the CSV of
+/// `geardyn sweep` has them.
+#[pyfunction]
+#[pyo3(signature = (scene, speed, direction = "both", tolerance = 1e-7, max_periods = 3000))]
+fn sweep<'py>(
+    py: Python<'py>,
+    scene: &PyScene,
+    speed: &str,
+    direction: &str,
+    tolerance: f64,
+    max_periods: u32,
+) -> PyResult<Table<'py>> {
+    let s = scene.pair("sweep")?;
+    let request = commands::analysis::SweepRequest {
+        speed,
+        direction,
+        tolerance,
+        max_periods,
+    };
+    let points = py.detach(|| request.run(&s, &|_, _| {})).map_err(err)?;
+    let rows: Vec<_> = points.iter().map(|p| p.row()).collect();
+    table(py, &geardyn::analysis::SWEEP_COLUMNS, &rows)
+}
+
+/// Harmonic balance with arclength continuation over `speed = "from:to"`; returns
+/// `(columns, data)` as the CSV of `geardyn hb` has them.
+#[pyfunction]
+#[pyo3(signature = (scene, speed, harmonics = 20, subharmonic = 1))]
+fn hb<'py>(
+    py: Python<'py>,
+    scene: &PyScene,
+    speed: &str,
+    harmonics: usize,
+    subharmonic: u32,
+) -> PyResult<Table<'py>> {
+    let s = scene.pair("hb")?;
+    let request = commands::analysis::HbRequest {
+        speed,
+        harmonics,
+        subharmonic,
+    };
+    let branch = py.detach(|| request.run(&s)).map_err(err)?;
+    table(py, &commands::analysis::HB_COLUMNS, &branch.rows())
+}
+
+/// Natural frequencies and mode shapes of a drivetrain's mean system; returns a dict with
+/// `report`, the text `geardyn modes` prints.
+#[pyfunction]
+#[pyo3(signature = (scene, rigid_bearings = false))]
+fn modes<'py>(
+    py: Python<'py>,
+    scene: &PyScene,
+    rigid_bearings: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let s = scene.train("modes")?;
+    let (result, report) = py.detach(move || {
+        let mut report = Vec::new();
+        let r = commands::modes::modes(&s, rigid_bearings, &mut report);
+        (r, String::from_utf8_lossy(&report).into_owned())
+    });
+    let result = result.map_err(err)?;
+    let d = PyDict::new(py);
+    let frequencies: Vec<f64> = result.modes.iter().map(|m| m.frequency).collect();
+    let rigid: Vec<bool> = result.modes.iter().map(|m| m.rigid).collect();
+    let shapes: Vec<Vec<f64>> = result
+        .modes
+        .iter()
+        .map(|m| m.shape.iter().copied().collect())
+        .collect();
+    d.set_item("labels", result.labels.clone())?;
+    d.set_item("frequencies", vector(py, &frequencies)?)?;
+    d.set_item("rigid", rigid)?;
+    d.set_item("shapes", matrix(py, &shapes, result.labels.len())?)?;
+    d.set_item("report", report)?;
+    Ok(d)
+}
+
+/// Mesh stiffness over one mesh period from a gears file at pinion torque `torque`; returns
+/// `(columns, data, summary)` as `geardyn stiffness` writes and prints them.
+#[pyfunction]
+#[pyo3(signature = (gears, torque, etc = true, harmonics = 4))]
+fn stiffness<'py>(
+    py: Python<'py>,
+    gears: PathBuf,
+    torque: f64,
+    etc: bool,
+    harmonics: usize,
+) -> PyResult<(Vec<String>, Bound<'py, PyAny>, String)> {
+    let (columns, rows, summary) = py
+        .detach(move || {
+            commands::stiffness::stiffness(&gears, torque, etc)
+                .map(|st| (st.columns(), st.rows(), st.summary(harmonics)))
+        })
+        .map_err(err)?;
+    let data = matrix(py, &rows, columns.len())?;
+    Ok((columns, data, summary))
+}
+
+/// Builds `<out>/<modelIdentifier>.fmu` from a scene file or folder with the cdylib `cdylib`
+/// (`libgeardyn.so`); returns the FMU's path.
+#[pyfunction]
+fn build_fmu(py: Python<'_>, scene: PathBuf, out: PathBuf, cdylib: PathBuf) -> PyResult<PathBuf> {
+    py.detach(move || geardyn::fmi::package::build_fmu(&scene, &out, &cdylib))
+        .map_err(err)
+}
+
+#[pymodule]
+fn _geardyn(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("GeardynError", m.py().get_type::<GeardynError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<PyScene>()?;
+    m.add_function(wrap_pyfunction!(_restore_scene, m)?)?;
+    m.add_function(wrap_pyfunction!(simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(periodic, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(hb, m)?)?;
+    m.add_function(wrap_pyfunction!(modes, m)?)?;
+    m.add_function(wrap_pyfunction!(stiffness, m)?)?;
+    m.add_function(wrap_pyfunction!(build_fmu, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,146 @@
+"""Benchmark of the Python module and studies (docs/python.md), measured in one run:
+
+1. study throughput (points/s) on a LocalCluster with 1 and with 2 worker processes;
+2. per-point overhead of the study machinery (Dask tasks, hashing, Parquet store) against a
+   bare loop of `simulate` calls on the same points;
+3. the extension's `simulate` against `geardyn simulate` (CLI), process start excluded.
+
+Run: .venv/bin/python scripts/bench_study.py [--points 300] [--stop-time 0.1] [--repeat 2]
+Prints a Markdown table. Each wall is the best of `--repeat` runs within this one run (the
+least disturbed by other load); on a shared machine, rerun when the load average is high.
+"""
+
+import argparse
+import os
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+import geardyn
+from geardyn import study as gs
+
+REPO = Path(__file__).resolve().parents[1]
+CLI = REPO / "target" / "release" / "geardyn"
+
+
+def base_scene(stop_time: float) -> "geardyn.Scene":
+    # The RK path: its cost per point is set by stop_time (10-20 ms at 0.1 s of gear time).
+    scene = geardyn.Scene.from_file(REPO / "fmu" / "spur_pair")
+    scene.update({"solver.method": "rk", "solver.stop_time": stop_time})
+    return scene
+
+
+def write_study(folder: Path, scene, points: int) -> Path:
+    (folder / "scene.toml").write_text(scene.to_toml())
+    path = folder / "study.toml"
+    path.write_text(
+        'scene = "scene.toml"\n'
+        'results = ["dte_rms", "peak_force", "dynamic_factor", "contact_loss_fraction"]\n'
+        "[[parameter]]\n"
+        'path = "operating.pinion_speed"\n'
+        f"from = 300.0\nto = 520.0\npoints = {points}\n"
+        "[analysis]\n"
+        'kind = "simulate"\n'
+    )
+    return path
+
+
+def study_seconds(path: Path, workers: int, warmup: Path):
+    """Wall of one study run on a started cluster that has run a short warm-up study (a new
+    worker process is slower on its first points: imports, allocator, caches; a real study
+    of 10^4 points pays that once). Cluster start and warm-up are not per point."""
+    from distributed import Client
+
+    with gs.local_cluster(workers) as cluster, Client(cluster) as client:
+        gs.run(gs.load(warmup), client=client, progress=False)
+        study = gs.load(path)
+        start = time.perf_counter()
+        summary = gs.run(study, client=client, progress=False)
+        seconds = time.perf_counter() - start
+    assert summary.computed == len(study.points()) and summary.failed == 0
+    return seconds, summary.task_seconds
+
+
+def bare_seconds(path: Path) -> float:
+    """The same points in a plain loop: copy the scene, set the point, simulate."""
+    study = gs.load(path)
+    base = study.base_scene()
+    start = time.perf_counter()
+    for point in study.points():
+        scene = base.copy()
+        scene.update(point)
+        geardyn.simulate(scene)
+    return time.perf_counter() - start
+
+
+def cli_vs_extension(repeats: int = 7):
+    """Best-of walls: extension simulate; CLI long run minus CLI minimal run (process start,
+    scene read and a 2-row CSV: what the extension does not do)."""
+    scene = base_scene(1.0)
+    scene["solver.output_interval"] = 1e-4
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "scene.toml"
+        path.write_text(scene.to_toml())
+        out = Path(tmp) / "out.csv"
+
+        def cli(*extra):
+            start = time.perf_counter()
+            subprocess.run([CLI, "simulate", path, "--out", out, "--quiet", *extra], check=True)
+            return time.perf_counter() - start
+
+        walls = {"py": [], "long": [], "short": []}
+        for _ in range(repeats):
+            start = time.perf_counter()
+            geardyn.simulate(scene)
+            walls["py"].append(time.perf_counter() - start)
+            walls["long"].append(cli())
+            walls["short"].append(cli("--stop-time", "1e-4"))
+    best = {k: min(v) for k, v in walls.items()}
+    return best["py"], best["long"] - best["short"], best["short"]
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--points", type=int, default=300)
+    parser.add_argument("--stop-time", type=float, default=0.1)
+    parser.add_argument("--repeat", type=int, default=2)
+    args = parser.parse_args()
+    scene = base_scene(args.stop_time)
+    walls = {"bare": [], "w1": [], "w2": []}
+    in_tasks = []
+    for r in range(args.repeat):
+        with tempfile.TemporaryDirectory() as tmp:
+            # Fresh stores: every run computes every point.
+            folders = {}
+            for name in [*walls, "warm1", "warm2"]:
+                (Path(tmp) / name).mkdir()
+                n = args.points if name in walls else 20 * int(name[-1])
+                folders[name] = write_study(Path(tmp) / name, scene, n)
+            walls["bare"].append(bare_seconds(folders["bare"]))
+            wall, busy = study_seconds(folders["w1"], 1, folders["warm1"])
+            walls["w1"].append(wall)
+            in_tasks.append((wall, busy))
+            walls["w2"].append(study_seconds(folders["w2"], 2, folders["warm2"])[0])
+    bare, one, two = (min(walls[k]) for k in ("bare", "w1", "w2"))
+    wall1, busy1 = min(in_tasks)
+    py, cli, start = cli_vs_extension()
+    n = args.points
+    per_point = bare / n
+    load = os.getloadavg()[0]
+    print(f"machine: {os.cpu_count()} cores, load average {load:.1f} at the end; {n} points of spur_pair (RK, {args.stop_time} s of gear time)\n")
+    print("| measure | value |")
+    print("|---|---|")
+    print(f"| bare loop of `simulate` | {per_point * 1e3:.2f} ms/point ({n / bare:.1f} points/s) |")
+    print(f"| study, 1 worker | {n / one:.1f} points/s |")
+    print(f"| study, 2 workers | {n / two:.1f} points/s |")
+    print(f"| speedup 2 vs 1 worker | {one / two:.2f}× |")
+    print(f"| study overhead per point (1 worker vs bare loop) | {(one / n - per_point) * 1e3:.2f} ms = {(one / bare - 1) * 100:+.1f} % |")
+    print(f"| of which outside the tasks (scheduling, transfer, store; 1 worker) | {(wall1 - busy1) / n * 1e3:.2f} ms = {(wall1 - busy1) / busy1 * 100:+.1f} % |")
+    print(f"| extension `simulate`, 1.0 s RK run | {py * 1e3:.1f} ms |")
+    print(f"| CLI `simulate`, same run, minus process start ({start * 1e3:.1f} ms) | {cli * 1e3:.1f} ms |")
+    print(f"| extension / CLI | {py / cli:.3f}× |")
+
+
+if __name__ == "__main__":
+    main()

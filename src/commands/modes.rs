@@ -1,0 +1,118 @@
+//! `modes`: natural frequencies and mode shapes of a drivetrain's mean system, and its
+//! statics, as `geardyn modes` reports them.
+
+use std::io::Write;
+
+use crate::model::train::mesh::CycleTable;
+use crate::model::train::{self, statics, Assembly, GearTrain, Mode};
+use crate::scene::train::{MeshForceModel, TrainScene};
+
+/// The modes of a drivetrain's mean system, in the order the report lists them.
+pub struct Modes {
+    /// Physical coordinate of every mode-shape entry.
+    pub labels: Vec<String>,
+    pub modes: Vec<Mode>,
+}
+
+/// Computes the modes of `scene` (with `rigid_bearings`, of the purely rotational model) and
+/// writes the report of `geardyn modes` to `out` as it goes: the CLI streams it to stdout,
+/// so a failure late in the report (the friction statics) still shows everything before it.
+pub fn modes(
+    scene: &TrainScene,
+    rigid_bearings: bool,
+    out: &mut dyn Write,
+) -> Result<Modes, String> {
+    let io = |e: std::io::Error| format!("cannot write the report: {e}");
+    let scene = if rigid_bearings {
+        scene.with_rigid_bearings()
+    } else {
+        scene.clone()
+    };
+    let asm = Assembly::new(&scene);
+    let all = train::modes(&asm);
+    writeln!(
+        out,
+        "scene {} ({} DOF, mean mesh stiffness, {} bearings)",
+        scene.name,
+        asm.dim(),
+        if rigid_bearings { "rigid" } else { "scene" }
+    )
+    .map_err(io)?;
+    write!(out, "{:>4} {:>12}  {:<6}", "mode", "f [Hz]", "kind").map_err(io)?;
+    for label in &asm.labels {
+        write!(out, " {label:>12}").map_err(io)?;
+    }
+    writeln!(out).map_err(io)?;
+    for (i, m) in all.iter().enumerate() {
+        write!(
+            out,
+            "{:>4} {:>12.3}  {:<6}",
+            i + 1,
+            m.frequency,
+            if m.rigid { "rigid" } else { "" }
+        )
+        .map_err(io)?;
+        for v in m.shape.iter() {
+            write!(out, " {v:>12.5}").map_err(io)?;
+        }
+        writeln!(out).map_err(io)?;
+    }
+    let t_in = scene.operating.input_torque;
+    let t_load = scene.operating.load_torque;
+    writeln!(out, "statics (input {t_in} N·m, load {t_load} N·m; ground couplings carry no mean torque, Liu 2007 eq. 2.8):").map_err(io)?;
+    match statics::equilibrium(&asm, t_in, t_load, false) {
+        Ok(st) => {
+            for (n, m) in scene.meshes.iter().enumerate() {
+                writeln!(
+                    out,
+                    "  {:<10} mesh force {:>12.4} N   mean deflection {:>12.6e} m   DTE {:>12.6e} m",
+                    m.name, st.mesh_force[n], st.deflection[n], st.dte[n]
+                )
+                .map_err(io)?;
+                if let MeshForceModel::Pairs { pair, relief, .. } = &m.force {
+                    // Loaded STE and NLTE by active set (Liu 2007 eq. 2.8).
+                    let table = CycleTable::pairs(pair, relief);
+                    let ste = statics::loaded_ste(&table, st.mesh_force[n]);
+                    let nlte = statics::loaded_ste(&table, 0.0);
+                    writeln!(
+                        out,
+                        "  {:<10} loaded STE mean {:.6e} m, p-p {:.6e} m; NLTE p-p {:.6e} m",
+                        "",
+                        ste.mean(),
+                        ste.peak_to_peak(),
+                        nlte.peak_to_peak()
+                    )
+                    .map_err(io)?;
+                }
+            }
+        }
+        Err(e) => writeln!(out, "  {e}").map_err(io)?,
+    }
+    if scene.meshes.iter().any(|m| m.friction.is_some()) {
+        // The statics above are of the frictionless mean system (modes too); with friction
+        // the static mesh force depends on the phase (Liu 2007 eq. 4.40).
+        let train = GearTrain::new(&scene)?;
+        writeln!(
+            out,
+            "with tooth friction, frozen at the initial mesh phases (Liu 2007 eq. 4.40):"
+        )
+        .map_err(io)?;
+        match train.frozen_equilibrium(0.0) {
+            Ok(st) => {
+                for (n, m) in scene.meshes.iter().enumerate() {
+                    writeln!(
+                        out,
+                        "  {:<10} mesh force {:>12.4} N   friction force {:>12.4} N",
+                        m.name, st.mesh_force[n], st.friction_force[n]
+                    )
+                    .map_err(io)?;
+                }
+            }
+            Err(e) => writeln!(out, "  {e}").map_err(io)?,
+        }
+    }
+    Ok(Modes {
+        labels: asm.labels.clone(),
+        modes: all,
+    })
+}

@@ -1,0 +1,57 @@
+//! `stiffness`: mesh stiffness over one mesh period from gear geometry (docs/stiffness.md),
+//! with the table, plot and summary of `geardyn stiffness`.
+
+use std::path::Path;
+
+use crate::mesh::geometry::{report, spec, CurveOptions, MeshModel, StiffnessCurve};
+
+/// A stiffness curve and the mesh model it was computed from.
+pub struct Stiffness {
+    pub model: MeshModel,
+    pub curve: StiffnessCurve,
+}
+
+/// Reads a gears file and computes the curve at pinion torque `torque` (N·m), with or without
+/// extended tooth contact; messages name the file or the `--torque` option.
+pub fn stiffness(gears: &Path, torque: f64, etc: bool) -> Result<Stiffness, String> {
+    let origin = gears.display().to_string();
+    let text = std::fs::read_to_string(gears)
+        .map_err(|e| format!("cannot read gears file '{origin}': {e}"))?;
+    let spec = spec::parse_gears_file(&text, &origin)?;
+    let model = MeshModel::new(&spec, "").map_err(|e| format!("{origin}: {e}"))?;
+    let curve = model
+        .curve(CurveOptions { torque, etc })
+        .map_err(|e| format!("--torque {torque}: {e}"))?;
+    Ok(Stiffness { model, curve })
+}
+
+impl Stiffness {
+    /// Column names of the table, one force column per tooth pair that can be loaded.
+    pub fn columns(&self) -> Vec<String> {
+        report::csv_names(self.curve.low_pairs + 1)
+    }
+
+    /// One row per knot of the curve, in [`Stiffness::columns`] order.
+    pub fn rows(&self) -> Vec<Vec<f64>> {
+        report::csv_rows(&self.curve)
+    }
+
+    /// The SVG of `geardyn stiffness --plot`; with ETC on, the ETC-off curve is drawn too.
+    pub fn plot(&self) -> Result<String, String> {
+        let title = format!("Mesh stiffness, T = {} N·m", self.curve.options.torque);
+        Ok(if self.curve.options.etc {
+            let off = self.model.curve(CurveOptions {
+                etc: false,
+                ..self.curve.options
+            })?;
+            report::svg(&[("ETC on", &self.curve), ("ETC off", &off)], &title)
+        } else {
+            report::svg(&[("ETC off", &self.curve)], &title)
+        })
+    }
+
+    /// The summary `geardyn stiffness` prints, with `harmonics` Fourier harmonics.
+    pub fn summary(&self, harmonics: usize) -> String {
+        report::summary(&self.model, &self.curve, harmonics)
+    }
+}
