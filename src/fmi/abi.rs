@@ -41,7 +41,7 @@ fn panic_message(p: &(dyn Any + Send)) -> String {
 /// # Safety
 /// `c` must be NULL or a pointer returned by `fmi2Instantiate` (possibly freed already).
 unsafe fn instance<'a>(c: Component) -> Option<&'a mut Instance> {
-    if c.is_null() || (c as usize) % std::mem::align_of::<Instance>() != 0 {
+    if c.is_null() || !(c as usize).is_multiple_of(std::mem::align_of::<Instance>()) {
         return None;
     }
     let inst = &mut *(c as *mut Instance);
@@ -519,7 +519,7 @@ pub unsafe extern "C" fn fmi2SetString(
 /// # Safety
 /// `s` NULL or a pointer we handed out.
 unsafe fn state_box<'a>(s: FmuStatePtr) -> Option<&'a mut StateBox> {
-    if s.is_null() || (s as usize) % std::mem::align_of::<StateBox>() != 0 {
+    if s.is_null() || !(s as usize).is_multiple_of(std::mem::align_of::<StateBox>()) {
         return None;
     }
     let b = &mut *(s as *mut StateBox);

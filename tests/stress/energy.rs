@@ -81,7 +81,7 @@ fn balance(
     n: usize,
     (zeta, force, clearance): (f64, f64, Option<f64>),
 ) -> Balance {
-    assert!(n % 4 == 0);
+    assert!(n.is_multiple_of(4));
     let c = 2.0 * zeta * (K_MEAN * M).sqrt();
     let mut sim = simulation(scene, prop, 1e-6);
     let energy = |x: f64, v: f64, k: f64| {
