@@ -182,133 +182,101 @@ fn table(path: &Path) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// Trapezoidal stiffness whose ramps touch (`transition = 1 − f`, allowed by docs/model.md):
-/// the flat zone between the ramps has zero width up to rounding. The run must succeed and
-/// agree with the same function given as a table (whose pieces have no such zone), both on the
-/// RK path at tight tolerance.
-#[test]
-fn touching_trapezoidal_ramps_match_the_table() {
-    // contact_ratio 1.98: f = 0.98, single-contact zone 1 − f = 0.02 = transition. The levels
-    // of docs/model.md: k_low = mean(1 − f·ε), k_high = k_low + ε·mean, the ramps centred on
-    // the switches at s = 0 (down) and s = 1 − f (up).
-    let (mean, eps, f, w) = (2.9831e8_f64, 0.35, 0.98, 0.02);
+/// The stiffness source of touching trapezoidal ramps (`contact_ratio = 1 + f`,
+/// `transition = w = 1 − f`) and the same function as a table. The levels of docs/model.md:
+/// k_low = mean(1 − f·ε), k_high = k_low + ε·mean, the ramps centred on the switches at s = 0
+/// (down) and s = 1 − f (up); the table's pieces have no zero-width flat zone between them.
+fn touching_ramps_and_table(mean: f64, eps: f64, f: f64, w: f64) -> (String, String) {
     let low = mean * (1.0 - f * eps);
     let high = low + eps * mean;
     let mid = 0.5 * (low + high);
-    let trapezoidal = edit(
-        SPUR_PAIR,
-        "kind = \"rectangular\"\nmean = 2.9831e8\npeak_to_peak_ratio = 0.35\ncontact_ratio = 1.504",
-        "kind = \"trapezoidal\"\nmean = 2.9831e8\npeak_to_peak_ratio = 0.35\ncontact_ratio = 1.98\ntransition = 0.02",
-    );
-    let points = [0.0, 0.5 * w, 1.0 - f + 0.5 * w, 1.0 - 0.5 * w];
-    let values = [mid, low, high, high];
-    let fmt = |v: &[f64]| {
-        v.iter()
-            .map(|x| format!("{x:?}"))
-            .collect::<Vec<_>>()
-            .join(", ")
-    };
-    let tabled = edit(
-        SPUR_PAIR,
-        "kind = \"rectangular\"\nmean = 2.9831e8\npeak_to_peak_ratio = 0.35\ncontact_ratio = 1.504",
-        &format!(
-            "kind = \"table\"\nphase_points = [{}]\nvalues = [{}]",
-            fmt(&points),
-            fmt(&values)
-        ),
-    );
-    let opts = SimulateOptions {
-        method: Some("rk".into()),
-        rtol: Some(1e-11),
-        atol: Some(1e-17),
-        ..Default::default()
-    };
-    let (_d1, out1, r1) = run(&trapezoidal, &opts);
-    r1.expect("touching ramps run");
-    let (_d2, out2, r2) = run(&tabled, &opts);
-    r2.expect("table runs");
-    let (a, b) = (table(&out1), table(&out2));
-    assert_eq!(a.len(), b.len());
-    let scale = a.iter().map(|r| r[1].abs()).fold(0.0, f64::max);
-    let worst = a
-        .iter()
-        .zip(&b)
-        .map(|(x, y)| (x[1] - y[1]).abs())
-        .fold(0.0, f64::max);
-    // The DTE separates every period (contact loss), so the check covers events too.
-    let separated = a.iter().filter(|r| r[4] != 1.0).count();
-    assert!(separated > 0, "the run should lose contact");
-    assert!(
-        worst <= 1e-7 * scale,
-        "DTE differs by {worst:e} (scale {scale:e})"
-    );
-    // The stiffness column itself agrees at every sample.
-    let k_worst = a
-        .iter()
-        .zip(&b)
-        .map(|(x, y)| (x[6] - y[6]).abs())
-        .fold(0.0, f64::max);
-    assert!(k_worst <= 1e-6 * mean, "stiffness differs by {k_worst:e}");
-}
-
-/// The same for a drivetrain mesh (lumped stiffness of `fmu/countershaft_gearset`, mesh 1):
-/// touching ramps against the table of the same function, RK at tight tolerance.
-#[test]
-fn touching_trapezoidal_ramps_in_a_train_match_the_table() {
-    let (mean, eps, f, w) = (4.24e9_f64, 0.3, 0.98, 0.02);
-    let low = mean * (1.0 - f * eps);
-    let high = low + eps * mean;
-    let mid = 0.5 * (low + high);
-    let original =
-        "kind = \"rectangular\"\nmean = 4.24e9\npeak_to_peak_ratio = 0.3\ncontact_ratio = 1.60";
-    let trapezoidal = edit(
-        COUNTERSHAFT,
-        original,
-        "kind = \"trapezoidal\"\nmean = 4.24e9\npeak_to_peak_ratio = 0.3\ncontact_ratio = 1.98\ntransition = 0.02",
-    );
     let list = |v: &[f64]| {
         v.iter()
             .map(|x| format!("{x:?}"))
             .collect::<Vec<_>>()
             .join(", ")
     };
-    let tabled = edit(
-        COUNTERSHAFT,
-        original,
-        &format!(
+    (
+        format!(
+            "kind = \"trapezoidal\"\nmean = {mean:?}\npeak_to_peak_ratio = {eps:?}\ncontact_ratio = {:?}\ntransition = {w:?}",
+            1.0 + f
+        ),
+        format!(
             "kind = \"table\"\nphase_points = [{}]\nvalues = [{}]",
             list(&[0.0, 0.5 * w, 1.0 - f + 0.5 * w, 1.0 - 0.5 * w]),
             list(&[mid, low, high, high])
         ),
-    );
+    )
+}
+
+/// Runs both scenes on the RK path at tight tolerance; the largest differences of the DTE
+/// (relative to its largest magnitude) and of the stiffness column, and the first table.
+fn compare_on_rk(
+    a: &str,
+    b: &str,
+    stop_time: Option<f64>,
+    cols: (usize, usize),
+) -> (f64, f64, Vec<Vec<f64>>) {
     let opts = SimulateOptions {
         method: Some("rk".into()),
         rtol: Some(1e-11),
         atol: Some(1e-17),
-        stop_time: Some(5e-3),
+        stop_time,
         ..Default::default()
     };
-    let (_d1, out1, r1) = run(&trapezoidal, &opts);
+    let (_d1, out1, r1) = run(a, &opts);
     r1.expect("touching ramps run");
-    let (_d2, out2, r2) = run(&tabled, &opts);
+    let (_d2, out2, r2) = run(b, &opts);
     r2.expect("table runs");
-    let (a, b) = (table(&out1), table(&out2));
-    assert_eq!(a.len(), b.len());
-    // mesh1_dte is column 1, mesh1_stiffness column 8.
-    let scale = a.iter().map(|r| r[1].abs()).fold(0.0, f64::max);
-    let worst = a
-        .iter()
-        .zip(&b)
-        .map(|(x, y)| (x[1] - y[1]).abs())
-        .fold(0.0, f64::max);
-    assert!(
-        worst <= 1e-7 * scale,
-        "DTE differs by {worst:e} (scale {scale:e})"
+    let (x, y) = (table(&out1), table(&out2));
+    assert_eq!(x.len(), y.len());
+    let worst = |col: usize| {
+        x.iter()
+            .zip(&y)
+            .map(|(p, q)| (p[col] - q[col]).abs())
+            .fold(0.0, f64::max)
+    };
+    let scale = x.iter().map(|r| r[cols.0].abs()).fold(0.0, f64::max);
+    (worst(cols.0) / scale, worst(cols.1), x)
+}
+
+/// Trapezoidal stiffness whose ramps touch (`transition = 1 − f`, allowed by docs/model.md):
+/// the flat zone between the ramps has zero width up to rounding. The run must succeed and
+/// agree with the same function given as a table, both on the RK path at tight tolerance.
+#[test]
+fn touching_trapezoidal_ramps_match_the_table() {
+    let mean = 2.9831e8;
+    let (ramps, tabled) = touching_ramps_and_table(mean, 0.35, 0.98, 0.02);
+    let original =
+        "kind = \"rectangular\"\nmean = 2.9831e8\npeak_to_peak_ratio = 0.35\ncontact_ratio = 1.504";
+    let (a, b) = (
+        edit(SPUR_PAIR, original, &ramps),
+        edit(SPUR_PAIR, original, &tabled),
     );
-    let k_worst = a
-        .iter()
-        .zip(&b)
-        .map(|(x, y)| (x[8] - y[8]).abs())
-        .fold(0.0, f64::max);
-    assert!(k_worst <= 1e-6 * mean, "stiffness differs by {k_worst:e}");
+    // dte is column 1, mesh_stiffness column 6.
+    let (dte, k, rows) = compare_on_rk(&a, &b, None, (1, 6));
+    // The DTE separates every period (contact loss), so the check covers events too.
+    assert!(
+        rows.iter().any(|r| r[4] != 1.0),
+        "the run should lose contact"
+    );
+    assert!(dte <= 1e-7, "DTE differs by {dte:e} of its scale");
+    assert!(k <= 1e-6 * mean, "stiffness differs by {k:e}");
+}
+
+/// The same for a drivetrain mesh (lumped stiffness of `fmu/countershaft_gearset`, mesh 1).
+#[test]
+fn touching_trapezoidal_ramps_in_a_train_match_the_table() {
+    let mean = 4.24e9;
+    let (ramps, tabled) = touching_ramps_and_table(mean, 0.3, 0.98, 0.02);
+    let original =
+        "kind = \"rectangular\"\nmean = 4.24e9\npeak_to_peak_ratio = 0.3\ncontact_ratio = 1.60";
+    let (a, b) = (
+        edit(COUNTERSHAFT, original, &ramps),
+        edit(COUNTERSHAFT, original, &tabled),
+    );
+    // mesh1_dte is column 1, mesh1_stiffness column 8.
+    let (dte, k, _) = compare_on_rk(&a, &b, Some(5e-3), (1, 8));
+    assert!(dte <= 1e-7, "DTE differs by {dte:e} of its scale");
+    assert!(k <= 1e-6 * mean, "stiffness differs by {k:e}");
 }
