@@ -337,7 +337,7 @@ impl Progress {
         let mut e = std::io::stderr().lock();
         let _ = write!(
             e,
-            "\r\x1b[Kt = {t:.6e} s of {:e} s ({:.1} %), {} rows, {elapsed:.0} s elapsed, {eta}",
+            "\r\x1b[Kt = {t:.6} s of {} s ({:.1} %), {} rows, {elapsed:.0} s elapsed, {eta}",
             self.stop_time,
             100.0 * done,
             self.rows
