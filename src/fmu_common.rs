@@ -128,6 +128,24 @@ pub fn check_restored(vars: &[Variable], values: &[(u32, f64)]) -> Result<(), St
     Ok(())
 }
 
+/// The values of a snapshot that either adapter checks before it rebuilds anything: the
+/// parameters and start inputs as `fmi2SetReal` before initialization takes them, the current
+/// inputs as it takes them at a communication point (both [`check_restored`]), and a finite
+/// start time.
+pub fn check_snapshot_values(
+    vars: &[Variable],
+    params: &[(u32, f64)],
+    inputs: &[(u32, f64)],
+    start_time: f64,
+) -> Result<(), String> {
+    check_restored(vars, params)?;
+    check_restored(vars, inputs)?;
+    if !start_time.is_finite() {
+        return Err(format!("start time {start_time} is not finite"));
+    }
+    Ok(())
+}
+
 /// One co-simulation step of either adapter: integrates to exactly `t + h` in the host's
 /// time (the simulation runs in local time from `start_time`), never backwards, and never
 /// evaluates the model beyond that point. A failing integrator discards the step at the last

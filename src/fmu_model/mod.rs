@@ -21,7 +21,7 @@ mod variables;
 
 use crate::fmi::model::{CoSimModel, Lifecycle, ModelInfo, StepFailure, Variable};
 use crate::fmu_common::{
-    check, check_initial_outputs, check_restored, model_info, name_of, settable_reals,
+    check, check_initial_outputs, check_snapshot_values, model_info, name_of, settable_reals,
 };
 use crate::fmu_state::ModelSnapshot;
 use crate::model::Inputs;
@@ -196,24 +196,20 @@ impl GearModel {
             },
             outputs: OnceCell::new(),
         };
-        // Parameters and start inputs as fmi2SetReal before initialization takes them, the
-        // current inputs as it takes them at a communication point.
-        check_restored(&self.vars, &snap.params)?;
-        for &(vr, x) in &snap.params {
-            m.set_before_init(vr, x)?;
-        }
-        if !snap.start_time.is_finite() {
-            return Err(format!("start time {} is not finite", snap.start_time));
-        }
         let u = snap.sim.pair.inputs;
-        check_restored(
+        check_snapshot_values(
             &self.vars,
+            &snap.params,
             &[
                 (VR_PINION_SPEED, u.pinion_speed),
                 (VR_INPUT_TORQUE, u.input_torque),
                 (VR_LOAD_TORQUE, u.load_torque),
             ],
+            snap.start_time,
         )?;
+        for &(vr, x) in &snap.params {
+            m.set_before_init(vr, x)?;
+        }
         m.sim.restore(&snap.sim)?;
         m.lifecycle.initialized = snap.initialized;
         *self = m;

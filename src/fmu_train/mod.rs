@@ -20,7 +20,7 @@ mod variables;
 
 use crate::fmi::model::{CoSimModel, Lifecycle, ModelInfo, StepFailure, Variable};
 use crate::fmu_common::{
-    check, check_initial_outputs, check_restored, model_info, name_of, settable_reals,
+    check, check_initial_outputs, check_snapshot_values, model_info, name_of, settable_reals,
 };
 use crate::model::train::{TrainInputs, TrainSimulation};
 use crate::scene::train::TrainScene;
@@ -166,21 +166,17 @@ impl TrainModel {
     /// `fmi2SetReal` (applied to the loaded scene, one rebuild), then the run-time state is
     /// restored. On failure nothing changes.
     fn restore(&mut self, snap: &TrainSnapshot) -> Result<(), String> {
-        // Parameters and start inputs as fmi2SetReal before initialization takes them, the
-        // current inputs as it takes them at a communication point.
-        check_restored(&self.vars, &snap.params)?;
         let u = snap.sim.train.inputs;
-        check_restored(
+        check_snapshot_values(
             &self.vars,
+            &snap.params,
             &[
                 (VR_INPUT_SPEED, u.input_speed),
                 (VR_INPUT_TORQUE, u.input_torque),
                 (VR_LOAD_TORQUE, u.load_torque),
             ],
+            snap.start_time,
         )?;
-        if !snap.start_time.is_finite() {
-            return Err(format!("start time {} is not finite", snap.start_time));
-        }
         let mut scene = self.base.clone();
         for &(vr, x) in &snap.params {
             apply(&mut scene, name_of(&self.vars, vr), vr, x)?;
