@@ -8,6 +8,9 @@ use std::io::{IsTerminal, Write};
 use std::time::{Duration, Instant};
 
 use super::driver::{DrivenModel, Driver};
+// The precision limit of the mesh phase is the clock's (a double resolves 2⁻²⁰ cycle there); a
+// run is checked against it before it starts, every advance again (`check_advance`).
+use crate::model::MAX_MESH_CYCLES;
 
 /// Default of [`RunLimits::max_rows`]: 1e8 rows are about 15 GB of CSV for a single pair.
 pub const DEFAULT_MAX_ROWS: u64 = 100_000_000;
@@ -17,10 +20,6 @@ pub const DEFAULT_MAX_MESH_PERIODS: f64 = 1e9;
 /// Default of [`RunLimits::max_mode_periods`]: as many periods of the fastest mode as mesh
 /// periods (a stiff mode costs the RK path steps, and the event search work, in proportion).
 pub const DEFAULT_MAX_MODE_PERIODS: f64 = 1e9;
-/// The largest mesh phase, in cycles, a run may reach: a double resolves 2⁻²⁰ ≈ 1e-6 cycle
-/// there, below which stiffness pieces and event times lose their meaning. Not a work bound,
-/// so no option raises it.
-pub const MAX_PHASE_CYCLES: f64 = 4_294_967_296.0;
 
 /// Bounds on the work and output of one run, checked before the run starts so that an input
 /// that would take days, fill the disk or lose its time resolution is refused with a message
@@ -93,10 +92,10 @@ impl RunLimits {
             ));
         }
         let phase = scales.start_phase + periods;
-        if !(phase <= MAX_PHASE_CYCLES) {
+        if !(phase <= MAX_MESH_CYCLES) {
             return Err(format!(
                 "the mesh phase would reach {phase:.4e} cycles (initial_phase {:e} + {periods:.4e} mesh \
-                 periods); beyond {MAX_PHASE_CYCLES:e} cycles a double cannot resolve the mesh cycle",
+                 periods); beyond {MAX_MESH_CYCLES:e} cycles a double cannot resolve the mesh cycle",
                 scales.start_phase
             ));
         }
