@@ -704,7 +704,7 @@ fn make_point(
         let mut at = scene.clone();
         at.operating.pinion_speed = speed;
         let y0 = solution.state_at(0.0);
-        period_map(&at, y0, solution.subharmonic)
+        period_map(&at, &y0, solution.subharmonic)
             .ok()
             .map(|(_, m)| m.complex_eigenvalues().iter().copied().collect())
     } else {

@@ -9,19 +9,21 @@
 
 use nalgebra::{Complex, DMatrix, DVector};
 
-use crate::model::GearPair;
-use crate::scene::Scene;
-use crate::simulation::Simulation;
-use crate::solve::exact::{ExactPropagator, PiecewiseLti};
+use crate::model::{response_period, Drivetrain, SceneSource};
+use crate::scene::{MethodChoice, SolverSettings};
+use crate::simulation::Driver;
+use crate::solve::exact::ExactPropagator;
 use crate::solve::rk::{RkOptions, RkStepper};
 use crate::solve::variational::Variational;
+use crate::with_drivetrain;
 
 /// Settings of [`shoot`].
 #[derive(Debug, Clone)]
 pub struct ShootingOptions {
-    /// Orbit period in mesh periods (period-k orbits).
+    /// Orbit period in response periods (period-k orbits): mesh periods of a single mesh, the
+    /// least common multiple of the mesh periods of a drivetrain.
     pub periods: u32,
-    /// Mesh periods integrated from the scene's initial state before Newton starts (a guess
+    /// Response periods integrated from the scene's initial state before Newton starts (a guess
     /// inside the basin of the attracting orbit).
     pub warmup_periods: u32,
     /// Convergence: scaled residual `max_i |P(y)_i − y_i| / scale_i` below this.
@@ -95,12 +97,11 @@ impl PeriodicOrbit {
     }
 }
 
-/// The period map with its Jacobian, on a pair assembled once.
-/// The period map with its Jacobian, on a pair assembled once: the exact propagator's
+/// The period map with its Jacobian, on a model assembled once: the exact propagator's
 /// sensitivity for piecewise-LTI scenes, RK variational equations otherwise (both with
 /// saltation matrices at contact changes).
-struct PeriodMap {
-    pair: GearPair,
+pub struct PeriodMap<M: Drivetrain> {
+    model: M,
     propagator: MapPropagator,
     duration: f64,
 }
@@ -110,20 +111,18 @@ enum MapPropagator {
     Rk(RkOptions),
 }
 
-impl PeriodMap {
-    fn new(scene: &Scene, periods: u32) -> Result<PeriodMap, String> {
-        if !(scene.operating.pinion_speed > 0.0) {
+impl<M: Drivetrain> PeriodMap<M> {
+    /// The map over `duration` seconds from `t = 0` with the model's current inputs.
+    pub fn new(model: M, settings: &SolverSettings, duration: f64) -> Result<Self, String> {
+        if !(duration > 0.0 && duration.is_finite()) {
             return Err(format!(
-                "operating.pinion_speed = {}: a period map needs a positive speed",
-                scene.operating.pinion_speed
+                "input speed {} rad/s: a period map needs a positive speed",
+                model.input_speed()
             ));
         }
-        let pair = GearPair::new(scene);
-        let duration = pair.mesh_period() * periods as f64;
-        let propagator = if pair.is_piecewise_lti() {
-            MapPropagator::Exact(Box::new(ExactPropagator::new(&pair)))
+        let propagator = if model.is_piecewise_lti() && settings.method != MethodChoice::Rk {
+            MapPropagator::Exact(Box::new(ExactPropagator::new(&model)))
         } else {
-            let settings = &scene.solver;
             MapPropagator::Rk(RkOptions {
                 rtol: settings.rtol,
                 atol: settings.atol,
@@ -131,26 +130,35 @@ impl PeriodMap {
             })
         };
         Ok(PeriodMap {
-            pair,
+            model,
             propagator,
             duration,
         })
     }
 
-    fn eval(&mut self, y0: &[f64]) -> Result<(DVector<f64>, DMatrix<f64>), String> {
-        self.pair.resynchronise(0.0, y0);
+    pub fn duration(&self) -> f64 {
+        self.duration
+    }
+
+    pub fn model(&self) -> &M {
+        &self.model
+    }
+
+    /// `P(y0)` and `∂P/∂y0`.
+    pub fn eval(&mut self, y0: &[f64]) -> Result<(DVector<f64>, DMatrix<f64>), String> {
+        self.model.resynchronise(0.0, y0);
         match &mut self.propagator {
             MapPropagator::Exact(p) => {
                 p.invalidate();
                 p.set_state(0.0, y0);
                 p.track_sensitivity(true);
-                p.advance_to(&mut self.pair, self.duration)
+                p.advance_to(&mut self.model, self.duration)
                     .map_err(|e| format!("period map: {e}"))?;
                 let y = DVector::from_column_slice(p.y());
                 Ok((y, p.sensitivity().expect("tracking is on").clone()))
             }
             MapPropagator::Rk(options) => {
-                let mut system = Variational::new(&mut self.pair, 0.0, y0)?;
+                let mut system = Variational::new(&mut self.model, 0.0, y0)?;
                 let z0 = system.initial_state(y0);
                 let mut stepper = RkStepper::new(options.clone(), z0.len())?;
                 stepper.set_state(0.0, &z0);
@@ -172,22 +180,28 @@ impl PeriodMap {
     }
 }
 
-/// The period map over `periods` mesh periods from `y0` at `t = 0` and its Jacobian (exact
-/// monodromy for piecewise-LTI scenes, RK variational equations otherwise; saltation at
+/// The period map over `periods` response periods from `y0` at `t = 0` and its Jacobian
+/// (exact monodromy for piecewise-LTI scenes, RK variational equations otherwise; saltation at
 /// contact changes), at the scene's operating point.
 pub fn period_map(
-    scene: &Scene,
-    y0: [f64; 2],
+    scene: &impl SceneSource,
+    y0: &[f64],
     periods: u32,
 ) -> Result<(Vec<f64>, DMatrix<f64>), String> {
-    let mut map = PeriodMap::new(scene, periods)?;
-    let (y, m) = map.eval(&y0)?;
-    Ok((y.as_slice().to_vec(), m))
+    let scene = scene.to_any();
+    with_drivetrain!(scene.simulation()?, sim => {
+        let duration = response_period(sim.model())? * periods as f64;
+        let mut map = PeriodMap::new(sim.model().clone(), scene.solver(), duration)?;
+        let (y, m) = map.eval(y0)?;
+        Ok((y.as_slice().to_vec(), m))
+    })
 }
 
 /// Finds the period-`k` orbit of a scene at its operating point by damped Newton shooting
-/// (exact monodromy for piecewise-LTI scenes, RK variational equations otherwise).
-pub fn shoot(scene: &Scene, options: &ShootingOptions) -> Result<PeriodicOrbit, String> {
+/// (exact monodromy for piecewise-LTI scenes, RK variational equations otherwise). `k` counts
+/// response periods: the mesh period of a single mesh, the least common multiple of the mesh
+/// periods of a drivetrain.
+pub fn shoot(scene: &impl SceneSource, options: &ShootingOptions) -> Result<PeriodicOrbit, String> {
     if options.periods == 0 {
         return Err("periods = 0: an orbit spans at least one mesh period".into());
     }
@@ -197,26 +211,46 @@ pub fn shoot(scene: &Scene, options: &ShootingOptions) -> Result<PeriodicOrbit, 
             options.tolerance
         ));
     }
-    if !(scene.operating.pinion_speed > 0.0) {
+    let scene = scene.to_any();
+    if !(scene.input_speed() > 0.0) {
+        let field = match scene {
+            crate::model::AnyScene::Pair(_) => "operating.pinion_speed",
+            crate::model::AnyScene::Train(_) => "operating.input_speed",
+        };
         return Err(format!(
-            "operating.pinion_speed = {}: a periodic orbit needs a positive speed",
-            scene.operating.pinion_speed
+            "{field} = {}: a periodic orbit needs a positive speed",
+            scene.input_speed()
         ));
     }
-    let mut map = PeriodMap::new(scene, options.periods)?;
-    let mesh_period = map.duration / options.periods as f64;
-    let mut guess = map.pair.initial_state(scene).to_vec();
+    with_drivetrain!(scene.simulation()?, sim => shoot_from(sim, scene.solver(), options))
+}
+
+/// [`shoot`] on a running simulation: the warm-up continues from its state.
+pub fn shoot_from<M: Drivetrain>(
+    mut sim: Driver<M>,
+    settings: &SolverSettings,
+    options: &ShootingOptions,
+) -> Result<PeriodicOrbit, String> {
+    let base = response_period(sim.model())?;
+    // After whole response periods every mesh phase is where it was at t = 0, so the state
+    // after the warm-up is a guess for the map that starts at t = 0.
+    let model = sim.model().clone();
+    let t0 = sim.t();
     if options.warmup_periods > 0 {
-        let mut sim = Simulation::new(scene)?;
-        sim.advance_to(mesh_period * options.warmup_periods as f64)
+        sim.advance_to(t0 + base * options.warmup_periods as f64)
             .map_err(|e| format!("warm-up: {e}"))?;
-        guess.copy_from_slice(&sim.state());
     }
-    let pair = &map.pair;
-    // Residual scale: the static deflection (or the clearance when unloaded) for x, times the
-    // fastest frequency for x'.
-    let x_scale = pair.static_deflection().abs().max(1e-9).max(guess[0].abs());
-    let scale = [x_scale, x_scale * pair.max_frequency()];
+    let mut map = PeriodMap::new(model, settings, base * options.periods as f64)?;
+    newton(&mut map, sim.y().to_vec(), options)
+}
+
+/// Damped Newton on `P(y) − y = 0` with the scaled residual of [`state_scale`].
+pub fn newton<M: Drivetrain>(
+    map: &mut PeriodMap<M>,
+    guess: Vec<f64>,
+    options: &ShootingOptions,
+) -> Result<PeriodicOrbit, String> {
+    let scale = state_scale(map.model(), &guess);
     let scaled_norm = |r: &DVector<f64>| {
         r.iter()
             .zip(&scale)
@@ -272,4 +306,17 @@ pub fn shoot(scene: &Scene, options: &ShootingOptions) -> Result<PeriodicOrbit, 
         }
         residuals.push(residual);
     }
+}
+
+/// Residual scale of each state component: the model's displacement scale (or the state's
+/// own size when larger) for displacements, times the fastest frequency for velocities.
+pub fn state_scale<M: Drivetrain>(model: &M, y: &[f64]) -> Vec<f64> {
+    let n = y.len() / 2;
+    let x_scale = y[..n]
+        .iter()
+        .fold(model.displacement_scale(), |a, b| a.max(b.abs()));
+    let v_scale = x_scale * model.max_frequency();
+    (0..2 * n)
+        .map(|i| if i < n { x_scale } else { v_scale })
+        .collect()
 }

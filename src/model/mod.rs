@@ -8,8 +8,12 @@
 //! `T2` is the magnitude of the load torque on the gear. See `docs/model.md`.
 
 mod clock;
+pub mod drivetrain;
 mod pair;
 pub mod train;
 
 pub use clock::{check_phase, PhaseClock, MAX_MESH_CYCLES, MAX_MESH_PERIODS_PER_ADVANCE};
+pub use drivetrain::{
+    response_period, AnyScene, AnySimulation, Drivetrain, MeshSample, SceneSource,
+};
 pub use pair::{ContactState, GearPair, Inputs, PairState, MAX_RATE, OUTPUT_NAMES};

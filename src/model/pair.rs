@@ -624,6 +624,13 @@ impl GearPair {
             .map_or(self.k_mean, |pieces| pieces[self.segment.piece].k_start)
     }
 
+    /// Whether the mesh force is linear in the state: linear contact law, no cubic springs.
+    pub fn is_linear_law(&self) -> bool {
+        self.contact_law == ContactLaw::Linear
+            && self.smooth.cubic_factor == 0.0
+            && self.smooth.cubic_spring == 0.0
+    }
+
     /// Whether every segment is linear time-invariant (the exact propagator applies).
     pub fn is_piecewise_lti(&self) -> bool {
         self.stiffness.is_piecewise_constant() && self.smooth.is_zero()

@@ -220,6 +220,8 @@ pub struct GearTrain {
     scratch: RefCell<Vec<f64>>,
     key_fits: bool,
     names: Vec<String>,
+    /// Mesh names (column prefixes) in scene order.
+    mesh_names: Vec<String>,
     pair_outputs: Vec<usize>,
     event_log: Option<Vec<(f64, usize, usize, SlotContact)>>,
     /// Free single pair: `(d_θ, J)` of the input and output bodies for the closed form.
@@ -414,6 +416,7 @@ impl GearTrain {
             scratch: RefCell::new(vec![0.0; m]),
             key_fits: true,
             names: Vec::new(),
+            mesh_names: scene.meshes.iter().map(|m| m.name.clone()).collect(),
             pair_outputs: Vec::new(),
             event_log: None,
             pair_form: None,
@@ -478,6 +481,54 @@ impl GearTrain {
     /// Output names in [`GearTrain::outputs`] order.
     pub fn output_names(&self) -> &[String] {
         &self.names
+    }
+
+    pub fn mesh_count(&self) -> usize {
+        self.meshes.len()
+    }
+
+    /// Name of mesh n (its column prefix without the `_`).
+    pub fn mesh_name(&self, n: usize) -> &str {
+        &self.mesh_names[n]
+    }
+
+    /// Whether every mesh force is linear in the state: linear contact law (no contact loss,
+    /// no backlash) on every mesh.
+    pub fn is_linear_law(&self) -> bool {
+        self.meshes
+            .iter()
+            .all(|m| matches!(m.contact, ContactLaw::Linear))
+    }
+
+    /// Static mesh forces under the current torques, N: reacted through the meshes alone as in
+    /// Liu 2007 eq. (2.8) (`F = T_1/r_1` for the first mesh), or with the ground couplings when
+    /// the meshes alone cannot balance the torques.
+    pub fn static_forces(&self) -> Vec<f64> {
+        let (t_in, t_load) = (self.inputs.input_torque, self.inputs.load_torque);
+        equilibrium(&self.asm, t_in, t_load, false)
+            .or_else(|_| equilibrium(&self.asm, t_in, t_load, true))
+            .map(|st| st.mesh_force)
+            .unwrap_or_else(|_| vec![f64::NAN; self.meshes.len()])
+    }
+
+    /// The largest |ξ| of the mean-stiffness static solution `K̄ ξ = F̂`, or the largest
+    /// clearance when that is larger (unloaded trains), at least 1e-9 m: the displacement
+    /// scale of periodicity residuals.
+    pub fn static_coordinate_scale(&self) -> f64 {
+        let m = self.m;
+        let mut k = DMatrix::from_row_slice(m, m, &self.k_b);
+        for mesh in &self.meshes {
+            let a = DVector::from_column_slice(&mesh.a);
+            k += mesh.k_mean * &a * a.transpose();
+        }
+        let rhs = DVector::from_column_slice(&self.f_ext);
+        let xi = k.lu().solve(&rhs).map_or(0.0, |x| x.amax());
+        let clearance = self
+            .meshes
+            .iter()
+            .map(|mesh| mesh.clearance())
+            .fold(0.0, f64::max);
+        xi.max(clearance).max(1e-9)
     }
 
     /// Number of elastic coordinates `m` (the state has `2m` entries).

@@ -1,0 +1,399 @@
+//! The one model interface under every tool: a drivetrain with one or more meshes.
+//!
+//! A scene is assembled into one specialised kernel that carries only the terms the scene uses
+//! (DESIGN.md, "Data flow"):
+//!
+//! - [`GearPair`]: one mesh between two rotating bodies, in the DTE coordinate `[x, x']`
+//!   (`docs/model.md`); it also carries the single-pair terms (Bugaru's cubic springs, He &
+//!   Singh's sliding friction, geometry stiffness).
+//! - [`GearTrain`]: any graph of gears, shafts and meshes with bearings (`docs/train.md`).
+//!
+//! Both implement [`Drivetrain`]; simulation, shooting, Floquet analysis, sweeps, harmonic
+//! balance and the FMU adapter are written once against it and monomorphised per kernel, so the
+//! single pair keeps its specialised speed without a second stack. A new kind of element
+//! (a body, a coupling, a mesh-force term) goes into the assembly of [`GearTrain`]
+//! (`src/model/train/assembly.rs` for bodies and couplings, `src/model/train/mesh.rs` for the
+//! mesh cycle) and is reported through this trait.
+
+use super::train::{GearTrain, SlotContact, TrainInputs, TrainSimulation};
+use super::{GearPair, Inputs};
+use crate::scene::train::TrainScene;
+use crate::scene::Scene;
+use crate::simulation::{DrivenModel, Driver, Simulation};
+
+/// The mesh quantities every analysis reports, evaluated at `(t, y)` in the current mode.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MeshSample {
+    /// Dynamic transmission error, m (along the line of action).
+    pub dte: f64,
+    /// Dynamic mesh force, N.
+    pub force: f64,
+    /// No tooth pair of the mesh is in contact (total contact loss).
+    pub lost: bool,
+    /// Mesh phase in cycles of the mesh period, in `[0, 1)`.
+    pub phase: f64,
+}
+
+/// What the analyses need from a model beyond its equations ([`DrivenModel`]).
+pub trait Drivetrain: DrivenModel {
+    fn mesh_count(&self) -> usize;
+    /// Prefix of mesh `n`'s columns (`""` for the single pair, whose columns are `dte`,
+    /// `mesh_force`, …; `"<mesh name>_"` in a drivetrain).
+    fn mesh_prefix(&self, n: usize) -> String;
+    /// Mesh frequency of mesh `n` at the current input speed, Hz.
+    fn mesh_frequency(&self, n: usize) -> f64;
+    /// Nominal speed of the input gear, rad/s.
+    fn input_speed(&self) -> f64;
+    /// Input torque `T1` and load torque magnitude `T2`, N·m.
+    fn torques(&self) -> (f64, f64);
+    /// Sets the nominal input speed from time `t` on; every mesh phase stays continuous.
+    fn set_input_speed(&mut self, t: f64, speed: f64) -> Result<(), String>;
+    /// Mesh `n` at `(t, y)`.
+    fn mesh_sample(&self, n: usize, t: f64, y: &[f64]) -> MeshSample;
+    /// Static mesh force of every mesh under the current torques (mean stiffness), N: the
+    /// reference of the dynamic factor.
+    fn static_mesh_forces(&self) -> Vec<f64>;
+    /// A displacement scale of the state (the largest static deflection of a coordinate, or
+    /// the clearance when unloaded), m; velocities scale with it times
+    /// [`crate::solve::exact::PiecewiseLti::max_frequency`].
+    fn displacement_scale(&self) -> f64;
+    /// Whether every mesh force is linear in the state (no contact loss or backlash, no cubic
+    /// springs): the linear Floquet analyses apply.
+    fn is_linear(&self) -> bool;
+    /// Names of the state's displacement coordinates (for reports).
+    fn coordinate_names(&self) -> Vec<String>;
+}
+
+impl Drivetrain for GearPair {
+    fn mesh_count(&self) -> usize {
+        1
+    }
+    fn mesh_prefix(&self, _n: usize) -> String {
+        String::new()
+    }
+    fn mesh_frequency(&self, _n: usize) -> f64 {
+        1.0 / self.mesh_period()
+    }
+    fn input_speed(&self) -> f64 {
+        self.inputs().pinion_speed
+    }
+    fn torques(&self) -> (f64, f64) {
+        let i = self.inputs();
+        (i.input_torque, i.load_torque)
+    }
+    fn set_input_speed(&mut self, t: f64, speed: f64) -> Result<(), String> {
+        let inputs = Inputs {
+            pinion_speed: speed,
+            ..self.inputs()
+        };
+        self.check_inputs(&inputs)?;
+        self.set_inputs(t, inputs);
+        Ok(())
+    }
+    fn mesh_sample(&self, _n: usize, t: f64, y: &[f64]) -> MeshSample {
+        let mut out = [0.0; 7];
+        self.outputs(t, y, &mut out);
+        MeshSample {
+            dte: out[0],
+            force: out[2],
+            lost: out[3] == 0.0,
+            phase: out[4],
+        }
+    }
+    fn static_mesh_forces(&self) -> Vec<f64> {
+        vec![self.external_force()]
+    }
+    fn displacement_scale(&self) -> f64 {
+        self.static_deflection()
+            .abs()
+            .max(self.contact_clearance())
+            .max(1e-9)
+    }
+    fn is_linear(&self) -> bool {
+        self.is_linear_law()
+    }
+    fn coordinate_names(&self) -> Vec<String> {
+        vec!["dte".into()]
+    }
+}
+
+impl Drivetrain for GearTrain {
+    fn mesh_count(&self) -> usize {
+        GearTrain::mesh_count(self)
+    }
+    fn mesh_prefix(&self, n: usize) -> String {
+        format!("{}_", self.mesh_name(n))
+    }
+    fn mesh_frequency(&self, n: usize) -> f64 {
+        1.0 / self.mesh_period(n)
+    }
+    fn input_speed(&self) -> f64 {
+        self.inputs().input_speed
+    }
+    fn torques(&self) -> (f64, f64) {
+        let i = self.inputs();
+        (i.input_torque, i.load_torque)
+    }
+    fn set_input_speed(&mut self, t: f64, speed: f64) -> Result<(), String> {
+        let inputs = TrainInputs {
+            input_speed: speed,
+            ..self.inputs()
+        };
+        self.set_inputs(t, inputs)
+    }
+    fn mesh_sample(&self, n: usize, t: f64, y: &[f64]) -> MeshSample {
+        let st = self.mesh_state(n, t, y);
+        MeshSample {
+            dte: st.dte,
+            force: st.force,
+            lost: !self
+                .slot_flags(n)
+                .iter()
+                .any(|f| matches!(f, SlotContact::Drive | SlotContact::Back)),
+            phase: st.phase,
+        }
+    }
+    fn static_mesh_forces(&self) -> Vec<f64> {
+        self.static_forces()
+    }
+    fn displacement_scale(&self) -> f64 {
+        self.static_coordinate_scale()
+    }
+    fn is_linear(&self) -> bool {
+        self.is_linear_law()
+    }
+    fn coordinate_names(&self) -> Vec<String> {
+        (1..=self.elastic_dim()).map(|i| format!("ξ{i}")).collect()
+    }
+}
+
+/// A scene of either format, as every command accepts it: the single-mesh file of
+/// `docs/model.md` or the drivetrain file of `docs/train.md` (the kind is read from the file).
+#[derive(Debug, Clone)]
+pub enum AnyScene {
+    Pair(Box<Scene>),
+    Train(Box<TrainScene>),
+}
+
+/// A running simulation of either kernel. Generic code takes `Driver<M: Drivetrain>`; this
+/// enum is the one place where the kernel is chosen ([`with_drivetrain!`]).
+pub enum AnySimulation {
+    Pair(Simulation),
+    Train(TrainSimulation),
+}
+
+/// Runs `$body` with `$sim` bound to the `Driver<M>` inside an [`AnySimulation`], for both
+/// kernels (the body is monomorphised twice).
+#[macro_export]
+macro_rules! with_drivetrain {
+    ($any:expr, $sim:ident => $body:expr) => {
+        match $any {
+            $crate::model::AnySimulation::Pair($sim) => $body,
+            $crate::model::AnySimulation::Train($sim) => $body,
+        }
+    };
+}
+
+/// Anything that names a scene: the analyses accept either format, or the parsed
+/// [`AnyScene`].
+pub trait SceneSource {
+    fn to_any(&self) -> AnyScene;
+}
+
+impl SceneSource for AnyScene {
+    fn to_any(&self) -> AnyScene {
+        self.clone()
+    }
+}
+
+impl SceneSource for Scene {
+    fn to_any(&self) -> AnyScene {
+        AnyScene::Pair(Box::new(self.clone()))
+    }
+}
+
+impl SceneSource for TrainScene {
+    fn to_any(&self) -> AnyScene {
+        AnyScene::Train(Box::new(self.clone()))
+    }
+}
+
+impl AnyScene {
+    /// A scene file, or a folder holding `scene.toml`.
+    pub fn from_path(path: &std::path::Path) -> Result<AnyScene, String> {
+        if crate::scene::train::is_train_file(path).map_err(|e| e.to_string())? {
+            TrainScene::from_path(path).map(|s| AnyScene::Train(Box::new(s)))
+        } else {
+            Scene::from_path(path).map(|s| AnyScene::Pair(Box::new(s)))
+        }
+        .map_err(|e| e.to_string())
+    }
+
+    /// A built-in example by name (single-pair or drivetrain).
+    pub fn example(name: &str) -> Result<AnyScene, String> {
+        if crate::scene::train::TRAIN_EXAMPLES
+            .iter()
+            .any(|(n, _)| *n == name)
+        {
+            TrainScene::example(name).map(|s| AnyScene::Train(Box::new(s)))
+        } else {
+            Scene::example(name).map(|s| AnyScene::Pair(Box::new(s)))
+        }
+        .map_err(|e| e.to_string())
+    }
+
+    pub fn name(&self) -> &str {
+        match self {
+            AnyScene::Pair(s) => &s.name,
+            AnyScene::Train(s) => &s.name,
+        }
+    }
+
+    pub fn solver(&self) -> &crate::scene::SolverSettings {
+        match self {
+            AnyScene::Pair(s) => &s.solver,
+            AnyScene::Train(s) => &s.solver,
+        }
+    }
+
+    pub fn solver_mut(&mut self) -> &mut crate::scene::SolverSettings {
+        match self {
+            AnyScene::Pair(s) => &mut s.solver,
+            AnyScene::Train(s) => &mut s.solver,
+        }
+    }
+
+    /// Nominal speed of the input gear, rad/s.
+    pub fn input_speed(&self) -> f64 {
+        match self {
+            AnyScene::Pair(s) => s.operating.pinion_speed,
+            AnyScene::Train(s) => s.operating.input_speed,
+        }
+    }
+
+    /// The same scene at another nominal input speed, rad/s.
+    pub fn set_input_speed(&mut self, speed: f64) {
+        match self {
+            AnyScene::Pair(s) => s.operating.pinion_speed = speed,
+            AnyScene::Train(s) => s.operating.input_speed = speed,
+        }
+    }
+
+    /// Assembles the scene's kernel and starts it at `t = 0` from the scene's initial state.
+    pub fn simulation(&self) -> Result<AnySimulation, String> {
+        Ok(match self {
+            AnyScene::Pair(s) => AnySimulation::Pair(Simulation::new(s)?),
+            AnyScene::Train(s) => AnySimulation::Train(TrainSimulation::new(s)?),
+        })
+    }
+}
+
+/// The response period of mesh frequencies `f_n` in periods of the first mesh: the least
+/// common multiple of the mesh periods, i.e. the fundamental response frequency is the
+/// greatest common divisor of the mesh frequencies (Liu 2007 §4.2, notes §3.2). Each ratio
+/// `f_n/f_1` is recognised as a fraction `p/q` with `q ≤ 1000` to 1e-12 relative; the result
+/// is the least common multiple of the denominators. Incommensurate mesh frequencies have no
+/// common period: the message says so.
+pub fn response_period_in_mesh_periods(frequencies: &[f64]) -> Result<u64, String> {
+    let f1 = frequencies[0];
+    let mut k: u64 = 1;
+    for (n, &f) in frequencies.iter().enumerate().skip(1) {
+        let ratio = f / f1;
+        let (_, q) = rational(ratio, 1000).ok_or_else(|| {
+            format!(
+                "mesh {} frequency {f:e} Hz over mesh 1 frequency {f1:e} Hz = {ratio}: not a \
+                 ratio of small integers, so the response is quasi-periodic and has no period",
+                n + 1
+            )
+        })?;
+        k = lcm(k, q);
+    }
+    Ok(k)
+}
+
+/// The period of the drivetrain's response at its current input speed, s.
+pub fn response_period<M: Drivetrain>(model: &M) -> Result<f64, String> {
+    let f: Vec<f64> = (0..model.mesh_count())
+        .map(|n| model.mesh_frequency(n))
+        .collect();
+    if !(f[0] > 0.0) {
+        return Err(format!(
+            "input speed {} rad/s: a response period needs a positive speed",
+            model.input_speed()
+        ));
+    }
+    Ok(response_period_in_mesh_periods(&f)? as f64 / f[0])
+}
+
+/// The best fraction `p/q` with `q ≤ max_den` within 1e-12 relative of `x > 0` (continued
+/// fractions).
+fn rational(x: f64, max_den: u64) -> Option<(u64, u64)> {
+    let (mut h0, mut h1, mut k0, mut k1) = (0u64, 1u64, 1u64, 0u64);
+    let mut r = x;
+    for _ in 0..64 {
+        let a = r.floor();
+        if a > 1e15 {
+            break;
+        }
+        let a = a as u64;
+        let (h2, k2) = (a * h1 + h0, a * k1 + k0);
+        if k2 > max_den {
+            break;
+        }
+        (h0, h1, k0, k1) = (h1, h2, k1, k2);
+        if ((h1 as f64 / k1 as f64) - x).abs() <= 1e-12 * x {
+            return Some((h1, k1));
+        }
+        let frac = r - a as f64;
+        if frac <= 0.0 {
+            break;
+        }
+        r = 1.0 / frac;
+    }
+    None
+}
+
+fn gcd(a: u64, b: u64) -> u64 {
+    if b == 0 {
+        a
+    } else {
+        gcd(b, a % b)
+    }
+}
+
+fn lcm(a: u64, b: u64) -> u64 {
+    a / gcd(a, b) * b
+}
+
+/// Builds a driver for `model` from `y0` with the scene's solver settings (shooting and sweeps
+/// restart from states they choose).
+pub fn driver_from<M: Drivetrain>(
+    model: M,
+    y0: &[f64],
+    settings: &crate::scene::SolverSettings,
+) -> Result<Driver<M>, String> {
+    Driver::with_model(
+        model,
+        y0,
+        settings,
+        "solver.method = \"exact\": the scene's segments are not all linear time-invariant \
+         (use rk or auto)",
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn response_period_of_commensurate_meshes() {
+        assert_eq!(response_period_in_mesh_periods(&[100.0]).unwrap(), 1);
+        assert_eq!(response_period_in_mesh_periods(&[100.0, 60.0]).unwrap(), 5);
+        assert_eq!(response_period_in_mesh_periods(&[100.0, 50.0]).unwrap(), 2);
+        assert_eq!(
+            response_period_in_mesh_periods(&[100.0, 100.0 * 23.0 / 41.0]).unwrap(),
+            41
+        );
+        assert!(response_period_in_mesh_periods(&[1.0, std::f64::consts::PI]).is_err());
+    }
+}
