@@ -131,7 +131,8 @@ fn continuation_folds_match_multipliers_and_sweep_jumps() {
         &SweepOptions::new(speeds, Direction::Both),
         &|_, _| {},
     )
-    .unwrap();
+    .unwrap()
+    .points;
     let fold_speeds: Vec<f64> = folds.iter().map(|&i| branch[i].speed).collect();
     // The critical multiplier: the real one closest to +1.
     let real_near_one = |p: &hb::BranchPoint| {
@@ -156,7 +157,7 @@ fn continuation_folds_match_multipliers_and_sweep_jumps() {
     for dir in [Direction::Up, Direction::Down] {
         let branch_points: Vec<_> = points.iter().filter(|p| p.direction == dir).collect();
         for w in branch_points.windows(2) {
-            let ratio = w[1].dte_rms / w[0].dte_rms;
+            let ratio = w[1].meshes[0].dte_rms / w[0].meshes[0].dte_rms;
             if !(1.0 / 1.3..=1.3).contains(&ratio) {
                 jumps += 1;
                 let (lo, hi) = (w[0].speed.min(w[1].speed), w[0].speed.max(w[1].speed));

@@ -48,10 +48,10 @@ fn onset_error(eps: f64) -> (f64, f64, f64) {
         max_transient_periods: 20_000,
         ..SweepOptions::new(speeds, Direction::Up)
     };
-    let points = sweep(&scene, &options, &|_, _| {}).unwrap();
+    let points = sweep(&scene, &options, &|_, _| {}).unwrap().points;
     let onset = points
         .iter()
-        .position(|p| p.contact_loss_fraction > 0.0)
+        .position(|p| p.meshes[0].contact_loss_fraction > 0.0)
         .expect("contact loss before resonance");
     let measured = ratios[onset];
     ((measured - omega_c1).abs() / detuning, measured, omega_c1)
@@ -112,13 +112,13 @@ fn peak_errors(eps: f64) -> (f64, f64) {
         max_transient_periods: 50_000,
         ..SweepOptions::new(speeds, Direction::Down)
     };
-    let points = sweep(&scene, &options, &|_, _| {}).unwrap();
+    let points = sweep(&scene, &options, &|_, _| {}).unwrap().points;
     let peak = points
         .iter()
-        .max_by(|a, b| a.harmonics[0].total_cmp(&b.harmonics[0]))
+        .max_by(|a, b| a.meshes[0].harmonics[0].total_cmp(&b.meshes[0].harmonics[0]))
         .unwrap();
     // DTE amplitude 2|s|α x̄ with s = 1.
-    let alpha = peak.harmonics[0] / (2.0 * static_deflection);
+    let alpha = peak.meshes[0].harmonics[0] / (2.0 * static_deflection);
     let omega = peak.mesh_frequency / f_n;
     println!("{eps:5}   α_p {alpha_p:.5} vs {alpha:.5}   ω_p {omega_p:.6} vs {omega:.6}");
     (

@@ -33,21 +33,23 @@ fn linear_scene_matches_closed_form_frequency_response() {
         tolerance: 1e-9,
         ..SweepOptions::new(speeds, Direction::Both)
     };
-    let points = sweep(&scene, &options, &quiet).unwrap();
+    let points = sweep(&scene, &options, &quiet).unwrap().points;
     let mut worst: f64 = 0.0;
     for p in &points {
         let w = TAU * p.mesh_frequency;
         let num = (k * k + (c * w).powi(2)).sqrt();
         let den = ((k - M_E * w * w).powi(2) + (c * w).powi(2)).sqrt();
         let expected = a * num / den;
-        let rel = (p.harmonics[0] - expected).abs() / expected;
+        let rel = (p.meshes[0].harmonics[0] - expected).abs() / expected;
         worst = worst.max(rel);
         assert!(p.converged && p.response_periods == Some(1), "{p:?}");
         // The RMS of a pure harmonic is A/√2; the mean is the static deflection F/k.
-        assert!((p.dte_rms - p.harmonics[0] / 2f64.sqrt()).abs() <= 1e-6 * expected);
-        assert!((p.dte_mean - 2000.0 / k).abs() <= 1e-9 * 2000.0 / k + 1e-6 * expected);
         assert!(
-            p.harmonics[1] < 1e-6 * expected,
+            (p.meshes[0].dte_rms - p.meshes[0].harmonics[0] / 2f64.sqrt()).abs() <= 1e-6 * expected
+        );
+        assert!((p.meshes[0].dte_mean - 2000.0 / k).abs() <= 1e-9 * 2000.0 / k + 1e-6 * expected);
+        assert!(
+            p.meshes[0].harmonics[1] < 1e-6 * expected,
             "no second harmonic in a linear response"
         );
     }
@@ -64,7 +66,8 @@ fn backlash_scene_shows_softening_jump() {
         &SweepOptions::new(speeds.clone(), Direction::Both),
         &quiet,
     )
-    .unwrap();
+    .unwrap()
+    .points;
     let up: Vec<_> = points
         .iter()
         .filter(|p| p.direction == Direction::Up)
@@ -81,12 +84,19 @@ fn backlash_scene_shows_softening_jump() {
         assert!(u.converged && d.converged);
         println!(
             "{:6.1}  {:.4e}  {:.4e}  {:.3}    {:.3}",
-            u.speed, u.dte_rms, d.dte_rms, u.contact_loss_fraction, d.contact_loss_fraction
+            u.speed,
+            u.meshes[0].dte_rms,
+            d.meshes[0].dte_rms,
+            u.meshes[0].contact_loss_fraction,
+            d.meshes[0].contact_loss_fraction
         );
-        if (u.dte_rms - d.dte_rms).abs() > 0.2 * u.dte_rms {
+        if (u.meshes[0].dte_rms - d.meshes[0].dte_rms).abs() > 0.2 * u.meshes[0].dte_rms {
             branches_differ += 1;
             // Softening: the down sweep stays on the upper, contact-losing branch.
-            assert!(d.dte_rms > u.dte_rms && d.contact_loss_fraction > u.contact_loss_fraction);
+            assert!(
+                d.meshes[0].dte_rms > u.meshes[0].dte_rms
+                    && d.meshes[0].contact_loss_fraction > u.meshes[0].contact_loss_fraction
+            );
         }
     }
     assert!(
@@ -97,15 +107,15 @@ fn backlash_scene_shows_softening_jump() {
     // branch of a backlash pair persists far down: a classic of impact softening).
     let (u, d) = (up[20], down[20]);
     assert!(
-        (u.dte_rms - d.dte_rms).abs() <= 1e-5 * u.dte_rms,
+        (u.meshes[0].dte_rms - d.meshes[0].dte_rms).abs() <= 1e-5 * u.meshes[0].dte_rms,
         "{} vs {}",
-        u.dte_rms,
-        d.dte_rms
+        u.meshes[0].dte_rms,
+        d.meshes[0].dte_rms
     );
     // The jump up on the up sweep: one step multiplies the RMS.
     let jump = up
         .windows(2)
-        .map(|w| w[1].dte_rms / w[0].dte_rms)
+        .map(|w| w[1].meshes[0].dte_rms / w[0].meshes[0].dte_rms)
         .fold(0.0, f64::max);
     println!("largest step ratio on the up sweep: {jump:.2}");
     assert!(jump > 1.3);
@@ -132,7 +142,7 @@ fn bad_ranges_and_unconverged_points() {
         max_transient_periods: 2,
         ..SweepOptions::new(vec![450.0, 460.0], Direction::Up)
     };
-    let points = sweep(&scene, &options, &quiet).unwrap();
+    let points = sweep(&scene, &options, &quiet).unwrap().points;
     assert_eq!(points.len(), 2);
     assert!(points
         .iter()

@@ -14,6 +14,7 @@ use pyo3::types::{PyBool, PyByteArray, PyDict, PyFloat, PyInt, PyList, PyString,
 
 use geardyn::commands;
 use geardyn::model::train::run_train;
+use geardyn::model::AnyScene;
 use geardyn::scene::train::{is_train_file, is_train_text, TrainScene, TRAIN_EXAMPLES};
 use geardyn::scene::{Scene, EXAMPLES};
 
@@ -84,6 +85,14 @@ impl PyScene {
                 "{}: `{command}` takes a single-mesh scene (docs/model.md), this is a drivetrain",
                 self.origin
             ))),
+        }
+    }
+
+    /// The scene in either format, for the commands that take every scene.
+    fn any(&self) -> AnyScene {
+        match &self.scene {
+            Validated::Pair(s) => AnyScene::Pair(Box::new((**s).clone())),
+            Validated::Train(s) => AnyScene::Train(Box::new((**s).clone())),
         }
     }
 
@@ -581,13 +590,12 @@ fn periodic<'py>(
     periods: u32,
     warmup: u32,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let s = scene.pair("periodic")?;
+    let s = scene.any();
     let (orbit, report) = py
         .detach(move || {
-            commands::analysis::periodic(&s, periods, warmup)
-                .map(|o| (commands::analysis::periodic_report(&s, &o), o))
+            let o = commands::steady::periodic(&s, periods, warmup)?;
+            commands::steady::periodic_report(&s, &o).map(|r| (o, r))
         })
-        .map(|(r, o)| (o, r))
         .map_err(err)?;
     let d = PyDict::new(py);
     d.set_item("period", orbit.period)?;
@@ -608,8 +616,8 @@ fn periodic<'py>(
     Ok(d)
 }
 
-/// Frequency-response sweep over pinion speed; returns `(columns, data)` as the CSV of
-/// `geardyn sweep` has them.
+/// Frequency-response sweep over the input-gear speed, for any scene; returns
+/// `(columns, data)` as the CSV of `geardyn sweep` has them (per-mesh columns prefixed).
 #[pyfunction]
 #[pyo3(signature = (scene, speed, direction = "both", tolerance = 1e-7, max_periods = 3000))]
 fn sweep<'py>(
@@ -620,16 +628,19 @@ fn sweep<'py>(
     tolerance: f64,
     max_periods: u32,
 ) -> PyResult<Table<'py>> {
-    let s = scene.pair("sweep")?;
-    let request = commands::analysis::SweepRequest {
+    let s = scene.any();
+    let request = commands::steady::SweepRequest {
         speed,
         direction,
         tolerance,
         max_periods,
+        poincare: false,
     };
-    let points = py.detach(|| request.run(&s, &|_, _| {})).map_err(err)?;
-    let rows: Vec<_> = points.iter().map(|p| p.row()).collect();
-    table(py, &geardyn::analysis::SWEEP_COLUMNS, &rows)
+    let sweep = py.detach(|| request.run(&s, &|_, _| {})).map_err(err)?;
+    let rows: Vec<_> = sweep.points.iter().map(|p| p.row()).collect();
+    let columns = sweep.columns();
+    let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
+    table(py, &columns, &rows)
 }
 
 /// Harmonic balance with arclength continuation over `speed = "from:to"`; returns
@@ -644,13 +655,13 @@ fn hb<'py>(
     subharmonic: u32,
 ) -> PyResult<Table<'py>> {
     let s = scene.pair("hb")?;
-    let request = commands::analysis::HbRequest {
+    let request = commands::hb::HbRequest {
         speed,
         harmonics,
         subharmonic,
     };
     let branch = py.detach(|| request.run(&s)).map_err(err)?;
-    table(py, &commands::analysis::HB_COLUMNS, &branch.rows())
+    table(py, &commands::hb::HB_COLUMNS, &branch.rows())
 }
 
 /// Natural frequencies and mode shapes of a drivetrain's mean system; returns a dict with

@@ -11,4 +11,4 @@ pub use band::{instability_bands, InstabilityBand};
 pub use floquet::{exact_monodromy, Floquet};
 pub use linear_period::LinearPeriodMap;
 pub use shooting::{period_map, shoot, PeriodicOrbit, ShootingOptions, Stability};
-pub use sweep::{sweep, Direction, SweepOptions, SweepPoint, SWEEP_COLUMNS};
+pub use sweep::{sweep, Direction, MeshResponse, Periodicity, Sweep, SweepOptions, SweepPoint};

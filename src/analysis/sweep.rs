@@ -1,18 +1,24 @@
-//! Frequency-response sweeps with warm start: the steady state at each speed starts from the
-//! final state at the previous speed, so coexisting branches are followed and jumps show up as
-//! the difference between the up and the down sweep (Liu 2007 §2.4.1; numerics-notes §3).
+//! Frequency-response sweeps with warm start, for any scene: the steady state at each speed
+//! starts from the final state at the previous speed, so coexisting branches are followed and
+//! jumps show up as the difference between the up and the down sweep (Liu 2007 §2.4.1, §3.2,
+//! §4.2; numerics-notes §3).
 //!
-//! At each speed the transient is integrated period by period until the state repeats after
-//! `k` mesh periods (a periodicity residual below the tolerance, `k ≤ max_subharmonic`, so
-//! period-k responses are recognised), then an integer number of mesh periods is recorded
-//! (no spectral leakage) for the DTE statistics.
+//! The speed is the input gear's; every mesh follows with its own ratio (the countershaft's
+//! second stage at `ω2 = ρ ω1`). At each speed the transient is integrated one *response
+//! period* at a time: the least common multiple of the mesh periods
+//! ([`crate::model::response_period`]; the mesh period of a single pair). The state is
+//! periodic when it repeats after `k` response periods (a scaled residual below the tolerance,
+//! `k ≤ max_subharmonic`, so period-k responses are recognised); a response whose residual
+//! stalls instead of decaying is flagged aperiodic (quasi-periodic or chaotic), never silently
+//! averaged. Then an integer number of response periods is recorded (no spectral leakage) for
+//! the statistics of every mesh.
 
 use std::f64::consts::TAU;
 
-use crate::model::{Inputs, OUTPUT_NAMES};
-use crate::scene::Scene;
-use crate::simulation::Simulation;
-use crate::solve::exact::PiecewiseLti;
+use super::shooting::state_scale;
+use crate::model::{response_period, Drivetrain, SceneSource};
+use crate::simulation::Driver;
+use crate::with_drivetrain;
 
 /// Sweep direction.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -40,22 +46,25 @@ const CONFIRM: u32 = 10;
 /// Settings of a sweep.
 #[derive(Debug, Clone)]
 pub struct SweepOptions {
-    /// Pinion speeds, rad/s, in increasing order.
+    /// Input-gear speeds, rad/s, in increasing order.
     pub speeds: Vec<f64>,
     pub direction: Direction,
-    /// Mesh periods always discarded at each speed before the periodicity test.
+    /// Response periods always discarded at each speed before the periodicity test.
     pub min_transient_periods: u32,
-    /// Give up (and mark the point not converged) after this many mesh periods.
+    /// Give up (and mark the point not converged) after this many response periods.
     pub max_transient_periods: u32,
     /// Scaled periodicity residual accepted as steady state.
     pub tolerance: f64,
-    /// Longest response period looked for, in mesh periods.
+    /// Longest period looked for, in response periods.
     pub max_subharmonic: u32,
-    /// Mesh periods recorded for the statistics (rounded up to a multiple of the response
-    /// period).
+    /// Response periods recorded for the statistics (rounded up to a multiple of the period
+    /// found).
     pub record_periods: u32,
-    /// Samples per mesh period in the recording.
+    /// Samples per mesh period of the first mesh in the recording.
     pub samples_per_period: u32,
+    /// Keep each mesh's DTE at the start of every mesh period of the recording (Poincaré
+    /// section of the first mesh).
+    pub poincare: bool,
 }
 
 impl SweepOptions {
@@ -69,6 +78,7 @@ impl SweepOptions {
             max_subharmonic: 4,
             record_periods: 8,
             samples_per_period: 64,
+            poincare: false,
         }
     }
 
@@ -135,36 +145,75 @@ impl SweepOptions {
     }
 }
 
-/// One point of a sweep.
+/// How a sweep point's steady state was classified.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Periodicity {
+    /// Repeats after `k` response periods.
+    Periodic(u32),
+    /// Still decaying at `max_transient_periods`: a slow transient (more periods may settle).
+    Unsettled,
+    /// The residual stopped decreasing without reaching the tolerance: quasi-periodic or
+    /// chaotic (or periodic beyond `max_subharmonic`). The statistics are of the recorded
+    /// stretch, marked, not an average over a period.
+    Aperiodic,
+}
+
+/// The steady-state response of one mesh at one sweep point.
 #[derive(Debug, Clone, PartialEq)]
-pub struct SweepPoint {
-    pub direction: Direction,
-    /// Pinion speed, rad/s.
-    pub speed: f64,
+pub struct MeshResponse {
+    /// Column prefix ([`Drivetrain::mesh_prefix`]).
+    pub prefix: String,
     /// Mesh frequency, Hz.
     pub mesh_frequency: f64,
-    /// Whether a periodic steady state was found; if not, the statistics are of the last
-    /// recorded stretch (kept, marked, never dropped).
-    pub converged: bool,
-    /// Response period in mesh periods (when converged).
-    pub response_periods: Option<u32>,
-    /// Periodicity residual at the end of the transient.
-    pub residual: f64,
-    /// Mesh periods integrated as transient.
-    pub transient_periods: u32,
     pub dte_mean: f64,
     /// RMS of the DTE with the mean removed, m.
     pub dte_rms: f64,
     pub dte_peak_to_peak: f64,
-    /// Amplitudes of the first three mesh harmonics of the DTE, m.
+    /// Amplitudes of the first three harmonics of this mesh's frequency in its DTE, m.
     pub harmonics: [f64; 3],
-    /// Fraction of the recorded time without drive-side contact.
+    /// Fraction of the recorded samples with total contact loss (no tooth pair in contact;
+    /// for the single pair: not in drive-side or back-side contact).
     pub contact_loss_fraction: f64,
-    pub peak_mesh_force: f64,
+    /// Mesh phase (cycles, `[0, 1)`) at which contact is first lost in the recording: the
+    /// separation angle over `2π`; NaN without contact loss.
+    pub separation_phase: f64,
+    /// Largest |mesh force|, N.
+    pub peak_force: f64,
+    /// RMS of the mesh force with its mean removed, N.
+    pub force_rms: f64,
+    /// Peak mesh force over the static mesh force.
+    pub dynamic_factor: f64,
+    /// The DTE at the start of every mesh period of the first mesh in the recording (only when
+    /// [`SweepOptions::poincare`] is set).
+    pub poincare: Vec<f64>,
 }
 
-/// Column names of [`SweepPoint::row`].
-pub const SWEEP_COLUMNS: [&str; 14] = [
+/// One point of a sweep.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SweepPoint {
+    pub direction: Direction,
+    /// Input-gear speed, rad/s.
+    pub speed: f64,
+    /// Mesh frequency of the first mesh, Hz.
+    pub mesh_frequency: f64,
+    /// Response period (least common multiple of the mesh periods), s.
+    pub response_period: f64,
+    /// Whether a periodic steady state was found; if not, the statistics are of the last
+    /// recorded stretch (kept, marked, never dropped).
+    pub converged: bool,
+    pub periodicity: Periodicity,
+    /// Period in response periods (when converged).
+    pub response_periods: Option<u32>,
+    /// Periodicity residual at the end of the transient.
+    pub residual: f64,
+    /// Response periods integrated as transient.
+    pub transient_periods: u32,
+    /// One entry per mesh.
+    pub meshes: Vec<MeshResponse>,
+}
+
+/// Columns shared by every scene; then per mesh [`MESH_COLUMNS`], prefixed.
+pub const POINT_COLUMNS: [&str; 8] = [
     "direction",
     "speed",
     "mesh_frequency",
@@ -172,6 +221,11 @@ pub const SWEEP_COLUMNS: [&str; 14] = [
     "response_periods",
     "residual",
     "transient_periods",
+    "aperiodic",
+];
+
+/// Per-mesh columns of a sweep (after the mesh's prefix).
+pub const MESH_COLUMNS: [&str; 12] = [
     "dte_mean",
     "dte_rms",
     "dte_peak_to_peak",
@@ -179,12 +233,32 @@ pub const SWEEP_COLUMNS: [&str; 14] = [
     "a2",
     "a3",
     "contact_loss_fraction",
+    "separation_phase",
+    "peak_force",
+    "force_rms",
+    "dynamic_factor",
+    "mesh_frequency",
 ];
 
+/// The column names of a sweep of a model with the given mesh prefixes.
+pub fn sweep_columns(prefixes: &[String]) -> Vec<String> {
+    let mut names: Vec<String> = POINT_COLUMNS.iter().map(|s| s.to_string()).collect();
+    for p in prefixes {
+        for c in MESH_COLUMNS {
+            // The first mesh's frequency is already a point column.
+            if c == "mesh_frequency" && p.is_empty() {
+                continue;
+            }
+            names.push(format!("{p}{c}"));
+        }
+    }
+    names
+}
+
 impl SweepPoint {
-    /// Values in [`SWEEP_COLUMNS`] order (direction as +1 up / −1 down).
-    pub fn row(&self) -> [f64; 14] {
-        [
+    /// Values in [`sweep_columns`] order (direction as +1 up / −1 down).
+    pub fn row(&self) -> Vec<f64> {
+        let mut row = vec![
             if self.direction == Direction::Up {
                 1.0
             } else {
@@ -196,25 +270,60 @@ impl SweepPoint {
             self.response_periods.map_or(0.0, f64::from),
             self.residual,
             self.transient_periods as f64,
-            self.dte_mean,
-            self.dte_rms,
-            self.dte_peak_to_peak,
-            self.harmonics[0],
-            self.harmonics[1],
-            self.harmonics[2],
-            self.contact_loss_fraction,
-        ]
+            f64::from(u8::from(self.periodicity == Periodicity::Aperiodic)),
+        ];
+        for m in &self.meshes {
+            row.extend([
+                m.dte_mean,
+                m.dte_rms,
+                m.dte_peak_to_peak,
+                m.harmonics[0],
+                m.harmonics[1],
+                m.harmonics[2],
+                m.contact_loss_fraction,
+                m.separation_phase,
+                m.peak_force,
+                m.force_rms,
+                m.dynamic_factor,
+            ]);
+            if !m.prefix.is_empty() {
+                row.push(m.mesh_frequency);
+            }
+        }
+        row
     }
 }
 
-/// Runs the sweep; `Both` runs the up and the down branch on two threads. `progress` is
-/// called after every point with (points done, points total).
+/// A finished sweep: its points and the mesh prefixes of the scene's columns.
+#[derive(Debug, Clone)]
+pub struct Sweep {
+    pub prefixes: Vec<String>,
+    pub points: Vec<SweepPoint>,
+}
+
+impl Sweep {
+    pub fn columns(&self) -> Vec<String> {
+        sweep_columns(&self.prefixes)
+    }
+}
+
+/// Runs the sweep on any scene; `Both` runs the up and the down branch on two threads.
+/// `progress` is called after every point with (points done, points total).
 pub fn sweep(
-    scene: &Scene,
+    scene: &impl SceneSource,
     options: &SweepOptions,
     progress: &(dyn Fn(usize, usize) + Sync),
-) -> Result<Vec<SweepPoint>, String> {
+) -> Result<Sweep, String> {
     options.validate()?;
+    let first = scene.to_any();
+    let speeds = options.speeds.clone();
+    let start = |d: Direction| {
+        if d == Direction::Down {
+            *speeds.last().expect("validated")
+        } else {
+            speeds[0]
+        }
+    };
     let total = match options.direction {
         Direction::Both => 2 * options.speeds.len(),
         _ => options.speeds.len(),
@@ -224,23 +333,32 @@ pub fn sweep(
         let d = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
         progress(d, total);
     };
+    let run = |d: Direction| -> Result<Sweep, String> {
+        let mut at = first.clone();
+        at.set_input_speed(start(d));
+        with_drivetrain!(at.simulation()?, sim => {
+            let prefixes = (0..sim.model().mesh_count()).map(|n| sim.model().mesh_prefix(n)).collect();
+            let points = branch(sim, options, d, &tick)?;
+            Ok(Sweep { prefixes, points })
+        })
+    };
     match options.direction {
-        Direction::Up | Direction::Down => branch(scene, options, options.direction, &tick),
+        Direction::Up | Direction::Down => run(options.direction),
         Direction::Both => {
             let (up, down) = std::thread::scope(|s| {
-                let up = s.spawn(|| branch(scene, options, Direction::Up, &tick));
-                let down = branch(scene, options, Direction::Down, &tick);
+                let up = s.spawn(|| run(Direction::Up));
+                let down = run(Direction::Down);
                 (up.join().expect("sweep thread"), down)
             });
-            let mut points = up?;
-            points.extend(down?);
-            Ok(points)
+            let mut sweep = up?;
+            sweep.points.extend(down?.points);
+            Ok(sweep)
         }
     }
 }
 
-fn branch(
-    scene: &Scene,
+fn branch<M: Drivetrain>(
+    mut sim: Driver<M>,
     options: &SweepOptions,
     direction: Direction,
     tick: &(dyn Fn() + Sync),
@@ -249,60 +367,69 @@ fn branch(
     if direction == Direction::Down {
         speeds.reverse();
     }
-    let mut first = scene.clone();
-    first.operating.pinion_speed = speeds[0];
-    let mut sim = Simulation::new(&first)?;
     let mut points = Vec::with_capacity(speeds.len());
     for &speed in &speeds {
-        let inputs = Inputs {
-            pinion_speed: speed,
-            ..sim.model().inputs()
-        };
-        sim.set_inputs(inputs);
+        sim.change_model(|model, t| model.set_input_speed(t, speed))
+            .map_err(|e| format!("speed {speed} rad/s: {e}"))?;
         points.push(steady_state(&mut sim, options, direction, speed)?);
         tick();
     }
     Ok(points)
 }
 
+/// Response periods over which a stalled residual marks a response aperiodic: the best
+/// residual of the last window must have fallen below half of the window before.
+const STALL_WINDOW: u32 = 200;
+
 /// Integrates to the periodic steady state at the current inputs and records its statistics.
-fn steady_state(
-    sim: &mut Simulation,
+fn steady_state<M: Drivetrain>(
+    sim: &mut Driver<M>,
     options: &SweepOptions,
     direction: Direction,
     speed: f64,
 ) -> Result<SweepPoint, String> {
-    let period = sim.model().mesh_period();
-    let x_scale = sim.model().static_deflection().abs().max(1e-9);
-    let scale = [x_scale, x_scale * sim.model().max_frequency()];
+    let at = |e: String| format!("speed {speed} rad/s: {e}");
+    let period = response_period(sim.model()).map_err(at)?;
+    let scale = state_scale(sim.model(), sim.y());
     let kmax = options.max_subharmonic as usize;
-    let mut history: Vec<[f64; 2]> = vec![sim.state()];
+    let mut history: Vec<Vec<f64>> = vec![sim.y().to_vec()];
     let t0 = sim.t();
     let mut found = None;
     let mut residual = f64::INFINITY;
     let mut candidate: Option<(usize, u32)> = None;
+    // Best residual of the current and the previous stall window.
+    let (mut window_best, mut previous_best) = (f64::INFINITY, f64::INFINITY);
+    let mut stalled = false;
     let mut j = 0u32;
     while j < options.max_transient_periods {
         j += 1;
         sim.advance_to(t0 + j as f64 * period)
-            .map_err(|e| format!("speed {speed} rad/s: {e}"))?;
-        history.push(sim.state());
+            .map_err(|e| at(e.to_string()))?;
+        history.push(sim.y().to_vec());
         if history.len() > kmax + 1 {
             history.remove(0);
         }
         if j < options.min_transient_periods || history.len() <= kmax {
             continue;
         }
-        let now = history[kmax];
+        let now = &history[kmax];
         let residuals: Vec<f64> = (1..=kmax)
             .map(|k| {
-                let then = history[kmax - k];
-                (0..2)
-                    .map(|i| ((now[i] - then[i]) / scale[i]).abs())
+                let then = &history[kmax - k];
+                now.iter()
+                    .zip(then)
+                    .zip(&scale)
+                    .map(|((a, b), s)| ((a - b) / s).abs())
                     .fold(0.0, f64::max)
             })
             .collect();
         residual = residuals.iter().copied().fold(f64::INFINITY, f64::min);
+        window_best = window_best.min(residual);
+        if j % STALL_WINDOW == 0 {
+            stalled = window_best > 0.5 * previous_best;
+            previous_best = window_best;
+            window_best = f64::INFINITY;
+        }
         // The shortest period that repeats is the response period. A decaying transient
         // whose multiplier is close to a k-th root of unity also makes the k-residual small,
         // so k > 1 is accepted only after it has held for `CONFIRM` response periods while
@@ -325,58 +452,104 @@ fn steady_state(
             (None, _) => candidate = None,
         }
     }
+    let periodicity = match found {
+        Some(k) => Periodicity::Periodic(k),
+        None if stalled => Periodicity::Aperiodic,
+        None => Periodicity::Unsettled,
+    };
     let k = found.unwrap_or(1);
     let record = options.record_periods.div_ceil(k) * k;
+    let model = sim.model();
+    let meshes = model.mesh_count();
+    let f1 = model.mesh_frequency(0);
+    // Mesh periods of the first mesh per response period (an integer by construction).
+    let per_response = (period * f1).round().max(1.0) as usize;
     let per = options.samples_per_period as usize;
-    let n = record as usize * per;
+    let n = record as usize * per_response * per;
+    let dt = period / (per_response * per) as f64;
+    let frequencies: Vec<f64> = (0..meshes).map(|m| model.mesh_frequency(m)).collect();
+    let static_forces = model.static_mesh_forces();
     let t_start = sim.t();
-    let mut dte = Vec::with_capacity(n);
-    let mut lost = 0usize;
-    let mut peak_force: f64 = 0.0;
-    let state_col = OUTPUT_NAMES.iter().position(|&c| c == "contact_state");
-    let force_col = OUTPUT_NAMES.iter().position(|&c| c == "mesh_force");
+    let mut dte = vec![Vec::with_capacity(n); meshes];
+    let mut force = vec![Vec::with_capacity(n); meshes];
+    let mut lost = vec![0usize; meshes];
+    let mut separation = vec![f64::NAN; meshes];
+    let mut was_lost: Vec<bool> = (0..meshes)
+        .map(|m| sim.model().mesh_sample(m, sim.t(), sim.y()).lost)
+        .collect();
+    let mut poincare = vec![Vec::new(); meshes];
     for i in 1..=n {
-        sim.advance_to(t_start + i as f64 * period / per as f64)
-            .map_err(|e| format!("speed {speed} rad/s: {e}"))?;
-        let out = sim.outputs();
-        dte.push(out[0]);
-        if let Some(c) = state_col {
-            lost += usize::from(out[c] != 1.0);
-        }
-        if let Some(c) = force_col {
-            peak_force = peak_force.max(out[c].abs());
+        sim.advance_to(t_start + i as f64 * dt)
+            .map_err(|e| at(e.to_string()))?;
+        let (t, y) = (sim.t(), sim.y());
+        for m in 0..meshes {
+            let s = sim.model().mesh_sample(m, t, y);
+            dte[m].push(s.dte);
+            force[m].push(s.force);
+            if s.lost {
+                lost[m] += 1;
+                if !was_lost[m] && separation[m].is_nan() {
+                    separation[m] = s.phase;
+                }
+            }
+            was_lost[m] = s.lost;
+            if options.poincare && i % per == 0 {
+                poincare[m].push(s.dte);
+            }
         }
     }
-    let mean = dte.iter().sum::<f64>() / n as f64;
-    let rms = (dte.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / n as f64).sqrt();
-    let (lo, hi) = dte
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &x| {
-            (lo.min(x), hi.max(x))
-        });
-    let mut harmonics = [0.0; 3];
-    for (h, a) in harmonics.iter_mut().enumerate() {
-        let (mut re, mut im) = (0.0, 0.0);
-        for (i, x) in dte.iter().enumerate() {
-            let angle = TAU * (h + 1) as f64 * (i + 1) as f64 / per as f64;
-            re += x * angle.cos();
-            im -= x * angle.sin();
-        }
-        *a = 2.0 * (re * re + im * im).sqrt() / n as f64;
-    }
+    let mesh_responses = (0..meshes)
+        .map(|m| {
+            let x = &dte[m];
+            let mean = x.iter().sum::<f64>() / n as f64;
+            let rms = (x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n as f64).sqrt();
+            let (lo, hi) = x
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+                    (lo.min(v), hi.max(v))
+                });
+            // This mesh's harmonics: its cycles per sample are f_m·dt.
+            let cycles_per_sample = frequencies[m] * dt;
+            let mut harmonics = [0.0; 3];
+            for (h, a) in harmonics.iter_mut().enumerate() {
+                let (mut re, mut im) = (0.0, 0.0);
+                for (i, v) in x.iter().enumerate() {
+                    let angle = TAU * (h + 1) as f64 * cycles_per_sample * (i + 1) as f64;
+                    re += v * angle.cos();
+                    im -= v * angle.sin();
+                }
+                *a = 2.0 * (re * re + im * im).sqrt() / n as f64;
+            }
+            let f = &force[m];
+            let f_mean = f.iter().sum::<f64>() / n as f64;
+            let f_rms = (f.iter().map(|v| (v - f_mean).powi(2)).sum::<f64>() / n as f64).sqrt();
+            let peak = f.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            MeshResponse {
+                prefix: sim.model().mesh_prefix(m),
+                mesh_frequency: frequencies[m],
+                dte_mean: mean,
+                dte_rms: rms,
+                dte_peak_to_peak: hi - lo,
+                harmonics,
+                contact_loss_fraction: lost[m] as f64 / n as f64,
+                separation_phase: separation[m],
+                peak_force: peak,
+                force_rms: f_rms,
+                dynamic_factor: peak / static_forces[m].abs(),
+                poincare: std::mem::take(&mut poincare[m]),
+            }
+        })
+        .collect();
     Ok(SweepPoint {
         direction,
         speed,
-        mesh_frequency: 1.0 / period,
+        mesh_frequency: f1,
+        response_period: period,
         converged: found.is_some(),
+        periodicity,
         response_periods: found,
         residual,
         transient_periods: j,
-        dte_mean: mean,
-        dte_rms: rms,
-        dte_peak_to_peak: hi - lo,
-        harmonics,
-        contact_loss_fraction: lost as f64 / n as f64,
-        peak_mesh_force: peak_force,
+        meshes: mesh_responses,
     })
 }

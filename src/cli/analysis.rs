@@ -1,14 +1,14 @@
-//! `geardyn periodic` and `geardyn sweep`: steady states and frequency responses.
+//! `geardyn periodic`, `geardyn sweep` and `geardyn hb`: steady states and frequency
+//! responses of any scene.
 
 use std::path::PathBuf;
 
 use clap::Args;
 
-use geardyn::analysis::SWEEP_COLUMNS;
-use geardyn::commands::analysis as commands;
+use geardyn::commands::{hb as hb_commands, steady as commands};
 use geardyn::output;
 
-use super::{load_scene, positive};
+use super::{load_any_scene, load_scene, positive};
 
 #[derive(Args)]
 pub struct PeriodicArgs {
@@ -18,13 +18,15 @@ pub struct PeriodicArgs {
     /// A built-in example scene instead of a file (e.g. `spur_pair`).
     #[arg(long)]
     example: Option<String>,
-    /// Pinion speed, rad/s (default: the scene's `operating.pinion_speed`).
+    /// Input-gear speed, rad/s (default: the scene's `operating.pinion_speed` or
+    /// `operating.input_speed`).
     #[arg(long, allow_negative_numbers = true)]
     speed: Option<f64>,
-    /// Orbit period in mesh periods (period-k orbits).
+    /// Orbit period in response periods (period-k orbits); the response period is the mesh
+    /// period, or the least common multiple of the mesh periods of a drivetrain.
     #[arg(long, default_value_t = 1)]
     periods: u32,
-    /// Mesh periods integrated before Newton starts.
+    /// Response periods integrated before Newton starts.
     #[arg(long, default_value_t = 20)]
     warmup: u32,
 }
@@ -37,7 +39,7 @@ pub struct SweepArgs {
     /// A built-in example scene instead of a file (e.g. `spur_pair`).
     #[arg(long)]
     example: Option<String>,
-    /// Pinion speeds `from:to:points`, rad/s.
+    /// Input-gear speeds `from:to:points`, rad/s (every other gear follows its ratio).
     #[arg(long, allow_hyphen_values = true)]
     speed: String,
     /// up | down | both (both runs the two branches in parallel).
@@ -52,28 +54,34 @@ pub struct SweepArgs {
     /// Periodicity tolerance (scaled state residual).
     #[arg(long, default_value_t = 1e-7)]
     tolerance: f64,
-    /// Give up on a point after this many mesh periods (it is kept, marked not converged).
+    /// Give up on a point after this many response periods (it is kept, marked not
+    /// converged).
     #[arg(long, default_value_t = 3000)]
     max_periods: u32,
+    /// Also write Poincaré samples (each mesh's DTE once per mesh period of the first mesh,
+    /// over the recorded stretch) to this CSV.
+    #[arg(long)]
+    poincare: Option<PathBuf>,
 }
 
 pub fn periodic(args: PeriodicArgs) -> Result<(), String> {
-    let mut scene = load_scene(&args.scene, &args.example)?;
+    let mut scene = load_any_scene(&args.scene, &args.example)?;
     if let Some(speed) = args.speed {
-        scene.operating.pinion_speed = positive("speed", speed)?;
+        scene.set_input_speed(positive("speed", speed)?);
     }
     let orbit = commands::periodic(&scene, args.periods, args.warmup)?;
-    print!("{}", commands::periodic_report(&scene, &orbit));
+    print!("{}", commands::periodic_report(&scene, &orbit)?);
     Ok(())
 }
 
 pub fn sweep(args: SweepArgs) -> Result<(), String> {
-    let scene = load_scene(&args.scene, &args.example)?;
+    let scene = load_any_scene(&args.scene, &args.example)?;
     let request = commands::SweepRequest {
         speed: &args.speed,
         direction: &args.direction,
         tolerance: args.tolerance,
         max_periods: args.max_periods,
+        poincare: args.poincare.is_some(),
     };
     let progress = |done: usize, total: usize| {
         eprint!("\rsweep {done}/{total} points");
@@ -81,12 +89,21 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
             eprintln!();
         }
     };
-    let points = request.run(&scene, &progress)?;
-    output::write_table(&args.out, &SWEEP_COLUMNS, points.iter().map(|p| p.row()))?;
-    if let Some(path) = &args.plot {
-        output::write_text(path, &commands::sweep_plot(&scene, &points))?;
+    let sweep = request.run(&scene, &progress)?;
+    let columns = sweep.columns();
+    let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
+    output::write_table(&args.out, &columns, sweep.points.iter().map(|p| p.row()))?;
+    if let Some(path) = &args.poincare {
+        output::write_table(
+            path,
+            &commands::POINCARE_COLUMNS,
+            commands::poincare_rows(&sweep),
+        )?;
     }
-    print!("{}", commands::sweep_summary(&scene, &points, &args.out));
+    if let Some(path) = &args.plot {
+        output::write_text(path, &commands::sweep_plot(&scene, &sweep))?;
+    }
+    print!("{}", commands::sweep_summary(&scene, &sweep, &args.out));
     Ok(())
 }
 
@@ -122,13 +139,13 @@ pub struct HbArgs {
 /// `geardyn hb`: harmonic balance with pseudo-arclength continuation and stability.
 pub fn hb(args: HbArgs) -> Result<(), String> {
     let scene = load_scene(&args.scene, &args.example)?;
-    let request = commands::HbRequest {
+    let request = hb_commands::HbRequest {
         speed: &args.speed,
         harmonics: args.harmonics,
         subharmonic: args.subharmonic,
     };
     let branch = request.run(&scene)?;
-    output::write_table(&args.out, &commands::HB_COLUMNS, branch.rows())?;
+    output::write_table(&args.out, &hb_commands::HB_COLUMNS, branch.rows())?;
     if let Some(path) = &args.plot {
         let svg = branch.plot(&scene, args.harmonics, args.sweep_points)?;
         output::write_text(path, &svg)?;

@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use geardyn::model::AnyScene;
 use geardyn::scene::Scene;
 
 pub mod analysis;
@@ -21,4 +22,16 @@ pub fn load_scene(path: &Option<PathBuf>, example: &Option<String>) -> Result<Sc
         (None, None) => unreachable!("clap requires a scene or --example"),
     }
     .map_err(|e| e.to_string())
+}
+
+/// The scene named on the command line, in either format (single pair or drivetrain).
+pub fn load_any_scene(
+    path: &Option<PathBuf>,
+    example: &Option<String>,
+) -> Result<AnyScene, String> {
+    match (path, example) {
+        (_, Some(name)) => AnyScene::example(name),
+        (Some(path), None) => AnyScene::from_path(path),
+        (None, None) => unreachable!("clap requires a scene or --example"),
+    }
 }

@@ -4,9 +4,10 @@
 //! a Python call and a CLI run of the same scene give identical numbers and messages; the CLI
 //! only parses arguments and writes files.
 
-pub mod analysis;
+pub mod hb;
 pub mod modes;
 pub mod simulate;
+pub mod steady;
 pub mod stiffness;
 
 /// A finite, positive command-line number; `name` is the option without its dashes.

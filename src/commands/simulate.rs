@@ -9,54 +9,12 @@ use super::positive;
 use crate::model::train::{train_row, TrainSimulation};
 use crate::model::OUTPUT_NAMES;
 use crate::output::CsvWriter;
-use crate::scene::train::{is_train_file, TrainScene, TRAIN_EXAMPLES};
-use crate::scene::{MethodChoice, Scene, SolverSettings};
+use crate::scene::{MethodChoice, SolverSettings};
 use crate::simulation::{pair_row, stream, Progress, RunLimits, RunSummary, Simulation};
 use crate::simulation::{DrivenModel, Driver, OutputGrid};
 use crate::solve::SolverStats;
 
-/// A scene of either kind, as `geardyn simulate` accepts it.
-#[derive(Debug, Clone)]
-pub enum AnyScene {
-    Pair(Box<Scene>),
-    Train(Box<TrainScene>),
-}
-
-impl AnyScene {
-    /// A scene file, or a folder holding `scene.toml`; the kind is read from the file.
-    pub fn from_path(path: &Path) -> Result<AnyScene, String> {
-        if is_train_file(path).map_err(|e| e.to_string())? {
-            TrainScene::from_path(path).map(|s| AnyScene::Train(Box::new(s)))
-        } else {
-            Scene::from_path(path).map(|s| AnyScene::Pair(Box::new(s)))
-        }
-        .map_err(|e| e.to_string())
-    }
-
-    /// A built-in example by name (single-pair or drivetrain).
-    pub fn example(name: &str) -> Result<AnyScene, String> {
-        if TRAIN_EXAMPLES.iter().any(|(n, _)| *n == name) {
-            TrainScene::example(name).map(|s| AnyScene::Train(Box::new(s)))
-        } else {
-            Scene::example(name).map(|s| AnyScene::Pair(Box::new(s)))
-        }
-        .map_err(|e| e.to_string())
-    }
-
-    pub fn name(&self) -> &str {
-        match self {
-            AnyScene::Pair(s) => &s.name,
-            AnyScene::Train(s) => &s.name,
-        }
-    }
-
-    fn solver_mut(&mut self) -> &mut SolverSettings {
-        match self {
-            AnyScene::Pair(s) => &mut s.solver,
-            AnyScene::Train(s) => &mut s.solver,
-        }
-    }
-}
+pub use crate::model::AnyScene;
 
 /// The command-line options of `geardyn simulate` (each `None` keeps the scene's setting).
 #[derive(Debug, Clone, Default)]

@@ -1,151 +1,16 @@
-//! `periodic`, `sweep` and `hb`: the steady-state analyses of a single-mesh scene, with the
-//! option parsing, tables, plots and reports of `geardyn periodic | sweep | hb`.
+//! `hb`: the harmonic-balance branch with its option parsing, table, plot and report of
+//! `geardyn hb`.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::analysis::hb::{continuation, BranchPoint, ContinuationOptions, HbOptions};
-use crate::analysis::{
-    self, shoot, Direction, PeriodicOrbit, ShootingOptions, SweepOptions, SweepPoint,
-};
-use crate::plot::{Plot, Series};
+use crate::analysis::{self, Direction, SweepOptions};
+use crate::plot::Series;
 use crate::scene::Scene;
 
 use super::positive;
-
-/// Periodic steady state by shooting at the scene's pinion speed: a period-`periods` orbit
-/// found after `warmup` mesh periods of integration.
-pub fn periodic(scene: &Scene, periods: u32, warmup: u32) -> Result<PeriodicOrbit, String> {
-    let options = ShootingOptions {
-        periods,
-        warmup_periods: warmup,
-        ..ShootingOptions::default()
-    };
-    shoot(scene, &options)
-}
-
-/// The text `geardyn periodic` prints for an orbit of `scene`.
-pub fn periodic_report(scene: &Scene, orbit: &PeriodicOrbit) -> String {
-    let mut s = String::new();
-    // Writing to a String cannot fail.
-    let _ = writeln!(
-        s,
-        "scene {}: period-{} orbit at pinion speed {} rad/s (T = {:.6e} s)",
-        scene.name, orbit.periods, scene.operating.pinion_speed, orbit.period
-    );
-    for (k, r) in orbit.residuals.iter().enumerate() {
-        let _ = writeln!(s, "  Newton {k}: scaled residual {r:.3e}");
-    }
-    let _ = writeln!(
-        s,
-        "  y0 = [x = {:e} m, x' = {:e} m/s]",
-        orbit.y0[0], orbit.y0[1]
-    );
-    for m in &orbit.multipliers {
-        let _ = writeln!(
-            s,
-            "  multiplier {:+.12} {:+.12}i  |μ| = {:.12}",
-            m.re,
-            m.im,
-            m.norm()
-        );
-    }
-    let _ = writeln!(s, "  stability: {:?}", orbit.stability());
-    s
-}
-
-/// The options of `geardyn sweep` as given on the command line.
-pub struct SweepRequest<'a> {
-    /// Pinion speeds `from:to:points`, rad/s.
-    pub speed: &'a str,
-    /// `up | down | both`.
-    pub direction: &'a str,
-    /// Periodicity tolerance (scaled state residual).
-    pub tolerance: f64,
-    /// Mesh periods after which a point is given up (kept, marked not converged).
-    pub max_periods: u32,
-}
-
-impl SweepRequest<'_> {
-    /// Checks the options (messages name the CLI option) and runs the sweep.
-    pub fn run(
-        &self,
-        scene: &Scene,
-        progress: &(dyn Fn(usize, usize) + Sync),
-    ) -> Result<Vec<SweepPoint>, String> {
-        let speeds = SweepOptions::parse_range(self.speed)?;
-        let direction = self
-            .direction
-            .parse()
-            .map_err(|e| format!("--direction: {e}"))?;
-        let options = SweepOptions {
-            tolerance: positive("tolerance", self.tolerance)?,
-            max_transient_periods: self.max_periods,
-            ..SweepOptions::new(speeds, direction)
-        };
-        analysis::sweep(scene, &options, progress)
-    }
-}
-
-/// One branch of a sweep as plot points: DTE RMS over mesh frequency.
-fn branch_points(points: &[SweepPoint], d: Direction) -> Vec<(f64, f64)> {
-    points
-        .iter()
-        .filter(|p| p.direction == d)
-        .map(|p| (p.mesh_frequency, p.dte_rms))
-        .collect()
-}
-
-/// The SVG `geardyn sweep --plot` draws: DTE RMS against mesh frequency, one series per
-/// branch that has points.
-pub fn sweep_plot(scene: &Scene, points: &[SweepPoint]) -> String {
-    let series = [
-        (Direction::Up, "up sweep", "#c0392b", false),
-        (Direction::Down, "down sweep", "#2471a3", true),
-    ]
-    .into_iter()
-    .map(|(d, label, color, dashed)| Series {
-        label,
-        color,
-        points: branch_points(points, d),
-        dashed,
-        markers: true,
-        line: true,
-    })
-    .filter(|s| !s.points.is_empty())
-    .collect();
-    let title = format!("{}: DTE RMS (mean removed)", scene.name);
-    dte_rms_plot(&title, series)
-}
-
-/// A DTE-RMS-over-mesh-frequency plot (the axes of every frequency response).
-fn dte_rms_plot(title: &str, series: Vec<Series>) -> String {
-    Plot {
-        title,
-        x_label: "mesh frequency (Hz)",
-        y_label: "DTE RMS (m)",
-        series,
-        bands: Vec::new(),
-        band_label: "",
-    }
-    .to_svg()
-}
-
-/// The line `geardyn sweep` prints after writing `out`.
-pub fn sweep_summary(scene: &Scene, points: &[SweepPoint], out: &Path) -> String {
-    let unconverged = points.iter().filter(|p| !p.converged).count();
-    format!(
-        "scene {}: {} points → {}{}\n",
-        scene.name,
-        points.len(),
-        out.display(),
-        if unconverged > 0 {
-            format!(" ({unconverged} not converged, marked converged = 0)")
-        } else {
-            String::new()
-        }
-    )
-}
+use super::steady::{branch_points, dte_rms_plot};
 
 /// The options of `geardyn hb` as given on the command line.
 pub struct HbRequest<'a> {
@@ -283,7 +148,7 @@ impl HbBranch {
                 series.push(Series {
                     label,
                     color,
-                    points: branch_points(&points, d),
+                    points: branch_points(&points.points, d, 0),
                     dashed: false,
                     markers: true,
                     line: false,

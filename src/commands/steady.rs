@@ -1,0 +1,241 @@
+//! `periodic` and `sweep`: the steady states and frequency responses of any scene (single
+//! pair or drivetrain), with the option parsing, tables, plots and reports of
+//! `geardyn periodic | sweep`.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use crate::analysis::sweep::{Periodicity, Sweep, SweepPoint};
+use crate::analysis::{self, shoot, Direction, PeriodicOrbit, ShootingOptions, SweepOptions};
+use crate::model::{AnyScene, Drivetrain};
+use crate::plot::{Plot, Series};
+use crate::with_drivetrain;
+
+use super::positive;
+
+/// Periodic steady state by shooting at the scene's input speed: a period-`periods` orbit
+/// (in response periods) found after `warmup` response periods of integration.
+pub fn periodic(scene: &AnyScene, periods: u32, warmup: u32) -> Result<PeriodicOrbit, String> {
+    let options = ShootingOptions {
+        periods,
+        warmup_periods: warmup,
+        ..ShootingOptions::default()
+    };
+    shoot(scene, &options)
+}
+
+/// The text `geardyn periodic` prints for an orbit of `scene`: the Newton residuals, the
+/// initial state with its coordinate names, each mesh's DTE at the start of the orbit, and the
+/// multipliers with the stability they imply.
+pub fn periodic_report(scene: &AnyScene, orbit: &PeriodicOrbit) -> Result<String, String> {
+    let mut s = String::new();
+    // Writing to a String cannot fail.
+    let _ = writeln!(
+        s,
+        "scene {}: period-{} orbit at input speed {} rad/s (T = {:.6e} s)",
+        scene.name(),
+        orbit.periods,
+        scene.input_speed(),
+        orbit.period
+    );
+    for (k, r) in orbit.residuals.iter().enumerate() {
+        let _ = writeln!(s, "  Newton {k}: scaled residual {r:.3e}");
+    }
+    with_drivetrain!(scene.simulation()?, sim => {
+        let model = sim.model();
+        let names = model.coordinate_names();
+        let n = names.len();
+        if n == 1 {
+            let _ = writeln!(
+                s,
+                "  y0 = [x = {:e} m, x' = {:e} m/s]",
+                orbit.y0[0], orbit.y0[1]
+            );
+        } else {
+            for (i, name) in names.iter().enumerate() {
+                let _ = writeln!(
+                    s,
+                    "  y0 {name} = {:e}, {name}' = {:e}",
+                    orbit.y0[i],
+                    orbit.y0[n + i]
+                );
+            }
+            for m in 0..model.mesh_count() {
+                let sample = model.mesh_sample(m, 0.0, &orbit.y0);
+                let _ = writeln!(
+                    s,
+                    "  {}dte(0) = {:e} m",
+                    model.mesh_prefix(m),
+                    sample.dte
+                );
+            }
+        }
+    });
+    for m in &orbit.multipliers {
+        let _ = writeln!(
+            s,
+            "  multiplier {:+.12} {:+.12}i  |μ| = {:.12}",
+            m.re,
+            m.im,
+            m.norm()
+        );
+    }
+    let _ = writeln!(s, "  stability: {:?}", orbit.stability());
+    Ok(s)
+}
+
+/// The options of `geardyn sweep` as given on the command line.
+pub struct SweepRequest<'a> {
+    /// Input-gear speeds `from:to:points`, rad/s.
+    pub speed: &'a str,
+    /// `up | down | both`.
+    pub direction: &'a str,
+    /// Periodicity tolerance (scaled state residual).
+    pub tolerance: f64,
+    /// Response periods after which a point is given up (kept, marked not converged).
+    pub max_periods: u32,
+    /// Keep Poincaré samples (each mesh's DTE once per mesh period).
+    pub poincare: bool,
+}
+
+impl SweepRequest<'_> {
+    /// Checks the options (messages name the CLI option) and runs the sweep.
+    pub fn run(
+        &self,
+        scene: &AnyScene,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Sweep, String> {
+        let speeds = SweepOptions::parse_range(self.speed)?;
+        let direction = self
+            .direction
+            .parse()
+            .map_err(|e| format!("--direction: {e}"))?;
+        let options = SweepOptions {
+            tolerance: positive("tolerance", self.tolerance)?,
+            max_transient_periods: self.max_periods,
+            poincare: self.poincare,
+            ..SweepOptions::new(speeds, direction)
+        };
+        analysis::sweep(scene, &options, progress)
+    }
+}
+
+/// One branch of a sweep as plot points: mesh `m`'s DTE RMS over its mesh frequency.
+pub fn branch_points(points: &[SweepPoint], d: Direction, m: usize) -> Vec<(f64, f64)> {
+    points
+        .iter()
+        .filter(|p| p.direction == d)
+        .map(|p| (p.meshes[m].mesh_frequency, p.meshes[m].dte_rms))
+        .collect()
+}
+
+/// The SVG `geardyn sweep --plot` draws: each mesh's DTE RMS against its mesh frequency, one
+/// series per mesh and branch that has points.
+pub fn sweep_plot(scene: &AnyScene, sweep: &Sweep) -> String {
+    const COLORS: [(&str, &str); 4] = [
+        ("#c0392b", "#2471a3"),
+        ("#e67e22", "#16a085"),
+        ("#8e44ad", "#2c3e50"),
+        ("#7f8c8d", "#27ae60"),
+    ];
+    let labels: Vec<String> = sweep
+        .prefixes
+        .iter()
+        .flat_map(|p| {
+            let mesh = p.trim_end_matches('_');
+            let sep = if mesh.is_empty() { "" } else { " " };
+            [
+                format!("{mesh}{sep}up sweep"),
+                format!("{mesh}{sep}down sweep"),
+            ]
+        })
+        .collect();
+    let mut series = Vec::new();
+    for m in 0..sweep.prefixes.len() {
+        let (up, down) = COLORS[m % COLORS.len()];
+        for (k, (d, color, dashed)) in [(Direction::Up, up, false), (Direction::Down, down, true)]
+            .into_iter()
+            .enumerate()
+        {
+            let points = branch_points(&sweep.points, d, m);
+            if !points.is_empty() {
+                series.push(Series {
+                    label: &labels[2 * m + k],
+                    color,
+                    points,
+                    dashed,
+                    markers: true,
+                    line: true,
+                });
+            }
+        }
+    }
+    let title = format!("{}: DTE RMS (mean removed)", scene.name());
+    dte_rms_plot(&title, series)
+}
+
+/// A DTE-RMS-over-mesh-frequency plot (the axes of every frequency response).
+pub fn dte_rms_plot(title: &str, series: Vec<Series>) -> String {
+    Plot {
+        title,
+        x_label: "mesh frequency (Hz)",
+        y_label: "DTE RMS (m)",
+        series,
+        bands: Vec::new(),
+        band_label: "",
+    }
+    .to_svg()
+}
+
+/// The lines `geardyn sweep` prints after writing `out`.
+pub fn sweep_summary(scene: &AnyScene, sweep: &Sweep, out: &Path) -> String {
+    let points = &sweep.points;
+    let unconverged = points.iter().filter(|p| !p.converged).count();
+    let aperiodic = points
+        .iter()
+        .filter(|p| p.periodicity == Periodicity::Aperiodic)
+        .count();
+    let mut s = format!(
+        "scene {}: {} points → {}{}\n",
+        scene.name(),
+        points.len(),
+        out.display(),
+        if unconverged > 0 {
+            format!(
+                " ({unconverged} not converged, marked converged = 0; {aperiodic} of them \
+                 aperiodic, marked aperiodic = 1)"
+            )
+        } else {
+            String::new()
+        }
+    );
+    let period_k = points
+        .iter()
+        .filter(|p| p.response_periods.is_some_and(|k| k > 1))
+        .count();
+    if period_k > 0 {
+        let _ = writeln!(s, "  {period_k} points with period-k responses (k > 1)");
+    }
+    s
+}
+
+/// Poincaré samples as rows `(direction, speed, mesh, index, dte)`.
+pub const POINCARE_COLUMNS: [&str; 5] = ["direction", "speed", "mesh", "sample", "dte"];
+
+/// The rows of [`POINCARE_COLUMNS`] of a sweep run with Poincaré samples.
+pub fn poincare_rows(sweep: &Sweep) -> Vec<[f64; 5]> {
+    let mut rows = Vec::new();
+    for p in &sweep.points {
+        let d = if p.direction == Direction::Up {
+            1.0
+        } else {
+            -1.0
+        };
+        for (m, mesh) in p.meshes.iter().enumerate() {
+            for (i, x) in mesh.poincare.iter().enumerate() {
+                rows.push([d, p.speed, (m + 1) as f64, i as f64, *x]);
+            }
+        }
+    }
+    rows
+}
