@@ -9,7 +9,7 @@ use std::f64::consts::TAU;
 
 use common::meissner::{closed_form_monodromy, f_n, meissner, K_MEAN};
 use common::M_E;
-use geardyn::analysis::exact_monodromy;
+use geardyn::analysis::monodromy;
 use geardyn::scene::Scene;
 use geardyn::simulation::Simulation;
 use nalgebra::{Complex, DMatrix};
@@ -52,7 +52,7 @@ fn sorted(mut mu: Vec<Complex<f64>>) -> Vec<Complex<f64>> {
 fn check(f_ratio: f64, zeta: f64, expect_unstable: bool) {
     let f_mesh = f_ratio * f_n();
     let s = meissner(f_mesh, zeta);
-    let floquet = exact_monodromy(&s).expect("monodromy");
+    let floquet = monodromy(&s).expect("monodromy");
 
     // (a) closed form.
     let closed = closed_form_monodromy(f_mesh, zeta);
@@ -124,6 +124,6 @@ fn contact_loss_scene_is_refused() {
         "",
     );
     let s = Scene::from_toml_str(&text, "t").unwrap();
-    let err = exact_monodromy(&s).unwrap_err();
+    let err = monodromy(&s).unwrap_err();
     assert!(err.contains("mesh.contact"), "{err}");
 }

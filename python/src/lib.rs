@@ -95,16 +95,6 @@ impl PyScene {
             Validated::Train(s) => AnyScene::Train(Box::new((**s).clone())),
         }
     }
-
-    fn train(&self, command: &str) -> PyResult<Arc<TrainScene>> {
-        match &self.scene {
-            Validated::Train(s) => Ok(s.clone()),
-            Validated::Pair(_) => Err(err(format!(
-                "{}: `{command}` takes a drivetrain scene (docs/train.md), this is a single mesh",
-                self.origin
-            ))),
-        }
-    }
 }
 
 /// One step of a scene path: a table key, optionally followed by an array index.
@@ -673,7 +663,7 @@ fn modes<'py>(
     scene: &PyScene,
     rigid_bearings: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let s = scene.train("modes")?;
+    let s = scene.any().mean_drivetrain();
     let (result, report) = py.detach(move || {
         let mut report = Vec::new();
         let r = commands::modes::modes(&s, rigid_bearings, &mut report);

@@ -12,19 +12,24 @@
 
 use nalgebra::{Complex, DMatrix};
 
-use crate::model::GearPair;
-use crate::scene::{ContactLaw, Scene};
-use crate::solve::exact::ExactPropagator;
+use super::shooting::PeriodMap;
+use super::LinearPeriodMap;
+use crate::model::{response_period, AnyScene, Drivetrain, GearPair, SceneSource};
+use crate::scene::{ContactLaw, MethodChoice};
+use crate::solve::HybridSystem;
+use crate::with_drivetrain;
 
 /// Monodromy matrix and Floquet multipliers over one mesh period.
 #[derive(Debug, Clone)]
 pub struct Floquet {
-    /// Mesh period `T`, s.
+    /// Response period `T` (the mesh period of a single mesh), s.
     pub period: f64,
-    /// `M = ∂y(T)/∂y(0)` for `y = [x, x']`.
+    /// `M = ∂y(T)/∂y(0)` for the model's state (`[x, x']` of a single pair).
     pub monodromy: DMatrix<f64>,
     /// Eigenvalues of `M`.
     pub multipliers: Vec<Complex<f64>>,
+    /// How `M` was computed.
+    pub method: String,
 }
 
 impl Floquet {
@@ -37,47 +42,76 @@ impl Floquet {
     }
 }
 
-/// The exact monodromy of a scene with a linear contact law and a piecewise-constant mesh
-/// stiffness, at the scene's (constant) pinion speed, starting at mesh phase of `t = 0`.
-pub fn exact_monodromy(scene: &Scene) -> Result<Floquet, String> {
-    if scene.mesh.contact != ContactLaw::Linear {
+/// The monodromy of any linear scene (every mesh with `contact = "linear"`, any number of
+/// meshes and DOF) over one response period (the least common multiple of the mesh periods)
+/// at the scene's constant input speed, from the phases of `t = 0`:
+///
+/// - a single pair with sloped stiffness pieces: the closed form of [`LinearPeriodMap`]
+///   (Peano–Baker series per piece);
+/// - piecewise-constant stiffness: the product of the exact segment transitions;
+/// - otherwise (smooth or sloped stiffness in a drivetrain): the RK variational equations at
+///   the scene's tolerances.
+///
+/// A scene with contact loss or backlash is refused with the reason and the command to use.
+pub fn monodromy(scene: &impl SceneSource) -> Result<Floquet, String> {
+    let scene = scene.to_any();
+    let nonlinear = match &scene {
+        AnyScene::Pair(s) => (s.mesh.contact != ContactLaw::Linear)
+            .then(|| format!("mesh.contact = {:?}", s.mesh.contact)),
+        AnyScene::Train(s) => s
+            .meshes
+            .iter()
+            .enumerate()
+            .find(|(_, m)| m.contact != ContactLaw::Linear)
+            .map(|(n, m)| format!("mesh[{n}].contact = {:?} (mesh '{}')", m.contact, m.name)),
+    };
+    if let Some(field) = nonlinear {
         return Err(format!(
-            "mesh.contact = {:?}: Floquet analysis of the mesh-periodic linear system needs \
-             contact = \"linear\" (contact loss makes the system non-smooth)",
-            scene.mesh.contact
+            "{field}: Floquet analysis of the linear periodic system needs contact = \"linear\" \
+             on every mesh (contact loss makes the system non-smooth); use `geardyn periodic`, \
+             whose multipliers include the saltation matrices of the contact changes"
         ));
     }
-    if !(scene.operating.pinion_speed > 0.0) {
+    if !(scene.input_speed() > 0.0) {
         return Err(format!(
-            "operating.pinion_speed = {}: a mesh period needs a positive speed",
-            scene.operating.pinion_speed
+            "input speed {} rad/s: a period needs a positive speed",
+            scene.input_speed()
         ));
     }
-    let mut pair = GearPair::new(scene);
-    if !pair.is_piecewise_lti() {
-        return Err(
-            "mesh.stiffness: the exact monodromy needs a piecewise-constant stiffness \
-             (constant or rectangular); for piecewise-linear stiffness (trapezoidal, table, \
-             helical) use LinearPeriodMap (`geardyn floquet`)"
-                .into(),
-        );
+    if let AnyScene::Pair(s) = &scene {
+        let pair = GearPair::new(s);
+        if !pair.is_piecewise_lti()
+            && s.mesh.smooth.is_zero()
+            && s.mesh.stiffness.pieces().is_some()
+        {
+            let map = LinearPeriodMap::new(s)?;
+            return Ok(Floquet {
+                method: "closed form (Peano–Baker per stiffness piece)".into(),
+                ..map.floquet()
+            });
+        }
     }
-    let period = pair.mesh_period();
-    let y0 = pair.initial_state(scene);
-    let mut propagator = ExactPropagator::new(&pair);
-    propagator.set_state(0.0, &y0);
-    propagator.track_sensitivity(true);
-    propagator
-        .advance_to(&mut pair, period)
-        .map_err(|e| format!("monodromy: {e}"))?;
-    let monodromy = propagator
-        .sensitivity()
-        .expect("tracking was switched on")
-        .clone();
-    let multipliers = monodromy.complex_eigenvalues().iter().copied().collect();
-    Ok(Floquet {
-        period,
-        monodromy,
-        multipliers,
+    with_drivetrain!(scene.simulation()?, sim => {
+        let model = sim.model().clone();
+        if !model.is_linear() {
+            return Err("the mesh force has cubic terms: Floquet analysis needs a linear system; \
+                        use `geardyn periodic`".into());
+        }
+        let period = response_period(&model)?;
+        let exact = model.is_piecewise_lti() && scene.solver().method != MethodChoice::Rk;
+        let y0 = vec![0.0; model.dim()];
+        let mut map = PeriodMap::new(model, scene.solver(), period)?;
+        let (_, monodromy) = map.eval(&y0)?;
+        let multipliers = monodromy.complex_eigenvalues().iter().copied().collect();
+        Ok(Floquet {
+            period,
+            monodromy,
+            multipliers,
+            method: if exact {
+                "exact segment transitions".into()
+            } else {
+                format!("RK variational equations (rtol {:e})", scene.solver().rtol)
+            },
+        })
     })
 }

@@ -241,6 +241,7 @@ impl LinearPeriodMap {
             period: self.period,
             monodromy,
             multipliers,
+            method: "closed form (Peano–Baker per stiffness piece)".into(),
         }
     }
 }

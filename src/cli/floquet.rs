@@ -1,16 +1,17 @@
-//! `geardyn floquet` and `geardyn band`: closed-form monodromy of a linear single-mesh scene
-//! with piecewise-linear stiffness, and its parametric instability bands over speed
-//! (`docs/helical.md`).
+//! `geardyn floquet` and `geardyn band`: the monodromy of any linear scene (closed form for a
+//! single pair with piecewise-linear stiffness, `docs/helical.md`; exact segment transitions or
+//! RK variational equations for a drivetrain), and its parametric instability bands over
+//! speed.
 
 use std::path::PathBuf;
 
 use clap::Args;
 
 use geardyn::analysis::band::{from_rpm, mean_natural_frequency, rpm};
-use geardyn::analysis::{instability_bands, LinearPeriodMap};
-use geardyn::scene::Scene;
+use geardyn::analysis::{instability_bands, monodromy, LinearPeriodMap};
+use geardyn::model::AnyScene;
 
-use super::{load_scene, positive};
+use super::{load_any_scene, positive};
 
 #[derive(Args)]
 pub struct FloquetArgs {
@@ -20,7 +21,8 @@ pub struct FloquetArgs {
     /// A built-in example scene instead of a file (e.g. `helical_pair_friction`).
     #[arg(long)]
     example: Option<String>,
-    /// Pinion speed, rpm (default: the scene's `operating.pinion_speed`).
+    /// Input-gear speed, rpm (default: the scene's `operating.pinion_speed` or
+    /// `operating.input_speed`).
     #[arg(long, allow_negative_numbers = true)]
     rpm: Option<f64>,
     /// Friction coefficient μ of a `helical` stiffness (default: the scene's).
@@ -39,10 +41,10 @@ pub struct BandArgs {
     /// A built-in example scene instead of a file.
     #[arg(long)]
     example: Option<String>,
-    /// Lower end of the scanned pinion speed, rpm.
+    /// Lower end of the scanned input-gear speed, rpm.
     #[arg(long)]
     from_rpm: f64,
-    /// Upper end of the scanned pinion speed, rpm.
+    /// Upper end of the scanned input-gear speed, rpm.
     #[arg(long)]
     to_rpm: f64,
     /// Scan points (band edges are then bisected); narrower bands than the spacing are missed.
@@ -57,21 +59,35 @@ fn scene_with(
     path: &Option<PathBuf>,
     example: &Option<String>,
     mu: Option<f64>,
-) -> Result<Scene, String> {
-    let scene = load_scene(path, example)?;
-    match mu {
-        Some(mu) => scene
+) -> Result<AnyScene, String> {
+    let scene = load_any_scene(path, example)?;
+    match (mu, scene) {
+        (Some(mu), AnyScene::Pair(s)) => s
             .with_friction_coefficient(mu)
+            .map(|s| AnyScene::Pair(Box::new(s)))
             .map_err(|e| format!("--mu {mu}: {e}")),
-        None => Ok(scene),
+        (Some(mu), AnyScene::Train(s)) => Err(format!(
+            "--mu {mu}: scene {} is a drivetrain; its tooth friction is set per mesh in \
+             [mesh.friction] (docs/train.md)",
+            s.name
+        )),
+        (None, scene) => Ok(scene),
     }
 }
 
 pub fn floquet(args: FloquetArgs) -> Result<(), String> {
     let mut scene = scene_with(&args.scene, &args.example, args.mu)?;
     if let Some(r) = args.rpm {
-        scene.operating.pinion_speed = from_rpm(positive("rpm", r)?);
+        scene.set_input_speed(from_rpm(positive("rpm", r)?));
     }
+    let floquet = monodromy(&scene)?;
+    let closed_form = match &scene {
+        AnyScene::Pair(s) if floquet.method.starts_with("closed form") => Some(s.clone()),
+        _ => None,
+    };
+    let Some(scene) = closed_form else {
+        return floquet_report(&scene, &floquet, args.json);
+    };
     let map = LinearPeriodMap::new(&scene)?;
     let floquet = map.floquet();
     let phi = &floquet.monodromy;
@@ -171,26 +187,95 @@ pub fn band(args: BandArgs) -> Result<(), String> {
     let bands = instability_bands(&scene, from_rpm(from), from_rpm(to), args.points)?;
     let f_n = mean_natural_frequency(&scene);
     println!(
-        "scene {}: instability bands between {from} and {to} rpm ({} scan points; mean f_n = {:.3} Hz)",
-        scene.name, args.points, f_n
+        "scene {}: instability bands between {from} and {to} rpm ({} scan points{})",
+        scene.name(),
+        args.points,
+        f_n.map_or(String::new(), |f| format!("; mean f_n = {f:.3} Hz"))
     );
     if bands.is_empty() {
         println!("  none found (stable over the scanned speeds)");
     }
+    let mesh_frequency = |speed: f64| {
+        let mut at = scene.clone();
+        at.set_input_speed(speed);
+        Ok::<f64, String>(geardyn::with_drivetrain!(at.simulation()?, sim => {
+            use geardyn::model::Drivetrain;
+            sim.model().mesh_frequency(0)
+        }))
+    };
     for b in &bands {
-        let kind = if b.order == 1 {
-            "primary".to_owned()
-        } else {
-            format!("order {}", b.order)
+        let (f_from, f_to) = (mesh_frequency(b.from_speed)?, mesh_frequency(b.to_speed)?);
+        let detail = match (b.order, f_n) {
+            (Some(1), Some(f_n)) => format!(
+                "primary; f_mesh/f_n {:.4} – {:.4}",
+                f_from / f_n,
+                f_to / f_n
+            ),
+            (Some(order), Some(f_n)) => {
+                format!(
+                    "order {order}; f_mesh/f_n {:.4} – {:.4}",
+                    f_from / f_n,
+                    f_to / f_n
+                )
+            }
+            _ => format!("mesh-1 frequency {f_from:.3} – {f_to:.3} Hz"),
         };
         println!(
-            "  unstable {:.3} – {:.3} rpm  ({kind}; f_mesh/f_n {:.4} – {:.4}; max |μ| {:.6})",
+            "  unstable {:.3} – {:.3} rpm  ({detail}; max |μ| {:.6})",
             rpm(b.from_speed),
             rpm(b.to_speed),
-            scene.pinion.teeth as f64 * b.from_speed / std::f64::consts::TAU / f_n,
-            scene.pinion.teeth as f64 * b.to_speed / std::f64::consts::TAU / f_n,
             b.peak_spectral_radius
         );
     }
+    Ok(())
+}
+
+/// The report of a monodromy that is not the single pair's closed form: method, period,
+/// multipliers and stability.
+fn floquet_report(
+    scene: &AnyScene,
+    floquet: &geardyn::analysis::Floquet,
+    json: bool,
+) -> Result<(), String> {
+    let speed_rpm = rpm(scene.input_speed());
+    let rho = floquet.spectral_radius();
+    if json {
+        let multipliers: Vec<String> = floquet
+            .multipliers
+            .iter()
+            .map(|m| format!("[{:e}, {:e}]", m.re, m.im))
+            .collect();
+        println!(
+            "{{\"scene\": {:?}, \"rpm\": {:e}, \"period\": {:e}, \"method\": {:?}, \
+             \"spectral_radius\": {:e}, \"multipliers\": [{}]}}",
+            scene.name(),
+            speed_rpm,
+            floquet.period,
+            floquet.method,
+            rho,
+            multipliers.join(", ")
+        );
+        return Ok(());
+    }
+    println!(
+        "scene {}: monodromy at {speed_rpm:.6} rpm over one response period T = {:.6e} s \
+         ({} states; {})",
+        scene.name(),
+        floquet.period,
+        floquet.monodromy.nrows(),
+        floquet.method
+    );
+    for m in &floquet.multipliers {
+        println!(
+            "  multiplier {:+.12} {:+.12}i  |μ| = {:.12}",
+            m.re,
+            m.im,
+            m.norm()
+        );
+    }
+    println!(
+        "  spectral radius {rho:.12}: {}",
+        if rho < 1.0 { "stable" } else { "unstable" }
+    );
     Ok(())
 }

@@ -279,6 +279,15 @@ impl AnyScene {
         }
     }
 
+    /// The scene as a drivetrain description: itself, or a single pair as its one-mesh
+    /// drivetrain ([`TrainScene::from_pair`]) for the mean-system analyses (modes, statics).
+    pub fn mean_drivetrain(&self) -> TrainScene {
+        match self {
+            AnyScene::Pair(s) => TrainScene::from_pair(s),
+            AnyScene::Train(s) => (**s).clone(),
+        }
+    }
+
     /// Assembles the scene's kernel and starts it at `t = 0` from the scene's initial state.
     pub fn simulation(&self) -> Result<AnySimulation, String> {
         Ok(match self {

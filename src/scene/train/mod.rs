@@ -509,3 +509,64 @@ pub fn is_train_text(text: &str) -> bool {
         Err(_) => false,
     }
 }
+
+impl TrainScene {
+    /// The single-mesh scene of `docs/model.md` as a one-mesh drivetrain: two rotating gears
+    /// on rigid supports and one lumped mesh with the scene's stiffness, STE, contact law and
+    /// damping. This is the drivetrain the single-pair kernel ([`crate::model::GearPair`])
+    /// computes in its DTE coordinate. Terms only that kernel carries (Bugaru's cubic springs,
+    /// damping variation and torque ripple, He & Singh's sliding friction) are not part of
+    /// it: callers that need the complete pair (simulation, steady states) use the pair
+    /// kernel; this form serves the mean-system analyses (modes, statics).
+    pub fn from_pair(scene: &crate::scene::Scene) -> TrainScene {
+        let gear = |g: &crate::scene::Gear| TrainGear {
+            name: g.name.clone(),
+            teeth: g.teeth,
+            base_radius: g.base_radius,
+            inertia: g.inertia,
+            mass: None,
+            bearing: None,
+            ground_stiffness: 0.0,
+            ground_damping: 0.0,
+        };
+        let ratio = scene.pinion.teeth as f64 / scene.gear.teeth as f64;
+        TrainScene {
+            name: scene.name.clone(),
+            description: scene.description.clone(),
+            gears: vec![gear(&scene.pinion), gear(&scene.gear)],
+            shafts: Vec::new(),
+            meshes: vec![TrainMesh {
+                name: "mesh".into(),
+                pinion: 0,
+                gear: 1,
+                contact: scene.mesh.contact,
+                damping: scene.mesh.damping,
+                initial_phase: scene.mesh.initial_phase,
+                phase: 0.0,
+                pressure_angle: 0.0,
+                centre_angle: 0.0,
+                force: MeshForceModel::Lumped {
+                    stiffness: scene.mesh.stiffness.clone(),
+                    ste: scene.mesh.ste.clone(),
+                },
+                friction: None,
+                helical: None,
+                cycles_per_input_rev: scene.pinion.teeth as f64,
+            }],
+            modal_damping_ratio: 0.0,
+            input_gear: 0,
+            output_gear: 1,
+            speed_ratio: vec![1.0, ratio],
+            rotation: vec![1.0, -1.0],
+            operating: TrainOperating {
+                input_speed: scene.operating.pinion_speed,
+                input_torque: scene.operating.input_torque,
+                load_torque: scene.operating.load_torque,
+            },
+            initial_dte: scene.initial_dte,
+            initial_dte_rate: scene.initial_dte_rate,
+            solver: scene.solver.clone(),
+            source: scene.source.clone(),
+        }
+    }
+}
