@@ -103,6 +103,8 @@ impl PeriodicOrbit {
 pub struct PeriodMap<M: Drivetrain> {
     model: M,
     propagator: MapPropagator,
+    /// The map runs from `start` to `start + duration`.
+    start: f64,
     duration: f64,
 }
 
@@ -132,8 +134,15 @@ impl<M: Drivetrain> PeriodMap<M> {
         Ok(PeriodMap {
             model,
             propagator,
+            start: 0.0,
             duration,
         })
+    }
+
+    /// The same map starting at time `start` (a sweep shoots from where its run stands).
+    pub fn starting_at(mut self, start: f64) -> Self {
+        self.start = start;
+        self
     }
 
     pub fn duration(&self) -> f64 {
@@ -146,24 +155,25 @@ impl<M: Drivetrain> PeriodMap<M> {
 
     /// `P(y0)` and `∂P/∂y0`.
     pub fn eval(&mut self, y0: &[f64]) -> Result<(DVector<f64>, DMatrix<f64>), String> {
-        self.model.resynchronise(0.0, y0);
+        let (t0, t1) = (self.start, self.start + self.duration);
+        self.model.resynchronise(t0, y0);
         match &mut self.propagator {
             MapPropagator::Exact(p) => {
                 p.invalidate();
-                p.set_state(0.0, y0);
+                p.set_state(t0, y0);
                 p.track_sensitivity(true);
-                p.advance_to(&mut self.model, self.duration)
+                p.advance_to(&mut self.model, t1)
                     .map_err(|e| format!("period map: {e}"))?;
                 let y = DVector::from_column_slice(p.y());
                 Ok((y, p.sensitivity().expect("tracking is on").clone()))
             }
             MapPropagator::Rk(options) => {
-                let mut system = Variational::new(&mut self.model, 0.0, y0)?;
+                let mut system = Variational::new(&mut self.model, t0, y0)?;
                 let z0 = system.initial_state(y0);
                 let mut stepper = RkStepper::new(options.clone(), z0.len())?;
-                stepper.set_state(0.0, &z0);
+                stepper.set_state(t0, &z0);
                 stepper
-                    .advance_to(&mut system, self.duration)
+                    .advance_to(&mut system, t1)
                     .map_err(|e| format!("period map: {e}"))?;
                 if let Some(failure) = system.failure.take() {
                     return Err(format!("period map: {failure}"));

@@ -15,8 +15,9 @@
 
 use std::f64::consts::TAU;
 
-use super::shooting::state_scale;
+use super::shooting::{newton, state_scale, PeriodMap, ShootingOptions};
 use crate::model::{response_period, Drivetrain, SceneSource};
+use crate::scene::SolverSettings;
 use crate::simulation::Driver;
 use crate::with_drivetrain;
 
@@ -65,6 +66,10 @@ pub struct SweepOptions {
     /// Keep each mesh's DTE at the start of every mesh period of the recording (Poincaré
     /// section of the first mesh).
     pub poincare: bool,
+    /// Try Newton shooting from the previous point's state first (exact monodromy): a stable
+    /// period-1 orbit found so is the steady state, with no transient to integrate. Off, or
+    /// when Newton fails or finds an unstable orbit, the transient is integrated.
+    pub shooting: bool,
 }
 
 impl SweepOptions {
@@ -79,6 +84,7 @@ impl SweepOptions {
             record_periods: 8,
             samples_per_period: 64,
             poincare: false,
+            shooting: true,
         }
     }
 
@@ -206,14 +212,19 @@ pub struct SweepPoint {
     pub response_periods: Option<u32>,
     /// Periodicity residual at the end of the transient.
     pub residual: f64,
-    /// Response periods integrated as transient.
+    /// Response periods integrated as transient (0 when Newton shooting found the orbit).
     pub transient_periods: u32,
+    /// Newton iterations of the shooting warm start (0 when not used or not converged).
+    pub newton_iterations: u32,
+    /// Largest Floquet multiplier modulus of the last periodic orbit shooting found at this
+    /// speed (above 1: the orbit exists but is unstable); NaN when shooting found none.
+    pub spectral_radius: f64,
     /// One entry per mesh.
     pub meshes: Vec<MeshResponse>,
 }
 
 /// Columns shared by every scene; then per mesh [`MESH_COLUMNS`], prefixed.
-pub const POINT_COLUMNS: [&str; 8] = [
+pub const POINT_COLUMNS: [&str; 9] = [
     "direction",
     "speed",
     "mesh_frequency",
@@ -222,6 +233,7 @@ pub const POINT_COLUMNS: [&str; 8] = [
     "residual",
     "transient_periods",
     "aperiodic",
+    "spectral_radius",
 ];
 
 /// Per-mesh columns of a sweep (after the mesh's prefix).
@@ -271,6 +283,7 @@ impl SweepPoint {
             self.residual,
             self.transient_periods as f64,
             f64::from(u8::from(self.periodicity == Periodicity::Aperiodic)),
+            self.spectral_radius,
         ];
         for m in &self.meshes {
             row.extend([
@@ -338,7 +351,7 @@ pub fn sweep(
         at.set_input_speed(start(d));
         with_drivetrain!(at.simulation()?, sim => {
             let prefixes = (0..sim.model().mesh_count()).map(|n| sim.model().mesh_prefix(n)).collect();
-            let points = branch(sim, options, d, &tick)?;
+            let points = branch(sim, at.solver(), options, d, &tick)?;
             Ok(Sweep { prefixes, points })
         })
     };
@@ -359,6 +372,7 @@ pub fn sweep(
 
 fn branch<M: Drivetrain>(
     mut sim: Driver<M>,
+    settings: &SolverSettings,
     options: &SweepOptions,
     direction: Direction,
     tick: &(dyn Fn() + Sync),
@@ -371,7 +385,7 @@ fn branch<M: Drivetrain>(
     for &speed in &speeds {
         sim.change_model(|model, t| model.set_input_speed(t, speed))
             .map_err(|e| format!("speed {speed} rad/s: {e}"))?;
-        points.push(steady_state(&mut sim, options, direction, speed)?);
+        points.push(steady_state(&mut sim, settings, options, direction, speed)?);
         tick();
     }
     Ok(points)
@@ -384,6 +398,7 @@ const STALL_WINDOW: u32 = 200;
 /// Integrates to the periodic steady state at the current inputs and records its statistics.
 fn steady_state<M: Drivetrain>(
     sim: &mut Driver<M>,
+    settings: &SolverSettings,
     options: &SweepOptions,
     direction: Direction,
     speed: f64,
@@ -391,6 +406,12 @@ fn steady_state<M: Drivetrain>(
     let at = |e: String| format!("speed {speed} rad/s: {e}");
     let period = response_period(sim.model()).map_err(at)?;
     let scale = state_scale(sim.model(), sim.y());
+    let mut spectral_radius = f64::NAN;
+    let newton_iterations = if options.shooting {
+        shoot_here(sim, settings, options, period, 1, &mut spectral_radius)
+    } else {
+        0
+    };
     let kmax = options.max_subharmonic as usize;
     let mut history: Vec<Vec<f64>> = vec![sim.y().to_vec()];
     let t0 = sim.t();
@@ -401,10 +422,25 @@ fn steady_state<M: Drivetrain>(
     let (mut window_best, mut previous_best) = (f64::INFINITY, f64::INFINITY);
     let mut stalled = false;
     let mut j = 0u32;
-    while j < options.max_transient_periods {
+    if newton_iterations > 0 {
+        found = Some(1);
+        residual = 0.0;
+    }
+    while found.is_none() && j < options.max_transient_periods {
         j += 1;
         sim.advance_to(t0 + j as f64 * period)
             .map_err(|e| at(e.to_string()))?;
+        if options.shooting && j % NEWTON_RETRY == 0 {
+            // Period 1, then period 2 (the period-doubled orbits near the second-harmonic
+            // and subharmonic resonances).
+            let k = (1..=2u32.min(options.max_subharmonic))
+                .find(|&k| shoot_here(sim, settings, options, period, k, &mut spectral_radius) > 0);
+            if let Some(k) = k {
+                found = Some(k);
+                residual = 0.0;
+                break;
+            }
+        }
         history.push(sim.y().to_vec());
         if history.len() > kmax + 1 {
             history.remove(0);
@@ -458,7 +494,13 @@ fn steady_state<M: Drivetrain>(
         None => Periodicity::Unsettled,
     };
     let k = found.unwrap_or(1);
-    let record = options.record_periods.div_ceil(k) * k;
+    // A periodic response is recorded over one period exactly; anything else over
+    // `record_periods`.
+    let record = if found.is_some() {
+        k
+    } else {
+        options.record_periods
+    };
     let model = sim.model();
     let meshes = model.mesh_count();
     let f1 = model.mesh_frequency(0);
@@ -550,6 +592,52 @@ fn steady_state<M: Drivetrain>(
         response_periods: found,
         residual,
         transient_periods: j,
+        newton_iterations,
+        spectral_radius,
         meshes: mesh_responses,
     })
+}
+
+/// Response periods of transient between two more shooting attempts: a transient that has
+/// settled into the basin of a stable orbit is finished by Newton.
+const NEWTON_RETRY: u32 = 50;
+
+/// Newton iterations allowed to the shooting warm start before the transient is integrated.
+const NEWTON_ITERATIONS: usize = 8;
+
+/// Newton shooting for a period-`k` orbit from the run's current state over `k` response
+/// periods; on a stable orbit the run restarts on it and the iterations used are returned, else
+/// 0 and the run is unchanged. The spectral radius of any orbit found (stable or not) is kept
+/// in `spectral_radius`: an unstable orbit there explains a response that does not settle.
+fn shoot_here<M: Drivetrain>(
+    sim: &mut Driver<M>,
+    settings: &SolverSettings,
+    options: &SweepOptions,
+    period: f64,
+    k: u32,
+    spectral_radius: &mut f64,
+) -> u32 {
+    let t = sim.t();
+    let Ok(map) = PeriodMap::new(sim.model().clone(), settings, period * k as f64) else {
+        return 0;
+    };
+    let mut map = map.starting_at(t);
+    let shooting = ShootingOptions {
+        periods: k,
+        warmup_periods: 0,
+        tolerance: options.tolerance,
+        max_iterations: NEWTON_ITERATIONS,
+    };
+    match newton(&mut map, sim.y().to_vec(), &shooting) {
+        Ok(orbit) => {
+            *spectral_radius = orbit.spectral_radius();
+            if orbit.spectral_radius() < 1.0 {
+                sim.set_y(t, &orbit.y0);
+                (orbit.residuals.len() as u32).max(1)
+            } else {
+                0
+            }
+        }
+        Err(_) => 0,
+    }
 }
