@@ -1,6 +1,6 @@
 //! A drivetrain as an FMI co-simulation model: adapts [`TrainSimulation`] to [`CoSimModel`],
-//! with the structure of the single-mesh adapter [`crate::fmu_model`] (shared pieces in
-//! [`crate::fmu_common`]). The FMI layer (`src/fmi/`) knows no gear physics.
+//! with the structure of the single-mesh adapter [`crate::fmu::pair`] (shared pieces in
+//! [`crate::fmu::checks`]). The FMI layer (`src/fmi/`) knows no gear physics.
 //!
 //! Time: the scene's `t = 0` is the experiment's `startTime` (FMI 2.0.x §2.1.6), so the model
 //! integrates in local time `τ = t − startTime`.
@@ -19,7 +19,7 @@ mod state;
 mod variables;
 
 use crate::fmi::model::{CoSimModel, Lifecycle, ModelInfo, StepFailure, Variable};
-use crate::fmu_common::{
+use crate::fmu::checks::{
     check, check_initial_outputs, check_snapshot_values, model_info, name_of, settable_reals,
 };
 use crate::model::train::{TrainInputs, TrainSimulation};
@@ -283,7 +283,7 @@ impl CoSimModel for TrainModel {
     /// The outputs are refreshed also after a failed step: they then show the last good
     /// state the propagator holds.
     fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure> {
-        let result = crate::fmu_common::do_step(&mut self.sim, self.lifecycle.start_time, t, h);
+        let result = crate::fmu::checks::do_step(&mut self.sim, self.lifecycle.start_time, t, h);
         self.refresh();
         result
     }

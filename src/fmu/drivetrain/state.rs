@@ -12,7 +12,7 @@
 //! previous error, `u32` non-finite trials.
 
 use crate::fmi::bytes::{put_f64s, Reader};
-use crate::fmu_payload::{
+use crate::fmu::payload::{
     controller_bits, put_controller, put_params, read_controller, read_params,
 };
 use crate::model::train::{MeshRunState, SlotContact, TrainInputs, TrainRunState, TrainSimState};
@@ -204,7 +204,7 @@ mod tests {
 
     #[test]
     fn round_trip_both_propagators() {
-        for c in crate::fmu_payload::sample_controllers() {
+        for c in crate::fmu::payload::sample_controllers() {
             let s = sample(c);
             assert_eq!(decode(&encode(&s)).unwrap(), s);
         }
@@ -213,7 +213,7 @@ mod tests {
     #[test]
     fn malformed_payloads_are_rejected() {
         let b = encode(&sample(None));
-        crate::fmu_payload::assert_truncation_and_trailing_rejected(&b, decode);
+        crate::fmu::payload::assert_truncation_and_trailing_rejected(&b, decode);
         let mut version = b.clone();
         version[4] = 2;
         assert!(decode(&version).unwrap_err().contains("version 2"));
@@ -224,8 +224,8 @@ mod tests {
 
     #[test]
     fn a_single_mesh_payload_is_not_a_drivetrain_state() {
-        // Oracle: the single-mesh layout (crate::fmu_state) written by its own encoder.
-        let single = crate::fmu_state::encode(&crate::fmu_state::ModelSnapshot {
+        // Oracle: the single-mesh layout (`crate::fmu::pair`) written by its own encoder.
+        let single = crate::fmu::pair::encode(&crate::fmu::pair::ModelSnapshot {
             params: vec![(0, 0.002621)],
             static_dte: true,
             initial_dte: 0.0,
@@ -251,6 +251,6 @@ mod tests {
         let e = decode(&single).unwrap_err();
         assert!(e.contains("not a drivetrain state"), "{e}");
         // And the other way round: the single-mesh reader refuses a drivetrain payload.
-        assert!(crate::fmu_state::decode(&encode(&sample(None))).is_err());
+        assert!(crate::fmu::pair::decode(&encode(&sample(None))).is_err());
     }
 }

@@ -7,8 +7,8 @@ use std::path::Path;
 
 use crate::fmi::blob;
 use crate::fmi::model::{CoSimModel, LoadedModel};
-use crate::fmu_model::GearModel;
-use crate::fmu_train::TrainModel;
+use crate::fmu::drivetrain::TrainModel;
+use crate::fmu::pair::GearModel;
 use crate::scene::train::{is_train_text, TrainScene};
 use crate::scene::Scene;
 

@@ -1,5 +1,5 @@
-//! The pieces the two model payload layouts ([`crate::fmu_state`] for a pair,
-//! [`crate::fmu_train::state`] for a drivetrain) write the same way: the parameter list and
+//! The pieces the two model payload layouts ([`crate::fmu::pair`]'s `state.rs` for a
+//! pair, [`crate::fmu::drivetrain`]'s for a drivetrain) write the same way: the parameter list and
 //! the RK controller memory of [`crate::simulation::Driver`]. Each layout places them itself
 //! (its own flag byte, its own order), so only the encoding is shared and both layouts stay
 //! byte-for-byte what they were.

@@ -10,7 +10,7 @@
 //! previous error, `u32` non-finite trials.
 
 use crate::fmi::bytes::Reader;
-use crate::fmu_payload::{
+use crate::fmu::payload::{
     controller_bits, put_controller, put_params, read_controller, read_params,
 };
 use crate::model::{ContactState, Inputs, PairState, PhaseClock};
@@ -143,7 +143,7 @@ mod tests {
 
     #[test]
     fn round_trip_both_propagators() {
-        for c in crate::fmu_payload::sample_controllers() {
+        for c in crate::fmu::payload::sample_controllers() {
             let s = sample(c);
             assert_eq!(decode(&encode(&s)).unwrap(), s);
         }
@@ -152,7 +152,7 @@ mod tests {
     #[test]
     fn malformed_payloads_are_rejected() {
         let b = encode(&sample(None));
-        crate::fmu_payload::assert_truncation_and_trailing_rejected(&b, decode);
+        crate::fmu::payload::assert_truncation_and_trailing_rejected(&b, decode);
         let mut huge = b;
         huge[..4].copy_from_slice(&u32::MAX.to_le_bytes());
         assert!(decode(&huge).unwrap_err().contains("parameters"));

@@ -17,19 +17,20 @@
 //! outputs read in initialization mode are consistent.
 
 mod documentation;
+mod state;
 mod variables;
 
 use crate::fmi::model::{CoSimModel, Lifecycle, ModelInfo, StepFailure, Variable};
-use crate::fmu_common::{
+use crate::fmu::checks::{
     check, check_initial_outputs, check_snapshot_values, model_info, name_of, settable_reals,
 };
-use crate::fmu_state::ModelSnapshot;
 use crate::model::Inputs;
 use crate::scene::{ContactLaw, InitialDte, Scene};
 use crate::simulation::Simulation;
 use std::cell::OnceCell;
 
 use documentation::DOCUMENTATION;
+pub use state::{decode, encode, ModelSnapshot};
 use variables::variables;
 pub use variables::*;
 
@@ -368,7 +369,7 @@ impl CoSimModel for GearModel {
 
     fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure> {
         let start_time = self.lifecycle.start_time;
-        crate::fmu_common::do_step(self.sim_mut(), start_time, t, h)
+        crate::fmu::checks::do_step(self.sim_mut(), start_time, t, h)
     }
 
     fn reset(&mut self) -> Result<(), String> {
@@ -389,11 +390,11 @@ impl CoSimModel for GearModel {
 
     fn save_state(&mut self) -> Vec<u8> {
         self.sim.forget_recurrences();
-        crate::fmu_state::encode(&self.snapshot())
+        encode(&self.snapshot())
     }
 
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
-        self.restore(&crate::fmu_state::decode(bytes)?)
+        self.restore(&decode(bytes)?)
     }
 }
 

@@ -1,4 +1,4 @@
-//! Pieces both gear adapters ([`crate::fmu_model`], [`crate::fmu_train`]) share: parameter
+//! Pieces both gear adapters ([`crate::fmu::pair`], [`crate::fmu::drivetrain`]) share: parameter
 //! checks whose messages name the FMU variable and the value, variable constructors and
 //! lookups in a variable table (FMI 2.0.x §2.2.7), and the step through the shared
 //! [`Driver`]. Physics-free.

@@ -3,7 +3,7 @@
 //! the C ABI and the generated `modelDescription.xml`.
 
 use crate::fmi::model::{Causality as C, Initial, VarKind, Variability as V, Variable};
-use crate::fmu_common::{input, param};
+use crate::fmu::checks::{input, param};
 use crate::scene::{ContactLaw, InitialDte, Scene};
 use crate::simulation::Simulation;
 

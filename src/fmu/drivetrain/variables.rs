@@ -5,7 +5,7 @@
 //! have the same names.
 
 use crate::fmi::model::{Causality as C, Initial, VarKind, Variability as V, Variable};
-use crate::fmu_common::{input, param};
+use crate::fmu::checks::{input, param};
 use crate::scene::train::{MeshForceModel, PairModel, TrainScene};
 
 // Value references: stable per meaning, grouped by causality; per-gear and per-mesh blocks
