@@ -11,12 +11,7 @@
 pub mod analysis;
 pub mod commands;
 pub mod fmi;
-pub mod fmu_common;
-pub mod fmu_entry;
-pub mod fmu_model;
-pub mod fmu_payload;
-pub mod fmu_state;
-pub mod fmu_train;
+pub mod fmu;
 pub mod host;
 pub mod mesh;
 pub mod model;

@@ -11,7 +11,7 @@ use std::ptr::{null, null_mut};
 
 use geardyn::fmi::abi::*;
 use geardyn::fmi::logger::{CallbackFunctions, Status};
-use geardyn::fmu_model::*;
+use geardyn::fmu::pair::*;
 use geardyn::scene::Scene;
 use geardyn::simulation::Simulation;
 

@@ -237,7 +237,7 @@ impl Target {
         std::fs::create_dir_all(&bin).unwrap();
         std::os::unix::fs::symlink(cdylib(), bin.join(format!("{name}.so"))).unwrap();
         let lib = FmuLibrary::load(dir.path(), name).unwrap();
-        let loaded = geardyn::fmu_entry::load_scene(&scene_dir(name).join("scene.toml")).unwrap();
+        let loaded = geardyn::fmu::entry::load_scene(&scene_dir(name).join("scene.toml")).unwrap();
         let vars = loaded.model.variables();
         let of = |kind: VarKind| -> Vec<u32> {
             vars.iter()

@@ -11,8 +11,8 @@ use std::time::Duration;
 use fmu_harness::{within, Fmu, SplitMix, DISCARD, ERR, OK};
 use geardyn::fmi::blob;
 use geardyn::fmi::logger::Status;
-use geardyn::fmu_model::*;
-use geardyn::fmu_state::{decode, encode};
+use geardyn::fmu::pair::state::{decode, encode};
+use geardyn::fmu::pair::*;
 use geardyn::scene::Scene;
 use geardyn::simulation::Simulation;
 use geardyn::solve::SolveError;
@@ -94,7 +94,10 @@ fn a_phase_beyond_its_resolution_is_refused_where_it_is_set() {
     // The drivetrain's phase parameter goes through the same check.
     within(LIMIT, "train initial phase", || {
         let f = Fmu::new("idler_gearset");
-        assert_eq!(f.set(geardyn::fmu_train::VR_INITIAL_PHASE, 9.1e15), ERR);
+        assert_eq!(
+            f.set(geardyn::fmu::drivetrain::VR_INITIAL_PHASE, 9.1e15),
+            ERR
+        );
         assert!(f.messages().contains("9100000000000000.0"));
     });
 }
@@ -178,7 +181,7 @@ fn input_speeds_beyond_the_work_bound_are_refused_naming_the_speed() {
     });
     within(LIMIT, "train input speed", || {
         let f = Fmu::ready("idler_gearset");
-        assert_eq!(f.set(geardyn::fmu_train::VR_INPUT_SPEED, 1e11), OK);
+        assert_eq!(f.set(geardyn::fmu::drivetrain::VR_INPUT_SPEED, 1e11), OK);
         assert_eq!(f.step(0.0, 2e-4), DISCARD);
         let log = f.messages();
         assert!(

@@ -1,4 +1,4 @@
-//! The drivetrain FMU (`src/fmu_train`) and the snapshot/restore of `TrainSimulation` it
+//! The drivetrain FMU (`src/fmu/drivetrain`) and the snapshot/restore of `TrainSimulation` it
 //! rests on, on the shipped `idler_gearset` and `countershaft_gearset` scenes.
 //!
 //! Oracles: the uninterrupted native run (`TrainSimulation`) for values and for continuation
@@ -14,7 +14,7 @@ use geardyn::fmi::blob::{self, LayerSnapshot};
 use geardyn::fmi::logger::{CallbackFunctions, Status};
 use geardyn::fmi::model::VarKind;
 use geardyn::fmi::state::FmuState;
-use geardyn::fmu_train::{VR_GEAR_INERTIA0, VR_INPUT_SPEED, VR_INPUT_TORQUE, VR_OUTPUT0};
+use geardyn::fmu::drivetrain::{VR_GEAR_INERTIA0, VR_INPUT_SPEED, VR_INPUT_TORQUE, VR_OUTPUT0};
 use geardyn::model::train::{SlotContact, TrainInputs, TrainSimulation};
 use geardyn::scene::train::TrainScene;
 use geardyn::scene::MethodChoice;
@@ -253,7 +253,7 @@ impl Drop for Fmu {
 
 /// Value references of the Real outputs and their indices in `output_names`.
 fn real_outputs(name: &str) -> (Vec<u32>, Vec<usize>) {
-    let loaded = geardyn::fmu_entry::load_scene(&dir(name).join("scene.toml")).unwrap();
+    let loaded = geardyn::fmu::entry::load_scene(&dir(name).join("scene.toml")).unwrap();
     loaded
         .model
         .variables()
@@ -308,7 +308,7 @@ fn foreign_payloads_and_blobs_are_rejected() {
     let good = f.state_bytes();
     // A single-mesh model payload in an envelope with this FMU's GUID: only the payload's
     // own tag and version can refuse it.
-    let mut spur = geardyn::fmu_entry::load_scene(&dir("spur_pair").join("scene.toml")).unwrap();
+    let mut spur = geardyn::fmu::entry::load_scene(&dir("spur_pair").join("scene.toml")).unwrap();
     let layer = LayerSnapshot {
         state: FmuState::StepComplete,
         time: 1e-4,
@@ -323,7 +323,7 @@ fn foreign_payloads_and_blobs_are_rejected() {
     assert_eq!(f.load_bytes(&forged), ERR);
     // The countershaft's payload (another train) under the idler's GUID.
     let mut other =
-        geardyn::fmu_entry::load_scene(&dir("countershaft_gearset").join("scene.toml")).unwrap();
+        geardyn::fmu::entry::load_scene(&dir("countershaft_gearset").join("scene.toml")).unwrap();
     let forged = blob::encode(&guid, &layer, &other.model.save_state());
     let g = Fmu::new("idler_gearset");
     g.init();

@@ -169,7 +169,7 @@ pub unsafe extern "C" fn fmi2SetDebugLogging(
 // ---------------------------------------------------------------------------------------
 
 /// `fmi2Instantiate` (§2.1.5): builds the model from `<resources>/scene.toml` through the
-/// crate's single factory [`crate::fmu_entry::instantiate`] and checks the GUID. Returns
+/// crate's single factory [`crate::fmu::entry::instantiate`] and checks the GUID. Returns
 /// NULL (with a log line) on any failure.
 ///
 /// # Safety
@@ -238,7 +238,7 @@ unsafe fn instantiate_inner(
         .into_owned();
     let dir: PathBuf = super::uri::file_uri_to_path(&uri)
         .map_err(|e| format!("fmuResourceLocation '{uri}': {e}"))?;
-    let loaded = crate::fmu_entry::instantiate(&dir)?;
+    let loaded = crate::fmu::entry::instantiate(&dir)?;
     if loaded.info.guid != guid {
         return Err(format!(
             "fmuGUID '{guid}' does not match this binary and scene (expected '{}'): the modelDescription.xml was generated for another scene or geardyn version",

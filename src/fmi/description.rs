@@ -297,7 +297,7 @@ pub fn model_description(info: &ModelInfo, vars: &[Variable]) -> Result<String, 
 
 /// Generates the description of a scene through the crate's factory.
 pub fn for_scene(scene_path: &Path) -> Result<(String, ModelInfo), String> {
-    let loaded = crate::fmu_entry::load_scene(scene_path)?;
+    let loaded = crate::fmu::entry::load_scene(scene_path)?;
     let xml = model_description(&loaded.info, loaded.model.variables())?;
     Ok((xml, loaded.info))
 }
@@ -318,7 +318,7 @@ pub fn check_checked_in(
     };
     dirs.sort();
     for dir in dirs {
-        let scene = dir.join(crate::fmu_entry::SCENE_FILE);
+        let scene = dir.join(crate::fmu::entry::SCENE_FILE);
         if !scene.is_file() {
             continue;
         }

@@ -14,9 +14,9 @@
 //! - [`package`]: the `.fmu` ZIP writer (§2.3), [`cli`]: the `geardyn fmu` subcommand,
 //! - [`uri`]: `file:` URI decoding, [`vr_index`]: value reference → variable lookup.
 //!
-//! The model is created by [`crate::fmu_entry`], the one factory used by both the binary and
-//! the packager; the gear models' adapters are [`crate::fmu_model`] (single mesh) and
-//! [`crate::fmu_train`] (drivetrains).
+//! The model is created by [`crate::fmu::entry`], the one factory used by both the binary and
+//! the packager; the gear models' adapters are [`crate::fmu::pair`] (single mesh) and
+//! [`crate::fmu::drivetrain`] (drivetrains).
 
 pub mod abi;
 pub mod blob;

@@ -16,7 +16,7 @@ use zip::{CompressionMethod, DateTime, ZipWriter};
 
 use super::description;
 use super::model::{model_identifier, ModelInfo, Variable};
-use crate::fmu_entry::{load_scene, SCENE_FILE};
+use crate::fmu::entry::{load_scene, SCENE_FILE};
 
 /// Resolves `scene.toml | fmu/<name>` into the scene file and an optional README.
 pub fn resolve_scene(input: &Path) -> Result<(PathBuf, Option<PathBuf>), String> {

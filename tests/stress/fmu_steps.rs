@@ -12,7 +12,7 @@ use std::ptr::null_mut;
 
 use geardyn::fmi::abi::*;
 use geardyn::fmi::logger::{CallbackFunctions, Status};
-use geardyn::fmu_model::{VR_CONTACT_STATE, VR_OUTPUT0};
+use geardyn::fmu::pair::{VR_CONTACT_STATE, VR_OUTPUT0};
 use geardyn::model::ContactState;
 use geardyn::scene::Scene;
 use geardyn::simulation::Simulation;

@@ -7,10 +7,11 @@ use std::path::Path;
 
 use crate::fmi::blob;
 use crate::fmi::model::{CoSimModel, LoadedModel};
-use crate::fmu_model::GearModel;
-use crate::fmu_train::TrainModel;
-use crate::scene::train::{is_train_text, TrainScene};
-use crate::scene::Scene;
+use crate::fmu::drivetrain::Drivetrain;
+use crate::fmu::kernel::Kernel;
+use crate::fmu::pair::Pair;
+use crate::fmu::Adapter;
+use crate::scene::train::is_train_text;
 
 /// Name of the scene file inside an FMU's `resources/` folder.
 pub const SCENE_FILE: &str = "scene.toml";
@@ -30,31 +31,20 @@ pub fn load_scene(scene_path: &Path) -> Result<LoadedModel, String> {
     let origin = scene_path.display().to_string();
     let guid = blob::guid(&bytes);
     // Drivetrain scenes (`[[mesh]]`, `[[shaft]]` or `[model]`, `docs/train.md`) go to the
-    // drivetrain adapter; the single-mesh format of `docs/model.md` to the pair adapter.
+    // drivetrain kernel; the single-mesh format of `docs/model.md` to the pair kernel.
     if is_train_text(text) {
-        load_train_scene(text, &origin, guid)
+        load::<Drivetrain>(text, &origin, guid)
     } else {
-        load_gear_scene(text, &origin, guid)
+        load::<Pair>(text, &origin, guid)
     }
-}
-
-/// Validates a drivetrain scene and adapts its [`crate::model::train::TrainSimulation`].
-fn load_train_scene(text: &str, origin: &str, guid: String) -> Result<LoadedModel, String> {
-    let scene = TrainScene::from_toml_str(text, origin).map_err(|e| e.to_string())?;
-    let (model, info) =
-        TrainModel::new(scene, guid).map_err(|e| format!("scene '{origin}': {e}"))?;
-    Ok(LoadedModel {
-        model: Box::new(model) as Box<dyn CoSimModel>,
-        info,
-    })
 }
 
 /// Validates the scene text (messages name the field and value) and adapts its simulation
 /// to the FMI layer.
-fn load_gear_scene(text: &str, origin: &str, guid: String) -> Result<LoadedModel, String> {
-    let scene = Scene::from_toml_str(text, origin).map_err(|e| e.to_string())?;
+fn load<K: Kernel>(text: &str, origin: &str, guid: String) -> Result<LoadedModel, String> {
+    let settings = K::load(text, origin)?;
     let (model, info) =
-        GearModel::new(scene, guid).map_err(|e| format!("scene '{origin}': {e}"))?;
+        Adapter::<K>::new(settings, guid).map_err(|e| format!("scene '{origin}': {e}"))?;
     Ok(LoadedModel {
         model: Box::new(model) as Box<dyn CoSimModel>,
         info,

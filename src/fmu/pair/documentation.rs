@@ -1,5 +1,6 @@
 //! The model part of the FMU's `documentation/index.html` (FMI 2.0.x §2.3), condensed from
-//! `docs/model.md` (the specification); the packager adds the variable table.
+//! `docs/model.md` (the specification); the adapter adds the
+//! co-simulation behaviour ([`crate::fmu::Adapter`]), the packager the variable table.
 
 pub(super) const DOCUMENTATION: &str = r#"<h2>Model</h2>
 <p>A single-mesh torsional gear pair in the coordinate of the dynamic transmission error (DTE)
@@ -20,13 +21,7 @@ the mesh phase <code>p</code> (mesh cycles), which advances with the nominal pin
 <p>Contact changes are located as state events; stiffness switches are landed on exactly.
 Scenes with piecewise-constant stiffness are propagated exactly (matrix exponential per linear
 segment), others with an adaptive Runge&ndash;Kutta pair (DOP853/DP5) with dense output.</p>
-<h2>Co-simulation behaviour</h2>
-<ul>
-<li><code>fmi2DoStep</code> integrates exactly to <code>tc + h</code> for any positive <code>h</code>; the
-inputs are held constant over the step.</li>
-<li>The scene's <code>t = 0</code> is the experiment's start time.</li>
-<li>Parameters are fixed: they can be set before <code>fmi2ExitInitializationMode</code> only.</li>
-<li>FMU state get/set and serialization are supported; directional derivatives, input
-interpolation and asynchronous stepping are not.</li>
-</ul>
 "#;
+
+/// The documentation's item on the start of a run.
+pub(super) const START: &str = r#"The scene's <code>t = 0</code> is the experiment's start time."#;

@@ -1,6 +1,6 @@
-//! Byte layout of the gear model's part of an FMU state (FMI 2.0.x §2.1.8). The FMI layer
+//! Byte layout of the gear pair's part of an FMU state (FMI 2.0.x §2.1.8). The FMI layer
 //! wraps it in its versioned, checksummed envelope ([`crate::fmi::blob`]); this module only
-//! turns a [`ModelSnapshot`] into bytes and back, rejecting anything malformed with a reason.
+//! turns a [`PairSnapshot`] into bytes and back, rejecting anything malformed with a reason.
 //!
 //! Layout, little-endian: `u32 n` then `n × (u32 vr, f64 value)` (parameters and start
 //! inputs), `u8 flags` (bit 0 static initial DTE, bit 1 initialized, bit 2 RK controller
@@ -9,35 +9,28 @@
 //! cycle, `u64` segment piece, `i8` contact state, and for RK `f64` proposal, `f64`
 //! previous error, `u32` non-finite trials.
 
+use super::InitialDteChoice;
 use crate::fmi::bytes::Reader;
-use crate::fmu_payload::{
-    controller_bits, put_controller, put_params, read_controller, read_params,
+use crate::fmu::payload::{
+    controller_bits, put_controller, put_params, read_controller, read_params, Snapshot,
 };
 use crate::model::{ContactState, Inputs, PairState, PhaseClock};
 use crate::simulation::SimState;
 
-/// Everything the gear model needs to continue bit-identically.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ModelSnapshot {
-    /// Values of the parameters and start inputs, by value reference.
-    pub params: Vec<(u32, f64)>,
-    pub static_dte: bool,
-    pub initial_dte: f64,
-    pub start_time: f64,
-    pub initialized: bool,
-    pub sim: SimState,
-}
+/// Everything the gear pair needs to continue bit-identically.
+pub type PairSnapshot = Snapshot<SimState, InitialDteChoice>;
 
-pub fn encode(s: &ModelSnapshot) -> Vec<u8> {
+pub fn encode(s: &PairSnapshot) -> Vec<u8> {
     let mut out = Vec::with_capacity(256);
     put_params(&mut out, &s.params);
     let c = s.sim.controller;
-    let flags = u8::from(s.static_dte) | u8::from(s.initialized) << 1 | controller_bits(c) << 2;
+    let flags =
+        u8::from(s.extra.static_dte) | u8::from(s.initialized) << 1 | controller_bits(c) << 2;
     out.push(flags);
     let p = &s.sim.pair;
     let (t0, p0) = p.clock.anchor();
     for x in [
-        s.initial_dte,
+        s.extra.initial_dte,
         s.start_time,
         s.sim.t,
         s.sim.y[0],
@@ -58,7 +51,7 @@ pub fn encode(s: &ModelSnapshot) -> Vec<u8> {
     out
 }
 
-pub fn decode(bytes: &[u8]) -> Result<ModelSnapshot, String> {
+pub fn decode(bytes: &[u8]) -> Result<PairSnapshot, String> {
     let mut r = Reader::new(bytes);
     let n = r.u32()? as usize;
     // Each entry takes 12 bytes: a count beyond the payload is corrupt, not a huge alloc.
@@ -84,10 +77,12 @@ pub fn decode(bytes: &[u8]) -> Result<ModelSnapshot, String> {
     };
     let controller = read_controller(&mut r, flags >> 2)?;
     r.finish("model state")?;
-    Ok(ModelSnapshot {
+    Ok(PairSnapshot {
         params,
-        static_dte: flags & 1 != 0,
-        initial_dte: f[0],
+        extra: InitialDteChoice {
+            static_dte: flags & 1 != 0,
+            initial_dte: f[0],
+        },
         start_time: f[1],
         initialized: flags & 2 != 0,
         sim: SimState {
@@ -110,50 +105,43 @@ pub fn decode(bytes: &[u8]) -> Result<ModelSnapshot, String> {
     })
 }
 
+/// A snapshot with every field set, for the payload tests of both layouts.
+#[cfg(test)]
+pub(crate) fn sample(controller: Option<crate::solve::rk::ControllerMemory>) -> PairSnapshot {
+    PairSnapshot {
+        params: vec![(0, 0.5), (7, -1.25)],
+        extra: InitialDteChoice {
+            static_dte: true,
+            initial_dte: 7e-6,
+        },
+        start_time: 0.5,
+        initialized: true,
+        sim: SimState {
+            t: 0.125,
+            y: [1e-6, -2e-3],
+            pair: PairState {
+                inputs: Inputs {
+                    pinion_speed: 400.0,
+                    input_torque: 100.0,
+                    load_torque: 140.0,
+                },
+                clock: PhaseClock::new(0.1, 3.25, 2500.0),
+                segment_cycle: 3.0,
+                segment_piece: 1,
+                contact: ContactState::Back,
+            },
+            controller,
+        },
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::solve::rk::ControllerMemory;
-
-    fn sample(controller: Option<ControllerMemory>) -> ModelSnapshot {
-        ModelSnapshot {
-            params: vec![(0, 0.5), (7, -1.25)],
-            static_dte: true,
-            initial_dte: 7e-6,
-            start_time: 0.5,
-            initialized: true,
-            sim: SimState {
-                t: 0.125,
-                y: [1e-6, -2e-3],
-                pair: PairState {
-                    inputs: Inputs {
-                        pinion_speed: 400.0,
-                        input_torque: 100.0,
-                        load_torque: 140.0,
-                    },
-                    clock: PhaseClock::new(0.1, 3.25, 2500.0),
-                    segment_cycle: 3.0,
-                    segment_piece: 1,
-                    contact: ContactState::Back,
-                },
-                controller,
-            },
-        }
-    }
 
     #[test]
-    fn round_trip_both_propagators() {
-        for c in crate::fmu_payload::sample_controllers() {
-            let s = sample(c);
-            assert_eq!(decode(&encode(&s)).unwrap(), s);
-        }
-    }
-
-    #[test]
-    fn malformed_payloads_are_rejected() {
-        let b = encode(&sample(None));
-        crate::fmu_payload::assert_truncation_and_trailing_rejected(&b, decode);
-        let mut huge = b;
+    fn round_trip_and_malformed_payloads() {
+        let mut huge = crate::fmu::payload::check_layout(sample, encode, decode);
         huge[..4].copy_from_slice(&u32::MAX.to_le_bytes());
         assert!(decode(&huge).unwrap_err().contains("parameters"));
     }

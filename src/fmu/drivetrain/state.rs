@@ -12,8 +12,8 @@
 //! previous error, `u32` non-finite trials.
 
 use crate::fmi::bytes::{put_f64s, Reader};
-use crate::fmu_payload::{
-    controller_bits, put_controller, put_params, read_controller, read_params,
+use crate::fmu::payload::{
+    controller_bits, put_controller, put_params, read_controller, read_params, Snapshot,
 };
 use crate::model::train::{MeshRunState, SlotContact, TrainInputs, TrainRunState, TrainSimState};
 use crate::model::PhaseClock;
@@ -23,14 +23,7 @@ const TAG: &[u8; 4] = b"GDTR";
 pub const FORMAT_VERSION: u32 = 1;
 
 /// Everything the drivetrain model needs to continue bit-identically.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TrainSnapshot {
-    /// Values of the parameters and start inputs, by value reference.
-    pub params: Vec<(u32, f64)>,
-    pub start_time: f64,
-    pub initialized: bool,
-    pub sim: TrainSimState,
-}
+pub type TrainSnapshot = Snapshot<TrainSimState>;
 
 pub fn encode(s: &TrainSnapshot) -> Vec<u8> {
     let mut out = Vec::with_capacity(256 + 8 * s.sim.y.len());
@@ -150,6 +143,7 @@ pub fn decode(bytes: &[u8]) -> Result<TrainSnapshot, String> {
         params,
         start_time: f[0],
         initialized: flags & 1 != 0,
+        extra: (),
         sim: TrainSimState {
             t: f[1],
             y,
@@ -185,6 +179,7 @@ mod tests {
             params: vec![(0, 0.02), (1000, 0.5), (31, -1.25)],
             start_time: 0.5,
             initialized: true,
+            extra: (),
             sim: TrainSimState {
                 t: 0.125,
                 y: vec![1e-6, -2e-3, 3.0, 4.5],
@@ -203,17 +198,8 @@ mod tests {
     }
 
     #[test]
-    fn round_trip_both_propagators() {
-        for c in crate::fmu_payload::sample_controllers() {
-            let s = sample(c);
-            assert_eq!(decode(&encode(&s)).unwrap(), s);
-        }
-    }
-
-    #[test]
-    fn malformed_payloads_are_rejected() {
-        let b = encode(&sample(None));
-        crate::fmu_payload::assert_truncation_and_trailing_rejected(&b, decode);
+    fn round_trip_and_malformed_payloads() {
+        let b = crate::fmu::payload::check_layout(sample, encode, decode);
         let mut version = b.clone();
         version[4] = 2;
         assert!(decode(&version).unwrap_err().contains("version 2"));
@@ -224,33 +210,11 @@ mod tests {
 
     #[test]
     fn a_single_mesh_payload_is_not_a_drivetrain_state() {
-        // Oracle: the single-mesh layout (crate::fmu_state) written by its own encoder.
-        let single = crate::fmu_state::encode(&crate::fmu_state::ModelSnapshot {
-            params: vec![(0, 0.002621)],
-            static_dte: true,
-            initial_dte: 0.0,
-            start_time: 0.0,
-            initialized: true,
-            sim: crate::simulation::SimState {
-                t: 0.0,
-                y: [0.0; 2],
-                pair: crate::model::PairState {
-                    inputs: crate::model::Inputs {
-                        pinion_speed: 1.0,
-                        input_torque: 0.0,
-                        load_torque: 0.0,
-                    },
-                    clock: PhaseClock::new(0.0, 0.0, 1.0),
-                    segment_cycle: 0.0,
-                    segment_piece: 0,
-                    contact: crate::model::ContactState::Drive,
-                },
-                controller: None,
-            },
-        });
+        // Oracle: the single-mesh layout (`crate::fmu::pair`) written by its own encoder.
+        let single = crate::fmu::pair::state::encode(&crate::fmu::pair::state::sample(None));
         let e = decode(&single).unwrap_err();
         assert!(e.contains("not a drivetrain state"), "{e}");
         // And the other way round: the single-mesh reader refuses a drivetrain payload.
-        assert!(crate::fmu_state::decode(&encode(&sample(None))).is_err());
+        assert!(crate::fmu::pair::state::decode(&encode(&sample(None))).is_err());
     }
 }

@@ -1,11 +1,27 @@
-//! The pieces the two model payload layouts ([`crate::fmu_state`] for a pair,
-//! [`crate::fmu_train::state`] for a drivetrain) write the same way: the parameter list and
-//! the RK controller memory of [`crate::simulation::Driver`]. Each layout places them itself
-//! (its own flag byte, its own order), so only the encoding is shared and both layouts stay
-//! byte-for-byte what they were.
+//! The model part of an FMU state (FMI 2.0.x §2.1.8), [`Snapshot`], and the pieces the two
+//! payload layouts (`state.rs` of [`crate::fmu::pair`] and of [`crate::fmu::drivetrain`])
+//! write the same way: the parameter list and the RK controller memory of
+//! [`crate::simulation::Driver`]. Each layout places them itself (its own flag byte, its own
+//! order), so only the encoding is shared and both layouts stay byte-for-byte what they were.
+//! The FMI layer wraps a payload in its versioned, checksummed envelope
+//! ([`crate::fmi::blob`]).
 
 use crate::fmi::bytes::{put_f64s, Reader};
 use crate::solve::rk::ControllerMemory;
+
+/// Everything a model needs to continue bit-identically, for either kernel: the values that
+/// rebuild its equations and initial state, its life cycle and the run-time state `S` of its
+/// simulation. `X` is what the kernel's settings hold besides the values of its Real
+/// parameters (the pair's initial-DTE choice).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Snapshot<S, X = ()> {
+    /// Values of the parameters and start inputs, by value reference.
+    pub params: Vec<(u32, f64)>,
+    pub start_time: f64,
+    pub initialized: bool,
+    pub extra: X,
+    pub sim: S,
+}
 
 /// `u32 n` then `n × (u32 vr, f64 value)`.
 pub fn put_params(out: &mut Vec<u8>, params: &[(u32, f64)]) {
@@ -59,28 +75,36 @@ pub fn read_controller(r: &mut Reader, bits: u8) -> Result<Option<ControllerMemo
     }))
 }
 
-/// Checks shared by both layouts' tests: every truncation of a valid payload and one with a
-/// trailing byte are rejected by `decode`.
+/// The checks every layout passes: `sample(c)` survives a round trip with each of the
+/// [`sample_controllers`], and every truncation of its payload and one with a trailing byte
+/// are rejected by `decode`. Returns the payload of `sample(None)` for the layout's own checks.
 #[cfg(test)]
-pub fn assert_truncation_and_trailing_rejected<T, E: std::fmt::Display>(
-    bytes: &[u8],
-    decode: impl Fn(&[u8]) -> Result<T, E>,
-) {
+pub fn check_layout<S: PartialEq + std::fmt::Debug>(
+    sample: impl Fn(Option<ControllerMemory>) -> S,
+    encode: impl Fn(&S) -> Vec<u8>,
+    decode: impl Fn(&[u8]) -> Result<S, String>,
+) -> Vec<u8> {
+    for c in sample_controllers() {
+        let s = sample(c);
+        assert_eq!(decode(&encode(&s)).unwrap(), s);
+    }
+    let bytes = encode(&sample(None));
     for n in 0..bytes.len() {
         assert!(decode(&bytes[..n]).is_err(), "truncation to {n} accepted");
     }
-    let mut longer = bytes.to_vec();
+    let mut longer = bytes.clone();
     longer.push(0);
     match decode(&longer) {
         Ok(_) => panic!("a trailing byte was accepted"),
-        Err(e) => assert!(e.to_string().contains("trailing"), "{e}"),
+        Err(e) => assert!(e.contains("trailing"), "{e}"),
     }
+    bytes
 }
 
 /// The controller memories a payload round trip must preserve: none (exact propagator), one
-/// with every flag set, one with none. Shared by both layouts' tests.
+/// with every flag set, one with none.
 #[cfg(test)]
-pub fn sample_controllers() -> [Option<ControllerMemory>; 3] {
+fn sample_controllers() -> [Option<ControllerMemory>; 3] {
     [
         None,
         Some(ControllerMemory {

@@ -2,8 +2,8 @@
 //! variability, start values from the scene, units and descriptions. The same table drives
 //! the C ABI and the generated `modelDescription.xml`.
 
-use crate::fmi::model::{Causality as C, Initial, VarKind, Variability as V, Variable};
-use crate::fmu_common::{input, param};
+use crate::fmi::model::{VarKind, Variable};
+use crate::fmu::table::{calculated, inputs, output, param, InputRows};
 use crate::scene::{ContactLaw, InitialDte, Scene};
 use crate::simulation::Simulation;
 
@@ -26,6 +26,17 @@ pub const VR_LOAD_TORQUE: u32 = 32;
 /// Outputs in [`crate::model::OUTPUT_NAMES`] order: `VR_OUTPUT0 + i`.
 pub const VR_OUTPUT0: u32 = 40;
 pub const VR_CONTACT_STATE: u32 = VR_OUTPUT0 + 3;
+
+/// The inputs (their value references are the kernel's `INPUTS`).
+pub(super) const INPUTS: InputRows = InputRows {
+    vrs: [VR_PINION_SPEED, VR_INPUT_TORQUE, VR_LOAD_TORQUE],
+    speed: "pinion_speed",
+    descriptions: [
+        "Nominal pinion speed; the mesh phase advances with it (z1*speed/2pi mesh cycles per second)",
+        "Torque driving the pinion",
+        "Load torque magnitude on the gear (positive resists the gear's rotation)",
+    ],
+};
 
 /// (name, unit, description) of the outputs, in `OUTPUT_NAMES` order (`docs/model.md`).
 const OUTPUTS: [(&str, Option<&str>, &str); 7] = [
@@ -54,27 +65,19 @@ const OUTPUTS: [(&str, Option<&str>, &str); 7] = [
     ),
 ];
 
-fn calculated(name: &str, vr: u32, unit: &str, desc: &str) -> Variable {
-    Variable::real(
-        name,
-        vr,
-        C::CalculatedParameter,
-        V::Fixed,
-        Some(Initial::Calculated),
-        None,
-        Some(unit),
-        desc,
-    )
+/// The start value of `initial.dte`.
+pub(super) fn initial_dte_start(scene: &Scene) -> f64 {
+    match scene.initial_dte {
+        InitialDte::Value(x) => x,
+        // Informational while `initial.static_dte` is true; show the value the scene's
+        // operating point gives.
+        InitialDte::Static => Simulation::new(scene).map_or(0.0, |s| s.state()[0]),
+    }
 }
 
-/// The variable table of a scene (start values from the scene).
-pub(super) fn variables(scene: &Scene) -> Vec<Variable> {
-    let static_x0 = match scene.initial_dte {
-        InitialDte::Value(x) => x,
-        // The start value of `initial.dte` is informational while `initial.static_dte` is
-        // true; show the value the scene's operating point gives.
-        InitialDte::Static => Simulation::new(scene).map_or(0.0, |s| s.state()[0]),
-    };
+/// The variable table of a scene (start values from the scene; `initial.dte` from
+/// [`initial_dte_start`]).
+pub(super) fn variables(scene: &Scene, initial_dte: f64) -> Vec<Variable> {
     let mut v = vec![
         param(
             "pinion.inertia",
@@ -139,7 +142,7 @@ pub(super) fn variables(scene: &Scene) -> Vec<Variable> {
         param(
             "initial.dte",
             VR_INITIAL_DTE,
-            static_x0,
+            initial_dte,
             Some("m"),
             "Initial dynamic transmission error (used when initial.static_dte is false)",
         ),
@@ -167,41 +170,10 @@ pub(super) fn variables(scene: &Scene) -> Vec<Variable> {
             "Mean mesh stiffness over one mesh period",
         ),
     ]);
-    let mut speed = input(
-        "pinion_speed",
-        VR_PINION_SPEED,
-        scene.operating.pinion_speed,
-        "rad/s",
-        "Nominal pinion speed; the mesh phase advances with it (z1*speed/2pi mesh cycles per second)",
-    );
-    speed.min = Some(0.0);
-    v.push(speed);
-    v.push(input(
-        "input_torque",
-        VR_INPUT_TORQUE,
-        scene.operating.input_torque,
-        "N.m",
-        "Torque driving the pinion",
-    ));
-    v.push(input(
-        "load_torque",
-        VR_LOAD_TORQUE,
-        scene.operating.load_torque,
-        "N.m",
-        "Load torque magnitude on the gear (positive resists the gear's rotation)",
-    ));
+    v.extend(inputs(&INPUTS, super::start_inputs(scene)));
     for (i, (name, unit, desc)) in OUTPUTS.iter().enumerate() {
         let vr = VR_OUTPUT0 + i as u32;
-        let mut o = Variable::real(
-            name,
-            vr,
-            C::Output,
-            V::Continuous,
-            Some(Initial::Calculated),
-            None,
-            *unit,
-            desc,
-        );
+        let mut o = output(name, vr, *unit, desc, vr == VR_CONTACT_STATE);
         // Direct feedthrough (ModelStructure/Outputs, FMI 2.0.x §2.2.8): the STE rate in the
         // damping term scales with the speed; the static deflection is F_ext / k̄.
         o.depends_on = match *name {
@@ -209,10 +181,6 @@ pub(super) fn variables(scene: &Scene) -> Vec<Variable> {
             "static_deflection" => vec![VR_INPUT_TORQUE, VR_LOAD_TORQUE],
             _ => Vec::new(),
         };
-        if vr == VR_CONTACT_STATE {
-            o.kind = VarKind::Integer;
-            o.variability = V::Discrete;
-        }
         v.push(o);
     }
     v

@@ -1,5 +1,6 @@
 //! The model part of the FMU's `documentation/index.html` (FMI 2.0.x §2.3), condensed from
-//! `docs/train.md` (the specification); the packager adds the variable table.
+//! `docs/train.md` (the specification); the adapter adds the
+//! co-simulation behaviour ([`crate::fmu::Adapter`]), the packager the variable table.
 
 pub(super) const DOCUMENTATION: &str = r#"<h2>Model</h2>
 <p>A drivetrain of gears (rotation, optional bearing translations), shafts and meshes
@@ -19,14 +20,8 @@ offset <code>o_j = 2b</code>). The DTE output is the rotational part
 <p>Contact changes of every pair are state events; stiffness and gap knots are landed on
 exactly. Trains whose segments are linear time-invariant are propagated exactly (matrix
 exponential per segment), others with an adaptive Runge&ndash;Kutta pair with dense output.</p>
-<h2>Co-simulation behaviour</h2>
-<ul>
-<li><code>fmi2DoStep</code> integrates exactly to <code>tc + h</code> for any positive <code>h</code>; the
-inputs are held constant over the step.</li>
-<li>The scene's <code>t = 0</code> is the experiment's start time; the initial state is the scene's
-(by default the static equilibrium) under the inputs set before initialization ends.</li>
-<li>Parameters are fixed: they can be set before <code>fmi2ExitInitializationMode</code> only.</li>
-<li>FMU state get/set and serialization are supported; directional derivatives, input
-interpolation and asynchronous stepping are not.</li>
-</ul>
 "#;
+
+/// The documentation's item on the start of a run.
+pub(super) const START: &str = r#"The scene's <code>t = 0</code> is the experiment's start time; the initial state is the scene's
+(by default the static equilibrium) under the inputs set before initialization ends."#;

@@ -4,8 +4,8 @@
 //! `TrainSimulation::output_names`, in that order, so FMU and `geardyn simulate` columns
 //! have the same names.
 
-use crate::fmi::model::{Causality as C, Initial, VarKind, Variability as V, Variable};
-use crate::fmu_common::{input, param};
+use crate::fmi::model::Variable;
+use crate::fmu::table::{calculated, inputs, output, param, InputRows};
 use crate::scene::train::{MeshForceModel, PairModel, TrainScene};
 
 // Value references: stable per meaning, grouped by causality; per-gear and per-mesh blocks
@@ -22,6 +22,24 @@ pub const VR_MEAN_STIFFNESS0: u32 = 3000;
 pub const VR_OUTPUT0: u32 = 10000;
 /// Width of a per-gear or per-mesh block.
 pub const BLOCK: usize = 1000;
+
+/// The inputs (their value references are the kernel's `INPUTS`).
+pub(super) const INPUTS: InputRows = InputRows {
+    vrs: [VR_INPUT_SPEED, VR_INPUT_TORQUE, VR_LOAD_TORQUE],
+    speed: "input_speed",
+    descriptions: [
+        "Nominal speed of the input gear; every mesh phase advances with it by the train's kinematics",
+        "Torque driving the input gear",
+        "Load torque magnitude on the output gear (positive resists its rotation)",
+    ],
+};
+
+/// The gear or mesh number of `vr` in the block starting at `base`, for `len` gears or meshes.
+pub(super) fn block_index(vr: u32, base: u32, len: usize) -> Option<usize> {
+    vr.checked_sub(base)
+        .map(|i| i as usize)
+        .filter(|&i| i < len.min(BLOCK))
+}
 
 /// Per-mesh output quantities: (suffix, unit, Integer?, description).
 const MESH_OUTPUTS: [(&str, Option<&str>, bool, &str); 10] = [
@@ -170,56 +188,17 @@ pub(super) fn variables(scene: &TrainScene, outputs: &[String]) -> Result<Vec<Va
         ));
     }
     for (n, mesh) in scene.meshes.iter().enumerate() {
-        v.push(Variable::real(
+        v.push(calculated(
             &format!("{}.mean_stiffness", mesh.name),
             VR_MEAN_STIFFNESS0 + n as u32,
-            C::CalculatedParameter,
-            V::Fixed,
-            Some(Initial::Calculated),
-            None,
-            Some("N/m"),
+            "N/m",
             "Mean mesh stiffness over one mesh period",
         ));
     }
-    let mut speed = input(
-        "input_speed",
-        VR_INPUT_SPEED,
-        scene.operating.input_speed,
-        "rad/s",
-        "Nominal speed of the input gear; every mesh phase advances with it by the train's kinematics",
-    );
-    speed.min = Some(0.0);
-    v.push(speed);
-    v.push(input(
-        "input_torque",
-        VR_INPUT_TORQUE,
-        scene.operating.input_torque,
-        "N.m",
-        "Torque driving the input gear",
-    ));
-    v.push(input(
-        "load_torque",
-        VR_LOAD_TORQUE,
-        scene.operating.load_torque,
-        "N.m",
-        "Load torque magnitude on the output gear (positive resists its rotation)",
-    ));
+    v.extend(inputs(&INPUTS, super::start_inputs(scene)));
     for (i, name) in outputs.iter().enumerate() {
         let (unit, integer, desc) = describe_output(scene, name)?;
-        let mut o = Variable::real(
-            name,
-            VR_OUTPUT0 + i as u32,
-            C::Output,
-            V::Continuous,
-            Some(Initial::Calculated),
-            None,
-            unit,
-            &desc,
-        );
-        if integer {
-            o.kind = VarKind::Integer;
-            o.variability = V::Discrete;
-        }
+        let mut o = output(name, VR_OUTPUT0 + i as u32, unit, &desc, integer);
         // Direct feedthrough (ModelStructure/Outputs, FMI 2.0.x §2.2.8): the damping term of
         // a mesh force holds the rate of the STE, which scales with the speed; a Model-2
         // mesh's excitation is the loaded STE at the static load of the torques.

@@ -1,0 +1,415 @@
+//! The one FMU adapter: a gear model of any [`Kernel`] as a [`CoSimModel`].
+//!
+//! Time: the scene's `t = 0` is the experiment's `startTime` (FMI 2.0.x §2.1.6,
+//! `fmi2SetupExperiment`), so the model integrates in local time `τ = t − startTime`, which
+//! for the usual `startTime = 0` is the host's time bit for bit.
+//!
+//! Inputs are held constant over a communication step (`canInterpolateInputs = false`); a
+//! change re-anchors the mesh-phase clocks at the current time, so the phases stay
+//! continuous. Before initialization is finished the inputs are part of the initial
+//! operating point (a static initial state is computed from them).
+//!
+//! Parameters are `fixed` (FMI 2.0.x §2.2.7): they change the equations, so they may be set
+//! before `fmi2ExitInitializationMode` only; every accepted change rebuilds the simulation so
+//! outputs read in initialization mode are consistent.
+
+use std::cell::{Cell, Ref, RefCell};
+
+use crate::fmi::model::{
+    Causality, CoSimModel, DefaultExperiment, Lifecycle, ModelInfo, StepFailure, Variable,
+};
+use crate::fmu::checks::check_snapshot_values;
+use crate::fmu::kernel::{Kernel, KernelSnapshot};
+use crate::fmu::table::{name_of, settable_reals};
+use crate::simulation::Driver;
+
+/// A gear model behind an FMU instance.
+pub struct Adapter<K: Kernel> {
+    vars: Vec<Variable>,
+    /// The settings as loaded (restored by `fmi2Reset`).
+    base: K::Settings,
+    /// The settings with the parameter and start-input values set so far.
+    settings: K::Settings,
+    sim: Driver<K::Model>,
+    /// Start time and initialization stage (FMI life cycle).
+    lifecycle: Lifecycle,
+    /// How many outputs there are (value references `K::OUTPUT0 + i`).
+    n_outputs: usize,
+    /// The outputs of the current state, evaluated on the first read: a host reads them one
+    /// value reference at a time (and the FMI layer checks them after every step), and each
+    /// evaluation computes all of them. Stale after every change of the simulation or its
+    /// parameters: all of those go through `&mut self` (see [`Adapter::sim_mut`]). The
+    /// buffer is kept, so a step allocates nothing.
+    outputs: RefCell<Vec<f64>>,
+    outputs_fresh: Cell<bool>,
+}
+
+/// Why a set of parameter values was refused after it was applied: the model cannot be built
+/// from it, or an initial output is not finite. Worded by [`Refusal::naming`] after the value
+/// that caused it.
+enum Refusal {
+    Build(String),
+    /// An initial output's name and value: a start value the arithmetic cannot carry (an
+    /// initial DTE rate of 1e308 gives an infinite damping force) is refused where it is
+    /// set, naming the output, rather than read back as an infinite output (issue 17).
+    Output(String, f64),
+}
+
+impl Refusal {
+    fn naming(&self, name: &str, x: f64) -> String {
+        match self {
+            Refusal::Build(e) => format!("'{name}' = {x:?}: the model cannot be built: {e}"),
+            Refusal::Output(output, y) => {
+                format!("'{name}' = {x:?}: the initial output '{output}' would be {y}")
+            }
+        }
+    }
+}
+
+impl<K: Kernel> Adapter<K> {
+    /// Builds the model of validated settings and its description data.
+    pub fn new(settings: K::Settings, guid: String) -> Result<(Adapter<K>, ModelInfo), String> {
+        let sim = K::build(&settings)?;
+        let vars = K::variables(&settings, &sim)?;
+        let (name, description, solver) = K::header(&settings);
+        let info = ModelInfo {
+            model_name: name.to_string(),
+            description: if description.is_empty() {
+                K::FALLBACK_DESCRIPTION
+            } else {
+                description
+            }
+            .to_string(),
+            default_experiment: DefaultExperiment {
+                start_time: 0.0,
+                stop_time: solver.stop_time,
+                step_size: solver.output_interval,
+                tolerance: None,
+            },
+            guid,
+            documentation: documentation(K::DOCUMENTATION, K::START_DOCUMENTATION),
+        };
+        let n_outputs = vars
+            .iter()
+            .filter(|v| v.causality == Causality::Output)
+            .count();
+        let model = Adapter {
+            vars,
+            base: settings.clone(),
+            settings,
+            sim,
+            lifecycle: Lifecycle::default(),
+            n_outputs,
+            outputs: RefCell::new(Vec::new()),
+            outputs_fresh: Cell::new(false),
+        };
+        Ok((model, info))
+    }
+
+    /// The simulation of `settings` and its initial outputs, which must be finite.
+    fn build(&self, settings: &K::Settings) -> Result<(Driver<K::Model>, Vec<f64>), Refusal> {
+        let sim = K::build(settings).map_err(Refusal::Build)?;
+        let mut outputs = Vec::new();
+        K::outputs(&sim, &mut outputs);
+        match outputs.iter().position(|y| !y.is_finite()) {
+            None => Ok((sim, outputs)),
+            Some(k) => Err(Refusal::Output(self.output_name(k).to_string(), outputs[k])),
+        }
+    }
+
+    /// Applies a parameter or start-input value and rebuilds the simulation; on failure
+    /// nothing changes.
+    fn set_before_init(&mut self, vr: u32, x: f64) -> Result<(), String> {
+        let name = name_of(&self.vars, vr).to_string();
+        let mut settings = self.settings.clone();
+        K::apply(&mut settings, &name, vr, x)?;
+        let (sim, outputs) = self.build(&settings).map_err(|e| e.naming(&name, x))?;
+        self.settings = settings;
+        self.sim = sim;
+        // New parameters: the outputs just checked are those of the new state.
+        *self.outputs.get_mut() = outputs;
+        self.outputs_fresh.set(true);
+        Ok(())
+    }
+
+    /// Parameters and start inputs by value reference (the start inputs from the settings:
+    /// they fixed the initial state; the current inputs are in the run-time state): what,
+    /// besides the run-time state, distinguishes this instance from a freshly instantiated one.
+    fn snapshot(&self) -> KernelSnapshot<K> {
+        let start = K::start_inputs(&self.settings);
+        let params = settable_reals(&self.vars)
+            .map(|v| {
+                let vr = v.value_reference;
+                let x = match input_position::<K>(vr) {
+                    Some(k) => start[k],
+                    None => self.get_real(vr).unwrap_or(f64::NAN),
+                };
+                (vr, x)
+            })
+            .collect();
+        KernelSnapshot::<K> {
+            params,
+            start_time: self.lifecycle.start_time,
+            initialized: self.lifecycle.initialized,
+            extra: K::extra(&self.settings),
+            sim: K::sim_state(&self.sim),
+        }
+    }
+
+    /// The loaded settings with a snapshot's values applied, each with the checks of
+    /// `fmi2SetReal`.
+    fn settings_of(&self, snap: &KernelSnapshot<K>) -> Result<K::Settings, String> {
+        let mut settings = self.base.clone();
+        K::set_extra(&mut settings, &snap.extra);
+        for &(vr, x) in &snap.params {
+            K::apply(&mut settings, name_of(&self.vars, vr), vr, x)?;
+        }
+        Ok(settings)
+    }
+
+    /// Rebuilds the instance from a snapshot: the values go through the same checks as
+    /// `fmi2SetReal`, then the run-time state is restored. On failure nothing changes. The
+    /// values are applied to the loaded scene and the model is built once, not once per value
+    /// as a sequence of sets would: a master that rolls back may restore at every step.
+    fn restore(&mut self, snap: &KernelSnapshot<K>) -> Result<(), String> {
+        let u = K::sim_inputs(&snap.sim);
+        let inputs: [(u32, f64); 3] = std::array::from_fn(|k| (K::INPUTS[k], u[k]));
+        check_snapshot_values(&self.vars, &snap.params, &inputs, snap.start_time)?;
+        let settings = self.settings_of(snap)?;
+        let mut sim = match self.build(&settings) {
+            Ok((sim, _)) => sim,
+            Err(_) => return Err(self.first_refused(snap)),
+        };
+        K::restore_sim(&mut sim, &snap.sim)?;
+        self.settings = settings;
+        *self.sim_mut() = sim;
+        self.lifecycle = Lifecycle {
+            start_time: snap.start_time,
+            initialized: snap.initialized,
+        };
+        Ok(())
+    }
+
+    /// The message of the first of a snapshot's values after which the model cannot be built,
+    /// as `fmi2SetReal` of the values in turn would give it. One build per value: only for a
+    /// snapshot that does not build.
+    fn first_refused(&self, snap: &KernelSnapshot<K>) -> String {
+        let mut settings = self.base.clone();
+        K::set_extra(&mut settings, &snap.extra);
+        for &(vr, x) in &snap.params {
+            let name = name_of(&self.vars, vr);
+            // Each value passed this apply in `settings_of` already.
+            let _ = K::apply(&mut settings, name, vr, x);
+            if let Err(e) = self.build(&settings) {
+                return e.naming(name, x);
+            }
+        }
+        "the state's parameters do not build a model".into()
+    }
+
+    /// Index into the outputs of an output value reference.
+    #[inline]
+    fn output_index(&self, vr: u32) -> Option<usize> {
+        vr.checked_sub(K::OUTPUT0)
+            .map(|i| i as usize)
+            .filter(|&i| i < self.n_outputs)
+    }
+
+    fn output_name(&self, k: usize) -> &str {
+        name_of(&self.vars, K::OUTPUT0 + k as u32)
+    }
+
+    /// The simulation's outputs, evaluated once per state.
+    fn current_outputs(&self) -> Ref<'_, [f64]> {
+        if !self.outputs_fresh.get() {
+            K::outputs(&self.sim, &mut self.outputs.borrow_mut());
+            self.outputs_fresh.set(true);
+        }
+        Ref::map(self.outputs.borrow(), Vec::as_slice)
+    }
+
+    /// The simulation, for a change of its state or inputs: the cached outputs are marked
+    /// stale first, so no read after the change can see the outputs of the state before it.
+    fn sim_mut(&mut self) -> &mut Driver<K::Model> {
+        self.outputs_fresh.set(false);
+        &mut self.sim
+    }
+}
+
+/// The position of an input value reference in `K::INPUTS`.
+#[inline]
+fn input_position<K: Kernel>(vr: u32) -> Option<usize> {
+    K::INPUTS.iter().position(|&v| v == vr)
+}
+
+impl<K: Kernel> CoSimModel for Adapter<K> {
+    fn variables(&self) -> &[Variable] {
+        &self.vars
+    }
+
+    fn get_real(&self, vr: u32) -> Result<f64, String> {
+        if let Some(i) = self.output_index(vr) {
+            return Ok(self.current_outputs()[i]);
+        }
+        let model = self.sim.model();
+        if let Some(k) = input_position::<K>(vr) {
+            return Ok(K::inputs(model)[k]);
+        }
+        K::parameter(&self.settings, model, vr)
+            .ok_or_else(|| format!("no Real variable with value reference {vr}"))
+    }
+
+    /// The outputs without a search per value reference: a host reads them after every step.
+    fn get_reals(&self, vrs: &[u32], out: &mut [f64]) -> Result<(), String> {
+        // Fetched once per call, not per value reference.
+        let mut outputs = None;
+        for (&vr, slot) in vrs.iter().zip(out.iter_mut()) {
+            *slot = match self.output_index(vr) {
+                Some(i) => outputs.get_or_insert_with(|| self.current_outputs())[i],
+                None => self.get_real(vr)?,
+            };
+        }
+        Ok(())
+    }
+
+    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String> {
+        if !self.lifecycle.initialized {
+            return self.set_before_init(vr, value);
+        }
+        let Some(k) = input_position::<K>(vr) else {
+            // The layer's causality/variability check comes first; this is a safety net.
+            return Err(format!(
+                "'{}' is fixed after initialization",
+                name_of(&self.vars, vr)
+            ));
+        };
+        let mut u = K::inputs(self.sim.model());
+        u[k] = value;
+        K::set_inputs(self.sim_mut(), u)
+    }
+
+    /// The Integer outputs (the layer has checked the base type).
+    fn get_integer(&self, vr: u32) -> Result<i32, String> {
+        match self.output_index(vr) {
+            Some(i) => Ok(self.current_outputs()[i] as i32),
+            None => Err(format!("no Integer variable with value reference {vr}")),
+        }
+    }
+
+    fn get_boolean(&self, vr: u32) -> Result<bool, String> {
+        K::boolean(&self.settings, vr)
+            .ok_or_else(|| format!("no Boolean variable with value reference {vr}"))
+    }
+
+    fn set_boolean(&mut self, vr: u32, value: bool) -> Result<(), String> {
+        if self.lifecycle.initialized || K::boolean(&self.settings, vr).is_none() {
+            return Err(format!(
+                "no settable Boolean variable with value reference {vr}"
+            ));
+        }
+        self.set_before_init(vr, f64::from(u8::from(value)))
+    }
+
+    fn lifecycle_mut(&mut self) -> &mut Lifecycle {
+        &mut self.lifecycle
+    }
+
+    /// Integrates to exactly `t + h` in the host's time (the simulation runs in local time
+    /// from the start time), never backwards, and never evaluates the model beyond that
+    /// point. A failing integrator discards the step at the last good state it holds (the
+    /// outputs then show that state) and ends the run.
+    fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure> {
+        let start_time = self.lifecycle.start_time;
+        let sim = self.sim_mut();
+        let target = ((t + h) - start_time).max(sim.t());
+        sim.advance_to(target).map_err(|e| StepFailure::Discard {
+            reason: format!("the integrator stopped: {e}"),
+            reached: start_time + sim.t(),
+            terminate: true,
+        })
+    }
+
+    fn reset(&mut self) -> Result<(), String> {
+        *self.sim_mut() = K::build(&self.base)?;
+        self.settings = self.base.clone();
+        self.lifecycle = Lifecycle::default();
+        Ok(())
+    }
+
+    fn save_state(&mut self) -> Vec<u8> {
+        self.sim.forget_recurrences();
+        K::encode(&self.snapshot())
+    }
+
+    fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        self.restore(&K::decode(bytes)?)
+    }
+}
+
+/// The FMU's `documentation/index.html` body (FMI 2.0.x §2.3): the kernel's model part, then
+/// the co-simulation behaviour, which is the adapter's (the packager adds the variable table).
+fn documentation(model: &str, start: &str) -> String {
+    format!(
+        r#"{model}<h2>Co-simulation behaviour</h2>
+<ul>
+<li><code>fmi2DoStep</code> integrates exactly to <code>tc + h</code> for any positive <code>h</code>; the
+inputs are held constant over the step.</li>
+<li>{start}</li>
+<li>Parameters are fixed: they can be set before <code>fmi2ExitInitializationMode</code> only.</li>
+<li>FMU state get/set and serialization are supported; directional derivatives, input
+interpolation and asynchronous stepping are not.</li>
+</ul>
+"#
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::fmi::model::{Causality, VarKind};
+
+    /// For every shipped scene (both kernels): a batched read of the outputs, the one the
+    /// FMI layer makes after every step, and a batch mixing parameters, inputs and outputs
+    /// give what reading them one by one gives, bit for bit; the Integer outputs (contact
+    /// states, tooth pairs in contact) read as small integers.
+    #[test]
+    fn batched_reads_agree_with_single_reads() {
+        let scenes = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/fmu")).unwrap();
+        let mut kernels = (0, 0);
+        for dir in scenes {
+            let scene = dir.unwrap().path().join(crate::fmu::entry::SCENE_FILE);
+            let Ok(loaded) = crate::fmu::entry::load_scene(&scene) else {
+                continue;
+            };
+            let model = loaded.model;
+            let reals = |pick: &dyn Fn(Causality) -> bool| -> Vec<u32> {
+                let vars = model.variables();
+                vars.iter()
+                    .filter(|v| v.kind == VarKind::Real && pick(v.causality))
+                    .map(|v| v.value_reference)
+                    .collect()
+            };
+            let outputs = reals(&|c| c == Causality::Output);
+            let mut mixed = reals(&|_| true);
+            mixed.reverse();
+            for vrs in [outputs, mixed] {
+                let mut batch = vec![0.0; vrs.len()];
+                model.get_reals(&vrs, &mut batch).unwrap();
+                for (&vr, x) in vrs.iter().zip(batch) {
+                    assert_eq!(model.get_real(vr).map(f64::to_bits), Ok(x.to_bits()));
+                }
+            }
+            for v in model.variables() {
+                if v.kind == VarKind::Integer {
+                    let n = model.get_integer(v.value_reference).unwrap();
+                    assert!((-1..=64).contains(&n), "{}: {n}", v.name);
+                }
+            }
+            if crate::scene::train::is_train_text(&std::fs::read_to_string(&scene).unwrap()) {
+                kernels.1 += 1;
+            } else {
+                kernels.0 += 1;
+            }
+        }
+        assert!(kernels.0 > 0 && kernels.1 > 0, "{kernels:?}");
+    }
+}

@@ -1,0 +1,87 @@
+//! What a gear model adds to the one FMU adapter [`crate::fmu::Adapter`]: its scene format,
+//! its variable table, how the table's value references map onto the scene, the inputs and
+//! the outputs, and the byte layout of its FMU-state payload. Everything else (the life
+//! cycle, the rebuild on every parameter change, the output cache, stepping, reset, the
+//! snapshot and its checks) is the adapter's and the same for every kernel.
+
+use crate::fmi::model::Variable;
+use crate::fmu::payload::Snapshot;
+use crate::scene::SolverSettings;
+use crate::simulation::{DrivenModel, Driver};
+
+/// The model part of an FMU state of kernel `K`.
+pub type KernelSnapshot<K> = Snapshot<<K as Kernel>::SimState, <K as Kernel>::Extra>;
+
+/// One gear model as seen by the FMU adapter. Implemented by [`crate::fmu::pair::Pair`] and
+/// [`crate::fmu::drivetrain::Drivetrain`]; the functions are associated (no `self`): a kernel
+/// is a type, its state lives in the adapter.
+pub trait Kernel: 'static {
+    /// The model the shared [`Driver`] integrates.
+    type Model: DrivenModel + Send;
+    /// The values of the parameters and start inputs set so far: the scene, and whatever the
+    /// variable table holds apart from it. Every accepted change rebuilds the simulation
+    /// from it.
+    type Settings: Clone + Send;
+    /// What [`Self::Settings`] holds besides the values of its Real parameters, so an FMU
+    /// state carries it next to the parameter list (the pair's initial-DTE choice).
+    type Extra: Clone;
+    /// The driver's snapshot of a run ([`crate::simulation::SimState`] and its drivetrain
+    /// counterpart).
+    type SimState;
+
+    /// The `description` of a scene without one.
+    const FALLBACK_DESCRIPTION: &'static str;
+    /// The model part of `documentation/index.html` (the adapter adds its co-simulation
+    /// behaviour).
+    const DOCUMENTATION: &'static str;
+    /// The documentation's item on the start of a run.
+    const START_DOCUMENTATION: &'static str;
+    /// Value references of the three inputs: speed, input torque, load torque.
+    const INPUTS: [u32; 3];
+    /// Value reference of the first output; output `i` of [`Self::outputs`] is
+    /// `OUTPUT0 + i`, and nothing above the outputs has a value reference.
+    const OUTPUT0: u32;
+
+    /// Parses and validates a scene of this kernel's format (messages name the field and
+    /// value) into the settings of a fresh instance.
+    fn load(text: &str, origin: &str) -> Result<Self::Settings, String>;
+    /// The scene's name, description and solver settings.
+    fn header(s: &Self::Settings) -> (&str, &str, &SolverSettings);
+    /// A simulation of the settings, at `t = 0` in its initial state.
+    fn build(s: &Self::Settings) -> Result<Driver<Self::Model>, String>;
+    /// The variable table (start values from the settings). Called once per instance.
+    fn variables(s: &Self::Settings, sim: &Driver<Self::Model>) -> Result<Vec<Variable>, String>;
+
+    /// Applies one parameter or start-input value `name = x` to the settings, validated and
+    /// nothing clamped (the build that follows checks the combination).
+    fn apply(s: &mut Self::Settings, name: &str, vr: u32, x: f64) -> Result<(), String>;
+    /// The value of a Real parameter or calculated parameter (`None`: no such variable).
+    fn parameter(s: &Self::Settings, model: &Self::Model, vr: u32) -> Option<f64>;
+    /// The value of a Boolean parameter (`None`: no such variable); it is set, before
+    /// initialization only, through [`Self::apply`] as 0 or 1.
+    fn boolean(_s: &Self::Settings, _vr: u32) -> Option<bool> {
+        None
+    }
+
+    /// The inputs the settings start from, in [`Self::INPUTS`] order.
+    fn start_inputs(s: &Self::Settings) -> [f64; 3];
+    /// The current inputs, in [`Self::INPUTS`] order.
+    fn inputs(model: &Self::Model) -> [f64; 3];
+    /// New inputs after initialization, from the current time on; on failure nothing changes.
+    fn set_inputs(sim: &mut Driver<Self::Model>, u: [f64; 3]) -> Result<(), String>;
+    /// The outputs at the current time, in value-reference order (cleared first).
+    fn outputs(sim: &Driver<Self::Model>, out: &mut Vec<f64>);
+
+    fn extra(s: &Self::Settings) -> Self::Extra;
+    fn set_extra(s: &mut Self::Settings, extra: &Self::Extra);
+    fn sim_state(sim: &Driver<Self::Model>) -> Self::SimState;
+    /// The inputs of a run state, in [`Self::INPUTS`] order.
+    fn sim_inputs(state: &Self::SimState) -> [f64; 3];
+    /// Continues from a run state of a simulation of the same settings; on failure nothing
+    /// changes.
+    fn restore_sim(sim: &mut Driver<Self::Model>, state: &Self::SimState) -> Result<(), String>;
+
+    /// The payload bytes of a snapshot (the kernel's own layout, stable across versions).
+    fn encode(s: &KernelSnapshot<Self>) -> Vec<u8>;
+    fn decode(bytes: &[u8]) -> Result<KernelSnapshot<Self>, String>;
+}
