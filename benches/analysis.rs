@@ -1,8 +1,9 @@
 //! Benchmark (not a test) of the steady-state tools on the single-mesh backlash scene
-//! `spur_pair` (issue 8): a 400-point sweep (200 speeds up and 200 down, warm start and
-//! periodicity detection), the same 400 points by brute-force integration (each from the
-//! scene's static start, a fixed transient long enough for every point, then the same
-//! recording), and a full harmonic-balance continuation with Floquet stability of every point.
+//! `spur_pair` and the 8-DOF idler drivetrain `idler_gearset` (issues 8 and 16): for each, a
+//! 400-point sweep (200 speeds up and 200 down) with the Newton-shooting warm start, the same
+//! sweep with warm-started transient integration only (no shooting), the same 400 points by
+//! brute-force integration (each from the scene's static start, a fixed transient, then the
+//! same recording), and a harmonic-balance continuation with Floquet stability of every point.
 //! All measured in one run; the ratios are the result.
 //!
 //! Run: `cargo bench --bench analysis` (or `scripts/bench.sh`).
@@ -11,85 +12,115 @@ use std::time::Instant;
 
 use geardyn::analysis::hb::{continuation, ContinuationOptions, HbOptions};
 use geardyn::analysis::{sweep, Direction, SweepOptions};
+use geardyn::model::{response_period, AnyScene, Drivetrain};
 use geardyn::scene::Scene;
-use geardyn::simulation::Simulation;
+use geardyn::with_drivetrain;
 
-const FROM: f64 = 300.0;
-const TO: f64 = 600.0;
 const POINTS: usize = 200;
 
-/// Brute force: every point from the scene's start, `transient` mesh periods, then the same
-/// 8 recorded periods at 64 samples as the sweep.
-fn brute_force(scene: &Scene, speeds: &[f64], transient: u32) -> f64 {
+/// Brute force: every point from the scene's start, `transient` response periods, then one
+/// recorded response period at 64 samples per mesh period, as the sweep records a periodic
+/// point.
+fn brute_force(scene: &AnyScene, speeds: &[f64], transient: u32) -> f64 {
     let mut checksum = 0.0;
     for &speed in speeds {
         let mut s = scene.clone();
-        s.operating.pinion_speed = speed;
-        let mut sim = Simulation::new(&s).expect("simulation");
-        let period = sim.model().mesh_period();
-        sim.advance_to(transient as f64 * period).expect("advance");
-        let t0 = sim.t();
-        let mut sum2 = 0.0;
-        for i in 1..=8 * 64 {
-            sim.advance_to(t0 + i as f64 * period / 64.0)
-                .expect("advance");
-            sum2 += sim.state()[0].powi(2);
-        }
-        checksum += sum2;
+        s.set_input_speed(speed);
+        checksum += with_drivetrain!(s.simulation().expect("simulation"), sim => {
+            let mut sim = sim;
+            let period = response_period(sim.model()).expect("period");
+            sim.advance_to(transient as f64 * period).expect("advance");
+            let t0 = sim.t();
+            let samples = 64 * (period * sim.model().mesh_frequency(0)).round() as usize;
+            let mut sum2 = 0.0;
+            for i in 1..=samples {
+                sim.advance_to(t0 + i as f64 * period / samples as f64)
+                    .expect("advance");
+                sum2 += sim.model().mesh_sample(0, sim.t(), sim.y()).dte.powi(2);
+            }
+            sum2
+        });
     }
     checksum
 }
 
-fn main() {
-    let scene = Scene::example("spur_pair").expect("built-in scene");
+fn bench(name: &str, from: f64, to: f64, transient: u32) {
+    let scene = AnyScene::example(name).expect("built-in scene");
     let speeds: Vec<f64> = (0..POINTS)
-        .map(|i| FROM + (TO - FROM) * i as f64 / (POINTS - 1) as f64)
+        .map(|i| from + (to - from) * i as f64 / (POINTS - 1) as f64)
         .collect();
+    let options = SweepOptions::new(speeds.clone(), Direction::Both);
 
     let t = Instant::now();
-    let points = sweep(
+    let shot = sweep(&scene, &options, &|_, _| {}).expect("sweep");
+    let shooting = t.elapsed().as_secs_f64();
+    let newton = shot
+        .points
+        .iter()
+        .filter(|p| p.newton_iterations > 0)
+        .count();
+    let integrated = shot
+        .points
+        .iter()
+        .filter(|p| p.transient_periods > 0)
+        .count();
+    let unconverged = shot.points.iter().filter(|p| !p.converged).count();
+
+    let t = Instant::now();
+    let plain = sweep(
         &scene,
-        &SweepOptions::new(speeds.clone(), Direction::Both),
+        &SweepOptions {
+            shooting: false,
+            ..options.clone()
+        },
         &|_, _| {},
     )
     .expect("sweep");
     let warm = t.elapsed().as_secs_f64();
-    let longest = points
-        .iter()
-        .map(|p| p.transient_periods)
-        .max()
-        .unwrap_or(0);
-    let unconverged = points.iter().filter(|p| !p.converged).count();
+    let plain_unconverged = plain.points.iter().filter(|p| !p.converged).count();
 
-    // The brute-force transient: the longest one the warm sweep needed, so that every point
-    // is at least as settled (from a cold start it needs more; this favours brute force).
     let both: Vec<f64> = speeds.iter().chain(speeds.iter().rev()).copied().collect();
     let t = Instant::now();
-    let checksum = brute_force(&scene, &both, longest);
+    let checksum = brute_force(&scene, &both, transient);
     let brute = t.elapsed().as_secs_f64();
 
+    println!(
+        "{name}: steady state over {from}..{to} rad/s, {} points up+down",
+        both.len()
+    );
+    println!(
+        "  sweep, Newton-shooting warm start:      {shooting:7.3} s ({newton} points by Newton, \
+         {integrated} with integrated transients, {unconverged} not converged)"
+    );
+    println!(
+        "  sweep, warm-started transients only:    {warm:7.3} s ({plain_unconverged} not converged) \
+         → {:.1}× the shooting sweep",
+        warm / shooting
+    );
+    println!(
+        "  brute force, {transient} response periods each: {brute:7.3} s → {:.1}× the shooting \
+         sweep (checksum {checksum:.3e})",
+        brute / shooting
+    );
+}
+
+fn main() {
+    bench("spur_pair", 300.0, 600.0, 800);
+    bench("idler_gearset", 150.0, 500.0, 500);
+
+    let scene = Scene::example("spur_pair").expect("built-in scene");
     let t = Instant::now();
     let branch = continuation(
         &scene,
         &HbOptions::new(20),
-        &ContinuationOptions::new(FROM, TO),
+        &ContinuationOptions::new(300.0, 600.0),
     )
     .expect("continuation");
     let hb = t.elapsed().as_secs_f64();
     let folds = branch.iter().filter(|p| p.fold).count();
-
-    println!("steady state of spur_pair over {FROM}..{TO} rad/s");
     println!(
-        "  sweep, {} points up+down (warm start, periodicity test): {warm:.3} s ({unconverged} not converged, longest transient {longest} periods)",
-        points.len()
-    );
-    println!(
-        "  brute force, same {} points ({longest} transient periods each): {brute:.3} s  → ratio {:.1}× (checksum {checksum:.3e})",
-        both.len(),
-        brute / warm
-    );
-    println!(
-        "  harmonic balance H = 20, continuation with Floquet stability: {hb:.3} s, {} points, {folds} folds",
+        "spur_pair: harmonic balance H = 20, continuation with Floquet stability: {hb:.3} s, {} \
+         points, {folds} folds",
         branch.len()
     );
 }
