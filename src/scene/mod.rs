@@ -173,16 +173,13 @@ pub const EXAMPLES: &[(&str, &str)] = &[
 impl Scene {
     /// Parses and validates scene text. `origin` names the source in messages.
     pub fn from_toml_str(text: &str, origin: &str) -> Result<Scene, SceneError> {
-        let spec: SceneSpec = toml::from_str(text)
-            .map_err(|e| SceneError(format!("{origin}: {}", e.to_string().trim_end())))?;
-        validate::validate(spec, text).map_err(|e| SceneError(format!("{origin}: {}", e.0)))
+        parse(text, origin, validate::validate)
     }
 
     /// Reads and validates a scene file.
     pub fn from_file(path: &Path) -> Result<Scene, SceneError> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| SceneError(format!("cannot read scene file '{}': {e}", path.display())))?;
-        Self::from_toml_str(&text, &path.display().to_string())
+        let (text, origin) = read_scene_file(path)?;
+        Self::from_toml_str(&text, &origin)
     }
 
     /// A built-in example by name.
@@ -200,18 +197,41 @@ impl Scene {
     /// Resolves a scene argument: a `.toml` file, or a folder holding `scene.toml`
     /// (such as `fmu/spur_pair`).
     pub fn from_path(path: &Path) -> Result<Scene, SceneError> {
-        let file: PathBuf = if path.is_dir() {
-            path.join("scene.toml")
-        } else {
-            path.to_path_buf()
-        };
-        Self::from_file(&file)
+        Self::from_file(&scene_file(path))
     }
 
     /// Equivalent mass on the line of action, `m_e = 1/(r_b1²/I1 + r_b2²/I2)`, kg.
     pub fn equivalent_mass(&self) -> f64 {
         equivalent_mass(&self.pinion, &self.gear)
     }
+}
+
+/// Parses scene text into its spec and validates it; messages start with `origin` (both
+/// formats).
+pub(crate) fn parse<Spec: serde::de::DeserializeOwned, T>(
+    text: &str,
+    origin: &str,
+    validate: impl FnOnce(Spec, &str) -> Result<T, SceneError>,
+) -> Result<T, SceneError> {
+    let spec: Spec = toml::from_str(text)
+        .map_err(|e| SceneError(format!("{origin}: {}", e.to_string().trim_end())))?;
+    validate(spec, text).map_err(|e| SceneError(format!("{origin}: {}", e.0)))
+}
+
+/// A scene argument as a file: the path itself, or the `scene.toml` inside a folder.
+pub(crate) fn scene_file(path: &Path) -> PathBuf {
+    if path.is_dir() {
+        path.join("scene.toml")
+    } else {
+        path.to_path_buf()
+    }
+}
+
+/// The text of a scene file and its name for messages.
+pub(crate) fn read_scene_file(file: &Path) -> Result<(String, String), SceneError> {
+    let text = std::fs::read_to_string(file)
+        .map_err(|e| SceneError(format!("cannot read scene file '{}': {e}", file.display())))?;
+    Ok((text, file.display().to_string()))
 }
 
 pub(crate) fn equivalent_mass(pinion: &Gear, gear: &Gear) -> f64 {

@@ -329,15 +329,7 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
         ));
     }
 
-    let initial_dte = match &spec.initial.dte {
-        InitialDteSpec::Value(v) => InitialDte::Value(finite("initial.dte", *v)?),
-        InitialDteSpec::Keyword(k) if k == "static" => InitialDte::Static,
-        InitialDteSpec::Keyword(k) => {
-            return err(format!(
-                "initial.dte = {k:?}: must be \"static\" or a number in m"
-            ))
-        }
-    };
+    let initial_dte = initial_dte(&spec.initial.dte)?;
 
     let solver = solver(&spec.solver)?;
     if solver.method == MethodChoice::Exact && !stiffness.is_piecewise_constant() {
@@ -521,4 +513,15 @@ pub(crate) fn stiffness(spec: &StiffnessSpec) -> Result<MeshStiffness> {
         StiffnessSpec::Geometry { .. } => unreachable!("resolved by scene::geometry"),
         StiffnessSpec::Helical { .. } => unreachable!("resolved by scene::helical"),
     })
+}
+
+/// `initial.dte`: `"static"` or a number in m (both scene formats).
+pub(crate) fn initial_dte(spec: &InitialDteSpec) -> Result<InitialDte> {
+    match spec {
+        InitialDteSpec::Value(v) => Ok(InitialDte::Value(finite("initial.dte", *v)?)),
+        InitialDteSpec::Keyword(k) if k == "static" => Ok(InitialDte::Static),
+        InitialDteSpec::Keyword(k) => err(format!(
+            "initial.dte = {k:?}: must be \"static\" or a number in m"
+        )),
+    }
 }

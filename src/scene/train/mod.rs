@@ -13,7 +13,9 @@ mod validate;
 use std::path::Path;
 
 use crate::mesh::{MeshStiffness, PhaseSeries, Piece};
-use crate::scene::{ContactLaw, InitialDte, SceneError, SolverSettings};
+use crate::scene::{
+    read_scene_file, scene_file, ContactLaw, InitialDte, SceneError, SolverSettings,
+};
 
 pub use friction::{HelicalPair, MeshFriction};
 pub use spec::TrainSpec;
@@ -439,17 +441,13 @@ pub const TRAIN_EXAMPLES: &[(&str, &str)] = &[
 impl TrainScene {
     /// Parses and validates scene text; `origin` names the source in messages.
     pub fn from_toml_str(text: &str, origin: &str) -> Result<TrainScene, SceneError> {
-        let spec: TrainSpec = toml::from_str(text)
-            .map_err(|e| SceneError(format!("{origin}: {}", e.to_string().trim_end())))?;
-        validate::validate(spec, text).map_err(|e| SceneError(format!("{origin}: {}", e.0)))
+        crate::scene::parse::<TrainSpec, _>(text, origin, validate::validate)
     }
 
     /// Reads a scene file, or the `scene.toml` inside a folder.
     pub fn from_path(path: &Path) -> Result<TrainScene, SceneError> {
-        let file = scene_file(path);
-        let text = std::fs::read_to_string(&file)
-            .map_err(|e| SceneError(format!("cannot read scene file '{}': {e}", file.display())))?;
-        Self::from_toml_str(&text, &file.display().to_string())
+        let (text, origin) = read_scene_file(&scene_file(path))?;
+        Self::from_toml_str(&text, &origin)
     }
 
     /// A built-in drivetrain scene by name.
@@ -481,20 +479,10 @@ impl TrainScene {
     }
 }
 
-fn scene_file(path: &Path) -> std::path::PathBuf {
-    if path.is_dir() {
-        path.join("scene.toml")
-    } else {
-        path.to_path_buf()
-    }
-}
-
 /// Whether a scene file is a drivetrain scene (`[[mesh]]` array, `[[shaft]]` or `[model]`)
 /// rather than the single-mesh format of `docs/model.md`.
 pub fn is_train_file(path: &Path) -> Result<bool, SceneError> {
-    let file = scene_file(path);
-    let text = std::fs::read_to_string(&file)
-        .map_err(|e| SceneError(format!("cannot read scene file '{}': {e}", file.display())))?;
+    let (text, _) = read_scene_file(&scene_file(path))?;
     Ok(is_train_text(&text))
 }
 

@@ -9,9 +9,9 @@ use super::{
     ShaftCoupling, TipRelief, TrainGear, TrainMesh, TrainOperating, TrainScene,
 };
 use crate::mesh::PhaseSeries;
-use crate::scene::spec::{ContactLawSpec, InitialDteSpec};
-use crate::scene::validate::{finite, non_negative, positive, solver};
-use crate::scene::{ContactLaw, InitialDte, MethodChoice, SceneError};
+use crate::scene::spec::ContactLawSpec;
+use crate::scene::validate::{finite, initial_dte, non_negative, positive, solver};
+use crate::scene::{ContactLaw, MethodChoice, SceneError};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -238,15 +238,7 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
         None => input_torque * radius_ratio(&gears, &shafts, &meshes, input_gear, output_gear),
     };
 
-    let initial_dte = match &spec.initial.dte {
-        InitialDteSpec::Value(v) => InitialDte::Value(finite("initial.dte", *v)?),
-        InitialDteSpec::Keyword(k) if k == "static" => InitialDte::Static,
-        InitialDteSpec::Keyword(k) => {
-            return err(format!(
-                "initial.dte = {k:?}: must be \"static\" or a number in m"
-            ))
-        }
-    };
+    let initial_dte = initial_dte(&spec.initial.dte)?;
 
     let solver = solver(&spec.solver)?;
     if solver.method == MethodChoice::Exact {
