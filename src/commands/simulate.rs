@@ -6,13 +6,13 @@
 use std::path::Path;
 
 use super::positive;
-use crate::model::train::{train_row, TrainSimulation};
-use crate::model::OUTPUT_NAMES;
+use crate::model::{Drivetrain, MeshColumns};
 use crate::output::CsvWriter;
 use crate::scene::{MethodChoice, SolverSettings};
-use crate::simulation::{pair_row, stream, Progress, RunLimits, RunSummary, Simulation};
+use crate::simulation::{stream, Progress, RunLimits, RunSummary};
 use crate::simulation::{DrivenModel, Driver, OutputGrid};
 use crate::solve::SolverStats;
+use crate::with_drivetrain;
 
 pub use crate::model::AnyScene;
 
@@ -128,68 +128,42 @@ pub fn simulate(
 ) -> Result<SimulateReport, String> {
     let (stop_time, interval) = opts.apply(scene.solver_mut())?;
     let name = scene.name().to_owned();
-    match scene {
-        AnyScene::Pair(scene) => {
-            let sim = Simulation::new(&scene)?;
-            // Pair columns: dte 0, force 2, contact_state 3 (1 = drive-side contact).
-            let names: Vec<String> = OUTPUT_NAMES.iter().map(|s| s.to_string()).collect();
-            let run = run_to_csv(
-                sim,
-                &names,
-                RunSummary::new(&[0, 2], &[(3, 1.0)]),
-                pair_row,
-                stop_time,
-                interval,
-                opts,
-                out,
-            )?;
-            let meshes = vec![MeshSummary {
-                name: "mesh".into(),
-                dte_rms: run.summary.column(0).rms_about_mean(),
-                peak_force: run.summary.column(2).max_abs(),
-                contact_loss: 1.0 - run.summary.fraction(3, 1.0),
-            }];
-            Ok(run.report(name, meshes, true))
-        }
-        AnyScene::Train(scene) => {
-            let sim = TrainSimulation::new(&scene)?;
-            let names = sim.output_names().to_vec();
-            let column = |mesh: &str, q: &str| {
-                let c = format!("{mesh}_{q}");
-                names
-                    .iter()
-                    .position(|n| *n == c)
-                    .ok_or_else(|| format!("the train has no output '{c}'"))
-            };
-            let mut tallies = Vec::new();
-            let mut cols = Vec::new();
-            for m in &scene.meshes {
-                let contact = column(&m.name, "pairs_in_contact")?;
-                tallies.push((contact, 0.0));
-                cols.push((
-                    m.name.clone(),
-                    column(&m.name, "dte")?,
-                    column(&m.name, "force")?,
-                    contact,
-                ));
-            }
-            let summed: Vec<usize> = cols.iter().flat_map(|c| [c.1, c.2]).collect();
-            let summary = RunSummary::new(&summed, &tallies);
-            let run = run_to_csv(
-                sim, &names, summary, train_row, stop_time, interval, opts, out,
-            )?;
-            let meshes = cols
-                .into_iter()
-                .map(|(name, dte, force, contact)| MeshSummary {
+    let pair = matches!(scene, AnyScene::Pair(_));
+    with_drivetrain!(scene.simulation()?, sim => {
+        let names = sim.model().row_names();
+        let meshes: Vec<(String, MeshColumns)> = (0..sim.model().mesh_count())
+            .map(|n| {
+                let prefix = sim.model().mesh_prefix(n);
+                let label = if prefix.is_empty() { "mesh".to_owned() } else { prefix.trim_end_matches('_').to_owned() };
+                (label, sim.model().mesh_columns(n))
+            })
+            .collect();
+        let summed: Vec<usize> = meshes.iter().flat_map(|(_, c)| [c.dte, c.force]).collect();
+        let tallies: Vec<(usize, f64)> = meshes.iter().map(|(_, c)| (c.contact, c.contact_value)).collect();
+        let run = run_to_csv(
+            sim,
+            &names,
+            RunSummary::new(&summed, &tallies),
+            |sim, row| sim.model().output_row(sim.t(), sim.y(), row),
+            stop_time,
+            interval,
+            opts,
+            out,
+        )?;
+        let meshes = meshes
+            .into_iter()
+            .map(|(name, c)| {
+                let fraction = run.summary.fraction(c.contact, c.contact_value);
+                MeshSummary {
                     name,
-                    dte_rms: run.summary.column(dte).rms_about_mean(),
-                    peak_force: run.summary.column(force).max_abs(),
-                    contact_loss: run.summary.fraction(contact, 0.0),
-                })
-                .collect();
-            Ok(run.report(name, meshes, false))
-        }
-    }
+                    dte_rms: run.summary.column(c.dte).rms_about_mean(),
+                    peak_force: run.summary.column(c.force).max_abs(),
+                    contact_loss: if c.value_means_contact { 1.0 - fraction } else { fraction },
+                }
+            })
+            .collect();
+        Ok(run.report(name, meshes, pair))
+    })
 }
 
 /// A finished streamed run.

@@ -34,6 +34,20 @@ pub struct MeshSample {
     pub phase: f64,
 }
 
+/// Where mesh `n`'s quantities sit in the output row, for run summaries.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MeshColumns {
+    pub dte: usize,
+    pub force: usize,
+    /// The contact column and its value while the mesh is in contact, or (`lost_value`) while
+    /// it has lost contact.
+    pub contact: usize,
+    pub contact_value: f64,
+    /// `contact_value` marks rows in contact (the pair's `contact_state = 1`: drive side)
+    /// rather than rows without contact (the drivetrain's `pairs_in_contact = 0`).
+    pub value_means_contact: bool,
+}
+
 /// What the analyses need from a model beyond its equations ([`DrivenModel`]).
 pub trait Drivetrain: DrivenModel {
     fn mesh_count(&self) -> usize;
@@ -62,6 +76,12 @@ pub trait Drivetrain: DrivenModel {
     fn is_linear(&self) -> bool;
     /// Names of the state's displacement coordinates (for reports).
     fn coordinate_names(&self) -> Vec<String>;
+    /// Names of the output row (`geardyn simulate` columns after `time`, FMU outputs).
+    fn row_names(&self) -> Vec<String>;
+    /// The output row at `(t, y)`.
+    fn output_row(&self, t: f64, y: &[f64], row: &mut Vec<f64>);
+    /// Where mesh `n`'s DTE, force and contact sit in the output row.
+    fn mesh_columns(&self, n: usize) -> MeshColumns;
 }
 
 impl Drivetrain for GearPair {
@@ -115,6 +135,25 @@ impl Drivetrain for GearPair {
     fn coordinate_names(&self) -> Vec<String> {
         vec!["dte".into()]
     }
+    fn row_names(&self) -> Vec<String> {
+        super::OUTPUT_NAMES.iter().map(|s| s.to_string()).collect()
+    }
+    fn output_row(&self, t: f64, y: &[f64], row: &mut Vec<f64>) {
+        let mut out = [0.0; super::OUTPUT_NAMES.len()];
+        self.outputs(t, y, &mut out);
+        row.clear();
+        row.extend_from_slice(&out);
+    }
+    fn mesh_columns(&self, _n: usize) -> MeshColumns {
+        // dte 0, mesh_force 2, contact_state 3 (1 = drive-side contact).
+        MeshColumns {
+            dte: 0,
+            force: 2,
+            contact: 3,
+            contact_value: 1.0,
+            value_means_contact: true,
+        }
+    }
 }
 
 impl Drivetrain for GearTrain {
@@ -164,6 +203,29 @@ impl Drivetrain for GearTrain {
     }
     fn coordinate_names(&self) -> Vec<String> {
         (1..=self.elastic_dim()).map(|i| format!("ξ{i}")).collect()
+    }
+    fn row_names(&self) -> Vec<String> {
+        GearTrain::output_names(self).to_vec()
+    }
+    fn output_row(&self, t: f64, y: &[f64], row: &mut Vec<f64>) {
+        self.outputs(t, y, row);
+    }
+    fn mesh_columns(&self, n: usize) -> MeshColumns {
+        let names = GearTrain::output_names(self);
+        let column = |q: &str| {
+            let c = format!("{}_{q}", self.mesh_name(n));
+            names
+                .iter()
+                .position(|name| *name == c)
+                .expect("every mesh has its dte, force and pairs_in_contact outputs")
+        };
+        MeshColumns {
+            dte: column("dte"),
+            force: column("force"),
+            contact: column("pairs_in_contact"),
+            contact_value: 0.0,
+            value_means_contact: false,
+        }
     }
 }
 
