@@ -197,8 +197,10 @@ def simulate(scene: Scene) -> Simulation:
 
 
 def periodic(scene: Scene, periods: int = 1, warmup: int = 20) -> Orbit:
-    """Periodic steady state at ``operating.pinion_speed`` by Newton shooting, with Floquet
-    multipliers and stability: a period-``periods`` orbit after ``warmup`` mesh periods."""
+    """Periodic steady state of any scene at its input speed (``operating.pinion_speed`` or
+    ``operating.input_speed``) by Newton shooting, with Floquet multipliers and stability: a
+    period-``periods`` orbit after ``warmup`` response periods (the least common multiple of
+    the mesh periods)."""
     raw = _geardyn.periodic(scene, periods, warmup)
     raw["multipliers"] = np.array([complex(re, im) for re, im in raw["multipliers"]])
     return Orbit(**raw)
@@ -211,8 +213,9 @@ def sweep(
     tolerance: float = 1e-7,
     max_periods: int = 3000,
 ) -> Table:
-    """Frequency-response sweep over pinion speeds ``speed = "from:to:points"`` (rad/s),
-    ``direction`` up | down | both; the table of ``geardyn sweep``."""
+    """Frequency-response sweep of any scene over input-gear speeds
+    ``speed = "from:to:points"`` (rad/s), ``direction`` up | down | both; the table of
+    ``geardyn sweep`` (per-mesh columns prefixed ``<mesh>_`` in a drivetrain)."""
     return Table(*_geardyn.sweep(scene, speed, direction, tolerance, max_periods))
 
 
@@ -223,7 +226,8 @@ def hb(scene: Scene, speed: str, harmonics: int = 20, subharmonic: int = 1) -> T
 
 
 def modes(scene: Scene, rigid_bearings: bool = False) -> Modes:
-    """Natural frequencies and mode shapes of a drivetrain's mean system (``geardyn modes``)."""
+    """Natural frequencies and mode shapes of any scene's mean system (``geardyn modes``; a
+    single pair as its one-mesh drivetrain)."""
     raw = _geardyn.modes(scene, rigid_bearings)
     raw["rigid"] = np.array(raw["rigid"], dtype=bool)
     return Modes(**raw)

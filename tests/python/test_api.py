@@ -6,6 +6,7 @@ same ones. Text outputs are compared line for line and their numbers parsed back
 must carry the CLI's message (the part after `error: ` on stderr).
 """
 
+import math
 import pathlib
 import pickle
 import re
@@ -235,8 +236,12 @@ def test_bad_option_raises_the_cli_message(tmp_path):
     with pytest.raises(geardyn.GeardynError) as e:
         geardyn.stiffness(GEARS, torque=-1.0)
     assert str(e.value) == cli_error("stiffness", GEARS, "--torque", "-1", "--out", tmp_path / "k.csv")
-    with pytest.raises(geardyn.GeardynError, match="takes a drivetrain scene"):
-        geardyn.modes(scene)
+    # Every command takes every scene: the pair's modes are its one-mesh drivetrain's, the
+    # rigid rotation and sqrt(k̄/m_e)/2π (k̄ = 2.9831e8 N/m, m_e of docs/model.md).
+    pair = geardyn.modes(scene)
+    m_e = 1.0 / (0.04535**2 / 0.002621 + 0.06564**2 / 0.01091)
+    assert list(pair.rigid) == [True, False]
+    assert pair.frequencies[1] == pytest.approx(math.sqrt(2.9831e8 / m_e) / (2 * math.pi), rel=1e-12)
 
 
 def test_two_threads_solving_at_once_give_the_serial_results():
