@@ -430,7 +430,14 @@ fn steady_state<M: Drivetrain>(
         j += 1;
         sim.advance_to(t0 + j as f64 * period)
             .map_err(|e| at(e.to_string()))?;
-        if options.shooting && j % NEWTON_RETRY == 0 {
+        // Retries after 50, 100, 200, 400, … periods: a settled transient is finished early,
+        // and a response that never settles (an unstable orbit, quasi-periodic motion) costs
+        // a logarithmic number of failed Newton runs.
+        if options.shooting
+            && j >= NEWTON_RETRY
+            && (j / NEWTON_RETRY).is_power_of_two()
+            && j % NEWTON_RETRY == 0
+        {
             // Period 1, then period 2 (the period-doubled orbits near the second-harmonic
             // and subharmonic resonances).
             let k = (1..=2u32.min(options.max_subharmonic))
@@ -598,8 +605,9 @@ fn steady_state<M: Drivetrain>(
     })
 }
 
-/// Response periods of transient between two more shooting attempts: a transient that has
-/// settled into the basin of a stable orbit is finished by Newton.
+/// Response periods of transient before the first further shooting attempt (the next ones
+/// after twice as many each time): a transient that has settled into the basin of a stable
+/// orbit is finished by Newton.
 const NEWTON_RETRY: u32 = 50;
 
 /// Newton iterations allowed to the shooting warm start before the transient is integrated.
