@@ -186,7 +186,7 @@ fn primary_instability_bands() {
         for mu in [0.0, 0.2, 0.4] {
             let s = scene(mu, 1000.0, 0.0, reference);
             let bands = instability_bands(&s, from_rpm(15_000.0), from_rpm(25_000.0), 200).unwrap();
-            let primary: Vec<_> = bands.iter().filter(|b| b.order == 1).collect();
+            let primary: Vec<_> = bands.iter().filter(|b| b.order == Some(1)).collect();
             assert_eq!(primary.len(), 1, "{reference} μ = {mu}: {bands:?}");
             let b = primary[0];
             let (lo, hi) = (rpm(b.from_speed), rpm(b.to_speed));

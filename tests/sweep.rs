@@ -136,10 +136,11 @@ fn bad_ranges_and_unconverged_points() {
     let scene = Scene::example("spur_pair").unwrap();
     let err = sweep(&scene, &SweepOptions::new(vec![], Direction::Up), &quiet).unwrap_err();
     assert!(err.contains("zero points"), "{err}");
-    // Too short a transient: the point is kept and marked.
+    // Too short a transient (and no shooting to finish it): the point is kept and marked.
     let options = SweepOptions {
         min_transient_periods: 1,
         max_transient_periods: 2,
+        shooting: false,
         ..SweepOptions::new(vec![450.0, 460.0], Direction::Up)
     };
     let points = sweep(&scene, &options, &quiet).unwrap().points;

@@ -221,6 +221,11 @@ pub struct SweepPoint {
     pub spectral_radius: f64,
     /// One entry per mesh.
     pub meshes: Vec<MeshResponse>,
+    /// Where the recording started: the first mesh's phase in cycles, reduced modulo the
+    /// response period's cycles, and the state. A run of the same scene at this speed, set to
+    /// this state when its first mesh has this phase, continues on the recorded response.
+    pub recording_phase: f64,
+    pub recording_state: Vec<f64>,
 }
 
 /// Columns shared by every scene; then per mesh [`MESH_COLUMNS`], prefixed.
@@ -519,6 +524,8 @@ fn steady_state<M: Drivetrain>(
     let frequencies: Vec<f64> = (0..meshes).map(|m| model.mesh_frequency(m)).collect();
     let static_forces = model.static_mesh_forces();
     let t_start = sim.t();
+    let recording_phase = model.mesh_phase(0, t_start).rem_euclid(per_response as f64);
+    let recording_state = sim.y().to_vec();
     let mut dte = vec![Vec::with_capacity(n); meshes];
     let mut force = vec![Vec::with_capacity(n); meshes];
     let mut lost = vec![0usize; meshes];
@@ -602,6 +609,8 @@ fn steady_state<M: Drivetrain>(
         newton_iterations,
         spectral_radius,
         meshes: mesh_responses,
+        recording_phase,
+        recording_state,
     })
 }
 
@@ -609,6 +618,17 @@ fn steady_state<M: Drivetrain>(
 /// after twice as many each time): a transient that has settled into the basin of a stable
 /// orbit is finished by Newton.
 const NEWTON_RETRY: u32 = 50;
+
+/// Largest scaled periodicity residual of the run's state at which a shooting orbit is
+/// accepted: Newton polishes a state that nearly repeats (after a small speed step, or after
+/// some transient), but from a state far from periodic it may converge to an attractor whose
+/// basin the run is not in.
+const NEAR_PERIODIC: f64 = 0.25;
+
+/// Safety factor on the distance bound `r0/(1 − ρ)` within which a shooting orbit is
+/// accepted as the run's attractor (the bound holds for a linear contraction in the norm the
+/// residual uses; the factor covers non-normal monodromies and the nonlinearity).
+const ATTRACTION_MARGIN: f64 = 3.0;
 
 /// Newton iterations allowed to the shooting warm start before the transient is integrated.
 const NEWTON_ITERATIONS: usize = 8;
@@ -636,10 +656,25 @@ fn shoot_here<M: Drivetrain>(
         tolerance: options.tolerance,
         max_iterations: NEWTON_ITERATIONS,
     };
-    match newton(&mut map, sim.y().to_vec(), &shooting) {
+    let y = sim.y().to_vec();
+    let scale = state_scale(sim.model(), &y);
+    match newton(&mut map, y.clone(), &shooting) {
         Ok(orbit) => {
-            *spectral_radius = orbit.spectral_radius();
-            if orbit.spectral_radius() < 1.0 {
+            let rho = orbit.spectral_radius();
+            *spectral_radius = rho;
+            // The orbit is the attractor the run is heading for only if the run is already in
+            // its neighbourhood: for a contracting period map the distance to the fixed point
+            // is at most r0/(1 − ρ), r0 the first residual. An orbit farther away is another
+            // attractor (Newton can converge to any of them), which a slow physical sweep
+            // would not reach from here: then the transient is integrated instead.
+            let distance = y
+                .iter()
+                .zip(&orbit.y0)
+                .zip(&scale)
+                .map(|((a, b), s)| ((a - b) / s).abs())
+                .fold(0.0, f64::max);
+            let reach = ATTRACTION_MARGIN * orbit.residuals[0] / (1.0 - rho).max(1e-12);
+            if rho < 1.0 && distance <= reach && orbit.residuals[0] <= NEAR_PERIODIC {
                 sim.set_y(t, &orbit.y0);
                 (orbit.residuals.len() as u32).max(1)
             } else {

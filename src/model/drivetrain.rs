@@ -64,6 +64,9 @@ pub trait Drivetrain: DrivenModel {
     fn set_input_speed(&mut self, t: f64, speed: f64) -> Result<(), String>;
     /// Mesh `n` at `(t, y)`.
     fn mesh_sample(&self, n: usize, t: f64, y: &[f64]) -> MeshSample;
+    /// Mesh phase of mesh `n` at `t`, cycles (not reduced: it counts the cycles since the
+    /// start, so with the response period it locates a state on an orbit).
+    fn mesh_phase(&self, n: usize, t: f64) -> f64;
     /// Static mesh force of every mesh under the current torques (mean stiffness), N: the
     /// reference of the dynamic factor.
     fn static_mesh_forces(&self) -> Vec<f64>;
@@ -119,6 +122,9 @@ impl Drivetrain for GearPair {
             lost: out[3] == 0.0,
             phase: out[4],
         }
+    }
+    fn mesh_phase(&self, _n: usize, t: f64) -> f64 {
+        GearPair::mesh_phase(self, t)
     }
     fn static_mesh_forces(&self) -> Vec<f64> {
         vec![self.external_force()]
@@ -191,6 +197,9 @@ impl Drivetrain for GearTrain {
                 .any(|f| matches!(f, SlotContact::Drive | SlotContact::Back)),
             phase: st.phase,
         }
+    }
+    fn mesh_phase(&self, n: usize, t: f64) -> f64 {
+        GearTrain::mesh_phase(self, n, t)
     }
     fn static_mesh_forces(&self) -> Vec<f64> {
         self.static_forces()

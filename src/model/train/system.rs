@@ -985,6 +985,11 @@ impl GearTrain {
         Ok(())
     }
 
+    /// Mesh phase of mesh n at `t`, cycles (the clock's, without the stiffness source's shift).
+    pub fn mesh_phase(&self, n: usize, t: f64) -> f64 {
+        self.meshes[n].clock.phase_at(t)
+    }
+
     /// Mesh period of mesh n at the current speed, s.
     pub fn mesh_period(&self, n: usize) -> f64 {
         1.0 / self.meshes[n].clock.mesh_frequency()
