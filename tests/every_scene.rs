@@ -253,3 +253,29 @@ fn sweep_points_match_an_rk_time_series_from_their_state() {
         }
     }
 }
+
+#[test]
+fn a_diverging_point_is_marked_and_the_sweep_goes_on() {
+    // The linear idler with ζ = 0.2 % is parametrically unstable at 420 rad/s (|μ| ≈ 1.14
+    // per period, `band_edges_of_a_linear_drivetrain_bound_unstable_speeds`): its response
+    // grows until the state is not finite. The point is kept with the reason, and the
+    // branch continues from the scene's start.
+    let mut scene = linear("idler_gearset");
+    if let AnyScene::Train(s) = &mut scene {
+        s.modal_damping_ratio = 0.002;
+    }
+    let options = SweepOptions {
+        max_transient_periods: 20_000,
+        ..SweepOptions::new(vec![400.0, 420.0, 440.0], Direction::Up)
+    };
+    let points = sweep(&scene, &options, &|_, _| {}).unwrap().points;
+    assert_eq!(points.len(), 3);
+    let failure = points[1]
+        .failure
+        .as_deref()
+        .expect("the unstable point fails");
+    println!("420 rad/s: {failure}");
+    assert!(failure.contains("420"), "{failure}");
+    assert!(!points[1].converged && points[1].meshes[0].dte_rms.is_nan());
+    assert!(points[0].converged && points[2].converged, "{points:?}");
+}

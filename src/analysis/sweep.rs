@@ -226,6 +226,8 @@ pub struct SweepPoint {
     /// this state when its first mesh has this phase, continues on the recorded response.
     pub recording_phase: f64,
     pub recording_state: Vec<f64>,
+    /// Why the run failed at this speed (then every statistic is NaN).
+    pub failure: Option<String>,
 }
 
 /// Columns shared by every scene; then per mesh [`MESH_COLUMNS`], prefixed.
@@ -386,14 +388,69 @@ fn branch<M: Drivetrain>(
     if direction == Direction::Down {
         speeds.reverse();
     }
+    // The start, for a restart after a point whose run failed.
+    let (start_model, start_state) = (sim.model().clone(), sim.y().to_vec());
     let mut points = Vec::with_capacity(speeds.len());
     for &speed in &speeds {
         sim.change_model(|model, t| model.set_input_speed(t, speed))
             .map_err(|e| format!("speed {speed} rad/s: {e}"))?;
-        points.push(steady_state(&mut sim, settings, options, direction, speed)?);
+        match steady_state(&mut sim, settings, options, direction, speed) {
+            Ok(point) => points.push(point),
+            Err(failure) => {
+                // A run that breaks down at one speed (a response that diverges) is kept as a
+                // marked point with its reason; the branch goes on from the scene's start at
+                // the next speed instead of losing the points already computed.
+                points.push(failed_point(direction, speed, sim.model(), failure));
+                let mut model = start_model.clone();
+                model.set_input_speed(0.0, speed)?;
+                sim = Driver::with_model(model, &start_state, settings, "")?;
+            }
+        }
         tick();
     }
     Ok(points)
+}
+
+/// A point whose run failed: NaN statistics, not converged, and the reason.
+fn failed_point<M: Drivetrain>(
+    direction: Direction,
+    speed: f64,
+    model: &M,
+    failure: String,
+) -> SweepPoint {
+    let meshes = (0..model.mesh_count())
+        .map(|m| MeshResponse {
+            prefix: model.mesh_prefix(m),
+            mesh_frequency: model.mesh_frequency(m),
+            dte_mean: f64::NAN,
+            dte_rms: f64::NAN,
+            dte_peak_to_peak: f64::NAN,
+            harmonics: [f64::NAN; 3],
+            contact_loss_fraction: f64::NAN,
+            separation_phase: f64::NAN,
+            peak_force: f64::NAN,
+            force_rms: f64::NAN,
+            dynamic_factor: f64::NAN,
+            poincare: Vec::new(),
+        })
+        .collect();
+    SweepPoint {
+        direction,
+        speed,
+        mesh_frequency: model.mesh_frequency(0),
+        response_period: f64::NAN,
+        converged: false,
+        periodicity: Periodicity::Unsettled,
+        response_periods: None,
+        residual: f64::NAN,
+        transient_periods: 0,
+        newton_iterations: 0,
+        spectral_radius: f64::NAN,
+        meshes,
+        recording_phase: f64::NAN,
+        recording_state: Vec::new(),
+        failure: Some(failure),
+    }
 }
 
 /// Response periods over which a stalled residual marks a response aperiodic: the best
@@ -611,6 +668,7 @@ fn steady_state<M: Drivetrain>(
         meshes: mesh_responses,
         recording_phase,
         recording_state,
+        failure: None,
     })
 }
 

@@ -209,6 +209,14 @@ pub fn sweep_summary(scene: &AnyScene, sweep: &Sweep, out: &Path) -> String {
             String::new()
         }
     );
+    for p in points.iter().filter(|p| p.failure.is_some()) {
+        let _ = writeln!(
+            s,
+            "  speed {} rad/s failed (row of NaN): {}",
+            p.speed,
+            p.failure.as_deref().unwrap_or_default()
+        );
+    }
     let period_k = points
         .iter()
         .filter(|p| p.response_periods.is_some_and(|k| k > 1))
