@@ -498,7 +498,7 @@ fn steady_state<M: Drivetrain>(
         if options.shooting
             && j >= NEWTON_RETRY
             && (j / NEWTON_RETRY).is_power_of_two()
-            && j % NEWTON_RETRY == 0
+            && j.is_multiple_of(NEWTON_RETRY)
         {
             // Period 1, then period 2 (the period-doubled orbits near the second-harmonic
             // and subharmonic resonances).
@@ -530,7 +530,7 @@ fn steady_state<M: Drivetrain>(
             .collect();
         residual = residuals.iter().copied().fold(f64::INFINITY, f64::min);
         window_best = window_best.min(residual);
-        if j % STALL_WINDOW == 0 {
+        if j.is_multiple_of(STALL_WINDOW) {
             stalled = window_best > 0.5 * previous_best;
             previous_best = window_best;
             window_best = f64::INFINITY;

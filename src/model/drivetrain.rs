@@ -248,6 +248,8 @@ pub enum AnyScene {
 
 /// A running simulation of either kernel. Generic code takes `Driver<M: Drivetrain>`; this
 /// enum is the one place where the kernel is chosen ([`with_drivetrain!`]).
+// One value per command, moved straight into generic code: boxing would only add a deref.
+#[allow(clippy::large_enum_variant)]
 pub enum AnySimulation {
     Pair(Simulation),
     Train(TrainSimulation),
