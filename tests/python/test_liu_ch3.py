@@ -545,12 +545,15 @@ def test_geardyn_sweep_jumps_and_peak(tmp_path, report):
 
     * Up-sweep: the lower (linear) branch ends at the first fold of (3.31), just past the
       contact-loss onset ω_c1 of (3.33): the jump-up frequency, error shrinking with ε
-      (scipy reference: 0.8825 vs 0.905 at ε = 0.2, 0.9475 vs 0.9492 at ε = 0.1).
+      (a scipy emulation of this sweep, warm start on the same grids: 0.8877 vs 0.9052 at
+      ε = 0.2, 0.9480 vs 0.9492 at ε = 0.1, 0.9736 vs 0.9742 at ε = 0.05, half a grid step).
     * Down-sweep: the oracle's jump-down (leftmost point of 3.31, ≈ ω_p of 3.34) and peak RMS
       √2|s_21|α_p.  At μ = 0.4 the separation angle at the peak stays ≈ 1.2 rad for every ε,
       outside the θ/π = O(ε) assumption of (3.15); the true upper branch continues further down
-      (scipy: jump-down near 0.775 at ε = 0.2 against 0.8665).  Only bounds are asserted: the
-      measured jump-down lies at or below the oracle's and the peak RMS is within 20 %.
+      (scipy emulation: jump-down at 0.772 / 0.794 / 0.803 against 0.867 / 0.872 / 0.873, peak
+      RMS 1.977 / 1.823 / 1.759 against 1.817; at ε = 0.05 the upper branch between 0.82 and
+      0.94 is not periodic).  Only bounds are asserted: the measured jump-down lies at or below
+      the oracle's and the peak RMS is within 20 %.
     """
     rows = []
     up_err = []
@@ -568,7 +571,7 @@ def test_geardyn_sweep_jumps_and_peak(tmp_path, report):
         up_err.append(abs(j_up - fold_up) / eps)
         rows.append((eps, fold_up, j_up, (j_up - fold_up) / eps, fold_dn, j_dn, rms_p, peak, (peak - rms_p) / rms_p,
                      int((d["converged"] == 0).sum())))
-        assert size_up > 0.3 and size_dn > 0.3
+        assert size_up > 0.2 and size_dn > 0.5
         assert j_dn <= fold_dn + step_dn
         assert abs(peak - rms_p) < 0.2 * rms_p
     table(report, "geardyn sweep, mu = 0.4: jump-up vs first fold of (3.31), jump-down vs its leftmost point, "
