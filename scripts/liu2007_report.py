@@ -8,7 +8,7 @@ with its plots in `docs/validation/liu-2007/`. Entry point: `bash scripts/liu200
 (builds first). No geardyn number is typed in here: the thesis' numbers are (with the section
 of `shared/reference/models-liu-parker-2007.md` they come from), geardyn's are measured.
 
-Scenes: `examples/liu2007/{ch2_idler,ch3_idler,ch4_countershaft}.toml`; the variants (torque,
+Scenes: `examples/liu2007/{ch2_idler,ch3_idler_report,ch4_countershaft}.toml`; the variants (torque,
 bearings, tip relief, contact law, damping, phase, ε, contact ratio, ρ) are text edits of those
 files, written to `target/liu2007/scenes/`.
 """
@@ -907,7 +907,7 @@ def labels(df, d, lo, hi):
 
 def ch3():
     S = "Ch. 3 idler (2 DOF)"
-    base = (SCENES / "ch3_idler.toml").read_text()
+    base = (SCENES / "ch3_idler_report.toml").read_text()
     f1, f2 = modes(base, "ch3_modes")[:2]
     c = f2 / f1
     Z = 38
@@ -1426,7 +1426,7 @@ def write_report(ctx):
         "(eq. 2.7); rectangular Model-1 tooth pairs (no FE, no corner contact, load-independent); "
         "ζ = 2 % (not given); no relief (A = 10 µm, B = 25 µm added by the script); compliant "
         "8-DOF variant: `bearings = \"compliant\"`, ψ = 0 |\n"
-        "| `examples/liu2007/ch3_idler.toml` | Table 3.1 idler, Figs. 3.4–3.13 | gear inertia "
+        "| `examples/liu2007/ch3_idler_report.toml` | Table 3.1 idler, Figs. 3.4–3.13 | gear inertia "
         "0.119 kg·m² (printed 1.19e-2), λ = 1.08, k̄_1 = 2.98e8 N/m (not in Table 3.1); "
         "rectangular waves ς = 1.5 with ε_pp = 0.390 chosen so that \\|Q_3\\| = 0.124 as in the "
         "thesis; Γ = 0.04, φ = 0 (varied by the script) |\n"
