@@ -1,32 +1,75 @@
-//! Harmonic balance with alternating frequency/time evaluation (AFT) and pseudo-arclength
-//! continuation in speed (Cameron & Griffin 1989, J. Appl. Mech. 56:149–154; Krack & Gross,
-//! *Harmonic Balance for Nonlinear Vibration Problems*, 2019, ch. 2–4; Liu 2007 §3.2.2,
-//! eqs. 3.3–3.8 with the Newton sign corrected as the notes explain).
+//! Harmonic balance of any drivetrain ([`Drivetrain`]): Galerkin projection with alternating
+//! frequency/time evaluation of the mesh forces and pseudo-arclength continuation in the input
+//! speed (Cameron & Griffin 1989, J. Appl. Mech. 56:149–154; Krack & Gross, *Harmonic Balance
+//! for Nonlinear Vibration Problems*, 2019, ch. 2–4; Liu 2007 §3.2.2, eqs. 3.3–3.8, with the
+//! Newton sign of eq. 3.8 corrected and the tanh-smoothed contact of eqs. 3.5–3.6 replaced by
+//! the exact law, as the notes §2.8 explain). The single pair is the one-coordinate case of
+//! the same code.
 //!
-//! The orbit is written in the mesh phase `τ` (mesh cycles) over a response period of `K`
-//! mesh periods: `x(τ) = a_0 + Σ_{j=1}^{H} a_j cos(2πjτ/K) + b_j sin(2πjτ/K)`. Since
-//! `d/dt = f_m d/dτ`, stiffness and STE samples do not depend on the speed; only the inertia
-//! and damping terms do. The contact law is evaluated exactly at `N` samples per period
-//! (no tanh smoothing); its kinks make the coefficients decay algebraically, which the error
-//! table against shooting shows.
+//! **Unknowns.** The orbit is periodic over the HB period `T = K·T_r`: the response period
+//! `T_r` (the least common multiple of the mesh periods, [`crate::model::response_period`]) times
+//! the subharmonic order `K`. In the phase `θ = t/T ∈ [0, 1)` every elastic coordinate is a
+//! trigonometric polynomial `ξ(θ) = X_0 + Σ_{j∈J} A_j cos 2πjθ + B_j sin 2πjθ`. The retained
+//! orders `J` are the combination tones `|Σ_n a_n Q_n|`, `Σ|a_n| ≤ H`, of the mesh frequencies
+//! divided by `K` (`Q_n` mesh-n cycles per response period): for one mesh frequency (the single
+//! pair, the idler train) the harmonics `1…H` of `f_m/K`; for the countershaft (`f_2/f_1 =
+//! 19/72`) the tones `a f_1 + b f_2` up to order `H` instead of the 72·H harmonics of the
+//! response frequency a full basis would need (harmonic selection, Krack & Gross §3.5).
+//!
+//! **Condensation.** The mesh forces depend on the state only through the mesh deflections
+//! `S_n = a_n·ξ` ([`Drivetrain::mesh_law`]); the linear part, with each mesh's mean stiffness
+//! and damping moved into it, is diagonal in the harmonics. Per order `j` the coordinates are
+//! therefore `X_j = Z_j⁻¹ (F̂_j − Σ v_{n,k} G_{n,k,j})` with the dynamic stiffness
+//! `Z_j = K̄ − (2πjf)² M + i 2πjf C̄` (`f = 1/T`), and the harmonic-balance equations reduce
+//! exactly (no approximation) to the Fourier coefficients `s` of the mesh deflections:
+//! `r(s) = s − Aᵀ Z⁻¹ F̂ + Aᵀ Z⁻¹ V g(s) = 0` (receptance condensation onto the nonlinear
+//! coordinates, Krack & Gross §3.6). The Newton system is `n_mesh (2|J| − 1)` square instead of
+//! `m (2|J| − 1)`: 16× smaller for the 8-DOF idler, whose two meshes carry all nonlinearity.
+//! The coefficients of every coordinate are recovered from the converged `s`.
+//!
+//! **Galerkin projection.** `g = P[F(θ, S, Ṡ)] − k̄ s − c̄ Ṡ` is integrated by composite
+//! 3-point Gauss rules on cells split at every stiffness/gap breakpoint of every mesh
+//! ([`Drivetrain::mesh_breakpoints`]), so the jumps of a rectangular stiffness fall between
+//! nodes; plain AFT (uniform samples, FFT) would alias them with an O(1/N) error no number of
+//! harmonics removes. The contact law is evaluated exactly at the nodes (no tanh smoothing);
+//! a cell in which a tooth pair's contact changes is split at the switching instants (roots of
+//! [`Drivetrain::contact_gaps`] on the trigonometric polynomial) and each part integrated by
+//! its own rule, so the residual stays continuous in `s` although the mesh damping jumps at
+//! total contact loss; the moving split point adds the boundary term `ΔF/δ_θ · φ(θ*) φ(θ*)ᵀ`
+//! to the Jacobian (Leibniz rule, `∂θ*/∂s = −φ(θ*)/δ_θ`). The contact kinks make the
+//! coefficients decay algebraically, which the error tables against shooting show.
+//!
+//! **Jacobian.** `∂P[k(θ)S]/∂s` is the Toeplitz-plus-Hankel matrix of the quadrature Fourier
+//! coefficients of `k(θ) = ∂F/∂S` at the sums and differences of the retained orders (the
+//! product-to-sum identities hold node by node, so it is exact for the discrete residual): one
+//! pass over the nodes per signal instead of a dense `PΓ` product.
+//!
+//! **Stability.** Floquet multipliers of each continued orbit are the eigenvalues of the
+//! shooting monodromy (with saltation at contact changes, [`PeriodMap`]) started from the HB
+//! state at `t = 0`; they are accurate to the truncation error of the orbit.
 
+use std::collections::BTreeSet;
 use std::f64::consts::TAU;
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
-use crate::model::GearPair;
-use crate::scene::Scene;
-
-use super::shooting::period_map;
+use super::shooting::PeriodMap;
+use crate::model::drivetrain::response_period_in_mesh_periods;
+use crate::model::{Drivetrain, SceneSource};
+use crate::scene::SolverSettings;
+use crate::simulation::Driver;
+use crate::with_drivetrain;
 
 /// Settings of the harmonic balance.
 #[derive(Debug, Clone)]
 pub struct HbOptions {
-    /// Harmonics H of the response frequency.
+    /// Order H of the retained combination tones of the mesh frequencies (divided by the
+    /// subharmonic order): for one mesh frequency the harmonics `1…H` of `f_m/K`.
     pub harmonics: usize,
-    /// Response period K in mesh periods (sub-harmonic orbits for K > 1).
+    /// Subharmonic order K: the HB period in response periods.
     pub subharmonic: u32,
-    /// Quadrature nodes per response period (about); default `max(16·(2H+1), 256)`.
+    /// Quadrature nodes per HB period (about); default `max(16·(2j_max + 1), 256)`, `j_max`
+    /// the highest retained order.
     pub samples: Option<usize>,
     /// Newton stops when the update is below `tolerance` × the displacement scale.
     pub tolerance: f64,
@@ -51,14 +94,6 @@ impl HbOptions {
         if self.subharmonic == 0 {
             return Err("subharmonic = 0: the response period is at least one mesh period".into());
         }
-        if let Some(n) = self.samples {
-            if n <= 2 * self.harmonics {
-                return Err(format!(
-                    "samples = {n}: must exceed 2·harmonics = {} (sampling theorem)",
-                    2 * self.harmonics
-                ));
-            }
-        }
         if !(self.tolerance > 0.0) {
             return Err(format!("tolerance = {}: must be > 0", self.tolerance));
         }
@@ -66,347 +101,216 @@ impl HbOptions {
     }
 }
 
+/// The steady-state response of one mesh on a harmonic-balance orbit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HbMesh {
+    /// Column prefix ([`Drivetrain::mesh_prefix`]).
+    pub prefix: String,
+    /// Mesh frequency, Hz.
+    pub mesh_frequency: f64,
+    /// Mean DTE, m (from the coefficients through the DTE row).
+    pub dte_mean: f64,
+    /// RMS of the DTE with the mean removed, m (Parseval).
+    pub dte_rms: f64,
+    /// Amplitudes of the first and second harmonics of this mesh's frequency in its DTE, m
+    /// (0 when the order is not retained).
+    pub harmonics: [f64; 2],
+    /// Largest |mesh force| at the quadrature nodes, N.
+    pub peak_force: f64,
+    /// RMS of the mesh force with its mean removed (quadrature), N.
+    pub force_rms: f64,
+    /// Peak force over the static mesh force ([`Drivetrain::static_mesh_forces`]).
+    pub dynamic_factor: f64,
+    /// Fraction of the HB period with no tooth pair in contact (quadrature of the node
+    /// samples, the cells split at the switching instants).
+    pub contact_loss_fraction: f64,
+}
+
 /// A harmonic-balance orbit.
 #[derive(Debug, Clone)]
 pub struct HbSolution {
-    /// Mesh frequency, Hz.
+    /// Mesh frequency of the first mesh, Hz.
     pub mesh_frequency: f64,
     pub subharmonic: u32,
-    /// `[a_0, a_1, b_1, …, a_H, b_H]`, m.
+    /// The HB period in mesh periods of the first mesh (response period × subharmonic).
+    pub mesh_periods: u64,
+    /// Retained orders `j` (multiples of `1/T`), the first 0.
+    pub orders: Vec<usize>,
+    /// Fourier coefficients of every elastic coordinate, one block per coordinate:
+    /// `[X_0, A_{j1}, B_{j1}, …]` over [`HbSolution::orders`]. For the single pair one block,
+    /// `[a_0, a_1, b_1, …, a_H, b_H]` of the DTE, m.
     pub coefficients: Vec<f64>,
     pub iterations: usize,
+    /// Results per mesh.
+    pub meshes: Vec<HbMesh>,
+    /// DTE row of each mesh over the coordinates ([`Drivetrain::mesh_dte_row`]).
+    pub dte_rows: Vec<Vec<f64>>,
 }
 
 impl HbSolution {
-    pub fn harmonics(&self) -> usize {
-        (self.coefficients.len() - 1) / 2
+    fn block(&self) -> usize {
+        2 * self.orders.len() - 1
     }
 
-    /// `(x, dx/dτ)` at `τ` mesh cycles after `t = 0` (mesh phase `p0 + τ`).
-    pub fn displacement(&self, tau: f64) -> (f64, f64) {
-        let k = self.subharmonic as f64;
-        let mut x = self.coefficients[0];
+    /// Number of elastic coordinates.
+    pub fn coordinates(&self) -> usize {
+        self.coefficients.len() / self.block()
+    }
+
+    /// Coordinate `i` and its derivative in `τ` at `τ` mesh cycles of the first mesh after
+    /// `t = 0`.
+    pub fn coordinate(&self, i: usize, tau: f64) -> (f64, f64) {
+        let k = self.mesh_periods as f64;
+        let theta = tau / k;
+        let c = &self.coefficients[i * self.block()..(i + 1) * self.block()];
+        let mut x = c[0];
         let mut dx = 0.0;
-        for j in 1..=self.harmonics() {
-            let w = TAU * j as f64 / k;
-            let (s, c) = (w * tau).sin_cos();
-            let (a, b) = (self.coefficients[2 * j - 1], self.coefficients[2 * j]);
-            x += a * c + b * s;
-            dx += w * (-a * s + b * c);
+        for (q, &j) in self.orders.iter().enumerate().skip(1) {
+            let w = TAU * j as f64;
+            let (s, co) = (w * theta).sin_cos();
+            let (a, b) = (c[2 * q - 1], c[2 * q]);
+            x += a * co + b * s;
+            dx += w * (-a * s + b * co);
         }
-        (x, dx)
+        (x, dx / k)
     }
 
-    /// The state `[x, x']` (x' per second) `τ` mesh cycles after `t = 0`.
-    pub fn state_at(&self, tau: f64) -> [f64; 2] {
-        let (x, dx) = self.displacement(tau);
-        [x, dx * self.mesh_frequency]
+    /// Mesh `n`'s DTE `τ` mesh cycles of the first mesh after `t = 0`, m.
+    pub fn dte(&self, n: usize, tau: f64) -> f64 {
+        (self.dte_rows[n].iter().enumerate())
+            .filter(|(_, &d)| d != 0.0)
+            .map(|(i, d)| d * self.coordinate(i, tau).0)
+            .sum()
     }
 
-    /// RMS of the DTE with the mean removed (Parseval).
-    pub fn dte_rms(&self) -> f64 {
-        (self.coefficients[1..].iter().map(|c| c * c).sum::<f64>() / 2.0).sqrt()
+    /// `(x, dx/dτ)` of the first coordinate (the DTE of a single pair).
+    pub fn displacement(&self, tau: f64) -> (f64, f64) {
+        self.coordinate(0, tau)
     }
 
-    /// Amplitude of the `h`-th mesh harmonic (response harmonic `h·K`).
-    pub fn mesh_harmonic(&self, h: usize) -> f64 {
-        let j = h * self.subharmonic as usize;
-        if j == 0 || j > self.harmonics() {
-            return 0.0;
+    /// The state `[ξ, ξ']` (ξ' per second) `τ` mesh cycles of the first mesh after `t = 0`.
+    pub fn state_at(&self, tau: f64) -> Vec<f64> {
+        let m = self.coordinates();
+        let mut y = vec![0.0; 2 * m];
+        for i in 0..m {
+            let (x, dx) = self.coordinate(i, tau);
+            y[i] = x;
+            y[m + i] = dx * self.mesh_frequency;
         }
-        self.coefficients[2 * j - 1].hypot(self.coefficients[2 * j])
+        y
     }
 }
 
-/// The discretised problem: sample matrices and the model's force law.
-struct Problem {
-    pair: GearPair,
-    mass: f64,
-    /// Galerkin projection of the external force (mean and torque ripple).
-    external: DVector<f64>,
-    /// Mesh phases of the quadrature nodes.
-    phases: Vec<f64>,
-    /// The nodes in mesh cycles since p0, three per cell.
-    nodes: Vec<f64>,
-    /// Quadrature cells `[a, b]`.
+/// One mesh of the discretised problem.
+#[derive(Debug, Clone)]
+struct MeshData {
+    prefix: String,
+    dte: Vec<f64>,
+    /// Index of its first force output among all outputs, and how many it has.
+    first: usize,
+    outputs: usize,
+    k_mean: f64,
+    c_mean: f64,
+    /// Mesh cycles per HB period.
+    cycles: f64,
+    static_force: f64,
+}
+
+/// Per-order data of the condensed linear part at one frequency.
+struct Receptance {
+    f: f64,
+    lus: Vec<LU<Complex<f64>, Dyn, Dyn>>,
+    /// `Aᵀ Z_j⁻¹ V` (meshes × outputs) and its frequency derivative.
+    r: Vec<DMatrix<Complex<f64>>>,
+    dr: Vec<DMatrix<Complex<f64>>>,
+    /// `Aᵀ Z_j⁻¹ F̂_j` and its derivative.
+    lin: Vec<DVector<Complex<f64>>>,
+    dlin: Vec<DVector<Complex<f64>>>,
+}
+
+/// What an evaluation computes besides the residual.
+#[derive(Debug, Clone, Copy, Default)]
+struct Want {
+    jacobian: bool,
+    frequency: bool,
+    samples: bool,
+}
+
+/// A node sample for the results: weight, mesh force and total contact loss per mesh.
+struct Sample {
+    w: f64,
+    force: Vec<f64>,
+    lost: Vec<bool>,
+}
+
+/// Sums over the quadrature nodes.
+struct Accumulator {
+    /// `Σ w F φ` per output.
+    gal: Vec<Vec<f64>>,
+    /// `Σ w F_viscous φ` per output.
+    visc: Vec<Vec<f64>>,
+    /// `Σ w ∂F/∂S (cos, sin)(2πdθ)` and the same of `∂F/∂Ṡ`, per output, over the orders of
+    /// [`Problem::sums`].
+    kap_s: Vec<Vec<f64>>,
+    kap_v: Vec<Vec<f64>>,
+    /// Boundary terms `(output, coefficient, φ(θ*))` of the split points.
+    boundary: Vec<(usize, f64, Vec<f64>)>,
+    samples: Vec<Sample>,
+    /// Scratch: `(cos, sin)(2πdθ)` of the node over [`Problem::sums`].
+    trig: Vec<f64>,
+}
+
+/// The result of one evaluation.
+struct Evaluation {
+    residual: DVector<f64>,
+    jacobian: Option<DMatrix<f64>>,
+    /// `∂r/∂f`.
+    d_frequency: Option<DVector<f64>>,
+    /// `g` per output (the Galerkin coefficients of the force minus the moved linear part).
+    g: Vec<DVector<f64>>,
+    samples: Vec<Sample>,
+}
+
+/// The discretised harmonic-balance problem of a drivetrain.
+struct Problem<M: Drivetrain> {
+    model: M,
+    settings: SolverSettings,
+    /// HB fundamental frequency the model is set to, Hz.
+    f: f64,
+    /// Input speed per Hz of `f`.
+    speed_per_f: f64,
+    m: usize,
+    meshes: Vec<MeshData>,
+    /// Mesh deflection rows (m × meshes) and force directions (m × outputs).
+    a: DMatrix<f64>,
+    v: DMatrix<f64>,
+    mass: DMatrix<f64>,
+    damping: DMatrix<f64>,
+    stiffness: DMatrix<f64>,
+    orders: Vec<usize>,
+    /// `2|J| − 1`.
+    len: usize,
     cells: Vec<(f64, f64)>,
-    k_sub: f64,
-    /// `x_n = Γ u`.
-    gamma: DMatrix<f64>,
-    /// `dx/dτ_n = Γ' u`.
-    gamma_d: DMatrix<f64>,
-    /// `u = P F` for band-limited samples (DFT).
-    projection: DMatrix<f64>,
-    /// `d²/dτ²` of the basis (diagonal).
-    second: DVector<f64>,
-}
-
-impl Problem {
-    fn new(scene: &Scene, options: &HbOptions) -> Result<Problem, String> {
-        options.validate()?;
-        let pair = GearPair::new(scene);
-        let h = options.harmonics;
-        let n = options.samples.unwrap_or((16 * (2 * h + 1)).max(256));
-        let dim = 2 * h + 1;
-        let k_sub = options.subharmonic as f64;
-        let p0 = scene.mesh.initial_phase;
-        let (cells, nodes, weights) = quadrature(&scene.mesh.stiffness, p0, options.subharmonic, n);
-        let phases: Vec<f64> = nodes.iter().map(|tau| p0 + tau).collect();
-        let m = nodes.len();
-        let mut gamma = DMatrix::zeros(m, dim);
-        let mut gamma_d = DMatrix::zeros(m, dim);
-        let mut projection = DMatrix::zeros(dim, m);
-        let mut second = DVector::zeros(dim);
-        for (i, (&tau, &wq)) in nodes.iter().zip(&weights).enumerate() {
-            gamma[(i, 0)] = 1.0;
-            projection[(0, i)] = wq / k_sub;
-            // Basis in the phase since p0, so that the coefficients describe the orbit from
-            // t = 0.
-            for j in 1..=h {
-                let w = TAU * j as f64 / k_sub;
-                let (s, c) = (w * tau).sin_cos();
-                gamma[(i, 2 * j - 1)] = c;
-                gamma[(i, 2 * j)] = s;
-                gamma_d[(i, 2 * j - 1)] = -w * s;
-                gamma_d[(i, 2 * j)] = w * c;
-                projection[(2 * j - 1, i)] = 2.0 * wq * c / k_sub;
-                projection[(2 * j, i)] = 2.0 * wq * s / k_sub;
-            }
-        }
-        for j in 1..=h {
-            let w = TAU * j as f64 / k_sub;
-            second[2 * j - 1] = -w * w;
-            second[2 * j] = -w * w;
-        }
-        let external_samples = DVector::from_iterator(
-            phases.len(),
-            phases.iter().map(|&p| pair.external_force_at_phase(p)),
-        );
-        Ok(Problem {
-            mass: pair.equivalent_mass(),
-            external: &projection * external_samples,
-            pair,
-            phases,
-            nodes,
-            cells,
-            k_sub,
-            gamma,
-            gamma_d,
-            projection,
-            second,
-        })
-    }
-
-    /// Basis values and τ-derivatives at `τ` (mesh cycles since p0).
-    fn basis(&self, tau: f64) -> (DVector<f64>, DVector<f64>) {
-        let dim = self.dim();
-        let h = (dim - 1) / 2;
-        let mut b = DVector::zeros(dim);
-        let mut d = DVector::zeros(dim);
-        b[0] = 1.0;
-        for j in 1..=h {
-            let w = TAU * j as f64 / self.k_sub;
-            let (s, c) = (w * tau).sin_cos();
-            b[2 * j - 1] = c;
-            b[2 * j] = s;
-            d[2 * j - 1] = -w * s;
-            d[2 * j] = w * c;
-        }
-        (b, d)
-    }
-
-    /// Projection factors: `1/K` for the mean, `2/K` for the harmonics.
-    fn factors(&self) -> DVector<f64> {
-        DVector::from_fn(self.dim(), |j, _| {
-            if j == 0 {
-                1.0 / self.k_sub
-            } else {
-                2.0 / self.k_sub
-            }
-        })
-    }
-
-    /// Residual `R(u, f)`, `∂R/∂u` and `∂R/∂f` (f = mesh frequency, Hz).
-    ///
-    /// Cells in which the contact side changes are split at the switching instants (roots of
-    /// `δ(τ)` or `δ(τ) + 2b` on the trigonometric polynomial), each part integrated by its own
-    /// Gauss rule, so the residual is continuous in `u` although the damping force jumps at
-    /// separation; the moving split point adds the boundary term
-    /// `∓ c f P b(τ*) b(τ*)ᵀ` to the Jacobian (Leibniz rule, `∂τ*/∂u = −b(τ*)/δ_τ`).
-    fn evaluate(&self, u: &DVector<f64>, f: f64) -> (DVector<f64>, DMatrix<f64>, DVector<f64>) {
-        let x = &self.gamma * u;
-        let dx = &self.gamma_d * u;
-        let n = self.phases.len();
-        let p0 = self.phases[0] - self.nodes[0];
-        let mut force = DVector::zeros(n);
-        let mut dfdx = DVector::zeros(n);
-        let mut dfdv = DVector::zeros(n);
-        let mut sides = vec![0i8; n];
-        for i in 0..n {
-            let (fi, kx, cv) = self.pair.force_law(self.phases[i], f, x[i], f * dx[i]);
-            force[i] = fi;
-            dfdx[i] = kx;
-            dfdv[i] = cv;
-            sides[i] = self.pair.contact_side(self.phases[i], x[i]).0;
-        }
-        let x_at = |tau: f64| self.basis(tau).0.dot(u);
-        let side_at = |tau: f64| self.pair.contact_side(p0 + tau, x_at(tau));
-        let clearance = self.pair.contact_clearance();
-        let dim = self.dim();
-        let factors = self.factors();
-        let mut r_extra = DVector::zeros(dim);
-        let mut ju_extra = DMatrix::zeros(dim, dim);
-        let mut jf_extra = DVector::zeros(dim);
-        for (c, &(a, b)) in self.cells.iter().enumerate() {
-            let nodes = 3 * c..3 * c + 3;
-            let (side_a, _) = side_at(a);
-            let (side_b, _) = side_at(b);
-            if nodes.clone().all(|i| sides[i] == side_a) && side_b == side_a {
-                continue;
-            }
-            // Split the cell: drop its fixed nodes, integrate the parts between roots.
-            for i in nodes {
-                force[i] = 0.0;
-                dfdx[i] = 0.0;
-                dfdv[i] = 0.0;
-            }
-            let mut points = vec![a];
-            points.extend(self.nodes[3 * c..3 * c + 3].iter().copied());
-            points.push(b);
-            let mut cuts = vec![a];
-            for pair in points.windows(2) {
-                let (l, rr) = (pair[0], pair[1]);
-                let (sl, dl) = side_at(l);
-                let (sr, dr) = side_at(rr);
-                if sl == sr {
-                    continue;
-                }
-                // Surfaces δ = 0 and δ = −2b between l and rr.
-                for surface in [0.0, -clearance] {
-                    let (gl, gr) = (dl - surface, dr - surface);
-                    if (gl > 0.0) != (gr > 0.0) {
-                        let (mut lo, mut hi) = (l, rr);
-                        let g = |t: f64| side_at(t).1 - surface;
-                        let positive_lo = gl > 0.0;
-                        for _ in 0..60 {
-                            let mid = 0.5 * (lo + hi);
-                            if (g(mid) > 0.0) == positive_lo {
-                                lo = mid;
-                            } else {
-                                hi = mid;
-                            }
-                        }
-                        cuts.push(0.5 * (lo + hi));
-                    }
-                }
-            }
-            cuts.push(b);
-            cuts.sort_by(f64::total_cmp);
-            for part in cuts.windows(2) {
-                let (l, rr) = (part[0], part[1]);
-                let half = 0.5 * (rr - l);
-                if half <= 0.0 {
-                    continue;
-                }
-                for (xi, wt) in GAUSS3 {
-                    let tau = l + half * (1.0 + xi);
-                    let (bv, bd) = self.basis(tau);
-                    let (xv, dxv) = (bv.dot(u), bd.dot(u));
-                    let (fi, kx, cv) = self.pair.force_law(p0 + tau, f, xv, f * dxv);
-                    let w = half * wt;
-                    let weighted = bv.component_mul(&factors) * w;
-                    r_extra += &weighted * fi;
-                    ju_extra += &weighted * (bv * kx + bd * (f * cv)).transpose();
-                    jf_extra += &weighted * (cv * dxv);
-                }
-            }
-            // Boundary terms of the interior cuts.
-            // Only damping switched off in separation jumps at a cut.
-            let damping = self.pair.damping();
-            if damping != 0.0 && !self.pair.damping_always() {
-                for &cut in &cuts[1..cuts.len() - 1] {
-                    let eps = 1e-9 * (b - a);
-                    let left = side_at(cut - eps).0 != 0;
-                    let right = side_at(cut + eps).0 != 0;
-                    let sign = match (left, right) {
-                        (true, false) => -1.0,
-                        (false, true) => 1.0,
-                        _ => continue,
-                    };
-                    let (bv, _) = self.basis(cut);
-                    ju_extra +=
-                        (bv.component_mul(&factors) * (sign * damping * f)) * bv.transpose();
-                }
-            }
-        }
-        let inertia = self.second.component_mul(u) * (self.mass * f * f);
-        let mut r = inertia + &self.projection * &force + r_extra;
-        r -= &self.external;
-        // ∂(P F)/∂u = P diag(∂F/∂x) Γ + f P diag(∂F/∂v) Γ'.
-        let mut weighted = self.gamma.clone();
-        for i in 0..n {
-            for j in 0..dim {
-                weighted[(i, j)] =
-                    dfdx[i] * self.gamma[(i, j)] + f * dfdv[i] * self.gamma_d[(i, j)];
-            }
-        }
-        let mut ju = &self.projection * weighted + ju_extra;
-        for j in 0..dim {
-            ju[(j, j)] += self.mass * f * f * self.second[j];
-        }
-        let jf = self.second.component_mul(u) * (2.0 * self.mass * f)
-            + &self.projection * dfdv.component_mul(&dx)
-            + jf_extra;
-        (r, ju, jf)
-    }
-
-    /// Displacement scale for convergence tests.
-    fn x_scale(&self) -> f64 {
-        self.pair
-            .static_deflection()
-            .abs()
-            .max(self.pair.ste_amplitude_bound())
-            .max(1e-9)
-    }
-
-    /// Force scale `k̄ · x_scale`.
-    fn force_scale(&self) -> f64 {
-        self.pair.mean_stiffness() * self.x_scale()
-    }
-
-    fn dim(&self) -> usize {
-        self.gamma.ncols()
-    }
-}
-
-/// Mesh periods integrated before a time-domain seed is sampled.
-const SEED_WARMUP_PERIODS: u32 = 60;
-
-/// A starting guess from the time domain: the response after a warm-up, projected onto the
-/// basis. Newton from the static deflection often stalls on the piecewise-smooth residual
-/// near resonance; the seed only selects the basin, the converged orbit is HB's own.
-fn seed_from_simulation(
-    scene: &Scene,
-    speed: f64,
-    problem: &Problem,
-    k_sub: u32,
-) -> Result<DVector<f64>, String> {
-    let mut at = scene.clone();
-    at.operating.pinion_speed = speed;
-    let mut sim = crate::simulation::Simulation::new(&at)?;
-    let period = sim.model().mesh_period();
-    let warm = (SEED_WARMUP_PERIODS.div_ceil(k_sub) * k_sub) as f64;
-    let mut order: Vec<usize> = (0..problem.phases.len()).collect();
-    let p0 = scene.mesh.initial_phase;
-    order.sort_by(|&a, &b| problem.phases[a].total_cmp(&problem.phases[b]));
-    let mut x = DVector::zeros(problem.phases.len());
-    for i in order {
-        let tau = problem.phases[i] - p0;
-        sim.advance_to((warm + tau) * period)
-            .map_err(|e| format!("harmonic balance seed: {e}"))?;
-        x[i] = sim.state()[0];
-    }
-    Ok(&problem.projection * x)
+    nodes: Vec<f64>,
+    weights: Vec<f64>,
+    /// Basis rows `[1, cos 2πjθ, sin 2πjθ, …]` of the nodes and of two probes per cell (just
+    /// inside its ends), when they fit in [`TABLE_ENTRIES`]; else rows are computed as needed.
+    table: Option<Vec<f64>>,
+    probe_table: Option<Vec<f64>>,
+    /// Largest gap between consecutive retained orders.
+    max_step: usize,
+    /// Orders `d` of the sums and differences of retained orders, each with a pair `(q, p, +)`
+    /// of retained-order indices whose sum (`+`) or difference it is.
+    sums: Vec<(usize, usize, usize, bool)>,
+    /// Per (q, p): positions in `sums` of `j_q + j_p` and `|j_q − j_p|`.
+    plus: Vec<usize>,
+    minus: Vec<usize>,
+    /// Galerkin coefficients of `F̂` (m × len).
+    external: DMatrix<f64>,
+    /// HB period in mesh periods of the first mesh.
+    mesh_periods: u64,
+    x_scale: f64,
+    receptance: Option<Receptance>,
 }
 
 /// 3-point Gauss–Legendre rule on [−1, 1]: (node, weight).
@@ -416,56 +320,1181 @@ const GAUSS3: [(f64, f64); 3] = [
     (0.774_596_669_241_483_4, 5.0 / 9.0),
 ];
 
-/// Quadrature cells, nodes (mesh cycles since `p0`) and weights over `K` mesh periods for the
-/// Galerkin projection. The period is split at the stiffness breakpoints, so its jumps fall
-/// between nodes and are integrated exactly; inside each piece composite 3-point
-/// Gauss–Legendre rules (about `n` nodes in all) integrate the smooth parts and leave an
-/// O(h²) error at the contact kinks. Uniform sampling (plain AFT) would alias the jumps with an
-/// O(1/n) error that no number of harmonics removes.
-fn quadrature(
-    stiffness: &crate::mesh::MeshStiffness,
-    p0: f64,
-    k_sub: u32,
-    n: usize,
-) -> (Vec<(f64, f64)>, Vec<f64>, Vec<f64>) {
-    let k = k_sub as f64;
-    let mut breaks = vec![0.0, k];
-    if let Some(pieces) = stiffness.pieces() {
-        // Piece starts are in the shifted phase s = frac(p + phase); τ = p − p0.
-        for cycle in -1..=k_sub as i64 {
-            for piece in pieces {
-                let tau = piece.start - stiffness.phase() - p0 + cycle as f64;
-                if tau > 0.0 && tau < k {
-                    breaks.push(tau);
+/// Largest number of tabulated basis entries (nodes and probes: 32 MB); larger problems (a
+/// countershaft's many combination tones over 72 mesh periods) compute rows as needed.
+const TABLE_ENTRIES: usize = 1 << 22;
+
+/// Probes sit this fraction of a cell inside its ends (the ends are breakpoints, where the
+/// engaged tooth pairs change).
+const PROBE: f64 = 1e-9;
+
+/// The retained orders: 0 and the combination tones `|Σ a_n b_n|` of the distinct base orders
+/// `b_n` whose constituent frequencies add up to at most `h` times the highest base:
+/// `Σ |a_n| b_n ≤ h·max b`. For one base order `b` these are the harmonics `b, 2b, …, hb`; a
+/// slow mesh keeps as many harmonics as fit below `h` times the fastest mesh frequency (the
+/// countershaft's second stage, at 19/72 of the first, keeps `3.8h`: its high harmonics are
+/// what excites the modes above it).
+fn combination_orders(bases: &[usize], h: usize) -> Vec<usize> {
+    fn walk(bases: &[usize], budget: usize, acc: i64, out: &mut BTreeSet<usize>) {
+        match bases.split_first() {
+            None => {
+                out.insert(acc.unsigned_abs() as usize);
+            }
+            Some((&b, rest)) => {
+                let most = (budget / b) as i64;
+                for a in -most..=most {
+                    let used = a.unsigned_abs() as usize * b;
+                    walk(rest, budget - used, acc + a * b as i64, out);
                 }
             }
         }
     }
-    breaks.sort_by(f64::total_cmp);
-    breaks.dedup_by(|a, b| (*a - *b).abs() < 1e-14);
-    let mut cells = Vec::new();
-    let mut nodes = Vec::with_capacity(n + 3 * breaks.len());
-    let mut weights = Vec::with_capacity(n + 3 * breaks.len());
-    for w in breaks.windows(2) {
-        let (a, b) = (w[0], w[1]);
-        let count = ((n as f64 / 3.0) * (b - a) / k).ceil().max(1.0) as usize;
-        let h = (b - a) / count as f64;
-        for c in 0..count {
-            let mid = a + (c as f64 + 0.5) * h;
-            cells.push((mid - 0.5 * h, mid + 0.5 * h));
-            for (x, wt) in GAUSS3 {
-                nodes.push(mid + 0.5 * h * x);
-                weights.push(0.5 * h * wt);
+    let mut distinct: Vec<usize> = bases.to_vec();
+    distinct.sort_unstable();
+    distinct.dedup();
+    let top = *distinct.last().expect("one mesh at least");
+    let mut out = BTreeSet::new();
+    walk(&distinct, h * top, 0, &mut out);
+    out.into_iter().collect()
+}
+
+/// `(cos, sin)` of order index `q` from a basis row.
+#[inline]
+fn cs(phi: &[f64], q: usize) -> (f64, f64) {
+    if q == 0 {
+        (1.0, 0.0)
+    } else {
+        (phi[2 * q - 1], phi[2 * q])
+    }
+}
+
+/// Projection factor of coefficient row `r`: 1 for the mean, 2 for a harmonic.
+#[inline]
+fn factor(r: usize) -> f64 {
+    if r == 0 {
+        1.0
+    } else {
+        2.0
+    }
+}
+
+/// `R·(a − ib)` in the real layout `(a, b)` → `(a', b')`.
+#[inline]
+fn cmul(r: Complex<f64>, a: f64, b: f64) -> (f64, f64) {
+    (r.re * a + r.im * b, -r.im * a + r.re * b)
+}
+
+impl<M: Drivetrain> Problem<M> {
+    fn new(model: M, settings: SolverSettings, options: &HbOptions) -> Result<Self, String> {
+        options.validate()?;
+        let meshes_n = model.mesh_count();
+        let freqs: Vec<f64> = (0..meshes_n).map(|n| model.mesh_frequency(n)).collect();
+        if !(freqs[0] > 0.0 && freqs[0].is_finite()) {
+            return Err(format!(
+                "input speed {} rad/s: harmonic balance needs a finite speed > 0",
+                model.input_speed()
+            ));
+        }
+        let k_resp = response_period_in_mesh_periods(&freqs)?;
+        let mesh_periods = k_resp * options.subharmonic as u64;
+        let period = mesh_periods as f64 / freqs[0];
+        let f = 1.0 / period;
+        let m = model.dim() / 2;
+        let statics = model.static_mesh_forces();
+        let mut meshes = Vec::with_capacity(meshes_n);
+        let mut a = DMatrix::zeros(m, meshes_n);
+        let mut directions: Vec<Vec<f64>> = Vec::new();
+        let mut bases = Vec::new();
+        for (n, &frequency) in freqs.iter().enumerate() {
+            let cycles = frequency * period;
+            let rounded = cycles.round();
+            if (cycles - rounded).abs() > 1e-6 * cycles.max(1.0) || rounded < 1.0 {
+                return Err(format!(
+                    "mesh {} makes {cycles} cycles per response period: not a whole number",
+                    n + 1
+                ));
+            }
+            a.set_column(n, &DVector::from_vec(model.mesh_deflection_row(n)));
+            let dirs = model.mesh_force_directions(n);
+            let (k_mean, c_mean) = model.mean_mesh_law(n);
+            meshes.push(MeshData {
+                prefix: model.mesh_prefix(n),
+                dte: model.mesh_dte_row(n),
+                first: directions.len(),
+                outputs: dirs.len(),
+                k_mean,
+                c_mean,
+                cycles: rounded,
+                static_force: statics.get(n).copied().unwrap_or(f64::NAN),
+            });
+            directions.extend(dirs);
+            bases.push(rounded as usize / options.subharmonic as usize);
+        }
+        let v = DMatrix::from_fn(m, directions.len(), |i, k| directions[k][i]);
+        let lin = model.linear_part();
+        let (mut stiffness, mut damping) = (lin.stiffness, lin.damping);
+        for (n, mesh) in meshes.iter().enumerate() {
+            let col = a.column(n);
+            stiffness += mesh.k_mean * col * col.transpose();
+            damping += mesh.c_mean * col * col.transpose();
+        }
+
+        let orders = combination_orders(&bases, options.harmonics);
+        let j_max = *orders.last().expect("order 0");
+        let len = 2 * orders.len() - 1;
+        let samples = options.samples.unwrap_or((16 * (2 * j_max + 1)).max(256));
+        if samples <= 2 * j_max {
+            return Err(format!(
+                "samples = {samples}: must exceed twice the highest retained order {j_max} \
+                 (sampling theorem)"
+            ));
+        }
+
+        // Breakpoints of every mesh in θ: p_n(θ) = p_n(0) + c_n θ ≡ b (mod 1).
+        let mut breaks = vec![0.0, 1.0];
+        for (n, mesh) in meshes.iter().enumerate() {
+            let p0 = model.mesh_phase(n, 0.0);
+            for b in model.mesh_breakpoints(n) {
+                let first = crate::mesh::cycle_fraction(b - p0);
+                for k in 0..mesh.cycles as u64 {
+                    let theta = (first + k as f64) / mesh.cycles;
+                    if theta > 0.0 && theta < 1.0 {
+                        breaks.push(theta);
+                    }
+                }
+            }
+        }
+        breaks.sort_by(f64::total_cmp);
+        breaks.dedup_by(|x, y| (*x - *y).abs() < 1e-14);
+        let mut cells = Vec::new();
+        let mut nodes = Vec::with_capacity(samples + 3 * breaks.len());
+        let mut weights = Vec::with_capacity(samples + 3 * breaks.len());
+        for w in breaks.windows(2) {
+            let (lo, hi) = (w[0], w[1]);
+            let count = ((samples as f64 / 3.0) * (hi - lo)).ceil().max(1.0) as usize;
+            let h = (hi - lo) / count as f64;
+            for c in 0..count {
+                let mid = lo + (c as f64 + 0.5) * h;
+                cells.push((mid - 0.5 * h, mid + 0.5 * h));
+                for (x, wt) in GAUSS3 {
+                    nodes.push(mid + 0.5 * h * x);
+                    weights.push(0.5 * h * wt);
+                }
+            }
+        }
+
+        let mut problem = Problem {
+            model,
+            settings,
+            f,
+            speed_per_f: 0.0,
+            m,
+            meshes,
+            a,
+            v,
+            mass: lin.mass,
+            damping,
+            stiffness,
+            orders,
+            len,
+            cells,
+            nodes,
+            weights,
+            table: None,
+            probe_table: None,
+            max_step: 1,
+            sums: Vec::new(),
+            plus: Vec::new(),
+            minus: Vec::new(),
+            external: DMatrix::zeros(m, len),
+            mesh_periods,
+            x_scale: 0.0,
+            receptance: None,
+        };
+        problem.speed_per_f = problem.model.input_speed() / f;
+        // Displacement scale of convergence tests and of the arclength metric: the largest
+        // static mesh deflection (static mesh force over mean stiffness), or the model's
+        // displacement scale for an unloaded drivetrain.
+        let deflection = problem
+            .meshes
+            .iter()
+            .map(|mesh| (mesh.static_force / mesh.k_mean).abs())
+            .filter(|x| x.is_finite())
+            .fold(0.0, f64::max);
+        problem.x_scale = if deflection > 0.0 {
+            deflection
+        } else {
+            problem.model.displacement_scale()
+        };
+        problem.max_step = problem
+            .orders
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .max()
+            .unwrap_or(1);
+        if (problem.nodes.len() + 2 * problem.cells.len()) * len <= TABLE_ENTRIES {
+            let mut table = vec![0.0; problem.nodes.len() * len];
+            for (i, &theta) in problem.nodes.iter().enumerate() {
+                problem.basis(theta, &mut table[i * len..(i + 1) * len]);
+            }
+            let mut probe_table = vec![0.0; 2 * problem.cells.len() * len];
+            for c in 0..problem.cells.len() {
+                for k in 0..2 {
+                    let at = (2 * c + k) * len;
+                    problem.basis(problem.probe(c, k), &mut probe_table[at..at + len]);
+                }
+            }
+            problem.table = Some(table);
+            problem.probe_table = Some(probe_table);
+        }
+        problem.build_sums();
+        // External force: sampled once (it depends on the mesh phase only, not on the speed).
+        let mut ext = vec![0.0; m];
+        let mut external = DMatrix::zeros(m, len);
+        let mut row = vec![0.0; len];
+        for (i, (&theta, &w)) in problem.nodes.iter().zip(&problem.weights).enumerate() {
+            problem.model.external_force(theta / f, &mut ext);
+            let phi = problem.node_row(i, &mut row);
+            for (k, e) in ext.iter().enumerate() {
+                for r in 0..len {
+                    external[(k, r)] += factor(r) * w * e * phi[r];
+                }
+            }
+        }
+        problem.external = external;
+        Ok(problem)
+    }
+
+    /// Probe `k` (0: start, 1: end) of cell `c`, just inside the cell.
+    fn probe(&self, c: usize, k: usize) -> f64 {
+        let (lo, hi) = self.cells[c];
+        let eps = PROBE * (hi - lo);
+        if k == 0 {
+            lo + eps
+        } else {
+            hi - eps
+        }
+    }
+
+    /// The basis row of node `i` (tabulated, or computed into `buf`).
+    fn node_row<'a>(&'a self, i: usize, buf: &'a mut [f64]) -> &'a [f64] {
+        let len = self.len;
+        match &self.table {
+            Some(t) => &t[i * len..(i + 1) * len],
+            None => {
+                self.basis_fast(self.nodes[i], buf);
+                buf
             }
         }
     }
-    (cells, nodes, weights)
+
+    /// Basis row at `θ` by the angle-addition recurrence from one `sin_cos` (powers of
+    /// `e^{2πiθ}` stepped through the sorted orders; rounding grows like the number of orders,
+    /// ~1e-14 for hundreds).
+    fn basis_fast(&self, theta: f64, out: &mut [f64]) {
+        let (s1, c1) = (TAU * theta.fract()).sin_cos();
+        let z = Complex::new(c1, s1);
+        let mut steps = [Complex::new(1.0, 0.0); 64];
+        let mut pw = Vec::new();
+        let powers: &mut [Complex<f64>] = if self.max_step < 64 {
+            &mut steps[..=self.max_step]
+        } else {
+            pw.resize(self.max_step + 1, Complex::new(1.0, 0.0));
+            &mut pw
+        };
+        for d in 1..powers.len() {
+            powers[d] = powers[d - 1] * z;
+        }
+        out[0] = 1.0;
+        let mut x = Complex::new(1.0, 0.0);
+        let mut prev = 0;
+        for (q, &j) in self.orders.iter().enumerate().skip(1) {
+            x *= powers[j - prev];
+            prev = j;
+            out[2 * q - 1] = x.re;
+            out[2 * q] = x.im;
+        }
+    }
+
+    /// Basis row at `θ` (one `sin_cos` per order: exact to rounding).
+    fn basis(&self, theta: f64, out: &mut [f64]) {
+        out[0] = 1.0;
+        for (q, &j) in self.orders.iter().enumerate().skip(1) {
+            let (s, c) = (TAU * (j as f64 * theta).fract()).sin_cos();
+            out[2 * q - 1] = c;
+            out[2 * q] = s;
+        }
+    }
+
+    fn build_sums(&mut self) {
+        let n = self.orders.len();
+        let top = 2 * self.orders[n - 1] + 1;
+        let mut position = vec![usize::MAX; top];
+        let mut sums = Vec::new();
+        let mut add = |d: usize, q: usize, p: usize, plus: bool, sums: &mut Vec<_>| {
+            if position[d] == usize::MAX {
+                position[d] = sums.len();
+                sums.push((d, q, p, plus));
+            }
+            position[d]
+        };
+        // Orders that are retained themselves first (d = j + 0), exact from the table.
+        for q in 0..n {
+            add(self.orders[q], q, 0, true, &mut sums);
+        }
+        let mut plus = vec![0; n * n];
+        let mut minus = vec![0; n * n];
+        for q in 0..n {
+            for p in 0..n {
+                let (j, k) = (self.orders[q], self.orders[p]);
+                plus[q * n + p] = add(j + k, q, p, true, &mut sums);
+                minus[q * n + p] = if j >= k {
+                    add(j - k, q, p, false, &mut sums)
+                } else {
+                    add(k - j, p, q, false, &mut sums)
+                };
+            }
+        }
+        self.sums = sums;
+        self.plus = plus;
+        self.minus = minus;
+    }
+
+    fn outputs(&self) -> usize {
+        self.v.ncols()
+    }
+
+    /// Sets the HB fundamental frequency (and the model's input speed).
+    fn set_frequency(&mut self, f: f64) -> Result<(), String> {
+        if f != self.f {
+            self.model.set_input_speed(0.0, f * self.speed_per_f)?;
+            self.f = f;
+        }
+        Ok(())
+    }
+
+    fn speed(&self, f: f64) -> f64 {
+        f * self.speed_per_f
+    }
+
+    fn frequency(&self, speed: f64) -> f64 {
+        speed / self.speed_per_f
+    }
+
+    /// The condensed linear part at `f` (cached).
+    fn receptance(&mut self, f: f64) -> Result<(), String> {
+        if self.receptance.as_ref().is_some_and(|r| r.f == f) {
+            return Ok(());
+        }
+        let m = self.m;
+        let outs = self.outputs();
+        let nm = self.meshes.len();
+        let cm = |a: &DMatrix<f64>| a.map(|x| Complex::new(x, 0.0));
+        let (mass, damping, stiffness) = (cm(&self.mass), cm(&self.damping), cm(&self.stiffness));
+        let at = cm(&self.a.transpose());
+        let mut rec = Receptance {
+            f,
+            lus: Vec::new(),
+            r: Vec::new(),
+            dr: Vec::new(),
+            lin: Vec::new(),
+            dlin: Vec::new(),
+        };
+        for (q, &j) in self.orders.iter().enumerate() {
+            let w = TAU * j as f64;
+            let i = Complex::new(0.0, 1.0);
+            let z = &stiffness - &mass * Complex::from(w * w * f * f) + &damping * (i * w * f);
+            let dz = &mass * Complex::from(-2.0 * w * w * f) + &damping * (i * w);
+            let lu = z.lu();
+            let mut rhs = DMatrix::zeros(m, outs + 1);
+            for i in 0..m {
+                for k in 0..outs {
+                    rhs[(i, k)] = Complex::new(self.v[(i, k)], 0.0);
+                }
+                let (a, b) = if q == 0 {
+                    (self.external[(i, 0)], 0.0)
+                } else {
+                    (self.external[(i, 2 * q - 1)], self.external[(i, 2 * q)])
+                };
+                rhs[(i, outs)] = Complex::new(a, -b);
+            }
+            let y = lu.solve(&rhs).ok_or_else(|| {
+                format!(
+                    "harmonic balance: the dynamic stiffness of order {j} at {:.6} Hz is \
+                     singular (an undamped mode at that frequency)",
+                    j as f64 * f
+                )
+            })?;
+            let dy = -lu.solve(&(&dz * &y)).expect("same matrix");
+            let ry = &at * &y;
+            let rdy = &at * &dy;
+            rec.r.push(ry.columns(0, outs).into_owned());
+            rec.dr.push(rdy.columns(0, outs).into_owned());
+            rec.lin.push(ry.column(outs).into_owned());
+            rec.dlin.push(rdy.column(outs).into_owned());
+            rec.lus.push(lu);
+            debug_assert_eq!(ry.nrows(), nm);
+        }
+        self.receptance = Some(rec);
+        Ok(())
+    }
+
+    /// `(S, dS/dθ)` of mesh `n` from the basis row.
+    #[inline]
+    fn deflection(&self, s: &DVector<f64>, n: usize, phi: &[f64]) -> (f64, f64) {
+        let base = n * self.len;
+        let mut x = s[base];
+        let mut dx = 0.0;
+        for (q, &j) in self.orders.iter().enumerate().skip(1) {
+            let (a, b) = (s[base + 2 * q - 1], s[base + 2 * q]);
+            let (c, sn) = (phi[2 * q - 1], phi[2 * q]);
+            x += a * c + b * sn;
+            dx += TAU * j as f64 * (b * c - a * sn);
+        }
+        (x, dx)
+    }
+
+    /// Adds one quadrature node to the sums.
+    fn node(
+        &self,
+        theta: f64,
+        w: f64,
+        phi: &[f64],
+        s: &DVector<f64>,
+        want: Want,
+        acc: &mut Accumulator,
+    ) {
+        let f = self.f;
+        let t = theta / f;
+        let len = self.len;
+        let mut trig_ready = false;
+        let mut sample = want.samples.then(|| Sample {
+            w,
+            force: Vec::with_capacity(self.meshes.len()),
+            lost: Vec::with_capacity(self.meshes.len()),
+        });
+        for (n, mesh) in self.meshes.iter().enumerate() {
+            let (x, dx) = self.deflection(s, n, phi);
+            let law = self.model.mesh_law(n, t, x, f * dx);
+            if let Some(sample) = &mut sample {
+                sample.force.push(law.force[0]);
+                sample.lost.push(law.in_contact == 0);
+            }
+            for k in 0..mesh.outputs {
+                let out = mesh.first + k;
+                let fw = w * law.force[k];
+                if fw != 0.0 {
+                    for (g, p) in acc.gal[out].iter_mut().zip(phi) {
+                        *g += fw * p;
+                    }
+                }
+                if want.frequency && law.viscous[k] != 0.0 {
+                    let vw = w * law.viscous[k];
+                    for (g, p) in acc.visc[out].iter_mut().zip(phi) {
+                        *g += vw * p;
+                    }
+                }
+                if want.jacobian {
+                    let (ks, kv) = (w * law.stiffness[k], w * law.damping[k]);
+                    if (ks != 0.0 || kv != 0.0) && !trig_ready {
+                        for (i, &(_, q, p, plus)) in self.sums.iter().enumerate() {
+                            let (cq, sq) = cs(phi, q);
+                            let (cp, sp) = cs(phi, p);
+                            acc.trig[2 * i] = if plus {
+                                cq * cp - sq * sp
+                            } else {
+                                cq * cp + sq * sp
+                            };
+                            acc.trig[2 * i + 1] = if plus {
+                                sq * cp + cq * sp
+                            } else {
+                                sq * cp - cq * sp
+                            };
+                        }
+                        trig_ready = true;
+                    }
+                    if ks != 0.0 {
+                        for (g, c) in acc.kap_s[out].iter_mut().zip(&acc.trig) {
+                            *g += ks * c;
+                        }
+                    }
+                    if kv != 0.0 {
+                        for (g, c) in acc.kap_v[out].iter_mut().zip(&acc.trig) {
+                            *g += kv * c;
+                        }
+                    }
+                }
+            }
+        }
+        if let Some(sample) = sample {
+            acc.samples.push(sample);
+        }
+        let _ = len;
+    }
+
+    /// Signs of mesh `n`'s contact gaps at `θ` as a bit set (bit q: gap q > 0).
+    fn signature(
+        &self,
+        s: &DVector<f64>,
+        n: usize,
+        theta: f64,
+        phi: &[f64],
+        buf: &mut Vec<(f64, f64)>,
+    ) -> u64 {
+        let (x, dx) = self.deflection(s, n, phi);
+        self.model
+            .contact_gaps(n, theta / self.f, x, self.f * dx, buf);
+        buf.iter().enumerate().fold(0u64, |bits, (q, g)| {
+            bits | (u64::from(g.0 > 0.0) << (q % 64))
+        })
+    }
+
+    /// Gap `q` of mesh `n` and its θ-derivative at `θ`.
+    fn gap(
+        &self,
+        s: &DVector<f64>,
+        n: usize,
+        q: usize,
+        theta: f64,
+        phi: &mut [f64],
+        buf: &mut Vec<(f64, f64)>,
+    ) -> (f64, f64) {
+        self.basis(theta, phi);
+        let (x, dx) = self.deflection(s, n, phi);
+        self.model
+            .contact_gaps(n, theta / self.f, x, self.f * dx, buf);
+        buf.get(q).map_or((0.0, 0.0), |g| (g.0, g.1 / self.f))
+    }
+
+    /// The root of gap `q` of mesh `n` in `(lo, hi)`, where it changes sign (Illinois variant of
+    /// regula falsi: superlinear and bracketing).
+    #[allow(clippy::too_many_arguments)]
+    fn root(
+        &self,
+        s: &DVector<f64>,
+        n: usize,
+        q: usize,
+        mut lo: f64,
+        mut hi: f64,
+        phi: &mut [f64],
+        buf: &mut Vec<(f64, f64)>,
+    ) -> f64 {
+        let mut glo = self.gap(s, n, q, lo, phi, buf).0;
+        let mut ghi = self.gap(s, n, q, hi, phi, buf).0;
+        let positive_lo = glo > 0.0;
+        let mut side = 0i8;
+        for _ in 0..200 {
+            let width = hi - lo;
+            if width <= 4.0 * f64::EPSILON * hi.abs().max(1e-3) {
+                break;
+            }
+            let mut mid = if glo != ghi {
+                (lo * ghi - hi * glo) / (ghi - glo)
+            } else {
+                0.5 * (lo + hi)
+            };
+            if !(mid > lo && mid < hi) {
+                mid = 0.5 * (lo + hi);
+            }
+            let g = self.gap(s, n, q, mid, phi, buf).0;
+            if g == 0.0 {
+                return mid;
+            }
+            if (g > 0.0) == positive_lo {
+                lo = mid;
+                glo = g;
+                if side == -1 {
+                    ghi *= 0.5;
+                }
+                side = -1;
+            } else {
+                hi = mid;
+                ghi = g;
+                if side == 1 {
+                    glo *= 0.5;
+                }
+                side = 1;
+            }
+        }
+        0.5 * (lo + hi)
+    }
+
+    /// A cell in which some contact changes: split at the switching instants, each part
+    /// integrated by its own Gauss rule, boundary terms recorded for the Jacobian.
+    fn split_cell(&self, c: usize, s: &DVector<f64>, want: Want, acc: &mut Accumulator) {
+        let (lo, hi) = self.cells[c];
+        let len = self.len;
+        let eps = PROBE * (hi - lo);
+        let mut points = vec![lo + eps];
+        points.extend_from_slice(&self.nodes[3 * c..3 * c + 3]);
+        points.push(hi - eps);
+        let mut phi = vec![0.0; len];
+        let mut buf = Vec::new();
+        let mut cuts: Vec<(f64, usize, usize)> = Vec::new();
+        for n in 0..self.meshes.len() {
+            let mut gaps: Vec<Vec<f64>> = Vec::with_capacity(points.len());
+            for &theta in &points {
+                self.basis(theta, &mut phi);
+                let (x, dx) = self.deflection(s, n, &phi);
+                self.model
+                    .contact_gaps(n, theta / self.f, x, self.f * dx, &mut buf);
+                gaps.push(buf.iter().map(|g| g.0).collect());
+            }
+            for k in 0..points.len() - 1 {
+                for (q, (a, b)) in gaps[k].iter().zip(&gaps[k + 1]).enumerate() {
+                    if (*a > 0.0) != (*b > 0.0) {
+                        let root = self.root(s, n, q, points[k], points[k + 1], &mut phi, &mut buf);
+                        cuts.push((root, n, q));
+                    }
+                }
+            }
+        }
+        cuts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut ends = vec![lo];
+        ends.extend(cuts.iter().map(|c| c.0));
+        ends.push(hi);
+        for part in ends.windows(2) {
+            let half = 0.5 * (part[1] - part[0]);
+            if half <= 0.0 {
+                continue;
+            }
+            for (x, wt) in GAUSS3 {
+                let theta = part[0] + half * (1.0 + x);
+                self.basis(theta, &mut phi);
+                self.node(theta, half * wt, &phi, s, want, acc);
+            }
+        }
+        if want.jacobian {
+            for &(theta, n, q) in &cuts {
+                let mesh = &self.meshes[n];
+                let delta_theta = self.gap(s, n, q, theta, &mut phi, &mut buf).1;
+                if delta_theta == 0.0 {
+                    continue;
+                }
+                let h = 1e-3 * eps.max(1e-14);
+                let law_at = |theta: f64, phi: &mut [f64]| {
+                    self.basis(theta, phi);
+                    let (x, dx) = self.deflection(s, n, phi);
+                    self.model.mesh_law(n, theta / self.f, x, self.f * dx)
+                };
+                let left = law_at(theta - h, &mut phi);
+                let right = law_at(theta + h, &mut phi);
+                self.basis(theta, &mut phi);
+                for k in 0..mesh.outputs {
+                    // Only a jump counts: the continuous part changes by O(h).
+                    let jump = right.force[k] - left.force[k];
+                    let continuous =
+                        (right.stiffness[k] + left.stiffness[k]) * 0.5 * delta_theta * 2.0 * h;
+                    let jump = jump - continuous;
+                    if jump.abs() <= 1e-9 * (right.force[k].abs() + left.force[k].abs()) {
+                        continue;
+                    }
+                    acc.boundary
+                        .push((mesh.first + k, jump / delta_theta, phi.clone()));
+                }
+            }
+        }
+    }
+
+    /// Residual and what `want` asks for at coefficients `s` and frequency `f`.
+    fn evaluate(&mut self, s: &DVector<f64>, f: f64, want: Want) -> Result<Evaluation, String> {
+        self.set_frequency(f)?;
+        self.receptance(f)?;
+        let len = self.len;
+        let outs = self.outputs();
+        let nm = self.meshes.len();
+        let ns = self.sums.len();
+        let mut acc = Accumulator {
+            gal: vec![vec![0.0; len]; outs],
+            visc: if want.frequency {
+                vec![vec![0.0; len]; outs]
+            } else {
+                Vec::new()
+            },
+            kap_s: if want.jacobian {
+                vec![vec![0.0; 2 * ns]; outs]
+            } else {
+                Vec::new()
+            },
+            kap_v: if want.jacobian {
+                vec![vec![0.0; 2 * ns]; outs]
+            } else {
+                Vec::new()
+            },
+            boundary: Vec::new(),
+            samples: Vec::new(),
+            trig: vec![0.0; 2 * ns],
+        };
+        let switching = (0..nm).any(|n| {
+            let mut buf = Vec::new();
+            self.model.contact_gaps(n, 0.0, 0.0, 0.0, &mut buf);
+            !buf.is_empty()
+        });
+        let mut buf = Vec::new();
+        // Rows of the cell's two probes and three nodes (computed once when not tabulated).
+        let mut rows = vec![0.0; 5 * len];
+        for c in 0..self.cells.len() {
+            let tabulated = self.table.is_some();
+            if !tabulated {
+                for k in 0..2 {
+                    self.basis_fast(self.probe(c, k), &mut rows[k * len..(k + 1) * len]);
+                }
+                for (k, i) in (3 * c..3 * c + 3).enumerate() {
+                    self.basis_fast(self.nodes[i], &mut rows[(2 + k) * len..(3 + k) * len]);
+                }
+            }
+            let node_phi = |i: usize| -> &[f64] {
+                match &self.table {
+                    Some(t) => &t[i * len..(i + 1) * len],
+                    None => &rows[(2 + i - 3 * c) * len..(3 + i - 3 * c) * len],
+                }
+            };
+            let mut regular = true;
+            if switching {
+                'meshes: for n in 0..nm {
+                    let probe = |k: usize| -> &[f64] {
+                        match &self.probe_table {
+                            Some(t) => &t[(2 * c + k) * len..(2 * c + k + 1) * len],
+                            None => &rows[k * len..(k + 1) * len],
+                        }
+                    };
+                    let first = self.signature(s, n, self.probe(c, 0), probe(0), &mut buf);
+                    let last = self.signature(s, n, self.probe(c, 1), probe(1), &mut buf);
+                    if first != last {
+                        regular = false;
+                        break 'meshes;
+                    }
+                    for i in 3 * c..3 * c + 3 {
+                        if self.signature(s, n, self.nodes[i], node_phi(i), &mut buf) != first {
+                            regular = false;
+                            break 'meshes;
+                        }
+                    }
+                }
+            }
+            if regular {
+                for i in 3 * c..3 * c + 3 {
+                    self.node(
+                        self.nodes[i],
+                        self.weights[i],
+                        node_phi(i),
+                        s,
+                        want,
+                        &mut acc,
+                    );
+                }
+            } else {
+                self.split_cell(c, s, want, &mut acc);
+            }
+        }
+
+        // g per output: P[F] minus the moved linear part (exact in the coefficients).
+        let mut g: Vec<DVector<f64>> = acc
+            .gal
+            .iter()
+            .map(|gal| DVector::from_fn(len, |r, _| factor(r) * gal[r]))
+            .collect();
+        let derivative = |x: &[f64]| -> DVector<f64> {
+            // d/dθ on the coefficients: (a, b) → 2πj (b, −a).
+            let mut d = DVector::zeros(len);
+            for (q, &j) in self.orders.iter().enumerate().skip(1) {
+                let w = TAU * j as f64;
+                d[2 * q - 1] = w * x[2 * q];
+                d[2 * q] = -w * x[2 * q - 1];
+            }
+            d
+        };
+        let mut ds = Vec::with_capacity(nm);
+        for (n, mesh) in self.meshes.iter().enumerate() {
+            let sn = s.rows(n * len, len);
+            let d = derivative(sn.as_slice());
+            g[mesh.first] -= sn * mesh.k_mean + &d * (mesh.c_mean * f);
+            ds.push(d);
+        }
+        let rec = self.receptance.as_ref().expect("computed above");
+        let apply = |r: &[DMatrix<Complex<f64>>],
+                     n: usize,
+                     out: usize,
+                     x: &DVector<f64>,
+                     y: &mut DVector<f64>| {
+            y[0] += r[0][(n, out)].re * x[0];
+            for q in 1..self.orders.len() {
+                let (a, b) = cmul(r[q][(n, out)], x[2 * q - 1], x[2 * q]);
+                y[2 * q - 1] += a;
+                y[2 * q] += b;
+            }
+        };
+        let lin_of = |lin: &[DVector<Complex<f64>>], n: usize| {
+            let mut y = DVector::zeros(len);
+            y[0] = lin[0][n].re;
+            for q in 1..self.orders.len() {
+                y[2 * q - 1] = lin[q][n].re;
+                y[2 * q] = -lin[q][n].im;
+            }
+            y
+        };
+        let mut residual = DVector::zeros(nm * len);
+        for n in 0..nm {
+            let mut y = s.rows(n * len, len).into_owned() - lin_of(&rec.lin, n);
+            for (out, go) in g.iter().enumerate() {
+                apply(&rec.r, n, out, go, &mut y);
+            }
+            residual.rows_mut(n * len, len).copy_from(&y);
+        }
+
+        let d_frequency = want.frequency.then(|| {
+            let mut dg: Vec<DVector<f64>> = acc
+                .visc
+                .iter()
+                .map(|v| DVector::from_fn(len, |r, _| factor(r) * v[r] / f))
+                .collect();
+            for (n, mesh) in self.meshes.iter().enumerate() {
+                dg[mesh.first] -= &ds[n] * mesh.c_mean;
+            }
+            let mut d = DVector::zeros(nm * len);
+            for n in 0..nm {
+                let mut y = -lin_of(&rec.dlin, n);
+                for out in 0..outs {
+                    apply(&rec.dr, n, out, &g[out], &mut y);
+                    apply(&rec.r, n, out, &dg[out], &mut y);
+                }
+                d.rows_mut(n * len, len).copy_from(&y);
+            }
+            d
+        });
+
+        let jacobian = want.jacobian.then(|| {
+            let no = self.orders.len();
+            let mut jac = DMatrix::<f64>::identity(nm * len, nm * len);
+            let mut gs = DMatrix::<f64>::zeros(len, len);
+            for (n, mesh) in self.meshes.iter().enumerate() {
+                for k in 0..mesh.outputs {
+                    let out = mesh.first + k;
+                    gs.fill(0.0);
+                    let (kc, kv) = (&acc.kap_s[out], &acc.kap_v[out]);
+                    // Toeplitz + Hankel of ∂F/∂S, and of ∂F/∂Ṡ times f d/dθ.
+                    for (kap, scale, rate) in [(kc, 1.0, false), (kv, f, true)] {
+                        if kap.iter().all(|&x| x == 0.0) {
+                            continue;
+                        }
+                        for q in 0..no {
+                            let fq = factor(q) * 0.5 * scale;
+                            let rows: &[usize] = if q == 0 { &[0] } else { &[2 * q - 1, 2 * q] };
+                            for p in 0..no {
+                                let (jq, jp) = (self.orders[q], self.orders[p]);
+                                let (ip, im) = (self.plus[q * no + p], self.minus[q * no + p]);
+                                let (cp, sp) = (kap[2 * ip], kap[2 * ip + 1]);
+                                let (cm, smag) = (kap[2 * im], kap[2 * im + 1]);
+                                // sin of (j_q − j_p) and of (j_p − j_q).
+                                let s_qp = if jq >= jp { smag } else { -smag };
+                                let s_pq = -s_qp;
+                                // [cos_q cos_p, cos_q sin_p; sin_q cos_p, sin_q sin_p] sums.
+                                let cc = cm + cp;
+                                let c_s = sp + s_pq;
+                                let s_c = sp + s_qp;
+                                let ss = cm - cp;
+                                let cols: &[usize] =
+                                    if p == 0 { &[0] } else { &[2 * p - 1, 2 * p] };
+                                let mut block = [[0.0; 2]; 2];
+                                block[0][0] = cc;
+                                if cols.len() == 2 {
+                                    block[0][1] = c_s;
+                                }
+                                if rows.len() == 2 {
+                                    block[1][0] = s_c;
+                                    if cols.len() == 2 {
+                                        block[1][1] = ss;
+                                    }
+                                }
+                                if !rate {
+                                    for (ri, &r) in rows.iter().enumerate() {
+                                        for (ci, &cl) in cols.iter().enumerate() {
+                                            gs[(r, cl)] += fq * block[ri][ci];
+                                        }
+                                    }
+                                } else if p > 0 {
+                                    // (T D)[:, a_p] = −2πj_p T[:, b_p]; (T D)[:, b_p] = 2πj_p T[:, a_p].
+                                    let w = TAU * jp as f64;
+                                    for (ri, &r) in rows.iter().enumerate() {
+                                        gs[(r, 2 * p - 1)] -= fq * w * block[ri][1];
+                                        gs[(r, 2 * p)] += fq * w * block[ri][0];
+                                    }
+                                }
+                            }
+                        }
+                    }
+                    if k == 0 {
+                        for r in 0..len {
+                            gs[(r, r)] -= mesh.k_mean;
+                        }
+                        if mesh.c_mean != 0.0 {
+                            for (q, &j) in self.orders.iter().enumerate().skip(1) {
+                                let w = TAU * j as f64 * mesh.c_mean * f;
+                                gs[(2 * q - 1, 2 * q)] -= w;
+                                gs[(2 * q, 2 * q - 1)] += w;
+                            }
+                        }
+                    }
+                    for (o, coefficient, phi) in &acc.boundary {
+                        if *o != out {
+                            continue;
+                        }
+                        for r in 0..len {
+                            let row = coefficient * factor(r) * phi[r];
+                            for cl in 0..len {
+                                gs[(r, cl)] += row * phi[cl];
+                            }
+                        }
+                    }
+                    // J[n', n] += R[n', out] ⊙ gs (per order, on the rows).
+                    for n2 in 0..nm {
+                        let mut block = jac.view_mut((n2 * len, n * len), (len, len));
+                        let r0 = rec.r[0][(n2, out)].re;
+                        for cl in 0..len {
+                            block[(0, cl)] += r0 * gs[(0, cl)];
+                        }
+                        for q in 1..no {
+                            let rq = rec.r[q][(n2, out)];
+                            for cl in 0..len {
+                                let (a, b) = cmul(rq, gs[(2 * q - 1, cl)], gs[(2 * q, cl)]);
+                                block[(2 * q - 1, cl)] += a;
+                                block[(2 * q, cl)] += b;
+                            }
+                        }
+                    }
+                }
+            }
+            jac
+        });
+
+        Ok(Evaluation {
+            residual,
+            jacobian,
+            d_frequency,
+            g,
+            samples: acc.samples,
+        })
+    }
+
+    /// Newton at frequency `f` from `s`.
+    fn newton(
+        &mut self,
+        mut s: DVector<f64>,
+        f: f64,
+        options: &HbOptions,
+    ) -> Result<(DVector<f64>, usize), String> {
+        let speed = self.speed(f);
+        let want = Want {
+            jacobian: true,
+            ..Want::default()
+        };
+        let mut e = self.evaluate(&s, f, want)?;
+        for iteration in 1..=options.max_iterations {
+            let delta = e
+                .jacobian
+                .take()
+                .expect("asked for")
+                .lu()
+                .solve(&(-&e.residual))
+                .ok_or_else(|| format!("harmonic balance at {speed} rad/s: singular Jacobian"))?;
+            s += &delta;
+            if delta.amax() <= options.tolerance * self.x_scale {
+                return Ok((s, iteration));
+            }
+            e = self.evaluate(&s, f, want)?;
+        }
+        Err(format!(
+            "harmonic balance at {speed} rad/s did not converge in {} Newton iterations",
+            options.max_iterations
+        ))
+    }
+
+    /// Mesh-deflection coefficients of full coordinate coefficients (one block per coordinate).
+    fn condense(&self, coefficients: &[f64]) -> Result<DVector<f64>, String> {
+        let len = self.len;
+        if coefficients.len() != self.m * len {
+            return Err(format!(
+                "guess has {} coefficients, expected {} ({} coordinates × {len})",
+                coefficients.len(),
+                self.m * len,
+                self.m
+            ));
+        }
+        let nm = self.meshes.len();
+        let mut s = DVector::zeros(nm * len);
+        for n in 0..nm {
+            for i in 0..self.m {
+                let a = self.a[(i, n)];
+                if a != 0.0 {
+                    for r in 0..len {
+                        s[n * len + r] += a * coefficients[i * len + r];
+                    }
+                }
+            }
+        }
+        Ok(s)
+    }
+
+    /// A starting guess from the time domain: the response after a warm-up (at least
+    /// [`SEED_WARMUP_PERIODS`] mesh periods, whole HB periods), sampled at the nodes and
+    /// projected. Newton from the static deflection often stalls on the piecewise-smooth residual
+    /// near resonance; the seed only selects the basin, the converged orbit is HB's own.
+    fn seed(&self, mut sim: Driver<M>) -> Result<DVector<f64>, String> {
+        let period = 1.0 / self.f;
+        let k = self.mesh_periods;
+        let warm = (SEED_WARMUP_PERIODS.div_ceil(k) * k) as f64 / self.mesh_periods as f64 * period;
+        let t0 = sim.t();
+        let mut order: Vec<usize> = (0..self.nodes.len()).collect();
+        order.sort_by(|&a, &b| self.nodes[a].total_cmp(&self.nodes[b]));
+        let len = self.len;
+        let nm = self.meshes.len();
+        let mut s = DVector::zeros(nm * len);
+        let mut row = vec![0.0; len];
+        for i in order {
+            sim.advance_to(t0 + warm + self.nodes[i] * period)
+                .map_err(|e| format!("harmonic balance seed: {e}"))?;
+            let y = sim.y();
+            let phi = self.node_row(i, &mut row);
+            for n in 0..nm {
+                let x: f64 = (0..self.m).map(|k| self.a[(k, n)] * y[k]).sum();
+                let w = self.weights[i] * x;
+                for r in 0..len {
+                    s[n * len + r] += factor(r) * w * phi[r];
+                }
+            }
+        }
+        Ok(s)
+    }
+
+    /// The orbit of a converged `s` at `f` from its evaluation (with samples).
+    fn solution(&self, s: &DVector<f64>, f: f64, e: &Evaluation, iterations: usize) -> HbSolution {
+        let len = self.len;
+        let m = self.m;
+        let no = self.orders.len();
+        let rec = self.receptance.as_ref().expect("evaluated");
+        let mut coefficients = vec![0.0; m * len];
+        for q in 0..no {
+            // X_q = Z_q⁻¹ (F̂_q − Σ v g_q).
+            let mut rhs = DVector::<Complex<f64>>::zeros(m);
+            for i in 0..m {
+                let (mut a, mut b) = if q == 0 {
+                    (self.external[(i, 0)], 0.0)
+                } else {
+                    (self.external[(i, 2 * q - 1)], self.external[(i, 2 * q)])
+                };
+                for (out, g) in e.g.iter().enumerate() {
+                    let v = self.v[(i, out)];
+                    if q == 0 {
+                        a -= v * g[0];
+                    } else {
+                        a -= v * g[2 * q - 1];
+                        b -= v * g[2 * q];
+                    }
+                }
+                rhs[i] = Complex::new(a, -b);
+            }
+            let x = rec.lus[q].solve(&rhs).expect("regular at this frequency");
+            for i in 0..m {
+                if q == 0 {
+                    coefficients[i * len] = x[i].re;
+                } else {
+                    coefficients[i * len + 2 * q - 1] = x[i].re;
+                    coefficients[i * len + 2 * q] = -x[i].im;
+                }
+            }
+        }
+        let _ = s;
+        let meshes = self
+            .meshes
+            .iter()
+            .enumerate()
+            .map(|(n, mesh)| {
+                let mut dte = vec![0.0; len];
+                for i in 0..m {
+                    let d = mesh.dte[i];
+                    if d != 0.0 {
+                        for r in 0..len {
+                            dte[r] += d * coefficients[i * len + r];
+                        }
+                    }
+                }
+                let harmonic = |h: usize| {
+                    let j = h * mesh.cycles as usize;
+                    self.orders
+                        .iter()
+                        .position(|&o| o == j)
+                        .filter(|&q| q > 0)
+                        .map_or(0.0, |q| dte[2 * q - 1].hypot(dte[2 * q]))
+                };
+                let total: f64 = e.samples.iter().map(|x| x.w).sum();
+                let mean = e.samples.iter().map(|x| x.w * x.force[n]).sum::<f64>() / total;
+                let var = e
+                    .samples
+                    .iter()
+                    .map(|x| x.w * (x.force[n] - mean).powi(2))
+                    .sum::<f64>()
+                    / total;
+                let peak = e
+                    .samples
+                    .iter()
+                    .map(|x| x.force[n].abs())
+                    .fold(0.0, f64::max);
+                let lost = e
+                    .samples
+                    .iter()
+                    .filter(|x| x.lost[n])
+                    .fold(0.0, |sum, x| sum + x.w)
+                    / total;
+                HbMesh {
+                    prefix: mesh.prefix.clone(),
+                    mesh_frequency: mesh.cycles * f,
+                    dte_mean: dte[0],
+                    dte_rms: (dte[1..].iter().map(|c| c * c).sum::<f64>() / 2.0).sqrt(),
+                    harmonics: [harmonic(1), harmonic(2)],
+                    peak_force: peak,
+                    force_rms: var.sqrt(),
+                    dynamic_factor: peak / mesh.static_force,
+                    contact_loss_fraction: lost,
+                }
+            })
+            .collect();
+        HbSolution {
+            mesh_frequency: self.meshes[0].cycles * f,
+            subharmonic: (self.mesh_periods / self.response_periods()) as u32,
+            mesh_periods: self.mesh_periods,
+            orders: self.orders.clone(),
+            coefficients,
+            iterations,
+            meshes,
+            dte_rows: self.meshes.iter().map(|mesh| mesh.dte.clone()).collect(),
+        }
+    }
+
+    fn response_periods(&self) -> u64 {
+        let freqs: Vec<f64> = (0..self.meshes.len())
+            .map(|n| self.meshes[n].cycles)
+            .collect();
+        response_period_in_mesh_periods(&freqs).unwrap_or(1)
+    }
+
+    /// Floquet multipliers of the orbit from its state at `t = 0` (shooting monodromy with
+    /// saltation at contact changes); `None` when the period map fails.
+    fn multipliers(&self, solution: &HbSolution) -> Option<Vec<Complex<f64>>> {
+        let mut map = PeriodMap::new(self.model.clone(), &self.settings, 1.0 / self.f).ok()?;
+        let y0 = solution.state_at(0.0);
+        let (_, monodromy) = map.eval(&y0).ok()?;
+        Some(monodromy.complex_eigenvalues().iter().copied().collect())
+    }
 }
 
-/// Solves the harmonic balance at one speed by Newton, from `guess` (coefficients of a
-/// solution with the same H) or from the static deflection.
+/// Mesh periods integrated before a time-domain seed is sampled (rounded up to whole HB
+/// periods).
+const SEED_WARMUP_PERIODS: u64 = 60;
+
+/// Solves the harmonic balance at one input speed by Newton, from `guess` (the coefficients
+/// of [`HbSolution::coefficients`] with the same orders) or from a time-domain seed.
 pub fn solve(
-    scene: &Scene,
+    scene: &impl SceneSource,
     speed: f64,
     guess: Option<&[f64]>,
     options: &HbOptions,
@@ -473,47 +1502,26 @@ pub fn solve(
     if !(speed > 0.0 && speed.is_finite()) {
         return Err(format!("speed = {speed}: must be a finite speed > 0"));
     }
-    let problem = Problem::new(scene, options)?;
-    let f = scene.pinion.teeth as f64 * speed / TAU;
-    let mut u = match guess {
-        Some(g) if g.len() == problem.dim() => DVector::from_column_slice(g),
-        Some(g) => {
-            return Err(format!(
-                "guess has {} coefficients, expected {}",
-                g.len(),
-                problem.dim()
-            ))
-        }
-        None => seed_from_simulation(scene, speed, &problem, options.subharmonic)?,
-    };
-    let scale = problem.x_scale();
-    let (mut r, mut ju, _) = problem.evaluate(&u, f);
-    for iteration in 1..=options.max_iterations {
-        let delta = ju
-            .lu()
-            .solve(&(-&r))
-            .ok_or_else(|| format!("harmonic balance at {speed} rad/s: singular Jacobian"))?;
-        u += &delta;
-        (r, ju, _) = problem.evaluate(&u, f);
-        if delta.amax() <= options.tolerance * scale {
-            return Ok(HbSolution {
-                mesh_frequency: f,
-                subharmonic: options.subharmonic,
-                coefficients: u.as_slice().to_vec(),
-                iterations: iteration,
-            });
-        }
-    }
-    Err(format!(
-        "harmonic balance at {speed} rad/s did not converge in {} Newton iterations",
-        options.max_iterations
-    ))
+    let mut scene = scene.to_any();
+    scene.set_input_speed(speed);
+    let settings = scene.solver().clone();
+    with_drivetrain!(scene.simulation()?, sim => {
+        let mut problem = Problem::new(sim.model().clone(), settings, options)?;
+        let f = problem.f;
+        let s = match guess {
+            Some(g) => problem.condense(g)?,
+            None => problem.seed(sim)?,
+        };
+        let (s, iterations) = problem.newton(s, f, options)?;
+        let e = problem.evaluate(&s, f, Want { samples: true, ..Want::default() })?;
+        Ok(problem.solution(&s, f, &e, iterations))
+    })
 }
 
 /// Settings of the continuation.
 #[derive(Debug, Clone)]
 pub struct ContinuationOptions {
-    /// Pinion-speed interval, rad/s: the branch starts at `from` and ends when it leaves the
+    /// Input-speed interval, rad/s: the branch starts at `from` and ends when it leaves the
     /// interval.
     pub from: f64,
     pub to: f64,
@@ -521,8 +1529,7 @@ pub struct ContinuationOptions {
     pub initial_step: f64,
     pub max_step: f64,
     pub max_points: usize,
-    /// Compute Floquet multipliers of each point (piecewise-LTI scenes: exact monodromy from
-    /// the HB state; skipped otherwise).
+    /// Compute the Floquet multipliers of each point (shooting monodromy from the HB state).
     pub stability: bool,
 }
 
@@ -543,11 +1550,11 @@ impl ContinuationOptions {
 #[derive(Debug, Clone)]
 pub struct BranchPoint {
     pub solution: HbSolution,
-    /// Pinion speed, rad/s.
+    /// Input speed, rad/s.
     pub speed: f64,
-    /// Floquet multipliers (None when not computed): eigenvalues of the exact monodromy
-    /// (with saltation) from the HB state at `t = 0`, accurate to the HB truncation error.
-    pub multipliers: Option<Vec<nalgebra::Complex<f64>>>,
+    /// Floquet multipliers (None when not computed): eigenvalues of the monodromy (with
+    /// saltation) from the HB state at `t = 0`, accurate to the HB truncation error.
+    pub multipliers: Option<Vec<Complex<f64>>>,
     /// Whether the step to this point passed a fold (turning point in speed).
     pub fold: bool,
 }
@@ -566,11 +1573,11 @@ impl BranchPoint {
     }
 }
 
-/// Pseudo-arclength continuation of the HB orbit in pinion speed (Keller 1977; Krack & Gross
-/// §4.2): predictor along the tangent of `R(u, f) = 0`, corrector orthogonal to it, step size
+/// Pseudo-arclength continuation of the HB orbit in input speed (Keller 1977; Krack & Gross
+/// §4.2): predictor along the tangent of `r(s, λ) = 0`, corrector orthogonal to it, step size
 /// adapted to the Newton effort. Turning points (folds) are passed and marked.
 pub fn continuation(
-    scene: &Scene,
+    scene: &impl SceneSource,
     hb: &HbOptions,
     options: &ContinuationOptions,
 ) -> Result<Vec<BranchPoint>, String> {
@@ -582,33 +1589,56 @@ pub fn continuation(
             options.from, options.to
         ));
     }
-    let problem = Problem::new(scene, hb)?;
-    let teeth = scene.pinion.teeth as f64;
-    let to_f = |speed: f64| teeth * speed / TAU;
-    let (f_lo, f_hi) = (
-        to_f(options.from.min(options.to)),
-        to_f(options.from.max(options.to)),
-    );
-    let f_ref = to_f(options.from);
-    let xs = problem.x_scale();
-    let fs = problem.force_scale();
-    let dim = problem.dim();
+    let mut scene = scene.to_any();
+    scene.set_input_speed(options.from);
+    let settings = scene.solver().clone();
+    with_drivetrain!(scene.simulation()?, sim => {
+        let problem = Problem::new(sim.model().clone(), settings, hb)?;
+        continue_branch(problem, sim, hb, options)
+    })
+}
 
-    let start = solve(scene, options.from, None, hb)?;
-    // Scaled unknowns w = [u/x_s, f/f_ref].
+fn continue_branch<M: Drivetrain>(
+    mut problem: Problem<M>,
+    sim: Driver<M>,
+    hb: &HbOptions,
+    options: &ContinuationOptions,
+) -> Result<Vec<BranchPoint>, String> {
+    let f_ref = problem.f;
+    let (f_lo, f_hi) = (
+        problem.frequency(options.from.min(options.to)),
+        problem.frequency(options.from.max(options.to)),
+    );
+    let xs = problem.x_scale;
+    let dim = problem.meshes.len() * problem.len;
+
+    let seed = problem.seed(sim)?;
+    let (start, iterations) = problem.newton(seed, f_ref, hb)?;
+    // Scaled unknowns w = [s/x_s, f/f_ref].
     let mut w = DVector::zeros(dim + 1);
-    for j in 0..dim {
-        w[j] = start.coefficients[j] / xs;
-    }
+    w.rows_mut(0, dim).copy_from(&(&start / xs));
     w[dim] = 1.0;
-    let scaled_jacobian = |w: &DVector<f64>| {
-        let u = w.rows(0, dim) * xs;
+    let all = Want {
+        jacobian: true,
+        frequency: true,
+        samples: false,
+    };
+    // Scaled residual r/x_s and its Jacobian [∂r/∂s, ∂r/∂λ · f_ref/x_s].
+    let scaled = |problem: &mut Problem<M>,
+                  w: &DVector<f64>,
+                  want: Want|
+     -> Result<(DVector<f64>, DMatrix<f64>, Evaluation), String> {
+        let s = w.rows(0, dim) * xs;
         let f = w[dim] * f_ref;
-        let (r, ju, jf) = problem.evaluate(&u.into_owned(), f);
+        let mut e = problem.evaluate(&s, f, want)?;
         let mut j = DMatrix::zeros(dim, dim + 1);
-        j.view_mut((0, 0), (dim, dim)).copy_from(&(ju * (xs / fs)));
-        j.set_column(dim, &(jf * (f_ref / fs)));
-        (r / fs, j)
+        j.view_mut((0, 0), (dim, dim))
+            .copy_from(e.jacobian.as_ref().expect("asked for"));
+        j.set_column(
+            dim,
+            &(e.d_frequency.take().expect("asked for") * (f_ref / xs)),
+        );
+        Ok((&e.residual / xs, j, e))
     };
     let tangent_of = |j: &DMatrix<f64>, previous: &DVector<f64>| -> Option<DVector<f64>> {
         let mut a = DMatrix::zeros(dim + 1, dim + 1);
@@ -622,21 +1652,33 @@ pub fn continuation(
     let direction = if options.to > options.from { 1.0 } else { -1.0 };
     let mut seed = DVector::zeros(dim + 1);
     seed[dim] = direction;
-    let (_, j0) = scaled_jacobian(&w);
+    let (_, j0, e0) = scaled(
+        &mut problem,
+        &w,
+        Want {
+            samples: true,
+            ..all
+        },
+    )?;
     let mut tangent = tangent_of(&j0, &seed).ok_or("continuation: singular start")?;
     if tangent[dim] * direction < 0.0 {
         tangent = -tangent;
     }
-    let mut points = vec![make_point(scene, start, options, teeth, false)?];
+    let mut points = vec![make_point(
+        &problem, &start, f_ref, &e0, iterations, options, false,
+    )];
     let mut step = options.initial_step;
     while points.len() < options.max_points {
         let predicted = &w + &tangent * step;
         let mut candidate = predicted.clone();
         let mut converged = false;
         let mut iterations = 0;
+        let mut last = None;
         for it in 1..=12 {
             iterations = it;
-            let (r, j) = scaled_jacobian(&candidate);
+            let Ok((r, j, _)) = scaled(&mut problem, &candidate, all) else {
+                break;
+            };
             let mut a = DMatrix::zeros(dim + 1, dim + 1);
             a.view_mut((0, 0), (dim, dim + 1)).copy_from(&j);
             a.set_row(dim, &tangent.transpose());
@@ -652,7 +1694,20 @@ pub fn continuation(
                 break;
             }
         }
-        if !converged {
+        if converged {
+            match scaled(
+                &mut problem,
+                &candidate,
+                Want {
+                    samples: true,
+                    ..all
+                },
+            ) {
+                Ok(x) => last = Some(x),
+                Err(_) => converged = false,
+            }
+        }
+        let Some((_, j, e)) = last.filter(|_| converged) else {
             step *= 0.5;
             if step < 1e-8 {
                 return Err(format!(
@@ -661,8 +1716,7 @@ pub fn continuation(
                 ));
             }
             continue;
-        }
-        let (_, j) = scaled_jacobian(&candidate);
+        };
         let mut next = tangent_of(&j, &tangent).ok_or("continuation: singular tangent")?;
         if next.dot(&tangent) < 0.0 {
             next = -next;
@@ -671,13 +1725,16 @@ pub fn continuation(
         w = candidate;
         tangent = next;
         let f = w[dim] * f_ref;
-        let solution = HbSolution {
-            mesh_frequency: f,
-            subharmonic: hb.subharmonic,
-            coefficients: (w.rows(0, dim) * xs).iter().copied().collect(),
+        let s = w.rows(0, dim) * xs;
+        points.push(make_point(
+            &problem,
+            &s.into_owned(),
+            f,
+            &e,
             iterations,
-        };
-        points.push(make_point(scene, solution, options, teeth, fold)?);
+            options,
+            fold,
+        ));
         if f < f_lo || f > f_hi {
             break;
         }
@@ -692,44 +1749,64 @@ pub fn continuation(
     Ok(points)
 }
 
-fn make_point(
-    scene: &Scene,
-    solution: HbSolution,
+fn make_point<M: Drivetrain>(
+    problem: &Problem<M>,
+    s: &DVector<f64>,
+    f: f64,
+    e: &Evaluation,
+    iterations: usize,
     options: &ContinuationOptions,
-    teeth: f64,
     fold: bool,
-) -> Result<BranchPoint, String> {
-    let speed = solution.mesh_frequency * TAU / teeth;
+) -> BranchPoint {
+    let solution = problem.solution(s, f, e, iterations);
     let multipliers = if options.stability {
-        let mut at = scene.clone();
-        at.operating.pinion_speed = speed;
-        let y0 = solution.state_at(0.0);
-        period_map(&at, &y0, solution.subharmonic)
-            .ok()
-            .map(|(_, m)| m.complex_eigenvalues().iter().copied().collect())
+        problem.multipliers(&solution)
     } else {
         None
     };
-    Ok(BranchPoint {
+    BranchPoint {
+        speed: problem.speed(f),
         solution,
-        speed,
         multipliers,
         fold,
-    })
+    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::scene::Scene;
 
     #[test]
     fn projection_inverts_sampling_of_band_limited_signals() {
         let scene = Scene::example("spur_pair").unwrap();
-        let options = HbOptions::new(5);
-        let p = Problem::new(&scene, &options).unwrap();
-        let u = DVector::from_fn(p.dim(), |i, _| (i as f64 + 1.0).sin());
-        let back = &p.projection * (&p.gamma * &u);
-        let err = (back - u).amax();
+        let model = crate::model::GearPair::new(&scene);
+        let p = Problem::new(model, scene.solver.clone(), &HbOptions::new(5)).unwrap();
+        let u: Vec<f64> = (0..p.len).map(|i| (i as f64 + 1.0).sin()).collect();
+        let mut back = vec![0.0; p.len];
+        for (i, &w) in p.weights.iter().enumerate() {
+            let phi = &p.table.as_ref().unwrap()[i * p.len..(i + 1) * p.len];
+            let x: f64 = phi.iter().zip(&u).map(|(a, b)| a * b).sum();
+            for r in 0..p.len {
+                back[r] += factor(r) * w * x * phi[r];
+            }
+        }
+        let err = back
+            .iter()
+            .zip(&u)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
         assert!(err < 1e-9, "{err}");
+    }
+
+    #[test]
+    fn combination_tones() {
+        assert_eq!(combination_orders(&[1], 3), vec![0, 1, 2, 3]);
+        assert_eq!(combination_orders(&[1, 1], 2), vec![0, 1, 2]);
+        // 72a + 19b with 72|a| + 19|b| ≤ 144.
+        assert_eq!(
+            combination_orders(&[72, 19], 2),
+            vec![0, 15, 19, 34, 38, 53, 57, 72, 76, 91, 95, 110, 114, 129, 133, 144]
+        );
     }
 }
