@@ -55,7 +55,7 @@ use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
 use super::shooting::PeriodMap;
 use crate::model::drivetrain::response_period_in_mesh_periods;
-use crate::model::{Drivetrain, SceneSource};
+use crate::model::{Drivetrain, MeshLaw, SceneSource};
 use crate::scene::SolverSettings;
 use crate::simulation::Driver;
 use crate::with_drivetrain;
@@ -236,13 +236,6 @@ struct Want {
     samples: bool,
 }
 
-/// A node sample for the results: weight, mesh force and total contact loss per mesh.
-struct Sample {
-    w: f64,
-    force: Vec<f64>,
-    lost: Vec<bool>,
-}
-
 /// Sums over the quadrature nodes.
 struct Accumulator {
     /// `Σ w F φ` per output.
@@ -255,7 +248,11 @@ struct Accumulator {
     kap_v: Vec<Vec<f64>>,
     /// Boundary terms `(output, coefficient, φ(θ*))` of the split points.
     boundary: Vec<(usize, f64, Vec<f64>)>,
-    samples: Vec<Sample>,
+    /// Node samples for the results: weight, and per mesh the mesh force and whether it has
+    /// lost contact on every tooth pair.
+    sample_w: Vec<f64>,
+    sample_force: Vec<f64>,
+    sample_lost: Vec<bool>,
     /// Scratch: `(cos, sin)(2πdθ)` of the node over [`Problem::sums`].
     trig: Vec<f64>,
 }
@@ -268,7 +265,10 @@ struct Evaluation {
     d_frequency: Option<DVector<f64>>,
     /// `g` per output (the Galerkin coefficients of the force minus the moved linear part).
     g: Vec<DVector<f64>>,
-    samples: Vec<Sample>,
+    /// Node samples ([`Accumulator::sample_w`]), when asked for.
+    sample_w: Vec<f64>,
+    sample_force: Vec<f64>,
+    sample_lost: Vec<bool>,
 }
 
 /// The discretised harmonic-balance problem of a drivetrain.
@@ -296,7 +296,12 @@ struct Problem<M: Drivetrain> {
     /// Basis rows `[1, cos 2πjθ, sin 2πjθ, …]` of the nodes and of two probes per cell (just
     /// inside its ends), when they fit in [`TABLE_ENTRIES`]; else rows are computed as needed.
     table: Option<Vec<f64>>,
-    probe_table: Option<Vec<f64>>,
+    /// Whether a cell starts at a breakpoint (where the engaged tooth pairs change).
+    cell_at_break: Vec<bool>,
+    /// Whether any mesh's contact law switches (else no cell is ever split).
+    switching: bool,
+    /// Scratch: every mesh's law at every node.
+    node_laws: Vec<MeshLaw>,
     /// Largest gap between consecutive retained orders.
     max_step: usize,
     /// Orders `d` of the sums and differences of retained orders, each with a pair `(q, p, +)`
@@ -320,7 +325,7 @@ const GAUSS3: [(f64, f64); 3] = [
     (0.774_596_669_241_483_4, 5.0 / 9.0),
 ];
 
-/// Largest number of tabulated basis entries (nodes and probes: 32 MB); larger problems (a
+/// Largest number of tabulated basis entries (32 MB); larger problems (a
 /// countershaft's many combination tones over 72 mesh periods) compute rows as needed.
 const TABLE_ENTRIES: usize = 1 << 22;
 
@@ -467,6 +472,7 @@ impl<M: Drivetrain> Problem<M> {
         breaks.sort_by(f64::total_cmp);
         breaks.dedup_by(|x, y| (*x - *y).abs() < 1e-14);
         let mut cells = Vec::new();
+        let mut cell_at_break = Vec::new();
         let mut nodes = Vec::with_capacity(samples + 3 * breaks.len());
         let mut weights = Vec::with_capacity(samples + 3 * breaks.len());
         for w in breaks.windows(2) {
@@ -476,6 +482,7 @@ impl<M: Drivetrain> Problem<M> {
             for c in 0..count {
                 let mid = lo + (c as f64 + 0.5) * h;
                 cells.push((mid - 0.5 * h, mid + 0.5 * h));
+                cell_at_break.push(c == 0);
                 for (x, wt) in GAUSS3 {
                     nodes.push(mid + 0.5 * h * x);
                     weights.push(0.5 * h * wt);
@@ -501,7 +508,9 @@ impl<M: Drivetrain> Problem<M> {
             nodes,
             weights,
             table: None,
-            probe_table: None,
+            cell_at_break,
+            switching: false,
+            node_laws: Vec::new(),
             max_step: 1,
             sums: Vec::new(),
             plus: Vec::new(),
@@ -532,21 +541,18 @@ impl<M: Drivetrain> Problem<M> {
             .map(|w| w[1] - w[0])
             .max()
             .unwrap_or(1);
-        if (problem.nodes.len() + 2 * problem.cells.len()) * len <= TABLE_ENTRIES {
+        if problem.nodes.len() * len <= TABLE_ENTRIES {
             let mut table = vec![0.0; problem.nodes.len() * len];
             for (i, &theta) in problem.nodes.iter().enumerate() {
                 problem.basis(theta, &mut table[i * len..(i + 1) * len]);
             }
-            let mut probe_table = vec![0.0; 2 * problem.cells.len() * len];
-            for c in 0..problem.cells.len() {
-                for k in 0..2 {
-                    let at = (2 * c + k) * len;
-                    problem.basis(problem.probe(c, k), &mut probe_table[at..at + len]);
-                }
-            }
             problem.table = Some(table);
-            problem.probe_table = Some(probe_table);
         }
+        let mut buf = Vec::new();
+        problem.switching = (0..meshes_n).any(|n| {
+            problem.model.contact_gaps(n, 0.0, 0.0, 0.0, &mut buf);
+            !buf.is_empty()
+        });
         problem.build_sums();
         // External force: sampled once (it depends on the mesh phase only, not on the speed).
         let mut ext = vec![0.0; m];
@@ -754,32 +760,25 @@ impl<M: Drivetrain> Problem<M> {
         (x, dx)
     }
 
-    /// Adds one quadrature node to the sums.
-    fn node(
-        &self,
-        theta: f64,
-        w: f64,
-        phi: &[f64],
-        s: &DVector<f64>,
-        want: Want,
-        acc: &mut Accumulator,
-    ) {
-        let f = self.f;
-        let t = theta / f;
-        let len = self.len;
-        let mut trig_ready = false;
-        let mut sample = want.samples.then(|| Sample {
-            w,
-            force: Vec::with_capacity(self.meshes.len()),
-            lost: Vec::with_capacity(self.meshes.len()),
-        });
-        for (n, mesh) in self.meshes.iter().enumerate() {
+    /// Every mesh's law at `θ` for the coefficients `s` (`phi` the basis row at `θ`).
+    fn laws_at(&self, theta: f64, phi: &[f64], s: &DVector<f64>, out: &mut [MeshLaw]) {
+        let t = theta / self.f;
+        for (n, law) in out.iter_mut().enumerate() {
             let (x, dx) = self.deflection(s, n, phi);
-            let law = self.model.mesh_law(n, t, x, f * dx);
-            if let Some(sample) = &mut sample {
-                sample.force.push(law.force[0]);
-                sample.lost.push(law.in_contact == 0);
-            }
+            *law = self.model.mesh_law(n, t, x, self.f * dx);
+        }
+    }
+
+    /// Adds one quadrature node (weight `w`, basis row `phi`, every mesh's law) to the sums.
+    fn accumulate(&self, w: f64, phi: &[f64], laws: &[MeshLaw], want: Want, acc: &mut Accumulator) {
+        let mut trig_ready = false;
+        if want.samples {
+            acc.sample_w.push(w);
+            acc.sample_force.extend(laws.iter().map(|l| l.force[0]));
+            acc.sample_lost
+                .extend(laws.iter().map(|l| l.in_contact == 0));
+        }
+        for (mesh, law) in self.meshes.iter().zip(laws) {
             for k in 0..mesh.outputs {
                 let out = mesh.first + k;
                 let fw = w * law.force[k];
@@ -794,98 +793,71 @@ impl<M: Drivetrain> Problem<M> {
                         *g += vw * p;
                     }
                 }
-                if want.jacobian {
-                    let (ks, kv) = (w * law.stiffness[k], w * law.damping[k]);
-                    if (ks != 0.0 || kv != 0.0) && !trig_ready {
-                        for (i, &(_, q, p, plus)) in self.sums.iter().enumerate() {
-                            let (cq, sq) = cs(phi, q);
-                            let (cp, sp) = cs(phi, p);
-                            acc.trig[2 * i] = if plus {
-                                cq * cp - sq * sp
-                            } else {
-                                cq * cp + sq * sp
-                            };
-                            acc.trig[2 * i + 1] = if plus {
-                                sq * cp + cq * sp
-                            } else {
-                                sq * cp - cq * sp
-                            };
-                        }
-                        trig_ready = true;
+                if !want.jacobian {
+                    continue;
+                }
+                let (ks, kv) = (w * law.stiffness[k], w * law.damping[k]);
+                if (ks != 0.0 || kv != 0.0) && !trig_ready {
+                    // (cos, sin)(2πdθ) of the sums and differences from the row.
+                    for (i, &(_, q, p, plus)) in self.sums.iter().enumerate() {
+                        let (cq, sq) = cs(phi, q);
+                        let (cp, sp) = cs(phi, p);
+                        let (c, s) = if plus {
+                            (cq * cp - sq * sp, sq * cp + cq * sp)
+                        } else {
+                            (cq * cp + sq * sp, sq * cp - cq * sp)
+                        };
+                        acc.trig[2 * i] = c;
+                        acc.trig[2 * i + 1] = s;
                     }
-                    if ks != 0.0 {
-                        for (g, c) in acc.kap_s[out].iter_mut().zip(&acc.trig) {
-                            *g += ks * c;
-                        }
+                    trig_ready = true;
+                }
+                if ks != 0.0 {
+                    for (g, c) in acc.kap_s[out].iter_mut().zip(&acc.trig) {
+                        *g += ks * c;
                     }
-                    if kv != 0.0 {
-                        for (g, c) in acc.kap_v[out].iter_mut().zip(&acc.trig) {
-                            *g += kv * c;
-                        }
+                }
+                if kv != 0.0 {
+                    for (g, c) in acc.kap_v[out].iter_mut().zip(&acc.trig) {
+                        *g += kv * c;
                     }
                 }
             }
         }
-        if let Some(sample) = sample {
-            acc.samples.push(sample);
-        }
-        let _ = len;
-    }
-
-    /// Signs of mesh `n`'s contact gaps at `θ` as a bit set (bit q: gap q > 0).
-    fn signature(
-        &self,
-        s: &DVector<f64>,
-        n: usize,
-        theta: f64,
-        phi: &[f64],
-        buf: &mut Vec<(f64, f64)>,
-    ) -> u64 {
-        let (x, dx) = self.deflection(s, n, phi);
-        self.model
-            .contact_gaps(n, theta / self.f, x, self.f * dx, buf);
-        buf.iter().enumerate().fold(0u64, |bits, (q, g)| {
-            bits | (u64::from(g.0 > 0.0) << (q % 64))
-        })
     }
 
     /// Gap `q` of mesh `n` and its θ-derivative at `θ`.
     fn gap(
         &self,
         s: &DVector<f64>,
-        n: usize,
-        q: usize,
+        (n, q): (usize, usize),
         theta: f64,
         phi: &mut [f64],
         buf: &mut Vec<(f64, f64)>,
     ) -> (f64, f64) {
-        self.basis(theta, phi);
+        self.basis_fast(theta, phi);
         let (x, dx) = self.deflection(s, n, phi);
         self.model
             .contact_gaps(n, theta / self.f, x, self.f * dx, buf);
         buf.get(q).map_or((0.0, 0.0), |g| (g.0, g.1 / self.f))
     }
 
-    /// The root of gap `q` of mesh `n` in `(lo, hi)`, where it changes sign (Illinois variant of
-    /// regula falsi: superlinear and bracketing).
-    #[allow(clippy::too_many_arguments)]
+    /// The root of gap `q` of mesh `n` in `(lo, hi)`, where it changes sign (Illinois variant
+    /// of regula falsi: superlinear and bracketing).
     fn root(
         &self,
         s: &DVector<f64>,
-        n: usize,
-        q: usize,
-        mut lo: f64,
-        mut hi: f64,
+        which: (usize, usize),
+        (mut lo, mut hi): (f64, f64),
         phi: &mut [f64],
         buf: &mut Vec<(f64, f64)>,
     ) -> f64 {
-        let mut glo = self.gap(s, n, q, lo, phi, buf).0;
-        let mut ghi = self.gap(s, n, q, hi, phi, buf).0;
+        let mut glo = self.gap(s, which, lo, phi, buf).0;
+        let mut ghi = self.gap(s, which, hi, phi, buf).0;
         let positive_lo = glo > 0.0;
         let mut side = 0i8;
         for _ in 0..200 {
-            let width = hi - lo;
-            if width <= 4.0 * f64::EPSILON * hi.abs().max(1e-3) {
+            if hi - lo <= 4.0 * f64::EPSILON * hi.abs().max(1e-3) {
                 break;
             }
             let mut mid = if glo != ghi {
@@ -896,7 +868,7 @@ impl<M: Drivetrain> Problem<M> {
             if !(mid > lo && mid < hi) {
                 mid = 0.5 * (lo + hi);
             }
-            let g = self.gap(s, n, q, mid, phi, buf).0;
+            let g = self.gap(s, which, mid, phi, buf).0;
             if g == 0.0 {
                 return mid;
             }
@@ -924,74 +896,74 @@ impl<M: Drivetrain> Problem<M> {
     fn split_cell(&self, c: usize, s: &DVector<f64>, want: Want, acc: &mut Accumulator) {
         let (lo, hi) = self.cells[c];
         let len = self.len;
-        let eps = PROBE * (hi - lo);
-        let mut points = vec![lo + eps];
-        points.extend_from_slice(&self.nodes[3 * c..3 * c + 3]);
-        points.push(hi - eps);
+        let nm = self.meshes.len();
+        let mut points = [self.probe(c, 0), 0.0, 0.0, 0.0, self.probe(c, 1)];
+        points[1..4].copy_from_slice(&self.nodes[3 * c..3 * c + 3]);
         let mut phi = vec![0.0; len];
         let mut buf = Vec::new();
         let mut cuts: Vec<(f64, usize, usize)> = Vec::new();
-        for n in 0..self.meshes.len() {
-            let mut gaps: Vec<Vec<f64>> = Vec::with_capacity(points.len());
-            for &theta in &points {
-                self.basis(theta, &mut phi);
+        let mut gaps: Vec<Vec<f64>> = vec![Vec::new(); points.len()];
+        for n in 0..nm {
+            for (k, &theta) in points.iter().enumerate() {
+                self.basis_fast(theta, &mut phi);
                 let (x, dx) = self.deflection(s, n, &phi);
                 self.model
                     .contact_gaps(n, theta / self.f, x, self.f * dx, &mut buf);
-                gaps.push(buf.iter().map(|g| g.0).collect());
+                gaps[k].clear();
+                gaps[k].extend(buf.iter().map(|g| g.0));
             }
             for k in 0..points.len() - 1 {
                 for (q, (a, b)) in gaps[k].iter().zip(&gaps[k + 1]).enumerate() {
                     if (*a > 0.0) != (*b > 0.0) {
-                        let root = self.root(s, n, q, points[k], points[k + 1], &mut phi, &mut buf);
+                        let bracket = (points[k], points[k + 1]);
+                        let root = self.root(s, (n, q), bracket, &mut phi, &mut buf);
                         cuts.push((root, n, q));
                     }
                 }
             }
         }
         cuts.sort_by(|a, b| a.0.total_cmp(&b.0));
-        let mut ends = vec![lo];
-        ends.extend(cuts.iter().map(|c| c.0));
-        ends.push(hi);
-        for part in ends.windows(2) {
-            let half = 0.5 * (part[1] - part[0]);
-            if half <= 0.0 {
+        let mut laws = vec![MeshLaw::default(); nm];
+        let mut start = lo;
+        for end in cuts.iter().map(|c| c.0).chain(std::iter::once(hi)) {
+            let half = 0.5 * (end - start);
+            if half > 0.0 {
+                for (x, wt) in GAUSS3 {
+                    let theta = start + half * (1.0 + x);
+                    self.basis_fast(theta, &mut phi);
+                    self.laws_at(theta, &phi, s, &mut laws);
+                    self.accumulate(half * wt, &phi, &laws, want, acc);
+                }
+            }
+            start = end;
+        }
+        if !want.jacobian {
+            return;
+        }
+        let eps = PROBE * (hi - lo);
+        for &(theta, n, q) in &cuts {
+            let mesh = &self.meshes[n];
+            let delta_theta = self.gap(s, (n, q), theta, &mut phi, &mut buf).1;
+            if delta_theta == 0.0 {
                 continue;
             }
-            for (x, wt) in GAUSS3 {
-                let theta = part[0] + half * (1.0 + x);
-                self.basis(theta, &mut phi);
-                self.node(theta, half * wt, &phi, s, want, acc);
-            }
-        }
-        if want.jacobian {
-            for &(theta, n, q) in &cuts {
-                let mesh = &self.meshes[n];
-                let delta_theta = self.gap(s, n, q, theta, &mut phi, &mut buf).1;
-                if delta_theta == 0.0 {
+            let h = 1e-3 * eps.max(1e-14);
+            let mut law_at = |theta: f64| {
+                self.basis_fast(theta, &mut phi);
+                let (x, dx) = self.deflection(s, n, &phi);
+                self.model.mesh_law(n, theta / self.f, x, self.f * dx)
+            };
+            let (left, right) = (law_at(theta - h), law_at(theta + h));
+            self.basis_fast(theta, &mut phi);
+            for k in 0..mesh.outputs {
+                // Only the jump counts: remove the continuous part's change over 2h.
+                let slope = 0.5 * (right.stiffness[k] + left.stiffness[k]) * delta_theta;
+                let jump = right.force[k] - left.force[k] - slope * 2.0 * h;
+                if jump.abs() <= 1e-9 * (right.force[k].abs() + left.force[k].abs()) {
                     continue;
                 }
-                let h = 1e-3 * eps.max(1e-14);
-                let law_at = |theta: f64, phi: &mut [f64]| {
-                    self.basis(theta, phi);
-                    let (x, dx) = self.deflection(s, n, phi);
-                    self.model.mesh_law(n, theta / self.f, x, self.f * dx)
-                };
-                let left = law_at(theta - h, &mut phi);
-                let right = law_at(theta + h, &mut phi);
-                self.basis(theta, &mut phi);
-                for k in 0..mesh.outputs {
-                    // Only a jump counts: the continuous part changes by O(h).
-                    let jump = right.force[k] - left.force[k];
-                    let continuous =
-                        (right.stiffness[k] + left.stiffness[k]) * 0.5 * delta_theta * 2.0 * h;
-                    let jump = jump - continuous;
-                    if jump.abs() <= 1e-9 * (right.force[k].abs() + left.force[k].abs()) {
-                        continue;
-                    }
-                    acc.boundary
-                        .push((mesh.first + k, jump / delta_theta, phi.clone()));
-                }
+                acc.boundary
+                    .push((mesh.first + k, jump / delta_theta, phi.clone()));
             }
         }
     }
@@ -1004,89 +976,85 @@ impl<M: Drivetrain> Problem<M> {
         let outs = self.outputs();
         let nm = self.meshes.len();
         let ns = self.sums.len();
+        let zeros = |n: usize, on: bool| {
+            if on {
+                vec![vec![0.0; n]; outs]
+            } else {
+                Vec::new()
+            }
+        };
         let mut acc = Accumulator {
-            gal: vec![vec![0.0; len]; outs],
-            visc: if want.frequency {
-                vec![vec![0.0; len]; outs]
-            } else {
-                Vec::new()
-            },
-            kap_s: if want.jacobian {
-                vec![vec![0.0; 2 * ns]; outs]
-            } else {
-                Vec::new()
-            },
-            kap_v: if want.jacobian {
-                vec![vec![0.0; 2 * ns]; outs]
-            } else {
-                Vec::new()
-            },
+            gal: zeros(len, true),
+            visc: zeros(len, want.frequency),
+            kap_s: zeros(2 * ns, want.jacobian),
+            kap_v: zeros(2 * ns, want.jacobian),
             boundary: Vec::new(),
-            samples: Vec::new(),
+            sample_w: Vec::new(),
+            sample_force: Vec::new(),
+            sample_lost: Vec::new(),
             trig: vec![0.0; 2 * ns],
         };
-        let switching = (0..nm).any(|n| {
-            let mut buf = Vec::new();
-            self.model.contact_gaps(n, 0.0, 0.0, 0.0, &mut buf);
-            !buf.is_empty()
-        });
-        let mut buf = Vec::new();
-        // Rows of the cell's two probes and three nodes (computed once when not tabulated).
-        let mut rows = vec![0.0; 5 * len];
-        for c in 0..self.cells.len() {
-            let tabulated = self.table.is_some();
-            if !tabulated {
-                for k in 0..2 {
-                    self.basis_fast(self.probe(c, k), &mut rows[k * len..(k + 1) * len]);
-                }
-                for (k, i) in (3 * c..3 * c + 3).enumerate() {
-                    self.basis_fast(self.nodes[i], &mut rows[(2 + k) * len..(3 + k) * len]);
-                }
-            }
-            let node_phi = |i: usize| -> &[f64] {
-                match &self.table {
-                    Some(t) => &t[i * len..(i + 1) * len],
-                    None => &rows[(2 + i - 3 * c) * len..(3 + i - 3 * c) * len],
-                }
+        // Pass 1: every mesh's law at every node.
+        let nodes = self.nodes.len();
+        let mut laws = std::mem::take(&mut self.node_laws);
+        laws.resize(nodes * nm, MeshLaw::default());
+        let mut row = vec![0.0; len];
+        for i in 0..nodes {
+            let phi = self.node_row(i, &mut row);
+            self.laws_at(self.nodes[i], phi, s, &mut laws[i * nm..(i + 1) * nm]);
+        }
+        // Cells in which a contact pattern changes: between two nodes of a cell, between the
+        // last node of a cell and the first of the next (both cells are split; the one without
+        // the switch integrates as before), or between a breakpoint and its nearest node (a
+        // probe just inside the cell).
+        let cells = self.cells.len();
+        let mut split = vec![false; cells];
+        if self.switching {
+            let differ = |i: usize, j: usize| {
+                (0..nm).any(|n| laws[i * nm + n].pattern != laws[j * nm + n].pattern)
             };
-            let mut regular = true;
-            if switching {
-                'meshes: for n in 0..nm {
-                    let probe = |k: usize| -> &[f64] {
-                        match &self.probe_table {
-                            Some(t) => &t[(2 * c + k) * len..(2 * c + k + 1) * len],
-                            None => &rows[k * len..(k + 1) * len],
-                        }
-                    };
-                    let first = self.signature(s, n, self.probe(c, 0), probe(0), &mut buf);
-                    let last = self.signature(s, n, self.probe(c, 1), probe(1), &mut buf);
-                    if first != last {
-                        regular = false;
-                        break 'meshes;
-                    }
-                    for i in 3 * c..3 * c + 3 {
-                        if self.signature(s, n, self.nodes[i], node_phi(i), &mut buf) != first {
-                            regular = false;
-                            break 'meshes;
+            let mut probe = vec![MeshLaw::default(); nm];
+            for c in 0..cells {
+                if differ(3 * c, 3 * c + 1) || differ(3 * c + 1, 3 * c + 2) {
+                    split[c] = true;
+                }
+                if c + 1 < cells && !self.cell_at_break[c + 1] && differ(3 * c + 2, 3 * c + 3) {
+                    split[c] = true;
+                    split[c + 1] = true;
+                }
+                for (k, node, at_break) in [
+                    (0, 3 * c, self.cell_at_break[c]),
+                    (1, 3 * c + 2, c + 1 == cells || self.cell_at_break[c + 1]),
+                ] {
+                    if at_break && !split[c] {
+                        let theta = self.probe(c, k);
+                        self.basis_fast(theta, &mut row);
+                        self.laws_at(theta, &row, s, &mut probe);
+                        if (0..nm).any(|n| probe[n].pattern != laws[node * nm + n].pattern) {
+                            split[c] = true;
                         }
                     }
                 }
-            }
-            if regular {
-                for i in 3 * c..3 * c + 3 {
-                    self.node(
-                        self.nodes[i],
-                        self.weights[i],
-                        node_phi(i),
-                        s,
-                        want,
-                        &mut acc,
-                    );
-                }
-            } else {
-                self.split_cell(c, s, want, &mut acc);
             }
         }
+        // Pass 2: the sums.
+        for (c, &split) in split.iter().enumerate() {
+            if split {
+                self.split_cell(c, s, want, &mut acc);
+                continue;
+            }
+            for i in 3 * c..3 * c + 3 {
+                let phi = self.node_row(i, &mut row);
+                self.accumulate(
+                    self.weights[i],
+                    phi,
+                    &laws[i * nm..(i + 1) * nm],
+                    want,
+                    &mut acc,
+                );
+            }
+        }
+        self.node_laws = laws;
 
         // g per output: P[F] minus the moved linear part (exact in the coefficients).
         let mut g: Vec<DVector<f64>> = acc
@@ -1272,24 +1240,29 @@ impl<M: Drivetrain> Problem<M> {
             jacobian,
             d_frequency,
             g,
-            samples: acc.samples,
+            sample_w: acc.sample_w,
+            sample_force: acc.sample_force,
+            sample_lost: acc.sample_lost,
         })
     }
 
     /// Newton at frequency `f` from `s`.
+    /// Newton at frequency `f` from `s`: the iterate at which the Newton update falls below the
+    /// tolerance, with its evaluation (node samples included), and the iteration count.
     fn newton(
         &mut self,
         mut s: DVector<f64>,
         f: f64,
         options: &HbOptions,
-    ) -> Result<(DVector<f64>, usize), String> {
+    ) -> Result<(DVector<f64>, Evaluation, usize), String> {
         let speed = self.speed(f);
         let want = Want {
             jacobian: true,
+            samples: true,
             ..Want::default()
         };
-        let mut e = self.evaluate(&s, f, want)?;
         for iteration in 1..=options.max_iterations {
+            let mut e = self.evaluate(&s, f, want)?;
             let delta = e
                 .jacobian
                 .take()
@@ -1297,11 +1270,10 @@ impl<M: Drivetrain> Problem<M> {
                 .lu()
                 .solve(&(-&e.residual))
                 .ok_or_else(|| format!("harmonic balance at {speed} rad/s: singular Jacobian"))?;
-            s += &delta;
             if delta.amax() <= options.tolerance * self.x_scale {
-                return Ok((s, iteration));
+                return Ok((s, e, iteration));
             }
-            e = self.evaluate(&s, f, want)?;
+            s += &delta;
         }
         Err(format!(
             "harmonic balance at {speed} rad/s did not converge in {} Newton iterations",
@@ -1426,24 +1398,17 @@ impl<M: Drivetrain> Problem<M> {
                         .filter(|&q| q > 0)
                         .map_or(0.0, |q| dte[2 * q - 1].hypot(dte[2 * q]))
                 };
-                let total: f64 = e.samples.iter().map(|x| x.w).sum();
-                let mean = e.samples.iter().map(|x| x.w * x.force[n]).sum::<f64>() / total;
-                let var = e
-                    .samples
-                    .iter()
-                    .map(|x| x.w * (x.force[n] - mean).powi(2))
-                    .sum::<f64>()
-                    / total;
-                let peak = e
-                    .samples
-                    .iter()
-                    .map(|x| x.force[n].abs())
-                    .fold(0.0, f64::max);
-                let lost = e
-                    .samples
-                    .iter()
-                    .filter(|x| x.lost[n])
-                    .fold(0.0, |sum, x| sum + x.w)
+                let nm = self.meshes.len();
+                let force = |i: usize| e.sample_force[i * nm + n];
+                let w = &e.sample_w;
+                let total = w.iter().fold(0.0, |a, b| a + b);
+                let mean = (0..w.len()).fold(0.0, |a, i| a + w[i] * force(i)) / total;
+                let var =
+                    (0..w.len()).fold(0.0, |a, i| a + w[i] * (force(i) - mean).powi(2)) / total;
+                let peak = (0..w.len()).fold(0.0, |a: f64, i| a.max(force(i).abs()));
+                let lost = (0..w.len())
+                    .filter(|&i| e.sample_lost[i * nm + n])
+                    .fold(0.0, |a, i| a + w[i])
                     / total;
                 HbMesh {
                     prefix: mesh.prefix.clone(),
@@ -1476,14 +1441,66 @@ impl<M: Drivetrain> Problem<M> {
             .collect();
         response_period_in_mesh_periods(&freqs).unwrap_or(1)
     }
+}
 
-    /// Floquet multipliers of the orbit from its state at `t = 0` (shooting monodromy with
-    /// saltation at contact changes); `None` when the period map fails.
-    fn multipliers(&self, solution: &HbSolution) -> Option<Vec<Complex<f64>>> {
-        let mut map = PeriodMap::new(self.model.clone(), &self.settings, 1.0 / self.f).ok()?;
-        let y0 = solution.state_at(0.0);
-        let (_, monodromy) = map.eval(&y0).ok()?;
-        Some(monodromy.complex_eigenvalues().iter().copied().collect())
+/// Floquet multipliers of an orbit of `model` (at the orbit's speed) over `period` seconds from
+/// its state at `t = 0`: the shooting monodromy with saltation at contact changes
+/// ([`PeriodMap`]); `None` when the period map fails.
+fn multipliers<M: Drivetrain>(
+    model: M,
+    settings: &SolverSettings,
+    period: f64,
+    solution: &HbSolution,
+) -> Option<Vec<Complex<f64>>> {
+    let mut map = PeriodMap::new(model, settings, period).ok()?;
+    let (_, monodromy) = map.eval(&solution.state_at(0.0)).ok()?;
+    Some(monodromy.complex_eigenvalues().iter().copied().collect())
+}
+
+/// The multipliers of every point of a branch. The period maps are independent of each
+/// other and dominate the cost of a continuation (each is a shooting integration with
+/// sensitivities), so they run on all available cores; each point's result is the same on any
+/// number of threads.
+fn branch_stability<M: Drivetrain + Send>(problem: &Problem<M>, points: &mut [BranchPoint]) {
+    let threads = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .clamp(1, points.len().max(1));
+    let jobs: Vec<(usize, M, f64, &HbSolution)> = points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let mut model = problem.model.clone();
+            let f = problem.frequency(p.speed);
+            let ok = model.set_input_speed(0.0, p.speed).is_ok();
+            (i, model, if ok { 1.0 / f } else { f64::NAN }, &p.solution)
+        })
+        .collect();
+    let settings = &problem.settings;
+    let mut results: Vec<(usize, Option<Vec<Complex<f64>>>)> = Vec::with_capacity(jobs.len());
+    let mut queues: Vec<Vec<_>> = (0..threads).map(|_| Vec::new()).collect();
+    for (k, job) in jobs.into_iter().enumerate() {
+        queues[k % threads].push(job);
+    }
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = queues
+            .into_iter()
+            .map(|queue| {
+                scope.spawn(move || {
+                    queue
+                        .into_iter()
+                        .map(|(i, model, period, solution)| {
+                            (i, multipliers(model, settings, period, solution))
+                        })
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        for h in handles {
+            results.extend(h.join().expect("stability thread"));
+        }
+    });
+    for (i, m) in results {
+        points[i].multipliers = m;
     }
 }
 
@@ -1512,8 +1529,7 @@ pub fn solve(
             Some(g) => problem.condense(g)?,
             None => problem.seed(sim)?,
         };
-        let (s, iterations) = problem.newton(s, f, options)?;
-        let e = problem.evaluate(&s, f, Want { samples: true, ..Want::default() })?;
+        let (s, e, iterations) = problem.newton(s, f, options)?;
         Ok(problem.solution(&s, f, &e, iterations))
     })
 }
@@ -1598,7 +1614,7 @@ pub fn continuation(
     })
 }
 
-fn continue_branch<M: Drivetrain>(
+fn continue_branch<M: Drivetrain + Send>(
     mut problem: Problem<M>,
     sim: Driver<M>,
     hb: &HbOptions,
@@ -1613,7 +1629,7 @@ fn continue_branch<M: Drivetrain>(
     let dim = problem.meshes.len() * problem.len;
 
     let seed = problem.seed(sim)?;
-    let (start, iterations) = problem.newton(seed, f_ref, hb)?;
+    let (start, _, iterations) = problem.newton(seed, f_ref, hb)?;
     // Scaled unknowns w = [s/x_s, f/f_ref].
     let mut w = DVector::zeros(dim + 1);
     w.rows_mut(0, dim).copy_from(&(&start / xs));
@@ -1664,19 +1680,23 @@ fn continue_branch<M: Drivetrain>(
     if tangent[dim] * direction < 0.0 {
         tangent = -tangent;
     }
-    let mut points = vec![make_point(
-        &problem, &start, f_ref, &e0, iterations, options, false,
-    )];
+    let mut points = vec![make_point(&problem, &start, f_ref, &e0, iterations, false)];
     let mut step = options.initial_step;
     while points.len() < options.max_points {
         let predicted = &w + &tangent * step;
         let mut candidate = predicted.clone();
-        let mut converged = false;
         let mut iterations = 0;
+        // The corrector: Newton on [r; tᵀ(w − w_pred)] = 0. It stops at the iterate whose
+        // update is below the tolerance and keeps that iterate's evaluation (Jacobian for the
+        // next tangent, node samples for the results): no extra evaluation per point.
         let mut last = None;
         for it in 1..=12 {
             iterations = it;
-            let Ok((r, j, _)) = scaled(&mut problem, &candidate, all) else {
+            let with_samples = Want {
+                samples: true,
+                ..all
+            };
+            let Ok((r, j, e)) = scaled(&mut problem, &candidate, with_samples) else {
                 break;
             };
             let mut a = DMatrix::zeros(dim + 1, dim + 1);
@@ -1688,26 +1708,13 @@ fn continue_branch<M: Drivetrain>(
             let Some(delta) = a.lu().solve(&(-g)) else {
                 break;
             };
-            candidate += &delta;
             if delta.amax() <= hb.tolerance.max(1e-13) * 10.0 {
-                converged = true;
+                last = Some((j, e));
                 break;
             }
+            candidate += &delta;
         }
-        if converged {
-            match scaled(
-                &mut problem,
-                &candidate,
-                Want {
-                    samples: true,
-                    ..all
-                },
-            ) {
-                Ok(x) => last = Some(x),
-                Err(_) => converged = false,
-            }
-        }
-        let Some((_, j, e)) = last.filter(|_| converged) else {
+        let Some((j, e)) = last else {
             step *= 0.5;
             if step < 1e-8 {
                 return Err(format!(
@@ -1732,7 +1739,6 @@ fn continue_branch<M: Drivetrain>(
             f,
             &e,
             iterations,
-            options,
             fold,
         ));
         if f < f_lo || f > f_hi {
@@ -1746,28 +1752,25 @@ fn continue_branch<M: Drivetrain>(
             step
         };
     }
+    if options.stability {
+        branch_stability(&problem, &mut points);
+    }
     Ok(points)
 }
 
+/// A branch point without its multipliers (computed for the whole branch at the end).
 fn make_point<M: Drivetrain>(
     problem: &Problem<M>,
     s: &DVector<f64>,
     f: f64,
     e: &Evaluation,
     iterations: usize,
-    options: &ContinuationOptions,
     fold: bool,
 ) -> BranchPoint {
-    let solution = problem.solution(s, f, e, iterations);
-    let multipliers = if options.stability {
-        problem.multipliers(&solution)
-    } else {
-        None
-    };
     BranchPoint {
         speed: problem.speed(f),
-        solution,
-        multipliers,
+        solution: problem.solution(s, f, e, iterations),
+        multipliers: None,
         fold,
     }
 }

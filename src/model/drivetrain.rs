@@ -154,6 +154,10 @@ pub struct MeshLaw {
     pub viscous: [f64; MAX_MESH_DIRECTIONS],
     /// Tooth pairs in contact (drive or back side); 0 is total contact loss.
     pub in_contact: usize,
+    /// The branch of the contact law each tooth pair engaged at `t` is on: bit `2j` set when
+    /// pair `j` is in drive-side contact, bit `2j + 1` on the back side. While it stays the same
+    /// the forces are one smooth formula of the state (a quadrature can split where it changes).
+    pub pattern: u64,
 }
 
 impl Drivetrain for GearPair {
@@ -253,6 +257,7 @@ impl Drivetrain for GearPair {
             damping: [law.damping, 0.0, 0.0],
             viscous: [law.viscous, 0.0, 0.0],
             in_contact: usize::from(law.engaged),
+            pattern: u64::from(law.engaged) << u32::from(law.back),
         }
     }
     fn contact_gaps(&self, _n: usize, t: f64, s: f64, s_rate: f64, out: &mut Vec<(f64, f64)>) {

@@ -61,6 +61,8 @@ pub struct ForceLaw {
     pub viscous: f64,
     /// The teeth are in contact (drive or back side).
     pub engaged: bool,
+    /// In back-side contact.
+    pub back: bool,
 }
 
 /// Output names in CSV/FMU order (`docs/model.md`, "Outputs").
@@ -477,6 +479,7 @@ impl GearPair {
             damping: c,
             viscous: c * delta_rate,
             engaged,
+            back: engaged && offset != 0.0,
         };
         if engaged && !self.smooth.is_zero() {
             let s = &self.smooth;

@@ -121,7 +121,10 @@ impl GearTrain {
         let f = mesh.clock.mesh_frequency();
         let mut law = MeshLaw::default();
         let clearance = mesh.clearance();
+        let mut j = 0;
         self.for_each_free_slot(n, p, f, |slot| {
+            let bit = 2 * j;
+            j += 1;
             let delta = s - slot.gap;
             let (drive, offset) = match mesh.contact {
                 ContactLaw::Linear => (true, 0.0),
@@ -133,6 +136,7 @@ impl GearTrain {
             law.force[0] += slot.k * (delta + offset);
             law.stiffness[0] += slot.k;
             law.in_contact += 1;
+            law.pattern |= 1 << (bit + u32::from(!drive)).min(63);
             if let (true, Some((w0, w1))) = (drive, slot.friction) {
                 law.force[1] -= w0 * delta;
                 law.force[2] -= w1 * delta;
