@@ -45,7 +45,7 @@ impl GearTrain {
     }
 
     /// `a_n`, then with tooth friction the friction vectors `b0`, `b1`
-    /// ([`super::friction`]): the friction adds `+(f0 b0 + f1 b1)` to the generalised force,
+    /// (`system/friction.rs`): the friction adds `+(f0 b0 + f1 b1)` to the generalised force,
     /// i.e. forces `−f0`, `−f1` along them in the sign of [`crate::model::Drivetrain`].
     pub fn mesh_force_directions(&self, n: usize) -> Vec<Vec<f64>> {
         let mesh = &self.meshes[n];
@@ -113,7 +113,7 @@ impl GearTrain {
 
     /// Mesh `n`'s forces at `(t, S, Ṡ)` with every slot's contact decided by its deflection
     /// `δ_j = S − e − g_j` (drive for `δ_j > 0`, back side for `δ_j < −2b`, the rule of
-    /// [`GearTrain::classify`] without the tie-break, which has measure zero): `Σ_j k_j(δ_j +
+    /// `GearTrain::classify` without the tie-break, which has measure zero): `Σ_j k_j(δ_j +
     /// o_j) + c(Ṡ − ė)` while any slot touches, and the friction of the slots in drive contact.
     pub fn free_mesh_law(&self, n: usize, t: f64, s: f64, s_rate: f64) -> MeshLaw {
         let mesh = &self.meshes[n];
