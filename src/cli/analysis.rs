@@ -144,13 +144,13 @@ pub struct HbArgs {
 /// `geardyn hb`: harmonic balance with pseudo-arclength continuation and stability.
 pub fn hb(args: HbArgs) -> Result<(), String> {
     let scene = load_any_scene(&args.scene, &args.example)?;
+    let mesh = hb_commands::plot_mesh_index(&scene, args.plot_mesh.as_deref())?;
     let request = hb_commands::HbRequest {
         speed: &args.speed,
         harmonics: args.harmonics,
         subharmonic: args.subharmonic,
     };
     let branch = request.run(&scene)?;
-    let mesh = branch.mesh_index(args.plot_mesh.as_deref())?;
     let columns = branch.columns();
     let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
     output::write_table(&args.out, &columns, branch.rows())?;

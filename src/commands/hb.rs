@@ -65,6 +65,26 @@ pub fn hb_columns(prefixes: &[String]) -> Vec<String> {
     names
 }
 
+/// The index of the mesh named `name` in `scene` (`--plot-mesh`), or 0 (the single pair, or
+/// the first mesh of a drivetrain) without a name; checked before any work is done.
+pub fn plot_mesh_index(scene: &AnyScene, name: Option<&str>) -> Result<usize, String> {
+    let Some(name) = name else { return Ok(0) };
+    let names: Vec<&str> = match scene {
+        AnyScene::Pair(_) => Vec::new(),
+        AnyScene::Train(t) => t.meshes.iter().map(|m| m.name.as_str()).collect(),
+    };
+    names.iter().position(|n| *n == name).ok_or_else(|| {
+        if names.is_empty() {
+            format!("--plot-mesh '{name}': a single-mesh scene has one unnamed mesh")
+        } else {
+            format!(
+                "--plot-mesh '{name}': no such mesh (meshes: {})",
+                names.join(", ")
+            )
+        }
+    })
+}
+
 impl HbRequest<'_> {
     /// Checks the options (messages name the CLI option) and continues the branch.
     pub fn run(&self, scene: &AnyScene) -> Result<HbBranch, String> {
@@ -135,26 +155,6 @@ impl HbBranch {
                 row
             })
             .collect()
-    }
-
-    /// The index of the mesh named `name` (its prefix without the `_`), or 0 (the single
-    /// pair, or the first mesh) without a name.
-    pub fn mesh_index(&self, name: Option<&str>) -> Result<usize, String> {
-        let Some(name) = name else { return Ok(0) };
-        self.prefixes
-            .iter()
-            .position(|p| p.trim_end_matches('_') == name)
-            .ok_or_else(|| {
-                let names: Vec<&str> = self
-                    .prefixes
-                    .iter()
-                    .map(|p| p.trim_end_matches('_'))
-                    .collect();
-                format!(
-                    "--plot-mesh '{name}': no such mesh (meshes: {})",
-                    names.join(", ")
-                )
-            })
     }
 
     /// The SVG `geardyn hb --plot` draws for mesh `mesh`: its DTE RMS over its mesh frequency,
