@@ -157,7 +157,7 @@ fn continue_branch<M: Drivetrain + Send>(
     if tangent[dim] * direction < 0.0 {
         tangent = -tangent;
     }
-    let mut points = vec![make_point(&problem, &start, f_ref, &e0, iterations, false)];
+    let mut points = vec![make_point(&problem, f_ref, &e0, iterations, false)];
     let mut step = options.initial_step;
     while points.len() < options.max_points {
         let predicted = &w + &tangent * step;
@@ -209,15 +209,7 @@ fn continue_branch<M: Drivetrain + Send>(
         w = candidate;
         tangent = next;
         let f = w[dim] * f_ref;
-        let s = w.rows(0, dim) * xs;
-        points.push(make_point(
-            &problem,
-            &s.into_owned(),
-            f,
-            &e,
-            iterations,
-            fold,
-        ));
+        points.push(make_point(&problem, f, &e, iterations, fold));
         if f < f_lo || f > f_hi {
             break;
         }
@@ -238,7 +230,6 @@ fn continue_branch<M: Drivetrain + Send>(
 /// A branch point without its multipliers (computed for the whole branch at the end).
 fn make_point<M: Drivetrain>(
     problem: &Problem<M>,
-    s: &DVector<f64>,
     f: f64,
     e: &Evaluation,
     iterations: usize,
@@ -246,7 +237,7 @@ fn make_point<M: Drivetrain>(
 ) -> BranchPoint {
     BranchPoint {
         speed: problem.speed(f),
-        solution: problem.solution(s, f, e, iterations),
+        solution: problem.solution(f, e, iterations),
         multipliers: None,
         fold,
     }

@@ -229,8 +229,8 @@ pub fn solve(
             Some(g) => problem.condense(g)?,
             None => problem.seed(sim)?,
         };
-        let (s, e, iterations) = problem.newton(s, f, options)?;
-        Ok(problem.solution(&s, f, &e, iterations))
+        let (_, e, iterations) = problem.newton(s, f, options)?;
+        Ok(problem.solution(f, &e, iterations))
     })
 }
 

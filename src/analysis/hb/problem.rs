@@ -126,6 +126,8 @@ pub(super) struct Problem<M: Drivetrain> {
     pub(super) external: DMatrix<f64>,
     /// HB period in mesh periods of the first mesh.
     pub(super) mesh_periods: u64,
+    /// HB period in response periods.
+    pub(super) subharmonic: u32,
     pub(super) x_scale: f64,
     pub(super) receptance: Option<Receptance>,
 }
@@ -337,6 +339,7 @@ impl<M: Drivetrain> Problem<M> {
             minus: Vec::new(),
             external: DMatrix::zeros(m, len),
             mesh_periods,
+            subharmonic: options.subharmonic,
             x_scale: 0.0,
             receptance: None,
         };
@@ -657,14 +660,10 @@ impl<M: Drivetrain> Problem<M> {
         Ok(s)
     }
 
-    /// The orbit of a converged `s` at `f` from its evaluation (with samples).
-    pub(super) fn solution(
-        &self,
-        s: &DVector<f64>,
-        f: f64,
-        e: &Evaluation,
-        iterations: usize,
-    ) -> HbSolution {
+    /// The orbit at `f` from the evaluation `e` (with node samples) of its converged mesh
+    /// coefficients: every coordinate's coefficients `X_j = Z_j⁻¹ (F̂_j − Σ v g_j)`, and each
+    /// mesh's results.
+    pub(super) fn solution(&self, f: f64, e: &Evaluation, iterations: usize) -> HbSolution {
         let len = self.len;
         let m = self.m;
         let no = self.orders.len();
@@ -700,7 +699,6 @@ impl<M: Drivetrain> Problem<M> {
                 }
             }
         }
-        let _ = s;
         let meshes = self
             .meshes
             .iter()
@@ -750,7 +748,7 @@ impl<M: Drivetrain> Problem<M> {
             .collect();
         HbSolution {
             mesh_frequency: self.meshes[0].cycles * f,
-            subharmonic: (self.mesh_periods / self.response_periods()) as u32,
+            subharmonic: self.subharmonic,
             mesh_periods: self.mesh_periods,
             orders: self.orders.clone(),
             coefficients,
@@ -758,12 +756,5 @@ impl<M: Drivetrain> Problem<M> {
             meshes,
             dte_rows: self.meshes.iter().map(|mesh| mesh.dte.clone()).collect(),
         }
-    }
-
-    fn response_periods(&self) -> u64 {
-        let freqs: Vec<f64> = (0..self.meshes.len())
-            .map(|n| self.meshes[n].cycles)
-            .collect();
-        response_period_in_mesh_periods(&freqs).unwrap_or(1)
     }
 }
