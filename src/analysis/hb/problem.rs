@@ -105,8 +105,8 @@ pub(super) struct Problem<M: Drivetrain> {
     pub(super) cells: Vec<(f64, f64)>,
     pub(super) nodes: Vec<f64>,
     pub(super) weights: Vec<f64>,
-    /// Basis rows `[1, cos 2πjθ, sin 2πjθ, …]` of the nodes and of two probes per cell (just
-    /// inside its ends), when they fit in [`TABLE_ENTRIES`]; else rows are computed as needed.
+    /// Basis rows `[1, cos 2πjθ, sin 2πjθ, …]` of the nodes, when they fit in
+    /// [`TABLE_ENTRIES`]; else rows are computed as needed ([`Problem::basis_fast`]).
     pub(super) table: Option<Vec<f64>>,
     /// Whether a cell starts at a breakpoint (where the engaged tooth pairs change).
     pub(super) cell_at_break: Vec<bool>,
@@ -138,6 +138,9 @@ pub(super) const GAUSS3: [(f64, f64); 3] = [
     (0.0, 8.0 / 9.0),
     (0.774_596_669_241_483_4, 5.0 / 9.0),
 ];
+
+/// Largest Newton system (its dense Jacobian is 128 MB and one LU ~4e10 flops).
+pub(super) const MAX_UNKNOWNS: usize = 4096;
 
 /// Largest number of tabulated basis entries (32 MB); larger problems (a
 /// countershaft's many combination tones over 72 mesh periods) compute rows as needed.
@@ -269,6 +272,15 @@ impl<M: Drivetrain> Problem<M> {
         let orders = combination_orders(&bases, options.harmonics);
         let j_max = *orders.last().expect("order 0");
         let len = 2 * orders.len() - 1;
+        if meshes_n * len > MAX_UNKNOWNS {
+            return Err(format!(
+                "harmonics = {}: {} retained orders give {} unknowns over {meshes_n} meshes, more \
+                 than the {MAX_UNKNOWNS} a dense Newton system takes (lower harmonics)",
+                options.harmonics,
+                orders.len(),
+                meshes_n * len
+            ));
+        }
         let samples = options.samples.unwrap_or((16 * (2 * j_max + 1)).max(256));
         if samples <= 2 * j_max {
             return Err(format!(
