@@ -78,16 +78,6 @@ impl PyScene {
         })
     }
 
-    fn pair(&self, command: &str) -> PyResult<Arc<Scene>> {
-        match &self.scene {
-            Validated::Pair(s) => Ok(s.clone()),
-            Validated::Train(_) => Err(err(format!(
-                "{}: `{command}` takes a single-mesh scene (docs/model.md), this is a drivetrain",
-                self.origin
-            ))),
-        }
-    }
-
     /// The scene in either format, for the commands that take every scene.
     fn any(&self) -> AnyScene {
         match &self.scene {
@@ -633,8 +623,8 @@ fn sweep<'py>(
     table(py, &columns, &rows)
 }
 
-/// Harmonic balance with arclength continuation over `speed = "from:to"`; returns
-/// `(columns, data)` as the CSV of `geardyn hb` has them.
+/// Harmonic balance with arclength continuation over `speed = "from:to"`, for any scene;
+/// returns `(columns, data)` as the CSV of `geardyn hb` has them (per-mesh columns prefixed).
 #[pyfunction]
 #[pyo3(signature = (scene, speed, harmonics = 20, subharmonic = 1))]
 fn hb<'py>(
@@ -644,14 +634,16 @@ fn hb<'py>(
     harmonics: usize,
     subharmonic: u32,
 ) -> PyResult<Table<'py>> {
-    let s = scene.pair("hb")?;
+    let s = scene.any();
     let request = commands::hb::HbRequest {
         speed,
         harmonics,
         subharmonic,
     };
     let branch = py.detach(|| request.run(&s)).map_err(err)?;
-    table(py, &commands::hb::HB_COLUMNS, &branch.rows())
+    let columns = branch.columns();
+    let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
+    table(py, &columns, &branch.rows())
 }
 
 /// Natural frequencies and mode shapes of a drivetrain's mean system; returns a dict with

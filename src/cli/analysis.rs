@@ -8,7 +8,7 @@ use clap::Args;
 use geardyn::commands::{hb as hb_commands, steady as commands};
 use geardyn::output;
 
-use super::{load_any_scene, load_scene, positive};
+use super::{load_any_scene, positive};
 
 #[derive(Args)]
 pub struct PeriodicArgs {
@@ -109,28 +109,33 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
 
 #[derive(Args)]
 pub struct HbArgs {
-    /// Scene file (`scene.toml`) or a folder holding one.
+    /// Scene file (`scene.toml`) or a folder holding one (single pair or drivetrain).
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     pub scene: Option<PathBuf>,
-    /// A built-in example scene instead of a file (e.g. `spur_pair`).
+    /// A built-in example scene instead of a file (e.g. `spur_pair`, `idler_gearset`).
     #[arg(long)]
     pub example: Option<String>,
-    /// Pinion-speed interval `from:to`, rad/s: the branch starts at `from`.
+    /// Input-speed interval `from:to`, rad/s: the branch starts at `from`.
     #[arg(long, allow_hyphen_values = true)]
     pub speed: String,
-    /// Harmonics of the response frequency.
+    /// Harmonics: the order H of the retained combination tones of the mesh frequencies (for
+    /// one mesh frequency, harmonics 1…H of the mesh frequency over the subharmonic order).
     #[arg(long, default_value_t = 20)]
     pub harmonics: usize,
-    /// Response period in mesh periods (sub-harmonic branches).
+    /// Orbit period in response periods (sub-harmonic branches); the response period is the
+    /// mesh period, or the least common multiple of the mesh periods of a drivetrain.
     #[arg(long, default_value_t = 1)]
     pub subharmonic: u32,
-    /// Output CSV (one row per branch point).
+    /// Output CSV (one row per branch point, per-mesh columns prefixed with the mesh name).
     #[arg(long)]
     pub out: PathBuf,
     /// FRF plot (SVG): stable solid, unstable dashed, and with `--sweep-points` the sweep
     /// points overlaid.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// The mesh the plot shows (its name; default: the first mesh).
+    #[arg(long)]
+    pub plot_mesh: Option<String>,
     /// Also run an up and a down sweep with this many speeds for the plot.
     #[arg(long, default_value_t = 0)]
     pub sweep_points: usize,
@@ -138,16 +143,19 @@ pub struct HbArgs {
 
 /// `geardyn hb`: harmonic balance with pseudo-arclength continuation and stability.
 pub fn hb(args: HbArgs) -> Result<(), String> {
-    let scene = load_scene(&args.scene, &args.example)?;
+    let scene = load_any_scene(&args.scene, &args.example)?;
+    let mesh = hb_commands::plot_mesh_index(&scene, args.plot_mesh.as_deref())?;
     let request = hb_commands::HbRequest {
         speed: &args.speed,
         harmonics: args.harmonics,
         subharmonic: args.subharmonic,
     };
     let branch = request.run(&scene)?;
-    output::write_table(&args.out, &hb_commands::HB_COLUMNS, branch.rows())?;
+    let columns = branch.columns();
+    let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
+    output::write_table(&args.out, &columns, branch.rows())?;
     if let Some(path) = &args.plot {
-        let svg = branch.plot(&scene, args.harmonics, args.sweep_points)?;
+        let svg = branch.plot(&scene, args.harmonics, args.sweep_points, mesh)?;
         output::write_text(path, &svg)?;
     }
     print!("{}", branch.summary(&scene, &args.out));

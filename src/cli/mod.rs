@@ -4,7 +4,6 @@
 use std::path::PathBuf;
 
 use geardyn::model::AnyScene;
-use geardyn::scene::Scene;
 
 pub mod analysis;
 pub mod floquet;
@@ -13,16 +12,6 @@ pub mod simulate;
 pub mod stiffness;
 
 pub use geardyn::commands::positive;
-
-/// The scene named on the command line: a file or folder, or a built-in example.
-pub fn load_scene(path: &Option<PathBuf>, example: &Option<String>) -> Result<Scene, String> {
-    match (path, example) {
-        (_, Some(name)) => Scene::example(name),
-        (Some(path), None) => Scene::from_path(path),
-        (None, None) => unreachable!("clap requires a scene or --example"),
-    }
-    .map_err(|e| e.to_string())
-}
 
 /// The scene named on the command line, in either format (single pair or drivetrain).
 pub fn load_any_scene(

@@ -1,24 +1,24 @@
-//! `hb`: the harmonic-balance branch with its option parsing, table, plot and report of
-//! `geardyn hb`.
+//! `hb`: the harmonic-balance branch of any scene with its option parsing, table, plot and
+//! report of `geardyn hb`.
 
 use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::analysis::hb::{continuation, BranchPoint, ContinuationOptions, HbOptions};
 use crate::analysis::{self, Direction, SweepOptions};
+use crate::model::AnyScene;
 use crate::plot::Series;
-use crate::scene::Scene;
 
 use super::positive;
 use super::steady::{branch_points, dte_rms_plot};
 
 /// The options of `geardyn hb` as given on the command line.
 pub struct HbRequest<'a> {
-    /// Pinion-speed interval `from:to`, rad/s: the branch starts at `from`.
+    /// Input-speed interval `from:to`, rad/s: the branch starts at `from`.
     pub speed: &'a str,
-    /// Harmonics of the response frequency.
+    /// Order of the retained harmonics (combination tones of the mesh frequencies).
     pub harmonics: usize,
-    /// Response period in mesh periods (sub-harmonic branches).
+    /// Orbit period in response periods (sub-harmonic branches).
     pub subharmonic: u32,
 }
 
@@ -27,24 +27,67 @@ pub struct HbBranch {
     pub from: f64,
     pub to: f64,
     pub points: Vec<BranchPoint>,
+    /// Column prefix of every mesh (`""` for the single pair).
+    pub prefixes: Vec<String>,
 }
 
-/// Columns of the `geardyn hb` CSV ([`HbBranch::rows`]).
-pub const HB_COLUMNS: [&str; 9] = [
-    "speed",
-    "mesh_frequency",
+/// Columns before the per-mesh columns.
+pub const HB_POINT_COLUMNS: [&str; 2] = ["speed", "mesh_frequency"];
+
+/// Per-mesh columns (after the mesh's prefix); a prefixed mesh also gets its
+/// `mesh_frequency`.
+pub const HB_MESH_COLUMNS: [&str; 8] = [
     "dte_mean",
     "dte_rms",
     "a1",
     "a2",
-    "spectral_radius",
-    "stable",
-    "fold",
+    "peak_force",
+    "force_rms",
+    "dynamic_factor",
+    "contact_loss_fraction",
 ];
+
+/// Columns after the per-mesh columns.
+pub const HB_STABILITY_COLUMNS: [&str; 3] = ["spectral_radius", "stable", "fold"];
+
+/// The column names of the `geardyn hb` CSV of a model with the given mesh prefixes: the
+/// single pair keeps `speed, mesh_frequency, dte_mean, dte_rms, a1, a2, …, spectral_radius,
+/// stable, fold`; a drivetrain prefixes each mesh's columns with `<mesh name>_`.
+pub fn hb_columns(prefixes: &[String]) -> Vec<String> {
+    let mut names: Vec<String> = HB_POINT_COLUMNS.iter().map(|s| s.to_string()).collect();
+    for p in prefixes {
+        names.extend(HB_MESH_COLUMNS.iter().map(|c| format!("{p}{c}")));
+        if !p.is_empty() {
+            names.push(format!("{p}mesh_frequency"));
+        }
+    }
+    names.extend(HB_STABILITY_COLUMNS.iter().map(|s| s.to_string()));
+    names
+}
+
+/// The index of the mesh named `name` in `scene` (`--plot-mesh`), or 0 (the single pair, or
+/// the first mesh of a drivetrain) without a name; checked before any work is done.
+pub fn plot_mesh_index(scene: &AnyScene, name: Option<&str>) -> Result<usize, String> {
+    let Some(name) = name else { return Ok(0) };
+    let names: Vec<&str> = match scene {
+        AnyScene::Pair(_) => Vec::new(),
+        AnyScene::Train(t) => t.meshes.iter().map(|m| m.name.as_str()).collect(),
+    };
+    names.iter().position(|n| *n == name).ok_or_else(|| {
+        if names.is_empty() {
+            format!("--plot-mesh '{name}': a single-mesh scene has one unnamed mesh")
+        } else {
+            format!(
+                "--plot-mesh '{name}': no such mesh (meshes: {})",
+                names.join(", ")
+            )
+        }
+    })
+}
 
 impl HbRequest<'_> {
     /// Checks the options (messages name the CLI option) and continues the branch.
-    pub fn run(&self, scene: &Scene) -> Result<HbBranch, String> {
+    pub fn run(&self, scene: &AnyScene) -> Result<HbBranch, String> {
         let (from, to) = self
             .speed
             .split_once(':')
@@ -63,39 +106,66 @@ impl HbRequest<'_> {
             ..HbOptions::new(self.harmonics)
         };
         let points = continuation(scene, &hb_options, &ContinuationOptions::new(from, to))?;
-        Ok(HbBranch { from, to, points })
+        let prefixes = points
+            .first()
+            .map(|p| p.solution.meshes.iter().map(|m| m.prefix.clone()).collect())
+            .unwrap_or_default();
+        Ok(HbBranch {
+            from,
+            to,
+            points,
+            prefixes,
+        })
     }
 }
 
 impl HbBranch {
-    /// One row per branch point in [`HB_COLUMNS`] order (NaN where stability is unknown).
-    pub fn rows(&self) -> Vec<[f64; 9]> {
+    /// The column names ([`hb_columns`]).
+    pub fn columns(&self) -> Vec<String> {
+        hb_columns(&self.prefixes)
+    }
+
+    /// One row per branch point in [`HbBranch::columns`] order (NaN where stability is
+    /// unknown).
+    pub fn rows(&self) -> Vec<Vec<f64>> {
         self.points
             .iter()
             .map(|p| {
-                let rho = p.spectral_radius().unwrap_or(f64::NAN);
-                [
-                    p.speed,
-                    p.solution.mesh_frequency,
-                    p.solution.coefficients[0],
-                    p.solution.dte_rms(),
-                    p.solution.mesh_harmonic(1),
-                    p.solution.mesh_harmonic(2),
-                    rho,
+                let mut row = vec![p.speed, p.solution.mesh_frequency];
+                for m in &p.solution.meshes {
+                    row.extend([
+                        m.dte_mean,
+                        m.dte_rms,
+                        m.harmonics[0],
+                        m.harmonics[1],
+                        m.peak_force,
+                        m.force_rms,
+                        m.dynamic_factor,
+                        m.contact_loss_fraction,
+                    ]);
+                    if !m.prefix.is_empty() {
+                        row.push(m.mesh_frequency);
+                    }
+                }
+                row.extend([
+                    p.spectral_radius().unwrap_or(f64::NAN),
                     p.stable().map_or(f64::NAN, |s| f64::from(u8::from(s))),
                     f64::from(u8::from(p.fold)),
-                ]
+                ]);
+                row
             })
             .collect()
     }
 
-    /// The SVG `geardyn hb --plot` draws: stable solid, unstable dashed, and with
-    /// `sweep_points ≥ 2` an up and a down sweep over the same interval overlaid.
+    /// The SVG `geardyn hb --plot` draws for mesh `mesh`: its DTE RMS over its mesh frequency,
+    /// stable solid, unstable dashed, and with `sweep_points ≥ 2` an up and a down sweep over
+    /// the same interval overlaid.
     pub fn plot(
         &self,
-        scene: &Scene,
+        scene: &AnyScene,
         harmonics: usize,
         sweep_points: usize,
+        mesh: usize,
     ) -> Result<String, String> {
         let branch = &self.points;
         let mut series: Vec<Series> = Vec::new();
@@ -103,6 +173,10 @@ impl HbBranch {
         let mut start = 0;
         let stable = |i: usize| branch[i].stable().unwrap_or(true);
         let (mut stable_labelled, mut unstable_labelled) = (false, false);
+        let point = |p: &BranchPoint| {
+            let m = &p.solution.meshes[mesh];
+            (m.mesh_frequency, m.dte_rms)
+        };
         for i in 1..=branch.len() {
             if i == branch.len() || stable(i) != stable(start) {
                 let is_stable = stable(start);
@@ -120,10 +194,7 @@ impl HbBranch {
                 series.push(Series {
                     label,
                     color: "#1f4e9c",
-                    points: branch[start..=end]
-                        .iter()
-                        .map(|p| (p.solution.mesh_frequency, p.solution.dte_rms()))
-                        .collect(),
+                    points: branch[start..=end].iter().map(point).collect(),
                     dashed: !is_stable,
                     markers: false,
                     line: true,
@@ -148,40 +219,48 @@ impl HbBranch {
                 series.push(Series {
                     label,
                     color,
-                    points: branch_points(&points.points, d, 0),
+                    points: branch_points(&points.points, d, mesh),
                     dashed: false,
                     markers: true,
                     line: false,
                 });
             }
         }
+        let which = self.prefixes[mesh].trim_end_matches('_');
         let title = format!(
-            "{}: harmonic balance, H = {} (DTE RMS, mean removed)",
-            scene.name, harmonics
+            "{}{}{}: harmonic balance, H = {} (DTE RMS, mean removed)",
+            scene.name(),
+            if which.is_empty() { "" } else { " " },
+            which,
+            harmonics
         );
         Ok(dte_rms_plot(&title, series))
     }
 
     /// The text `geardyn hb` prints after writing `out`: point and fold counts, then one line
-    /// per fold.
-    pub fn summary(&self, scene: &Scene, out: &Path) -> String {
+    /// per fold with every mesh's DTE RMS.
+    pub fn summary(&self, scene: &AnyScene, out: &Path) -> String {
         let branch = &self.points;
         let folds = branch.iter().filter(|p| p.fold).count();
         let mut s = format!(
             "scene {}: {} branch points, {} folds → {}\n",
-            scene.name,
+            scene.name(),
             branch.len(),
             folds,
             out.display()
         );
         for p in branch.iter().filter(|p| p.fold) {
-            let _ = writeln!(
+            let _ = write!(
                 s,
-                "  fold near {:.4} rad/s (mesh {:.2} Hz), DTE RMS {:.4e} m",
-                p.speed,
-                p.solution.mesh_frequency,
-                p.solution.dte_rms()
+                "  fold near {:.4} rad/s (mesh {:.2} Hz), DTE RMS",
+                p.speed, p.solution.mesh_frequency,
             );
+            for m in &p.solution.meshes {
+                let name = m.prefix.trim_end_matches('_');
+                let sep = if name.is_empty() { "" } else { " " };
+                let _ = write!(s, "{sep}{name} {:.4e} m", m.dte_rms);
+            }
+            s.push('\n');
         }
         s
     }

@@ -20,6 +20,7 @@ use super::{GearPair, Inputs};
 use crate::scene::train::TrainScene;
 use crate::scene::Scene;
 use crate::simulation::{DrivenModel, Driver, Simulation};
+use nalgebra::DMatrix;
 
 /// The mesh quantities every analysis reports, evaluated at `(t, y)` in the current mode.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -85,6 +86,78 @@ pub trait Drivetrain: DrivenModel {
     fn output_row(&self, t: f64, y: &[f64], row: &mut Vec<f64>);
     /// Where mesh `n`'s DTE, force and contact sit in the output row.
     fn mesh_columns(&self, n: usize) -> MeshColumns;
+
+    // The equations split for frequency-domain methods (harmonic balance,
+    // `crate::analysis::hb`): in the model's displacement coordinates `ξ` (dimension `m`, the
+    // state is `[ξ, ξ']`)
+    //
+    //   M ξ'' + C ξ' + K ξ + Σ_n Σ_k v_{n,k} F_{n,k}(t, S_n, Ṡ_n) = F̂(t),   S_n = a_n·ξ,
+    //
+    // a linear part and per mesh a few forces that depend on the state only through the mesh
+    // deflection `S_n` and its rate, with the contact decided by that state at `t` (not by the
+    // frozen mode of the integrators). All nonlinearity of both kernels lives in the mesh
+    // forces, so a frequency-domain method can condense onto the mesh deflections.
+
+    /// `M`, `C`, `K` of the linear part (bearings, shafts, modal damping; no mesh terms).
+    fn linear_part(&self) -> LinearPart;
+    /// `a_n`: mesh `n`'s deflection `S_n = a_n·ξ`, m (before STE and gaps).
+    fn mesh_deflection_row(&self, n: usize) -> Vec<f64>;
+    /// `d_n`: mesh `n`'s DTE `= d_n·ξ`, m (the `dte` output).
+    fn mesh_dte_row(&self, n: usize) -> Vec<f64>;
+    /// The directions `v_{n,k}` of mesh `n`'s forces: first `a_n` (the mesh force), then any
+    /// other generalised force the mesh exerts (tooth friction), at most
+    /// [`MAX_MESH_DIRECTIONS`].
+    fn mesh_force_directions(&self, n: usize) -> Vec<Vec<f64>>;
+    /// Mesh `n`'s forces at time `t` for deflection `s` and rate `s_rate`, every tooth pair's
+    /// contact decided from that state and the mesh phase at `t` (the contact law as a static
+    /// piecewise-linear function).
+    fn mesh_law(&self, n: usize, t: f64, s: f64, s_rate: f64) -> MeshLaw;
+    /// The switching functions of mesh `n`'s contact law at `(t, s, s_rate)` with their time
+    /// derivatives: per tooth pair engaged at `t`, its deflection `δ_j` (and `δ_j + 2b` with
+    /// backlash). A pair's contact changes where one changes sign; none for a linear law.
+    fn contact_gaps(&self, n: usize, t: f64, s: f64, s_rate: f64, out: &mut Vec<(f64, f64)>);
+    /// Mesh phases (cycles, in `[0, 1)`) at which mesh `n`'s stiffness or gap law changes its
+    /// formula, once per mesh cycle: the quadrature of a frequency-domain method is split there.
+    fn mesh_breakpoints(&self, n: usize) -> Vec<f64>;
+    /// Mean stiffness and viscous damping of mesh `n`'s force (the linear part a method may
+    /// move into its linear operator), N/m and N·s/m.
+    fn mean_mesh_law(&self, n: usize) -> (f64, f64);
+    /// The external generalised force `F̂(t)` (mean torques and any torque ripple), N.
+    fn external_force(&self, t: f64, out: &mut [f64]);
+}
+
+/// Largest number of force directions of one mesh ([`Drivetrain::mesh_force_directions`]):
+/// the mesh force, and the friction force and moment of a Model-1 mesh with tooth friction.
+pub const MAX_MESH_DIRECTIONS: usize = 3;
+
+/// The linear part of the equations of motion in the model's coordinates
+/// ([`Drivetrain::linear_part`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinearPart {
+    pub mass: DMatrix<f64>,
+    pub damping: DMatrix<f64>,
+    pub stiffness: DMatrix<f64>,
+}
+
+/// One mesh's forces at a state ([`Drivetrain::mesh_law`]), one entry per force direction.
+/// Every force is affine in the rates (viscous damping), so `viscous`, the part proportional to
+/// the rates, is what changes with the speed at a fixed mesh phase.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct MeshLaw {
+    /// Force along each direction, N (`force[0]`: the mesh force).
+    pub force: [f64; MAX_MESH_DIRECTIONS],
+    /// `∂force/∂S`, N/m.
+    pub stiffness: [f64; MAX_MESH_DIRECTIONS],
+    /// `∂force/∂Ṡ`, N·s/m.
+    pub damping: [f64; MAX_MESH_DIRECTIONS],
+    /// The part of `force` proportional to the rates, N.
+    pub viscous: [f64; MAX_MESH_DIRECTIONS],
+    /// Tooth pairs in contact (drive or back side); 0 is total contact loss.
+    pub in_contact: usize,
+    /// The branch of the contact law each tooth pair engaged at `t` is on: bit `2j` set when
+    /// pair `j` is in drive-side contact, bit `2j + 1` on the back side. While it stays the same
+    /// the forces are one smooth formula of the state (a quadrature can split where it changes).
+    pub pattern: u64,
 }
 
 impl Drivetrain for GearPair {
@@ -159,6 +232,45 @@ impl Drivetrain for GearPair {
             contact_value: 1.0,
             value_means_contact: true,
         }
+    }
+    fn linear_part(&self) -> LinearPart {
+        LinearPart {
+            mass: DMatrix::from_element(1, 1, self.equivalent_mass()),
+            damping: DMatrix::zeros(1, 1),
+            stiffness: DMatrix::zeros(1, 1),
+        }
+    }
+    fn mesh_deflection_row(&self, _n: usize) -> Vec<f64> {
+        vec![1.0]
+    }
+    fn mesh_dte_row(&self, _n: usize) -> Vec<f64> {
+        vec![1.0]
+    }
+    fn mesh_force_directions(&self, _n: usize) -> Vec<Vec<f64>> {
+        vec![vec![1.0]]
+    }
+    fn mesh_law(&self, _n: usize, t: f64, s: f64, s_rate: f64) -> MeshLaw {
+        let law = self.force_law(self.mesh_phase(t), 1.0 / self.mesh_period(), s, s_rate);
+        MeshLaw {
+            force: [law.force, 0.0, 0.0],
+            stiffness: [law.stiffness, 0.0, 0.0],
+            damping: [law.damping, 0.0, 0.0],
+            viscous: [law.viscous, 0.0, 0.0],
+            in_contact: usize::from(law.engaged),
+            pattern: u64::from(law.engaged) << u32::from(law.back),
+        }
+    }
+    fn contact_gaps(&self, _n: usize, t: f64, s: f64, s_rate: f64, out: &mut Vec<(f64, f64)>) {
+        self.contact_gaps_at(self.mesh_phase(t), 1.0 / self.mesh_period(), s, s_rate, out);
+    }
+    fn mesh_breakpoints(&self, _n: usize) -> Vec<f64> {
+        self.stiffness_breakpoints()
+    }
+    fn mean_mesh_law(&self, _n: usize) -> (f64, f64) {
+        (self.mean_stiffness(), self.damping())
+    }
+    fn external_force(&self, t: f64, out: &mut [f64]) {
+        out[0] = self.external_force_at_phase(GearPair::mesh_phase(self, t));
     }
 }
 
@@ -235,6 +347,33 @@ impl Drivetrain for GearTrain {
             contact_value: 0.0,
             value_means_contact: false,
         }
+    }
+    fn linear_part(&self) -> LinearPart {
+        GearTrain::linear_part(self)
+    }
+    fn mesh_deflection_row(&self, n: usize) -> Vec<f64> {
+        self.mesh_row(n).to_vec()
+    }
+    fn mesh_dte_row(&self, n: usize) -> Vec<f64> {
+        GearTrain::mesh_dte_row(self, n).to_vec()
+    }
+    fn mesh_force_directions(&self, n: usize) -> Vec<Vec<f64>> {
+        GearTrain::mesh_force_directions(self, n)
+    }
+    fn mesh_law(&self, n: usize, t: f64, s: f64, s_rate: f64) -> MeshLaw {
+        self.free_mesh_law(n, t, s, s_rate)
+    }
+    fn contact_gaps(&self, n: usize, t: f64, s: f64, s_rate: f64, out: &mut Vec<(f64, f64)>) {
+        self.free_contact_gaps(n, t, s, s_rate, out)
+    }
+    fn mesh_breakpoints(&self, n: usize) -> Vec<f64> {
+        GearTrain::mesh_breakpoints(self, n)
+    }
+    fn mean_mesh_law(&self, n: usize) -> (f64, f64) {
+        GearTrain::mean_mesh_law(self, n)
+    }
+    fn external_force(&self, _t: f64, out: &mut [f64]) {
+        out.copy_from_slice(self.external_forces());
     }
 }
 

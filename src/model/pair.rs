@@ -48,6 +48,23 @@ pub struct Inputs {
     pub load_torque: f64,
 }
 
+/// The mesh force law at one state ([`GearPair::force_law`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ForceLaw {
+    /// Mesh force, N.
+    pub force: f64,
+    /// `∂F/∂x`, N/m.
+    pub stiffness: f64,
+    /// `∂F/∂x'`, N·s/m.
+    pub damping: f64,
+    /// The part of the force proportional to the deflection rate, N.
+    pub viscous: f64,
+    /// The teeth are in contact (drive or back side).
+    pub engaged: bool,
+    /// In back-side contact.
+    pub back: bool,
+}
+
 /// Output names in CSV/FMU order (`docs/model.md`, "Outputs").
 pub const OUTPUT_NAMES: [&str; 7] = [
     "dte",
@@ -434,10 +451,11 @@ impl GearPair {
     }
 
     /// The mesh force as a function of mesh phase and state, with the contact state taken from
-    /// the deflection rather than from the frozen mode: `(F, ∂F/∂x, ∂F/∂x')`. `f_m` is the mesh
-    /// frequency that turns `de/dp` into `ė`. For frequency-domain methods (harmonic balance),
-    /// which see the contact law as a static piecewise-linear function.
-    pub fn force_law(&self, p: f64, f_m: f64, x: f64, v: f64) -> (f64, f64, f64) {
+    /// the deflection rather than from the frozen mode: the force, `∂F/∂x`, `∂F/∂x'`, the
+    /// viscous part `c·δ̇` and whether the teeth are in contact. `f_m` is the mesh frequency that
+    /// turns `de/dp` into `ė`. For frequency-domain methods (harmonic balance), which see the
+    /// contact law as a static piecewise-linear function of the state.
+    pub fn force_law(&self, p: f64, f_m: f64, x: f64, v: f64) -> ForceLaw {
         let (e, slope) = self.ste.value_and_slope(p);
         let delta = x - e;
         let delta_rate = v - f_m * slope;
@@ -455,48 +473,64 @@ impl GearPair {
                 }
             }
         };
+        let viscous = |c: f64| ForceLaw {
+            force: c * delta_rate,
+            stiffness: 0.0,
+            damping: c,
+            viscous: c * delta_rate,
+            engaged,
+            back: engaged && offset != 0.0,
+        };
         if engaged && !self.smooth.is_zero() {
             let s = &self.smooth;
             let c = self.damping + s.damping_variation * (TAU * p).cos();
             let d2 = delta * delta;
-            (
-                k * (delta + s.cubic_factor * d2 * delta)
+            ForceLaw {
+                force: k * (delta + s.cubic_factor * d2 * delta)
                     + s.cubic_spring * d2 * delta
                     + c * delta_rate,
-                k * (1.0 + 3.0 * s.cubic_factor * d2) + 3.0 * s.cubic_spring * d2,
-                c,
-            )
+                stiffness: k * (1.0 + 3.0 * s.cubic_factor * d2) + 3.0 * s.cubic_spring * d2,
+                ..viscous(c)
+            }
         } else if engaged {
-            (
-                k * (delta + offset) + self.damping * delta_rate,
-                k,
-                self.damping,
-            )
+            ForceLaw {
+                force: k * (delta + offset) + self.damping * delta_rate,
+                stiffness: k,
+                ..viscous(self.damping)
+            }
         } else if self.damping_always {
-            (self.damping * delta_rate, 0.0, self.damping)
+            viscous(self.damping)
         } else {
-            (0.0, 0.0, 0.0)
+            viscous(0.0)
         }
     }
 
-    /// Which side of the contact law a deflection `δ = x − e(p)` is on: +1 drive side (or any
-    /// δ for the linear law), 0 separated, −1 back side; the same rule as [`Self::force_law`].
-    pub fn contact_side(&self, p: f64, x: f64) -> (i8, f64) {
-        let delta = x - self.ste.value(p);
-        let side = match self.contact_law {
-            ContactLaw::Linear => 1,
-            ContactLaw::ContactLoss => i8::from(delta > 0.0),
-            ContactLaw::Backlash { clearance } => {
-                if delta > 0.0 {
-                    1
-                } else if delta < -clearance {
-                    -1
-                } else {
-                    0
-                }
-            }
-        };
-        (side, delta)
+    /// The switching functions of the contact law at mesh phase `p` and state `(x, v)` with
+    /// their rates: `δ = x − e(p)` (contact loss), and `δ + 2b` (backlash); none for the linear
+    /// law. The same rule as [`Self::force_law`].
+    pub fn contact_gaps_at(&self, p: f64, f_m: f64, x: f64, v: f64, out: &mut Vec<(f64, f64)>) {
+        out.clear();
+        if self.contact_law == ContactLaw::Linear {
+            return;
+        }
+        let (e, slope) = self.ste.value_and_slope(p);
+        let (delta, rate) = (x - e, v - f_m * slope);
+        out.push((delta, rate));
+        if let ContactLaw::Backlash { clearance } = self.contact_law {
+            out.push((delta + clearance, rate));
+        }
+    }
+
+    /// Mesh phases (cycles, `[0, 1)`) where the stiffness changes its piece; none for a
+    /// smooth or constant stiffness.
+    pub fn stiffness_breakpoints(&self) -> Vec<f64> {
+        match self.stiffness.pieces() {
+            Some(pieces) if self.has_stops => pieces
+                .iter()
+                .map(|piece| crate::mesh::cycle_fraction(piece.start - self.stiffness.phase()))
+                .collect(),
+            _ => Vec::new(),
+        }
     }
 
     /// Viscous mesh damping `c_m`, N·s/m.

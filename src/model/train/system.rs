@@ -35,6 +35,7 @@ use crate::solve::HybridSystem;
 
 mod friction;
 mod frozen;
+mod harmonic;
 mod snapshot;
 pub use frozen::FrozenStatics;
 pub use snapshot::{MeshRunState, TrainRunState};

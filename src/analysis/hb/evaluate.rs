@@ -1,0 +1,511 @@
+//! One evaluation of the condensed harmonic-balance residual: every mesh's law at the
+//! quadrature nodes (alternating frequency/time), cells split where a contact changes, the
+//! Galerkin sums, the Toeplitz/Hankel Jacobian with the boundary terms of the split points,
+//! and the frequency derivative for the continuation.
+
+use std::f64::consts::TAU;
+
+use nalgebra::{Complex, DMatrix, DVector};
+
+use super::problem::{cmul, cs, factor, Accumulator, Evaluation, Problem, Want, GAUSS3, PROBE};
+use crate::model::{Drivetrain, MeshLaw};
+
+impl<M: Drivetrain> Problem<M> {
+    /// `(S, dS/dθ)` of mesh `n` from the basis row.
+    #[inline]
+    pub(super) fn deflection(&self, s: &DVector<f64>, n: usize, phi: &[f64]) -> (f64, f64) {
+        let base = n * self.len;
+        let mut x = s[base];
+        let mut dx = 0.0;
+        for (q, &j) in self.orders.iter().enumerate().skip(1) {
+            let (a, b) = (s[base + 2 * q - 1], s[base + 2 * q]);
+            let (c, sn) = (phi[2 * q - 1], phi[2 * q]);
+            x += a * c + b * sn;
+            dx += TAU * j as f64 * (b * c - a * sn);
+        }
+        (x, dx)
+    }
+
+    /// Every mesh's law at `θ` for the coefficients `s` (`phi` the basis row at `θ`).
+    pub(super) fn laws_at(&self, theta: f64, phi: &[f64], s: &DVector<f64>, out: &mut [MeshLaw]) {
+        let t = theta / self.f;
+        for (n, law) in out.iter_mut().enumerate() {
+            let (x, dx) = self.deflection(s, n, phi);
+            *law = self.model.mesh_law(n, t, x, self.f * dx);
+        }
+    }
+
+    /// Adds one quadrature node (weight `w`, basis row `phi`, every mesh's law) to the sums.
+    fn accumulate(&self, w: f64, phi: &[f64], laws: &[MeshLaw], want: Want, acc: &mut Accumulator) {
+        let mut trig_ready = false;
+        if want.samples {
+            acc.sample_w.push(w);
+            acc.sample_force.extend(laws.iter().map(|l| l.force[0]));
+            acc.sample_lost
+                .extend(laws.iter().map(|l| l.in_contact == 0));
+        }
+        for (mesh, law) in self.meshes.iter().zip(laws) {
+            for k in 0..mesh.outputs {
+                let out = mesh.first + k;
+                let fw = w * law.force[k];
+                if fw != 0.0 {
+                    for (g, p) in acc.gal[out].iter_mut().zip(phi) {
+                        *g += fw * p;
+                    }
+                }
+                if want.frequency && law.viscous[k] != 0.0 {
+                    let vw = w * law.viscous[k];
+                    for (g, p) in acc.visc[out].iter_mut().zip(phi) {
+                        *g += vw * p;
+                    }
+                }
+                if !want.jacobian {
+                    continue;
+                }
+                let (ks, kv) = (w * law.stiffness[k], w * law.damping[k]);
+                if (ks != 0.0 || kv != 0.0) && !trig_ready {
+                    // (cos, sin)(2πdθ) of the sums and differences from the row.
+                    for (i, &(_, q, p, plus)) in self.sums.iter().enumerate() {
+                        let (cq, sq) = cs(phi, q);
+                        let (cp, sp) = cs(phi, p);
+                        let (c, s) = if plus {
+                            (cq * cp - sq * sp, sq * cp + cq * sp)
+                        } else {
+                            (cq * cp + sq * sp, sq * cp - cq * sp)
+                        };
+                        acc.trig[2 * i] = c;
+                        acc.trig[2 * i + 1] = s;
+                    }
+                    trig_ready = true;
+                }
+                if ks != 0.0 {
+                    for (g, c) in acc.kap_s[out].iter_mut().zip(&acc.trig) {
+                        *g += ks * c;
+                    }
+                }
+                if kv != 0.0 {
+                    for (g, c) in acc.kap_v[out].iter_mut().zip(&acc.trig) {
+                        *g += kv * c;
+                    }
+                }
+            }
+        }
+    }
+
+    /// Gap `q` of mesh `n` and its θ-derivative at `θ`.
+    fn gap(
+        &self,
+        s: &DVector<f64>,
+        (n, q): (usize, usize),
+        theta: f64,
+        phi: &mut [f64],
+        buf: &mut Vec<(f64, f64)>,
+    ) -> (f64, f64) {
+        self.basis_fast(theta, phi);
+        let (x, dx) = self.deflection(s, n, phi);
+        self.model
+            .contact_gaps(n, theta / self.f, x, self.f * dx, buf);
+        buf.get(q).map_or((0.0, 0.0), |g| (g.0, g.1 / self.f))
+    }
+
+    /// The root of gap `q` of mesh `n` in `(lo, hi)`, where it changes sign (Illinois variant
+    /// of regula falsi: superlinear and bracketing).
+    fn root(
+        &self,
+        s: &DVector<f64>,
+        which: (usize, usize),
+        (mut lo, mut hi): (f64, f64),
+        phi: &mut [f64],
+        buf: &mut Vec<(f64, f64)>,
+    ) -> f64 {
+        let mut glo = self.gap(s, which, lo, phi, buf).0;
+        let mut ghi = self.gap(s, which, hi, phi, buf).0;
+        let positive_lo = glo > 0.0;
+        let mut side = 0i8;
+        for _ in 0..200 {
+            if hi - lo <= 4.0 * f64::EPSILON * hi.abs().max(1e-3) {
+                break;
+            }
+            let mut mid = if glo != ghi {
+                (lo * ghi - hi * glo) / (ghi - glo)
+            } else {
+                0.5 * (lo + hi)
+            };
+            if !(mid > lo && mid < hi) {
+                mid = 0.5 * (lo + hi);
+            }
+            let g = self.gap(s, which, mid, phi, buf).0;
+            if g == 0.0 {
+                return mid;
+            }
+            if (g > 0.0) == positive_lo {
+                lo = mid;
+                glo = g;
+                if side == -1 {
+                    ghi *= 0.5;
+                }
+                side = -1;
+            } else {
+                hi = mid;
+                ghi = g;
+                if side == 1 {
+                    glo *= 0.5;
+                }
+                side = 1;
+            }
+        }
+        0.5 * (lo + hi)
+    }
+
+    /// A cell in which some contact changes: split at the switching instants, each part
+    /// integrated by its own Gauss rule, boundary terms recorded for the Jacobian.
+    fn split_cell(&self, c: usize, s: &DVector<f64>, want: Want, acc: &mut Accumulator) {
+        let (lo, hi) = self.cells[c];
+        let len = self.len;
+        let nm = self.meshes.len();
+        let mut points = [self.probe(c, 0), 0.0, 0.0, 0.0, self.probe(c, 1)];
+        points[1..4].copy_from_slice(&self.nodes[3 * c..3 * c + 3]);
+        let mut phi = vec![0.0; len];
+        let mut buf = Vec::new();
+        let mut cuts: Vec<(f64, usize, usize)> = Vec::new();
+        let mut gaps: Vec<Vec<f64>> = vec![Vec::new(); points.len()];
+        for n in 0..nm {
+            for (k, &theta) in points.iter().enumerate() {
+                self.basis_fast(theta, &mut phi);
+                let (x, dx) = self.deflection(s, n, &phi);
+                self.model
+                    .contact_gaps(n, theta / self.f, x, self.f * dx, &mut buf);
+                gaps[k].clear();
+                gaps[k].extend(buf.iter().map(|g| g.0));
+            }
+            for k in 0..points.len() - 1 {
+                for (q, (a, b)) in gaps[k].iter().zip(&gaps[k + 1]).enumerate() {
+                    if (*a > 0.0) != (*b > 0.0) {
+                        let bracket = (points[k], points[k + 1]);
+                        let root = self.root(s, (n, q), bracket, &mut phi, &mut buf);
+                        cuts.push((root, n, q));
+                    }
+                }
+            }
+        }
+        cuts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let mut laws = vec![MeshLaw::default(); nm];
+        let mut start = lo;
+        for end in cuts.iter().map(|c| c.0).chain(std::iter::once(hi)) {
+            let half = 0.5 * (end - start);
+            if half > 0.0 {
+                for (x, wt) in GAUSS3 {
+                    let theta = start + half * (1.0 + x);
+                    self.basis_fast(theta, &mut phi);
+                    self.laws_at(theta, &phi, s, &mut laws);
+                    self.accumulate(half * wt, &phi, &laws, want, acc);
+                }
+            }
+            start = end;
+        }
+        if !want.jacobian {
+            return;
+        }
+        let eps = PROBE * (hi - lo);
+        for &(theta, n, q) in &cuts {
+            let mesh = &self.meshes[n];
+            let delta_theta = self.gap(s, (n, q), theta, &mut phi, &mut buf).1;
+            if delta_theta == 0.0 {
+                continue;
+            }
+            let h = 1e-3 * eps.max(1e-14);
+            let mut law_at = |theta: f64| {
+                self.basis_fast(theta, &mut phi);
+                let (x, dx) = self.deflection(s, n, &phi);
+                self.model.mesh_law(n, theta / self.f, x, self.f * dx)
+            };
+            let (left, right) = (law_at(theta - h), law_at(theta + h));
+            self.basis_fast(theta, &mut phi);
+            for k in 0..mesh.outputs {
+                // Only the jump counts: remove the continuous part's change over 2h.
+                let slope = 0.5 * (right.stiffness[k] + left.stiffness[k]) * delta_theta;
+                let jump = right.force[k] - left.force[k] - slope * 2.0 * h;
+                if jump.abs() <= 1e-9 * (right.force[k].abs() + left.force[k].abs()) {
+                    continue;
+                }
+                acc.boundary
+                    .push((mesh.first + k, jump / delta_theta, phi.clone()));
+            }
+        }
+    }
+
+    /// Residual and what `want` asks for at coefficients `s` and frequency `f`.
+    pub(super) fn evaluate(
+        &mut self,
+        s: &DVector<f64>,
+        f: f64,
+        want: Want,
+    ) -> Result<Evaluation, String> {
+        self.set_frequency(f)?;
+        self.receptance(f)?;
+        let len = self.len;
+        let outs = self.outputs();
+        let nm = self.meshes.len();
+        let ns = self.sums.len();
+        let zeros = |n: usize, on: bool| {
+            if on {
+                vec![vec![0.0; n]; outs]
+            } else {
+                Vec::new()
+            }
+        };
+        let mut acc = Accumulator {
+            gal: zeros(len, true),
+            visc: zeros(len, want.frequency),
+            kap_s: zeros(2 * ns, want.jacobian),
+            kap_v: zeros(2 * ns, want.jacobian),
+            boundary: Vec::new(),
+            sample_w: Vec::new(),
+            sample_force: Vec::new(),
+            sample_lost: Vec::new(),
+            trig: vec![0.0; 2 * ns],
+        };
+        // Pass 1: every mesh's law at every node.
+        let nodes = self.nodes.len();
+        let mut laws = std::mem::take(&mut self.node_laws);
+        laws.resize(nodes * nm, MeshLaw::default());
+        let mut row = vec![0.0; len];
+        for i in 0..nodes {
+            let phi = self.node_row(i, &mut row);
+            self.laws_at(self.nodes[i], phi, s, &mut laws[i * nm..(i + 1) * nm]);
+        }
+        // Cells in which a contact pattern changes: between two nodes of a cell, between the
+        // last node of a cell and the first of the next (both cells are split; the one without
+        // the switch integrates as before), or between a breakpoint and its nearest node (a
+        // probe just inside the cell).
+        let cells = self.cells.len();
+        let mut split = vec![false; cells];
+        if self.switching {
+            let differ = |i: usize, j: usize| {
+                (0..nm).any(|n| laws[i * nm + n].pattern != laws[j * nm + n].pattern)
+            };
+            let mut probe = vec![MeshLaw::default(); nm];
+            for c in 0..cells {
+                if differ(3 * c, 3 * c + 1) || differ(3 * c + 1, 3 * c + 2) {
+                    split[c] = true;
+                }
+                if c + 1 < cells && !self.cell_at_break[c + 1] && differ(3 * c + 2, 3 * c + 3) {
+                    split[c] = true;
+                    split[c + 1] = true;
+                }
+                for (k, node, at_break) in [
+                    (0, 3 * c, self.cell_at_break[c]),
+                    (1, 3 * c + 2, c + 1 == cells || self.cell_at_break[c + 1]),
+                ] {
+                    if at_break && !split[c] {
+                        let theta = self.probe(c, k);
+                        self.basis_fast(theta, &mut row);
+                        self.laws_at(theta, &row, s, &mut probe);
+                        if (0..nm).any(|n| probe[n].pattern != laws[node * nm + n].pattern) {
+                            split[c] = true;
+                        }
+                    }
+                }
+            }
+        }
+        // Pass 2: the sums.
+        for (c, &split) in split.iter().enumerate() {
+            if split {
+                self.split_cell(c, s, want, &mut acc);
+                continue;
+            }
+            for i in 3 * c..3 * c + 3 {
+                let phi = self.node_row(i, &mut row);
+                self.accumulate(
+                    self.weights[i],
+                    phi,
+                    &laws[i * nm..(i + 1) * nm],
+                    want,
+                    &mut acc,
+                );
+            }
+        }
+        self.node_laws = laws;
+
+        // g per output: P[F] minus the moved linear part (exact in the coefficients).
+        let mut g: Vec<DVector<f64>> = acc
+            .gal
+            .iter()
+            .map(|gal| DVector::from_fn(len, |r, _| factor(r) * gal[r]))
+            .collect();
+        let derivative = |x: &[f64]| -> DVector<f64> {
+            // d/dθ on the coefficients: (a, b) → 2πj (b, −a).
+            let mut d = DVector::zeros(len);
+            for (q, &j) in self.orders.iter().enumerate().skip(1) {
+                let w = TAU * j as f64;
+                d[2 * q - 1] = w * x[2 * q];
+                d[2 * q] = -w * x[2 * q - 1];
+            }
+            d
+        };
+        let mut ds = Vec::with_capacity(nm);
+        for (n, mesh) in self.meshes.iter().enumerate() {
+            let sn = s.rows(n * len, len);
+            let d = derivative(sn.as_slice());
+            g[mesh.first] -= sn * mesh.k_mean + &d * (mesh.c_mean * f);
+            ds.push(d);
+        }
+        let rec = self.receptance.as_ref().expect("computed above");
+        let apply = |r: &[DMatrix<Complex<f64>>],
+                     n: usize,
+                     out: usize,
+                     x: &DVector<f64>,
+                     y: &mut DVector<f64>| {
+            y[0] += r[0][(n, out)].re * x[0];
+            for q in 1..self.orders.len() {
+                let (a, b) = cmul(r[q][(n, out)], x[2 * q - 1], x[2 * q]);
+                y[2 * q - 1] += a;
+                y[2 * q] += b;
+            }
+        };
+        let lin_of = |lin: &[DVector<Complex<f64>>], n: usize| {
+            let mut y = DVector::zeros(len);
+            y[0] = lin[0][n].re;
+            for q in 1..self.orders.len() {
+                y[2 * q - 1] = lin[q][n].re;
+                y[2 * q] = -lin[q][n].im;
+            }
+            y
+        };
+        let mut residual = DVector::zeros(nm * len);
+        for n in 0..nm {
+            let mut y = s.rows(n * len, len).into_owned() - lin_of(&rec.lin, n);
+            for (out, go) in g.iter().enumerate() {
+                apply(&rec.r, n, out, go, &mut y);
+            }
+            residual.rows_mut(n * len, len).copy_from(&y);
+        }
+
+        let d_frequency = want.frequency.then(|| {
+            let mut dg: Vec<DVector<f64>> = acc
+                .visc
+                .iter()
+                .map(|v| DVector::from_fn(len, |r, _| factor(r) * v[r] / f))
+                .collect();
+            for (n, mesh) in self.meshes.iter().enumerate() {
+                dg[mesh.first] -= &ds[n] * mesh.c_mean;
+            }
+            let mut d = DVector::zeros(nm * len);
+            for n in 0..nm {
+                let mut y = -lin_of(&rec.dlin, n);
+                for out in 0..outs {
+                    apply(&rec.dr, n, out, &g[out], &mut y);
+                    apply(&rec.r, n, out, &dg[out], &mut y);
+                }
+                d.rows_mut(n * len, len).copy_from(&y);
+            }
+            d
+        });
+
+        let jacobian = want.jacobian.then(|| {
+            let mut jac = DMatrix::<f64>::identity(nm * len, nm * len);
+            let mut gs = DMatrix::<f64>::zeros(len, len);
+            for (n, mesh) in self.meshes.iter().enumerate() {
+                for k in 0..mesh.outputs {
+                    let out = mesh.first + k;
+                    // ∂g_out/∂s_n: Toeplitz + Hankel of ∂F/∂S, and of ∂F/∂Ṡ times f d/dθ.
+                    gs.fill(0.0);
+                    self.add_toeplitz(&acc.kap_s[out], 1.0, false, &mut gs);
+                    self.add_toeplitz(&acc.kap_v[out], f, true, &mut gs);
+                    if k == 0 {
+                        // The mean law moved into the linear part: − k̄ − c̄ f d/dθ.
+                        for r in 0..len {
+                            gs[(r, r)] -= mesh.k_mean;
+                        }
+                        for (q, &j) in self.orders.iter().enumerate().skip(1) {
+                            let w = TAU * j as f64 * mesh.c_mean * f;
+                            gs[(2 * q - 1, 2 * q)] -= w;
+                            gs[(2 * q, 2 * q - 1)] += w;
+                        }
+                    }
+                    // Boundary terms of the split points: coefficient · P φ(θ*) φ(θ*)ᵀ.
+                    for (_, coefficient, phi) in acc.boundary.iter().filter(|b| b.0 == out) {
+                        for r in 0..len {
+                            let row = coefficient * factor(r) * phi[r];
+                            for cl in 0..len {
+                                gs[(r, cl)] += row * phi[cl];
+                            }
+                        }
+                    }
+                    // J[n', n] += R[n', out] ⊙ gs (per order, on the rows).
+                    for n2 in 0..nm {
+                        let mut block = jac.view_mut((n2 * len, n * len), (len, len));
+                        let r0 = rec.r[0][(n2, out)].re;
+                        for cl in 0..len {
+                            block[(0, cl)] += r0 * gs[(0, cl)];
+                        }
+                        for q in 1..self.orders.len() {
+                            let rq = rec.r[q][(n2, out)];
+                            for cl in 0..len {
+                                let (a, b) = cmul(rq, gs[(2 * q - 1, cl)], gs[(2 * q, cl)]);
+                                block[(2 * q - 1, cl)] += a;
+                                block[(2 * q, cl)] += b;
+                            }
+                        }
+                    }
+                }
+            }
+            jac
+        });
+
+        Ok(Evaluation {
+            residual,
+            jacobian,
+            d_frequency,
+            g,
+            sample_w: acc.sample_w,
+            sample_force: acc.sample_force,
+            sample_lost: acc.sample_lost,
+        })
+    }
+
+    /// Adds `scale·T(κ)` to `gs`, or with `rate` `scale·T(κ)·D_θ` (`D_θ = d/dθ` on the
+    /// coefficients): the Galerkin matrix `∂P[k(θ)·x(θ)]/∂x` of a signal `k` from its quadrature
+    /// Fourier sums `κ_d = Σ w k (cos, sin)(2πdθ)` over [`Problem::sums`], by
+    /// `cos_q cos_p = ½(cos_{q−p} + cos_{q+p})` and its siblings, which hold node by node: exact
+    /// for the discrete residual (Toeplitz in the differences, Hankel in the sums).
+    fn add_toeplitz(&self, kap: &[f64], scale: f64, rate: bool, gs: &mut DMatrix<f64>) {
+        if kap.iter().all(|&x| x == 0.0) {
+            return;
+        }
+        let no = self.orders.len();
+        for q in 0..no {
+            let fq = factor(q) * 0.5 * scale;
+            let rows = if q == 0 { 1 } else { 2 };
+            let row = |i: usize| if q == 0 { 0 } else { 2 * q - 1 + i };
+            for p in 0..no {
+                let (jq, jp) = (self.orders[q], self.orders[p]);
+                let (ip, im) = (self.plus[q * no + p], self.minus[q * no + p]);
+                let (c_plus, s_plus) = (kap[2 * ip], kap[2 * ip + 1]);
+                let (c_minus, s_abs) = (kap[2 * im], kap[2 * im + 1]);
+                // sin 2π(j_q − j_p)θ summed.
+                let s_qp = if jq >= jp { s_abs } else { -s_abs };
+                // 2 Σ w k [cos_q cos_p, cos_q sin_p; sin_q cos_p, sin_q sin_p].
+                let block = [
+                    [c_minus + c_plus, s_plus - s_qp],
+                    [s_plus + s_qp, c_minus - c_plus],
+                ];
+                for (i, b) in block.iter().enumerate().take(rows) {
+                    if !rate {
+                        if p == 0 {
+                            gs[(row(i), 0)] += fq * b[0];
+                        } else {
+                            gs[(row(i), 2 * p - 1)] += fq * b[0];
+                            gs[(row(i), 2 * p)] += fq * b[1];
+                        }
+                    } else if p > 0 {
+                        // (T D)[:, a_p] = −2πj_p T[:, b_p]; (T D)[:, b_p] = 2πj_p T[:, a_p].
+                        let w = TAU * jp as f64;
+                        gs[(row(i), 2 * p - 1)] -= fq * w * b[1];
+                        gs[(row(i), 2 * p)] += fq * w * b[0];
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,772 @@
+//! The discretised harmonic-balance problem of a drivetrain: the retained orders, the
+//! quadrature split at every breakpoint, the condensed linear part (receptances per order),
+//! Newton at a fixed speed, the time-domain seed and the orbit of a converged solution.
+
+use std::collections::BTreeSet;
+use std::f64::consts::TAU;
+
+use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
+
+use super::{HbMesh, HbOptions, HbSolution};
+use crate::model::drivetrain::response_period_in_mesh_periods;
+use crate::model::{Drivetrain, MeshLaw};
+use crate::scene::SolverSettings;
+use crate::simulation::Driver;
+
+/// One mesh of the discretised problem.
+#[derive(Debug, Clone)]
+pub(super) struct MeshData {
+    pub(super) prefix: String,
+    pub(super) dte: Vec<f64>,
+    /// Index of its first force output among all outputs, and how many it has.
+    pub(super) first: usize,
+    pub(super) outputs: usize,
+    pub(super) k_mean: f64,
+    pub(super) c_mean: f64,
+    /// Mesh cycles per HB period.
+    pub(super) cycles: f64,
+    pub(super) static_force: f64,
+}
+
+/// Per-order data of the condensed linear part at one frequency.
+pub(super) struct Receptance {
+    pub(super) f: f64,
+    pub(super) lus: Vec<LU<Complex<f64>, Dyn, Dyn>>,
+    /// `Aᵀ Z_j⁻¹ V` (meshes × outputs) and its frequency derivative.
+    pub(super) r: Vec<DMatrix<Complex<f64>>>,
+    pub(super) dr: Vec<DMatrix<Complex<f64>>>,
+    /// `Aᵀ Z_j⁻¹ F̂_j` and its derivative.
+    pub(super) lin: Vec<DVector<Complex<f64>>>,
+    pub(super) dlin: Vec<DVector<Complex<f64>>>,
+}
+
+/// What an evaluation computes besides the residual.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct Want {
+    pub(super) jacobian: bool,
+    pub(super) frequency: bool,
+    pub(super) samples: bool,
+}
+
+/// Sums over the quadrature nodes.
+pub(super) struct Accumulator {
+    /// `Σ w F φ` per output.
+    pub(super) gal: Vec<Vec<f64>>,
+    /// `Σ w F_viscous φ` per output.
+    pub(super) visc: Vec<Vec<f64>>,
+    /// `Σ w ∂F/∂S (cos, sin)(2πdθ)` and the same of `∂F/∂Ṡ`, per output, over the orders of
+    /// [`Problem::sums`].
+    pub(super) kap_s: Vec<Vec<f64>>,
+    pub(super) kap_v: Vec<Vec<f64>>,
+    /// Boundary terms `(output, coefficient, φ(θ*))` of the split points.
+    pub(super) boundary: Vec<(usize, f64, Vec<f64>)>,
+    /// Node samples for the results: weight, and per mesh the mesh force and whether it has
+    /// lost contact on every tooth pair.
+    pub(super) sample_w: Vec<f64>,
+    pub(super) sample_force: Vec<f64>,
+    pub(super) sample_lost: Vec<bool>,
+    /// Scratch: `(cos, sin)(2πdθ)` of the node over [`Problem::sums`].
+    pub(super) trig: Vec<f64>,
+}
+
+/// The result of one evaluation.
+pub(super) struct Evaluation {
+    pub(super) residual: DVector<f64>,
+    pub(super) jacobian: Option<DMatrix<f64>>,
+    /// `∂r/∂f`.
+    pub(super) d_frequency: Option<DVector<f64>>,
+    /// `g` per output (the Galerkin coefficients of the force minus the moved linear part).
+    pub(super) g: Vec<DVector<f64>>,
+    /// Node samples ([`Accumulator::sample_w`]), when asked for.
+    pub(super) sample_w: Vec<f64>,
+    pub(super) sample_force: Vec<f64>,
+    pub(super) sample_lost: Vec<bool>,
+}
+
+/// The discretised harmonic-balance problem of a drivetrain.
+pub(super) struct Problem<M: Drivetrain> {
+    pub(super) model: M,
+    pub(super) settings: SolverSettings,
+    /// HB fundamental frequency the model is set to, Hz.
+    pub(super) f: f64,
+    /// Input speed per Hz of `f`.
+    pub(super) speed_per_f: f64,
+    pub(super) m: usize,
+    pub(super) meshes: Vec<MeshData>,
+    /// Mesh deflection rows (m × meshes) and force directions (m × outputs).
+    pub(super) a: DMatrix<f64>,
+    pub(super) v: DMatrix<f64>,
+    pub(super) mass: DMatrix<f64>,
+    pub(super) damping: DMatrix<f64>,
+    pub(super) stiffness: DMatrix<f64>,
+    pub(super) orders: Vec<usize>,
+    /// `2|J| − 1`.
+    pub(super) len: usize,
+    pub(super) cells: Vec<(f64, f64)>,
+    pub(super) nodes: Vec<f64>,
+    pub(super) weights: Vec<f64>,
+    /// Basis rows `[1, cos 2πjθ, sin 2πjθ, …]` of the nodes, when they fit in
+    /// [`TABLE_ENTRIES`]; else rows are computed as needed ([`Problem::basis_fast`]).
+    pub(super) table: Option<Vec<f64>>,
+    /// Whether a cell starts at a breakpoint (where the engaged tooth pairs change).
+    pub(super) cell_at_break: Vec<bool>,
+    /// Whether any mesh's contact law switches (else no cell is ever split).
+    pub(super) switching: bool,
+    /// Scratch: every mesh's law at every node.
+    pub(super) node_laws: Vec<MeshLaw>,
+    /// Largest gap between consecutive retained orders.
+    pub(super) max_step: usize,
+    /// Orders `d` of the sums and differences of retained orders, each with a pair `(q, p, +)`
+    /// of retained-order indices whose sum (`+`) or difference it is.
+    pub(super) sums: Vec<(usize, usize, usize, bool)>,
+    /// Per (q, p): positions in `sums` of `j_q + j_p` and `|j_q − j_p|`.
+    pub(super) plus: Vec<usize>,
+    pub(super) minus: Vec<usize>,
+    /// Galerkin coefficients of `F̂` (m × len).
+    pub(super) external: DMatrix<f64>,
+    /// HB period in mesh periods of the first mesh.
+    pub(super) mesh_periods: u64,
+    /// HB period in response periods.
+    pub(super) subharmonic: u32,
+    pub(super) x_scale: f64,
+    pub(super) receptance: Option<Receptance>,
+}
+
+/// 3-point Gauss–Legendre rule on [−1, 1]: (node, weight).
+pub(super) const GAUSS3: [(f64, f64); 3] = [
+    (-0.774_596_669_241_483_4, 5.0 / 9.0),
+    (0.0, 8.0 / 9.0),
+    (0.774_596_669_241_483_4, 5.0 / 9.0),
+];
+
+/// Largest Newton system (its dense Jacobian is 128 MB and one LU ~4e10 flops).
+pub(super) const MAX_UNKNOWNS: usize = 4096;
+
+/// Largest number of tabulated basis entries (32 MB); larger problems (a
+/// countershaft's many combination tones over 72 mesh periods) compute rows as needed.
+pub(super) const TABLE_ENTRIES: usize = 1 << 22;
+
+/// Probes sit this fraction of a cell inside its ends (the ends are breakpoints, where the
+/// engaged tooth pairs change).
+pub(super) const PROBE: f64 = 1e-9;
+
+/// The retained orders: 0 and the combination tones `|Σ a_n b_n|` of the distinct base orders
+/// `b_n` whose constituent frequencies add up to at most `h` times the highest base:
+/// `Σ |a_n| b_n ≤ h·max b`. For one base order `b` these are the harmonics `b, 2b, …, hb`; a
+/// slow mesh keeps as many harmonics as fit below `h` times the fastest mesh frequency (the
+/// countershaft's second stage, at 19/72 of the first, keeps `3.8h`: its high harmonics are
+/// what excites the modes above it).
+pub(super) fn combination_orders(bases: &[usize], h: usize) -> Vec<usize> {
+    fn walk(bases: &[usize], budget: usize, acc: i64, out: &mut BTreeSet<usize>) {
+        match bases.split_first() {
+            None => {
+                out.insert(acc.unsigned_abs() as usize);
+            }
+            Some((&b, rest)) => {
+                let most = (budget / b) as i64;
+                for a in -most..=most {
+                    let used = a.unsigned_abs() as usize * b;
+                    walk(rest, budget - used, acc + a * b as i64, out);
+                }
+            }
+        }
+    }
+    let mut distinct: Vec<usize> = bases.to_vec();
+    distinct.sort_unstable();
+    distinct.dedup();
+    let top = *distinct.last().expect("one mesh at least");
+    let mut out = BTreeSet::new();
+    walk(&distinct, h * top, 0, &mut out);
+    out.into_iter().collect()
+}
+
+/// `(cos, sin)` of order index `q` from a basis row.
+#[inline]
+pub(super) fn cs(phi: &[f64], q: usize) -> (f64, f64) {
+    if q == 0 {
+        (1.0, 0.0)
+    } else {
+        (phi[2 * q - 1], phi[2 * q])
+    }
+}
+
+/// Projection factor of coefficient row `r`: 1 for the mean, 2 for a harmonic.
+#[inline]
+pub(super) fn factor(r: usize) -> f64 {
+    if r == 0 {
+        1.0
+    } else {
+        2.0
+    }
+}
+
+/// `R·(a − ib)` in the real layout `(a, b)` → `(a', b')`.
+#[inline]
+pub(super) fn cmul(r: Complex<f64>, a: f64, b: f64) -> (f64, f64) {
+    (r.re * a + r.im * b, -r.im * a + r.re * b)
+}
+
+/// Mesh periods integrated before a time-domain seed is sampled (rounded up to whole HB
+/// periods).
+const SEED_WARMUP_PERIODS: u64 = 60;
+
+impl<M: Drivetrain> Problem<M> {
+    pub(super) fn new(
+        model: M,
+        settings: SolverSettings,
+        options: &HbOptions,
+    ) -> Result<Self, String> {
+        options.validate()?;
+        let meshes_n = model.mesh_count();
+        let freqs: Vec<f64> = (0..meshes_n).map(|n| model.mesh_frequency(n)).collect();
+        if !(freqs[0] > 0.0 && freqs[0].is_finite()) {
+            return Err(format!(
+                "input speed {} rad/s: harmonic balance needs a finite speed > 0",
+                model.input_speed()
+            ));
+        }
+        let k_resp = response_period_in_mesh_periods(&freqs)?;
+        let mesh_periods = k_resp * options.subharmonic as u64;
+        let period = mesh_periods as f64 / freqs[0];
+        let f = 1.0 / period;
+        let m = model.dim() / 2;
+        let statics = model.static_mesh_forces();
+        let mut meshes = Vec::with_capacity(meshes_n);
+        let mut a = DMatrix::zeros(m, meshes_n);
+        let mut directions: Vec<Vec<f64>> = Vec::new();
+        let mut bases = Vec::new();
+        for (n, &frequency) in freqs.iter().enumerate() {
+            let cycles = frequency * period;
+            let rounded = cycles.round();
+            if (cycles - rounded).abs() > 1e-6 * cycles.max(1.0) || rounded < 1.0 {
+                return Err(format!(
+                    "mesh {} makes {cycles} cycles per response period: not a whole number",
+                    n + 1
+                ));
+            }
+            a.set_column(n, &DVector::from_vec(model.mesh_deflection_row(n)));
+            let dirs = model.mesh_force_directions(n);
+            let (k_mean, c_mean) = model.mean_mesh_law(n);
+            meshes.push(MeshData {
+                prefix: model.mesh_prefix(n),
+                dte: model.mesh_dte_row(n),
+                first: directions.len(),
+                outputs: dirs.len(),
+                k_mean,
+                c_mean,
+                cycles: rounded,
+                static_force: statics.get(n).copied().unwrap_or(f64::NAN),
+            });
+            directions.extend(dirs);
+            bases.push(rounded as usize / options.subharmonic as usize);
+        }
+        let v = DMatrix::from_fn(m, directions.len(), |i, k| directions[k][i]);
+        let lin = model.linear_part();
+        let (mut stiffness, mut damping) = (lin.stiffness, lin.damping);
+        for (n, mesh) in meshes.iter().enumerate() {
+            let col = a.column(n);
+            stiffness += mesh.k_mean * col * col.transpose();
+            damping += mesh.c_mean * col * col.transpose();
+        }
+
+        let orders = combination_orders(&bases, options.harmonics);
+        let j_max = *orders.last().expect("order 0");
+        let len = 2 * orders.len() - 1;
+        if meshes_n * len > MAX_UNKNOWNS {
+            return Err(format!(
+                "harmonics = {}: {} retained orders give {} unknowns over {meshes_n} meshes, more \
+                 than the {MAX_UNKNOWNS} a dense Newton system takes (lower harmonics)",
+                options.harmonics,
+                orders.len(),
+                meshes_n * len
+            ));
+        }
+        let samples = options.samples.unwrap_or((16 * (2 * j_max + 1)).max(256));
+        if samples <= 2 * j_max {
+            return Err(format!(
+                "samples = {samples}: must exceed twice the highest retained order {j_max} \
+                 (sampling theorem)"
+            ));
+        }
+
+        // Breakpoints of every mesh in θ: p_n(θ) = p_n(0) + c_n θ ≡ b (mod 1).
+        let mut breaks = vec![0.0, 1.0];
+        for (n, mesh) in meshes.iter().enumerate() {
+            let p0 = model.mesh_phase(n, 0.0);
+            for b in model.mesh_breakpoints(n) {
+                let first = crate::mesh::cycle_fraction(b - p0);
+                for k in 0..mesh.cycles as u64 {
+                    let theta = (first + k as f64) / mesh.cycles;
+                    if theta > 0.0 && theta < 1.0 {
+                        breaks.push(theta);
+                    }
+                }
+            }
+        }
+        breaks.sort_by(f64::total_cmp);
+        breaks.dedup_by(|x, y| (*x - *y).abs() < 1e-14);
+        let mut cells = Vec::new();
+        let mut cell_at_break = Vec::new();
+        let mut nodes = Vec::with_capacity(samples + 3 * breaks.len());
+        let mut weights = Vec::with_capacity(samples + 3 * breaks.len());
+        for w in breaks.windows(2) {
+            let (lo, hi) = (w[0], w[1]);
+            let count = ((samples as f64 / 3.0) * (hi - lo)).ceil().max(1.0) as usize;
+            let h = (hi - lo) / count as f64;
+            for c in 0..count {
+                let mid = lo + (c as f64 + 0.5) * h;
+                cells.push((mid - 0.5 * h, mid + 0.5 * h));
+                cell_at_break.push(c == 0);
+                for (x, wt) in GAUSS3 {
+                    nodes.push(mid + 0.5 * h * x);
+                    weights.push(0.5 * h * wt);
+                }
+            }
+        }
+
+        let mut problem = Problem {
+            model,
+            settings,
+            f,
+            speed_per_f: 0.0,
+            m,
+            meshes,
+            a,
+            v,
+            mass: lin.mass,
+            damping,
+            stiffness,
+            orders,
+            len,
+            cells,
+            nodes,
+            weights,
+            table: None,
+            cell_at_break,
+            switching: false,
+            node_laws: Vec::new(),
+            max_step: 1,
+            sums: Vec::new(),
+            plus: Vec::new(),
+            minus: Vec::new(),
+            external: DMatrix::zeros(m, len),
+            mesh_periods,
+            subharmonic: options.subharmonic,
+            x_scale: 0.0,
+            receptance: None,
+        };
+        problem.speed_per_f = problem.model.input_speed() / f;
+        // Displacement scale of convergence tests and of the arclength metric: the largest
+        // static mesh deflection (static mesh force over mean stiffness), or the model's
+        // displacement scale for an unloaded drivetrain.
+        let deflection = problem
+            .meshes
+            .iter()
+            .map(|mesh| (mesh.static_force / mesh.k_mean).abs())
+            .filter(|x| x.is_finite())
+            .fold(0.0, f64::max);
+        problem.x_scale = if deflection > 0.0 {
+            deflection
+        } else {
+            problem.model.displacement_scale()
+        };
+        problem.max_step = problem
+            .orders
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .max()
+            .unwrap_or(1);
+        if problem.nodes.len() * len <= TABLE_ENTRIES {
+            let mut table = vec![0.0; problem.nodes.len() * len];
+            for (i, &theta) in problem.nodes.iter().enumerate() {
+                problem.basis(theta, &mut table[i * len..(i + 1) * len]);
+            }
+            problem.table = Some(table);
+        }
+        let mut buf = Vec::new();
+        problem.switching = (0..meshes_n).any(|n| {
+            problem.model.contact_gaps(n, 0.0, 0.0, 0.0, &mut buf);
+            !buf.is_empty()
+        });
+        problem.build_sums();
+        // External force: sampled once (it depends on the mesh phase only, not on the speed).
+        let mut ext = vec![0.0; m];
+        let mut external = DMatrix::zeros(m, len);
+        let mut row = vec![0.0; len];
+        for (i, (&theta, &w)) in problem.nodes.iter().zip(&problem.weights).enumerate() {
+            problem.model.external_force(theta / f, &mut ext);
+            let phi = problem.node_row(i, &mut row);
+            for (k, e) in ext.iter().enumerate() {
+                for r in 0..len {
+                    external[(k, r)] += factor(r) * w * e * phi[r];
+                }
+            }
+        }
+        problem.external = external;
+        Ok(problem)
+    }
+
+    /// Probe `k` (0: start, 1: end) of cell `c`, just inside the cell.
+    pub(super) fn probe(&self, c: usize, k: usize) -> f64 {
+        let (lo, hi) = self.cells[c];
+        let eps = PROBE * (hi - lo);
+        if k == 0 {
+            lo + eps
+        } else {
+            hi - eps
+        }
+    }
+
+    /// The basis row of node `i` (tabulated, or computed into `buf`).
+    pub(super) fn node_row<'a>(&'a self, i: usize, buf: &'a mut [f64]) -> &'a [f64] {
+        let len = self.len;
+        match &self.table {
+            Some(t) => &t[i * len..(i + 1) * len],
+            None => {
+                self.basis_fast(self.nodes[i], buf);
+                buf
+            }
+        }
+    }
+
+    /// Basis row at `θ` by the angle-addition recurrence from one `sin_cos` (powers of
+    /// `e^{2πiθ}` stepped through the sorted orders; rounding grows like the number of orders,
+    /// ~1e-14 for hundreds).
+    pub(super) fn basis_fast(&self, theta: f64, out: &mut [f64]) {
+        let (s1, c1) = (TAU * theta.fract()).sin_cos();
+        let z = Complex::new(c1, s1);
+        let mut steps = [Complex::new(1.0, 0.0); 64];
+        let mut pw = Vec::new();
+        let powers: &mut [Complex<f64>] = if self.max_step < 64 {
+            &mut steps[..=self.max_step]
+        } else {
+            pw.resize(self.max_step + 1, Complex::new(1.0, 0.0));
+            &mut pw
+        };
+        for d in 1..powers.len() {
+            powers[d] = powers[d - 1] * z;
+        }
+        out[0] = 1.0;
+        let mut x = Complex::new(1.0, 0.0);
+        let mut prev = 0;
+        for (q, &j) in self.orders.iter().enumerate().skip(1) {
+            x *= powers[j - prev];
+            prev = j;
+            out[2 * q - 1] = x.re;
+            out[2 * q] = x.im;
+        }
+    }
+
+    /// Basis row at `θ` (one `sin_cos` per order: exact to rounding).
+    pub(super) fn basis(&self, theta: f64, out: &mut [f64]) {
+        out[0] = 1.0;
+        for (q, &j) in self.orders.iter().enumerate().skip(1) {
+            let (s, c) = (TAU * (j as f64 * theta).fract()).sin_cos();
+            out[2 * q - 1] = c;
+            out[2 * q] = s;
+        }
+    }
+
+    fn build_sums(&mut self) {
+        let n = self.orders.len();
+        let top = 2 * self.orders[n - 1] + 1;
+        let mut position = vec![usize::MAX; top];
+        let mut sums = Vec::new();
+        let mut add = |d: usize, q: usize, p: usize, plus: bool, sums: &mut Vec<_>| {
+            if position[d] == usize::MAX {
+                position[d] = sums.len();
+                sums.push((d, q, p, plus));
+            }
+            position[d]
+        };
+        // Orders that are retained themselves first (d = j + 0), exact from the table.
+        for q in 0..n {
+            add(self.orders[q], q, 0, true, &mut sums);
+        }
+        let mut plus = vec![0; n * n];
+        let mut minus = vec![0; n * n];
+        for q in 0..n {
+            for p in 0..n {
+                let (j, k) = (self.orders[q], self.orders[p]);
+                plus[q * n + p] = add(j + k, q, p, true, &mut sums);
+                minus[q * n + p] = if j >= k {
+                    add(j - k, q, p, false, &mut sums)
+                } else {
+                    add(k - j, p, q, false, &mut sums)
+                };
+            }
+        }
+        self.sums = sums;
+        self.plus = plus;
+        self.minus = minus;
+    }
+
+    pub(super) fn outputs(&self) -> usize {
+        self.v.ncols()
+    }
+
+    /// Sets the HB fundamental frequency (and the model's input speed).
+    pub(super) fn set_frequency(&mut self, f: f64) -> Result<(), String> {
+        if f != self.f {
+            self.model.set_input_speed(0.0, f * self.speed_per_f)?;
+            self.f = f;
+        }
+        Ok(())
+    }
+
+    pub(super) fn speed(&self, f: f64) -> f64 {
+        f * self.speed_per_f
+    }
+
+    pub(super) fn frequency(&self, speed: f64) -> f64 {
+        speed / self.speed_per_f
+    }
+
+    /// The condensed linear part at `f` (cached).
+    pub(super) fn receptance(&mut self, f: f64) -> Result<(), String> {
+        if self.receptance.as_ref().is_some_and(|r| r.f == f) {
+            return Ok(());
+        }
+        let m = self.m;
+        let outs = self.outputs();
+        let nm = self.meshes.len();
+        let cm = |a: &DMatrix<f64>| a.map(|x| Complex::new(x, 0.0));
+        let (mass, damping, stiffness) = (cm(&self.mass), cm(&self.damping), cm(&self.stiffness));
+        let at = cm(&self.a.transpose());
+        let mut rec = Receptance {
+            f,
+            lus: Vec::new(),
+            r: Vec::new(),
+            dr: Vec::new(),
+            lin: Vec::new(),
+            dlin: Vec::new(),
+        };
+        for (q, &j) in self.orders.iter().enumerate() {
+            let w = TAU * j as f64;
+            let i = Complex::new(0.0, 1.0);
+            let z = &stiffness - &mass * Complex::from(w * w * f * f) + &damping * (i * w * f);
+            let dz = &mass * Complex::from(-2.0 * w * w * f) + &damping * (i * w);
+            let lu = z.lu();
+            let mut rhs = DMatrix::zeros(m, outs + 1);
+            for i in 0..m {
+                for k in 0..outs {
+                    rhs[(i, k)] = Complex::new(self.v[(i, k)], 0.0);
+                }
+                let (a, b) = if q == 0 {
+                    (self.external[(i, 0)], 0.0)
+                } else {
+                    (self.external[(i, 2 * q - 1)], self.external[(i, 2 * q)])
+                };
+                rhs[(i, outs)] = Complex::new(a, -b);
+            }
+            let y = lu.solve(&rhs).ok_or_else(|| {
+                format!(
+                    "harmonic balance: the dynamic stiffness of order {j} at {:.6} Hz is \
+                     singular (an undamped mode at that frequency)",
+                    j as f64 * f
+                )
+            })?;
+            let dy = -lu.solve(&(&dz * &y)).expect("same matrix");
+            let ry = &at * &y;
+            let rdy = &at * &dy;
+            rec.r.push(ry.columns(0, outs).into_owned());
+            rec.dr.push(rdy.columns(0, outs).into_owned());
+            rec.lin.push(ry.column(outs).into_owned());
+            rec.dlin.push(rdy.column(outs).into_owned());
+            rec.lus.push(lu);
+            debug_assert_eq!(ry.nrows(), nm);
+        }
+        self.receptance = Some(rec);
+        Ok(())
+    }
+
+    /// Newton at frequency `f` from `s`.
+    /// Newton at frequency `f` from `s`: the iterate at which the Newton update falls below the
+    /// tolerance, with its evaluation (node samples included), and the iteration count.
+    pub(super) fn newton(
+        &mut self,
+        mut s: DVector<f64>,
+        f: f64,
+        options: &HbOptions,
+    ) -> Result<(DVector<f64>, Evaluation, usize), String> {
+        let speed = self.speed(f);
+        let want = Want {
+            jacobian: true,
+            samples: true,
+            ..Want::default()
+        };
+        for iteration in 1..=options.max_iterations {
+            let mut e = self.evaluate(&s, f, want)?;
+            let delta = e
+                .jacobian
+                .take()
+                .expect("asked for")
+                .lu()
+                .solve(&(-&e.residual))
+                .ok_or_else(|| format!("harmonic balance at {speed} rad/s: singular Jacobian"))?;
+            if delta.amax() <= options.tolerance * self.x_scale {
+                return Ok((s, e, iteration));
+            }
+            s += &delta;
+        }
+        Err(format!(
+            "harmonic balance at {speed} rad/s did not converge in {} Newton iterations",
+            options.max_iterations
+        ))
+    }
+
+    /// Mesh-deflection coefficients of full coordinate coefficients (one block per coordinate).
+    pub(super) fn condense(&self, coefficients: &[f64]) -> Result<DVector<f64>, String> {
+        let len = self.len;
+        if coefficients.len() != self.m * len {
+            return Err(format!(
+                "guess has {} coefficients, expected {} ({} coordinates × {len})",
+                coefficients.len(),
+                self.m * len,
+                self.m
+            ));
+        }
+        let nm = self.meshes.len();
+        let mut s = DVector::zeros(nm * len);
+        for n in 0..nm {
+            for i in 0..self.m {
+                let a = self.a[(i, n)];
+                if a != 0.0 {
+                    for r in 0..len {
+                        s[n * len + r] += a * coefficients[i * len + r];
+                    }
+                }
+            }
+        }
+        Ok(s)
+    }
+
+    /// A starting guess from the time domain: the response after a warm-up (at least
+    /// [`SEED_WARMUP_PERIODS`] mesh periods, whole HB periods), sampled at the nodes and
+    /// projected. Newton from the static deflection often stalls on the piecewise-smooth residual
+    /// near resonance; the seed only selects the basin, the converged orbit is HB's own.
+    pub(super) fn seed(&self, mut sim: Driver<M>) -> Result<DVector<f64>, String> {
+        let period = 1.0 / self.f;
+        let k = self.mesh_periods;
+        let warm = (SEED_WARMUP_PERIODS.div_ceil(k) * k) as f64 / self.mesh_periods as f64 * period;
+        let t0 = sim.t();
+        let mut order: Vec<usize> = (0..self.nodes.len()).collect();
+        order.sort_by(|&a, &b| self.nodes[a].total_cmp(&self.nodes[b]));
+        let len = self.len;
+        let nm = self.meshes.len();
+        let mut s = DVector::zeros(nm * len);
+        let mut row = vec![0.0; len];
+        for i in order {
+            sim.advance_to(t0 + warm + self.nodes[i] * period)
+                .map_err(|e| format!("harmonic balance seed: {e}"))?;
+            let y = sim.y();
+            let phi = self.node_row(i, &mut row);
+            for n in 0..nm {
+                let x: f64 = (0..self.m).map(|k| self.a[(k, n)] * y[k]).sum();
+                let w = self.weights[i] * x;
+                for r in 0..len {
+                    s[n * len + r] += factor(r) * w * phi[r];
+                }
+            }
+        }
+        Ok(s)
+    }
+
+    /// The orbit at `f` from the evaluation `e` (with node samples) of its converged mesh
+    /// coefficients: every coordinate's coefficients `X_j = Z_j⁻¹ (F̂_j − Σ v g_j)`, and each
+    /// mesh's results.
+    pub(super) fn solution(&self, f: f64, e: &Evaluation, iterations: usize) -> HbSolution {
+        let len = self.len;
+        let m = self.m;
+        let no = self.orders.len();
+        let rec = self.receptance.as_ref().expect("evaluated");
+        let mut coefficients = vec![0.0; m * len];
+        for q in 0..no {
+            // X_q = Z_q⁻¹ (F̂_q − Σ v g_q).
+            let mut rhs = DVector::<Complex<f64>>::zeros(m);
+            for i in 0..m {
+                let (mut a, mut b) = if q == 0 {
+                    (self.external[(i, 0)], 0.0)
+                } else {
+                    (self.external[(i, 2 * q - 1)], self.external[(i, 2 * q)])
+                };
+                for (out, g) in e.g.iter().enumerate() {
+                    let v = self.v[(i, out)];
+                    if q == 0 {
+                        a -= v * g[0];
+                    } else {
+                        a -= v * g[2 * q - 1];
+                        b -= v * g[2 * q];
+                    }
+                }
+                rhs[i] = Complex::new(a, -b);
+            }
+            let x = rec.lus[q].solve(&rhs).expect("regular at this frequency");
+            for i in 0..m {
+                if q == 0 {
+                    coefficients[i * len] = x[i].re;
+                } else {
+                    coefficients[i * len + 2 * q - 1] = x[i].re;
+                    coefficients[i * len + 2 * q] = -x[i].im;
+                }
+            }
+        }
+        let meshes = self
+            .meshes
+            .iter()
+            .enumerate()
+            .map(|(n, mesh)| {
+                let mut dte = vec![0.0; len];
+                for i in 0..m {
+                    let d = mesh.dte[i];
+                    if d != 0.0 {
+                        for r in 0..len {
+                            dte[r] += d * coefficients[i * len + r];
+                        }
+                    }
+                }
+                let harmonic = |h: usize| {
+                    let j = h * mesh.cycles as usize;
+                    self.orders
+                        .iter()
+                        .position(|&o| o == j)
+                        .filter(|&q| q > 0)
+                        .map_or(0.0, |q| dte[2 * q - 1].hypot(dte[2 * q]))
+                };
+                let nm = self.meshes.len();
+                let force = |i: usize| e.sample_force[i * nm + n];
+                let w = &e.sample_w;
+                let total = w.iter().fold(0.0, |a, b| a + b);
+                let mean = (0..w.len()).fold(0.0, |a, i| a + w[i] * force(i)) / total;
+                let var =
+                    (0..w.len()).fold(0.0, |a, i| a + w[i] * (force(i) - mean).powi(2)) / total;
+                let peak = (0..w.len()).fold(0.0, |a: f64, i| a.max(force(i).abs()));
+                let lost = (0..w.len())
+                    .filter(|&i| e.sample_lost[i * nm + n])
+                    .fold(0.0, |a, i| a + w[i])
+                    / total;
+                HbMesh {
+                    prefix: mesh.prefix.clone(),
+                    mesh_frequency: mesh.cycles * f,
+                    dte_mean: dte[0],
+                    dte_rms: (dte[1..].iter().map(|c| c * c).sum::<f64>() / 2.0).sqrt(),
+                    harmonics: [harmonic(1), harmonic(2)],
+                    peak_force: peak,
+                    force_rms: var.sqrt(),
+                    dynamic_factor: peak / mesh.static_force,
+                    contact_loss_fraction: lost,
+                }
+            })
+            .collect();
+        HbSolution {
+            mesh_frequency: self.meshes[0].cycles * f,
+            subharmonic: self.subharmonic,
+            mesh_periods: self.mesh_periods,
+            orders: self.orders.clone(),
+            coefficients,
+            iterations,
+            meshes,
+            dte_rows: self.meshes.iter().map(|mesh| mesh.dte.clone()).collect(),
+        }
+    }
+}

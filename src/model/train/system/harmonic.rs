@@ -1,0 +1,183 @@
+//! The drivetrain split for frequency-domain methods ([`crate::model::Drivetrain::mesh_law`]):
+//! the linear part `M̂ ξ'' + Ĉ ξ' + K̂_b ξ` and, per mesh, the forces of its cycle table as
+//! functions of the mesh deflection `S_n = a_n·ξ`, every slot's contact decided from the state
+//! at the mesh phase (the table interval located from the phase, not the frozen mode).
+
+use nalgebra::DMatrix;
+
+use super::{GearTrain, Stiffness};
+use crate::model::{LinearPart, MeshLaw};
+use crate::scene::ContactLaw;
+
+/// One engaged slot at a phase: its stiffness, gap `e + g_j` and gap rate, and the friction
+/// weights `(w0, w1)` when the mesh has tooth friction.
+struct FreeSlot {
+    k: f64,
+    gap: f64,
+    gap_rate: f64,
+    friction: Option<(f64, f64)>,
+}
+
+impl GearTrain {
+    /// `M̂`, `Ĉ` (bearing, coupling and modal damping) and `K̂_b`.
+    pub fn linear_part(&self) -> LinearPart {
+        let m = self.m;
+        LinearPart {
+            mass: DMatrix::from_row_slice(m, m, &self.m_hat),
+            damping: DMatrix::from_row_slice(m, m, &self.c),
+            stiffness: DMatrix::from_row_slice(m, m, &self.k_b),
+        }
+    }
+
+    /// Mesh `n`'s DTE row `d_n` over ξ.
+    pub fn mesh_dte_row(&self, n: usize) -> &[f64] {
+        &self.meshes[n].dte
+    }
+
+    /// The external generalised force `F̂` (constant between input changes), N.
+    pub fn external_forces(&self) -> &[f64] {
+        &self.f_ext
+    }
+
+    /// Mean stiffness and viscous damping of mesh `n`.
+    pub fn mean_mesh_law(&self, n: usize) -> (f64, f64) {
+        (self.meshes[n].k_mean, self.meshes[n].damping)
+    }
+
+    /// `a_n`, then with tooth friction the friction vectors `b0`, `b1`
+    /// (`system/friction.rs`): the friction adds `+(f0 b0 + f1 b1)` to the generalised force,
+    /// i.e. forces `−f0`, `−f1` along them in the sign of [`crate::model::Drivetrain`].
+    pub fn mesh_force_directions(&self, n: usize) -> Vec<Vec<f64>> {
+        let mesh = &self.meshes[n];
+        let mut out = vec![mesh.a.clone()];
+        if let Some(fr) = &mesh.friction {
+            out.push(fr.b0.clone());
+            out.push(fr.b1.clone());
+        }
+        out
+    }
+
+    /// Mesh phases (cycles, `[0, 1)`) of mesh `n`'s interval knots; none for a smooth
+    /// stiffness.
+    pub fn mesh_breakpoints(&self, n: usize) -> Vec<f64> {
+        let mesh = &self.meshes[n];
+        match &mesh.stiffness {
+            Stiffness::Table(table) if table.has_stops() => table
+                .intervals
+                .iter()
+                .map(|iv| crate::mesh::cycle_fraction(iv.start - mesh.offset))
+                .collect(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// Visits the engaged slots of mesh `n` at phase `p` (mesh frequency `f`), from the table
+    /// interval that contains `p` (no allocation: called at every quadrature node).
+    fn for_each_free_slot(&self, n: usize, p: f64, f: f64, mut visit: impl FnMut(FreeSlot)) {
+        let mesh = &self.meshes[n];
+        let (e, e_slope) = mesh.ste.value_and_slope(p);
+        match &mesh.stiffness {
+            Stiffness::Smooth {
+                mean,
+                series,
+                phase,
+            } => visit(FreeSlot {
+                k: mean + series.value(p + phase),
+                gap: e,
+                gap_rate: e_slope * f,
+                friction: None,
+            }),
+            Stiffness::Table(table) => {
+                let u = p + mesh.offset;
+                let s = u - u.floor();
+                let index = table.interval_at(s);
+                let iv = &table.intervals[index];
+                let r = s - iv.start;
+                for (j, law) in iv.laws.iter().enumerate() {
+                    let Some(law) = law else { continue };
+                    let friction = mesh
+                        .friction
+                        .as_ref()
+                        .and_then(|fr| fr.intervals[index][j])
+                        .map(|sf| sf.weights(r));
+                    visit(FreeSlot {
+                        k: law.k(r),
+                        gap: e + law.g(r),
+                        gap_rate: (e_slope + law.g1) * f,
+                        friction,
+                    });
+                }
+            }
+        }
+    }
+
+    /// Mesh `n`'s forces at `(t, S, Ṡ)` with every slot's contact decided by its deflection
+    /// `δ_j = S − e − g_j` (drive for `δ_j > 0`, back side for `δ_j < −2b`, the rule of
+    /// `GearTrain::classify` without the tie-break, which has measure zero): `Σ_j k_j(δ_j +
+    /// o_j) + c(Ṡ − ė)` while any slot touches, and the friction of the slots in drive contact.
+    pub fn free_mesh_law(&self, n: usize, t: f64, s: f64, s_rate: f64) -> MeshLaw {
+        let mesh = &self.meshes[n];
+        let p = mesh.clock.phase_at(t);
+        let f = mesh.clock.mesh_frequency();
+        let mut law = MeshLaw::default();
+        let clearance = mesh.clearance();
+        let mut j = 0;
+        self.for_each_free_slot(n, p, f, |slot| {
+            let bit = 2 * j;
+            j += 1;
+            let delta = s - slot.gap;
+            let (drive, offset) = match mesh.contact {
+                ContactLaw::Linear => (true, 0.0),
+                ContactLaw::ContactLoss if delta > 0.0 => (true, 0.0),
+                ContactLaw::Backlash { .. } if delta > 0.0 => (true, 0.0),
+                ContactLaw::Backlash { .. } if delta < -clearance => (false, clearance),
+                _ => return,
+            };
+            law.force[0] += slot.k * (delta + offset);
+            law.stiffness[0] += slot.k;
+            law.in_contact += 1;
+            law.pattern |= 1 << (bit + u32::from(!drive)).min(63);
+            if let (true, Some((w0, w1))) = (drive, slot.friction) {
+                law.force[1] -= w0 * delta;
+                law.force[2] -= w1 * delta;
+                law.stiffness[1] -= w0;
+                law.stiffness[2] -= w1;
+            }
+        });
+        if law.in_contact > 0 && mesh.damping != 0.0 {
+            let (_, e_slope) = mesh.ste.value_and_slope(p);
+            let viscous = mesh.damping * (s_rate - e_slope * f);
+            law.force[0] += viscous;
+            law.viscous[0] = viscous;
+            law.damping[0] = mesh.damping;
+        }
+        law
+    }
+
+    /// The switching functions of mesh `n` at `(t, S, Ṡ)`: `δ_j` of every engaged slot (and
+    /// `δ_j + 2b` with backlash), with their rates; none for the linear law.
+    pub fn free_contact_gaps(
+        &self,
+        n: usize,
+        t: f64,
+        s: f64,
+        s_rate: f64,
+        out: &mut Vec<(f64, f64)>,
+    ) {
+        out.clear();
+        let mesh = &self.meshes[n];
+        if mesh.contact == ContactLaw::Linear {
+            return;
+        }
+        let p = mesh.clock.phase_at(t);
+        let f = mesh.clock.mesh_frequency();
+        let clearance = mesh.clearance();
+        self.for_each_free_slot(n, p, f, |slot| {
+            let (delta, rate) = (s - slot.gap, s_rate - slot.gap_rate);
+            out.push((delta, rate));
+            if let ContactLaw::Backlash { .. } = mesh.contact {
+                out.push((delta + clearance, rate));
+            }
+        });
+    }
+}
