@@ -98,9 +98,17 @@ pub fn monodromy(scene: &impl SceneSource) -> Result<Floquet, String> {
                         use `geardyn periodic`".into());
         }
         let period = response_period(&model)?;
-        let exact = model.is_piecewise_lti() && scene.solver().method != MethodChoice::Rk;
-        let y0 = vec![0.0; model.dim()];
-        let mut map = PeriodMap::new(model, scene.solver(), period)?;
+        // The exact transitions whenever the segments are LTI, whatever `solver.method` says
+        // for time runs: they are the closed form of the monodromy.
+        let settings = crate::scene::SolverSettings {
+            method: MethodChoice::Auto,
+            ..scene.solver().clone()
+        };
+        let exact = model.is_piecewise_lti();
+        // From the scene's initial state, as a run starts (the monodromy of a linear system
+        // does not depend on it; the exact propagator's segment partition can).
+        let y0 = sim.y().to_vec();
+        let mut map = PeriodMap::new(model, &settings, period)?;
         let (_, monodromy) = map.eval(&y0)?;
         let multipliers = monodromy.complex_eigenvalues().iter().copied().collect();
         Ok(Floquet {
