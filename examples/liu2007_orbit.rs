@@ -5,11 +5,10 @@
 //! whichever branch attracts it; the report needs the orbit the *sweep* is on (Fig. 2.12's
 //! upper branch at the jump-down, Fig. 4.9's contact losses per response period). So this runs
 //! the warm-start sweep of `geardyn sweep` (`geardyn::analysis::sweep`) over the given range
-//! and direction, then replays that branch with a `Driver` of the same scene — the same
-//! speed changes and the same `advance_to` calls as the sweep (each point's transient periods
-//! and recording) — and at every speed in `--at` restarts the run bookkeeping from the sweep's
-//! state and records a time series of all drivetrain outputs over the sweep's recording
-//! span (`--periods` response periods, `--samples` per mesh period of the first mesh).
+//! and direction, and at every speed in `--at` starts a new run of the same scene at that
+//! speed from the state the sweep recorded (`SweepPoint::recording_state`, at the first mesh's
+//! `recording_phase`), and records a time series of all drivetrain outputs over the sweep's
+//! recording span (`--samples` per mesh period of the first mesh).
 //!
 //! Writes `<out>_<i>.csv` (time, then the outputs of `geardyn simulate`) per target and
 //! `<out>_summary.csv`: per target and mesh the sweep's sampled contact-loss fraction, the
@@ -86,16 +85,16 @@ fn run(args: Args) -> Result<(), String> {
                 .expect("a sweep has points"))
         })
         .collect::<Result<_, String>>()?;
-    let mut at = scene.clone();
-    at.set_input_speed(points[0].speed);
-    let AnySimulation::Train(mut sim) = at.simulation()? else {
-        return Err("a drivetrain scene is needed (outputs of the train model)".into());
+    let names: Vec<String> = match scene.simulation()? {
+        AnySimulation::Train(sim) => sim.output_names().to_vec(),
+        AnySimulation::Pair(_) => {
+            return Err("a drivetrain scene is needed (outputs of the train model)".into())
+        }
     };
-    let names: Vec<String> = sim.output_names().to_vec();
-    let meshes = sim.model().mesh_count();
+    let meshes = points[0].meshes.len();
     let mut summary = String::from("target,speed,mesh_frequency,response_period,periods");
-    for m in 0..meshes {
-        let p = sim.model().mesh_prefix(m);
+    for mesh in &points[0].meshes {
+        let p = &mesh.prefix;
         for c in [
             "sweep_loss",
             "series_loss_exact",
@@ -108,33 +107,30 @@ fn run(args: Args) -> Result<(), String> {
         }
     }
     summary.push('\n');
-    for (i, point) in points.iter().enumerate() {
-        sim.change_model(|model, t| model.set_input_speed(t, point.speed))?;
-        // The sweep's transient: the same advances as `steady_state`.
-        let period = response_period(sim.model())?;
-        let t0 = sim.t();
-        for j in 1..=point.transient_periods {
-            sim.advance_to(t0 + j as f64 * period)
-                .map_err(|e| e.to_string())?;
+    for (target, &i) in targets.iter().enumerate() {
+        let point = &points[i];
+        if point.failure.is_some() {
+            return Err(format!(
+                "the sweep failed at {describe}",
+                describe = describe(point)
+            ));
         }
-        let k = point.response_periods.unwrap_or(1);
-        let record = options.record_periods.div_ceil(k) * k;
+        let mut at = scene.clone();
+        at.set_input_speed(point.speed);
+        let AnySimulation::Train(mut sim) = at.simulation()? else {
+            unreachable!("checked above")
+        };
+        let period = response_period(sim.model())?;
         let f1 = sim.model().mesh_frequency(0);
         let per_response = (period * f1).round().max(1.0) as usize;
-        let t_start = sim.t();
-        let Some(target) = targets.iter().position(|&t| t == i) else {
-            // The sweep's recording.
-            let n = record as usize * per_response * options.samples_per_period as usize;
-            let dt = period / (per_response * options.samples_per_period as usize) as f64;
-            for s in 1..=n {
-                sim.advance_to(t_start + s as f64 * dt)
-                    .map_err(|e| e.to_string())?;
-            }
-            continue;
-        };
+        // The sweep records a periodic response over one period, anything else over
+        // `record_periods`.
+        let record = point.response_periods.unwrap_or(options.record_periods);
+        let t_start = (point.recording_phase - sim.model().mesh_phase(0, 0.0))
+            .rem_euclid(per_response as f64)
+            / f1;
         // A time series from the sweep's state over the sweep's recording span.
-        let y = sim.y().to_vec();
-        sim.set_y(t_start, &y);
+        sim.set_y(t_start, &point.recording_state);
         let per = args.samples as usize;
         let n = record as usize * per_response * per;
         let dt = period / (per_response * per) as f64;

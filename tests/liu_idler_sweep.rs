@@ -138,13 +138,21 @@ fn idler_sweeps_show_both_softening_jumps_and_consistent_contact_loss() {
         jumps.push(a);
     }
 
-    // The upper-branch point just above the mode-1 jump-down, as a time series: a new run of
-    // the scene at that speed with DOP853 at rtol 1e-12 (not the sweep's exact propagator),
-    // set to the sweep's recorded state when its first mesh has the recorded phase, over the
-    // recorded span. Its contact-loss fraction (exact, from the contact events) must equal
-    // the sweep's (sampled at `samples_per_period` per mesh period) within
-    // 1/samples_per_period, and its DTE RMS the sweep's.
+    // The upper-branch point just above the mode-1 jump-down, against a time series.
     let point = down[jumps[0]];
+    check_against_time_series(&scene, point, &options);
+    // On the upper branch the idler–follower mesh (mode 1) loses contact.
+    assert!(point.meshes[1].contact_loss_fraction > 0.2);
+    println!("total: {:.2} s", start.elapsed().as_secs_f64());
+}
+
+/// The sweep point `point` against a time series: a new run of `scene` at its speed with
+/// DOP853 at rtol 1e-12 (not the sweep's exact propagator), set to the sweep's recorded state
+/// when its first mesh has the recorded phase, over the recorded span. Its contact-loss
+/// fraction (exact, from the contact events) must equal the sweep's (sampled at
+/// `samples_per_period` per mesh period) within 1/samples_per_period, and its DTE RMS the
+/// sweep's.
+fn check_against_time_series(scene: &AnyScene, point: &SweepPoint, options: &SweepOptions) {
     assert!(
         point.converged,
         "the upper-branch point must be periodic: {point:?}"
@@ -198,7 +206,29 @@ fn idler_sweeps_show_both_softening_jumps_and_consistent_contact_loss() {
             m + 1
         );
     }
-    // On the upper branch the idler–follower mesh (mode 1) loses contact.
-    assert!(point.meshes[1].contact_loss_fraction > 0.2);
-    println!("total: {:.2} s", start.elapsed().as_secs_f64());
+}
+
+#[test]
+fn shipped_8_dof_idler_upper_branch_matches_a_time_series() {
+    // The shipped 8-DOF idler (compliant bearings) at 100 N·m, swept down from above its
+    // first mesh resonance (linear at 418 rad/s, upper-branch fold near 341 rad/s,
+    // `tests/hb_drivetrain.rs`): at 350 rad/s the down sweep is on the upper branch, with
+    // contact loss, and the time series from its state has the same contact loss.
+    let scene = AnyScene::example("idler_gearset").unwrap();
+    let speeds: Vec<f64> = (0..=40).map(|i| 350.0 + 2.0 * i as f64).collect();
+    let options = SweepOptions::new(speeds, Direction::Down);
+    let points = sweep(&scene, &options, &|_, _| {}).unwrap().points;
+    let point = points.last().unwrap();
+    assert_eq!(point.speed, 350.0);
+    let loss = point
+        .meshes
+        .iter()
+        .map(|m| m.contact_loss_fraction)
+        .fold(0.0, f64::max);
+    println!("idler_gearset at 350 rad/s, down sweep: contact loss {loss:.4}");
+    assert!(
+        loss > 0.1,
+        "the down sweep is on the upper branch: {point:?}"
+    );
+    check_against_time_series(&scene, point, &options);
 }

@@ -16,7 +16,6 @@ use super::shooting::PeriodMap;
 use super::LinearPeriodMap;
 use crate::model::{response_period, AnyScene, Drivetrain, GearPair, SceneSource};
 use crate::scene::{ContactLaw, MethodChoice};
-use crate::solve::HybridSystem;
 use crate::with_drivetrain;
 
 /// Monodromy matrix and Floquet multipliers over one mesh period.
