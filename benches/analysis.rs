@@ -108,7 +108,7 @@ fn bench(name: &str, from: f64, to: f64, transient: u32) {
 
 fn main() {
     bench("spur_pair", 300.0, 600.0, 800);
-    bench("idler_gearset", 150.0, 500.0, 500);
+    bench("idler_gearset", 250.0, 760.0, 500);
 
     let scene = Scene::example("spur_pair").expect("built-in scene");
     let t = Instant::now();
