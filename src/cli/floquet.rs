@@ -104,11 +104,7 @@ pub fn floquet(args: FloquetArgs) -> Result<(), String> {
                 )
             })
             .collect();
-        let multipliers: Vec<String> = floquet
-            .multipliers
-            .iter()
-            .map(|m| format!("[{:e}, {:e}]", m.re, m.im))
-            .collect();
+        let multipliers = multipliers_json(&floquet);
         println!(
             "{{\"scene\": {:?}, \"rpm\": {:e}, \"period\": {:e}, \"equivalent_mass\": {:e}, \
              \"force\": {:e}, \"damping\": {:e}, \"monodromy\": [[{:e}, {:e}], [{:e}, {:e}]], \
@@ -127,7 +123,7 @@ pub fn floquet(args: FloquetArgs) -> Result<(), String> {
             phi.trace(),
             phi.determinant(),
             floquet.spectral_radius(),
-            multipliers.join(", "),
+            multipliers,
             g[0],
             g[1],
             segments.join(", ")
@@ -240,11 +236,7 @@ fn floquet_report(
     let speed_rpm = rpm(scene.input_speed());
     let rho = floquet.spectral_radius();
     if json {
-        let multipliers: Vec<String> = floquet
-            .multipliers
-            .iter()
-            .map(|m| format!("[{:e}, {:e}]", m.re, m.im))
-            .collect();
+        let multipliers = multipliers_json(&floquet);
         println!(
             "{{\"scene\": {:?}, \"rpm\": {:e}, \"period\": {:e}, \"method\": {:?}, \
              \"spectral_radius\": {:e}, \"multipliers\": [{}]}}",
@@ -253,7 +245,7 @@ fn floquet_report(
             floquet.period,
             floquet.method,
             rho,
-            multipliers.join(", ")
+            multipliers
         );
         return Ok(());
     }
@@ -278,4 +270,14 @@ fn floquet_report(
         if rho < 1.0 { "stable" } else { "unstable" }
     );
     Ok(())
+}
+
+/// The multipliers as a JSON array of `[re, im]` pairs.
+fn multipliers_json(floquet: &geardyn::analysis::Floquet) -> String {
+    let pairs: Vec<String> = floquet
+        .multipliers
+        .iter()
+        .map(|m| format!("[{:e}, {:e}]", m.re, m.im))
+        .collect();
+    pairs.join(", ")
 }

@@ -130,6 +130,14 @@ impl CycleTable {
             .saturating_sub(1)
     }
 
+    /// The interval at the shifted phase `u` (any number of cycles): its index and the local
+    /// coordinate `r = frac(u) − start` of its laws.
+    pub fn locate(&self, u: f64) -> (usize, f64) {
+        let s = u - u.floor();
+        let index = self.interval_at(s);
+        (index, s - self.intervals[index].start)
+    }
+
     /// Whether the mode changes inside a cycle (the integrators must stop at the knots).
     pub fn has_stops(&self) -> bool {
         self.intervals.len() > 1

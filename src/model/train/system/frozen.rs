@@ -59,11 +59,8 @@ impl GearTrain {
                     })
                 }
                 Stiffness::Table(table) => {
-                    let u = p + mesh.offset;
-                    let s = u - u.floor();
-                    let index = table.interval_at(s);
+                    let (index, r) = table.locate(p + mesh.offset);
                     let iv = &table.intervals[index];
-                    let r = s - iv.start;
                     for (j, law) in iv.laws.iter().enumerate() {
                         let Some(law) = law else { continue };
                         let k = law.k(r);
