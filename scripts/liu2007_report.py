@@ -706,7 +706,7 @@ def ch2():
     outside = np.ones(len(u), bool)
     for hh in (h1, h2):
         outside &= ~((u.x >= hh["x_lo"]) & (u.x <= hh["x_jump_up"] + hh["step"]))
-    outside &= (u.aperiodic == 0).to_numpy() & (d.aperiodic == 0).to_numpy()
+    outside &= (u.converged == 1).to_numpy() & (d.converged == 1).to_numpy()
     rel = np.abs(rms_max(u) - rms_max(d)) / np.maximum(rms_max(u), rms_max(d))
     worst = int(np.argmax(np.where(outside, rel, 0)))
     row(A2, "Up and down branches agree outside the two hysteresis intervals",
