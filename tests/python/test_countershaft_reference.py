@@ -23,8 +23,9 @@ import subprocess
 from pathlib import Path
 
 import numpy as np
-from scipy.integrate import solve_ivp
 from scipy.linalg import eigh
+
+from contact_ivp import integrate
 
 REPO = Path(__file__).resolve().parents[2]
 Z = {"pinion": 51, "middle1": 72, "middle2": 19, "output": 73}
@@ -87,50 +88,17 @@ def reference(times, speed):
     # The static start of the scene: each mesh at its mean-stiffness static deflection.
     x0 = np.linalg.solve(np.diag(K_MEAN), force)
     y = np.concatenate([x0, [0.0, 0.0]])
-    contact = [True, True]
-    lost = [False, False]
-    out = np.empty((len(times), 2))
-    out[0] = y[:2]
-    k_out = 1
-    t = 0.0
-    for t_break in breaks:
-        while t < t_break:
-            mid = 0.5 * (t + t_break)
-            k = [stiffness(j, phases[j] + freq[j] * mid) for j in range(2)]
+    def rhs_for(mid, contact):
+        k = [stiffness(j, phases[j] + freq[j] * mid) for j in range(2)]
 
-            def rhs(_t, state, k=k):
-                x, v = state[:2], state[2:]
-                f_mesh = np.array([k[j] * x[j] if contact[j] else 0.0 for j in range(2)])
-                return np.concatenate([v, minv @ (force - f_mesh - damping @ v)])
+        def rhs(_t, state):
+            x, v = state[:2], state[2:]
+            f_mesh = np.array([k[j] * x[j] if contact[j] else 0.0 for j in range(2)])
+            return np.concatenate([v, minv @ (force - f_mesh - damping @ v)])
+        return rhs
 
-            events = []
-            for j in range(2):
-                def ev(_t, state, j=j):
-                    return state[j]
-                ev.terminal = True
-                ev.direction = -1.0 if contact[j] else 1.0
-                events.append(ev)
-            # A step limit of 1/100 mesh period: scipy only sees a sign change at a step's
-            # end, so a short dip of a mesh deflection below zero (a brief contact loss, which
-            # geardyn's guard bounds do not miss) must not fit inside one step.
-            sol = solve_ivp(rhs, (t, t_break), y, method="DOP853", rtol=1e-12, atol=1e-20,
-                            events=events, dense_output=True, max_step=0.01 / freq[0])
-            hit = [j for j in range(2) if sol.t_events[j].size > 0 and sol.t_events[j][0] > t]
-            t_stop = min((sol.t_events[j][0] for j in hit), default=t_break)
-            while k_out < len(times) and times[k_out] <= t_stop:
-                out[k_out] = sol.sol(times[k_out])[:2]
-                k_out += 1
-            if hit:
-                j = min(hit, key=lambda i: sol.t_events[i][0])
-                y = sol.y_events[j][0].copy()
-                y[j] = 0.0
-                contact[j] = not contact[j]
-                lost[j] |= not contact[j]
-                t = t_stop
-            else:
-                y = sol.y[:, -1].copy()
-                t = t_break
-    return out, lost
+    # At most 1/100 mesh period per step: a brief contact loss must not hide inside a step.
+    return integrate(times, y, breaks, rhs_for, 2, max_step=0.01 / freq[0])
 
 
 def run(tmp_path, geardyn_bin, speed):

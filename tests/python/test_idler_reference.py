@@ -21,8 +21,9 @@ import subprocess
 
 import numpy as np
 import pytest
-from scipy.integrate import solve_ivp
 from scipy.linalg import eigh
+
+from contact_ivp import integrate
 
 I = [2.62e-3, 3.27e-3, 0.119]
 R = [0.04535, 0.06564, 0.1122]
@@ -126,48 +127,16 @@ def reference(times):
             n += 1
     breaks = sorted(switches) + [t_end]
     y = np.array([force / K_MEAN[0], force / K_MEAN[1], 0.0, 0.0])
-    contact = [True, True]
-    lost = [False, False]
-    out = np.empty((len(times), 2))
-    k_out = 0
-    t = 0.0
-    out[0] = y[:2]
-    k_out = 1
-    for t_break in breaks:
-        while t < t_break:
-            mid = 0.5 * (t + t_break)
-            k = [stiffness(j, phases[j] + fm * mid) for j in range(2)]
+    def rhs_for(mid, contact):
+        k = [stiffness(j, phases[j] + fm * mid) for j in range(2)]
 
-            def rhs(_t, state, k=k):
-                x, v = state[:2], state[2:]
-                f_mesh = np.array([k[j] * x[j] if contact[j] else 0.0 for j in range(2)])
-                return np.concatenate([v, minv @ (force - f_mesh - damping @ v)])
+        def rhs(_t, state):
+            x, v = state[:2], state[2:]
+            f_mesh = np.array([k[j] * x[j] if contact[j] else 0.0 for j in range(2)])
+            return np.concatenate([v, minv @ (force - f_mesh - damping @ v)])
+        return rhs
 
-            events = []
-            for j in range(2):
-                def ev(_t, state, j=j):
-                    return state[j]
-                ev.terminal = True
-                ev.direction = -1.0 if contact[j] else 1.0
-                events.append(ev)
-            sol = solve_ivp(rhs, (t, t_break), y, method="DOP853", rtol=1e-12, atol=1e-20,
-                            events=events, dense_output=True)
-            hit = [j for j in range(2) if sol.t_events[j].size > 0 and sol.t_events[j][0] > t]
-            t_stop = min((sol.t_events[j][0] for j in hit), default=t_break)
-            while k_out < len(times) and times[k_out] <= t_stop:
-                out[k_out] = sol.sol(times[k_out])[:2]
-                k_out += 1
-            if hit:
-                j = min(hit, key=lambda i: sol.t_events[i][0])
-                y = sol.y_events[j][0].copy()
-                y[j] = 0.0
-                contact[j] = not contact[j]
-                lost[j] |= not contact[j]
-                t = t_stop
-            else:
-                y = sol.y[:, -1].copy()
-                t = t_break
-    return out, lost
+    return integrate(times, y, breaks, rhs_for, 2)
 
 
 def test_reference_modes_match_notes():

@@ -1,0 +1,53 @@
+"""Piecewise DOP853 integration of a gear model with unilateral contacts, for the independent
+scipy references (`test_idler_reference.py`, `test_countershaft_reference.py`).
+
+Between known stiffness switches (`breaks`) the right-hand side is smooth; the deflection
+`y[j]` of each contact is a terminal event, and at a contact change the state is put on the
+switching surface (`y[j] = 0`) before the integration restarts with the new contact set.
+"""
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+
+def integrate(times, y, breaks, rhs_for, contacts, max_step=np.inf):
+    """The first `contacts` state components at `times` (from `y` at `times[0] = 0`), and
+    whether each contact was ever lost. `rhs_for(t_mid, contact)` returns the right-hand side
+    of the segment around `t_mid` with the contact flags `contact` (a list, updated here).
+    `max_step` bounds scipy's step: it only sees a sign change at a step's end, so a short dip
+    of a deflection below zero must not fit inside one step."""
+    contact = [True] * contacts
+    lost = [False] * contacts
+    out = np.empty((len(times), contacts))
+    out[0] = y[:contacts]
+    k_out = 1
+    t = 0.0
+    for t_break in breaks:
+        while t < t_break:
+            rhs = rhs_for(0.5 * (t + t_break), contact)
+            events = []
+            for j in range(contacts):
+                def ev(_t, state, j=j):
+                    return state[j]
+                ev.terminal = True
+                ev.direction = -1.0 if contact[j] else 1.0
+                events.append(ev)
+            sol = solve_ivp(rhs, (t, t_break), y, method="DOP853", rtol=1e-12, atol=1e-20,
+                            events=events, dense_output=True, max_step=max_step)
+            hit = [j for j in range(contacts)
+                   if sol.t_events[j].size > 0 and sol.t_events[j][0] > t]
+            t_stop = min((sol.t_events[j][0] for j in hit), default=t_break)
+            while k_out < len(times) and times[k_out] <= t_stop:
+                out[k_out] = sol.sol(times[k_out])[:contacts]
+                k_out += 1
+            if hit:
+                j = min(hit, key=lambda i: sol.t_events[i][0])
+                y = sol.y_events[j][0].copy()
+                y[j] = 0.0
+                contact[j] = not contact[j]
+                lost[j] |= not contact[j]
+                t = t_stop
+            else:
+                y = sol.y[:, -1].copy()
+                t = t_break
+    return out, lost
