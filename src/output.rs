@@ -12,10 +12,11 @@ use std::path::{Path, PathBuf};
 /// Writes `columns` and `rows` (no implicit `time` column) to `path` atomically.
 pub fn write_table<R: IntoIterator<Item = f64>>(
     path: &Path,
-    columns: &[&str],
+    columns: &[impl AsRef<str>],
     rows: impl IntoIterator<Item = R>,
 ) -> Result<(), String> {
-    let mut w = CsvWriter::create(path, columns)?;
+    let columns: Vec<&str> = columns.iter().map(AsRef::as_ref).collect();
+    let mut w = CsvWriter::create(path, &columns)?;
     for row in rows {
         w.row(row)?;
     }

@@ -15,8 +15,8 @@ use pyo3::types::{PyBool, PyByteArray, PyDict, PyFloat, PyInt, PyList, PyString,
 use geardyn::commands;
 use geardyn::model::train::run_train;
 use geardyn::model::AnyScene;
-use geardyn::scene::train::{is_train_file, is_train_text, TrainScene, TRAIN_EXAMPLES};
-use geardyn::scene::{Scene, EXAMPLES};
+use geardyn::scene::train::{is_train_text, TrainScene, TRAIN_EXAMPLES};
+use geardyn::scene::{read_scene_file, scene_file, Scene, EXAMPLES};
 
 create_exception!(
     _geardyn,
@@ -281,16 +281,9 @@ impl PyScene {
     /// Reads a scene file, or the `scene.toml` in a folder (such as `fmu/spur_pair`).
     #[staticmethod]
     fn from_file(path: PathBuf) -> PyResult<PyScene> {
-        // The CLI's order: the format check reads the file first (same message if missing).
-        is_train_file(&path).map_err(|e| err(e.to_string()))?;
-        let file = if path.is_dir() {
-            path.join("scene.toml")
-        } else {
-            path
-        };
-        let text = std::fs::read_to_string(&file)
-            .map_err(|e| err(format!("cannot read scene file '{}': {e}", file.display())))?;
-        let origin = file.display().to_string();
+        // The CLI's reading of a scene argument (same file, same message if it is missing).
+        let file = scene_file(&path);
+        let (text, origin) = read_scene_file(&file).map_err(|e| err(e.to_string()))?;
         PyScene::new(text, origin, Some(file))
     }
 
@@ -508,10 +501,10 @@ type Table<'py> = (Vec<String>, Bound<'py, PyAny>);
 
 fn table<'py>(
     py: Python<'py>,
-    columns: &[&str],
+    columns: &[impl AsRef<str>],
     rows: &[impl AsRef<[f64]>],
 ) -> PyResult<Table<'py>> {
-    let names = columns.iter().map(|c| c.to_string()).collect();
+    let names = columns.iter().map(|c| c.as_ref().to_owned()).collect();
     Ok((names, matrix(py, rows, columns.len())?))
 }
 
@@ -619,7 +612,6 @@ fn sweep<'py>(
     let sweep = py.detach(|| request.run(&s, &|_, _| {})).map_err(err)?;
     let rows: Vec<_> = sweep.points.iter().map(|p| p.row()).collect();
     let columns = sweep.columns();
-    let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
     table(py, &columns, &rows)
 }
 
@@ -642,7 +634,6 @@ fn hb<'py>(
     };
     let branch = py.detach(|| request.run(&s)).map_err(err)?;
     let columns = branch.columns();
-    let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
     table(py, &columns, &branch.rows())
 }
 

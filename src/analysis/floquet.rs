@@ -31,6 +31,16 @@ pub struct Floquet {
     pub method: String,
 }
 
+/// A multiplier as the reports print it: real and imaginary part and modulus.
+pub fn multiplier_line(m: &Complex<f64>) -> String {
+    format!(
+        "  multiplier {:+.12} {:+.12}i  |μ| = {:.12}",
+        m.re,
+        m.im,
+        m.norm()
+    )
+}
+
 impl Floquet {
     /// Largest `|μ|`; the linear response is asymptotically stable when it is below 1.
     pub fn spectral_radius(&self) -> f64 {

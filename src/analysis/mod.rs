@@ -8,7 +8,7 @@ pub mod shooting;
 pub mod sweep;
 
 pub use band::{instability_bands, InstabilityBand};
-pub use floquet::{monodromy, Floquet};
+pub use floquet::{monodromy, multiplier_line, Floquet};
 pub use linear_period::LinearPeriodMap;
 pub use shooting::{period_map, shoot, PeriodicOrbit, ShootingOptions, Stability};
 pub use sweep::{sweep, Direction, MeshResponse, Periodicity, Sweep, SweepOptions, SweepPoint};

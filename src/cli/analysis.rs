@@ -91,7 +91,6 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
     };
     let sweep = request.run(&scene, &progress)?;
     let columns = sweep.columns();
-    let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
     output::write_table(&args.out, &columns, sweep.points.iter().map(|p| p.row()))?;
     if let Some(path) = &args.poincare {
         output::write_table(
@@ -152,7 +151,6 @@ pub fn hb(args: HbArgs) -> Result<(), String> {
     };
     let branch = request.run(&scene)?;
     let columns = branch.columns();
-    let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
     output::write_table(&args.out, &columns, branch.rows())?;
     if let Some(path) = &args.plot {
         let svg = branch.plot(&scene, args.harmonics, args.sweep_points, mesh)?;

@@ -8,7 +8,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use geardyn::analysis::band::{from_rpm, mean_natural_frequency, rpm};
-use geardyn::analysis::{instability_bands, monodromy, LinearPeriodMap};
+use geardyn::analysis::{instability_bands, monodromy, multiplier_line, LinearPeriodMap};
 use geardyn::model::AnyScene;
 
 use super::{load_any_scene, positive};
@@ -144,12 +144,7 @@ pub fn floquet(args: FloquetArgs) -> Result<(), String> {
         phi.determinant()
     );
     for m in &floquet.multipliers {
-        println!(
-            "  multiplier {:+.12} {:+.12}i  |μ| = {:.12}",
-            m.re,
-            m.im,
-            m.norm()
-        );
+        println!("{}", multiplier_line(m));
     }
     // |tr Φ| < 1 + det Φ with det Φ ≤ 1 (Jury test); undamped, det Φ = 1 up to rounding.
     let stable = phi.trace().abs() < 1.0 + phi.determinant() && phi.determinant() <= 1.0 + 1e-9;
@@ -236,7 +231,7 @@ fn floquet_report(
     let speed_rpm = rpm(scene.input_speed());
     let rho = floquet.spectral_radius();
     if json {
-        let multipliers = multipliers_json(&floquet);
+        let multipliers = multipliers_json(floquet);
         println!(
             "{{\"scene\": {:?}, \"rpm\": {:e}, \"period\": {:e}, \"method\": {:?}, \
              \"spectral_radius\": {:e}, \"multipliers\": [{}]}}",
@@ -258,12 +253,7 @@ fn floquet_report(
         floquet.method
     );
     for m in &floquet.multipliers {
-        println!(
-            "  multiplier {:+.12} {:+.12}i  |μ| = {:.12}",
-            m.re,
-            m.im,
-            m.norm()
-        );
+        println!("{}", multiplier_line(m));
     }
     println!(
         "  spectral radius {rho:.12}: {}",

@@ -6,7 +6,9 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::analysis::sweep::{Periodicity, Sweep, SweepPoint};
-use crate::analysis::{self, shoot, Direction, PeriodicOrbit, ShootingOptions, SweepOptions};
+use crate::analysis::{
+    self, multiplier_line, shoot, Direction, PeriodicOrbit, ShootingOptions, SweepOptions,
+};
 use crate::model::{AnyScene, Drivetrain};
 use crate::plot::{Plot, Series};
 use crate::with_drivetrain;
@@ -72,13 +74,7 @@ pub fn periodic_report(scene: &AnyScene, orbit: &PeriodicOrbit) -> Result<String
         }
     });
     for m in &orbit.multipliers {
-        let _ = writeln!(
-            s,
-            "  multiplier {:+.12} {:+.12}i  |μ| = {:.12}",
-            m.re,
-            m.im,
-            m.norm()
-        );
+        let _ = writeln!(s, "{}", multiplier_line(m));
     }
     let _ = writeln!(s, "  stability: {:?}", orbit.stability());
     Ok(s)

@@ -433,10 +433,13 @@ impl SceneSource for TrainScene {
 impl AnyScene {
     /// A scene file, or a folder holding `scene.toml`.
     pub fn from_path(path: &std::path::Path) -> Result<AnyScene, String> {
-        if crate::scene::train::is_train_file(path).map_err(|e| e.to_string())? {
-            TrainScene::from_path(path).map(|s| AnyScene::Train(Box::new(s)))
+        // Read once; the text decides the format.
+        let (text, origin) = crate::scene::read_scene_file(&crate::scene::scene_file(path))
+            .map_err(|e| e.to_string())?;
+        if crate::scene::train::is_train_text(&text) {
+            TrainScene::from_toml_str(&text, &origin).map(|s| AnyScene::Train(Box::new(s)))
         } else {
-            Scene::from_path(path).map(|s| AnyScene::Pair(Box::new(s)))
+            Scene::from_toml_str(&text, &origin).map(|s| AnyScene::Pair(Box::new(s)))
         }
         .map_err(|e| e.to_string())
     }

@@ -219,7 +219,7 @@ pub(crate) fn parse<Spec: serde::de::DeserializeOwned, T>(
 }
 
 /// A scene argument as a file: the path itself, or the `scene.toml` inside a folder.
-pub(crate) fn scene_file(path: &Path) -> PathBuf {
+pub fn scene_file(path: &Path) -> PathBuf {
     if path.is_dir() {
         path.join("scene.toml")
     } else {
@@ -228,7 +228,7 @@ pub(crate) fn scene_file(path: &Path) -> PathBuf {
 }
 
 /// The text of a scene file and its name for messages.
-pub(crate) fn read_scene_file(file: &Path) -> Result<(String, String), SceneError> {
+pub fn read_scene_file(file: &Path) -> Result<(String, String), SceneError> {
     let text = std::fs::read_to_string(file)
         .map_err(|e| SceneError(format!("cannot read scene file '{}': {e}", file.display())))?;
     Ok((text, file.display().to_string()))
