@@ -9,6 +9,7 @@ pub mod modes;
 pub mod simulate;
 pub mod steady;
 pub mod stiffness;
+pub mod time_plot;
 
 /// A finite, positive command-line number; `name` is the option without its dashes.
 pub fn positive(name: &str, v: f64) -> Result<f64, String> {
