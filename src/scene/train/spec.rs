@@ -137,7 +137,7 @@ pub struct TrainMeshSpec {
     pub initial_phase: Option<f64>,
     /// Mesh phasing φ relative to the first mesh (meshes 2, 3, …), cycles of this mesh.
     pub phase: Option<f64>,
-    /// Operating pressure angle, rad (needed with translational DOFs).
+    /// Operating pressure angle, degrees (needed with translational DOFs).
     pub pressure_angle: Option<f64>,
     /// Direction of the centre line from the pinion's to the gear's centre, rad.
     pub centre_angle: Option<f64>,

@@ -514,17 +514,11 @@ fn mesh(
 
     let translations = gp.bearing.is_some() || gg.bearing.is_some();
     let pressure_angle = match m.pressure_angle {
-        Some(a) if a.is_finite() && a > 0.0 && a < std::f64::consts::FRAC_PI_2 => a,
-        Some(a) => {
-            return err(format!(
-                "{} = {a}: must lie in (0, π/2) rad",
-                f("pressure_angle")
-            ))
-        }
+        Some(deg) => pressure_angle(&f("pressure_angle"), deg)?,
         None if translations => {
             return err(format!(
                 "{}: missing; gear {:?} or {:?} has translational DOFs, so the line of action \
-                 needs the operating pressure angle (rad)",
+                 needs the operating pressure angle (degrees)",
                 f("pressure_angle"),
                 gp.name,
                 gg.name
@@ -602,6 +596,29 @@ fn mesh(
     })
 }
 
+/// Smallest operating pressure angle accepted, degrees. Real spur and helical stages run at
+/// 14.5°–35°; a value below this is almost surely an angle in radians from a scene written
+/// before `pressure_angle` changed to degrees (0.349 rad = 20°).
+const MIN_PRESSURE_ANGLE_DEG: f64 = 5.0;
+
+/// A mesh's operating pressure angle, given in degrees (as in the gears file), in radians.
+fn pressure_angle(field: &str, deg: f64) -> Result<f64> {
+    if deg.is_finite() && deg > 0.0 && deg < MIN_PRESSURE_ANGLE_DEG {
+        return err(format!(
+            "{field} = {deg}: pressure angles are in degrees (as in the gears file); this looks \
+             like an angle in radians ({deg} rad = {:.4}°), write pressure_angle = {:.4}",
+            deg.to_degrees(),
+            deg.to_degrees()
+        ));
+    }
+    if !(deg.is_finite() && (MIN_PRESSURE_ANGLE_DEG..90.0).contains(&deg)) {
+        return err(format!(
+            "{field} = {deg}: must lie in [{MIN_PRESSURE_ANGLE_DEG}, 90) degrees"
+        ));
+    }
+    Ok(deg.to_radians())
+}
+
 /// The helical pair of `kind = "helical"` (geometry checks by [`HelicalGeometry::new`]).
 fn helical_pair(
     field: &str,
@@ -642,8 +659,9 @@ fn check_helical(
     }
     if pressure_angle != 0.0 && (pressure_angle - h.geometry.pressure_angle).abs() > 1e-12 {
         return err(format!(
-            "{field}.geometry.transverse_pressure_angle: {} rad, but the mesh's pressure_angle = {pressure_angle}",
-            h.geometry.pressure_angle
+            "{field}.geometry.transverse_pressure_angle: {}°, but the mesh's pressure_angle = {}°",
+            h.geometry.pressure_angle.to_degrees(),
+            pressure_angle.to_degrees()
         ));
     }
     Ok(())
