@@ -87,11 +87,12 @@ impl Default for ModelSpec {
 pub struct TrainGearSpec {
     pub name: String,
     pub teeth: i64,
-    /// Base-circle radius, m.
-    pub base_radius: f64,
-    /// Polar moment of inertia, kg·m².
-    pub inertia: f64,
-    /// Mass, kg (needed when the gear has translational DOFs).
+    /// Base-circle radius, m (default: from a `geometry` mesh stiffness).
+    pub base_radius: Option<f64>,
+    /// Polar moment of inertia, kg·m² (default: from a `geometry` mesh stiffness with a
+    /// density).
+    pub inertia: Option<f64>,
+    /// Mass, kg (needed when the gear has translational DOFs; default as `inertia`).
     pub mass: Option<f64>,
     /// Bearing stiffness `[k_x, k_y]`, N/m: the gear gets translational DOFs.
     pub bearing_stiffness: Option<[f64; 2]>,
