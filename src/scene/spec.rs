@@ -31,10 +31,11 @@ pub struct SceneSpec {
 pub struct GearSpec {
     pub name: String,
     pub teeth: i64,
-    /// Base-circle radius, m.
-    pub base_radius: f64,
-    /// Polar mass moment of inertia, kg·m².
-    pub inertia: f64,
+    /// Base-circle radius, m (default: from a `geometry` mesh stiffness).
+    pub base_radius: Option<f64>,
+    /// Polar mass moment of inertia, kg·m² (default: from a `geometry` mesh stiffness with a
+    /// density).
+    pub inertia: Option<f64>,
 }
 
 /// The mesh between the two gears.

@@ -364,7 +364,8 @@ pub struct TrainMesh {
     pub initial_phase: f64,
     /// Mesh phasing φ relative to the first mesh, cycles of this mesh (0 for the first).
     pub phase: f64,
-    /// Operating pressure angle, rad (0 when no translation is coupled).
+    /// Operating pressure angle, rad (0 when no translation is coupled; the scene key is in
+    /// degrees).
     pub pressure_angle: f64,
     /// Centre-line direction from pinion to gear, rad.
     pub centre_angle: f64,

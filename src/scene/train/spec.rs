@@ -87,11 +87,12 @@ impl Default for ModelSpec {
 pub struct TrainGearSpec {
     pub name: String,
     pub teeth: i64,
-    /// Base-circle radius, m.
-    pub base_radius: f64,
-    /// Polar moment of inertia, kg·m².
-    pub inertia: f64,
-    /// Mass, kg (needed when the gear has translational DOFs).
+    /// Base-circle radius, m (default: from a `geometry` mesh stiffness).
+    pub base_radius: Option<f64>,
+    /// Polar moment of inertia, kg·m² (default: from a `geometry` mesh stiffness with a
+    /// density).
+    pub inertia: Option<f64>,
+    /// Mass, kg (needed when the gear has translational DOFs; default as `inertia`).
     pub mass: Option<f64>,
     /// Bearing stiffness `[k_x, k_y]`, N/m: the gear gets translational DOFs.
     pub bearing_stiffness: Option<[f64; 2]>,
@@ -137,7 +138,7 @@ pub struct TrainMeshSpec {
     pub initial_phase: Option<f64>,
     /// Mesh phasing φ relative to the first mesh (meshes 2, 3, …), cycles of this mesh.
     pub phase: Option<f64>,
-    /// Operating pressure angle, rad (needed with translational DOFs).
+    /// Operating pressure angle, degrees (needed with translational DOFs).
     pub pressure_angle: Option<f64>,
     /// Direction of the centre line from the pinion's to the gear's centre, rad.
     pub centre_angle: Option<f64>,
