@@ -8,7 +8,7 @@ use std::f64::consts::TAU;
 use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
 use super::{HbMesh, HbOptions, HbSolution};
-use crate::model::drivetrain::response_period_in_mesh_periods;
+use crate::model::drivetrain::{response_frequencies, response_period_in_mesh_periods};
 use crate::model::{Drivetrain, MeshLaw};
 use crate::scene::SolverSettings;
 use crate::simulation::Driver;
@@ -225,7 +225,7 @@ impl<M: Drivetrain> Problem<M> {
                 model.input_speed()
             ));
         }
-        let k_resp = response_period_in_mesh_periods(&freqs)?;
+        let k_resp = response_period_in_mesh_periods(&response_frequencies(&model))?;
         let mesh_periods = k_resp * options.subharmonic as u64;
         let period = mesh_periods as f64 / freqs[0];
         let f = 1.0 / period;
