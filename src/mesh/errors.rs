@@ -2,12 +2,14 @@
 //! excitation along its line of action (`docs/errors.md`).
 //!
 //! Both enter the mesh force `k(S − e(p) − …)` as a part of the static transmission error `e`,
-//! the classical displacement-excitation treatment of gear errors (Özgüven & Houser 1988, JSV
-//! 121:383, "loaded static transmission error" as excitation; Inalpolat & Kahraman 2010, JSV
-//! 329:371, eqs. 1–3: an eccentric gear adds `e_g sin(Ω_g t + φ_g)` along the line of action,
-//! a pitch error a piecewise-constant term held while the tooth is in mesh). Neither changes
+//! the displacement-excitation treatment of gear errors reviewed by Özgüven & Houser (1988,
+//! JSV 121(3):383–411) and used for runout and pitch errors by Inalpolat & Kahraman (2009, JSV
+//! 323:677–696; 2010, JSV 329:371–393): an eccentric gear adds a once-per-revolution term along
+//! the line of action, a pitch error a piecewise-constant term held while the tooth is in
+//! mesh. The papers are not in `reference/`: the kinematics below are derived here from the
+//! drivetrain's own translation coupling (`docs/errors.md`), not copied. Neither term changes
 //! the mesh stiffness (no amplitude modulation of `k`) nor the mesh position (no phase
-//! modulation of `k`); both are documented limitations.
+//! modulation of `k`): documented limitations.
 //!
 //! - **Runout**: the geometric centre of gear `g` sits at `w_g = A(cos ψ, sin ψ)` from its
 //!   rotation axis, `ψ = σ_g θ_g + φ_g` with `θ_g` the nominal rotation since `t = 0` and `σ_g`

@@ -260,6 +260,12 @@ impl<M: Drivetrain> Problem<M> {
             directions.extend(dirs);
             bases.push(rounded as usize / options.subharmonic as usize);
         }
+        // Gear errors force at the revolution frequencies of their gears (`docs/errors.md`):
+        // those are base orders too, or the basis would miss the shaft orders and sidebands.
+        for f_rev in model.error_frequencies() {
+            let cycles = (f_rev * period).round() as usize;
+            bases.push(cycles / options.subharmonic as usize);
+        }
         let v = DMatrix::from_fn(m, directions.len(), |i, k| directions[k][i]);
         let lin = model.linear_part();
         let (mut stiffness, mut damping) = (lin.stiffness, lin.damping);

@@ -496,9 +496,22 @@ pub fn is_train_text(text: &str) -> bool {
                 || table.contains_key("shaft")
                 || table.contains_key("model")
                 || has_gear_errors(&table)
+                || has_pair_features(&table)
         }
         Err(_) => false,
     }
+}
+
+/// Whether the one `[mesh]` table uses per-tooth-pair features (`model = "pairs"`, pair
+/// stiffness, tip relief, gap tables, tooth friction): a single-mesh scene that does is run as
+/// its one-mesh drivetrain, which has them (Liu 2007 Model-1; `docs/errors.md`).
+fn has_pair_features(table: &toml::Table) -> bool {
+    let Some(toml::Value::Table(mesh)) = table.get("mesh") else {
+        return false;
+    };
+    ["model", "pairs", "tip_relief", "gaps", "friction"]
+        .iter()
+        .any(|k| mesh.contains_key(*k))
 }
 
 /// Whether a `[[gear]]` carries manufacturing errors that are not all zero: a single-mesh
