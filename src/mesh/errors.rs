@@ -45,7 +45,7 @@ impl GearErrors {
     /// gear is assembled without an error term, so its results are bit-identical to a gear
     /// without the keys.
     pub fn is_zero(&self) -> bool {
-        self.runout.map_or(true, |r| r.amplitude == 0.0)
+        self.runout.is_none_or(|r| r.amplitude == 0.0)
             && self.cumulative_pitch.iter().all(|&f| f == 0.0)
     }
 }
