@@ -36,6 +36,11 @@ pub struct GearSpec {
     /// Polar mass moment of inertia, kg·m² (default: from a `geometry` mesh stiffness with a
     /// density).
     pub inertia: Option<f64>,
+    /// Manufacturing errors (`docs/errors.md`); non-zero ones make the scene run as its
+    /// one-mesh drivetrain (`crate::scene::train::is_train_text`).
+    pub runout: Option<crate::scene::train::spec::RunoutSpec>,
+    pub pitch_errors: Option<Vec<f64>>,
+    pub cumulative_pitch_errors: Option<Vec<f64>>,
 }
 
 /// The mesh between the two gears.

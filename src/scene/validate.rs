@@ -186,6 +186,25 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
                 derived.map(|d| (d, d.inertia)),
             )?,
         };
+        let errors = crate::scene::train::validate::gear_errors(
+            &field,
+            &g.name,
+            gear.teeth,
+            crate::scene::train::validate::ErrorKeys {
+                runout: &g.runout,
+                pitch_errors: &g.pitch_errors,
+                cumulative_pitch_errors: &g.cumulative_pitch_errors,
+            },
+        )?;
+        if !errors.is_zero() {
+            // Only a caller that bypasses the format detection gets here.
+            return err(format!(
+                "{}: gear {:?} has non-zero runout or pitch errors, which the drivetrain kernel \
+                 carries: read the scene as a drivetrain (geardyn does so for every command)",
+                field("runout"),
+                g.name
+            ));
+        }
         gear_compliance(&format!("gear[{i}]"), gear.base_radius, gear.inertia)?;
         gears.push(gear);
     }

@@ -104,6 +104,22 @@ pub struct TrainGearSpec {
     /// Torsional damping to ground, N·m·s/rad.
     #[serde(default)]
     pub ground_damping: f64,
+    /// Runout (eccentricity) of the gear (`docs/errors.md`).
+    pub runout: Option<RunoutSpec>,
+    /// Individual (single) pitch deviations, one per tooth, m (`docs/errors.md`).
+    pub pitch_errors: Option<Vec<f64>>,
+    /// Cumulative pitch deviations, one per tooth, m (instead of `pitch_errors`).
+    pub cumulative_pitch_errors: Option<Vec<f64>>,
+}
+
+/// `runout = { amplitude = …, phase = … }`: eccentricity of a gear's geometric centre, m, and
+/// its direction at t = 0 in the scene frame, rad.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunoutSpec {
+    pub amplitude: f64,
+    #[serde(default)]
+    pub phase: f64,
 }
 
 /// A shaft between two coaxial gears.

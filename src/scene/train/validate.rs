@@ -156,6 +156,16 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
             bearing,
             ground_stiffness: non_negative(&f("ground_stiffness"), g.ground_stiffness)?,
             ground_damping: non_negative(&f("ground_damping"), g.ground_damping)?,
+            errors: gear_errors(
+                &f,
+                &g.name,
+                teeth,
+                ErrorKeys {
+                    runout: &g.runout,
+                    pitch_errors: &g.pitch_errors,
+                    cumulative_pitch_errors: &g.cumulative_pitch_errors,
+                },
+            )?,
         });
         let gear = &gears[gears.len() - 1];
         crate::scene::validate::gear_compliance(
@@ -235,6 +245,7 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
             ));
         }
     }
+    errors_geometry(&gears, &mesh_specs)?;
     for (i, m) in meshes.iter().enumerate() {
         if m.name.is_empty() || !identifier(&m.name) {
             return err(format!(
@@ -1090,6 +1101,121 @@ fn mass_spread(gears: &[TrainGear]) -> Result<()> {
                  {l:e} to {h:e} kg, a ratio above {MAX_MASS_SPREAD:e}; the rigid-body rotation \
                  cannot be separated from the elastic modes in double precision"
             ));
+        }
+    }
+    Ok(())
+}
+
+/// The error keys of a `[[gear]]`, in either scene format.
+pub(crate) struct ErrorKeys<'a> {
+    pub runout: &'a Option<super::spec::RunoutSpec>,
+    pub pitch_errors: &'a Option<Vec<f64>>,
+    pub cumulative_pitch_errors: &'a Option<Vec<f64>>,
+}
+
+/// Runout and pitch tables of a gear (`docs/errors.md`): finite values, a non-negative runout
+/// amplitude, one pitch value per tooth, and one pitch key only.
+pub(crate) fn gear_errors(
+    f: &dyn Fn(&str) -> String,
+    name: &str,
+    teeth: u32,
+    g: ErrorKeys,
+) -> Result<crate::mesh::errors::GearErrors> {
+    use crate::mesh::errors::{cumulative_from_individual, GearErrors, Runout};
+    let runout = match g.runout {
+        Some(r) => {
+            let amplitude = r.amplitude;
+            if !(amplitude.is_finite() && amplitude >= 0.0) {
+                return err(format!(
+                    "{}.amplitude = {amplitude}: the runout (eccentricity) amplitude must be a \
+                     finite number >= 0 in m; give its direction with runout.phase",
+                    f("runout")
+                ));
+            }
+            Some(Runout {
+                amplitude,
+                phase: finite(&format!("{}.phase", f("runout")), r.phase)?,
+            })
+        }
+        None => None,
+    };
+    let table = |key: &str, values: &[f64]| -> Result<()> {
+        if values.len() != teeth as usize {
+            return err(format!(
+                "{} has {} values: a pitch table needs one value per tooth, {teeth} for gear {:?}",
+                f(key),
+                values.len(),
+                name
+            ));
+        }
+        for (i, &v) in values.iter().enumerate() {
+            finite(&format!("{}[{i}]", f(key)), v)?;
+        }
+        Ok(())
+    };
+    let cumulative_pitch = match (g.pitch_errors, g.cumulative_pitch_errors) {
+        (Some(_), Some(_)) => {
+            return err(format!(
+                "{} and {}: give one of them (the cumulative table is the running sum of the \
+                 individual one)",
+                f("pitch_errors"),
+                f("cumulative_pitch_errors")
+            ))
+        }
+        (Some(individual), None) => {
+            table("pitch_errors", individual)?;
+            let cumulative = cumulative_from_individual(individual);
+            // Around a whole gear the single pitches add up to the circumference: their
+            // deviations sum to zero (ISO 1328-1), else the last tooth would not close on the first.
+            let sum = cumulative[cumulative.len() - 1];
+            let scale: f64 = individual.iter().map(|v| v.abs()).sum();
+            if sum.abs() > 1e-9 * scale {
+                return err(format!(
+                    "{}: the individual pitch deviations sum to {sum:e} m, not 0: around the \
+                     gear they must close (or give cumulative_pitch_errors)",
+                    f("pitch_errors")
+                ));
+            }
+            cumulative
+        }
+        (None, Some(cumulative)) => {
+            table("cumulative_pitch_errors", cumulative)?;
+            cumulative.clone()
+        }
+        (None, None) => Vec::new(),
+    };
+    Ok(GearErrors {
+        runout,
+        cumulative_pitch,
+    })
+}
+
+/// A gear with errors in several meshes sees them at different places around its rim: the
+/// runout phase and the tooth in mesh follow from the lines of action, so each of its meshes
+/// must give `centre_angle` and `pressure_angle` (`docs/errors.md`).
+fn errors_geometry(gears: &[TrainGear], meshes: &[TrainMeshSpec]) -> Result<()> {
+    for g in gears.iter().filter(|g| !g.errors.is_zero()) {
+        let mine: Vec<(usize, &TrainMeshSpec)> = meshes
+            .iter()
+            .enumerate()
+            .filter(|(_, m)| m.pinion == g.name || m.gear == g.name)
+            .collect();
+        if mine.len() < 2 {
+            continue;
+        }
+        for (i, m) in mine {
+            for (key, given) in [
+                ("centre_angle", m.centre_angle.is_some()),
+                ("pressure_angle", m.pressure_angle.is_some()),
+            ] {
+                if !given {
+                    return err(format!(
+                        "mesh[{i}].{key}: missing; gear {:?} has runout or pitch errors and takes \
+                         part in several meshes, so where each mesh sits around it must be given",
+                        g.name
+                    ));
+                }
+            }
         }
     }
     Ok(())
