@@ -274,7 +274,7 @@ pinion = "pinion"
 gear = "idler"
 contact = "linear"
 centre_angle = 0.0
-pressure_angle = 0.35
+pressure_angle = 20.0
 [mesh.stiffness]
 kind = "constant"
 value = 3e8
@@ -282,7 +282,7 @@ value = 3e8
 pinion = "idler"
 gear = "gear"
 contact = "linear"
-pressure_angle = 0.35
+pressure_angle = 20.0
 [mesh.stiffness]
 kind = "constant"
 value = 3e8

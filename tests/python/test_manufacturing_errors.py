@@ -226,10 +226,10 @@ def idler_scene(stop, h):
                         f'cumulative_pitch_errors = [{pitch}]')
     text = text.replace('pinion = "pinion"\ngear = "idler"',
                         f'pinion = "pinion"\ngear = "idler"\ncentre_angle = {CENTRE[0]}\n'
-                        f'pressure_angle = {PRESSURE}')
+                        f'pressure_angle = {math.degrees(PRESSURE)!r}')  # degrees
     text = text.replace('pinion = "idler"\ngear = "gear"',
                         f'pinion = "idler"\ngear = "gear"\ncentre_angle = {CENTRE[1]}\n'
-                        f'pressure_angle = {PRESSURE}')
+                        f'pressure_angle = {math.degrees(PRESSURE)!r}')  # degrees
     assert text.count("runout") == 1 and text.count("centre_angle") == 2
     return text
 
