@@ -8,7 +8,7 @@
 
 use std::time::Instant;
 
-use geardyn::analysis::band::from_rpm;
+use geardyn::units::from_rpm;
 use geardyn::analysis::LinearPeriodMap;
 use geardyn::scene::Scene;
 use geardyn::simulation::Simulation;
