@@ -153,7 +153,11 @@ pub fn significant(v: f64) -> String {
 
 /// A speed in rad/s written in both units: `471.239 rad/s (4500 rpm)`.
 pub fn both_units(speed: f64) -> String {
-    format!("{} rad/s ({} rpm)", significant(speed), significant(rpm(speed)))
+    format!(
+        "{} rad/s ({} rpm)",
+        significant(speed),
+        significant(rpm(speed))
+    )
 }
 
 /// The unit of an output column (CSV header, `--units`), by its name: the exact name, else
@@ -174,23 +178,38 @@ fn quantity_unit(q: &str) -> Option<&'static str> {
     Some(match q {
         "time" => "s",
         // Displacements along the line of action and bearing translations.
-        "dte" | "dte_mean" | "dte_rms" | "dte_peak_to_peak" | "a1" | "a2" | "a3"
-        | "deflection" | "static_deflection" | "x" | "y" | "z" => "m",
+        "dte" | "dte_mean" | "dte_rms" | "dte_peak_to_peak" | "a1" | "a2" | "a3" | "deflection"
+        | "static_deflection" | "x" | "y" | "z" => "m",
         "dte_rate" => "m/s",
+        "pinion_angle" => "rad",
         "mesh_force" | "force" | "friction_force" | "peak_force" | "force_rms" => "N",
         "mesh_stiffness" | "stiffness" => "N/m",
         "mesh_phase" | "phase" | "separation_phase" => "cycle",
         "speed" => "rad/s",
         "speed_rpm" => "rpm",
         "mesh_frequency" => "Hz",
-        "contact_state" | "pairs_in_contact" | "contact_loss_fraction" | "dynamic_factor"
-        | "direction" | "converged" | "response_periods" | "residual" | "transient_periods"
-        | "aperiodic" | "spectral_radius" | "stable" | "fold" | "mesh" | "sample" => "-",
-        // Per tooth-pair force columns `pair<j>_force`.
-        _ if q.strip_prefix("pair").is_some_and(|r| {
-            r.strip_suffix("_force")
-                .is_some_and(|j| !j.is_empty() && j.bytes().all(|b| b.is_ascii_digit()))
-        }) =>
+        "contact_state"
+        | "pairs_in_contact"
+        | "contact_loss_fraction"
+        | "dynamic_factor"
+        | "direction"
+        | "converged"
+        | "response_periods"
+        | "residual"
+        | "transient_periods"
+        | "aperiodic"
+        | "spectral_radius"
+        | "stable"
+        | "fold"
+        | "mesh"
+        | "sample"
+        | "pairs_loaded" => "-",
+        // Per tooth-pair forces: `pair<j>_force` (drivetrains), `force_<i>` (stiffness).
+        _ if q
+            .strip_prefix("pair")
+            .and_then(|r| r.strip_suffix("_force"))
+            .or_else(|| q.strip_prefix("force_"))
+            .is_some_and(|j| !j.is_empty() && j.bytes().all(|b| b.is_ascii_digit())) =>
         {
             "N"
         }
@@ -270,12 +289,27 @@ mod tests {
 
     #[test]
     fn column_units() {
-        let cols = ["time", "dte", "mesh1_force", "mesh1_pair0_force", "idler_x", "speed_rpm"];
+        let cols = [
+            "time",
+            "dte",
+            "mesh1_force",
+            "mesh1_pair0_force",
+            "idler_x",
+            "speed_rpm",
+        ];
         assert_eq!(
             with_units(&cols).unwrap(),
-            ["time [s]", "dte [m]", "mesh1_force [N]", "mesh1_pair0_force [N]", "idler_x [m]",
-             "speed_rpm [rpm]"]
+            [
+                "time [s]",
+                "dte [m]",
+                "mesh1_force [N]",
+                "mesh1_pair0_force [N]",
+                "idler_x [m]",
+                "speed_rpm [rpm]"
+            ]
         );
-        assert!(with_units(&["mesh1_bogus"]).unwrap_err().contains("'mesh1_bogus'"));
+        assert!(with_units(&["mesh1_bogus"])
+            .unwrap_err()
+            .contains("'mesh1_bogus'"));
     }
 }

@@ -4,11 +4,11 @@
 //! same model through the ordinary simulation path, and the paper's stability statement
 //! (μ = 0.2: stable at 18,000 rpm, unstable at 19,000 rpm).
 
-use geardyn::units::{from_rpm, rpm};
 use geardyn::analysis::{instability_bands, LinearPeriodMap};
 use geardyn::mesh::helical::{HelicalGeometry, HelicalPairSpec};
 use geardyn::scene::Scene;
 use geardyn::simulation::Simulation;
+use geardyn::units::{from_rpm, rpm};
 
 const SCENE: &str = include_str!("../fmu/helical_pair_friction/scene.toml");
 const INCH: f64 = 0.0254;

@@ -42,7 +42,10 @@ fn scenes(f_mesh: f64) -> [AnyScene; 2] {
         "",
     );
     let train = TrainScene::from_pair(&pair);
-    [AnyScene::Pair(Box::new(pair)), AnyScene::Train(Box::new(train))]
+    [
+        AnyScene::Pair(Box::new(pair)),
+        AnyScene::Train(Box::new(train)),
+    ]
 }
 
 /// Checks one mesh's statistics against the closed form. The RMS of a sinusoid sampled evenly
@@ -64,7 +67,10 @@ fn check(label: &str, f_mesh: f64, peak: f64, rms: f64, factor: f64) {
         "{label}: peak {peak} vs {}",
         F + amp
     );
-    assert!((factor - peak / F).abs() < 1e-12 * factor, "{label}: {factor}");
+    assert!(
+        (factor - peak / F).abs() < 1e-12 * factor,
+        "{label}: {factor}"
+    );
 }
 
 #[test]

@@ -65,6 +65,9 @@ pub struct SweepArgs {
     /// over the recorded stretch) to this CSV.
     #[arg(long)]
     poincare: Option<PathBuf>,
+    /// Write each column's unit into the CSV header, `dte [m]` (default: bare names).
+    #[arg(long)]
+    units: bool,
 }
 
 pub fn periodic(args: PeriodicArgs) -> Result<(), String> {
@@ -103,12 +106,18 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
     };
     let sweep = request.run(&scene, &progress)?;
     let columns = sweep.columns();
-    output::write_table(&args.out, &columns, sweep.points.iter().map(|p| p.row()))?;
+    output::write_table_with_units(
+        &args.out,
+        &columns,
+        sweep.points.iter().map(|p| p.row()),
+        args.units,
+    )?;
     if let Some(path) = &args.poincare {
-        output::write_table(
+        output::write_table_with_units(
             path,
             &commands::POINCARE_COLUMNS,
             commands::poincare_rows(&sweep),
+            args.units,
         )?;
     }
     if let Some(path) = &args.plot {
@@ -151,6 +160,9 @@ pub struct HbArgs {
     /// Also run an up and a down sweep with this many speeds for the plot.
     #[arg(long, default_value_t = 0)]
     pub sweep_points: usize,
+    /// Write each column's unit into the CSV header, `dte_rms [m]` (default: bare names).
+    #[arg(long)]
+    pub units: bool,
 }
 
 /// `geardyn hb`: harmonic balance with pseudo-arclength continuation and stability.
@@ -170,7 +182,7 @@ pub fn hb(args: HbArgs) -> Result<(), String> {
     );
     let branch = request.run(&scene)?;
     let columns = branch.columns();
-    output::write_table(&args.out, &columns, branch.rows())?;
+    output::write_table_with_units(&args.out, &columns, branch.rows(), args.units)?;
     if let Some(path) = &args.plot {
         let svg = branch.plot(&scene, args.harmonics, args.sweep_points, mesh)?;
         output::write_text(path, &svg)?;

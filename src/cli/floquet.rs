@@ -8,9 +8,9 @@ use std::path::PathBuf;
 use clap::Args;
 
 use geardyn::analysis::band::mean_natural_frequency;
-use geardyn::units::{both_units, parse_speed, parse_speed_interval, rpm, significant};
 use geardyn::analysis::{instability_bands, monodromy, multiplier_line, LinearPeriodMap};
 use geardyn::model::AnyScene;
+use geardyn::units::{both_units, parse_speed, parse_speed_interval, rpm, significant};
 
 use super::load_any_scene;
 

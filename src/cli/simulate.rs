@@ -48,6 +48,9 @@ pub struct SimulateArgs {
     /// Do not print the summary.
     #[arg(long)]
     quiet: bool,
+    /// Write each column's unit into the CSV header, `dte [m]` (default: bare names).
+    #[arg(long)]
+    units: bool,
 }
 
 pub fn run(args: SimulateArgs) -> Result<(), String> {
@@ -73,6 +76,7 @@ pub fn run(args: SimulateArgs) -> Result<(), String> {
             max_mode_periods: periods,
         },
         progress: !args.quiet,
+        header_units: args.units,
     };
     let report = simulate(scene, &opts, &args.out)?;
     if !args.quiet {
