@@ -162,7 +162,8 @@ pub fn both_units(speed: f64) -> String {
 
 /// The unit of an output column (CSV header, `--units`), by its name: the exact name, else
 /// the name without its leading `<prefix>_` parts (`mesh1_force` → `force`,
-/// `idler_x` → `x`). `-` is dimensionless; phases are fractions of a mesh cycle.
+/// `idler_x` → `x`). `1` is dimensionless (the SI unit one, as CF/UDUNITS write it, so the
+/// Python module's xarray attributes parse); phases are fractions of a mesh cycle.
 pub fn column_unit(name: &str) -> Option<&'static str> {
     let mut rest = name;
     loop {
@@ -184,7 +185,7 @@ fn quantity_unit(q: &str) -> Option<&'static str> {
         "pinion_angle" => "rad",
         "mesh_force" | "force" | "friction_force" | "peak_force" | "force_rms" => "N",
         "mesh_stiffness" | "stiffness" => "N/m",
-        "mesh_phase" | "phase" | "separation_phase" => "cycle",
+        "mesh_phase" | "phase" | "separation_phase" => "cycles",
         "speed" => "rad/s",
         "speed_rpm" => "rpm",
         "mesh_frequency" => "Hz",
@@ -203,7 +204,7 @@ fn quantity_unit(q: &str) -> Option<&'static str> {
         | "fold"
         | "mesh"
         | "sample"
-        | "pairs_loaded" => "-",
+        | "pairs_loaded" => "1",
         // Per tooth-pair forces: `pair<j>_force` (drivetrains), `force_<i>` (stiffness).
         _ if q
             .strip_prefix("pair")

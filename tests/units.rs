@@ -313,11 +313,11 @@ fn units_header_only_on_request() {
     ]);
     let text = std::fs::read_to_string(&out).unwrap();
     assert!(
-        text.starts_with("direction [-],speed [rad/s],speed_rpm [rpm],mesh_frequency [Hz],"),
+        text.starts_with("direction [1],speed [rad/s],speed_rpm [rpm],mesh_frequency [Hz],"),
         "{text}"
     );
     assert!(
-        text.contains("peak_force [N],force_rms [N],dynamic_factor [-]"),
+        text.contains("peak_force [N],force_rms [N],dynamic_factor [1]"),
         "{text}"
     );
     std::fs::remove_dir_all(&dir).unwrap();

@@ -91,7 +91,8 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
         max_periods: args.max_periods,
         poincare: args.poincare.is_some(),
     };
-    let speeds = request.speeds()?;
+    let options = request.options()?;
+    let speeds = &options.speeds;
     eprintln!(
         "sweep: input speed {} to {}, {} points",
         both_units(speeds[0]),
@@ -104,7 +105,7 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
             eprintln!();
         }
     };
-    let sweep = request.run(&scene, &progress)?;
+    let sweep = geardyn::analysis::sweep(&scene, &options, &progress)?;
     let columns = sweep.columns();
     output::write_table_with_units(
         &args.out,

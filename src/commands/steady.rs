@@ -116,29 +116,28 @@ pub struct SweepRequest<'a> {
 }
 
 impl SweepRequest<'_> {
-    /// The speeds of `--speed from:to:points` (rad/s).
-    pub fn speeds(&self) -> Result<Vec<f64>, String> {
-        SweepOptions::parse_range(self.speed)
+    /// Checks the options (messages name the CLI option): the sweep's settings.
+    pub fn options(&self) -> Result<SweepOptions, String> {
+        let speeds = SweepOptions::parse_range(self.speed)?;
+        let direction = self
+            .direction
+            .parse()
+            .map_err(|e| format!("--direction: {e}"))?;
+        Ok(SweepOptions {
+            tolerance: positive("tolerance", self.tolerance)?,
+            max_transient_periods: self.max_periods,
+            poincare: self.poincare,
+            ..SweepOptions::new(speeds, direction)
+        })
     }
 
-    /// Checks the options (messages name the CLI option) and runs the sweep.
+    /// Checks the options and runs the sweep.
     pub fn run(
         &self,
         scene: &AnyScene,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Sweep, String> {
-        let speeds = self.speeds()?;
-        let direction = self
-            .direction
-            .parse()
-            .map_err(|e| format!("--direction: {e}"))?;
-        let options = SweepOptions {
-            tolerance: positive("tolerance", self.tolerance)?,
-            max_transient_periods: self.max_periods,
-            poincare: self.poincare,
-            ..SweepOptions::new(speeds, direction)
-        };
-        analysis::sweep(scene, &options, progress)
+        analysis::sweep(scene, &self.options()?, progress)
     }
 }
 
