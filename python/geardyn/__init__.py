@@ -12,9 +12,9 @@ threads run in parallel.
 >>> run["dte"].std(), run.units["dte"]
 
 Scene parameters are addressed by their path in the TOML file (``mesh.stiffness.mean``,
-``gear[1].inertia``); the CLI's solver options (``--stop-time``, ``--rtol``, ``--speed`` of
-``periodic``, …) are the scene's ``solver.*`` and ``operating.*`` parameters here, so there
-is one way to set each of them. Parameter studies on Dask: :mod:`geardyn.study`.
+``gear[1].inertia``); the CLI's solver options (``--stop-time``, ``--rtol``, …) are the
+scene's ``solver.*`` parameters here, so there is one way to set each of them. Speeds take
+the CLI's spellings (``"4500rpm"``, ``"471.24rad/s"``; a number is rad/s). Parameter studies on Dask: :mod:`geardyn.study`.
 """
 
 from __future__ import annotations
