@@ -8,10 +8,10 @@
 
 use std::time::Instant;
 
-use geardyn::analysis::band::from_rpm;
 use geardyn::analysis::LinearPeriodMap;
 use geardyn::scene::Scene;
 use geardyn::simulation::Simulation;
+use geardyn::units::from_rpm;
 use nalgebra::DMatrix;
 
 const POINTS: usize = 200;

@@ -20,3 +20,4 @@ pub mod plot;
 pub mod scene;
 pub mod simulation;
 pub mod solve;
+pub mod units;

@@ -32,7 +32,7 @@ enum Command {
     Hb(cli::analysis::HbArgs),
     /// Closed-form monodromy of a linear scene with piecewise-linear stiffness (docs/helical.md).
     Floquet(cli::floquet::FloquetArgs),
-    /// Parametric instability bands over pinion speed in rpm, from the closed-form monodromy.
+    /// Parametric instability bands over the input speed, from the closed-form monodromy.
     Band(cli::floquet::BandArgs),
     /// Mesh stiffness over one mesh period from gear geometry (docs/stiffness.md).
     Stiffness(cli::stiffness::StiffnessArgs),

@@ -23,6 +23,21 @@ pub fn write_table<R: IntoIterator<Item = f64>>(
     w.finish()
 }
 
+/// [`write_table`] with each column's unit in the header when `units` is set (`dte [m]`,
+/// the `--units` option; [`crate::units::with_units`]).
+pub fn write_table_with_units<R: IntoIterator<Item = f64>>(
+    path: &Path,
+    columns: &[impl AsRef<str>],
+    rows: impl IntoIterator<Item = R>,
+    units: bool,
+) -> Result<(), String> {
+    if units {
+        write_table(path, &crate::units::with_units(columns)?, rows)
+    } else {
+        write_table(path, columns, rows)
+    }
+}
+
 /// Writes text (a report) atomically.
 pub fn write_text(path: &Path, text: &str) -> Result<(), String> {
     write_bytes(path, text.as_bytes())

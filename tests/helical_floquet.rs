@@ -4,11 +4,11 @@
 //! same model through the ordinary simulation path, and the paper's stability statement
 //! (μ = 0.2: stable at 18,000 rpm, unstable at 19,000 rpm).
 
-use geardyn::analysis::band::{from_rpm, rpm};
 use geardyn::analysis::{instability_bands, LinearPeriodMap};
 use geardyn::mesh::helical::{HelicalGeometry, HelicalPairSpec};
 use geardyn::scene::Scene;
 use geardyn::simulation::Simulation;
+use geardyn::units::{from_rpm, rpm};
 
 const SCENE: &str = include_str!("../fmu/helical_pair_friction/scene.toml");
 const INCH: f64 = 0.0254;
@@ -216,7 +216,7 @@ fn geardyn_on_helical_fmu(command: &str, args: &[&str]) -> std::process::Output 
 
 #[test]
 fn band_and_floquet_cli() {
-    let band = ["--from-rpm", "15000", "--to-rpm", "25000", "--mu"];
+    let band = ["--speed", "15000rpm:25000rpm", "--mu"];
     let out = geardyn_on_helical_fmu("band", &[&band[..], &["0.2"]].concat());
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
@@ -225,12 +225,19 @@ fn band_and_floquet_cli() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(text.contains("primary"), "{text}");
-    let out = geardyn_on_helical_fmu("floquet", &["--rpm", "19000", "--json"]);
+    let out = geardyn_on_helical_fmu("floquet", &["--speed", "19000rpm", "--json"]);
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains("\"monodromy\"") && text.contains("\"segments\""),
         "{text}"
     );
+    // The same speed in rad/s (19000·2π/60) gives the same monodromy, to the last digit of
+    // the speed's rounding.
+    let rad_s = format!("{:?}rad/s", geardyn::units::from_rpm(19000.0));
+    let same = geardyn_on_helical_fmu("floquet", &["--speed", &rad_s, "--json"]);
+    assert_eq!(String::from_utf8_lossy(&same.stdout), text);
+    let bare = geardyn_on_helical_fmu("floquet", &["--speed", &rad_s[..rad_s.len() - 5], "--json"]);
+    assert_eq!(String::from_utf8_lossy(&bare.stdout), text);
     let out = geardyn_on_helical_fmu("band", &[&band[..], &["-0.1"]].concat());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
@@ -355,12 +362,11 @@ fn cli_rejects_friction_override_on_other_sources_and_bad_ranges() {
     let err = run(&[
         "band",
         "fmu/helical_pair_friction",
-        "--from-rpm",
-        "2000",
-        "--to-rpm",
-        "1000",
+        "--speed",
+        "2000rpm:1000rpm",
     ]);
-    assert!(err.contains("--to-rpm 1000"), "{err}");
+    assert!(err.contains("--speed '2000rpm:1000rpm'"), "{err}");
+    assert!(err.contains("104.72 rad/s (1000 rpm)"), "{err}");
     let err = run(&["floquet", "--example", "spur_pair"]);
     assert!(err.contains("mesh.contact"), "{err}");
 }

@@ -124,11 +124,11 @@ fn backlash_scene_shows_softening_jump() {
 #[test]
 fn bad_ranges_and_unconverged_points() {
     for (range, needle) in [
-        ("100:50:10", "to = 50"),
-        ("0:50:10", "from = 0"),
+        ("100:50:10", "upper end 50 rad/s"),
+        ("0:50:10", "'0': must be a finite speed > 0"),
         ("100:200:1", "points = 1"),
         ("100:200", "from:to:points"),
-        ("a:200:3", "from 'a'"),
+        ("a:200:3", "'a': unknown unit"),
     ] {
         let err = SweepOptions::parse_range(range).unwrap_err();
         assert!(err.contains(needle), "{range}: {err}");

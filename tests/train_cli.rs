@@ -174,7 +174,7 @@ fn hb_writes_per_mesh_columns_for_every_scene() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let text = std::fs::read_to_string(&csv).unwrap();
     let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
-    let mut expected = vec!["speed", "mesh_frequency"];
+    let mut expected = vec!["speed", "speed_rpm", "mesh_frequency"];
     let per_mesh = [
         "dte_mean",
         "dte_rms",
@@ -248,7 +248,7 @@ fn hb_writes_per_mesh_columns_for_every_scene() {
     let text = std::fs::read_to_string(&pair).unwrap();
     assert_eq!(
         text.lines().next().unwrap(),
-        "speed,mesh_frequency,dte_mean,dte_rms,a1,a2,peak_force,force_rms,dynamic_factor,\
+        "speed,speed_rpm,mesh_frequency,dte_mean,dte_rms,a1,a2,peak_force,force_rms,dynamic_factor,\
          contact_loss_fraction,spectral_radius,stable,fold"
     );
 }

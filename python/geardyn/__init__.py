@@ -12,9 +12,9 @@ threads run in parallel.
 >>> run["dte"].std(), run.units["dte"]
 
 Scene parameters are addressed by their path in the TOML file (``mesh.stiffness.mean``,
-``gear[1].inertia``); the CLI's solver options (``--stop-time``, ``--rtol``, ``--speed`` of
-``periodic``, …) are the scene's ``solver.*`` and ``operating.*`` parameters here, so there
-is one way to set each of them. Parameter studies on Dask: :mod:`geardyn.study`.
+``gear[1].inertia``); the CLI's solver options (``--stop-time``, ``--rtol``, …) are the
+scene's ``solver.*`` parameters here, so there is one way to set each of them. Speeds take
+the CLI's spellings (``"4500rpm"``, ``"471.24rad/s"``; a number is rad/s). Parameter studies on Dask: :mod:`geardyn.study`.
 """
 
 from __future__ import annotations
@@ -46,47 +46,26 @@ __all__ = [
     "stiffness",
     "build_fmu",
     "unit",
+    "parse_speed",
     "__version__",
-]
-
-# Units of the outputs (docs/model.md "Outputs", docs/train.md): exact names of the
-# single-mesh outputs, then suffixes of the drivetrain's `<mesh>_<quantity>` columns.
-_PAIR_UNITS = {
-    "time": "s",
-    "dte": "m",
-    "dte_rate": "m/s",
-    "mesh_force": "N",
-    "contact_state": "1",
-    "mesh_phase": "cycles",
-    "mesh_stiffness": "N/m",
-    "static_deflection": "m",
-}
-_TRAIN_SUFFIX_UNITS = [
-    ("_dte_rate", "m/s"),
-    ("_dte", "m"),
-    ("_deflection", "m"),
-    ("_friction_force", "N"),
-    ("_force", "N"),
-    ("_contact_state", "1"),
-    ("_pairs_in_contact", "1"),
-    ("_phase", "cycles"),
-    ("_stiffness", "N/m"),
-    ("_contact_loss_fraction", "1"),
-    # Bearing translations of the gears, `<gear>_x`, `<gear>_y`.
-    ("_x", "m"),
-    ("_y", "m"),
 ]
 
 
 def unit(name: str) -> Optional[str]:
-    """SI unit of a simulation output column, or None when the name is not a known output
-    (a test checks that every output of every example has one)."""
-    if name in _PAIR_UNITS:
-        return _PAIR_UNITS[name]
-    for suffix, u in _TRAIN_SUFFIX_UNITS:
-        if name.endswith(suffix):
-            return u
-    return None
+    """Unit of an output column (simulation, sweep, hb, stiffness), or None when the name is
+    not a known output: the table the CLI's ``--units`` headers use (``docs/units.md``)."""
+    return _geardyn.column_unit(name)
+
+
+def parse_speed(speed: Union[str, float]) -> float:
+    """A speed in rad/s from ``"4500rpm"``, ``"471.24rad/s"`` or a number (rad/s), as the
+    CLI's ``--speed`` reads it."""
+    return _geardyn.parse_speed(_speed_text(speed))
+
+
+def _speed_text(speed: Union[str, float]) -> str:
+    # `repr` of a float round-trips, so a number reaches the parser exactly.
+    return speed if isinstance(speed, str) else repr(float(speed))
 
 
 @dataclass
@@ -140,6 +119,10 @@ class Table:
 
     columns: List[str]
     data: np.ndarray
+    units: Dict[str, Optional[str]] = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self.units = {c: unit(c) for c in self.columns}
 
     def __getitem__(self, name: str) -> np.ndarray:
         try:
@@ -169,6 +152,10 @@ class Orbit:
     residuals: np.ndarray
     monodromy: np.ndarray
     report: str
+    speed: float  # input speed, rad/s
+    speed_rpm: float
+    # Per mesh: prefix, mesh_frequency (Hz), peak_force (N), force_rms (N), dynamic_factor.
+    meshes: List[Dict[str, Union[str, float]]]
 
 
 @dataclass
@@ -196,12 +183,16 @@ def simulate(scene: Scene) -> Simulation:
     return Simulation(names, time, data, method, stats, scene.name)
 
 
-def periodic(scene: Scene, periods: int = 1, warmup: int = 20) -> Orbit:
+def periodic(
+    scene: Scene, periods: int = 1, warmup: int = 20, speed: Union[str, float, None] = None
+) -> Orbit:
     """Periodic steady state of any scene at its input speed (``operating.pinion_speed`` or
-    ``operating.input_speed``) by Newton shooting, with Floquet multipliers and stability: a
-    period-``periods`` orbit after ``warmup`` response periods (the least common multiple of
-    the mesh periods)."""
-    raw = _geardyn.periodic(scene, periods, warmup)
+    ``operating.input_speed``, or ``speed``: ``"4500rpm"``, ``"471.24rad/s"`` or a number in
+    rad/s) by Newton shooting, with Floquet multipliers and stability: a period-``periods``
+    orbit after ``warmup`` response periods (the least common multiple of the mesh periods),
+    and each mesh's peak and RMS force and dynamic factor (``meshes``)."""
+    text = None if speed is None else _speed_text(speed)
+    raw = _geardyn.periodic(scene, periods, warmup, text)
     raw["multipliers"] = np.array([complex(re, im) for re, im in raw["multipliers"]])
     return Orbit(**raw)
 
@@ -214,13 +205,15 @@ def sweep(
     max_periods: int = 3000,
 ) -> Table:
     """Frequency-response sweep of any scene over input-gear speeds
-    ``speed = "from:to:points"`` (rad/s), ``direction`` up | down | both; the table of
+    ``speed = "from:to:points"`` (``"1000rpm:10000rpm:181"``, ``"300rad/s:700rad/s:41"``; bare
+    numbers are rad/s), ``direction`` up | down | both; the table of
     ``geardyn sweep`` (per-mesh columns prefixed ``<mesh>_`` in a drivetrain)."""
     return Table(*_geardyn.sweep(scene, speed, direction, tolerance, max_periods))
 
 
 def hb(scene: Scene, speed: str, harmonics: int = 20, subharmonic: int = 1) -> Table:
-    """Harmonic balance with arclength continuation over ``speed = "from:to"`` (rad/s); the
+    """Harmonic balance with arclength continuation over ``speed = "from:to"``
+    (``"3000rpm:6000rpm"``; bare numbers are rad/s); the
     table of ``geardyn hb``."""
     return Table(*_geardyn.hb(scene, speed, harmonics, subharmonic))
 

@@ -266,7 +266,8 @@ def load(path) -> Study:
     if extra:
         raise StudyError(f"analysis.{extra[0]}: not an option of {kind} ({', '.join(sorted(allowed)) or 'none'})")
     if kind == "sweep" and "speed" not in analysis:
-        raise StudyError("analysis.speed: a sweep needs speed = \"from:to:points\" (rad/s)")
+        raise StudyError("analysis.speed: a sweep needs speed = \"from:to:points\" "
+                         "(e.g. \"1000rpm:5000rpm:41\"; bare numbers are rad/s)")
     if kind == "periodic" and "speed" in analysis and "operating.pinion_speed" in names:
         raise StudyError("analysis.speed: the pinion speed is also a varied parameter; give one of them")
 
@@ -355,7 +356,7 @@ def run_point(scene_text: str, origin: str, analysis: dict, results: Sequence[st
     scene = _base(scene_text, origin).copy()
     values = dict(point)
     if analysis["kind"] == "periodic" and "speed" in analysis:
-        values["operating.pinion_speed"] = float(analysis["speed"])
+        values["operating.pinion_speed"] = geardyn.parse_speed(analysis["speed"])
     scene.update(values)
     kind = analysis["kind"]
     if kind == "simulate":

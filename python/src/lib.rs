@@ -553,24 +553,44 @@ fn simulate<'py>(
     Ok((names, vector(py, &times)?, data, method, d))
 }
 
-/// Periodic steady state by shooting at the scene's pinion speed; returns a dict of the
-/// orbit (with `report`, the text `geardyn periodic` prints).
+/// Periodic steady state by shooting at the scene's input speed, or at `speed` (`4500rpm`,
+/// `471.24rad/s`, a bare number in rad/s: `geardyn periodic --speed`); returns a dict of the
+/// orbit (with `report`, the text `geardyn periodic` prints, and each mesh's force).
 #[pyfunction]
-#[pyo3(signature = (scene, periods = 1, warmup = 20))]
+#[pyo3(signature = (scene, periods = 1, warmup = 20, speed = None))]
 fn periodic<'py>(
     py: Python<'py>,
     scene: &PyScene,
     periods: u32,
     warmup: u32,
+    speed: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let s = scene.any();
-    let (orbit, report) = py
+    let mut s = scene.any();
+    if let Some(text) = speed {
+        s.set_input_speed(geardyn::units::parse_speed("--speed", text).map_err(err)?);
+    }
+    let input_speed = s.input_speed();
+    let (orbit, report, meshes) = py
         .detach(move || {
             let o = commands::steady::periodic(&s, periods, warmup)?;
-            commands::steady::periodic_report(&s, &o).map(|r| (o, r))
+            let meshes = commands::steady::periodic_forces(&s, &o)?;
+            commands::steady::periodic_report(&s, &o).map(|r| (o, r, meshes))
         })
         .map_err(err)?;
     let d = PyDict::new(py);
+    d.set_item("speed", input_speed)?;
+    d.set_item("speed_rpm", geardyn::units::rpm(input_speed))?;
+    let per_mesh = PyList::empty(py);
+    for m in &meshes {
+        let e = PyDict::new(py);
+        e.set_item("prefix", &m.prefix)?;
+        e.set_item("mesh_frequency", m.mesh_frequency)?;
+        e.set_item("peak_force", m.force.peak_force)?;
+        e.set_item("force_rms", m.force.force_rms)?;
+        e.set_item("dynamic_factor", m.force.dynamic_factor)?;
+        per_mesh.append(e)?;
+    }
+    d.set_item("meshes", per_mesh)?;
     d.set_item("period", orbit.period)?;
     d.set_item("periods", orbit.periods)?;
     d.set_item("y0", vector(py, &orbit.y0)?)?;
@@ -698,6 +718,19 @@ fn build_fmu(py: Python<'_>, scene: PathBuf, out: PathBuf, cdylib: PathBuf) -> P
         .map_err(err)
 }
 
+/// A speed in rad/s from `4500rpm`, `471.24rad/s` or a bare number (rad/s), as `--speed`
+/// reads it (`geardyn::units`).
+#[pyfunction]
+fn parse_speed(text: &str) -> PyResult<f64> {
+    geardyn::units::parse_speed("--speed", text).map_err(err)
+}
+
+/// The unit of an output column by its name (`geardyn::units::column_unit`), or None.
+#[pyfunction]
+fn column_unit(name: &str) -> Option<&'static str> {
+    geardyn::units::column_unit(name)
+}
+
 #[pymodule]
 fn _geardyn(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("GeardynError", m.py().get_type::<GeardynError>())?;
@@ -711,5 +744,7 @@ fn _geardyn(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(modes, m)?)?;
     m.add_function(wrap_pyfunction!(stiffness, m)?)?;
     m.add_function(wrap_pyfunction!(build_fmu, m)?)?;
+    m.add_function(wrap_pyfunction!(parse_speed, m)?)?;
+    m.add_function(wrap_pyfunction!(column_unit, m)?)?;
     Ok(())
 }

@@ -137,13 +137,3 @@ fn band(from: f64, to: f64, peak: f64, f_n: Option<f64>, teeth: f64) -> Instabil
         peak_spectral_radius: peak,
     }
 }
-
-/// rad/s → rpm.
-pub fn rpm(speed: f64) -> f64 {
-    speed * 60.0 / TAU
-}
-
-/// rpm → rad/s.
-pub fn from_rpm(rpm: f64) -> f64 {
-    rpm * TAU / 60.0
-}

@@ -4,6 +4,7 @@ pub mod band;
 pub mod floquet;
 pub mod hb;
 pub mod linear_period;
+pub mod mesh_force;
 pub mod shooting;
 pub mod sweep;
 

@@ -15,6 +15,7 @@
 
 use std::f64::consts::TAU;
 
+use super::mesh_force::ForceStatistics;
 use super::shooting::{newton, state_scale, PeriodMap, ShootingOptions};
 use crate::model::{response_period, Drivetrain, SceneSource};
 use crate::scene::SolverSettings;
@@ -88,38 +89,10 @@ impl SweepOptions {
         }
     }
 
-    /// `from:to:points` (rad/s), evenly spaced.
+    /// `from:to:points`, evenly spaced, each end `4500rpm`, `471.24rad/s` or a bare number
+    /// in rad/s ([`crate::units::parse_speed_range`]).
     pub fn parse_range(range: &str) -> Result<Vec<f64>, String> {
-        let parts: Vec<&str> = range.split(':').collect();
-        if parts.len() != 3 {
-            return Err(format!("--speed '{range}': expected from:to:points"));
-        }
-        let num = |name: &str, s: &str| {
-            s.trim()
-                .parse::<f64>()
-                .map_err(|e| format!("--speed {name} '{s}': {e}"))
-        };
-        let (from, to) = (num("from", parts[0])?, num("to", parts[1])?);
-        let points: usize = parts[2]
-            .trim()
-            .parse()
-            .map_err(|e| format!("--speed points '{}': {e}", parts[2]))?;
-        if !(from > 0.0 && from.is_finite()) {
-            return Err(format!("--speed from = {from}: must be a finite speed > 0"));
-        }
-        if !(to > from && to.is_finite()) {
-            return Err(format!(
-                "--speed to = {to}: must be finite and greater than from = {from}"
-            ));
-        }
-        if points < 2 {
-            return Err(format!(
-                "--speed points = {points}: a sweep needs at least 2"
-            ));
-        }
-        Ok((0..points)
-            .map(|i| from + (to - from) * i as f64 / (points - 1) as f64)
-            .collect())
+        crate::units::parse_speed_range("--speed", range)
     }
 
     fn validate(&self) -> Result<(), String> {
@@ -231,9 +204,10 @@ pub struct SweepPoint {
 }
 
 /// Columns shared by every scene; then per mesh [`MESH_COLUMNS`], prefixed.
-pub const POINT_COLUMNS: [&str; 9] = [
+pub const POINT_COLUMNS: [&str; 10] = [
     "direction",
     "speed",
+    "speed_rpm",
     "mesh_frequency",
     "converged",
     "response_periods",
@@ -284,6 +258,7 @@ impl SweepPoint {
                 -1.0
             },
             self.speed,
+            crate::units::rpm(self.speed),
             self.mesh_frequency,
             if self.converged { 1.0 } else { 0.0 },
             self.response_periods.map_or(0.0, f64::from),
@@ -639,10 +614,7 @@ fn steady_state<M: Drivetrain>(
                 }
                 *a = 2.0 * (re * re + im * im).sqrt() / n as f64;
             }
-            let f = &force[m];
-            let f_mean = f.iter().sum::<f64>() / n as f64;
-            let f_rms = (f.iter().map(|v| (v - f_mean).powi(2)).sum::<f64>() / n as f64).sqrt();
-            let peak = f.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            let f = ForceStatistics::of(&force[m], static_forces[m]);
             MeshResponse {
                 prefix: sim.model().mesh_prefix(m),
                 mesh_frequency: frequencies[m],
@@ -652,9 +624,9 @@ fn steady_state<M: Drivetrain>(
                 harmonics,
                 contact_loss_fraction: lost[m] as f64 / n as f64,
                 separation_phase: separation[m],
-                peak_force: peak,
-                force_rms: f_rms,
-                dynamic_factor: peak / static_forces[m].abs(),
+                peak_force: f.peak_force,
+                force_rms: f.force_rms,
+                dynamic_factor: f.dynamic_factor,
                 poincare: std::mem::take(&mut poincare[m]),
             }
         })

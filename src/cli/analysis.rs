@@ -9,7 +9,9 @@ use geardyn::commands::{hb as hb_commands, steady as commands};
 use geardyn::output;
 use geardyn::plot::Format;
 
-use super::{load_any_scene, positive};
+use geardyn::units::{both_units, parse_speed};
+
+use super::load_any_scene;
 
 #[derive(Args)]
 pub struct PeriodicArgs {
@@ -19,10 +21,10 @@ pub struct PeriodicArgs {
     /// A built-in example scene instead of a file (e.g. `spur_pair`).
     #[arg(long)]
     example: Option<String>,
-    /// Input-gear speed, rad/s (default: the scene's `operating.pinion_speed` or
-    /// `operating.input_speed`).
-    #[arg(long, allow_negative_numbers = true)]
-    speed: Option<f64>,
+    /// Input-gear speed: `4500rpm` or `471.24rad/s`; a bare number is rad/s (default: the
+    /// scene's `operating.pinion_speed` or `operating.input_speed`).
+    #[arg(long, allow_hyphen_values = true)]
+    speed: Option<String>,
     /// Orbit period in response periods (period-k orbits); the response period is the mesh
     /// period, or the least common multiple of the mesh periods of a drivetrain.
     #[arg(long, default_value_t = 1)]
@@ -40,7 +42,8 @@ pub struct SweepArgs {
     /// A built-in example scene instead of a file (e.g. `spur_pair`).
     #[arg(long)]
     example: Option<String>,
-    /// Input-gear speeds `from:to:points`, rad/s (every other gear follows its ratio).
+    /// Input-gear speeds `from:to:points`, e.g. `1000rpm:10000rpm:181` or `300rad/s:700rad/s:41`;
+    /// bare numbers are rad/s (every other gear follows its ratio).
     #[arg(long, allow_hyphen_values = true)]
     speed: String,
     /// up | down | both (both runs the two branches in parallel).
@@ -64,12 +67,17 @@ pub struct SweepArgs {
     /// over the recorded stretch) to this CSV.
     #[arg(long)]
     poincare: Option<PathBuf>,
+    /// Write each column's unit into the CSV header, `dte [m]` (default: bare names).
+    #[arg(long)]
+    units: bool,
 }
 
 pub fn periodic(args: PeriodicArgs) -> Result<(), String> {
     let mut scene = load_any_scene(&args.scene, &args.example)?;
-    if let Some(speed) = args.speed {
-        scene.set_input_speed(positive("speed", speed)?);
+    if let Some(text) = &args.speed {
+        let speed = parse_speed("--speed", text)?;
+        eprintln!("periodic: input speed {}", both_units(speed));
+        scene.set_input_speed(speed);
     }
     let orbit = commands::periodic(&scene, args.periods, args.warmup)?;
     print!("{}", commands::periodic_report(&scene, &orbit)?);
@@ -88,20 +96,34 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
         max_periods: args.max_periods,
         poincare: args.poincare.is_some(),
     };
+    let options = request.options()?;
+    let speeds = &options.speeds;
+    eprintln!(
+        "sweep: input speed {} to {}, {} points",
+        both_units(speeds[0]),
+        both_units(speeds[speeds.len() - 1]),
+        speeds.len()
+    );
     let progress = |done: usize, total: usize| {
         eprint!("\rsweep {done}/{total} points");
         if done == total {
             eprintln!();
         }
     };
-    let sweep = request.run(&scene, &progress)?;
+    let sweep = geardyn::analysis::sweep(&scene, &options, &progress)?;
     let columns = sweep.columns();
-    output::write_table(&args.out, &columns, sweep.points.iter().map(|p| p.row()))?;
+    output::write_table_with_units(
+        &args.out,
+        &columns,
+        sweep.points.iter().map(|p| p.row()),
+        args.units,
+    )?;
     if let Some(path) = &args.poincare {
-        output::write_table(
+        output::write_table_with_units(
             path,
             &commands::POINCARE_COLUMNS,
             commands::poincare_rows(&sweep),
+            args.units,
         )?;
     }
     if let Some(path) = &args.plot {
@@ -119,7 +141,8 @@ pub struct HbArgs {
     /// A built-in example scene instead of a file (e.g. `spur_pair`, `idler_gearset`).
     #[arg(long)]
     pub example: Option<String>,
-    /// Input-speed interval `from:to`, rad/s: the branch starts at `from`.
+    /// Input-speed interval `from:to`, e.g. `3000rpm:6000rpm`; bare numbers are rad/s. The
+    /// branch starts at `from`.
     #[arg(long, allow_hyphen_values = true)]
     pub speed: String,
     /// Harmonics: the order H of the retained combination tones of the mesh frequencies (for
@@ -143,6 +166,9 @@ pub struct HbArgs {
     /// Also run an up and a down sweep with this many speeds for the plot.
     #[arg(long, default_value_t = 0)]
     pub sweep_points: usize,
+    /// Write each column's unit into the CSV header, `dte_rms [m]` (default: bare names).
+    #[arg(long)]
+    pub units: bool,
 }
 
 /// `geardyn hb`: harmonic balance with pseudo-arclength continuation and stability.
@@ -157,9 +183,15 @@ pub fn hb(args: HbArgs) -> Result<(), String> {
         harmonics: args.harmonics,
         subharmonic: args.subharmonic,
     };
+    let interval = request.interval()?;
+    eprintln!(
+        "hb: input speed {} to {}",
+        both_units(interval.from),
+        both_units(interval.to)
+    );
     let branch = request.run(&scene)?;
     let columns = branch.columns();
-    output::write_table(&args.out, &columns, branch.rows())?;
+    output::write_table_with_units(&args.out, &columns, branch.rows(), args.units)?;
     if let Some(path) = &args.plot {
         branch.plot(&scene, args.harmonics, args.sweep_points, mesh, path)?;
     }

@@ -7,11 +7,12 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use geardyn::analysis::band::{from_rpm, mean_natural_frequency, rpm};
+use geardyn::analysis::band::mean_natural_frequency;
 use geardyn::analysis::{instability_bands, monodromy, multiplier_line, LinearPeriodMap};
 use geardyn::model::AnyScene;
+use geardyn::units::{both_units, parse_speed, parse_speed_interval, rpm, significant};
 
-use super::{load_any_scene, positive};
+use super::load_any_scene;
 
 #[derive(Args)]
 pub struct FloquetArgs {
@@ -21,10 +22,10 @@ pub struct FloquetArgs {
     /// A built-in example scene instead of a file (e.g. `helical_pair_friction`).
     #[arg(long)]
     example: Option<String>,
-    /// Input-gear speed, rpm (default: the scene's `operating.pinion_speed` or
-    /// `operating.input_speed`).
-    #[arg(long, allow_negative_numbers = true)]
-    rpm: Option<f64>,
+    /// Input-gear speed: `19000rpm` or `1989.7rad/s`; a bare number is rad/s (default: the
+    /// scene's `operating.pinion_speed` or `operating.input_speed`).
+    #[arg(long, allow_hyphen_values = true)]
+    speed: Option<String>,
     /// Friction coefficient μ of a `helical` stiffness (default: the scene's).
     #[arg(long, allow_negative_numbers = true)]
     mu: Option<f64>,
@@ -41,12 +42,10 @@ pub struct BandArgs {
     /// A built-in example scene instead of a file.
     #[arg(long)]
     example: Option<String>,
-    /// Lower end of the scanned input-gear speed, rpm.
-    #[arg(long)]
-    from_rpm: f64,
-    /// Upper end of the scanned input-gear speed, rpm.
-    #[arg(long)]
-    to_rpm: f64,
+    /// Scanned input-gear speeds `from:to`, e.g. `15000rpm:25000rpm`; a bare number is
+    /// rad/s.
+    #[arg(long, allow_hyphen_values = true)]
+    speed: String,
     /// Scan points (band edges are then bisected); narrower bands than the spacing are missed.
     #[arg(long, default_value_t = 400)]
     points: usize,
@@ -77,8 +76,10 @@ fn scene_with(
 
 pub fn floquet(args: FloquetArgs) -> Result<(), String> {
     let mut scene = scene_with(&args.scene, &args.example, args.mu)?;
-    if let Some(r) = args.rpm {
-        scene.set_input_speed(from_rpm(positive("rpm", r)?));
+    if let Some(text) = &args.speed {
+        let speed = parse_speed("--speed", text)?;
+        eprintln!("floquet: input speed {}", both_units(speed));
+        scene.set_input_speed(speed);
     }
     let floquet = monodromy(&scene)?;
     let closed_form = match &scene {
@@ -168,18 +169,29 @@ pub fn floquet(args: FloquetArgs) -> Result<(), String> {
 
 pub fn band(args: BandArgs) -> Result<(), String> {
     let scene = scene_with(&args.scene, &args.example, args.mu)?;
-    let from = positive("from-rpm", args.from_rpm)?;
-    let to = positive("to-rpm", args.to_rpm)?;
+    let range = parse_speed_interval("--speed", &args.speed)?;
+    let (from, to) = (range.from, range.to);
     if to <= from {
         return Err(format!(
-            "--to-rpm {to}: must be greater than --from-rpm {from}"
+            "--speed '{}': the upper end {} must be greater than the lower end {}",
+            args.speed,
+            both_units(to),
+            both_units(from)
         ));
     }
-    let bands = instability_bands(&scene, from_rpm(from), from_rpm(to), args.points)?;
+    eprintln!(
+        "band: input speed {} to {}, {} scan points",
+        both_units(from),
+        both_units(to),
+        args.points
+    );
+    let bands = instability_bands(&scene, from, to, args.points)?;
     let f_n = mean_natural_frequency(&scene);
     println!(
-        "scene {}: instability bands between {from} and {to} rpm ({} scan points{})",
+        "scene {}: instability bands between {} and {} rpm ({} scan points{})",
         scene.name(),
+        significant(rpm(from)),
+        significant(rpm(to)),
         args.points,
         f_n.map_or(String::new(), |f| format!("; mean f_n = {f:.3} Hz"))
     );

@@ -53,6 +53,9 @@ pub struct SimulateArgs {
     /// Do not print the summary.
     #[arg(long)]
     quiet: bool,
+    /// Write each column's unit into the CSV header, `dte [m]` (default: bare names).
+    #[arg(long)]
+    units: bool,
 }
 
 pub fn run(args: SimulateArgs) -> Result<(), String> {
@@ -78,6 +81,7 @@ pub fn run(args: SimulateArgs) -> Result<(), String> {
             max_mode_periods: periods,
         },
         progress: !args.quiet,
+        header_units: args.units,
     };
     if let Some(path) = &args.plot {
         Format::of(path)?;

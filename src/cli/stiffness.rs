@@ -28,14 +28,21 @@ pub struct StiffnessArgs {
     /// Do not print the summary.
     #[arg(long)]
     quiet: bool,
+    /// Write each column's unit into the CSV header, `dte [m]` (default: bare names).
+    #[arg(long)]
+    units: bool,
 }
 
 pub fn run(args: StiffnessArgs) -> Result<(), String> {
     let st = geardyn::commands::stiffness::stiffness(&args.gears, args.torque, args.etc == "on")?;
     let names = st.columns();
-    let names: Vec<&str> = names.iter().map(String::as_str).collect();
     let rows = st.rows();
-    output::write_table(&args.out, &names, rows.iter().map(|r| r.iter().copied()))?;
+    output::write_table_with_units(
+        &args.out,
+        &names,
+        rows.iter().map(|r| r.iter().copied()),
+        args.units,
+    )?;
     if let Some(path) = &args.plot {
         st.plot(path)?;
     }

@@ -8,13 +8,14 @@ use crate::analysis::hb::{continuation, BranchPoint, ContinuationOptions, HbOpti
 use crate::analysis::{self, Direction, SweepOptions};
 use crate::model::AnyScene;
 use crate::plot::{Marker, Series};
+use crate::units::rpm;
 
-use super::positive;
-use super::steady::{branch_points, frequency_response_plot, rpm};
+use super::steady::{branch_points, frequency_response_plot};
 
 /// The options of `geardyn hb` as given on the command line.
 pub struct HbRequest<'a> {
-    /// Input-speed interval `from:to`, rad/s: the branch starts at `from`.
+    /// Input-speed interval `from:to` (`300:600` in rad/s, or `3000rpm:6000rpm`): the branch
+    /// starts at `from`.
     pub speed: &'a str,
     /// Order of the retained harmonics (combination tones of the mesh frequencies).
     pub harmonics: usize,
@@ -32,7 +33,7 @@ pub struct HbBranch {
 }
 
 /// Columns before the per-mesh columns.
-pub const HB_POINT_COLUMNS: [&str; 2] = ["speed", "mesh_frequency"];
+pub const HB_POINT_COLUMNS: [&str; 3] = ["speed", "speed_rpm", "mesh_frequency"];
 
 /// Per-mesh columns (after the mesh's prefix); a prefixed mesh also gets its
 /// `mesh_frequency`.
@@ -51,7 +52,7 @@ pub const HB_MESH_COLUMNS: [&str; 8] = [
 pub const HB_STABILITY_COLUMNS: [&str; 3] = ["spectral_radius", "stable", "fold"];
 
 /// The column names of the `geardyn hb` CSV of a model with the given mesh prefixes: the
-/// single pair keeps `speed, mesh_frequency, dte_mean, dte_rms, a1, a2, …, spectral_radius,
+/// single pair keeps `speed, speed_rpm, mesh_frequency, dte_mean, dte_rms, a1, a2, …, spectral_radius,
 /// stable, fold`; a drivetrain prefixes each mesh's columns with `<mesh name>_`.
 pub fn hb_columns(prefixes: &[String]) -> Vec<String> {
     let mut names: Vec<String> = HB_POINT_COLUMNS.iter().map(|s| s.to_string()).collect();
@@ -86,21 +87,14 @@ pub fn plot_mesh_index(scene: &AnyScene, name: Option<&str>) -> Result<usize, St
 }
 
 impl HbRequest<'_> {
+    /// The speed interval of `--speed from:to` (rad/s).
+    pub fn interval(&self) -> Result<crate::units::SpeedInterval, String> {
+        crate::units::parse_speed_interval("--speed", self.speed)
+    }
+
     /// Checks the options (messages name the CLI option) and continues the branch.
     pub fn run(&self, scene: &AnyScene) -> Result<HbBranch, String> {
-        let (from, to) = self
-            .speed
-            .split_once(':')
-            .ok_or_else(|| format!("--speed '{}': expected from:to", self.speed))?;
-        let parse = |name: &str, v: &str| {
-            v.trim()
-                .parse::<f64>()
-                .map_err(|e| format!("--speed {name} '{v}': {e}"))
-        };
-        let (from, to) = (
-            positive("speed from", parse("from", from)?)?,
-            positive("speed to", parse("to", to)?)?,
-        );
+        let crate::units::SpeedInterval { from, to } = self.interval()?;
         let hb_options = HbOptions {
             subharmonic: self.subharmonic,
             ..HbOptions::new(self.harmonics)
@@ -131,7 +125,7 @@ impl HbBranch {
         self.points
             .iter()
             .map(|p| {
-                let mut row = vec![p.speed, p.solution.mesh_frequency];
+                let mut row = vec![p.speed, rpm(p.speed), p.solution.mesh_frequency];
                 for m in &p.solution.meshes {
                     row.extend([
                         m.dte_mean,

@@ -28,6 +28,8 @@ pub struct SimulateOptions {
     pub limits: RunLimits,
     /// Show a progress line on stderr when it is a terminal.
     pub progress: bool,
+    /// Write each column's unit into the header, `dte [m]` (`--units`; [`crate::units`]).
+    pub header_units: bool,
 }
 
 impl SimulateOptions {
@@ -209,9 +211,13 @@ fn run_to_csv<M: DrivenModel>(
 ) -> Result<Streamed, String> {
     opts.limits
         .check(&sim.model().run_scales(), stop_time, interval)?;
-    let columns: Vec<&str> = std::iter::once("time")
-        .chain(names.iter().map(String::as_str))
+    let mut columns: Vec<String> = std::iter::once("time".to_owned())
+        .chain(names.iter().cloned())
         .collect();
+    if opts.header_units {
+        columns = crate::units::with_units(&columns)?;
+    }
+    let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
     let mut writer = CsvWriter::create(out, &columns)?;
     stream(
         &mut sim,

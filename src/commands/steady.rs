@@ -5,12 +5,14 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use crate::analysis::mesh_force::{orbit_mesh_forces, OrbitMesh};
 use crate::analysis::sweep::{Periodicity, Sweep, SweepPoint};
 use crate::analysis::{
     self, multiplier_line, shoot, Direction, PeriodicOrbit, ShootingOptions, SweepOptions,
 };
 use crate::model::{AnyScene, Drivetrain};
 use crate::plot::{Axis, Marker, Plot, Series};
+use crate::units::{both_units, rpm};
 use crate::with_drivetrain;
 
 use super::positive;
@@ -26,18 +28,27 @@ pub fn periodic(scene: &AnyScene, periods: u32, warmup: u32) -> Result<PeriodicO
     shoot(scene, &options)
 }
 
+/// Samples per mesh period of the first mesh for the force statistics of `periodic` (as many
+/// as a sweep records, `SweepOptions::samples_per_period`).
+pub const PERIODIC_SAMPLES: u32 = 64;
+
+/// Each mesh's dynamic force on the orbit (peak, RMS about the mean, dynamic factor).
+pub fn periodic_forces(scene: &AnyScene, orbit: &PeriodicOrbit) -> Result<Vec<OrbitMesh>, String> {
+    orbit_mesh_forces(scene, orbit, PERIODIC_SAMPLES)
+}
+
 /// The text `geardyn periodic` prints for an orbit of `scene`: the Newton residuals, the
-/// initial state with its coordinate names, each mesh's DTE at the start of the orbit, and the
-/// multipliers with the stability they imply.
+/// initial state with its coordinate names, each mesh's DTE at the start of the orbit, each
+/// mesh's frequency and dynamic force (peak, RMS, dynamic factor), and the multipliers with the stability they imply.
 pub fn periodic_report(scene: &AnyScene, orbit: &PeriodicOrbit) -> Result<String, String> {
     let mut s = String::new();
     // Writing to a String cannot fail.
     let _ = writeln!(
         s,
-        "scene {}: period-{} orbit at input speed {} rad/s (T = {:.6e} s)",
+        "scene {}: period-{} orbit at input speed {} (T = {:.6e} s)",
         scene.name(),
         orbit.periods,
-        scene.input_speed(),
+        both_units(scene.input_speed()),
         orbit.period
     );
     for (k, r) in orbit.residuals.iter().enumerate() {
@@ -73,6 +84,16 @@ pub fn periodic_report(scene: &AnyScene, orbit: &PeriodicOrbit) -> Result<String
             }
         }
     });
+    // The names of the `sweep` and `hb` columns, so the three outputs read alike.
+    for m in periodic_forces(scene, orbit)? {
+        let p = &m.prefix;
+        let _ = writeln!(
+            s,
+            "  {p}mesh_frequency = {:e} Hz, {p}peak_force = {:e} N, {p}force_rms = {:e} N, \
+             {p}dynamic_factor = {:e}",
+            m.mesh_frequency, m.force.peak_force, m.force.force_rms, m.force.dynamic_factor
+        );
+    }
     for m in &orbit.multipliers {
         let _ = writeln!(s, "{}", multiplier_line(m));
     }
@@ -82,7 +103,7 @@ pub fn periodic_report(scene: &AnyScene, orbit: &PeriodicOrbit) -> Result<String
 
 /// The options of `geardyn sweep` as given on the command line.
 pub struct SweepRequest<'a> {
-    /// Input-gear speeds `from:to:points`, rad/s.
+    /// Input-gear speeds `from:to:points` (`1000rpm:10000rpm:181`; bare numbers are rad/s).
     pub speed: &'a str,
     /// `up | down | both`.
     pub direction: &'a str,
@@ -95,30 +116,29 @@ pub struct SweepRequest<'a> {
 }
 
 impl SweepRequest<'_> {
-    /// Checks the options (messages name the CLI option) and runs the sweep.
-    pub fn run(
-        &self,
-        scene: &AnyScene,
-        progress: &(dyn Fn(usize, usize) + Sync),
-    ) -> Result<Sweep, String> {
+    /// Checks the options (messages name the CLI option): the sweep's settings.
+    pub fn options(&self) -> Result<SweepOptions, String> {
         let speeds = SweepOptions::parse_range(self.speed)?;
         let direction = self
             .direction
             .parse()
             .map_err(|e| format!("--direction: {e}"))?;
-        let options = SweepOptions {
+        Ok(SweepOptions {
             tolerance: positive("tolerance", self.tolerance)?,
             max_transient_periods: self.max_periods,
             poincare: self.poincare,
             ..SweepOptions::new(speeds, direction)
-        };
-        analysis::sweep(scene, &options, progress)
+        })
     }
-}
 
-/// rad/s → rpm, the speed axis of every frequency-response plot.
-pub fn rpm(speed: f64) -> f64 {
-    speed * 30.0 / std::f64::consts::PI
+    /// Checks the options and runs the sweep.
+    pub fn run(
+        &self,
+        scene: &AnyScene,
+        progress: &(dyn Fn(usize, usize) + Sync),
+    ) -> Result<Sweep, String> {
+        analysis::sweep(scene, &self.options()?, progress)
+    }
 }
 
 /// One branch of a sweep as plot points: mesh `m`'s DTE RMS over the input speed in rpm.

@@ -128,6 +128,38 @@ def test_periodic_speed_is_the_scene_parameter():
     assert orbit.report == out
 
 
+def test_speeds_take_units_like_the_cli(tmp_path):
+    """`speed` takes "4500rpm", "471.24rad/s" or rad/s, as `--speed` does; equal speeds give
+    identical results; the orbit carries each mesh's force with the report's numbers."""
+    scene = geardyn.Scene.example("spur_pair")
+    w = 4500 * 2 * math.pi / 60
+    out = run_geardyn("periodic", "--example", "spur_pair", "--speed", "4500rpm").stdout
+    for speed in ["4500rpm", f"{w!r}rad/s", w]:
+        orbit = geardyn.periodic(scene, speed=speed)
+        assert orbit.report == out
+    assert orbit.speed == w and orbit.speed_rpm == pytest.approx(4500, rel=1e-15)
+    (mesh,) = orbit.meshes
+    for key, unit in [("mesh_frequency", "Hz"), ("peak_force", "N"), ("force_rms", "N")]:
+        assert f"{key} = {float(re.search(rf'{key} = ({NUMBER}) {unit}', out).group(1))!r}" \
+            == f"{key} = {mesh[key]!r}"
+    assert mesh["dynamic_factor"] > 1
+    assert geardyn.parse_speed("4500rpm") == w and geardyn.parse_speed(430) == 430.0
+    table = geardyn.sweep(scene, "4000rpm:4100rpm:3", direction="up")
+    run_geardyn("sweep", "--example", "spur_pair", "--speed", "4000rpm:4100rpm:3", "--direction", "up",
+                "--out", tmp_path / "s.csv", "--units")
+    header, rows = read_csv(tmp_path / "s.csv")
+    assert header == [f"{c} [{table.units[c]}]" for c in table.columns]
+    identical(table.data, rows)
+    np.testing.assert_allclose(table["speed_rpm"], [4000, 4050, 4100], rtol=1e-15)
+    for bad in ["1000rpn:2000rpm:5", "1000:2000rpm:5"]:
+        with pytest.raises(geardyn.GeardynError) as e:
+            geardyn.sweep(scene, bad)
+        assert str(e.value) == cli_error("sweep", "--example", "spur_pair", "--speed", bad,
+                                         "--out", tmp_path / "s.csv")
+    with pytest.raises(geardyn.GeardynError, match="'4500rpn': unknown unit"):
+        geardyn.periodic(scene, speed="4500rpn")
+
+
 def test_sweep_matches_cli(tmp_path):
     scene = geardyn.Scene.example("spur_pair")
     table = geardyn.sweep(scene, "400:500:6", direction="both", tolerance=1e-7)

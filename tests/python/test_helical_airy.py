@@ -20,7 +20,7 @@ SCENE = REPO / "fmu" / "helical_pair_friction"
 
 
 def floquet(rpm, mu):
-    out = run_geardyn("floquet", SCENE, "--rpm", rpm, "--mu", mu, "--json").stdout
+    out = run_geardyn("floquet", SCENE, "--speed", f"{rpm}rpm", "--mu", mu, "--json").stdout
     return json.loads(out)
 
 
