@@ -104,10 +104,14 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
         both_units(speeds[speeds.len() - 1]),
         speeds.len()
     );
+    // A progress line only on a terminal: in a pipe or a log the carriage returns are noise.
+    let terminal = std::io::IsTerminal::is_terminal(&std::io::stderr());
     let progress = |done: usize, total: usize| {
-        eprint!("\rsweep {done}/{total} points");
-        if done == total {
-            eprintln!();
+        if terminal {
+            eprint!("\rsweep {done}/{total} points");
+            if done == total {
+                eprintln!();
+            }
         }
     };
     let sweep = geardyn::analysis::sweep(&scene, &options, &progress)?;
