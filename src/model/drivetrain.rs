@@ -17,6 +17,7 @@
 
 use super::train::{GearTrain, SlotContact, TrainInputs, TrainSimulation};
 use super::{GearPair, Inputs};
+use crate::analysis::spectrum::ShaftFrequency;
 use crate::scene::train::TrainScene;
 use crate::scene::Scene;
 use crate::simulation::{DrivenModel, Driver, Simulation};
@@ -57,6 +58,9 @@ pub trait Drivetrain: DrivenModel {
     fn mesh_prefix(&self, n: usize) -> String;
     /// Mesh frequency of mesh `n` at the current input speed, Hz.
     fn mesh_frequency(&self, n: usize) -> f64;
+    /// Every gear's name, teeth and rotation frequency at the current input speed, Hz: the
+    /// shaft orders that label spectral lines (`docs/spectrum.md`).
+    fn shafts(&self) -> Vec<ShaftFrequency>;
     /// Nominal speed of the input gear, rad/s.
     fn input_speed(&self) -> f64;
     /// Input torque `T1` and load torque magnitude `T2`, N·m.
@@ -169,6 +173,23 @@ impl Drivetrain for GearPair {
     }
     fn mesh_frequency(&self, _n: usize) -> f64 {
         1.0 / self.mesh_period()
+    }
+    fn shafts(&self) -> Vec<ShaftFrequency> {
+        // Each gear turns once per `teeth` mesh cycles.
+        let f_m = 1.0 / self.mesh_period();
+        let (zp, zg) = self.teeth();
+        vec![
+            ShaftFrequency {
+                name: "pinion".into(),
+                teeth: zp,
+                frequency: f_m / zp as f64,
+            },
+            ShaftFrequency {
+                name: "gear".into(),
+                teeth: zg,
+                frequency: f_m / zg as f64,
+            },
+        ]
     }
     fn input_speed(&self) -> f64 {
         self.inputs().pinion_speed
@@ -283,6 +304,15 @@ impl Drivetrain for GearTrain {
     }
     fn mesh_frequency(&self, n: usize) -> f64 {
         1.0 / self.mesh_period(n)
+    }
+    fn shafts(&self) -> Vec<ShaftFrequency> {
+        (self.gear_rotations().into_iter())
+            .map(|(name, teeth, frequency)| ShaftFrequency {
+                name,
+                teeth,
+                frequency,
+            })
+            .collect()
     }
     fn input_speed(&self) -> f64 {
         self.inputs().input_speed

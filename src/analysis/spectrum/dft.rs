@@ -81,7 +81,7 @@ fn spectrum(samples: &[f64], dt: f64, window: Window) -> Result<Spectrum, String
     let mut phase = Vec::with_capacity(half + 1);
     for (k, x) in buffer.iter().take(half + 1).enumerate() {
         // DC and (even N) Nyquist have no mirror bin: they are not doubled.
-        let single = k == 0 || (n % 2 == 0 && k == half);
+        let single = k == 0 || (n.is_multiple_of(2) && k == half);
         let scale = if single { 1.0 } else { 2.0 } / gain;
         frequency.push(k as f64 * resolution);
         amplitude.push(x.norm() * scale);

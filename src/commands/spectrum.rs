@@ -1,0 +1,193 @@
+//! `geardyn spectrum`: the exact spectrum of a scene's periodic steady state, with its lines
+//! named in mesh and shaft orders (`docs/spectrum.md`).
+
+use std::path::Path;
+
+use crate::analysis::spectrum::{exact_dft, label_lines, OrderLabel, Spectrum};
+use crate::analysis::{shoot, ShootingOptions};
+use crate::model::{response_period, AnyScene, Drivetrain};
+use crate::plot::{Plot, Series};
+use crate::with_drivetrain;
+
+/// What to transform and how finely.
+#[derive(Debug, Clone)]
+pub struct SpectrumRequest {
+    /// Output columns (as `simulate` names them); empty: every mesh's DTE.
+    pub signals: Vec<String>,
+    /// Samples per period of the fastest mesh: the spectrum reaches half of it in mesh orders.
+    pub samples_per_mesh_period: usize,
+    /// Response periods spanned (the resolution is `1/(periods·T)`).
+    pub periods: u32,
+}
+
+impl Default for SpectrumRequest {
+    fn default() -> Self {
+        SpectrumRequest {
+            signals: Vec::new(),
+            samples_per_mesh_period: 64,
+            periods: 1,
+        }
+    }
+}
+
+/// One signal's spectrum with its order labels.
+#[derive(Debug, Clone)]
+pub struct SignalSpectrum {
+    pub column: String,
+    /// Unit of the amplitudes (the column's unit).
+    pub unit: String,
+    pub spectrum: Spectrum,
+    pub labels: Vec<Option<OrderLabel>>,
+}
+
+/// The spectra of one periodic steady state.
+#[derive(Debug, Clone)]
+pub struct SpectrumReport {
+    pub scene: String,
+    /// Time spanned by the samples (an integer number of response periods), s.
+    pub duration: f64,
+    pub samples: usize,
+    pub signals: Vec<SignalSpectrum>,
+}
+
+/// The unit of an output column, from the naming convention of `simulate`'s columns.
+pub fn column_unit(name: &str) -> &'static str {
+    if name.ends_with("force") || name.contains("force_") {
+        "N"
+    } else if name.ends_with("_rate") || name.ends_with("velocity") {
+        "m/s"
+    } else if name.contains("dte") || name.ends_with("_x") || name.ends_with("_y") {
+        "m"
+    } else {
+        "1"
+    }
+}
+
+/// Shoots the periodic steady state at the scene's speed, samples `periods` response periods
+/// at `N` uniform instants from the orbit's start and takes the exact DFT of each signal.
+pub fn periodic_spectrum(
+    scene: &AnyScene,
+    request: &SpectrumRequest,
+) -> Result<SpectrumReport, String> {
+    if request.samples_per_mesh_period < 4 {
+        return Err(format!(
+            "--samples = {}: need at least 4 samples per mesh period",
+            request.samples_per_mesh_period
+        ));
+    }
+    if request.periods == 0 {
+        return Err("--periods = 0: need at least one response period".into());
+    }
+    let orbit = shoot(scene, &ShootingOptions::default())?;
+    with_drivetrain!(scene.simulation()?, sim => {
+        let mut sim = sim;
+        let model = sim.model();
+        let names = model.row_names();
+        let columns: Vec<usize> = if request.signals.is_empty() {
+            (0..model.mesh_count()).map(|n| model.mesh_columns(n).dte).collect()
+        } else {
+            (request.signals.iter())
+                .map(|s| names.iter().position(|n| n == s).ok_or_else(|| {
+                    format!("--signal {s:?}: no such output column (columns: {})", names.join(", "))
+                }))
+                .collect::<Result<_, _>>()?
+        };
+        let period = response_period(model)?;
+        let duration = period * request.periods as f64;
+        let f_max = (0..model.mesh_count()).map(|n| model.mesh_frequency(n)).fold(0.0, f64::max);
+        let mesh_cycles = (duration * f_max).round().max(1.0) as usize;
+        let n = mesh_cycles * request.samples_per_mesh_period;
+        let meshes: Vec<(String, f64)> = (0..model.mesh_count())
+            .map(|m| {
+                let prefix = model.mesh_prefix(m);
+                let name = if prefix.is_empty() { "mesh".to_string() } else { prefix.trim_end_matches('_').to_string() };
+                (name, model.mesh_frequency(m))
+            })
+            .collect();
+        let shafts = model.shafts();
+        sim.set_y(0.0, &orbit.y0);
+        let mut samples = vec![Vec::with_capacity(n); columns.len()];
+        let mut row = Vec::new();
+        sim.sample((0..n).map(|j| j as f64 * duration / n as f64), |s, t| {
+            s.model().output_row(t, s.y(), &mut row);
+            for (c, &col) in columns.iter().enumerate() {
+                samples[c].push(row[col]);
+            }
+            Ok(())
+        })?;
+        let mut signals = Vec::new();
+        for (c, &col) in columns.iter().enumerate() {
+            let spectrum = exact_dft(&samples[c], duration)?;
+            let labels = label_lines(&spectrum.frequency, &meshes, &shafts, 0.25 * spectrum.resolution);
+            signals.push(SignalSpectrum {
+                column: names[col].clone(),
+                unit: column_unit(&names[col]).to_string(),
+                spectrum,
+                labels,
+            });
+        }
+        Ok(SpectrumReport { scene: scene.name().to_string(), duration, samples: n, signals })
+    })
+}
+
+impl SpectrumReport {
+    /// One row per frequency bin: `frequency_Hz`, then per signal `<column>_amplitude_<unit>`,
+    /// `<column>_phase_rad`; a last column `order` names the bin's mesh/shaft order (empty
+    /// when no simple order lies within a quarter bin).
+    pub fn write_csv(&self, path: &Path) -> Result<(), String> {
+        let mut header = vec!["frequency_Hz".to_string()];
+        for s in &self.signals {
+            header.push(format!("{}_amplitude_{}", s.column, s.unit));
+            header.push(format!("{}_phase_rad", s.column));
+        }
+        // The label column is text (CsvWriter writes numbers only): the table is formatted
+        // here and written atomically, so an error leaves no partial file.
+        let mut text = header.join(",") + ",order\n";
+        let first = &self.signals[0];
+        for k in 0..first.spectrum.frequency.len() {
+            text.push_str(&format!("{:?}", first.spectrum.frequency[k]));
+            for s in &self.signals {
+                text.push_str(&format!(
+                    ",{:?},{:?}",
+                    s.spectrum.amplitude[k], s.spectrum.phase[k]
+                ));
+            }
+            let label = first.labels[k].as_ref().map_or("", |l| l.text.as_str());
+            text.push_str(&format!(",{label}\n"));
+        }
+        crate::output::write_text(path, &text)
+    }
+
+    /// Amplitude over frequency, one stem series per signal (log-free: lines read directly).
+    pub fn plot_svg(&self) -> String {
+        const COLORS: [&str; 4] = ["#2471a3", "#c0392b", "#16a085", "#8e44ad"];
+        let series = (self.signals.iter().enumerate())
+            .map(|(i, s)| Series {
+                label: &s.column,
+                color: COLORS[i % COLORS.len()],
+                points: (0..s.spectrum.frequency.len())
+                    .skip(1)
+                    .flat_map(|k| {
+                        let f = s.spectrum.frequency[k];
+                        [(f, 0.0), (f, s.spectrum.amplitude[k]), (f, 0.0)]
+                    })
+                    .collect(),
+                dashed: false,
+                markers: false,
+                line: true,
+            })
+            .collect();
+        let unit = &self.signals[0].unit;
+        let title = format!("{}: amplitude spectrum (exact DFT, DC omitted)", self.scene);
+        let y_label = format!("amplitude ({unit})");
+        Plot {
+            title: &title,
+            x_label: "frequency (Hz)",
+            y_label: &y_label,
+            series,
+            bands: Vec::new(),
+            band_label: "",
+        }
+        .to_svg()
+    }
+}
