@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Runs every test of the project on a fresh machine: installs the Python test environment
 # (./.venv), builds the release binary and cdylib, runs the Rust tests, then pytest.
-# The long variants of the stress suite are not run here: bash scripts/stress.sh (see README).
+# The long variants of the stress suite are not run here: bash scripts/stress.sh (docs/testing.md).
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"

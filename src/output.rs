@@ -23,10 +23,15 @@ pub fn write_table<R: IntoIterator<Item = f64>>(
     w.finish()
 }
 
-/// Writes text (e.g. an SVG plot) atomically.
+/// Writes text (a report) atomically.
 pub fn write_text(path: &Path, text: &str) -> Result<(), String> {
+    write_bytes(path, text.as_bytes())
+}
+
+/// Writes bytes (an image) atomically.
+pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<(), String> {
     let mut f = AtomicFile::create(path)?;
-    let written = f.writer().write_all(text.as_bytes());
+    let written = f.writer().write_all(bytes);
     f.check(written)?;
     f.commit()
 }

@@ -278,12 +278,11 @@ fn bad_friction_input_is_rejected() {
         "t"
     )
     .is_err());
-    // The contact path must stay between the base tangent points: a tiny pressure angle
-    // puts the pitch point 0.3 mm from T_1, less than the 5.4 mm before it in the window.
-    let text = with_friction(&f("coefficient = 0.1\npitch_point = 0.72")).replace(
-        "pressure_angle = 0.3490658503988659",
-        "pressure_angle = 0.006",
-    );
+    // The contact path must stay between the base tangent points: a small pressure angle
+    // (5°) puts the pitch point r_b1 tan α = 4.0 mm from T_1, less than the 5.4 mm before it
+    // in the window.
+    let text = with_friction(&f("coefficient = 0.1\npitch_point = 0.72"))
+        .replace("pressure_angle = 20.0 ", "pressure_angle = 5.0 ");
     let msg = TrainScene::from_toml_str(&text, "t").unwrap_err().0;
     assert!(
         msg.contains("mesh[0].friction.pitch_point = 0.72") && msg.contains("line of action"),

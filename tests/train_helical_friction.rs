@@ -59,6 +59,8 @@ fn scene(bearing: Option<f64>) -> TrainScene {
         .replace("[gear]", "[mesh.pairs.geometry.gear]");
     let alpha = 25f64.to_radians();
     let gears = gear_blocks(&g, &bearings(M_P), &bearings(M_G));
+    // The mesh's pressure angle is in degrees, as the geometry's transverse one.
+    let alpha_deg = 25.0f64;
     let text = format!(
         r#"
 name = "nasa_art_helical"
@@ -70,7 +72,7 @@ pinion = "pinion"
 gear = "gear"
 contact = "linear"
 model = "pairs"
-pressure_angle = {alpha:?}
+pressure_angle = {alpha_deg:?}
 centre_angle = {:?}
 [mesh.pairs]
 kind = "helical"
@@ -257,10 +259,9 @@ fn bad_helical_friction_input_is_rejected() {
         msg.contains("mesh[0].stiffness.kind = \"helical\""),
         "{msg}"
     );
-    let alpha = format!("pressure_angle = {:?}", 25f64.to_radians());
-    let msg = text(&alpha, "pressure_angle = 0.4");
+    let msg = text("pressure_angle = 25.0", "pressure_angle = 24.0");
     assert!(
-        msg.contains("mesh[0].pairs.geometry.transverse_pressure_angle") && msg.contains("0.4"),
+        msg.contains("mesh[0].pairs.geometry.transverse_pressure_angle") && msg.contains("24"),
         "{msg}"
     );
 }

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use geardyn::plot::{Plot, Series};
+use geardyn::plot::{Axis, Plot, Series};
 
 use crate::problems::{Problem, LADDER, SAMPLES};
 use crate::rows::Row;
@@ -70,20 +70,27 @@ pub fn plot(problem: &Problem, rows: &[&Row], methods: &[String], rhs: bool, pat
             })
         })
         .collect();
-    let svg = Plot {
+    Plot {
         title: &title,
-        x_label: "log10 DTE error (RMS on 201 points / static deflection)",
-        y_label: if rhs {
-            "log10 RHS evaluations"
-        } else {
-            "log10 wall time [s]"
-        },
+        x: Axis::new(
+            "log10 DTE error (RMS on 201 points / static deflection)",
+            "",
+        ),
+        y: Axis::new(
+            if rhs {
+                "log10 RHS evaluations"
+            } else {
+                "log10 wall time [s]"
+            },
+            "",
+        ),
         series,
         bands: Vec::new(),
         band_label: "",
+        markers: Vec::new(),
     }
-    .to_svg();
-    std::fs::write(path, svg).expect("write plot");
+    .save(path)
+    .expect("write plot");
 }
 
 pub fn command_output(cmd: &str, args: &[&str]) -> String {

@@ -14,7 +14,7 @@ use nalgebra::{Complex, DMatrix};
 
 use super::shooting::PeriodMap;
 use super::LinearPeriodMap;
-use crate::model::{response_period, AnyScene, Drivetrain, GearPair, SceneSource};
+use crate::model::{parametric_period, AnyScene, Drivetrain, GearPair, SceneSource};
 use crate::scene::{ContactLaw, MethodChoice};
 use crate::with_drivetrain;
 
@@ -106,7 +106,9 @@ pub fn monodromy(scene: &impl SceneSource) -> Result<Floquet, String> {
             return Err("the mesh force has cubic terms: Floquet analysis needs a linear system; \
                         use `geardyn periodic`".into());
         }
-        let period = response_period(&model)?;
+        // Gear errors force the system but do not enter its homogeneous part: the multipliers
+        // are those of the parametric (mesh) period, not of the hunting period.
+        let period = parametric_period(&model)?;
         // The exact transitions whenever the segments are LTI, whatever `solver.method` says
         // for time runs: they are the closed form of the monodromy.
         let settings = crate::scene::SolverSettings {

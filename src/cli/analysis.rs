@@ -7,6 +7,7 @@ use clap::Args;
 
 use geardyn::commands::{hb as hb_commands, steady as commands};
 use geardyn::output;
+use geardyn::plot::Format;
 
 use super::{load_any_scene, positive};
 
@@ -48,7 +49,8 @@ pub struct SweepArgs {
     /// Output CSV (one row per point and direction).
     #[arg(long)]
     out: PathBuf,
-    /// Also draw the DTE RMS against mesh frequency as SVG.
+    /// Also plot each mesh's DTE RMS against the input speed, jumps marked (PNG or SVG by the
+    /// extension).
     #[arg(long)]
     plot: Option<PathBuf>,
     /// Periodicity tolerance (scaled state residual).
@@ -76,6 +78,9 @@ pub fn periodic(args: PeriodicArgs) -> Result<(), String> {
 
 pub fn sweep(args: SweepArgs) -> Result<(), String> {
     let scene = load_any_scene(&args.scene, &args.example)?;
+    if let Some(path) = &args.plot {
+        Format::of(path)?;
+    }
     let request = commands::SweepRequest {
         speed: &args.speed,
         direction: &args.direction,
@@ -100,7 +105,7 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
         )?;
     }
     if let Some(path) = &args.plot {
-        output::write_text(path, &commands::sweep_plot(&scene, &sweep))?;
+        commands::sweep_plot(&scene, &sweep, path)?;
     }
     print!("{}", commands::sweep_summary(&scene, &sweep, &args.out));
     Ok(())
@@ -128,8 +133,8 @@ pub struct HbArgs {
     /// Output CSV (one row per branch point, per-mesh columns prefixed with the mesh name).
     #[arg(long)]
     pub out: PathBuf,
-    /// FRF plot (SVG): stable solid, unstable dashed, and with `--sweep-points` the sweep
-    /// points overlaid.
+    /// FRF plot (PNG or SVG by the extension): stable solid, unstable dashed, folds marked, and
+    /// with `--sweep-points` the sweep points overlaid.
     #[arg(long)]
     pub plot: Option<PathBuf>,
     /// The mesh the plot shows (its name; default: the first mesh).
@@ -144,6 +149,9 @@ pub struct HbArgs {
 pub fn hb(args: HbArgs) -> Result<(), String> {
     let scene = load_any_scene(&args.scene, &args.example)?;
     let mesh = hb_commands::plot_mesh_index(&scene, args.plot_mesh.as_deref())?;
+    if let Some(path) = &args.plot {
+        Format::of(path)?;
+    }
     let request = hb_commands::HbRequest {
         speed: &args.speed,
         harmonics: args.harmonics,
@@ -153,8 +161,7 @@ pub fn hb(args: HbArgs) -> Result<(), String> {
     let columns = branch.columns();
     output::write_table(&args.out, &columns, branch.rows())?;
     if let Some(path) = &args.plot {
-        let svg = branch.plot(&scene, args.harmonics, args.sweep_points, mesh)?;
-        output::write_text(path, &svg)?;
+        branch.plot(&scene, args.harmonics, args.sweep_points, mesh, path)?;
     }
     print!("{}", branch.summary(&scene, &args.out));
     Ok(())

@@ -5,6 +5,8 @@ use std::path::PathBuf;
 use clap::Args;
 
 use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
+use geardyn::commands::time_plot::time_plot;
+use geardyn::plot::Format;
 use geardyn::simulation::stream::{DEFAULT_MAX_MESH_PERIODS, DEFAULT_MAX_ROWS};
 use geardyn::simulation::RunLimits;
 
@@ -45,6 +47,9 @@ pub struct SimulateArgs {
     /// (default 1e9; a guard against inputs that would run for days).
     #[arg(long, allow_negative_numbers = true)]
     max_periods: Option<f64>,
+    /// Also plot every mesh's DTE and mesh force over time (PNG or SVG by the extension).
+    #[arg(long)]
+    plot: Option<PathBuf>,
     /// Do not print the summary.
     #[arg(long)]
     quiet: bool,
@@ -74,7 +79,13 @@ pub fn run(args: SimulateArgs) -> Result<(), String> {
         },
         progress: !args.quiet,
     };
+    if let Some(path) = &args.plot {
+        Format::of(path)?;
+    }
     let report = simulate(scene, &opts, &args.out)?;
+    if let Some(path) = &args.plot {
+        time_plot(&report, &args.out, path)?;
+    }
     if !args.quiet {
         report.print(&args.out);
     }

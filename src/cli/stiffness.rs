@@ -19,7 +19,7 @@ pub struct StiffnessArgs {
     /// Output CSV file (one row per knot of the curve).
     #[arg(long)]
     out: PathBuf,
-    /// Also write an SVG plot of the curve (with ETC on, the ETC-off curve is drawn too).
+    /// Also plot the curve, PNG or SVG by the extension (with ETC on, the ETC-off curve is drawn too).
     #[arg(long)]
     plot: Option<PathBuf>,
     /// Number of Fourier harmonics in the summary.
@@ -37,7 +37,7 @@ pub fn run(args: StiffnessArgs) -> Result<(), String> {
     let rows = st.rows();
     output::write_table(&args.out, &names, rows.iter().map(|r| r.iter().copied()))?;
     if let Some(path) = &args.plot {
-        output::write_text(path, &st.plot()?)?;
+        st.plot(path)?;
     }
     if !args.quiet {
         print!("{}", st.summary(args.harmonics));

@@ -7,10 +7,10 @@ use std::path::Path;
 use crate::analysis::hb::{continuation, BranchPoint, ContinuationOptions, HbOptions};
 use crate::analysis::{self, Direction, SweepOptions};
 use crate::model::AnyScene;
-use crate::plot::Series;
+use crate::plot::{Marker, Series};
 
 use super::positive;
-use super::steady::{branch_points, dte_rms_plot};
+use super::steady::{branch_points, frequency_response_plot, rpm};
 
 /// The options of `geardyn hb` as given on the command line.
 pub struct HbRequest<'a> {
@@ -157,26 +157,32 @@ impl HbBranch {
             .collect()
     }
 
-    /// The SVG `geardyn hb --plot` draws for mesh `mesh`: its DTE RMS over its mesh frequency,
-    /// stable solid, unstable dashed, and with `sweep_points ≥ 2` an up and a down sweep over
-    /// the same interval overlaid.
+    /// `geardyn hb --plot` for mesh `mesh`: its DTE RMS over the input speed, stable solid,
+    /// unstable dashed, folds marked, and with `sweep_points ≥ 2` an up and a down sweep over
+    /// the same interval overlaid. Written to `path` (PNG or SVG by its extension).
     pub fn plot(
         &self,
         scene: &AnyScene,
         harmonics: usize,
         sweep_points: usize,
         mesh: usize,
-    ) -> Result<String, String> {
+        path: &Path,
+    ) -> Result<(), String> {
         let branch = &self.points;
         let mut series: Vec<Series> = Vec::new();
         // Consecutive points of equal stability form one segment (shared end points).
         let mut start = 0;
         let stable = |i: usize| branch[i].stable().unwrap_or(true);
         let (mut stable_labelled, mut unstable_labelled) = (false, false);
-        let point = |p: &BranchPoint| {
-            let m = &p.solution.meshes[mesh];
-            (m.mesh_frequency, m.dte_rms)
-        };
+        let point = |p: &BranchPoint| (rpm(p.speed), p.solution.meshes[mesh].dte_rms);
+        let markers = branch
+            .iter()
+            .filter(|p| p.fold)
+            .map(|p| Marker {
+                x: rpm(p.speed),
+                label: format!("fold {:.0} rpm", rpm(p.speed)),
+            })
+            .collect();
         for i in 1..=branch.len() {
             if i == branch.len() || stable(i) != stable(start) {
                 let is_stable = stable(start);
@@ -234,7 +240,7 @@ impl HbBranch {
             which,
             harmonics
         );
-        Ok(dte_rms_plot(&title, series))
+        frequency_response_plot(&title, series, markers).save(path)
     }
 
     /// The text `geardyn hb` prints after writing `out`: point and fold counts, then one line

@@ -10,6 +10,7 @@ pub mod simulate;
 pub mod spectrum;
 pub mod steady;
 pub mod stiffness;
+pub mod time_plot;
 
 /// A finite, positive command-line number; `name` is the option without its dashes.
 pub fn positive(name: &str, v: f64) -> Result<f64, String> {

@@ -68,6 +68,9 @@ pub struct MeshSummary {
     /// Fraction of output rows in contact loss (single pair: not in drive-side contact;
     /// drivetrain: no tooth pair in contact).
     pub contact_loss: f64,
+    /// The mesh's DTE and force columns in the CSV (0 is time).
+    pub dte_column: usize,
+    pub force_column: usize,
 }
 
 /// What a completed `simulate` run reports.
@@ -159,6 +162,8 @@ pub fn simulate(
                     dte_rms: run.summary.column(c.dte).rms_about_mean(),
                     peak_force: run.summary.column(c.force).max_abs(),
                     contact_loss: if c.value_means_contact { 1.0 - fraction } else { fraction },
+                    dte_column: c.dte + 1,
+                    force_column: c.force + 1,
                 }
             })
             .collect();

@@ -6,7 +6,7 @@ use std::path::Path;
 use crate::analysis::spectrum::{exact_dft, label_lines, OrderLabel, Spectrum};
 use crate::analysis::{shoot, ShootingOptions};
 use crate::model::{response_period, AnyScene, Drivetrain};
-use crate::plot::{Plot, Series};
+use crate::plot::{Axis, Plot, Series};
 use crate::with_drivetrain;
 
 /// What to transform and how finely.
@@ -158,15 +158,15 @@ impl SpectrumReport {
         crate::output::write_text(path, &text)
     }
 
-    /// Amplitude over frequency, one stem series per signal (log-free: lines read directly).
-    pub fn plot_svg(&self) -> String {
+    /// Amplitude over frequency, one stem per line and signal, to PNG or SVG by the
+    /// extension of `path`.
+    pub fn save_plot(&self, path: &Path) -> Result<(), String> {
         const COLORS: [&str; 4] = ["#2471a3", "#c0392b", "#16a085", "#8e44ad"];
         let series = (self.signals.iter().enumerate())
             .map(|(i, s)| Series {
                 label: &s.column,
                 color: COLORS[i % COLORS.len()],
-                points: (0..s.spectrum.frequency.len())
-                    .skip(1)
+                points: (1..s.spectrum.frequency.len())
                     .flat_map(|k| {
                         let f = s.spectrum.frequency[k];
                         [(f, 0.0), (f, s.spectrum.amplitude[k]), (f, 0.0)]
@@ -177,17 +177,20 @@ impl SpectrumReport {
                 line: true,
             })
             .collect();
-        let unit = &self.signals[0].unit;
-        let title = format!("{}: amplitude spectrum (exact DFT, DC omitted)", self.scene);
-        let y_label = format!("amplitude ({unit})");
+        let unit = match self.signals[0].unit.as_str() {
+            "1" => "",
+            u => u,
+        };
+        let title = format!("{}: amplitude spectrum (exact DFT, mean omitted)", self.scene);
         Plot {
             title: &title,
-            x_label: "frequency (Hz)",
-            y_label: &y_label,
+            x: Axis::new("frequency", "Hz"),
+            y: Axis::new("amplitude", unit),
             series,
             bands: Vec::new(),
             band_label: "",
+            markers: Vec::new(),
         }
-        .to_svg()
+        .save(path)
     }
 }

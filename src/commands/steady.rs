@@ -10,7 +10,7 @@ use crate::analysis::{
     self, multiplier_line, shoot, Direction, PeriodicOrbit, ShootingOptions, SweepOptions,
 };
 use crate::model::{AnyScene, Drivetrain};
-use crate::plot::{Plot, Series};
+use crate::plot::{Axis, Marker, Plot, Series};
 use crate::with_drivetrain;
 
 use super::positive;
@@ -116,18 +116,46 @@ impl SweepRequest<'_> {
     }
 }
 
-/// One branch of a sweep as plot points: mesh `m`'s DTE RMS over its mesh frequency.
+/// rad/s → rpm, the speed axis of every frequency-response plot.
+pub fn rpm(speed: f64) -> f64 {
+    speed * 30.0 / std::f64::consts::PI
+}
+
+/// One branch of a sweep as plot points: mesh `m`'s DTE RMS over the input speed in rpm.
 pub fn branch_points(points: &[SweepPoint], d: Direction, m: usize) -> Vec<(f64, f64)> {
     points
         .iter()
         .filter(|p| p.direction == d)
-        .map(|p| (p.meshes[m].mesh_frequency, p.meshes[m].dte_rms))
+        .map(|p| (rpm(p.speed), p.meshes[m].dte_rms))
         .collect()
 }
 
-/// The SVG `geardyn sweep --plot` draws: each mesh's DTE RMS against its mesh frequency, one
-/// series per mesh and branch that has points.
-pub fn sweep_plot(scene: &AnyScene, sweep: &Sweep) -> String {
+/// A jump of one branch of a sweep: consecutive converged points whose DTE RMS differ by more
+/// than a factor 1.5 and by more than 10 % of the branch's largest RMS — the signature of a
+/// hysteresis jump (or a contact-loss onset), which the plot marks.
+fn jumps(points: &[(f64, f64)]) -> Vec<f64> {
+    let largest = points
+        .iter()
+        .map(|p| p.1)
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    points
+        .windows(2)
+        .filter(|w| {
+            let (a, b) = (w[0].1, w[1].1);
+            a.is_finite()
+                && b.is_finite()
+                && (a - b).abs() > 0.1 * largest
+                && a.max(b) > 1.5 * a.min(b)
+        })
+        .map(|w| 0.5 * (w[0].0 + w[1].0))
+        .collect()
+}
+
+/// `geardyn sweep --plot`: each mesh's DTE RMS against the input speed, one series per mesh and
+/// branch that has points, with the jumps of each branch marked. Written to `path` (PNG or
+/// SVG by its extension).
+pub fn sweep_plot(scene: &AnyScene, sweep: &Sweep, path: &Path) -> Result<(), String> {
     const COLORS: [(&str, &str); 4] = [
         ("#c0392b", "#2471a3"),
         ("#e67e22", "#16a085"),
@@ -147,6 +175,7 @@ pub fn sweep_plot(scene: &AnyScene, sweep: &Sweep) -> String {
         })
         .collect();
     let mut series = Vec::new();
+    let mut markers = Vec::new();
     for m in 0..sweep.prefixes.len() {
         let (up, down) = COLORS[m % COLORS.len()];
         for (k, (d, color, dashed)) in [(Direction::Up, up, false), (Direction::Down, down, true)]
@@ -154,6 +183,11 @@ pub fn sweep_plot(scene: &AnyScene, sweep: &Sweep) -> String {
             .enumerate()
         {
             let points = branch_points(&sweep.points, d, m);
+            let arrow = if d == Direction::Up { "up" } else { "down" };
+            markers.extend(jumps(&points).into_iter().map(|x| Marker {
+                x,
+                label: format!("{}jump ({arrow}) {x:.0} rpm", mesh_tag(&sweep.prefixes[m])),
+            }));
             if !points.is_empty() {
                 series.push(Series {
                     label: &labels[2 * m + k],
@@ -167,20 +201,34 @@ pub fn sweep_plot(scene: &AnyScene, sweep: &Sweep) -> String {
         }
     }
     let title = format!("{}: DTE RMS (mean removed)", scene.name());
-    dte_rms_plot(&title, series)
+    frequency_response_plot(&title, series, markers).save(path)
 }
 
-/// A DTE-RMS-over-mesh-frequency plot (the axes of every frequency response).
-pub fn dte_rms_plot(title: &str, series: Vec<Series>) -> String {
+/// `"mesh1 "` for a drivetrain mesh prefix `mesh1_`, `""` for the single pair.
+pub fn mesh_tag(prefix: &str) -> String {
+    let mesh = prefix.trim_end_matches('_');
+    if mesh.is_empty() {
+        String::new()
+    } else {
+        format!("{mesh} ")
+    }
+}
+
+/// A DTE-RMS-over-input-speed plot (the axes of every frequency response).
+pub fn frequency_response_plot<'a>(
+    title: &'a str,
+    series: Vec<Series<'a>>,
+    markers: Vec<Marker>,
+) -> Plot<'a> {
     Plot {
         title,
-        x_label: "mesh frequency (Hz)",
-        y_label: "DTE RMS (m)",
+        x: Axis::new("input speed", "rpm"),
+        y: Axis::new("DTE RMS", "m"),
         series,
         bands: Vec::new(),
         band_label: "",
+        markers,
     }
-    .to_svg()
 }
 
 /// The lines `geardyn sweep` prints after writing `out`.

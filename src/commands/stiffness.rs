@@ -36,18 +36,19 @@ impl Stiffness {
         report::csv_rows(&self.curve)
     }
 
-    /// The SVG of `geardyn stiffness --plot`; with ETC on, the ETC-off curve is drawn too.
-    pub fn plot(&self) -> Result<String, String> {
+    /// `geardyn stiffness --plot` (PNG or SVG by the extension of `path`); with ETC on, the
+    /// ETC-off curve is drawn too.
+    pub fn plot(&self, path: &std::path::Path) -> Result<(), String> {
         let title = format!("Mesh stiffness, T = {} N·m", self.curve.options.torque);
-        Ok(if self.curve.options.etc {
+        if self.curve.options.etc {
             let off = self.model.curve(CurveOptions {
                 etc: false,
                 ..self.curve.options
             })?;
-            report::svg(&[("ETC on", &self.curve), ("ETC off", &off)], &title)
+            report::plot(&[("ETC on", &self.curve), ("ETC off", &off)], &title, path)
         } else {
-            report::svg(&[("ETC off", &self.curve)], &title)
-        })
+            report::plot(&[("ETC off", &self.curve)], &title, path)
+        }
     }
 
     /// The summary `geardyn stiffness` prints, with `harmonics` Fourier harmonics.

@@ -61,6 +61,10 @@ pub trait Drivetrain: DrivenModel {
     /// Every gear's name, teeth and rotation frequency at the current input speed, Hz: the
     /// shaft orders that label spectral lines (`docs/spectrum.md`).
     fn shafts(&self) -> Vec<ShaftFrequency>;
+    /// Rotation frequencies of the gears whose manufacturing errors excite a mesh, Hz (empty
+    /// without errors): the response repeats only once per revolution of each
+    /// (`docs/errors.md`).
+    fn error_frequencies(&self) -> Vec<f64>;
     /// Nominal speed of the input gear, rad/s.
     fn input_speed(&self) -> f64;
     /// Input torque `T1` and load torque magnitude `T2`, N·m.
@@ -191,6 +195,11 @@ impl Drivetrain for GearPair {
             },
         ]
     }
+    fn error_frequencies(&self) -> Vec<f64> {
+        // The pair kernel carries no gear errors: a pair scene with errors runs as its
+        // one-mesh drivetrain (`crate::scene::train::is_train_text`).
+        Vec::new()
+    }
     fn input_speed(&self) -> f64 {
         self.inputs().pinion_speed
     }
@@ -313,6 +322,9 @@ impl Drivetrain for GearTrain {
                 frequency,
             })
             .collect()
+    }
+    fn error_frequencies(&self) -> Vec<f64> {
+        GearTrain::error_frequencies(self)
     }
     fn input_speed(&self) -> f64 {
         self.inputs().input_speed
@@ -555,8 +567,9 @@ pub fn response_period_in_mesh_periods(frequencies: &[f64]) -> Result<u64, Strin
         let ratio = f / f1;
         let (_, q) = rational(ratio, 1000).ok_or_else(|| {
             format!(
-                "mesh {} frequency {f:e} Hz over mesh 1 frequency {f1:e} Hz = {ratio}: not a \
-                 ratio of small integers, so the response is quasi-periodic and has no period",
+                "excitation {} (meshes first, then gear revolutions with errors) frequency \
+                 {f:e} Hz over mesh 1 frequency {f1:e} Hz = {ratio}: not a ratio of small \
+                 integers, so the response is quasi-periodic and has no period",
                 n + 1
             )
         })?;
@@ -565,18 +578,42 @@ pub fn response_period_in_mesh_periods(frequencies: &[f64]) -> Result<u64, Strin
     Ok(k)
 }
 
-/// The period of the drivetrain's response at its current input speed, s.
+/// The frequencies the response is periodic in, Hz: the mesh frequencies (mesh 1 first), then
+/// the rotation frequencies of gears with manufacturing errors.
+pub fn response_frequencies<M: Drivetrain>(model: &M) -> Vec<f64> {
+    let mut f: Vec<f64> = (0..model.mesh_count())
+        .map(|n| model.mesh_frequency(n))
+        .collect();
+    f.extend(model.error_frequencies());
+    f
+}
+
+/// The period of the drivetrain's response at its current input speed, s: the least common
+/// multiple of the mesh periods and the revolution periods of gears with errors (with a
+/// 25-tooth pinion and a 40-tooth gear both eccentric, the hunting period of 200 mesh cycles).
 pub fn response_period<M: Drivetrain>(model: &M) -> Result<f64, String> {
+    period_of(model, &response_frequencies(model))
+}
+
+/// The period of the parametric excitation, s: the least common multiple of the mesh periods
+/// only. Manufacturing errors are a forcing (`docs/errors.md`): they do not enter the
+/// homogeneous equations, so the monodromy and Floquet multipliers of a linear system are
+/// those of this period.
+pub fn parametric_period<M: Drivetrain>(model: &M) -> Result<f64, String> {
     let f: Vec<f64> = (0..model.mesh_count())
         .map(|n| model.mesh_frequency(n))
         .collect();
+    period_of(model, &f)
+}
+
+fn period_of<M: Drivetrain>(model: &M, f: &[f64]) -> Result<f64, String> {
     if !(f[0] > 0.0) {
         return Err(format!(
             "input speed {} rad/s: a response period needs a positive speed",
             model.input_speed()
         ));
     }
-    Ok(response_period_in_mesh_periods(&f)? as f64 / f[0])
+    Ok(response_period_in_mesh_periods(f)? as f64 / f[0])
 }
 
 /// The best fraction `p/q` with `q ≤ max_den` within 1e-12 relative of `x > 0` (continued

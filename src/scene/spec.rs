@@ -31,10 +31,16 @@ pub struct SceneSpec {
 pub struct GearSpec {
     pub name: String,
     pub teeth: i64,
-    /// Base-circle radius, m.
-    pub base_radius: f64,
-    /// Polar mass moment of inertia, kg·m².
-    pub inertia: f64,
+    /// Base-circle radius, m (default: from a `geometry` mesh stiffness).
+    pub base_radius: Option<f64>,
+    /// Polar mass moment of inertia, kg·m² (default: from a `geometry` mesh stiffness with a
+    /// density).
+    pub inertia: Option<f64>,
+    /// Manufacturing errors (`docs/errors.md`); non-zero ones make the scene run as its
+    /// one-mesh drivetrain (`crate::scene::train::is_train_text`).
+    pub runout: Option<crate::scene::train::spec::RunoutSpec>,
+    pub pitch_errors: Option<Vec<f64>>,
+    pub cumulative_pitch_errors: Option<Vec<f64>>,
 }
 
 /// The mesh between the two gears.

@@ -155,18 +155,56 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
             spec.gear.len()
         ));
     }
+    let m = &spec.mesh;
+    // A geometry stiffness defines what the gear bodies need (docs/model.md, "Gears: base
+    // radius and inertia from the geometry").
+    let bodies = super::geometry::bodies(&m.stiffness, "mesh.stiffness")?;
     let mut gears = Vec::with_capacity(2);
     for (i, g) in spec.gear.iter().enumerate() {
         let field = |f: &str| format!("gear[{i}].{f}");
         if g.name.is_empty() {
             return err(format!("{} = \"\": must not be empty", field("name")));
         }
+        let table = format!("gear[{i}]");
+        let derived = bodies.as_ref().and_then(|[p, q]| {
+            if g.name == m.pinion {
+                Some(p)
+            } else if g.name == m.gear {
+                Some(q)
+            } else {
+                None
+            }
+        });
         let gear = Gear {
             name: g.name.clone(),
             teeth: teeth(&field("teeth"), g.teeth)?,
-            base_radius: positive(&field("base_radius"), g.base_radius)?,
-            inertia: positive(&field("inertia"), g.inertia)?,
+            base_radius: super::geometry::base_radius(&table, g.base_radius, derived)?,
+            inertia: super::geometry::body_value(
+                &table,
+                "inertia",
+                g.inertia,
+                derived.map(|d| (d, d.inertia)),
+            )?,
         };
+        let errors = crate::scene::train::validate::gear_errors(
+            &field,
+            &g.name,
+            gear.teeth,
+            crate::scene::train::validate::ErrorKeys {
+                runout: &g.runout,
+                pitch_errors: &g.pitch_errors,
+                cumulative_pitch_errors: &g.cumulative_pitch_errors,
+            },
+        )?;
+        if !errors.is_zero() {
+            // Only a caller that bypasses the format detection gets here.
+            return err(format!(
+                "{}: gear {:?} has non-zero runout or pitch errors, which the drivetrain kernel \
+                 carries: read the scene as a drivetrain (geardyn does so for every command)",
+                field("runout"),
+                g.name
+            ));
+        }
         gear_compliance(&format!("gear[{i}]"), gear.base_radius, gear.inertia)?;
         gears.push(gear);
     }
@@ -188,7 +226,6 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
                 ))
             })
     };
-    let m = &spec.mesh;
     let pinion = find("mesh.pinion", &m.pinion)?;
     let gear = find("mesh.gear", &m.gear)?;
     if pinion.name == gear.name {
@@ -200,7 +237,20 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
 
     let stiffness = match &m.stiffness {
         StiffnessSpec::Geometry { .. } => {
-            super::geometry::stiffness(&m.stiffness, &spec.operating, &pinion, &gear)?
+            fn body<'a>(which: &str, g: &'a Gear) -> super::geometry::MeshGear<'a> {
+                super::geometry::MeshGear {
+                    which: which.to_owned(),
+                    name: &g.name,
+                    teeth: g.teeth,
+                    base_radius: g.base_radius,
+                }
+            }
+            super::geometry::stiffness(
+                &m.stiffness,
+                "mesh.stiffness",
+                [body("mesh.pinion", &pinion), body("mesh.gear", &gear)],
+                ("operating.input_torque", spec.operating.input_torque),
+            )?
         }
         StiffnessSpec::Helical { .. } => super::helical::stiffness(&m.stiffness, &pinion, &gear)?,
         other => stiffness(other)?,

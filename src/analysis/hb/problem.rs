@@ -8,7 +8,7 @@ use std::f64::consts::TAU;
 use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
 use super::{HbMesh, HbOptions, HbSolution};
-use crate::model::drivetrain::response_period_in_mesh_periods;
+use crate::model::drivetrain::{response_frequencies, response_period_in_mesh_periods};
 use crate::model::{Drivetrain, MeshLaw};
 use crate::scene::SolverSettings;
 use crate::simulation::Driver;
@@ -225,7 +225,7 @@ impl<M: Drivetrain> Problem<M> {
                 model.input_speed()
             ));
         }
-        let k_resp = response_period_in_mesh_periods(&freqs)?;
+        let k_resp = response_period_in_mesh_periods(&response_frequencies(&model))?;
         let mesh_periods = k_resp * options.subharmonic as u64;
         let period = mesh_periods as f64 / freqs[0];
         let f = 1.0 / period;
@@ -259,6 +259,12 @@ impl<M: Drivetrain> Problem<M> {
             });
             directions.extend(dirs);
             bases.push(rounded as usize / options.subharmonic as usize);
+        }
+        // Gear errors force at the revolution frequencies of their gears (`docs/errors.md`):
+        // those are base orders too, or the basis would miss the shaft orders and sidebands.
+        for f_rev in model.error_frequencies() {
+            let cycles = (f_rev * period).round() as usize;
+            bases.push(cycles / options.subharmonic as usize);
         }
         let v = DMatrix::from_fn(m, directions.len(), |i, k| directions[k][i]);
         let lin = model.linear_part();

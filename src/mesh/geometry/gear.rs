@@ -48,6 +48,8 @@ pub struct Gear {
     pub r_tip: f64,
     pub r_root: f64,
     pub r_bore: f64,
+    /// Density ρ, kg/m³ (`None`: not given, inertia and mass are not derivable).
+    pub density: Option<f64>,
     /// Radius where the generated involute starts (end of the cutter's straight flank).
     pub r_form: f64,
     /// Half tooth angle at the base circle θ_b.
@@ -93,8 +95,9 @@ impl Gear {
         let x = finite(&f("profile_shift"), spec.profile_shift)?;
         let ha = positive(&f("addendum"), spec.addendum)?;
         let hf = positive(&f("dedendum"), spec.dedendum)?;
-        let e = positive(&f("youngs_modulus"), spec.youngs_modulus)?;
-        let nu = spec.poisson_ratio;
+        let material = super::material::resolve(field, spec)?;
+        let e = positive(&f("youngs_modulus"), material.youngs_modulus)?;
+        let nu = material.poisson_ratio;
         if !(nu.is_finite() && nu > 0.0 && nu < 0.5) {
             return Err(format!(
                 "{} = {nu}: must lie in (0, 0.5)",
@@ -102,6 +105,10 @@ impl Gear {
             ));
         }
         let r_bore = positive(&f("bore_radius"), spec.bore_radius)?;
+        let density = material
+            .density
+            .map(|rho| positive(&f("density"), rho))
+            .transpose()?;
         let (sin_a, cos_a, tan_a) = (alpha.sin(), alpha.cos(), alpha.tan());
         // Default: the full round of the standard clearance c* = 0.25, ρ* = c*/(1 − sin α)
         // (tip circle tangent to the tip line and to the flank at depth h_f* − c*; ISO 53
@@ -190,10 +197,27 @@ impl Gear {
             r_tip,
             r_root,
             r_bore,
+            density,
             r_form,
             theta_b,
             theta_f,
         })
+    }
+
+    /// Polar moment of inertia of the gear body, kg·m²: a solid disc of the face width
+    /// between the bore and the pitch circle, `J = ½ ρ π L (r⁴ − r_bore⁴)`. Teeth above and
+    /// tooth spaces below the pitch circle roughly balance, which is the usual approximation
+    /// (e.g. the ROSS rotordynamics package, `GearElement`, uses the pitch diameter).
+    /// `None` without a density.
+    pub fn inertia(&self) -> Option<f64> {
+        self.density
+            .map(|rho| 0.5 * rho * PI * self.face_width * (self.r.powi(4) - self.r_bore.powi(4)))
+    }
+
+    /// Mass of the same disc, `m = ρ π L (r² − r_bore²)`, kg (`None` without a density).
+    pub fn mass(&self) -> Option<f64> {
+        self.density
+            .map(|rho| rho * PI * self.face_width * (self.r.powi(2) - self.r_bore.powi(2)))
     }
 
     /// Roll length `sqrt(r² − r_b²)` of radius `r` (distance from the base tangent point).

@@ -15,6 +15,7 @@ pub mod curve;
 pub mod fillet;
 pub mod gear;
 pub mod hertz;
+pub mod material;
 pub mod quadrature;
 pub mod report;
 pub mod sharing;

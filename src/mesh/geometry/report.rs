@@ -6,7 +6,9 @@ use std::f64::consts::TAU;
 use std::fmt::Write;
 
 use super::{fillet, MeshModel, StiffnessCurve};
-use crate::plot::{Plot, Series};
+use std::path::Path;
+
+use crate::plot::{Axis, Plot, Series};
 
 /// CSV column names for a curve whose high zone has `pairs` pairs.
 pub fn csv_names(pairs: usize) -> Vec<String> {
@@ -46,9 +48,9 @@ pub fn csv_rows(curve: &StiffnessCurve) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// The SVG plot of one or more curves (e.g. with and without ETC) in 10⁸ N/m over the mesh
-/// phase, the more-pairs zone of the first curve shaded.
-pub fn svg(curves: &[(&str, &StiffnessCurve)], title: &str) -> String {
+/// The plot of one or more curves (e.g. with and without ETC) over the mesh phase, the
+/// more-pairs zone of the first curve shaded, written to `path` (PNG or SVG by its extension).
+pub fn plot(curves: &[(&str, &StiffnessCurve)], title: &str, path: &Path) -> Result<(), String> {
     let colors = ["#1f4e9c", "#c0392b", "#2e8b57", "#8e44ad"];
     let series = curves
         .iter()
@@ -61,7 +63,7 @@ pub fn svg(curves: &[(&str, &StiffnessCurve)], title: &str) -> String {
             points: c
                 .pieces()
                 .iter()
-                .flat_map(|p| [(p.start, p.k_start / 1e8), (p.end, p.value(p.end) / 1e8)])
+                .flat_map(|p| [(p.start, p.k_start), (p.end, p.value(p.end))])
                 .collect(),
             // Later curves dashed, so that coinciding curves stay visible.
             dashed: i > 0,
@@ -75,14 +77,17 @@ pub fn svg(curves: &[(&str, &StiffnessCurve)], title: &str) -> String {
         .unwrap_or_default();
     Plot {
         title,
-        x_label:
-            "mesh phase s (pinion angle / (2π/z1)); s = 0: theoretical end of multiple contact",
-        y_label: "mesh stiffness K (1e8 N/m)",
+        x: Axis::new(
+            "mesh phase s (pinion angle / (2π/z1)); s = 0: end of multiple contact",
+            "",
+        ),
+        y: Axis::new("mesh stiffness K", "N/m"),
         series,
         bands,
         band_label: "more pairs in contact",
+        markers: Vec::new(),
     }
-    .to_svg()
+    .save(path)
 }
 
 /// The text summary.

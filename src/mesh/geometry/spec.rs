@@ -42,10 +42,14 @@ pub struct GearSpec {
     pub cutter_tip_radius: Option<f64>,
     /// Bore (or rim inner) radius r_int, m (Sainsot fillet foundation).
     pub bore_radius: f64,
-    /// Young's modulus E, Pa.
-    pub youngs_modulus: f64,
-    /// Poisson's ratio ν.
-    pub poisson_ratio: f64,
+    /// Material preset (`"steel"`, see [`super::material`]); explicit constants override it.
+    pub material: Option<String>,
+    /// Young's modulus E, Pa (default: the material's).
+    pub youngs_modulus: Option<f64>,
+    /// Poisson's ratio ν (default: the material's).
+    pub poisson_ratio: Option<f64>,
+    /// Density ρ, kg/m³ (default: the material's); needed only for derived inertias/masses.
+    pub density: Option<f64>,
 }
 
 impl GearSpec {

@@ -127,8 +127,10 @@ mod tests {
             dedendum: 1.25,
             cutter_tip_radius: None,
             bore_radius: 0.01,
-            youngs_modulus: 2.06e11,
-            poisson_ratio: 0.3,
+            material: None,
+            youngs_modulus: Some(2.06e11),
+            poisson_ratio: Some(0.3),
+            density: None,
         };
         Gear::new("g", &spec, 0.003, 20f64.to_radians(), 0.02).unwrap()
     }

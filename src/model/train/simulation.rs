@@ -43,13 +43,15 @@ impl Driver<GearTrain> {
     pub fn new(scene: &TrainScene) -> Result<TrainSimulation, String> {
         let mut train = GearTrain::new(scene)?;
         let y0 = train.initial_state(scene)?;
-        Driver::with_model(
-            train,
-            &y0,
-            &scene.solver,
+        let refusal = if train.has_gear_errors() {
+            "solver.method = \"exact\": gear runout and pitch errors add shaft-order harmonics \
+             and tooth steps to the STE, which the exact propagator's augmented state does not \
+             carry (use rk or auto; auto picks rk)"
+        } else {
             "solver.method = \"exact\": the train's segments are not all \
-                    linear time-invariant (use rk or auto)",
-        )
+                    linear time-invariant (use rk or auto)"
+        };
+        Driver::with_model(train, &y0, &scene.solver, refusal)
     }
 
     /// `[ξ, ξ']`.

@@ -26,6 +26,7 @@ use super::assembly::{generalized_eigen, Assembly, DofKind, Reduction};
 use super::friction::FrictionTable;
 use super::mesh::{CycleTable, Interval, SlotLaw};
 use super::statics::{equilibrium, loaded_ste, Ste};
+use crate::mesh::errors::{GearInMesh, MeshErrors};
 use crate::mesh::{MeshStiffness, PhaseSeries};
 use crate::model::PhaseClock;
 use crate::scene::train::{MeshForceModel, PairModel, TrainScene};
@@ -82,6 +83,8 @@ struct MeshRt {
     /// `s = frac(p + offset)`: the lumped source's phase shift, 0 for pair tables.
     offset: f64,
     ste: PhaseSeries,
+    /// Runout and pitch errors of the mesh's gears (`docs/errors.md`).
+    errors: MeshErrors,
     contact: ContactLaw,
     damping: f64,
     k_mean: f64,
@@ -152,6 +155,27 @@ impl MeshRt {
         }
     }
 
+    /// The STE `e` (mesh series and gear errors) and `de/dp` at phase `p` in the frozen
+    /// stiffness cycle.
+    fn ste_at(&self, p: f64) -> (f64, f64) {
+        self.ste_in_cycle(p, self.cycle)
+    }
+
+    /// The same in the stiffness cycle that contains `p` (no frozen mode: statics, harmonic
+    /// balance).
+    fn ste_free(&self, p: f64) -> (f64, f64) {
+        self.ste_in_cycle(p, (p + self.offset).floor())
+    }
+
+    fn ste_in_cycle(&self, p: f64, cycle: f64) -> (f64, f64) {
+        let (e, slope) = self.ste.value_and_slope(p);
+        if self.errors.is_empty() {
+            return (e, slope);
+        }
+        let (de, dslope) = self.errors.value_and_slope(p, cycle);
+        (e + de, slope + dslope)
+    }
+
     fn locate(&mut self, t: f64) {
         let u = self.clock.phase_at(t) + self.offset;
         self.cycle = u.floor();
@@ -160,11 +184,14 @@ impl MeshRt {
     }
 
     fn next_stop(&self) -> f64 {
+        // Pitch errors step at every stiffness-cycle boundary.
+        let steps = self.errors.has_steps();
         match self.table() {
-            Some(t) if t.has_stops() => {
+            Some(t) if t.has_stops() || steps => {
                 let end = self.cycle + t.intervals[self.interval].end;
                 self.clock.time_of(end - self.offset)
             }
+            None if steps => self.clock.time_of(self.cycle + 1.0 - self.offset),
             _ => f64::INFINITY,
         }
     }
@@ -368,6 +395,7 @@ impl GearTrain {
                 }
                 _ => None,
             };
+            let errors = mesh_errors(scene, n, p0, offset);
             meshes.push(MeshRt {
                 a: a_vecs[n].as_slice().to_vec(),
                 dte: (q.transpose() * &asm.dte[n]).as_slice().to_vec(),
@@ -376,6 +404,7 @@ impl GearTrain {
                 stiffness,
                 offset,
                 ste,
+                errors,
                 contact: sm.contact,
                 damping: sm.damping,
                 k_mean: asm.mean_stiffness[n],
@@ -651,8 +680,13 @@ impl GearTrain {
     /// Whether every segment is LTI in the augmented state (exact propagator).
     pub fn is_piecewise_lti(&self) -> bool {
         // Friction arms move with the phase: the friction moment is not piecewise constant.
+        // Runout adds harmonics of the shaft frequencies and pitch errors steps at the tooth
+        // boundaries; the augmented state carries neither (`docs/errors.md`).
         self.key_fits
-            && self.meshes.iter().all(|m| m.friction.is_none())
+            && self
+                .meshes
+                .iter()
+                .all(|m| m.friction.is_none() && m.errors.is_empty())
             && self.meshes.iter().all(|m| match &m.stiffness {
                 Stiffness::Table(t) => t.stiffness_piecewise_constant(),
                 Stiffness::Smooth { .. } => false,
@@ -689,7 +723,7 @@ impl GearTrain {
                     let a = DVector::from_column_slice(&mesh.a);
                     k += mesh.k_mean * &a * a.transpose();
                     let p0 = mesh.clock.phase_at(0.0);
-                    let mut e0 = mesh.ste.value(p0);
+                    let mut e0 = mesh.ste_free(p0).0;
                     if let Some(tb) = mesh.table() {
                         let s0 = crate::mesh::cycle_fraction(p0 + mesh.offset);
                         if tb.slots > 1 {
@@ -787,7 +821,7 @@ impl GearTrain {
         let law = mesh.law(j)?;
         let p = mesh.clock.phase_at(t);
         let f = mesh.clock.mesh_frequency();
-        let (e, slope) = mesh.ste.value_and_slope(p);
+        let (e, slope) = mesh.ste_at(p);
         let (s, sd) = self.deflection(n, y);
         let r = mesh.local(p);
         Some((s - e - law.g(r), sd - slope * f - law.g1 * f, law))
@@ -859,7 +893,7 @@ impl GearTrain {
         let mesh = &self.meshes[n];
         let p = mesh.clock.phase_at(t);
         let f = mesh.clock.mesh_frequency();
-        let (e, e_slope) = mesh.ste.value_and_slope(p);
+        let (e, e_slope) = mesh.ste_at(p);
         let (s, sd) = self.deflection(n, y);
         let r = mesh.local(p);
         let clearance = mesh.clearance();
@@ -1006,6 +1040,22 @@ impl GearTrain {
     }
 
     /// Mesh period of mesh n at the current speed, s.
+    /// Whether any mesh sees gear runout or pitch errors.
+    pub fn has_gear_errors(&self) -> bool {
+        self.meshes.iter().any(|m| !m.errors.is_empty())
+    }
+
+    /// Rotation frequencies of the gears with errors, per mesh that sees them, Hz.
+    pub fn error_frequencies(&self) -> Vec<f64> {
+        self.meshes
+            .iter()
+            .flat_map(|m| {
+                let f = m.clock.mesh_frequency();
+                m.errors.revolution_orders().into_iter().map(move |o| o * f)
+            })
+            .collect()
+    }
+
     pub fn mesh_period(&self, n: usize) -> f64 {
         1.0 / self.meshes[n].clock.mesh_frequency()
     }
@@ -1051,7 +1101,11 @@ impl GearTrain {
 
     fn on_mesh_stop(&mut self, n: usize, t: f64, y: &[f64]) {
         let mesh = &mut self.meshes[n];
+        let steps = mesh.errors.has_steps();
         let Stiffness::Table(table) = &mesh.stiffness else {
+            // A smooth stiffness stops only at the pitch-error steps.
+            mesh.cycle += 1.0;
+            self.reclassify_engaged(n, t, y);
             return;
         };
         let count = table.intervals.len();
@@ -1081,7 +1135,56 @@ impl GearTrain {
                 (true, f) => f,
             };
         }
+        if wrapped && steps {
+            self.reclassify_engaged(n, t, y);
+        }
     }
+
+    /// After a pitch-error step of the STE every engaged slot's gap jumped: its contact is
+    /// decided afresh from the state.
+    fn reclassify_engaged(&mut self, n: usize, t: f64, y: &[f64]) {
+        for j in 0..self.meshes[n].flags.len() {
+            if self.meshes[n].flags[j] != SlotContact::Inactive {
+                self.meshes[n].flags[j] = self.classify(n, j, t, y);
+            }
+        }
+    }
+}
+
+/// The errors of mesh `n`'s two gears as the mesh sees them (`docs/errors.md`): the line of
+/// action `β_n = centre_angle + σ_a·pressure_angle` of the assembly, and per gear the teeth
+/// between this mesh and the gear's first mesh, `k = round(σ_g z (α_n − α_1)/2π)` with `α` the
+/// direction from the gear's centre to its mate (teeth numbered against the rotation, so the
+/// tooth at a mesh further along the rotation sense has a lower number).
+fn mesh_errors(scene: &TrainScene, n: usize, p0: f64, offset: f64) -> MeshErrors {
+    let sm = &scene.meshes[n];
+    let beta = sm.centre_angle + scene.rotation[sm.pinion] * sm.pressure_angle;
+    let towards_mate = |g: usize, m: &crate::scene::train::TrainMesh| {
+        if m.pinion == g {
+            m.centre_angle
+        } else {
+            m.centre_angle + std::f64::consts::PI
+        }
+    };
+    let gear = |g: usize, side: f64| {
+        let first = scene
+            .meshes
+            .iter()
+            .find(|m| m.pinion == g || m.gear == g)
+            .expect("the gear takes part in mesh n");
+        let z = scene.gears[g].teeth;
+        let turn =
+            scene.rotation[g] * f64::from(z) * (towards_mate(g, sm) - towards_mate(g, first)) / TAU;
+        GearInMesh {
+            errors: &scene.gears[g].errors,
+            teeth: z,
+            side,
+            sense: scene.rotation[g],
+            line_of_action: beta,
+            tooth_offset: turn.round() as i64,
+        }
+    };
+    MeshErrors::new(&[gear(sm.pinion, 1.0), gear(sm.gear, -1.0)], p0, offset)
 }
 
 /// The closed form of a free single pair: one mesh, two rotating bodies (the input and the
@@ -1228,6 +1331,58 @@ impl HybridSystem for GearTrain {
         self.guards.len()
     }
 
+    /// `∂f/∂y` of the frozen mode, `[[0, I], [−M̂⁻¹(K̂_b + Σ k_n a_n a_nᵀ), −M̂⁻¹(Ĉ + Σ c_n a_n
+    /// a_nᵀ)]]` with `k_n` the stiffness of mesh n's slots in contact and `c_n` its damping
+    /// while any is (the STE and gaps are functions of time only). Tooth friction is not
+    /// covered (its arms move with the phase).
+    fn jacobian(&self, t: f64, _y: &[f64], jac: &mut [f64]) -> bool {
+        if self.meshes.iter().any(|mesh| mesh.friction.is_some()) {
+            return false;
+        }
+        let m = self.m;
+        let mut k = self.k_b.clone();
+        let mut c = self.c.clone();
+        for mesh in &self.meshes {
+            let p = mesh.clock.phase_at(t);
+            let mut kn = 0.0;
+            let mut touching = false;
+            for (j, flag) in mesh.flags.iter().enumerate() {
+                if matches!(flag, SlotContact::Drive | SlotContact::Back) {
+                    let law = mesh.law(j).expect("a slot in contact is engaged");
+                    kn += mesh.k(j, p, &law);
+                    touching = true;
+                }
+            }
+            let cn = if touching { mesh.damping } else { 0.0 };
+            for i in 0..m {
+                for l in 0..m {
+                    k[i * m + l] += kn * mesh.a[i] * mesh.a[l];
+                    c[i * m + l] += cn * mesh.a[i] * mesh.a[l];
+                }
+            }
+        }
+        let n = 2 * m;
+        jac.fill(0.0);
+        for i in 0..m {
+            jac[i * n + m + i] = 1.0;
+            for l in 0..m {
+                let (mut dk, mut dc) = (0.0, 0.0);
+                for q in 0..m {
+                    let minv = if m == 1 {
+                        1.0 / self.m_hat[0]
+                    } else {
+                        self.minv[i * m + q]
+                    };
+                    dk += minv * k[q * m + l];
+                    dc += minv * c[q * m + l];
+                }
+                jac[(m + i) * n + l] = -dk;
+                jac[(m + i) * n + m + l] = -dc;
+            }
+        }
+        true
+    }
+
     fn guards(&self, t: f64, y: &[f64], g: &mut [f64]) {
         for (slot, &(n, j, surface)) in g.iter_mut().zip(&self.guards) {
             let delta = self.slot_gap(n, j, t, y).map_or(0.0, |v| v.0);
@@ -1256,7 +1411,7 @@ impl HybridSystem for GearTrain {
             *g = sign * a;
         }
         let f = mesh.clock.mesh_frequency();
-        let slope = mesh.ste.value_and_slope(mesh.clock.phase_at(t)).1;
+        let slope = mesh.ste_at(mesh.clock.phase_at(t)).1;
         Some(-sign * (slope * f + law.g1 * f))
     }
 
@@ -1267,10 +1422,16 @@ impl HybridSystem for GearTrain {
         self.guard_gradient(t0, &[], index, w)?;
         let mesh = &self.meshes[n];
         let omega = TAU * mesh.clock.mesh_frequency();
+        let errors = if mesh.errors.is_empty() {
+            0.0
+        } else {
+            mesh.errors.curvature_bound() * mesh.clock.mesh_frequency().powi(2)
+        };
         Some(
             (mesh.ste.coefficients().iter().enumerate())
                 .map(|(i, &(a, b))| ((i + 1) as f64 * omega).powi(2) * a.hypot(b))
-                .sum(),
+                .sum::<f64>()
+                + errors,
         )
     }
 
@@ -1338,7 +1499,7 @@ impl GearTrain {
                                 .sum::<usize>();
                         mesh.ste.value_from_harmonics(&z[base..])
                     }
-                    None => mesh.ste.value(p),
+                    None => mesh.ste_at(p).0,
                 };
                 y[0] = (e + g + level) / a[0];
             } else {

@@ -198,7 +198,7 @@ pub(super) fn validate(
     }
     if !(phi > 0.0) {
         return err(format!(
-            "{field}: the friction arms need the mesh's pressure_angle (operating, rad)"
+            "{field}: the friction arms need the mesh's pressure_angle (operating, degrees)"
         ));
     }
     if let Some(h) = helical {

@@ -8,7 +8,7 @@
 
 mod friction;
 pub mod spec;
-mod validate;
+pub(crate) mod validate;
 
 use std::path::Path;
 
@@ -41,6 +41,8 @@ pub struct TrainGear {
     /// Torsional coupling to ground, N·m/rad.
     pub ground_stiffness: f64,
     pub ground_damping: f64,
+    /// Runout and pitch errors (`docs/errors.md`).
+    pub errors: crate::mesh::errors::GearErrors,
 }
 
 /// How two coaxial gears are coupled.
@@ -364,7 +366,8 @@ pub struct TrainMesh {
     pub initial_phase: f64,
     /// Mesh phasing φ relative to the first mesh, cycles of this mesh (0 for the first).
     pub phase: f64,
-    /// Operating pressure angle, rad (0 when no translation is coupled).
+    /// Operating pressure angle, rad (0 when no translation is coupled; the scene key is in
+    /// degrees).
     pub pressure_angle: f64,
     /// Centre-line direction from pinion to gear, rad.
     pub centre_angle: f64,
@@ -493,9 +496,49 @@ pub fn is_train_text(text: &str) -> bool {
             matches!(table.get("mesh"), Some(toml::Value::Array(_)))
                 || table.contains_key("shaft")
                 || table.contains_key("model")
+                || has_gear_errors(&table)
+                || has_pair_features(&table)
         }
         Err(_) => false,
     }
+}
+
+/// Whether the one `[mesh]` table uses per-tooth-pair features (`model = "pairs"`, pair
+/// stiffness, tip relief, gap tables, tooth friction): a single-mesh scene that does is run as
+/// its one-mesh drivetrain, which has them (Liu 2007 Model-1; `docs/errors.md`).
+fn has_pair_features(table: &toml::Table) -> bool {
+    let Some(toml::Value::Table(mesh)) = table.get("mesh") else {
+        return false;
+    };
+    ["model", "pairs", "tip_relief", "gaps", "friction"]
+        .iter()
+        .any(|k| mesh.contains_key(*k))
+}
+
+/// Whether a `[[gear]]` carries manufacturing errors that are not all zero: a single-mesh
+/// scene with errors is run as its one-mesh drivetrain, the one kernel that carries them
+/// (`docs/errors.md`). All-zero errors leave it on the pair kernel, bit for bit unchanged;
+/// anything else that is not a zero number (a negative amplitude, a string) goes to the
+/// drivetrain reader, whose validation names it.
+fn has_gear_errors(table: &toml::Table) -> bool {
+    let Some(toml::Value::Array(gears)) = table.get("gear") else {
+        return false;
+    };
+    let zero = |v: &toml::Value| match v {
+        toml::Value::Float(x) => *x == 0.0,
+        toml::Value::Integer(i) => *i == 0,
+        _ => false,
+    };
+    gears.iter().any(|g| {
+        let runout = g
+            .get("runout")
+            .is_some_and(|r| r.get("amplitude").is_none_or(|a| !zero(a)));
+        let pitch = ["pitch_errors", "cumulative_pitch_errors"].iter().any(|k| {
+            g.get(k)
+                .is_some_and(|t| t.as_array().is_none_or(|a| !a.iter().all(zero)))
+        });
+        runout || pitch
+    })
 }
 
 impl TrainScene {
@@ -516,6 +559,7 @@ impl TrainScene {
             bearing: None,
             ground_stiffness: 0.0,
             ground_damping: 0.0,
+            errors: Default::default(),
         };
         let ratio = scene.pinion.teeth as f64 / scene.gear.teeth as f64;
         TrainScene {

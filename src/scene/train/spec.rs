@@ -87,11 +87,12 @@ impl Default for ModelSpec {
 pub struct TrainGearSpec {
     pub name: String,
     pub teeth: i64,
-    /// Base-circle radius, m.
-    pub base_radius: f64,
-    /// Polar moment of inertia, kg·m².
-    pub inertia: f64,
-    /// Mass, kg (needed when the gear has translational DOFs).
+    /// Base-circle radius, m (default: from a `geometry` mesh stiffness).
+    pub base_radius: Option<f64>,
+    /// Polar moment of inertia, kg·m² (default: from a `geometry` mesh stiffness with a
+    /// density).
+    pub inertia: Option<f64>,
+    /// Mass, kg (needed when the gear has translational DOFs; default as `inertia`).
     pub mass: Option<f64>,
     /// Bearing stiffness `[k_x, k_y]`, N/m: the gear gets translational DOFs.
     pub bearing_stiffness: Option<[f64; 2]>,
@@ -103,6 +104,22 @@ pub struct TrainGearSpec {
     /// Torsional damping to ground, N·m·s/rad.
     #[serde(default)]
     pub ground_damping: f64,
+    /// Runout (eccentricity) of the gear (`docs/errors.md`).
+    pub runout: Option<RunoutSpec>,
+    /// Individual (single) pitch deviations, one per tooth, m (`docs/errors.md`).
+    pub pitch_errors: Option<Vec<f64>>,
+    /// Cumulative pitch deviations, one per tooth, m (instead of `pitch_errors`).
+    pub cumulative_pitch_errors: Option<Vec<f64>>,
+}
+
+/// `runout = { amplitude = …, phase = … }`: eccentricity of a gear's geometric centre, m, and
+/// its direction at t = 0 in the scene frame, rad.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunoutSpec {
+    pub amplitude: f64,
+    #[serde(default)]
+    pub phase: f64,
 }
 
 /// A shaft between two coaxial gears.
@@ -137,7 +154,7 @@ pub struct TrainMeshSpec {
     pub initial_phase: Option<f64>,
     /// Mesh phasing φ relative to the first mesh (meshes 2, 3, …), cycles of this mesh.
     pub phase: Option<f64>,
-    /// Operating pressure angle, rad (needed with translational DOFs).
+    /// Operating pressure angle, degrees (needed with translational DOFs).
     pub pressure_angle: Option<f64>,
     /// Direction of the centre line from the pinion's to the gear's centre, rad.
     pub centre_angle: Option<f64>,

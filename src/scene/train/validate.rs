@@ -60,6 +60,25 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
     if spec.gear.is_empty() {
         return err("gear: no [[gear]] given; a train needs at least 2".into());
     }
+    let mesh_specs = spec.mesh.into_vec();
+    // Geometry meshes define the bodies of their gears (docs/train.md, "Gears and geometry
+    // meshes"); the first geometry mesh naming a gear defines it, later ones are checked
+    // against its base radius.
+    let mut bodies: Vec<(String, crate::scene::geometry::GearBody)> = Vec::new();
+    for (i, m) in mesh_specs.iter().enumerate() {
+        let Some(stiffness) = &m.stiffness else {
+            continue;
+        };
+        if let Some([p, g]) =
+            crate::scene::geometry::bodies(stiffness, &format!("mesh[{i}].stiffness"))?
+        {
+            for (name, body) in [(&m.pinion, p), (&m.gear, g)] {
+                if !bodies.iter().any(|(n, _)| n == name) {
+                    bodies.push((name.clone(), body));
+                }
+            }
+        }
+    }
     let mut gears = Vec::with_capacity(spec.gear.len());
     for (i, g) in spec.gear.iter().enumerate() {
         let f = |name: &str| format!("gear[{i}].{name}");
@@ -78,7 +97,16 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
             ));
         }
         let teeth = crate::scene::validate::teeth(&f("teeth"), g.teeth)?;
-        let mass = g.mass.map(|m| positive(&f("mass"), m)).transpose()?;
+        let table = format!("gear[{i}]");
+        let derived = bodies.iter().find(|(n, _)| *n == g.name).map(|(_, b)| b);
+        let mass = match (g.mass, derived) {
+            (Some(m), _) => Some(positive(&f("mass"), m)?),
+            // A derived mass only where the translations need one.
+            (None, Some(d)) if compliant && g.bearing_stiffness.is_some() => Some(
+                crate::scene::geometry::body_value(&table, "mass", None, Some((d, d.mass)))?,
+            ),
+            (None, _) => None,
+        };
         let bearing = match (g.bearing_stiffness, compliant) {
             (Some(k), true) => {
                 for (axis, v) in ["x", "y"].iter().zip(k) {
@@ -117,12 +145,27 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
         gears.push(TrainGear {
             name: g.name.clone(),
             teeth,
-            base_radius: positive(&f("base_radius"), g.base_radius)?,
-            inertia: positive(&f("inertia"), g.inertia)?,
+            base_radius: crate::scene::geometry::base_radius(&table, g.base_radius, derived)?,
+            inertia: crate::scene::geometry::body_value(
+                &table,
+                "inertia",
+                g.inertia,
+                derived.map(|d| (d, d.inertia)),
+            )?,
             mass,
             bearing,
             ground_stiffness: non_negative(&f("ground_stiffness"), g.ground_stiffness)?,
             ground_damping: non_negative(&f("ground_damping"), g.ground_damping)?,
+            errors: gear_errors(
+                &f,
+                &g.name,
+                teeth,
+                ErrorKeys {
+                    runout: &g.runout,
+                    pitch_errors: &g.pitch_errors,
+                    cumulative_pitch_errors: &g.cumulative_pitch_errors,
+                },
+            )?,
         });
         let gear = &gears[gears.len() - 1];
         crate::scene::validate::gear_compliance(
@@ -166,13 +209,31 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
         .map(|(i, s)| shaft(i, s, &find))
         .collect::<Result<Vec<_>>>()?;
 
-    let mesh_specs = spec.mesh.into_vec();
     if mesh_specs.is_empty() {
         return err("mesh: no mesh given; a train needs at least one".into());
     }
+    // The static pinion torque of every mesh (the default load of a geometry stiffness):
+    // the input torque carried along the base circles, as the balanced load below.
+    let op = &spec.operating;
+    let ends = mesh_specs
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            Ok((
+                find(&format!("mesh[{i}].pinion"), &m.pinion)?,
+                find(&format!("mesh[{i}].gear"), &m.gear)?,
+            ))
+        })
+        .collect::<Result<Vec<_>>>()?;
+    let input_gear = match &op.input_gear {
+        Some(name) => find("operating.input_gear", name)?,
+        None => ends[0].0,
+    };
     let mut meshes = Vec::with_capacity(mesh_specs.len());
     for (i, m) in mesh_specs.iter().enumerate() {
-        meshes.push(mesh(i, m, &gears, &find)?);
+        let ratio = radius_ratio(&gears, &shafts, &ends, input_gear, ends[i].0);
+        let torque = op.input_torque * ratio;
+        meshes.push(mesh(i, m, &gears, &find, torque)?);
     }
     for (i, m) in meshes.iter().enumerate() {
         if let Some(j) = meshes[..i].iter().position(|o: &TrainMesh| {
@@ -184,6 +245,7 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
             ));
         }
     }
+    errors_geometry(&gears, &mesh_specs)?;
     for (i, m) in meshes.iter().enumerate() {
         if m.name.is_empty() || !identifier(&m.name) {
             return err(format!(
@@ -199,11 +261,6 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
         }
     }
 
-    let op = &spec.operating;
-    let input_gear = match &op.input_gear {
-        Some(name) => find("operating.input_gear", name)?,
-        None => meshes[0].pinion,
-    };
     let (speed_ratio, rotation) = kinematics(&gears, &shafts, &meshes, input_gear, input_sense)?;
     let output_gear = match &op.output_gear {
         Some(name) => find("operating.output_gear", name)?,
@@ -235,7 +292,7 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
     // tabulated radii (Table 2.1: r/z differs by 1e-5 between the gears).
     let load_torque = match op.load_torque {
         Some(t) => finite("operating.load_torque", t)?,
-        None => input_torque * radius_ratio(&gears, &shafts, &meshes, input_gear, output_gear),
+        None => input_torque * radius_ratio(&gears, &shafts, &ends, input_gear, output_gear),
     };
 
     let initial_dte = initial_dte(&spec.initial.dte)?;
@@ -328,6 +385,7 @@ fn mesh(
     m: &TrainMeshSpec,
     gears: &[TrainGear],
     find: &dyn Fn(&str, &str) -> Result<usize>,
+    pinion_torque: f64,
 ) -> Result<TrainMesh> {
     let f = |name: &str| format!("mesh[{i}].{name}");
     let pinion = find(&f("pinion"), &m.pinion)?;
@@ -376,23 +434,35 @@ fn mesh(
             let Some(spec) = &m.stiffness else {
                 return err(format!("{}: missing (lumped mesh)", f("stiffness")));
             };
-            // Sources resolved from the gears of a single-mesh scene are not wired into the
-            // graph (they would reach `validate::stiffness`, which does not resolve them).
-            let from_gears = match spec {
-                crate::scene::spec::StiffnessSpec::Geometry { .. } => Some("geometry"),
-                crate::scene::spec::StiffnessSpec::Helical { .. } => Some("helical"),
-                _ => None,
+            let stiffness = match spec {
+                crate::scene::spec::StiffnessSpec::Geometry { .. } => {
+                    let body = |which: &str, g: usize| crate::scene::geometry::MeshGear {
+                        which: f(which),
+                        name: &gears[g].name,
+                        teeth: gears[g].teeth,
+                        base_radius: gears[g].base_radius,
+                    };
+                    crate::scene::geometry::stiffness(
+                        spec,
+                        &f("stiffness"),
+                        [body("pinion", pinion), body("gear", gear)],
+                        (
+                            &format!("operating.input_torque (carried to {})", f("pinion")),
+                            pinion_torque,
+                        ),
+                    )?
+                }
+                crate::scene::spec::StiffnessSpec::Helical { .. } => {
+                    return err(format!(
+                        "{}.kind = \"helical\": not available as a lumped drivetrain mesh \
+                         stiffness; for helical tooth pairs with friction use model = \"pairs\" \
+                         with [mesh.pairs] kind = \"helical\"",
+                        f("stiffness")
+                    ));
+                }
+                _ => crate::scene::validate::stiffness(spec)
+                    .map_err(|e| SceneError(e.0.replacen("mesh.", &format!("mesh[{i}]."), 1)))?,
             };
-            if let Some(kind) = from_gears {
-                return err(format!(
-                    "{}.kind = {kind:?}: not available in drivetrain scenes (single-mesh format \
-                     only); for helical tooth pairs with friction use model = \"pairs\" with \
-                     [mesh.pairs] kind = \"helical\"",
-                    f("stiffness")
-                ));
-            }
-            let stiffness = crate::scene::validate::stiffness(spec)
-                .map_err(|e| SceneError(e.0.replacen("mesh.", &format!("mesh[{i}]."), 1)))?;
             let (k_min, s_min) = stiffness.minimum();
             if !(k_min > 0.0) {
                 return err(format!(
@@ -513,24 +583,38 @@ fn mesh(
     };
 
     let translations = gp.bearing.is_some() || gg.bearing.is_some();
-    let pressure_angle = match m.pressure_angle {
-        Some(a) if a.is_finite() && a > 0.0 && a < std::f64::consts::FRAC_PI_2 => a,
-        Some(a) => {
-            return err(format!(
-                "{} = {a}: must lie in (0, π/2) rad",
-                f("pressure_angle")
-            ))
+    // A geometry mesh defines its operating pressure angle α_w (docs/train.md, "Gears and
+    // geometry meshes").
+    let working = match &m.stiffness {
+        Some(s) => crate::scene::geometry::working_pressure_angle(s, &f("stiffness"))?,
+        None => None,
+    };
+    let pressure_angle = match (m.pressure_angle, working) {
+        (Some(deg), Some((alpha_w, field))) => {
+            let given = pressure_angle(&f("pressure_angle"), deg)?;
+            if ((given - alpha_w) / alpha_w).abs() > crate::scene::geometry::BASE_RADIUS_TOL {
+                return err(format!(
+                    "{} = {deg}: differs from the working pressure angle {:.6}° of {field} by more \
+                     than {:e} (relative); omit pressure_angle to use the geometry's",
+                    f("pressure_angle"),
+                    alpha_w.to_degrees(),
+                    crate::scene::geometry::BASE_RADIUS_TOL
+                ));
+            }
+            given
         }
-        None if translations => {
+        (Some(deg), None) => pressure_angle(&f("pressure_angle"), deg)?,
+        (None, Some((alpha_w, _))) => alpha_w,
+        (None, None) if translations => {
             return err(format!(
                 "{}: missing; gear {:?} or {:?} has translational DOFs, so the line of action \
-                 needs the operating pressure angle (rad)",
+                 needs the operating pressure angle (degrees)",
                 f("pressure_angle"),
                 gp.name,
                 gg.name
             ))
         }
-        None => 0.0,
+        (None, None) => 0.0,
     };
     let centre_angle = match m.centre_angle {
         Some(a) => finite(&f("centre_angle"), a)?,
@@ -602,6 +686,29 @@ fn mesh(
     })
 }
 
+/// Smallest operating pressure angle accepted, degrees. Real spur and helical stages run at
+/// 14.5°–35°; a value below this is almost surely an angle in radians from a scene written
+/// before `pressure_angle` changed to degrees (0.349 rad = 20°).
+const MIN_PRESSURE_ANGLE_DEG: f64 = 5.0;
+
+/// A mesh's operating pressure angle, given in degrees (as in the gears file), in radians.
+fn pressure_angle(field: &str, deg: f64) -> Result<f64> {
+    if deg.is_finite() && deg > 0.0 && deg < MIN_PRESSURE_ANGLE_DEG {
+        return err(format!(
+            "{field} = {deg}: pressure angles are in degrees (as in the gears file); this looks \
+             like an angle in radians ({deg} rad = {:.4}°), write pressure_angle = {:.4}",
+            deg.to_degrees(),
+            deg.to_degrees()
+        ));
+    }
+    if !(deg.is_finite() && (MIN_PRESSURE_ANGLE_DEG..90.0).contains(&deg)) {
+        return err(format!(
+            "{field} = {deg}: must lie in [{MIN_PRESSURE_ANGLE_DEG}, 90) degrees"
+        ));
+    }
+    Ok(deg.to_radians())
+}
+
 /// The helical pair of `kind = "helical"` (geometry checks by [`HelicalGeometry::new`]).
 fn helical_pair(
     field: &str,
@@ -642,8 +749,9 @@ fn check_helical(
     }
     if pressure_angle != 0.0 && (pressure_angle - h.geometry.pressure_angle).abs() > 1e-12 {
         return err(format!(
-            "{field}.geometry.transverse_pressure_angle: {} rad, but the mesh's pressure_angle = {pressure_angle}",
-            h.geometry.pressure_angle
+            "{field}.geometry.transverse_pressure_angle: {}°, but the mesh's pressure_angle = {}°",
+            h.geometry.pressure_angle.to_degrees(),
+            pressure_angle.to_degrees()
         ));
     }
     Ok(())
@@ -816,7 +924,7 @@ fn tip_relief(field: &str, m: &TrainMeshSpec, c: f64) -> Result<TipRelief> {
 fn radius_ratio(
     gears: &[TrainGear],
     shafts: &[Shaft],
-    meshes: &[TrainMesh],
+    meshes: &[(usize, usize)],
     input: usize,
     output: usize,
 ) -> f64 {
@@ -831,12 +939,12 @@ fn radius_ratio(
                 queue.push_back(b);
             }
         };
-        for m in meshes {
-            let (rp, rg) = (gears[m.pinion].base_radius, gears[m.gear].base_radius);
-            if m.pinion == a {
-                visit(m.gear, rg / rp, &mut queue);
-            } else if m.gear == a {
-                visit(m.pinion, rp / rg, &mut queue);
+        for &(pinion, gear) in meshes {
+            let (rp, rg) = (gears[pinion].base_radius, gears[gear].base_radius);
+            if pinion == a {
+                visit(gear, rg / rp, &mut queue);
+            } else if gear == a {
+                visit(pinion, rp / rg, &mut queue);
             }
         }
         for s in shafts {
@@ -993,6 +1101,121 @@ fn mass_spread(gears: &[TrainGear]) -> Result<()> {
                  {l:e} to {h:e} kg, a ratio above {MAX_MASS_SPREAD:e}; the rigid-body rotation \
                  cannot be separated from the elastic modes in double precision"
             ));
+        }
+    }
+    Ok(())
+}
+
+/// The error keys of a `[[gear]]`, in either scene format.
+pub(crate) struct ErrorKeys<'a> {
+    pub runout: &'a Option<super::spec::RunoutSpec>,
+    pub pitch_errors: &'a Option<Vec<f64>>,
+    pub cumulative_pitch_errors: &'a Option<Vec<f64>>,
+}
+
+/// Runout and pitch tables of a gear (`docs/errors.md`): finite values, a non-negative runout
+/// amplitude, one pitch value per tooth, and one pitch key only.
+pub(crate) fn gear_errors(
+    f: &dyn Fn(&str) -> String,
+    name: &str,
+    teeth: u32,
+    g: ErrorKeys,
+) -> Result<crate::mesh::errors::GearErrors> {
+    use crate::mesh::errors::{cumulative_from_individual, GearErrors, Runout};
+    let runout = match g.runout {
+        Some(r) => {
+            let amplitude = r.amplitude;
+            if !(amplitude.is_finite() && amplitude >= 0.0) {
+                return err(format!(
+                    "{}.amplitude = {amplitude}: the runout (eccentricity) amplitude must be a \
+                     finite number >= 0 in m; give its direction with runout.phase",
+                    f("runout")
+                ));
+            }
+            Some(Runout {
+                amplitude,
+                phase: finite(&format!("{}.phase", f("runout")), r.phase)?,
+            })
+        }
+        None => None,
+    };
+    let table = |key: &str, values: &[f64]| -> Result<()> {
+        if values.len() != teeth as usize {
+            return err(format!(
+                "{} has {} values: a pitch table needs one value per tooth, {teeth} for gear {:?}",
+                f(key),
+                values.len(),
+                name
+            ));
+        }
+        for (i, &v) in values.iter().enumerate() {
+            finite(&format!("{}[{i}]", f(key)), v)?;
+        }
+        Ok(())
+    };
+    let cumulative_pitch = match (g.pitch_errors, g.cumulative_pitch_errors) {
+        (Some(_), Some(_)) => {
+            return err(format!(
+                "{} and {}: give one of them (the cumulative table is the running sum of the \
+                 individual one)",
+                f("pitch_errors"),
+                f("cumulative_pitch_errors")
+            ))
+        }
+        (Some(individual), None) => {
+            table("pitch_errors", individual)?;
+            let cumulative = cumulative_from_individual(individual);
+            // Around a whole gear the single pitches add up to the circumference: their
+            // deviations sum to zero (ISO 1328-1), else the last tooth would not close on the first.
+            let sum = cumulative[cumulative.len() - 1];
+            let scale: f64 = individual.iter().map(|v| v.abs()).sum();
+            if sum.abs() > 1e-9 * scale {
+                return err(format!(
+                    "{}: the individual pitch deviations sum to {sum:e} m, not 0: around the \
+                     gear they must close (or give cumulative_pitch_errors)",
+                    f("pitch_errors")
+                ));
+            }
+            cumulative
+        }
+        (None, Some(cumulative)) => {
+            table("cumulative_pitch_errors", cumulative)?;
+            cumulative.clone()
+        }
+        (None, None) => Vec::new(),
+    };
+    Ok(GearErrors {
+        runout,
+        cumulative_pitch,
+    })
+}
+
+/// A gear with errors in several meshes sees them at different places around its rim: the
+/// runout phase and the tooth in mesh follow from the lines of action, so each of its meshes
+/// must give `centre_angle` and `pressure_angle` (`docs/errors.md`).
+fn errors_geometry(gears: &[TrainGear], meshes: &[TrainMeshSpec]) -> Result<()> {
+    for g in gears.iter().filter(|g| !g.errors.is_zero()) {
+        let mine: Vec<(usize, &TrainMeshSpec)> = meshes
+            .iter()
+            .enumerate()
+            .filter(|(_, m)| m.pinion == g.name || m.gear == g.name)
+            .collect();
+        if mine.len() < 2 {
+            continue;
+        }
+        for (i, m) in mine {
+            for (key, given) in [
+                ("centre_angle", m.centre_angle.is_some()),
+                ("pressure_angle", m.pressure_angle.is_some()),
+            ] {
+                if !given {
+                    return err(format!(
+                        "mesh[{i}].{key}: missing; gear {:?} has runout or pitch errors and takes \
+                         part in several meshes, so where each mesh sits around it must be given",
+                        g.name
+                    ));
+                }
+            }
         }
     }
     Ok(())

@@ -16,7 +16,7 @@ impl GearTrain {
         let fr = mesh.friction.as_ref().expect("a friction mesh");
         let p = mesh.clock.phase_at(t);
         let r = mesh.local(p);
-        let base = self.deflection(n, y).0 - mesh.ste.value(p);
+        let base = self.deflection(n, y).0 - mesh.ste_at(p).0;
         for (j, flag) in mesh.flags.iter().enumerate() {
             if *flag != SlotContact::Drive {
                 continue;
@@ -42,7 +42,7 @@ impl GearTrain {
         };
         let p = mesh.clock.phase_at(t);
         let r = mesh.local(p);
-        let base = self.deflection(n, y).0 - mesh.ste.value(p);
+        let base = self.deflection(n, y).0 - mesh.ste_at(p).0;
         mesh.flags
             .iter()
             .enumerate()

@@ -42,7 +42,7 @@ impl GearTrain {
         for (n, mesh) in self.meshes.iter().enumerate() {
             let p = mesh.clock.phase_at(t);
             let a = DVector::from_column_slice(&mesh.a);
-            let e = mesh.ste.value(p);
+            let e = mesh.ste_free(p).0;
             match &mesh.stiffness {
                 Stiffness::Smooth {
                     mean,

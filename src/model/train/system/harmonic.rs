@@ -75,7 +75,7 @@ impl GearTrain {
     /// interval that contains `p` (no allocation: called at every quadrature node).
     fn for_each_free_slot(&self, n: usize, p: f64, f: f64, mut visit: impl FnMut(FreeSlot)) {
         let mesh = &self.meshes[n];
-        let (e, e_slope) = mesh.ste.value_and_slope(p);
+        let (e, e_slope) = mesh.ste_free(p);
         match &mesh.stiffness {
             Stiffness::Smooth {
                 mean,
@@ -142,7 +142,7 @@ impl GearTrain {
             }
         });
         if law.in_contact > 0 && mesh.damping != 0.0 {
-            let (_, e_slope) = mesh.ste.value_and_slope(p);
+            let (_, e_slope) = mesh.ste_free(p);
             let viscous = mesh.damping * (s_rate - e_slope * f);
             law.force[0] += viscous;
             law.viscous[0] = viscous;

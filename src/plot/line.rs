@@ -1,0 +1,268 @@
+//! Line plots on any plotters backend.
+
+use plotters::chart::SeriesAnno;
+use plotters::coord::ranged1d::ValueFormatter;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use super::font::FAMILY;
+use super::{color, drawing, Marker, Plot};
+
+/// The drawing area of the image being rendered.
+pub enum Area<'b> {
+    Bitmap(DrawingArea<BitMapBackend<'b>, Shift>),
+    Svg(DrawingArea<SVGBackend<'b>, Shift>),
+}
+
+/// Draws `plots` stacked top to bottom, each in an equal share of the area.
+pub fn draw(plots: &[Plot], area: &Area) -> Result<(), String> {
+    match area {
+        Area::Bitmap(a) => stacked(plots, a),
+        Area::Svg(a) => stacked(plots, a),
+    }
+}
+
+fn stacked<DB: DrawingBackend>(
+    plots: &[Plot],
+    root: &DrawingArea<DB, Shift>,
+) -> Result<(), String> {
+    for (plot, area) in plots.iter().zip(root.split_evenly((plots.len(), 1))) {
+        draw_on(plot, &area)?;
+    }
+    Ok(())
+}
+
+/// Height of one legend row and the legend's padding, px.
+const LEGEND_ROW: f64 = 22.0;
+const LEGEND_PAD: f64 = 28.0;
+const CAPTION: u32 = 40;
+const MARGIN: u32 = 16;
+const X_LABELS: u32 = 50;
+const Y_LABELS: u32 = 80;
+
+/// `[lo, hi]` of the finite values, padded by 3 % (or a unit around a single value).
+fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite() && (!log || *v > 0.0))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+            (a.min(v), b.max(v))
+        });
+    if !lo.is_finite() {
+        return if log { (1.0, 10.0) } else { (0.0, 1.0) };
+    }
+    if log {
+        let (lo, hi) = if hi > lo {
+            (lo, hi)
+        } else {
+            (lo / 2.0, hi * 2.0)
+        };
+        let pad = (hi / lo).powf(0.03);
+        return (lo / pad, hi * pad);
+    }
+    if hi > lo {
+        let pad = 0.03 * (hi - lo);
+        (lo - pad, hi + pad)
+    } else {
+        let pad = if lo == 0.0 { 1.0 } else { 0.1 * lo.abs() };
+        (lo - pad, hi + pad)
+    }
+}
+
+/// A tick label with no trailing zeros (`3600`, `0.25`, `1.5e-7`).
+fn tick(v: f64) -> String {
+    if v == 0.0 {
+        return "0".into();
+    }
+    if v.abs() >= 1e6 || v.abs() < 1e-3 {
+        return format!("{v:.1e}");
+    }
+    let s = format!("{v:.6}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+/// The finite runs of `points` (a NaN breaks a curve: a failed sweep point).
+fn runs(points: &[(f64, f64)], log_y: bool, sx: f64, sy: f64) -> Vec<Vec<(f64, f64)>> {
+    let mut out = vec![Vec::new()];
+    for &(x, y) in points {
+        if x.is_finite() && y.is_finite() && (!log_y || y > 0.0) {
+            out.last_mut().expect("one run").push((x * sx, y * sy));
+        } else if !out.last().expect("one run").is_empty() {
+            out.push(Vec::new());
+        }
+    }
+    out.retain(|r| !r.is_empty());
+    out
+}
+
+fn draw_on<DB: DrawingBackend>(plot: &Plot, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
+    let all = || plot.series.iter().flat_map(|s| s.points.iter());
+    let (x0, x1) = range(
+        all()
+            .map(|p| p.0)
+            .chain(plot.bands.iter().flat_map(|b| [b.0, b.1]))
+            .chain(plot.markers.iter().map(|m| m.x)),
+        false,
+    );
+    let (y0, y1) = range(all().map(|p| p.1), plot.y.log);
+    let (sx, x_title) = plot.x.scaled(x0.abs().max(x1.abs()));
+    let (sy, y_title) = plot.y.scaled(y0.abs().max(y1.abs()));
+    let (x0, x1, y0, y1) = (x0 * sx, x1 * sx, y0 * sy, y1 * sy);
+
+    // The legend gets a band of its own above the data, so it never hides a curve.
+    let rows = plot.series.iter().filter(|s| !s.label.is_empty()).count()
+        + usize::from(!plot.bands.is_empty());
+    let area_height = (root.dim_in_pixel().1 - CAPTION - 2 * MARGIN - X_LABELS) as f64;
+    let share = if rows == 0 {
+        0.0
+    } else {
+        ((rows as f64 * LEGEND_ROW + LEGEND_PAD) / area_height).min(0.6)
+    };
+    let grow = share / (1.0 - share);
+    let y_top = if plot.y.log {
+        y1 * (y1 / y0).powf(grow)
+    } else {
+        y1 + (y1 - y0) * grow
+    };
+
+    let mut builder = ChartBuilder::on(root);
+    builder
+        .caption(plot.title, (FAMILY, 22))
+        .margin(MARGIN)
+        .x_label_area_size(X_LABELS)
+        .y_label_area_size(Y_LABELS);
+    if plot.y.log {
+        let chart = builder
+            .build_cartesian_2d(x0..x1, (y0..y_top).log_scale())
+            .map_err(drawing)?;
+        finish(plot, chart, (sx, sy), (y0, y1), &x_title, &y_title)
+    } else {
+        let chart = builder
+            .build_cartesian_2d(x0..x1, y0..y_top)
+            .map_err(drawing)?;
+        finish(plot, chart, (sx, sy), (y0, y1), &x_title, &y_title)
+    }
+}
+
+fn finish<'c, DB, Y>(
+    plot: &Plot,
+    mut chart: ChartContext<'c, DB, Cartesian2d<plotters::coord::types::RangedCoordf64, Y>>,
+    (sx, sy): (f64, f64),
+    (y0, y1): (f64, f64),
+    x_title: &str,
+    y_title: &str,
+) -> Result<(), String>
+where
+    DB: DrawingBackend + 'c,
+    Y: Ranged<ValueType = f64> + ValueFormatter<f64>,
+{
+    chart
+        .configure_mesh()
+        .x_desc(x_title)
+        .y_desc(y_title)
+        .axis_desc_style((FAMILY, 16))
+        .label_style((FAMILY, 13))
+        .light_line_style(RGBColor(238, 238, 238))
+        .max_light_lines(2)
+        .x_label_formatter(&|v| tick(*v))
+        .y_label_formatter(&|v| tick(*v))
+        .draw()
+        .map_err(drawing)?;
+
+    let band_fill = RGBColor(0xdd, 0xe8, 0xf6);
+    for (k, &(a, b)) in plot.bands.iter().enumerate() {
+        let rect = Rectangle::new([(a * sx, y0), (b * sx, y1)], band_fill.filled());
+        let drawn = chart.draw_series(std::iter::once(rect)).map_err(drawing)?;
+        if k == 0 {
+            drawn.label(plot.band_label).legend(move |(x, y)| {
+                Rectangle::new([(x, y - 5), (x + 20, y + 5)], band_fill.filled())
+            });
+        }
+    }
+
+    let grey = RGBColor(110, 110, 110);
+    let mut markers: Vec<&Marker> = plot.markers.iter().collect();
+    markers.sort_by(|a, b| a.x.total_cmp(&b.x));
+    // Labels of markers closer than a text height stack upwards instead of overprinting.
+    let (mut last_px, mut level) = (i32::MIN / 2, 0);
+    for m in markers {
+        let x = m.x * sx;
+        chart
+            .draw_series(DashedLineSeries::new(
+                [(x, y0), (x, y1)],
+                6,
+                4,
+                grey.stroke_width(1),
+            ))
+            .map_err(drawing)?;
+        let px = chart.backend_coord(&(x, y0)).0;
+        level = if px - last_px < 16 {
+            (level + 1) % 3
+        } else {
+            0
+        };
+        last_px = px;
+        let style = TextStyle::from((FAMILY, 13).into_font())
+            .color(&grey)
+            .transform(FontTransform::Rotate270)
+            .pos(Pos::new(HPos::Left, VPos::Bottom));
+        // Beside the line, not on it (the rotated glyphs extend left of the anchor), bottom up.
+        let rise = 6 + level * (8 * m.label.chars().count() as i32 + 12);
+        let label = EmptyElement::at((x, y0)) + Text::new(m.label.clone(), (16, -rise), style);
+        chart.draw_series(std::iter::once(label)).map_err(drawing)?;
+    }
+
+    for series in &plot.series {
+        let c = color(series.color)?;
+        // plotters draws wide lines as polygons with mitre joins, which overshoot as spikes
+        // where a dense curve reverses sharply (contact loss, a min/max envelope): dense curves
+        // get hairlines.
+        let width = if series.points.len() > 300 { 1 } else { 2 };
+        let style = c.stroke_width(width);
+        let mut labelled = series.label.is_empty();
+        let mut label = |drawn: &mut SeriesAnno<'c, DB>| {
+            if !labelled {
+                labelled = true;
+                let dashed = series.dashed;
+                drawn.label(series.label).legend(move |(x, y)| {
+                    if dashed {
+                        PathElement::new(vec![(x, y), (x + 8, y)], style)
+                    } else {
+                        PathElement::new(vec![(x, y), (x + 20, y)], style)
+                    }
+                });
+            }
+        };
+        for run in runs(&series.points, plot.y.log, sx, sy) {
+            if series.line {
+                let drawn = &mut if series.dashed {
+                    chart
+                        .draw_series(DashedLineSeries::new(run.clone(), 8, 5, style))
+                        .map_err(drawing)?
+                } else {
+                    chart
+                        .draw_series(LineSeries::new(run.clone(), style))
+                        .map_err(drawing)?
+                };
+                label(drawn);
+            }
+            if series.markers {
+                let drawn = &mut chart
+                    .draw_series(run.iter().map(|&p| Circle::new(p, 3, c.filled())))
+                    .map_err(drawing)?;
+                label(drawn);
+            }
+        }
+    }
+    if plot.series.iter().any(|s| !s.label.is_empty()) || !plot.bands.is_empty() {
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .label_font((FAMILY, 14))
+            .background_style(WHITE.mix(0.9))
+            .border_style(RGBColor(180, 180, 180))
+            .draw()
+            .map_err(drawing)?;
+    }
+    Ok(())
+}
