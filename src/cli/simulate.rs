@@ -82,6 +82,14 @@ pub fn run(args: SimulateArgs) -> Result<(), String> {
     if let Some(path) = &args.plot {
         Format::of(path)?;
     }
+    let interval = args
+        .output_interval
+        .unwrap_or(scene.solver().output_interval);
+    if interval > 0.0 {
+        if let Some(warning) = geardyn::commands::spectrum::aliasing(&scene, interval)? {
+            eprintln!("{warning}");
+        }
+    }
     let report = simulate(scene, &opts, &args.out)?;
     if let Some(path) = &args.plot {
         time_plot(&report, &args.out, path)?;

@@ -3,7 +3,9 @@
 
 use std::path::Path;
 
-use crate::analysis::spectrum::{exact_dft, label_lines, OrderLabel, Spectrum};
+use crate::analysis::spectrum::{
+    exact_dft, label_lines, model_aliasing_warning, OrderLabel, Spectrum,
+};
 use crate::analysis::{shoot, ShootingOptions};
 use crate::model::{response_period, AnyScene, Drivetrain};
 use crate::plot::{Axis, Plot, Series};
@@ -158,34 +160,41 @@ impl SpectrumReport {
         crate::output::write_text(path, &text)
     }
 
-    /// Amplitude over frequency, one stem per line and signal, to PNG or SVG by the
+    /// Amplitude over frequency (log scale), one marker per line and signal, to PNG or SVG by the
     /// extension of `path`.
     pub fn save_plot(&self, path: &Path) -> Result<(), String> {
         const COLORS: [&str; 4] = ["#2471a3", "#c0392b", "#16a085", "#8e44ad"];
+        // Lines as markers on a log axis; bins below 1e-6 of the largest line are rounding
+        // (exact DFT) and are left out so they do not set the axis range.
         let series = (self.signals.iter().enumerate())
-            .map(|(i, s)| Series {
-                label: &s.column,
-                color: COLORS[i % COLORS.len()],
-                points: (1..s.spectrum.frequency.len())
-                    .flat_map(|k| {
-                        let f = s.spectrum.frequency[k];
-                        [(f, 0.0), (f, s.spectrum.amplitude[k]), (f, 0.0)]
-                    })
-                    .collect(),
-                dashed: false,
-                markers: false,
-                line: true,
+            .map(|(i, s)| {
+                let a = &s.spectrum.amplitude;
+                let floor = 1e-6 * a.iter().skip(1).fold(0.0, |m: f64, &v| m.max(v));
+                Series {
+                    label: &s.column,
+                    color: COLORS[i % COLORS.len()],
+                    points: (1..a.len())
+                        .filter(|&k| a[k] > floor)
+                        .map(|k| (s.spectrum.frequency[k], a[k]))
+                        .collect(),
+                    dashed: false,
+                    markers: true,
+                    line: false,
+                }
             })
             .collect();
         let unit = match self.signals[0].unit.as_str() {
             "1" => "",
             u => u,
         };
-        let title = format!("{}: amplitude spectrum (exact DFT, mean omitted)", self.scene);
+        let title = format!(
+            "{}: amplitude spectrum (exact DFT, mean omitted)",
+            self.scene
+        );
         Plot {
             title: &title,
             x: Axis::new("frequency", "Hz"),
-            y: Axis::new("amplitude", unit),
+            y: Axis::log("amplitude", unit),
             series,
             bands: Vec::new(),
             band_label: "",
@@ -193,4 +202,13 @@ impl SpectrumReport {
         }
         .save(path)
     }
+}
+
+/// The aliasing warning for `scene`'s outputs every `interval` s at its constant speed
+/// ([`crate::analysis::spectrum::model_aliasing_warning`]); a run whose speed varies passes
+/// its highest speed through that function's `speed_factor`.
+pub fn aliasing(scene: &AnyScene, interval: f64) -> Result<Option<String>, String> {
+    with_drivetrain!(scene.simulation()?, sim => {
+        Ok(model_aliasing_warning(sim.model(), interval, 1.0))
+    })
 }
