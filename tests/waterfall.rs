@@ -120,3 +120,23 @@ fn waterfall_csv_has_units_and_orders() {
     );
     assert_eq!(lines.count(), map.rpm.len() * map.frequency.len());
 }
+
+#[test]
+fn waterfall_heatmap_renders_png() {
+    let (t, x, rpm) = chirp();
+    let options = WaterfallOptions {
+        segment: 2048,
+        overlap: 0.5,
+        window: Window::Hann,
+    };
+    let map = waterfall(&t, &x, &rpm, &options).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    let path = std::env::var_os("GEARDYN_WATERFALL_PNG")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| dir.path().join("w.png"));
+    let orders = [("12×".to_string(), 12.0), ("25×".to_string(), 25.0)];
+    map.save_plot(&path, "chirp: orders 12 and 25", &orders)
+        .unwrap();
+    let bytes = std::fs::read(&path).unwrap();
+    assert_eq!(&bytes[1..4], b"PNG");
+}

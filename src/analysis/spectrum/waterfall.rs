@@ -147,3 +147,23 @@ impl Waterfall {
         csv.finish()
     }
 }
+
+impl Waterfall {
+    /// The map as a heatmap (frequency over rpm, colour = amplitude in dB below its peak) with
+    /// the order lines `orders` (label, order) overlaid, to PNG or SVG by extension.
+    pub fn save_plot(
+        &self,
+        path: &Path,
+        title: &str,
+        orders: &[(String, f64)],
+    ) -> Result<(), String> {
+        crate::plot::Heatmap {
+            title,
+            x: &self.frequency,
+            y: &self.rpm,
+            values: &self.amplitude,
+            lines: orders.to_vec(),
+        }
+        .save(path)
+    }
+}
