@@ -185,3 +185,66 @@ fn exact_dft_of_a_trigonometric_polynomial_and_bad_input() {
     let e = exact_dft(&[1.0, f64::NAN, 0.0], 1.0).unwrap_err();
     assert!(e.contains("sample 1 = NaN"), "{e}");
 }
+
+#[test]
+fn record_spectrum_is_exact_over_integer_periods_and_flat_top_otherwise() {
+    use geardyn::commands::spectrum::record_spectrum;
+    let scene = AnyScene::Pair(Box::new(pair()));
+    let f_m = 25.0 * 314.159 / (2.0 * PI);
+    let record = |periods: f64, per_period: usize| {
+        let n = (periods * per_period as f64).round() as usize + 1;
+        let dt = periods / f_m / (n - 1) as f64;
+        let t: Vec<f64> = (0..n).map(|j| j as f64 * dt).collect();
+        let x = t
+            .iter()
+            .map(|t| 1e-6 + 3e-6 * (2.0 * PI * 2.0 * f_m * t + 0.4).cos())
+            .collect();
+        (t, vec![("dte".to_string(), x)])
+    };
+    // 40 mesh periods: exact, harmonic 2 on bin 80.
+    let (t, cols) = record(40.0, 32);
+    let r = record_spectrum(&scene, &t, &cols).unwrap();
+    let sp = &r.signals[0].spectrum;
+    assert_eq!(r.samples, 40 * 32);
+    assert!(
+        (sp.amplitude[80] / 3e-6 - 1.0).abs() < 1e-9,
+        "{}",
+        sp.amplitude[80]
+    );
+    assert!((sp.amplitude[0] / 1e-6 - 1.0).abs() < 1e-9);
+    assert_eq!(r.signals[0].labels[80].as_ref().unwrap().text, "2×mesh");
+    // 40.37 mesh periods: flat-top, the line within the window's promise and labelled at its
+    // peak only.
+    let (t, cols) = record(40.37, 32);
+    let r = record_spectrum(&scene, &t, &cols).unwrap();
+    let sp = &r.signals[0].spectrum;
+    let k = sp.peak_in(1.5 * f_m, 2.5 * f_m).unwrap();
+    assert!((sp.amplitude[k] / 3e-6 - 1.0).abs() <= Window::FlatTop.amplitude_error().unwrap());
+    let labelled: Vec<&str> = (1..sp.amplitude.len())
+        .filter_map(|i| r.signals[0].labels[i].as_ref().map(|l| l.text.as_str()))
+        .collect();
+    assert_eq!(labelled, ["2×mesh"], "{labelled:?}");
+}
+
+/// Aliasing rule, closed form: with constant stiffness the excitation at the static deflection
+/// is `k(δ_s − e(p))`, so `|G_h| = k|E_h|`: 671, 150 and 90 N against 1 % of the static force
+/// `T1/r_b1 = 4286 N` (42.9 N) — harmonic 3 (3750 Hz) is the highest that matters.
+#[test]
+fn aliasing_warning_names_the_highest_harmonic_that_matters() {
+    use geardyn::commands::spectrum::aliasing;
+    let f3 = 3.0 * 25.0 * 314.159 / (2.0 * PI);
+    for scene in [
+        AnyScene::Pair(Box::new(pair())),
+        AnyScene::Train(Box::new(TrainScene::from_pair(&pair()))),
+    ] {
+        // Nyquist 5000 Hz > 3750 Hz: no warning.
+        assert_eq!(aliasing(&scene, 1e-4).unwrap(), None);
+        // Nyquist 2500 Hz < 3750 Hz.
+        let w = aliasing(&scene, 2e-4).unwrap().unwrap();
+        assert!(
+            w.contains("output interval 2e-4 s") && w.contains("harmonic 3 "),
+            "{w}"
+        );
+        assert!(w.contains(&format!("{f3:.1} Hz")), "{w}");
+    }
+}
