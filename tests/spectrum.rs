@@ -248,3 +248,29 @@ fn aliasing_warning_names_the_highest_harmonic_that_matters() {
         assert!(w.contains(&format!("{f3:.1} Hz")), "{w}");
     }
 }
+
+#[test]
+fn lines_are_named_by_the_simplest_order_combination() {
+    use geardyn::analysis::spectrum::{label_lines, ShaftFrequency};
+    let meshes = [("m1".to_string(), 100.0), ("m2".to_string(), 60.0)];
+    let shafts = [ShaftFrequency {
+        name: "pinion".into(),
+        teeth: 25,
+        frequency: 4.0,
+    }];
+    let f = [0.0, 200.0, 96.0, 40.0, 8.0, 33.3, 104.05];
+    let names: Vec<Option<String>> = label_lines(&f, &meshes, &shafts, 0.1)
+        .into_iter()
+        .map(|l| l.map(|l| l.text))
+        .collect();
+    let want = ["DC", "2×m1", "1×m1-1×pinion", "1×m1-1×m2", "2×pinion"];
+    for (i, w) in want.iter().enumerate() {
+        assert_eq!(names[i].as_deref(), Some(*w), "{} Hz", f[i]);
+    }
+    assert_eq!(names[5], None, "33.3 Hz is no simple order");
+    assert_eq!(
+        names[6].as_deref(),
+        Some("1×m1+1×pinion"),
+        "within the tolerance"
+    );
+}

@@ -24,8 +24,9 @@ const MAX_MESH_ORDER: i32 = 10;
 const MAX_SHAFT_ORDER: i32 = 6;
 
 /// For each frequency, the simplest combination `k·f_mesh(n) + j·f_shaft(g)`
-/// (0 ≤ k ≤ 10, |j| ≤ 6, one mesh and at most one shaft) within `tolerance` Hz, preferring
-/// the nearest, then the fewest orders; `None` when nothing lies that close. `meshes` are
+/// (0 ≤ k ≤ 10, |j| ≤ 6, one mesh and at most one shaft) or `k·f_mesh(a) ± l·f_mesh(b)`
+/// (two meshes, 1 ≤ k, |l| ≤ 10) within `tolerance` Hz, preferring the nearest, then the
+/// fewest orders; `None` when nothing lies that close. `meshes` are
 /// (name, frequency Hz).
 pub fn label_lines(
     frequencies: &[f64],
@@ -43,6 +44,24 @@ pub fn label_lines(
                     let f = k as f64 * fm + j as f64 * s.frequency;
                     let text = format!("{k}×{name}{sign}{}×{}", j.abs(), s.name);
                     candidates.push((f, k + j.abs(), text));
+                }
+            }
+        }
+    }
+    // Two meshes mix (combination tones of a drivetrain): k·f_a ± l·f_b.
+    for (a, (name_a, fa)) in meshes.iter().enumerate() {
+        for (name_b, fb) in meshes.iter().skip(a + 1) {
+            for k in 1..=MAX_MESH_ORDER {
+                for l in (-MAX_MESH_ORDER..=MAX_MESH_ORDER).filter(|&l| l != 0) {
+                    let sign = if l > 0 { '+' } else { '-' };
+                    let f = k as f64 * fa + l as f64 * fb;
+                    let text = format!("{k}×{name_a}{sign}{}×{name_b}", l.abs());
+                    candidates.push((f, k + l.abs(), text));
+                    // And the same tone led by the other mesh (−k·f_a + |l|·f_b).
+                    if l < 0 {
+                        let text = format!("{}×{name_b}-{k}×{name_a}", l.abs());
+                        candidates.push((-f, k + l.abs(), text));
+                    }
                 }
             }
         }
