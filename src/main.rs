@@ -22,6 +22,8 @@ struct Cli {
 enum Command {
     /// Simulate a scene (single mesh or drivetrain) and write its outputs to CSV.
     Simulate(cli::simulate::SimulateArgs),
+    /// Exact spectrum of the periodic steady state, lines named in mesh and shaft orders.
+    Spectrum(cli::spectrum::SpectrumArgs),
     /// Natural frequencies and mode shapes of a drivetrain's mean system, and its statics.
     Modes(cli::modes::ModesArgs),
     /// Periodic steady state by shooting, with Floquet multipliers and stability.
@@ -49,6 +51,7 @@ enum Command {
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Simulate(args) => cli::simulate::run(args),
+        Command::Spectrum(args) => cli::spectrum::run(args),
         Command::Modes(args) => cli::modes::run(args),
         Command::Periodic(args) => cli::analysis::periodic(args),
         Command::Floquet(args) => cli::floquet::floquet(args),

@@ -6,6 +6,7 @@ pub mod hb;
 pub mod linear_period;
 pub mod mesh_force;
 pub mod shooting;
+pub mod spectrum;
 pub mod sweep;
 
 pub use band::{instability_bands, InstabilityBand};

@@ -9,6 +9,7 @@ pub mod analysis;
 pub mod floquet;
 pub mod modes;
 pub mod simulate;
+pub mod spectrum;
 pub mod stiffness;
 
 pub use geardyn::commands::positive;

@@ -50,6 +50,10 @@ pub struct SimulateArgs {
     /// Also plot every mesh's DTE and mesh force over time (PNG or SVG by the extension).
     #[arg(long)]
     plot: Option<PathBuf>,
+    /// Also write the spectrum of every mesh's DTE and force to this CSV (exact DFT when the
+    /// run spans an integer number of response periods, flat-top windowed FFT otherwise).
+    #[arg(long)]
+    spectrum: Option<PathBuf>,
     /// Do not print the summary.
     #[arg(long)]
     quiet: bool,
@@ -86,6 +90,15 @@ pub fn run(args: SimulateArgs) -> Result<(), String> {
     if let Some(path) = &args.plot {
         Format::of(path)?;
     }
+    let interval = args
+        .output_interval
+        .unwrap_or(scene.solver().output_interval);
+    if interval > 0.0 {
+        if let Some(warning) = geardyn::commands::spectrum::aliasing(&scene, interval)? {
+            eprintln!("{warning}");
+        }
+    }
+    let scene_for_spectrum = scene.clone();
     let report = simulate(scene, &opts, &args.out)?;
     if let Some(path) = &args.plot {
         time_plot(&report, &args.out, path)?;
@@ -93,5 +106,41 @@ pub fn run(args: SimulateArgs) -> Result<(), String> {
     if !args.quiet {
         report.print(&args.out);
     }
+    if let Some(path) = &args.spectrum {
+        spectrum_of_run(&scene_for_spectrum, &args.out, path)?;
+    }
     Ok(())
+}
+
+/// Reads the DTE and force columns of every mesh back from the run's CSV and writes their
+/// spectrum.
+fn spectrum_of_run(
+    scene: &AnyScene,
+    csv: &std::path::Path,
+    out: &std::path::Path,
+) -> Result<(), String> {
+    let text = std::fs::read_to_string(csv).map_err(|e| format!("{}: {e}", csv.display()))?;
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
+    let wanted: Vec<usize> = (header.iter().enumerate())
+        .filter(|(_, h)| h.ends_with("dte") || h.ends_with("mesh_force"))
+        .map(|(i, _)| i)
+        .collect();
+    let mut time = Vec::new();
+    let mut columns: Vec<(String, Vec<f64>)> = wanted
+        .iter()
+        .map(|&i| (header[i].to_string(), Vec::new()))
+        .collect();
+    for line in lines {
+        let v: Vec<f64> = line
+            .split(',')
+            .map(|x| x.parse().unwrap_or(f64::NAN))
+            .collect();
+        time.push(v[0]);
+        for (c, &i) in wanted.iter().enumerate() {
+            columns[c].1.push(v[i]);
+        }
+    }
+    let report = geardyn::commands::spectrum::record_spectrum(scene, &time, &columns)?;
+    report.write_csv(out)
 }

@@ -7,6 +7,7 @@
 pub mod hb;
 pub mod modes;
 pub mod simulate;
+pub mod spectrum;
 pub mod steady;
 pub mod stiffness;
 pub mod time_plot;

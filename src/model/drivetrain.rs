@@ -17,6 +17,7 @@
 
 use super::train::{GearTrain, SlotContact, TrainInputs, TrainSimulation};
 use super::{GearPair, Inputs};
+use crate::analysis::spectrum::ShaftFrequency;
 use crate::scene::train::TrainScene;
 use crate::scene::Scene;
 use crate::simulation::{DrivenModel, Driver, Simulation};
@@ -57,6 +58,9 @@ pub trait Drivetrain: DrivenModel {
     fn mesh_prefix(&self, n: usize) -> String;
     /// Mesh frequency of mesh `n` at the current input speed, Hz.
     fn mesh_frequency(&self, n: usize) -> f64;
+    /// Every gear's name, teeth and rotation frequency at the current input speed, Hz: the
+    /// shaft orders that label spectral lines (`docs/spectrum.md`).
+    fn shafts(&self) -> Vec<ShaftFrequency>;
     /// Rotation frequencies of the gears whose manufacturing errors excite a mesh, Hz (empty
     /// without errors): the response repeats only once per revolution of each
     /// (`docs/errors.md`).
@@ -173,6 +177,23 @@ impl Drivetrain for GearPair {
     }
     fn mesh_frequency(&self, _n: usize) -> f64 {
         1.0 / self.mesh_period()
+    }
+    fn shafts(&self) -> Vec<ShaftFrequency> {
+        // Each gear turns once per `teeth` mesh cycles.
+        let f_m = 1.0 / self.mesh_period();
+        let (zp, zg) = self.teeth();
+        vec![
+            ShaftFrequency {
+                name: "pinion".into(),
+                teeth: zp,
+                frequency: f_m / zp as f64,
+            },
+            ShaftFrequency {
+                name: "gear".into(),
+                teeth: zg,
+                frequency: f_m / zg as f64,
+            },
+        ]
     }
     fn error_frequencies(&self) -> Vec<f64> {
         // The pair kernel carries no gear errors: a pair scene with errors runs as its
@@ -292,6 +313,15 @@ impl Drivetrain for GearTrain {
     }
     fn mesh_frequency(&self, n: usize) -> f64 {
         1.0 / self.mesh_period(n)
+    }
+    fn shafts(&self) -> Vec<ShaftFrequency> {
+        (self.gear_rotations().into_iter())
+            .map(|(name, teeth, frequency)| ShaftFrequency {
+                name,
+                teeth,
+                frequency,
+            })
+            .collect()
     }
     fn error_frequencies(&self) -> Vec<f64> {
         GearTrain::error_frequencies(self)

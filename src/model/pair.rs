@@ -107,6 +107,7 @@ pub struct GearPair {
     inertia1: f64,
     inertia2: f64,
     pinion_teeth: f64,
+    gear_teeth: u32,
     m_e: f64,
     k_mean: f64,
     stiffness: MeshStiffness,
@@ -150,6 +151,7 @@ impl GearPair {
             inertia1: scene.pinion.inertia,
             inertia2: scene.gear.inertia,
             pinion_teeth: scene.pinion.teeth as f64,
+            gear_teeth: scene.gear.teeth,
             m_e,
             k_mean: scene.mesh.stiffness.mean(),
             stiffness: scene.mesh.stiffness.clone(),
@@ -630,6 +632,11 @@ impl GearPair {
     }
 
     /// Mesh period at the current nominal speed, s (`inf` at standstill).
+    /// Teeth of the pinion and the gear.
+    pub fn teeth(&self) -> (u32, u32) {
+        (self.pinion_teeth as u32, self.gear_teeth)
+    }
+
     pub fn mesh_period(&self) -> f64 {
         1.0 / self.clock.mesh_frequency()
     }

@@ -8,9 +8,11 @@
 
 mod axis;
 mod font;
+mod heatmap;
 mod line;
 
 pub use axis::Axis;
+pub use heatmap::Heatmap;
 
 use std::path::Path;
 

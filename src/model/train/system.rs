@@ -250,6 +250,8 @@ pub struct GearTrain {
     names: Vec<String>,
     /// Mesh names (column prefixes) in scene order.
     mesh_names: Vec<String>,
+    /// Per gear: name, teeth and nominal speed over the input speed (shaft orders).
+    gears: Vec<(String, u32, f64)>,
     pair_outputs: Vec<usize>,
     event_log: Option<Vec<(f64, usize, usize, SlotContact)>>,
     /// Free single pair: `(d_θ, J)` of the input and output bodies for the closed form.
@@ -447,6 +449,9 @@ impl GearTrain {
             key_fits: true,
             names: Vec::new(),
             mesh_names: scene.meshes.iter().map(|m| m.name.clone()).collect(),
+            gears: (scene.gears.iter().zip(&scene.speed_ratio))
+                .map(|(g, &r)| (g.name.clone(), g.teeth, r))
+                .collect(),
             pair_outputs: Vec::new(),
             event_log: None,
             pair_form: None,
@@ -518,6 +523,15 @@ impl GearTrain {
     }
 
     /// Name of mesh n (its column prefix without the `_`).
+    /// Each gear's name, teeth and rotation frequency at the current input speed, Hz.
+    pub fn gear_rotations(&self) -> Vec<(String, u32, f64)> {
+        let f_in = self.inputs.input_speed / std::f64::consts::TAU;
+        self.gears
+            .iter()
+            .map(|(name, z, r)| (name.clone(), *z, (r * f_in).abs()))
+            .collect()
+    }
+
     pub fn mesh_name(&self, n: usize) -> &str {
         &self.mesh_names[n]
     }

@@ -1,0 +1,279 @@
+//! `geardyn spectrum`: the exact spectrum of a scene's periodic steady state, with its lines
+//! named in mesh and shaft orders (`docs/spectrum.md`).
+
+use std::path::Path;
+
+use crate::analysis::spectrum::{
+    exact_dft, label_lines, model_aliasing_warning, windowed_fft, OrderLabel, Spectrum, Window,
+};
+use crate::analysis::{shoot, ShootingOptions};
+use crate::model::{response_period, AnyScene, Drivetrain};
+use crate::plot::{Axis, Plot, Series};
+use crate::with_drivetrain;
+
+/// What to transform and how finely.
+#[derive(Debug, Clone)]
+pub struct SpectrumRequest {
+    /// Output columns (as `simulate` names them); empty: every mesh's DTE.
+    pub signals: Vec<String>,
+    /// Samples per period of the fastest mesh: the spectrum reaches half of it in mesh orders.
+    pub samples_per_mesh_period: usize,
+    /// Response periods spanned (the resolution is `1/(periods·T)`).
+    pub periods: u32,
+}
+
+impl Default for SpectrumRequest {
+    fn default() -> Self {
+        SpectrumRequest {
+            signals: Vec::new(),
+            samples_per_mesh_period: 64,
+            periods: 1,
+        }
+    }
+}
+
+/// One signal's spectrum with its order labels.
+#[derive(Debug, Clone)]
+pub struct SignalSpectrum {
+    pub column: String,
+    /// Unit of the amplitudes (the column's unit).
+    pub unit: String,
+    pub spectrum: Spectrum,
+    pub labels: Vec<Option<OrderLabel>>,
+}
+
+/// The spectra of one periodic steady state.
+#[derive(Debug, Clone)]
+pub struct SpectrumReport {
+    pub scene: String,
+    /// Time spanned by the samples (an integer number of response periods), s.
+    pub duration: f64,
+    pub samples: usize,
+    pub signals: Vec<SignalSpectrum>,
+}
+
+/// The unit of an output column, from the naming convention of `simulate`'s columns.
+pub fn column_unit(name: &str) -> &'static str {
+    if name.ends_with("force") || name.contains("force_") {
+        "N"
+    } else if name.ends_with("_rate") || name.ends_with("velocity") {
+        "m/s"
+    } else if name.contains("dte") || name.ends_with("_x") || name.ends_with("_y") {
+        "m"
+    } else {
+        "1"
+    }
+}
+
+/// Shoots the periodic steady state at the scene's speed, samples `periods` response periods
+/// at `N` uniform instants from the orbit's start and takes the exact DFT of each signal.
+pub fn periodic_spectrum(
+    scene: &AnyScene,
+    request: &SpectrumRequest,
+) -> Result<SpectrumReport, String> {
+    if request.samples_per_mesh_period < 4 {
+        return Err(format!(
+            "--samples = {}: need at least 4 samples per mesh period",
+            request.samples_per_mesh_period
+        ));
+    }
+    if request.periods == 0 {
+        return Err("--periods = 0: need at least one response period".into());
+    }
+    let orbit = shoot(scene, &ShootingOptions::default())?;
+    with_drivetrain!(scene.simulation()?, sim => {
+        let mut sim = sim;
+        let model = sim.model();
+        let names = model.row_names();
+        let columns: Vec<usize> = if request.signals.is_empty() {
+            (0..model.mesh_count()).map(|n| model.mesh_columns(n).dte).collect()
+        } else {
+            (request.signals.iter())
+                .map(|s| names.iter().position(|n| n == s).ok_or_else(|| {
+                    format!("--signal {s:?}: no such output column (columns: {})", names.join(", "))
+                }))
+                .collect::<Result<_, _>>()?
+        };
+        let period = response_period(model)?;
+        let duration = period * request.periods as f64;
+        let f_max = (0..model.mesh_count()).map(|n| model.mesh_frequency(n)).fold(0.0, f64::max);
+        let mesh_cycles = (duration * f_max).round().max(1.0) as usize;
+        let n = mesh_cycles * request.samples_per_mesh_period;
+        let meshes: Vec<(String, f64)> = (0..model.mesh_count())
+            .map(|m| {
+                let prefix = model.mesh_prefix(m);
+                let name = if prefix.is_empty() { "mesh".to_string() } else { prefix.trim_end_matches('_').to_string() };
+                (name, model.mesh_frequency(m))
+            })
+            .collect();
+        let shafts = model.shafts();
+        sim.set_y(0.0, &orbit.y0);
+        let mut samples = vec![Vec::with_capacity(n); columns.len()];
+        let mut row = Vec::new();
+        sim.sample((0..n).map(|j| j as f64 * duration / n as f64), |s, t| {
+            s.model().output_row(t, s.y(), &mut row);
+            for (c, &col) in columns.iter().enumerate() {
+                samples[c].push(row[col]);
+            }
+            Ok(())
+        })?;
+        let mut signals = Vec::new();
+        for (c, &col) in columns.iter().enumerate() {
+            let spectrum = exact_dft(&samples[c], duration)?;
+            let labels = label_lines(&spectrum.frequency, &meshes, &shafts, 0.25 * spectrum.resolution);
+            signals.push(SignalSpectrum {
+                column: names[col].clone(),
+                unit: column_unit(&names[col]).to_string(),
+                spectrum,
+                labels,
+            });
+        }
+        Ok(SpectrumReport { scene: scene.name().to_string(), duration, samples: n, signals })
+    })
+}
+
+impl SpectrumReport {
+    /// One row per frequency bin: `frequency_Hz`, then per signal `<column>_amplitude_<unit>`,
+    /// `<column>_phase_rad`; a last column `order` names the bin's mesh/shaft order (empty
+    /// when no simple order lies within a quarter bin).
+    pub fn write_csv(&self, path: &Path) -> Result<(), String> {
+        let mut header = vec!["frequency_Hz".to_string()];
+        for s in &self.signals {
+            header.push(format!("{}_amplitude_{}", s.column, s.unit));
+            header.push(format!("{}_phase_rad", s.column));
+        }
+        // The label column is text (CsvWriter writes numbers only): the table is formatted
+        // here and written atomically, so an error leaves no partial file.
+        let mut text = header.join(",") + ",order\n";
+        let first = &self.signals[0];
+        for k in 0..first.spectrum.frequency.len() {
+            text.push_str(&format!("{:?}", first.spectrum.frequency[k]));
+            for s in &self.signals {
+                text.push_str(&format!(
+                    ",{:?},{:?}",
+                    s.spectrum.amplitude[k], s.spectrum.phase[k]
+                ));
+            }
+            let label = first.labels[k].as_ref().map_or("", |l| l.text.as_str());
+            text.push_str(&format!(",{label}\n"));
+        }
+        crate::output::write_text(path, &text)
+    }
+
+    /// Amplitude over frequency (log scale), one marker per line and signal, to PNG or SVG by the
+    /// extension of `path`.
+    pub fn save_plot(&self, path: &Path) -> Result<(), String> {
+        const COLORS: [&str; 4] = ["#2471a3", "#c0392b", "#16a085", "#8e44ad"];
+        // Lines as markers on a log axis; bins below 1e-6 of the largest line are rounding
+        // (exact DFT) and are left out so they do not set the axis range.
+        let series = (self.signals.iter().enumerate())
+            .map(|(i, s)| {
+                let a = &s.spectrum.amplitude;
+                let floor = 1e-6 * a.iter().skip(1).fold(0.0, |m: f64, &v| m.max(v));
+                Series {
+                    label: &s.column,
+                    color: COLORS[i % COLORS.len()],
+                    points: (1..a.len())
+                        .filter(|&k| a[k] > floor)
+                        .map(|k| (s.spectrum.frequency[k], a[k]))
+                        .collect(),
+                    dashed: false,
+                    markers: true,
+                    line: false,
+                }
+            })
+            .collect();
+        let unit = match self.signals[0].unit.as_str() {
+            "1" => "",
+            u => u,
+        };
+        let title = format!(
+            "{}: amplitude spectrum (exact DFT, mean omitted)",
+            self.scene
+        );
+        Plot {
+            title: &title,
+            x: Axis::new("frequency", "Hz"),
+            y: Axis::log("amplitude", unit),
+            series,
+            bands: Vec::new(),
+            band_label: "",
+            markers: Vec::new(),
+        }
+        .save(path)
+    }
+}
+
+/// The aliasing warning for `scene`'s outputs every `interval` s at its constant speed
+/// ([`crate::analysis::spectrum::model_aliasing_warning`]); a run whose speed varies passes
+/// its highest speed through that function's `speed_factor`.
+pub fn aliasing(scene: &AnyScene, interval: f64) -> Result<Option<String>, String> {
+    with_drivetrain!(scene.simulation()?, sim => {
+        Ok(model_aliasing_warning(sim.model(), interval, 1.0))
+    })
+}
+
+/// The spectrum of a simulated record (`simulate --spectrum`): `time` uniform from the run's
+/// start, `columns` (name, values) the outputs to transform. When the record spans an integer
+/// number of response periods (to 1e-9) the last sample (the first of the next period) is
+/// dropped and the exact DFT is taken; otherwise the flat-top windowed FFT, whose line
+/// amplitudes are within [`crate::analysis::spectrum::Window::amplitude_error`].
+pub fn record_spectrum(
+    scene: &AnyScene,
+    time: &[f64],
+    columns: &[(String, Vec<f64>)],
+) -> Result<SpectrumReport, String> {
+    let n = time.len();
+    if n < 8 {
+        return Err(format!("--spectrum: {n} output rows (need at least 8)"));
+    }
+    let dt = (time[n - 1] - time[0]) / (n - 1) as f64;
+    let span = time[n - 1] - time[0];
+    with_drivetrain!(scene.simulation()?, sim => {
+        let model = sim.model();
+        let periods = span / response_period(model)?;
+        let exact = periods >= 1.0 && (periods - periods.round()).abs() <= 1e-9 * periods;
+        let meshes: Vec<(String, f64)> = (0..model.mesh_count())
+            .map(|m| {
+                let prefix = model.mesh_prefix(m);
+                let name = if prefix.is_empty() { "mesh".to_string() } else { prefix.trim_end_matches('_').to_string() };
+                (name, model.mesh_frequency(m))
+            })
+            .collect();
+        let shafts = model.shafts();
+        let mut signals = Vec::new();
+        for (name, values) in columns {
+            let spectrum = if exact {
+                exact_dft(&values[..n - 1], span)?
+            } else {
+                // The mean is taken out before windowing, or its main lobe and sidelobes would
+                // cover the low orders; bin 0 then reports it.
+                let mean = values.iter().sum::<f64>() / n as f64;
+                let centred: Vec<f64> = values.iter().map(|v| v - mean).collect();
+                let mut sp = windowed_fft(&centred, dt, Window::FlatTop)?;
+                sp.amplitude[0] = mean.abs();
+                sp
+            };
+            let mut labels = label_lines(&spectrum.frequency, &meshes, &shafts, 0.5 * spectrum.resolution);
+            if !exact {
+                // A window spreads each line over its main lobe: only the lobe's peak is a line,
+                // and only above the flat-top's sidelobes (−95 dB), with margin (−80 dB).
+                let a = &spectrum.amplitude;
+                let floor = 1e-4 * a.iter().skip(1).fold(0.0, |m: f64, &v| m.max(v));
+                for k in 1..a.len() {
+                    if a[k] < floor || a[k] < a[k - 1] || a.get(k + 1).is_some_and(|&next| a[k] < next) {
+                        labels[k] = None;
+                    }
+                }
+            }
+            signals.push(SignalSpectrum {
+                column: name.clone(),
+                unit: column_unit(name).to_string(),
+                spectrum,
+                labels,
+            });
+        }
+        let samples = if exact { n - 1 } else { n };
+        Ok(SpectrumReport { scene: scene.name().to_string(), duration: span, samples, signals })
+    })
+}
