@@ -3,7 +3,7 @@
 //! existing form (piecewise-linear `table` pieces or a `fourier` series), so the dynamic model,
 //! the solvers and the FMU see nothing new.
 
-use super::spec::{GeometryForm, OperatingSpec, StiffnessSpec};
+use super::spec::{GeometryForm, StiffnessSpec};
 use super::validate::{finite, positive};
 use super::{Gear, SceneError};
 use crate::mesh::geometry::{CurveOptions, MeshModel};
@@ -16,7 +16,7 @@ const FIELD: &str = "mesh.stiffness";
 /// Resolves a `StiffnessSpec::Geometry`.
 pub(super) fn stiffness(
     spec: &StiffnessSpec,
-    operating: &OperatingSpec,
+    input_torque: f64,
     pinion: &Gear,
     gear: &Gear,
 ) -> Result<MeshStiffness> {
@@ -59,7 +59,7 @@ pub(super) fn stiffness(
     let torque = match torque {
         Some(t) => positive(&format!("{FIELD}.torque"), *t)?,
         None => {
-            let t = finite("operating.input_torque", operating.input_torque)?;
+            let t = finite("operating.input_torque", input_torque)?;
             if !(t > 0.0) {
                 return Err(SceneError(format!(
                     "operating.input_torque = {t}: the geometry stiffness is load dependent and needs a \

@@ -5,6 +5,7 @@
 
 mod geometry;
 mod helical;
+pub mod profile;
 pub mod spec;
 pub mod train;
 mod validate;
@@ -14,6 +15,7 @@ use std::path::{Path, PathBuf};
 
 use crate::mesh::{MeshStiffness, PhaseSeries};
 
+pub use profile::{Profile, Profiles};
 pub use spec::SceneSpec;
 
 /// A scene error: the message names the field (as a TOML path) and the offending value, or
@@ -145,7 +147,10 @@ pub struct Scene {
     pub pinion: Gear,
     pub gear: Gear,
     pub mesh: Mesh,
+    /// The operating point at t = 0 (with profiles: their values at t = 0).
     pub operating: Operating,
+    /// Speed and torque over time (a run-up), `docs/runup.md`.
+    pub profiles: Profiles,
     pub initial_dte: InitialDte,
     pub initial_dte_rate: f64,
     pub solver: SolverSettings,

@@ -80,14 +80,15 @@ impl Kernel {
     }
 }
 
-/// `(e, ė)` of the STE; with `STE = false` the scene has none and nothing is evaluated.
+/// `(e, ė)` of the STE, `ė = f_m(t) de/dp` (the instantaneous mesh frequency: on a speed
+/// ramp it varies); with `STE = false` the scene has none and nothing is evaluated.
 #[inline(always)]
-fn ste<const STE: bool>(pair: &GearPair, p: f64) -> (f64, f64) {
+fn ste<const STE: bool>(pair: &GearPair, t: f64, p: f64) -> (f64, f64) {
     if !STE {
         return (0.0, 0.0);
     }
     let (value, slope) = pair.ste.value_and_slope_unconditionally(p);
-    (value, slope * pair.clock.mesh_frequency())
+    (value, slope * pair.clock.frequency_at(t))
 }
 
 #[inline(always)]
@@ -97,7 +98,7 @@ fn force<const STE: bool, const CUBIC: bool, const DVAR: bool>(
     y: &[f64],
 ) -> f64 {
     let p = pair.clock.phase_at(t);
-    let (e, e_rate) = ste::<STE>(pair, p);
+    let (e, e_rate) = ste::<STE>(pair, t, p);
     let delta = y[0] - e;
     let delta_rate = y[1] - e_rate;
     let offset = match pair.contact {
@@ -132,9 +133,9 @@ fn rhs<const STE: bool, const CUBIC: bool, const DVAR: bool, const RIPPLE: bool>
 ) {
     dy[0] = y[1];
     let external = if RIPPLE {
-        pair.f_ext + pair.ripple_force * (TAU * pair.clock.phase_at(t)).cos()
+        pair.external_force_at(t) + pair.ripple_force * (TAU * pair.clock.phase_at(t)).cos()
     } else {
-        pair.f_ext
+        pair.external_force_at(t)
     };
     dy[1] = (external - force::<STE, CUBIC, DVAR>(pair, t, y)) / pair.m_e;
 }

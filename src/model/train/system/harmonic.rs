@@ -115,7 +115,7 @@ impl GearTrain {
     pub fn free_mesh_law(&self, n: usize, t: f64, s: f64, s_rate: f64) -> MeshLaw {
         let mesh = &self.meshes[n];
         let p = mesh.clock.phase_at(t);
-        let f = mesh.clock.mesh_frequency();
+        let f = mesh.clock.frequency_at(t);
         let mut law = MeshLaw::default();
         let clearance = mesh.clearance();
         let mut j = 0;
@@ -167,7 +167,7 @@ impl GearTrain {
             return;
         }
         let p = mesh.clock.phase_at(t);
-        let f = mesh.clock.mesh_frequency();
+        let f = mesh.clock.frequency_at(t);
         let clearance = mesh.clearance();
         self.for_each_free_slot(n, p, f, |slot| {
             let (delta, rate) = (s - slot.gap, s_rate - slot.gap_rate);
