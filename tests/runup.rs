@@ -227,7 +227,9 @@ fn tools_that_need_a_constant_operating_point_refuse_a_runup() {
     for (text, line, _key, train) in cases() {
         let scene = any(&with_operating(text, line, "", ramp), train).unwrap();
         let shoot = geardyn::analysis::shooting::shoot(&scene, &Default::default());
-        let e = shoot.err().expect("shooting must refuse");
+        let Err(e) = shoot else {
+            panic!("shooting must refuse a run-up")
+        };
         assert!(
             e.contains("operating.speed_profile") && e.contains("constant operating point"),
             "{e}"

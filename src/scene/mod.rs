@@ -158,7 +158,8 @@ pub struct Scene {
     pub source: String,
 }
 
-/// Names of the scenes shipped in `fmu/<name>/scene.toml`, compiled into the binary.
+/// Built-in single-pair scenes (`fmu/<name>/scene.toml`, `examples/<name>.toml`), compiled
+/// into the binary.
 pub const EXAMPLES: &[(&str, &str)] = &[
     ("spur_pair", include_str!("../../fmu/spur_pair/scene.toml")),
     (
@@ -173,6 +174,8 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         "helical_pair_friction",
         include_str!("../../fmu/helical_pair_friction/scene.toml"),
     ),
+    // A run-up (docs/runup.md); not an FMU: an FMU takes its speed from the host.
+    ("runup_spur", include_str!("../../examples/runup_spur.toml")),
 ];
 
 impl Scene {

@@ -482,6 +482,20 @@ impl GearTrain {
                 }
             }
         }
+        if let Some(p) = train.profiles.as_ref().and_then(|p| p.speed.as_ref()) {
+            // The largest speed of the profile within the propagators' range, before the run.
+            let peak = p.max_value();
+            for (n, mesh) in train.meshes.iter().enumerate() {
+                let rate = mesh.cycles_per_rev * peak;
+                if !(rate <= crate::model::MAX_RATE) {
+                    return Err(format!(
+                        "operating.speed_profile reaches {peak:?} rad/s, which gives mesh {n} a \
+                         mesh rate of {rate:e} 1/s, beyond {:e} 1/s (the propagators square it)",
+                        crate::model::MAX_RATE
+                    ));
+                }
+            }
+        }
         train.apply_profiles(0.0)?;
         for mesh in &mut train.meshes {
             mesh.locate(0.0);
