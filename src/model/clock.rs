@@ -67,6 +67,32 @@ impl PhaseClock {
         }
     }
 
+    /// [`PhaseClock::phase_at`] of a clock known to run at constant speed (`ḟ_m = 0`): the
+    /// constant-speed kernels of the single pair call it, so their hot path is the
+    /// historical expression without the test of the rate.
+    #[inline(always)]
+    pub fn phase_at_constant_speed(&self, t: f64) -> f64 {
+        debug_assert!(self.rate == 0.0);
+        self.p0 + self.mesh_frequency * (t - self.t0)
+    }
+
+    /// `(phase_at(t), frequency_at(t))` with one test of the rate.
+    #[inline(always)]
+    pub fn phase_and_frequency(&self, t: f64) -> (f64, f64) {
+        if self.rate == 0.0 {
+            (
+                self.p0 + self.mesh_frequency * (t - self.t0),
+                self.mesh_frequency,
+            )
+        } else {
+            let d = t - self.t0;
+            (
+                self.p0 + d * (self.mesh_frequency + 0.5 * self.rate * d),
+                self.mesh_frequency + self.rate * d,
+            )
+        }
+    }
+
     /// Instantaneous mesh frequency `dp/dt` at `t`, Hz (the anchor's on a constant speed).
     pub fn frequency_at(&self, t: f64) -> f64 {
         if self.rate == 0.0 {

@@ -493,8 +493,9 @@ impl GearPair {
 
     /// `e(p(t))` and `de/dt`.
     fn ste_at(&self, t: f64) -> (f64, f64) {
-        let (e, slope) = self.ste.value_and_slope(self.clock.phase_at(t));
-        (e, slope * self.clock.frequency_at(t))
+        let (p, f) = self.clock.phase_and_frequency(t);
+        let (e, slope) = self.ste.value_and_slope(p);
+        (e, slope * f)
     }
 
     /// Mesh deflection `δ = x − e` and its rate.
@@ -505,16 +506,22 @@ impl GearPair {
 
     /// Stiffness of the frozen segment at time `t`.
     fn stiffness_at(&self, t: f64) -> f64 {
+        self.stiffness_at_phase(self.clock.phase_at(t))
+    }
+
+    /// The stiffness at mesh phase `p` (unshifted) in the current piece.
+    #[inline(always)]
+    pub(crate) fn stiffness_at_phase(&self, p: f64) -> f64 {
         match &self.stiffness {
             MeshStiffness::Piecewise { phase, pieces } => {
-                let u = self.clock.phase_at(t) + phase;
+                let u = p + phase;
                 pieces[self.segment.piece].value(u - self.segment.cycle)
             }
             MeshStiffness::Fourier {
                 phase,
                 mean,
                 series,
-            } => mean + series.value(self.clock.phase_at(t) + phase),
+            } => mean + series.value(p + phase),
         }
     }
 
@@ -535,7 +542,10 @@ impl GearPair {
     /// the baseline of `benches/features.rs` and the oracle of the specialised kernels
     /// (bit-identical results). The equations do not change.
     pub fn use_generic_kernel(&mut self) {
-        self.kernel = Kernel::generic();
+        // A run-up's kernel already evaluates every term.
+        if self.kernel.name != "runup" {
+            self.kernel = Kernel::generic();
+        }
     }
 
     /// Name of the right-hand-side kernel in use (the terms it evaluates, or `generic`).

@@ -893,8 +893,7 @@ impl GearTrain {
     fn slot_gap(&self, n: usize, j: usize, t: f64, y: &[f64]) -> Option<(f64, f64, SlotLaw)> {
         let mesh = &self.meshes[n];
         let law = mesh.law(j)?;
-        let p = mesh.clock.phase_at(t);
-        let f = mesh.clock.frequency_at(t);
+        let (p, f) = mesh.clock.phase_and_frequency(t);
         let (e, slope) = mesh.ste.value_and_slope(p);
         let (s, sd) = self.deflection(n, y);
         let r = mesh.local(p);
@@ -965,8 +964,7 @@ impl GearTrain {
     /// Force of mesh n in the current mode; per-slot forces into `slots` when given.
     fn mesh_force(&self, n: usize, t: f64, y: &[f64], mut slots: Option<&mut [f64]>) -> f64 {
         let mesh = &self.meshes[n];
-        let p = mesh.clock.phase_at(t);
-        let f = mesh.clock.frequency_at(t);
+        let (p, f) = mesh.clock.phase_and_frequency(t);
         let (e, e_slope) = mesh.ste.value_and_slope(p);
         let (s, sd) = self.deflection(n, y);
         let r = mesh.local(p);
@@ -1318,13 +1316,15 @@ impl HybridSystem for GearTrain {
         for i in 0..m {
             dy[i] = y[m + i];
             let mut f = self.f_ext[i];
-            if self.force_ramp {
-                f += self.f_rate[i] * (t - self.f_anchor);
-            }
             for k in 0..m {
                 f -= self.k_b[i * m + k] * y[k] + self.c[i * m + k] * y[m + k];
             }
             acc[i] = f;
+        }
+        if self.force_ramp {
+            for (a, r) in acc.iter_mut().zip(&self.f_rate) {
+                *a += r * (t - self.f_anchor);
+            }
         }
         for n in 0..self.meshes.len() {
             if self.meshes[n].friction.is_some() {
@@ -1377,8 +1377,8 @@ impl HybridSystem for GearTrain {
         for (g, a) in grad.iter_mut().zip(&mesh.a) {
             *g = sign * a;
         }
-        let f = mesh.clock.frequency_at(t);
-        let slope = mesh.ste.value_and_slope(mesh.clock.phase_at(t)).1;
+        let (p, f) = mesh.clock.phase_and_frequency(t);
+        let slope = mesh.ste.value_and_slope(p).1;
         Some(-sign * (slope * f + law.g1 * f))
     }
 
