@@ -254,3 +254,31 @@ fn tools_that_need_a_constant_operating_point_refuse_a_runup() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+#[test]
+fn simulate_refuses_a_ramp_that_goes_back_in_time_without_output() {
+    let dir = std::env::temp_dir().join(format!("geardyn-runup-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("back.toml");
+    let ramp = "[operating.speed_profile]\nkind = \"ramp\"\nfrom = 100.0\nto = 400.0\nstart = 0.5\nend = 0.25";
+    std::fs::write(&scene, with_operating(SPUR, SPUR_SPEED, "", ramp)).unwrap();
+    let out = dir.join("out.csv");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_geardyn"))
+        .args([
+            "simulate",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(!run.status.success());
+    assert!(
+        stderr.contains("operating.speed_profile: end = 0.25 s is not after start = 0.5 s"),
+        "{stderr}"
+    );
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().collect();
+    assert_eq!(left.len(), 1, "no output file, partial or complete");
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -293,8 +293,8 @@ impl Profiles {
         if self.any() {
             Err(format!(
                 "{tool} needs a constant operating point, and this scene has {} (a run-up has no \
-                 periodic steady state); remove the profile and give operating.{{pinion_speed | \
-                 input_speed, input_torque}}, or run it with `geardyn simulate`",
+                 periodic steady state); give a constant speed and torque in [operating] \
+                 instead, or run the run-up with `geardyn simulate`",
                 self.keys()
             ))
         } else {
