@@ -294,24 +294,12 @@ impl GearTrain {
         };
         // Inertial forcing of a nominal angular acceleration α of the input gear
         // (`docs/runup.md`): the nominal motion q_nom'' = v α (every body turning at its
-        // speed ratio, no translation) leaves `−Qᵀ M v α` on the elastic coordinates. A free
-        // train turns rigidly: v lies in the span of R and RᵀMQ = 0, so the term vanishes
-        // exactly (as for the single pair); only ground couplings, which act on the
-        // vibration, make it nonzero.
-        let inertial = if red.rigid_dim() > 0 {
-            vec![0.0; m]
-        } else {
-            let v = DVector::from_iterator(
-                asm.dim(),
-                asm.dofs.iter().map(|d| match *d {
-                    DofKind::Rotation { gear } => {
-                        asm.body_radius[asm.body_of[gear]] * scene.speed_ratio[gear]
-                    }
-                    _ => 0.0,
-                }),
-            );
-            (q.transpose() * &asm.mass * v).as_slice().to_vec()
-        };
+        // speed ratio, no translation) leaves `−Qᵀ M v α` on the elastic coordinates. In a
+        // free train v is a rigid-body mode and RᵀMQ = 0 makes the term vanish (up to
+        // rounding; as for the single pair); ground couplings, which act on the vibration,
+        // make it nonzero.
+        let v = nominal_rotation(scene, &asm);
+        let inertial = (q.transpose() * &asm.mass * v).as_slice().to_vec();
 
         let mut meshes = Vec::new();
         let ratio1 = scene.meshes[0].cycles_per_input_rev;
@@ -1199,6 +1187,57 @@ impl GearTrain {
             };
         }
     }
+}
+
+/// The nominal motion per rad/s of input speed in the physical coordinates (`u_b = ρ_b θ_b`,
+/// translations 0): rolling without slip on the base circles, `d_n·v = 0` for every mesh (so
+/// the nominal motion deflects no mesh even where tabulated radii and tooth counts differ in
+/// the last digits), and coaxial gears on an elastic shaft turning together. Parts the input
+/// does not drive stand still.
+fn nominal_rotation(scene: &TrainScene, asm: &Assembly) -> DVector<f64> {
+    let bodies = asm.body_radius.len();
+    let mut omega: Vec<Option<f64>> = vec![None; bodies];
+    omega[asm.body_of[scene.input_gear]] = Some(1.0);
+    let mut changed = true;
+    while changed {
+        changed = false;
+        for (n, m) in scene.meshes.iter().enumerate() {
+            let (a, b) = (asm.body_of[m.pinion], asm.body_of[m.gear]);
+            // d_n·v = 0 on the two rotations: c_a ρ_a ω_a + c_b ρ_b ω_b = 0.
+            let ca = asm.mesh[n][asm.body_dof[a]] * asm.body_radius[a];
+            let cb = asm.mesh[n][asm.body_dof[b]] * asm.body_radius[b];
+            match (omega[a], omega[b]) {
+                (Some(wa), None) => {
+                    omega[b] = Some(-ca * wa / cb);
+                    changed = true;
+                }
+                (None, Some(wb)) => {
+                    omega[a] = Some(-cb * wb / ca);
+                    changed = true;
+                }
+                _ => {}
+            }
+        }
+        for s in &scene.shafts {
+            let (a, b) = (asm.body_of[s.gears[0]], asm.body_of[s.gears[1]]);
+            match (omega[a], omega[b]) {
+                (Some(w), None) => {
+                    omega[b] = Some(w);
+                    changed = true;
+                }
+                (None, Some(w)) => {
+                    omega[a] = Some(w);
+                    changed = true;
+                }
+                _ => {}
+            }
+        }
+    }
+    let mut v = DVector::zeros(asm.dim());
+    for (body, w) in omega.iter().enumerate() {
+        v[asm.body_dof[body]] = asm.body_radius[body] * w.unwrap_or(0.0);
+    }
+    v
 }
 
 /// The closed form of a free single pair: one mesh, two rotating bodies (the input and the
