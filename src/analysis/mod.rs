@@ -5,6 +5,7 @@ pub mod floquet;
 pub mod hb;
 pub mod linear_period;
 pub mod shooting;
+pub mod spectrum;
 pub mod sweep;
 
 pub use band::{instability_bands, InstabilityBand};

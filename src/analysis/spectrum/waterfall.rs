@@ -1,0 +1,149 @@
+//! The run-up waterfall: short-time spectra of a signal, one row per window, tagged with the
+//! shaft speed over that window (`docs/spectrum.md`, "Waterfall").
+
+use super::dft::windowed_fft;
+use super::window::Window;
+use crate::output::CsvWriter;
+use std::path::Path;
+
+/// How the record is cut into short-time windows.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WaterfallOptions {
+    /// Samples per window; the frequency resolution is `1/(segment·dt)`.
+    pub segment: usize,
+    /// Fraction of a window shared with the next, in `[0, 1)`.
+    pub overlap: f64,
+    pub window: Window,
+}
+
+impl Default for WaterfallOptions {
+    fn default() -> Self {
+        WaterfallOptions {
+            segment: 1024,
+            overlap: 0.5,
+            window: Window::Hann,
+        }
+    }
+}
+
+/// A speed–frequency amplitude map: `amplitude[r][c]` is the amplitude (signal units) at
+/// `frequency[c]` Hz in the window centred on `time[r]`, where the shaft turned at `rpm[r]`
+/// (mean over the window).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Waterfall {
+    pub rpm: Vec<f64>,
+    pub time: Vec<f64>,
+    pub frequency: Vec<f64>,
+    pub amplitude: Vec<Vec<f64>>,
+    pub window: Window,
+}
+
+/// Short-time spectra of `signal` sampled at uniform times `t` (s), with the reference shaft
+/// speed `rpm` (rev/min) at each sample. A line of order `o` (cycles per shaft revolution)
+/// appears as a ridge on `f = o·rpm/60`, a straight line through the origin of the
+/// (rpm, Hz) plane; a resonance is a ridge at constant frequency.
+pub fn waterfall(
+    t: &[f64],
+    signal: &[f64],
+    rpm: &[f64],
+    options: &WaterfallOptions,
+) -> Result<Waterfall, String> {
+    let n = t.len();
+    if signal.len() != n || rpm.len() != n {
+        return Err(format!(
+            "waterfall: {n} times, {} signal samples and {} speeds (must be equal)",
+            signal.len(),
+            rpm.len()
+        ));
+    }
+    let segment = options.segment;
+    if segment < 8 {
+        return Err(format!(
+            "waterfall segment = {segment}: need at least 8 samples"
+        ));
+    }
+    if n < segment {
+        return Err(format!(
+            "waterfall: {n} samples, fewer than one segment ({segment})"
+        ));
+    }
+    if !(0.0..1.0).contains(&options.overlap) {
+        return Err(format!(
+            "waterfall overlap = {}: must lie in [0, 1)",
+            options.overlap
+        ));
+    }
+    let dt = (t[n - 1] - t[0]) / (n - 1) as f64;
+    if !(dt.is_finite() && dt > 0.0) {
+        return Err(format!(
+            "waterfall: times from {} to {} s are not increasing",
+            t[0],
+            t[n - 1]
+        ));
+    }
+    // A short-time FFT needs one sample interval; an irregular record would smear every line.
+    if let Some(j) = (1..n).find(|&j| ((t[j] - t[j - 1]) - dt).abs() > 1e-6 * dt) {
+        return Err(format!(
+            "waterfall: sample interval {} s at t = {} s differs from the mean {dt} s (resample first)",
+            t[j] - t[j - 1],
+            t[j]
+        ));
+    }
+    let step = (((1.0 - options.overlap) * segment as f64).round() as usize).max(1);
+    let mut map = Waterfall {
+        rpm: Vec::new(),
+        time: Vec::new(),
+        frequency: Vec::new(),
+        amplitude: Vec::new(),
+        window: options.window,
+    };
+    let mut start = 0;
+    while start + segment <= n {
+        let range = start..start + segment;
+        let spectrum = windowed_fft(&signal[range.clone()], dt, options.window)?;
+        if map.frequency.is_empty() {
+            map.frequency = spectrum.frequency;
+        }
+        map.amplitude.push(spectrum.amplitude);
+        map.rpm
+            .push(rpm[range.clone()].iter().sum::<f64>() / segment as f64);
+        map.time.push(0.5 * (t[range.start] + t[range.end - 1]));
+        start += step;
+    }
+    Ok(map)
+}
+
+impl Waterfall {
+    /// Frequency of the largest amplitude in row `row` within `[lo, hi]` Hz.
+    pub fn ridge(&self, row: usize, lo: f64, hi: f64) -> Option<f64> {
+        let a = &self.amplitude[row];
+        (0..self.frequency.len())
+            .filter(|&c| self.frequency[c] >= lo && self.frequency[c] <= hi)
+            .max_by(|&x, &y| a[x].total_cmp(&a[y]))
+            .map(|c| self.frequency[c])
+    }
+
+    /// Writes the map in long form, one line per (window, frequency):
+    /// `time_s, rpm, frequency_Hz, order, amplitude_<unit>`, where the order is
+    /// `frequency / (rpm/60)` (cycles per reference-shaft revolution).
+    pub fn write_csv(&self, path: &Path, unit: &str) -> Result<(), String> {
+        let amplitude = format!("amplitude_{unit}");
+        let mut csv = CsvWriter::create(
+            path,
+            &["time_s", "rpm", "frequency_Hz", "order", &amplitude],
+        )?;
+        for (r, row) in self.amplitude.iter().enumerate() {
+            let shaft_hz = self.rpm[r] / 60.0;
+            for (c, a) in row.iter().enumerate() {
+                let f = self.frequency[c];
+                let order = if shaft_hz != 0.0 {
+                    f / shaft_hz
+                } else {
+                    f64::NAN
+                };
+                csv.row([self.time[r], self.rpm[r], f, order, *a])?;
+            }
+        }
+        csv.finish()
+    }
+}
