@@ -38,6 +38,8 @@ enum Command {
     Band(cli::floquet::BandArgs),
     /// Mesh stiffness over one mesh period from gear geometry (docs/stiffness.md).
     Stiffness(cli::stiffness::StiffnessArgs),
+    /// Order map (waterfall) of a run-up scene: short-time spectra over speed (docs/runup.md).
+    Waterfall(cli::runup::WaterfallArgs),
     /// FMI 2.0 Co-Simulation FMUs: build, print or check model descriptions.
     Fmu(geardyn::fmi::cli::FmuArgs),
     /// Run any FMI 2.0 Co-Simulation FMU (the host runner, like `fmpy simulate`).
@@ -59,6 +61,7 @@ fn main() -> ExitCode {
         Command::Sweep(args) => cli::analysis::sweep(args),
         Command::Hb(args) => cli::analysis::hb(args),
         Command::Stiffness(args) => cli::stiffness::run(args),
+        Command::Waterfall(args) => cli::runup::run(args),
         Command::Fmu(args) => geardyn::fmi::cli::run(args),
         // Prints its own errors: its exit status also tells how the FMU's process ended.
         Command::Run(args) => return geardyn::host::cli::run(args),

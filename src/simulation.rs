@@ -35,15 +35,33 @@ impl DrivenModel for GearPair {
         self.restore_pair_state(s)
     }
     fn run_scales(&self) -> RunScales {
-        RunScales {
-            mesh_frequency: (1.0 / self.mesh_period()).abs(),
-            start_phase: self.mesh_phase(0.0).abs(),
-            speed: ("operating.pinion_speed", self.inputs().pinion_speed),
-            fastest_rate: self.fastest_rate(),
+        match self.profiles().and_then(|p| p.speed.as_ref()) {
+            None => RunScales {
+                mesh_frequency: (1.0 / self.mesh_period()).abs(),
+                start_phase: self.mesh_phase(0.0).abs(),
+                speed: ("operating.pinion_speed", self.inputs().pinion_speed),
+                fastest_rate: self.fastest_rate(),
+            },
+            Some(p) => RunScales {
+                mesh_frequency: self.peak_mesh_frequency(),
+                start_phase: self.mesh_phase(0.0).abs(),
+                speed: ("operating.speed_profile (its largest value)", p.max_value()),
+                fastest_rate: self.fastest_rate(),
+            },
         }
     }
     fn check_advance(&self, t: f64, t_end: f64) -> Result<(), String> {
         GearPair::check_advance(self, t, t_end)
+    }
+    fn profiles(&self) -> Option<&crate::scene::Profiles> {
+        GearPair::profiles(self)
+    }
+    fn apply_profiles(&mut self, t: f64) -> Result<(), String> {
+        GearPair::apply_profiles(self, t);
+        Ok(())
+    }
+    fn runup_not_lti(&self) -> Option<String> {
+        GearPair::runup_not_lti(self)
     }
 }
 

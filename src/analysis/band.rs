@@ -72,6 +72,10 @@ pub fn instability_bands(
     to_speed: f64,
     points: usize,
 ) -> Result<Vec<InstabilityBand>, String> {
+    scene
+        .to_any()
+        .profiles()
+        .require_constant("the instability-band scan")?;
     if !(from_speed > 0.0 && to_speed > from_speed && to_speed.is_finite()) {
         return Err(format!(
             "speed range {from_speed}..{to_speed} rad/s: needs 0 < from < to"

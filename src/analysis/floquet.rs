@@ -64,6 +64,7 @@ impl Floquet {
 /// A scene with contact loss or backlash is refused with the reason and the command to use.
 pub fn monodromy(scene: &impl SceneSource) -> Result<Floquet, String> {
     let scene = scene.to_any();
+    scene.profiles().require_constant("the Floquet analysis")?;
     let nonlinear = match &scene {
         AnyScene::Pair(s) => (s.mesh.contact != ContactLaw::Linear)
             .then(|| format!("mesh.contact = {:?}", s.mesh.contact)),

@@ -212,6 +212,10 @@ pub fn period_map(
 /// response periods: the mesh period of a single mesh, the least common multiple of the mesh
 /// periods of a drivetrain.
 pub fn shoot(scene: &impl SceneSource, options: &ShootingOptions) -> Result<PeriodicOrbit, String> {
+    scene
+        .to_any()
+        .profiles()
+        .require_constant("the periodic orbit (shooting)")?;
     if options.periods == 0 {
         return Err("periods = 0: an orbit spans at least one mesh period".into());
     }

@@ -311,6 +311,7 @@ pub fn sweep(
 ) -> Result<Sweep, String> {
     options.validate()?;
     let first = scene.to_any();
+    first.profiles().require_constant("a speed sweep")?;
     let speeds = options.speeds.clone();
     let start = |d: Direction| {
         if d == Direction::Down {

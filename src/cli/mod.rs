@@ -8,6 +8,7 @@ use geardyn::model::AnyScene;
 pub mod analysis;
 pub mod floquet;
 pub mod modes;
+pub mod runup;
 pub mod simulate;
 pub mod spectrum;
 pub mod stiffness;

@@ -230,9 +230,13 @@ fn run_to_csv<M: DrivenModel>(
     let rows = writer.rows();
     let peak_buffered_bytes = writer.peak_buffered_bytes();
     writer.finish()?;
+    let method = match sim.method_note() {
+        Some(note) => format!("{} ({note})", sim.method_name()),
+        None => sim.method_name(),
+    };
     Ok(Streamed {
         rows,
-        method: sim.method_name(),
+        method,
         stats: sim.stats(),
         summary,
         peak_buffered_bytes,

@@ -160,6 +160,14 @@ impl MeshErrors {
             .sum()
     }
 
+    /// The largest `|de/dp|` between pitch steps (runout slope), m per cycle.
+    pub fn slope_bound(&self) -> f64 {
+        self.terms
+            .iter()
+            .map(|t| t.runout.0.abs() * TAU / t.teeth)
+            .sum()
+    }
+
     /// Revolutions of the gears with errors per mesh cycle (`1/z`), for the response period.
     pub fn revolution_orders(&self) -> Vec<f64> {
         self.terms.iter().map(|t| 1.0 / t.teeth).collect()

@@ -30,15 +30,20 @@ pub fn check_phase(name: &str, value: f64) -> Result<(), String> {
     }
 }
 
-/// Mesh phase `p(t) = p0 + f_m (t − t0)` (mesh cycles), `f_m = z1 Ω / 2π` (`docs/model.md`,
-/// "Mesh phase"). The clock is re-anchored whenever the nominal speed changes (an FMU input
-/// between communication points), so the phase is continuous and stiffness never depends on
-/// raw time.
+/// Mesh phase `p(t) = p0 + f_m (t − t0) + ½ ḟ_m (t − t0)²` (mesh cycles), `f_m = z1 Ω / 2π`
+/// at the anchor and `ḟ_m = z1 Ω̇ / 2π` (`docs/model.md`, "Mesh phase"; `docs/runup.md`): the
+/// exact integral of a speed that is constant (`ḟ_m = 0`, every scene without a speed profile)
+/// or linear in time (one segment of a piecewise-linear speed profile). The clock is
+/// re-anchored whenever the nominal speed or its rate changes (an FMU input between
+/// communication points, a profile knot), so the phase is continuous and stiffness never
+/// depends on raw time.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct PhaseClock {
     t0: f64,
     p0: f64,
     mesh_frequency: f64,
+    /// `ḟ_m`, Hz/s: 0 except on a ramp segment of a speed profile.
+    rate: f64,
 }
 
 impl PhaseClock {
@@ -47,12 +52,59 @@ impl PhaseClock {
             t0,
             p0,
             mesh_frequency,
+            rate: 0.0,
         }
     }
 
-    /// Mesh phase at time `t`.
+    /// Mesh phase at time `t`. The constant-speed branch is the historical expression, so
+    /// scenes without a speed profile keep their results bit for bit.
     pub fn phase_at(&self, t: f64) -> f64 {
+        if self.rate == 0.0 {
+            self.p0 + self.mesh_frequency * (t - self.t0)
+        } else {
+            let d = t - self.t0;
+            self.p0 + d * (self.mesh_frequency + 0.5 * self.rate * d)
+        }
+    }
+
+    /// [`PhaseClock::phase_at`] of a clock known to run at constant speed (`ḟ_m = 0`): the
+    /// constant-speed kernels of the single pair call it, so their hot path is the
+    /// historical expression without the test of the rate.
+    #[inline(always)]
+    pub fn phase_at_constant_speed(&self, t: f64) -> f64 {
+        debug_assert!(self.rate == 0.0);
         self.p0 + self.mesh_frequency * (t - self.t0)
+    }
+
+    /// `(phase_at(t), frequency_at(t))` with one test of the rate.
+    #[inline(always)]
+    pub fn phase_and_frequency(&self, t: f64) -> (f64, f64) {
+        if self.rate == 0.0 {
+            (
+                self.p0 + self.mesh_frequency * (t - self.t0),
+                self.mesh_frequency,
+            )
+        } else {
+            let d = t - self.t0;
+            (
+                self.p0 + d * (self.mesh_frequency + 0.5 * self.rate * d),
+                self.mesh_frequency + self.rate * d,
+            )
+        }
+    }
+
+    /// Instantaneous mesh frequency `dp/dt` at `t`, Hz (the anchor's on a constant speed).
+    pub fn frequency_at(&self, t: f64) -> f64 {
+        if self.rate == 0.0 {
+            self.mesh_frequency
+        } else {
+            self.mesh_frequency + self.rate * (t - self.t0)
+        }
+    }
+
+    /// `ḟ_m`, Hz/s.
+    pub fn rate(&self) -> f64 {
+        self.rate
     }
 
     /// The anchor `(t0, p0)`: with [`PhaseClock::new`] it rebuilds this clock bit for bit
@@ -61,16 +113,41 @@ impl PhaseClock {
         (self.t0, self.p0)
     }
 
-    /// Mesh frequency f_m, Hz.
+    /// Mesh frequency f_m at the anchor, Hz (the mesh frequency of a constant speed; on a ramp
+    /// see [`PhaseClock::frequency_at`]).
     pub fn mesh_frequency(&self) -> f64 {
         self.mesh_frequency
     }
 
-    /// The time at which the phase reaches `p` (`+inf` when the clock stands still or `p`
-    /// lies in the past of a forward-running clock is not checked here).
+    /// The time at which the phase reaches `p` (`+inf` when the clock stands still or, on a
+    /// decelerating ramp, stops before `p`; whether `p` lies in the past of a forward-running
+    /// clock is not checked here).
+    ///
+    /// On a ramp, `½ ḟ τ² + f τ − Δ = 0` with `Δ = p − p0` is solved in the form
+    /// `τ = 2Δ / (f + sqrt(f² + 2ḟΔ))`, which does not cancel for `f ≥ 0` (the root of the
+    /// textbook form `(−f + sqrt(…))/ḟ` loses every digit when `ḟΔ ≪ f²`) and stays defined
+    /// at `f = 0` (a run-up from standstill: `τ = sqrt(2Δ/ḟ)`). The segments advance by
+    /// counting pieces, never from a rounded phase, so this only places the stop times.
     pub fn time_of(&self, p: f64) -> f64 {
-        if self.mesh_frequency > 0.0 {
-            self.t0 + (p - self.p0) / self.mesh_frequency
+        if self.rate == 0.0 {
+            return if self.mesh_frequency > 0.0 {
+                self.t0 + (p - self.p0) / self.mesh_frequency
+            } else {
+                f64::INFINITY
+            };
+        }
+        let delta = p - self.p0;
+        let f = self.mesh_frequency;
+        let disc = f * f + 2.0 * self.rate * delta;
+        if disc < 0.0 {
+            // Never reached ahead (a decelerating clock stops first), or reached in the past.
+            return if delta > 0.0 { f64::INFINITY } else { self.t0 };
+        }
+        let denom = f + disc.sqrt();
+        if denom > 0.0 {
+            self.t0 + 2.0 * delta / denom
+        } else if delta == 0.0 {
+            self.t0
         } else {
             f64::INFINITY
         }
@@ -99,7 +176,11 @@ impl PhaseClock {
     /// at `t_end` within [`MAX_MESH_CYCLES`]. O(1): called before every advance.
     pub fn check_advance(&self, t: f64, t_end: f64) -> Result<(), String> {
         let f = self.mesh_frequency;
-        let periods = f * (t_end - t);
+        let periods = if self.rate == 0.0 {
+            f * (t_end - t)
+        } else {
+            self.phase_at(t_end) - self.phase_at(t)
+        };
         if !(periods <= MAX_MESH_PERIODS_PER_ADVANCE) {
             return Err(format!(
                 "advancing from t = {t:e} s to {t_end:e} s at mesh frequency {f:e} Hz spans \
@@ -119,10 +200,50 @@ impl PhaseClock {
         Ok(())
     }
 
-    /// Keeps the phase continuous at `t` and changes the frequency from then on.
+    /// Keeps the phase continuous at `t` and changes the frequency from then on (constant).
     pub fn reanchor(&mut self, t: f64, mesh_frequency: f64) {
+        self.reanchor_ramp(t, mesh_frequency, 0.0);
+    }
+
+    /// Keeps the phase continuous at `t`; from then on the frequency is
+    /// `mesh_frequency + rate·(t' − t)` (one segment of a piecewise-linear speed profile).
+    pub fn reanchor_ramp(&mut self, t: f64, mesh_frequency: f64, rate: f64) {
         self.p0 = self.phase_at(t);
         self.t0 = t;
         self.mesh_frequency = mesh_frequency;
+        self.rate = rate;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::PhaseClock;
+
+    /// The quadratic clock against its closed form, and `time_of` as its inverse, from
+    /// standstill and on a slow ramp where the textbook root cancels.
+    #[test]
+    fn ramp_phase_and_its_inverse() {
+        let mut c = PhaseClock::new(0.0, 0.25, 0.0);
+        c.reanchor_ramp(1.0, 0.0, 3000.0);
+        // From standstill: p = 0.25 + 1500 (t − 1)².
+        assert_eq!(c.phase_at(1.0), 0.25);
+        let t = c.time_of(0.25 + 1500.0 * 0.04);
+        assert!((t - 1.2).abs() < 1e-15, "{t}");
+        assert_eq!(c.frequency_at(1.5), 1500.0);
+        // A slow ramp at 3 kHz: ḟΔ/f² ~ 1e-12.
+        let mut c = PhaseClock::new(0.0, 0.0, 3000.0);
+        c.reanchor_ramp(0.0, 3000.0, 1e-2);
+        for k in 1..2000 {
+            let p = k as f64 * 0.37;
+            let t = c.time_of(p);
+            let exact = (p - 3000.0 * t - 0.5e-2 * t * t).abs();
+            assert!(exact < 1e-12 * p.max(1.0), "p = {p}: residual {exact}");
+        }
+        // Decelerating to a stop before the phase: never.
+        let mut c = PhaseClock::new(0.0, 0.0, 100.0);
+        c.reanchor_ramp(0.0, 100.0, -100.0);
+        let t = c.time_of(49.0);
+        assert!((t - (1.0 - 0.02f64.sqrt())).abs() < 1e-15, "{t}");
+        assert_eq!(c.time_of(51.0), f64::INFINITY);
     }
 }

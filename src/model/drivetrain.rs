@@ -520,6 +520,14 @@ impl AnyScene {
         }
     }
 
+    /// The speed and torque profiles (a run-up, `docs/runup.md`).
+    pub fn profiles(&self) -> &crate::scene::Profiles {
+        match self {
+            AnyScene::Pair(s) => &s.profiles,
+            AnyScene::Train(s) => &s.profiles,
+        }
+    }
+
     /// Nominal speed of the input gear, rad/s.
     pub fn input_speed(&self) -> f64 {
         match self {

@@ -125,6 +125,11 @@ pub struct GearPair {
     // Inputs and what follows from them.
     inputs: Inputs,
     f_ext: f64,
+    /// `dF_ext/dt` on a torque-profile piece, N/s (0 otherwise), from `f_anchor`, s.
+    f_ext_rate: f64,
+    f_anchor: f64,
+    /// The scene's speed and torque profiles (a run-up), followed by the driver.
+    profiles: Option<std::sync::Arc<crate::scene::Profiles>>,
     // Discrete mode.
     clock: PhaseClock,
     segment: Segment,
@@ -168,6 +173,12 @@ impl GearPair {
                 load_torque: scene.operating.load_torque,
             },
             f_ext: 0.0,
+            f_ext_rate: 0.0,
+            f_anchor: 0.0,
+            profiles: scene
+                .profiles
+                .any()
+                .then(|| std::sync::Arc::new(scene.profiles.clone())),
             clock: PhaseClock::new(0.0, scene.mesh.initial_phase, 0.0),
             segment: Segment {
                 cycle: 0.0,
@@ -179,8 +190,82 @@ impl GearPair {
         };
         pair.kernel = Kernel::for_pair(&pair);
         pair.apply_inputs(0.0, pair.inputs);
+        pair.apply_profiles(0.0);
         pair.locate_segment(0.0);
         pair
+    }
+
+    /// Takes the profile pieces that start at `t` (`docs/runup.md`): the clock runs on the
+    /// speed piece `Ω + Ω̇ (t' − t)` (phase quadratic in time), and the external force on the
+    /// torque piece. The nominal angular acceleration adds no force to the DTE equation: it
+    /// is a rigid-body motion, `r_b1 φ1'' = r_b2 φ2''`, which cancels in `x'' = r_b1 θ1'' +
+    /// r_b2 θ2''` (`docs/runup.md`, "Inertial forcing").
+    pub fn apply_profiles(&mut self, t: f64) {
+        let Some(pr) = self.profiles.clone() else {
+            return;
+        };
+        let mut inputs = self.inputs;
+        let (speed, speed_rate) = pr
+            .speed
+            .as_ref()
+            .map_or((inputs.pinion_speed, 0.0), |p| p.segment_at(t));
+        let (torque, torque_rate) = pr
+            .torque
+            .as_ref()
+            .map_or((inputs.input_torque, 0.0), |p| p.segment_at(t));
+        inputs.pinion_speed = speed;
+        inputs.input_torque = torque;
+        let load_rate = match pr.load_ratio {
+            Some(ratio) => {
+                inputs.load_torque = torque * ratio;
+                torque_rate * ratio
+            }
+            None => 0.0,
+        };
+        self.inputs = inputs;
+        self.clock.reanchor_ramp(
+            t,
+            self.mesh_frequency_at(speed),
+            self.mesh_frequency_at(speed_rate),
+        );
+        self.f_ext = self.external_force_for(&inputs);
+        self.f_ext_rate = self.external_force_for(&Inputs {
+            pinion_speed: 0.0,
+            input_torque: torque_rate,
+            load_torque: load_rate,
+        });
+        self.f_anchor = t;
+    }
+
+    /// The scene's profiles, if any.
+    pub fn profiles(&self) -> Option<&crate::scene::Profiles> {
+        self.profiles.as_deref()
+    }
+
+    /// The largest mesh frequency of the run, Hz: the current one, or the speed profile's
+    /// largest value's.
+    pub fn peak_mesh_frequency(&self) -> f64 {
+        let now = self.clock.mesh_frequency().abs();
+        match self.profiles.as_ref().and_then(|p| p.speed.as_ref()) {
+            Some(p) => now.max(self.mesh_frequency_at(p.max_value())),
+            None => now,
+        }
+    }
+
+    /// Why this run-up is not piecewise LTI ([`crate::scene::Profiles::not_lti_reason`]).
+    pub fn runup_not_lti(&self) -> Option<String> {
+        let ste = !self.ste.is_zero();
+        self.profiles.as_ref()?.not_lti_reason(ste, false)
+    }
+
+    /// The mean external force at `t`: `F_ext`, plus the torque profile's ramp, N.
+    #[inline(always)]
+    pub(crate) fn external_force_at(&self, t: f64) -> f64 {
+        if self.f_ext_rate == 0.0 {
+            self.f_ext
+        } else {
+            self.f_ext + self.f_ext_rate * (t - self.f_anchor)
+        }
     }
 
     /// The scene's initial state `[x0, x0']`; also sets the contact state to match it.
@@ -327,6 +412,14 @@ impl GearPair {
                 ));
             }
         }
+        if let Some(p) = self.profiles.as_ref().and_then(|p| p.speed.as_ref()) {
+            let peak = Inputs {
+                pinion_speed: p.max_value(),
+                ..self.inputs
+            };
+            self.check_inputs(&peak)
+                .map_err(|e| format!("operating.speed_profile at its largest value: {e}"))?;
+        }
         self.check_inputs(&self.inputs)
             .map_err(|e| format!("with {}: {e}", masses()))
     }
@@ -402,8 +495,9 @@ impl GearPair {
 
     /// `e(p(t))` and `de/dt`.
     fn ste_at(&self, t: f64) -> (f64, f64) {
-        let (e, slope) = self.ste.value_and_slope(self.clock.phase_at(t));
-        (e, slope * self.clock.mesh_frequency())
+        let (p, f) = self.clock.phase_and_frequency(t);
+        let (e, slope) = self.ste.value_and_slope(p);
+        (e, slope * f)
     }
 
     /// Mesh deflection `δ = x − e` and its rate.
@@ -414,16 +508,22 @@ impl GearPair {
 
     /// Stiffness of the frozen segment at time `t`.
     fn stiffness_at(&self, t: f64) -> f64 {
+        self.stiffness_at_phase(self.clock.phase_at(t))
+    }
+
+    /// The stiffness at mesh phase `p` (unshifted) in the current piece.
+    #[inline(always)]
+    pub(crate) fn stiffness_at_phase(&self, p: f64) -> f64 {
         match &self.stiffness {
             MeshStiffness::Piecewise { phase, pieces } => {
-                let u = self.clock.phase_at(t) + phase;
+                let u = p + phase;
                 pieces[self.segment.piece].value(u - self.segment.cycle)
             }
             MeshStiffness::Fourier {
                 phase,
                 mean,
                 series,
-            } => mean + series.value(self.clock.phase_at(t) + phase),
+            } => mean + series.value(p + phase),
         }
     }
 
@@ -444,7 +544,10 @@ impl GearPair {
     /// the baseline of `benches/features.rs` and the oracle of the specialised kernels
     /// (bit-identical results). The equations do not change.
     pub fn use_generic_kernel(&mut self) {
-        self.kernel = Kernel::generic();
+        // A run-up's kernel already evaluates every term.
+        if self.kernel.name != "runup" {
+            self.kernel = Kernel::generic();
+        }
     }
 
     /// Name of the right-hand-side kernel in use (the terms it evaluates, or `generic`).
@@ -654,7 +757,7 @@ impl GearPair {
             self.contact as i8 as f64,
             crate::mesh::cycle_fraction(self.clock.phase_at(t)),
             self.stiffness_at(t),
-            self.static_deflection(),
+            self.external_force_at(t) / self.k_mean,
         ];
     }
 
@@ -783,7 +886,10 @@ impl HybridSystem for GearPair {
     /// `g = ±(x − e(p(t))) + offset`: `w = [±1, 0]`, and `|c''| = |ë| ≤ (2π f_m)² Σ_h h² |(a_h,
     /// b_h)|` for the STE series `e(p) = Σ a_h cos 2πhp + b_h sin 2πhp` (the phase runs at the
     /// constant mesh frequency between events and stops, `docs/model.md`).
-    fn affine_guard(&self, index: usize, _t0: f64, _t1: f64, w: &mut [f64]) -> Option<f64> {
+    ///
+    /// On a speed ramp (`docs/runup.md`) `f_m` is the larger of its values at the ends and
+    /// `ë = e''(p) f_m² + e'(p) ḟ_m` adds `|ḟ_m| Σ_h 2πh |(a_h, b_h)|`.
+    fn affine_guard(&self, index: usize, t0: f64, t1: f64, w: &mut [f64]) -> Option<f64> {
         let sign = match (self.contact, index) {
             (ContactState::Drive, _) => 1.0,
             (ContactState::Separated, 0) => -1.0,
@@ -791,14 +897,21 @@ impl HybridSystem for GearPair {
             (ContactState::Back, _) => -1.0,
         };
         w.copy_from_slice(&[sign, 0.0]);
-        let omega = TAU * self.clock.mesh_frequency();
+        let omega = TAU * self.clock.frequency_at(t0).max(self.clock.frequency_at(t1));
         let curvature: f64 = (self.ste.coefficients().iter().enumerate())
             .map(|(i, &(a, b))| {
                 let h = (i + 1) as f64;
                 (h * omega).powi(2) * a.hypot(b)
             })
             .sum();
-        Some(curvature)
+        let rate = self.clock.rate();
+        if rate == 0.0 {
+            return Some(curvature);
+        }
+        let slope: f64 = (self.ste.coefficients().iter().enumerate())
+            .map(|(i, &(a, b))| TAU * (i + 1) as f64 * a.hypot(b))
+            .sum();
+        Some(curvature + rate.abs() * slope)
     }
 
     fn on_event(&mut self, t: f64, y: &mut [f64], index: usize) {

@@ -5,6 +5,7 @@
 
 mod geometry;
 mod helical;
+pub mod profile;
 pub mod spec;
 pub mod train;
 mod validate;
@@ -14,6 +15,7 @@ use std::path::{Path, PathBuf};
 
 use crate::mesh::{MeshStiffness, PhaseSeries};
 
+pub use profile::{Profile, Profiles};
 pub use spec::SceneSpec;
 
 /// A scene error: the message names the field (as a TOML path) and the offending value, or
@@ -145,7 +147,10 @@ pub struct Scene {
     pub pinion: Gear,
     pub gear: Gear,
     pub mesh: Mesh,
+    /// The operating point at t = 0 (with profiles: their values at t = 0).
     pub operating: Operating,
+    /// Speed and torque over time (a run-up), `docs/runup.md`.
+    pub profiles: Profiles,
     pub initial_dte: InitialDte,
     pub initial_dte_rate: f64,
     pub solver: SolverSettings,
@@ -153,7 +158,8 @@ pub struct Scene {
     pub source: String,
 }
 
-/// Names of the scenes shipped in `fmu/<name>/scene.toml`, compiled into the binary.
+/// Built-in single-pair scenes (`fmu/<name>/scene.toml`, `examples/<name>.toml`), compiled
+/// into the binary.
 pub const EXAMPLES: &[(&str, &str)] = &[
     ("spur_pair", include_str!("../../fmu/spur_pair/scene.toml")),
     (
@@ -168,6 +174,8 @@ pub const EXAMPLES: &[(&str, &str)] = &[
         "helical_pair_friction",
         include_str!("../../fmu/helical_pair_friction/scene.toml"),
     ),
+    // A run-up (docs/runup.md); not an FMU: an FMU takes its speed from the host.
+    ("runup_spur", include_str!("../../examples/runup_spur.toml")),
 ];
 
 impl Scene {

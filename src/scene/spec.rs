@@ -179,10 +179,14 @@ pub struct FourierSpec {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OperatingSpec {
-    /// Nominal pinion speed, rad/s.
-    pub pinion_speed: f64,
-    /// Torque driving the pinion, N·m.
-    pub input_torque: f64,
+    /// Nominal pinion speed, rad/s (or `speed_profile`).
+    pub pinion_speed: Option<f64>,
+    /// Torque driving the pinion, N·m (or `torque_profile`).
+    pub input_torque: Option<f64>,
+    /// Pinion speed over time, rad/s (a run-up; `docs/runup.md`).
+    pub speed_profile: Option<super::profile::ProfileSpec>,
+    /// Input torque over time, N·m.
+    pub torque_profile: Option<super::profile::ProfileSpec>,
     /// Load torque magnitude on the gear, N·m; `None` means balanced (`T1·r_b2/r_b1`).
     pub load_torque: Option<f64>,
     /// Amplitude of an input-torque ripple at mesh frequency, `T1 + T̃1 cos 2πp`, N·m.

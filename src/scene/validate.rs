@@ -235,6 +235,23 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
         ));
     }
 
+    let profiles = super::profile::profiles(
+        &spec.operating.speed_profile,
+        &spec.operating.torque_profile,
+    )?;
+    let pinion_speed = super::profile::resolve(
+        "operating.pinion_speed",
+        spec.operating.pinion_speed,
+        "operating.speed_profile",
+        profiles.speed.as_ref(),
+    )?;
+    let input_torque = super::profile::resolve(
+        "operating.input_torque",
+        spec.operating.input_torque,
+        "operating.torque_profile",
+        profiles.torque.as_ref(),
+    )?;
+
     let stiffness = match &m.stiffness {
         StiffnessSpec::Geometry { .. } => {
             fn body<'a>(which: &str, g: &'a Gear) -> super::geometry::MeshGear<'a> {
@@ -249,7 +266,7 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
                 &m.stiffness,
                 "mesh.stiffness",
                 [body("mesh.pinion", &pinion), body("mesh.gear", &gear)],
-                ("operating.input_torque", spec.operating.input_torque),
+                ("operating.input_torque", input_torque),
             )?
         }
         StiffnessSpec::Helical { .. } => super::helical::stiffness(&m.stiffness, &pinion, &gear)?,
@@ -355,18 +372,29 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
     };
 
     let op = &spec.operating;
-    let pinion_speed = non_negative("operating.pinion_speed", op.pinion_speed)?;
-    let input_torque = finite("operating.input_torque", op.input_torque)?;
+    let pinion_speed = non_negative("operating.pinion_speed", pinion_speed)?;
+    let input_torque = finite("operating.input_torque", input_torque)?;
     let load_torque = match op.load_torque {
         Some(t) => finite("operating.load_torque", t)?,
         None => input_torque * gear.base_radius / pinion.base_radius,
     };
+    let mut profiles = profiles;
+    if op.load_torque.is_none() && profiles.torque.is_some() {
+        profiles.load_ratio = Some(gear.base_radius / pinion.base_radius);
+    }
 
     // A static deflection of a whole tooth means the load or the stiffness is not physical
     // (and a cubic spring would stiffen the mesh without bound).
     let ripple = smooth.torque_ripple.abs();
-    let force = ((input_torque.abs() + ripple) / pinion.base_radius)
-        .max((load_torque / gear.base_radius).abs());
+    // A profile's extremes are at its knots: the bound holds at every torque it reaches.
+    let (t_abs, load_abs) = match (&profiles.torque, profiles.load_ratio) {
+        (Some(p), ratio) => {
+            let t = p.values().iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            (t, ratio.map_or(load_torque.abs(), |r| t * r))
+        }
+        (None, _) => (input_torque.abs(), load_torque.abs()),
+    };
+    let force = ((t_abs + ripple) / pinion.base_radius).max(load_abs / gear.base_radius);
     let deflection = force / k_mean;
     let base_pitch = std::f64::consts::TAU * pinion.base_radius / f64::from(pinion.teeth);
     if !(deflection <= base_pitch) {
@@ -409,6 +437,7 @@ pub(super) fn validate(spec: SceneSpec, source: &str) -> Result<Scene> {
             input_torque,
             load_torque,
         },
+        profiles,
         initial_dte,
         initial_dte_rate: finite("initial.dte_rate", spec.initial.dte_rate)?,
         solver,

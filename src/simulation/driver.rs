@@ -27,6 +27,15 @@ pub trait DrivenModel: PiecewiseLti + Clone {
     /// Whether advancing from `t` to `t_end` stays within the limits of one advance: each
     /// mesh clock's [`crate::model::PhaseClock::check_advance`]. O(1) per mesh.
     fn check_advance(&self, t: f64, t_end: f64) -> Result<(), String>;
+    /// The scene's speed and torque profiles (a run-up, `docs/runup.md`), if it has any: the
+    /// driver stops at their knots and calls [`DrivenModel::apply_profiles`] there.
+    fn profiles(&self) -> Option<&crate::scene::Profiles>;
+    /// Sets speed, torque and their rates to the profile pieces that start at `t` (phases
+    /// continuous).
+    fn apply_profiles(&mut self, t: f64) -> Result<(), String>;
+    /// Why this run-up is not piecewise LTI although its constant-speed scene would be (the
+    /// excitation a profile makes time-varying within a segment), or `None`.
+    fn runup_not_lti(&self) -> Option<String>;
 }
 
 /// Largest augmented state the exact propagator accepts: its mode cache holds dense `n × n`
@@ -45,6 +54,7 @@ pub enum Propagator {
 pub struct Driver<M> {
     model: M,
     propagator: Propagator,
+    note: Option<String>,
 }
 
 impl<M: DrivenModel> Driver<M> {
@@ -57,15 +67,27 @@ impl<M: DrivenModel> Driver<M> {
         settings: &SolverSettings,
         not_lti: &str,
     ) -> Result<Driver<M>, String> {
+        let runup = model.runup_not_lti();
         let exact = match settings.method {
             MethodChoice::Exact => {
+                if let Some(reason) = &runup {
+                    return Err(format!(
+                        "solver.method = \"exact\": {reason}; use \"rk\" or \"auto\""
+                    ));
+                }
                 if !model.is_piecewise_lti() {
                     return Err(not_lti.into());
                 }
                 true
             }
-            MethodChoice::Auto => model.is_piecewise_lti(),
+            MethodChoice::Auto => runup.is_none() && model.is_piecewise_lti(),
             MethodChoice::Rk => false,
+        };
+        let note = match (&runup, settings.method) {
+            (Some(reason), MethodChoice::Auto) if model.is_piecewise_lti() => {
+                Some(format!("auto chose RK: {reason}"))
+            }
+            _ => None,
         };
         let dim = model.lti_dim();
         if exact && dim > MAX_EXACT_DIM {
@@ -90,7 +112,17 @@ impl<M: DrivenModel> Driver<M> {
             p.set_state(0.0, y0);
             Propagator::Rk(Box::new(p))
         };
-        Ok(Driver { model, propagator })
+        Ok(Driver {
+            model,
+            propagator,
+            note,
+        })
+    }
+
+    /// Why `auto` did not choose the exact propagator for a scene whose constant-speed form it
+    /// would have (a run-up that makes the excitation time-varying within a segment).
+    pub fn method_note(&self) -> Option<&str> {
+        self.note.as_deref()
     }
 
     /// Name of the propagator in use (`exact`, `dp5`, `dop853`).
@@ -137,7 +169,30 @@ impl<M: DrivenModel> Driver<M> {
     /// documented limits of one advance (mesh periods, phase and time resolution:
     /// [`DrivenModel::check_advance`]) is refused before any work, the state unchanged
     /// (issue 17: no step may grind without end or run on a phase that no longer advances).
+    ///
+    /// With speed or torque profiles, the advance stops at every knot where a slope changes
+    /// and the model takes the next pieces there ([`DrivenModel::apply_profiles`]); the
+    /// profiles are thus followed exactly, whatever the output grid.
     pub fn advance_to(&mut self, t_end: f64) -> Result<(), SolveError> {
+        let Some(profiles) = self.model.profiles() else {
+            return self.advance_plain(t_end);
+        };
+        let mut knot = profiles.next_change(self.t());
+        // A knot at t_end is taken now: the next advance starts after it.
+        while knot <= t_end {
+            self.advance_plain(knot)?;
+            let t = self.t();
+            self.change_model(|m, t| m.apply_profiles(t))
+                .map_err(|reason| SolveError::BeyondLimits { t, reason })?;
+            knot = self
+                .model
+                .profiles()
+                .map_or(f64::INFINITY, |p| p.next_change(t));
+        }
+        self.advance_plain(t_end)
+    }
+
+    fn advance_plain(&mut self, t_end: f64) -> Result<(), SolveError> {
         let t = self.t();
         if t_end != t {
             if let Err(reason) = self.model.check_advance(t, t_end) {

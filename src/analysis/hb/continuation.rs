@@ -83,6 +83,7 @@ pub fn continuation(
         ));
     }
     let mut scene = scene.to_any();
+    scene.profiles().require_constant("harmonic balance")?;
     scene.set_input_speed(options.from);
     let settings = scene.solver().clone();
     with_drivetrain!(scene.simulation()?, sim => {

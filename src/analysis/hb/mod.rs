@@ -220,6 +220,7 @@ pub fn solve(
         return Err(format!("speed = {speed}: must be a finite speed > 0"));
     }
     let mut scene = scene.to_any();
+    scene.profiles().require_constant("harmonic balance")?;
     scene.set_input_speed(speed);
     let settings = scene.solver().clone();
     with_drivetrain!(scene.simulation()?, sim => {

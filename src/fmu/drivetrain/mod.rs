@@ -45,7 +45,9 @@ impl Kernel for Drivetrain {
     const OUTPUT0: u32 = VR_OUTPUT0;
 
     fn load(text: &str, origin: &str) -> Result<TrainScene, String> {
-        TrainScene::from_toml_str(text, origin).map_err(|e| e.to_string())
+        let scene = TrainScene::from_toml_str(text, origin).map_err(|e| e.to_string())?;
+        scene.profiles.refuse_in_fmu()?;
+        Ok(scene)
     }
 
     fn header(scene: &TrainScene) -> (&str, &str, &SolverSettings) {

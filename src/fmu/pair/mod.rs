@@ -80,6 +80,7 @@ impl Kernel for Pair {
 
     fn load(text: &str, origin: &str) -> Result<PairSettings, String> {
         let scene = Scene::from_toml_str(text, origin).map_err(|e| e.to_string())?;
+        scene.profiles.refuse_in_fmu()?;
         Ok(PairSettings::new(scene))
     }
 

@@ -39,16 +39,23 @@ impl std::fmt::Debug for Kernel {
 macro_rules! kernel {
     ($ste:literal, $cubic:literal, $dvar:literal, $ripple:literal, $name:literal) => {
         Kernel {
-            force: force::<$ste, $cubic, $dvar>,
-            rhs: rhs::<$ste, $cubic, $dvar, $ripple>,
+            force: force::<$ste, $cubic, $dvar, false>,
+            rhs: rhs::<$ste, $cubic, $dvar, $ripple, false>,
             name: $name,
         }
     };
 }
 
 impl Kernel {
-    /// The kernel with only the terms `pair` uses.
+    /// The kernel with only the terms `pair` uses; a run-up (a profile that varies) takes
+    /// [`Kernel::runup`].
     pub fn for_pair(pair: &GearPair) -> Kernel {
+        if pair
+            .profiles()
+            .is_some_and(|p| p.speed_varies() || p.torque_varies())
+        {
+            return Kernel::runup();
+        }
         let s = &pair.smooth;
         let ste = !pair.ste.is_zero();
         let cubic = s.cubic_factor != 0.0 || s.cubic_spring != 0.0;
@@ -78,26 +85,53 @@ impl Kernel {
     pub fn generic() -> Kernel {
         kernel!(true, true, true, true, "generic")
     }
+
+    /// Every term on a run-up (`docs/runup.md`): the phase quadratic in time, the STE rate at
+    /// the instantaneous mesh frequency, the external force with the torque profile's ramp.
+    /// Kept apart so that the constant-speed kernels keep their historical, shorter path.
+    pub fn runup() -> Kernel {
+        Kernel {
+            force: force::<true, true, true, true>,
+            rhs: rhs::<true, true, true, true, true>,
+            name: "runup",
+        }
+    }
 }
 
-/// `(e, ė)` of the STE; with `STE = false` the scene has none and nothing is evaluated.
+/// `(e, ė)` of the STE, `ė = f_m(t) de/dp` (the instantaneous mesh frequency: on a speed
+/// ramp it varies); with `STE = false` the scene has none and nothing is evaluated.
 #[inline(always)]
-fn ste<const STE: bool>(pair: &GearPair, p: f64) -> (f64, f64) {
+fn ste<const STE: bool, const RAMP: bool>(pair: &GearPair, t: f64, p: f64) -> (f64, f64) {
     if !STE {
         return (0.0, 0.0);
     }
     let (value, slope) = pair.ste.value_and_slope_unconditionally(p);
-    (value, slope * pair.clock.mesh_frequency())
+    let f = if RAMP {
+        pair.clock.frequency_at(t)
+    } else {
+        pair.clock.mesh_frequency()
+    };
+    (value, slope * f)
+}
+
+/// Mesh phase at `t`: quadratic on a run-up, linear otherwise.
+#[inline(always)]
+fn phase<const RAMP: bool>(pair: &GearPair, t: f64) -> f64 {
+    if RAMP {
+        pair.clock.phase_at(t)
+    } else {
+        pair.clock.phase_at_constant_speed(t)
+    }
 }
 
 #[inline(always)]
-fn force<const STE: bool, const CUBIC: bool, const DVAR: bool>(
+fn force<const STE: bool, const CUBIC: bool, const DVAR: bool, const RAMP: bool>(
     pair: &GearPair,
     t: f64,
     y: &[f64],
 ) -> f64 {
-    let p = pair.clock.phase_at(t);
-    let (e, e_rate) = ste::<STE>(pair, p);
+    let p = phase::<RAMP>(pair, t);
+    let (e, e_rate) = ste::<STE, RAMP>(pair, t, p);
     let delta = y[0] - e;
     let delta_rate = y[1] - e_rate;
     let offset = match pair.contact {
@@ -106,7 +140,7 @@ fn force<const STE: bool, const CUBIC: bool, const DVAR: bool>(
         ContactState::Drive => 0.0,
         ContactState::Back => pair.clearance(),
     };
-    let k = pair.stiffness_at(t);
+    let k = pair.stiffness_at_phase(p);
     let damping = if DVAR {
         pair.damping + pair.smooth.damping_variation * (TAU * p).cos()
     } else {
@@ -124,17 +158,28 @@ fn force<const STE: bool, const CUBIC: bool, const DVAR: bool>(
 }
 
 #[inline(always)]
-fn rhs<const STE: bool, const CUBIC: bool, const DVAR: bool, const RIPPLE: bool>(
+fn rhs<
+    const STE: bool,
+    const CUBIC: bool,
+    const DVAR: bool,
+    const RIPPLE: bool,
+    const RAMP: bool,
+>(
     pair: &GearPair,
     t: f64,
     y: &[f64],
     dy: &mut [f64],
 ) {
     dy[0] = y[1];
-    let external = if RIPPLE {
-        pair.f_ext + pair.ripple_force * (TAU * pair.clock.phase_at(t)).cos()
+    let mean = if RAMP {
+        pair.external_force_at(t)
     } else {
         pair.f_ext
     };
-    dy[1] = (external - force::<STE, CUBIC, DVAR>(pair, t, y)) / pair.m_e;
+    let external = if RIPPLE {
+        mean + pair.ripple_force * (TAU * phase::<RAMP>(pair, t)).cos()
+    } else {
+        mean
+    };
+    dy[1] = (external - force::<STE, CUBIC, DVAR, RAMP>(pair, t, y)) / pair.m_e;
 }

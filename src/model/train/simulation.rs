@@ -35,6 +35,15 @@ impl DrivenModel for GearTrain {
     fn check_advance(&self, t: f64, t_end: f64) -> Result<(), String> {
         GearTrain::check_advance(self, t, t_end)
     }
+    fn profiles(&self) -> Option<&crate::scene::Profiles> {
+        GearTrain::profiles(self)
+    }
+    fn apply_profiles(&mut self, t: f64) -> Result<(), String> {
+        GearTrain::apply_profiles(self, t)
+    }
+    fn runup_not_lti(&self) -> Option<String> {
+        GearTrain::runup_not_lti(self)
+    }
 }
 
 impl Driver<GearTrain> {

@@ -236,6 +236,14 @@ pub struct GearTrain {
     f_in: Vec<f64>,
     f_out: Vec<f64>,
     f_ext: Vec<f64>,
+    /// `dF̂/dt` on a torque-profile piece (`force_ramp`), from `f_anchor`, N/s.
+    f_rate: Vec<f64>,
+    force_ramp: bool,
+    f_anchor: f64,
+    /// `Qᵀ M v`: the elastic force per rad/s² of nominal input acceleration is its negative.
+    inertial: Vec<f64>,
+    /// The scene's speed and torque profiles (a run-up), followed by the driver.
+    profiles: Option<std::sync::Arc<crate::scene::Profiles>>,
     /// Rigid-body acceleration per N·m of input / load torque.
     rigid_in: Vec<f64>,
     rigid_out: Vec<f64>,
@@ -313,6 +321,14 @@ impl GearTrain {
         } else {
             (Vec::new(), Vec::new())
         };
+        // Inertial forcing of a nominal angular acceleration α of the input gear
+        // (`docs/runup.md`): the nominal motion q_nom'' = v α (every body turning at its
+        // speed ratio, no translation) leaves `−Qᵀ M v α` on the elastic coordinates. In a
+        // free train v is a rigid-body mode and RᵀMQ = 0 makes the term vanish (up to
+        // rounding; as for the single pair); ground couplings, which act on the vibration,
+        // make it nonzero.
+        let v = nominal_rotation(scene, &asm);
+        let inertial = (q.transpose() * &asm.mass * v).as_slice().to_vec();
 
         let mut meshes = Vec::new();
         let ratio1 = scene.meshes[0].cycles_per_input_rev;
@@ -433,6 +449,14 @@ impl GearTrain {
             f_in: f_in.as_slice().to_vec(),
             f_out: f_out.as_slice().to_vec(),
             f_ext: vec![0.0; m],
+            f_rate: vec![0.0; m],
+            force_ramp: false,
+            f_anchor: 0.0,
+            inertial,
+            profiles: scene
+                .profiles
+                .any()
+                .then(|| std::sync::Arc::new(scene.profiles.clone())),
             rigid_in,
             rigid_out,
             meshes,
@@ -469,10 +493,96 @@ impl GearTrain {
         train.key_fits = train.key_bits() <= 63;
         train.names = train.build_names(scene);
         train.apply_inputs(0.0, train.inputs)?;
+        if let Some(pr) = &train.profiles {
+            if pr.torque_varies() {
+                if let Some(n) = train.meshes.iter().position(|m| m.model2.is_some()) {
+                    return Err(format!(
+                        "mesh[{n}] model = \"loaded_ste\" builds its excitation from the static \
+                         load, which operating.torque_profile changes continuously: use another \
+                         mesh model or a constant torque"
+                    ));
+                }
+            }
+        }
+        if let Some(p) = train.profiles.as_ref().and_then(|p| p.speed.as_ref()) {
+            // The largest speed of the profile within the propagators' range, before the run.
+            let peak = p.max_value();
+            for (n, mesh) in train.meshes.iter().enumerate() {
+                let rate = mesh.cycles_per_rev * peak;
+                if !(rate <= crate::model::MAX_RATE) {
+                    return Err(format!(
+                        "operating.speed_profile reaches {peak:?} rad/s, which gives mesh {n} a \
+                         mesh rate of {rate:e} 1/s, beyond {:e} 1/s (the propagators square it)",
+                        crate::model::MAX_RATE
+                    ));
+                }
+            }
+        }
+        train.apply_profiles(0.0)?;
         for mesh in &mut train.meshes {
             mesh.locate(0.0);
         }
         Ok(train)
+    }
+
+    /// Takes the profile pieces that start at `t` (`docs/runup.md`): every mesh clock runs on
+    /// the speed piece (phase quadratic in time), the external force on the torque piece, and
+    /// a grounded train carries the inertial force `−Qᵀ M v Ω̇` of the nominal acceleration.
+    pub fn apply_profiles(&mut self, t: f64) -> Result<(), String> {
+        let Some(pr) = self.profiles.clone() else {
+            return Ok(());
+        };
+        let mut inputs = self.inputs;
+        let (speed, speed_rate) = pr
+            .speed
+            .as_ref()
+            .map_or((inputs.input_speed, 0.0), |p| p.segment_at(t));
+        let (torque, torque_rate) = pr
+            .torque
+            .as_ref()
+            .map_or((inputs.input_torque, 0.0), |p| p.segment_at(t));
+        inputs.input_speed = speed;
+        inputs.input_torque = torque;
+        let load_rate = match pr.load_ratio {
+            Some(ratio) => {
+                inputs.load_torque = torque * ratio;
+                torque_rate * ratio
+            }
+            None => 0.0,
+        };
+        self.apply_inputs(t, inputs)?;
+        for mesh in &mut self.meshes {
+            let f = mesh.cycles_per_rev * speed / TAU;
+            mesh.clock
+                .reanchor_ramp(t, f, mesh.cycles_per_rev * speed_rate / TAU);
+        }
+        if speed_rate != 0.0 {
+            for (f, g) in self.f_ext.iter_mut().zip(&self.inertial) {
+                *f -= g * speed_rate;
+            }
+        }
+        for i in 0..self.m {
+            self.f_rate[i] = self.f_in[i] * torque_rate + self.f_out[i] * load_rate;
+        }
+        if let Some([(d_in, j_in), (d_out, j_out)]) = self.pair_form {
+            self.f_rate[0] =
+                self.m_hat[0] * (d_in * torque_rate / j_in + d_out * -load_rate / j_out);
+        }
+        self.force_ramp = torque_rate != 0.0;
+        self.f_anchor = t;
+        Ok(())
+    }
+
+    /// The scene's profiles, if any.
+    pub fn profiles(&self) -> Option<&crate::scene::Profiles> {
+        self.profiles.as_deref()
+    }
+
+    /// Why this run-up is not piecewise LTI ([`crate::scene::Profiles::not_lti_reason`]).
+    pub fn runup_not_lti(&self) -> Option<String> {
+        let ste = self.meshes.iter().any(|m| m.ste.harmonics() > 0);
+        let ramp = self.meshes.iter().any(|m| m.ramp);
+        self.profiles.as_ref()?.not_lti_reason(ste, ramp)
     }
 
     fn build_names(&mut self, scene: &TrainScene) -> Vec<String> {
@@ -819,8 +929,7 @@ impl GearTrain {
     fn slot_gap(&self, n: usize, j: usize, t: f64, y: &[f64]) -> Option<(f64, f64, SlotLaw)> {
         let mesh = &self.meshes[n];
         let law = mesh.law(j)?;
-        let p = mesh.clock.phase_at(t);
-        let f = mesh.clock.mesh_frequency();
+        let (p, f) = mesh.clock.phase_and_frequency(t);
         let (e, slope) = mesh.ste_at(p);
         let (s, sd) = self.deflection(n, y);
         let r = mesh.local(p);
@@ -891,8 +1000,7 @@ impl GearTrain {
     /// Force of mesh n in the current mode; per-slot forces into `slots` when given.
     fn mesh_force(&self, n: usize, t: f64, y: &[f64], mut slots: Option<&mut [f64]>) -> f64 {
         let mesh = &self.meshes[n];
-        let p = mesh.clock.phase_at(t);
-        let f = mesh.clock.mesh_frequency();
+        let (p, f) = mesh.clock.phase_and_frequency(t);
         let (e, e_slope) = mesh.ste_at(p);
         let (s, sd) = self.deflection(n, y);
         let r = mesh.local(p);
@@ -993,18 +1101,29 @@ impl GearTrain {
                     .sum::<f64>()
             })
             .fold(0.0, f64::max);
+        let peak_speed = self
+            .profiles
+            .as_ref()
+            .and_then(|p| p.speed.as_ref())
+            .map(|p| p.max_value());
         crate::simulation::RunScales {
             mesh_frequency: self
                 .meshes
                 .iter()
-                .map(|mesh| mesh.clock.mesh_frequency().abs())
+                .map(|mesh| match peak_speed {
+                    Some(s) => (mesh.cycles_per_rev * s / TAU).abs(),
+                    None => mesh.clock.mesh_frequency().abs(),
+                })
                 .fold(0.0, f64::max),
             start_phase: self
                 .meshes
                 .iter()
                 .map(|mesh| (mesh.clock.phase_at(0.0) + mesh.offset).abs())
                 .fold(0.0, f64::max),
-            speed: ("operating.input_speed", self.inputs.input_speed),
+            speed: match peak_speed {
+                Some(s) => ("operating.speed_profile (its largest value)", s),
+                None => ("operating.input_speed", self.inputs.input_speed),
+            },
             fastest_rate: if !(damping_rate <= self.max_frequency()) {
                 (
                     damping_rate,
@@ -1187,6 +1306,57 @@ fn mesh_errors(scene: &TrainScene, n: usize, p0: f64, offset: f64) -> MeshErrors
     MeshErrors::new(&[gear(sm.pinion, 1.0), gear(sm.gear, -1.0)], p0, offset)
 }
 
+/// The nominal motion per rad/s of input speed in the physical coordinates (`u_b = ρ_b θ_b`,
+/// translations 0): rolling without slip on the base circles, `d_n·v = 0` for every mesh (so
+/// the nominal motion deflects no mesh even where tabulated radii and tooth counts differ in
+/// the last digits), and coaxial gears on an elastic shaft turning together. Parts the input
+/// does not drive stand still.
+fn nominal_rotation(scene: &TrainScene, asm: &Assembly) -> DVector<f64> {
+    let bodies = asm.body_radius.len();
+    let mut omega: Vec<Option<f64>> = vec![None; bodies];
+    omega[asm.body_of[scene.input_gear]] = Some(1.0);
+    let mut changed = true;
+    while changed {
+        changed = false;
+        for (n, m) in scene.meshes.iter().enumerate() {
+            let (a, b) = (asm.body_of[m.pinion], asm.body_of[m.gear]);
+            // d_n·v = 0 on the two rotations: c_a ρ_a ω_a + c_b ρ_b ω_b = 0.
+            let ca = asm.mesh[n][asm.body_dof[a]] * asm.body_radius[a];
+            let cb = asm.mesh[n][asm.body_dof[b]] * asm.body_radius[b];
+            match (omega[a], omega[b]) {
+                (Some(wa), None) => {
+                    omega[b] = Some(-ca * wa / cb);
+                    changed = true;
+                }
+                (None, Some(wb)) => {
+                    omega[a] = Some(-cb * wb / ca);
+                    changed = true;
+                }
+                _ => {}
+            }
+        }
+        for s in &scene.shafts {
+            let (a, b) = (asm.body_of[s.gears[0]], asm.body_of[s.gears[1]]);
+            match (omega[a], omega[b]) {
+                (Some(w), None) => {
+                    omega[b] = Some(w);
+                    changed = true;
+                }
+                (None, Some(w)) => {
+                    omega[a] = Some(w);
+                    changed = true;
+                }
+                _ => {}
+            }
+        }
+    }
+    let mut v = DVector::zeros(asm.dim());
+    for (body, w) in omega.iter().enumerate() {
+        v[asm.body_dof[body]] = asm.body_radius[body] * w.unwrap_or(0.0);
+    }
+    v
+}
+
 /// The closed form of a free single pair: one mesh, two rotating bodies (the input and the
 /// output), nothing else. Returns `(d_θ, J)` per body, `d_θ = ±r_b` the mesh vector in
 /// rotation angle and `J` the body inertia.
@@ -1307,6 +1477,11 @@ impl HybridSystem for GearTrain {
             }
             acc[i] = f;
         }
+        if self.force_ramp {
+            for (a, r) in acc.iter_mut().zip(&self.f_rate) {
+                *a += r * (t - self.f_anchor);
+            }
+        }
         for n in 0..self.meshes.len() {
             if self.meshes[n].friction.is_some() {
                 self.add_friction_mesh_force(n, t, y, &mut acc);
@@ -1410,29 +1585,35 @@ impl HybridSystem for GearTrain {
         for (g, a) in grad.iter_mut().zip(&mesh.a) {
             *g = sign * a;
         }
-        let f = mesh.clock.mesh_frequency();
-        let slope = mesh.ste_at(mesh.clock.phase_at(t)).1;
+        let (p, f) = mesh.clock.phase_and_frequency(t);
+        let slope = mesh.ste_at(p).1;
         Some(-sign * (slope * f + law.g1 * f))
     }
 
     /// Slot gaps are affine in the state; the time part `e(p) + g0 + g1 r` has the STE's
     /// curvature only (`r` runs linearly between stops): `|ë| ≤ (2π f)² Σ_h h² |(a_h, b_h)|`.
-    fn affine_guard(&self, index: usize, t0: f64, _t1: f64, w: &mut [f64]) -> Option<f64> {
-        let (n, _, _) = self.guards[index];
+    /// On a speed ramp (`docs/runup.md`) `f` is the larger of its values at the ends, and the
+    /// ramp adds `|ḟ| Σ_h 2πh |(a_h, b_h)| + |g1 ḟ|` (`ë = e'' f² + e' ḟ`, `r̈ = ḟ`).
+    fn affine_guard(&self, index: usize, t0: f64, t1: f64, w: &mut [f64]) -> Option<f64> {
+        let (n, j, _) = self.guards[index];
         self.guard_gradient(t0, &[], index, w)?;
         let mesh = &self.meshes[n];
-        let omega = TAU * mesh.clock.mesh_frequency();
-        let errors = if mesh.errors.is_empty() {
-            0.0
-        } else {
-            mesh.errors.curvature_bound() * mesh.clock.mesh_frequency().powi(2)
-        };
-        Some(
-            (mesh.ste.coefficients().iter().enumerate())
-                .map(|(i, &(a, b))| ((i + 1) as f64 * omega).powi(2) * a.hypot(b))
-                .sum::<f64>()
-                + errors,
-        )
+        let f = mesh.clock.frequency_at(t0).max(mesh.clock.frequency_at(t1));
+        let omega = TAU * f;
+        let curvature: f64 = (mesh.ste.coefficients().iter().enumerate())
+            .map(|(i, &(a, b))| ((i + 1) as f64 * omega).powi(2) * a.hypot(b))
+            .sum::<f64>()
+            + mesh.errors.curvature_bound() * f.powi(2);
+        let rate = mesh.clock.rate();
+        if rate == 0.0 {
+            return Some(curvature);
+        }
+        let g1 = mesh.law(j).map_or(0.0, |l| l.g1);
+        let slope: f64 = (mesh.ste.coefficients().iter().enumerate())
+            .map(|(i, &(a, b))| TAU * (i + 1) as f64 * a.hypot(b))
+            .sum::<f64>()
+            + mesh.errors.slope_bound();
+        Some(curvature + rate.abs() * (slope + g1.abs()))
     }
 
     fn next_stop(&self) -> f64 {

@@ -418,7 +418,10 @@ pub struct TrainScene {
     /// Nominal rotation sense of each gear: +1 as the input gear's `input_rotation` says
     /// counter-clockwise, −1 clockwise.
     pub rotation: Vec<f64>,
+    /// The operating point at t = 0 (with profiles: their values at t = 0).
     pub operating: TrainOperating,
+    /// Speed and torque over time (a run-up), `docs/runup.md`.
+    pub profiles: crate::scene::Profiles,
     pub initial_dte: InitialDte,
     pub initial_dte_rate: f64,
     pub solver: SolverSettings,
@@ -595,6 +598,7 @@ impl TrainScene {
                 input_torque: scene.operating.input_torque,
                 load_torque: scene.operating.load_torque,
             },
+            profiles: scene.profiles.clone(),
             initial_dte: scene.initial_dte,
             initial_dte_rate: scene.initial_dte_rate,
             solver: scene.solver.clone(),

@@ -248,9 +248,13 @@ pub struct TrainOperatingSpec {
     pub output_gear: Option<String>,
     /// Nominal speed of the input gear, rad/s.
     #[serde(alias = "pinion_speed")]
-    pub input_speed: f64,
-    /// Torque driving the input gear, N·m.
-    pub input_torque: f64,
+    pub input_speed: Option<f64>,
+    /// Torque driving the input gear, N·m (or `torque_profile`).
+    pub input_torque: Option<f64>,
+    /// Input-gear speed over time, rad/s (a run-up; `docs/runup.md`).
+    pub speed_profile: Option<crate::scene::profile::ProfileSpec>,
+    /// Input torque over time, N·m.
+    pub torque_profile: Option<crate::scene::profile::ProfileSpec>,
     /// Load torque magnitude on the output gear, N·m; default: balanced by the kinematics.
     pub load_torque: Option<f64>,
 }

@@ -229,10 +229,25 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
         Some(name) => find("operating.input_gear", name)?,
         None => ends[0].0,
     };
+    let mut profiles = crate::scene::profile::profiles(&op.speed_profile, &op.torque_profile)?;
+    let input_speed = crate::scene::profile::resolve(
+        "operating.input_speed",
+        op.input_speed,
+        "operating.speed_profile",
+        profiles.speed.as_ref(),
+    )?;
+    let input_torque = crate::scene::profile::resolve(
+        "operating.input_torque",
+        op.input_torque,
+        "operating.torque_profile",
+        profiles.torque.as_ref(),
+    )?;
+    let input_speed = non_negative("operating.input_speed", input_speed)?;
+    let input_torque = finite("operating.input_torque", input_torque)?;
     let mut meshes = Vec::with_capacity(mesh_specs.len());
     for (i, m) in mesh_specs.iter().enumerate() {
         let ratio = radius_ratio(&gears, &shafts, &ends, input_gear, ends[i].0);
-        let torque = op.input_torque * ratio;
+        let torque = input_torque * ratio;
         meshes.push(mesh(i, m, &gears, &find, torque)?);
     }
     for (i, m) in meshes.iter().enumerate() {
@@ -283,8 +298,6 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
         ));
     }
 
-    let input_speed = non_negative("operating.input_speed", op.input_speed)?;
-    let input_torque = finite("operating.input_torque", op.input_torque)?;
     // Balanced load: the moment balance along the base circles, T_out = T_in·Π r_gear/r_pinion
     // over the meshes from input to output (Liu 2007 Table 2.1: T_3 = −T_1 r_3/r_1; Table 4.1
     // corrected to −542.4 N·m, notes §3.5 [C]). With exact involute data this is the speed
@@ -294,6 +307,15 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
         Some(t) => finite("operating.load_torque", t)?,
         None => input_torque * radius_ratio(&gears, &shafts, &ends, input_gear, output_gear),
     };
+    if op.load_torque.is_none() && profiles.torque.is_some() {
+        profiles.load_ratio = Some(radius_ratio(
+            &gears,
+            &shafts,
+            &ends,
+            input_gear,
+            output_gear,
+        ));
+    }
 
     let initial_dte = initial_dte(&spec.initial.dte)?;
 
@@ -325,6 +347,7 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
             input_torque,
             load_torque,
         },
+        profiles,
         initial_dte,
         initial_dte_rate: finite("initial.dte_rate", spec.initial.dte_rate)?,
         solver,

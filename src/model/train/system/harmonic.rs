@@ -114,8 +114,7 @@ impl GearTrain {
     /// o_j) + c(Ṡ − ė)` while any slot touches, and the friction of the slots in drive contact.
     pub fn free_mesh_law(&self, n: usize, t: f64, s: f64, s_rate: f64) -> MeshLaw {
         let mesh = &self.meshes[n];
-        let p = mesh.clock.phase_at(t);
-        let f = mesh.clock.mesh_frequency();
+        let (p, f) = mesh.clock.phase_and_frequency(t);
         let mut law = MeshLaw::default();
         let clearance = mesh.clearance();
         let mut j = 0;
@@ -166,8 +165,7 @@ impl GearTrain {
         if mesh.contact == ContactLaw::Linear {
             return;
         }
-        let p = mesh.clock.phase_at(t);
-        let f = mesh.clock.mesh_frequency();
+        let (p, f) = mesh.clock.phase_and_frequency(t);
         let clearance = mesh.clearance();
         self.for_each_free_slot(n, p, f, |slot| {
             let (delta, rate) = (s - slot.gap, s_rate - slot.gap_rate);
