@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use clap::Args;
 use geardyn::analysis::spectrum::{WaterfallOptions, Window};
 use geardyn::commands::runup::{runup_waterfall, RunupSignal};
+use geardyn::plot::Format;
 
 use super::load_any_scene;
 
@@ -35,10 +36,17 @@ pub struct WaterfallArgs {
     /// Window: hann (fine resolution) or flattop (amplitudes within 0.1 %).
     #[arg(long, default_value = "hann")]
     pub window: String,
+    /// Also draw the map as a Campbell diagram (frequency over speed, amplitude in dB) with
+    /// mesh orders 1–3 overlaid (PNG or SVG by the extension).
+    #[arg(long)]
+    pub plot: Option<PathBuf>,
 }
 
 pub fn run(args: WaterfallArgs) -> Result<(), String> {
     let scene = load_any_scene(&args.scene, &args.example)?;
+    if let Some(path) = &args.plot {
+        Format::of(path)?;
+    }
     let signal: RunupSignal = args.signal.parse().map_err(|e| format!("--signal {e}"))?;
     let window = match args.window.as_str() {
         "hann" => Window::Hann,
@@ -64,6 +72,13 @@ pub fn run(args: WaterfallArgs) -> Result<(), String> {
     };
     let w = runup_waterfall(&scene, mesh, signal, &options)?;
     w.map.write_csv(&args.out, signal.unit())?;
+    if let Some(path) = &args.plot {
+        let orders: Vec<(String, f64)> = (1..=3)
+            .map(|k| (format!("{k}×mesh"), k as f64 * w.mesh_order))
+            .collect();
+        let title = format!("{}: waterfall of the {}", scene.name(), args.signal);
+        w.map.save_plot(path, &title, &orders)?;
+    }
     let map = &w.map;
     let (lo, hi) = (
         map.rpm.iter().copied().fold(f64::INFINITY, f64::min),

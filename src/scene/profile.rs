@@ -294,7 +294,7 @@ impl Profiles {
             Err(format!(
                 "{tool} needs a constant operating point, and this scene has {} (a run-up has no \
                  periodic steady state); give a constant speed and torque in [operating] \
-                 instead, or run the run-up with `geardyn simulate`",
+                 instead, or run the run-up with `geardyn simulate` (its order map: `geardyn waterfall`)",
                 self.keys()
             ))
         } else {
