@@ -99,13 +99,7 @@ pub fn periodic_spectrum(
         let f_max = (0..model.mesh_count()).map(|n| model.mesh_frequency(n)).fold(0.0, f64::max);
         let mesh_cycles = (duration * f_max).round().max(1.0) as usize;
         let n = mesh_cycles * request.samples_per_mesh_period;
-        let meshes: Vec<(String, f64)> = (0..model.mesh_count())
-            .map(|m| {
-                let prefix = model.mesh_prefix(m);
-                let name = if prefix.is_empty() { "mesh".to_string() } else { prefix.trim_end_matches('_').to_string() };
-                (name, model.mesh_frequency(m))
-            })
-            .collect();
+        let meshes = mesh_lines(model);
         let shafts = model.shafts();
         sim.set_y(0.0, &orbit.y0);
         let mut samples = vec![Vec::with_capacity(n); columns.len()];
@@ -233,13 +227,7 @@ pub fn record_spectrum(
         let model = sim.model();
         let periods = span / response_period(model)?;
         let exact = periods >= 1.0 && (periods - periods.round()).abs() <= 1e-9 * periods;
-        let meshes: Vec<(String, f64)> = (0..model.mesh_count())
-            .map(|m| {
-                let prefix = model.mesh_prefix(m);
-                let name = if prefix.is_empty() { "mesh".to_string() } else { prefix.trim_end_matches('_').to_string() };
-                (name, model.mesh_frequency(m))
-            })
-            .collect();
+        let meshes = mesh_lines(model);
         let shafts = model.shafts();
         let mut signals = Vec::new();
         for (name, values) in columns {
@@ -276,4 +264,20 @@ pub fn record_spectrum(
         let samples = if exact { n - 1 } else { n };
         Ok(SpectrumReport { scene: scene.name().to_string(), duration: span, samples, signals })
     })
+}
+
+/// Each mesh's label name (`mesh` for the single pair, the mesh name in a drivetrain) and its
+/// frequency, Hz: the mesh orders the lines are named after.
+fn mesh_lines<M: Drivetrain>(model: &M) -> Vec<(String, f64)> {
+    (0..model.mesh_count())
+        .map(|m| {
+            let prefix = model.mesh_prefix(m);
+            let name = if prefix.is_empty() {
+                "mesh".to_string()
+            } else {
+                prefix.trim_end_matches('_').to_string()
+            };
+            (name, model.mesh_frequency(m))
+        })
+        .collect()
 }

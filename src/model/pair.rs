@@ -205,23 +205,14 @@ impl GearPair {
             return;
         };
         let mut inputs = self.inputs;
-        let (speed, speed_rate) = pr
-            .speed
-            .as_ref()
-            .map_or((inputs.pinion_speed, 0.0), |p| p.segment_at(t));
-        let (torque, torque_rate) = pr
-            .torque
-            .as_ref()
-            .map_or((inputs.input_torque, 0.0), |p| p.segment_at(t));
+        let piece = pr.piece_at(t, inputs.pinion_speed, inputs.input_torque);
+        let ((speed, speed_rate), (torque, torque_rate)) = (piece.speed, piece.torque);
         inputs.pinion_speed = speed;
         inputs.input_torque = torque;
-        let load_rate = match pr.load_ratio {
-            Some(ratio) => {
-                inputs.load_torque = torque * ratio;
-                torque_rate * ratio
-            }
-            None => 0.0,
-        };
+        let load_rate = piece.load.map_or(0.0, |(load, rate)| {
+            inputs.load_torque = load;
+            rate
+        });
         self.inputs = inputs;
         self.clock.reanchor_ramp(
             t,

@@ -196,7 +196,37 @@ pub struct Profiles {
     pub load_ratio: Option<f64>,
 }
 
+/// The operating point the profiles give on the piece starting at `t`: each value with its
+/// rate per second. The load is `None` when it is a constant of the scene.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OperatingPiece {
+    pub speed: (f64, f64),
+    pub torque: (f64, f64),
+    pub load: Option<(f64, f64)>,
+}
+
 impl Profiles {
+    /// The piece of the operating point at `t`, with `speed` and `torque` the scene's
+    /// constants where it has no profile (one rule for the pair and the drivetrain kernels).
+    pub fn piece_at(&self, t: f64, speed: f64, torque: f64) -> OperatingPiece {
+        let speed = self
+            .speed
+            .as_ref()
+            .map_or((speed, 0.0), |p| p.segment_at(t));
+        let torque = self
+            .torque
+            .as_ref()
+            .map_or((torque, 0.0), |p| p.segment_at(t));
+        let load = self
+            .load_ratio
+            .map(|ratio| (torque.0 * ratio, torque.1 * ratio));
+        OperatingPiece {
+            speed,
+            torque,
+            load,
+        }
+    }
+
     /// Whether a profile varies over time (has a knot where its slope changes); a constant
     /// profile is the operating point it equals.
     pub fn speed_varies(&self) -> bool {
