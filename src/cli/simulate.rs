@@ -107,40 +107,12 @@ pub fn run(args: SimulateArgs) -> Result<(), String> {
         report.print(&args.out);
     }
     if let Some(path) = &args.spectrum {
-        spectrum_of_run(&scene_for_spectrum, &args.out, path)?;
+        geardyn::commands::spectrum::spectrum_of_run(
+            &scene_for_spectrum,
+            &report,
+            &args.out,
+            path,
+        )?;
     }
     Ok(())
-}
-
-/// Reads the DTE and force columns of every mesh back from the run's CSV and writes their
-/// spectrum.
-fn spectrum_of_run(
-    scene: &AnyScene,
-    csv: &std::path::Path,
-    out: &std::path::Path,
-) -> Result<(), String> {
-    let text = std::fs::read_to_string(csv).map_err(|e| format!("{}: {e}", csv.display()))?;
-    let mut lines = text.lines();
-    let header: Vec<&str> = lines.next().unwrap_or("").split(',').collect();
-    let wanted: Vec<usize> = (header.iter().enumerate())
-        .filter(|(_, h)| h.ends_with("dte") || h.ends_with("mesh_force"))
-        .map(|(i, _)| i)
-        .collect();
-    let mut time = Vec::new();
-    let mut columns: Vec<(String, Vec<f64>)> = wanted
-        .iter()
-        .map(|&i| (header[i].to_string(), Vec::new()))
-        .collect();
-    for line in lines {
-        let v: Vec<f64> = line
-            .split(',')
-            .map(|x| x.parse().unwrap_or(f64::NAN))
-            .collect();
-        time.push(v[0]);
-        for (c, &i) in wanted.iter().enumerate() {
-            columns[c].1.push(v[i]);
-        }
-    }
-    let report = geardyn::commands::spectrum::record_spectrum(scene, &time, &columns)?;
-    report.write_csv(out)
 }

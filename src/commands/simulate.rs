@@ -173,6 +173,23 @@ pub fn simulate(
     })
 }
 
+/// Reads the run's CSV back row by row (the run itself streams, so its outputs are only in the
+/// file): `row(index, values)` with every column parsed (time first; unparsable cells NaN).
+/// The one reader of `--plot` and `--spectrum`.
+pub fn for_each_row(csv: &Path, mut row: impl FnMut(u64, &[f64])) -> Result<(), String> {
+    use std::io::BufRead;
+    let read_error = |e: std::io::Error| format!("{}: {e}", csv.display());
+    let file = std::fs::File::open(csv).map_err(read_error)?;
+    let mut fields: Vec<f64> = Vec::new();
+    for (i, line) in std::io::BufReader::new(file).lines().skip(1).enumerate() {
+        let line = line.map_err(read_error)?;
+        fields.clear();
+        fields.extend(line.split(',').map(|f| f.parse().unwrap_or(f64::NAN)));
+        row(i as u64, &fields);
+    }
+    Ok(())
+}
+
 /// A finished streamed run.
 struct Streamed {
     rows: u64,

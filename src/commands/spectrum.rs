@@ -212,6 +212,36 @@ pub fn aliasing(scene: &AnyScene, interval: f64) -> Result<Option<String>, Strin
 /// number of response periods (to 1e-9) the last sample (the first of the next period) is
 /// dropped and the exact DFT is taken; otherwise the flat-top windowed FFT, whose line
 /// amplitudes are within [`crate::analysis::spectrum::Window::amplitude_error`].
+/// `simulate --spectrum`: the spectrum of every mesh's DTE and force of the run `report`
+/// wrote to `csv`, written to `out`.
+pub fn spectrum_of_run(
+    scene: &AnyScene,
+    report: &crate::commands::simulate::SimulateReport,
+    csv: &Path,
+    out: &Path,
+) -> Result<(), String> {
+    let header = std::fs::read_to_string(csv)
+        .ok()
+        .and_then(|t| t.lines().next().map(str::to_owned))
+        .unwrap_or_default();
+    let names: Vec<&str> = header.split(',').collect();
+    let wanted: Vec<usize> = (report.meshes.iter())
+        .flat_map(|m| [m.dte_column, m.force_column])
+        .collect();
+    let mut time = Vec::new();
+    let mut columns: Vec<(String, Vec<f64>)> = wanted
+        .iter()
+        .map(|&i| (names.get(i).copied().unwrap_or("?").to_string(), Vec::new()))
+        .collect();
+    crate::commands::simulate::for_each_row(csv, |_, v| {
+        time.push(v[0]);
+        for (c, &i) in wanted.iter().enumerate() {
+            columns[c].1.push(v.get(i).copied().unwrap_or(f64::NAN));
+        }
+    })?;
+    record_spectrum(scene, &time, &columns)?.write_csv(out)
+}
+
 pub fn record_spectrum(
     scene: &AnyScene,
     time: &[f64],

@@ -4,10 +4,9 @@
 //! memory. A run with more rows than the plot has pixel columns is drawn as its minimum and
 //! maximum per column (an envelope), which keeps every peak a decimation would lose.
 
-use std::io::{BufRead, BufReader};
 use std::path::Path;
 
-use super::simulate::SimulateReport;
+use super::simulate::{for_each_row, SimulateReport};
 use crate::plot::{save_stacked, Axis, Plot, Series};
 
 /// Columns of the envelope: about one per pixel of the plot area.
@@ -31,10 +30,9 @@ impl Trace {
             return;
         }
         match &mut self.bucket {
-            Some((b, t0, lo, hi)) if *b == bucket => {
+            Some((b, _, lo, hi)) if *b == bucket => {
                 *lo = lo.min(v);
                 *hi = hi.max(v);
-                let _ = t0;
             }
             _ => {
                 self.flush();
@@ -54,8 +52,6 @@ impl Trace {
 /// Draws the DTE and force of every mesh of the run `report` wrote to `csv` into `path` (PNG
 /// or SVG by its extension).
 pub fn time_plot(report: &SimulateReport, csv: &Path, path: &Path) -> Result<(), String> {
-    let read_error = |e: std::io::Error| format!("{}: {e}", csv.display());
-    let file = std::fs::File::open(csv).map_err(read_error)?;
     let mut traces: Vec<Trace> = report
         .meshes
         .iter()
@@ -67,18 +63,14 @@ pub fn time_plot(report: &SimulateReport, csv: &Path, path: &Path) -> Result<(),
         })
         .collect();
     let raw = report.rows <= 2 * BUCKETS;
-    let mut fields: Vec<f64> = Vec::new();
-    for (i, line) in BufReader::new(file).lines().skip(1).enumerate() {
-        let line = line.map_err(read_error)?;
-        fields.clear();
-        fields.extend(line.split(',').map(|f| f.parse().unwrap_or(f64::NAN)));
-        let bucket = i as u64 * BUCKETS / report.rows.max(1);
+    for_each_row(csv, |i, fields| {
+        let bucket = i * BUCKETS / report.rows.max(1);
         let t = fields.first().copied().unwrap_or(f64::NAN);
         for trace in &mut traces {
             let v = fields.get(trace.column).copied().unwrap_or(f64::NAN);
             trace.add(bucket, t, v, raw);
         }
-    }
+    })?;
     traces.iter_mut().for_each(Trace::flush);
 
     let name = |n: usize| {
