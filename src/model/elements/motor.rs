@@ -205,20 +205,30 @@ impl MotorSpec {
         self.acceleration_with(s, u, self.drive(s, u).torque)
     }
 
+    /// `dT_e/dt` given the rates of the inputs, along the solution within the current
+    /// saturation regime: open loop `f' T_max + f T_max'(ω) ω'`, in the linear range
+    /// `k_p (ω_ref' − ω') + k_i I'`, saturated `± T_max'(ω) ω'`.
+    pub fn drive_rate(&self, s: &MotorState, u: &MotorInputs, rates: &MotorInputs) -> f64 {
+        let d = self.drive(s, u);
+        let a = self.acceleration_with(s, u, d.torque);
+        let slope = self.curve.slope(s.speed);
+        match (&self.controller, d.saturated) {
+            (None, _) => {
+                rates.torque_fraction * self.curve.max_torque(s.speed)
+                    + u.torque_fraction * slope * a
+            }
+            (Some(c), 0) => c.kp * (rates.speed_reference - a) + c.ki * d.integral_rate,
+            (Some(_), sat) => f64::from(sat) * slope * a,
+        }
+    }
+
     /// `ω''` given the rates of the inputs (`rates.flange_torque` = dT_flange/dt, …): the
     /// derivative of the acceleration along the solution, within the current saturation
     /// regime.
     pub fn jerk(&self, s: &MotorState, u: &MotorInputs, rates: &MotorInputs) -> f64 {
-        let d = self.drive(s, u);
-        let a = self.acceleration_with(s, u, d.torque);
-        let t_max = self.curve.max_torque(s.speed);
-        let slope = self.curve.slope(s.speed);
-        let drive_rate = match (&self.controller, d.saturated) {
-            (None, _) => rates.torque_fraction * t_max + u.torque_fraction * slope * a,
-            (Some(c), 0) => c.kp * (rates.speed_reference - a) + c.ki * d.integral_rate,
-            (Some(_), sat) => f64::from(sat) * slope * a,
-        };
-        (drive_rate + self.ripple_rate(s.angle, s.speed) + rates.flange_torque - self.damping * a)
+        let a = self.acceleration(s, u);
+        (self.drive_rate(s, u, rates) + self.ripple_rate(s.angle, s.speed) + rates.flange_torque
+            - self.damping * a)
             / self.inertia
     }
 
