@@ -103,7 +103,8 @@ fn input_derivatives_give_the_ramp_exactly() {
         set(m, "flange_a.torque", t0);
         init(m);
         if ramp {
-            m.set_input_derivative(vr(m, "flange_a.torque"), t1).unwrap();
+            m.set_input_derivative(vr(m, "flange_a.torque"), t1)
+                .unwrap();
         }
         m.do_step(0.0, h).unwrap();
         let (w, theta) = if ramp {
@@ -133,7 +134,8 @@ fn output_derivatives_follow_the_equations() {
     let m = loaded.model.as_mut();
     set(m, "flange_a.torque", 1.0);
     init(m);
-    m.set_input_derivative(vr(m, "flange_b.torque"), 3.0).unwrap();
+    m.set_input_derivative(vr(m, "flange_b.torque"), 3.0)
+        .unwrap();
     let d = |m: &dyn CoSimModel, n: &str| m.output_derivative(vr(m, n)).unwrap();
     assert_eq!(d(m, "flange_a.angle"), 12.0);
     assert_eq!(d(m, "flange_b.speed"), 4.0);
@@ -167,7 +169,8 @@ fn shaft_static_torque_and_its_rate() {
     assert!(close(get(m, "torque"), tau, 1e-15));
     assert_eq!(get(m, "flange_a.torque"), -get(m, "torque"));
     assert_eq!(get(m, "flange_b.torque"), get(m, "torque"));
-    m.set_input_derivative(vr(m, "flange_a.speed"), 50.0).unwrap();
+    m.set_input_derivative(vr(m, "flange_a.speed"), 50.0)
+        .unwrap();
     let rate = 2.0e4 * 1.0 + 1.5 * 50.0;
     let d = m.output_derivative(vr(m, "flange_b.torque")).unwrap();
     assert!(close(d, rate, 1e-15), "{d}");
@@ -237,17 +240,23 @@ speed = 10.0
         t += h;
         assert!(get(m, "flange.speed") < 400.0, "stays on the plateau");
         assert!(close(get(m, "flange.speed"), 10.0 + a * t, 1e-13));
-        assert!(close(get(m, "flange.angle"), 10.0 * t + 0.5 * a * t * t, 1e-13));
+        assert!(close(
+            get(m, "flange.angle"),
+            10.0 * t + 0.5 * a * t * t,
+            1e-13
+        ));
     }
     // A fraction ramp over the plateau: T_e = 150 (f0 + f' t), a cubic in the angle again.
     let w = get(m, "flange.speed");
-    m.set_input_derivative(vr(m, "torque_fraction"), 2.0).unwrap();
+    m.set_input_derivative(vr(m, "torque_fraction"), 2.0)
+        .unwrap();
     m.do_step(t, 0.02).unwrap();
     assert!(get(m, "flange.speed") < 400.0, "stays on the plateau");
     let want = w + (a * 0.02 + 150.0 * 2.0 * 0.02 * 0.02 / 2.0 / 0.01);
     assert!(close(get(m, "flange.speed"), want, 1e-13));
     // A ramp that would leave [0, 1] within the step is refused, naming the input.
-    m.set_input_derivative(vr(m, "torque_fraction"), 30.0).unwrap();
+    m.set_input_derivative(vr(m, "torque_fraction"), 30.0)
+        .unwrap();
     let e = m.do_step(t + 0.02, 0.1).unwrap_err();
     assert!(format!("{e:?}").contains("torque_fraction"), "{e:?}");
 }
@@ -260,7 +269,11 @@ fn bad_parameters_are_refused_naming_them() {
     std::fs::write(&path, INERTIA.replace("inertia = 0.25", "inertia = -0.25")).unwrap();
     let e = load_scene(&path).err().unwrap();
     assert!(e.contains("element.inertia = -0.25"), "{e}");
-    std::fs::write(&path, SHAFT.replace("damping = 1.5", "damping = 1.5\nmass = 2")).unwrap();
+    std::fs::write(
+        &path,
+        SHAFT.replace("damping = 1.5", "damping = 1.5\nmass = 2"),
+    )
+    .unwrap();
     let e = load_scene(&path).err().unwrap();
     assert!(e.contains("mass"), "{e}");
 
@@ -290,7 +303,8 @@ fn state_with_input_rates_restores_bit_identically() {
         t += h;
     }
     set(m, "flange.torque", -30.0);
-    m.set_input_derivative(vr(m, "flange.torque"), -500.0).unwrap();
+    m.set_input_derivative(vr(m, "flange.torque"), -500.0)
+        .unwrap();
     let saved = m.save_state();
     let run = |m: &mut dyn CoSimModel| -> Vec<u64> {
         let mut tt = t;
@@ -334,8 +348,16 @@ fn shipped_element_scenes_reproduce_their_references() {
             if shaft {
                 let (w, a, f) = (471.238898038469, 0.01, 2.0 * std::f64::consts::PI * 50.0);
                 let signals = [
-                    ("flange_a.angle", w * t + a * (f * t).sin(), w + a * f * (f * t).cos()),
-                    ("flange_a.speed", w + a * f * (f * t).cos(), -a * f * f * (f * t).sin()),
+                    (
+                        "flange_a.angle",
+                        w * t + a * (f * t).sin(),
+                        w + a * f * (f * t).cos(),
+                    ),
+                    (
+                        "flange_a.speed",
+                        w + a * f * (f * t).cos(),
+                        -a * f * f * (f * t).sin(),
+                    ),
                     ("flange_b.angle", w * t, w),
                     ("flange_b.speed", w, 0.0),
                 ];
@@ -375,7 +397,11 @@ fn shipped_element_scenes_reproduce_their_references() {
             std::fs::write(&path, &csv).unwrap();
         }
         let reference = std::fs::read_to_string(&path).unwrap();
-        assert!(csv == reference, "{name}: output differs from {}", path.display());
+        assert!(
+            csv == reference,
+            "{name}: output differs from {}",
+            path.display()
+        );
         println!("{name}: {} rows identical to the reference", n + 1);
     }
 }
