@@ -196,6 +196,14 @@ def test_input_derivative_orders_and_targets_are_checked(inertia):
     order = (C.c_int * 1)(2)
     assert h.fmi2SetRealInputDerivatives(c, vrs(h.vr("flange_a.torque")), 1, order, reals(1.0)) == ERROR
     assert any("order 2" in m[3] for m in h.messages), h.messages
+    # Only continuous Real inputs take a rate: an output or a parameter is refused, naming it.
+    for name in ("flange_a.speed", "inertia"):
+        assert h.fmi2Reset(c) == OK
+        start(h, c, 1.0)
+        h.messages.clear()
+        order = (C.c_int * 1)(1)
+        assert h.fmi2SetRealInputDerivatives(c, vrs(h.vr(name)), 1, order, reals(1.0)) == ERROR
+        assert any(f"'{name}'" in m[3] and "not a continuous Real input" in m[3] for m in h.messages), h.messages
 
 
 def test_output_derivatives(tmp_path, inertia):
