@@ -104,6 +104,12 @@ pub fn model_description(
     caps: Capabilities,
 ) -> Result<String, String> {
     super::model::validate_variables(vars)?;
+    if caps.max_output_derivative_order > 1 {
+        return Err(format!(
+            "maxOutputDerivativeOrder = {}: the FMI layer provides first-order output derivatives only",
+            caps.max_output_derivative_order
+        ));
+    }
     let mut units: Vec<&str> = Vec::new();
     for v in vars {
         if let Some(u) = v.unit.as_deref() {
