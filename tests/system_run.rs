@@ -145,14 +145,14 @@ fn lin<'a>(name: &'a str, params: &[(&'a str, f64)]) -> Comp<'a> {
     }
 }
 
+/// A connection: start element, connector, end element, connector, optional (factor, offset).
+type Conn<'a> = (&'a str, &'a str, &'a str, &'a str, Option<(f64, f64)>);
+/// A coupling case: algorithm, extrapolation, B.x/(k c h²) as a function of the step count.
+type Case = (&'static str, &'static str, fn(f64) -> f64);
+
 /// SystemStructure.ssd text. `connections`: (start element, connector, end element,
 /// connector, optional (factor, offset)).
-fn ssd(
-    comps: &[Comp],
-    connections: &[(&str, &str, &str, &str, Option<(f64, f64)>)],
-    stop: f64,
-    units: &str,
-) -> String {
+fn ssd(comps: &[Comp], connections: &[Conn], stop: f64, units: &str) -> String {
     let mut s = String::from(
         r#"<?xml version="1.0" encoding="UTF-8"?>
 <ssd:SystemStructureDescription xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" version="1.0" name="test">
@@ -251,7 +251,7 @@ fn chain_matches_the_closed_form_of_each_coupling() {
     );
     let sys = system("chain", &text, CAPS);
     let out = sys.parent().unwrap().join("o.csv");
-    let cases: [(&str, &str, fn(f64) -> f64); 4] = [
+    let cases: [Case; 4] = [
         ("jacobi", "none", |n| n * (n - 1.0) / 2.0),
         ("gauss-seidel", "none", |n| n * (n + 1.0) / 2.0),
         ("jacobi", "linear", |n| n * n / 2.0),
@@ -415,9 +415,7 @@ fn a_refused_step_keeps_the_rows_before_and_names_element_time_and_status() {
 /// Every bad system gives exit 1, a message naming the item, and no CSV.
 #[test]
 fn bad_systems_are_refused_naming_the_item() {
-    let two = |conns: &[(&str, &str, &str, &str, Option<(f64, f64)>)]| {
-        ssd(&[lin("A", &[]), lin("B", &[])], conns, 1.0, "")
-    };
+    let two = |conns: &[Conn]| ssd(&[lin("A", &[]), lin("B", &[])], conns, 1.0, "");
     let mut unit_comp_a = lin("A", &[]);
     unit_comp_a.connectors[1].2 = real(Some("J"));
     let mut unit_comp_b = lin("B", &[]);

@@ -29,7 +29,11 @@ Exit status:
      fmi2Fatal, the FMU crashing or ending its process, SIGINT, SIGTERM or SIGHUP (also
      how a blocked FMU is ended: the first asks the run to stop at its next step, a second
      one or 0.9 s without reaching it kills the FMU's process). The rows computed until
-     then are kept, and the message says what happened, in which FMI call and at which time.")]
+     then are kept, and the message says what happened, in which FMI call and at which time.
+
+Systems (an .ssp archive, a SystemStructure.ssd file or a folder holding one, SSP 1.0): the
+FMUs run in one process with a fixed-step master (--algorithm, --extrapolation); the CSV has
+a column Element.connector per connected signal. See docs/systems.md.")]
 pub struct RunArgs {
     /// The FMU (.fmu file or an extracted FMU folder), or a system of FMUs: an SSP 1.0 `.ssp`
     /// archive, a `SystemStructure.ssd` file, or a folder holding one (docs/systems.md).
@@ -48,7 +52,8 @@ pub struct RunArgs {
     /// The most output rows (grid points from start to stop time) a run may have.
     #[arg(long, default_value_t = runner::DEFAULT_MAX_ROWS)]
     pub max_rows: u64,
-    /// Start value NAME=VALUE of a parameter or input (repeatable).
+    /// Start value NAME=VALUE of a parameter or input (repeatable); in a system
+    /// Element.variable=VALUE, which overrides the system's parameter bindings.
     #[arg(long = "start", value_name = "NAME=VALUE")]
     pub start: Vec<String>,
     /// Input signals: CSV with a `time` column and one column per input (fmpy's convention:
@@ -58,7 +63,8 @@ pub struct RunArgs {
     /// Output CSV (fmpy layout: "time" then the variables). Default: stdout.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Variables to record, comma separated (default: all outputs).
+    /// Variables to record, comma separated (default: all outputs). In a system: the
+    /// connected signals are always recorded; add others as Element.variable.
     #[arg(long, value_delimiter = ',')]
     pub outputs: Option<Vec<String>>,
     /// Print FMU log messages at or above this status: all | warning | discard | error | fatal.

@@ -179,6 +179,21 @@ mod tests {
         let (o, cut) = order(3, &[link(0, 2), link(1, 2)]);
         assert_eq!(o, [0, 1, 2]);
         assert_eq!(cut, [false, false]);
+        // The drivetrain of docs/systems.md: motor 0, shaft1 1, gear 2, shaft2 3, load 4, every
+        // body ↔ shaft pair coupled both ways; the search starts at the load.
+        let chain = [
+            link(0, 1),
+            link(1, 0),
+            link(2, 1),
+            link(1, 2),
+            link(2, 3),
+            link(3, 2),
+            link(4, 3),
+            link(3, 4),
+        ];
+        let (o, cut) = order(5, &chain);
+        assert_eq!(o, [4, 3, 2, 1, 0]);
+        assert_eq!(cut, [true, false, false, true, true, false, false, true]);
         // Unconnected elements keep their document order.
         assert_eq!(order(3, &[]).0, [0, 1, 2]);
     }

@@ -433,8 +433,8 @@ pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outco
             inst.exit_initialization_mode()
                 .map_err(|err| at(&elements[e].name, t0, err))?;
         }
-        for e in 0..n {
-            st.read(e, &mut insts[e], t0)?;
+        for (e, inst) in insts.iter_mut().enumerate() {
+            st.read(e, inst, t0)?;
         }
         Ok(())
     })();
@@ -498,8 +498,8 @@ pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outco
                 }
             }
             if plan.algorithm == Algorithm::Jacobi {
-                for e in 0..n {
-                    st.read(e, &mut insts[e], next)?;
+                for (e, inst) in insts.iter_mut().enumerate() {
+                    st.read(e, inst, next)?;
                 }
             }
             Ok(())
