@@ -183,8 +183,16 @@ impl<'p, 'a> State<'p, 'a> {
         }
     }
 
-    /// Read element `e`'s producer ports into `cur` (and their derivatives when needed).
-    fn read(&mut self, e: usize, inst: &mut Instance, t: f64) -> Result<(), String> {
+    /// Read element `e`'s producer ports into `cur`, and with `derivatives` their first
+    /// derivatives where needed (not in initialization mode: FMI 2.0.5 §4.2.4 allows
+    /// `fmi2GetRealOutputDerivatives` only once the slave is initialized).
+    fn read(
+        &mut self,
+        e: usize,
+        inst: &mut Instance,
+        t: f64,
+        derivatives: bool,
+    ) -> Result<(), String> {
         let name = &self.plan.system.elements[e].name;
         let io = &self.io[e];
         if !io.real_vr.is_empty() {
@@ -213,7 +221,7 @@ impl<'p, 'a> State<'p, 'a> {
                 self.cur[p] = f64::from(v);
             }
         }
-        if !io.der_vr.is_empty() {
+        if derivatives && !io.der_vr.is_empty() {
             let order = vec![1; io.der_vr.len()];
             self.buf_f.resize(io.der_vr.len(), 0.0);
             inst.get_real_output_derivatives(&io.der_vr, &order, &mut self.buf_f)
@@ -427,14 +435,14 @@ pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outco
         let none = vec![false; n];
         for &e in &plan.order {
             st.set_inputs(e, &mut insts[e], t0, 0.0, &none)?;
-            st.read(e, &mut insts[e], t0)?;
+            st.read(e, &mut insts[e], t0, false)?;
         }
         for (e, inst) in insts.iter_mut().enumerate() {
             inst.exit_initialization_mode()
                 .map_err(|err| at(&elements[e].name, t0, err))?;
         }
         for (e, inst) in insts.iter_mut().enumerate() {
-            st.read(e, inst, t0)?;
+            st.read(e, inst, t0, true)?;
         }
         Ok(())
     })();
@@ -493,13 +501,13 @@ pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outco
                     )
                 })?;
                 if plan.algorithm == Algorithm::GaussSeidel {
-                    st.read(e, &mut insts[e], next)?;
+                    st.read(e, &mut insts[e], next, true)?;
                     stepped[e] = true;
                 }
             }
             if plan.algorithm == Algorithm::Jacobi {
                 for (e, inst) in insts.iter_mut().enumerate() {
-                    st.read(e, inst, next)?;
+                    st.read(e, inst, next, true)?;
                 }
             }
             Ok(())
