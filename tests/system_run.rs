@@ -78,6 +78,7 @@ fn linear_md(c: Caps) -> String {
     <ScalarVariable name="refuse_at" valueReference="5" causality="parameter" variability="fixed"><Real start="1e300"/></ScalarVariable>
     <ScalarVariable name="refuse_how" valueReference="6" causality="parameter" variability="fixed"><Real start="2"/></ScalarVariable>
     <ScalarVariable name="n" valueReference="7" causality="input"><Integer start="0"/></ScalarVariable>
+    <ScalarVariable name="abort_at" valueReference="8" causality="parameter" variability="fixed"><Real start="1e300"/></ScalarVariable>
   </ModelVariables>
   <ModelStructure>
     <Outputs><Unknown index="3" dependencies=""/><Unknown index="5" dependencies="2"/></Outputs>
@@ -410,6 +411,30 @@ fn a_refused_step_keeps_the_rows_before_and_names_element_time_and_status() {
         let (_, rows) = read_rows(&out);
         assert_eq!(rows.len(), 4);
     }
+}
+
+/// The system runs under the crash supervision of single runs: an FMU that aborts ends the
+/// run with a message naming the signal, the call and the time; the rows before are kept.
+#[test]
+fn a_crashing_fmu_is_reported_and_the_rows_before_are_kept() {
+    let text = ssd(
+        &[lin("A", &[("u", 1.0)]), lin("B", &[("abort_at", 0.35)])],
+        &[("A", "x", "B", "u", None)],
+        1.0,
+        "",
+    );
+    let sys = system("crash", &text, CAPS);
+    let out = sys.parent().unwrap().join("o.csv");
+    let o = geardyn(&[&"run", &sys, &"--out", &out, &"--output-interval", &"0.1"]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(
+        e.contains("SIGABRT")
+            && e.contains("during fmi2DoStep at t = 0.30000000000000004")
+            && e.contains("4 rows up to t = 0.30000000000000004 were written"),
+        "{e}"
+    );
+    assert_eq!(read_rows(&out).1.len(), 4);
 }
 
 /// Every bad system gives exit 1, a message naming the item, and no CSV.

@@ -624,6 +624,32 @@ mod tests {
         assert_eq!((s.start_time, s.stop_time), (Some(0.0), Some(0.5)));
     }
 
+    /// Truncated and mutated files give a result or a message, never a panic.
+    #[test]
+    fn never_panics_on_damaged_files() {
+        for end in (0..OK.len()).filter(|&i| OK.is_char_boundary(i)) {
+            let _ = parse(&OK[..end], &NoFiles);
+        }
+        let bytes = OK.as_bytes();
+        let mut seed: u64 = 0x9e37_79b9_7f4a_7c15;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed
+        };
+        for _ in 0..5000 {
+            let mut m = bytes.to_vec();
+            for _ in 0..1 + next() % 4 {
+                let at = (next() % m.len() as u64) as usize;
+                m[at] = b"<>\"=/ a0-.:"[(next() % 11) as usize];
+            }
+            if let Ok(text) = std::str::from_utf8(&m) {
+                let _ = parse(text, &NoFiles);
+            }
+        }
+    }
+
     #[test]
     fn refusals_name_the_item() {
         let e = parse(&OK.replace("p.ssv", "q.ssv"), &NoFiles).unwrap_err();
