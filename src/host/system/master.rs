@@ -109,14 +109,44 @@ struct Io {
     bool_port: Vec<usize>,
     der_vr: Vec<u32>,
     der_port: Vec<usize>,
+    /// All 1: the derivative order asked for each of `der_vr`.
+    der_order: Vec<i32>,
     inputs: Vec<usize>,
     extra_real: (Vec<u32>, Vec<usize>),
     extra_int: (Vec<u32>, Vec<usize>),
     extra_bool: (Vec<u32>, Vec<usize>),
 }
 
+/// The values set before a step, grouped by type (reused from step to step).
+#[derive(Default)]
+struct Inputs {
+    rv: Vec<u32>,
+    rx: Vec<f64>,
+    iv: Vec<u32>,
+    ix: Vec<i32>,
+    bv: Vec<u32>,
+    bx: Vec<i32>,
+    dv: Vec<u32>,
+    dx: Vec<f64>,
+    order: Vec<i32>,
+}
+
+impl Inputs {
+    fn clear(&mut self) {
+        self.rv.clear();
+        self.rx.clear();
+        self.iv.clear();
+        self.ix.clear();
+        self.bv.clear();
+        self.bx.clear();
+        self.dv.clear();
+        self.dx.clear();
+    }
+}
+
 struct State<'p, 'a> {
     plan: &'p Plan<'a>,
+    set: Inputs,
     io: Vec<Io>,
     cur: Vec<f64>,
     prev: Vec<f64>,
@@ -144,6 +174,7 @@ impl<'p, 'a> State<'p, 'a> {
                     if plan.needs_derivative[p] {
                         io.der_vr.push(vr);
                         io.der_port.push(p);
+                        io.der_order.push(1);
                     }
                 }
                 VarType::Boolean => {
@@ -173,6 +204,7 @@ impl<'p, 'a> State<'p, 'a> {
         let np = plan.ports.len();
         State {
             plan,
+            set: Inputs::default(),
             io,
             cur: vec![0.0; np],
             prev: vec![0.0; np],
@@ -222,9 +254,8 @@ impl<'p, 'a> State<'p, 'a> {
             }
         }
         if derivatives && !io.der_vr.is_empty() {
-            let order = vec![1; io.der_vr.len()];
             self.buf_f.resize(io.der_vr.len(), 0.0);
-            inst.get_real_output_derivatives(&io.der_vr, &order, &mut self.buf_f)
+            inst.get_real_output_derivatives(&io.der_vr, &io.der_order, &mut self.buf_f)
                 .map_err(|err| at(name, t, err))?;
             for (&p, &v) in io.der_port.iter().zip(&self.buf_f) {
                 self.der[p] = v;
@@ -246,10 +277,20 @@ impl<'p, 'a> State<'p, 'a> {
     ) -> Result<(), String> {
         let plan = self.plan;
         let name = &plan.system.elements[e].name;
-        let (mut rv, mut rx) = (Vec::new(), Vec::new());
-        let (mut iv, mut ix) = (Vec::new(), Vec::new());
-        let (mut bv, mut bx) = (Vec::new(), Vec::new());
-        let (mut dv, mut dx) = (Vec::new(), Vec::new());
+        // Buffers kept across steps (no allocation per step), taken while `self` is read.
+        let mut b = std::mem::take(&mut self.set);
+        b.clear();
+        let Inputs {
+            rv,
+            rx,
+            iv,
+            ix,
+            bv,
+            bx,
+            dv,
+            dx,
+            order,
+        } = &mut b;
         for &l in &self.io[e].inputs {
             let link = &plan.system.links[l];
             let p = plan.port_of[l];
@@ -298,21 +339,25 @@ impl<'p, 'a> State<'p, 'a> {
             }
         }
         let err = |err| at(name, t, err);
-        if !rv.is_empty() {
-            inst.set_real(&rv, &rx).map_err(err)?;
-        }
-        if !iv.is_empty() {
-            inst.set_integer(&iv, &ix).map_err(err)?;
-        }
-        if !bv.is_empty() {
-            inst.set_boolean(&bv, &bx).map_err(err)?;
-        }
-        if !dv.is_empty() {
-            let order = vec![1; dv.len()];
-            inst.set_real_input_derivatives(&dv, &order, &dx)
-                .map_err(err)?;
-        }
-        Ok(())
+        let result = (|| {
+            if !rv.is_empty() {
+                inst.set_real(rv, rx).map_err(err)?;
+            }
+            if !iv.is_empty() {
+                inst.set_integer(iv, ix).map_err(err)?;
+            }
+            if !bv.is_empty() {
+                inst.set_boolean(bv, bx).map_err(err)?;
+            }
+            if !dv.is_empty() {
+                order.resize(dv.len(), 1);
+                inst.set_real_input_derivatives(dv, order, dx)
+                    .map_err(err)?;
+            }
+            Ok(())
+        })();
+        self.set = b;
+        result
     }
 
     /// Assemble and deliver the row at `t`.
