@@ -437,6 +437,46 @@ fn a_crashing_fmu_is_reported_and_the_rows_before_are_kept() {
     assert_eq!(read_rows(&out).1.len(), 4);
 }
 
+/// An FMU that cannot be instantiated (here: its binary refuses the GUID) ends the run before
+/// any row, naming the element and the FMU's reason; no CSV is left.
+#[test]
+fn a_failing_instantiation_names_the_element_and_leaves_no_csv() {
+    let text = ssd(
+        &[lin("A", &[]), lin("B", &[])],
+        &[("A", "x", "B", "u", None)],
+        1.0,
+        "",
+    );
+    let d = scratch("guid");
+    let sys = d.join("sys");
+    std::fs::create_dir_all(sys.join("resources")).unwrap();
+    write_zip(
+        &sys.join("resources/linear.fmu"),
+        &[
+            (
+                "modelDescription.xml",
+                linear_md(CAPS)
+                    .replace("{linear-fmu}", "{other}")
+                    .into_bytes(),
+            ),
+            (
+                "binaries/linux64/linear.so",
+                std::fs::read(linear_so()).unwrap(),
+            ),
+        ],
+    );
+    std::fs::write(sys.join("SystemStructure.ssd"), text).unwrap();
+    let out = d.join("o.csv");
+    let o = geardyn(&[&"run", &sys, &"--out", &out]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(
+        e.contains("element \"A\": fmi2Instantiate returned NULL") && e.contains("wrong GUID"),
+        "{e}"
+    );
+    assert!(!out.exists());
+}
+
 /// Every bad system gives exit 1, a message naming the item, and no CSV.
 #[test]
 fn bad_systems_are_refused_naming_the_item() {

@@ -486,7 +486,17 @@ pub fn run(args: &RunArgs) -> Result<u8, String> {
         ))
     };
     match supervisor.run(activity, child)? {
-        ChildEnd::Reported(code) => Ok(code),
+        ChildEnd::Reported(code) => {
+            // A run that failed before its first row (an FMU that cannot be loaded or
+            // instantiated, a failing initialization) leaves no file: only the rows computed
+            // before a failure are kept.
+            if code != 0 && csv.written().0 == 0 {
+                if let Some(p) = &args.out {
+                    let _ = std::fs::remove_file(p);
+                }
+            }
+            Ok(code)
+        }
         ChildEnd::Abnormal(what) => Err(match csv.complete_after_writer_died() {
             Ok(()) => format!("{what}{}", cli::rows_kept(&args.out, csv.written())),
             Err(e) => {
