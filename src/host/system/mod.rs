@@ -498,6 +498,12 @@ pub fn run(args: &RunArgs) -> Result<u8, String> {
             Ok(code)
         }
         ChildEnd::Abnormal(what) => Err(match csv.complete_after_writer_died() {
+            Ok(()) if csv.written().0 == 0 => {
+                if let Some(p) = &args.out {
+                    let _ = std::fs::remove_file(p);
+                }
+                what
+            }
             Ok(()) => format!("{what}{}", cli::rows_kept(&args.out, csv.written())),
             Err(e) => {
                 format!("{what}; also: {where_to}: cannot write the rows computed before: {e}")
