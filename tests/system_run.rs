@@ -569,6 +569,38 @@ fn bad_systems_are_refused_naming_the_item() {
     );
     let o = geardyn(&[&"run", &sys, &"--algorithm", &"euler"]);
     assert!(stderr(&o).contains("--algorithm \"euler\": expected jacobi or gauss-seidel"));
+    for (args, needle) in [
+        (
+            ["--outputs", "C.x"],
+            "--outputs \"C.x\": the system has no element \"C\"",
+        ),
+        (
+            ["--outputs", "A.q"],
+            "--outputs \"A.q\": the FMU of \"A\" has no variable \"q\"",
+        ),
+        (
+            ["--outputs", "x"],
+            "--outputs \"x\": name a variable of a system as Element.variable",
+        ),
+        (
+            ["--start", "A.q=1"],
+            "--start A.q=1: the FMU has no variable named \"q\"",
+        ),
+        (
+            ["--start", "k=1"],
+            "--start k: name a variable as Element.variable",
+        ),
+        (
+            ["--extrapolation", "cubic"],
+            "--extrapolation \"cubic\": expected none or linear",
+        ),
+    ] {
+        let out = sys.parent().unwrap().join("x.csv");
+        let o = geardyn(&[&"run", &sys, &"--out", &out, &args[0], &args[1]]);
+        assert_eq!(o.status.code(), Some(1));
+        assert!(stderr(&o).contains(needle), "{needle}: {}", stderr(&o));
+        assert!(!out.exists());
+    }
 }
 
 /// Unit conversion through the base units (mm → m) and a LinearTransformation are applied;
