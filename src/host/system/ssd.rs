@@ -445,8 +445,9 @@ fn connection(c: &Node) -> Result<Connection, String> {
 }
 
 /// One `ssd:ParameterBinding`: inline `ssd:ParameterValues` or a `source=` `.ssv` file. With
-/// `prefix=`, only parameters whose names start with the prefix apply, with it removed
-/// (SSP 1.0 §5.3.4: the prefix names the component's parameters inside a shared source).
+/// `prefix=`, the prefix is prepended to every parameter name of the source (SSP 1.0
+/// ParameterBinding: it places the source's names inside the element, e.g. `prefix="mesh."`
+/// binds `damping` to the FMU variable `mesh.damping`).
 fn binding(b: &Node, component: &str, resources: &dyn Resources) -> Result<Vec<Parameter>, String> {
     let origin = at(b.line);
     if b.first("ParameterMapping").is_some() {
@@ -501,9 +502,7 @@ fn binding(b: &Node, component: &str, resources: &dyn Resources) -> Result<Vec<P
         let pname = p
             .attr("name")
             .ok_or_else(|| format!("{here}: <ssv:Parameter> has no name attribute"))?;
-        let Some(name) = pname.strip_prefix(prefix) else {
-            continue;
-        };
+        let name = format!("{prefix}{pname}");
         let bad = |what: &str, v: &str| {
             format!("{here}: parameter \"{pname}\": value=\"{v}\" is not {what}")
         };
@@ -541,7 +540,7 @@ fn binding(b: &Node, component: &str, resources: &dyn Resources) -> Result<Vec<P
             .and_then(|r| r.attr("unit"))
             .map(str::to_string);
         out.push(Parameter {
-            name: name.to_string(),
+            name,
             value,
             unit,
             origin: here,
@@ -560,8 +559,7 @@ mod tests {
             if source == "p.ssv" {
                 Ok(
                     r#"<ssv:ParameterSet xmlns:ssv="x" version="1.0" name="p"><ssv:Parameters>
-<ssv:Parameter name="A.k"><ssv:Real value="3"/></ssv:Parameter>
-<ssv:Parameter name="B.k"><ssv:Real value="4"/></ssv:Parameter>
+<ssv:Parameter name="k"><ssv:Real value="3"/></ssv:Parameter>
 </ssv:Parameters></ssv:ParameterSet>"#
                         .into(),
                 )
@@ -580,7 +578,7 @@ mod tests {
           <ssd:Connector name="y" kind="output"><ssc:Real unit="N.m"/></ssd:Connector>
         </ssd:Connectors>
         <ssd:ParameterBindings>
-          <ssd:ParameterBinding source="p.ssv" prefix="A."/>
+          <ssd:ParameterBinding source="p.ssv" prefix="mesh."/>
           <ssd:ParameterBinding><ssd:ParameterValues><ssv:ParameterSet version="1.0" name="i"><ssv:Parameters>
             <ssv:Parameter name="u"><ssv:Real value="2.5"/></ssv:Parameter>
             <ssv:Parameter name="on"><ssv:Boolean value="true"/></ssv:Parameter>
@@ -615,7 +613,7 @@ mod tests {
             })
         );
         let names: Vec<_> = a.parameters.iter().map(|p| p.name.as_str()).collect();
-        assert_eq!(names, ["k", "u", "on"]);
+        assert_eq!(names, ["mesh.k", "u", "on"]);
         assert_eq!(a.parameters[0].value, ParamValue::Real(3.0));
         assert!(a.parameters[0].origin.starts_with("p.ssv line 2"));
         assert_eq!(s.connections[0].transformation, Some((2.0, 0.5)));
