@@ -517,6 +517,9 @@ fn bad_systems_are_refused_naming_the_item() {
             vec!["component \"B\": its FMU source=\"resources/missing.fmu\" is not in the folder"]),
         ("unknown parameter", ssd(&[lin("A", &[("nope", 1.0)]), lin("B", &[])], &[], 1.0, ""), CAPS,
             vec!["parameter of element \"A\"", "no variable named \"nope\""]),
+        ("parameter unit", ssd(&[lin("A", &[("u", 1.0)]), lin("B", &[])], &[], 1.0, units)
+            .replace("<ssv:Real value=\"1.0\"/>", "<ssv:Real value=\"1.0\" unit=\"m/s\"/>"), CAPS,
+            vec!["parameter \"u\" of element \"A\" is given in unit=\"m/s\", but the FMU declares unit=\"m\""]),
         ("output as parameter", ssd(&[lin("A", &[("x", 1.0)]), lin("B", &[])], &[], 1.0, ""), CAPS,
             vec!["parameter of element \"A\"", "\"x\" is not a parameter or input"]),
     ];
