@@ -679,6 +679,10 @@ fn conversions_archives_and_start_values() {
     let out2 = d.join("o2.csv");
     run_ok(&ssp, &out2, &args);
     assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&out2).unwrap());
+    // The .ssd file itself, named on the command line.
+    let out3 = d.join("o3.csv");
+    run_ok(&sys.join("SystemStructure.ssd"), &out3, &args);
+    assert_eq!(std::fs::read(&out).unwrap(), std::fs::read(&out3).unwrap());
     // An archive without one of the FMUs names it.
     write_zip(&ssp, &entries[..2]);
     let o = geardyn(&[&"run", &ssp, &"--out", &out2]);
