@@ -718,6 +718,16 @@ impl GearTrain {
         self.inputs
     }
 
+    /// Whether the rigid-body rotation is carried (a scene with `[[port]]`, `docs/ports.md`).
+    pub fn carries_rotation(&self) -> bool {
+        self.rotation.is_some()
+    }
+
+    /// Whether a torque port sits on the output gear: its port torque is `−load_torque`.
+    pub fn has_output_port(&self) -> bool {
+        self.rotation.as_ref().is_some_and(|r| r.output_port())
+    }
+
     /// Rigid-body accelerations `η''` (M-normalised rigid coordinates) of unbalanced torques;
     /// empty for a grounded train. They do not enter the elastic motion.
     pub fn rigid_body_acceleration(&self) -> Vec<f64> {
@@ -1262,7 +1272,7 @@ impl GearTrain {
         if let Some(rot) = &self.rotation {
             let mut dy = vec![0.0; y.len()];
             self.rhs(t, y, &mut dy);
-            rot.outputs(self, t, y, &dy, out);
+            rot.outputs(t, y, &dy, out);
         }
     }
 

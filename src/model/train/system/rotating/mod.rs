@@ -237,8 +237,9 @@ impl Carried {
         }
     }
 
-    /// Output names: per body `<gear>_angle`, `_speed`, `_acceleration`; per port
-    /// `<port>_torque`.
+    /// Output names: per body `<gear>_angle`, `_speed`, `_acceleration` (the `geardyn
+    /// simulate` columns), then per port `<port>.angle`, `.speed`, `.acceleration` (the port
+    /// variables of the element convention, `docs/ports.md`).
     pub(crate) fn names(&self) -> Vec<String> {
         let mut names = Vec::new();
         for b in &self.bodies {
@@ -247,20 +248,21 @@ impl Carried {
             }
         }
         for p in &self.ports {
-            names.push(format!("{}_torque", p.name));
+            for q in ["angle", "speed", "acceleration"] {
+                names.push(format!("{}.{q}", p.name));
+            }
         }
         names
     }
 
+    /// Whether a torque port sits on the output gear (its torque is minus the load torque).
+    pub(crate) fn output_port(&self) -> bool {
+        self.ports.iter().any(|p| p.end == PortEnd::Output)
+    }
+
     /// Values of [`Carried::names`]; `dy` the state derivative at `(t, y)`.
-    pub(crate) fn outputs(
-        &self,
-        train: &GearTrain,
-        t: f64,
-        y: &[f64],
-        dy: &[f64],
-        out: &mut Vec<f64>,
-    ) {
+    pub(crate) fn outputs(&self, t: f64, y: &[f64], dy: &[f64], out: &mut Vec<f64>) {
+        let start = out.len();
         for b in 0..self.bodies.len() {
             let (angle, speed) = self.body_motion(b, t, y);
             // The reference rotation has no acceleration: θ'' = row·[ξ'', η''].
@@ -271,10 +273,8 @@ impl Carried {
             out.extend([angle, speed, acc]);
         }
         for p in &self.ports {
-            out.push(match p.end {
-                PortEnd::Input => train.inputs.input_torque,
-                PortEnd::Output => -train.inputs.load_torque,
-            });
+            let i = start + 3 * p.body;
+            out.extend_from_within(i..i + 3);
         }
     }
 }
