@@ -11,13 +11,14 @@
 use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
 
 /// Scene and output interval of its reference run.
-const REFERENCES: [(&str, f64); 6] = [
+const REFERENCES: [(&str, f64); 7] = [
     ("spur_pair", 1e-4),
     ("geometry_pair", 1e-4),
     ("bugaru_pair", 1e-4),
     ("helical_pair_friction", 2e-5),
     ("idler_gearset", 1e-4),
     ("countershaft_gearset", 1e-4),
+    ("spur_stage", 1e-4),
 ];
 
 #[test]

@@ -172,7 +172,7 @@ impl<K: Kernel> Adapter<K> {
     /// values are applied to the loaded scene and the model is built once, not once per value
     /// as a sequence of sets would: a master that rolls back may restore at every step.
     fn restore(&mut self, snap: &KernelSnapshot<K>) -> Result<(), String> {
-        let u = K::sim_inputs(&snap.sim);
+        let u = K::sim_inputs(&self.base, &snap.sim);
         let inputs: [(u32, f64); 3] = std::array::from_fn(|k| (K::INPUTS[k], u[k]));
         check_snapshot_values(&self.vars, &snap.params, &inputs, snap.start_time)?;
         let settings = self.settings_of(snap)?;

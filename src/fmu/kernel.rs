@@ -75,8 +75,9 @@ pub trait Kernel: 'static {
     fn extra(s: &Self::Settings) -> Self::Extra;
     fn set_extra(s: &mut Self::Settings, extra: &Self::Extra);
     fn sim_state(sim: &Driver<Self::Model>) -> Self::SimState;
-    /// The inputs of a run state, in [`Self::INPUTS`] order.
-    fn sim_inputs(state: &Self::SimState) -> [f64; 3];
+    /// The inputs of a run state, in [`Self::INPUTS`] order, as the variables read them
+    /// (the settings say how: a drivetrain's output port reads minus the load torque).
+    fn sim_inputs(s: &Self::Settings, state: &Self::SimState) -> [f64; 3];
     /// Continues from a run state of a simulation of the same settings; on failure nothing
     /// changes.
     fn restore_sim(sim: &mut Driver<Self::Model>, state: &Self::SimState) -> Result<(), String>;

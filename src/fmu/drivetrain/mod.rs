@@ -14,10 +14,19 @@ use crate::fmi::model::Variable;
 use crate::fmu::checks::check;
 use crate::fmu::kernel::{Kernel, KernelSnapshot};
 use crate::model::train::{train_row, GearTrain, TrainInputs, TrainSimState, TrainSimulation};
-use crate::scene::train::TrainScene;
+use crate::scene::train::{PortEnd, TrainScene};
 use crate::scene::SolverSettings;
 
 pub use variables::*;
+
+/// [`load_sign`] of the train's scene.
+fn train_load_sign(train: &GearTrain) -> f64 {
+    if train.has_output_port() {
+        -1.0
+    } else {
+        1.0
+    }
+}
 
 /// The drivetrain kernel.
 pub struct Drivetrain;
@@ -25,11 +34,25 @@ pub struct Drivetrain;
 /// The scene's operating point as the inputs, in `INPUTS` order.
 fn start_inputs(scene: &TrainScene) -> [f64; 3] {
     let op = &scene.operating;
-    [op.input_speed, op.input_torque, op.load_torque]
+    [
+        op.input_speed,
+        op.input_torque,
+        op.load_torque * load_sign(scene),
+    ]
 }
 
-fn inputs_array(u: TrainInputs) -> [f64; 3] {
-    [u.input_speed, u.input_torque, u.load_torque]
+/// The third input is `load_torque`, or with a torque port on the output gear that port's
+/// `<port>.torque` = −load_torque (the neighbour's torque on the wheel shaft, `docs/ports.md`).
+fn load_sign(scene: &TrainScene) -> f64 {
+    if scene.ports.iter().any(|p| p.end == PortEnd::Output) {
+        -1.0
+    } else {
+        1.0
+    }
+}
+
+fn inputs_array(u: TrainInputs, load_sign: f64) -> [f64; 3] {
+    [u.input_speed, u.input_torque, u.load_torque * load_sign]
 }
 
 impl Kernel for Drivetrain {
@@ -88,7 +111,7 @@ impl Kernel for Drivetrain {
             }
             VR_LOAD_TORQUE => {
                 check(name, x, true, "finite")?;
-                scene.operating.load_torque = x;
+                scene.operating.load_torque = x * load_sign(scene);
             }
             _ => {
                 if let Some(g) = block_index(vr, VR_GEAR_INERTIA0, scene.gears.len()) {
@@ -127,16 +150,16 @@ impl Kernel for Drivetrain {
     }
 
     fn inputs(train: &GearTrain) -> [f64; 3] {
-        inputs_array(train.inputs())
+        inputs_array(train.inputs(), train_load_sign(train))
     }
 
     /// A Model-2 mesh may refuse a load it cannot carry.
     fn set_inputs(sim: &mut TrainSimulation, u: [f64; 3]) -> Result<(), String> {
-        let [input_speed, input_torque, load_torque] = u;
+        let [input_speed, input_torque, load] = u;
         sim.set_inputs(TrainInputs {
             input_speed,
             input_torque,
-            load_torque,
+            load_torque: load * train_load_sign(sim.model()),
         })
     }
 
@@ -152,8 +175,8 @@ impl Kernel for Drivetrain {
         sim.snapshot()
     }
 
-    fn sim_inputs(state: &TrainSimState) -> [f64; 3] {
-        inputs_array(state.train.inputs)
+    fn sim_inputs(scene: &TrainScene, state: &TrainSimState) -> [f64; 3] {
+        inputs_array(state.train.inputs, load_sign(scene))
     }
 
     fn restore_sim(sim: &mut TrainSimulation, state: &TrainSimState) -> Result<(), String> {

@@ -139,6 +139,40 @@ fn describe_output(
             }
         }
     }
+    for (q, unit, what) in [
+        ("angle", "rad", "Angle"),
+        ("speed", "rad/s", "Speed"),
+        ("acceleration", "rad/s2", "Angular acceleration"),
+    ] {
+        for g in &scene.gears {
+            if name == format!("{}_{q}", g.name) {
+                return Ok((
+                    Some(unit),
+                    false,
+                    format!(
+                        "{what} of the body of gear {} (positive in its nominal rotation sense; \
+                         the angle from the pinion at 0 at the start)",
+                        g.name
+                    ),
+                ));
+            }
+        }
+        for p in &scene.ports {
+            if name == format!("{}.{q}", p.name) {
+                return Ok((
+                    Some(unit),
+                    false,
+                    format!(
+                        "Port {}: {} of the shaft of gear {} (positive in its nominal rotation \
+                         sense)",
+                        p.name,
+                        what.to_lowercase(),
+                        scene.gears[p.gear].name
+                    ),
+                ));
+            }
+        }
+    }
     Err(format!(
         "output '{name}' has no description in the FMU variable table"
     ))
@@ -195,14 +229,24 @@ pub(super) fn variables(scene: &TrainScene, outputs: &[String]) -> Result<Vec<Va
             "Mean mesh stiffness over one mesh period",
         ));
     }
-    v.extend(inputs(&INPUTS, super::start_inputs(scene)));
+    let mut rows = inputs(&INPUTS, super::start_inputs(scene));
+    if !scene.ports.is_empty() {
+        port_inputs(scene, &mut rows);
+    }
+    v.extend(rows);
     for (i, name) in outputs.iter().enumerate() {
         let (unit, integer, desc) = describe_output(scene, name)?;
         let mut o = output(name, VR_OUTPUT0 + i as u32, unit, &desc, integer);
         // Direct feedthrough (ModelStructure/Outputs, FMI 2.0.x §2.2.8): the damping term of
         // a mesh force holds the rate of the STE, which scales with the speed; a Model-2
         // mesh's excitation is the loaded STE at the static load of the torques.
-        if let Some(mesh) = scene
+        if !scene.ports.is_empty() {
+            // Carried rotation: the accelerations follow the port torques at once; nothing
+            // else reads an input directly (the phase rate is a state).
+            if name.ends_with("acceleration") {
+                o.depends_on = vec![VR_INPUT_TORQUE, VR_LOAD_TORQUE];
+            }
+        } else if let Some(mesh) = scene
             .meshes
             .iter()
             .find(|m| *name == format!("{}_force", m.name))
@@ -221,4 +265,33 @@ pub(super) fn variables(scene: &TrainScene, outputs: &[String]) -> Result<Vec<Va
         v.push(o);
     }
     Ok(v)
+}
+
+/// With torque ports (`docs/ports.md`) the torque inputs are the ports' `<port>.torque` (the
+/// neighbour's torque on the shaft, positive along the gear's nominal rotation; value
+/// references unchanged) and the speed is the start speed of the carried rotation, a
+/// parameter fixed at initialization.
+fn port_inputs(scene: &TrainScene, rows: &mut [Variable; 3]) {
+    use crate::fmi::model::{Causality, Initial, Variability};
+    use crate::scene::train::PortEnd;
+    let speed = &mut rows[0];
+    speed.causality = Causality::Parameter;
+    speed.variability = Variability::Fixed;
+    speed.initial = Some(Initial::Exact);
+    speed.description = "Speed of the input gear at the start time; every body starts at its \
+                         nominal speed, and the carried angles are counted from this reference \
+                         rotation"
+        .into();
+    for p in &scene.ports {
+        let (row, end) = match p.end {
+            PortEnd::Input => (&mut rows[1], "input"),
+            PortEnd::Output => (&mut rows[2], "output"),
+        };
+        row.name = format!("{}.torque", p.name);
+        row.description = format!(
+            "Port {} ({end} shaft, gear {}): torque applied to the gear stage by its neighbour, \
+             positive along the gear's nominal rotation",
+            p.name, scene.gears[p.gear].name
+        );
+    }
 }

@@ -214,7 +214,7 @@ impl Kernel for Pair {
         sim.snapshot()
     }
 
-    fn sim_inputs(state: &SimState) -> [f64; 3] {
+    fn sim_inputs(_: &PairSettings, state: &SimState) -> [f64; 3] {
         inputs_array(state.pair.inputs)
     }
 

@@ -52,7 +52,12 @@ impl Driver<GearTrain> {
     pub fn new(scene: &TrainScene) -> Result<TrainSimulation, String> {
         let mut train = GearTrain::new(scene)?;
         let y0 = train.initial_state(scene)?;
-        let refusal = if train.has_gear_errors() {
+        let refusal = if !scene.ports.is_empty() {
+            "solver.method = \"exact\": with [[port]] the rigid-body rotation is carried and \
+             every mesh phase follows its pinion's angle, so the mesh stiffness is a function of \
+             the state, not of time, and the segments are not linear time-invariant \
+             (docs/ports.md; use rk or auto)"
+        } else if train.has_gear_errors() {
             "solver.method = \"exact\": gear runout and pitch errors add shaft-order harmonics \
              and tooth steps to the STE, which the exact propagator's augmented state does not \
              carry (use rk or auto; auto picks rk)"

@@ -37,6 +37,7 @@ use crate::solve::HybridSystem;
 mod friction;
 mod frozen;
 mod harmonic;
+mod rotating;
 mod snapshot;
 pub use frozen::FrozenStatics;
 pub use snapshot::{MeshRunState, TrainRunState};
@@ -177,7 +178,11 @@ impl MeshRt {
     }
 
     fn locate(&mut self, t: f64) {
-        let u = self.clock.phase_at(t) + self.offset;
+        self.locate_phase(self.clock.phase_at(t));
+    }
+
+    fn locate_phase(&mut self, p: f64) {
+        let u = p + self.offset;
         self.cycle = u.floor();
         let s = u - self.cycle;
         self.interval = self.table().map_or(0, |tb| tb.interval_at(s));
@@ -268,6 +273,9 @@ pub struct GearTrain {
     loss: Vec<(f64, Option<f64>)>,
     /// Start of the contact-loss bookkeeping (last (re)start).
     loss_start: f64,
+    /// The carried rigid-body rotation of a scene with ports (`docs/ports.md`); `None`: the
+    /// nominal-speed form, where the mesh clocks follow the input speed.
+    rotation: Option<Box<rotating::Carried>>,
 }
 
 fn row_major(a: &DMatrix<f64>) -> Vec<f64> {
@@ -481,6 +489,7 @@ impl GearTrain {
             pair_form: None,
             loss: Vec::new(),
             loss_start: 0.0,
+            rotation: None,
         };
         train.pair_form = pair_closed_form(scene, &train.asm, m, red.rigid_dim());
         if let Some([(d_in, j_in), (d_out, j_out)]) = train.pair_form {
@@ -521,6 +530,11 @@ impl GearTrain {
         train.apply_profiles(0.0)?;
         for mesh in &mut train.meshes {
             mesh.locate(0.0);
+        }
+        if !scene.ports.is_empty() {
+            let carried = rotating::Carried::new(scene, &train, &red)?;
+            train.names.extend(carried.names());
+            train.rotation = Some(Box::new(carried));
         }
         Ok(train)
     }
@@ -704,6 +718,16 @@ impl GearTrain {
         self.inputs
     }
 
+    /// Whether the rigid-body rotation is carried (a scene with `[[port]]`, `docs/ports.md`).
+    pub fn carries_rotation(&self) -> bool {
+        self.rotation.is_some()
+    }
+
+    /// Whether a torque port sits on the output gear: its port torque is `−load_torque`.
+    pub fn has_output_port(&self) -> bool {
+        self.rotation.as_ref().is_some_and(|r| r.output_port())
+    }
+
     /// Rigid-body accelerations `η''` (M-normalised rigid coordinates) of unbalanced torques;
     /// empty for a grounded train. They do not enter the elastic motion.
     pub fn rigid_body_acceleration(&self) -> Vec<f64> {
@@ -783,7 +807,8 @@ impl GearTrain {
         // Friction arms move with the phase: the friction moment is not piecewise constant.
         // Runout adds harmonics of the shaft frequencies and pitch errors steps at the tooth
         // boundaries; the augmented state carries neither (`docs/errors.md`).
-        self.key_fits
+        self.rotation.is_none()
+            && self.key_fits
             && self
                 .meshes
                 .iter()
@@ -863,6 +888,9 @@ impl GearTrain {
             }
             y[1] = scene.initial_dte_rate / self.meshes[0].a[0];
         }
+        if let Some(rot) = &self.rotation {
+            y = rot.initial_state(&y);
+        }
         self.resynchronise(0.0, &y);
         Ok(y)
     }
@@ -870,7 +898,13 @@ impl GearTrain {
     /// Re-derives the discrete mode (intervals, contact flags) from a state at `t`.
     pub fn resynchronise(&mut self, t: f64, y: &[f64]) {
         for n in 0..self.meshes.len() {
-            self.meshes[n].locate(t);
+            match &self.rotation {
+                None => self.meshes[n].locate(t),
+                Some(rot) => {
+                    let p = rot.mesh_phase(n, t, y).0;
+                    self.meshes[n].locate_phase(p);
+                }
+            }
             let slots = self.meshes[n].slots();
             for j in 0..slots {
                 self.meshes[n].flags[j] = self.classify(n, j, t, y);
@@ -920,7 +954,7 @@ impl GearTrain {
     fn slot_gap(&self, n: usize, j: usize, t: f64, y: &[f64]) -> Option<(f64, f64, SlotLaw)> {
         let mesh = &self.meshes[n];
         let law = mesh.law(j)?;
-        let (p, f) = mesh.clock.phase_and_frequency(t);
+        let (p, f) = self.phase_and_rate(n, t, y);
         let (e, slope) = mesh.ste_at(p);
         let (s, sd) = self.deflection(n, y);
         let r = mesh.local(p);
@@ -989,9 +1023,37 @@ impl GearTrain {
     }
 
     /// Force of mesh n in the current mode; per-slot forces into `slots` when given.
-    fn mesh_force(&self, n: usize, t: f64, y: &[f64], mut slots: Option<&mut [f64]>) -> f64 {
+    fn mesh_force(&self, n: usize, t: f64, y: &[f64], slots: Option<&mut [f64]>) -> f64 {
+        self.mesh_force_at(n, self.phase_and_rate(n, t, y), y, slots)
+    }
+
+    /// Mesh phase (cycles) and its rate (1/s) of mesh n at `(t, y)`: from the mesh clock in
+    /// the nominal-speed form, from the carried pinion angle with ports (`docs/ports.md`).
+    fn phase_and_rate(&self, n: usize, t: f64, y: &[f64]) -> (f64, f64) {
+        match &self.rotation {
+            None => self.meshes[n].clock.phase_and_frequency(t),
+            Some(rot) => rot.mesh_phase(n, t, y),
+        }
+    }
+
+    /// Mesh phase of mesh n at `(t, y)` (see [`GearTrain::phase_and_rate`]).
+    fn phase_of(&self, n: usize, t: f64, y: &[f64]) -> f64 {
+        match &self.rotation {
+            None => self.meshes[n].clock.phase_at(t),
+            Some(rot) => rot.mesh_phase(n, t, y).0,
+        }
+    }
+
+    /// Force of mesh n in the current mode at mesh phase `p` with phase rate `f` (cycles/s):
+    /// the one force routine of both the nominal-speed form and the carried rotation.
+    fn mesh_force_at(
+        &self,
+        n: usize,
+        (p, f): (f64, f64),
+        y: &[f64],
+        mut slots: Option<&mut [f64]>,
+    ) -> f64 {
         let mesh = &self.meshes[n];
-        let (p, f) = mesh.clock.phase_and_frequency(t);
         let (e, e_slope) = mesh.ste_at(p);
         let (s, sd) = self.deflection(n, y);
         let r = mesh.local(p);
@@ -1052,7 +1114,7 @@ impl GearTrain {
             dte += mesh.dte[i] * y[i];
             dte_rate += mesh.dte[i] * y[m + i];
         }
-        let p = mesh.clock.phase_at(t);
+        let p = self.phase_of(n, t, y);
         let stiffness = (0..mesh.slots())
             .filter_map(|j| mesh.law(j).map(|l| mesh.k(j, p, &l)))
             .sum();
@@ -1206,6 +1268,11 @@ impl GearTrain {
         for (i, _) in &self.scene_translations {
             let row = self.q.row(*i);
             out.push((0..self.m).map(|k| row[k] * y[k]).sum());
+        }
+        if let Some(rot) = &self.rotation {
+            let mut dy = vec![0.0; y.len()];
+            self.rhs(t, y, &mut dy);
+            rot.outputs(t, y, &dy, out);
         }
     }
 
@@ -1454,10 +1521,13 @@ fn surface_sign(surface: Surface) -> f64 {
 
 impl HybridSystem for GearTrain {
     fn dim(&self) -> usize {
-        2 * self.m
+        2 * self.m + self.rotation.as_ref().map_or(0, |r| 2 * r.rigid_dim())
     }
 
     fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        if let Some(rot) = &self.rotation {
+            rot.rigid_rhs(self, y, dy);
+        }
         let m = self.m;
         let mut acc = self.scratch.borrow_mut();
         for i in 0..m {
@@ -1494,7 +1564,7 @@ impl HybridSystem for GearTrain {
     }
 
     fn guard_count(&self) -> usize {
-        self.guards.len()
+        self.guards.len() + self.rotation.as_ref().map_or(0, |r| r.knot_count())
     }
 
     /// `∂f/∂y` of the frozen mode, `[[0, I], [−M̂⁻¹(K̂_b + Σ k_n a_n a_nᵀ), −M̂⁻¹(Ĉ + Σ c_n a_n
@@ -1502,7 +1572,7 @@ impl HybridSystem for GearTrain {
     /// while any is (the STE and gaps are functions of time only). Tooth friction is not
     /// covered (its arms move with the phase).
     fn jacobian(&self, t: f64, _y: &[f64], jac: &mut [f64]) -> bool {
-        if self.meshes.iter().any(|mesh| mesh.friction.is_some()) {
+        if self.rotation.is_some() || self.meshes.iter().any(|mesh| mesh.friction.is_some()) {
             return false;
         }
         let m = self.m;
@@ -1560,11 +1630,18 @@ impl HybridSystem for GearTrain {
                 Surface::Back => -back,
             };
         }
+        if let Some(rot) = &self.rotation {
+            rot.knot_guards(self, t, y, &mut g[self.guards.len()..]);
+        }
     }
 
     /// Slot gaps `±(a·ξ − e(p) − g_j(r)) (+ clearance)`: gradient `±a` over the positions,
     /// explicit time derivative `∓(ė + g1 f)`.
     fn guard_gradient(&self, t: f64, _y: &[f64], index: usize, grad: &mut [f64]) -> Option<f64> {
+        if self.rotation.is_some() {
+            // The gaps depend on the carried angle through the phase: not affine.
+            return None;
+        }
         let (n, j, surface) = self.guards[index];
         let sign = surface_sign(surface);
         let mesh = &self.meshes[n];
@@ -1586,6 +1663,9 @@ impl HybridSystem for GearTrain {
     /// On a speed ramp (`docs/runup.md`) `f` is the larger of its values at the ends, and the
     /// ramp adds `|ḟ| Σ_h 2πh |(a_h, b_h)| + |g1 ḟ|` (`ë = e'' f² + e' ḟ`, `r̈ = ḟ`).
     fn affine_guard(&self, index: usize, t0: f64, t1: f64, w: &mut [f64]) -> Option<f64> {
+        if self.rotation.is_some() {
+            return None;
+        }
         let (n, j, _) = self.guards[index];
         self.guard_gradient(t0, &[], index, w)?;
         let mesh = &self.meshes[n];
@@ -1608,6 +1688,10 @@ impl HybridSystem for GearTrain {
     }
 
     fn next_stop(&self) -> f64 {
+        if self.rotation.is_some() {
+            // Stiffness knots are state events on the pinion angle.
+            return f64::INFINITY;
+        }
         self.meshes
             .iter()
             .map(MeshRt::next_stop)
@@ -1635,6 +1719,10 @@ impl HybridSystem for GearTrain {
     }
 
     fn on_event(&mut self, t: f64, y: &mut [f64], index: usize) {
+        if index >= self.guards.len() {
+            self.knot_event(t, y, index - self.guards.len());
+            return;
+        }
         self.switch_slot(t, None, y, index);
     }
 }
@@ -1660,7 +1748,7 @@ impl GearTrain {
             if m == 1 {
                 // S = a·ξ must equal e + g + level; formed like the single pair (`x = e + surface`).
                 let mesh = &self.meshes[n];
-                let p = mesh.clock.phase_at(t);
+                let p = self.phase_of(n, t, y);
                 let g = mesh.law(j).map_or(0.0, |l| l.g(mesh.local(p)));
                 let e = match z {
                     Some(z) => {

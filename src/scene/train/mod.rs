@@ -7,6 +7,7 @@
 //! mesh, so the single pair is one case of the graph.
 
 mod friction;
+pub mod ports;
 pub mod spec;
 pub(crate) mod validate;
 
@@ -18,6 +19,7 @@ use crate::scene::{
 };
 
 pub use friction::{HelicalPair, MeshFriction};
+pub use ports::{Port, PortEnd};
 pub use spec::TrainSpec;
 
 /// Bearing stiffness and damping of a gear with translational DOFs.
@@ -426,6 +428,8 @@ pub struct TrainScene {
     pub initial_dte_rate: f64,
     pub solver: SolverSettings,
     pub source: String,
+    /// Mechanical ports (`docs/ports.md`); empty: the nominal-speed form.
+    pub ports: Vec<Port>,
 }
 
 /// Built-in drivetrain scenes (`fmu/<name>/scene.toml`, `examples/<name>.toml`).
@@ -499,6 +503,7 @@ pub fn is_train_text(text: &str) -> bool {
             matches!(table.get("mesh"), Some(toml::Value::Array(_)))
                 || table.contains_key("shaft")
                 || table.contains_key("model")
+                || table.contains_key("port")
                 || has_gear_errors(&table)
                 || has_pair_features(&table)
         }
@@ -603,6 +608,7 @@ impl TrainScene {
             initial_dte_rate: scene.initial_dte_rate,
             solver: scene.solver.clone(),
             source: scene.source.clone(),
+            ports: Vec::new(),
         }
     }
 }

@@ -27,6 +27,9 @@ pub struct TrainSpec {
     pub initial: TrainInitialSpec,
     #[serde(default)]
     pub solver: SolverSpec,
+    /// Mechanical ports (`docs/ports.md`): with any, the rigid-body rotation is carried.
+    #[serde(default)]
+    pub port: Vec<super::ports::PortSpec>,
 }
 
 /// `[mesh]` (one table) or `[[mesh]]` (an array of tables).

@@ -236,12 +236,23 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
         "operating.speed_profile",
         profiles.speed.as_ref(),
     )?;
-    let input_torque = crate::scene::profile::resolve(
-        "operating.input_torque",
-        op.input_torque,
-        "operating.torque_profile",
-        profiles.torque.as_ref(),
-    )?;
+    // A torque port on the input gear gives its torque (docs/ports.md).
+    let port_on = |gear: usize| {
+        spec.port
+            .iter()
+            .find(|p| find("", &p.gear).ok() == Some(gear))
+            .map(|p| p.torque)
+    };
+    let input_port = port_on(input_gear);
+    let input_torque = match (input_port, op.input_torque) {
+        (Some(t), None) if profiles.torque.is_none() => t,
+        _ => crate::scene::profile::resolve(
+            "operating.input_torque",
+            op.input_torque,
+            "operating.torque_profile",
+            profiles.torque.as_ref(),
+        )?,
+    };
     let input_speed = non_negative("operating.input_speed", input_speed)?;
     let input_torque = finite("operating.input_torque", input_torque)?;
     let mut meshes = Vec::with_capacity(mesh_specs.len());
@@ -303,10 +314,30 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
     // corrected to −542.4 N·m, notes §3.5 [C]). With exact involute data this is the speed
     // ratio; the radii are used so that the rigid-body mode is not driven by rounding of the
     // tabulated radii (Table 2.1: r/z differs by 1e-5 between the gears).
-    let load_torque = match op.load_torque {
-        Some(t) => finite("operating.load_torque", t)?,
-        None => input_torque * radius_ratio(&gears, &shafts, &ends, input_gear, output_gear),
+    let output_port = port_on(output_gear);
+    let load_torque = match (output_port, op.load_torque) {
+        (Some(t), None) => -t,
+        (_, Some(t)) => finite("operating.load_torque", t)?,
+        (None, None) => {
+            input_torque * radius_ratio(&gears, &shafts, &ends, input_gear, output_gear)
+        }
     };
+    let ports = super::ports::ports(
+        &spec.port,
+        &find,
+        input_gear,
+        output_gear,
+        op.input_torque.is_some() || op.torque_profile.is_some(),
+        op.load_torque.is_some(),
+    )?;
+    if !ports.is_empty() && (profiles.speed.is_some() || profiles.torque.is_some()) {
+        return err(
+            "operating.speed_profile / operating.torque_profile: a scene with [[port]] \
+                    takes its torques at the ports and carries its speed; profiles need the \
+                    nominal-speed form (docs/ports.md)"
+                .into(),
+        );
+    }
     if op.load_torque.is_none() && profiles.torque.is_some() {
         profiles.load_ratio = Some(radius_ratio(
             &gears,
@@ -352,6 +383,7 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
         initial_dte_rate: finite("initial.dte_rate", spec.initial.dte_rate)?,
         solver,
         source: source.to_owned(),
+        ports,
     })
 }
 

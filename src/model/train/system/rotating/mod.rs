@@ -1,0 +1,345 @@
+//! The carried rigid-body rotation of a drivetrain with mechanical ports (`docs/ports.md`,
+//! issue 18 point 1).
+//!
+//! The state grows from `[ξ, ξ']` to `[ξ, ξ', η, η']`: the elastic coordinates ξ of
+//! [`super::super::assembly::Reduction`] (mesh deflections, m) and the `M`-orthonormal
+//! rigid-body coordinates η with their rates. The physical rotation of body b is
+//!
+//! `θ_b(t) = w_b Ω_ref t + (Q ξ + R η)_b / ρ_b`,
+//!
+//! `w_b` the nominal speed ratio of the body (rolling on the base circles) and `Ω_ref` the
+//! scene's `operating.input_speed`: η is carried relative to the reference rotation
+//! `w Ω_ref t`, which is itself a rigid-body mode. So η stays of the size of the speed
+//! deviation times the time, not of the total angle, and the RK error control of the small
+//! elastic coordinates (µm) is not swamped by angles of thousands of radians; the reference
+//! adds no force because it is a rigid mode at constant speed (`K v = 0`, `C v = 0`,
+//! `v'' = 0`). ξ and η stay separate states: the rigid motion obeys `η'' = Rᵀ F_T` (R is
+//! M-orthonormal and `Rᵀ M Q = 0`, so the mesh, shaft and bearing forces, which all lie in the
+//! span of `Mq`'s elastic part, do not enter it; Liu 2007 eq. 3.2's split).
+//!
+//! The phase of mesh n follows the actual angle of its pinion's body b,
+//! `p_n = p_n0 + z_n θ_b / 2π`, phase rate `z_n θ'_b / 2π`. Stiffness and gap knots are then
+//! state events on `p_n − knot` in both directions (a reversing shaft goes back a segment),
+//! like the contact changes; the force is the nominal form's `mesh_force_at` with this phase.
+
+use std::f64::consts::TAU;
+
+use super::super::assembly::Reduction;
+use super::{GearTrain, SlotContact, Stiffness};
+use crate::scene::train::{PortEnd, TrainScene};
+
+/// Angle of one body as a row over the state.
+#[derive(Debug, Clone)]
+struct BodyRow {
+    /// Nominal speed over the input speed.
+    ratio: f64,
+    /// `∂θ_b/∂ξ` (rad/m) and `∂θ_b/∂η`.
+    xi: Vec<f64>,
+    eta: Vec<f64>,
+    name: String,
+}
+
+/// A port in the model: which body, which end of the train.
+#[derive(Debug, Clone)]
+struct PortRt {
+    name: String,
+    body: usize,
+    end: PortEnd,
+}
+
+/// The carried rotation (see the module documentation).
+#[derive(Debug, Clone)]
+pub(crate) struct Carried {
+    m: usize,
+    r: usize,
+    /// `Ω_ref`, rad/s.
+    omega: f64,
+    bodies: Vec<BodyRow>,
+    /// Per mesh: pinion body, pinion teeth, phase at θ = 0.
+    mesh_body: Vec<usize>,
+    mesh_teeth: Vec<f64>,
+    mesh_p0: Vec<f64>,
+    /// Meshes whose stiffness or gaps have knots: two guards each (end, start of the
+    /// current interval).
+    knot_meshes: Vec<usize>,
+    ports: Vec<PortRt>,
+}
+
+impl Carried {
+    pub(crate) fn new(
+        scene: &TrainScene,
+        train: &GearTrain,
+        red: &Reduction,
+    ) -> Result<Carried, String> {
+        let asm = &train.asm;
+        let r = red.rigid_dim();
+        if r == 0 {
+            let grounded: Vec<&str> = scene
+                .gears
+                .iter()
+                .filter(|g| g.ground_stiffness > 0.0)
+                .map(|g| g.name.as_str())
+                .collect();
+            return Err(format!(
+                "[[port]]: the train is grounded (ground_stiffness on {}), so it has no rigid-body \
+                 rotation to carry; ports need a freely turning train",
+                grounded.join(", ")
+            ));
+        }
+        for (n, (mesh, sm)) in train.meshes.iter().zip(&scene.meshes).enumerate() {
+            let why = if mesh.friction.is_some() {
+                Some("tooth friction ([mesh.friction])")
+            } else if !mesh.errors.is_empty() {
+                Some("gear runout or pitch errors")
+            } else if mesh.model2.is_some() {
+                Some("model = \"loaded_ste\" (its excitation is built from a constant load)")
+            } else {
+                None
+            };
+            if let Some(why) = why {
+                return Err(format!(
+                    "[[port]] with mesh[{n}] ({:?}): {why} is not available with carried \
+                     rotation yet (docs/ports.md)",
+                    sm.name
+                ));
+            }
+        }
+        let omega = scene.operating.input_speed;
+        let v = super::nominal_rotation(scene, asm);
+        let m = train.m;
+        let bodies = (0..asm.body_radius.len())
+            .map(|b| {
+                let dof = asm.body_dof[b];
+                let rho = asm.body_radius[b];
+                let first = (0..scene.gears.len())
+                    .find(|&g| asm.body_of[g] == b)
+                    .expect("every body has a gear");
+                BodyRow {
+                    ratio: v[dof] / rho,
+                    xi: (0..m).map(|i| red.q[(dof, i)] / rho).collect(),
+                    eta: (0..r).map(|k| red.r[(dof, k)] / rho).collect(),
+                    name: scene.gears[first].name.clone(),
+                }
+            })
+            .collect();
+        let knot_meshes = (0..train.meshes.len())
+            .filter(|&n| match &train.meshes[n].stiffness {
+                Stiffness::Table(t) => t.has_stops(),
+                Stiffness::Smooth { .. } => false,
+            })
+            .collect();
+        Ok(Carried {
+            m,
+            r,
+            omega,
+            bodies,
+            mesh_body: scene
+                .meshes
+                .iter()
+                .map(|sm| asm.body_of[sm.pinion])
+                .collect(),
+            mesh_teeth: (scene.meshes.iter())
+                .map(|sm| f64::from(scene.gears[sm.pinion].teeth))
+                .collect(),
+            mesh_p0: train
+                .meshes
+                .iter()
+                .map(|mt| mt.clock.phase_at(0.0))
+                .collect(),
+            knot_meshes,
+            ports: scene
+                .ports
+                .iter()
+                .map(|p| PortRt {
+                    name: p.name.clone(),
+                    body: asm.body_of[p.gear],
+                    end: p.end,
+                })
+                .collect(),
+        })
+    }
+
+    pub(crate) fn rigid_dim(&self) -> usize {
+        self.r
+    }
+
+    /// Angle (rad) and speed (rad/s) of body b, positive in its nominal rotation sense.
+    pub(crate) fn body_motion(&self, b: usize, t: f64, y: &[f64]) -> (f64, f64) {
+        let (m, r) = (self.m, self.r);
+        let row = &self.bodies[b];
+        let mut angle = row.ratio * self.omega * t;
+        let mut speed = row.ratio * self.omega;
+        for i in 0..m {
+            angle += row.xi[i] * y[i];
+            speed += row.xi[i] * y[m + i];
+        }
+        for k in 0..r {
+            angle += row.eta[k] * y[2 * m + k];
+            speed += row.eta[k] * y[2 * m + r + k];
+        }
+        (angle, speed)
+    }
+
+    /// Phase (cycles) and phase rate (1/s) of mesh n from its pinion's carried angle.
+    pub(crate) fn mesh_phase(&self, n: usize, t: f64, y: &[f64]) -> (f64, f64) {
+        let (angle, speed) = self.body_motion(self.mesh_body[n], t, y);
+        let z = self.mesh_teeth[n];
+        (self.mesh_p0[n] + z * angle / TAU, z * speed / TAU)
+    }
+
+    /// `[ξ0, ξ0']` extended by η0 (the input body at angle 0) and η0' = 0 (every body at its
+    /// nominal speed `w_b Ω_ref`).
+    pub(crate) fn initial_state(&self, elastic: &[f64]) -> Vec<f64> {
+        let (m, r) = (self.m, self.r);
+        let mut y = elastic.to_vec();
+        y.resize(2 * m + 2 * r, 0.0);
+        let input = self
+            .ports
+            .iter()
+            .find(|p| p.end == PortEnd::Input)
+            .map_or(self.mesh_body[0], |p| p.body);
+        let row = &self.bodies[input];
+        let k = (0..r)
+            .max_by(|&a, &b| row.eta[a].abs().total_cmp(&row.eta[b].abs()))
+            .expect("a carried rotation has a rigid mode");
+        if row.eta[k] != 0.0 {
+            let elastic_angle: f64 = (0..m).map(|i| row.xi[i] * y[i]).sum();
+            y[2 * m + k] = -elastic_angle / row.eta[k];
+        }
+        y
+    }
+
+    /// `η' = η'`, `η'' = Rᵀ F_T` (M-orthonormal rigid modes) into `dy[2m..]`.
+    pub(crate) fn rigid_rhs(&self, train: &GearTrain, y: &[f64], dy: &mut [f64]) {
+        let (m, r) = (self.m, self.r);
+        let (t_in, t_load) = (train.inputs.input_torque, train.inputs.load_torque);
+        for k in 0..r {
+            dy[2 * m + k] = y[2 * m + r + k];
+            dy[2 * m + r + k] = train.rigid_in[k] * t_in + train.rigid_out[k] * t_load;
+        }
+    }
+
+    /// Number of knot guards.
+    pub(crate) fn knot_count(&self) -> usize {
+        2 * self.knot_meshes.len()
+    }
+
+    /// Knot guards `end − p` and `p − start` of every mesh's current interval (phases of the
+    /// interval ends in the clock's phase, cycles).
+    pub(crate) fn knot_guards(&self, train: &GearTrain, t: f64, y: &[f64], g: &mut [f64]) {
+        for (i, &n) in self.knot_meshes.iter().enumerate() {
+            let mesh = &train.meshes[n];
+            let p = self.mesh_phase(n, t, y).0;
+            let (start, end) = mesh.current().map_or((0.0, 1.0), |iv| (iv.start, iv.end));
+            let base = mesh.cycle - mesh.offset;
+            g[2 * i] = (base + end) - p;
+            g[2 * i + 1] = p - (base + start);
+        }
+    }
+
+    /// Output names: per body `<gear>_angle`, `_speed`, `_acceleration` (the `geardyn
+    /// simulate` columns), then per port `<port>.angle`, `.speed`, `.acceleration` (the port
+    /// variables of the element convention, `docs/ports.md`).
+    pub(crate) fn names(&self) -> Vec<String> {
+        let mut names = Vec::new();
+        for b in &self.bodies {
+            for q in ["angle", "speed", "acceleration"] {
+                names.push(format!("{}_{q}", b.name));
+            }
+        }
+        for p in &self.ports {
+            for q in ["angle", "speed", "acceleration"] {
+                names.push(format!("{}.{q}", p.name));
+            }
+        }
+        names
+    }
+
+    /// Whether a torque port sits on the output gear (its torque is minus the load torque).
+    pub(crate) fn output_port(&self) -> bool {
+        self.ports.iter().any(|p| p.end == PortEnd::Output)
+    }
+
+    /// Values of [`Carried::names`]; `dy` the state derivative at `(t, y)`.
+    pub(crate) fn outputs(&self, t: f64, y: &[f64], dy: &[f64], out: &mut Vec<f64>) {
+        let start = out.len();
+        for b in 0..self.bodies.len() {
+            let (angle, speed) = self.body_motion(b, t, y);
+            // The reference rotation has no acceleration: θ'' = row·[ξ'', η''].
+            let (m, r) = (self.m, self.r);
+            let row = &self.bodies[b];
+            let acc = (0..m).map(|i| row.xi[i] * dy[m + i]).sum::<f64>()
+                + (0..r).map(|k| row.eta[k] * dy[2 * m + r + k]).sum::<f64>();
+            out.extend([angle, speed, acc]);
+        }
+        for p in &self.ports {
+            let i = start + 3 * p.body;
+            out.extend_from_within(i..i + 3);
+        }
+    }
+}
+
+impl GearTrain {
+    /// A stiffness knot of mesh `knot_meshes[k / 2]` crossed: forward (even k) or backward.
+    /// Intervals of zero width are passed at once, as the nominal form's stops do.
+    pub(super) fn knot_event(&mut self, t: f64, y: &[f64], k: usize) {
+        let rot = self
+            .rotation
+            .as_ref()
+            .expect("knot events need the rotation");
+        let n = rot.knot_meshes[k / 2];
+        let forward = k % 2 == 0;
+        let count = self.meshes[n].table().map_or(1, |tb| tb.intervals.len());
+        for _ in 0..count {
+            if forward {
+                self.on_mesh_stop(n, t, y);
+            } else {
+                self.on_mesh_stop_back(n, t, y);
+            }
+            if self.meshes[n].current().is_none_or(|iv| iv.end > iv.start) {
+                break;
+            }
+        }
+        self.book_loss(n, t);
+        self.refresh_guards();
+    }
+
+    /// The reverse of `on_mesh_stop`: mesh n enters the interval before the current one (a
+    /// reversing shaft); on a wrap with shifting slots a pair re-enters at slot 0.
+    fn on_mesh_stop_back(&mut self, n: usize, t: f64, y: &[f64]) {
+        let mesh = &mut self.meshes[n];
+        let Stiffness::Table(table) = &mesh.stiffness else {
+            return;
+        };
+        let count = table.intervals.len();
+        let shift = table.shift_on_wrap;
+        let wrapped = mesh.interval == 0;
+        if wrapped {
+            mesh.interval = count - 1;
+            mesh.cycle -= 1.0;
+        } else {
+            mesh.interval -= 1;
+        }
+        let old = mesh.flags.clone();
+        for j in 0..old.len() {
+            mesh.flags[j] = if wrapped && shift {
+                if j == 0 {
+                    SlotContact::Inactive
+                } else {
+                    old[j - 1]
+                }
+            } else {
+                old[j]
+            };
+        }
+        for j in 0..old.len() {
+            let engaged = self.meshes[n].law(j).is_some();
+            let flag = self.meshes[n].flags[j];
+            self.meshes[n].flags[j] = match (engaged, flag) {
+                (false, _) => SlotContact::Inactive,
+                (true, SlotContact::Inactive) => self.classify(n, j, t, y),
+                (true, f) => f,
+            };
+        }
+    }
+}
