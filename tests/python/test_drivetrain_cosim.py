@@ -209,8 +209,55 @@ def test_convergence_against_the_monolithic_model(fmus, tmp_path, report):
         assert all(a > b for a, b in zip(e, e[1:])), (k, e)
         p = math.log2(e[-2] / e[-1])
         assert 0.7 <= p <= 1.3, (k, e, p)
+    # Every coupling is first order in the port quantities (shaft torque, load speed): the
+    # gear FMU declares neither canInterpolateInputs nor output derivatives, so its six
+    # connections are held even with --extrapolation linear, and a shaft that sees one angle
+    # extrapolated and the other held (or one at t and one at t+h) keeps a torque error of up to
+    # k·Ω·h (165 N.m at T_mesh/20 on the input shaft).
+    for label, errs in table.items():
+        for k in ("tau1", "load_speed"):
+            e = [x[k] for x in errs]
+            p = math.log2(e[-2] / e[-1])
+            assert 0.8 <= p <= 1.3, (label, k, e, p)
     # Gauss-Seidel hold is first order too (it mixes angles at t and t+h, so its constant is
     # k·Ω·h in the shaft torque: larger than Jacobi's).
     gs = [x["dte"] for x in table["GS hold"]]
     assert 0.7 <= math.log2(gs[-2] / gs[-1]) <= 1.5, gs
     assert gs[-1] > jac[-1]["dte"]
+
+
+@pytest.mark.parametrize("algorithm", ["jacobi", "gauss-seidel"])
+def test_speed_ratio_is_the_tooth_ratio(fmus, tmp_path, report, algorithm):
+    """Acceptance 1 in the coupled run: the mean speed ratio of the gear stage after the start
+    (0.1 s) equals z1/z2 = 38/55 within 1e-6. The mean speeds are the angle increments over the
+    window divided by its length (exact time means; sample means of ω at the output grid alias
+    the mesh-frequency vibration). The elastic DTE is what remains: r1 Δθ1 − r2 Δθ2 = ΔS."""
+    stop = 1.0 if not LONG else 5.0
+    d = geardyn(tmp_path / "r.csv", t_mesh() / 10, stop, algorithm, "none", ["gear.mesh1_dte"])
+    i = np.searchsorted(d["time"], 0.1)
+    a1, a2 = col(d, "gear.input.angle"), col(d, "gear.output.angle")
+    ratio = (a2[-1] - a2[i]) / (a1[-1] - a1[i])
+    rel = ratio / (38 / 55) - 1
+    w1, w2 = col(d, "gear.input.speed")[i:], col(d, "gear.output.speed")[i:]
+    pointwise = np.mean(w2 / w1) / (38 / 55) - 1
+    report(f"{algorithm}: mean(ω2)/mean(ω1) / (z1/z2) − 1 over 0.1–{stop} s = {rel:.2e} "
+           f"(pointwise sample mean of ω2/ω1: {pointwise:.2e}, the vibration's correlation)")
+    assert abs(rel) <= 1e-6
+    # and the difference is the elastic DTE's change (spur_stage's base radii: r2/r1 = 55/38)
+    s = pr.load(REPO / "fmu" / "spur_stage" / "scene.toml").base
+    dte = col(d, "gear.mesh1_dte")
+    assert s.r_b1 * (a1[-1] - a1[i]) - s.r_b2 * (a2[-1] - a2[i]) == pytest.approx(dte[-1] - dte[i], abs=1e-12)
+
+
+@pytest.mark.xfail(strict=True, reason="acceptance 2's DTE bound needs a second-order coupling "
+                   "of the gear stage: spur_stage takes no input derivatives and gives no output "
+                   "derivatives (docs/cosimulation.md); measured 0.40 of the DTE RMS with Jacobi/hold")
+def test_dte_error_at_a_twentieth_of_the_mesh_period(fmus, tmp_path):
+    """Issue 18 acceptance 2: at h = T_mesh/20 the DTE error against the monolithic model is
+    at most 1e-3 of the DTE RMS (the best coupling the shipped FMUs allow: Jacobi, hold)."""
+    s, el = reference_model()
+    stop = 5e-3
+    d = geardyn(tmp_path / "c.csv", t_mesh() / 20, stop, "jacobi", "none")
+    r = dr.simulate(s, el, stop, d["time"])
+    rms = np.sqrt(np.mean((r["dte"] - r["dte"].mean()) ** 2))
+    assert np.abs(col(d, "gear.mesh1_dte") - r["dte"]).max() <= 1e-3 * rms
