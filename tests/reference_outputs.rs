@@ -3,6 +3,10 @@
 //! The references were written by the release before the pair and drivetrain stacks were
 //! merged into one model path (commit cf6f9c0); regenerate them only for a change that is
 //! meant to move results, and say why in its commit.
+//!
+//! The element scenes (`fmu/emotor`, `fmu/shaft_in`, `fmu/shaft_out`, `fmu/vehicle_load`) are
+//! FMU-only models without a `simulate` path: their references are checked through the FMU
+//! model in `tests/element_fmus.rs`.
 
 use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
 

@@ -273,6 +273,11 @@ fn shipped() -> Vec<(String, Value)> {
         .filter_map(|e| {
             let p = e.ok()?.path().join("scene.toml");
             let text = std::fs::read_to_string(&p).ok()?;
+            // Element scenes (`[element]`, docs/elements.md) are FMU-only models, not
+            // simulate scenes; their parsing is tested in tests/element_fmus.rs.
+            if geardyn::fmu::element::is_element_text(&text) {
+                return None;
+            }
             Some((
                 p.display().to_string(),
                 text.parse::<toml::Table>().map(Value::Table).ok()?,

@@ -714,7 +714,7 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
 }
 
 // ---------------------------------------------------------------------------------------
-// Unsupported capabilities (declared false in modelDescription.xml)
+// Directional derivatives (declared false), input and output derivatives (per model)
 // ---------------------------------------------------------------------------------------
 
 /// `fmi2GetDirectionalDerivative` (§2.1.9): not provided
@@ -738,44 +738,49 @@ pub unsafe extern "C" fn fmi2GetDirectionalDerivative(
     })
 }
 
-/// `fmi2SetRealInputDerivatives` (§4.2.1): inputs are held constant over a step
-/// (`canInterpolateInputs="false"`); returns `fmi2Error` with a log line.
+/// `fmi2SetRealInputDerivatives` (§4.2.1): first-order input rates for the next step, for a
+/// model with `canInterpolateInputs="true"`; otherwise `fmi2Error` with a log line.
 ///
 /// # Safety
-/// Not dereferenced.
+/// Arrays of `nvr` elements (may be NULL when `nvr == 0`).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2SetRealInputDerivatives(
     c: Component,
-    _vr: *const ValueReference,
-    _nvr: usize,
-    _order: *const c_int,
-    _value: *const f64,
+    vr: *const ValueReference,
+    nvr: usize,
+    order: *const c_int,
+    value: *const f64,
 ) -> Status {
     let call = Call::SetRealInputDerivatives;
-    guarded(c, call, |i| {
-        i.unsupported(
-            call,
-            "inputs are held constant over a step (canInterpolateInputs=\"false\")",
-        )
+    array_call!(c, call, vr, nvr, value, slice, |inst, vrs, vals| {
+        // SAFETY: as for `vr[]`, `nvr` elements behind a non-NULL array (§4.2.1).
+        let Some(orders) = (unsafe { slice(order, nvr) }) else {
+            return null_arg(inst, call, "order[]", nvr);
+        };
+        inst.set_real_input_derivatives(vrs, orders, vals)
     })
 }
 
-/// `fmi2GetRealOutputDerivatives` (§4.2.1): `maxOutputDerivativeOrder="0"`; returns
-/// `fmi2Error` with a log line.
+/// `fmi2GetRealOutputDerivatives` (§4.2.1): first-order output derivatives for a model with
+/// `maxOutputDerivativeOrder="1"`; otherwise `fmi2Error` with a log line.
 ///
 /// # Safety
-/// Not dereferenced.
+/// Arrays of `nvr` elements (may be NULL when `nvr == 0`).
 #[no_mangle]
 pub unsafe extern "C" fn fmi2GetRealOutputDerivatives(
     c: Component,
-    _vr: *const ValueReference,
-    _nvr: usize,
-    _order: *const c_int,
-    _value: *mut f64,
+    vr: *const ValueReference,
+    nvr: usize,
+    order: *const c_int,
+    value: *mut f64,
 ) -> Status {
     let call = Call::GetRealOutputDerivatives;
-    guarded(c, call, |i| {
-        i.unsupported(call, "maxOutputDerivativeOrder=\"0\"")
+    array_call!(c, call, vr, nvr, value, slice_mut, |inst, vrs, vals| {
+        // SAFETY: as for `vr[]`, `nvr` elements behind a non-NULL array (§4.2.1).
+        let Some(orders) = (unsafe { slice(order, nvr) }) else {
+            return null_arg(inst, call, "order[]", nvr);
+        };
+        inst.get_real_output_derivatives(vrs, orders, vals)
     })
 }
 

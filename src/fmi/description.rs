@@ -11,7 +11,9 @@ use quick_xml::events::{BytesDecl, BytesEnd, BytesStart, Event};
 use quick_xml::Writer;
 
 use super::logger::Category;
-use super::model::{model_identifier, Causality, Initial, ModelInfo, VarKind, Variable};
+use super::model::{
+    model_identifier, Capabilities, Causality, Initial, ModelInfo, VarKind, Variable,
+};
 
 /// SI base-unit exponents of a unit (`<BaseUnit>`, FMI 2.0.x §2.2.2).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -53,6 +55,7 @@ pub fn base_unit(unit: &str) -> Option<BaseUnit> {
         "N.m" => u(1, 2, -2, 0),
         "N.m/rad" => u(1, 2, -2, -1),
         "N.m.s/rad" => u(1, 2, -1, -1),
+        "N.m.s2/rad2" => u(1, 2, 0, -2),
         "J" => u(1, 2, -2, 0),
         "W" => u(1, 2, -3, 0),
         "Pa" => u(1, -1, -2, 0),
@@ -95,8 +98,18 @@ fn end(w: &mut W, name: &str) -> Result<(), String> {
 }
 
 /// Writes the complete `modelDescription.xml`.
-pub fn model_description(info: &ModelInfo, vars: &[Variable]) -> Result<String, String> {
+pub fn model_description(
+    info: &ModelInfo,
+    vars: &[Variable],
+    caps: Capabilities,
+) -> Result<String, String> {
     super::model::validate_variables(vars)?;
+    if caps.max_output_derivative_order > 1 {
+        return Err(format!(
+            "maxOutputDerivativeOrder = {}: the FMI layer provides first-order output derivatives only",
+            caps.max_output_derivative_order
+        ));
+    }
     let mut units: Vec<&str> = Vec::new();
     for v in vars {
         if let Some(u) = v.unit.as_deref() {
@@ -136,8 +149,9 @@ pub fn model_description(info: &ModelInfo, vars: &[Variable]) -> Result<String, 
             ("numberOfEventIndicators", "0".into()),
         ],
     )?;
-    // §4.3.1: capability flags. Async, input interpolation, output derivatives and
-    // directional derivatives are not provided (their functions return fmi2Error).
+    // §4.3.1: capability flags. Async and directional derivatives are not provided (their
+    // functions return fmi2Error); input interpolation and output derivatives are the
+    // model's (`CoSimModel::capabilities`).
     empty(
         &mut w,
         "CoSimulation",
@@ -145,8 +159,14 @@ pub fn model_description(info: &ModelInfo, vars: &[Variable]) -> Result<String, 
             ("modelIdentifier", id),
             ("needsExecutionTool", no()),
             ("canHandleVariableCommunicationStepSize", yes()),
-            ("canInterpolateInputs", no()),
-            ("maxOutputDerivativeOrder", "0".into()),
+            (
+                "canInterpolateInputs",
+                caps.can_interpolate_inputs.to_string(),
+            ),
+            (
+                "maxOutputDerivativeOrder",
+                caps.max_output_derivative_order.to_string(),
+            ),
             ("canRunAsynchronuously", no()),
             ("canBeInstantiatedOnlyOncePerProcess", no()),
             ("canNotUseMemoryManagementFunctions", yes()),
@@ -298,7 +318,11 @@ pub fn model_description(info: &ModelInfo, vars: &[Variable]) -> Result<String, 
 /// Generates the description of a scene through the crate's factory.
 pub fn for_scene(scene_path: &Path) -> Result<(String, ModelInfo), String> {
     let loaded = crate::fmu::entry::load_scene(scene_path)?;
-    let xml = model_description(&loaded.info, loaded.model.variables())?;
+    let xml = model_description(
+        &loaded.info,
+        loaded.model.variables(),
+        loaded.model.capabilities(),
+    )?;
     Ok((xml, loaded.info))
 }
 

@@ -9,7 +9,9 @@ use std::fmt::Display;
 
 use super::blob::{self, LayerSnapshot};
 use super::logger::{Category, Logger, Status};
-use super::model::{CoSimModel, ModelInfo, StepFailure, VarKind, Variable};
+use super::model::{
+    Capabilities, Causality, CoSimModel, ModelInfo, StepFailure, VarKind, Variability, Variable,
+};
 use super::state::{check_settable, Call, FmuState};
 use super::vr_index::VrIndex;
 
@@ -74,6 +76,8 @@ pub struct Instance {
     /// Whether the model's outputs are not finite after a failed step, so `fmi2GetReal`
     /// answers the outputs from `last_good_outputs`.
     hold_outputs: bool,
+    /// The model's input-interpolation and output-derivative capabilities (fixed).
+    caps: Capabilities,
     pub state: FmuState,
     time: f64,
     start_time: f64,
@@ -94,6 +98,7 @@ impl Instance {
             .map(|v| v.value_reference)
             .collect::<Vec<u32>>();
         let outputs = real_outputs.len();
+        let caps = model.capabilities();
         Instance {
             magic: INSTANCE_MAGIC,
             logger,
@@ -107,6 +112,7 @@ impl Instance {
             last_good_time: 0.0,
             step_outputs: vec![0.0; outputs],
             hold_outputs: false,
+            caps,
             state: FmuState::Instantiated,
             time: 0.0,
             start_time: 0.0,
@@ -616,6 +622,91 @@ impl Instance {
                 ))
             }
         }
+    }
+
+    /// `fmi2SetRealInputDerivatives` (FMI 2.0.x §4.2.1): first-order rates of continuous Real
+    /// inputs, used by the model during the next `fmi2DoStep`
+    /// ([`CoSimModel::set_input_derivative`]). Everything is checked before the model sees a
+    /// value, so a refused call changes nothing.
+    pub fn set_real_input_derivatives(
+        &mut self,
+        vrs: &[u32],
+        orders: &[i32],
+        values: &[f64],
+    ) -> Status {
+        let call = Call::SetRealInputDerivatives;
+        if let Err(s) = self.check(call) {
+            return s;
+        }
+        if !self.caps.can_interpolate_inputs {
+            return self.error(
+                call,
+                "not supported: inputs are held constant over a step (canInterpolateInputs=\"false\")",
+            );
+        }
+        for ((&vr, &order), &x) in vrs.iter().zip(orders).zip(values) {
+            let checked = self.lookup(vr, VarKind::Real).and_then(|var| {
+                let who = format!("'{}' (vr {vr})", var.name);
+                if var.causality != Causality::Input || var.variability != Variability::Continuous {
+                    Err(format!("{who} is not a continuous Real input"))
+                } else if order != 1 {
+                    Err(format!(
+                        "{who}: derivative order {order} is not supported (only order 1: the input is interpolated linearly over the step)"
+                    ))
+                } else if !x.is_finite() {
+                    Err(format!("{who}: derivative {x} is not finite"))
+                } else {
+                    Ok(())
+                }
+            });
+            if let Err(e) = checked {
+                return self.error(call, e);
+            }
+        }
+        for (&vr, &x) in vrs.iter().zip(values) {
+            if let Err(e) = self.model.set_input_derivative(vr, x) {
+                return self.error(call, e);
+            }
+        }
+        Status::Ok
+    }
+
+    /// `fmi2GetRealOutputDerivatives` (FMI 2.0.x §4.2.1): first-order time derivatives of
+    /// Real outputs at the current time ([`CoSimModel::output_derivative`]).
+    pub fn get_real_output_derivatives(
+        &mut self,
+        vrs: &[u32],
+        orders: &[i32],
+        out: &mut [f64],
+    ) -> Status {
+        let call = Call::GetRealOutputDerivatives;
+        if let Err(s) = self.check(call) {
+            return s;
+        }
+        let max = self.caps.max_output_derivative_order;
+        if max == 0 {
+            return self.error(call, "not supported: maxOutputDerivativeOrder=\"0\"");
+        }
+        for ((&vr, &order), slot) in vrs.iter().zip(orders).zip(out.iter_mut()) {
+            let checked = self.lookup(vr, VarKind::Real).and_then(|var| {
+                let who = format!("'{}' (vr {vr})", var.name);
+                if var.causality != Causality::Output {
+                    Err(format!("{who} is not an output"))
+                } else if order != 1 {
+                    Err(format!(
+                        "{who}: derivative order {order} is not supported (maxOutputDerivativeOrder=\"{max}\")"
+                    ))
+                } else {
+                    Ok(())
+                }
+            });
+            let value = checked.and_then(|()| self.model.output_derivative(vr));
+            match value {
+                Ok(x) => *slot = x,
+                Err(e) => return self.error(call, e),
+            }
+        }
+        Status::Ok
     }
 
     /// Refusal of an unsupported capability, after the state check.

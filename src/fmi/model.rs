@@ -269,6 +269,44 @@ pub trait CoSimModel: Send {
     /// is the same as from the restored one.
     fn save_state(&mut self) -> Vec<u8>;
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String>;
+
+    /// What the model offers beyond zero-order hold (FMI 2.0.x §4.3.1, `canInterpolateInputs`
+    /// and `maxOutputDerivativeOrder`). Written into `modelDescription.xml`; the layer refuses
+    /// the calls of a capability the model does not declare. Must not change during the
+    /// lifetime of the model. Default: neither.
+    fn capabilities(&self) -> Capabilities {
+        Capabilities::default()
+    }
+
+    /// `fmi2SetRealInputDerivatives` of order 1 for one continuous Real input (the layer has
+    /// checked the order, the causality, variability and finiteness): the input's rate from
+    /// the current communication point `tc` on. The model stores it and, during the next
+    /// `do_step` only, uses `u(t) = u + u'·(t − tc)` (FMI 2.0.x §4.2.1); at the end of that
+    /// step the input's value becomes `u + u'·h` and its rate 0 (zero-order hold again until
+    /// the master sets another rate). The rate is part of the FMU state.
+    fn set_input_derivative(&mut self, vr: u32, _rate: f64) -> Result<(), String> {
+        Err(format!(
+            "input value reference {vr}: inputs are held constant over a step"
+        ))
+    }
+
+    /// `fmi2GetRealOutputDerivatives` of order 1 for one Real output (the layer has checked
+    /// the order and the causality): `dy/dt` at the current time, with the input rates
+    /// stored by [`Self::set_input_derivative`] (0 when none were set).
+    fn output_derivative(&self, vr: u32) -> Result<f64, String> {
+        Err(format!(
+            "output value reference {vr}: the model provides no output derivatives"
+        ))
+    }
+}
+
+/// A model's co-simulation capabilities beyond zero-order hold ([`CoSimModel::capabilities`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Capabilities {
+    /// `canInterpolateInputs`: first-order input derivatives are used during a step.
+    pub can_interpolate_inputs: bool,
+    /// `maxOutputDerivativeOrder`: 0 or 1 (the layer supports first-order derivatives).
+    pub max_output_derivative_order: u32,
 }
 
 /// Where a model instance stands in its life cycle: the start time of `fmi2SetupExperiment`

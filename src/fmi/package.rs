@@ -61,7 +61,11 @@ pub fn build_fmu(scene_input: &Path, out_dir: &Path, cdylib: &Path) -> Result<Pa
     let scene_bytes =
         std::fs::read(&scene).map_err(|e| format!("cannot read {}: {e}", scene.display()))?;
     let loaded = load_scene(&scene)?;
-    let xml = description::model_description(&loaded.info, loaded.model.variables())?;
+    let xml = description::model_description(
+        &loaded.info,
+        loaded.model.variables(),
+        loaded.model.capabilities(),
+    )?;
     let lib = std::fs::read(cdylib)
         .map_err(|e| format!("cannot read shared library {}: {e}", cdylib.display()))?;
     if !lib.starts_with(b"\x7fELF") {

@@ -32,6 +32,10 @@ pub fn load_scene(scene_path: &Path) -> Result<LoadedModel, String> {
     let guid = blob::guid(&bytes);
     // Drivetrain scenes (`[[mesh]]`, `[[shaft]]` or `[model]`, `docs/train.md`) go to the
     // drivetrain kernel; the single-mesh format of `docs/model.md` to the pair kernel.
+    // Element scenes (`[element]`, `docs/elements.md`) are their own models.
+    if crate::fmu::element::is_element_text(text) {
+        return crate::fmu::element::load(text, &origin, guid);
+    }
     if is_train_text(text) {
         load::<Drivetrain>(text, &origin, guid)
     } else {

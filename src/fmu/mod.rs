@@ -14,12 +14,15 @@
 //! - [`adapter`]: the adapter, [`kernel`]: what a kernel provides,
 //! - [`pair`]: the single-mesh kernel, [`drivetrain`]: the drivetrain kernel (each with its
 //!   variable table, documentation and payload layout),
+//! - [`element`]: the drivetrain elements (inertia, shaft, motor, load), each its own
+//!   co-simulation model with input interpolation and output derivatives,
 //! - [`table`]: rows of a variable table, [`checks`]: checks of set and restored values,
 //! - [`payload`]: the model part of an FMU state and the encoding both layouts share.
 
 pub mod adapter;
 pub mod checks;
 pub mod drivetrain;
+pub mod element;
 pub mod entry;
 pub mod kernel;
 pub mod pair;

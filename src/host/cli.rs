@@ -29,10 +29,18 @@ Exit status:
      fmi2Fatal, the FMU crashing or ending its process, SIGINT, SIGTERM or SIGHUP (also
      how a blocked FMU is ended: the first asks the run to stop at its next step, a second
      one or 0.9 s without reaching it kills the FMU's process). The rows computed until
-     then are kept, and the message says what happened, in which FMI call and at which time.")]
+     then are kept, and the message says what happened, in which FMI call and at which time.
+
+Systems (an .ssp archive, a SystemStructure.ssd file or a folder holding one, SSP 1.0): the
+FMUs run in one process with a fixed-step master (--algorithm, --extrapolation); the CSV has
+a column Element.connector per connected signal. See docs/systems.md.")]
 pub struct RunArgs {
-    /// The FMU (.fmu file or an extracted FMU folder).
+    /// The FMU (.fmu file or an extracted FMU folder), or a system of FMUs: an SSP 1.0 `.ssp`
+    /// archive, a `SystemStructure.ssd` file, or a folder holding one (docs/systems.md).
     pub fmu: PathBuf,
+    /// Start time, s (default: DefaultExperiment startTime, else 0).
+    #[arg(long, allow_negative_numbers = true)]
+    pub start_time: Option<f64>,
     /// Stop time, s (default: DefaultExperiment stopTime, else start + 1).
     #[arg(long, allow_negative_numbers = true)]
     pub stop_time: Option<f64>,
@@ -44,7 +52,8 @@ pub struct RunArgs {
     /// The most output rows (grid points from start to stop time) a run may have.
     #[arg(long, default_value_t = runner::DEFAULT_MAX_ROWS)]
     pub max_rows: u64,
-    /// Start value NAME=VALUE of a parameter or input (repeatable).
+    /// Start value NAME=VALUE of a parameter or input (repeatable); in a system
+    /// Element.variable=VALUE, which overrides the system's parameter bindings.
     #[arg(long = "start", value_name = "NAME=VALUE")]
     pub start: Vec<String>,
     /// Input signals: CSV with a `time` column and one column per input (fmpy's convention:
@@ -54,7 +63,8 @@ pub struct RunArgs {
     /// Output CSV (fmpy layout: "time" then the variables). Default: stdout.
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Variables to record, comma separated (default: all outputs).
+    /// Variables to record, comma separated (default: all outputs). In a system: the
+    /// connected signals are always recorded; add others as Element.variable.
     #[arg(long, value_delimiter = ',')]
     pub outputs: Option<Vec<String>>,
     /// Print FMU log messages at or above this status: all | warning | discard | error | fatal.
@@ -68,6 +78,15 @@ pub struct RunArgs {
     /// execution tool in the process, e.g. `--preload libpython3.11.so` for a PythonFMU.
     #[arg(long, value_name = "LIB")]
     pub preload: Vec<PathBuf>,
+    /// Systems: the master algorithm, jacobi or gauss-seidel (default; the order follows the
+    /// connections, a cycle is cut at the connection that closes it).
+    #[arg(long, value_name = "ALGORITHM")]
+    pub algorithm: Option<String>,
+    /// Systems: none (zero-order hold) or linear (default): inputs extrapolated with the
+    /// producer's output derivative (fmi2GetRealOutputDerivatives → fmi2SetRealInputDerivatives)
+    /// where both FMUs can, else held, with a note naming the connection.
+    #[arg(long, value_name = "MODE")]
+    pub extrapolation: Option<String>,
     /// Report where the time went: the step loop, the part inside the FMU's calls, CSV writing.
     #[arg(long)]
     pub timing: bool,
@@ -130,7 +149,7 @@ fn positive(name: &str, v: f64) -> Result<f64, String> {
 
 /// `file://` URI of a folder (FMI 2.0.5 §2.1.5 fmuResourceLocation), percent-encoded exactly
 /// like Python's `pathlib.Path.as_uri` (`urllib.parse.quote`, safe = "/"), which fmpy passes.
-fn file_uri(p: &Path) -> String {
+pub(crate) fn file_uri(p: &Path) -> String {
     let mut s = String::from("file://");
     for b in p.to_string_lossy().bytes() {
         if b.is_ascii_alphanumeric() || b"/-._~".contains(&b) {
@@ -152,7 +171,7 @@ fn plan<'a>(
 ) -> Result<Experiment<'a>, String> {
     let start_values = start::resolve(md, pairs)?;
     let de = md.default_experiment.clone().unwrap_or_default();
-    let start_time = de.start_time.unwrap_or(0.0);
+    let start_time = args.start_time.or(de.start_time).unwrap_or(0.0);
     let stop_time = args.stop_time.or(de.stop_time).unwrap_or(start_time + 1.0);
     if !stop_time.is_finite() || stop_time <= start_time {
         return Err(format!(
@@ -201,6 +220,12 @@ fn plan<'a>(
 
 /// `geardyn run`, with its exit status (see `RunArgs`' help).
 pub fn run(args: RunArgs) -> ExitCode {
+    if super::system::is_system(&args.fmu) {
+        return ExitCode::from(match super::system::run(&args) {
+            Ok(code) => code,
+            Err(message) => report(Err(message)),
+        });
+    }
     ExitCode::from(match supervised_run(&args) {
         Ok(code) => code,
         Err(message) => report(Err(message)),
@@ -208,7 +233,7 @@ pub fn run(args: RunArgs) -> ExitCode {
 }
 
 /// Print a failure as `main` does for the other commands; the exit code.
-fn report(result: Result<(), String>) -> u8 {
+pub(crate) fn report(result: Result<(), String>) -> u8 {
     match result {
         Ok(()) => 0,
         Err(message) => {
@@ -219,7 +244,7 @@ fn report(result: Result<(), String>) -> u8 {
 }
 
 /// Where the rows go: a file can be cut back after a crash (see [`CutBack`]), stdout not.
-fn open_output(out: &Option<PathBuf>) -> Result<Box<dyn CutBack>, String> {
+pub(crate) fn open_output(out: &Option<PathBuf>) -> Result<Box<dyn CutBack>, String> {
     Ok(match out {
         Some(p) => Box::new(
             std::fs::File::create(p).map_err(|e| format!("{}: cannot create: {e}", p.display()))?,
@@ -229,7 +254,7 @@ fn open_output(out: &Option<PathBuf>) -> Result<Box<dyn CutBack>, String> {
 }
 
 /// " (12 rows up to t = 1.1 were written to out.csv)" after a failure, when written to a file.
-fn rows_kept(out: &Option<PathBuf>, (rows, last): (usize, Option<f64>)) -> String {
+pub(crate) fn rows_kept(out: &Option<PathBuf>, (rows, last): (usize, Option<f64>)) -> String {
     match (out, last) {
         (Some(p), Some(t)) => format!(
             " ({rows} rows up to t = {t} were written to {})",
@@ -244,6 +269,12 @@ fn rows_kept(out: &Option<PathBuf>, (rows, last): (usize, Option<f64>)) -> Strin
 /// instead, its pending rows are written here and the message says how it ended. The
 /// temporary folder is removed when `unpacked` is dropped, in every case.
 fn supervised_run(args: &RunArgs) -> Result<u8, String> {
+    if args.algorithm.is_some() || args.extrapolation.is_some() {
+        return Err(format!(
+            "{}: --algorithm and --extrapolation are for systems (.ssp, .ssd or a folder with SystemStructure.ssd), not a single FMU",
+            args.fmu.display()
+        ));
+    }
     let log_level = Status::parse_level(&args.log_level).ok_or_else(|| {
         format!(
             "--log-level \"{}\": expected all, warning, discard, error or fatal",

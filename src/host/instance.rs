@@ -288,6 +288,67 @@ impl<'a> Instance<'a> {
         })
     }
 
+    /// `fmi2SetRealInputDerivatives` (FMI 2.0.5 §4.2.1): the `order`-th time derivatives of
+    /// Real inputs at the current communication point; an FMU with
+    /// `canInterpolateInputs="true"` extrapolates the inputs over the step with them.
+    pub fn set_real_input_derivatives(
+        &mut self,
+        vr: &[u32],
+        order: &[i32],
+        v: &[f64],
+    ) -> Result<Status, CallError> {
+        debug_assert!(vr.len() == v.len() && vr.len() == order.len());
+        self.activity.enter(f!("fmi2SetRealInputDerivatives"));
+        // SAFETY: the three slices have vr.len() elements.
+        let r = unsafe {
+            (self.lib.fns.set_real_input_derivatives)(
+                self.c,
+                vr.as_ptr(),
+                vr.len(),
+                order.as_ptr(),
+                v.as_ptr(),
+            )
+        };
+        self.call(f!("fmi2SetRealInputDerivatives"), r, || {
+            format!("vr={}, order={}, value={}", list(vr), list(order), list(v))
+        })
+    }
+
+    /// `fmi2GetRealOutputDerivatives` (FMI 2.0.5 §4.2.3): the `order`-th time derivatives of
+    /// Real outputs at the current communication point (up to `maxOutputDerivativeOrder`).
+    pub fn get_real_output_derivatives(
+        &mut self,
+        vr: &[u32],
+        order: &[i32],
+        out: &mut [f64],
+    ) -> Result<Status, CallError> {
+        debug_assert!(vr.len() == out.len() && vr.len() == order.len());
+        self.activity.enter(f!("fmi2GetRealOutputDerivatives"));
+        // SAFETY: out and order have vr.len() elements.
+        let r = unsafe {
+            (self.lib.fns.get_real_output_derivatives)(
+                self.c,
+                vr.as_ptr(),
+                vr.len(),
+                order.as_ptr(),
+                out.as_mut_ptr(),
+            )
+        };
+        let trace = self.trace;
+        self.call(f!("fmi2GetRealOutputDerivatives"), r, || {
+            if trace {
+                format!(
+                    "vr={}, order={}, value={}",
+                    list(vr),
+                    list(order),
+                    list(out)
+                )
+            } else {
+                String::new()
+            }
+        })
+    }
+
     pub fn set_integer(&mut self, vr: &[u32], v: &[i32]) -> Result<Status, CallError> {
         self.activity.enter(f!("fmi2SetInteger"));
         // SAFETY: both slices have len() elements.

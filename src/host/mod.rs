@@ -7,7 +7,8 @@
 //! [`runner`] drives the co-simulation loop with [`start`] values and [`input`] signals →
 //! [`csv`] writes the result. [`cli`] holds the `run`/`info`/`validate` commands, [`info`]
 //! renders `geardyn info`. [`supervise`] runs the FMU of `geardyn run` in a child process,
-//! with [`shared`] memory for what must survive its crash.
+//! with [`shared`] memory for what must survive its crash. [`system`] runs SSP systems of
+//! several FMUs (`geardyn run system.ssp`).
 
 pub mod archive;
 pub mod check;
@@ -23,3 +24,4 @@ pub mod runner;
 pub mod shared;
 pub mod start;
 pub mod supervise;
+pub mod system;

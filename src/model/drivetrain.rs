@@ -478,6 +478,12 @@ impl AnyScene {
         // Read once; the text decides the format.
         let (text, origin) = crate::scene::read_scene_file(&crate::scene::scene_file(path))
             .map_err(|e| e.to_string())?;
+        if crate::fmu::element::is_element_text(&text) {
+            return Err(format!(
+                "{origin}: an [element] scene is a co-simulation element (docs/elements.md): \
+                 build it with `geardyn fmu build` and run it with `geardyn run` or any FMI master"
+            ));
+        }
         if crate::scene::train::is_train_text(&text) {
             TrainScene::from_toml_str(&text, &origin).map(|s| AnyScene::Train(Box::new(s)))
         } else {

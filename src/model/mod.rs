@@ -9,6 +9,7 @@
 
 mod clock;
 pub mod drivetrain;
+pub mod elements;
 mod pair;
 pub mod train;
 

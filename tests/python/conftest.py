@@ -32,6 +32,9 @@ def run_geardyn(*args, check=True):
 
 FMU_DIR = REPO / "out" / "fmus"
 SCENES = sorted(p.parent for p in (REPO / "fmu").glob("*/scene.toml"))
+# The gear scenes (single mesh or drivetrain); the element scenes (`[element]`,
+# docs/elements.md) have their own tests in test_element_fmus.py.
+GEAR_SCENES = [s for s in SCENES if "\n[element]" not in "\n" + (s / "scene.toml").read_text()]
 
 
 @pytest.fixture(scope="session")

@@ -62,6 +62,12 @@ def test_zip_follows_the_standard(shipped_fmus):
             # The equations of the model kind (docs/model.md, docs/train.md).
             train = b"[[mesh]]" in scene
             equation = "M xi'' + C xi' + K_b xi + sum_n a_n F_n = F_ext" if train else "m_e x'' + F(x, x', p) = F_ext"
+            # Element FMUs (docs/elements.md): the element's equation of motion.
+            element = {b'kind = "motor"': "J_m w' = T_e + T_r + T_flange - d_m w",
+                       b'kind = "shaft"': "tau = k (phi_a - phi_b) + c (w_a - w_b)",
+                       b'kind = "load"': "J_L w' = T_flange - T_0 - c_v w - c_d w|w|",
+                       b'kind = "inertia"': "J w' = T_a + T_b - d w"}
+            equation = next((e for k, e in element.items() if b"[element]" in scene and k in scene), equation)
             assert equation in html, f"{fmu.name}: equations documented"
             for v in md.modelVariables:
                 assert v.name in html

@@ -11,7 +11,8 @@ import pathlib
 
 import pytest
 
-from conftest import REPO, SCENES
+from conftest import GEAR_SCENES as SCENES
+from conftest import REPO
 from test_host_thirdparty import assert_same, fmpy_cli, read
 from conftest import run_geardyn
 

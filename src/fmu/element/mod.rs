@@ -1,0 +1,507 @@
+//! The drivetrain elements of [`crate::model::elements`] as FMI 2.0 Co-Simulation models,
+//! one FMU per `[element]` scene (`docs/elements.md`): an inertia, a shaft, a motor, a load.
+//!
+//! Beside the gear kernels of [`crate::fmu::Adapter`] (whose contract is built around the gear
+//! simulation driver), an element is small enough to be its own [`CoSimModel`]: its
+//! variable table ([`variables`]), its equations on the FMU's vectors ([`system`]), the
+//! element scene ([`scene`]) and the payload of its FMU state ([`state`]).
+//!
+//! Integration: DOP853 ([`crate::solve::rk`]) at the scene's tolerances, landing exactly on
+//! `tc + h`; the shaft is stateless. The inputs are held over a step, or, after
+//! `fmi2SetRealInputDerivatives`, follow `u + u'·(t − tc)` during the next step (the
+//! right-hand side reads them at `t`, so the integrator sees the ramp); output derivatives of
+//! order 1 are answered for every output ([`system::output_rates`]).
+
+mod documentation;
+pub mod scene;
+pub mod state;
+pub mod system;
+pub mod variables;
+
+use std::cell::RefCell;
+
+use crate::fmi::model::{
+    Capabilities, Causality, CoSimModel, DefaultExperiment, Lifecycle, LoadedModel, ModelInfo,
+    StepFailure, Variable,
+};
+use crate::fmu::checks::check_snapshot_values;
+use crate::fmu::table::name_of;
+use crate::model::elements::ElementSpec;
+use crate::solve::rk::RkStepper;
+
+pub use scene::{is_element_text, ElementScene};
+use state::ElementSnapshot;
+use variables::{VR_INPUT0, VR_OUTPUT0, VR_PARAM0};
+
+/// The value of the parameter `name` in a scene (`None`: the element has no such parameter).
+pub fn parameter(scene: &ElementScene, name: &str) -> Option<f64> {
+    let init = &scene.initial;
+    Some(match (&scene.element, name) {
+        (_, "initial.angle") => init.angle,
+        (_, "initial.speed") => init.speed,
+        (ElementSpec::Inertia(s), "inertia") => s.inertia,
+        (ElementSpec::Inertia(s), "damping") => s.damping,
+        (ElementSpec::Shaft(s), "stiffness") => s.stiffness,
+        (ElementSpec::Shaft(s), "damping") => s.damping,
+        (ElementSpec::Motor(m), "inertia") => m.inertia,
+        (ElementSpec::Motor(m), "damping") => m.damping,
+        (ElementSpec::Motor(m), "controller.kp") => m.controller?.kp,
+        (ElementSpec::Motor(m), "controller.ki") => m.controller?.ki,
+        (ElementSpec::Load(s), "inertia") => s.inertia,
+        (ElementSpec::Load(s), "torque") => s.torque,
+        (ElementSpec::Load(s), "viscous") => s.viscous,
+        (ElementSpec::Load(s), "drag") => s.drag,
+        _ => return None,
+    })
+}
+
+/// Sets the parameter `name` of a scene and checks the element (the message names the
+/// parameter and the value); on failure the scene is unchanged.
+fn apply(scene: &mut ElementScene, name: &str, x: f64) -> Result<(), String> {
+    let mut s = scene.clone();
+    let slot: &mut f64 = match (&mut s.element, name) {
+        (_, "initial.angle") => &mut s.initial.angle,
+        (_, "initial.speed") => &mut s.initial.speed,
+        (ElementSpec::Inertia(e), "inertia") => &mut e.inertia,
+        (ElementSpec::Inertia(e), "damping") => &mut e.damping,
+        (ElementSpec::Shaft(e), "stiffness") => &mut e.stiffness,
+        (ElementSpec::Shaft(e), "damping") => &mut e.damping,
+        (ElementSpec::Motor(m), "inertia") => &mut m.inertia,
+        (ElementSpec::Motor(m), "damping") => &mut m.damping,
+        (ElementSpec::Motor(m), "controller.kp") => match &mut m.controller {
+            Some(c) => &mut c.kp,
+            None => return Err(format!("no parameter '{name}'")),
+        },
+        (ElementSpec::Motor(m), "controller.ki") => match &mut m.controller {
+            Some(c) => &mut c.ki,
+            None => return Err(format!("no parameter '{name}'")),
+        },
+        (ElementSpec::Load(e), "inertia") => &mut e.inertia,
+        (ElementSpec::Load(e), "torque") => &mut e.torque,
+        (ElementSpec::Load(e), "viscous") => &mut e.viscous,
+        (ElementSpec::Load(e), "drag") => &mut e.drag,
+        _ => return Err(format!("no parameter '{name}'")),
+    };
+    *slot = x;
+    if !x.is_finite() {
+        return Err(format!("parameter '{name}' = {x}: must be finite"));
+    }
+    s.element
+        .validate("")
+        .map_err(|e| format!("parameter {e}"))?;
+    *scene = s;
+    Ok(())
+}
+
+/// The inputs a scene starts from, in value-reference order.
+pub fn start_inputs(spec: &ElementSpec) -> Vec<f64> {
+    match spec {
+        ElementSpec::Inertia(_) => vec![0.0; 2],
+        ElementSpec::Shaft(_) => vec![0.0; 4],
+        ElementSpec::Motor(m) => {
+            let u = m.start_inputs();
+            let second = if m.controller.is_some() {
+                u.speed_reference
+            } else {
+                u.torque_fraction
+            };
+            vec![u.flange_torque, second]
+        }
+        ElementSpec::Load(_) => vec![0.0],
+    }
+}
+
+/// The initial state vector of a scene.
+fn initial_state(scene: &ElementScene) -> Vec<f64> {
+    let mut y = vec![0.0; system::dim(&scene.element)];
+    if y.len() >= 2 {
+        y[0] = scene.initial.angle;
+        y[1] = scene.initial.speed;
+    }
+    y
+}
+
+/// One element behind an FMU instance.
+pub struct ElementFmu {
+    vars: Vec<Variable>,
+    /// The scene as loaded (restored by `fmi2Reset`).
+    base: ElementScene,
+    /// The scene with the parameter values set so far.
+    scene: ElementScene,
+    lifecycle: Lifecycle,
+    /// Model time from the start time (`t − startTime`).
+    t: f64,
+    /// State vector when there is no stepper (the stateless shaft: empty).
+    y0: Vec<f64>,
+    /// DOP853 over the state (`None` for the shaft).
+    stepper: Option<RkStepper>,
+    /// Start values of the inputs (set before initialization) and current inputs at `t`.
+    u_start: Vec<f64>,
+    u: Vec<f64>,
+    /// First-order input rates for the next step (0: zero-order hold).
+    du: Vec<f64>,
+    scratch: RefCell<Vec<f64>>,
+}
+
+impl ElementFmu {
+    /// Builds the model of a validated scene and its description data.
+    pub fn new(scene: ElementScene, guid: String) -> Result<(ElementFmu, ModelInfo), String> {
+        let u = start_inputs(&scene.element);
+        let vars = variables::variables(&scene, &u);
+        crate::fmi::model::validate_variables(&vars)?;
+        let info = ModelInfo {
+            model_name: scene.name.clone(),
+            description: if scene.description.is_empty() {
+                format!("Drivetrain element: {} (geardyn)", scene.element.kind())
+            } else {
+                scene.description.clone()
+            },
+            default_experiment: DefaultExperiment {
+                start_time: 0.0,
+                stop_time: scene.solver.stop_time,
+                step_size: scene.solver.output_interval,
+                tolerance: None,
+            },
+            guid,
+            documentation: documentation::html(&scene.element),
+        };
+        let n = u.len();
+        let mut fmu = ElementFmu {
+            vars,
+            base: scene.clone(),
+            scene,
+            lifecycle: Lifecycle::default(),
+            t: 0.0,
+            y0: Vec::new(),
+            stepper: None,
+            u_start: u.clone(),
+            u,
+            du: vec![0.0; n],
+            scratch: RefCell::new(Vec::with_capacity(n)),
+        };
+        fmu.rebuild()?;
+        Ok((fmu, info))
+    }
+
+    /// Back to `t = 0` in the initial state of the current scene, inputs at their start
+    /// values, no input rates.
+    fn rebuild(&mut self) -> Result<(), String> {
+        let y = initial_state(&self.scene);
+        self.stepper = if y.is_empty() {
+            None
+        } else {
+            let mut st = RkStepper::new(self.scene.solver.rk_options(), y.len())?;
+            st.set_state(0.0, &y);
+            Some(st)
+        };
+        self.y0 = y;
+        self.t = 0.0;
+        self.u.clone_from(&self.u_start);
+        self.du.iter_mut().for_each(|d| *d = 0.0);
+        Ok(())
+    }
+
+    fn y(&self) -> &[f64] {
+        self.stepper.as_ref().map_or(&self.y0, RkStepper::y)
+    }
+
+    fn input_index(&self, vr: u32) -> Option<usize> {
+        vr.checked_sub(VR_INPUT0)
+            .map(|k| k as usize)
+            .filter(|&k| k < self.u.len())
+    }
+
+    fn output_index(&self, vr: u32) -> Option<usize> {
+        let n = self
+            .vars
+            .iter()
+            .filter(|v| v.causality == Causality::Output)
+            .count();
+        vr.checked_sub(VR_OUTPUT0)
+            .map(|k| k as usize)
+            .filter(|&k| k < n)
+    }
+
+    fn param_name(&self, vr: u32) -> Option<&'static str> {
+        let names = variables::param_names(&self.scene.element);
+        vr.checked_sub(VR_PARAM0)
+            .and_then(|k| names.get(k as usize).copied())
+    }
+
+    fn outputs(&self) -> Vec<f64> {
+        let mut out = Vec::new();
+        system::outputs(&self.scene.element, self.y(), &self.u, &mut out);
+        out
+    }
+
+    /// The model part of an FMU state.
+    fn snapshot(&self) -> ElementSnapshot {
+        let names = variables::param_names(&self.scene.element);
+        let mut params: Vec<(u32, f64)> = names
+            .iter()
+            .enumerate()
+            .map(|(k, n)| {
+                (
+                    VR_PARAM0 + k as u32,
+                    parameter(&self.scene, n).unwrap_or(f64::NAN),
+                )
+            })
+            .collect();
+        params.extend(
+            self.u_start
+                .iter()
+                .enumerate()
+                .map(|(k, &x)| (VR_INPUT0 + k as u32, x)),
+        );
+        ElementSnapshot {
+            params,
+            start_time: self.lifecycle.start_time,
+            initialized: self.lifecycle.initialized,
+            t: self.t,
+            y: self.y().to_vec(),
+            u: self.u.clone(),
+            du: self.du.clone(),
+            controller: self.stepper.as_ref().map(RkStepper::controller_memory),
+        }
+    }
+
+    /// Rebuilds the instance from a snapshot with the checks of `fmi2SetReal`; on failure
+    /// nothing changes.
+    fn restore(&mut self, s: &ElementSnapshot) -> Result<(), String> {
+        let inputs: Vec<(u32, f64)> = (s.u.iter().enumerate())
+            .map(|(k, &x)| (VR_INPUT0 + k as u32, x))
+            .collect();
+        check_snapshot_values(&self.vars, &s.params, &inputs, s.start_time)?;
+        if s.u.len() != self.u.len() || s.du.len() != self.u.len() {
+            return Err(format!(
+                "the state holds {} inputs and {} rates; the model has {} inputs",
+                s.u.len(),
+                s.du.len(),
+                self.u.len()
+            ));
+        }
+        if let Some(d) = s.du.iter().find(|d| !d.is_finite()) {
+            return Err(format!("the state holds an input rate {d}"));
+        }
+        if !(s.t.is_finite() && s.t >= 0.0) || s.y.iter().any(|y| !y.is_finite()) {
+            return Err(format!(
+                "the state holds a non-finite time or state at t = {}",
+                s.t
+            ));
+        }
+        let mut scene = self.base.clone();
+        let mut u_start = start_inputs(&scene.element);
+        for &(vr, x) in &s.params {
+            if let Some(k) = self.input_index(vr) {
+                u_start[k] = x;
+            } else {
+                let name = self
+                    .param_name(vr)
+                    .ok_or_else(|| format!("the state sets unknown value reference {vr}"))?;
+                apply(&mut scene, name, x)?;
+            }
+        }
+        let dim = system::dim(&scene.element);
+        if s.y.len() != dim || s.controller.is_some() != (dim > 0) {
+            return Err(format!(
+                "the state holds {} states; the element has {dim}",
+                s.y.len()
+            ));
+        }
+        let stepper = match s.controller {
+            Some(mem) => {
+                let mut st = RkStepper::new(scene.solver.rk_options(), dim)?;
+                st.restore(s.t, &s.y, &mem);
+                Some(st)
+            }
+            None => None,
+        };
+        self.scene = scene;
+        self.stepper = stepper;
+        self.y0 = if dim == 0 { Vec::new() } else { s.y.clone() };
+        self.t = s.t;
+        self.u_start = u_start;
+        self.u.clone_from(&s.u);
+        self.du.clone_from(&s.du);
+        self.lifecycle = Lifecycle {
+            start_time: s.start_time,
+            initialized: s.initialized,
+        };
+        Ok(())
+    }
+}
+
+impl CoSimModel for ElementFmu {
+    fn variables(&self) -> &[Variable] {
+        &self.vars
+    }
+
+    fn get_real(&self, vr: u32) -> Result<f64, String> {
+        if let Some(k) = self.output_index(vr) {
+            return Ok(self.outputs()[k]);
+        }
+        if let Some(k) = self.input_index(vr) {
+            return Ok(self.u[k]);
+        }
+        self.param_name(vr)
+            .and_then(|n| parameter(&self.scene, n))
+            .ok_or_else(|| format!("no Real variable with value reference {vr}"))
+    }
+
+    /// The outputs computed once per call.
+    fn get_reals(&self, vrs: &[u32], out: &mut [f64]) -> Result<(), String> {
+        let mut outputs = None;
+        for (&vr, slot) in vrs.iter().zip(out.iter_mut()) {
+            *slot = match self.output_index(vr) {
+                Some(k) => outputs.get_or_insert_with(|| self.outputs())[k],
+                None => self.get_real(vr)?,
+            };
+        }
+        Ok(())
+    }
+
+    fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String> {
+        if let Some(k) = self.input_index(vr) {
+            self.u[k] = value;
+            if self.lifecycle.initialized {
+                // The right-hand side changed at the current time.
+                if let Some(st) = &mut self.stepper {
+                    st.invalidate();
+                }
+            } else {
+                self.u_start[k] = value;
+            }
+            return Ok(());
+        }
+        let name = self
+            .param_name(vr)
+            .ok_or_else(|| format!("no settable variable with value reference {vr}"))?;
+        if self.lifecycle.initialized {
+            return Err(format!("'{name}' is fixed after initialization"));
+        }
+        let mut scene = self.scene.clone();
+        apply(&mut scene, name, value)?;
+        let old = std::mem::replace(&mut self.scene, scene);
+        let (u, du) = (self.u.clone(), self.du.clone());
+        if let Err(e) = self.rebuild() {
+            self.scene = old;
+            self.rebuild().ok();
+            return Err(format!("'{name}' = {value:?}: {e}"));
+        }
+        // Inputs set so far stay set.
+        self.u = u;
+        self.du = du;
+        Ok(())
+    }
+
+    fn lifecycle_mut(&mut self) -> &mut Lifecycle {
+        &mut self.lifecycle
+    }
+
+    fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure> {
+        let start_time = self.lifecycle.start_time;
+        let target = ((t + h) - start_time).max(self.t);
+        let dt = target - self.t;
+        // A ramp must stay within the inputs' bounds over the whole step.
+        for (k, (&u, &du)) in self.u.iter().zip(&self.du).enumerate() {
+            if du != 0.0 {
+                let var = &self.vars[self
+                    .vars
+                    .iter()
+                    .position(|v| v.value_reference == VR_INPUT0 + k as u32)
+                    .unwrap_or(0)];
+                var.check_value(u + du * dt).map_err(|e| {
+                    StepFailure::Error(format!(
+                        "the input ramp leaves the bounds by the end of the step: {e} (rate {du})"
+                    ))
+                })?;
+            }
+        }
+        if let Some(st) = &mut self.stepper {
+            let mut sys = system::StepSystem {
+                spec: &self.scene.element,
+                u: &self.u,
+                du: &self.du,
+                t0: self.t,
+                scratch: std::mem::take(&mut self.scratch),
+            };
+            let result = st.advance_to(&mut sys, target);
+            self.scratch = sys.scratch;
+            if let Err(e) = result {
+                // The inputs follow the state to where the integrator stopped.
+                let reached = st.t();
+                for (u, du) in self.u.iter_mut().zip(&self.du) {
+                    *u += du * (reached - self.t);
+                }
+                self.t = reached;
+                return Err(StepFailure::Discard {
+                    reason: format!("the integrator stopped: {e}"),
+                    reached: start_time + reached,
+                    terminate: true,
+                });
+            }
+        }
+        if self.du.iter().any(|&d| d != 0.0) {
+            for (u, du) in self.u.iter_mut().zip(self.du.iter_mut()) {
+                *u += *du * dt;
+                *du = 0.0;
+            }
+            // The inputs at the new time come from the ramp: f(t, y) is recomputed from them.
+            if let Some(st) = &mut self.stepper {
+                st.invalidate();
+            }
+        }
+        self.t = target;
+        Ok(())
+    }
+
+    fn reset(&mut self) -> Result<(), String> {
+        self.scene = self.base.clone();
+        self.u_start = start_inputs(&self.scene.element);
+        self.lifecycle = Lifecycle::default();
+        self.rebuild()
+    }
+
+    fn save_state(&mut self) -> Vec<u8> {
+        state::encode(&self.snapshot())
+    }
+
+    fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
+        self.restore(&state::decode(bytes)?)
+    }
+
+    fn capabilities(&self) -> Capabilities {
+        Capabilities {
+            can_interpolate_inputs: true,
+            max_output_derivative_order: 1,
+        }
+    }
+
+    fn set_input_derivative(&mut self, vr: u32, rate: f64) -> Result<(), String> {
+        let k = self
+            .input_index(vr)
+            .ok_or_else(|| format!("'{}' (vr {vr}) is not an input", name_of(&self.vars, vr)))?;
+        self.du[k] = rate;
+        Ok(())
+    }
+
+    fn output_derivative(&self, vr: u32) -> Result<f64, String> {
+        let k = self
+            .output_index(vr)
+            .ok_or_else(|| format!("'{}' (vr {vr}) is not an output", name_of(&self.vars, vr)))?;
+        let mut out = Vec::new();
+        system::output_rates(&self.scene.element, self.y(), &self.u, &self.du, &mut out);
+        Ok(out[k])
+    }
+}
+
+/// Parses and validates an element scene and adapts it to the FMI layer.
+pub fn load(text: &str, origin: &str, guid: String) -> Result<LoadedModel, String> {
+    let scene = ElementScene::from_toml_str(text, origin)?;
+    let (model, info) =
+        ElementFmu::new(scene, guid).map_err(|e| format!("scene '{origin}': {e}"))?;
+    Ok(LoadedModel {
+        model: Box::new(model),
+        info,
+    })
+}

@@ -1,0 +1,118 @@
+//! Byte layout of an element's part of an FMU state (FMI 2.0.x §2.1.8); the FMI layer wraps
+//! it in its versioned, checksummed envelope ([`crate::fmi::blob`]).
+//!
+//! Layout, little-endian: `u32 n` then `n × (u32 vr, f64 value)` (parameters and start
+//! inputs), `u8 flags` (bit 0 initialized, bits 1–3 the RK controller bits of
+//! [`crate::fmu::payload::controller_bits`]), `f64` start time, `f64` t, `u32 n_y` and the
+//! states, `u32 n_u`, the inputs and then their rates, and the RK controller memory.
+
+use crate::fmi::bytes::{put_f64s, Reader};
+use crate::fmu::payload::{
+    controller_bits, put_controller, put_params, read_controller, read_params,
+};
+use crate::solve::rk::ControllerMemory;
+
+/// Everything an element FMU needs to continue bit-identically.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ElementSnapshot {
+    pub params: Vec<(u32, f64)>,
+    pub start_time: f64,
+    pub initialized: bool,
+    pub t: f64,
+    pub y: Vec<f64>,
+    pub u: Vec<f64>,
+    /// Input rates for the next step (first-order input interpolation).
+    pub du: Vec<f64>,
+    pub controller: Option<ControllerMemory>,
+}
+
+/// At most this many states or inputs (an element has at most 3 and 4).
+const MAX_LEN: usize = 16;
+
+pub fn encode(s: &ElementSnapshot) -> Vec<u8> {
+    let mut out = Vec::with_capacity(128);
+    put_params(&mut out, &s.params);
+    out.push(u8::from(s.initialized) | controller_bits(s.controller) << 1);
+    put_f64s(&mut out, &[s.start_time, s.t]);
+    out.extend_from_slice(&(s.y.len() as u32).to_le_bytes());
+    put_f64s(&mut out, &s.y);
+    out.extend_from_slice(&(s.u.len() as u32).to_le_bytes());
+    put_f64s(&mut out, &s.u);
+    put_f64s(&mut out, &s.du);
+    put_controller(&mut out, s.controller);
+    out
+}
+
+fn read_vec(r: &mut Reader, n: usize) -> Result<Vec<f64>, String> {
+    (0..n).map(|_| r.f64()).collect()
+}
+
+fn read_len(r: &mut Reader, what: &str) -> Result<usize, String> {
+    let n = r.u32()? as usize;
+    if n > MAX_LEN {
+        return Err(format!("model state lists {n} {what}"));
+    }
+    Ok(n)
+}
+
+pub fn decode(bytes: &[u8]) -> Result<ElementSnapshot, String> {
+    let mut r = Reader::new(bytes);
+    let n = r.u32()? as usize;
+    if n > bytes.len() / 12 {
+        return Err(format!(
+            "model state lists {n} parameters in {} bytes",
+            bytes.len()
+        ));
+    }
+    let params = read_params(&mut r, n)?;
+    let flags = r.u8()?;
+    if flags >> 4 != 0 {
+        return Err(format!("model state has unknown flags {flags:#04x}"));
+    }
+    let start_time = r.f64()?;
+    let t = r.f64()?;
+    let ny = read_len(&mut r, "states")?;
+    let y = read_vec(&mut r, ny)?;
+    let nu = read_len(&mut r, "inputs")?;
+    let u = read_vec(&mut r, nu)?;
+    let du = read_vec(&mut r, nu)?;
+    let controller = read_controller(&mut r, flags >> 1)?;
+    r.finish("model state")?;
+    Ok(ElementSnapshot {
+        params,
+        start_time,
+        initialized: flags & 1 != 0,
+        t,
+        y,
+        u,
+        du,
+        controller,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn layout_round_trips_and_rejects_truncation() {
+        crate::fmu::payload::check_layout(
+            |controller| ElementSnapshot {
+                params: vec![(0, 0.01), (100, 0.5)],
+                start_time: 0.25,
+                initialized: true,
+                t: 1.5,
+                y: if controller.is_some() {
+                    vec![1.0, 2.0, 3.0]
+                } else {
+                    vec![]
+                },
+                u: vec![-4.0, 0.5],
+                du: vec![10.0, 0.0],
+                controller,
+            },
+            encode,
+            decode,
+        );
+    }
+}

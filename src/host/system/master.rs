@@ -1,0 +1,581 @@
+//! The fixed-step master: several FMU instances in one process, stepped on one grid with
+//! Jacobi or Gauss–Seidel, inputs held or extrapolated (FMI 2.0.5 §4.2.1–4.2.4).
+//!
+//! * Grid and rows as in single-FMU runs ([`crate::host::runner`]): communication points
+//!   `start + n·h`, the last step shortened to the stop time when every FMU can handle a
+//!   variable step, one row at the start and one after every macro step, sampled right after
+//!   the step (before the next step's inputs are set).
+//! * Initialization: every instance gets `fmi2SetupExperiment` and its start values, enters
+//!   initialization mode, gets its initialization-phase start values; then, in the
+//!   Gauss–Seidel order, each element's connected inputs are set from its producers' current
+//!   outputs and its own outputs are read (one pass); then all exit initialization mode.
+//! * Jacobi: every element steps from t to t+h with its producers' outputs at t.
+//!   Gauss–Seidel: elements step one after another in the data-flow order
+//!   ([`super::graph::order`]); a consumer gets the outputs at t+h of producers that already
+//!   stepped, and those at t over a connection that closes a cycle.
+//! * Coupling of a Real connection ([`Coupling`]): held (zero-order hold), *extrapolated*
+//!   (`fmi2SetRealInputDerivatives` order 1 with the producer's `fmi2GetRealOutputDerivatives`
+//!   at t: u(t+s) = y(t) + s·y'(t)), or, for a Gauss–Seidel connection whose producer already
+//!   stepped, *interpolated* (u(t) = y(t) with the slope (y(t+h) − y(t))/h, exact for signals
+//!   linear over the step). Both are second-order couplings; the hold is first order.
+//! * A failing call ends the run: the rows up to then are kept, and the message names the
+//!   element, the call, the time and the status.
+
+use super::check::{Link, System};
+use crate::host::csv::Row;
+use crate::host::description::VarType;
+use crate::host::input::isclose;
+use crate::host::instance::{CallError, Instance};
+use crate::host::runner::RowSink;
+use crate::host::start::Phase;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Algorithm {
+    Jacobi,
+    GaussSeidel,
+}
+
+/// How a connection's value reaches its consumer over a step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Coupling {
+    Hold,
+    Extrapolate,
+    Interpolate,
+}
+
+/// One CSV column: an output port of the links (`port`) or another variable.
+#[derive(Debug, Clone)]
+pub struct Column {
+    pub element: usize,
+    pub vr: u32,
+    pub var_type: VarType,
+    pub name: String,
+    pub port: Option<usize>,
+}
+
+/// Everything decided before the FMUs are loaded.
+pub struct Plan<'a> {
+    pub system: System,
+    pub algorithm: Algorithm,
+    pub order: Vec<usize>,
+    /// Per link: whether its consumer steps before its producer (Gauss–Seidel).
+    pub cut: Vec<bool>,
+    pub coupling: Vec<Coupling>,
+    /// Distinct producer ports `(element, vr, type)`; `port_of[link]` indexes them.
+    pub ports: Vec<(usize, u32, VarType)>,
+    pub port_of: Vec<usize>,
+    /// Ports whose first derivative is read after each step (for [`Coupling::Extrapolate`]).
+    pub needs_derivative: Vec<bool>,
+    /// In fmpy's order: Reals, then Integers, then Booleans.
+    pub columns: Vec<Column>,
+    pub start_time: f64,
+    pub stop_time: f64,
+    pub h: f64,
+    /// Every FMU has `canHandleVariableCommunicationStepSize="true"`.
+    pub can_vary: bool,
+    pub interrupt: Option<&'a std::sync::atomic::AtomicBool>,
+}
+
+/// Distinct producer ports of `links`, in order of first appearance, and each link's port.
+pub fn producer_ports(links: &[Link]) -> (Vec<(usize, u32, VarType)>, Vec<usize>) {
+    let mut ports: Vec<(usize, u32, VarType)> = Vec::new();
+    let mut port_of = Vec::new();
+    for l in links {
+        let key = (l.from.element, l.from.vr, l.from.var_type);
+        let i = ports.iter().position(|p| *p == key).unwrap_or_else(|| {
+            ports.push(key);
+            ports.len() - 1
+        });
+        port_of.push(i);
+    }
+    (ports, port_of)
+}
+
+/// How a run ended; the rows went to the sink.
+pub struct Outcome {
+    pub rows: usize,
+    pub failure: Option<String>,
+    pub notes: Vec<String>,
+}
+
+/// Per element: which values to read after its step, and which inputs to set before it.
+#[derive(Default)]
+struct Io {
+    real_vr: Vec<u32>,
+    real_port: Vec<usize>,
+    int_vr: Vec<u32>,
+    int_port: Vec<usize>,
+    bool_vr: Vec<u32>,
+    bool_port: Vec<usize>,
+    der_vr: Vec<u32>,
+    der_port: Vec<usize>,
+    /// All 1: the derivative order asked for each of `der_vr`.
+    der_order: Vec<i32>,
+    inputs: Vec<usize>,
+    extra_real: (Vec<u32>, Vec<usize>),
+    extra_int: (Vec<u32>, Vec<usize>),
+    extra_bool: (Vec<u32>, Vec<usize>),
+}
+
+/// The values set before a step, grouped by type (reused from step to step).
+#[derive(Default)]
+struct Inputs {
+    rv: Vec<u32>,
+    rx: Vec<f64>,
+    iv: Vec<u32>,
+    ix: Vec<i32>,
+    bv: Vec<u32>,
+    bx: Vec<i32>,
+    dv: Vec<u32>,
+    dx: Vec<f64>,
+    order: Vec<i32>,
+}
+
+impl Inputs {
+    fn clear(&mut self) {
+        self.rv.clear();
+        self.rx.clear();
+        self.iv.clear();
+        self.ix.clear();
+        self.bv.clear();
+        self.bx.clear();
+        self.dv.clear();
+        self.dx.clear();
+    }
+}
+
+struct State<'p, 'a> {
+    plan: &'p Plan<'a>,
+    set: Inputs,
+    io: Vec<Io>,
+    cur: Vec<f64>,
+    prev: Vec<f64>,
+    der: Vec<f64>,
+    /// The row being assembled, per column.
+    row: Vec<f64>,
+    buf_f: Vec<f64>,
+    buf_i: Vec<i32>,
+}
+
+fn at(e: &str, t: f64, err: CallError) -> String {
+    format!("element \"{e}\" at t = {t}: {err}")
+}
+
+impl<'p, 'a> State<'p, 'a> {
+    fn new(plan: &'p Plan<'a>) -> Self {
+        let n = plan.system.elements.len();
+        let mut io: Vec<Io> = (0..n).map(|_| Io::default()).collect();
+        for (p, &(e, vr, t)) in plan.ports.iter().enumerate() {
+            let io = &mut io[e];
+            match t {
+                VarType::Real => {
+                    io.real_vr.push(vr);
+                    io.real_port.push(p);
+                    if plan.needs_derivative[p] {
+                        io.der_vr.push(vr);
+                        io.der_port.push(p);
+                        io.der_order.push(1);
+                    }
+                }
+                VarType::Boolean => {
+                    io.bool_vr.push(vr);
+                    io.bool_port.push(p);
+                }
+                _ => {
+                    io.int_vr.push(vr);
+                    io.int_port.push(p);
+                }
+            }
+        }
+        for (l, link) in plan.system.links.iter().enumerate() {
+            io[link.to.element].inputs.push(l);
+        }
+        for (k, c) in plan.columns.iter().enumerate() {
+            if c.port.is_none() {
+                let target = match c.var_type {
+                    VarType::Real => &mut io[c.element].extra_real,
+                    VarType::Boolean => &mut io[c.element].extra_bool,
+                    _ => &mut io[c.element].extra_int,
+                };
+                target.0.push(c.vr);
+                target.1.push(k);
+            }
+        }
+        let np = plan.ports.len();
+        State {
+            plan,
+            set: Inputs::default(),
+            io,
+            cur: vec![0.0; np],
+            prev: vec![0.0; np],
+            der: vec![0.0; np],
+            row: vec![0.0; plan.columns.len()],
+            buf_f: Vec::new(),
+            buf_i: Vec::new(),
+        }
+    }
+
+    /// Read element `e`'s producer ports into `cur`, and with `derivatives` their first
+    /// derivatives where needed (not in initialization mode: FMI 2.0.5 §4.2.4 allows
+    /// `fmi2GetRealOutputDerivatives` only once the slave is initialized).
+    fn read(
+        &mut self,
+        e: usize,
+        inst: &mut Instance,
+        t: f64,
+        derivatives: bool,
+    ) -> Result<(), String> {
+        let name = &self.plan.system.elements[e].name;
+        let io = &self.io[e];
+        if !io.real_vr.is_empty() {
+            self.buf_f.resize(io.real_vr.len(), 0.0);
+            inst.get_real(&io.real_vr, &mut self.buf_f)
+                .map_err(|err| at(name, t, err))?;
+            for (&p, &v) in io.real_port.iter().zip(&self.buf_f) {
+                self.cur[p] = v;
+            }
+        }
+        for (vrs, ports, boolean) in [
+            (&io.int_vr, &io.int_port, false),
+            (&io.bool_vr, &io.bool_port, true),
+        ] {
+            if vrs.is_empty() {
+                continue;
+            }
+            self.buf_i.resize(vrs.len(), 0);
+            let r = if boolean {
+                inst.get_boolean(vrs, &mut self.buf_i)
+            } else {
+                inst.get_integer(vrs, &mut self.buf_i)
+            };
+            r.map_err(|err| at(name, t, err))?;
+            for (&p, &v) in ports.iter().zip(&self.buf_i) {
+                self.cur[p] = f64::from(v);
+            }
+        }
+        if derivatives && !io.der_vr.is_empty() {
+            self.buf_f.resize(io.der_vr.len(), 0.0);
+            inst.get_real_output_derivatives(&io.der_vr, &io.der_order, &mut self.buf_f)
+                .map_err(|err| at(name, t, err))?;
+            for (&p, &v) in io.der_port.iter().zip(&self.buf_f) {
+                self.der[p] = v;
+            }
+        }
+        Ok(())
+    }
+
+    /// Set element `e`'s connected inputs for the step from `t` (length `h`; 0 during
+    /// initialization, where every connection is held). `stepped[x]`: element x already
+    /// stepped to t+h in this macro step.
+    fn set_inputs(
+        &mut self,
+        e: usize,
+        inst: &mut Instance,
+        t: f64,
+        h: f64,
+        stepped: &[bool],
+    ) -> Result<(), String> {
+        let plan = self.plan;
+        let name = &plan.system.elements[e].name;
+        // Buffers kept across steps (no allocation per step), taken while `self` is read.
+        let mut b = std::mem::take(&mut self.set);
+        b.clear();
+        let Inputs {
+            rv,
+            rx,
+            iv,
+            ix,
+            bv,
+            bx,
+            dv,
+            dx,
+            order,
+        } = &mut b;
+        for &l in &self.io[e].inputs {
+            let link = &plan.system.links[l];
+            let p = plan.port_of[l];
+            match link.to.var_type {
+                VarType::Real => {
+                    let affine = |v: f64| {
+                        if link.identity {
+                            v
+                        } else {
+                            link.scale * v + link.offset
+                        }
+                    };
+                    let slope = |d: f64| if link.identity { d } else { link.scale * d };
+                    let coupling = if h > 0.0 {
+                        plan.coupling[l]
+                    } else {
+                        Coupling::Hold
+                    };
+                    match coupling {
+                        Coupling::Interpolate if stepped[link.from.element] => {
+                            rv.push(link.to.vr);
+                            rx.push(affine(self.prev[p]));
+                            dv.push(link.to.vr);
+                            dx.push(slope((self.cur[p] - self.prev[p]) / h));
+                        }
+                        Coupling::Extrapolate if !stepped[link.from.element] => {
+                            rv.push(link.to.vr);
+                            rx.push(affine(self.cur[p]));
+                            dv.push(link.to.vr);
+                            dx.push(slope(self.der[p]));
+                        }
+                        _ => {
+                            rv.push(link.to.vr);
+                            rx.push(affine(self.cur[p]));
+                        }
+                    }
+                }
+                VarType::Boolean => {
+                    bv.push(link.to.vr);
+                    bx.push(self.cur[p] as i32);
+                }
+                _ => {
+                    iv.push(link.to.vr);
+                    ix.push(self.cur[p] as i32);
+                }
+            }
+        }
+        let err = |err| at(name, t, err);
+        let result = (|| {
+            if !rv.is_empty() {
+                inst.set_real(rv, rx).map_err(err)?;
+            }
+            if !iv.is_empty() {
+                inst.set_integer(iv, ix).map_err(err)?;
+            }
+            if !bv.is_empty() {
+                inst.set_boolean(bv, bx).map_err(err)?;
+            }
+            if !dv.is_empty() {
+                order.resize(dv.len(), 1);
+                inst.set_real_input_derivatives(dv, order, dx)
+                    .map_err(err)?;
+            }
+            Ok(())
+        })();
+        self.set = b;
+        result
+    }
+
+    /// Assemble and deliver the row at `t`.
+    fn record(
+        &mut self,
+        insts: &mut [Instance],
+        sink: &mut dyn RowSink,
+        t: f64,
+    ) -> Result<(), String> {
+        let plan = self.plan;
+        for (k, c) in plan.columns.iter().enumerate() {
+            if let Some(p) = c.port {
+                self.row[k] = self.cur[p];
+            }
+        }
+        for (e, inst) in insts.iter_mut().enumerate() {
+            let name = &plan.system.elements[e].name;
+            let io = &self.io[e];
+            if !io.extra_real.0.is_empty() {
+                self.buf_f.resize(io.extra_real.0.len(), 0.0);
+                inst.get_real(&io.extra_real.0, &mut self.buf_f)
+                    .map_err(|err| at(name, t, err))?;
+                for (&k, &v) in io.extra_real.1.iter().zip(&self.buf_f) {
+                    self.row[k] = v;
+                }
+            }
+            for ((vrs, cols), boolean) in [(&io.extra_int, false), (&io.extra_bool, true)] {
+                if vrs.is_empty() {
+                    continue;
+                }
+                self.buf_i.resize(vrs.len(), 0);
+                let r = if boolean {
+                    inst.get_boolean(vrs, &mut self.buf_i)
+                } else {
+                    inst.get_integer(vrs, &mut self.buf_i)
+                };
+                r.map_err(|err| at(name, t, err))?;
+                for (&k, &v) in cols.iter().zip(&self.buf_i) {
+                    self.row[k] = f64::from(v);
+                }
+            }
+        }
+        let nr = plan
+            .columns
+            .iter()
+            .filter(|c| c.var_type == VarType::Real)
+            .count();
+        let ni = plan
+            .columns
+            .iter()
+            .filter(|c| c.var_type == VarType::Integer)
+            .count();
+        self.buf_i.clear();
+        self.buf_i.extend(self.row[nr..].iter().map(|&v| v as i32));
+        let row = Row {
+            reals: &self.row[..nr],
+            integers: &self.buf_i[..ni],
+            booleans: &self.buf_i[ni..],
+        };
+        sink.row(t, &row)
+            .map_err(|e| format!("writing the output row at t = {t}: {e}"))
+    }
+}
+
+fn set_start(
+    inst: &mut Instance,
+    name: &str,
+    s: &crate::host::start::StartValue,
+) -> Result<(), String> {
+    use crate::host::description::Value;
+    let r = match &s.value {
+        Value::Real(v) => inst.set_real(&[s.vr], &[*v]),
+        Value::Integer(v) => inst.set_integer(&[s.vr], &[*v]),
+        Value::Boolean(v) => inst.set_boolean(&[s.vr], &[i32::from(*v)]),
+        Value::String(v) => inst.set_string(&[s.vr], std::slice::from_ref(v)),
+    };
+    r.map(|_| ()).map_err(|e| {
+        format!(
+            "element \"{name}\": setting the start value of \"{}\": {e}",
+            s.name
+        )
+    })
+}
+
+/// Initialize and run the instances (`insts[i]` is element i), giving every row to `sink`.
+/// Never panics; on failure the rows up to then have been delivered.
+pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outcome {
+    let mut out = Outcome {
+        rows: 0,
+        failure: None,
+        notes: Vec::new(),
+    };
+    let mut st = State::new(plan);
+    let t0 = plan.start_time;
+    let elements = &plan.system.elements;
+    let n = elements.len();
+    let init = (|| -> Result<(), String> {
+        for (e, inst) in insts.iter_mut().enumerate() {
+            let name = &elements[e].name;
+            inst.activity().at(t0);
+            inst.setup_experiment(None, t0, Some(plan.stop_time))
+                .map_err(|err| at(name, t0, err))?;
+            for s in elements[e]
+                .start_values
+                .iter()
+                .filter(|s| s.phase == Phase::Instantiated)
+            {
+                set_start(inst, name, s)?;
+            }
+            inst.enter_initialization_mode()
+                .map_err(|err| at(name, t0, err))?;
+            for s in elements[e]
+                .start_values
+                .iter()
+                .filter(|s| s.phase == Phase::Initialization)
+            {
+                set_start(inst, name, s)?;
+            }
+        }
+        let none = vec![false; n];
+        for &e in &plan.order {
+            st.set_inputs(e, &mut insts[e], t0, 0.0, &none)?;
+            st.read(e, &mut insts[e], t0, false)?;
+        }
+        for (e, inst) in insts.iter_mut().enumerate() {
+            inst.exit_initialization_mode()
+                .map_err(|err| at(&elements[e].name, t0, err))?;
+        }
+        for (e, inst) in insts.iter_mut().enumerate() {
+            st.read(e, inst, t0, true)?;
+        }
+        Ok(())
+    })();
+    if let Err(m) = init {
+        out.failure = Some(format!("initialization: {m}"));
+        return out;
+    }
+    if let Err(m) = st.record(insts, sink, t0) {
+        out.failure = Some(m);
+        return out;
+    }
+    out.rows += 1;
+    let (h, stop) = (plan.h, plan.stop_time);
+    let mut time = t0;
+    let mut n_steps: u64 = 0;
+    let mut stepped = vec![false; n];
+    loop {
+        if time > stop || isclose(time, stop) {
+            break;
+        }
+        if plan
+            .interrupt
+            .is_some_and(|f| f.load(std::sync::atomic::Ordering::Relaxed))
+        {
+            out.failure = Some(format!("interrupted at t = {time}"));
+            return out;
+        }
+        let mut next = t0 + (n_steps + 1) as f64 * h;
+        if next > stop && !isclose(next, stop) {
+            if plan.can_vary {
+                next = stop;
+            } else {
+                out.notes.push(format!(
+                    "stopped at t = {time}, before the stop time {stop}: the next grid point {next} is past it and not every FMU can shorten a step (canHandleVariableCommunicationStepSize)"
+                ));
+                break;
+            }
+        }
+        let step = next - time;
+        if !(step > 0.0) {
+            out.failure = Some(format!(
+                "the communication step from t = {time} is {step}: the step {h} is too small for the time's floating-point resolution"
+            ));
+            return out;
+        }
+        st.prev.copy_from_slice(&st.cur);
+        stepped.iter_mut().for_each(|s| *s = false);
+        let stepping = (|| -> Result<(), String> {
+            for &e in &plan.order {
+                st.set_inputs(e, &mut insts[e], time, step, &stepped)?;
+                insts[e].activity().at(time);
+                insts[e].do_step(time, step).map_err(|err| {
+                    format!(
+                        "element \"{}\" refused the step from t = {time} with h = {step} ({}): {err}",
+                        elements[e].name, err.status
+                    )
+                })?;
+                if plan.algorithm == Algorithm::GaussSeidel {
+                    st.read(e, &mut insts[e], next, true)?;
+                    stepped[e] = true;
+                }
+            }
+            if plan.algorithm == Algorithm::Jacobi {
+                for (e, inst) in insts.iter_mut().enumerate() {
+                    st.read(e, inst, next, true)?;
+                }
+            }
+            Ok(())
+        })();
+        if let Err(m) = stepping {
+            out.failure = Some(m);
+            return out;
+        }
+        time = next;
+        if let Err(m) = st.record(insts, sink, time) {
+            out.failure = Some(m);
+            return out;
+        }
+        out.rows += 1;
+        if isclose(time, t0 + (n_steps + 1) as f64 * h) {
+            n_steps += 1;
+        }
+    }
+    for (e, inst) in insts.iter_mut().enumerate() {
+        if let Err(err) = inst.terminate() {
+            out.failure = Some(format!("at the end: {}", at(&elements[e].name, time, err)));
+            break;
+        }
+    }
+    out
+}
