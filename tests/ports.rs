@@ -241,3 +241,15 @@ fn without_ports_the_nominal_form_runs() {
     assert!(run.column("pinion_speed").is_none());
     assert!(run.column("mesh1_dte").is_some());
 }
+
+#[test]
+fn nominal_analyses_refuse_ports_and_simulate_runs() {
+    let folder = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fmu/spur_stage");
+    let scene = geardyn::model::AnyScene::from_path(&folder).unwrap();
+    let e = scene.simulation().err().unwrap();
+    assert!(
+        e.contains("[[port]]") && e.contains("geardyn simulate"),
+        "{e}"
+    );
+    assert!(scene.run().is_ok());
+}

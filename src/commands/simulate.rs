@@ -134,7 +134,7 @@ pub fn simulate(
     let (stop_time, interval) = opts.apply(scene.solver_mut())?;
     let name = scene.name().to_owned();
     let pair = matches!(scene, AnyScene::Pair(_));
-    with_drivetrain!(scene.simulation()?, sim => {
+    with_drivetrain!(scene.run()?, sim => {
         let names = sim.model().row_names();
         let meshes: Vec<(String, MeshColumns)> = (0..sim.model().mesh_count())
             .map(|n| {

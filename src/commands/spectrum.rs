@@ -202,7 +202,8 @@ impl SpectrumReport {
 /// ([`crate::analysis::spectrum::model_aliasing_warning`]); a run whose speed varies passes
 /// its highest speed through that function's `speed_factor`.
 pub fn aliasing(scene: &AnyScene, interval: f64) -> Result<Option<String>, String> {
-    with_drivetrain!(scene.simulation()?, sim => {
+    // At the start speed for a scene with ports (docs/ports.md).
+    with_drivetrain!(scene.run()?, sim => {
         Ok(model_aliasing_warning(sim.model(), interval, 1.0))
     })
 }

@@ -16,7 +16,8 @@
 use std::cell::{Cell, Ref, RefCell};
 
 use crate::fmi::model::{
-    Causality, CoSimModel, DefaultExperiment, Lifecycle, ModelInfo, StepFailure, Variable,
+    Capabilities, Causality, CoSimModel, DefaultExperiment, Lifecycle, ModelInfo, StepFailure,
+    Variable,
 };
 use crate::fmu::checks::check_snapshot_values;
 use crate::fmu::kernel::{Kernel, KernelSnapshot};
@@ -343,6 +344,20 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
 
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {
         self.restore(&K::decode(bytes)?)
+    }
+
+    fn capabilities(&self) -> Capabilities {
+        Capabilities {
+            can_interpolate_inputs: false,
+            max_output_derivative_order: u32::from(K::output_derivatives(&self.base)),
+        }
+    }
+
+    fn output_derivative(&self, vr: u32) -> Result<f64, String> {
+        let k = self
+            .output_index(vr)
+            .ok_or_else(|| format!("'{}' (vr {vr}) is not an output", name_of(&self.vars, vr)))?;
+        K::output_rate(&self.sim, k, &self.current_outputs())
     }
 }
 

@@ -75,6 +75,17 @@ pub trait Kernel: 'static {
     fn extra(s: &Self::Settings) -> Self::Extra;
     fn set_extra(s: &mut Self::Settings, extra: &Self::Extra);
     fn sim_state(sim: &Driver<Self::Model>) -> Self::SimState;
+    /// Whether the FMU provides first-order output derivatives
+    /// (`maxOutputDerivativeOrder = 1`, FMI 2.0.x §4.2.1; [`Self::output_rate`]).
+    fn output_derivatives(_s: &Self::Settings) -> bool {
+        false
+    }
+    /// `d/dt` of output `k` at the current time; `outputs` are the current outputs.
+    fn output_rate(_sim: &Driver<Self::Model>, k: usize, _outputs: &[f64]) -> Result<f64, String> {
+        Err(format!(
+            "output {k}: the model provides no output derivatives"
+        ))
+    }
     /// The inputs of a run state, in [`Self::INPUTS`] order, as the variables read them
     /// (the settings say how: a drivetrain's output port reads minus the load torque).
     fn sim_inputs(s: &Self::Settings, state: &Self::SimState) -> [f64; 3];

@@ -559,8 +559,27 @@ impl AnyScene {
         }
     }
 
-    /// Assembles the scene's kernel and starts it at `t = 0` from the scene's initial state.
+    /// Assembles the scene's kernel and starts it at `t = 0` from the scene's initial state,
+    /// for the analyses of the nominal-speed form (steady states, Floquet, harmonic balance,
+    /// sweeps, spectra, run-ups): a scene with `[[port]]` carries its rotation and is refused
+    /// with the reason (`docs/ports.md`); `geardyn simulate` takes [`AnyScene::run`].
     pub fn simulation(&self) -> Result<AnySimulation, String> {
+        if let AnyScene::Train(s) = self {
+            if let Some(p) = s.ports.first() {
+                return Err(format!(
+                    "scene {:?} has [[port]] ({:?}, ...): its rigid-body rotation is carried and \
+                     the mesh phase follows the pinion angle, so the periodic and \
+                     nominal-speed analyses do not apply; run it with `geardyn simulate` or as \
+                     an FMU (docs/ports.md)",
+                    s.name, p.name
+                ));
+            }
+        }
+        self.run()
+    }
+
+    /// The scene's simulation in any form (nominal speed, or carried rotation with ports).
+    pub fn run(&self) -> Result<AnySimulation, String> {
         Ok(match self {
             AnyScene::Pair(s) => AnySimulation::Pair(Simulation::new(s)?),
             AnyScene::Train(s) => AnySimulation::Train(TrainSimulation::new(s)?),

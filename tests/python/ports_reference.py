@@ -51,6 +51,8 @@ def load(path) -> PortScene:
     with open(path, "rb") as fh:
         doc = tomllib.load(fh)
     ports = {p["gear"]: p for p in doc.pop("port")}
+    if isinstance(doc["mesh"], list):  # [[mesh]] with one entry: the single-pair table
+        (doc["mesh"],) = doc["mesh"]
     gears = [g["name"] for g in doc["gear"]]
     t_in = float(ports[doc["mesh"]["pinion"]].get("torque", 0.0))
     t_out = float(ports[doc["mesh"]["gear"]].get("torque", 0.0))

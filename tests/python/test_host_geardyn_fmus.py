@@ -28,6 +28,12 @@ def names(scene: pathlib.Path):
     return "pinion_speed", "mesh.damping"
 
 
+def torque_input(scene: pathlib.Path) -> str:
+    """The input-torque variable: `input_torque`, or `<port>.torque` of a scene with torque
+    ports (docs/ports.md; the port on the input gear is named `input` in fmu/spur_stage)."""
+    return "input.torque" if "[[port]]" in (scene / "scene.toml").read_text() else "input_torque"
+
+
 def shipped(name: str) -> pathlib.Path:
     fmu = FMU_DIR / f"{name}.fmu"
     if not fmu.exists():
@@ -60,9 +66,9 @@ def test_start_values_and_last_step_match_fmpy(scene, tmp_path, report):
     fmu = shipped(scene.name)
     _, damping = names(scene)
     g = geardyn_run(fmu, tmp_path / "g.csv", "--stop-time", "0.0123", "--output-interval", "1e-4",
-                    "--start", "input_torque=150", "--start", f"{damping}=900")
+                    "--start", f"{torque_input(scene)}=150", "--start", f"{damping}=900")
     f = fmpy_cli(fmu, tmp_path / "f.csv", "--stop-time", "0.0123", "--output-interval", "1e-4",
-                 "--start-values", "input_torque", "150", damping, "900")
+                 "--start-values", torque_input(scene), "150", damping, "900")
     rel = assert_same(g, f)
     assert read(g)[1][-1, 0] == 0.0123
     report(f"{scene.name}.fmu, geardyn run vs fmpy, start values + shortened last step: max rel diff {rel:.3g}")

@@ -175,6 +175,32 @@ impl Kernel for Drivetrain {
         sim.snapshot()
     }
 
+    /// With ports: the angles and speeds of the ports and bodies, whose rates are the speed
+    /// and acceleration outputs (`docs/ports.md`).
+    fn output_derivatives(scene: &TrainScene) -> bool {
+        !scene.ports.is_empty()
+    }
+
+    fn output_rate(sim: &TrainSimulation, k: usize, outputs: &[f64]) -> Result<f64, String> {
+        let names = sim.output_names();
+        let name = &names[k];
+        let rate = [("angle", "speed"), ("speed", "acceleration")]
+            .iter()
+            .find_map(|(q, r)| {
+                let stem = name.strip_suffix(q)?;
+                let target = format!("{stem}{r}");
+                names.iter().position(|n| *n == target)
+            });
+        match rate {
+            Some(j) if sim.model().carries_rotation() => Ok(outputs[j]),
+            _ => Err(format!(
+                "'{name}': output derivatives are provided for the port and body angles and \
+                 speeds (their rates are the speed and acceleration outputs), not for this \
+                 output"
+            )),
+        }
+    }
+
     fn sim_inputs(scene: &TrainScene, state: &TrainSimState) -> [f64; 3] {
         inputs_array(state.train.inputs, load_sign(scene))
     }

@@ -288,7 +288,7 @@ impl GearTrain {
             .as_ref()
             .expect("knot events need the rotation");
         let n = rot.knot_meshes[k / 2];
-        let forward = k % 2 == 0;
+        let forward = k.is_multiple_of(2);
         let count = self.meshes[n].table().map_or(1, |tb| tb.intervals.len());
         for _ in 0..count {
             if forward {
