@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Benchmark of the co-simulated drivetrain (issue 18, acceptance 6): the five-FMU system
-# examples/systems/drivetrain in geardyn's master (`geardyn run`, Jacobi and Gauss–Seidel with
-# zero-order hold) against the monolithic native run of the same drivetrain
+# examples/systems/drivetrain in geardyn's master (`geardyn run`: Jacobi and Gauss–Seidel with
+# zero-order hold, Gauss–Seidel with interpolation/extrapolation) against the monolithic native
+# run of the same drivetrain
 # (`geardyn simulate examples/drivetrain_monolithic.toml`), on the same output grid
 # (communication step = output interval = T_mesh/20, stop 1 s: 57 000 steps), each writing
 # the CSV of its own columns.
@@ -43,6 +44,8 @@ commands = {
                                         "--algorithm", "jacobi", "--extrapolation", "none"],
     "5 FMUs, geardyn run GS/hold": [exe, "run", system, "--out", f"{tmp}/g.csv", *grid,
                                     "--algorithm", "gauss-seidel", "--extrapolation", "none"],
+    "5 FMUs, geardyn run GS/linear": [exe, "run", system, "--out", f"{tmp}/l.csv", *grid,
+                                      "--algorithm", "gauss-seidel", "--extrapolation", "linear"],
 }
 
 def timed(cmd):
