@@ -574,6 +574,15 @@ impl AnyScene {
                     s.name, p.name
                 ));
             }
+            if let Some(b) = s.elements.bodies.first() {
+                return Err(format!(
+                    "scene {:?} has elements ({:?}, ...): its rigid-body rotation is carried \
+                     and the mesh phase follows the pinion angle, so the periodic and \
+                     nominal-speed analyses do not apply; run it with `geardyn simulate` \
+                     (docs/ports.md)",
+                    s.name, b.name
+                ));
+            }
         }
         self.run()
     }

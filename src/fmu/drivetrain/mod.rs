@@ -82,6 +82,16 @@ impl Kernel for Drivetrain {
         if scene.meshes.is_empty() {
             return Err("the drivetrain has no mesh".into());
         }
+        if let Some(b) = scene.elements.bodies.first() {
+            // The monolithic drivetrain is the native oracle of a system of element FMUs
+            // (docs/ports.md); as one FMU it would have no ports to its neighbours.
+            return Err(format!(
+                "scene {:?} has elements ({:?}, ...): a drivetrain with [[motor]], [[load]] or \
+                 [[inertia]] runs natively (`geardyn simulate`); build the elements as their \
+                 own FMUs (docs/elements.md)",
+                scene.name, b.name
+            ));
+        }
         TrainSimulation::new(scene)
     }
 

@@ -52,8 +52,9 @@ impl Driver<GearTrain> {
     pub fn new(scene: &TrainScene) -> Result<TrainSimulation, String> {
         let mut train = GearTrain::new(scene)?;
         let y0 = train.initial_state(scene)?;
-        let refusal = if !scene.ports.is_empty() {
-            "solver.method = \"exact\": with [[port]] the rigid-body rotation is carried and \
+        let refusal = if scene.carries_rotation() {
+            "solver.method = \"exact\": with [[port]] or elements ([[motor]], [[load]], \
+             [[inertia]]) the rigid-body rotation is carried and \
              every mesh phase follows its pinion's angle, so the mesh stiffness is a function of \
              the state, not of time, and the segments are not linear time-invariant \
              (docs/ports.md; use rk or auto)"

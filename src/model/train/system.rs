@@ -531,7 +531,7 @@ impl GearTrain {
         for mesh in &mut train.meshes {
             mesh.locate(0.0);
         }
-        if !scene.ports.is_empty() {
+        if scene.carries_rotation() {
             let carried = rotating::Carried::new(scene, &train, &red)?;
             train.names.extend(carried.names());
             train.rotation = Some(Box::new(carried));
@@ -766,12 +766,7 @@ impl GearTrain {
             mesh.clock.reanchor(t, f);
         }
         for i in 0..self.m {
-            self.f_ext[i] = self.f_in[i] * inputs.input_torque + self.f_out[i] * inputs.load_torque;
-        }
-        if let Some([(d_in, j_in), (d_out, j_out)]) = self.pair_form {
-            // F̂ = m_e (d_in T_in/J_in + d_out T_out/J_out), T_out = −T_load (docs/model.md).
-            self.f_ext[0] = self.m_hat[0]
-                * (d_in * inputs.input_torque / j_in + d_out * -inputs.load_torque / j_out);
+            self.f_ext[i] = self.external_force(i, inputs.input_torque, inputs.load_torque);
         }
         if torque_changed && self.meshes.iter().any(|m| m.model2.is_some()) {
             // Model-2 excitation: the loaded STE at the static mesh force (mean removed),
@@ -790,6 +785,17 @@ impl GearTrain {
             self.key_fits = self.key_bits() <= 63;
         }
         Ok(())
+    }
+
+    /// Elastic coordinate i of the external force `F̂` under the input and load torques.
+    fn external_force(&self, i: usize, t_in: f64, t_load: f64) -> f64 {
+        match self.pair_form {
+            // F̂ = m_e (d_in T_in/J_in + d_out T_out/J_out), T_out = −T_load (docs/model.md).
+            Some([(d_in, j_in), (d_out, j_out)]) if i == 0 => {
+                self.m_hat[0] * (d_in * t_in / j_in + d_out * -t_load / j_out)
+            }
+            _ => self.f_in[i] * t_in + self.f_out[i] * t_load,
+        }
     }
 
     fn key_bits(&self) -> u32 {
@@ -1521,18 +1527,24 @@ fn surface_sign(surface: Surface) -> f64 {
 
 impl HybridSystem for GearTrain {
     fn dim(&self) -> usize {
-        2 * self.m + self.rotation.as_ref().map_or(0, |r| 2 * r.rigid_dim())
+        2 * self.m + self.rotation.as_ref().map_or(0, |r| r.extra_dim())
     }
 
     fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        // With elements the train's torques are those of their shafts, from the state.
+        let torques = (self.rotation.as_ref()).and_then(|rot| rot.train_torques(t, y));
         if let Some(rot) = &self.rotation {
-            rot.rigid_rhs(self, y, dy);
+            let given = (self.inputs.input_torque, self.inputs.load_torque);
+            rot.rigid_rhs(self, t, y, dy, torques.unwrap_or(given));
         }
         let m = self.m;
         let mut acc = self.scratch.borrow_mut();
         for i in 0..m {
             dy[i] = y[m + i];
-            let mut f = self.f_ext[i];
+            let mut f = match torques {
+                Some((t_in, t_load)) => self.external_force(i, t_in, t_load),
+                None => self.f_ext[i],
+            };
             for k in 0..m {
                 f -= self.k_b[i * m + k] * y[k] + self.c[i * m + k] * y[m + k];
             }

@@ -6,6 +6,7 @@
 //! `docs/train.md`. A single-mesh scene of `docs/model.md` is read here as a train with one
 //! mesh, so the single pair is one case of the graph.
 
+pub mod elements;
 mod friction;
 pub mod ports;
 pub mod spec;
@@ -430,6 +431,15 @@ pub struct TrainScene {
     pub source: String,
     /// Mechanical ports (`docs/ports.md`); empty: the nominal-speed form.
     pub ports: Vec<Port>,
+    /// Drivetrain elements coupled to the train (`docs/ports.md`); empty: none.
+    pub elements: elements::Elements,
+}
+
+impl TrainScene {
+    /// Whether the rigid-body rotation is carried: the scene has ports or elements.
+    pub fn carries_rotation(&self) -> bool {
+        !self.ports.is_empty() || !self.elements.is_empty()
+    }
 }
 
 /// Built-in drivetrain scenes (`fmu/<name>/scene.toml`, `examples/<name>.toml`).
@@ -504,6 +514,9 @@ pub fn is_train_text(text: &str) -> bool {
                 || table.contains_key("shaft")
                 || table.contains_key("model")
                 || table.contains_key("port")
+                || table.contains_key("motor")
+                || table.contains_key("load")
+                || table.contains_key("inertia")
                 || has_gear_errors(&table)
                 || has_pair_features(&table)
         }
@@ -609,6 +622,7 @@ impl TrainScene {
             solver: scene.solver.clone(),
             source: scene.source.clone(),
             ports: Vec::new(),
+            elements: elements::Elements::default(),
         }
     }
 }

@@ -30,6 +30,14 @@ pub struct TrainSpec {
     /// Mechanical ports (`docs/ports.md`): with any, the rigid-body rotation is carried.
     #[serde(default)]
     pub port: Vec<super::ports::PortSpec>,
+    /// Drivetrain elements (`docs/ports.md`, "Elements in the scene"): with any, the rotation
+    /// is carried.
+    #[serde(default)]
+    pub motor: Vec<super::elements::MotorBodySpec>,
+    #[serde(default)]
+    pub load: Vec<super::elements::LoadBodySpec>,
+    #[serde(default)]
+    pub inertia: Vec<super::elements::InertiaBodySpec>,
 }
 
 /// `[mesh]` (one table) or `[[mesh]]` (an array of tables).
@@ -129,6 +137,9 @@ pub struct RunoutSpec {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ShaftSpec {
+    /// Name of a shaft to an element (its output column `<name>_torque`; default
+    /// `<gears[0]>_<gears[1]>`).
+    pub name: Option<String>,
     pub gears: [String; 2],
     /// Torsional stiffness, N·m/rad (omit with `rigid = true`).
     pub stiffness: Option<f64>,

@@ -202,11 +202,25 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
         })
     };
 
-    let shafts = spec
+    // A shaft that reaches an element ([[motor]], [[load]], [[inertia]]) is an element
+    // shaft (`super::elements`); the others couple coaxial gears of the train.
+    let element_names = super::elements::body_names(&spec.motor, &spec.load, &spec.inertia);
+    let (element_shafts, train_shafts): (Vec<_>, Vec<_>) = spec
         .shaft
         .iter()
         .enumerate()
-        .map(|(i, s)| shaft(i, s, &find))
+        .partition(|(_, s)| s.gears.iter().any(|g| element_names.contains(g)));
+    let shafts = train_shafts
+        .iter()
+        .map(|&(i, s)| {
+            if let Some(name) = &s.name {
+                return err(format!(
+                    "shaft[{i}].name = {name:?}: only a shaft to an element has a name \
+                     (its torque column)"
+                ));
+            }
+            shaft(i, s, &find)
+        })
         .collect::<Result<Vec<_>>>()?;
 
     if mesh_specs.is_empty() {
@@ -330,6 +344,34 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
         op.input_torque.is_some() || op.torque_profile.is_some(),
         op.load_torque.is_some(),
     )?;
+    let elements = super::elements::elements(
+        &spec.motor,
+        &spec.load,
+        &spec.inertia,
+        &element_shafts,
+        &|name| gears.iter().position(|g| g.name == name),
+        input_gear,
+        output_gear,
+        input_torque,
+        load_torque,
+    )?;
+    if !elements.is_empty() {
+        if let Some(p) = spec.port.first() {
+            return err(format!(
+                "port[0] ({:?}) with elements ([[motor]], [[load]], [[inertia]]): the elements' \
+                 shafts give the train's torques; ports beside them are not available yet",
+                p.name
+            ));
+        }
+        if profiles.speed.is_some() || profiles.torque.is_some() {
+            return err(
+                "operating.speed_profile / operating.torque_profile: a scene with elements \
+                 takes its torques from the element shafts and carries its speed \
+                 (docs/ports.md)"
+                    .into(),
+            );
+        }
+    }
     if !ports.is_empty() && (profiles.speed.is_some() || profiles.torque.is_some()) {
         return err(
             "operating.speed_profile / operating.torque_profile: a scene with [[port]] \
@@ -384,6 +426,7 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
         solver,
         source: source.to_owned(),
         ports,
+        elements,
     })
 }
 

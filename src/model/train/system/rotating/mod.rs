@@ -22,7 +22,11 @@
 //! state events on `p_n − knot` in both directions (a reversing shaft goes back a segment),
 //! like the contact changes; the force is the nominal form's `mesh_force_at` with this phase.
 
+mod attached;
+
 use std::f64::consts::TAU;
+
+use attached::{Attached, TrainMotion};
 
 use super::super::assembly::Reduction;
 use super::{GearTrain, SlotContact, Stiffness};
@@ -63,6 +67,20 @@ pub(crate) struct Carried {
     /// current interval).
     knot_meshes: Vec<usize>,
     ports: Vec<PortRt>,
+    /// Elements coupled to the train (`[[motor]]`, `[[load]]`, `[[inertia]]`).
+    attached: Option<Attached>,
+}
+
+impl TrainMotion for Carried {
+    fn train_motion(&self, b: usize, t: f64, y: &[f64]) -> (f64, f64) {
+        self.body_motion(b, t, y)
+    }
+    fn train_ratio(&self, b: usize) -> f64 {
+        self.bodies[b].ratio
+    }
+    fn reference_speed(&self) -> f64 {
+        self.omega
+    }
 }
 
 impl Carried {
@@ -128,7 +146,7 @@ impl Carried {
                 Stiffness::Smooth { .. } => false,
             })
             .collect();
-        Ok(Carried {
+        let mut carried = Carried {
             m,
             r,
             omega,
@@ -156,11 +174,31 @@ impl Carried {
                     end: p.end,
                 })
                 .collect(),
-        })
+            attached: None,
+        };
+        if !scene.elements.is_empty() {
+            let attached = Attached::new(
+                &scene.elements,
+                &|g| asm.body_of[g],
+                scene.input_gear,
+                scene.output_gear,
+                &carried,
+                2 * m + 2 * r,
+            );
+            carried.attached = Some(attached);
+        }
+        Ok(carried)
     }
 
-    pub(crate) fn rigid_dim(&self) -> usize {
-        self.r
+    /// States beyond `[ξ, ξ']`: `[η, η']` and the elements' states.
+    pub(crate) fn extra_dim(&self) -> usize {
+        2 * self.r + self.attached.as_ref().map_or(0, Attached::dim)
+    }
+
+    /// The train's input and load torque from the element shafts at `(t, y)`; `None`: the
+    /// train takes its torques from its inputs (ports).
+    pub(crate) fn train_torques(&self, t: f64, y: &[f64]) -> Option<(f64, f64)> {
+        (self.attached.as_ref()).map(|a| a.train_torques(t, y, self))
     }
 
     /// Angle (rad) and speed (rad/s) of body b, positive in its nominal rotation sense.
@@ -206,16 +244,31 @@ impl Carried {
             let elastic_angle: f64 = (0..m).map(|i| row.xi[i] * y[i]).sum();
             y[2 * m + k] = -elastic_angle / row.eta[k];
         }
+        if let Some(a) = &self.attached {
+            y.resize(2 * m + 2 * r + a.dim(), 0.0);
+            a.initial_state(&mut y, self);
+        }
         y
     }
 
-    /// `η' = η'`, `η'' = Rᵀ F_T` (M-orthonormal rigid modes) into `dy[2m..]`.
-    pub(crate) fn rigid_rhs(&self, train: &GearTrain, y: &[f64], dy: &mut [f64]) {
+    /// `η' = η'`, `η'' = Rᵀ F_T` (M-orthonormal rigid modes) into `dy[2m..]` under the input
+    /// and load torques `torques`, and the elements' state derivatives.
+    pub(crate) fn rigid_rhs(
+        &self,
+        train: &GearTrain,
+        t: f64,
+        y: &[f64],
+        dy: &mut [f64],
+        torques: (f64, f64),
+    ) {
         let (m, r) = (self.m, self.r);
-        let (t_in, t_load) = (train.inputs.input_torque, train.inputs.load_torque);
+        let (t_in, t_load) = torques;
         for k in 0..r {
             dy[2 * m + k] = y[2 * m + r + k];
             dy[2 * m + r + k] = train.rigid_in[k] * t_in + train.rigid_out[k] * t_load;
+        }
+        if let Some(a) = &self.attached {
+            a.rhs(t, y, dy, self, None);
         }
     }
 
@@ -252,6 +305,9 @@ impl Carried {
                 names.push(format!("{}.{q}", p.name));
             }
         }
+        if let Some(a) = &self.attached {
+            names.extend(a.names());
+        }
         names
     }
 
@@ -275,6 +331,9 @@ impl Carried {
         for p in &self.ports {
             let i = start + 3 * p.body;
             out.extend_from_within(i..i + 3);
+        }
+        if let Some(a) = &self.attached {
+            a.outputs(t, y, dy, self, out);
         }
     }
 }
