@@ -6,10 +6,6 @@
 # (`geardyn simulate examples/drivetrain_monolithic.toml`), on the same output grid
 # (communication step = output interval = T_mesh/20, stop 1 s: 57 000 steps), each writing
 # the CSV of its own columns.
-# If the monolithic scene is not there, the native run of the gear stage alone
-# (fmu/spur_stage, constant port torques) stands in: a lower bound of the monolithic cost (the
-# monolithic run integrates the same mesh plus three more bodies), so the ratio printed is then
-# an upper bound of the real one. The script says which it used.
 # The commands run in alternating rounds so that a change of machine load hits all of them
 # alike; reported: median wall and CPU time (user + system, children included: `geardyn run`
 # runs the FMUs in a child process) and the ratios to the native run.
@@ -26,10 +22,6 @@ for f in emotor shaft_in spur_stage shaft_out vehicle_load; do
 done
 native=examples/drivetrain_monolithic.toml
 label="monolithic drivetrain (native)"
-if [ ! -f "$native" ]; then
-  native=fmu/spur_stage
-  label="spur_stage alone (native, stand-in)"
-fi
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 python3 - "$rounds" "$bin" "$native" "$label" "$tmp" <<'EOF_PY'
