@@ -999,8 +999,11 @@ impl PiecewiseLti for GearPair {
         w[last] = sign * offset;
     }
 
-    fn mode_key(&self) -> u64 {
-        (self.segment.piece as u64) << 2 | (self.contact as i8 + 1) as u64
+    fn mode_key(&self, key: &mut crate::solve::exact::ModeKey) {
+        key.push(
+            (self.segment.piece as u64) << 2 | (self.contact as i8 + 1) as u64,
+            u64::MAX,
+        );
     }
 
     /// Contact guards proved positive by the energy bound of [`guard_bound`].
