@@ -23,11 +23,7 @@ pub type Simulation = Driver<GearPair>;
 impl DrivenModel for GearPair {
     type RunState = PairState;
     fn not_lti_reason(&self) -> Option<String> {
-        (!GearPair::is_piecewise_lti(self)).then(|| {
-            "the mesh stiffness is not piecewise constant (or the mesh has a smooth torque \
-             ripple or friction term), so a segment is not linear time-invariant"
-                .to_owned()
-        })
+        GearPair::not_lti_reason(self)
     }
     fn resynchronise(&mut self, t: f64, y: &[f64]) {
         GearPair::resynchronise(self, t, y)

@@ -770,6 +770,25 @@ impl GearPair {
     pub fn is_piecewise_lti(&self) -> bool {
         self.stiffness.is_piecewise_constant() && self.smooth.is_zero()
     }
+
+    /// Why a segment is not LTI (exact propagator refused), or `None`.
+    pub fn not_lti_reason(&self) -> Option<String> {
+        if !self.stiffness.is_piecewise_constant() {
+            Some(
+                "the mesh stiffness is not piecewise constant (smooth, trapezoidal or tabulated \
+                 with slopes), so it varies within a segment"
+                    .to_owned(),
+            )
+        } else if !self.smooth.is_zero() {
+            Some(
+                "the mesh has smooth nonlinear or time-varying terms (cubic stiffness, damping \
+                 variation or torque ripple), which are not linear time-invariant"
+                    .to_owned(),
+            )
+        } else {
+            None
+        }
+    }
 }
 
 impl HybridSystem for GearPair {
