@@ -160,7 +160,7 @@ fn max_dte_difference(a: &[Vec<f64>], b: &[Vec<f64>]) -> f64 {
 /// rtol 1e-6 and 1e-9), and the RK runs agree with the exact propagator at their tolerance:
 /// the same number of contact events and the DTE of every mesh at every period end within
 /// `100·rtol` of the static deflection δ (`1000·rtol` with contact loss). (Issue 20 saw DOP853 stop with "step size 2.0e-15
-/// too small" on 8- and 16-mesh compliant chains; `docs/scaling.md` §stiff.)
+/// too small" on 8- and 16-mesh compliant chains; `docs/chains.md`.)
 #[test]
 fn every_compliant_chain_completes_with_every_method() {
     for contact in [ChainContact::Linear, ChainContact::ContactLoss] {
