@@ -71,12 +71,12 @@ fn contact_loss_chains_lose_contact_in_every_steady_period() {
     }
 }
 
-/// Runs `scene` to `periods` mesh periods recording contact events; returns the events and
-/// the DTE of every mesh at each period end.
-fn run_recorded(
-    scene: &TrainScene,
-    periods: usize,
-) -> (Vec<(f64, usize, usize)>, Vec<Vec<f64>>, String) {
+/// A recorded run: contact events `(t, mesh, slot)`, the DTE of every mesh at each period
+/// end, and the method choice.
+type Recorded = (Vec<(f64, usize, usize)>, Vec<Vec<f64>>, String);
+
+/// Runs `scene` to `periods` mesh periods recording contact events.
+fn run_recorded(scene: &TrainScene, periods: usize) -> Recorded {
     let mut sim = TrainSimulation::new(scene).unwrap();
     sim.model_mut().record_events();
     let period = 1.0 / scene.mesh_frequency(0, scene.operating.input_speed);

@@ -142,11 +142,11 @@ impl ChainSpec {
         }
         for n in 0..m {
             // Zigzag centre lines (±30°), so every line of action is oblique to both axes.
-            let centre = if n % 2 == 0 { 0.5236 } else { -0.5236 };
+            let centre = std::f64::consts::FRAC_PI_6 * if n % 2 == 0 { 1.0 } else { -1.0 };
             let _ = writeln!(
                 s,
                 "[[mesh]]\nname = \"mesh{}\"\npinion = \"g{n}\"\ngear = \"g{}\"\ncontact = \"{contact}\"\n\
-                 model = \"lumped\"\npressure_angle = 20.0\ncentre_angle = {centre}",
+                 model = \"lumped\"\npressure_angle = 20.0\ncentre_angle = {centre:?}",
                 n + 1,
                 n + 1
             );
