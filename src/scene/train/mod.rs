@@ -6,6 +6,7 @@
 //! `docs/train.md`. A single-mesh scene of `docs/model.md` is read here as a train with one
 //! mesh, so the single pair is one case of the graph.
 
+pub mod chain;
 pub mod elements;
 mod friction;
 pub mod ports;
@@ -19,6 +20,7 @@ use crate::scene::{
     read_scene_file, scene_file, ContactLaw, InitialDte, SceneError, SolverSettings,
 };
 
+pub use chain::{ChainBearings, ChainContact, ChainSpec};
 pub use friction::{HelicalPair, MeshFriction};
 pub use ports::{Port, PortEnd};
 pub use spec::TrainSpec;
