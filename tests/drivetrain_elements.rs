@@ -252,6 +252,11 @@ fn scene_checks_name_the_keys() {
         "{base}\n[[port]]\nname = \"input\"\ngear = \"pinion\"\n"
     ));
     assert!(msg.contains("port[0]"), "{msg}");
+    let msg = refused(&base.replace("name = \"shaft2\"", "name = \"shaft1\""));
+    assert!(
+        msg.contains("shaft[1].name") && msg.contains("shaft1"),
+        "{msg}"
+    );
     let exact = scene(&base.replace("method = \"auto\"", "method = \"exact\""));
     let msg = run_train(&exact, 0.001, 1e-4)
         .err()

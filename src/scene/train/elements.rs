@@ -276,11 +276,18 @@ pub(super) fn elements(
             damping: s.damping,
         };
         spec.validate(&format!("shaft[{i}]")).map_err(SceneError)?;
+        let name = s
+            .name
+            .clone()
+            .unwrap_or_else(|| format!("{}_{}", s.gears[0], s.gears[1]));
+        if out.iter().any(|o| o.name == name) {
+            return err(format!(
+                "shaft[{i}].name = {name:?}: another element shaft has that name (its torque \
+                 column <name>_torque); give each a distinct name"
+            ));
+        }
         out.push(ElementShaft {
-            name: s
-                .name
-                .clone()
-                .unwrap_or_else(|| format!("{}_{}", s.gears[0], s.gears[1])),
+            name,
             ends,
             spec,
             start_torque: 0.0,
