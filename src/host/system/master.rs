@@ -8,7 +8,8 @@
 //! * Initialization: every instance gets `fmi2SetupExperiment` and its start values, enters
 //!   initialization mode, gets its initialization-phase start values; then, in the
 //!   Gauss–Seidel order, each element's connected inputs are set from its producers' current
-//!   outputs and its own outputs are read (one pass); then all exit initialization mode.
+//!   outputs and its own outputs are read (one pass, after one read of every element's outputs
+//!   from its start values); then all exit initialization mode.
 //! * Jacobi: every element steps from t to t+h with its producers' outputs at t.
 //!   Gauss–Seidel: elements step one after another in the data-flow order
 //!   ([`super::graph::order`]); a consumer gets the outputs at t+h of producers that already
@@ -476,6 +477,12 @@ pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outco
             {
                 set_start(inst, name, s)?;
             }
+        }
+        // Every producer's outputs from its start values first: a connection that closes a
+        // cycle in the Gauss–Seidel order reads its producer before that producer's own pass,
+        // and must see the FMU's current output, not an unset buffer.
+        for (e, inst) in insts.iter_mut().enumerate() {
+            st.read(e, inst, t0, false)?;
         }
         let none = vec![false; n];
         for &e in &plan.order {

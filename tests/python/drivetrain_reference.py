@@ -1,0 +1,229 @@
+#!/usr/bin/env python3
+"""Independent scipy reference for the whole drivetrain of examples/systems/drivetrain
+(issue 18 point 5): e-motor → input shaft → spur_stage → output shaft → vehicle load, as ONE
+system of ordinary differential equations (monolithic, no co-simulation). Nothing here is
+derived from the Rust model code.
+
+The gear stage is the model of ``ports_reference.py`` (carried rotation, mesh phase from the
+pinion angle, stiffness knots and contact changes as terminal events of ``solve_ivp``); the
+elements are written from docs/elements.md:
+
+    J_m ω_m' = T_e + T_r − τ_1 − d_m ω_m,      T_e = k_p (ω_ref − ω_m)   (P control, k_i = 0)
+    T_r = Σ a_k cos(o_k θ_m + φ_k)
+    τ_1 = k_1 (θ_m − θ_1) + c_1 (ω_m − ω_1)          (input shaft, on the pinion: +τ_1)
+    τ_2 = k_2 (θ_2 − θ_L) + c_2 (ω_2 − ω_L)          (output shaft, on the wheel: −τ_2)
+    J_L ω_L' = τ_2 − T_0 − c_v ω_L − c_d ω_L |ω_L|
+
+and the gear stage's port torques are T_in = τ_1, T_out = −τ_2 (docs/ports.md).
+
+State: [S, Ṡ, φ, ψ, μ, ν, λ, κ] with φ = θ_1 − Ω t, ψ = ω_1 − Ω (as in ports_reference),
+μ = θ_m − Ω t, ν = ω_m − Ω, λ = θ_L − Ω_2 t, κ = ω_L − Ω_2, Ω_2 = Ω r_1/r_2: every angle is
+carried relative to the reference rotation so the error control sees its deviation.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+import ports_reference as pr
+
+TWO_PI = 2.0 * math.pi
+
+
+@dataclass
+class Elements:
+    """The element values, as the system binds them (docs/elements.md symbols)."""
+    j_m: float
+    d_m: float
+    kp: float
+    omega_ref: float
+    ripple: list  # (order, amplitude, phase)
+    t_max: tuple  # (speeds, torques) of the full-load curve
+    k1: float
+    c1: float
+    k2: float
+    c2: float
+    j_l: float
+    t0: float
+    c_v: float
+    c_d: float
+    theta_m0: float
+    omega_m0: float
+    theta_l0: float
+    omega_l0: float
+
+
+def simulate(s: pr.PortScene, el: Elements, stop_time: float, times, rtol=1e-12):
+    """Returns the reference on ``times``: dte, pinion/gear/motor/load speeds, both shaft
+    torques. The gear starts at its static deflection under its start port torques
+    ``s.t_in``/``s.t_out`` (as the FMU does), the pinion at angle 0."""
+    b = s.base
+    j1, j2, r1, r2 = b.inertia1, b.inertia2, b.r_b1, b.r_b2
+    z1, two_b, c = b.z1, b.backlash, b.damping
+    k_mean = b.stiffness.mean
+    pieces = b.stiffness.pieces
+    shift = b.stiffness.phase
+    law = b.contact
+    om = s.omega
+    om2 = om * r1 / r2
+
+    def phase(phi, t):
+        return b.p0 + z1 * (phi + om * t) / TWO_PI
+
+    def ste_and_rate(p, pdot):
+        e = pr.ref._fourier_sum(b.ste_cos, b.ste_sin, p)
+        de = 0.0
+        for h in range(1, max(len(b.ste_cos), len(b.ste_sin)) + 1):
+            a = b.ste_cos[h - 1] if h <= len(b.ste_cos) else 0.0
+            bb = b.ste_sin[h - 1] if h <= len(b.ste_sin) else 0.0
+            w = TWO_PI * h
+            de += w * (-a * math.sin(w * p) + bb * math.cos(w * p))
+        return e, de * pdot
+
+    p0 = phase(0.0, 0.0)
+    e0, _ = ste_and_rate(p0, 0.0)
+    y = np.array([pr.f_ext(s) / k_mean + e0, 0.0, 0.0, 0.0,
+                  el.theta_m0, el.omega_m0 - om, el.theta_l0, el.omega_l0 - om2])
+
+    def locate(p):
+        q = p + shift
+        cyc = math.floor(q)
+        frac = q - cyc
+        for i, pc in enumerate(pieces):
+            if pc.s_a <= frac < pc.s_b:
+                return cyc, i
+        return cyc, len(pieces) - 1
+
+    cycle, piece = locate(p0)
+
+    def classify(t, yy):
+        e, edot = ste_and_rate(phase(yy[2], t), z1 * (om + yy[3]) / TWO_PI)
+        d = yy[0] - e
+        if law == "linear":
+            return 1
+        if d > 0 or (d == 0 and yy[1] - edot > 0):
+            return 1
+        if law == "backlash" and (d + two_b < 0 or (d + two_b == 0 and yy[1] - edot < 0)):
+            return -1
+        return 0
+
+    def kinematics(t, yy):
+        th1, w1 = yy[2] + om * t, yy[3] + om
+        th2, w2 = (r1 * th1 - yy[0]) / r2, (r1 * w1 - yy[1]) / r2
+        thm, wm = yy[4] + om * t, yy[5] + om
+        thl, wl = yy[6] + om2 * t, yy[7] + om2
+        tau1 = el.k1 * (thm - th1) + el.c1 * (wm - w1)
+        tau2 = el.k2 * (th2 - thl) + el.c2 * (w2 - wl)
+        return th1, w1, th2, w2, thm, wm, thl, wl, tau1, tau2
+
+    def t_max(w):
+        return float(np.interp(w, *el.t_max))
+
+    state = classify(0.0, y)
+    times = np.asarray(times, float)
+    out = np.full((len(times), 8), np.nan)
+    t = 0.0
+    nxt = 0
+    events = 0
+    saturated = []
+    while t < stop_time:
+        pc = pieces[piece]
+
+        def force(tt, yy):
+            if state == 0:
+                return 0.0
+            p = phase(yy[2], tt)
+            e, edot = ste_and_rate(p, z1 * (om + yy[3]) / TWO_PI)
+            k = pc.value(p + shift - cycle)
+            off = two_b if state == -1 else 0.0
+            return k * (yy[0] - e + off) + c * (yy[1] - edot)
+
+        def rhs(tt, yy):
+            _, _, _, _, thm, wm, _, wl, tau1, tau2 = kinematics(tt, yy)
+            f = force(tt, yy)
+            a1 = (tau1 - r1 * f) / j1
+            a2 = (-tau2 + r2 * f) / j2
+            te = el.kp * (el.omega_ref - wm)
+            if abs(te) > t_max(wm):
+                saturated.append(tt)  # the reference has no clamp: refuse below
+            tr = sum(a * math.cos(o * thm + ph) for o, a, ph in el.ripple)
+            am = (te + tr - tau1 - el.d_m * wm) / el.j_m
+            al = (tau2 - el.t0 - el.c_v * wl - el.c_d * wl * abs(wl)) / el.j_l
+            return [yy[1], r1 * a1 - r2 * a2, yy[3], a1, yy[5], am, yy[7], al]
+
+        def g_end(tt, yy):
+            return (cycle + pc.s_b - shift) - phase(yy[2], tt)
+
+        def g_start(tt, yy):
+            return phase(yy[2], tt) - (cycle + pc.s_a - shift)
+
+        def g_drive(tt, yy):
+            e, _ = ste_and_rate(phase(yy[2], tt), 0.0)
+            return yy[0] - e
+
+        def g_back(tt, yy):
+            e, _ = ste_and_rate(phase(yy[2], tt), 0.0)
+            return yy[0] - e + two_b
+
+        guards = [g_end, g_start]
+        if law != "linear":
+            if state == 1:
+                g_drive.direction = -1
+                guards.append(g_drive)
+            elif state == -1:
+                g_back.direction = 1
+                guards.append(g_back)
+            else:
+                g_drive.direction = 1
+                guards.append(g_drive)
+                if law == "backlash":
+                    g_back.direction = -1
+                    guards.append(g_back)
+        g_end.direction = -1
+        g_start.direction = -1
+        for g in guards:
+            g.terminal = True
+        scale = np.array([1e-5, 1e-1, 1e-5, 1e-1, 1e-5, 1e-1, 1e-5, 1e-1])
+        sol = solve_ivp(rhs, (t, stop_time), y, method="DOP853", rtol=rtol, atol=rtol * scale,
+                        events=guards, dense_output=True)
+        t_end = sol.t[-1]
+        while nxt < len(times) and times[nxt] <= t_end:
+            out[nxt] = sol.sol(times[nxt])
+            nxt += 1
+        y = sol.y[:, -1].copy()
+        t = t_end
+        if sol.status != 1:
+            break
+        events += 1
+        hit = next(i for i, te in enumerate(sol.t_events) if len(te))
+        g = guards[hit]
+        if g is g_end or g is g_start:
+            step = 1 if g is g_end else -1
+            piece += step
+            if piece == len(pieces):
+                piece, cycle = 0, cycle + 1
+            elif piece < 0:
+                piece, cycle = len(pieces) - 1, cycle - 1
+        else:
+            e, _ = ste_and_rate(phase(y[2], t), 0.0)
+            if g is g_drive:
+                y[0] = e
+                state = 0 if state == 1 else 1
+            else:
+                y[0] = e - two_b
+                state = 0 if state == -1 else -1
+    if saturated:
+        raise ValueError(f"the motor command left the full-load curve at t = {saturated[0]}: "
+                         "this reference has no clamp")
+    cols = {k: [] for k in ("pinion_speed", "gear_speed", "motor_speed", "load_speed", "tau1", "tau2")}
+    for tt, yy in zip(times, out):
+        _, w1, _, w2, _, wm, _, wl, tau1, tau2 = kinematics(tt, yy)
+        for k, v in zip(cols, (w1, w2, wm, wl, tau1, tau2)):
+            cols[k].append(v)
+    res = {k: np.array(v) for k, v in cols.items()}
+    res["dte"] = out[:, 0]
+    res["events"] = events
+    return res

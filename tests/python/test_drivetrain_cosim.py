@@ -1,0 +1,316 @@
+"""Cross-tool validation of one real drivetrain system (issue 18 point 5, acceptance 1–3):
+examples/systems/drivetrain (emotor → shaft_in → spur_stage → shaft_out → vehicle_load, five
+geardyn FMUs, one SystemStructure.ssd).
+
+* geardyn's master (Jacobi, zero-order hold) against libcosim (libcosimpy
+  `CosimExecution.from_ssp_file` on the same SSD): libcosim's fixed-step algorithm is Jacobi
+  with zero-order hold, so both compute the same numbers and must agree to rounding (1e-12 of
+  each signal's largest value).
+* Every coupling of geardyn's master against the monolithic native run of the same drivetrain
+  (`geardyn simulate examples/drivetrain_monolithic.toml`, same grid): a convergence table
+  over the communication steps T_mesh/5 … T_mesh/80 with observed orders (printed in the
+  measurements summary). The native run is itself checked against the independent scipy model
+  `drivetrain_reference.py` (one ODE system, DOP853 rtol 1e-12, stiffness knots and contact
+  changes as events).
+* The speed ratio of the gear stage in the coupled run against the tooth ratio z1/z2.
+
+GEARDYN_LONG=1 runs the long variants (more steps in the table, a longer ratio run).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import shutil
+import tomllib
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+
+import drivetrain_reference as dr
+import ports_reference as pr
+from conftest import FMU_DIR, REPO, run_geardyn
+
+SYSTEM = REPO / "examples" / "systems" / "drivetrain"
+FMUS = ("emotor", "shaft_in", "spur_stage", "shaft_out", "vehicle_load")
+LONG = os.environ.get("GEARDYN_LONG") == "1"
+SSV = "{http://ssp-standard.org/SSP1/SystemStructureParameterValues}"
+SSD = "{http://ssp-standard.org/SSP1/SystemStructureDescription}"
+COLS = ["gear.mesh1_dte", "gear.input.speed", "gear.output.speed", "motor.flange.speed",
+        "load.flange.speed", "shaft1.torque", "shaft2.torque"]
+
+
+@pytest.fixture(scope="module")
+def fmus(shipped_fmus):
+    for f in FMUS:
+        assert (FMU_DIR / f"{f}.fmu").exists(), f
+    return FMU_DIR
+
+
+def bindings():
+    """The SSD's parameter values per component (name -> value)."""
+    root = ET.parse(SYSTEM / "SystemStructure.ssd").getroot()
+    out = {}
+    for comp in root.iter(f"{SSD}Component"):
+        vals = {}
+        for p in comp.iter(f"{SSV}Parameter"):
+            vals[p.get("name")] = float(p.find(f"{SSV}Real").get("value"))
+        out[comp.get("name")] = vals
+    return out
+
+
+def scene(name):
+    with open(REPO / "fmu" / name / "scene.toml", "rb") as fh:
+        return tomllib.load(fh)
+
+
+def reference_model():
+    """The monolithic model's data: the shipped scenes with the SSD's bindings applied."""
+    b = bindings()
+    s = pr.load(REPO / "fmu" / "spur_stage" / "scene.toml")
+    s.t_in, s.t_out = b["gear"]["input.torque"], b["gear"]["output.torque"]
+    s.omega = b["gear"]["input_speed"]
+    m, sh1, sh2, ld = (scene(n)["element"] for n in ("emotor", "shaft_in", "shaft_out", "vehicle_load"))
+    assert b["motor"]["controller.ki"] == 0.0  # the reference is a P controller
+    el = dr.Elements(
+        j_m=m["inertia"], d_m=m["damping"], kp=m["controller"]["kp"], omega_ref=b["motor"]["speed_reference"],
+        ripple=[(r["order"], r["amplitude"], r.get("phase", 0.0)) for r in m["ripple"]],
+        t_max=(m["curve"]["speed"], m["curve"]["torque"]),
+        k1=sh1["stiffness"], c1=sh1["damping"], k2=sh2["stiffness"], c2=sh2["damping"],
+        j_l=ld["inertia"], t0=ld["torque"], c_v=ld["viscous"], c_d=ld["drag"],
+        theta_m0=b["motor"]["initial.angle"], omega_m0=b["motor"]["initial.speed"],
+        theta_l0=b["load"]["initial.angle"], omega_l0=b["load"]["initial.speed"])
+    return s, el
+
+
+def t_mesh():
+    s = pr.load(REPO / "fmu" / "spur_stage" / "scene.toml")
+    return 2 * math.pi / (s.base.z1 * bindings()["gear"]["input_speed"])
+
+
+def geardyn(out, h, stop, algorithm, extrapolation, cols=COLS):
+    r = run_geardyn("run", SYSTEM, "--out", out, "--stop-time", repr(stop), "--output-interval", repr(h),
+                    "--algorithm", algorithm, "--extrapolation", extrapolation, "--outputs", ",".join(cols),
+                    check=False)
+    assert r.returncode == 0, r.stderr
+    return np.genfromtxt(out, delimiter=",", names=True)
+
+
+MONOLITHIC = REPO / "examples" / "drivetrain_monolithic.toml"
+NATIVE = {"dte": "mesh1_dte", "pinion_speed": "pinion_speed", "gear_speed": "gear_speed",
+          "motor_speed": "motor_speed", "load_speed": "load_speed", "tau1": "shaft1_torque",
+          "tau2": "shaft2_torque"}
+
+
+def native(out, h, stop):
+    """The monolithic native run (`geardyn simulate`, the oracle of issue 18 point 5) on the
+    grid of a co-simulation with step h, in the reference's keys."""
+    run_geardyn("simulate", MONOLITHIC, "--out", out, "--stop-time", repr(stop), "--output-interval", repr(h),
+                "--rtol", "1e-12", "--atol", "1e-18", "--quiet")
+    d = np.genfromtxt(out, delimiter=",", names=True)
+    res = {k: d[c] for k, c in NATIVE.items()}
+    res["time"] = d["time"]
+    return res
+
+
+def col(data, name):
+    return data[name.replace(".", "")]
+
+
+def test_the_system_starts_in_its_steady_operating_point(fmus, tmp_path):
+    """The bound start values are consistent: at t = 0 the shafts carry the steady torques
+    (the load's resistance at the wheel speed, times z1/z2 at the pinion), the bodies turn at
+    the tooth ratio, and the motor's P controller asks for exactly that torque."""
+    d = geardyn(tmp_path / "c.csv", 1e-5, 1e-5, "jacobi", "none", COLS + ["motor.electric_torque"])
+    w1, w2 = col(d, "gear.input.speed")[0], col(d, "gear.output.speed")[0]
+    ld = scene("vehicle_load")["element"]
+    t_load = ld["torque"] + ld["viscous"] * w2 + ld["drag"] * w2 * w2
+    assert w2 / w1 == pytest.approx(38 / 55, rel=1e-15)
+    assert col(d, "shaft2.torque")[0] == pytest.approx(t_load, rel=1e-12)
+    assert col(d, "shaft1.torque")[0] == pytest.approx(t_load * 38 / 55, rel=1e-12)
+    m = scene("emotor")["element"]
+    assert col(d, "motor.electric_torque")[0] == pytest.approx(t_load * 38 / 55 + m["damping"] * w1, rel=1e-12)
+
+
+def libcosim(folder, h, n):
+    import fmpy
+    from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
+    from libcosimpy.CosimObserver import CosimObserver
+
+    log_output_level(CosimLogLevel.WARNING)
+    files = {"motor": "emotor", "shaft1": "shaft_in", "gear": "spur_stage", "shaft2": "shaft_out", "load": "vehicle_load"}
+    vrs = {}
+    for el, f in files.items():
+        md = fmpy.read_model_description(str(folder / "resources" / f"{f}.fmu"))
+        vrs[el] = {v.name: v.valueReference for v in md.modelVariables}
+    ex = CosimExecution.from_ssp_file(str(folder), step_size=int(round(h * 1e9)))
+    assert ex.num_slaves() == 5
+    obs = CosimObserver.create_last_value()
+    ex.add_observer(observer=obs)
+    idx = {el: ex.slave_index_from_instance_name(el) for el in files}
+    rows = []
+    for _ in range(n):
+        assert ex.step()
+        row = []
+        for c in COLS:
+            el, var = c.split(".", 1)
+            row += obs.last_real_values(slave_index=idx[el], variable_references=[vrs[el][var]])
+        rows.append(row)
+    return np.array(rows)
+
+
+def test_geardyn_jacobi_matches_libcosim(fmus, tmp_path, report):
+    """Same SSD, same algorithm (Jacobi, zero-order hold): agreement to rounding."""
+    folder = tmp_path / "drivetrain"
+    (folder / "resources").mkdir(parents=True)
+    ssd = (SYSTEM / "SystemStructure.ssd").read_text()
+    for f in FMUS:
+        shutil.copy(FMU_DIR / f"{f}.fmu", folder / "resources" / f"{f}.fmu")
+        assert f"../../../out/fmus/{f}.fmu" in ssd
+        ssd = ssd.replace(f"../../../out/fmus/{f}.fmu", f"resources/{f}.fmu")
+    (folder / "SystemStructure.ssd").write_text(ssd)
+    h, n = 2e-5, 250  # libcosim counts time in integer ns; 5 ms, 14 mesh periods
+    ours = geardyn(tmp_path / "g.csv", h, n * h, "jacobi", "none")
+    theirs = libcosim(folder, h, n)
+    assert len(ours) == n + 1
+    worst = 0.0
+    for j, c in enumerate(COLS):
+        a, b = col(ours, c)[1:], theirs[:, j]
+        d = float(np.abs(a - b).max() / np.abs(b).max())
+        worst = max(worst, d)
+        assert d <= 1e-12, (c, d)
+    report(f"drivetrain, geardyn Jacobi/hold vs libcosim fixed-step, h = {h}, {n} steps: "
+           f"max |diff| / max|value| = {worst:.2e} over {', '.join(COLS)}")
+    # The agreement identifies the algorithm: Gauss-Seidel is visibly different.
+    gs = geardyn(tmp_path / "gs.csv", h, n * h, "gauss-seidel", "none")
+    d_gs = np.abs(col(gs, "gear.mesh1_dte")[1:] - theirs[:, 0]).max() / np.abs(theirs[:, 0]).max()
+    assert d_gs > 1e-3, d_gs
+
+
+COUPLINGS = [("gauss-seidel", "none", "GS hold"), ("gauss-seidel", "linear", "GS linear"),
+             ("jacobi", "none", "Jacobi hold"), ("jacobi", "linear", "Jacobi linear")]
+SIGNALS = [("gear.mesh1_dte", "dte"), ("gear.input.speed", "pinion_speed"), ("load.flange.speed", "load_speed"),
+           ("shaft1.torque", "tau1"), ("shaft2.torque", "tau2")]
+
+
+def test_convergence_against_the_monolithic_model(fmus, tmp_path, report):
+    """Error against the monolithic native run (examples/drivetrain_monolithic.toml, checked
+    against the scipy model below) over the communication step h = T_mesh/n, every coupling;
+    max error over the run (the system starts in its steady operating point). Observed order
+    p = log2(e(h)/e(h/2))."""
+    s, el = reference_model()
+    tm = t_mesh()
+    stop = 5e-3 if not LONG else 2e-2
+    divisors = (5, 10, 20, 40, 80) if not LONG else (5, 10, 20, 40, 80, 160, 320)
+    table = {}
+    for alg, ex, label in COUPLINGS:
+        errs = []
+        for n in divisors:
+            d = geardyn(tmp_path / "c.csv", tm / n, stop, alg, ex)
+            r = native(tmp_path / "n.csv", tm / n, stop)
+            assert np.abs(r["time"] - d["time"]).max() <= 1e-12 * stop  # same grid
+            e = {k: float(np.abs(col(d, c) - r[k]).max()) for c, k in SIGNALS}
+            e["rms"] = float(np.sqrt(np.mean((r["dte"] - r["dte"].mean()) ** 2)))
+            errs.append(e)
+        table[label] = errs
+        dte = [e["dte"] for e in errs]
+        orders = [math.log2(a / b) for a, b in zip(dte, dte[1:])]
+        report(f"{label}: DTE error / DTE RMS at T_mesh/{divisors} = "
+               + ", ".join(f"{e['dte'] / e['rms']:.3g}" for e in errs)
+               + "; observed orders " + ", ".join(f"{p:.2f}" for p in orders)
+               + "; load speed errors (rad/s) " + ", ".join(f"{e['load_speed']:.2e}" for e in errs)
+               + "; shaft1 torque errors (N.m) " + ", ".join(f"{e['tau1']:.2e}" for e in errs))
+    # Jacobi with zero-order hold is a first-order coupling: on the fine steps the DTE, speed
+    # and torque errors fall at order 1 (±0.3), and they fall monotonically.
+    jac = table["Jacobi hold"]
+    for _, k in SIGNALS:
+        e = [x[k] for x in jac]
+        assert all(a > b for a, b in zip(e, e[1:])), (k, e)
+        p = math.log2(e[-2] / e[-1])
+        assert 0.7 <= p <= 1.3, (k, e, p)
+    # Gauss-Seidel with hold mixes angles at t and t+h in each shaft: a torque error of
+    # k·Ω·h (165 N.m at T_mesh/20 on the input shaft), first order.
+    for k in ("tau1", "load_speed"):
+        e = [x[k] for x in table["GS hold"]]
+        assert 0.8 <= math.log2(e[-2] / e[-1]) <= 1.3, (k, e)
+    tau_gs = table["GS hold"][2]["tau1"]
+    h20 = tm / 20
+    assert tau_gs == pytest.approx(el.k1 * s.omega * h20, rel=0.05), tau_gs
+    # With --extrapolation linear, the angles and speeds of every body reach the shafts with
+    # their output derivatives (spur_stage gives d/dt of its port angles and speeds), but the
+    # gear stage takes no input derivatives: its two port torques stay held, which keeps the
+    # coupling first order on fine steps (Gauss-Seidel: order 1 throughout; Jacobi: order 2 on
+    # coarse steps, where the extrapolated angles dominate, tending to 1). Both are far better
+    # than the hold of the same algorithm.
+    for k in ("tau1", "load_speed"):
+        e = [x[k] for x in table["GS linear"]]
+        assert 0.8 <= math.log2(e[-2] / e[-1]) <= 1.3, ("GS linear", k, e)
+        e = [x[k] for x in table["Jacobi linear"]]
+        assert all(a > b for a, b in zip(e, e[1:])), ("Jacobi linear", k, e)
+    e = [x["tau1"] for x in table["Jacobi linear"]]
+    assert math.log2(e[0] / e[1]) >= 1.7, ("Jacobi linear", e)
+    for n in range(len(divisors)):
+        assert table["GS linear"][n]["tau1"] < table["GS hold"][n]["tau1"] / 100
+        assert table["Jacobi linear"][n]["dte"] < table["Jacobi hold"][n]["dte"]
+
+
+@pytest.mark.parametrize("algorithm", ["jacobi", "gauss-seidel"])
+def test_speed_ratio_is_the_tooth_ratio(fmus, tmp_path, report, algorithm):
+    """Acceptance 1 in the coupled run: the mean speed ratio of the gear stage after the start
+    (0.1 s) equals z1/z2 = 38/55 within 1e-6. The mean speeds are the angle increments over the
+    window divided by its length (exact time means; sample means of ω at the output grid alias
+    the mesh-frequency vibration). The elastic DTE is what remains: r1 Δθ1 − r2 Δθ2 = ΔS."""
+    stop = 1.0 if not LONG else 5.0
+    d = geardyn(tmp_path / "r.csv", t_mesh() / 10, stop, algorithm, "none", ["gear.mesh1_dte"])
+    i = np.searchsorted(d["time"], 0.1)
+    a1, a2 = col(d, "gear.input.angle"), col(d, "gear.output.angle")
+    ratio = (a2[-1] - a2[i]) / (a1[-1] - a1[i])
+    rel = ratio / (38 / 55) - 1
+    w1, w2 = col(d, "gear.input.speed")[i:], col(d, "gear.output.speed")[i:]
+    pointwise = np.mean(w2 / w1) / (38 / 55) - 1
+    report(f"{algorithm}: mean(ω2)/mean(ω1) / (z1/z2) − 1 over 0.1–{stop} s = {rel:.2e} "
+           f"(pointwise sample mean of ω2/ω1: {pointwise:.2e}, the vibration's correlation)")
+    assert abs(rel) <= 1e-6
+    # and the difference is the elastic DTE's change (spur_stage's base radii: r2/r1 = 55/38)
+    s = pr.load(REPO / "fmu" / "spur_stage" / "scene.toml").base
+    dte = col(d, "gear.mesh1_dte")
+    assert s.r_b1 * (a1[-1] - a1[i]) - s.r_b2 * (a2[-1] - a2[i]) == pytest.approx(dte[-1] - dte[i], abs=1e-12)
+
+
+@pytest.mark.xfail(strict=True, reason="acceptance 2's DTE bound needs a second-order coupling "
+                   "of the gear stage's port torques: spur_stage takes no input derivatives "
+                   "(docs/cosimulation.md); measured 0.059 of the DTE RMS with Gauss-Seidel/linear")
+def test_dte_error_at_a_twentieth_of_the_mesh_period(fmus, tmp_path):
+    """Issue 18 acceptance 2: at h = T_mesh/20 the DTE error against the monolithic model is
+    at most 1e-3 of the DTE RMS (with the best coupling the shipped FMUs allow: Gauss-Seidel
+    with interpolation and extrapolation)."""
+    stop = 5e-3
+    d = geardyn(tmp_path / "c.csv", t_mesh() / 20, stop, "gauss-seidel", "linear")
+    r = native(tmp_path / "n.csv", t_mesh() / 20, stop)
+    rms = np.sqrt(np.mean((r["dte"] - r["dte"].mean()) ** 2))
+    assert np.abs(col(d, "gear.mesh1_dte") - r["dte"]).max() <= 1e-3 * rms
+
+
+def test_native_monolithic_run_matches_the_scipy_model(tmp_path, report):
+    """The oracle is checked by an independent one: `geardyn simulate` of the monolithic scene
+    against the scipy model of the same drivetrain (started from the SSD's values, so this
+    also checks that the scene and the system describe the same drivetrain and start)."""
+    s, el = reference_model()
+    stop = 1e-2
+    r_native = native(tmp_path / "n.csv", t_mesh() / 20, stop)
+    r = dr.simulate(s, el, stop, r_native["time"])
+    assert r["events"] > 20  # knots and contact changes were crossed
+    tol = {"dte": 1e-8 * np.abs(r["dte"]).max(), "tau1": 1e-8, "tau2": 1e-8}
+    worst = {}
+    for k in NATIVE:
+        e = float(np.abs(r_native[k] - r[k]).max())
+        worst[k] = e
+        assert e <= tol.get(k, 1e-9), (k, e)
+    report("native monolithic vs scipy over 10 ms: " + ", ".join(f"{k} {v:.1e}" for k, v in worst.items())
+           + " (DTE in m, speeds in rad/s, torques in N.m)")
+    # and the comparison can fail: 1 % more load inertia in the reference is seen
+    el.j_l *= 1.01
+    r2 = dr.simulate(s, el, stop, r_native["time"])
+    assert np.abs(r_native["load_speed"] - r2["load_speed"]).max() > 1e3 * tol.get("load_speed", 1e-9)
