@@ -13,9 +13,6 @@ shaft pre-twisted by its start torque over its stiffness.
 Tolerances: the DTE to 1e-8 of the static deflection, the speeds to 1e-9 relative, the shaft
 torques to 1e-8 relative to their start values. A 1 % change of the load inertia in the
 reference must break the comparison.
-
-`drivetrain_reference.py` comes with the validation branch (examples/systems/drivetrain); until
-it is merged into tests/python/ this test is skipped with that reason.
 """
 
 from __future__ import annotations
@@ -27,10 +24,9 @@ import tomllib
 import numpy as np
 import pytest
 
+import drivetrain_reference as dr
 import ports_reference as pr
 from conftest import REPO, run_geardyn
-
-dr = pytest.importorskip("drivetrain_reference", reason="drivetrain_reference.py (validation branch) not merged yet")
 
 SCENE = REPO / "examples" / "drivetrain_monolithic.toml"
 DTE_TOL = 1e-8

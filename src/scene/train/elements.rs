@@ -18,26 +18,75 @@ use crate::scene::SceneError;
 
 /// `[[motor]]`: a name (the rotor body) and the motor's fields (`docs/elements.md`).
 #[derive(Debug, Clone, Deserialize)]
+#[serde(try_from = "toml::Table")]
 pub struct MotorBodySpec {
     pub name: String,
-    #[serde(flatten)]
     pub motor: MotorSpec,
+}
+
+impl TryFrom<toml::Table> for MotorBodySpec {
+    type Error = String;
+    fn try_from(table: toml::Table) -> Result<Self, String> {
+        let (name, rest) = split_name(table)?;
+        Ok(MotorBodySpec {
+            name,
+            motor: rest
+                .try_into()
+                .map_err(|e: toml::de::Error| e.message().to_owned())?,
+        })
+    }
 }
 
 /// `[[load]]`: a name (the load body) and the load's fields.
 #[derive(Debug, Clone, Deserialize)]
+#[serde(try_from = "toml::Table")]
 pub struct LoadBodySpec {
     pub name: String,
-    #[serde(flatten)]
     pub load: LoadSpec,
+}
+
+impl TryFrom<toml::Table> for LoadBodySpec {
+    type Error = String;
+    fn try_from(table: toml::Table) -> Result<Self, String> {
+        let (name, rest) = split_name(table)?;
+        Ok(LoadBodySpec {
+            name,
+            load: rest
+                .try_into()
+                .map_err(|e: toml::de::Error| e.message().to_owned())?,
+        })
+    }
 }
 
 /// `[[inertia]]`: a toothless body (a name, `inertia`, optional `damping` to ground).
 #[derive(Debug, Clone, Deserialize)]
+#[serde(try_from = "toml::Table")]
 pub struct InertiaBodySpec {
     pub name: String,
-    #[serde(flatten)]
     pub inertia: InertiaSpec,
+}
+
+impl TryFrom<toml::Table> for InertiaBodySpec {
+    type Error = String;
+    fn try_from(table: toml::Table) -> Result<Self, String> {
+        let (name, rest) = split_name(table)?;
+        Ok(InertiaBodySpec {
+            name,
+            inertia: rest
+                .try_into()
+                .map_err(|e: toml::de::Error| e.message().to_owned())?,
+        })
+    }
+}
+
+/// `name` and the element's own fields. (Not `#[serde(flatten)]`: it would let unknown keys
+/// through, and the element specs reject them.)
+fn split_name(mut table: toml::Table) -> Result<(String, toml::Table), String> {
+    match table.remove("name") {
+        Some(toml::Value::String(name)) => Ok((name, table)),
+        Some(v) => Err(format!("name = {v}: must be a string")),
+        None => Err("missing field `name`".into()),
+    }
 }
 
 /// The physics of an element body.
@@ -104,6 +153,26 @@ pub(super) fn body_names(
         .chain(loads.iter().map(|l| l.name.clone()))
         .chain(inertias.iter().map(|i| i.name.clone()))
         .collect()
+}
+
+/// `(<table>[i], name)` of every element body, in the order of [`body_names`].
+pub(super) fn body_tables(
+    motors: &[MotorBodySpec],
+    loads: &[LoadBodySpec],
+    inertias: &[InertiaBodySpec],
+) -> Vec<(String, String)> {
+    let tagged = |table: &str, names: Vec<&String>| -> Vec<(String, String)> {
+        (names.into_iter().enumerate())
+            .map(|(i, n)| (format!("{table}[{i}]"), n.clone()))
+            .collect()
+    };
+    let mut out = tagged("motor", motors.iter().map(|m| &m.name).collect());
+    out.extend(tagged("load", loads.iter().map(|l| &l.name).collect()));
+    out.extend(tagged(
+        "inertia",
+        inertias.iter().map(|b| &b.name).collect(),
+    ));
+    out
 }
 
 /// Validates the element bodies and the element shafts (`(index in [[shaft]], spec)`).
@@ -207,11 +276,18 @@ pub(super) fn elements(
             damping: s.damping,
         };
         spec.validate(&format!("shaft[{i}]")).map_err(SceneError)?;
+        let name = s
+            .name
+            .clone()
+            .unwrap_or_else(|| format!("{}_{}", s.gears[0], s.gears[1]));
+        if out.iter().any(|o| o.name == name) {
+            return err(format!(
+                "shaft[{i}].name = {name:?}: another element shaft has that name (its torque \
+                 column <name>_torque); give each a distinct name"
+            ));
+        }
         out.push(ElementShaft {
-            name: s
-                .name
-                .clone()
-                .unwrap_or_else(|| format!("{}_{}", s.gears[0], s.gears[1])),
+            name,
             ends,
             spec,
             start_torque: 0.0,

@@ -205,6 +205,13 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
     // A shaft that reaches an element ([[motor]], [[load]], [[inertia]]) is an element
     // shaft (`super::elements`); the others couple coaxial gears of the train.
     let element_names = super::elements::body_names(&spec.motor, &spec.load, &spec.inertia);
+    for (table, name) in super::elements::body_tables(&spec.motor, &spec.load, &spec.inertia) {
+        if gears.iter().any(|g| g.name == name) {
+            return err(format!(
+                "{table}.name = {name:?}: a gear has that name already"
+            ));
+        }
+    }
     let (element_shafts, train_shafts): (Vec<_>, Vec<_>) = spec
         .shaft
         .iter()
