@@ -209,10 +209,11 @@ impl Carried {
         y
     }
 
-    /// `η' = η'`, `η'' = Rᵀ F_T` (M-orthonormal rigid modes) into `dy[2m..]`.
-    pub(crate) fn rigid_rhs(&self, train: &GearTrain, y: &[f64], dy: &mut [f64]) {
+    /// `η' = η'`, `η'' = Rᵀ F_T` (M-orthonormal rigid modes) into `dy[2m..]`, with the port
+    /// torques at `t` (they may ramp over an FMU step).
+    pub(crate) fn rigid_rhs(&self, train: &GearTrain, t: f64, y: &[f64], dy: &mut [f64]) {
         let (m, r) = (self.m, self.r);
-        let (t_in, t_load) = (train.inputs.input_torque, train.inputs.load_torque);
+        let (t_in, t_load) = train.torques_at(t);
         for k in 0..r {
             dy[2 * m + k] = y[2 * m + r + k];
             dy[2 * m + r + k] = train.rigid_in[k] * t_in + train.rigid_out[k] * t_load;
