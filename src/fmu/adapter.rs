@@ -454,7 +454,37 @@ fn documentation(model: &str, start: &str, interpolates: bool) -> String {
 
 #[cfg(test)]
 mod tests {
-    use crate::fmi::model::{Causality, VarKind};
+    use crate::fmi::model::{Causality, CoSimModel, StepFailure, VarKind};
+
+    /// A ramp of `input.torque` (spur_stage, vr 31) that would end above the input's `max`
+    /// refuses the step naming the input and changes nothing; one that stays within steps,
+    /// and ends at `u + u'h` with the rate back at 0. (The shipped ports have no bounds, so
+    /// the bound is put on the variable here.)
+    #[test]
+    fn a_ramp_leaving_the_bounds_refuses_the_step() {
+        use crate::fmu::drivetrain::Drivetrain;
+        use crate::fmu::kernel::Kernel;
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/fmu/spur_stage/scene.toml");
+        let text = std::fs::read_to_string(dir).unwrap();
+        let settings = Drivetrain::load(&text, "spur_stage").unwrap();
+        let (mut a, _) = super::Adapter::<Drivetrain>::new(settings, "g".into()).unwrap();
+        let k = a.vars.iter().position(|v| v.value_reference == 31).unwrap();
+        assert_eq!(a.vars[k].name, "input.torque");
+        a.vars[k].max = Some(150.0);
+        a.lifecycle_mut().initialized = true;
+        a.set_input_derivative(31, 2e5).unwrap();
+        match a.do_step(0.0, 5e-4) {
+            Err(StepFailure::Error(e)) => assert!(e.contains("'input.torque'"), "{e}"),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(a.sim.t(), 0.0);
+        a.set_input_derivative(31, 1e5).unwrap();
+        a.do_step(0.0, 5e-4).unwrap();
+        assert_eq!(a.get_real(31).unwrap(), 100.0 + 1e5 * 5e-4);
+        assert_eq!(Drivetrain::input_rates(a.sim.model()), [0.0; 3]);
+        // input_speed is a parameter with ports: no rate.
+        assert!(a.set_input_derivative(30, 1.0).is_err());
+    }
 
     /// For every shipped scene (both kernels): a batched read of the outputs, the one the
     /// FMI layer makes after every step, and a batch mixing parameters, inputs and outputs
