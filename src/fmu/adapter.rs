@@ -4,8 +4,9 @@
 //! `fmi2SetupExperiment`), so the model integrates in local time `τ = t − startTime`, which
 //! for the usual `startTime = 0` is the host's time bit for bit.
 //!
-//! Inputs are held constant over a communication step (`canInterpolateInputs = false`); a
-//! change re-anchors the mesh-phase clocks at the current time, so the phases stay
+//! Inputs are held constant over a communication step, except those a kernel interpolates
+//! ([`Kernel::rate_inputs`]: `canInterpolateInputs`, `u + u'·(t − tc)` over the next step,
+//! FMI 2.0.x §4.2.1); a change re-anchors the mesh-phase clocks at the current time, so the phases stay
 //! continuous. Before initialization is finished the inputs are part of the initial
 //! operating point (a static initial state is computed from them).
 //!
@@ -88,7 +89,11 @@ impl<K: Kernel> Adapter<K> {
                 tolerance: None,
             },
             guid,
-            documentation: documentation(K::DOCUMENTATION, K::START_DOCUMENTATION),
+            documentation: documentation(
+                K::DOCUMENTATION,
+                K::START_DOCUMENTATION,
+                K::rate_inputs(&settings).contains(&true),
+            ),
         };
         let n_outputs = vars
             .iter()
@@ -124,7 +129,12 @@ impl<K: Kernel> Adapter<K> {
         let name = name_of(&self.vars, vr).to_string();
         let mut settings = self.settings.clone();
         K::apply(&mut settings, &name, vr, x)?;
-        let (sim, outputs) = self.build(&settings).map_err(|e| e.naming(&name, x))?;
+        let (mut sim, outputs) = self.build(&settings).map_err(|e| e.naming(&name, x))?;
+        // Input rates set so far stay set (they are not parameters of the build).
+        let du = K::input_rates(self.sim.model());
+        if du != [0.0; 3] {
+            K::set_input_rates(&mut sim, du)?;
+        }
         self.settings = settings;
         self.sim = sim;
         // New parameters: the outputs just checked are those of the new state.
@@ -319,15 +329,51 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
     /// from the start time), never backwards, and never evaluates the model beyond that
     /// point. A failing integrator discards the step at the last good state it holds (the
     /// outputs then show that state) and ends the run.
+    ///
+    /// With input rates ([`CoSimModel::set_input_derivative`]) the model reads
+    /// `u + u'·(t − tc)` during the step; a ramp that leaves an input's bounds by the end of
+    /// the step refuses the step, naming the input. At the end the inputs are `u + u'·h` and
+    /// the rates 0 again.
     fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure> {
         let start_time = self.lifecycle.start_time;
+        let du = K::input_rates(self.sim.model());
+        let u = K::inputs(self.sim.model());
+        let t0 = self.sim.t();
+        let target = ((t + h) - start_time).max(t0);
+        let ramped = |dt: f64| -> [f64; 3] { std::array::from_fn(|k| u[k] + du[k] * dt) };
+        let ramp = du != [0.0; 3];
+        if ramp {
+            let end = ramped(target - t0);
+            for k in (0..3).filter(|&k| du[k] != 0.0) {
+                let var = self.vars.iter().find(|v| v.value_reference == K::INPUTS[k]);
+                if let Some(Err(e)) = var.map(|v| v.check_value(end[k])) {
+                    return Err(StepFailure::Error(format!(
+                        "the input ramp leaves the bounds by the end of the step: {e} (rate {})",
+                        du[k]
+                    )));
+                }
+            }
+        }
         let sim = self.sim_mut();
-        let target = ((t + h) - start_time).max(sim.t());
-        sim.advance_to(target).map_err(|e| StepFailure::Discard {
-            reason: format!("the integrator stopped: {e}"),
-            reached: start_time + sim.t(),
-            terminate: true,
-        })
+        if let Err(e) = sim.advance_to(target) {
+            let reached = sim.t();
+            if ramp {
+                // The inputs follow the state to where the integrator stopped.
+                K::set_inputs(sim, ramped(reached - t0)).ok();
+                K::set_input_rates(sim, du).ok();
+            }
+            return Err(StepFailure::Discard {
+                reason: format!("the integrator stopped: {e}"),
+                reached: start_time + reached,
+                terminate: true,
+            });
+        }
+        if ramp {
+            let fail = |e: String| StepFailure::Error(format!("end of the input ramp: {e}"));
+            K::set_inputs(sim, ramped(target - t0)).map_err(fail)?;
+            K::set_input_rates(sim, [0.0; 3]).map_err(fail)?;
+        }
+        Ok(())
     }
 
     fn reset(&mut self) -> Result<(), String> {
@@ -348,9 +394,27 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
 
     fn capabilities(&self) -> Capabilities {
         Capabilities {
-            can_interpolate_inputs: false,
+            can_interpolate_inputs: K::rate_inputs(&self.base).contains(&true),
             max_output_derivative_order: u32::from(K::output_derivatives(&self.base)),
         }
+    }
+
+    fn set_input_derivative(&mut self, vr: u32, rate: f64) -> Result<(), String> {
+        let takes = K::rate_inputs(&self.settings);
+        let Some(k) = input_position::<K>(vr).filter(|&k| takes[k]) else {
+            let interpolated: Vec<String> = (0..3)
+                .filter(|&k| takes[k])
+                .map(|k| format!("'{}'", name_of(&self.vars, K::INPUTS[k])))
+                .collect();
+            return Err(format!(
+                "'{}' (vr {vr}) is held over a step and takes no input derivative (only {} do)",
+                name_of(&self.vars, vr),
+                interpolated.join(", ")
+            ));
+        };
+        let mut du = K::input_rates(self.sim.model());
+        du[k] = rate;
+        K::set_input_rates(self.sim_mut(), du)
     }
 
     fn output_derivative(&self, vr: u32) -> Result<f64, String> {
@@ -363,16 +427,26 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
 
 /// The FMU's `documentation/index.html` body (FMI 2.0.x §2.3): the kernel's model part, then
 /// the co-simulation behaviour, which is the adapter's (the packager adds the variable table).
-fn documentation(model: &str, start: &str) -> String {
+/// `interpolates`: the kernel takes first-order input rates ([`Kernel::rate_inputs`]).
+fn documentation(model: &str, start: &str, interpolates: bool) -> String {
+    let (held, unsupported) = if interpolates {
+        (
+            "the port torques follow <code>u + u'·(t − tc)</code> over the step after <code>fmi2SetRealInputDerivatives</code> (order 1), then become <code>u + u'·h</code> with rate 0; every other input is held constant over the step.",
+            "directional derivatives and asynchronous stepping are not",
+        )
+    } else {
+        (
+            "the\ninputs are held constant over the step.",
+            "directional derivatives, input\ninterpolation and asynchronous stepping are not",
+        )
+    };
     format!(
         r#"{model}<h2>Co-simulation behaviour</h2>
 <ul>
-<li><code>fmi2DoStep</code> integrates exactly to <code>tc + h</code> for any positive <code>h</code>; the
-inputs are held constant over the step.</li>
+<li><code>fmi2DoStep</code> integrates exactly to <code>tc + h</code> for any positive <code>h</code>; {held}</li>
 <li>{start}</li>
 <li>Parameters are fixed: they can be set before <code>fmi2ExitInitializationMode</code> only.</li>
-<li>FMU state get/set and serialization are supported; directional derivatives, input
-interpolation and asynchronous stepping are not.</li>
+<li>FMU state get/set and serialization are supported; {unsupported}.</li>
 </ul>
 "#
     )
@@ -380,7 +454,37 @@ interpolation and asynchronous stepping are not.</li>
 
 #[cfg(test)]
 mod tests {
-    use crate::fmi::model::{Causality, VarKind};
+    use crate::fmi::model::{Causality, CoSimModel, StepFailure, VarKind};
+
+    /// A ramp of `input.torque` (spur_stage, vr 31) that would end above the input's `max`
+    /// refuses the step naming the input and changes nothing; one that stays within steps,
+    /// and ends at `u + u'h` with the rate back at 0. (The shipped ports have no bounds, so
+    /// the bound is put on the variable here.)
+    #[test]
+    fn a_ramp_leaving_the_bounds_refuses_the_step() {
+        use crate::fmu::drivetrain::Drivetrain;
+        use crate::fmu::kernel::Kernel;
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/fmu/spur_stage/scene.toml");
+        let text = std::fs::read_to_string(dir).unwrap();
+        let settings = Drivetrain::load(&text, "spur_stage").unwrap();
+        let (mut a, _) = super::Adapter::<Drivetrain>::new(settings, "g".into()).unwrap();
+        let k = a.vars.iter().position(|v| v.value_reference == 31).unwrap();
+        assert_eq!(a.vars[k].name, "input.torque");
+        a.vars[k].max = Some(150.0);
+        a.lifecycle_mut().initialized = true;
+        a.set_input_derivative(31, 2e5).unwrap();
+        match a.do_step(0.0, 5e-4) {
+            Err(StepFailure::Error(e)) => assert!(e.contains("'input.torque'"), "{e}"),
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(a.sim.t(), 0.0);
+        a.set_input_derivative(31, 1e5).unwrap();
+        a.do_step(0.0, 5e-4).unwrap();
+        assert_eq!(a.get_real(31).unwrap(), 100.0 + 1e5 * 5e-4);
+        assert_eq!(Drivetrain::input_rates(a.sim.model()), [0.0; 3]);
+        // input_speed is a parameter with ports: no rate.
+        assert!(a.set_input_derivative(30, 1.0).is_err());
+    }
 
     /// For every shipped scene (both kernels): a batched read of the outputs, the one the
     /// FMI layer makes after every step, and a batch mixing parameters, inputs and outputs

@@ -86,6 +86,20 @@ pub trait Kernel: 'static {
             "output {k}: the model provides no output derivatives"
         ))
     }
+    /// Which inputs take first-order rates over the next step, in [`Self::INPUTS`] order
+    /// (`canInterpolateInputs` when any does, FMI 2.0.x §4.2.1); none by default.
+    fn rate_inputs(_s: &Self::Settings) -> [bool; 3] {
+        [false; 3]
+    }
+    /// The input rates set for the next step, in [`Self::INPUTS`] order (0: held).
+    fn input_rates(_model: &Self::Model) -> [f64; 3] {
+        [0.0; 3]
+    }
+    /// Sets input rates from the current time on: the model reads `u + u'·(t − tc)` until
+    /// the rates change (only for the inputs of [`Self::rate_inputs`]).
+    fn set_input_rates(_sim: &mut Driver<Self::Model>, _du: [f64; 3]) -> Result<(), String> {
+        Err("the model takes no input derivatives".into())
+    }
     /// The inputs of a run state, in [`Self::INPUTS`] order, as the variables read them
     /// (the settings say how: a drivetrain's output port reads minus the load torque).
     fn sim_inputs(s: &Self::Settings, state: &Self::SimState) -> [f64; 3];

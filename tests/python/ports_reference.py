@@ -44,6 +44,9 @@ class PortScene:
     t_in: float
     t_out: float
     omega: float
+    # Port torque rates, N·m/s: T(t) = T + T'·t from t = 0 (a master's input derivatives).
+    rate_in: float = 0.0
+    rate_out: float = 0.0
 
 
 def load(path) -> PortScene:
@@ -146,8 +149,8 @@ def simulate(s: PortScene, stop_time: float, times, rtol=1e-12):
 
         def rhs(tt, yy):
             f = force(tt, yy)
-            a1 = (s.t_in - r1 * f) / j1
-            a2 = (s.t_out + r2 * f) / j2
+            a1 = (s.t_in + s.rate_in * tt - r1 * f) / j1
+            a2 = (s.t_out + s.rate_out * tt + r2 * f) / j2
             return [yy[1], r1 * a1 - r2 * a2, yy[3], a1]
 
         def g_end(tt, yy):

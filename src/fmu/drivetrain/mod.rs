@@ -211,6 +211,23 @@ impl Kernel for Drivetrain {
         }
     }
 
+    /// The `<port>.torque` inputs of torque ports (`docs/ports.md`); `input_speed` and the
+    /// torques of a train without ports stay held.
+    fn rate_inputs(scene: &TrainScene) -> [bool; 3] {
+        let port = |end| scene.ports.iter().any(|p| p.end == end);
+        [false, port(PortEnd::Input), port(PortEnd::Output)]
+    }
+
+    fn input_rates(train: &GearTrain) -> [f64; 3] {
+        let ([rate_in, rate_load], _) = train.torque_rates();
+        [0.0, rate_in, rate_load * train_load_sign(train)]
+    }
+
+    fn set_input_rates(sim: &mut TrainSimulation, du: [f64; 3]) -> Result<(), String> {
+        let sign = train_load_sign(sim.model());
+        sim.change_model(|train, t| train.set_torque_rates(t, [du[1], du[2] * sign]))
+    }
+
     fn sim_inputs(scene: &TrainScene, state: &TrainSimState) -> [f64; 3] {
         inputs_array(state.train.inputs, load_sign(scene))
     }

@@ -5,8 +5,10 @@
 //! Layout, little-endian: tag `"GDTR"` and `u32` format version (so a single-mesh payload,
 //! which starts with its parameter count, is never read as a drivetrain one), `u32 n` then
 //! `n × (u32 vr, f64 value)`, `u8 flags` (bit 0 initialized, bit 1 RK controller present,
-//! bit 2 controller step proposal present, bit 3 last step rejected), `f64` start time, t,
-//! the three inputs, loss start; `u32 dim` and `dim × f64` state; `u32` meshes, each
+//! bit 2 controller step proposal present, bit 3 last step rejected, bit 4 torque rates
+//! present), `f64` start time, t, the three inputs, loss start; with bit 4 `f64` input and
+//! load torque rates and the time they start from (`fmi2SetRealInputDerivatives`; held
+//! torques write no bit and no bytes, so such states keep the version-1 bytes); `u32 dim` and `dim × f64` state; `u32` meshes, each
 //! `f64` clock t0, p0, f, cycle, loss total, `u8` loss-since present, `f64` loss since,
 //! `u64` interval, `u32` slots and `slots × u8` flag codes; for RK `f64` proposal, `f64`
 //! previous error, `u32` non-finite trials.
@@ -31,8 +33,9 @@ pub fn encode(s: &TrainSnapshot) -> Vec<u8> {
     out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
     put_params(&mut out, &s.params);
     let c = s.sim.controller;
-    out.push(u8::from(s.initialized) | controller_bits(c) << 1);
     let tr = &s.sim.train;
+    let rates = tr.torque_rates != [0.0; 2];
+    out.push(u8::from(s.initialized) | controller_bits(c) << 1 | u8::from(rates) << 4);
     let u = tr.inputs;
     put_f64s(
         &mut out,
@@ -45,6 +48,12 @@ pub fn encode(s: &TrainSnapshot) -> Vec<u8> {
             tr.loss_start,
         ],
     );
+    if rates {
+        put_f64s(
+            &mut out,
+            &[tr.torque_rates[0], tr.torque_rates[1], tr.torque_anchor],
+        );
+    }
     out.extend_from_slice(&(s.sim.y.len() as u32).to_le_bytes());
     put_f64s(&mut out, &s.sim.y);
     out.extend_from_slice(&(tr.meshes.len() as u32).to_le_bytes());
@@ -95,12 +104,18 @@ pub fn decode(bytes: &[u8]) -> Result<TrainSnapshot, String> {
     let n = count(&mut r, "parameters", 12)?;
     let params = read_params(&mut r, n)?;
     let flags = r.u8()?;
-    if flags & !0b1111 != 0 {
+    if flags & !0b1_1111 != 0 {
         return Err(format!("drivetrain state has unknown flags {flags:#04x}"));
     }
     let mut f = [0.0; 6];
     for x in &mut f {
         *x = r.f64()?;
+    }
+    let mut rates = [0.0; 3];
+    if flags & 0b1_0000 != 0 {
+        for x in &mut rates {
+            *x = r.f64()?;
+        }
     }
     let dim = count(&mut r, "state entries", 8)?;
     let y = (0..dim).map(|_| r.f64()).collect::<Result<Vec<_>, _>>()?;
@@ -137,7 +152,7 @@ pub fn decode(bytes: &[u8]) -> Result<TrainSnapshot, String> {
             },
         });
     }
-    let controller = read_controller(&mut r, flags >> 1)?;
+    let controller = read_controller(&mut r, (flags >> 1) & 0b111)?;
     r.finish("drivetrain state")?;
     Ok(TrainSnapshot {
         params,
@@ -155,6 +170,8 @@ pub fn decode(bytes: &[u8]) -> Result<TrainSnapshot, String> {
                 },
                 loss_start: f[5],
                 meshes: ms,
+                torque_rates: [rates[0], rates[1]],
+                torque_anchor: rates[2],
             },
             controller,
         },
@@ -191,6 +208,12 @@ mod tests {
                     },
                     loss_start: 0.01,
                     meshes: vec![mesh(1.0), mesh(2.0)],
+                    torque_rates: if controller.is_some() {
+                        [250.0, -1.5]
+                    } else {
+                        [0.0; 2]
+                    },
+                    torque_anchor: if controller.is_some() { 0.125 } else { 0.0 },
                 },
                 controller,
             },

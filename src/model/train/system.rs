@@ -245,6 +245,9 @@ pub struct GearTrain {
     f_rate: Vec<f64>,
     force_ramp: bool,
     f_anchor: f64,
+    /// First-order rates of the input and load torques from `f_anchor`, N·m/s: the FMU's
+    /// input derivatives over one communication step (`docs/ports.md`); 0 otherwise.
+    torque_rates: [f64; 2],
     /// `Qᵀ M v`: the elastic force per rad/s² of nominal input acceleration is its negative.
     inertial: Vec<f64>,
     /// The scene's speed and torque profiles (a run-up), followed by the driver.
@@ -459,6 +462,7 @@ impl GearTrain {
             f_rate: vec![0.0; m],
             force_ramp: false,
             f_anchor: 0.0,
+            torque_rates: [0.0; 2],
             inertial,
             profiles: scene
                 .profiles
@@ -563,6 +567,14 @@ impl GearTrain {
                 *f -= g * speed_rate;
             }
         }
+        self.set_force_rate(torque_rate, load_rate);
+        self.force_ramp = torque_rate != 0.0;
+        self.f_anchor = t;
+        Ok(())
+    }
+
+    /// `dF̂/dt` of torque rates, formed as `f_ext` is from the torques.
+    fn set_force_rate(&mut self, torque_rate: f64, load_rate: f64) {
         for i in 0..self.m {
             self.f_rate[i] = self.f_in[i] * torque_rate + self.f_out[i] * load_rate;
         }
@@ -570,9 +582,42 @@ impl GearTrain {
             self.f_rate[0] =
                 self.m_hat[0] * (d_in * torque_rate / j_in + d_out * -load_rate / j_out);
         }
-        self.force_ramp = torque_rate != 0.0;
+    }
+
+    /// First-order rates `[input, load]` (N·m/s) of the torques from `t` on: the right-hand
+    /// side reads `T + T'·(τ − t)`, elastic and rigid part alike (FMI 2.0.x §4.2.1
+    /// `fmi2SetRealInputDerivatives`, used by the drivetrain FMU with torque ports). Rates
+    /// `[0, 0]` restore held torques. Not with torque profiles, which own the force ramp.
+    pub fn set_torque_rates(&mut self, t: f64, rates: [f64; 2]) -> Result<(), String> {
+        if self.profiles.is_some() {
+            return Err("torque rates cannot be combined with [profile] run-ups".into());
+        }
+        if let Some(r) = rates.iter().find(|r| !r.is_finite()) {
+            return Err(format!("torque rate {r} is not finite"));
+        }
+        self.torque_rates = rates;
+        self.set_force_rate(rates[0], rates[1]);
+        self.force_ramp = rates != [0.0; 2];
         self.f_anchor = t;
         Ok(())
+    }
+
+    /// The rates of [`GearTrain::set_torque_rates`] and the time they start from.
+    pub fn torque_rates(&self) -> ([f64; 2], f64) {
+        (self.torque_rates, self.f_anchor)
+    }
+
+    /// Input and load torque at `t` (the held torques plus their rates, if any).
+    pub(crate) fn torques_at(&self, t: f64) -> (f64, f64) {
+        let (t_in, t_load) = (self.inputs.input_torque, self.inputs.load_torque);
+        if self.torque_rates == [0.0; 2] {
+            return (t_in, t_load);
+        }
+        let dt = t - self.f_anchor;
+        (
+            t_in + self.torque_rates[0] * dt,
+            t_load + self.torque_rates[1] * dt,
+        )
     }
 
     /// The scene's profiles, if any.
@@ -1557,7 +1602,7 @@ impl HybridSystem for GearTrain {
         // With elements the train's torques are those of their shafts, from the state.
         let torques = (self.rotation.as_ref()).and_then(|rot| rot.train_torques(t, y));
         if let Some(rot) = &self.rotation {
-            let given = (self.inputs.input_torque, self.inputs.load_torque);
+            let given = self.torques_at(t);
             rot.rigid_rhs(self, t, y, dy, torques.unwrap_or(given));
         }
         let m = self.m;

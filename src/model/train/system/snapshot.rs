@@ -29,6 +29,10 @@ pub struct TrainRunState {
     /// Start of the contact-loss bookkeeping.
     pub loss_start: f64,
     pub meshes: Vec<MeshRunState>,
+    /// Rates of the input and load torque (N·m/s) and the time they start from
+    /// ([`GearTrain::set_torque_rates`]); `[0, 0]` and 0 when the torques are held.
+    pub torque_rates: [f64; 2],
+    pub torque_anchor: f64,
 }
 
 impl SlotContact {
@@ -68,6 +72,13 @@ impl GearTrain {
                     loss_since,
                 })
                 .collect(),
+            torque_rates: self.torque_rates,
+            // The anchor means nothing for held torques: one canonical value.
+            torque_anchor: if self.torque_rates == [0.0; 2] {
+                0.0
+            } else {
+                self.f_anchor
+            },
         }
     }
 
@@ -96,6 +107,15 @@ impl GearTrain {
         // the interval and slot counts the mode is checked against.
         let mut train = self.clone();
         train.apply_inputs(0.0, s.inputs)?;
+        if s.torque_rates != [0.0; 2] || train.torque_rates != [0.0; 2] {
+            if !s.torque_anchor.is_finite() {
+                return Err(format!(
+                    "torque rate anchor {} is not finite",
+                    s.torque_anchor
+                ));
+            }
+            train.set_torque_rates(s.torque_anchor, s.torque_rates)?;
+        }
         for (n, (mesh, ms)) in train.meshes.iter_mut().zip(&s.meshes).enumerate() {
             let (t0, p0) = ms.clock.anchor();
             let numbers = [t0, p0, ms.clock.mesh_frequency(), ms.cycle, ms.loss_total];
