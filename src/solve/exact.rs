@@ -24,6 +24,7 @@
 //! next instead of lifted again ([`PiecewiseLti::forcing_carries_over`]).
 
 mod balanced;
+mod composite;
 mod crossing;
 mod enclosure;
 mod expm;
@@ -37,6 +38,7 @@ use std::hash::{BuildHasherDefault, Hasher};
 use nalgebra::DMatrix;
 
 use super::{HybridSystem, SolveError, SolverStats};
+use composite::{Composites, Lookup, Step};
 use crossing::{first_crossing, root_tolerance, Crossing, Workspace};
 use guard_series::DerivativeRows;
 use recurrence::Decision;
@@ -78,6 +80,15 @@ pub trait PiecewiseLti: HybridSystem {
     fn forcing_carries_over(&self) -> bool {
         false
     }
+    /// Whether [`HybridSystem::on_stop`] neither reads nor changes `y` while the current mode
+    /// has no guards (e.g. a drivetrain whose meshes all have a linear contact law: a stop
+    /// only switches the stiffness piece), so that the propagator may walk the stops of a
+    /// run of guard-free segments before it propagates the state through them and apply a
+    /// recurring run as one composite transition ([`composite`]). `false` (the default) is
+    /// always safe.
+    fn stops_independent_of_state(&self) -> bool {
+        false
+    }
 }
 
 /// Segments after which the propagator lifts `z` afresh even when the model's forcing states
@@ -112,6 +123,8 @@ struct ModeCache {
     /// Direct-mapped `(key + 1, position)` by `key mod RECENT`: a periodic orbit cycles
     /// through a few modes, and a segment then finds its mode without hashing (`0`: empty).
     recent: [(u64, usize); ModeCache::RECENT],
+    /// Products of recurring sequences of guard-free segments of these modes.
+    composites: Composites,
 }
 
 impl ModeCache {
@@ -122,11 +135,17 @@ impl ModeCache {
 
     /// The current mode of `sys`, built on first use (its `A` from `lti_matrix`).
     fn get<S: PiecewiseLti>(&mut self, sys: &S) -> &mut ModeTransitions {
+        let position = self.get_position(sys);
+        &mut self.modes[position]
+    }
+
+    /// The position of the current mode of `sys` in `modes`, built on first use.
+    fn get_position<S: PiecewiseLti>(&mut self, sys: &S) -> usize {
         let key = sys.mode_key();
         let slot = (key % Self::RECENT as u64) as usize;
         let (tag, position) = self.recent[slot];
         if tag == key.wrapping_add(1) {
-            return &mut self.modes[position];
+            return position;
         }
         let position = match self.index.get(&key) {
             Some(&position) => position,
@@ -140,13 +159,24 @@ impl ModeCache {
             }
         };
         self.recent[slot] = (key.wrapping_add(1), position);
-        &mut self.modes[position]
+        position
     }
 
     fn clear(&mut self) {
         self.modes.clear();
         self.index.clear();
         self.recent = Default::default();
+        self.composites.clear();
+    }
+
+    /// The position of the current mode of `sys` (built on first use), or `None` if building
+    /// it would clear the cache (positions recorded before would then be stale).
+    fn position<S: PiecewiseLti>(&mut self, sys: &S) -> Option<usize> {
+        let key = sys.mode_key();
+        if self.modes.len() >= Self::CAPACITY && !self.index.contains_key(&key) {
+            return None;
+        }
+        Some(self.get_position(sys))
     }
 
     /// The operators of the current mode: `A` from `lti_matrix`, the guard rows.
@@ -190,6 +220,11 @@ pub struct ExactPropagator {
     /// `∂y(t)/∂y(t_track)` when tracking is on: the product of the `y` blocks of the applied
     /// transition matrices (the forcing rows of `z` do not depend on `y`).
     sensitivity: Option<DMatrix<f64>>,
+    /// Whether recurring sequences of guard-free segments are applied as one composite
+    /// transition ([`composite`]; on by default).
+    composites: bool,
+    /// The sequence being walked.
+    sequence: Vec<Step>,
 }
 
 /// Events allowed at one instant before the propagation gives up (Zeno guard).
@@ -237,6 +272,8 @@ impl ExactPropagator {
             recurrences: true,
             carried: None,
             sensitivity: None,
+            composites: true,
+            sequence: Vec::new(),
         }
     }
 
@@ -285,8 +322,22 @@ impl ExactPropagator {
         for mode in &mut self.modes.modes {
             mode.forget_recurring();
         }
-        // The carried forcing states are history too.
+        // The carried forcing states and the recorded sequences are history too.
         self.carried = None;
+        self.modes.composites.clear();
+    }
+
+    /// Switches the composite transitions of recurring guard-free sequences ([`composite`])
+    /// on (the default) or off (every segment is applied on its own; for comparisons).
+    pub fn use_composites(&mut self, on: bool) {
+        self.composites = on;
+        self.modes.composites.clear();
+    }
+
+    /// Composite products built so far and sequences applied as one product (since the
+    /// last invalidation or capture).
+    pub fn composite_counts(&self) -> (u64, u64) {
+        (self.modes.composites.builds, self.modes.composites.hits)
     }
 
     pub fn t(&self) -> f64 {
@@ -323,6 +374,17 @@ impl ExactPropagator {
         let mut segments = 0u64;
         let mut stalled_stops = 0u64;
         while self.t < t_end {
+            if self.composites
+                && self.sensitivity.is_none()
+                && sys.guard_count() == 0
+                && sys.stops_independent_of_state()
+                && sys.forcing_carries_over()
+            {
+                let walked = self.advance_sequence(sys, t_end, &mut segments, max_segments)?;
+                if walked {
+                    continue;
+                }
+            }
             let stop = sys.next_stop();
             let target = stop.min(t_end);
             let tau = target - self.t;
@@ -492,6 +554,118 @@ impl ExactPropagator {
             }
         }
         Ok(())
+    }
+
+    /// Walks the stops of guard-free segments from `t` towards `t_end` (the model's stops do
+    /// not depend on the state: [`PiecewiseLti::stops_independent_of_state`]), then
+    /// propagates the state through the walked sequence: one mat-vec with its product if it
+    /// recurs, else segment by segment ([`composite`]). The walk ends at `t_end`, at a mode
+    /// with guards, after [`composite::MAX_LENGTH`] segments, or where the mode returns to
+    /// the sequence's first one at a stop (one mesh period of a train at constant speed), so
+    /// long advances are cut into recurring sequences too. Returns whether a segment was
+    /// walked.
+    fn advance_sequence<S: PiecewiseLti>(
+        &mut self,
+        sys: &mut S,
+        t_end: f64,
+        segments: &mut u64,
+        max_segments: u64,
+    ) -> Result<bool, SolveError> {
+        let n = sys.dim();
+        let start = self.t;
+        let mut t = start;
+        let mut steps = std::mem::take(&mut self.sequence);
+        steps.clear();
+        let mut stalled_stops = 0u64;
+        let mut failure = None;
+        while t < t_end && steps.len() < composite::MAX_LENGTH && sys.guard_count() == 0 {
+            let stop = sys.next_stop();
+            let target = stop.min(t_end);
+            let tau = target - t;
+            if !(tau > 0.0) {
+                if stop <= t {
+                    stalled_stops += 1;
+                    if stalled_stops > MAX_STALLED_STOPS {
+                        failure = Some(SolveError::StopNotAhead { t, stop });
+                        break;
+                    }
+                    // `y` is neither read nor changed by the stop (the trait's promise).
+                    sys.on_stop(t, &mut self.y);
+                    self.stats.stops += 1;
+                    continue;
+                }
+                failure = Some(SolveError::StepSizeTooSmall { t, h: tau });
+                break;
+            }
+            stalled_stops = 0;
+            let Some(mode) = self.modes.position(sys) else {
+                break;
+            };
+            if !steps.is_empty() && mode == steps[0].mode {
+                // Back at the first mode after a stop: a new sequence starts here.
+                break;
+            }
+            *segments += 1;
+            if *segments > max_segments {
+                failure = Some(SolveError::TooManySteps {
+                    t,
+                    max_steps: max_segments,
+                });
+                break;
+            }
+            self.stats.steps += 1;
+            steps.push(Step {
+                mode,
+                tau,
+                offset: target - start,
+            });
+            t = target;
+            if target == stop {
+                sys.on_stop(t, &mut self.y);
+                self.stats.stops += 1;
+            }
+        }
+        let walked = !steps.is_empty();
+        if walked {
+            // A fresh lift at the sequence start (the forcing states are continuous).
+            sys.lift(start, &self.y, &mut self.z);
+            let tol = composite::offset_tolerance(t);
+            match self.modes.composites.lookup(&steps, tol) {
+                Lookup::Product(product) => {
+                    transition::mat_vec(product.as_slice(), &self.z, &mut self.z_next);
+                    std::mem::swap(&mut self.z, &mut self.z_next);
+                }
+                Lookup::Segments { build } => {
+                    for step in &steps {
+                        let mode = &mut self.modes.modes[step.mode];
+                        mode.apply(step.tau, &self.z, &mut self.z_next);
+                        std::mem::swap(&mut self.z, &mut self.z_next);
+                    }
+                    if let Some(slot) = build {
+                        let recorded = self.modes.composites.steps(slot).to_vec();
+                        let nz = self.z.len();
+                        let mut product = DMatrix::identity(nz, nz);
+                        for step in &recorded {
+                            let phi = self.modes.modes[step.mode].transition_matrix(step.tau);
+                            product = phi * product;
+                        }
+                        self.modes.composites.set_product(slot, product);
+                    }
+                }
+            }
+            if !self.z[..n].iter().all(|v| v.is_finite()) {
+                self.sequence = steps;
+                return Err(SolveError::NonFinite { t: self.t });
+            }
+            self.y.copy_from_slice(&self.z[..n]);
+            self.t = t;
+            self.carried = None;
+        }
+        self.sequence = steps;
+        match failure {
+            Some(e) => Err(e),
+            None => Ok(walked),
+        }
     }
 
     /// `S ← Φ_yy S` over the segment starting now: each column of `S`, lifted with zero
