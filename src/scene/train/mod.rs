@@ -6,6 +6,7 @@
 //! `docs/train.md`. A single-mesh scene of `docs/model.md` is read here as a train with one
 //! mesh, so the single pair is one case of the graph.
 
+pub mod chain;
 mod friction;
 pub mod spec;
 pub(crate) mod validate;
@@ -17,6 +18,7 @@ use crate::scene::{
     read_scene_file, scene_file, ContactLaw, InitialDte, SceneError, SolverSettings,
 };
 
+pub use chain::{ChainBearings, ChainContact, ChainSpec};
 pub use friction::{HelicalPair, MeshFriction};
 pub use spec::TrainSpec;
 
