@@ -256,6 +256,15 @@ impl<M: DrivenModel> Driver<M> {
         }
     }
 
+    /// Modes built and full mode caches cleared by the exact propagator (`(0, 0)` on the RK
+    /// path).
+    pub fn mode_counts(&self) -> (u64, u64) {
+        match &self.propagator {
+            Propagator::Exact(p) => p.mode_counts(),
+            Propagator::Rk(_) => (0, 0),
+        }
+    }
+
     /// Restarts from `(t, y)` with the mode re-derived from the state (FMU state restore and
     /// initial-value changes).
     pub fn set_y(&mut self, t: f64, y: &[f64]) {

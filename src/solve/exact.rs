@@ -125,6 +125,9 @@ struct ModeCache {
     recent: [(u64, usize); ModeCache::RECENT],
     /// Products of recurring sequences of guard-free segments of these modes.
     composites: Composites,
+    /// Modes built and times the full cache was cleared (for benchmarks; never reset).
+    builds: u64,
+    clears: u64,
 }
 
 impl ModeCache {
@@ -152,7 +155,9 @@ impl ModeCache {
             None => {
                 if self.modes.len() >= Self::CAPACITY {
                     self.clear();
+                    self.clears += 1;
                 }
+                self.builds += 1;
                 self.modes.push(Self::build(sys));
                 self.index.insert(key, self.modes.len() - 1);
                 self.modes.len() - 1
@@ -332,6 +337,12 @@ impl ExactPropagator {
     pub fn use_composites(&mut self, on: bool) {
         self.composites = on;
         self.modes.composites.clear();
+    }
+
+    /// Modes built and full mode caches cleared so far (a drivetrain with contact loss on
+    /// many meshes can meet more contact combinations than the cache holds).
+    pub fn mode_counts(&self) -> (u64, u64) {
+        (self.modes.builds, self.modes.clears)
     }
 
     /// Composite products built so far and sequences applied as one product (since the
