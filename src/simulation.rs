@@ -22,8 +22,8 @@ pub type Simulation = Driver<GearPair>;
 
 impl DrivenModel for GearPair {
     type RunState = PairState;
-    fn is_piecewise_lti(&self) -> bool {
-        GearPair::is_piecewise_lti(self)
+    fn not_lti_reason(&self) -> Option<String> {
+        GearPair::not_lti_reason(self)
     }
     fn resynchronise(&mut self, t: f64, y: &[f64]) {
         GearPair::resynchronise(self, t, y)
@@ -72,12 +72,7 @@ impl Driver<GearPair> {
         let mut pair = GearPair::new(scene);
         pair.check_scales()?;
         let y0 = pair.initial_state(scene);
-        Driver::with_model(
-            pair,
-            &y0,
-            &scene.solver,
-            "method = exact: the stiffness is not piecewise constant (use rk or auto)",
-        )
+        Driver::with_model(pair, &y0, &scene.solver)
     }
 
     /// `[x, x']`.

@@ -379,7 +379,7 @@ fn branch<M: Drivetrain>(
                 points.push(failed_point(direction, speed, sim.model(), failure));
                 let mut model = start_model.clone();
                 model.set_input_speed(0.0, speed)?;
-                sim = Driver::with_model(model, &start_state, settings, "")?;
+                sim = Driver::with_model(model, &start_state, settings)?;
             }
         }
         tick();

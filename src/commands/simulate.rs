@@ -247,10 +247,7 @@ fn run_to_csv<M: DrivenModel>(
     let rows = writer.rows();
     let peak_buffered_bytes = writer.peak_buffered_bytes();
     writer.finish()?;
-    let method = match sim.method_note() {
-        Some(note) => format!("{} ({note})", sim.method_name()),
-        None => sim.method_name(),
-    };
+    let method = sim.method_choice().to_owned();
     Ok(Streamed {
         rows,
         method,

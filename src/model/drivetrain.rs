@@ -677,13 +677,7 @@ pub fn driver_from<M: Drivetrain>(
     y0: &[f64],
     settings: &crate::scene::SolverSettings,
 ) -> Result<Driver<M>, String> {
-    Driver::with_model(
-        model,
-        y0,
-        settings,
-        "solver.method = \"exact\": the scene's segments are not all linear time-invariant \
-         (use rk or auto)",
-    )
+    Driver::with_model(model, y0, settings)
 }
 
 #[cfg(test)]

@@ -770,6 +770,25 @@ impl GearPair {
     pub fn is_piecewise_lti(&self) -> bool {
         self.stiffness.is_piecewise_constant() && self.smooth.is_zero()
     }
+
+    /// Why a segment is not LTI (exact propagator refused), or `None`.
+    pub fn not_lti_reason(&self) -> Option<String> {
+        if !self.stiffness.is_piecewise_constant() {
+            Some(
+                "the mesh stiffness is not piecewise constant (smooth, trapezoidal or tabulated \
+                 with slopes), so it varies within a segment"
+                    .to_owned(),
+            )
+        } else if !self.smooth.is_zero() {
+            Some(
+                "the mesh has smooth nonlinear or time-varying terms (cubic stiffness, damping \
+                 variation or torque ripple), which are not linear time-invariant"
+                    .to_owned(),
+            )
+        } else {
+            None
+        }
+    }
 }
 
 impl HybridSystem for GearPair {
@@ -999,8 +1018,11 @@ impl PiecewiseLti for GearPair {
         w[last] = sign * offset;
     }
 
-    fn mode_key(&self) -> u64 {
-        (self.segment.piece as u64) << 2 | (self.contact as i8 + 1) as u64
+    fn mode_key(&self, key: &mut crate::solve::exact::ModeKey) {
+        key.push(
+            (self.segment.piece as u64) << 2 | (self.contact as i8 + 1) as u64,
+            u64::MAX,
+        );
     }
 
     /// Contact guards proved positive by the energy bound of [`guard_bound`].

@@ -14,8 +14,13 @@ use crate::solve::{SolveError, SolverStats};
 pub trait DrivenModel: PiecewiseLti + Clone {
     /// The model's part of a snapshot.
     type RunState;
+    /// Why the exact propagator does not apply (a segment that is not LTI in the augmented
+    /// state), worded as the reason a user reads; `None` when every segment is LTI.
+    fn not_lti_reason(&self) -> Option<String>;
     /// Whether every segment is LTI, so the exact propagator applies.
-    fn is_piecewise_lti(&self) -> bool;
+    fn is_piecewise_lti(&self) -> bool {
+        self.not_lti_reason().is_none()
+    }
     /// Re-derives the mode from `(t, y)` after a jump of the state.
     fn resynchronise(&mut self, t: f64, y: &[f64]);
     fn run_state(&self) -> Self::RunState;
@@ -55,19 +60,21 @@ pub struct Driver<M> {
     model: M,
     propagator: Propagator,
     note: Option<String>,
+    choice: String,
 }
 
 impl<M: DrivenModel> Driver<M> {
     /// Picks the propagator (`auto`: exact when the model is piecewise LTI) and starts at
-    /// `t = 0` from `y0`. `not_lti` is the error for `method = exact` on a model that is not
-    /// piecewise LTI, worded for the scene the user wrote.
+    /// `t = 0` from `y0`. `method = exact` on a model that is not piecewise LTI is refused with
+    /// the model's reason ([`DrivenModel::not_lti_reason`]); [`Driver::method_choice`] says
+    /// what was chosen and why.
     pub fn with_model(
         model: M,
         y0: &[f64],
         settings: &SolverSettings,
-        not_lti: &str,
     ) -> Result<Driver<M>, String> {
         let runup = model.runup_not_lti();
+        let not_lti = model.not_lti_reason();
         let exact = match settings.method {
             MethodChoice::Exact => {
                 if let Some(reason) = &runup {
@@ -75,21 +82,44 @@ impl<M: DrivenModel> Driver<M> {
                         "solver.method = \"exact\": {reason}; use \"rk\" or \"auto\""
                     ));
                 }
-                if !model.is_piecewise_lti() {
-                    return Err(not_lti.into());
+                if let Some(reason) = &not_lti {
+                    return Err(format!(
+                        "solver.method = \"exact\": {reason} (use rk or auto)"
+                    ));
                 }
                 true
             }
-            MethodChoice::Auto => runup.is_none() && model.is_piecewise_lti(),
+            MethodChoice::Auto => runup.is_none() && not_lti.is_none(),
             MethodChoice::Rk => false,
         };
         let note = match (&runup, settings.method) {
-            (Some(reason), MethodChoice::Auto) if model.is_piecewise_lti() => {
+            (Some(reason), MethodChoice::Auto) if not_lti.is_none() => {
                 Some(format!("auto chose RK: {reason}"))
             }
             _ => None,
         };
+        let rk_name = settings.rk_method.to_string();
+        let choice = match settings.method {
+            MethodChoice::Exact => "exact (solver.method = exact)".to_owned(),
+            MethodChoice::Rk => format!("{rk_name} (solver.method = rk)"),
+            MethodChoice::Auto => match (&not_lti, &runup) {
+                (None, None) => "exact (auto: every segment is linear time-invariant)".to_owned(),
+                (Some(reason), _) => format!("{rk_name} (auto: exact refused: {reason})"),
+                (None, Some(reason)) => format!("{rk_name} (auto: exact refused: {reason})"),
+            },
+        };
         let dim = model.lti_dim();
+        if exact && dim > MAX_EXACT_DIM && settings.method == MethodChoice::Auto {
+            let reason = format!(
+                "the augmented state has {dim} entries, above the exact propagator's limit of \
+                 {MAX_EXACT_DIM} (dense {dim}×{dim} matrices)"
+            );
+            let mut settings = settings.clone();
+            settings.method = MethodChoice::Rk;
+            let mut driver = Self::with_model(model, y0, &settings)?;
+            driver.choice = format!("{rk_name} (auto: exact refused: {reason})");
+            return Ok(driver);
+        }
         if exact && dim > MAX_EXACT_DIM {
             return Err(format!(
                 "the exact propagator would hold {dim}×{dim} matrices ({:.0} MB each) for this \
@@ -116,7 +146,14 @@ impl<M: DrivenModel> Driver<M> {
             model,
             propagator,
             note,
+            choice,
         })
+    }
+
+    /// The method in use and why it was chosen, e.g. `exact (auto: every segment is linear
+    /// time-invariant)` or `dop853 (auto: exact refused: <reason>)`.
+    pub fn method_choice(&self) -> &str {
+        &self.choice
     }
 
     /// Why `auto` did not choose the exact propagator for a scene whose constant-speed form it

@@ -54,9 +54,10 @@ pub trait PiecewiseLti: HybridSystem {
     fn lti_matrix(&self, a: &mut DMatrix<f64>);
     /// Guard `index` of the current mode as a row: `g = w·z`.
     fn guard_row(&self, index: usize, w: &mut [f64]);
-    /// A key that identifies the current mode among the modes of one parameter set: its
-    /// matrix, its guard count and its guard rows.
-    fn mode_key(&self) -> u64;
+    /// Writes a key that identifies the current mode among the modes of one parameter set
+    /// (its matrix, its guard count and its guard rows) into `key`, which is cleared first.
+    /// Any number of digits fits: there is no limit on meshes or contact states.
+    fn mode_key(&self, key: &mut ModeKey);
     /// An upper bound of the fastest angular frequency in any mode, rad/s.
     fn max_frequency(&self) -> f64;
     /// Whether guard `index` of the current mode provably stays positive for all time from the
@@ -96,6 +97,69 @@ pub trait PiecewiseLti: HybridSystem {
 /// and a fresh lift from the clock bounds what they can accumulate.
 pub const RELIFT_EVERY: u32 = 8;
 
+/// The key of a mode: a mixed-radix number of any length (one digit per mesh interval, per
+/// contact flag, …), packed into as many 64-bit words as it needs. Packing with the same
+/// sequence of radices is injective, so two modes of one parameter set have equal keys only
+/// if they are the same mode.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ModeKey {
+    words: Vec<u64>,
+    /// Product of the radices packed into the last word.
+    capacity: u64,
+}
+
+impl Default for ModeKey {
+    fn default() -> Self {
+        ModeKey {
+            words: vec![0],
+            capacity: 1,
+        }
+    }
+}
+
+impl ModeKey {
+    /// Empties the key (no allocation once the key has held a mode).
+    pub fn clear(&mut self) {
+        self.words.clear();
+        self.words.push(0);
+        self.capacity = 1;
+    }
+
+    /// Appends the digit `value` (`< radix`) of radix `radix >= 1`.
+    pub fn push(&mut self, value: u64, radix: u64) {
+        debug_assert!(
+            radix >= 1 && value < radix,
+            "digit {value} of radix {radix}"
+        );
+        let last = match self.capacity.checked_mul(radix) {
+            Some(c) => {
+                self.capacity = c;
+                self.words.last_mut().expect("a key has a word")
+            }
+            None => {
+                self.words.push(0);
+                self.capacity = radix;
+                self.words.last_mut().expect("just pushed")
+            }
+        };
+        *last = *last * radix + value;
+    }
+
+    /// The packed words.
+    pub fn words(&self) -> &[u64] {
+        &self.words
+    }
+
+    /// A multiplicative hash of the words.
+    fn hash(&self) -> u64 {
+        let mut h = ModeKeyHasher::default();
+        for &w in &self.words {
+            h.write_u64(w);
+        }
+        h.finish()
+    }
+}
+
 /// Mode keys are small integers chosen by the model: a multiplicative hash is enough (the
 /// default SipHash would cost more than a whole-segment mat-vec).
 #[derive(Default)]
@@ -119,10 +183,16 @@ impl Hasher for ModeKeyHasher {
 #[derive(Default)]
 struct ModeCache {
     modes: Vec<ModeTransitions>,
-    index: HashMap<u64, usize, BuildHasherDefault<ModeKeyHasher>>,
-    /// Direct-mapped `(key + 1, position)` by `key mod RECENT`: a periodic orbit cycles
-    /// through a few modes, and a segment then finds its mode without hashing (`0`: empty).
+    /// The key of each mode in `modes`.
+    keys: Vec<ModeKey>,
+    /// Positions in `modes` by key hash (a bucket holds the rare hash collisions).
+    index: HashMap<u64, Vec<usize>, BuildHasherDefault<ModeKeyHasher>>,
+    /// Direct-mapped `(hash + 1, position)` by `hash mod RECENT`: a periodic orbit cycles
+    /// through a few modes, and a segment then finds its mode without a map lookup (`0`:
+    /// empty; the key itself is compared before a hit is used).
     recent: [(u64, usize); ModeCache::RECENT],
+    /// The key of the current mode, reused so that writing it does not allocate.
+    scratch: ModeKey,
     /// Products of recurring sequences of guard-free segments of these modes.
     composites: Composites,
     /// Modes built and times the full cache was cleared (for benchmarks; never reset).
@@ -142,16 +212,28 @@ impl ModeCache {
         &mut self.modes[position]
     }
 
+    /// The position in `modes` of the mode whose key is in `scratch`, if cached.
+    fn find_scratch(&self) -> Option<usize> {
+        self.index.get(&self.scratch.hash()).and_then(|bucket| {
+            bucket
+                .iter()
+                .copied()
+                .find(|&p| self.keys[p] == self.scratch)
+        })
+    }
+
     /// The position of the current mode of `sys` in `modes`, built on first use.
     fn get_position<S: PiecewiseLti>(&mut self, sys: &S) -> usize {
-        let key = sys.mode_key();
-        let slot = (key % Self::RECENT as u64) as usize;
+        self.scratch.clear();
+        sys.mode_key(&mut self.scratch);
+        let hash = self.scratch.hash();
+        let slot = (hash % Self::RECENT as u64) as usize;
         let (tag, position) = self.recent[slot];
-        if tag == key.wrapping_add(1) {
+        if tag == hash.wrapping_add(1) && self.keys[position] == self.scratch {
             return position;
         }
-        let position = match self.index.get(&key) {
-            Some(&position) => position,
+        let position = match self.find_scratch() {
+            Some(position) => position,
             None => {
                 if self.modes.len() >= Self::CAPACITY {
                     self.clear();
@@ -159,16 +241,19 @@ impl ModeCache {
                 }
                 self.builds += 1;
                 self.modes.push(Self::build(sys));
-                self.index.insert(key, self.modes.len() - 1);
-                self.modes.len() - 1
+                self.keys.push(self.scratch.clone());
+                let position = self.modes.len() - 1;
+                self.index.entry(hash).or_default().push(position);
+                position
             }
         };
-        self.recent[slot] = (key.wrapping_add(1), position);
+        self.recent[slot] = (hash.wrapping_add(1), position);
         position
     }
 
     fn clear(&mut self) {
         self.modes.clear();
+        self.keys.clear();
         self.index.clear();
         self.recent = Default::default();
         self.composites.clear();
@@ -177,9 +262,10 @@ impl ModeCache {
     /// The position of the current mode of `sys` (built on first use), or `None` if building
     /// it would clear the cache (positions recorded before would then be stale).
     fn position<S: PiecewiseLti>(&mut self, sys: &S) -> Option<usize> {
-        let key = sys.mode_key();
-        if self.modes.len() >= Self::CAPACITY && !self.index.contains_key(&key) {
-            return None;
+        if self.modes.len() >= Self::CAPACITY {
+            self.scratch.clear();
+            sys.mode_key(&mut self.scratch);
+            self.find_scratch()?;
         }
         Some(self.get_position(sys))
     }

@@ -87,7 +87,7 @@ def _run_cli(repo_root: pathlib.Path, tmp_path: pathlib.Path, scene_path: str, v
     out = tmp_path / f"{variant}.csv"
     proc = run_geardyn("simulate", repo_root / scene_path, "--out", out, *VARIANT_ARGS[variant])
     method = next(
-        (ln.split()[-1] for ln in proc.stdout.splitlines() if ln.strip().startswith("method")),
+        (ln.split()[1] for ln in proc.stdout.splitlines() if ln.strip().startswith("method")),
         None,
     )
     return ref.read_csv(out), method

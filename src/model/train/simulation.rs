@@ -17,8 +17,8 @@ pub type TrainSimulation = Driver<GearTrain>;
 
 impl DrivenModel for GearTrain {
     type RunState = TrainRunState;
-    fn is_piecewise_lti(&self) -> bool {
-        GearTrain::is_piecewise_lti(self)
+    fn not_lti_reason(&self) -> Option<String> {
+        GearTrain::not_lti_reason(self)
     }
     fn resynchronise(&mut self, t: f64, y: &[f64]) {
         GearTrain::resynchronise(self, t, y)
@@ -52,15 +52,7 @@ impl Driver<GearTrain> {
     pub fn new(scene: &TrainScene) -> Result<TrainSimulation, String> {
         let mut train = GearTrain::new(scene)?;
         let y0 = train.initial_state(scene)?;
-        let refusal = if train.has_gear_errors() {
-            "solver.method = \"exact\": gear runout and pitch errors add shaft-order harmonics \
-             and tooth steps to the STE, which the exact propagator's augmented state does not \
-             carry (use rk or auto; auto picks rk)"
-        } else {
-            "solver.method = \"exact\": the train's segments are not all \
-                    linear time-invariant (use rk or auto)"
-        };
-        Driver::with_model(train, &y0, &scene.solver, refusal)
+        Driver::with_model(train, &y0, &scene.solver)
     }
 
     /// `[ξ, ξ']`.

@@ -254,7 +254,6 @@ pub struct GearTrain {
     inputs: TrainInputs,
     guards: Vec<(usize, usize, Surface)>,
     scratch: RefCell<Vec<f64>>,
-    key_fits: bool,
     names: Vec<String>,
     /// Mesh names (column prefixes) in scene order.
     mesh_names: Vec<String>,
@@ -470,7 +469,6 @@ impl GearTrain {
             },
             guards: Vec::new(),
             scratch: RefCell::new(vec![0.0; m]),
-            key_fits: true,
             names: Vec::new(),
             mesh_names: scene.meshes.iter().map(|m| m.name.clone()).collect(),
             gears: (scene.gears.iter().zip(&scene.speed_ratio))
@@ -490,7 +488,6 @@ impl GearTrain {
             train.m_hat = vec![m_e];
             train.minv = vec![1.0 / m_e];
         }
-        train.key_fits = train.key_bits() <= 63;
         train.names = train.build_names(scene);
         train.apply_inputs(0.0, train.inputs)?;
         if let Some(pr) = &train.profiles {
@@ -763,35 +760,54 @@ impl GearTrain {
                     mesh.locate(t);
                 }
             }
-            self.key_fits = self.key_bits() <= 63;
         }
         Ok(())
     }
 
-    fn key_bits(&self) -> u32 {
-        self.meshes
-            .iter()
-            .map(|m| {
-                let intervals = m.table().map_or(1, |t| t.intervals.len()) as u64;
-                (64 - intervals.saturating_sub(1).leading_zeros()) + 2 * m.slots() as u32
-            })
-            .sum()
-    }
-
     /// Whether every segment is LTI in the augmented state (exact propagator).
     pub fn is_piecewise_lti(&self) -> bool {
-        // Friction arms move with the phase: the friction moment is not piecewise constant.
-        // Runout adds harmonics of the shaft frequencies and pitch errors steps at the tooth
-        // boundaries; the augmented state carries neither (`docs/errors.md`).
-        self.key_fits
-            && self
-                .meshes
-                .iter()
-                .all(|m| m.friction.is_none() && m.errors.is_empty())
-            && self.meshes.iter().all(|m| match &m.stiffness {
-                Stiffness::Table(t) => t.stiffness_piecewise_constant(),
-                Stiffness::Smooth { .. } => false,
-            })
+        self.not_lti_reason().is_none()
+    }
+
+    /// Why a segment is not LTI in the augmented state (the first mesh that makes it so), or
+    /// `None`. There is no limit on the number of meshes or contact states: the mode key has
+    /// any length ([`crate::solve::exact::ModeKey`]).
+    pub fn not_lti_reason(&self) -> Option<String> {
+        for (m, name) in self.meshes.iter().zip(&self.mesh_names) {
+            // Friction arms move with the phase: the friction moment is not piecewise constant.
+            if m.friction.is_some() {
+                return Some(format!(
+                    "mesh '{name}' has Coulomb tooth friction, whose moment arm moves with the \
+                     mesh phase within a segment"
+                ));
+            }
+            // Runout adds harmonics of the shaft frequencies and pitch errors steps at the
+            // tooth boundaries; the augmented state carries neither (`docs/errors.md`).
+            if !m.errors.is_empty() {
+                return Some(format!(
+                    "gear runout and pitch errors on mesh '{name}' add shaft-order harmonics \
+                     and tooth steps to the STE, which the exact propagator's augmented state \
+                     does not carry"
+                ));
+            }
+            match &m.stiffness {
+                Stiffness::Table(t) if t.stiffness_piecewise_constant() => {}
+                Stiffness::Table(_) => {
+                    return Some(format!(
+                        "mesh '{name}' has a stiffness that varies within its pieces (sloped \
+                         pieces, e.g. trapezoidal, a load share or a tabulated pair), not a \
+                         piecewise-constant one"
+                    ))
+                }
+                Stiffness::Smooth { .. } => {
+                    return Some(format!(
+                        "mesh '{name}' has a smooth (Fourier or geometry) stiffness, not a \
+                         piecewise-constant one"
+                    ))
+                }
+            }
+        }
+        None
     }
 
     /// The scene's initial state `[ξ0, ξ0']`; also sets the contact flags to match it.
@@ -1868,16 +1884,14 @@ impl PiecewiseLti for GearTrain {
         }
     }
 
-    fn mode_key(&self) -> u64 {
-        let mut key: u64 = 0;
+    fn mode_key(&self, key: &mut crate::solve::exact::ModeKey) {
         for mesh in &self.meshes {
             let intervals = mesh.table().map_or(1, |t| t.intervals.len()) as u64;
-            key = key * intervals + mesh.interval as u64;
+            key.push(mesh.interval as u64, intervals);
             for f in &mesh.flags {
-                key = key * 4 + *f as u64;
+                key.push(*f as u64, 4);
             }
         }
-        key
     }
 
     fn max_frequency(&self) -> f64 {
