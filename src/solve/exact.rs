@@ -22,6 +22,14 @@
 //! instead by an earlier one of its mode and a perturbation bound ([`recurrence`]); and where
 //! the model's forcing states are continuous they are carried from a segment's end into the
 //! next instead of lifted again ([`PiecewiseLti::forcing_carries_over`]).
+//!
+//! A run of guard-free segments whose stops do not depend on the state
+//! ([`PiecewiseLti::stops_independent_of_state`], e.g. a drivetrain with linear contact) is
+//! walked first and, when the same sequence of modes and switching instants recurs (a mesh
+//! period of a train), applied as one product of its transitions ([`composite`]): one mat-vec
+//! per recurring period instead of one per stiffness switch. If the state turns non-finite in
+//! such a run, the error is reported at the run's start while the model's stops have moved to
+//! its end (the run is then over anyway).
 
 mod balanced;
 mod composite;
