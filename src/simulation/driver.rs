@@ -275,6 +275,33 @@ impl<M: DrivenModel> Driver<M> {
         }
     }
 
+    /// Switches the exact propagator's composite transitions of recurring guard-free
+    /// sequences on (the default) or off (every segment applied on its own); no effect on
+    /// the RK path.
+    pub fn use_composites(&mut self, on: bool) {
+        if let Propagator::Exact(p) = &mut self.propagator {
+            p.use_composites(on);
+        }
+    }
+
+    /// Composite products built and sequences applied as one product by the exact
+    /// propagator (`(0, 0)` on the RK path).
+    pub fn composite_counts(&self) -> (u64, u64) {
+        match &self.propagator {
+            Propagator::Exact(p) => p.composite_counts(),
+            Propagator::Rk(_) => (0, 0),
+        }
+    }
+
+    /// Modes built and full mode caches cleared by the exact propagator (`(0, 0)` on the RK
+    /// path).
+    pub fn mode_counts(&self) -> (u64, u64) {
+        match &self.propagator {
+            Propagator::Exact(p) => p.mode_counts(),
+            Propagator::Rk(_) => (0, 0),
+        }
+    }
+
     /// Restarts from `(t, y)` with the mode re-derived from the state (FMU state restore and
     /// initial-value changes).
     pub fn set_y(&mut self, t: f64, y: &[f64]) {

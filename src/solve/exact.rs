@@ -22,8 +22,17 @@
 //! instead by an earlier one of its mode and a perturbation bound ([`recurrence`]); and where
 //! the model's forcing states are continuous they are carried from a segment's end into the
 //! next instead of lifted again ([`PiecewiseLti::forcing_carries_over`]).
+//!
+//! A run of guard-free segments whose stops do not depend on the state
+//! ([`PiecewiseLti::stops_independent_of_state`], e.g. a drivetrain with linear contact) is
+//! walked first and, when the same sequence of modes and switching instants recurs (a mesh
+//! period of a train), applied as one product of its transitions ([`composite`]): one mat-vec
+//! per recurring period instead of one per stiffness switch. If the state turns non-finite in
+//! such a run, the error is reported at the run's start while the model's stops have moved to
+//! its end (the run is then over anyway).
 
 mod balanced;
+mod composite;
 mod crossing;
 mod enclosure;
 mod expm;
@@ -37,6 +46,7 @@ use std::hash::{BuildHasherDefault, Hasher};
 use nalgebra::DMatrix;
 
 use super::{HybridSystem, SolveError, SolverStats};
+use composite::{Composites, Lookup, Step};
 use crossing::{first_crossing, root_tolerance, Crossing, Workspace};
 use guard_series::DerivativeRows;
 use recurrence::Decision;
@@ -77,6 +87,15 @@ pub trait PiecewiseLti: HybridSystem {
     /// [`RELIFT_EVERY`]-th segment). `false` (the default) for forcing states that restart at
     /// a stop, such as a ramp local to a stiffness piece.
     fn forcing_carries_over(&self) -> bool {
+        false
+    }
+    /// Whether [`HybridSystem::on_stop`] neither reads nor changes `y` while the current mode
+    /// has no guards (e.g. a drivetrain whose meshes all have a linear contact law: a stop
+    /// only switches the stiffness piece), so that the propagator may walk the stops of a
+    /// run of guard-free segments before it propagates the state through them and apply a
+    /// recurring run as one composite transition ([`composite`]). `false` (the default) is
+    /// always safe.
+    fn stops_independent_of_state(&self) -> bool {
         false
     }
 }
@@ -182,6 +201,11 @@ struct ModeCache {
     recent: [(u64, usize); ModeCache::RECENT],
     /// The key of the current mode, reused so that writing it does not allocate.
     scratch: ModeKey,
+    /// Products of recurring sequences of guard-free segments of these modes.
+    composites: Composites,
+    /// Modes built and times the full cache was cleared (for benchmarks; never reset).
+    builds: u64,
+    clears: u64,
 }
 
 impl ModeCache {
@@ -192,26 +216,38 @@ impl ModeCache {
 
     /// The current mode of `sys`, built on first use (its `A` from `lti_matrix`).
     fn get<S: PiecewiseLti>(&mut self, sys: &S) -> &mut ModeTransitions {
+        let position = self.get_position(sys);
+        &mut self.modes[position]
+    }
+
+    /// The position in `modes` of the mode whose key is in `scratch`, if cached.
+    fn find_scratch(&self) -> Option<usize> {
+        self.index.get(&self.scratch.hash()).and_then(|bucket| {
+            bucket
+                .iter()
+                .copied()
+                .find(|&p| self.keys[p] == self.scratch)
+        })
+    }
+
+    /// The position of the current mode of `sys` in `modes`, built on first use.
+    fn get_position<S: PiecewiseLti>(&mut self, sys: &S) -> usize {
         self.scratch.clear();
         sys.mode_key(&mut self.scratch);
         let hash = self.scratch.hash();
         let slot = (hash % Self::RECENT as u64) as usize;
         let (tag, position) = self.recent[slot];
         if tag == hash.wrapping_add(1) && self.keys[position] == self.scratch {
-            return &mut self.modes[position];
+            return position;
         }
-        let found = self.index.get(&hash).and_then(|bucket| {
-            bucket
-                .iter()
-                .copied()
-                .find(|&p| self.keys[p] == self.scratch)
-        });
-        let position = match found {
+        let position = match self.find_scratch() {
             Some(position) => position,
             None => {
                 if self.modes.len() >= Self::CAPACITY {
                     self.clear();
+                    self.clears += 1;
                 }
+                self.builds += 1;
                 self.modes.push(Self::build(sys));
                 self.keys.push(self.scratch.clone());
                 let position = self.modes.len() - 1;
@@ -220,7 +256,7 @@ impl ModeCache {
             }
         };
         self.recent[slot] = (hash.wrapping_add(1), position);
-        &mut self.modes[position]
+        position
     }
 
     fn clear(&mut self) {
@@ -228,6 +264,18 @@ impl ModeCache {
         self.keys.clear();
         self.index.clear();
         self.recent = Default::default();
+        self.composites.clear();
+    }
+
+    /// The position of the current mode of `sys` (built on first use), or `None` if building
+    /// it would clear the cache (positions recorded before would then be stale).
+    fn position<S: PiecewiseLti>(&mut self, sys: &S) -> Option<usize> {
+        if self.modes.len() >= Self::CAPACITY {
+            self.scratch.clear();
+            sys.mode_key(&mut self.scratch);
+            self.find_scratch()?;
+        }
+        Some(self.get_position(sys))
     }
 
     /// The operators of the current mode: `A` from `lti_matrix`, the guard rows.
@@ -271,6 +319,11 @@ pub struct ExactPropagator {
     /// `∂y(t)/∂y(t_track)` when tracking is on: the product of the `y` blocks of the applied
     /// transition matrices (the forcing rows of `z` do not depend on `y`).
     sensitivity: Option<DMatrix<f64>>,
+    /// Whether recurring sequences of guard-free segments are applied as one composite
+    /// transition ([`composite`]; on by default).
+    composites: bool,
+    /// The sequence being walked.
+    sequence: Vec<Step>,
 }
 
 /// Events allowed at one instant before the propagation gives up (Zeno guard).
@@ -318,6 +371,8 @@ impl ExactPropagator {
             recurrences: true,
             carried: None,
             sensitivity: None,
+            composites: true,
+            sequence: Vec::new(),
         }
     }
 
@@ -366,8 +421,28 @@ impl ExactPropagator {
         for mode in &mut self.modes.modes {
             mode.forget_recurring();
         }
-        // The carried forcing states are history too.
+        // The carried forcing states and the recorded sequences are history too.
         self.carried = None;
+        self.modes.composites.clear();
+    }
+
+    /// Switches the composite transitions of recurring guard-free sequences ([`composite`])
+    /// on (the default) or off (every segment is applied on its own; for comparisons).
+    pub fn use_composites(&mut self, on: bool) {
+        self.composites = on;
+        self.modes.composites.clear();
+    }
+
+    /// Modes built and full mode caches cleared so far (a drivetrain with contact loss on
+    /// many meshes can meet more contact combinations than the cache holds).
+    pub fn mode_counts(&self) -> (u64, u64) {
+        (self.modes.builds, self.modes.clears)
+    }
+
+    /// Composite products built so far and sequences applied as one product (since the
+    /// last invalidation or capture).
+    pub fn composite_counts(&self) -> (u64, u64) {
+        (self.modes.composites.builds, self.modes.composites.hits)
     }
 
     pub fn t(&self) -> f64 {
@@ -404,6 +479,17 @@ impl ExactPropagator {
         let mut segments = 0u64;
         let mut stalled_stops = 0u64;
         while self.t < t_end {
+            if self.composites
+                && self.sensitivity.is_none()
+                && sys.guard_count() == 0
+                && sys.stops_independent_of_state()
+                && sys.forcing_carries_over()
+            {
+                let walked = self.advance_sequence(sys, t_end, &mut segments, max_segments)?;
+                if walked {
+                    continue;
+                }
+            }
             let stop = sys.next_stop();
             let target = stop.min(t_end);
             let tau = target - self.t;
@@ -573,6 +659,118 @@ impl ExactPropagator {
             }
         }
         Ok(())
+    }
+
+    /// Walks the stops of guard-free segments from `t` towards `t_end` (the model's stops do
+    /// not depend on the state: [`PiecewiseLti::stops_independent_of_state`]), then
+    /// propagates the state through the walked sequence: one mat-vec with its product if it
+    /// recurs, else segment by segment ([`composite`]). The walk ends at `t_end`, at a mode
+    /// with guards, after [`composite::MAX_LENGTH`] segments, or where the mode returns to
+    /// the sequence's first one at a stop (one mesh period of a train at constant speed), so
+    /// long advances are cut into recurring sequences too. Returns whether a segment was
+    /// walked.
+    fn advance_sequence<S: PiecewiseLti>(
+        &mut self,
+        sys: &mut S,
+        t_end: f64,
+        segments: &mut u64,
+        max_segments: u64,
+    ) -> Result<bool, SolveError> {
+        let n = sys.dim();
+        let start = self.t;
+        let mut t = start;
+        let mut steps = std::mem::take(&mut self.sequence);
+        steps.clear();
+        let mut stalled_stops = 0u64;
+        let mut failure = None;
+        while t < t_end && steps.len() < composite::MAX_LENGTH && sys.guard_count() == 0 {
+            let stop = sys.next_stop();
+            let target = stop.min(t_end);
+            let tau = target - t;
+            if !(tau > 0.0) {
+                if stop <= t {
+                    stalled_stops += 1;
+                    if stalled_stops > MAX_STALLED_STOPS {
+                        failure = Some(SolveError::StopNotAhead { t, stop });
+                        break;
+                    }
+                    // `y` is neither read nor changed by the stop (the trait's promise).
+                    sys.on_stop(t, &mut self.y);
+                    self.stats.stops += 1;
+                    continue;
+                }
+                failure = Some(SolveError::StepSizeTooSmall { t, h: tau });
+                break;
+            }
+            stalled_stops = 0;
+            let Some(mode) = self.modes.position(sys) else {
+                break;
+            };
+            if !steps.is_empty() && mode == steps[0].mode {
+                // Back at the first mode after a stop: a new sequence starts here.
+                break;
+            }
+            *segments += 1;
+            if *segments > max_segments {
+                failure = Some(SolveError::TooManySteps {
+                    t,
+                    max_steps: max_segments,
+                });
+                break;
+            }
+            self.stats.steps += 1;
+            steps.push(Step {
+                mode,
+                tau,
+                offset: target - start,
+            });
+            t = target;
+            if target == stop {
+                sys.on_stop(t, &mut self.y);
+                self.stats.stops += 1;
+            }
+        }
+        let walked = !steps.is_empty();
+        if walked {
+            // A fresh lift at the sequence start (the forcing states are continuous).
+            sys.lift(start, &self.y, &mut self.z);
+            let tol = composite::offset_tolerance(t);
+            match self.modes.composites.lookup(&steps, tol) {
+                Lookup::Product(product) => {
+                    transition::mat_vec(product.as_slice(), &self.z, &mut self.z_next);
+                    std::mem::swap(&mut self.z, &mut self.z_next);
+                }
+                Lookup::Segments { build } => {
+                    for step in &steps {
+                        let mode = &mut self.modes.modes[step.mode];
+                        mode.apply(step.tau, &self.z, &mut self.z_next);
+                        std::mem::swap(&mut self.z, &mut self.z_next);
+                    }
+                    if let Some(slot) = build {
+                        let recorded = self.modes.composites.steps(slot).to_vec();
+                        let nz = self.z.len();
+                        let mut product = DMatrix::identity(nz, nz);
+                        for step in &recorded {
+                            let phi = self.modes.modes[step.mode].transition_matrix(step.tau);
+                            product = phi * product;
+                        }
+                        self.modes.composites.set_product(slot, product);
+                    }
+                }
+            }
+            if !self.z[..n].iter().all(|v| v.is_finite()) {
+                self.sequence = steps;
+                return Err(SolveError::NonFinite { t: self.t });
+            }
+            self.y.copy_from_slice(&self.z[..n]);
+            self.t = t;
+            self.carried = None;
+        }
+        self.sequence = steps;
+        match failure {
+            Some(e) => Err(e),
+            None => Ok(walked),
+        }
     }
 
     /// `S ← Φ_yy S` over the segment starting now: each column of `S`, lifted with zero

@@ -1902,6 +1902,15 @@ impl PiecewiseLti for GearTrain {
         self.meshes.iter().all(|mesh| !mesh.ramp)
     }
 
+    /// With a linear contact law on every mesh a stop only moves a mesh to its next stiffness
+    /// piece (its slots are classified in contact whatever the state) and books nothing that
+    /// depends on `y`.
+    fn stops_independent_of_state(&self) -> bool {
+        self.meshes
+            .iter()
+            .all(|mesh| mesh.contact == ContactLaw::Linear)
+    }
+
     fn lti_dim(&self) -> usize {
         2 * self.m
             + self

@@ -205,6 +205,28 @@ impl ModeTransitions {
     /// reused for every event of a periodic orbit drifts coherently (the undamped rattle of
     /// `tests/backlash.rs` gains energy ~3× faster at 2⁻²⁶ than at 2⁻³²).
     pub fn apply(&mut self, tau: f64, z: &[f64], out: &mut [f64]) {
+        let (slot, delta) = self.bin(tau);
+        let (_, phi, phi_a) = &self.recurring[slot];
+        if delta == 0.0 {
+            mat_vec(phi.as_slice(), z, out);
+        } else {
+            mat_vec_shifted(phi.as_slice(), phi_a.as_slice(), delta, z, out);
+        }
+    }
+
+    /// The matrix [`ModeTransitions::apply`] applies for `tau`: `e^{Aτ_c} + δ e^{Aτ_c}A`.
+    pub fn transition_matrix(&mut self, tau: f64) -> DMatrix<f64> {
+        let (slot, delta) = self.bin(tau);
+        let (_, phi, phi_a) = &self.recurring[slot];
+        if delta == 0.0 {
+            phi.clone()
+        } else {
+            phi + phi_a * delta
+        }
+    }
+
+    /// The duration bin of `tau` (built on first use) and the remainder `δ = τ − τ_c`.
+    fn bin(&mut self, tau: f64) -> (usize, f64) {
         const LOW: u32 = BIN_LOW_BITS;
         let bits = tau.to_bits();
         let centre_bits = bits.wrapping_add(1 << (LOW - 1)) & !((1u64 << LOW) - 1);
@@ -237,13 +259,7 @@ impl ModeTransitions {
         if self.recent_bins[0] != slot {
             self.recent_bins = [slot, self.recent_bins[0]];
         }
-        let delta = tau - f64::from_bits(centre_bits);
-        let (_, phi, phi_a) = &self.recurring[slot];
-        if delta == 0.0 {
-            mat_vec(phi.as_slice(), z, out);
-        } else {
-            mat_vec_shifted(phi.as_slice(), phi_a.as_slice(), delta, z, out);
-        }
+        (slot, tau - f64::from_bits(centre_bits))
     }
 }
 

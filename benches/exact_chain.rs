@@ -1,0 +1,113 @@
+//! Exact propagator on chains of lumped meshes (issue 20, points 1–2): µs per mesh period of
+//! the exact propagator against DOP853 on simple gear chains at 2000 Hz (every mesh of a
+//! simple chain has the same mesh frequency; phases staggered), rigid and compliant bearings,
+//! with and without contact loss, and on the shipped `idler_gearset`.
+//!
+//! `cargo bench --bench exact_chain [-- quick]` — each line is the median of alternated rounds
+//! after a warm-up run; ratios are only meaningful within one run (the machine is shared).
+
+use std::time::Instant;
+
+use geardyn::model::train::TrainSimulation;
+use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec, TrainScene};
+use geardyn::scene::MethodChoice;
+
+fn time(
+    scene: &TrainScene,
+    method: MethodChoice,
+    composites: bool,
+    periods: f64,
+) -> (f64, f64, f64) {
+    let mut scene = scene.clone();
+    scene.solver.method = method;
+    scene.solver.rtol = 1e-9;
+    scene.solver.atol = 1e-15;
+    scene.solver.rk_method = geardyn::solve::rk::Method::Dop853;
+    let f1 = scene.mesh_frequency(0, scene.operating.input_speed);
+    let t_end = periods / f1;
+    let mut sim = TrainSimulation::new(&scene).unwrap();
+    sim.use_composites(composites);
+    let start = Instant::now();
+    let steps = periods as usize;
+    for k in 1..=steps {
+        if let Err(e) = sim.advance_to(k as f64 * t_end / steps as f64) {
+            eprintln!("{}: {e}", scene.name);
+            return (f64::NAN, f64::NAN, f64::NAN);
+        }
+    }
+    let us = start.elapsed().as_secs_f64() / periods * 1e6;
+    let st = sim.stats();
+    if std::env::var("CHAIN_DEBUG").is_ok() {
+        eprintln!(
+            "composites (builds, hits): {:?}, modes (builds, cache clears): {:?}",
+            sim.composite_counts(),
+            sim.mode_counts()
+        );
+    }
+    (us, st.steps as f64 / periods, st.events as f64 / periods)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
+    v[v.len() / 2]
+}
+
+fn main() {
+    let quick = std::env::args().any(|a| a == "quick");
+    let rounds = if quick { 1 } else { 3 };
+    println!("| scene | DOF | exact, segment-wise µs/period | exact µs/period | DOP853 µs/period | DOP853/exact | segment-wise/exact | segments/period | events/period |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let mut scenes: Vec<(String, TrainScene, f64)> = Vec::new();
+    use ChainBearings::{Compliant, Rigid};
+    use ChainContact::{ContactLoss, Linear};
+    for &(m, bearings, contact) in &[
+        (1, Compliant, Linear),
+        (4, Compliant, Linear),
+        (8, Compliant, Linear),
+        (16, Compliant, Linear),
+        (21, Compliant, Linear),
+        (8, Rigid, ContactLoss),
+        (4, Compliant, ContactLoss),
+    ] {
+        let spec = ChainSpec::new(m, bearings, contact);
+        scenes.push((spec.name(), TrainScene::chain(spec).unwrap(), 2000.0));
+    }
+    let mut idler = TrainScene::example("idler_gearset").unwrap();
+    idler.operating.input_speed = std::f64::consts::TAU * 2000.0 / 38.0;
+    scenes.push(("idler_gearset (pairs, contact loss)".into(), idler, 2000.0));
+    let filter: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "quick" && a != "--bench" && a != "profile")
+        .collect();
+    for (label, scene, periods) in &scenes {
+        if !filter.iter().all(|f| label.contains(f.as_str())) {
+            continue;
+        }
+        let dof = geardyn::model::train::system::GearTrain::new(scene)
+            .unwrap()
+            .elastic_dim();
+        let (mut seg, mut ex, mut rk) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut segments, mut events) = (0.0, 0.0);
+        if std::env::args().any(|a| a == "profile") {
+            // For `perf record`: the composite path alone, longer.
+            let (u, _, _) = time(scene, MethodChoice::Exact, true, 10.0 * periods);
+            println!("{label}: {u:.2} µs/period");
+            continue;
+        }
+        // Warm-up, then alternated rounds; DOP853 over a fifth of the periods.
+        time(scene, MethodChoice::Exact, true, periods / 10.0);
+        for _ in 0..rounds {
+            seg.push(time(scene, MethodChoice::Exact, false, *periods).0);
+            let (u, s, e) = time(scene, MethodChoice::Exact, true, *periods);
+            ex.push(u);
+            (segments, events) = (s, e);
+            rk.push(time(scene, MethodChoice::Rk, false, periods / 5.0).0);
+        }
+        let (seg, ex, rk) = (median(seg), median(ex), median(rk));
+        println!(
+            "| {label} | {dof} | {seg:.2} | {ex:.2} | {rk:.1} | {:.1} | {:.1} | {segments:.1} | {events:.2} |",
+            rk / ex,
+            seg / ex
+        );
+    }
+}

@@ -1,0 +1,220 @@
+//! Composite transitions of recurring guard-free sequences (src/solve/exact/composite.rs):
+//! on a chain of lumped meshes with a linear contact law the exact propagator applies a
+//! recurring run of segments (one mesh period: 2 stiffness switches per mesh) as one product
+//! of its transitions. Oracles: the same propagator with composites off (every segment applied
+//! on its own) and DOP853 at rtol 1e-12 (an independent integrator); the composite path must
+//! actually be taken (else the comparison says nothing), and it must not be taken, or must be
+//! rebuilt, where its product would be stale (new inputs, moved output points, contact loss).
+
+use geardyn::model::train::system::TrainInputs;
+use geardyn::model::train::TrainSimulation;
+use geardyn::scene::train::TrainScene;
+use geardyn::scene::MethodChoice;
+
+/// A simple chain of `meshes` lumped rectangular meshes at 2000 Hz (all meshes of a simple
+/// chain share the mesh frequency), phases staggered by 0.37 cycles, compliant bearings.
+fn chain(meshes: usize, contact: &str) -> TrainScene {
+    let mut s = String::from("name = \"chain\"\n[model]\nmodal_damping_ratio = 0.02\n");
+    for g in 0..=meshes {
+        s.push_str(&format!(
+            "[[gear]]\nname = \"g{g}\"\nteeth = 40\nbase_radius = 0.05\ninertia = 0.004\n\
+             mass = 3.0\nbearing_stiffness = [1.5e8, 1.5e8]\n"
+        ));
+    }
+    for k in 0..meshes {
+        let phase = if k == 0 {
+            "initial_phase = 0.1".to_string()
+        } else {
+            format!("phase = {}", (0.37 * k as f64).fract())
+        };
+        s.push_str(&format!(
+            "[[mesh]]\npinion = \"g{k}\"\ngear = \"g{}\"\ncontact = \"{contact}\"\n\
+             pressure_angle = 20.0\ncentre_angle = {}\n{phase}\n[mesh.stiffness]\n\
+             kind = \"rectangular\"\nmean = 3e8\npeak_to_peak_ratio = 0.35\ncontact_ratio = 1.6\n",
+            k + 1,
+            if k % 2 == 0 { 0.3 } else { -0.3 },
+        ));
+    }
+    s.push_str(&format!(
+        "[operating]\ninput_speed = {}\ninput_torque = 100.0\n[solver]\nmethod = \"exact\"\n",
+        std::f64::consts::TAU * 2000.0 / 40.0
+    ));
+    TrainScene::from_toml_str(&s, "chain").expect("chain scene")
+}
+
+fn sim(scene: &TrainScene, method: MethodChoice, composites: bool) -> TrainSimulation {
+    let mut scene = scene.clone();
+    scene.solver.method = method;
+    scene.solver.rtol = 1e-12;
+    scene.solver.atol = 1e-18;
+    let mut sim = TrainSimulation::new(&scene).expect("simulation");
+    sim.use_composites(composites);
+    sim
+}
+
+/// Largest difference of the displacement and the velocity blocks, each relative to the
+/// largest magnitude of its block in `reference`.
+fn distance(y: &[f64], reference: &[f64]) -> f64 {
+    let m = y.len() / 2;
+    let block = |r: std::ops::Range<usize>| {
+        let scale = reference[r.clone()]
+            .iter()
+            .fold(0.0f64, |a, v| a.max(v.abs()));
+        r.map(|i| (y[i] - reference[i]).abs() / scale)
+            .fold(0.0, f64::max)
+    };
+    block(0..m).max(block(m..2 * m))
+}
+
+const PERIOD: f64 = 1.0 / 2000.0;
+
+/// Advances every simulation over `grid` (times), returning the largest distance of the first
+/// from each of the others at the grid points.
+fn run_together(sims: &mut [TrainSimulation], grid: impl Iterator<Item = f64>) -> Vec<f64> {
+    let mut worst = vec![0.0f64; sims.len() - 1];
+    for t in grid {
+        for s in sims.iter_mut() {
+            s.advance_to(t).expect("advance");
+        }
+        for (k, w) in worst.iter_mut().enumerate() {
+            *w = w.max(distance(sims[0].state(), sims[k + 1].state()));
+        }
+    }
+    worst
+}
+
+/// Exact with composites against exact segment by segment and DOP853 at rtol 1e-12, at every
+/// mesh period of 400 (output points on a grid that is not commensurate with the stops).
+#[test]
+fn composites_agree_with_segment_wise_propagation_and_dop853() {
+    let scene = chain(6, "linear");
+    let mut sims = [
+        sim(&scene, MethodChoice::Exact, true),
+        sim(&scene, MethodChoice::Exact, false),
+        sim(&scene, MethodChoice::Rk, false),
+    ];
+    let worst = run_together(&mut sims, (1..=400).map(|k| k as f64 * PERIOD));
+    let (builds, hits) = sims[0].composite_counts();
+    println!(
+        "segment-wise {:e}, DOP853 {:e}; builds {builds}, hits {hits}",
+        worst[0], worst[1]
+    );
+    assert!(
+        hits >= 300,
+        "the composite path decided {hits} of 400 periods"
+    );
+    assert_eq!(sims[1].composite_counts(), (0, 0), "switched off");
+    assert!(
+        worst[0] < 1e-11,
+        "composite vs segment-wise: {:e}",
+        worst[0]
+    );
+    assert!(worst[1] < 1e-8, "composite vs DOP853: {:e}", worst[1]);
+}
+
+/// A long advance (no output point for 50 periods) is cut at the return to the first mode,
+/// so its periods recur and are decided by products too.
+#[test]
+fn long_advances_are_cut_into_recurring_periods() {
+    let scene = chain(4, "linear");
+    let mut sims = [
+        sim(&scene, MethodChoice::Exact, true),
+        sim(&scene, MethodChoice::Exact, false),
+    ];
+    let worst = run_together(&mut sims, (1..=4).map(|k| 50.0 * k as f64 * PERIOD));
+    let (_, hits) = sims[0].composite_counts();
+    assert!(hits >= 150, "{hits} periods decided by a product");
+    assert!(
+        worst[0] < 1e-11,
+        "composite vs segment-wise: {:e}",
+        worst[0]
+    );
+}
+
+/// New inputs drop the products: with a stale product the constant forcing column (the
+/// torque) would be the old one. The run with composites must follow the segment-wise run
+/// after a torque step, and the products must be built afresh.
+#[test]
+fn new_inputs_invalidate_the_products() {
+    let scene = chain(3, "linear");
+    let mut sims = [
+        sim(&scene, MethodChoice::Exact, true),
+        sim(&scene, MethodChoice::Exact, false),
+    ];
+    run_together(&mut sims, (1..=100).map(|k| k as f64 * PERIOD));
+    let (builds_before, hits_before) = sims[0].composite_counts();
+    assert!(hits_before > 50);
+    let inputs = TrainInputs {
+        input_torque: 160.0,
+        ..sims[0].model().inputs()
+    };
+    for s in sims.iter_mut() {
+        s.set_inputs(inputs).expect("inputs");
+    }
+    assert_eq!(sims[0].composite_counts(), (0, 0), "dropped with the modes");
+    let worst = run_together(&mut sims, (101..=200).map(|k| k as f64 * PERIOD));
+    let (builds, hits) = sims[0].composite_counts();
+    assert!(
+        builds >= 1 && hits > 50,
+        "rebuilt: {builds} builds, {hits} hits"
+    );
+    assert!(worst[0] < 1e-11, "after the torque step: {:e}", worst[0]);
+    println!("before: {builds_before} builds, {hits_before} hits; after: {builds}, {hits}");
+}
+
+/// Output points that move relative to the stops give other switching offsets: a product of
+/// the old grid must not be applied (the offsets are compared to 4 ulps of the time), and
+/// the run must follow the segment-wise one on the shifted grid.
+#[test]
+fn moved_output_points_do_not_reuse_a_product() {
+    let scene = chain(3, "linear");
+    let mut sims = [
+        sim(&scene, MethodChoice::Exact, true),
+        sim(&scene, MethodChoice::Exact, false),
+    ];
+    run_together(&mut sims, (1..=100).map(|k| k as f64 * PERIOD));
+    let (builds_before, _) = sims[0].composite_counts();
+    // Then output points every 0.7 periods: other sequences, new products.
+    let grid = (1..=200).map(|k| 100.0 * PERIOD + 0.7 * k as f64 * PERIOD);
+    let worst = run_together(&mut sims, grid);
+    let (builds, hits) = sims[0].composite_counts();
+    assert!(builds > builds_before, "new sequences, new products");
+    assert!(hits > 100);
+    assert!(worst[0] < 1e-11, "shifted grid: {:e}", worst[0]);
+}
+
+/// A captured state continues bit for bit in a fresh simulation (the products are dropped at
+/// capture, as the recurring-segment references are, and rebuilt from the same sequences).
+#[test]
+fn restored_runs_continue_bit_for_bit() {
+    let scene = chain(3, "linear");
+    let mut a = sim(&scene, MethodChoice::Exact, true);
+    for k in 1..=50 {
+        a.advance_to(k as f64 * PERIOD).unwrap();
+    }
+    a.forget_recurrences();
+    let snap = a.snapshot();
+    let mut b = sim(&scene, MethodChoice::Exact, true);
+    b.restore(&snap).unwrap();
+    for k in 51..=150 {
+        let t = k as f64 * PERIOD;
+        a.advance_to(t).unwrap();
+        b.advance_to(t).unwrap();
+        assert_eq!(a.state(), b.state(), "at period {k}");
+    }
+    assert!(a.composite_counts().1 > 50 && b.composite_counts().1 > 50);
+}
+
+/// Contact loss has guards: the composite path is never taken, and the run still agrees with
+/// DOP853 (the guarded segments go through the crossing search as before).
+#[test]
+fn guarded_chains_do_not_use_products() {
+    let scene = chain(3, "contact_loss");
+    let mut sims = [
+        sim(&scene, MethodChoice::Exact, true),
+        sim(&scene, MethodChoice::Rk, false),
+    ];
+    let worst = run_together(&mut sims, (1..=100).map(|k| k as f64 * PERIOD));
+    assert_eq!(sims[0].composite_counts(), (0, 0));
+    assert!(worst[0] < 1e-8, "vs DOP853: {:e}", worst[0]);
+}
