@@ -177,6 +177,26 @@ fn shaft_static_torque_and_its_rate() {
     // Over a step with the speed ramp, the shaft reads the inputs at the end of the step.
     m.do_step(0.0, 0.01).unwrap();
     assert_eq!(get(m, "flange_a.speed"), 101.5);
+    // The torque's rate at the end of the step is that of the ramp which ended there:
+    // k (ω_a − ω_b) + c α_a with α_a = 50, not the rate with the input rates reset to 0 (the
+    // c·α term dropped, which made the drivetrain's co-simulation first order).
+    let rate = 2.0e4 * 1.5 + 1.5 * 50.0;
+    let d = m.output_derivative(vr(m, "flange_b.torque")).unwrap();
+    assert!(close(d, rate, 1e-15), "{d}");
+    // and a state saved there gives the same rate back.
+    let saved = m.save_state();
+    m.set_input_derivative(vr(m, "flange_a.speed"), -7.0)
+        .unwrap();
+    m.load_state(&saved).unwrap();
+    assert!(close(
+        m.output_derivative(vr(m, "flange_b.torque")).unwrap(),
+        rate,
+        1e-15
+    ));
+    // A step without rates holds the inputs: the rate at its end has no c·α term.
+    m.do_step(0.01, 0.01).unwrap();
+    let d = m.output_derivative(vr(m, "flange_b.torque")).unwrap();
+    assert!(close(d, 2.0e4 * 1.5, 1e-15), "{d}");
 }
 
 /// Pure quadratic drag: ω(t) = ω0 / (1 + c_d ω0 t / J), θ(t) = θ0 + (J/c_d) ln(1 + c_d ω0 t / J).

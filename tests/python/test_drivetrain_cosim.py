@@ -238,18 +238,29 @@ def test_convergence_against_the_monolithic_model(fmus, tmp_path, report):
     tau_gs = table["GS hold"][2]["tau1"]
     h20 = tm / 20
     assert tau_gs == pytest.approx(el.k1 * s.omega * h20, rel=0.05), tau_gs
-    # With --extrapolation linear, the angles and speeds of every body reach the shafts with
-    # their output derivatives (spur_stage gives d/dt of its port angles and speeds), but the
-    # gear stage takes no input derivatives: its two port torques stay held, which keeps the
-    # coupling first order on fine steps (Gauss-Seidel: order 1 throughout; Jacobi: order 2 on
-    # coarse steps, where the extrapolated angles dominate, tending to 1). Both are far better
-    # than the hold of the same algorithm.
-    for k in ("tau1", "load_speed"):
+    # With --extrapolation linear, every connection is extrapolated (Jacobi, cut connections)
+    # or interpolated (Gauss-Seidel) with first-order derivatives: the angles and speeds of the
+    # bodies and the gear stage, and the shafts' torques (whose rate k (ω_a − ω_b) + c (α_a − α_b)
+    # needs the flange accelerations: the rates of the ramp that ended at the communication
+    # point). A second-order coupling: on the fine steps the DTE, the load speed and the input
+    # shaft torque fall at order 2 with Gauss-Seidel, and the DTE and the load speed with
+    # Jacobi. (Jacobi's sampled shaft torque is not: at isolated grid points just after a
+    # contact change or stiffness knot, its value from the extrapolated flange speeds keeps an
+    # error of about 0.07 N.m that does not fall with h; its states do converge.)
+    for k in ("dte", "tau1", "load_speed"):
         e = [x[k] for x in table["GS linear"]]
-        assert 0.8 <= math.log2(e[-2] / e[-1]) <= 1.3, ("GS linear", k, e)
+        for a, b in zip(e[-3:], e[-2:]):
+            assert 1.7 <= math.log2(a / b) <= 2.4, ("GS linear", k, e)
+    for k in ("dte", "load_speed"):
         e = [x[k] for x in table["Jacobi linear"]]
         assert all(a > b for a, b in zip(e, e[1:])), ("Jacobi linear", k, e)
+    e = [x["dte"] for x in table["Jacobi linear"]]
+    for a, b in zip(e[-3:], e[-2:]):
+        assert 1.7 <= math.log2(a / b) <= 2.4, ("Jacobi linear", e)
+    e = [x["load_speed"] for x in table["Jacobi linear"]]
+    assert math.log2(e[-3] / e[-2]) >= 1.7, ("Jacobi linear", e)
     e = [x["tau1"] for x in table["Jacobi linear"]]
+    assert all(a > b for a, b in zip(e, e[1:])), ("Jacobi linear", e)
     assert math.log2(e[0] / e[1]) >= 1.7, ("Jacobi linear", e)
     for n in range(len(divisors)):
         assert table["GS linear"][n]["tau1"] < table["GS hold"][n]["tau1"] / 100
@@ -279,9 +290,9 @@ def test_speed_ratio_is_the_tooth_ratio(fmus, tmp_path, report, algorithm):
     assert s.r_b1 * (a1[-1] - a1[i]) - s.r_b2 * (a2[-1] - a2[i]) == pytest.approx(dte[-1] - dte[i], abs=1e-12)
 
 
-@pytest.mark.xfail(strict=True, reason="acceptance 2's DTE bound needs a second-order coupling "
-                   "of the gear stage's port torques: spur_stage takes no input derivatives "
-                   "(docs/cosimulation.md); measured 0.059 of the DTE RMS with Gauss-Seidel/linear")
+@pytest.mark.xfail(strict=True, reason="acceptance 2's DTE bound is not met at T_mesh/20 even by "
+                   "the second-order coupling: measured 0.0295 of the DTE RMS with Gauss-Seidel/linear "
+                   "(order 2 from there: about T_mesh/110 would meet it; docs/cosimulation.md)")
 def test_dte_error_at_a_twentieth_of_the_mesh_period(fmus, tmp_path):
     """Issue 18 acceptance 2: at h = T_mesh/20 the DTE error against the monolithic model is
     at most 1e-3 of the DTE RMS (with the best coupling the shipped FMUs allow: Gauss-Seidel

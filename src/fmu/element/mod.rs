@@ -10,7 +10,12 @@
 //! `tc + h`; the shaft is stateless. The inputs are held over a step, or, after
 //! `fmi2SetRealInputDerivatives`, follow `u + u'·(t − tc)` during the next step (the
 //! right-hand side reads them at `t`, so the integrator sees the ramp); output derivatives of
-//! order 1 are answered for every output ([`system::output_rates`]).
+//! order 1 are answered for every output ([`system::output_rates`]), with the inputs' rates
+//! at `tc` (`du_now`): those of the ramp that ended there, until new ones are set. Reading
+//! them with the rates reset to 0 would drop every term of an output's derivative that comes
+//! from its inputs' rates (the shaft's `c·(α_a − α_b)`), an O(1) error in the master's
+//! extrapolation slope that makes the coupling first order (FMI 2.0.5 §4.2.1: the derivative
+//! is that of the output at the communication point).
 
 mod documentation;
 pub mod scene;
@@ -140,6 +145,9 @@ pub struct ElementFmu {
     u: Vec<f64>,
     /// First-order input rates for the next step (0: zero-order hold).
     du: Vec<f64>,
+    /// The inputs' rates at `t`, for the output derivatives: the last rates set, kept when a
+    /// step ends (where `du` returns to 0) so they are the slope of the ramp that ended at `t`.
+    du_now: Vec<f64>,
     scratch: RefCell<Vec<f64>>,
 }
 
@@ -177,6 +185,7 @@ impl ElementFmu {
             u_start: u.clone(),
             u,
             du: vec![0.0; n],
+            du_now: vec![0.0; n],
             scratch: RefCell::new(Vec::with_capacity(n)),
         };
         fmu.rebuild()?;
@@ -198,6 +207,7 @@ impl ElementFmu {
         self.t = 0.0;
         self.u.clone_from(&self.u_start);
         self.du.iter_mut().for_each(|d| *d = 0.0);
+        self.du_now.iter_mut().for_each(|d| *d = 0.0);
         Ok(())
     }
 
@@ -261,6 +271,7 @@ impl ElementFmu {
             y: self.y().to_vec(),
             u: self.u.clone(),
             du: self.du.clone(),
+            du_now: self.du_now.clone(),
             controller: self.stepper.as_ref().map(RkStepper::controller_memory),
         }
     }
@@ -272,15 +283,17 @@ impl ElementFmu {
             .map(|(k, &x)| (VR_INPUT0 + k as u32, x))
             .collect();
         check_snapshot_values(&self.vars, &s.params, &inputs, s.start_time)?;
-        if s.u.len() != self.u.len() || s.du.len() != self.u.len() {
+        if s.u.len() != self.u.len() || s.du.len() != self.u.len() || s.du_now.len() != self.u.len()
+        {
             return Err(format!(
-                "the state holds {} inputs and {} rates; the model has {} inputs",
+                "the state holds {} inputs and {} and {} rates; the model has {} inputs",
                 s.u.len(),
                 s.du.len(),
+                s.du_now.len(),
                 self.u.len()
             ));
         }
-        if let Some(d) = s.du.iter().find(|d| !d.is_finite()) {
+        if let Some(d) = s.du.iter().chain(&s.du_now).find(|d| !d.is_finite()) {
             return Err(format!("the state holds an input rate {d}"));
         }
         if !(s.t.is_finite() && s.t >= 0.0) || s.y.iter().any(|y| !y.is_finite()) {
@@ -323,6 +336,7 @@ impl ElementFmu {
         self.u_start = u_start;
         self.u.clone_from(&s.u);
         self.du.clone_from(&s.du);
+        self.du_now.clone_from(&s.du_now);
         self.lifecycle = Lifecycle {
             start_time: s.start_time,
             initialized: s.initialized,
@@ -382,7 +396,7 @@ impl CoSimModel for ElementFmu {
         let mut scene = self.scene.clone();
         apply(&mut scene, name, value)?;
         let old = std::mem::replace(&mut self.scene, scene);
-        let (u, du) = (self.u.clone(), self.du.clone());
+        let (u, du, du_now) = (self.u.clone(), self.du.clone(), self.du_now.clone());
         if let Err(e) = self.rebuild() {
             self.scene = old;
             self.rebuild().ok();
@@ -391,6 +405,7 @@ impl CoSimModel for ElementFmu {
         // Inputs set so far stay set.
         self.u = u;
         self.du = du;
+        self.du_now = du_now;
         Ok(())
     }
 
@@ -441,6 +456,8 @@ impl CoSimModel for ElementFmu {
                 });
             }
         }
+        // The output derivatives at the new time see the rates of the ramp that ended here.
+        self.du_now.clone_from(&self.du);
         if self.du.iter().any(|&d| d != 0.0) {
             for (u, du) in self.u.iter_mut().zip(self.du.iter_mut()) {
                 *u += *du * dt;
@@ -482,6 +499,7 @@ impl CoSimModel for ElementFmu {
             .input_index(vr)
             .ok_or_else(|| format!("'{}' (vr {vr}) is not an input", name_of(&self.vars, vr)))?;
         self.du[k] = rate;
+        self.du_now[k] = rate;
         Ok(())
     }
 
@@ -490,7 +508,13 @@ impl CoSimModel for ElementFmu {
             .output_index(vr)
             .ok_or_else(|| format!("'{}' (vr {vr}) is not an output", name_of(&self.vars, vr)))?;
         let mut out = Vec::new();
-        system::output_rates(&self.scene.element, self.y(), &self.u, &self.du, &mut out);
+        system::output_rates(
+            &self.scene.element,
+            self.y(),
+            &self.u,
+            &self.du_now,
+            &mut out,
+        );
         Ok(out[k])
     }
 }

@@ -4,7 +4,8 @@
 //! Layout, little-endian: `u32 n` then `n × (u32 vr, f64 value)` (parameters and start
 //! inputs), `u8 flags` (bit 0 initialized, bits 1–3 the RK controller bits of
 //! [`crate::fmu::payload::controller_bits`]), `f64` start time, `f64` t, `u32 n_y` and the
-//! states, `u32 n_u`, the inputs and then their rates, and the RK controller memory.
+//! states, `u32 n_u`, the inputs, their rates for the next step and their rates at `t` (for
+//! the output derivatives), and the RK controller memory.
 
 use crate::fmi::bytes::{put_f64s, Reader};
 use crate::fmu::payload::{
@@ -23,6 +24,8 @@ pub struct ElementSnapshot {
     pub u: Vec<f64>,
     /// Input rates for the next step (first-order input interpolation).
     pub du: Vec<f64>,
+    /// The inputs' rates at `t` (the output derivatives read them).
+    pub du_now: Vec<f64>,
     pub controller: Option<ControllerMemory>,
 }
 
@@ -39,6 +42,7 @@ pub fn encode(s: &ElementSnapshot) -> Vec<u8> {
     out.extend_from_slice(&(s.u.len() as u32).to_le_bytes());
     put_f64s(&mut out, &s.u);
     put_f64s(&mut out, &s.du);
+    put_f64s(&mut out, &s.du_now);
     put_controller(&mut out, s.controller);
     out
 }
@@ -76,6 +80,7 @@ pub fn decode(bytes: &[u8]) -> Result<ElementSnapshot, String> {
     let nu = read_len(&mut r, "inputs")?;
     let u = read_vec(&mut r, nu)?;
     let du = read_vec(&mut r, nu)?;
+    let du_now = read_vec(&mut r, nu)?;
     let controller = read_controller(&mut r, flags >> 1)?;
     r.finish("model state")?;
     Ok(ElementSnapshot {
@@ -86,6 +91,7 @@ pub fn decode(bytes: &[u8]) -> Result<ElementSnapshot, String> {
         y,
         u,
         du,
+        du_now,
         controller,
     })
 }
@@ -109,6 +115,7 @@ mod tests {
                 },
                 u: vec![-4.0, 0.5],
                 du: vec![10.0, 0.0],
+                du_now: vec![0.0, -3.0],
                 controller,
             },
             encode,
