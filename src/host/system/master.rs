@@ -162,6 +162,49 @@ fn at(e: &str, t: f64, err: CallError) -> String {
     format!("element \"{e}\" at t = {t}: {err}")
 }
 
+/// Base type of a group of value references read together.
+#[derive(Clone, Copy)]
+enum Base {
+    Real,
+    Integer,
+    Boolean,
+}
+
+/// Reads `vrs` (all of type `base`) and stores value j, as f64, at `out[dest[j]]`
+/// (Integers and Booleans convert exactly).
+fn read_into(
+    inst: &mut Instance,
+    base: Base,
+    (vrs, dest): (&[u32], &[usize]),
+    (buf_f, buf_i): (&mut Vec<f64>, &mut Vec<i32>),
+    out: &mut [f64],
+) -> Result<(), CallError> {
+    if vrs.is_empty() {
+        return Ok(());
+    }
+    match base {
+        Base::Real => {
+            buf_f.resize(vrs.len(), 0.0);
+            inst.get_real(vrs, buf_f)?;
+            for (&k, &v) in dest.iter().zip(buf_f.iter()) {
+                out[k] = v;
+            }
+        }
+        Base::Integer | Base::Boolean => {
+            buf_i.resize(vrs.len(), 0);
+            if matches!(base, Base::Boolean) {
+                inst.get_boolean(vrs, buf_i)?;
+            } else {
+                inst.get_integer(vrs, buf_i)?;
+            }
+            for (&k, &v) in dest.iter().zip(buf_i.iter()) {
+                out[k] = f64::from(v);
+            }
+        }
+    }
+    Ok(())
+}
+
 impl<'p, 'a> State<'p, 'a> {
     fn new(plan: &'p Plan<'a>) -> Self {
         let n = plan.system.elements.len();
@@ -228,31 +271,14 @@ impl<'p, 'a> State<'p, 'a> {
     ) -> Result<(), String> {
         let name = &self.plan.system.elements[e].name;
         let io = &self.io[e];
-        if !io.real_vr.is_empty() {
-            self.buf_f.resize(io.real_vr.len(), 0.0);
-            inst.get_real(&io.real_vr, &mut self.buf_f)
-                .map_err(|err| at(name, t, err))?;
-            for (&p, &v) in io.real_port.iter().zip(&self.buf_f) {
-                self.cur[p] = v;
-            }
-        }
-        for (vrs, ports, boolean) in [
-            (&io.int_vr, &io.int_port, false),
-            (&io.bool_vr, &io.bool_port, true),
+        for (base, vrs, ports) in [
+            (Base::Real, &io.real_vr, &io.real_port),
+            (Base::Integer, &io.int_vr, &io.int_port),
+            (Base::Boolean, &io.bool_vr, &io.bool_port),
         ] {
-            if vrs.is_empty() {
-                continue;
-            }
-            self.buf_i.resize(vrs.len(), 0);
-            let r = if boolean {
-                inst.get_boolean(vrs, &mut self.buf_i)
-            } else {
-                inst.get_integer(vrs, &mut self.buf_i)
-            };
-            r.map_err(|err| at(name, t, err))?;
-            for (&p, &v) in ports.iter().zip(&self.buf_i) {
-                self.cur[p] = f64::from(v);
-            }
+            let bufs = (&mut self.buf_f, &mut self.buf_i);
+            read_into(inst, base, (vrs, ports), bufs, &mut self.cur)
+                .map_err(|err| at(name, t, err))?;
         }
         if derivatives && !io.der_vr.is_empty() {
             self.buf_f.resize(io.der_vr.len(), 0.0);
@@ -377,28 +403,14 @@ impl<'p, 'a> State<'p, 'a> {
         for (e, inst) in insts.iter_mut().enumerate() {
             let name = &plan.system.elements[e].name;
             let io = &self.io[e];
-            if !io.extra_real.0.is_empty() {
-                self.buf_f.resize(io.extra_real.0.len(), 0.0);
-                inst.get_real(&io.extra_real.0, &mut self.buf_f)
+            for (base, (vrs, cols)) in [
+                (Base::Real, &io.extra_real),
+                (Base::Integer, &io.extra_int),
+                (Base::Boolean, &io.extra_bool),
+            ] {
+                let bufs = (&mut self.buf_f, &mut self.buf_i);
+                read_into(inst, base, (vrs, cols), bufs, &mut self.row)
                     .map_err(|err| at(name, t, err))?;
-                for (&k, &v) in io.extra_real.1.iter().zip(&self.buf_f) {
-                    self.row[k] = v;
-                }
-            }
-            for ((vrs, cols), boolean) in [(&io.extra_int, false), (&io.extra_bool, true)] {
-                if vrs.is_empty() {
-                    continue;
-                }
-                self.buf_i.resize(vrs.len(), 0);
-                let r = if boolean {
-                    inst.get_boolean(vrs, &mut self.buf_i)
-                } else {
-                    inst.get_integer(vrs, &mut self.buf_i)
-                };
-                r.map_err(|err| at(name, t, err))?;
-                for (&k, &v) in cols.iter().zip(&self.buf_i) {
-                    self.row[k] = f64::from(v);
-                }
             }
         }
         let nr = plan
