@@ -30,7 +30,6 @@ from scipy.integrate import solve_ivp
 
 import ports_reference as pr
 
-TWO_PI = 2.0 * math.pi
 
 
 @dataclass
@@ -62,53 +61,13 @@ def simulate(s: pr.PortScene, el: Elements, stop_time: float, times, rtol=1e-12)
     ``s.t_in``/``s.t_out`` (as the FMU does), the pinion at angle 0."""
     b = s.base
     j1, j2, r1, r2 = b.inertia1, b.inertia2, b.r_b1, b.r_b2
-    z1, two_b, c = b.z1, b.backlash, b.damping
-    k_mean = b.stiffness.mean
-    pieces = b.stiffness.pieces
-    shift = b.stiffness.phase
-    law = b.contact
     om = s.omega
     om2 = om * r1 / r2
-
-    def phase(phi, t):
-        return b.p0 + z1 * (phi + om * t) / TWO_PI
-
-    def ste_and_rate(p, pdot):
-        e = pr.ref._fourier_sum(b.ste_cos, b.ste_sin, p)
-        de = 0.0
-        for h in range(1, max(len(b.ste_cos), len(b.ste_sin)) + 1):
-            a = b.ste_cos[h - 1] if h <= len(b.ste_cos) else 0.0
-            bb = b.ste_sin[h - 1] if h <= len(b.ste_sin) else 0.0
-            w = TWO_PI * h
-            de += w * (-a * math.sin(w * p) + bb * math.cos(w * p))
-        return e, de * pdot
-
-    p0 = phase(0.0, 0.0)
-    e0, _ = ste_and_rate(p0, 0.0)
-    y = np.array([pr.f_ext(s) / k_mean + e0, 0.0, 0.0, 0.0,
+    y = np.array([0.0, 0.0, 0.0, 0.0,
                   el.theta_m0, el.omega_m0 - om, el.theta_l0, el.omega_l0 - om2])
-
-    def locate(p):
-        q = p + shift
-        cyc = math.floor(q)
-        frac = q - cyc
-        for i, pc in enumerate(pieces):
-            if pc.s_a <= frac < pc.s_b:
-                return cyc, i
-        return cyc, len(pieces) - 1
-
-    cycle, piece = locate(p0)
-
-    def classify(t, yy):
-        e, edot = ste_and_rate(phase(yy[2], t), z1 * (om + yy[3]) / TWO_PI)
-        d = yy[0] - e
-        if law == "linear":
-            return 1
-        if d > 0 or (d == 0 and yy[1] - edot > 0):
-            return 1
-        if law == "backlash" and (d + two_b < 0 or (d + two_b == 0 and yy[1] - edot < 0)):
-            return -1
-        return 0
+    probe = pr.Stage(b, om, y)
+    y[0] = pr.f_ext(s) / b.stiffness.mean + probe.ste_and_rate(probe.phase(0.0, 0.0), 0.0)[0]
+    stage = pr.Stage(b, om, y)
 
     def kinematics(t, yy):
         th1, w1 = yy[2] + om * t, yy[3] + om
@@ -122,71 +81,29 @@ def simulate(s: pr.PortScene, el: Elements, stop_time: float, times, rtol=1e-12)
     def t_max(w):
         return float(np.interp(w, *el.t_max))
 
-    state = classify(0.0, y)
     times = np.asarray(times, float)
     out = np.full((len(times), 8), np.nan)
     t = 0.0
     nxt = 0
     events = 0
     saturated = []
+
+    def rhs(tt, yy):
+        _, _, _, _, thm, wm, _, wl, tau1, tau2 = kinematics(tt, yy)
+        f = stage.force(tt, yy)
+        a1 = (tau1 - r1 * f) / j1
+        a2 = (-tau2 + r2 * f) / j2
+        te = el.kp * (el.omega_ref - wm)
+        if abs(te) > t_max(wm):
+            saturated.append(tt)  # the reference has no clamp: refuse below
+        tr = sum(a * math.cos(o * thm + ph) for o, a, ph in el.ripple)
+        am = (te + tr - tau1 - el.d_m * wm) / el.j_m
+        al = (tau2 - el.t0 - el.c_v * wl - el.c_d * wl * abs(wl)) / el.j_l
+        return [yy[1], r1 * a1 - r2 * a2, yy[3], a1, yy[5], am, yy[7], al]
+
+    scale = np.array([1e-5, 1e-1, 1e-5, 1e-1, 1e-5, 1e-1, 1e-5, 1e-1])
     while t < stop_time:
-        pc = pieces[piece]
-
-        def force(tt, yy):
-            if state == 0:
-                return 0.0
-            p = phase(yy[2], tt)
-            e, edot = ste_and_rate(p, z1 * (om + yy[3]) / TWO_PI)
-            k = pc.value(p + shift - cycle)
-            off = two_b if state == -1 else 0.0
-            return k * (yy[0] - e + off) + c * (yy[1] - edot)
-
-        def rhs(tt, yy):
-            _, _, _, _, thm, wm, _, wl, tau1, tau2 = kinematics(tt, yy)
-            f = force(tt, yy)
-            a1 = (tau1 - r1 * f) / j1
-            a2 = (-tau2 + r2 * f) / j2
-            te = el.kp * (el.omega_ref - wm)
-            if abs(te) > t_max(wm):
-                saturated.append(tt)  # the reference has no clamp: refuse below
-            tr = sum(a * math.cos(o * thm + ph) for o, a, ph in el.ripple)
-            am = (te + tr - tau1 - el.d_m * wm) / el.j_m
-            al = (tau2 - el.t0 - el.c_v * wl - el.c_d * wl * abs(wl)) / el.j_l
-            return [yy[1], r1 * a1 - r2 * a2, yy[3], a1, yy[5], am, yy[7], al]
-
-        def g_end(tt, yy):
-            return (cycle + pc.s_b - shift) - phase(yy[2], tt)
-
-        def g_start(tt, yy):
-            return phase(yy[2], tt) - (cycle + pc.s_a - shift)
-
-        def g_drive(tt, yy):
-            e, _ = ste_and_rate(phase(yy[2], tt), 0.0)
-            return yy[0] - e
-
-        def g_back(tt, yy):
-            e, _ = ste_and_rate(phase(yy[2], tt), 0.0)
-            return yy[0] - e + two_b
-
-        guards = [g_end, g_start]
-        if law != "linear":
-            if state == 1:
-                g_drive.direction = -1
-                guards.append(g_drive)
-            elif state == -1:
-                g_back.direction = 1
-                guards.append(g_back)
-            else:
-                g_drive.direction = 1
-                guards.append(g_drive)
-                if law == "backlash":
-                    g_back.direction = -1
-                    guards.append(g_back)
-        g_end.direction = -1
-        g_start.direction = -1
-        for g in guards:
-            g.terminal = True
-        scale = np.array([1e-5, 1e-1, 1e-5, 1e-1, 1e-5, 1e-1, 1e-5, 1e-1])
+        guards = stage.guards()
         sol = solve_ivp(rhs, (t, stop_time), y, method="DOP853", rtol=rtol, atol=rtol * scale,
                         events=guards, dense_output=True)
         t_end = sol.t[-1]
@@ -199,22 +116,7 @@ def simulate(s: pr.PortScene, el: Elements, stop_time: float, times, rtol=1e-12)
             break
         events += 1
         hit = next(i for i, te in enumerate(sol.t_events) if len(te))
-        g = guards[hit]
-        if g is g_end or g is g_start:
-            step = 1 if g is g_end else -1
-            piece += step
-            if piece == len(pieces):
-                piece, cycle = 0, cycle + 1
-            elif piece < 0:
-                piece, cycle = len(pieces) - 1, cycle - 1
-        else:
-            e, _ = ste_and_rate(phase(y[2], t), 0.0)
-            if g is g_drive:
-                y[0] = e
-                state = 0 if state == 1 else 1
-            else:
-                y[0] = e - two_b
-                state = 0 if state == -1 else -1
+        stage.on_event(guards[hit], t, y)
     if saturated:
         raise ValueError(f"the motor command left the full-load curve at t = {saturated[0]}: "
                          "this reference has no clamp")

@@ -72,24 +72,30 @@ def f_ext(s: PortScene) -> float:
     return b.m_e * (b.r_b1 * s.t_in / b.inertia1 - b.r_b2 * s.t_out / b.inertia2)
 
 
-def _pieces(s: PortScene):
-    st = s.base.stiffness
-    return st.pieces
 
+class Stage:
+    """The gear stage's hybrid parts for every reference that carries its rotation (this file's
+    pair and ``drivetrain_reference``'s whole drivetrain). State ``y[0:4]``: the DTE, its rate,
+    the pinion angle relative to ``omega·t`` and its rate. Holds the current stiffness piece
+    (``cycle``, ``piece``) and contact state (1 drive, 0 open, −1 back side)."""
 
-def simulate(s: PortScene, stop_time: float, times, rtol=1e-12):
-    b = s.base
-    j1, j2, r1, r2 = b.inertia1, b.inertia2, b.r_b1, b.r_b2
-    z1, two_b, c = b.z1, b.backlash, b.damping
-    k_mean = b.stiffness.mean
-    pieces = _pieces(s)
-    shift = b.stiffness.phase
-    law = b.contact
+    def __init__(self, b: ref.Scene, omega: float, y0):
+        self.b, self.omega = b, omega
+        self.pieces = b.stiffness.pieces
+        self.shift = b.stiffness.phase
+        self.two_b = b.backlash
+        self.law = b.contact
+        self.cycle, self.piece = self.locate(self.phase(y0[2], 0.0))
+        self.state = self.classify(0.0, y0)
 
-    def phase(phi, t):
-        return b.p0 + z1 * (phi + s.omega * t) / TWO_PI
+    def phase(self, phi, t):
+        return self.b.p0 + self.b.z1 * (phi + self.omega * t) / TWO_PI
 
-    def ste_and_rate(p, pdot):
+    def phase_rate(self, yy):
+        return self.b.z1 * (self.omega + yy[3]) / TWO_PI
+
+    def ste_and_rate(self, p, pdot):
+        b = self.b
         e = ref._fourier_sum(b.ste_cos, b.ste_sin, p)
         de = 0.0
         for h in range(1, max(len(b.ste_cos), len(b.ste_sin)) + 1):
@@ -99,93 +105,117 @@ def simulate(s: PortScene, stop_time: float, times, rtol=1e-12):
             de += w * (-a * math.sin(w * p) + bb * math.cos(w * p))
         return e, de * pdot
 
-    # Initial state: static deflection under the port torques at the start phase, every body at
-    # its nominal speed, the pinion at angle 0.
-    p0 = phase(0.0, 0.0)
-    e0, _ = ste_and_rate(p0, 0.0)
-    y = np.array([f_ext(s) / k_mean + e0, 0.0, 0.0, 0.0])
-
-    def locate(p):
-        q = p + shift
+    def locate(self, p):
+        q = p + self.shift
         cyc = math.floor(q)
         frac = q - cyc
-        for i, pc in enumerate(pieces):
+        for i, pc in enumerate(self.pieces):
             if pc.s_a <= frac < pc.s_b:
                 return cyc, i
-        return cyc, len(pieces) - 1
+        return cyc, len(self.pieces) - 1
 
-    cycle, piece = locate(p0)
-
-    def classify(t, yy):
-        p = phase(yy[2], t)
-        e, edot = ste_and_rate(p, z1 * (s.omega + yy[3]) / TWO_PI)
+    def classify(self, t, yy):
+        e, edot = self.ste_and_rate(self.phase(yy[2], t), self.phase_rate(yy))
         d = yy[0] - e
-        if law == "linear":
+        if self.law == "linear":
             return 1
         if d > 0 or (d == 0 and yy[1] - edot > 0):
             return 1
-        if law == "backlash" and (d + two_b < 0 or (d + two_b == 0 and yy[1] - edot < 0)):
+        if self.law == "backlash" and (d + self.two_b < 0 or (d + self.two_b == 0 and yy[1] - edot < 0)):
             return -1
         return 0
 
-    state = classify(0.0, y)
-    times = np.asarray(times, float)
-    out = np.full((len(times), 4), np.nan)
-    t = 0.0
-    nxt = 0
-    events = 0
-    while t < stop_time:
-        pc = pieces[piece]
+    def force(self, tt, yy):
+        """Mesh force in the current piece and contact state."""
+        if self.state == 0:
+            return 0.0
+        p = self.phase(yy[2], tt)
+        e, edot = self.ste_and_rate(p, self.phase_rate(yy))
+        k = self.pieces[self.piece].value(p + self.shift - self.cycle)
+        off = self.two_b if self.state == -1 else 0.0
+        return k * (yy[0] - e + off) + self.b.damping * (yy[1] - edot)
 
-        def force(tt, yy):
-            p = phase(yy[2], tt)
-            pdot = z1 * (s.omega + yy[3]) / TWO_PI
-            e, edot = ste_and_rate(p, pdot)
-            if state == 0:
-                return 0.0
-            k = pc.value(p + shift - cycle)
-            off = two_b if state == -1 else 0.0
-            return k * (yy[0] - e + off) + c * (yy[1] - edot)
-
-        def rhs(tt, yy):
-            f = force(tt, yy)
-            a1 = (s.t_in + s.rate_in * tt - r1 * f) / j1
-            a2 = (s.t_out + s.rate_out * tt + r2 * f) / j2
-            return [yy[1], r1 * a1 - r2 * a2, yy[3], a1]
+    def guards(self):
+        """Terminal events of the current segment: the piece's two ends on the pinion angle,
+        and the contact surfaces the current state can cross."""
+        pc = self.pieces[self.piece]
+        lo, hi = self.cycle + pc.s_a - self.shift, self.cycle + pc.s_b - self.shift
 
         def g_end(tt, yy):
-            return (cycle + pc.s_b - shift) - phase(yy[2], tt)
+            return hi - self.phase(yy[2], tt)
 
         def g_start(tt, yy):
-            return phase(yy[2], tt) - (cycle + pc.s_a - shift)
+            return self.phase(yy[2], tt) - lo
 
         def g_drive(tt, yy):
-            e, _ = ste_and_rate(phase(yy[2], tt), 0.0)
-            return yy[0] - e
+            return yy[0] - self.ste_and_rate(self.phase(yy[2], tt), 0.0)[0]
 
         def g_back(tt, yy):
-            e, _ = ste_and_rate(phase(yy[2], tt), 0.0)
-            return yy[0] - e + two_b
+            return g_drive(tt, yy) + self.two_b
 
+        g_end.direction = g_start.direction = -1
+        g_end.kind, g_start.kind, g_drive.kind, g_back.kind = 1, -1, "drive", "back"
         guards = [g_end, g_start]
-        if law != "linear":
-            if state == 1:
+        if self.law != "linear":
+            if self.state == 1:
                 g_drive.direction = -1
                 guards.append(g_drive)
-            elif state == -1:
+            elif self.state == -1:
                 g_back.direction = 1
                 guards.append(g_back)
             else:
                 g_drive.direction = 1
                 guards.append(g_drive)
-                if law == "backlash":
+                if self.law == "backlash":
                     g_back.direction = -1
                     guards.append(g_back)
-        g_end.direction = -1
-        g_start.direction = -1
         for g in guards:
             g.terminal = True
-        scale = np.array([1e-5, 1e-1, 1e-5, 1e-1])
+        return guards
+
+    def on_event(self, g, t, y):
+        """Crossing of guard ``g`` at ``t``: next piece, or contact switch with ``y`` snapped
+        onto the surface."""
+        if g.kind in (1, -1):
+            self.piece += g.kind
+            if self.piece == len(self.pieces):
+                self.piece, self.cycle = 0, self.cycle + 1
+            elif self.piece < 0:
+                self.piece, self.cycle = len(self.pieces) - 1, self.cycle - 1
+        else:
+            e, _ = self.ste_and_rate(self.phase(y[2], t), 0.0)
+            if g.kind == "drive":
+                y[0] = e
+                self.state = 0 if self.state == 1 else 1
+            else:
+                y[0] = e - self.two_b
+                self.state = 0 if self.state == -1 else -1
+
+
+def simulate(s: PortScene, stop_time: float, times, rtol=1e-12):
+    b = s.base
+    j1, j2, r1, r2 = b.inertia1, b.inertia2, b.r_b1, b.r_b2
+    # Initial state: static deflection under the port torques at the start phase, every body at
+    # its nominal speed, the pinion at angle 0.
+    y = np.array([0.0, 0.0, 0.0, 0.0])
+    probe = Stage(b, s.omega, y)
+    y[0] = f_ext(s) / b.stiffness.mean + probe.ste_and_rate(probe.phase(0.0, 0.0), 0.0)[0]
+    stage = Stage(b, s.omega, y)
+
+    def rhs(tt, yy):
+        f = stage.force(tt, yy)
+        a1 = (s.t_in + s.rate_in * tt - r1 * f) / j1
+        a2 = (s.t_out + s.rate_out * tt + r2 * f) / j2
+        return [yy[1], r1 * a1 - r2 * a2, yy[3], a1]
+
+    times = np.asarray(times, float)
+    out = np.full((len(times), 4), np.nan)
+    t = 0.0
+    nxt = 0
+    events = 0
+    scale = np.array([1e-5, 1e-1, 1e-5, 1e-1])
+    while t < stop_time:
+        guards = stage.guards()
         sol = solve_ivp(rhs, (t, stop_time), y, method="DOP853", rtol=rtol, atol=rtol * scale,
                         events=guards, dense_output=True)
         t_end = sol.t[-1]
@@ -198,23 +228,7 @@ def simulate(s: PortScene, stop_time: float, times, rtol=1e-12):
             break
         events += 1
         hit = next(i for i, te in enumerate(sol.t_events) if len(te))
-        g = guards[hit]
-        if g is g_end or g is g_start:
-            step = 1 if g is g_end else -1
-            piece += step
-            if piece == len(pieces):
-                piece, cycle = 0, cycle + 1
-            elif piece < 0:
-                piece, cycle = len(pieces) - 1, cycle - 1
-        else:
-            # Snap onto the surface and switch the contact state.
-            e, _ = ste_and_rate(phase(y[2], t), 0.0)
-            if g is g_drive:
-                y[0] = e
-                state = 0 if state == 1 else 1
-            else:
-                y[0] = e - two_b
-                state = 0 if state == -1 else -1
+        stage.on_event(guards[hit], t, y)
     theta1 = out[:, 2] + s.omega * times
     speed1 = out[:, 3] + s.omega
     theta2 = (r1 * theta1 - out[:, 0]) / r2
