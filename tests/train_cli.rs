@@ -150,6 +150,31 @@ fn built_in_drivetrain_examples() {
     }
 }
 
+/// An unknown example name is refused with every built-in name, pair and drivetrain alike,
+/// and no file is written.
+#[test]
+fn unknown_example_lists_pair_and_drivetrain_examples() {
+    let out = workdir("unknown_example").join("x.csv");
+    let o = geardyn(&[
+        "simulate",
+        "--example",
+        "nope",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    for name in [
+        "'nope'",
+        "spur_pair",
+        "idler_gearset",
+        "countershaft_gearset",
+    ] {
+        assert!(err.contains(name), "{name} missing from: {err}");
+    }
+    assert!(!out.exists());
+}
+
 /// `geardyn hb` takes a drivetrain: per-mesh columns with the mesh names as prefixes, the plot
 /// of the chosen mesh, and the single pair keeps its unprefixed columns.
 #[test]

@@ -494,15 +494,25 @@ impl AnyScene {
 
     /// A built-in example by name (single-pair or drivetrain).
     pub fn example(name: &str) -> Result<AnyScene, String> {
-        if crate::scene::train::TRAIN_EXAMPLES
-            .iter()
-            .any(|(n, _)| *n == name)
-        {
-            TrainScene::example(name).map(|s| AnyScene::Train(Box::new(s)))
+        use crate::scene::{train::TRAIN_EXAMPLES, EXAMPLES};
+        if TRAIN_EXAMPLES.iter().any(|(n, _)| *n == name) {
+            TrainScene::example(name)
+                .map(|s| AnyScene::Train(Box::new(s)))
+                .map_err(|e| e.to_string())
+        } else if EXAMPLES.iter().any(|(n, _)| *n == name) {
+            Scene::example(name)
+                .map(|s| AnyScene::Pair(Box::new(s)))
+                .map_err(|e| e.to_string())
         } else {
-            Scene::example(name).map(|s| AnyScene::Pair(Box::new(s)))
+            let names = |list: &[(&str, &str)]| -> String {
+                list.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+            };
+            Err(format!(
+                "no built-in example named '{name}' (single pairs: {}; drivetrains: {})",
+                names(EXAMPLES),
+                names(TRAIN_EXAMPLES)
+            ))
         }
-        .map_err(|e| e.to_string())
     }
 
     pub fn name(&self) -> &str {
