@@ -1,29 +1,30 @@
 #!/usr/bin/env python3
-"""Where the co-simulated drivetrain's DTE error comes from (issue 18 acceptance 2,
-docs/cosimulation.md "Convergence against the monolithic model").
+"""Where the co-simulated drivetrain's DTE error comes from (issue 18 acceptance 2; the tables
+of docs/cosimulation.md "Where the DTE error comes from").
 
-Two measurements, both against the monolithic native run of the same drivetrain
-(`geardyn simulate examples/drivetrain_monolithic.toml`, rtol 1e-12, the oracle):
+Every measurement is against the monolithic native run of the same drivetrain at the same
+operating point (`geardyn simulate examples/drivetrain_monolithic.toml` moved to the point,
+rtol 1e-12: the oracle, itself checked against the scipy model drivetrain_reference.py). A
+point is RPM:T_0, the pinion speed and the load's constant torque (the vehicle_load `torque`
+key: rolling resistance plus any grade); its steady start is
+drivetrain_reference.SteadyPoint, given to the system as `--start` overrides of the SSD's
+bindings. The shipped system is 3000:10 (cruise), the rattling case 4500:10.
 
-* ``sweep``: the five-FMU system (`geardyn run examples/systems/drivetrain`) at other
-  operating points (pinion speed, the load's constant torque T_0 = the vehicle_load `torque`
-  key, e.g. a grade), every coupling, h = T_mesh/n. The start values are the steady ones of
-  the SSD's header, recomputed for the point (`--start` overrides of the bindings); the
-  monolithic scene gets the same point. Prints the max DTE error relative to the DTE's
-  RMS about its mean (the test's measure) and to its plain RMS, the contact-loss fraction,
-  and the shaft torque errors.
+* ``sweep``: the five-FMU system (`geardyn run examples/systems/drivetrain`), every coupling,
+  h = T_mesh/n: the max DTE error relative to the DTE's RMS about its mean and to its plain
+  RMS, the RMS error relative to the RMS, the contact-loss fraction, the shaft torque errors.
 * ``stage``: the spur_stage FMU alone under fmpy, fed the monolithic run's own shaft torques,
-  to separate the error of the gear stage's torque inputs from that of the master: each
-  torque is given to the stage either "coarse" (over each communication step h the straight
-  line through its exact values at t and t + h: the best any first-order coupling can do) or
-  "fine" (the same on h/m sub-steps: nearly exact). The DTE error with τ1 coarse / τ2 fine,
-  and the converse, says which coupled torque drives the DTE error.
+  each either "coarse" (over every step h the straight line through its exact values at t and
+  t + h: the best any first-order coupling can do) or "fine" (the same on h/16 sub-steps), or
+  both extrapolated from t with exact first (and second) derivatives: which coupled torque
+  drives the DTE error, and what first- and second-order input derivatives could reach.
+* ``order``: Gauss-Seidel/linear with the shipped element order against the reversed one.
 
-Usage:
-  .venv/bin/python scripts/cosim_dte_error.py sweep [--points RPM:T0,...] [--divisors 10,20,40]
-  .venv/bin/python scripts/cosim_dte_error.py stage [--points RPM:T0,...] [--divisors 10,20,40]
-Build the FMUs first (bash scripts/build-fmus.sh). Not a test: the test with its assertions is
-tests/python/test_drivetrain_cosim.py.
+Usage (build the FMUs first: bash scripts/build-fmus.sh):
+  .venv/bin/python scripts/cosim_dte_error.py sweep --points 3000:10,4500:10 --divisors 10,20,40,80
+  .venv/bin/python scripts/cosim_dte_error.py stage --points 3000:10,4500:10 --divisors 10,20,40
+  .venv/bin/python scripts/cosim_dte_error.py order --points 3000:10,4500:10 --divisors 10,20,40
+Not a test: the assertions are in tests/python/test_drivetrain_cosim.py.
 """
 from __future__ import annotations
 
