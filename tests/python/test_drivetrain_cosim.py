@@ -287,6 +287,11 @@ def test_convergence_against_the_monolithic_model(fmus, tmp_path, report, name, 
                + "; observed orders " + ", ".join(f"{p:.2f}" for p in orders(dte))
                + "; load speed errors (rad/s) " + ", ".join(f"{e['load_speed']:.2e}" for e in errs)
                + "; shaft1 torque errors (N.m) " + ", ".join(f"{e['tau1']:.2e}" for e in errs))
+    # The orders are asserted on n = 5 … 80 (GEARDYN_LONG's finer steps are reported): at
+    # n = 320 the load speed error, 1.4e-7 rad/s with Gauss-Seidel/linear, nears what the
+    # element FMUs' own integrators resolve (rtol 1e-10 of 217 rad/s).
+    table = {label: errs[:5] for label, errs in table.items()}
+    divisors = divisors[:5]
     # Jacobi with zero-order hold is a first-order coupling: on the fine steps the DTE, speed
     # and torque errors fall at order 1 (±0.3), and they fall monotonically.
     jac = table["Jacobi hold"]
@@ -313,10 +318,12 @@ def test_convergence_against_the_monolithic_model(fmus, tmp_path, report, name, 
     # knot or contact change, its value from the flange speeds extrapolated with the
     # acceleration from before the jump keeps an error c·Δα·h, first order, while the states
     # converge at order 2.)
-    for k in ("dte", "tau1", "load_speed"):
+    # (The load speed, an integral of the torque errors over the steps, converges somewhat
+    # faster: 2.36–2.38 over 5 ms at cruise, 2.5–2.8 over GEARDYN_LONG's 20 ms at both points.)
+    for k, top in (("dte", 2.4), ("tau1", 2.4), ("load_speed", 3.0)):
         e = [x[k] for x in table["GS linear"]]
         for p in orders(e)[-2:]:
-            assert 1.7 <= p <= 2.4, ("GS linear", k, e)
+            assert 1.7 <= p <= top, ("GS linear", k, e)
     for k in ("dte", "load_speed"):
         e = [x[k] for x in table["Jacobi linear"]]
         assert all(a > b for a, b in zip(e, e[1:])), ("Jacobi linear", k, e)
