@@ -4,7 +4,8 @@
 # zero-order hold, Gauss–Seidel with interpolation/extrapolation) against the monolithic native
 # run of the same drivetrain
 # (`geardyn simulate examples/drivetrain_monolithic.toml`), on the same output grid
-# (communication step = output interval = T_mesh/20, stop 1 s: 57 000 steps), each writing
+# (communication step = output interval = T_mesh/20 at the SSD's pinion speed, stop 1 s: 38 000
+# steps at 3000 rpm), each writing
 # the CSV of its own columns.
 # The commands run in alternating rounds so that a change of machine load hits all of them
 # alike; reported: median wall and CPU time (user + system, children included: `geardyn run`
@@ -27,7 +28,10 @@ trap 'rm -rf "$tmp"' EXIT
 python3 - "$rounds" "$bin" "$native" "$label" "$tmp" <<'EOF_PY'
 import math, os, statistics, subprocess, sys, time
 rounds, exe, native, label, tmp = int(sys.argv[1]), *sys.argv[2:6]
-h = 2 * math.pi / (38 * 471.238898038469) / 20
+import re
+ssd = open("examples/systems/drivetrain/SystemStructure.ssd").read()
+omega = float(re.search(r'name="input_speed"><ssv:Real value="([^"]+)"', ssd).group(1))  # the SSD's pinion speed
+h = 2 * math.pi / (38 * omega) / 20
 grid = ["--stop-time", "1", "--output-interval", repr(h)]
 system = "examples/systems/drivetrain"
 commands = {

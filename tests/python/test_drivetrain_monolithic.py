@@ -92,10 +92,10 @@ def test_monolithic_drivetrain_matches_scipy(geardyn_bin, tmp_path):
     err, g, r = compare(tmp_path, 0.01, 1e-5)
     print("drivetrain_monolithic 0.01 s, " + f"{r['events']} reference events: "
           + ", ".join(f"{k} {v:.2e}" for k, v in err.items()))
-    assert r["events"] > 50
+    assert r["events"] > 30  # 38 stiffness knots in 10 ms at 3000 rpm, no contact changes
     # The start matches the documented rule (and the co-simulated system's SSD start values).
-    assert g["motor_angle"][0] == pytest.approx(0.004935994514906387, rel=1e-12)
-    assert g["load_angle"][0] == pytest.approx(-0.0029840900613604697, rel=1e-12)
+    assert g["motor_angle"][0] == pytest.approx(0.0025106658760038576, rel=1e-12)
+    assert g["load_angle"][0] == pytest.approx(-0.0015253264657221178, rel=1e-12)
     assert err["dte"] <= DTE_TOL
     for k in ("pinion_speed", "gear_speed", "motor_speed", "load_speed"):
         assert err[k] <= SPEED_TOL, k
