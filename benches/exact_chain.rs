@@ -1,7 +1,10 @@
 //! Exact propagator on chains of lumped meshes (issue 20, points 1–2): µs per mesh period of
 //! the exact propagator against DOP853 on simple gear chains at 2000 Hz (every mesh of a
 //! simple chain has the same mesh frequency; phases staggered), rigid and compliant bearings,
-//! with and without contact loss, and on the shipped `idler_gearset`.
+//! with and without contact loss, and on the shipped `idler_gearset`; and with the rotation
+//! carried (issue 18, `docs/ports.md`): `fmu/spur_stage` without its STE harmonic (backlash
+//! rattle, and linear contact) and the `idler_gearset` data turning freely between torque
+//! ports, where the stiffness knots are guards on the pinion angle.
 //!
 //! `cargo bench --bench exact_chain [-- quick]` — each line is the median of alternated rounds
 //! after a warm-up run; ratios are only meaningful within one run (the machine is shared).
@@ -47,6 +50,40 @@ fn time(
     (us, st.steps as f64 / periods, st.events as f64 / periods)
 }
 
+/// `fmu/spur_stage` without its STE harmonic (with the rotation carried an STE is not
+/// piecewise-LTI), with contact law `contact`.
+fn spur_stage(contact: &str) -> TrainScene {
+    let text =
+        include_str!("../fmu/spur_stage/scene.toml").replace("[mesh.ste]\ncos = [1.0e-6]\n", "");
+    let text = match contact {
+        "backlash" => text,
+        _ => text.replace(
+            "contact = \"backlash\"\nbacklash = 1.0e-4",
+            &format!("contact = \"{contact}\""),
+        ),
+    };
+    TrainScene::from_toml_str(&text, "spur_stage").unwrap()
+}
+
+/// The `idler_gearset` data without its ground springs, driven and loaded through torque
+/// ports on the pinion and the follower (balanced through the base radii), at 2000 Hz.
+fn idler_with_ports() -> TrainScene {
+    let speed = std::f64::consts::TAU * 2000.0 / 38.0;
+    let load = -100.0 * 0.11218 / 0.04535;
+    let text = include_str!("../fmu/idler_gearset/scene.toml")
+        .replace("ground_stiffness = 3389.6\n", "")
+        .replace("ground_stiffness = 11297.9\n", "")
+        .replace(
+            "input_speed = 330.6939635357677          # rad/s: mesh frequency 2000 Hz\ninput_torque = 100.0",
+            &format!(
+                "pinion_speed = {speed:?}\n\n[[port]]\nname = \"input\"\ngear = \"pinion\"\n\
+                 causality = \"torque\"\ntorque = 100.0\n\n[[port]]\nname = \"output\"\n\
+                 gear = \"follower\"\ncausality = \"torque\"\ntorque = {load:?}\n"
+            ),
+        );
+    TrainScene::from_toml_str(&text, "idler_ports").unwrap()
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(|a, b| a.partial_cmp(b).unwrap());
     v[v.len() / 2]
@@ -75,6 +112,21 @@ fn main() {
     let mut idler = TrainScene::example("idler_gearset").unwrap();
     idler.operating.input_speed = std::f64::consts::TAU * 2000.0 / 38.0;
     scenes.push(("idler_gearset (pairs, contact loss)".into(), idler, 2000.0));
+    scenes.push((
+        "spur_stage ports, no STE (backlash rattle)".into(),
+        spur_stage("backlash"),
+        2000.0,
+    ));
+    scenes.push((
+        "spur_stage ports, no STE (linear)".into(),
+        spur_stage("linear"),
+        2000.0,
+    ));
+    scenes.push((
+        "idler_gearset ports (pairs, contact loss)".into(),
+        idler_with_ports(),
+        2000.0,
+    ));
     let filter: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| a != "quick" && a != "--bench" && a != "profile")

@@ -848,15 +848,20 @@ impl GearTrain {
     /// `None`. There is no limit on the number of meshes or contact states: the mode key has
     /// any length ([`crate::solve::exact::ModeKey`]).
     pub fn not_lti_reason(&self) -> Option<String> {
-        if self.rotation.is_some() {
-            return Some(
-                "with [[port]] or elements ([[motor]], [[load]], [[inertia]]) the rigid-body \
-                 rotation is carried and every mesh phase follows its pinion's angle, so the mesh \
-                 stiffness is a function of the state, not of time (docs/ports.md)"
-                    .to_string(),
-            );
+        if let Some(rot) = &self.rotation {
+            if let Some(reason) = rot.not_lti_reason() {
+                return Some(reason);
+            }
         }
         for (m, name) in self.meshes.iter().zip(&self.mesh_names) {
+            if self.rotation.is_some() && m.ste.harmonics() > 0 {
+                return Some(format!(
+                    "mesh '{name}' has an STE e(p) ([mesh.ste] harmonics), and with [[port]] or \
+                     elements the rotation is carried: the phase p follows the pinion angle, a \
+                     state, and cos 2πhp is not linear in the state (docs/ports.md, \"What stays \
+                     piecewise-LTI\")"
+                ));
+            }
             // Friction arms move with the phase: the friction moment is not piecewise constant.
             if m.friction.is_some() {
                 return Some(format!(
@@ -1831,14 +1836,7 @@ impl GearTrain {
                 let p = self.phase_of(n, t, y);
                 let g = mesh.law(j).map_or(0.0, |l| l.g(mesh.local(p)));
                 let e = match z {
-                    Some(z) => {
-                        let base = 2 * m
-                            + self.meshes[..n]
-                                .iter()
-                                .map(|k| 2 * k.ste.harmonics() + usize::from(k.ramp))
-                                .sum::<usize>();
-                        mesh.ste.value_from_harmonics(&z[base..])
-                    }
+                    Some(z) => mesh.ste.value_from_harmonics(&z[self.forcing_base(n)..]),
                     None => mesh.ste_at(p).0,
                 };
                 y[0] = (e + g + level) / a[0];
@@ -1861,14 +1859,37 @@ impl GearTrain {
         self.refresh_guards();
     }
 
+    /// First lifted entry of every mesh's forcing block (its STE harmonics, then its phase
+    /// ramp if it has one), after the state `y`.
     fn harmonic_base(&self) -> Vec<usize> {
         let mut base = Vec::with_capacity(self.meshes.len());
-        let mut k = 2 * self.m;
+        let mut k = self.dim();
         for mesh in &self.meshes {
             base.push(k);
-            k += 2 * mesh.ste.harmonics() + usize::from(mesh.ramp);
+            k += 2 * mesh.ste.harmonics() + usize::from(self.phase_ramp(mesh));
         }
         base
+    }
+
+    /// [`GearTrain::harmonic_base`] of mesh n alone (no allocation: called at every event).
+    fn forcing_base(&self, n: usize) -> usize {
+        self.dim()
+            + (self.meshes[..n].iter())
+                .map(|k| 2 * k.ste.harmonics() + usize::from(self.phase_ramp(k)))
+                .sum::<usize>()
+    }
+
+    /// Whether mesh's forcing block ends with a phase ramp `r = s − interval start`: for
+    /// affine gaps in the nominal form, and always with the carried rotation, where `r` is
+    /// affine in the state and carries the knot guards (`rotating::lti`).
+    fn phase_ramp(&self, mesh: &MeshRt) -> bool {
+        mesh.ramp || self.rotation.is_some()
+    }
+
+    /// Lifted entry of `t − f_anchor` (the time along a torque ramp of the carried rotation:
+    /// the FMU's input derivatives), if the lifted state has it; the constant is after it.
+    fn ramp_time_index(&self) -> Option<usize> {
+        (self.rotation.is_some() && self.force_ramp).then(|| self.lti_dim() - 2)
     }
 
     /// Row of the slot deflection `δ_j = S − e − g_j` over the augmented state.
@@ -1882,7 +1903,7 @@ impl GearTrain {
         if let Some(l) = mesh.law(j) {
             let last = w.len() - 1;
             w[last] -= l.g0;
-            if mesh.ramp {
+            if self.phase_ramp(mesh) {
                 w[base + 2 * mesh.ste.harmonics()] -= l.g1;
             }
         }
@@ -1893,13 +1914,17 @@ impl PiecewiseLti for GearTrain {
     /// The STE at the event from the propagated harmonic states (one-DOF trains, as the
     /// single pair).
     fn on_event_lifted(&mut self, t: f64, z: &[f64], y: &mut [f64], index: usize) {
+        if index >= self.guards.len() {
+            self.knot_event(t, y, index - self.guards.len());
+            return;
+        }
         self.switch_slot(t, Some(z), y, index);
     }
 
     /// Harmonic states and the constant are continuous; a stiffness ramp restarts at every
-    /// piece.
+    /// piece (the carried rotation always has one per mesh).
     fn forcing_carries_over(&self) -> bool {
-        self.meshes.iter().all(|mesh| !mesh.ramp)
+        self.meshes.iter().all(|mesh| !self.phase_ramp(mesh))
     }
 
     /// With a linear contact law on every mesh a stop only moves a mesh to its next stiffness
@@ -1912,29 +1937,34 @@ impl PiecewiseLti for GearTrain {
     }
 
     fn lti_dim(&self) -> usize {
-        2 * self.m
+        self.dim()
             + self
                 .meshes
                 .iter()
-                .map(|m| 2 * m.ste.harmonics() + usize::from(m.ramp))
+                .map(|m| 2 * m.ste.harmonics() + usize::from(self.phase_ramp(m)))
                 .sum::<usize>()
+            + usize::from(self.rotation.is_some() && self.force_ramp)
             + 1
     }
 
-    /// `z = [ξ, ξ', per mesh (cos 2πhp, sin 2πhp)_h and the ramp r = s − start, 1]`.
+    /// `z = [y, per mesh (cos 2πhp, sin 2πhp)_h and the ramp r = s − start, 1]`; with the
+    /// carried rotation on a torque ramp `t − f_anchor` before the constant.
     fn lift(&self, t: f64, y: &[f64], z: &mut [f64]) {
-        z[..2 * self.m].copy_from_slice(y);
-        for (mesh, base) in self.meshes.iter().zip(self.harmonic_base()) {
-            let p = mesh.clock.phase_at(t);
+        z[..y.len()].copy_from_slice(y);
+        for ((n, mesh), base) in self.meshes.iter().enumerate().zip(self.harmonic_base()) {
+            let p = self.phase_of(n, t, y);
             let pf = crate::mesh::cycle_fraction(p);
             for h in 1..=mesh.ste.harmonics() {
                 let (s, c) = (TAU * h as f64 * pf).sin_cos();
                 z[base + 2 * (h - 1)] = c;
                 z[base + 2 * (h - 1) + 1] = s;
             }
-            if mesh.ramp {
+            if self.phase_ramp(mesh) {
                 z[base + 2 * mesh.ste.harmonics()] = mesh.local(p);
             }
+        }
+        if let Some(u) = self.ramp_time_index() {
+            z[u] = t - self.f_anchor;
         }
         let last = z.len() - 1;
         z[last] = 1.0;
@@ -1947,8 +1977,22 @@ impl PiecewiseLti for GearTrain {
         let m = self.m;
         // Generalised force rows over z (before M̂⁻¹): f_ext − K_b ξ − C ξ' − Σ a_n F_n.
         let mut force = DMatrix::<f64>::zeros(m, nz);
+        let torque_rows =
+            (self.rotation.as_ref()).map(|rot| rot.torque_rows(self, nz, self.ramp_time_index()));
         for i in 0..m {
-            force[(i, last)] = self.f_ext[i];
+            match &torque_rows {
+                // The port or shaft torques over z, through the same map as `external_force`.
+                Some([t_in, t_load]) => {
+                    let (per_in, per_load) = (
+                        self.external_force(i, 1.0, 0.0),
+                        self.external_force(i, 0.0, 1.0),
+                    );
+                    for col in 0..nz {
+                        force[(i, col)] = per_in * t_in[col] + per_load * t_load[col];
+                    }
+                }
+                None => force[(i, last)] = self.f_ext[i],
+            }
             for k in 0..m {
                 force[(i, k)] -= self.k_b[i * m + k];
                 force[(i, m + k)] -= self.c[i * m + k];
@@ -2001,8 +2045,17 @@ impl PiecewiseLti for GearTrain {
                 a[(ci, si)] = -h * omega;
                 a[(si, ci)] = h * omega;
             }
-            if mesh.ramp {
+            if mesh.ramp && self.rotation.is_none() {
                 a[(base + 2 * mesh.ste.harmonics(), last)] = f;
+            }
+        }
+        if let (Some(rot), Some(rows)) = (&self.rotation, &torque_rows) {
+            let ramps: Vec<usize> = (self.meshes.iter().zip(&bases))
+                .map(|(mesh, &base)| base + 2 * mesh.ste.harmonics())
+                .collect();
+            rot.lti_rows(self, rows, &ramps, a);
+            if let Some(u) = self.ramp_time_index() {
+                a[(u, last)] = 1.0;
             }
         }
         for i in 0..m {
@@ -2019,6 +2072,16 @@ impl PiecewiseLti for GearTrain {
 
     fn guard_row(&self, index: usize, w: &mut [f64]) {
         w.fill(0.0);
+        if index >= self.guards.len() {
+            let rot = self
+                .rotation
+                .as_ref()
+                .expect("knot guards need the rotation");
+            let n = rot.knot_mesh(index - self.guards.len());
+            let ramp = self.forcing_base(n) + 2 * self.meshes[n].ste.harmonics();
+            rot.knot_guard_row(&self.meshes[n], index - self.guards.len(), ramp, w);
+            return;
+        }
         let (n, j, surface) = self.guards[index];
         let base = self.harmonic_base()[n];
         self.delta_row(n, j, base, w);
@@ -2079,6 +2142,12 @@ impl PiecewiseLti for GearTrain {
             .iter()
             .map(|mesh| TAU * mesh.clock.mesh_frequency() * mesh.ste.harmonics() as f64)
             .fold(0.0, f64::max);
-        bound.sqrt().max(harmonic)
+        match &self.rotation {
+            // The element shafts on their bodies add their own modes (Gershgorin).
+            Some(rot) => (bound + rot.shaft_frequency_bound(self).powi(2))
+                .sqrt()
+                .max(harmonic),
+            None => bound.sqrt().max(harmonic),
+        }
     }
 }

@@ -252,3 +252,126 @@ impl Attached {
         out.extend(self.shaft_torques(t, y, rot));
     }
 }
+
+/// The elements as rows of the piecewise-LTI system ([`super::lti`]).
+impl Attached {
+    /// Why the elements are not linear in the state, or `None`.
+    pub(super) fn not_lti_reason(&self) -> Option<String> {
+        self.elements.bodies.iter().find_map(|b| match &b.kind {
+            ElementKind::Motor(_) => Some(format!(
+                "[[motor]] '{}': its speed-torque curve T_max(ω) (with its ripple and PI controller) \
+                 is not linear in the state",
+                b.name
+            )),
+            ElementKind::Load(l) if l.drag != 0.0 => Some(format!(
+                "[[load]] '{}': its drag c_d ω|ω| (drag = {:?}) is not linear in the speed",
+                b.name, l.drag
+            )),
+            _ => None,
+        })
+    }
+
+    /// Adds `k θ + c θ'` of a shaft end to `row` (see [`super::Carried::add_body_rows`]).
+    fn add_end_rows(&self, end: End, k: f64, c: f64, rot: &super::Carried, row: &mut [f64]) {
+        match end {
+            End::Train(b) => rot.add_body_rows(b, k, c, row),
+            End::Element(i) => {
+                let j = self.base + 3 * i;
+                row[j] += k;
+                row[j + 1] += c;
+                let last = row.len() - 1;
+                row[last] += c * self.ratio[i] * rot.reference_speed();
+            }
+        }
+    }
+
+    /// Every shaft torque τ as a row over the lifted state (`nz` entries, constant last). The
+    /// reference rotations `w Ω_ref t` of its two ends cancel: a shaft keeps the nominal ratio.
+    fn shaft_rows(&self, rot: &super::Carried, nz: usize) -> Vec<Vec<f64>> {
+        (self.elements.shafts.iter().zip(&self.ends))
+            .map(|(s, e)| {
+                let mut row = vec![0.0; nz];
+                let (k, c) = (s.spec.stiffness, s.spec.damping);
+                self.add_end_rows(e[0], k, c, rot, &mut row);
+                self.add_end_rows(e[1], -k, -c, rot, &mut row);
+                row
+            })
+            .collect()
+    }
+
+    /// The torque on `end` (see [`Attached::torque_on`]) as a row.
+    fn torque_on_row(&self, end: End, rows: &[Vec<f64>], nz: usize) -> Vec<f64> {
+        let mut out = vec![0.0; nz];
+        for (e, row) in self.ends.iter().zip(rows) {
+            let sign = f64::from(u8::from(e[1] == end)) - f64::from(u8::from(e[0] == end));
+            if sign != 0.0 {
+                for (o, v) in out.iter_mut().zip(row) {
+                    *o += sign * v;
+                }
+            }
+        }
+        out
+    }
+
+    /// The train's input and load torque (see [`Attached::train_torques`]) as rows.
+    pub(super) fn train_torque_rows(&self, rot: &super::Carried, nz: usize) -> [Vec<f64>; 2] {
+        let rows = self.shaft_rows(rot, nz);
+        let input = self.torque_on_row(End::Train(self.input_body), &rows, nz);
+        let mut load = self.torque_on_row(End::Train(self.output_body), &rows, nz);
+        for v in &mut load {
+            *v = -*v;
+        }
+        [input, load]
+    }
+
+    /// Rows of the element states: angle' = speed, speed' = `(T_on − T_0 − c ω)/J` with
+    /// `ω = w Ω_ref + speed` (a load: `T_0` its torque, `c` its viscous coefficient; an
+    /// inertia: its damping), integral' = 0. Motors and drag are refused before
+    /// ([`Attached::not_lti_reason`]).
+    pub(super) fn lti_rows(&self, rot: &super::Carried, a: &mut nalgebra::DMatrix<f64>) {
+        let nz = a.ncols();
+        let last = nz - 1;
+        let rows = self.shaft_rows(rot, nz);
+        for (i, body) in self.elements.bodies.iter().enumerate() {
+            let k = self.base + 3 * i;
+            let (inertia, viscous, torque) = match &body.kind {
+                ElementKind::Load(l) => (l.inertia, l.viscous, l.torque),
+                ElementKind::Inertia(s) => (s.inertia, s.damping, 0.0),
+                ElementKind::Motor(_) => continue,
+            };
+            let on = self.torque_on_row(End::Element(i), &rows, nz);
+            a[(k, k + 1)] = 1.0;
+            for (col, v) in on.iter().enumerate() {
+                a[(k + 1, col)] = v / inertia;
+            }
+            a[(k + 1, k + 1)] -= viscous / inertia;
+            let nominal = self.ratio[i] * rot.reference_speed();
+            a[(k + 1, last)] -= (torque + viscous * nominal) / inertia;
+        }
+    }
+
+    /// `max_b 2 Σ_s k_s / J_b` over the bodies the shafts join (Gershgorin on `J⁻¹K` of the
+    /// shafts), square-rooted; `train_inertia(b)` the inertia of carried body b.
+    pub(super) fn shaft_frequency_bound(&self, train_inertia: &dyn Fn(usize) -> f64) -> f64 {
+        let inertia = |end: End| match end {
+            End::Train(b) => train_inertia(b),
+            End::Element(i) => match &self.elements.bodies[i].kind {
+                ElementKind::Motor(s) => s.inertia,
+                ElementKind::Load(s) => s.inertia,
+                ElementKind::Inertia(s) => s.inertia,
+            },
+        };
+        let mut ends: Vec<End> = self.ends.iter().flatten().copied().collect();
+        ends.dedup();
+        ends.iter()
+            .map(|&end| {
+                let k: f64 = (self.elements.shafts.iter().zip(&self.ends))
+                    .filter(|(_, e)| e.contains(&end))
+                    .map(|(s, _)| s.spec.stiffness)
+                    .sum();
+                2.0 * k / inertia(end)
+            })
+            .fold(0.0, f64::max)
+            .sqrt()
+    }
+}

@@ -23,6 +23,7 @@
 //! like the contact changes; the force is the nominal form's `mesh_force_at` with this phase.
 
 mod attached;
+mod lti;
 
 use std::f64::consts::TAU;
 
