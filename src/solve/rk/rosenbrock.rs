@@ -151,14 +151,14 @@ impl LinearlyImplicit {
         if !sys.jacobian(t, y, &mut self.jac) {
             // Forward differences by columns (`rodas.f`): δ_j = √(ε max(1e-5, |y_j|)).
             self.y_probe.copy_from_slice(y);
-            for j in 0..n {
-                let delta = (f64::EPSILON * y[j].abs().max(1e-5)).sqrt();
-                self.y_probe[j] = y[j] + delta;
+            for (j, &yj) in y.iter().enumerate() {
+                let delta = (f64::EPSILON * yj.abs().max(1e-5)).sqrt();
+                self.y_probe[j] = yj + delta;
                 sys.rhs(t, &self.y_probe, &mut self.probe);
                 stats.rhs_evals += 1;
-                self.y_probe[j] = y[j];
-                for i in 0..n {
-                    self.jac[i * n + j] = (self.probe[i] - f0[i]) / delta;
+                self.y_probe[j] = yj;
+                for (i, (&p, &f)) in self.probe.iter().zip(f0).enumerate() {
+                    self.jac[i * n + j] = (p - f) / delta;
                 }
             }
         }
@@ -166,8 +166,8 @@ impl LinearlyImplicit {
         if delta > 0.0 && t + delta > t {
             sys.rhs(t + delta, y, &mut self.probe);
             stats.rhs_evals += 1;
-            for i in 0..n {
-                self.f_t[i] = (self.probe[i] - f0[i]) / delta;
+            for ((ft, &p), &f) in self.f_t.iter_mut().zip(&self.probe).zip(f0) {
+                *ft = (p - f) / delta;
             }
         } else {
             self.f_t.fill(0.0);

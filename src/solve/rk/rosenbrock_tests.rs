@@ -10,6 +10,8 @@ use crate::solve::HybridSystem;
 
 const S: usize = STAGES;
 
+// Index notation as in HW II (matrices of coefficients).
+#[allow(clippy::needless_range_loop)]
 /// `(α, Γ)` of the standard form (HW II (7.4)) from the transformed coefficients:
 /// `Γ⁻¹ = I/γ − C`, `α = A Γ`, weights `b = m Γ`.
 fn standard_form() -> ([[f64; S]; S], [[f64; S]; S]) {
@@ -20,15 +22,15 @@ fn standard_form() -> ([[f64; S]; S], [[f64; S]; S]) {
             gamma_inv[i][j] = -c;
         }
     }
-    // Invert the lower triangular Γ⁻¹ column by column.
+    // Invert the lower triangular Γ⁻¹ by forward substitution, column by column.
     let mut gamma = [[0.0; S]; S];
     for col in 0..S {
-        for i in col..S {
+        for (i, g_row) in gamma_inv.iter().enumerate().skip(col) {
             let mut rhs = if i == col { 1.0 } else { 0.0 };
             for k in col..i {
-                rhs -= gamma_inv[i][k] * gamma[k][col];
+                rhs -= g_row[k] * gamma[k][col];
             }
-            gamma[i][col] = rhs / gamma_inv[i][i];
+            gamma[i][col] = rhs / g_row[i];
         }
     }
     let mut alpha = [[0.0; S]; S];
