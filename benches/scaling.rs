@@ -1,7 +1,7 @@
 //! Scaling benchmark of issue 20 (acceptance 1): µs per mesh period against DOF for the
 //! benchmark chains (`TrainScene::chain`, `src/scene/train/chain.rs`) of 1, 2, 4, 8, 16, 32
 //! and 64 meshes, rigid and compliant bearings, with and without contact loss, for the exact
-//! propagator, DP5 and DOP853 (rtol 1e-9, atol 1e-15), all in one run.
+//! propagator, DP5, DOP853 and the stiff RODAS4 (rtol 1e-9, atol 1e-15), all in one run.
 //!
 //! `cargo bench --bench scaling` (full: 200 mesh periods per run, one warm-up run, median of
 //! 3 alternated rounds) or `SCALING_QUICK=1 cargo bench --bench scaling` (20 periods, one
@@ -10,8 +10,9 @@
 //! operators), then times the periods, advanced one mesh period at a time: the numbers are
 //! steady-state costs per period. A method is skipped at a size where one run
 //! is estimated to take more than 20 s (from the second period of a probe run, or without a
-//! probe when its cost per period at the previous size, grown as DOF³ for exact and DOF² for
-//! RK, exceeds 100 s); the line says "skipped (est. X s)".
+//! probe when its cost per period at the previous size, grown as DOF³ for exact and RODAS4
+//! (an LU per step) and DOF² for the explicit pairs, exceeds 100 s); the line says
+//! "skipped (est. X s)".
 //! Timings are comparable only within one run (the machine is shared).
 
 use std::time::Instant;
@@ -27,6 +28,7 @@ enum Method {
     Exact,
     Dp5,
     Dop853,
+    Rodas4,
 }
 
 impl Method {
@@ -35,6 +37,7 @@ impl Method {
             Method::Exact => "exact",
             Method::Dp5 => "dp5",
             Method::Dop853 => "dop853",
+            Method::Rodas4 => "rodas4",
         }
     }
 }
@@ -42,7 +45,7 @@ impl Method {
 fn configure(mut s: TrainScene, method: Method) -> TrainScene {
     match method {
         Method::Exact => s.solver.method = MethodChoice::Exact,
-        Method::Dp5 | Method::Dop853 => {
+        Method::Dp5 | Method::Dop853 | Method::Rodas4 => {
             s.solver.method = MethodChoice::Rk;
             s.solver.rk_method = method.name().parse().unwrap();
         }
@@ -106,21 +109,21 @@ fn main() {
         .unwrap_or(64);
     let (periods, rounds) = if quick { (20, 1) } else { (200, 3) };
     let warm = periods / 10;
-    let methods = [Method::Exact, Method::Dp5, Method::Dop853];
+    let methods = [Method::Exact, Method::Dp5, Method::Dop853, Method::Rodas4];
     println!(
         "geardyn scaling benchmark: benchmark chains at 2000 Hz, {periods} timed mesh periods \
          per run after {warm} untimed, rtol 1e-9, median of {rounds} alternated round(s) after a \
          warm-up; µs per mesh period"
     );
     println!(
-        "{:<13} {:<12} {:>6} {:>4}  {:>14} {:>14} {:>14}   events/period",
-        "bearings", "contact", "meshes", "DOF", "exact", "dp5", "dop853"
+        "{:<13} {:<12} {:>6} {:>4}  {:>14} {:>14} {:>14} {:>14}   events/period",
+        "bearings", "contact", "meshes", "DOF", "exact", "dp5", "dop853", "rodas4"
     );
     let mut exact_linear: Vec<(ChainBearings, f64, f64)> = Vec::new();
     for bearings in [ChainBearings::Rigid, ChainBearings::Compliant] {
         for contact in [ChainContact::Linear, ChainContact::ContactLoss] {
             // Cost per period at the previous size, per method (for the skip estimate).
-            let mut previous: [Option<(f64, f64)>; 3] = [None; 3];
+            let mut previous: [Option<(f64, f64)>; 4] = [None; 4];
             for meshes in [1, 2, 4, 8, 16, 32, 64] {
                 if meshes > max_meshes {
                     continue;
@@ -131,13 +134,16 @@ fn main() {
                 let mut cells: Vec<String> = Vec::new();
                 let mut events = String::new();
                 let mut samples: Vec<Vec<f64>> = vec![Vec::new(); methods.len()];
-                let mut active = [true; 3];
+                let mut active = [true; 4];
                 for (i, &method) in methods.iter().enumerate() {
                     let scene = configure(base.clone(), method);
                     // Skip estimate from the previous size, grown as DOF³ (exact) or DOF²
                     // (RK); only a clear excess skips without a probe.
                     if let Some((cost, prev_dof)) = previous[i] {
-                        let power = if method == Method::Exact { 3 } else { 2 };
+                        let power = match method {
+                            Method::Exact | Method::Rodas4 => 3,
+                            Method::Dp5 | Method::Dop853 => 2,
+                        };
                         let est = cost * (dof / prev_dof).powi(power) * periods as f64;
                         if est > 5.0 * MAX_RUN_SECONDS {
                             cells.push(format!("skipped (est. {est:.0} s)"));
@@ -204,7 +210,7 @@ fn main() {
                     }
                 }
                 println!(
-                    "{:<13} {:<12} {:>6} {:>4}  {:>14} {:>14} {:>14}   {}",
+                    "{:<13} {:<12} {:>6} {:>4}  {:>14} {:>14} {:>14} {:>14}   {}",
                     format!("{bearings:?}").to_lowercase(),
                     match contact {
                         ChainContact::Linear => "linear",
@@ -215,6 +221,7 @@ fn main() {
                     cells[0],
                     cells[1],
                     cells[2],
+                    cells[3],
                     events
                 );
             }

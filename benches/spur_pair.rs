@@ -99,6 +99,7 @@ impl Prop {
             Prop::Exact => "exact",
             Prop::Rk(Method::Dp5) => "dp5 1e-9",
             Prop::Rk(Method::Dop853) => "dop853 1e-9",
+            Prop::Rk(Method::Rodas4) => "rodas4 1e-9",
         }
     }
 }

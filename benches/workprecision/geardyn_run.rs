@@ -25,6 +25,7 @@ impl Propagator {
             Propagator::Exact => "geardyn exact",
             Propagator::Rk(Method::Dp5) => "geardyn DP5",
             Propagator::Rk(Method::Dop853) => "geardyn DOP853",
+            Propagator::Rk(Method::Rodas4) => "geardyn RODAS4",
         }
     }
 }

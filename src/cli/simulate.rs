@@ -30,7 +30,7 @@ pub struct SimulateArgs {
     /// Propagator: auto | rk | exact.
     #[arg(long)]
     method: Option<String>,
-    /// RK pair: dp5 | dop853.
+    /// RK method: dp5 | dop853 | rodas4 (the stiff, L-stable Rosenbrock method).
     #[arg(long)]
     rk_method: Option<String>,
     /// Relative tolerance of the RK path.

@@ -32,6 +32,8 @@
 //! its end (the run is then over anyway).
 
 mod balanced;
+#[cfg(test)]
+mod budget_tests;
 mod composite;
 mod crossing;
 mod enclosure;
@@ -344,15 +346,61 @@ const MAX_STALLED_STOPS: u64 = 1024;
 /// [`crate::model::MAX_MESH_PERIODS_PER_ADVANCE`]) stay well within it.
 pub const MAX_GUARD_SAMPLES_PER_ADVANCE: f64 = 16_777_216.0;
 
-/// The work one [`ExactPropagator::advance_to`] may do, in units of `n_z³` per segment
-/// (2^30; `n_z` = [`PiecewiseLti::lti_dim`]): a segment's cost grows with the cube of the
-/// lifted dimension (a transition `e^{Aτ}` for a new duration, the mat-vecs and guard rows of
-/// its search), so the bound allows 8.6e6 segments of the single pair (`n_z = 5`, about
-/// 2.4e6 mesh periods; the driver's limit of 2^20 periods per advance comes first) and 1.6e5
-/// of the `idler_gearset` drivetrain (`n_z = 19`, a few seconds of work; 2^20 of its mesh
-/// periods would take minutes). Beyond it the advance stops with
-/// [`SolveError::TooManySteps`] at the last segment end (issue 17: no step may grind).
+/// The work one [`ExactPropagator::advance_to`] may do beyond the model's own stops, in units
+/// of `n_z³` per segment (2^30; `n_z` = [`PiecewiseLti::lti_dim`]): a segment's cost grows
+/// with the cube of the lifted dimension (a transition `e^{Aτ}` for a new duration, the
+/// mat-vecs and guard rows of its search), so the bound allows 8.6e6 segments of the single
+/// pair (`n_z = 5`) and 1.6e5 of the `idler_gearset` drivetrain (`n_z = 19`). Every stop the
+/// advance lands on adds [`SEGMENTS_PER_STOP`] to it ([`WorkBudget`]). Beyond it the advance
+/// stops with [`SolveError::TooManySteps`] at the last segment end (issue 17: no step may
+/// grind).
 pub const MAX_WORK_PER_ADVANCE: f64 = 1_073_741_824.0;
+
+/// Segments each stop landed on adds to the budget of one advance: the stop's own segment
+/// and up to 15 state events within the piece it ends. The stops are the model's known
+/// switches of the interval asked for (stiffness pieces: two per mesh and mesh period), whose
+/// number per advance the driver already bounds ([`crate::model::PhaseClock::check_advance`]),
+/// so they are legitimate work however large the train: the 64-mesh compliant chain
+/// (`n_z = 390`, 128 stops per mesh period) would otherwise be refused after 17 segments.
+/// What the budget stops is a runaway of events (contact chatter) that time no longer
+/// pays for.
+pub const SEGMENTS_PER_STOP: u64 = 16;
+
+/// The segment budget of one advance: a base for the events between stops (`MAX_WORK /
+/// n_z³`), plus [`SEGMENTS_PER_STOP`] per stop landed on.
+#[derive(Debug, Clone, Copy)]
+struct WorkBudget {
+    base: u64,
+    segments: u64,
+    stops: u64,
+}
+
+impl WorkBudget {
+    fn new(nz: usize) -> Self {
+        WorkBudget {
+            base: (MAX_WORK_PER_ADVANCE / (nz as f64).powi(3)) as u64,
+            segments: 0,
+            stops: 0,
+        }
+    }
+
+    fn limit(&self) -> u64 {
+        self.base
+            .saturating_add(self.stops.saturating_mul(SEGMENTS_PER_STOP))
+    }
+
+    /// Counts one segment starting at `t`; the error once the budget is exceeded.
+    fn charge(&mut self, t: f64) -> Result<(), SolveError> {
+        self.segments += 1;
+        if self.segments > self.limit() {
+            return Err(SolveError::TooManySteps {
+                t,
+                max_steps: self.limit(),
+            });
+        }
+        Ok(())
+    }
+}
 
 impl ExactPropagator {
     pub fn new<S: PiecewiseLti>(sys: &S) -> Self {
@@ -475,8 +523,7 @@ impl ExactPropagator {
             self.column.resize(nz, 0.0);
         }
         let mut samples_left = MAX_GUARD_SAMPLES_PER_ADVANCE;
-        let max_segments = (MAX_WORK_PER_ADVANCE / (nz as f64).powi(3)) as u64;
-        let mut segments = 0u64;
+        let mut budget = WorkBudget::new(nz);
         let mut stalled_stops = 0u64;
         while self.t < t_end {
             if self.composites
@@ -485,7 +532,7 @@ impl ExactPropagator {
                 && sys.stops_independent_of_state()
                 && sys.forcing_carries_over()
             {
-                let walked = self.advance_sequence(sys, t_end, &mut segments, max_segments)?;
+                let walked = self.advance_sequence(sys, t_end, &mut budget)?;
                 if walked {
                     continue;
                 }
@@ -508,13 +555,7 @@ impl ExactPropagator {
                 return Err(SolveError::StepSizeTooSmall { t: self.t, h: tau });
             }
             stalled_stops = 0;
-            segments += 1;
-            if segments > max_segments {
-                return Err(SolveError::TooManySteps {
-                    t: self.t,
-                    max_steps: max_segments,
-                });
-            }
+            budget.charge(self.t)?;
             let carries = self.sensitivity.is_none() && sys.forcing_carries_over();
             match self
                 .carried
@@ -656,6 +697,7 @@ impl ExactPropagator {
             if target == stop {
                 sys.on_stop(self.t, &mut self.y);
                 self.stats.stops += 1;
+                budget.stops += 1;
             }
         }
         Ok(())
@@ -673,8 +715,7 @@ impl ExactPropagator {
         &mut self,
         sys: &mut S,
         t_end: f64,
-        segments: &mut u64,
-        max_segments: u64,
+        budget: &mut WorkBudget,
     ) -> Result<bool, SolveError> {
         let n = sys.dim();
         let start = self.t;
@@ -710,12 +751,8 @@ impl ExactPropagator {
                 // Back at the first mode after a stop: a new sequence starts here.
                 break;
             }
-            *segments += 1;
-            if *segments > max_segments {
-                failure = Some(SolveError::TooManySteps {
-                    t,
-                    max_steps: max_segments,
-                });
+            if let Err(e) = budget.charge(t) {
+                failure = Some(e);
                 break;
             }
             self.stats.steps += 1;
@@ -728,6 +765,7 @@ impl ExactPropagator {
             if target == stop {
                 sys.on_stop(t, &mut self.y);
                 self.stats.stops += 1;
+                budget.stops += 1;
             }
         }
         let walked = !steps.is_empty();

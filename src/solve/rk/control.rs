@@ -44,6 +44,15 @@ impl Controller {
                 fac_min: 0.333,
                 fac_max: 6.0,
             },
+            // rodas.f defaults: the error of the 3rd-order embedded solution behaves like h^4;
+            // 0.2 ≤ h_new/h ≤ 6.
+            Method::Rodas4 => Controller {
+                expo: 0.25,
+                beta: 0.0,
+                safe: 0.9,
+                fac_min: 0.2,
+                fac_max: 6.0,
+            },
         }
     }
 }
@@ -110,6 +119,12 @@ pub(crate) fn error_norm(
             }
             h.abs() * e5sq * (1.0 / (n as f64 * deno)).sqrt()
         }
+        Method::Rodas4 => {
+            // Stage u_6 (row 6) is y1 minus the embedded solution (HW II §IV.7, `rodas.f`).
+            let u6 = &k[6 * n..7 * n];
+            let sum: f64 = (0..n).map(|m| (u6[m] / scale(m)).powi(2)).sum();
+            (sum / n as f64).sqrt()
+        }
     }
 }
 
@@ -118,5 +133,6 @@ pub(crate) fn hinit_order(method: Method) -> i32 {
     match method {
         Method::Dp5 => 5,
         Method::Dop853 => 8,
+        Method::Rodas4 => 4,
     }
 }

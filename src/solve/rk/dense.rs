@@ -1,12 +1,16 @@
 //! Continuous extensions (dense output) of the last accepted step.
 //!
-//! Both methods use Hairer's Hermite-like representation (HNW I §II.6, `dopri5.f`/`dop853.f`):
+//! RODAS4's is `y0 + θ r1 + θ(1−θ)(r2 + θ r3)` with `r1 = y1 − y0` and `r2, r3` stage
+//! combinations (HW II §IV.7, `rodas.f` `CONTRO`), 3rd order.
+//!
+//! The explicit methods use Hairer's Hermite-like representation (HNW I §II.6, `dopri5.f`/`dop853.f`):
 //! `u(θ) = r0 + θ(r1 + (1-θ)(r2 + θ(r3 + (1-θ) P(θ))))` with `r0 = y0`, `r1 = y1 - y0`,
 //! `r2 = h f0 - r1`, `r3 = r1 - h f1 - r2`, so `u` matches `y` and `f` at both ends whatever
 //! `P` is; `P` carries the higher-order correction. Storing the rows once per step makes every
 //! evaluation a short Horner scheme (no right-hand-side calls), which is what event location on
 //! the interpolant needs.
 
+use super::rosenbrock;
 use super::tableau::{DOP853_D, DOP853_D_STAGES, DP5_D};
 use super::Method;
 
@@ -15,17 +19,21 @@ pub(crate) fn rows(method: Method) -> usize {
     match method {
         Method::Dp5 => 5,
         Method::Dop853 => 8,
+        Method::Rodas4 => 4,
     }
 }
 
 /// Fills `r` (`rows(method) * n` values, row-major) from the step `y0 → y1` of size `h` with
 /// stages `k` (`total * n`, row-major; the FSAL stage `f(t0 + h, y1)` and, for DOP853, the three
 /// dense-output stages must already be there).
+///
+/// For RODAS4, `k` holds `f(t0, y0)` and the stages `u_1 … u_6` (rows 1–6).
 pub(crate) fn build(method: Method, h: f64, y0: &[f64], y1: &[f64], k: &[f64], r: &mut [f64]) {
     let n = y0.len();
     let fsal = match method {
         Method::Dp5 => 6,
         Method::Dop853 => 12,
+        Method::Rodas4 => return build_rosenbrock(y0, y1, k, r),
     };
     let (r0, rest) = r.split_at_mut(n);
     let (r1, rest) = rest.split_at_mut(n);
@@ -64,6 +72,28 @@ pub(crate) fn build(method: Method, h: f64, y0: &[f64], y1: &[f64], k: &[f64], r
                 }
             }
         }
+        // Built by `build_rosenbrock` above.
+        Method::Rodas4 => {}
+    }
+}
+
+fn build_rosenbrock(y0: &[f64], y1: &[f64], k: &[f64], r: &mut [f64]) {
+    let n = y0.len();
+    let (r0, rest) = r.split_at_mut(n);
+    let (r1, rest) = rest.split_at_mut(n);
+    r0.copy_from_slice(y0);
+    for m in 0..n {
+        r1[m] = y1[m] - y0[m];
+    }
+    for (row, d) in rosenbrock::DENSE.iter().enumerate() {
+        let rr = &mut rest[row * n..(row + 1) * n];
+        for (m, rm) in rr.iter_mut().enumerate() {
+            *rm = d
+                .iter()
+                .enumerate()
+                .map(|(j, dj)| dj * k[(j + 1) * n + m])
+                .sum();
+        }
     }
 }
 
@@ -86,6 +116,11 @@ pub(crate) fn eval(method: Method, theta: f64, r: &[f64], out: &mut [f64]) {
                 *o = r[m] + s * (r[n + m] + s1 * (r[2 * n + m] + s * (r[3 * n + m] + s1 * conpar)));
             }
         }
+        Method::Rodas4 => {
+            for (m, o) in out.iter_mut().enumerate() {
+                *o = r[m] + s * (r[n + m] + s1 * (r[2 * n + m] + s * r[3 * n + m]));
+            }
+        }
     }
 }
 
@@ -104,6 +139,7 @@ fn basis(method: Method) -> &'static [(i32, i32)] {
             (3, 3),
             (4, 3),
         ],
+        Method::Rodas4 => &[(0, 0), (1, 0), (1, 1), (2, 1)],
     }
 }
 

@@ -1,8 +1,10 @@
-//! Explicit Runge–Kutta methods with dense output, PI step control, stops and event location.
+//! Runge–Kutta methods with dense output, PI step control, stops and event location.
 //!
 //! Methods: Dormand–Prince 5(4) (Dormand & Prince 1980, J. Comput. Appl. Math. 6:19–26) and
 //! DOP853 (Hairer, Nørsett & Wanner, *Solving ODEs I*, 2nd ed. 1993, §II.10), both with
-//! Hairer's continuous extensions (§II.6) and step-size control (§II.4).
+//! Hairer's continuous extensions (§II.6) and step-size control (§II.4); and the linearly
+//! implicit, L-stable RODAS4 (Hairer & Wanner, *Solving ODEs II*, §IV.7, [`rosenbrock`]) for
+//! stiff scenes, driven by the same step loop (stops, events on its dense output, grazing).
 //!
 //! [`RkStepper`] is stateful so that a co-simulation master calling [`RkStepper::advance_to`]
 //! once per communication step keeps the step-size proposal, the PI-controller memory and the
@@ -16,6 +18,9 @@ mod control;
 mod dense;
 mod event;
 mod graze;
+mod rosenbrock;
+#[cfg(test)]
+mod rosenbrock_tests;
 mod tableau;
 #[cfg(test)]
 mod tableau_tests;
@@ -25,6 +30,7 @@ use std::str::FromStr;
 
 use super::{HybridSystem, SolveError, SolverStats};
 use control::Controller;
+use rosenbrock::LinearlyImplicit;
 use tableau::Tableau;
 
 /// The Runge–Kutta pair.
@@ -35,34 +41,48 @@ pub enum Method {
     /// Hairer's DOP853 8(5,3): 12 evaluations per accepted step, 7th-order dense output at 3
     /// more evaluations (computed only when events or dense output need it).
     Dop853,
+    /// RODAS4 4(3), L-stable and stiffly accurate Rosenbrock method: one LU of
+    /// `I/(hγ) − J` and 6 evaluations per step, free 3rd-order dense output. For stiff scenes
+    /// (a step size limited by stability, not accuracy, for the explicit pairs).
+    Rodas4,
 }
 
 impl Method {
     /// Every method, in the order of their names in error messages.
-    pub const ALL: [Method; 2] = [Method::Dp5, Method::Dop853];
+    pub const ALL: [Method; 3] = [Method::Dp5, Method::Dop853, Method::Rodas4];
+    /// The explicit pairs (those with a Butcher tableau).
+    pub const EXPLICIT: [Method; 2] = [Method::Dp5, Method::Dop853];
 
     /// Canonical name (what [`FromStr`] accepts and [`fmt::Display`] prints).
     pub fn name(self) -> &'static str {
         match self {
             Method::Dp5 => "dp5",
             Method::Dop853 => "dop853",
+            Method::Rodas4 => "rodas4",
         }
     }
 
     /// Order of the propagated solution.
     pub fn order(self) -> u32 {
-        self.tableau().order
+        self.tableau().map_or(4, |t| t.order)
     }
 
     /// Order of the dense output.
     pub fn dense_order(self) -> u32 {
-        self.tableau().dense_order
+        self.tableau().map_or(3, |t| t.dense_order)
     }
 
-    fn tableau(self) -> &'static Tableau {
+    /// Whether the method is linearly implicit (needs `∂f/∂y`: the system's, or differences).
+    pub fn is_implicit(self) -> bool {
+        self.tableau().is_none()
+    }
+
+    /// The Butcher tableau of an explicit pair; `None` for the Rosenbrock method.
+    fn tableau(self) -> Option<&'static Tableau> {
         match self {
-            Method::Dp5 => &tableau::DP5,
-            Method::Dop853 => &tableau::DOP853,
+            Method::Dp5 => Some(&tableau::DP5),
+            Method::Dop853 => Some(&tableau::DOP853),
+            Method::Rodas4 => None,
         }
     }
 }
@@ -79,7 +99,9 @@ impl FromStr for Method {
         Method::ALL
             .into_iter()
             .find(|m| m.name().eq_ignore_ascii_case(s.trim()))
-            .ok_or_else(|| format!("unknown integration method \"{s}\" (expected dp5 or dop853)"))
+            .ok_or_else(|| {
+                format!("unknown integration method \"{s}\" (expected dp5, dop853 or rodas4)")
+            })
     }
 }
 
@@ -169,21 +191,24 @@ const MAX_NONFINITE_TRIALS: u32 = 30;
 /// A step ending within this factor of a stop is stretched onto it.
 const STRETCH: f64 = 1.01;
 
-/// Stateful explicit Runge–Kutta integrator for a [`HybridSystem`].
+/// Stateful Runge–Kutta (explicit or Rosenbrock) integrator for a [`HybridSystem`].
 ///
 /// All buffers are allocated in [`RkStepper::new`]; the step loop does not allocate (guard
 /// buffers grow only when a mode reports more guards than ever before).
 #[derive(Debug, Clone)]
 pub struct RkStepper {
     opts: RkOptions,
-    tab: &'static Tableau,
+    /// The explicit pair's tableau; `None` for the Rosenbrock method, which has `implicit`.
+    tab: Option<&'static Tableau>,
+    implicit: Option<Box<LinearlyImplicit>>,
     ctl: ControllerState,
     n: usize,
     t: f64,
     y: Vec<f64>,
     y1: Vec<f64>,
     ytmp: Vec<f64>,
-    /// Stages, `tab.total × n`, row-major; row 0 is `f(t, y)` when `fsal_valid`.
+    /// Stages, `tab.total × n`, row-major; row 0 is `f(t, y)` when `fsal_valid`. For the
+    /// Rosenbrock method row 0 is `f(t, y)` and rows 1–6 the stages `u_1 … u_6`.
     k: Vec<f64>,
     fsal_valid: bool,
     dense: DenseState,
@@ -229,6 +254,7 @@ impl RkStepper {
     pub fn new(opts: RkOptions, dim: usize) -> Result<Self, String> {
         opts.validate()?;
         let tab = opts.method.tableau();
+        let rows = tab.map_or(1 + rosenbrock::STAGES, |t| t.total);
         let ctl = ControllerState {
             c: Controller::of(opts.method),
             h: opts.h_init,
@@ -238,13 +264,17 @@ impl RkStepper {
         };
         Ok(RkStepper {
             tab,
+            implicit: opts
+                .method
+                .is_implicit()
+                .then(|| Box::new(LinearlyImplicit::new(dim))),
             ctl,
             n: dim,
             t: 0.0,
             y: vec![0.0; dim],
             y1: vec![0.0; dim],
             ytmp: vec![0.0; dim],
-            k: vec![0.0; tab.total * dim],
+            k: vec![0.0; rows * dim],
             fsal_valid: false,
             dense: DenseState {
                 r: vec![0.0; dense::rows(opts.method) * dim],
@@ -406,6 +436,9 @@ impl RkStepper {
                 if k0.iter().any(|v| !v.is_finite()) {
                     return Err(SolveError::NonFinite { t: self.t });
                 }
+                if let Some(implicit) = &mut self.implicit {
+                    implicit.linearise(sys, self.t, &self.y, k0, t_lim - self.t, &mut self.stats);
+                }
                 self.fsal_valid = true;
             }
             let n_guards = sys.guard_count();
@@ -452,7 +485,10 @@ impl RkStepper {
                 (h, t_new) = (rem, t_lim);
             }
 
-            self.trial_step(sys, h, t_new);
+            if !self.trial_step(sys, h, t_new) {
+                // `I/(hγ) − J` singular: treated like a non-finite trial (shrink and retry).
+                self.y1.fill(f64::NAN);
+            }
             let y1_finite = self.y1.iter().all(|v| v.is_finite());
             let err = if y1_finite {
                 control::error_norm(
@@ -505,25 +541,35 @@ impl RkStepper {
                     continue;
                 }
             }
-            // Commit the step: the FSAL stage becomes stage 0 of the next step.
+            // Commit the step: the FSAL stage becomes stage 0 of the next step (the Rosenbrock
+            // method evaluates `f` and `J` afresh at the new start).
             std::mem::swap(&mut self.y, &mut self.y1);
             self.t = t_new;
-            let fsal = self.tab.fsal();
-            self.k.copy_within(fsal * self.n..(fsal + 1) * self.n, 0);
+            match self.tab {
+                Some(tab) => {
+                    let fsal = tab.fsal();
+                    self.k.copy_within(fsal * self.n..(fsal + 1) * self.n, 0);
+                }
+                None => self.fsal_valid = false,
+            }
             if t_new == stop {
                 self.land_on_stop(sys)?;
             }
         }
     }
 
-    /// Stages 1..stages, `y1`, and for DP5 the FSAL stage its error estimate needs.
-    fn trial_step<S: HybridSystem>(&mut self, sys: &S, h: f64, t_new: f64) {
+    /// Stages 1..stages, `y1`, and for DP5 the FSAL stage its error estimate needs. `false`
+    /// when the Rosenbrock matrix could not be factored.
+    fn trial_step<S: HybridSystem>(&mut self, sys: &S, h: f64, t_new: f64) -> bool {
+        let Some(tab) = self.tab else {
+            return self.rosenbrock_step(sys, h, t_new);
+        };
         let n = self.n;
-        for i in 1..self.tab.stages {
-            self.stage(sys, i, h, t_new);
+        for i in 1..tab.stages {
+            self.stage(sys, tab, i, h, t_new);
         }
         self.y1.copy_from_slice(&self.y);
-        for (j, &bj) in self.tab.b.iter().enumerate() {
+        for (j, &bj) in tab.b.iter().enumerate() {
             if bj != 0.0 {
                 let hb = h * bj;
                 for (y1m, &kjm) in self.y1.iter_mut().zip(&self.k[j * n..(j + 1) * n]) {
@@ -532,17 +578,73 @@ impl RkStepper {
             }
         }
         if self.opts.method == Method::Dp5 {
-            self.eval_fsal(sys, t_new);
+            self.eval_fsal(sys, tab, t_new);
         }
+        true
+    }
+
+    /// One RODAS4 step ([`rosenbrock`]): stages `u_1 … u_6` into rows 1–6 of `k`, `y1`. The
+    /// stage times never pass `t_new` (`c_i ≤ 1`).
+    fn rosenbrock_step<S: HybridSystem>(&mut self, sys: &S, h: f64, t_new: f64) -> bool {
+        let n = self.n;
+        let Some(implicit) = self.implicit.as_mut() else {
+            return false;
+        };
+        if !implicit.factor(h) {
+            return false;
+        }
+        let (k0, stages) = self.k.split_at_mut(n);
+        for i in 0..rosenbrock::STAGES {
+            let (done, rest) = stages.split_at_mut(i * n);
+            let u = &mut rest[..n];
+            if i == 0 {
+                u.copy_from_slice(k0);
+            } else {
+                self.ytmp.copy_from_slice(&self.y);
+                for (j, &a) in rosenbrock::A[i].iter().enumerate() {
+                    for (ym, &ujm) in self.ytmp.iter_mut().zip(&done[j * n..(j + 1) * n]) {
+                        *ym += a * ujm;
+                    }
+                }
+                let c = rosenbrock::C[i];
+                let ts = if c == 1.0 {
+                    t_new
+                } else {
+                    (self.t + c * h).min(t_new)
+                };
+                sys.rhs(ts, &self.ytmp, u);
+                self.stats.rhs_evals += 1;
+                for (j, &cij) in rosenbrock::CIJ[i].iter().enumerate() {
+                    let w = cij / h;
+                    for (um, &ujm) in u.iter_mut().zip(&done[j * n..(j + 1) * n]) {
+                        *um += w * ujm;
+                    }
+                }
+            }
+            let hd = h * rosenbrock::D[i];
+            if hd != 0.0 {
+                for (um, &ft) in u.iter_mut().zip(implicit.f_t()) {
+                    *um += hd * ft;
+                }
+            }
+            implicit.solve(u);
+        }
+        self.y1.copy_from_slice(&self.y);
+        for (j, &mj) in rosenbrock::M.iter().enumerate() {
+            for (y1m, &ujm) in self.y1.iter_mut().zip(&stages[j * n..(j + 1) * n]) {
+                *y1m += mj * ujm;
+            }
+        }
+        true
     }
 
     /// `k_i = f(t + c_i h, y + h Σ a_ij k_j)`, with stage times never beyond `t_new` (the
     /// c = 1 stages are evaluated at `t_new` itself, which is the stop when landing).
-    fn stage<S: HybridSystem>(&mut self, sys: &S, i: usize, h: f64, t_new: f64) {
+    fn stage<S: HybridSystem>(&mut self, sys: &S, tab: &Tableau, i: usize, h: f64, t_new: f64) {
         let n = self.n;
         self.ytmp.copy_from_slice(&self.y);
         let (done, rest) = self.k.split_at_mut(i * n);
-        for (j, &aij) in self.tab.a[i].iter().enumerate() {
+        for (j, &aij) in tab.a[i].iter().enumerate() {
             if aij != 0.0 {
                 let ha = h * aij;
                 for (ym, &kjm) in self.ytmp.iter_mut().zip(&done[j * n..(j + 1) * n]) {
@@ -550,7 +652,7 @@ impl RkStepper {
                 }
             }
         }
-        let c = self.tab.c[i];
+        let c = tab.c[i];
         let ts = if c == 1.0 {
             t_new
         } else {
@@ -560,9 +662,9 @@ impl RkStepper {
         self.stats.rhs_evals += 1;
     }
 
-    fn eval_fsal<S: HybridSystem>(&mut self, sys: &S, t_new: f64) {
+    fn eval_fsal<S: HybridSystem>(&mut self, sys: &S, tab: &Tableau, t_new: f64) {
         let n = self.n;
-        let fsal = self.tab.fsal();
+        let fsal = tab.fsal();
         sys.rhs(t_new, &self.y1, &mut self.k[fsal * n..(fsal + 1) * n]);
         self.stats.rhs_evals += 1;
     }
@@ -584,16 +686,18 @@ impl RkStepper {
         (h, h_prop, t_new): (f64, f64, f64),
         err: f64,
     ) -> Result<(), SolveError> {
-        if self.opts.method == Method::Dop853 {
-            // DOP853's error estimate does not need f(t + h, y1); it is paid for only here.
-            self.eval_fsal(sys, t_new);
-        }
-        let fsal = self.tab.fsal();
-        if self.k[fsal * self.n..(fsal + 1) * self.n]
-            .iter()
-            .any(|v| !v.is_finite())
-        {
-            return Err(SolveError::NonFinite { t: t_new });
+        if let Some(tab) = self.tab {
+            if self.opts.method == Method::Dop853 {
+                // DOP853's error estimate does not need f(t + h, y1); it is paid for only here.
+                self.eval_fsal(sys, tab, t_new);
+            }
+            let fsal = tab.fsal();
+            if self.k[fsal * self.n..(fsal + 1) * self.n]
+                .iter()
+                .any(|v| !v.is_finite())
+            {
+                return Err(SolveError::NonFinite { t: t_new });
+            }
         }
         self.stats.steps += 1;
         let c = &self.ctl.c;
@@ -622,9 +726,9 @@ impl RkStepper {
     }
 
     fn build_dense<S: HybridSystem>(&mut self, sys: &S, t0: f64, h: f64, t_new: f64) {
-        if self.opts.method == Method::Dop853 {
-            for i in self.tab.stages + 1..self.tab.total {
-                self.stage(sys, i, h, t_new);
+        if let (Method::Dop853, Some(tab)) = (self.opts.method, self.tab) {
+            for i in tab.stages + 1..tab.total {
+                self.stage(sys, tab, i, h, t_new);
             }
         }
         dense::build(
