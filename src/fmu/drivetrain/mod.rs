@@ -92,6 +92,13 @@ impl Kernel for Drivetrain {
                 scene.name, b.name
             ));
         }
+        if let Some(p) = scene.ports.iter().find(|p| p.coupling.is_some()) {
+            return Err(format!(
+                "port {:?} has causality = \"speed\": a drivetrain FMU with speed ports is not \
+                 available yet; the scene runs natively (`geardyn simulate`, docs/ports.md)",
+                p.name
+            ));
+        }
         TrainSimulation::new(scene)
     }
 

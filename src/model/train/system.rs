@@ -962,8 +962,14 @@ impl GearTrain {
             }
             y[1] = scene.initial_dte_rate / self.meshes[0].a[0];
         }
-        if let Some(rot) = &self.rotation {
-            y = rot.initial_state(&y);
+        if let Some(rot) = &mut self.rotation {
+            let start: Vec<_> = (scene.ports.iter())
+                .map(|p| {
+                    let c = p.coupling.as_ref();
+                    (p.torque, c.and_then(|c| c.speed), c.and_then(|c| c.angle))
+                })
+                .collect();
+            y = rot.initial_state(&y, &start);
         }
         self.resynchronise(0.0, &y);
         Ok(y)
@@ -1600,9 +1606,11 @@ impl HybridSystem for GearTrain {
 
     fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
         // With elements the train's torques are those of their shafts, from the state.
-        let torques = (self.rotation.as_ref()).and_then(|rot| rot.train_torques(t, y));
+        // With elements or speed ports the train's torques are those of their shafts and
+        // couplings, from the state.
+        let given = self.torques_at(t);
+        let torques = (self.rotation.as_ref()).and_then(|rot| rot.train_torques(t, y, given));
         if let Some(rot) = &self.rotation {
-            let given = self.torques_at(t);
             rot.rigid_rhs(self, t, y, dy, torques.unwrap_or(given));
         }
         let m = self.m;
@@ -1618,7 +1626,8 @@ impl HybridSystem for GearTrain {
             }
             acc[i] = f;
         }
-        if self.force_ramp {
+        // The torques from the state already hold the ramps of `torques_at`.
+        if self.force_ramp && torques.is_none() {
             for (a, r) in acc.iter_mut().zip(&self.f_rate) {
                 *a += r * (t - self.f_anchor);
             }

@@ -23,10 +23,13 @@
 //! like the contact changes; the force is the nominal form's `mesh_force_at` with this phase.
 
 mod attached;
+mod coupling;
 
 use std::f64::consts::TAU;
 
 use attached::{Attached, TrainMotion};
+use coupling::Coupling;
+pub(crate) use coupling::Neighbour;
 
 use super::super::assembly::Reduction;
 use super::{GearTrain, SlotContact, Stiffness};
@@ -43,12 +46,14 @@ struct BodyRow {
     name: String,
 }
 
-/// A port in the model: which body, which end of the train.
+/// A port in the model: which body, which end of the train, and with speed causality its
+/// coupling to the neighbour.
 #[derive(Debug, Clone)]
 struct PortRt {
     name: String,
     body: usize,
     end: PortEnd,
+    coupling: Option<Coupling>,
 }
 
 /// The carried rotation (see the module documentation).
@@ -172,6 +177,12 @@ impl Carried {
                     name: p.name.clone(),
                     body: asm.body_of[p.gear],
                     end: p.end,
+                    coupling: p.coupling.map(|c| Coupling {
+                        stiffness: c.stiffness,
+                        damping: c.damping,
+                        // Set with the initial state (the gear's start angle).
+                        neighbour: Neighbour::default(),
+                    }),
                 })
                 .collect(),
             attached: None,
@@ -195,10 +206,63 @@ impl Carried {
         2 * self.r + self.attached.as_ref().map_or(0, Attached::dim)
     }
 
-    /// The train's input and load torque from the element shafts at `(t, y)`; `None`: the
-    /// train takes its torques from its inputs (ports).
-    pub(crate) fn train_torques(&self, t: f64, y: &[f64]) -> Option<(f64, f64)> {
-        (self.attached.as_ref()).map(|a| a.train_torques(t, y, self))
+    /// The train's input and load torque at `(t, y)` from the element shafts or the speed
+    /// ports' couplings (a torque port keeps its torque from `given`); `None`: the train
+    /// takes both torques from its inputs (torque ports).
+    pub(crate) fn train_torques(&self, t: f64, y: &[f64], given: (f64, f64)) -> Option<(f64, f64)> {
+        if let Some(a) = &self.attached {
+            return Some(a.train_torques(t, y, self));
+        }
+        let mut torques = None;
+        for p in &self.ports {
+            if let Some(c) = &p.coupling {
+                let (t_in, t_load) = torques.get_or_insert(given);
+                let tau = c.torque_on_gear(t, self.body_motion(p.body, t, y));
+                match p.end {
+                    PortEnd::Input => *t_in = tau,
+                    PortEnd::Output => *t_load = -tau,
+                }
+            }
+        }
+        torques
+    }
+
+    /// The speed ports' neighbours, in port order (`None` for a torque port).
+    pub(crate) fn neighbours(&self) -> Vec<Option<Neighbour>> {
+        (self.ports.iter())
+            .map(|p| p.coupling.as_ref().map(|c| c.neighbour))
+            .collect()
+    }
+
+    /// Sets the neighbours' motion of the speed ports (`None` entries and torque ports are
+    /// left alone).
+    pub(crate) fn set_neighbours(&mut self, motion: &[Option<Neighbour>]) {
+        for (p, m) in self.ports.iter_mut().zip(motion) {
+            if let (Some(c), Some(m)) = (&mut p.coupling, m) {
+                c.neighbour = *m;
+            }
+        }
+    }
+
+    /// Each speed port's neighbour angle and speed at `t` (`None` for a torque port).
+    pub(crate) fn neighbours_at(&self, t: f64) -> Vec<Option<(f64, f64)>> {
+        (self.ports.iter())
+            .map(|p| p.coupling.as_ref().map(|c| c.neighbour_at(t)))
+            .collect()
+    }
+
+    /// `d/dt` of output `name` if it is a speed port's `<port>.torque`, from the gear's speed
+    /// and acceleration (`gear_motion(body)`).
+    pub(crate) fn port_torque_rate(
+        &self,
+        name: &str,
+        t: f64,
+        gear_motion: &dyn Fn(usize) -> (f64, f64),
+    ) -> Option<f64> {
+        let p = (self.ports.iter()).find(|p| name.strip_suffix(".torque") == Some(&p.name))?;
+        let c = p.coupling.as_ref()?;
+        let (speed, acc) = gear_motion(p.body);
+        Some(-c.torque_rate(t, speed, acc))
     }
 
     /// Angle (rad) and speed (rad/s) of body b, positive in its nominal rotation sense.
@@ -226,8 +290,14 @@ impl Carried {
     }
 
     /// `[ξ0, ξ0']` extended by η0 (the input body at angle 0) and η0' = 0 (every body at its
-    /// nominal speed `w_b Ω_ref`).
-    pub(crate) fn initial_state(&self, elastic: &[f64]) -> Vec<f64> {
+    /// nominal speed `w_b Ω_ref`). Each speed port's neighbour starts at `start[i]` (angle,
+    /// speed), by default pre-twisted by the port's start torque from the gear's start angle
+    /// and at the gear's nominal speed: the coupling carries the start torque.
+    pub(crate) fn initial_state(
+        &mut self,
+        elastic: &[f64],
+        start: &[(f64, Option<f64>, Option<f64>)],
+    ) -> Vec<f64> {
         let (m, r) = (self.m, self.r);
         let mut y = elastic.to_vec();
         y.resize(2 * m + 2 * r, 0.0);
@@ -247,6 +317,17 @@ impl Carried {
         if let Some(a) = &self.attached {
             y.resize(2 * m + 2 * r + a.dim(), 0.0);
             a.initial_state(&mut y, self);
+        }
+        for i in 0..self.ports.len() {
+            let (angle, speed) = self.body_motion(self.ports[i].body, 0.0, &y);
+            let (torque, given_speed, given_angle) = start[i];
+            if let Some(c) = &mut self.ports[i].coupling {
+                c.neighbour = Neighbour {
+                    angle: given_angle.unwrap_or(angle + torque / c.stiffness),
+                    speed: given_speed.unwrap_or(speed),
+                    ..Neighbour::default()
+                };
+            }
         }
         y
     }
@@ -301,6 +382,12 @@ impl Carried {
             }
         }
         for p in &self.ports {
+            if p.coupling.is_some() {
+                // Speed port: its angle and speed are inputs; the gear's motion is in the
+                // body columns.
+                names.push(format!("{}.torque", p.name));
+                continue;
+            }
             for q in ["angle", "speed", "acceleration"] {
                 names.push(format!("{}.{q}", p.name));
             }
@@ -311,7 +398,8 @@ impl Carried {
         names
     }
 
-    /// Whether a torque port sits on the output gear (its torque is minus the load torque).
+    /// Whether a port sits on the output gear (a torque port's torque is minus the load
+    /// torque).
     pub(crate) fn output_port(&self) -> bool {
         self.ports.iter().any(|p| p.end == PortEnd::Output)
     }
@@ -330,7 +418,11 @@ impl Carried {
         }
         for p in &self.ports {
             let i = start + 3 * p.body;
-            out.extend_from_within(i..i + 3);
+            match &p.coupling {
+                // The torque the stage applies to the neighbour (its flange.torque input).
+                Some(c) => out.push(-c.torque_on_gear(t, (out[i], out[i + 1]))),
+                None => out.extend_from_within(i..i + 3),
+            }
         }
         if let Some(a) = &self.attached {
             a.outputs(t, y, dy, self, out);
