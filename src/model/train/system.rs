@@ -37,9 +37,10 @@ use crate::solve::HybridSystem;
 mod friction;
 mod frozen;
 mod harmonic;
-mod rotating;
+pub(crate) mod rotating;
 mod snapshot;
 pub use frozen::FrozenStatics;
+pub use rotating::Neighbour;
 pub use snapshot::{MeshRunState, TrainRunState};
 
 /// Contact flag of one tooth-pair slot.
@@ -763,6 +764,42 @@ impl GearTrain {
     /// Whether the rigid-body rotation is carried (a scene with `[[port]]`, `docs/ports.md`).
     pub fn carries_rotation(&self) -> bool {
         self.rotation.is_some()
+    }
+
+    /// The neighbour's motion at the speed port on `end` (`None`: no speed port there).
+    pub fn neighbour(&self, end: crate::scene::train::PortEnd) -> Option<Neighbour> {
+        self.rotation.as_ref()?.neighbour(end)
+    }
+
+    /// Sets the neighbour's motion at the speed port on `end`; an error if there is none.
+    pub fn set_neighbour(
+        &mut self,
+        end: crate::scene::train::PortEnd,
+        motion: Neighbour,
+    ) -> Result<(), String> {
+        let values = [
+            motion.angle,
+            motion.speed,
+            motion.angle_rate,
+            motion.speed_rate,
+        ];
+        if let Some(x) = values.iter().find(|x| !x.is_finite()) {
+            return Err(format!("neighbour motion {x} is not finite"));
+        }
+        let set = (self.rotation.as_mut()).is_some_and(|r| r.set_neighbour(end, motion));
+        if set {
+            Ok(())
+        } else {
+            Err(format!("no speed port on the {end:?} gear"))
+        }
+    }
+
+    /// `d/dt` of a speed port's `<port>.torque` output at `(t, y)`; `None` for other names.
+    pub fn port_torque_rate(&self, name: &str, t: f64, y: &[f64]) -> Option<f64> {
+        let rot = self.rotation.as_ref()?;
+        let mut dy = vec![0.0; y.len()];
+        self.rhs(t, y, &mut dy);
+        rot.port_torque_rate(name, t, y, &dy)
     }
 
     /// Whether a torque port sits on the output gear: its port torque is `−load_torque`.

@@ -14,7 +14,7 @@
 
 /// The neighbour's motion over the current step.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub(crate) struct Neighbour {
+pub struct Neighbour {
     /// Angle and speed at `anchor` (the FMU inputs), rad and rad/s.
     pub angle: f64,
     pub speed: f64,
@@ -22,6 +22,11 @@ pub(crate) struct Neighbour {
     pub angle_rate: f64,
     pub speed_rate: f64,
     pub anchor: f64,
+    /// The rates of the ramp that ended at `anchor` (angle, speed): the slope of the
+    /// neighbour's motion at the communication point for the output derivatives until new
+    /// rates are set (reading the reset rates would drop `c·ω'` from the torque's derivative,
+    /// an O(1) error in a master's extrapolation slope; `docs/elements.md` does the same).
+    pub ended: [f64; 2],
 }
 
 impl Neighbour {
@@ -62,15 +67,14 @@ impl Coupling {
         self.stiffness * (phi - gear.0) + self.damping * (omega - gear.1)
     }
 
-    /// `d/dt` of [`Coupling::torque_on_gear`] with the gear's speed and acceleration.
+    /// `d/dt` of [`Coupling::torque_on_gear`] with the gear's speed and acceleration; held
+    /// rates read those of the ramp that ended at the anchor.
     pub fn torque_rate(&self, t: f64, gear_speed: f64, gear_acceleration: f64) -> f64 {
-        let [_, _, phi_rate, omega_rate] = self.neighbour.at(t);
+        let mut n = self.neighbour;
+        if (n.angle_rate, n.speed_rate) == (0.0, 0.0) {
+            [n.angle_rate, n.speed_rate] = n.ended;
+        }
+        let [_, _, phi_rate, omega_rate] = n.at(t);
         self.stiffness * (phi_rate - gear_speed) + self.damping * (omega_rate - gear_acceleration)
-    }
-
-    /// The neighbour's angle and speed at `t`: the inputs at the end of a step.
-    pub fn neighbour_at(&self, t: f64) -> (f64, f64) {
-        let [phi, omega, _, _] = self.neighbour.at(t);
-        (phi, omega)
     }
 }

@@ -23,13 +23,13 @@
 //! like the contact changes; the force is the nominal form's `mesh_force_at` with this phase.
 
 mod attached;
-mod coupling;
+pub mod coupling;
 
 use std::f64::consts::TAU;
 
 use attached::{Attached, TrainMotion};
 use coupling::Coupling;
-pub(crate) use coupling::Neighbour;
+pub use coupling::Neighbour;
 
 use super::super::assembly::Reduction;
 use super::{GearTrain, SlotContact, Stiffness};
@@ -227,42 +227,41 @@ impl Carried {
         torques
     }
 
-    /// The speed ports' neighbours, in port order (`None` for a torque port).
-    pub(crate) fn neighbours(&self) -> Vec<Option<Neighbour>> {
-        (self.ports.iter())
-            .map(|p| p.coupling.as_ref().map(|c| c.neighbour))
-            .collect()
+    /// The neighbour of the speed port at `end`, if the port there has speed causality.
+    pub(crate) fn neighbour(&self, end: PortEnd) -> Option<Neighbour> {
+        let p = self.ports.iter().find(|p| p.end == end)?;
+        p.coupling.as_ref().map(|c| c.neighbour)
     }
 
-    /// Sets the neighbours' motion of the speed ports (`None` entries and torque ports are
-    /// left alone).
-    pub(crate) fn set_neighbours(&mut self, motion: &[Option<Neighbour>]) {
-        for (p, m) in self.ports.iter_mut().zip(motion) {
-            if let (Some(c), Some(m)) = (&mut p.coupling, m) {
-                c.neighbour = *m;
-            }
-        }
+    /// Sets the neighbour's motion of the speed port at `end` (`false`: no speed port there).
+    pub(crate) fn set_neighbour(&mut self, end: PortEnd, motion: Neighbour) -> bool {
+        let coupling = (self.ports.iter_mut())
+            .find(|p| p.end == end)
+            .and_then(|p| p.coupling.as_mut());
+        coupling.map(|c| c.neighbour = motion).is_some()
     }
 
-    /// Each speed port's neighbour angle and speed at `t` (`None` for a torque port).
-    pub(crate) fn neighbours_at(&self, t: f64) -> Vec<Option<(f64, f64)>> {
-        (self.ports.iter())
-            .map(|p| p.coupling.as_ref().map(|c| c.neighbour_at(t)))
-            .collect()
-    }
-
-    /// `d/dt` of output `name` if it is a speed port's `<port>.torque`, from the gear's speed
-    /// and acceleration (`gear_motion(body)`).
+    /// `d/dt` of a speed port's `<port>.torque` output at `(t, y)`, `dy` the state
+    /// derivative there; `None` if `name` is not one.
     pub(crate) fn port_torque_rate(
         &self,
         name: &str,
         t: f64,
-        gear_motion: &dyn Fn(usize) -> (f64, f64),
+        y: &[f64],
+        dy: &[f64],
     ) -> Option<f64> {
         let p = (self.ports.iter()).find(|p| name.strip_suffix(".torque") == Some(&p.name))?;
         let c = p.coupling.as_ref()?;
-        let (speed, acc) = gear_motion(p.body);
-        Some(-c.torque_rate(t, speed, acc))
+        let speed = self.body_motion(p.body, t, y).1;
+        Some(-c.torque_rate(t, speed, self.body_acceleration(p.body, dy)))
+    }
+
+    /// `θ_b''` from the state derivative (the reference rotation has no acceleration).
+    fn body_acceleration(&self, b: usize, dy: &[f64]) -> f64 {
+        let (m, r) = (self.m, self.r);
+        let row = &self.bodies[b];
+        (0..m).map(|i| row.xi[i] * dy[m + i]).sum::<f64>()
+            + (0..r).map(|k| row.eta[k] * dy[2 * m + r + k]).sum::<f64>()
     }
 
     /// Angle (rad) and speed (rad/s) of body b, positive in its nominal rotation sense.
@@ -409,12 +408,7 @@ impl Carried {
         let start = out.len();
         for b in 0..self.bodies.len() {
             let (angle, speed) = self.body_motion(b, t, y);
-            // The reference rotation has no acceleration: θ'' = row·[ξ'', η''].
-            let (m, r) = (self.m, self.r);
-            let row = &self.bodies[b];
-            let acc = (0..m).map(|i| row.xi[i] * dy[m + i]).sum::<f64>()
-                + (0..r).map(|k| row.eta[k] * dy[2 * m + r + k]).sum::<f64>();
-            out.extend([angle, speed, acc]);
+            out.extend([angle, speed, self.body_acceleration(b, dy)]);
         }
         for p in &self.ports {
             let i = start + 3 * p.body;
