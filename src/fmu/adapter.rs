@@ -335,8 +335,9 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
     ///
     /// With input rates ([`CoSimModel::set_input_derivative`]) the model reads
     /// `u + u'·(t − tc)` during the step; a ramp that leaves an input's bounds by the end of
-    /// the step refuses the step, naming the input. At the end the inputs are `u + u'·h` and
-    /// the rates 0 again.
+    /// the step refuses the step, naming the input. At the end the inputs are where the model
+    /// moved them ([`Kernel::inputs_after`]: `u + u'·h`, a speed port's angle the integral of
+    /// its speed) and the rates 0 again.
     fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure> {
         let start_time = self.lifecycle.start_time;
         let du = K::input_rates(self.sim.model());

@@ -184,7 +184,7 @@ impl Kernel for Drivetrain {
                 let i = speed_port(scene, ENDS[k / 2])
                     .ok_or_else(|| format!("no settable variable with value reference {vr}"))?;
                 let c = scene.ports[i].coupling.as_mut().expect("a speed port");
-                *(if k % 2 == 0 {
+                *(if k.is_multiple_of(2) {
                     &mut c.angle
                 } else {
                     &mut c.speed

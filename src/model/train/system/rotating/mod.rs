@@ -317,10 +317,13 @@ impl Carried {
             y.resize(2 * m + 2 * r + a.dim(), 0.0);
             a.initial_state(&mut y, self);
         }
-        for i in 0..self.ports.len() {
-            let (angle, speed) = self.body_motion(self.ports[i].body, 0.0, &y);
-            let (torque, given_speed, given_angle) = start[i];
-            if let Some(c) = &mut self.ports[i].coupling {
+        let motion: Vec<(f64, f64)> = (self.ports.iter())
+            .map(|p| self.body_motion(p.body, 0.0, &y))
+            .collect();
+        for ((p, (angle, speed)), &(torque, given_speed, given_angle)) in
+            self.ports.iter_mut().zip(motion).zip(start)
+        {
+            if let Some(c) = &mut p.coupling {
                 c.neighbour = Neighbour {
                     angle: given_angle.unwrap_or(angle + torque / c.stiffness),
                     speed: given_speed.unwrap_or(speed),
