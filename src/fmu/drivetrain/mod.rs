@@ -342,10 +342,7 @@ impl Kernel for Drivetrain {
     /// A speed port's neighbour takes its rates from the current time on, re-anchored there.
     fn set_input_rates(sim: &mut TrainSimulation, du: &[f64]) -> Result<(), String> {
         let sign = train_load_sign(sim.model());
-        let torque_rates = [du[1], du[2] * sign];
-        if torque_rates != sim.model().torque_rates().0 {
-            sim.change_model(|train, t| train.set_torque_rates(t, torque_rates))?;
-        }
+        sim.change_model(|train, t| train.set_torque_rates(t, [du[1], du[2] * sign]))?;
         for (k, end) in ENDS.into_iter().enumerate() {
             let Some(n) = sim.model().neighbour(end) else {
                 continue;
