@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# Benchmark of the co-simulated drivetrain (issue 18, acceptance 6): the five-FMU system
-# examples/systems/drivetrain in geardyn's master (`geardyn run`: Jacobi and Gauss–Seidel with
-# zero-order hold, Gauss–Seidel with interpolation/extrapolation) against the monolithic native
-# run of the same drivetrain
+# Benchmark of the co-simulated drivetrain (issue 18, acceptance 6): the three-FMU system
+# examples/systems/drivetrain3 (emotor → spur_stage_speed → vehicle_load, the stage's speed
+# ports carrying the shafts) and the five-FMU system examples/systems/drivetrain in geardyn's
+# master (`geardyn run`: Jacobi and Gauss–Seidel with zero-order hold, with
+# interpolation/extrapolation) against the monolithic native run of the same drivetrain
 # (`geardyn simulate examples/drivetrain_monolithic.toml`), on the same output grid
 # (communication step = output interval = T_mesh/20 at the SSD's pinion speed, stop 1 s: 38 000
 # steps at 3000 rpm), each writing
@@ -18,7 +19,7 @@ cd "$root"
 rounds=${1:-7}
 bin=target/release/geardyn
 [ -x "$bin" ] || cargo build --release --locked
-for f in emotor shaft_in spur_stage shaft_out vehicle_load; do
+for f in emotor shaft_in spur_stage spur_stage_speed shaft_out vehicle_load; do
   [ -f "out/fmus/$f.fmu" ] || { bash scripts/build-fmus.sh; break; }
 done
 native=examples/drivetrain_monolithic.toml
@@ -34,8 +35,15 @@ omega = float(re.search(r'name="input_speed"><ssv:Real value="([^"]+)"', ssd).gr
 h = 2 * math.pi / (38 * omega) / 20
 grid = ["--stop-time", "1", "--output-interval", repr(h)]
 system = "examples/systems/drivetrain"
+system3 = "examples/systems/drivetrain3"
 commands = {
     label: [exe, "simulate", native, "--out", f"{tmp}/n.csv", *grid, "--quiet"],
+    "3 FMUs, geardyn run Jacobi/hold": [exe, "run", system3, "--out", f"{tmp}/j3.csv", *grid,
+                                        "--algorithm", "jacobi", "--extrapolation", "none"],
+    "3 FMUs, geardyn run Jacobi/linear": [exe, "run", system3, "--out", f"{tmp}/jl3.csv", *grid,
+                                          "--algorithm", "jacobi", "--extrapolation", "linear"],
+    "3 FMUs, geardyn run GS/linear": [exe, "run", system3, "--out", f"{tmp}/l3.csv", *grid,
+                                      "--algorithm", "gauss-seidel", "--extrapolation", "linear"],
     "5 FMUs, geardyn run Jacobi/hold": [exe, "run", system, "--out", f"{tmp}/j.csv", *grid,
                                         "--algorithm", "jacobi", "--extrapolation", "none"],
     "5 FMUs, geardyn run GS/hold": [exe, "run", system, "--out", f"{tmp}/g.csv", *grid,

@@ -132,8 +132,8 @@ impl<K: Kernel> Adapter<K> {
         let (mut sim, outputs) = self.build(&settings).map_err(|e| e.naming(&name, x))?;
         // Input rates set so far stay set (they are not parameters of the build).
         let du = K::input_rates(self.sim.model());
-        if du != [0.0; 3] {
-            K::set_input_rates(&mut sim, du)?;
+        if du.iter().any(|&r| r != 0.0) {
+            K::set_input_rates(&mut sim, &du)?;
         }
         self.settings = settings;
         self.sim = sim;
@@ -184,7 +184,10 @@ impl<K: Kernel> Adapter<K> {
     /// as a sequence of sets would: a master that rolls back may restore at every step.
     fn restore(&mut self, snap: &KernelSnapshot<K>) -> Result<(), String> {
         let u = K::sim_inputs(&self.base, &snap.sim);
-        let inputs: [(u32, f64); 3] = std::array::from_fn(|k| (K::INPUTS[k], u[k]));
+        let inputs: Vec<(u32, f64)> = (K::INPUTS.iter().zip(u))
+            .filter(|(vr, _)| self.vars.iter().any(|v| v.value_reference == **vr))
+            .map(|(&vr, x)| (vr, x))
+            .collect();
         check_snapshot_values(&self.vars, &snap.params, &inputs, snap.start_time)?;
         let settings = self.settings_of(snap)?;
         let mut sim = match self.build(&settings) {
@@ -296,7 +299,7 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
         };
         let mut u = K::inputs(self.sim.model());
         u[k] = value;
-        K::set_inputs(self.sim_mut(), u)
+        K::set_inputs(self.sim_mut(), &u)
     }
 
     /// The Integer outputs (the layer has checked the base type).
@@ -332,19 +335,19 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
     ///
     /// With input rates ([`CoSimModel::set_input_derivative`]) the model reads
     /// `u + u'·(t − tc)` during the step; a ramp that leaves an input's bounds by the end of
-    /// the step refuses the step, naming the input. At the end the inputs are `u + u'·h` and
-    /// the rates 0 again.
+    /// the step refuses the step, naming the input. At the end the inputs are where the model
+    /// moved them ([`Kernel::inputs_after`]: `u + u'·h`, a speed port's angle the integral of
+    /// its speed) and the rates 0 again.
     fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure> {
         let start_time = self.lifecycle.start_time;
         let du = K::input_rates(self.sim.model());
         let u = K::inputs(self.sim.model());
         let t0 = self.sim.t();
         let target = ((t + h) - start_time).max(t0);
-        let ramped = |dt: f64| -> [f64; 3] { std::array::from_fn(|k| u[k] + du[k] * dt) };
-        let ramp = du != [0.0; 3];
+        let ramp = du.iter().any(|&r| r != 0.0);
         if ramp {
-            let end = ramped(target - t0);
-            for k in (0..3).filter(|&k| du[k] != 0.0) {
+            let end = K::inputs_after(&self.sim, &u, &du, target - t0);
+            for k in (0..du.len()).filter(|&k| du[k] != 0.0) {
                 let var = self.vars.iter().find(|v| v.value_reference == K::INPUTS[k]);
                 if let Some(Err(e)) = var.map(|v| v.check_value(end[k])) {
                     return Err(StepFailure::Error(format!(
@@ -359,8 +362,9 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
             let reached = sim.t();
             if ramp {
                 // The inputs follow the state to where the integrator stopped.
-                K::set_inputs(sim, ramped(reached - t0)).ok();
-                K::set_input_rates(sim, du).ok();
+                let end = K::inputs_after(sim, &u, &du, reached - t0);
+                K::set_inputs(sim, &end).ok();
+                K::set_input_rates(sim, &du).ok();
             }
             return Err(StepFailure::Discard {
                 reason: format!("the integrator stopped: {e}"),
@@ -368,10 +372,13 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
                 terminate: true,
             });
         }
+        let fail = |e: String| StepFailure::Error(format!("end of the input ramp: {e}"));
+        let end = K::inputs_after(sim, &u, &du, target - t0);
+        if end != u {
+            K::set_inputs(sim, &end).map_err(fail)?;
+        }
         if ramp {
-            let fail = |e: String| StepFailure::Error(format!("end of the input ramp: {e}"));
-            K::set_inputs(sim, ramped(target - t0)).map_err(fail)?;
-            K::set_input_rates(sim, [0.0; 3]).map_err(fail)?;
+            K::set_input_rates(sim, &vec![0.0; du.len()]).map_err(fail)?;
         }
         Ok(())
     }
@@ -402,7 +409,7 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
     fn set_input_derivative(&mut self, vr: u32, rate: f64) -> Result<(), String> {
         let takes = K::rate_inputs(&self.settings);
         let Some(k) = input_position::<K>(vr).filter(|&k| takes[k]) else {
-            let interpolated: Vec<String> = (0..3)
+            let interpolated: Vec<String> = (0..takes.len())
                 .filter(|&k| takes[k])
                 .map(|k| format!("'{}'", name_of(&self.vars, K::INPUTS[k])))
                 .collect();
@@ -414,7 +421,7 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
         };
         let mut du = K::input_rates(self.sim.model());
         du[k] = rate;
-        K::set_input_rates(self.sim_mut(), du)
+        K::set_input_rates(self.sim_mut(), &du)
     }
 
     fn output_derivative(&self, vr: u32) -> Result<f64, String> {
@@ -481,7 +488,9 @@ mod tests {
         a.set_input_derivative(31, 1e5).unwrap();
         a.do_step(0.0, 5e-4).unwrap();
         assert_eq!(a.get_real(31).unwrap(), 100.0 + 1e5 * 5e-4);
-        assert_eq!(Drivetrain::input_rates(a.sim.model()), [0.0; 3]);
+        assert!(Drivetrain::input_rates(a.sim.model())
+            .iter()
+            .all(|&r| r == 0.0));
         // input_speed is a parameter with ports: no rate.
         assert!(a.set_input_derivative(30, 1.0).is_err());
     }

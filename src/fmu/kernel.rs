@@ -36,8 +36,10 @@ pub trait Kernel: 'static {
     const DOCUMENTATION: &'static str;
     /// The documentation's item on the start of a run.
     const START_DOCUMENTATION: &'static str;
-    /// Value references of the three inputs: speed, input torque, load torque.
-    const INPUTS: [u32; 3];
+    /// Value references of the inputs: speed, input torque, load torque, then any the kernel
+    /// adds (a drivetrain's speed ports); a scene's variable table may leave some out (the
+    /// input torque of a speed port), and the adapter reads only those it has.
+    const INPUTS: &'static [u32];
     /// Value reference of the first output; output `i` of [`Self::outputs`] is
     /// `OUTPUT0 + i`, and nothing above the outputs has a value reference.
     const OUTPUT0: u32;
@@ -64,11 +66,11 @@ pub trait Kernel: 'static {
     }
 
     /// The inputs the settings start from, in [`Self::INPUTS`] order.
-    fn start_inputs(s: &Self::Settings) -> [f64; 3];
+    fn start_inputs(s: &Self::Settings) -> Vec<f64>;
     /// The current inputs, in [`Self::INPUTS`] order.
-    fn inputs(model: &Self::Model) -> [f64; 3];
+    fn inputs(model: &Self::Model) -> Vec<f64>;
     /// New inputs after initialization, from the current time on; on failure nothing changes.
-    fn set_inputs(sim: &mut Driver<Self::Model>, u: [f64; 3]) -> Result<(), String>;
+    fn set_inputs(sim: &mut Driver<Self::Model>, u: &[f64]) -> Result<(), String>;
     /// The outputs at the current time, in value-reference order (cleared first).
     fn outputs(sim: &Driver<Self::Model>, out: &mut Vec<f64>);
 
@@ -88,21 +90,27 @@ pub trait Kernel: 'static {
     }
     /// Which inputs take first-order rates over the next step, in [`Self::INPUTS`] order
     /// (`canInterpolateInputs` when any does, FMI 2.0.x §4.2.1); none by default.
-    fn rate_inputs(_s: &Self::Settings) -> [bool; 3] {
-        [false; 3]
+    fn rate_inputs(_s: &Self::Settings) -> Vec<bool> {
+        vec![false; Self::INPUTS.len()]
     }
     /// The input rates set for the next step, in [`Self::INPUTS`] order (0: held).
-    fn input_rates(_model: &Self::Model) -> [f64; 3] {
-        [0.0; 3]
+    fn input_rates(_model: &Self::Model) -> Vec<f64> {
+        vec![0.0; Self::INPUTS.len()]
     }
     /// Sets input rates from the current time on: the model reads `u + u'·(t − tc)` until
     /// the rates change (only for the inputs of [`Self::rate_inputs`]).
-    fn set_input_rates(_sim: &mut Driver<Self::Model>, _du: [f64; 3]) -> Result<(), String> {
+    fn set_input_rates(_sim: &mut Driver<Self::Model>, _du: &[f64]) -> Result<(), String> {
         Err("the model takes no input derivatives".into())
+    }
+    /// The inputs at the end of a step of `dt` that started from inputs `u` with rates `du`:
+    /// `u + du·dt`, unless the model moves an input otherwise over the step (a speed port's
+    /// neighbour angle follows its speed).
+    fn inputs_after(_sim: &Driver<Self::Model>, u: &[f64], du: &[f64], dt: f64) -> Vec<f64> {
+        u.iter().zip(du).map(|(u, du)| u + du * dt).collect()
     }
     /// The inputs of a run state, in [`Self::INPUTS`] order, as the variables read them
     /// (the settings say how: a drivetrain's output port reads minus the load torque).
-    fn sim_inputs(s: &Self::Settings, state: &Self::SimState) -> [f64; 3];
+    fn sim_inputs(s: &Self::Settings, state: &Self::SimState) -> Vec<f64>;
     /// Continues from a run state of a simulation of the same settings; on failure nothing
     /// changes.
     fn restore_sim(sim: &mut Driver<Self::Model>, state: &Self::SimState) -> Result<(), String>;

@@ -53,7 +53,7 @@ pub fn inputs(rows: &InputRows, start: [f64; 3]) -> [Variable; 3] {
 }
 
 /// A continuous Real input with a start value.
-fn input(name: &str, vr: u32, start: f64, unit: &str, desc: &str) -> Variable {
+pub fn input(name: &str, vr: u32, start: f64, unit: &str, desc: &str) -> Variable {
     Variable::real(
         name,
         vr,

@@ -28,10 +28,15 @@ def names(scene: pathlib.Path):
     return "pinion_speed", "mesh.damping"
 
 
-def torque_input(scene: pathlib.Path) -> str:
-    """The input-torque variable: `input_torque`, or `<port>.torque` of a scene with torque
-    ports (docs/ports.md; the port on the input gear is named `input` in fmu/spur_stage)."""
-    return "input.torque" if "[[port]]" in (scene / "scene.toml").read_text() else "input_torque"
+def driving_input(scene: pathlib.Path) -> tuple[str, str]:
+    """The input that drives the stage and a start value for it: `input_torque`, or
+    `<port>.torque` of a scene with torque ports, or the neighbour's `<port>.speed` of a speed
+    port (docs/ports.md; the port on the input gear is named `input` in fmu/spur_stage and
+    fmu/spur_stage_speed)."""
+    text = (scene / "scene.toml").read_text()
+    if 'causality = "speed"' in text:
+        return "input.speed", "480"
+    return ("input.torque" if "[[port]]" in text else "input_torque"), "150"
 
 
 def shipped(name: str) -> pathlib.Path:
@@ -65,10 +70,11 @@ def test_default_experiment_matches_fmpy(scene, tmp_path, report):
 def test_start_values_and_last_step_match_fmpy(scene, tmp_path, report):
     fmu = shipped(scene.name)
     _, damping = names(scene)
+    name, value = driving_input(scene)
     g = geardyn_run(fmu, tmp_path / "g.csv", "--stop-time", "0.0123", "--output-interval", "1e-4",
-                    "--start", f"{torque_input(scene)}=150", "--start", f"{damping}=900")
+                    "--start", f"{name}={value}", "--start", f"{damping}=900")
     f = fmpy_cli(fmu, tmp_path / "f.csv", "--stop-time", "0.0123", "--output-interval", "1e-4",
-                 "--start-values", torque_input(scene), "150", damping, "900")
+                 "--start-values", name, value, damping, "900")
     rel = assert_same(g, f)
     assert read(g)[1][-1, 0] == 0.0123
     report(f"{scene.name}.fmu, geardyn run vs fmpy, start values + shortened last step: max rel diff {rel:.3g}")

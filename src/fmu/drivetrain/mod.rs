@@ -13,7 +13,9 @@ mod variables;
 use crate::fmi::model::Variable;
 use crate::fmu::checks::check;
 use crate::fmu::kernel::{Kernel, KernelSnapshot};
-use crate::model::train::{train_row, GearTrain, TrainInputs, TrainSimState, TrainSimulation};
+use crate::model::train::{
+    train_row, GearTrain, Neighbour, TrainInputs, TrainSimState, TrainSimulation,
+};
 use crate::scene::train::{PortEnd, TrainScene};
 use crate::scene::SolverSettings;
 
@@ -31,14 +33,29 @@ fn train_load_sign(train: &GearTrain) -> f64 {
 /// The drivetrain kernel.
 pub struct Drivetrain;
 
-/// The scene's operating point as the inputs, in `INPUTS` order.
-fn start_inputs(scene: &TrainScene) -> [f64; 3] {
+/// The ends of the train in the order of the speed ports' inputs (VR 33–36).
+const ENDS: [PortEnd; 2] = [PortEnd::Input, PortEnd::Output];
+
+/// The scene's operating point as the inputs, in `INPUTS` order: the three of every drivetrain
+/// then the speed ports' neighbour angle and speed (input port, output port; 0 where the
+/// port has no speed causality and the variable does not exist).
+fn start_inputs(scene: &TrainScene) -> Vec<f64> {
     let op = &scene.operating;
-    [
+    let mut u = vec![
         op.input_speed,
         op.input_torque,
         op.load_torque * load_sign(scene),
-    ]
+    ];
+    for end in ENDS {
+        let c = (scene.ports.iter())
+            .find(|p| p.end == end)
+            .and_then(|p| p.coupling);
+        u.extend([
+            c.and_then(|c| c.angle).unwrap_or(0.0),
+            c.and_then(|c| c.speed).unwrap_or(0.0),
+        ]);
+    }
+    u
 }
 
 /// The third input is `load_torque`, or with a torque port on the output gear that port's
@@ -51,8 +68,35 @@ fn load_sign(scene: &TrainScene) -> f64 {
     }
 }
 
-fn inputs_array(u: TrainInputs, load_sign: f64) -> [f64; 3] {
-    [u.input_speed, u.input_torque, u.load_torque * load_sign]
+fn inputs_array(u: TrainInputs, load_sign: f64, neighbours: [Option<Neighbour>; 2]) -> Vec<f64> {
+    let mut v = vec![u.input_speed, u.input_torque, u.load_torque * load_sign];
+    for n in neighbours {
+        v.extend(n.map_or([0.0; 2], |n| [n.angle, n.speed]));
+    }
+    v
+}
+
+/// The scene's speed port on `end`, if any.
+fn speed_port(scene: &TrainScene, end: PortEnd) -> Option<usize> {
+    (scene.ports.iter()).position(|p| p.end == end && p.coupling.is_some())
+}
+
+/// Sets the speed ports' start motion in the scene to the neighbour's motion of a build of
+/// it (pre-twisted by the start torque unless given), so the FMU's start values and its
+/// snapshots hold numbers.
+fn resolve_neighbours(scene: &mut TrainScene) -> Result<(), String> {
+    if !ENDS.iter().any(|&e| speed_port(scene, e).is_some()) {
+        return Ok(());
+    }
+    let sim = TrainSimulation::new(scene)?;
+    for end in ENDS {
+        if let (Some(i), Some(n)) = (speed_port(scene, end), sim.model().neighbour(end)) {
+            let c = scene.ports[i].coupling.as_mut().expect("a speed port");
+            c.angle = Some(n.angle);
+            c.speed = Some(n.speed);
+        }
+    }
+    Ok(())
 }
 
 impl Kernel for Drivetrain {
@@ -64,12 +108,23 @@ impl Kernel for Drivetrain {
     const FALLBACK_DESCRIPTION: &'static str = "Drivetrain of gears, shafts and meshes: per-mesh dynamic transmission error, mesh force and contact loss (geardyn)";
     const DOCUMENTATION: &'static str = documentation::DOCUMENTATION;
     const START_DOCUMENTATION: &'static str = documentation::START;
-    const INPUTS: [u32; 3] = variables::INPUTS.vrs;
+    const INPUTS: &'static [u32] = &[
+        VR_INPUT_SPEED,
+        VR_INPUT_TORQUE,
+        VR_LOAD_TORQUE,
+        VR_INPUT_PORT_ANGLE,
+        VR_INPUT_PORT_SPEED,
+        VR_OUTPUT_PORT_ANGLE,
+        VR_OUTPUT_PORT_SPEED,
+    ];
     const OUTPUT0: u32 = VR_OUTPUT0;
 
     fn load(text: &str, origin: &str) -> Result<TrainScene, String> {
-        let scene = TrainScene::from_toml_str(text, origin).map_err(|e| e.to_string())?;
+        let mut scene = TrainScene::from_toml_str(text, origin).map_err(|e| e.to_string())?;
         scene.profiles.refuse_in_fmu()?;
+        if scene.elements.is_empty() && !scene.meshes.is_empty() {
+            resolve_neighbours(&mut scene)?;
+        }
         Ok(scene)
     }
 
@@ -123,6 +178,18 @@ impl Kernel for Drivetrain {
                 check(name, x, true, "finite")?;
                 scene.operating.load_torque = x * load_sign(scene);
             }
+            VR_INPUT_PORT_ANGLE..=VR_OUTPUT_PORT_SPEED => {
+                check(name, x, true, "finite")?;
+                let k = (vr - VR_INPUT_PORT_ANGLE) as usize;
+                let i = speed_port(scene, ENDS[k / 2])
+                    .ok_or_else(|| format!("no settable variable with value reference {vr}"))?;
+                let c = scene.ports[i].coupling.as_mut().expect("a speed port");
+                *(if k.is_multiple_of(2) {
+                    &mut c.angle
+                } else {
+                    &mut c.speed
+                }) = Some(x);
+            }
             _ => {
                 if let Some(g) = block_index(vr, VR_GEAR_INERTIA0, scene.gears.len()) {
                     check(name, x, x > 0.0, "a finite number > 0 kg.m2")?;
@@ -155,22 +222,50 @@ impl Kernel for Drivetrain {
         })
     }
 
-    fn start_inputs(scene: &TrainScene) -> [f64; 3] {
+    fn start_inputs(scene: &TrainScene) -> Vec<f64> {
         start_inputs(scene)
     }
 
-    fn inputs(train: &GearTrain) -> [f64; 3] {
-        inputs_array(train.inputs(), train_load_sign(train))
+    fn inputs(train: &GearTrain) -> Vec<f64> {
+        let neighbours = ENDS.map(|end| train.neighbour(end));
+        inputs_array(train.inputs(), train_load_sign(train), neighbours)
     }
 
-    /// A Model-2 mesh may refuse a load it cannot carry.
-    fn set_inputs(sim: &mut TrainSimulation, u: [f64; 3]) -> Result<(), String> {
-        let [input_speed, input_torque, load] = u;
+    /// A Model-2 mesh may refuse a load it cannot carry. A speed port's neighbour is
+    /// re-anchored at the current time with its angle and speed (its rates kept).
+    fn set_inputs(sim: &mut TrainSimulation, u: &[f64]) -> Result<(), String> {
+        let &[input_speed, input_torque, load, ..] = u else {
+            return Err(format!(
+                "{} inputs, expected {}",
+                u.len(),
+                Self::INPUTS.len()
+            ));
+        };
         sim.set_inputs(TrainInputs {
             input_speed,
             input_torque,
             load_torque: load * train_load_sign(sim.model()),
-        })
+        })?;
+        for (k, end) in ENDS.into_iter().enumerate() {
+            let Some(old) = sim.model().neighbour(end) else {
+                continue;
+            };
+            let (angle, speed) = (u[3 + 2 * k], u[4 + 2 * k]);
+            if (old.angle, old.speed, old.anchor) != (angle, speed, sim.t()) {
+                sim.change_model(|train, t| {
+                    train.set_neighbour(
+                        end,
+                        Neighbour {
+                            angle,
+                            speed,
+                            anchor: t,
+                            ..old
+                        },
+                    )
+                })?;
+            }
+        }
+        Ok(())
     }
 
     fn outputs(sim: &TrainSimulation, out: &mut Vec<f64>) {
@@ -201,35 +296,104 @@ impl Kernel for Drivetrain {
                 let target = format!("{stem}{r}");
                 names.iter().position(|n| *n == target)
             });
+        if let Some(rate) = sim.model().port_torque_rate(name, sim.t(), sim.state()) {
+            return Ok(rate);
+        }
         match rate {
             Some(j) if sim.model().carries_rotation() => Ok(outputs[j]),
             _ => Err(format!(
                 "'{name}': output derivatives are provided for the port and body angles and \
-                 speeds (their rates are the speed and acceleration outputs), not for this \
-                 output"
+                 speeds (their rates are the speed and acceleration outputs) and the speed \
+                 ports' torques, not for this output"
             )),
         }
     }
 
-    /// The `<port>.torque` inputs of torque ports (`docs/ports.md`); `input_speed` and the
-    /// torques of a train without ports stay held.
-    fn rate_inputs(scene: &TrainScene) -> [bool; 3] {
-        let port = |end| scene.ports.iter().any(|p| p.end == end);
-        [false, port(PortEnd::Input), port(PortEnd::Output)]
+    /// The `<port>.torque` inputs of torque ports and the `<port>.angle`, `<port>.speed`
+    /// inputs of speed ports (`docs/ports.md`); `input_speed` and the torques of a train
+    /// without ports stay held.
+    fn rate_inputs(scene: &TrainScene) -> Vec<bool> {
+        let torque_port = |end| (scene.ports.iter()).any(|p| p.end == end && p.coupling.is_none());
+        let mut takes = vec![
+            false,
+            torque_port(PortEnd::Input),
+            torque_port(PortEnd::Output),
+        ];
+        for end in ENDS {
+            let speed = speed_port(scene, end).is_some();
+            takes.extend([speed, speed]);
+        }
+        takes
     }
 
-    fn input_rates(train: &GearTrain) -> [f64; 3] {
+    fn input_rates(train: &GearTrain) -> Vec<f64> {
         let ([rate_in, rate_load], _) = train.torque_rates();
-        [0.0, rate_in, rate_load * train_load_sign(train)]
+        let mut du = vec![0.0, rate_in, rate_load * train_load_sign(train)];
+        for end in ENDS {
+            du.extend(
+                train
+                    .neighbour(end)
+                    .map_or([0.0; 2], |n| [n.angle_rate, n.speed_rate]),
+            );
+        }
+        du
     }
 
-    fn set_input_rates(sim: &mut TrainSimulation, du: [f64; 3]) -> Result<(), String> {
+    /// A speed port's neighbour takes its rates from the current time on, re-anchored there.
+    fn set_input_rates(sim: &mut TrainSimulation, du: &[f64]) -> Result<(), String> {
         let sign = train_load_sign(sim.model());
-        sim.change_model(|train, t| train.set_torque_rates(t, [du[1], du[2] * sign]))
+        sim.change_model(|train, t| train.set_torque_rates(t, [du[1], du[2] * sign]))?;
+        for (k, end) in ENDS.into_iter().enumerate() {
+            let Some(n) = sim.model().neighbour(end) else {
+                continue;
+            };
+            let (angle_rate, speed_rate) = (du[3 + 2 * k], du[4 + 2 * k]);
+            if (n.angle_rate, n.speed_rate) == (angle_rate, speed_rate) {
+                continue;
+            }
+            sim.change_model(|train, t| {
+                // The motion up to now stays: re-anchor at t before the rates change.
+                let [angle, speed, _, _] = n.at(t);
+                let reset = (angle_rate, speed_rate) == (0.0, 0.0);
+                train.set_neighbour(
+                    end,
+                    Neighbour {
+                        angle,
+                        speed,
+                        angle_rate,
+                        speed_rate,
+                        anchor: t,
+                        ended: if reset {
+                            [n.angle_rate, n.speed_rate]
+                        } else {
+                            n.ended
+                        },
+                    },
+                )
+            })?;
+        }
+        Ok(())
     }
 
-    fn sim_inputs(scene: &TrainScene, state: &TrainSimState) -> [f64; 3] {
-        inputs_array(state.train.inputs, load_sign(scene))
+    /// A speed port's neighbour angle and speed where the model's motion puts them (its angle
+    /// follows the speed unless the angle has a rate).
+    fn inputs_after(sim: &TrainSimulation, u: &[f64], du: &[f64], dt: f64) -> Vec<f64> {
+        let mut end: Vec<f64> = u.iter().zip(du).map(|(u, du)| u + du * dt).collect();
+        for (k, e) in ENDS.into_iter().enumerate() {
+            if let Some(n) = sim.model().neighbour(e) {
+                let [angle, speed, _, _] = n.at(n.anchor + dt);
+                end[3 + 2 * k] = angle;
+                end[4 + 2 * k] = speed;
+            }
+        }
+        end
+    }
+
+    fn sim_inputs(scene: &TrainScene, state: &TrainSimState) -> Vec<f64> {
+        let mut speed_ports = state.train.neighbours.iter();
+        let neighbours =
+            ENDS.map(|end| speed_port(scene, end).and_then(|_| speed_ports.next().copied()));
+        inputs_array(state.train.inputs, load_sign(scene), neighbours)
     }
 
     fn restore_sim(sim: &mut TrainSimulation, state: &TrainSimState) -> Result<(), String> {

@@ -6,9 +6,11 @@
 //! which starts with its parameter count, is never read as a drivetrain one), `u32 n` then
 //! `n × (u32 vr, f64 value)`, `u8 flags` (bit 0 initialized, bit 1 RK controller present,
 //! bit 2 controller step proposal present, bit 3 last step rejected, bit 4 torque rates
-//! present), `f64` start time, t, the three inputs, loss start; with bit 4 `f64` input and
+//! present, bit 5 speed-port neighbours present), `f64` start time, t, the three inputs, loss start; with bit 4 `f64` input and
 //! load torque rates and the time they start from (`fmi2SetRealInputDerivatives`; held
-//! torques write no bit and no bytes, so such states keep the version-1 bytes); `u32 dim` and `dim × f64` state; `u32` meshes, each
+//! torques write no bit and no bytes, so such states keep the version-1 bytes); with bit 5
+//! `u32 n` and `n × f64` angle, speed, angle rate, speed rate, anchor, the ended ramp's two rates of each speed port's
+//! neighbour (input port first); `u32 dim` and `dim × f64` state; `u32` meshes, each
 //! `f64` clock t0, p0, f, cycle, loss total, `u8` loss-since present, `f64` loss since,
 //! `u64` interval, `u32` slots and `slots × u8` flag codes; for RK `f64` proposal, `f64`
 //! previous error, `u32` non-finite trials.
@@ -17,7 +19,9 @@ use crate::fmi::bytes::{put_f64s, Reader};
 use crate::fmu::payload::{
     controller_bits, put_controller, put_params, read_controller, read_params, Snapshot,
 };
-use crate::model::train::{MeshRunState, SlotContact, TrainInputs, TrainRunState, TrainSimState};
+use crate::model::train::{
+    MeshRunState, Neighbour, SlotContact, TrainInputs, TrainRunState, TrainSimState,
+};
 use crate::model::PhaseClock;
 
 const TAG: &[u8; 4] = b"GDTR";
@@ -35,7 +39,13 @@ pub fn encode(s: &TrainSnapshot) -> Vec<u8> {
     let c = s.sim.controller;
     let tr = &s.sim.train;
     let rates = tr.torque_rates != [0.0; 2];
-    out.push(u8::from(s.initialized) | controller_bits(c) << 1 | u8::from(rates) << 4);
+    let neighbours = !tr.neighbours.is_empty();
+    out.push(
+        u8::from(s.initialized)
+            | controller_bits(c) << 1
+            | u8::from(rates) << 4
+            | u8::from(neighbours) << 5,
+    );
     let u = tr.inputs;
     put_f64s(
         &mut out,
@@ -53,6 +63,23 @@ pub fn encode(s: &TrainSnapshot) -> Vec<u8> {
             &mut out,
             &[tr.torque_rates[0], tr.torque_rates[1], tr.torque_anchor],
         );
+    }
+    if neighbours {
+        out.extend_from_slice(&(tr.neighbours.len() as u32).to_le_bytes());
+        for n in &tr.neighbours {
+            put_f64s(
+                &mut out,
+                &[
+                    n.angle,
+                    n.speed,
+                    n.angle_rate,
+                    n.speed_rate,
+                    n.anchor,
+                    n.ended[0],
+                    n.ended[1],
+                ],
+            );
+        }
     }
     out.extend_from_slice(&(s.sim.y.len() as u32).to_le_bytes());
     put_f64s(&mut out, &s.sim.y);
@@ -104,7 +131,7 @@ pub fn decode(bytes: &[u8]) -> Result<TrainSnapshot, String> {
     let n = count(&mut r, "parameters", 12)?;
     let params = read_params(&mut r, n)?;
     let flags = r.u8()?;
-    if flags & !0b1_1111 != 0 {
+    if flags & !0b11_1111 != 0 {
         return Err(format!("drivetrain state has unknown flags {flags:#04x}"));
     }
     let mut f = [0.0; 6];
@@ -115,6 +142,24 @@ pub fn decode(bytes: &[u8]) -> Result<TrainSnapshot, String> {
     if flags & 0b1_0000 != 0 {
         for x in &mut rates {
             *x = r.f64()?;
+        }
+    }
+    let mut neighbours = Vec::new();
+    if flags & 0b10_0000 != 0 {
+        for _ in 0..count(&mut r, "speed-port neighbours", 56)? {
+            let mut v = [0.0; 7];
+            for x in &mut v {
+                *x = r.f64()?;
+            }
+            let [angle, speed, angle_rate, speed_rate, anchor, e0, e1] = v;
+            neighbours.push(Neighbour {
+                angle,
+                speed,
+                angle_rate,
+                speed_rate,
+                anchor,
+                ended: [e0, e1],
+            });
         }
     }
     let dim = count(&mut r, "state entries", 8)?;
@@ -172,6 +217,7 @@ pub fn decode(bytes: &[u8]) -> Result<TrainSnapshot, String> {
                 meshes: ms,
                 torque_rates: [rates[0], rates[1]],
                 torque_anchor: rates[2],
+                neighbours,
             },
             controller,
         },
@@ -214,6 +260,18 @@ mod tests {
                         [0.0; 2]
                     },
                     torque_anchor: if controller.is_some() { 0.125 } else { 0.0 },
+                    neighbours: if controller.is_some() {
+                        vec![Neighbour {
+                            angle: 0.005,
+                            speed: 471.0,
+                            angle_rate: 471.5,
+                            speed_rate: -30.0,
+                            anchor: 0.125,
+                            ended: [470.0, 12.5],
+                        }]
+                    } else {
+                        Vec::new()
+                    },
                 },
                 controller,
             },

@@ -4,9 +4,10 @@
 //! `TrainSimulation::output_names`, in that order, so FMU and `geardyn simulate` columns
 //! have the same names.
 
+use crate::fmi::model::Causality;
 use crate::fmi::model::Variable;
 use crate::fmu::table::{calculated, inputs, output, param, InputRows};
-use crate::scene::train::{MeshForceModel, PairModel, TrainScene};
+use crate::scene::train::{MeshForceModel, PairModel, PortEnd, TrainScene};
 
 // Value references: stable per meaning, grouped by causality; per-gear and per-mesh blocks
 // are 1000 wide (index = gear or mesh number in the scene).
@@ -15,6 +16,12 @@ pub const VR_INITIAL_PHASE: u32 = 1;
 pub const VR_INPUT_SPEED: u32 = 30;
 pub const VR_INPUT_TORQUE: u32 = 31;
 pub const VR_LOAD_TORQUE: u32 = 32;
+/// Speed ports (`docs/ports.md`): the neighbour's angle and speed at the input and the output
+/// gear.
+pub const VR_INPUT_PORT_ANGLE: u32 = 33;
+pub const VR_INPUT_PORT_SPEED: u32 = 34;
+pub const VR_OUTPUT_PORT_ANGLE: u32 = 35;
+pub const VR_OUTPUT_PORT_SPEED: u32 = 36;
 pub const VR_GEAR_INERTIA0: u32 = 1000;
 pub const VR_MESH_DAMPING0: u32 = 2000;
 pub const VR_MEAN_STIFFNESS0: u32 = 3000;
@@ -157,7 +164,7 @@ fn describe_output(
                 ));
             }
         }
-        for p in &scene.ports {
+        for p in scene.ports.iter().filter(|p| p.coupling.is_none()) {
             if name == format!("{}.{q}", p.name) {
                 return Ok((
                     Some(unit),
@@ -171,6 +178,21 @@ fn describe_output(
                     ),
                 ));
             }
+        }
+    }
+    for p in scene.ports.iter().filter(|p| p.coupling.is_some()) {
+        if name == format!("{}.torque", p.name) {
+            return Ok((
+                Some("N.m"),
+                false,
+                format!(
+                    "Port {} (speed causality, gear {}): torque the gear stage applies TO its \
+                     neighbour through the coupling, -(k (angle - theta) + c (speed - omega)), \
+                     positive along the gear's nominal rotation (connect it to the neighbour's \
+                     flange.torque)",
+                    p.name, scene.gears[p.gear].name
+                ),
+            ));
         }
     }
     Err(format!(
@@ -229,11 +251,23 @@ pub(super) fn variables(scene: &TrainScene, outputs: &[String]) -> Result<Vec<Va
             "Mean mesh stiffness over one mesh period",
         ));
     }
-    let mut rows = inputs(&INPUTS, super::start_inputs(scene));
+    let start = super::start_inputs(scene);
+    let mut rows = inputs(&INPUTS, [start[0], start[1], start[2]]);
     if !scene.ports.is_empty() {
         port_inputs(scene, &mut rows);
     }
-    v.extend(rows);
+    // A speed port's torque is an output: its torque input does not exist.
+    let [speed, input, load] = rows;
+    let torque_input = |end| !(scene.ports.iter()).any(|p| p.end == end && p.coupling.is_some());
+    v.push(speed);
+    v.extend(torque_input(PortEnd::Input).then_some(input));
+    v.extend(torque_input(PortEnd::Output).then_some(load));
+    let port_rows = speed_port_inputs(scene, &start);
+    let direct: Vec<u32> = (v.iter().chain(&port_rows))
+        .filter(|x| x.causality == Causality::Input && x.value_reference != VR_INPUT_SPEED)
+        .map(|x| x.value_reference)
+        .collect();
+    v.extend(port_rows);
     for (i, name) in outputs.iter().enumerate() {
         let (unit, integer, desc) = describe_output(scene, name)?;
         let mut o = output(name, VR_OUTPUT0 + i as u32, unit, &desc, integer);
@@ -241,10 +275,21 @@ pub(super) fn variables(scene: &TrainScene, outputs: &[String]) -> Result<Vec<Va
         // a mesh force holds the rate of the STE, which scales with the speed; a Model-2
         // mesh's excitation is the loaded STE at the static load of the torques.
         if !scene.ports.is_empty() {
-            // Carried rotation: the accelerations follow the port torques at once; nothing
-            // else reads an input directly (the phase rate is a state).
+            // Carried rotation: the accelerations follow the port torques at once, and with
+            // speed ports the couplings' torques, which read the neighbours' angles and speeds
+            // (stiffness and damping); nothing else reads an input directly (the phase rate is
+            // a state).
             if name.ends_with("acceleration") {
-                o.depends_on = vec![VR_INPUT_TORQUE, VR_LOAD_TORQUE];
+                o.depends_on.clone_from(&direct);
+            }
+            if let Some(p) = (scene.ports.iter())
+                .find(|p| p.coupling.is_some() && *name == format!("{}.torque", p.name))
+            {
+                let base = match p.end {
+                    PortEnd::Input => VR_INPUT_PORT_ANGLE,
+                    PortEnd::Output => VR_OUTPUT_PORT_ANGLE,
+                };
+                o.depends_on = vec![base, base + 1];
             }
         } else if let Some(mesh) = scene
             .meshes
@@ -267,13 +312,50 @@ pub(super) fn variables(scene: &TrainScene, outputs: &[String]) -> Result<Vec<Va
     Ok(v)
 }
 
+/// The inputs of the speed ports (`docs/ports.md`): the neighbour's angle and speed, start
+/// values from `start` (the `INPUTS` order of the kernel).
+fn speed_port_inputs(scene: &TrainScene, start: &[f64]) -> Vec<Variable> {
+    let mut rows = Vec::new();
+    for p in scene.ports.iter().filter(|p| p.coupling.is_some()) {
+        let (vr, end) = match p.end {
+            PortEnd::Input => (VR_INPUT_PORT_ANGLE, "input"),
+            PortEnd::Output => (VR_OUTPUT_PORT_ANGLE, "output"),
+        };
+        let k = (vr - VR_INPUT_PORT_ANGLE) as usize;
+        let gear = &scene.gears[p.gear].name;
+        rows.push(crate::fmu::table::input(
+            &format!("{}.angle", p.name),
+            vr,
+            start[3 + k],
+            "rad",
+            &format!(
+                "Port {} ({end} shaft, gear {gear}, speed causality): angle of the neighbour's \
+                 flange, positive along the gear's nominal rotation; between communication \
+                 points it follows the speed unless given a rate",
+                p.name
+            ),
+        ));
+        rows.push(crate::fmu::table::input(
+            &format!("{}.speed", p.name),
+            vr + 1,
+            start[4 + k],
+            "rad/s",
+            &format!(
+                "Port {} ({end} shaft, gear {gear}, speed causality): speed of the neighbour's \
+                 flange, positive along the gear's nominal rotation",
+                p.name
+            ),
+        ));
+    }
+    rows
+}
+
 /// With torque ports (`docs/ports.md`) the torque inputs are the ports' `<port>.torque` (the
 /// neighbour's torque on the shaft, positive along the gear's nominal rotation; value
 /// references unchanged) and the speed is the start speed of the carried rotation, a
 /// parameter fixed at initialization.
 fn port_inputs(scene: &TrainScene, rows: &mut [Variable; 3]) {
-    use crate::fmi::model::{Causality, Initial, Variability};
-    use crate::scene::train::PortEnd;
+    use crate::fmi::model::{Initial, Variability};
     let speed = &mut rows[0];
     speed.causality = Causality::Parameter;
     speed.variability = Variability::Fixed;
@@ -282,7 +364,7 @@ fn port_inputs(scene: &TrainScene, rows: &mut [Variable; 3]) {
                          nominal speed, and the carried angles are counted from this reference \
                          rotation"
         .into();
-    for p in &scene.ports {
+    for p in scene.ports.iter().filter(|p| p.coupling.is_none()) {
         let (row, end) = match p.end {
             PortEnd::Input => (&mut rows[1], "input"),
             PortEnd::Output => (&mut rows[2], "output"),

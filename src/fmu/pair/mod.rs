@@ -75,7 +75,7 @@ impl Kernel for Pair {
         "Single-mesh gear pair: dynamic transmission error, mesh force and contact loss (geardyn)";
     const DOCUMENTATION: &'static str = documentation::DOCUMENTATION;
     const START_DOCUMENTATION: &'static str = documentation::START;
-    const INPUTS: [u32; 3] = variables::INPUTS.vrs;
+    const INPUTS: &'static [u32] = &variables::INPUTS.vrs;
     const OUTPUT0: u32 = VR_OUTPUT0;
 
     fn load(text: &str, origin: &str) -> Result<PairSettings, String> {
@@ -178,16 +178,18 @@ impl Kernel for Pair {
         (vr == VR_INITIAL_STATIC).then_some(s.initial.static_dte)
     }
 
-    fn start_inputs(s: &PairSettings) -> [f64; 3] {
-        start_inputs(&s.scene)
+    fn start_inputs(s: &PairSettings) -> Vec<f64> {
+        start_inputs(&s.scene).to_vec()
     }
 
-    fn inputs(pair: &GearPair) -> [f64; 3] {
-        inputs_array(pair.inputs())
+    fn inputs(pair: &GearPair) -> Vec<f64> {
+        inputs_array(pair.inputs()).to_vec()
     }
 
-    fn set_inputs(sim: &mut Simulation, u: [f64; 3]) -> Result<(), String> {
-        let [pinion_speed, input_torque, load_torque] = u;
+    fn set_inputs(sim: &mut Simulation, u: &[f64]) -> Result<(), String> {
+        let &[pinion_speed, input_torque, load_torque] = u else {
+            return Err(format!("{} inputs, expected 3", u.len()));
+        };
         let u = Inputs {
             pinion_speed,
             input_torque,
@@ -214,8 +216,8 @@ impl Kernel for Pair {
         sim.snapshot()
     }
 
-    fn sim_inputs(_: &PairSettings, state: &SimState) -> [f64; 3] {
-        inputs_array(state.pair.inputs)
+    fn sim_inputs(_: &PairSettings, state: &SimState) -> Vec<f64> {
+        inputs_array(state.pair.inputs).to_vec()
     }
 
     fn restore_sim(sim: &mut Simulation, state: &SimState) -> Result<(), String> {

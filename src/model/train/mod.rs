@@ -23,5 +23,6 @@ pub use modes::{modes, Mode};
 pub use simulation::TrainSimState;
 pub use simulation::{run_train, train_row, TrainSimulation, TrainTrajectory};
 pub use system::{
-    FrozenStatics, GearTrain, MeshRunState, MeshState, SlotContact, TrainInputs, TrainRunState,
+    FrozenStatics, GearTrain, MeshRunState, MeshState, Neighbour, SlotContact, TrainInputs,
+    TrainRunState,
 };

@@ -37,9 +37,10 @@ use crate::solve::HybridSystem;
 mod friction;
 mod frozen;
 mod harmonic;
-mod rotating;
+pub(crate) mod rotating;
 mod snapshot;
 pub use frozen::FrozenStatics;
+pub use rotating::Neighbour;
 pub use snapshot::{MeshRunState, TrainRunState};
 
 /// Contact flag of one tooth-pair slot.
@@ -765,6 +766,42 @@ impl GearTrain {
         self.rotation.is_some()
     }
 
+    /// The neighbour's motion at the speed port on `end` (`None`: no speed port there).
+    pub fn neighbour(&self, end: crate::scene::train::PortEnd) -> Option<Neighbour> {
+        self.rotation.as_ref()?.neighbour(end)
+    }
+
+    /// Sets the neighbour's motion at the speed port on `end`; an error if there is none.
+    pub fn set_neighbour(
+        &mut self,
+        end: crate::scene::train::PortEnd,
+        motion: Neighbour,
+    ) -> Result<(), String> {
+        let values = [
+            motion.angle,
+            motion.speed,
+            motion.angle_rate,
+            motion.speed_rate,
+        ];
+        if let Some(x) = values.iter().find(|x| !x.is_finite()) {
+            return Err(format!("neighbour motion {x} is not finite"));
+        }
+        let set = (self.rotation.as_mut()).is_some_and(|r| r.set_neighbour(end, motion));
+        if set {
+            Ok(())
+        } else {
+            Err(format!("no speed port on the {end:?} gear"))
+        }
+    }
+
+    /// `d/dt` of a speed port's `<port>.torque` output at `(t, y)`; `None` for other names.
+    pub fn port_torque_rate(&self, name: &str, t: f64, y: &[f64]) -> Option<f64> {
+        let rot = self.rotation.as_ref()?;
+        let mut dy = vec![0.0; y.len()];
+        self.rhs(t, y, &mut dy);
+        rot.port_torque_rate(name, t, y, &dy)
+    }
+
     /// Whether a torque port sits on the output gear: its port torque is `−load_torque`.
     pub fn has_output_port(&self) -> bool {
         self.rotation.as_ref().is_some_and(|r| r.output_port())
@@ -967,8 +1004,14 @@ impl GearTrain {
             }
             y[1] = scene.initial_dte_rate / self.meshes[0].a[0];
         }
-        if let Some(rot) = &self.rotation {
-            y = rot.initial_state(&y);
+        if let Some(rot) = &mut self.rotation {
+            let start: Vec<_> = (scene.ports.iter())
+                .map(|p| {
+                    let c = p.coupling.as_ref();
+                    (p.torque, c.and_then(|c| c.speed), c.and_then(|c| c.angle))
+                })
+                .collect();
+            y = rot.initial_state(&y, &start);
         }
         self.resynchronise(0.0, &y);
         Ok(y)
@@ -1605,9 +1648,11 @@ impl HybridSystem for GearTrain {
 
     fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
         // With elements the train's torques are those of their shafts, from the state.
-        let torques = (self.rotation.as_ref()).and_then(|rot| rot.train_torques(t, y));
+        // With elements or speed ports the train's torques are those of their shafts and
+        // couplings, from the state.
+        let given = self.torques_at(t);
+        let torques = (self.rotation.as_ref()).and_then(|rot| rot.train_torques(t, y, given));
         if let Some(rot) = &self.rotation {
-            let given = self.torques_at(t);
             rot.rigid_rhs(self, t, y, dy, torques.unwrap_or(given));
         }
         let m = self.m;
@@ -1623,7 +1668,8 @@ impl HybridSystem for GearTrain {
             }
             acc[i] = f;
         }
-        if self.force_ramp {
+        // The torques from the state already hold the ramps of `torques_at`.
+        if self.force_ramp && torques.is_none() {
             for (a, r) in acc.iter_mut().zip(&self.f_rate) {
                 *a += r * (t - self.f_anchor);
             }

@@ -22,7 +22,7 @@ use crate::scene::{
 
 pub use chain::{ChainBearings, ChainContact, ChainSpec};
 pub use friction::{HelicalPair, MeshFriction};
-pub use ports::{Port, PortEnd};
+pub use ports::{Port, PortEnd, SpeedCoupling};
 pub use spec::TrainSpec;
 
 /// Bearing stiffness and damping of a gear with translational DOFs.

@@ -21,9 +21,22 @@ pub struct PortSpec {
     #[serde(default = "PortSpec::default_causality")]
     pub causality: String,
     /// Start value of the port torque, N·m, positive along the body's nominal rotation (the
-    /// torque the neighbour applies TO the gear stage at this shaft).
+    /// torque the neighbour applies TO the gear stage at this shaft). With speed causality:
+    /// the torque the coupling carries at the start (it pre-twists the coupling).
     #[serde(default)]
     pub torque: f64,
+    /// Speed causality: torsional stiffness of the coupling to the neighbour, N·m/rad (> 0).
+    pub stiffness: Option<f64>,
+    /// Speed causality: viscous damping of the coupling, N·m·s/rad (≥ 0).
+    pub damping: Option<f64>,
+    /// Speed causality: the neighbour's speed, rad/s (default: the gear's nominal speed).
+    /// Natively the neighbour turns at it for the whole run; in the FMU it is the start value
+    /// of `<name>.speed`.
+    pub speed: Option<f64>,
+    /// Speed causality: the neighbour's angle at the start, rad (default: the gear's start
+    /// angle plus `torque / stiffness`, so the coupling carries `torque`). The start value of
+    /// `<name>.angle` in the FMU.
+    pub angle: Option<f64>,
 }
 
 impl PortSpec {
@@ -41,14 +54,33 @@ pub enum PortEnd {
     Output,
 }
 
-/// A validated port (torque causality).
+/// The compliant coupling of a speed port (`docs/ports.md`, "Speed causality"): the gear is
+/// tied to the neighbour's flange by a torsional spring-damper, whose torque on the gear is
+/// `k(φ − θ_g) + c(ω − ω_g)`; `k → ∞` is the rigid limit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpeedCoupling {
+    /// N·m/rad.
+    pub stiffness: f64,
+    /// N·m·s/rad.
+    pub damping: f64,
+    /// The neighbour's (start) speed, rad/s; `None`: the gear's nominal speed.
+    pub speed: Option<f64>,
+    /// The neighbour's start angle, rad; `None`: pre-twisted by the start torque.
+    pub angle: Option<f64>,
+}
+
+/// A validated port.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Port {
     pub name: String,
     pub gear: usize,
     pub end: PortEnd,
-    /// Start torque, N·m, along the body's nominal rotation.
+    /// Start torque, N·m, along the body's nominal rotation (the neighbour's torque on the
+    /// gear; with speed causality the coupling's torque at the start).
     pub torque: f64,
+    /// `Some`: speed causality (the port takes the neighbour's angle and speed and returns
+    /// the coupling torque); `None`: torque causality.
+    pub coupling: Option<SpeedCoupling>,
 }
 
 fn err<T>(msg: String) -> Result<T, SceneError> {
@@ -92,22 +124,32 @@ pub(super) fn ports(
                 p.name
             ));
         }
-        match p.causality.as_str() {
-            "torque" => {}
-            "speed" => {
-                return err(format!(
-                    "{} = \"speed\": speed causality is not available yet (docs/ports.md); \
-                     use \"torque\"",
-                    field("causality")
-                ))
+        let coupling = match p.causality.as_str() {
+            "torque" => {
+                for (key, given) in [
+                    ("stiffness", p.stiffness.is_some()),
+                    ("damping", p.damping.is_some()),
+                    ("speed", p.speed.is_some()),
+                    ("angle", p.angle.is_some()),
+                ] {
+                    if given {
+                        return err(format!(
+                            "{}: only a port with causality = \"speed\" has a coupling to \
+                             its neighbour (this one takes a torque)",
+                            field(key)
+                        ));
+                    }
+                }
+                None
             }
+            "speed" => Some(coupling(p, &field)?),
             other => {
                 return err(format!(
                     "{} = {other:?}: must be \"torque\" or \"speed\"",
                     field("causality")
                 ))
             }
-        }
+        };
         let gear = find(&field("gear"), &p.gear)?;
         let end = if gear == input_gear {
             PortEnd::Input
@@ -131,14 +173,14 @@ pub(super) fn ports(
         match end {
             PortEnd::Input if input_torque_given => {
                 return err(format!(
-                    "operating.input_torque and port[{i}] ({:?}, torque causality on gear {:?}) \
+                    "operating.input_torque and port[{i}] ({:?} on gear {:?}) \
                      both give the input gear's torque: give it as port[{i}].torque",
                     p.name, p.gear
                 ))
             }
             PortEnd::Output if load_torque_given => {
                 return err(format!(
-                    "operating.load_torque and port[{i}] ({:?}, torque causality on gear {:?}) \
+                    "operating.load_torque and port[{i}] ({:?} on gear {:?}) \
                      both give the output gear's torque: give it as port[{i}].torque \
                      (negative for a resisting load)",
                     p.name, p.gear
@@ -158,7 +200,57 @@ pub(super) fn ports(
             gear,
             end,
             torque: p.torque,
+            coupling,
         });
     }
     Ok(out)
+}
+
+/// The coupling of a speed port: `stiffness` > 0 and `damping` ≥ 0 are required (there is no
+/// default compliance: it is part of the drivetrain), `speed` finite if given.
+fn coupling(p: &PortSpec, field: &dyn Fn(&str) -> String) -> Result<SpeedCoupling, SceneError> {
+    let stiffness = match p.stiffness {
+        None => {
+            return err(format!(
+                "{}: required with causality = \"speed\" (the torsional stiffness of the \
+                 coupling to the neighbour, N·m/rad, > 0; a very stiff one approaches a rigid \
+                 connection)",
+                field("stiffness")
+            ))
+        }
+        Some(k) if !(k.is_finite() && k > 0.0) => {
+            return err(format!(
+                "{} = {k}: must be a finite number > 0 N·m/rad",
+                field("stiffness")
+            ))
+        }
+        Some(k) => k,
+    };
+    let damping = match p.damping {
+        None => {
+            return err(format!(
+                "{}: required with causality = \"speed\" (the coupling's viscous damping, \
+                 N·m·s/rad, >= 0)",
+                field("damping")
+            ))
+        }
+        Some(c) if !(c.is_finite() && c >= 0.0) => {
+            return err(format!(
+                "{} = {c}: must be a finite number >= 0 N·m·s/rad",
+                field("damping")
+            ))
+        }
+        Some(c) => c,
+    };
+    for (key, value) in [("speed", p.speed), ("angle", p.angle)] {
+        if let Some(x) = value.filter(|x| !x.is_finite()) {
+            return err(format!("{} = {x}: must be finite", field(key)));
+        }
+    }
+    Ok(SpeedCoupling {
+        stiffness,
+        damping,
+        speed: p.speed,
+        angle: p.angle,
+    })
 }

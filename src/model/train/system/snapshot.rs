@@ -3,8 +3,9 @@
 //! state (FMI 2.0.x §2.1.8) replays identically; the drivetrain counterpart of
 //! `GearPair::pair_state`.
 
-use super::{GearTrain, SlotContact, TrainInputs};
+use super::{GearTrain, Neighbour, SlotContact, TrainInputs};
 use crate::model::PhaseClock;
+use crate::scene::train::PortEnd;
 use crate::scene::ContactLaw;
 
 /// Discrete mode and clock of one mesh.
@@ -33,6 +34,9 @@ pub struct TrainRunState {
     /// ([`GearTrain::set_torque_rates`]); `[0, 0]` and 0 when the torques are held.
     pub torque_rates: [f64; 2],
     pub torque_anchor: f64,
+    /// The neighbours' motion at the speed ports, input port first (`docs/ports.md`); empty
+    /// without speed ports.
+    pub neighbours: Vec<Neighbour>,
 }
 
 impl SlotContact {
@@ -79,6 +83,10 @@ impl GearTrain {
             } else {
                 self.f_anchor
             },
+            neighbours: [PortEnd::Input, PortEnd::Output]
+                .into_iter()
+                .filter_map(|end| self.neighbour(end))
+                .collect(),
         }
     }
 
@@ -169,6 +177,23 @@ impl GearTrain {
             .map(|m| (m.loss_total, m.loss_since))
             .collect();
         train.loss_start = s.loss_start;
+        let ends: Vec<PortEnd> = [PortEnd::Input, PortEnd::Output]
+            .into_iter()
+            .filter(|&end| train.neighbour(end).is_some())
+            .collect();
+        if ends.len() != s.neighbours.len() {
+            return Err(format!(
+                "the state has {} speed-port neighbours, this train {}",
+                s.neighbours.len(),
+                ends.len()
+            ));
+        }
+        for (&end, n) in ends.iter().zip(&s.neighbours) {
+            if !(n.anchor.is_finite() && n.ended.iter().all(|x| x.is_finite())) {
+                return Err(format!("neighbour anchor / rates {n:?} are not finite"));
+            }
+            train.set_neighbour(end, *n)?;
+        }
         train.refresh_guards();
         *self = train;
         Ok(())

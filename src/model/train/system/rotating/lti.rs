@@ -25,6 +25,17 @@ impl Carried {
     /// Why the carried system is not piecewise-LTI apart from its meshes (the elements), or
     /// `None`.
     pub(crate) fn not_lti_reason(&self) -> Option<String> {
+        // The coupling torque k(φ − θ_g) + c(ω − ω_g) is affine in the state, but the
+        // neighbour's angle integrates its speed ramp (`φ_c + ω_c s + ω' s²/2`), a term in s²
+        // the lifted state does not carry; its rows are not built.
+        if let Some(p) = self.ports.iter().find(|p| p.coupling.is_some()) {
+            return Some(format!(
+                "port '{}' has speed causality: its compliant coupling to the neighbour's motion \
+                 is not a row of the exact propagator (docs/ports.md, \"What stays \
+                 piecewise-LTI\")",
+                p.name
+            ));
+        }
         self.attached.as_ref().and_then(|a| a.not_lti_reason())
     }
 

@@ -23,11 +23,14 @@
 //! like the contact changes; the force is the nominal form's `mesh_force_at` with this phase.
 
 mod attached;
+pub mod coupling;
 mod lti;
 
 use std::f64::consts::TAU;
 
 use attached::{Attached, TrainMotion};
+use coupling::Coupling;
+pub use coupling::Neighbour;
 
 use super::super::assembly::Reduction;
 use super::{GearTrain, SlotContact, Stiffness};
@@ -44,12 +47,14 @@ struct BodyRow {
     name: String,
 }
 
-/// A port in the model: which body, which end of the train.
+/// A port in the model: which body, which end of the train, and with speed causality its
+/// coupling to the neighbour.
 #[derive(Debug, Clone)]
 struct PortRt {
     name: String,
     body: usize,
     end: PortEnd,
+    coupling: Option<Coupling>,
 }
 
 /// The carried rotation (see the module documentation).
@@ -173,6 +178,12 @@ impl Carried {
                     name: p.name.clone(),
                     body: asm.body_of[p.gear],
                     end: p.end,
+                    coupling: p.coupling.map(|c| Coupling {
+                        stiffness: c.stiffness,
+                        damping: c.damping,
+                        // Set with the initial state (the gear's start angle).
+                        neighbour: Neighbour::default(),
+                    }),
                 })
                 .collect(),
             attached: None,
@@ -196,10 +207,62 @@ impl Carried {
         2 * self.r + self.attached.as_ref().map_or(0, Attached::dim)
     }
 
-    /// The train's input and load torque from the element shafts at `(t, y)`; `None`: the
-    /// train takes its torques from its inputs (ports).
-    pub(crate) fn train_torques(&self, t: f64, y: &[f64]) -> Option<(f64, f64)> {
-        (self.attached.as_ref()).map(|a| a.train_torques(t, y, self))
+    /// The train's input and load torque at `(t, y)` from the element shafts or the speed
+    /// ports' couplings (a torque port keeps its torque from `given`); `None`: the train
+    /// takes both torques from its inputs (torque ports).
+    pub(crate) fn train_torques(&self, t: f64, y: &[f64], given: (f64, f64)) -> Option<(f64, f64)> {
+        if let Some(a) = &self.attached {
+            return Some(a.train_torques(t, y, self));
+        }
+        let mut torques = None;
+        for p in &self.ports {
+            if let Some(c) = &p.coupling {
+                let (t_in, t_load) = torques.get_or_insert(given);
+                let tau = c.torque_on_gear(t, self.body_motion(p.body, t, y));
+                match p.end {
+                    PortEnd::Input => *t_in = tau,
+                    PortEnd::Output => *t_load = -tau,
+                }
+            }
+        }
+        torques
+    }
+
+    /// The neighbour of the speed port at `end`, if the port there has speed causality.
+    pub(crate) fn neighbour(&self, end: PortEnd) -> Option<Neighbour> {
+        let p = self.ports.iter().find(|p| p.end == end)?;
+        p.coupling.as_ref().map(|c| c.neighbour)
+    }
+
+    /// Sets the neighbour's motion of the speed port at `end` (`false`: no speed port there).
+    pub(crate) fn set_neighbour(&mut self, end: PortEnd, motion: Neighbour) -> bool {
+        let coupling = (self.ports.iter_mut())
+            .find(|p| p.end == end)
+            .and_then(|p| p.coupling.as_mut());
+        coupling.map(|c| c.neighbour = motion).is_some()
+    }
+
+    /// `d/dt` of a speed port's `<port>.torque` output at `(t, y)`, `dy` the state
+    /// derivative there; `None` if `name` is not one.
+    pub(crate) fn port_torque_rate(
+        &self,
+        name: &str,
+        t: f64,
+        y: &[f64],
+        dy: &[f64],
+    ) -> Option<f64> {
+        let p = (self.ports.iter()).find(|p| name.strip_suffix(".torque") == Some(&p.name))?;
+        let c = p.coupling.as_ref()?;
+        let speed = self.body_motion(p.body, t, y).1;
+        Some(-c.torque_rate(t, speed, self.body_acceleration(p.body, dy)))
+    }
+
+    /// `θ_b''` from the state derivative (the reference rotation has no acceleration).
+    fn body_acceleration(&self, b: usize, dy: &[f64]) -> f64 {
+        let (m, r) = (self.m, self.r);
+        let row = &self.bodies[b];
+        (0..m).map(|i| row.xi[i] * dy[m + i]).sum::<f64>()
+            + (0..r).map(|k| row.eta[k] * dy[2 * m + r + k]).sum::<f64>()
     }
 
     /// Angle (rad) and speed (rad/s) of body b, positive in its nominal rotation sense.
@@ -227,8 +290,14 @@ impl Carried {
     }
 
     /// `[ξ0, ξ0']` extended by η0 (the input body at angle 0) and η0' = 0 (every body at its
-    /// nominal speed `w_b Ω_ref`).
-    pub(crate) fn initial_state(&self, elastic: &[f64]) -> Vec<f64> {
+    /// nominal speed `w_b Ω_ref`). Each speed port's neighbour starts at `start[i]` (angle,
+    /// speed), by default pre-twisted by the port's start torque from the gear's start angle
+    /// and at the gear's nominal speed: the coupling carries the start torque.
+    pub(crate) fn initial_state(
+        &mut self,
+        elastic: &[f64],
+        start: &[(f64, Option<f64>, Option<f64>)],
+    ) -> Vec<f64> {
         let (m, r) = (self.m, self.r);
         let mut y = elastic.to_vec();
         y.resize(2 * m + 2 * r, 0.0);
@@ -248,6 +317,20 @@ impl Carried {
         if let Some(a) = &self.attached {
             y.resize(2 * m + 2 * r + a.dim(), 0.0);
             a.initial_state(&mut y, self);
+        }
+        let motion: Vec<(f64, f64)> = (self.ports.iter())
+            .map(|p| self.body_motion(p.body, 0.0, &y))
+            .collect();
+        for ((p, (angle, speed)), &(torque, given_speed, given_angle)) in
+            self.ports.iter_mut().zip(motion).zip(start)
+        {
+            if let Some(c) = &mut p.coupling {
+                c.neighbour = Neighbour {
+                    angle: given_angle.unwrap_or(angle + torque / c.stiffness),
+                    speed: given_speed.unwrap_or(speed),
+                    ..Neighbour::default()
+                };
+            }
         }
         y
     }
@@ -302,6 +385,12 @@ impl Carried {
             }
         }
         for p in &self.ports {
+            if p.coupling.is_some() {
+                // Speed port: its angle and speed are inputs; the gear's motion is in the
+                // body columns.
+                names.push(format!("{}.torque", p.name));
+                continue;
+            }
             for q in ["angle", "speed", "acceleration"] {
                 names.push(format!("{}.{q}", p.name));
             }
@@ -312,7 +401,8 @@ impl Carried {
         names
     }
 
-    /// Whether a torque port sits on the output gear (its torque is minus the load torque).
+    /// Whether a port sits on the output gear (a torque port's torque is minus the load
+    /// torque).
     pub(crate) fn output_port(&self) -> bool {
         self.ports.iter().any(|p| p.end == PortEnd::Output)
     }
@@ -322,16 +412,15 @@ impl Carried {
         let start = out.len();
         for b in 0..self.bodies.len() {
             let (angle, speed) = self.body_motion(b, t, y);
-            // The reference rotation has no acceleration: θ'' = row·[ξ'', η''].
-            let (m, r) = (self.m, self.r);
-            let row = &self.bodies[b];
-            let acc = (0..m).map(|i| row.xi[i] * dy[m + i]).sum::<f64>()
-                + (0..r).map(|k| row.eta[k] * dy[2 * m + r + k]).sum::<f64>();
-            out.extend([angle, speed, acc]);
+            out.extend([angle, speed, self.body_acceleration(b, dy)]);
         }
         for p in &self.ports {
             let i = start + 3 * p.body;
-            out.extend_from_within(i..i + 3);
+            match &p.coupling {
+                // The torque the stage applies to the neighbour (its flange.torque input).
+                Some(c) => out.push(-c.torque_on_gear(t, (out[i], out[i + 1]))),
+                None => out.extend_from_within(i..i + 3),
+            }
         }
         if let Some(a) = &self.attached {
             a.outputs(t, y, dy, self, out);
