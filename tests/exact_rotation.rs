@@ -314,6 +314,18 @@ fn auto_says_why_it_chose_rk() {
         c.contains("auto: exact refused: [[load]] 'load': its drag"),
         "{c}"
     );
+    // Speed ports: the coupling's neighbour angle integrates a speed ramp (no STE here, so the
+    // port is the reason).
+    let text = read("fmu/spur_stage_speed/scene.toml").replace("[mesh.ste]\ncos = [1.0e-6]\n", "");
+    assert!(!text.contains("[mesh.ste]"));
+    let c = TrainSimulation::new(&TrainScene::from_toml_str(&text, "t").unwrap())
+        .unwrap()
+        .method_choice()
+        .to_owned();
+    assert!(
+        c.contains("auto: exact refused: port 'input' has speed causality"),
+        "{c}"
+    );
 }
 
 #[test]

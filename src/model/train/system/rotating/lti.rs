@@ -121,7 +121,13 @@ impl Carried {
     /// Knot guard `k` over the lifted state: `(end − start) − r_n` (even `k`, the end of the
     /// current interval ahead) or `r_n` (its start behind), `ramp` the entry of `r_n`. The
     /// same guards as [`Carried::knot_guards`] with `r_n = p_n + offset − cycle − start`.
-    pub(in crate::model::train::system) fn knot_guard_row(&self, mesh: &MeshRt, k: usize, ramp: usize, w: &mut [f64]) {
+    pub(in crate::model::train::system) fn knot_guard_row(
+        &self,
+        mesh: &MeshRt,
+        k: usize,
+        ramp: usize,
+        w: &mut [f64],
+    ) {
         let (start, end) = mesh.current().map_or((0.0, 1.0), |iv| (iv.start, iv.end));
         let last = w.len() - 1;
         if k.is_multiple_of(2) {
