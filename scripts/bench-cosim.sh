@@ -3,14 +3,15 @@
 # examples/systems/drivetrain3 (emotor → spur_stage_speed → vehicle_load, the stage's speed
 # ports carrying the shafts) and the five-FMU system examples/systems/drivetrain in geardyn's
 # master (`geardyn run`: Jacobi and Gauss–Seidel with zero-order hold, with
-# interpolation/extrapolation) against the monolithic native run of the same drivetrain
-# (`geardyn simulate examples/drivetrain_monolithic.toml`), on the same output grid
-# (communication step = output interval = T_mesh/20 at the SSD's pinion speed, stop 1 s: 38 000
-# steps at 3000 rpm), each writing
-# the CSV of its own columns.
+# interpolation/extrapolation), each against the monolithic native run of the same drivetrain
+# at the same operating point (`geardyn simulate examples/drivetrain_monolithic.toml`: the
+# five-FMU system's cruise point, 3000 rpm; for the three-FMU system the scene moved to its
+# 4500 rpm point by tests/python/drivetrain_reference.py SteadyPoint), on the same output grid
+# (communication step = output interval = T_mesh/20 at the SSD's pinion speed, stop 1 s), each
+# writing the CSV of its own columns.
 # The commands run in alternating rounds so that a change of machine load hits all of them
 # alike; reported: median wall and CPU time (user + system, children included: `geardyn run`
-# runs the FMUs in a child process) and the ratios to the native run.
+# runs the FMUs in a child process) and the ratio to the native run of the same point.
 # Not a test: timings depend on the machine and its load.
 # Usage: bash scripts/bench-cosim.sh [ROUNDS]   (default 7)
 set -euo pipefail
@@ -26,31 +27,48 @@ native=examples/drivetrain_monolithic.toml
 label="monolithic drivetrain (native)"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-python3 - "$rounds" "$bin" "$native" "$label" "$tmp" <<'EOF_PY'
-import math, os, statistics, subprocess, sys, time
-rounds, exe, native, label, tmp = int(sys.argv[1]), *sys.argv[2:6]
-import re
-ssd = open("examples/systems/drivetrain/SystemStructure.ssd").read()
-omega = float(re.search(r'name="input_speed"><ssv:Real value="([^"]+)"', ssd).group(1))  # the SSD's pinion speed
-h = 2 * math.pi / (38 * omega) / 20
-grid = ["--stop-time", "1", "--output-interval", repr(h)]
-system = "examples/systems/drivetrain"
-system3 = "examples/systems/drivetrain3"
-commands = {
-    label: [exe, "simulate", native, "--out", f"{tmp}/n.csv", *grid, "--quiet"],
-    "3 FMUs, geardyn run Jacobi/hold": [exe, "run", system3, "--out", f"{tmp}/j3.csv", *grid,
-                                        "--algorithm", "jacobi", "--extrapolation", "none"],
-    "3 FMUs, geardyn run Jacobi/linear": [exe, "run", system3, "--out", f"{tmp}/jl3.csv", *grid,
-                                          "--algorithm", "jacobi", "--extrapolation", "linear"],
-    "3 FMUs, geardyn run GS/linear": [exe, "run", system3, "--out", f"{tmp}/l3.csv", *grid,
-                                      "--algorithm", "gauss-seidel", "--extrapolation", "linear"],
-    "5 FMUs, geardyn run Jacobi/hold": [exe, "run", system, "--out", f"{tmp}/j.csv", *grid,
-                                        "--algorithm", "jacobi", "--extrapolation", "none"],
-    "5 FMUs, geardyn run GS/hold": [exe, "run", system, "--out", f"{tmp}/g.csv", *grid,
-                                    "--algorithm", "gauss-seidel", "--extrapolation", "none"],
-    "5 FMUs, geardyn run GS/linear": [exe, "run", system, "--out", f"{tmp}/l.csv", *grid,
-                                      "--algorithm", "gauss-seidel", "--extrapolation", "linear"],
-}
+py=.venv/bin/python
+[ -x "$py" ] || py=python3
+"$py" - "$rounds" "$bin" "$tmp" <<'EOF_PY'
+import math, os, re, statistics, subprocess, sys, time
+rounds, exe, tmp = int(sys.argv[1]), sys.argv[2], sys.argv[3]
+sys.path.insert(0, "tests/python")
+import drivetrain_reference as dr
+
+native = "examples/drivetrain_monolithic.toml"
+
+
+def pinion_speed(system):
+    ssd = open(f"{system}/SystemStructure.ssd").read()
+    m = re.search(r'name="(?:operating\.)?input_speed"><ssv:Real value="([^"]+)"', ssd)
+    return float(m.group(1))
+
+
+def grid(system):
+    h = 2 * math.pi / (38 * pinion_speed(system)) / 20
+    return h, ["--stop-time", "1", "--output-interval", repr(h)]
+
+
+def run(system, out, grid, algorithm, extrapolation):
+    return [exe, "run", system, "--out", out, *grid, "--algorithm", algorithm, "--extrapolation", extrapolation]
+
+
+groups = []
+for system, n_fmus, couplings in (
+        ("examples/systems/drivetrain3", 3, [("jacobi", "none"), ("jacobi", "linear"), ("gauss-seidel", "linear")]),
+        ("examples/systems/drivetrain", 5, [("jacobi", "none"), ("gauss-seidel", "none"), ("gauss-seidel", "linear")])):
+    h, g = grid(system)
+    rpm = pinion_speed(system) * 30 / math.pi
+    point = dr.SteadyPoint(rpm, 10.0)
+    scene = f"{tmp}/monolithic_{n_fmus}.toml"
+    with open(scene, "w") as fh:
+        fh.write(point.monolithic_scene(open(native).read()))
+    commands = {f"monolithic drivetrain (native), {rpm:.0f} rpm": [exe, "simulate", scene, "--out", f"{tmp}/n{n_fmus}.csv", *g, "--quiet"]}
+    for alg, ex in couplings:
+        label = f"{n_fmus} FMUs, geardyn run {'GS' if alg == 'gauss-seidel' else 'Jacobi'}/{'hold' if ex == 'none' else 'linear'}"
+        commands[label] = run(system, f"{tmp}/{n_fmus}{alg}{ex}.csv", g, alg, ex)
+    groups.append((system, h, commands))
+
 
 def timed(cmd):
     start = time.perf_counter()
@@ -61,17 +79,20 @@ def timed(cmd):
         sys.exit(f"failed: {' '.join(cmd)}")
     return wall, usage.ru_utime + usage.ru_stime
 
-samples = {name: [] for name in commands}
+
+samples = {name: [] for _, _, commands in groups for name in commands}
 for _ in range(rounds):
-    for name, cmd in commands.items():
-        samples[name].append(timed(cmd))
-rows = sum(1 for _ in open(f"{tmp}/j.csv")) - 1
-base = next(iter(commands))
+    for _, _, commands in groups:
+        for name, cmd in commands.items():
+            samples[name].append(timed(cmd))
 med = statistics.median
-bw, bc = med([w for w, _ in samples[base]]), med([c for _, c in samples[base]])
-print(f"drivetrain, {rows} communication steps of T_mesh/20 = {h:.4e} s (stop 1 s), median of {rounds} alternating rounds:")
-print(f"  {'':40}  {'wall':>8}  {'ratio':>6}  {'CPU':>8}  {'ratio':>6}")
-for name, xs in samples.items():
-    w, c = med([w for w, _ in xs]), med([c for _, c in xs])
-    print(f"  {name:40}  {w:7.3f}s  {w / bw:6.3f}  {c:7.3f}s  {c / bc:6.3f}")
+print(f"median of {rounds} alternating rounds, communication step T_mesh/20, stop 1 s:")
+print(f"  {'':48}  {'wall':>8}  {'ratio':>6}  {'CPU':>8}  {'ratio':>6}")
+for system, h, commands in groups:
+    print(f"{system} (h = {h:.4e} s):")
+    base = next(iter(commands))
+    bw, bc = med([w for w, _ in samples[base]]), med([c for _, c in samples[base]])
+    for name in commands:
+        w, c = med([w for w, _ in samples[name]]), med([c for _, c in samples[name]])
+        print(f"  {name:48}  {w:7.3f}s  {w / bw:6.3f}  {c:7.3f}s  {c / bc:6.3f}")
 EOF_PY

@@ -22,8 +22,9 @@ import shutil
 import numpy as np
 import pytest
 
+import drivetrain_reference as dr
 from conftest import FMU_DIR, REPO, run_geardyn
-from test_drivetrain_cosim import LONG, native, t_mesh
+from test_drivetrain_cosim import LONG, MONOLITHIC, RATTLING_RPM, ROAD_LOAD_T0, native
 
 SYSTEM = REPO / "examples" / "systems" / "drivetrain3"
 FMUS = ("emotor", "spur_stage_speed", "vehicle_load")
@@ -33,6 +34,48 @@ SIGNALS = [("gear.mesh1_dte", "dte", 1.0), ("motor.flange.speed", "motor_speed",
            ("load.flange.speed", "load_speed", 1.0), ("gear.input.torque", "tau1", -1.0),
            ("gear.output.torque", "tau2", 1.0)]
 COLS = [c for c, _, _ in SIGNALS] + ["gear.pinion_speed", "gear.gear_speed"]
+
+
+# The system's operating point: the stage's start torques (fmu/spur_stage_speed) and the SSD's
+# bindings are the steady drivetrain at 4500 rpm on the road load, where the teeth rattle (the
+# five-FMU system ships at cruise and runs this point as its second case).
+POINT = dr.SteadyPoint(RATTLING_RPM, ROAD_LOAD_T0)
+
+
+def t_mesh():
+    return POINT.t_mesh
+
+
+@pytest.fixture(scope="module")
+def monolithic(tmp_path_factory):
+    """The monolithic scene moved to the system's operating point."""
+    path = tmp_path_factory.mktemp("monolithic") / "monolithic_4500.toml"
+    path.write_text(POINT.monolithic_scene(MONOLITHIC.read_text()))
+    return path
+
+
+def test_the_ssd_binds_the_operating_point():
+    """The SSD's motor and load bindings and the stage's neighbour start values are those of
+    SteadyPoint(4500 rpm) (computed from the shipped scenes, not copied)."""
+    import xml.etree.ElementTree as ET
+
+    ssv = "{http://ssp-standard.org/SSP1/SystemStructureParameterValues}"
+    ssd = "{http://ssp-standard.org/SSP1/SystemStructureDescription}"
+    root = ET.parse(SYSTEM / "SystemStructure.ssd").getroot()
+    got = {}
+    for comp in root.iter(f"{ssd}Component"):
+        for p in comp.iter(f"{ssv}Parameter"):
+            got[f"{comp.get('name')}.{p.get('name')}"] = float(p.find(f"{ssv}Real").get("value"))
+    b = POINT.bindings()
+    want = {k: v for k, v in b.items() if k.startswith(("motor.", "load."))}
+    want.update({"gear.input.angle": b["motor.initial.angle"], "gear.input.speed": b["motor.initial.speed"],
+                 "gear.output.angle": b["load.initial.angle"], "gear.output.speed": b["load.initial.speed"]})
+    import tomllib
+
+    with open(REPO / "fmu" / "vehicle_load" / "scene.toml", "rb") as fh:
+        got.setdefault("load.torque", tomllib.load(fh)["element"]["torque"])  # not bound: the scene's
+    for k, v in want.items():
+        assert got[k] == pytest.approx(v, rel=1e-13, abs=1e-15), (k, got.get(k), v)
 
 
 @pytest.fixture(scope="module")
@@ -54,11 +97,11 @@ def geardyn(out, h, stop, algorithm, extrapolation):
     return np.genfromtxt(out, delimiter=",", names=True)
 
 
-def test_the_system_starts_in_the_monolithic_state(fmus, tmp_path):
+def test_the_system_starts_in_the_monolithic_state(fmus, monolithic, tmp_path):
     """At t = 0 the three-FMU system and the monolithic scene agree: speeds, angles (through the
     couplings' torques, which are k times the twists) and the DTE."""
     d = geardyn(tmp_path / "c.csv", 1e-5, 1e-5, "jacobi", "none")
-    r = native(tmp_path / "n.csv", 1e-5, 1e-5)
+    r = native(tmp_path / "n.csv", 1e-5, 1e-5, monolithic)
     for c, k, sign in SIGNALS:
         assert sign * col(d, c)[0] == pytest.approx(r[k][0], rel=1e-12, abs=1e-18), (c, col(d, c)[0], r[k][0])
     assert col(d, "gear.pinion_speed")[0] == pytest.approx(r["pinion_speed"][0], rel=1e-15)
@@ -69,7 +112,7 @@ COUPLINGS = [("jacobi", "none", "Jacobi hold"), ("jacobi", "linear", "Jacobi lin
              ("gauss-seidel", "none", "GS hold"), ("gauss-seidel", "linear", "GS linear")]
 
 
-def test_convergence_against_the_monolithic_model(fmus, tmp_path, report):
+def test_convergence_against_the_monolithic_model(fmus, monolithic, tmp_path, report):
     """Error against the monolithic native run over the communication step h = T_mesh/n, max
     over the run; observed order p = log2(e(h)/e(h/2)). Zero-order hold is a first-order
     coupling, linear extrapolation (Jacobi; the stage's inputs ramp with the neighbours' output
@@ -82,7 +125,7 @@ def test_convergence_against_the_monolithic_model(fmus, tmp_path, report):
         errs = []
         for n in divisors:
             d = geardyn(tmp_path / "c.csv", tm / n, stop, alg, ex)
-            r = native(tmp_path / "n.csv", tm / n, stop)
+            r = native(tmp_path / "n.csv", tm / n, stop, monolithic)
             assert np.abs(r["time"] - d["time"]).max() <= 1e-12 * stop  # same grid
             e = {k: float(np.abs(sign * col(d, c) - r[k]).max()) for c, k, sign in SIGNALS}
             e["rms"] = float(np.sqrt(np.mean((r["dte"] - r["dte"].mean()) ** 2)))
