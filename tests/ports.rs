@@ -64,7 +64,7 @@ fn base_radii_follow_the_tooth_ratio() {
 /// Over `[t_a, t_end]` (trapezoid): `mean(ω2)/mean(ω1)` and `mean(ω2/ω1)`, each relative to
 /// z1/z2, minus 1.
 fn ratio_errors(run: &TrainTrajectory, st: &Stage, t_a: f64) -> (f64, f64) {
-    let (w1, w2) = (col(run, "pinion_speed"), col(run, "gear_speed"));
+    let (w1, w2) = (col(run, "pinion.speed"), col(run, "gear.speed"));
     let t = &run.times;
     let (mut a1, mut a2, mut q, mut span) = (0.0, 0.0, 0.0, 0.0);
     for i in 1..t.len() {
@@ -99,7 +99,7 @@ fn speed_ratio_is_the_tooth_ratio() {
     let st = stage(&sc);
     let run = run_train(&sc, 1.0, 1e-5).unwrap();
     let (means, pointwise) = ratio_errors(&run, &st, 0.1);
-    let w1 = col(&run, "pinion_speed");
+    let w1 = col(&run, "pinion.speed");
     let gain = w1(run.times.len() - 1) - w1(0);
     println!(
         "run-up: ω1 rose by {gain:.3} rad/s; mean(ω2)/mean(ω1)/(z1/z2) − 1 = {means:.3e}, \
@@ -137,10 +137,10 @@ fn power_balance_over_a_run() {
     let h = 5e-8;
     let run = run_train(&sc, 0.005, h).unwrap();
     let n = run.times.len();
-    let (w1, w2) = (col(&run, "pinion_speed"), col(&run, "gear_speed"));
-    let (s, sd) = (col(&run, "mesh1_deflection"), col(&run, "mesh1_dte_rate"));
-    let (force, k) = (col(&run, "mesh1_force"), col(&run, "mesh1_stiffness"));
-    let (contact, phase) = (col(&run, "mesh1_contact_state"), col(&run, "mesh1_phase"));
+    let (w1, w2) = (col(&run, "pinion.speed"), col(&run, "gear.speed"));
+    let (s, sd) = (col(&run, "mesh1.deflection"), col(&run, "mesh1.dte_rate"));
+    let (force, k) = (col(&run, "mesh1.force"), col(&run, "mesh1.stiffness"));
+    let (contact, phase) = (col(&run, "mesh1.contact_state"), col(&run, "mesh1.phase"));
     // e(p) = a cos 2πp (docs/model.md, "Static transmission error"), ė = e'(p) z1 ω1/2π.
     let e = |i: usize| ste * (TAU * phase(i)).cos();
     let e_rate = |i: usize| -ste * TAU * (TAU * phase(i)).sin() * st.z1 * w1(i) / TAU;
@@ -238,8 +238,8 @@ fn without_ports_the_nominal_form_runs() {
         &text[end..]
     );
     let run = run_train(&scene(&nominal), 0.001, 1e-5).unwrap();
-    assert!(run.column("pinion_speed").is_none());
-    assert!(run.column("mesh1_dte").is_some());
+    assert!(run.column("pinion.speed").is_none());
+    assert!(run.column("mesh1.dte").is_some());
 }
 
 #[test]

@@ -482,7 +482,7 @@ mod tests {
         a.do_step(0.0, 5e-4).unwrap();
         assert_eq!(a.get_real(31).unwrap(), 100.0 + 1e5 * 5e-4);
         assert_eq!(Drivetrain::input_rates(a.sim.model()), [0.0; 3]);
-        // input_speed is a parameter with ports: no rate.
+        // operating.input_speed is a parameter with ports: no rate.
         assert!(a.set_input_derivative(30, 1.0).is_err());
     }
 

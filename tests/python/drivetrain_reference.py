@@ -120,7 +120,7 @@ def simulate(s: pr.PortScene, el: Elements, stop_time: float, times, rtol=1e-12)
     if saturated:
         raise ValueError(f"the motor command left the full-load curve at t = {saturated[0]}: "
                          "this reference has no clamp")
-    cols = {k: [] for k in ("pinion_speed", "gear_speed", "motor_speed", "load_speed", "tau1", "tau2")}
+    cols = {k: [] for k in ("pinion.speed", "gear.speed", "motor.speed", "load.speed", "tau1", "tau2")}
     for tt, yy in zip(times, out):
         _, w1, _, w2, _, wm, _, wl, tau1, tau2 = kinematics(tt, yy)
         for k, v in zip(cols, (w1, w2, wm, wl, tau1, tau2)):

@@ -21,17 +21,18 @@ FMU_DIR = REPO / "out" / "fmus"
 
 def names(scene: pathlib.Path):
     """(speed input, a damping parameter) of the scene's FMU: drivetrain FMUs name them
-    `input_speed` and `mesh1.damping`, single-mesh FMUs `pinion_speed` and `mesh.damping`."""
+    `operating.input_speed` and `mesh1.damping`, single-mesh FMUs `operating.pinion_speed` and
+    `mesh.damping` (the scene's key paths)."""
     text = (scene / "scene.toml").read_text()
     if "[[mesh]]" in text:
-        return "input_speed", "mesh1.damping"
-    return "pinion_speed", "mesh.damping"
+        return "operating.input_speed", "mesh1.damping"
+    return "operating.pinion_speed", "mesh.damping"
 
 
 def torque_input(scene: pathlib.Path) -> str:
-    """The input-torque variable: `input_torque`, or `<port>.torque` of a scene with torque
+    """The input-torque variable: `operating.input_torque`, or `<port>.torque` of a scene with torque
     ports (docs/ports.md; the port on the input gear is named `input` in fmu/spur_stage)."""
-    return "input.torque" if "[[port]]" in (scene / "scene.toml").read_text() else "input_torque"
+    return "input.torque" if "[[port]]" in (scene / "scene.toml").read_text() else "operating.input_torque"
 
 
 def shipped(name: str) -> pathlib.Path:
@@ -80,7 +81,7 @@ def test_input_csv_matches_fmpy(scene, tmp_path, report):
     speed, _ = names(scene)
     csv = tmp_path / "in.csv"
     csv.write_text(
-        f'"time","input_torque","{speed}"\n'
+        f'"time","operating.input_torque","{speed}"\n'
         "0,100,471.238898038469\n"
         "0.004,160,471.238898038469\n"
         "0.00655,160,480\n"

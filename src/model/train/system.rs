@@ -448,7 +448,7 @@ impl GearTrain {
             .iter()
             .enumerate()
             .filter(|(_, d)| !matches!(d, DofKind::Rotation { .. }))
-            .map(|(i, _)| (i, asm.labels[i].replace('.', "_")))
+            .map(|(i, _)| (i, asm.labels[i].clone()))
             .collect();
         let mut train = GearTrain {
             m,
@@ -646,7 +646,7 @@ impl GearTrain {
                 "stiffness",
                 "contact_loss_fraction",
             ] {
-                names.push(format!("{}_{q}", m.name));
+                names.push(format!("{}.{q}", m.name));
             }
             let per_pair = matches!(
                 m.force,
@@ -657,10 +657,10 @@ impl GearTrain {
             );
             let slots = if per_pair { self.meshes[n].slots() } else { 0 };
             for j in 0..slots {
-                names.push(format!("{}_pair{j}_force", m.name));
+                names.push(format!("{}.pair{j}.force", m.name));
             }
             if self.meshes[n].friction.is_some() {
-                names.push(format!("{}_friction_force", m.name));
+                names.push(format!("{}.friction_force", m.name));
             }
             self.pair_outputs.push(slots);
         }
@@ -679,7 +679,6 @@ impl GearTrain {
         self.meshes.len()
     }
 
-    /// Name of mesh n (its column prefix without the `_`).
     /// Each gear's name, teeth and rotation frequency at the current input speed, Hz.
     pub fn gear_rotations(&self) -> Vec<(String, u32, f64)> {
         let f_in = self.inputs.input_speed / std::f64::consts::TAU;
@@ -689,6 +688,7 @@ impl GearTrain {
             .collect()
     }
 
+    /// Name of mesh n (the owner of its output columns, `<mesh>.dte`).
     pub fn mesh_name(&self, n: usize) -> &str {
         &self.mesh_names[n]
     }
@@ -792,7 +792,7 @@ impl GearTrain {
             let rate = mesh.cycles_per_rev * inputs.input_speed;
             if !(rate <= crate::model::MAX_RATE) {
                 return Err(format!(
-                    "input_speed = {:?} rad/s gives mesh {n} a mesh rate of {rate:e} 1/s, \
+                    "operating.input_speed = {:?} rad/s gives mesh {n} a mesh rate of {rate:e} 1/s, \
                      beyond {:e} 1/s (the propagators square it)",
                     inputs.input_speed,
                     crate::model::MAX_RATE
@@ -1271,7 +1271,7 @@ impl GearTrain {
         for (n, mesh) in self.meshes.iter().enumerate() {
             mesh.clock.check_advance(t, t_end).map_err(|e| {
                 format!(
-                    "input_speed = {:e} rad/s, mesh {n} phase {:e} cycles at t = {t:e} s: {e}",
+                    "operating.input_speed = {:e} rad/s, mesh {n} phase {:e} cycles at t = {t:e} s: {e}",
                     self.inputs.input_speed,
                     mesh.clock.phase_at(t)
                 )

@@ -290,14 +290,13 @@ impl Carried {
         }
     }
 
-    /// Output names: per body `<gear>_angle`, `_speed`, `_acceleration` (the `geardyn
-    /// simulate` columns), then per port `<port>.angle`, `.speed`, `.acceleration` (the port
-    /// variables of the element convention, `docs/ports.md`).
+    /// Output names (`<owner>.<quantity>`, `docs/fmu.md`): per body `<gear>.angle`, `.speed`,
+    /// `.acceleration`, then per port `<port>.angle`, `.speed`, `.acceleration`.
     pub(crate) fn names(&self) -> Vec<String> {
         let mut names = Vec::new();
         for b in &self.bodies {
             for q in ["angle", "speed", "acceleration"] {
-                names.push(format!("{}_{q}", b.name));
+                names.push(format!("{}.{q}", b.name));
             }
         }
         for p in &self.ports {
