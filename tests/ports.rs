@@ -9,26 +9,17 @@
 //!
 //! The independent dynamic oracle (scipy) is `tests/python/test_ports_reference.py`.
 
+mod common;
+
 use std::f64::consts::TAU;
 use std::path::PathBuf;
 
-use geardyn::model::train::{run_train, TrainTrajectory};
+use common::ports::{col, ratio_errors, scene};
+use geardyn::model::train::run_train;
 use geardyn::scene::train::TrainScene;
 
 fn stage_text() -> String {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fmu/spur_stage/scene.toml");
-    std::fs::read_to_string(path).unwrap()
-}
-
-fn scene(text: &str) -> TrainScene {
-    TrainScene::from_toml_str(text, "test").unwrap()
-}
-
-fn col<'a>(run: &'a TrainTrajectory, name: &str) -> impl Fn(usize) -> f64 + 'a {
-    let c = run
-        .column(name)
-        .unwrap_or_else(|| panic!("no column {name}"));
-    move |i| run.rows[i][c]
+    common::ports::stage_text("spur_stage")
 }
 
 /// Scene numbers of the stage (read from the file, so the test follows the shipped data).
@@ -61,26 +52,6 @@ fn base_radii_follow_the_tooth_ratio() {
     assert!(rel <= 1e-12, "r_b1/r_b2 differs from z1/z2 by {rel:e}");
 }
 
-/// Over `[t_a, t_end]` (trapezoid): `mean(ω2)/mean(ω1)` and `mean(ω2/ω1)`, each relative to
-/// z1/z2, minus 1.
-fn ratio_errors(run: &TrainTrajectory, st: &Stage, t_a: f64) -> (f64, f64) {
-    let (w1, w2) = (col(run, "pinion.speed"), col(run, "gear.speed"));
-    let t = &run.times;
-    let (mut a1, mut a2, mut q, mut span) = (0.0, 0.0, 0.0, 0.0);
-    for i in 1..t.len() {
-        if t[i - 1] < t_a {
-            continue;
-        }
-        let h = t[i] - t[i - 1];
-        a1 += 0.5 * h * (w1(i - 1) + w1(i));
-        a2 += 0.5 * h * (w2(i - 1) + w2(i));
-        q += 0.5 * h * (w2(i - 1) / w1(i - 1) + w2(i) / w1(i));
-        span += h;
-    }
-    let ratio = st.z1 / st.z2;
-    ((a2 / a1) / ratio - 1.0, (q / span) / ratio - 1.0)
-}
-
 #[test]
 fn speed_ratio_is_the_tooth_ratio() {
     // A run-up: 100 N·m in, 143 N·m load (1.2 N·m net at the pinion, ~160 rad/s²) from
@@ -98,7 +69,7 @@ fn speed_ratio_is_the_tooth_ratio() {
     let sc = scene(&text);
     let st = stage(&sc);
     let run = run_train(&sc, 1.0, 1e-5).unwrap();
-    let (means, pointwise) = ratio_errors(&run, &st, 0.1);
+    let (means, pointwise) = ratio_errors(&run, "pinion.speed", "gear.speed", st.z1 / st.z2, 0.1);
     let w1 = col(&run, "pinion.speed");
     let gain = w1(run.times.len() - 1) - w1(0);
     println!(
@@ -218,6 +189,14 @@ fn scene_checks_name_the_keys() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("port[1].gear"), "{e}");
+    let clash = text.replace("name = \"output\"", "name = \"gear\"");
+    let e = TrainScene::from_toml_str(&clash, "t")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("port[1].name") && e.contains("gear's name"),
+        "{e}"
+    );
     let exact = text.replace("method = \"auto\"", "method = \"exact\"");
     let e = geardyn::model::train::TrainSimulation::new(&scene(&exact))
         .err()

@@ -11,7 +11,7 @@
 use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
 
 /// Scene and output interval of its reference run.
-const REFERENCES: [(&str, f64); 7] = [
+const REFERENCES: [(&str, f64); 9] = [
     ("spur_pair", 1e-4),
     ("geometry_pair", 1e-4),
     ("bugaru_pair", 1e-4),
@@ -19,6 +19,8 @@ const REFERENCES: [(&str, f64); 7] = [
     ("idler_gearset", 1e-4),
     ("countershaft_gearset", 1e-4),
     ("spur_stage", 1e-4),
+    ("idler_stage", 1e-4),
+    ("countershaft_stage", 1e-4),
 ];
 
 #[test]
