@@ -157,3 +157,33 @@ fn countershaft_stage_power_balance() {
         ],
     );
 }
+
+#[test]
+fn an_unbalanced_torque_beyond_the_run_limits_is_refused_before_the_run() {
+    // A port torque of 9e15 N·m (a fuzzed value) accelerates the carried rotation so fast that
+    // 1 ms spans ~1e16 mesh periods: the run limits refuse it at once, naming the numbers,
+    // instead of letting the integrator work through a million steps.
+    let text = stage_text("idler_stage").replace(
+        "torque = -247.3684210526316",
+        "torque = 9.007199254740993e15",
+    );
+    let dir = std::env::temp_dir().join(format!("geardyn-ports-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, text).unwrap();
+    let scene = geardyn::commands::simulate::AnyScene::from_path(&path).unwrap();
+    let options = geardyn::commands::simulate::SimulateOptions {
+        stop_time: Some(1e-3),
+        ..Default::default()
+    };
+    let start = std::time::Instant::now();
+    let e = geardyn::commands::simulate::simulate(scene, &options, &dir.join("out.csv"))
+        .err()
+        .unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(
+        e.contains("mesh periods") && e.contains("Hz/s under the port torques"),
+        "{e}"
+    );
+    assert!(start.elapsed().as_secs_f64() < 1.0, "{e}");
+}

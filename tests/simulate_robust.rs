@@ -253,7 +253,7 @@ fn touching_trapezoidal_ramps_match_the_table() {
         edit(SPUR_PAIR, original, &ramps),
         edit(SPUR_PAIR, original, &tabled),
     );
-    // dte is column 1, mesh_stiffness column 6.
+    // mesh.dte is column 1, mesh.stiffness column 6.
     let (dte, k, rows) = compare_on_rk(&a, &b, None, (1, 6));
     // The DTE separates every period (contact loss), so the check covers events too.
     assert!(

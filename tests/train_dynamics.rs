@@ -43,7 +43,7 @@ fn pair_vs_train(text: &str, method: MethodChoice, periods: f64) -> (f64, f64, u
         train.advance_to(t).unwrap();
         let c = core.outputs();
         train.outputs(&mut out);
-        // dte_rate, contact_state, mesh_phase, mesh_stiffness: the same numbers.
+        // mesh.dte_rate, mesh.contact_state, mesh.phase, mesh.stiffness: the same numbers.
         for (core_index, name) in [
             (1, "mesh1.dte_rate"),
             (3, "mesh1.contact_state"),

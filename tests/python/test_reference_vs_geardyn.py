@@ -126,7 +126,7 @@ def test_dte_matches_reference(scene_id, variant, repo_root, geardyn_bin, tmp_pa
     rate_err = np.max(np.abs(cli["mesh.dte_rate"] - expected.dte_rate)) / v_scale
     force_err = np.max(np.abs(cli["mesh.force"] - expected.mesh_force)) / abs(scene.f_ext)
     assert rate_err <= TOL, f"dte_rate error {rate_err:.3e}"
-    assert force_err <= TOL, f"mesh_force error {force_err:.3e} of F_ext"
+    assert force_err <= TOL, f"mesh.force error {force_err:.3e} of F_ext"
     np.testing.assert_allclose(cli["mesh.stiffness"], expected.mesh_stiffness, rtol=1e-12)
     np.testing.assert_allclose(cli["mesh.static_deflection"], expected.static_deflection, rtol=1e-12)
     dphase = np.abs(cli["mesh.phase"] - expected.mesh_phase)

@@ -1242,6 +1242,9 @@ impl GearTrain {
                     None => mesh.clock.mesh_frequency().abs(),
                 })
                 .fold(0.0, f64::max),
+            mesh_frequency_slope: self.rotation.as_ref().map_or(0.0, |r| {
+                r.mesh_frequency_slope(self.inputs.input_torque, self.inputs.load_torque)
+            }),
             start_phase: self
                 .meshes
                 .iter()

@@ -310,6 +310,32 @@ impl Carried {
         names
     }
 
+    /// The largest `|dfₙ/dt|` over the meshes, Hz/s, that the port torques give the rigid-body
+    /// rotation (input port `input_torque`, output port `−load_torque`): body b accelerates at
+    /// `Σₖ ηₖ(b) Σₚ Tₚ ηₖ(p)` (η mass-normalised), and a mesh's frequency is its pinion's
+    /// teeth times its speed over 2π. Balanced torques give 0; the elastic motion oscillates
+    /// about the rigid one.
+    pub(crate) fn mesh_frequency_slope(&self, input_torque: f64, load_torque: f64) -> f64 {
+        let torque = |p: &PortRt| match p.end {
+            PortEnd::Input => input_torque,
+            PortEnd::Output => -load_torque,
+        };
+        let accel = |b: usize| -> f64 {
+            (0..self.r)
+                .map(|k| {
+                    let drive: f64 = (self.ports.iter())
+                        .map(|p| torque(p) * self.bodies[p.body].eta[k])
+                        .sum();
+                    self.bodies[b].eta[k] * drive
+                })
+                .sum::<f64>()
+                .abs()
+        };
+        (self.mesh_body.iter().zip(&self.mesh_teeth))
+            .map(|(&b, z)| z * accel(b) / std::f64::consts::TAU)
+            .fold(0.0, f64::max)
+    }
+
     /// Whether a torque port sits on the output gear (its torque is minus the load torque).
     pub(crate) fn output_port(&self) -> bool {
         self.ports.iter().any(|p| p.end == PortEnd::Output)
