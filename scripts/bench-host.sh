@@ -38,7 +38,7 @@ grid = ["--stop-time", "1", "--output-interval", "1e-5"]
 commands = {
     "geardyn simulate (native, CSV)": [exe, "simulate", "fmu/spur_pair", "--out", f"{tmp}/s.csv", *grid, "--quiet"],
     "geardyn run      (FMU, all outputs)": [exe, "run", fmu, "--out", f"{tmp}/r.csv", *grid],
-    "geardyn run      (FMU, --outputs dte)": [exe, "run", fmu, "--out", f"{tmp}/o.csv", *grid, "--outputs", "dte"],
+    "geardyn run      (FMU, --outputs mesh.dte)": [exe, "run", fmu, "--out", f"{tmp}/o.csv", *grid, "--outputs", "mesh.dte"],
 }
 
 def timed(cmd):

@@ -75,20 +75,20 @@ def native(point: Point, tmp: Path, h: float, stop: float):
     point.scene(tmp / "mono.toml")
     run("simulate", tmp / "mono.toml", "--out", tmp / "n.csv", "--stop-time", repr(stop),
         "--output-interval", repr(h), "--rtol", "1e-12", "--atol", "1e-18", "--quiet")
-    return np.genfromtxt(tmp / "n.csv", delimiter=",", names=True)
+    return np.genfromtxt(tmp / "n.csv", delimiter=",", names=True, deletechars="")
 
 
 def cosim(point: Point, tmp: Path, h: float, stop: float, alg: str, ex: str, system: Path = SYSTEM):
     run("run", system, "--out", tmp / "c.csv", "--stop-time", repr(stop), "--output-interval", repr(h),
-        "--algorithm", alg, "--extrapolation", ex, "--outputs", "gear.mesh1_dte,shaft1.torque,shaft2.torque",
+        "--algorithm", alg, "--extrapolation", ex, "--outputs", "gear.mesh1.dte,shaft1.shaft.torque,shaft2.shaft.torque",
         *point.starts())
-    return np.genfromtxt(tmp / "c.csv", delimiter=",", names=True)
+    return np.genfromtxt(tmp / "c.csv", delimiter=",", names=True, deletechars="")
 
 
 def dte_measures(r):
-    dte = r["mesh1_dte"]
+    dte = r["mesh1.dte"]
     return (float(np.sqrt(np.mean((dte - dte.mean()) ** 2))), float(np.sqrt(np.mean(dte ** 2))),
-            float(np.mean(r["mesh1_contact_state"] != 1.0)))
+            float(np.mean(r["mesh1.contact_state"] != 1.0)))
 
 
 def orders(e):
@@ -109,10 +109,10 @@ def sweep(points, divisors, stop):
                     h = p.t_mesh / n
                     r, c = native(p, tmp, h, stop), cosim(p, tmp, h, stop, alg, ex)
                     assert abs(r["time"][-1] - c["time"][-1]) < 1e-12
-                    err = c["gearmesh1_dte"] - r["mesh1_dte"]
+                    err = c["gear.mesh1.dte"] - r["mesh1.dte"]
                     rows.append((float(np.abs(err).max()),
-                                 float(np.abs(c["shaft1torque"] - r["shaft1_torque"]).max()),
-                                 float(np.abs(c["shaft2torque"] - r["shaft2_torque"]).max()),
+                                 float(np.abs(c["shaft1.shaft.torque"] - r["shaft1.torque"]).max()),
+                                 float(np.abs(c["shaft2.shaft.torque"] - r["shaft2.torque"]).max()),
                                  float(np.sqrt(np.mean(err ** 2)))))
                 e = [x[0] for x in rows]
                 print(f"  {label:13} n = {divisors}: DTE err / RMS about mean "
@@ -138,7 +138,7 @@ def stage(points, divisors, stop, m=16):
                 h = p.t_mesh / n
                 r = native(p, tmp, h / m, stop)
                 ac, rms, _ = dte_measures(r)
-                tau = {"input.torque": r["shaft1_torque"], "output.torque": -r["shaft2_torque"]}
+                tau = {"input.torque": r["shaft1.torque"], "output.torque": -r["shaft2.torque"]}
                 res = {}
                 # the exact torques' right derivatives at t (one-sided differences on the h/m
                 # grid: the acceleration jumps at the stiffness knots, central ones smear them)
@@ -154,12 +154,12 @@ def stage(points, divisors, stop, m=16):
                     s = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=md.coSimulation.modelIdentifier,
                                   instanceName="stage")
                     s.instantiate()
-                    s.setReal([vr["input_speed"]], [p.omega])
+                    s.setReal([vr["operating.input_speed"]], [p.omega])
                     s.setReal([vr["input.torque"], vr["output.torque"]], [tau["input.torque"][0], tau["output.torque"][0]])
                     s.setupExperiment(startTime=0.0)
                     s.enterInitializationMode()
                     s.exitInitializationMode()
-                    dte = [s.getReal([vr["mesh1_dte"]])[0]]
+                    dte = [s.getReal([vr["mesh1.dte"]])[0]]
                     steps = (len(r["time"]) - 1) // m
                     for k in range(steps):
                         for j in range(m):
@@ -183,10 +183,10 @@ def stage(points, divisors, stop, m=16):
                             s.setReal([vr["input.torque"], vr["output.torque"]], vals)
                             s.setRealInputDerivatives([vr["input.torque"], vr["output.torque"]], [1, 1], rates)
                             s.doStep(currentCommunicationPoint=r["time"][i], communicationStepSize=h / m)
-                        dte.append(s.getReal([vr["mesh1_dte"]])[0])
+                        dte.append(s.getReal([vr["mesh1.dte"]])[0])
                     s.terminate()
                     s.freeInstance()
-                    ref = r["mesh1_dte"][: steps * m + 1: m]
+                    ref = r["mesh1.dte"][: steps * m + 1: m]
                     res[coarse] = float(np.abs(np.array(dte) - ref).max()) / ac
                 print(f"  n = {n} (RMS / RMS about mean = {rms / ac:.3g}): max DTE err / RMS about mean: both fine {res[()]:.3g}, tau1 coarse {res[('input.torque',)]:.3g}, "
                       f"tau2 coarse {res[('output.torque',)]:.3g}, both coarse {res[('input.torque', 'output.torque')]:.3g}; "
@@ -218,10 +218,10 @@ def order(points, divisors, stop):
             for n in divisors:
                 h = p.t_mesh / n
                 r = native(p, tmp, h, stop)
-                rms = float(np.sqrt(np.mean(r["mesh1_dte"] ** 2)))
+                rms = float(np.sqrt(np.mean(r["mesh1.dte"] ** 2)))
                 line = []
                 for label, sysdir in (("shipped", SYSTEM), ("reversed", system)):
-                    err = cosim(p, tmp, h, stop, "gauss-seidel", "linear", sysdir)["gearmesh1_dte"] - r["mesh1_dte"]
+                    err = cosim(p, tmp, h, stop, "gauss-seidel", "linear", sysdir)["gear.mesh1.dte"] - r["mesh1.dte"]
                     line.append(f"{label}: max DTE err / RMS {np.abs(err).max() / rms:.3g}, "
                                 f"RMS err / RMS {np.sqrt(np.mean(err ** 2)) / rms:.3g}")
                 print(f"  n = {n}: " + "; ".join(line))

@@ -232,7 +232,7 @@ def branch(df, d, x="x"):
 
 
 def rms_max(df, meshes=("mesh1", "mesh2")):
-    return np.max([df[f"{m}_dte_rms"].to_numpy() for m in meshes], axis=0)
+    return np.max([df[f"{m}.dte_rms"].to_numpy() for m in meshes], axis=0)
 
 
 def hysteresis(df, lo, hi, meshes=("mesh1", "mesh2"), ratio=1.5):
@@ -265,7 +265,7 @@ def first_loss(df, mesh, lo, hi, d):
     """Up branch (d = 1): lowest x in [lo, hi] with contact loss on `mesh`; down branch
     (d = −1): highest such x."""
     b = branch(df, d)
-    m = b[(b.x >= lo) & (b.x <= hi) & (b[f"{mesh}_contact_loss_fraction"] > 0)]
+    m = b[(b.x >= lo) & (b.x <= hi) & (b[f"{mesh}.contact_loss_fraction"] > 0)]
     if m.empty:
         return float("nan")
     return float(m.x.min() if d == 1 else m.x.max())
@@ -293,8 +293,8 @@ def loss_region(df, mesh, near):
     """The contiguous x-range where `mesh` loses contact on either branch, nearest `near`."""
     up, dn = branch(df, 1), branch(df, -1)
     x = up.x.to_numpy()
-    mask = (up[f"{mesh}_contact_loss_fraction"].to_numpy() > 0) | (
-        dn[f"{mesh}_contact_loss_fraction"].to_numpy() > 0)
+    mask = (up[f"{mesh}.contact_loss_fraction"].to_numpy() > 0) | (
+        dn[f"{mesh}.contact_loss_fraction"].to_numpy() > 0)
     runs = runs_of(mask, x)
     if not runs:
         return None
@@ -478,7 +478,7 @@ def ch2():
     sup, slo = summary.iloc[0], summary.iloc[1]
     pt_up = nearest(zoom, hz["x_hi"], -1)
     f_up, f_lo = float(sup.mesh_frequency), float(slo.mesh_frequency)
-    loss1, loss2 = float(sup.mesh1_series_loss_exact), float(sup.mesh2_series_loss_exact)
+    loss1, loss2 = float(sup['mesh1.series_loss_exact']), float(sup['mesh2.series_loss_exact'])
     kind = ("aperiodic" if pt_up.aperiodic else
             f"period {int(pt_up.response_periods)}" if pt_up.converged else "not settled")
     row(S, "Upper branch at the mode-2 jump-down: total contact loss of mesh 1",
@@ -488,19 +488,19 @@ def ch2():
         "the response there is mode 1's period-2 (primary parametric, 2f_1 ≈ f_2) response "
         "merged with mode 2's resonance" +
         (": mesh 2 carries the long contact loss" if loss2 > loss1 else "") + "; see Ch. 2 notes")
-    dyn = float(pt_up.mesh1_dynamic_factor)
+    dyn = float(pt_up['mesh1.dynamic_factor'])
     hb_ = branch(zoom, -1)
     hb_ = hb_[(hb_.x >= hz["x_hi"]) & (hb_.x <= hz["hi_x"])]
-    i_ = hb_.mesh1_dynamic_factor.idxmax()
+    i_ = hb_['mesh1.dynamic_factor'].idxmax()
     row(S, "Upper branch at the mode-2 jump-down: peak mesh-1 force",
         "> 3× static (7.6 kN) (§1.11)",
-        f"{dyn:.2f}× static ({float(pt_up.mesh1_peak_force) / 1000:.1f} kN) at {fmt(f_up)} Hz",
+        f"{dyn:.2f}× static ({float(pt_up['mesh1.peak_force']) / 1000:.1f} kN) at {fmt(f_up)} Hz",
         "✓" if dyn > 3 else ("≈" if dyn > 2.5 else "✗"),
         "peak over the static mesh force; "
-        f"the largest mesh-1 factor on the upper branch is {float(hb_.mesh1_dynamic_factor[i_]):.2f}× "
+        f"the largest mesh-1 factor on the upper branch is {float(hb_['mesh1.dynamic_factor'][i_]):.2f}× "
         f"at {fmt(float(hb_.x[i_]))} Hz")
-    lo_mean = float(lo_s.mesh1_force.mean())
-    lo_loss = max(float(slo.mesh1_series_loss_exact), float(slo.mesh2_series_loss_exact))
+    lo_mean = float(lo_s['mesh1.force'].mean())
+    lo_loss = max(float(slo['mesh1.series_loss_exact']), float(slo['mesh2.series_loss_exact']))
     row(S, "Lower branch just below the mode-2 jump-down",
         "2470 Hz: no contact loss, mean force ≈ static 2205 N (§1.11)",
         f"{fmt(f_lo)} Hz: contact loss {lo_loss * 100:.0f} %, mean mesh-1 force {fmt(lo_mean)} N",
@@ -510,8 +510,8 @@ def ch2():
 
     # -- second-harmonic resonance of mode 2 ---------------------------------------------------
     reg1 = loss_region(d100, "mesh2", f1)
-    x_lin, _ = peak(lin, "mesh1_a2", 0.42 * f2, 0.58 * f2, 1)
-    x_nl, _ = peak(d100, "mesh1_a2", 0.42 * f2, 0.58 * f2, 1)
+    x_lin, _ = peak(lin, "mesh1.a2", 0.42 * f2, 0.58 * f2, 1)
+    x_nl, _ = peak(d100, "mesh1.a2", 0.42 * f2, 0.58 * f2, 1)
     row(S, "Second-harmonic resonance of mode 2 (mesh-1 DTE at 2f)",
         "f_2/2 ≈ 1.6 kHz, linear (§1.11)",
         f"{fmt(x_nl)} Hz with contact loss; {fmt(x_lin)} Hz with linear contact "
@@ -532,7 +532,7 @@ def ch2():
         return float(np.max(np.abs(rms_max(u) - rms_max(d))) / rms_max(df).max())
 
     def maxloss(df):
-        return float(max(df.mesh1_contact_loss_fraction.max(), df.mesh2_contact_loss_fraction.max()))
+        return float(max(df['mesh1.contact_loss_fraction'].max(), df['mesh2.contact_loss_fraction'].max()))
 
     w1, w2 = (900.0, 0.5 * (f1 + f2)), (0.5 * (f1 + f2), 3600.0)
 
@@ -613,7 +613,7 @@ def ch2():
     q = {}
     for name, df in (("u", d100), ("B", B)):
         p_ = nearest(df, 1400.0, 1)
-        q[name] = (float(p_.mesh1_dte_rms), float(p_.mesh2_dte_rms), float(p_.x))
+        q[name] = (float(p_['mesh1.dte_rms']), float(p_['mesh2.dte_rms']), float(p_.x))
     r1, r2 = q["B"][0] / q["u"][0], q["B"][1] / q["u"][1]
     row("Ch. 2 tip relief", "Modification B: DTE at the second-harmonic resonance, 1.4 kHz",
         "rises from 4.5 to 8 µm (×1.8) vs unmodified (§1.11)",
@@ -625,11 +625,11 @@ def ch2():
     pb = nearest(B, 2750.0, 1)
     row("Ch. 2 tip relief", "Modification B at 2750 Hz: mesh-1 peak force and total contact loss",
         "5.5 kN (vs 7.6 kN unmodified); 25 % of the cycle (vs 46 %) (§1.11, Fig. 2.13a)",
-        f"{float(pb.mesh1_peak_force) / 1000:.1f} kN; {float(pb.mesh1_contact_loss_fraction) * 100:.0f} % "
-        f"(mesh 2: {float(pb.mesh2_contact_loss_fraction) * 100:.0f} %) at {fmt(float(pb.x))} Hz",
-        "✓" if within(float(pb.mesh1_peak_force), 5500, .15, .3) == "✓" and
-        abs(float(pb.mesh1_contact_loss_fraction) - 0.25) < 0.1 else
-        ("≈" if within(float(pb.mesh1_peak_force), 5500, .15, .4) != "✗" else "✗"),
+        f"{float(pb['mesh1.peak_force']) / 1000:.1f} kN; {float(pb['mesh1.contact_loss_fraction']) * 100:.0f} % "
+        f"(mesh 2: {float(pb['mesh2.contact_loss_fraction']) * 100:.0f} %) at {fmt(float(pb.x))} Hz",
+        "✓" if within(float(pb['mesh1.peak_force']), 5500, .15, .3) == "✓" and
+        abs(float(pb['mesh1.contact_loss_fraction']) - 0.25) < 0.1 else
+        ("≈" if within(float(pb['mesh1.peak_force']), 5500, .15, .4) != "✗" else "✗"),
         "up-branch sweep point; contact loss of the stated size, force higher: B over-relieves "
         "the rectangular pairs (rows above)")
     # A at 50 N·m, 1400 Hz: partial contact loss from the time series.
@@ -640,9 +640,9 @@ def ch2():
                           [hz_to_speed(1400.0, 38)], max_periods=MP)
     frac = {}
     for m, c in (("mesh1", 1.504), ("mesh2", 1.510)):
-        s = np.mod(ts50[f"{m}_phase"].to_numpy(), 1.0)
+        s = np.mod(ts50[f"{m}.phase"].to_numpy(), 1.0)
         engaged = np.where(s >= 2.0 - c, 2, 1)
-        p = ts50[f"{m}_pairs_in_contact"].to_numpy()
+        p = ts50[f"{m}.pairs_in_contact"].to_numpy()
         frac[m] = (float(np.mean((p > 0) & (p < engaged))), float(np.mean(p == 0)))
     row("Ch. 2 tip relief", "Modification A at 50 N·m, 1400 Hz: contact loss",
         "reappears (optimal relief depends on torque); patterns I–IV (§1.11, Fig. 2.13b)",
@@ -662,8 +662,8 @@ def ch2():
     CA = sweep_hz("ch2_compliant_T100_A", tip_relief(compliant, 10e-6), 800.0, 3000.0, 25.0,
                   max_periods=MP)
     Cz = sweep_hz("ch2_compliant_T100_zoom", compliant, 950.0, 1400.0, 5.0, max_periods=MP)
-    Cz["a1max"] = Cz[["mesh1_a1", "mesh2_a1"]].max(axis=1)
-    Cz["a2max"] = Cz[["mesh1_a2", "mesh2_a2"]].max(axis=1)
+    Cz["a1max"] = Cz[["mesh1.a1", "mesh2.a1"]].max(axis=1)
+    Cz["a2max"] = Cz[["mesh1.a2", "mesh2.a2"]].max(axis=1)
     xa1, _ = peak(Cz, "a1max", 0.9 * f6, 1.1 * f6, 1)
     xa2, _ = peak(Cz, "a2max", 0.45 * f7, 0.55 * f7, 1)
     row(S2, "Resonance of mode 6 (first mesh harmonic)",
@@ -715,12 +715,12 @@ def ch2():
         f"{int(outside.sum())} periodic points)",
         "✓" if rel[worst] < 0.01 else "≈", "DTE RMS of either mesh", CHECKS)
     sup, f_up = check_orbit
-    diffs = [abs(float(sup[f"{m}_sweep_loss"]) - float(sup[f"{m}_series_loss_exact"]))
+    diffs = [abs(float(sup[f"{m}.sweep_loss"]) - float(sup[f"{m}.series_loss_exact"]))
              for m in ("mesh1", "mesh2")]
     row(A2, "Contact-loss fraction at the upper-branch point: sweep vs time series",
         "equal within the sampling (1/64 of a mesh period)",
-        f"{fmt(f_up)} Hz: mesh 1 {float(sup.mesh1_sweep_loss):.4f} vs {float(sup.mesh1_series_loss_exact):.4f}, "
-        f"mesh 2 {float(sup.mesh2_sweep_loss):.4f} vs {float(sup.mesh2_series_loss_exact):.4f}",
+        f"{fmt(f_up)} Hz: mesh 1 {float(sup['mesh1.sweep_loss']):.4f} vs {float(sup['mesh1.series_loss_exact']):.4f}, "
+        f"mesh 2 {float(sup['mesh2.sweep_loss']):.4f} vs {float(sup['mesh2.series_loss_exact']):.4f}",
         "✓" if max(diffs) <= 1 / 64 else "✗",
         "series from the sweep's state (examples/liu2007_orbit.rs), exact event times; "
         "tests/liu_idler_sweep.rs asserts it at the mode-1 upper branch", CHECKS)
@@ -731,7 +731,7 @@ def ch2():
     # -- plots -----------------------------------------------------------------------------------
     fig, axs = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
     for ax, m in zip(axs, ("mesh1", "mesh2")):
-        plot_branches(ax, d100, f"{m}_dte_rms", 1e6, "C0", "100 N·m")
+        plot_branches(ax, d100, f"{m}.dte_rms", 1e6, "C0", "100 N·m")
         for f, lab, ha in ((f1, "$f_1$ ", "right"), (f2, "$f_2$", "center"),
                            (f2 / 2, " $f_2/2$", "left")):
             ax.axvline(f, color="0.6", lw=0.8, ls=":")
@@ -747,10 +747,10 @@ def ch2():
     for ax, m in zip(axs, ("mesh1", "mesh2")):
         for t, c in ((50, "C2"), (100, "C0"), (150, "C3")):
             b = branch(sw[t], -1)
-            ax.plot(b.x, b[f"{m}_dte_rms"] * 1e6 * 100 / t, color=c, lw=1.0,
+            ax.plot(b.x, b[f"{m}.dte_rms"] * 1e6 * 100 / t, color=c, lw=1.0,
                     ls=("-", "--", ":")[[50, 100, 150].index(t)], label=f"{t} N·m, down")
             b = branch(sw[t], 1)
-            ax.plot(b.x, b[f"{m}_dte_rms"] * 1e6 * 100 / t, color=c, lw=0.6, alpha=0.6,
+            ax.plot(b.x, b[f"{m}.dte_rms"] * 1e6 * 100 / t, color=c, lw=0.6, alpha=0.6,
                     label=f"{t} N·m, up")
         ax.set_ylabel(f"{m} DTE RMS × 100 N·m/T (µm)")
         ax.grid(alpha=0.3)
@@ -761,9 +761,9 @@ def ch2():
 
     fig, axs = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
     for ax, m in zip(axs, ("mesh1", "mesh2")):
-        plot_branches(ax, d100, f"{m}_dte_rms", 1e6, "0.5", "unmodified")
-        plot_branches(ax, A, f"{m}_dte_rms", 1e6, "C2", "A (10 µm)")
-        plot_branches(ax, B, f"{m}_dte_rms", 1e6, "C3", "B (25 µm)")
+        plot_branches(ax, d100, f"{m}.dte_rms", 1e6, "0.5", "unmodified")
+        plot_branches(ax, A, f"{m}.dte_rms", 1e6, "C2", "A (10 µm)")
+        plot_branches(ax, B, f"{m}.dte_rms", 1e6, "C3", "B (25 µm)")
         ax.set_ylabel(f"{m} DTE RMS (µm)")
         ax.grid(alpha=0.3)
     axs[0].legend(fontsize=7, ncol=3)
@@ -775,8 +775,8 @@ def ch2():
     for ax, ts, lab, f in ((axs[0], up_s, "upper branch", f_up), (axs[1], lo_s, "lower branch", f_lo)):
         tm = ts.time.to_numpy() * f    # mesh cycles
         sel = tm <= 4.0
-        ax.plot(tm[sel], ts.mesh1_force[sel] / 1000, color="C0", label="mesh 1")
-        ax.plot(tm[sel], ts.mesh2_force[sel] / 1000, color="C1", lw=0.8, label="mesh 2")
+        ax.plot(tm[sel], ts['mesh1.force'][sel] / 1000, color="C0", label="mesh 1")
+        ax.plot(tm[sel], ts['mesh2.force'][sel] / 1000, color="C1", lw=0.8, label="mesh 2")
         ax.axhline(F_STATIC / 1000, color="0.5", ls=":", lw=0.8)
         ax.set_ylabel("mesh force (kN)")
         ax.set_title(f"{lab}, {f:.0f} Hz", fontsize=9)
@@ -787,9 +787,9 @@ def ch2():
     FIGS["ch2_force"] = savefig(fig, "ch2_force_jump.png")
 
     fig, axs = plt.subplots(2, 1, figsize=(9, 7))
-    plot_branches(axs[0], C, "mesh1_dte_rms", 1e6, "0.4", "mesh 1, unmodified")
-    plot_branches(axs[0], C, "mesh2_dte_rms", 1e6, "C1", "mesh 2, unmodified")
-    plot_branches(axs[0], CA, "mesh1_dte_rms", 1e6, "C2", "mesh 1, A")
+    plot_branches(axs[0], C, "mesh1.dte_rms", 1e6, "0.4", "mesh 1, unmodified")
+    plot_branches(axs[0], C, "mesh2.dte_rms", 1e6, "C1", "mesh 2, unmodified")
+    plot_branches(axs[0], CA, "mesh1.dte_rms", 1e6, "C2", "mesh 1, A")
     axs[0].set_ylabel("DTE RMS (µm)")
     b = branch(Cz, 1)
     axs[1].plot(b.x, b.a1max * 1e6, color="C0", label="1st mesh harmonic (max of meshes)")
@@ -899,8 +899,8 @@ def sweep_w(tag, text, w_from, w_to, step, f1, teeth, **kw):
 def has_subharmonic(df, lo, hi):
     """A period-2 response with contact loss somewhere in [lo, hi] on either branch."""
     m = df[(df.x >= lo) & (df.x <= hi)]
-    return bool(((m.response_periods == 2) & ((m.mesh1_contact_loss_fraction > 0) |
-                                              (m.mesh2_contact_loss_fraction > 0))).any())
+    return bool(((m.response_periods == 2) & ((m['mesh1.contact_loss_fraction'] > 0) |
+                                              (m['mesh2.contact_loss_fraction'] > 0))).any())
 
 
 def labels(df, d, lo, hi):
@@ -971,10 +971,10 @@ def ch3():
                     f"total contact loss {rec['loss'][0] * 100:.1f} % (mesh 1) and "
                     f"{rec['loss'][1] * 100:.1f} % (mesh 2), DTE RMS {rec['rms'][0]:.3f} / "
                     f"{rec['rms'][1]:.3f} x̄_1; geardyn "
-                    f"{float(g.mesh1_contact_loss_fraction) * 100:.1f} % and "
-                    f"{float(g.mesh2_contact_loss_fraction) * 100:.1f} %, "
-                    f"{float(g.mesh1_dte_rms) / xbar:.3f} / "
-                    f"{float(g.mesh2_dte_rms) / xbar:.3f} x̄_1 (x̄_1 = T/k̄_1). "
+                    f"{float(g['mesh1.contact_loss_fraction']) * 100:.1f} % and "
+                    f"{float(g['mesh2.contact_loss_fraction']) * 100:.1f} %, "
+                    f"{float(g['mesh1.dte_rms']) / xbar:.3f} / "
+                    f"{float(g['mesh2.dte_rms']) / xbar:.3f} x̄_1 (x̄_1 = T/k̄_1). "
                     "So it is the first-order perturbation, not the integration, that has mesh 1 "
                     f"separating up to ω = {o.onset(0, 0)[1]:.3f} for these waves.")
         except Exception as e:  # noqa: BLE001
@@ -1074,8 +1074,8 @@ def ch3():
     # -- plots -----------------------------------------------------------------------------------
     fig, axs = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
     for m, col in (("mesh1", "C0"), ("mesh2", "C1")):
-        plot_branches(axs[0], F, f"{m}_dte_rms", 1e6, col, m.replace("mesh", "mesh "))
-        plot_branches(axs[1], F, f"{m}_contact_loss_fraction", 100, col, m.replace("mesh", "mesh "))
+        plot_branches(axs[0], F, f"{m}.dte_rms", 1e6, col, m.replace("mesh", "mesh "))
+        plot_branches(axs[1], F, f"{m}.contact_loss_fraction", 100, col, m.replace("mesh", "mesh "))
     for w in (0.870, 1.130, 0.875, 1.073):
         axs[1].axvline(w, color="0.5", ls=":", lw=0.8)
     axs[0].set_ylabel("DTE RMS (µm)")
@@ -1091,7 +1091,7 @@ def ch3():
 
     fig, ax = plt.subplots(figsize=(9, 4))
     for m, col in (("mesh1", "C0"), ("mesh2", "C1")):
-        plot_branches(ax, O, f"{m}_dte_rms", 1e6, col, m.replace("mesh", "mesh "))
+        plot_branches(ax, O, f"{m}.dte_rms", 1e6, col, m.replace("mesh", "mesh "))
     for w, lab in ((1, "1"), (2, "2"), (c, "c"), (0.5, "½"), (c / 2, "c/2")):
         ax.axvline(w, color="0.6", ls=":", lw=0.8)
         ax.text(w, ax.get_ylim()[1] * 0.97, lab, ha="center", va="top", fontsize=8)
@@ -1107,11 +1107,11 @@ def ch3():
     cm = plt.get_cmap("viridis")
     for i, g in enumerate(gammas):
         b = branch(G[g], -1)
-        axs[0].plot(b.x, b.mesh2_dte_rms * 1e6, color=cm(i / len(gammas)),
+        axs[0].plot(b.x, b['mesh2.dte_rms'] * 1e6, color=cm(i / len(gammas)),
                     label=f"Γ = {g:g}" + ("" if exists[g] else " (none)"))
     for i, ph in enumerate(phis):
         b = branch(P[ph], -1)
-        axs[1].plot(b.x, b.mesh2_dte_rms * 1e6, color=cm(i / len(phis)),
+        axs[1].plot(b.x, b['mesh2.dte_rms'] * 1e6, color=cm(i / len(phis)),
                     label=f"φ = {ph:g}π" + ("" if ex[ph] else " (none)"))
     axs[0].set_ylabel("mesh 2 DTE RMS (µm), down sweep")
     for ax, t in zip(axs, ("vs damping (φ = 0; cf. Fig. 3.9)", "vs mesh phase (Γ = 0.04; cf. Fig. 3.10)")):
@@ -1195,7 +1195,7 @@ def ch4():
     u = branch(df, 1)
     u = u[(u.x >= (reg[0] if reg else 6.0) - 0.1) & (u.x <= (reg[1] if reg else 7.0) + 0.1)]
     # Drops of the up branch (RMS falling as ω_1 rises), relative to its peak there.
-    steps = np.maximum(-np.diff(u.mesh1_dte_rms.to_numpy()), 0) / u.mesh1_dte_rms.max()
+    steps = np.maximum(-np.diff(u['mesh1.dte_rms'].to_numpy()), 0) / u['mesh1.dte_rms'].max()
     row(S, "ρ = 1/2: combined subharmonic (mesh 1) and fundamental (mesh 2) resonance at 2c_3",
         "at 6.58; linear branches not parallel; no jump-down on the up sweep (§3.6, Fig. 4.7)",
         (f"mesh-1 contact loss over {reg[0]:.2f}–{reg[1]:.2f}; " if reg else "no contact loss; ") +
@@ -1212,8 +1212,8 @@ def ch4():
 
     def pick(mesh, lo, hi):
         b = dn[(dn.x >= lo) & (dn.x <= hi) & (dn.converged == 1) &
-               (dn[f"{mesh}_contact_loss_fraction"] > 0)]
-        return float(b.x[b[f"{mesh}_a1"].idxmax()]) if not b.empty else float("nan")
+               (dn[f"{mesh}.contact_loss_fraction"] > 0)]
+        return float(b.x[b[f"{mesh}.a1"].idxmax()]) if not b.empty else float("nan")
 
     w3 = pick("mesh1", 0.8 * c3, 1.05 * c3)
     w2 = pick("mesh2", 0.95 * c2 / 0.6, 1.05 * c2 / 0.6)
@@ -1247,7 +1247,7 @@ def ch4():
     eps = [0.20, 0.22, 0.24, 0.25, 0.26, 0.28, 0.30]
     E = {e: sweep_w(f"ch4_eps{e}", edit(fig11, "mesh1", "peak_to_peak_ratio", e), 6.2, 7.0,
                     0.01, f1, Z) for e in eps}
-    exists = {e: bool(((E[e].response_periods == 2) & (E[e].mesh1_contact_loss_fraction > 0)).any())
+    exists = {e: bool(((E[e].response_periods == 2) & (E[e]["mesh1.contact_loss_fraction"] > 0)).any())
               for e in eps}
     yes = [e for e in eps if exists[e]]
     no = [e for e in eps if not exists[e]]
@@ -1268,7 +1268,7 @@ def ch4():
         df = Q[r]
         fig, axs = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
         for ax, m in zip(axs, ("mesh1", "mesh2")):
-            plot_branches(ax, df, f"{m}_dte_rms", 1e6, "C0" if m == "mesh1" else "C1",
+            plot_branches(ax, df, f"{m}.dte_rms", 1e6, "C0" if m == "mesh1" else "C1",
                           m.replace("mesh", "mesh "))
             for w, lab in ((c3, "$c_3$"), (c2 / rho[r], "$c_2/ρ$"), (2 * c3, "$2c_3$")):
                 ax.axvline(w, color="0.6", ls=":", lw=0.8)
@@ -1286,8 +1286,8 @@ def ch4():
         ts = ser[int((summ.target == sm.target).idxmax())]
         tm = ts.time.to_numpy() * float(sm.mesh_frequency)
         sel = tm <= 5.0 + 1e-9
-        ax.plot(tm[sel], ts.mesh1_force[sel] / 1000, label="mesh 1 force", color="C0")
-        ax.plot(tm[sel], ts.mesh2_force[sel] / 1000, label="mesh 2 force", color="C1")
+        ax.plot(tm[sel], ts['mesh1.force'][sel] / 1000, label="mesh 1 force", color="C0")
+        ax.plot(tm[sel], ts['mesh2.force'][sel] / 1000, label="mesh 2 force", color="C1")
         ax.set_title(f"{t}, ω_1 = {float(sm.w):.3f} (one response period = 5 mesh-1 periods)",
                      fontsize=8.5)
         ax.set_xlabel("time (mesh-1 periods)")
@@ -1300,7 +1300,7 @@ def ch4():
     cm = plt.get_cmap("viridis")
     for i, e in enumerate(eps):
         b = branch(E[e], -1)
-        ax.plot(b.x, b.mesh1_dte_rms * 1e6, color=cm(i / len(eps)),
+        ax.plot(b.x, b['mesh1.dte_rms'] * 1e6, color=cm(i / len(eps)),
                 label=f"ε_1 = {e:g}" + ("" if exists[e] else " (none)"))
     ax.axvline(2 * c3, color="0.6", ls=":", lw=0.8)
     ax.set_xlabel(f"mesh-1 frequency ω₁ = f_mesh1/f₁ (–), f₁ = {f1:.1f} Hz")

@@ -38,12 +38,14 @@ impl DrivenModel for GearPair {
         match self.profiles().and_then(|p| p.speed.as_ref()) {
             None => RunScales {
                 mesh_frequency: (1.0 / self.mesh_period()).abs(),
+                mesh_frequency_slope: 0.0,
                 start_phase: self.mesh_phase(0.0).abs(),
                 speed: ("operating.pinion_speed", self.inputs().pinion_speed),
                 fastest_rate: self.fastest_rate(),
             },
             Some(p) => RunScales {
                 mesh_frequency: self.peak_mesh_frequency(),
+                mesh_frequency_slope: 0.0,
                 start_phase: self.mesh_phase(0.0).abs(),
                 speed: ("operating.speed_profile (its largest value)", p.max_value()),
                 fastest_rate: self.fastest_rate(),

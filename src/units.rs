@@ -160,18 +160,13 @@ pub fn both_units(speed: f64) -> String {
     )
 }
 
-/// The unit of an output column (CSV header, `--units`), by its name: the exact name, else
-/// the name without its leading `<prefix>_` parts (`mesh1_force` → `force`,
-/// `idler_x` → `x`). `1` is dimensionless (the SI unit one, as CF/UDUNITS write it, so the
-/// Python module's xarray attributes parse); phases are fractions of a mesh cycle.
+/// The unit of an output column (CSV header, `--units`), by its quantity: the part after the
+/// last `.` of an `<owner>.<quantity>` name (`mesh1.force` → `force`, `idler.x` → `x`,
+/// `mesh1.pair0.force` → `force`; `docs/fmu.md`), or the whole name of an unowned column
+/// (`time`, `speed_rpm`). `1` is dimensionless (the SI unit one, as CF/UDUNITS write it, so
+/// the Python module's xarray attributes parse); phases are fractions of a mesh cycle.
 pub fn column_unit(name: &str) -> Option<&'static str> {
-    let mut rest = name;
-    loop {
-        if let Some(unit) = quantity_unit(rest) {
-            return Some(unit);
-        }
-        rest = rest.split_once('_')?.1;
-    }
+    quantity_unit(name.rsplit_once('.').map_or(name, |(_, q)| q))
 }
 
 /// The unit of each output quantity (the column names of `docs/units.md`).
@@ -182,11 +177,13 @@ fn quantity_unit(q: &str) -> Option<&'static str> {
         "dte" | "dte_mean" | "dte_rms" | "dte_peak_to_peak" | "a1" | "a2" | "a3" | "deflection"
         | "static_deflection" | "x" | "y" | "z" => "m",
         "dte_rate" => "m/s",
-        "pinion_angle" => "rad",
-        "mesh_force" | "force" | "friction_force" | "peak_force" | "force_rms" => "N",
-        "mesh_stiffness" | "stiffness" => "N/m",
-        "mesh_phase" | "phase" | "separation_phase" => "cycles",
+        "angle" => "rad",
+        "force" | "friction_force" | "peak_force" | "force_rms" => "N",
+        "stiffness" => "N/m",
+        "phase" | "separation_phase" => "cycles",
         "speed" => "rad/s",
+        "acceleration" => "rad/s2",
+        "torque" | "drive_torque" => "N.m",
         "speed_rpm" => "rpm",
         "mesh_frequency" => "Hz",
         "contact_state"
@@ -205,11 +202,9 @@ fn quantity_unit(q: &str) -> Option<&'static str> {
         | "mesh"
         | "sample"
         | "pairs_loaded" => "1",
-        // Per tooth-pair forces: `pair<j>_force` (drivetrains), `force_<i>` (stiffness).
+        // Per tooth-pair forces of `geardyn stiffness`: `force_<i>`.
         _ if q
-            .strip_prefix("pair")
-            .and_then(|r| r.strip_suffix("_force"))
-            .or_else(|| q.strip_prefix("force_"))
+            .strip_prefix("force_")
             .is_some_and(|j| !j.is_empty() && j.bytes().all(|b| b.is_ascii_digit())) =>
         {
             "N"
@@ -292,25 +287,29 @@ mod tests {
     fn column_units() {
         let cols = [
             "time",
-            "dte",
-            "mesh1_force",
-            "mesh1_pair0_force",
-            "idler_x",
+            "mesh.dte",
+            "mesh1.force",
+            "mesh1.pair0.force",
+            "idler.x",
+            "pinion.angle",
             "speed_rpm",
         ];
         assert_eq!(
             with_units(&cols).unwrap(),
             [
                 "time [s]",
-                "dte [m]",
-                "mesh1_force [N]",
-                "mesh1_pair0_force [N]",
-                "idler_x [m]",
+                "mesh.dte [m]",
+                "mesh1.force [N]",
+                "mesh1.pair0.force [N]",
+                "idler.x [m]",
+                "pinion.angle [rad]",
                 "speed_rpm [rpm]"
             ]
         );
-        assert!(with_units(&["mesh1_bogus"])
+        assert!(with_units(&["mesh1.bogus"])
             .unwrap_err()
-            .contains("'mesh1_bogus'"));
+            .contains("'mesh1.bogus'"));
+        // An old underscored name has no unit: every column follows `<owner>.<quantity>`.
+        assert!(with_units(&["mesh1_force"]).is_err());
     }
 }

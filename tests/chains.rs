@@ -82,7 +82,7 @@ fn run_recorded(scene: &TrainScene, periods: usize) -> Recorded {
     let period = 1.0 / scene.mesh_frequency(0, scene.operating.input_speed);
     let dte: Vec<usize> = (0..scene.meshes.len())
         .map(|n| {
-            let name = format!("{}_dte", scene.meshes[n].name);
+            let name = format!("{}.dte", scene.meshes[n].name);
             sim.output_names().iter().position(|c| *c == name).unwrap()
         })
         .collect();

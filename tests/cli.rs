@@ -202,7 +202,7 @@ fn example_run_writes_documented_csv() {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "time,dte,dte_rate,mesh_force,contact_state,mesh_phase,mesh_stiffness,static_deflection"
+        "time,mesh.dte,mesh.dte_rate,mesh.force,mesh.contact_state,mesh.phase,mesh.stiffness,mesh.static_deflection"
     );
     let rows: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())

@@ -130,14 +130,14 @@ fn power_balance(text: &str, omega_ref: f64, rattles: bool) {
     let h = 5e-8;
     let run = run_train(&sc, 0.005, h).unwrap();
     let n = run.times.len();
-    let (w1, w2) = (col(&run, "pinion_speed"), col(&run, "gear_speed"));
-    let (a1, a2) = (col(&run, "pinion_angle"), col(&run, "gear_angle"));
-    let (am, wm) = (col(&run, "motor_angle"), col(&run, "motor_speed"));
-    let (al, wl) = (col(&run, "load_angle"), col(&run, "load_speed"));
-    let drive_col = col(&run, "motor_drive_torque");
-    let (s, sd) = (col(&run, "mesh1_deflection"), col(&run, "mesh1_dte_rate"));
-    let (force, k) = (col(&run, "mesh1_force"), col(&run, "mesh1_stiffness"));
-    let (contact, phase) = (col(&run, "mesh1_contact_state"), col(&run, "mesh1_phase"));
+    let (w1, w2) = (col(&run, "pinion.speed"), col(&run, "gear.speed"));
+    let (a1, a2) = (col(&run, "pinion.angle"), col(&run, "gear.angle"));
+    let (am, wm) = (col(&run, "motor.angle"), col(&run, "motor.speed"));
+    let (al, wl) = (col(&run, "load.angle"), col(&run, "load.speed"));
+    let drive_col = col(&run, "motor.drive_torque");
+    let (s, sd) = (col(&run, "mesh1.deflection"), col(&run, "mesh1.dte_rate"));
+    let (force, k) = (col(&run, "mesh1.force"), col(&run, "mesh1.stiffness"));
+    let (contact, phase) = (col(&run, "mesh1.contact_state"), col(&run, "mesh1.phase"));
     let drive = |i: usize| {
         let te = KP * (omega_ref - wm(i));
         assert!(
@@ -195,7 +195,7 @@ fn power_balance(text: &str, omega_ref: f64, rattles: bool) {
          {residual:.3e} J = {:.3e} of W_source; drive torque column within {drive_err:.1e} N·m",
         residual / w_src
     );
-    assert!(drive_err <= 1e-9, "motor_drive_torque column {drive_err:e}");
+    assert!(drive_err <= 1e-9, "motor.drive_torque column {drive_err:e}");
     // two stiffness knots per mesh period: 19 in 5 ms at 3000 rpm, 28 at 4500 rpm
     assert!(jumps > 15, "{jumps} stiffness jumps");
     let lost = (0..n).filter(|&i| contact(i) != 1.0).count();
@@ -233,10 +233,10 @@ fn speed_ratio_after_the_transient_is_the_tooth_ratio() {
         (a(last) - a(first)) / (t[last] - t[first])
     };
     let (w1, w2, wm, wl) = (
-        mean("pinion_angle"),
-        mean("gear_angle"),
-        mean("motor_angle"),
-        mean("load_angle"),
+        mean("pinion.angle"),
+        mean("gear.angle"),
+        mean("motor.angle"),
+        mean("load.angle"),
     );
     let err = (w2 / w1) / ratio - 1.0;
     println!(
@@ -316,8 +316,8 @@ fn an_intermediate_inertia_carries_the_chain() {
     let sc = scene(&t);
     let run = run_train(&sc, 1e-4, 1e-5).unwrap();
     let t_in = sc.operating.input_torque;
-    let (af, am) = (col(&run, "flywheel_angle"), col(&run, "motor_angle"));
+    let (af, am) = (col(&run, "flywheel.angle"), col(&run, "motor.angle"));
     assert!((af(0) - t_in / 2.0e4).abs() <= 1e-15, "{}", af(0));
     assert!((am(0) - af(0) - t_in / 1.0e4).abs() <= 1e-15, "{}", am(0));
-    assert!((col(&run, "shaft0_torque")(0) - t_in).abs() <= 1e-9);
+    assert!((col(&run, "shaft0.torque")(0) - t_in).abs() <= 1e-9);
 }

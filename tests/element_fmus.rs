@@ -166,9 +166,9 @@ fn shaft_static_torque_and_its_rate() {
         set(m, name, x);
     }
     let tau = 2.0e4 * (0.012 - 0.002) + 1.5 * 1.0;
-    assert!(close(get(m, "torque"), tau, 1e-15));
-    assert_eq!(get(m, "flange_a.torque"), -get(m, "torque"));
-    assert_eq!(get(m, "flange_b.torque"), get(m, "torque"));
+    assert!(close(get(m, "shaft.torque"), tau, 1e-15));
+    assert_eq!(get(m, "flange_a.torque"), -get(m, "shaft.torque"));
+    assert_eq!(get(m, "flange_b.torque"), get(m, "shaft.torque"));
     m.set_input_derivative(vr(m, "flange_a.speed"), 50.0)
         .unwrap();
     let rate = 2.0e4 * 1.0 + 1.5 * 50.0;
@@ -228,7 +228,7 @@ atol = 1e-12
         worst = worst
             .max(((get(m, "flange.speed") - w) / w).abs())
             .max(((get(m, "flange.angle") - theta) / theta).abs());
-        assert!(close(get(m, "resisting_torque"), cd * w * w, 1e-9));
+        assert!(close(get(m, "load.resisting_torque"), cd * w * w, 1e-9));
     }
     println!("load coast-down: max relative error {worst:.2e} over 5 s");
     assert!(worst < 1e-10, "{worst}");

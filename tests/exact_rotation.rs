@@ -144,9 +144,9 @@ fn spur_stage_exact_matches_dop853_with_and_without_contact_loss() {
             (exact.method.as_str(), rk.method.as_str()),
             ("exact", "dop853")
         );
-        let dte = error(&exact, &rk, "mesh1_dte", x0);
+        let dte = error(&exact, &rk, "mesh1.dte", x0);
         let speed =
-            error(&exact, &rk, "pinion_speed", 1.0).max(error(&exact, &rk, "gear_speed", 1.0));
+            error(&exact, &rk, "pinion.speed", 1.0).max(error(&exact, &rk, "gear.speed", 1.0));
         let dt = same_events(&exact, &rk);
         println!(
             "spur_stage ({contact}) 10 ms: {} contact events, event times within {dt:.2e} s, \
@@ -188,7 +188,7 @@ fn idler_with_ports_exact_matches_dop853() {
         worst = worst.max(dte);
         println!("idler with ports 5 ms: {mesh} DTE {dte:.2e} of the static deflection");
     }
-    let speed = ["pinion_speed", "idler_speed", "follower_speed"]
+    let speed = ["pinion.speed", "idler.speed", "follower.speed"]
         .iter()
         .map(|c| error(&exact, &rk, c, 1.0))
         .fold(0.0, f64::max);
@@ -212,22 +212,22 @@ fn a_reversing_shaft_crosses_knots_backwards() {
     // 1.4 mesh cycles in the next 5 ms (three knots backwards).
     let exact = run(&text, true, 0.006, 1e-5);
     let rk = run(&text, false, 0.006, 1e-5);
-    let w = exact.col("pinion_speed");
+    let w = exact.col("pinion.speed");
     assert!(
         w[0] > 0.0 && *w.last().unwrap() < -30.0,
         "the pinion turned back"
     );
-    let phase = exact.col("mesh1_phase");
+    let phase = exact.col("mesh1.phase");
     assert!(
         phase.windows(2).any(|p| p[1] - p[0] > 0.5),
         "the phase wrapped backwards"
     );
     let largest = rk
-        .col("mesh1_dte")
+        .col("mesh1.dte")
         .iter()
         .fold(0.0f64, |a, v| a.max(v.abs()));
-    let dte = error(&exact, &rk, "mesh1_dte", largest);
-    let speed = error(&exact, &rk, "pinion_speed", 1.0);
+    let dte = error(&exact, &rk, "mesh1.dte", largest);
+    let speed = error(&exact, &rk, "pinion.speed", 1.0);
     let dt = same_events(&exact, &rk);
     println!(
         "reversing: {} contact events (times within {dt:.2e} s), DTE {dte:.2e} of the largest, \
@@ -253,9 +253,9 @@ fn torque_ramps_of_the_fmu_inputs_run_exact() {
     let rk = run_with_rates(&text, false, 5e-4, 1e-5, rates);
     let held = run(&text, true, 5e-4, 1e-5);
     let x0 = static_deflection(100.0, 0.04535, 2.9831e8);
-    let dte = error(&exact, &rk, "mesh1_dte", x0);
-    let speed = error(&exact, &rk, "pinion_speed", 1.0).max(error(&exact, &rk, "gear_speed", 1.0));
-    let ramp_effect = error(&exact, &held, "mesh1_dte", x0);
+    let dte = error(&exact, &rk, "mesh1.dte", x0);
+    let speed = error(&exact, &rk, "pinion.speed", 1.0).max(error(&exact, &rk, "gear.speed", 1.0));
+    let ramp_effect = error(&exact, &held, "mesh1.dte", x0);
     println!(
         "torque ramp: DTE {dte:.2e} of the static deflection (the ramp moves it by {ramp_effect:.2e}), \
          speeds {speed:.2e} rad/s"
@@ -347,12 +347,12 @@ fn linear_elements_run_exact() {
     let rk = run(&text, false, 0.005, 1e-5);
     assert_eq!(exact.method, "exact");
     let x0 = static_deflection(98.71989029812774, 0.04535, 2.9831e8);
-    let dte = error(&exact, &rk, "mesh1_dte", x0);
-    let speed = ["motor_speed", "pinion_speed", "gear_speed", "load_speed"]
+    let dte = error(&exact, &rk, "mesh1.dte", x0);
+    let speed = ["motor.speed", "pinion.speed", "gear.speed", "load.speed"]
         .iter()
         .map(|c| error(&exact, &rk, c, 1.0))
         .fold(0.0, f64::max);
-    let torque = ["shaft1_torque", "shaft2_torque"]
+    let torque = ["shaft1.torque", "shaft2.torque"]
         .iter()
         .map(|c| error(&exact, &rk, c, 98.7))
         .fold(0.0, f64::max);

@@ -158,7 +158,7 @@ fn a_mode_too_fast_for_the_step_is_refused_by_the_guard_sample_bound() {
 /// `pinion_speed` of 1e9…1e308 as an input: the step cost grew without bound (1e11: 8.5 s per
 /// 2e-4 s step) and nothing said why. Now the mesh-period bound of one step refuses the step,
 /// naming the speed; a speed whose mesh rate leaves the arithmetic is refused where it is
-/// set. The drivetrain's `input_speed` alike.
+/// set. The drivetrain's `operating.input_speed` alike.
 #[test]
 fn input_speeds_beyond_the_work_bound_are_refused_naming_the_speed() {
     within(LIMIT, "pinion speeds", || {
@@ -166,13 +166,16 @@ fn input_speeds_beyond_the_work_bound_are_refused_naming_the_speed() {
             let f = Fmu::ready("spur_pair");
             assert_eq!(f.step(0.0, 2e-4), OK);
             assert_eq!(f.set(VR_PINION_SPEED, speed), OK);
-            assert_step_refused(&f, 2e-4, 2e-4, &["pinion_speed", "mesh periods"]);
+            assert_step_refused(&f, 2e-4, 2e-4, &["operating.pinion_speed", "mesh periods"]);
         }
         for speed in [1e200, 1e308] {
             let f = Fmu::ready("spur_pair");
             assert_eq!(f.set(VR_PINION_SPEED, speed), ERR);
             let log = f.messages();
-            assert!(log.contains(&format!("pinion_speed = {speed:?}")), "{log}");
+            assert!(
+                log.contains(&format!("operating.pinion_speed = {speed:?}")),
+                "{log}"
+            );
         }
         // Below the bound a fast speed is simply computed: 1e8 rad/s, 1.2e5 periods.
         let f = Fmu::ready("spur_pair");
@@ -185,7 +188,7 @@ fn input_speeds_beyond_the_work_bound_are_refused_naming_the_speed() {
         assert_eq!(f.step(0.0, 2e-4), DISCARD);
         let log = f.messages();
         assert!(
-            log.contains("input_speed") && log.contains("mesh periods"),
+            log.contains("operating.input_speed") && log.contains("mesh periods"),
             "{log}"
         );
     });
@@ -248,7 +251,7 @@ fn start_values_with_non_finite_initial_outputs_are_refused() {
     let (_f, s, log) = set_before_init(VR_INITIAL_DTE_RATE, 1e308, true);
     assert_eq!(s[0], ERR);
     assert!(
-        log.contains("initial.dte_rate") && log.contains("mesh_force") && log.contains("inf"),
+        log.contains("initial.dte_rate") && log.contains("mesh.force") && log.contains("inf"),
         "{log}"
     );
 }
@@ -300,7 +303,7 @@ fn restored_states_are_validated_like_set_values() {
             (param(VR_DAMPING, f64::NAN), "mesh.damping"),
             (anchor, "clock anchor phase = 1e300"),
             (frequency, "clock mesh frequency"),
-            (speed, "pinion_speed"),
+            (speed, "operating.pinion_speed"),
         ];
         for (bad, what) in cases {
             let status = f.load_bytes(&envelope(&layer, &encode(&bad)));

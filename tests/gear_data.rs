@@ -345,7 +345,7 @@ fn drivetrain_with_geometry_meshes_runs() {
     let mut sim = TrainSimulation::new(&scene).unwrap();
     let names = sim.output_names().to_vec();
     let col = |n: &str| names.iter().position(|x| x == n).unwrap();
-    let (f1, f2) = (col("mesh1_force"), col("mesh2_force"));
+    let (f1, f2) = (col("mesh1.force"), col("mesh2.force"));
     // 196 mesh periods at 1250 Hz, sampled 20.37 times per period: a rate incommensurate
     // with the mesh, so that the sample mean of the jumping mesh force is not biased by
     // aliased harmonics (at exactly 20 samples per period the bias is 1.5 %).

@@ -497,7 +497,7 @@ fn stiffness_cli_writes_csv_plot_and_summary() {
     let mut lines = text.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "phase,pinion_angle,stiffness,deflection,pairs_loaded,force_1,force_2"
+        "phase,pinion.angle,stiffness,deflection,pairs_loaded,force_1,force_2"
     );
     // Every row: forces sum to W = T/r_b1 and stiffness = W/deflection.
     let w = 100.0 / (0.062 * 20f64.to_radians().cos());

@@ -93,7 +93,7 @@ fn runout_on_a_constant_stiffness_is_the_closed_form_sdof_response() {
     let dte = trajectory
         .names
         .iter()
-        .position(|n| n == "mesh1_dte")
+        .position(|n| n == "mesh1.dte")
         .unwrap();
     let omega1 = speed;
     let omega2 = speed * f64::from(Z[0]) / f64::from(Z[1]);

@@ -9,26 +9,17 @@
 //!
 //! The independent dynamic oracle (scipy) is `tests/python/test_ports_reference.py`.
 
+mod common;
+
 use std::f64::consts::TAU;
 use std::path::PathBuf;
 
-use geardyn::model::train::{run_train, TrainTrajectory};
+use common::ports::{col, ratio_errors, scene};
+use geardyn::model::train::run_train;
 use geardyn::scene::train::TrainScene;
 
 fn stage_text() -> String {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fmu/spur_stage/scene.toml");
-    std::fs::read_to_string(path).unwrap()
-}
-
-fn scene(text: &str) -> TrainScene {
-    TrainScene::from_toml_str(text, "test").unwrap()
-}
-
-fn col<'a>(run: &'a TrainTrajectory, name: &str) -> impl Fn(usize) -> f64 + 'a {
-    let c = run
-        .column(name)
-        .unwrap_or_else(|| panic!("no column {name}"));
-    move |i| run.rows[i][c]
+    common::ports::stage_text("spur_stage")
 }
 
 /// Scene numbers of the stage (read from the file, so the test follows the shipped data).
@@ -61,26 +52,6 @@ fn base_radii_follow_the_tooth_ratio() {
     assert!(rel <= 1e-12, "r_b1/r_b2 differs from z1/z2 by {rel:e}");
 }
 
-/// Over `[t_a, t_end]` (trapezoid): `mean(ω2)/mean(ω1)` and `mean(ω2/ω1)`, each relative to
-/// z1/z2, minus 1.
-fn ratio_errors(run: &TrainTrajectory, st: &Stage, t_a: f64) -> (f64, f64) {
-    let (w1, w2) = (col(run, "pinion_speed"), col(run, "gear_speed"));
-    let t = &run.times;
-    let (mut a1, mut a2, mut q, mut span) = (0.0, 0.0, 0.0, 0.0);
-    for i in 1..t.len() {
-        if t[i - 1] < t_a {
-            continue;
-        }
-        let h = t[i] - t[i - 1];
-        a1 += 0.5 * h * (w1(i - 1) + w1(i));
-        a2 += 0.5 * h * (w2(i - 1) + w2(i));
-        q += 0.5 * h * (w2(i - 1) / w1(i - 1) + w2(i) / w1(i));
-        span += h;
-    }
-    let ratio = st.z1 / st.z2;
-    ((a2 / a1) / ratio - 1.0, (q / span) / ratio - 1.0)
-}
-
 #[test]
 fn speed_ratio_is_the_tooth_ratio() {
     // A run-up: 100 N·m in, 143 N·m load (1.2 N·m net at the pinion, ~160 rad/s²) from
@@ -98,8 +69,8 @@ fn speed_ratio_is_the_tooth_ratio() {
     let sc = scene(&text);
     let st = stage(&sc);
     let run = run_train(&sc, 1.0, 1e-5).unwrap();
-    let (means, pointwise) = ratio_errors(&run, &st, 0.1);
-    let w1 = col(&run, "pinion_speed");
+    let (means, pointwise) = ratio_errors(&run, "pinion.speed", "gear.speed", st.z1 / st.z2, 0.1);
+    let w1 = col(&run, "pinion.speed");
     let gain = w1(run.times.len() - 1) - w1(0);
     println!(
         "run-up: ω1 rose by {gain:.3} rad/s; mean(ω2)/mean(ω1)/(z1/z2) − 1 = {means:.3e}, \
@@ -152,10 +123,10 @@ fn stage_energy(
     let m_e = 1.0 / (st.r1 * st.r1 / st.j1 + st.r2 * st.r2 / st.j2);
     let c = 2.0 * zeta * (k_mean * m_e).sqrt();
     let n = run.times.len();
-    let (w1, w2) = (col(run, "pinion_speed"), col(run, "gear_speed"));
-    let (s, sd) = (col(run, "mesh1_deflection"), col(run, "mesh1_dte_rate"));
-    let (force, k) = (col(run, "mesh1_force"), col(run, "mesh1_stiffness"));
-    let (contact, phase) = (col(run, "mesh1_contact_state"), col(run, "mesh1_phase"));
+    let (w1, w2) = (col(run, "pinion.speed"), col(run, "gear.speed"));
+    let (s, sd) = (col(run, "mesh1.deflection"), col(run, "mesh1.dte_rate"));
+    let (force, k) = (col(run, "mesh1.force"), col(run, "mesh1.stiffness"));
+    let (contact, phase) = (col(run, "mesh1.contact_state"), col(run, "mesh1.phase"));
     // e(p) = a cos 2πp (docs/model.md, "Static transmission error"), ė = e'(p) z1 ω1/2π.
     let e = |i: usize| ste * (TAU * phase(i)).cos();
     let e_rate = |i: usize| -ste * TAU * (TAU * phase(i)).sin() * st.z1 * w1(i) / TAU;
@@ -208,7 +179,7 @@ fn power_balance_over_a_run() {
     let st = stage(&sc);
     let (t_in, t_out) = (sc.ports[0].torque, sc.ports[1].torque);
     let run = run_train(&sc, 0.005, 5e-8).unwrap();
-    let (w1, w2) = (col(&run, "pinion_speed"), col(&run, "gear_speed"));
+    let (w1, w2) = (col(&run, "pinion.speed"), col(&run, "gear.speed"));
     let work_in = stage_energy(&run, &st, &|j| t_in * w1(j), &|_| 0.0, &|_| 0.0).work;
     let en = stage_energy(
         &run,
@@ -268,6 +239,14 @@ fn scene_checks_name_the_keys() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("port[1].gear"), "{e}");
+    let clash = text.replace("name = \"output\"", "name = \"gear\"");
+    let e = TrainScene::from_toml_str(&clash, "t")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("port[1].name") && e.contains("gear's name"),
+        "{e}"
+    );
     let exact = text.replace("method = \"auto\"", "method = \"exact\"");
     let e = geardyn::model::train::TrainSimulation::new(&scene(&exact))
         .err()
@@ -288,8 +267,8 @@ fn without_ports_the_nominal_form_runs() {
         &text[end..]
     );
     let run = run_train(&scene(&nominal), 0.001, 1e-5).unwrap();
-    assert!(run.column("pinion_speed").is_none());
-    assert!(run.column("mesh1_dte").is_some());
+    assert!(run.column("pinion.speed").is_none());
+    assert!(run.column("mesh1.dte").is_some());
 }
 
 #[test]
@@ -340,8 +319,8 @@ fn speed_ports_balance_power() {
     let w_n1 = sc.operating.input_speed;
     let w_n2 = w_n1 * st.r1 / st.r2;
     let run = run_train(&sc, 0.005, 5e-8).unwrap();
-    let (a1, a2) = (col(&run, "pinion_angle"), col(&run, "gear_angle"));
-    let (w1, w2) = (col(&run, "pinion_speed"), col(&run, "gear_speed"));
+    let (a1, a2) = (col(&run, "pinion.angle"), col(&run, "gear.angle"));
+    let (w1, w2) = (col(&run, "pinion.speed"), col(&run, "gear.speed"));
     let (on_n1, on_n2) = (col(&run, "input.torque"), col(&run, "output.torque"));
     let t = |i: usize| run.times[i];
     let phi1 = |i: usize| a1(0) + t1 / k1 + w_n1 * t(i);
@@ -407,7 +386,7 @@ fn a_speed_port_settles_to_the_static_twist_and_the_tooth_ratio() {
     let omega = sc.operating.input_speed;
     let t_out = sc.ports[1].torque;
     let run = run_train(&sc, 0.3, 1e-5).unwrap();
-    let (a1, a2) = (col(&run, "pinion_angle"), col(&run, "gear_angle"));
+    let (a1, a2) = (col(&run, "pinion.angle"), col(&run, "gear.angle"));
     let t = &run.times;
     let first = t.iter().position(|&x| x >= 0.1).unwrap();
     let last = t.len() - 1;

@@ -11,7 +11,7 @@
 use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
 
 /// Scene and output interval of its reference run.
-const REFERENCES: [(&str, f64); 8] = [
+const REFERENCES: [(&str, f64); 10] = [
     ("spur_pair", 1e-4),
     ("geometry_pair", 1e-4),
     ("bugaru_pair", 1e-4),
@@ -20,6 +20,8 @@ const REFERENCES: [(&str, f64); 8] = [
     ("countershaft_gearset", 1e-4),
     ("spur_stage", 1e-4),
     ("spur_stage_speed", 1e-4),
+    ("idler_stage", 1e-4),
+    ("countershaft_stage", 1e-4),
 ];
 
 #[test]

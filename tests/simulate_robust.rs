@@ -253,7 +253,7 @@ fn touching_trapezoidal_ramps_match_the_table() {
         edit(SPUR_PAIR, original, &ramps),
         edit(SPUR_PAIR, original, &tabled),
     );
-    // dte is column 1, mesh_stiffness column 6.
+    // mesh.dte is column 1, mesh.stiffness column 6.
     let (dte, k, rows) = compare_on_rk(&a, &b, None, (1, 6));
     // The DTE separates every period (contact loss), so the check covers events too.
     assert!(
@@ -275,7 +275,7 @@ fn touching_trapezoidal_ramps_in_a_train_match_the_table() {
         edit(COUNTERSHAFT, original, &ramps),
         edit(COUNTERSHAFT, original, &tabled),
     );
-    // mesh1_dte is column 1, mesh1_stiffness column 8.
+    // mesh1.dte is column 1, mesh1.stiffness column 8.
     let (dte, k, _) = compare_on_rk(&a, &b, Some(5e-3), (1, 8));
     assert!(dte <= 1e-7, "DTE differs by {dte:e} of its scale");
     assert!(k <= 1e-6 * mean, "stiffness differs by {k:e}");

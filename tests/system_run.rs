@@ -723,7 +723,7 @@ fn unconnected_instances_equal_single_fmu_runs_byte_for_byte() {
         name,
         source: "resources/spur_pair.fmu",
         connectors: vec![],
-        params: vec![("input_torque", format!("{torque:?}"))],
+        params: vec![("operating.input_torque", format!("{torque:?}"))],
     };
     let text = ssd(&[comp("g1", 130.0), comp("g2", 70.0)], &[], 0.005, "");
     std::fs::write(sys.join("SystemStructure.ssd"), text).unwrap();
@@ -735,12 +735,12 @@ fn unconnected_instances_equal_single_fmu_runs_byte_for_byte() {
             "--output-interval",
             "1e-5",
             "--outputs",
-            "g1.dte,g1.mesh_force,g2.dte,g2.mesh_force",
+            "g1.mesh.dte,g1.mesh.force,g2.mesh.dte,g2.mesh.force",
         ],
     );
     assert_eq!(
         header,
-        "\"time\",\"g1.dte\",\"g1.mesh_force\",\"g2.dte\",\"g2.mesh_force\""
+        "\"time\",\"g1.mesh.dte\",\"g1.mesh.force\",\"g2.mesh.dte\",\"g2.mesh.force\""
     );
     let system_text = std::fs::read_to_string(&out).unwrap();
     for (k, torque) in [(0, "130"), (1, "70")] {
@@ -751,13 +751,13 @@ fn unconnected_instances_equal_single_fmu_runs_byte_for_byte() {
             &"--out",
             &single,
             &"--start",
-            &format!("input_torque={torque}"),
+            &format!("operating.input_torque={torque}"),
             &"--stop-time",
             &"0.005",
             &"--output-interval",
             &"1e-5",
             &"--outputs",
-            &"dte,mesh_force",
+            &"mesh.dte,mesh.force",
         ]);
         assert!(o.status.success(), "{}", stderr(&o));
         let single_text = std::fs::read_to_string(&single).unwrap();

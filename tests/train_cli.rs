@@ -77,11 +77,11 @@ fn simulate_writes_train_outputs() {
     let header = csv.lines().next().unwrap();
     for col in [
         "time",
-        "mesh1_dte",
-        "mesh1_force",
-        "mesh1_contact_loss_fraction",
-        "mesh2_dte",
-        "mesh2_phase",
+        "mesh1.dte",
+        "mesh1.force",
+        "mesh1.contact_loss_fraction",
+        "mesh2.dte",
+        "mesh2.phase",
     ] {
         assert!(
             header.split(',').any(|c| c == col),
@@ -102,9 +102,9 @@ fn simulate_writes_train_outputs() {
     let f1 = 51.0 * 246.39942381096415 / std::f64::consts::TAU;
     let p2 = (0.257 + 19.0 / 72.0 * f1 * 0.002f64).rem_euclid(1.0);
     assert!(
-        (row[col("mesh2_phase")] - p2).abs() < 1e-9,
+        (row[col("mesh2.phase")] - p2).abs() < 1e-9,
         "{}",
-        row[col("mesh2_phase")]
+        row[col("mesh2.phase")]
     );
 }
 
@@ -146,7 +146,7 @@ fn built_in_drivetrain_examples() {
         ]);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let csv = std::fs::read_to_string(&out).unwrap();
-        assert!(csv.starts_with("time,mesh1_dte,"), "{name}");
+        assert!(csv.starts_with("time,mesh1.dte,"), "{name}");
     }
 }
 
@@ -213,7 +213,7 @@ fn hb_writes_per_mesh_columns_for_every_scene() {
     ];
     let names: Vec<String> = ["mesh1", "mesh2"]
         .iter()
-        .flat_map(|m| per_mesh.iter().map(move |c| format!("{m}_{c}")))
+        .flat_map(|m| per_mesh.iter().map(move |c| format!("{m}.{c}")))
         .collect();
     expected.extend(names.iter().map(String::as_str));
     expected.extend(["spectral_radius", "stable", "fold"]);
@@ -229,8 +229,8 @@ fn hb_writes_per_mesh_columns_for_every_scene() {
         // On the contact-loss branch of the first resonance: mesh 2 separates, both meshes
         // see a dynamic factor above 1, the orbit is stable.
         let col = |name: &str| row[header.iter().position(|h| *h == name).unwrap()];
-        assert!(col("mesh2_contact_loss_fraction") > 0.05, "{row:?}");
-        assert!(col("mesh1_dynamic_factor") > 1.0 && col("mesh2_dynamic_factor") > 1.0);
+        assert!(col("mesh2.contact_loss_fraction") > 0.05, "{row:?}");
+        assert!(col("mesh1.dynamic_factor") > 1.0 && col("mesh2.dynamic_factor") > 1.0);
         assert_eq!(col("stable"), 1.0);
     }
     let plot = std::fs::read_to_string(&svg).unwrap();

@@ -168,10 +168,10 @@ fn force_at(scene: &TrainScene, s: f64, x: f64) -> (f64, Vec<f64>) {
         .output_names()
         .iter()
         .enumerate()
-        .filter(|(_, n)| n.contains("_pair") && n.ends_with("_force"))
+        .filter(|(_, n)| n.contains(".pair") && n.ends_with(".force"))
         .map(|(i, _)| out[i])
         .collect();
-    (out[col("mesh1_force")], pairs)
+    (out[col("mesh1.force")], pairs)
 }
 
 #[test]

@@ -26,12 +26,12 @@ fn pair_vs_train(text: &str, method: MethodChoice, periods: f64) -> (f64, f64, u
     let dte = train
         .output_names()
         .iter()
-        .position(|n| n == "mesh1_dte")
+        .position(|n| n == "mesh1.dte")
         .unwrap();
     let force = train
         .output_names()
         .iter()
-        .position(|n| n == "mesh1_force")
+        .position(|n| n == "mesh1.force")
         .unwrap();
     let period = core.model().mesh_period();
     let steps = (periods * 40.0) as usize;
@@ -43,12 +43,12 @@ fn pair_vs_train(text: &str, method: MethodChoice, periods: f64) -> (f64, f64, u
         train.advance_to(t).unwrap();
         let c = core.outputs();
         train.outputs(&mut out);
-        // dte_rate, contact_state, mesh_phase, mesh_stiffness: the same numbers.
+        // mesh.dte_rate, mesh.contact_state, mesh.phase, mesh.stiffness: the same numbers.
         for (core_index, name) in [
-            (1, "mesh1_dte_rate"),
-            (3, "mesh1_contact_state"),
-            (4, "mesh1_phase"),
-            (5, "mesh1_stiffness"),
+            (1, "mesh1.dte_rate"),
+            (3, "mesh1.contact_state"),
+            (4, "mesh1.phase"),
+            (5, "mesh1.stiffness"),
         ] {
             let i = train.output_names().iter().position(|n| n == name).unwrap();
             assert_eq!(c[core_index], out[i], "{name} at t = {t}");
@@ -183,7 +183,7 @@ fn rigid_bearing_idler_equals_reduced_rotational_model() {
     rk.set_state(0.0, &y0);
     let names = sim.output_names().to_vec();
     let col = |n: &str| names.iter().position(|x| x == n).unwrap();
-    let (c1, c2) = (col("mesh1_dte"), col("mesh2_dte"));
+    let (c1, c2) = (col("mesh1.dte"), col("mesh2.dte"));
     let mut out = Vec::new();
     let (mut err, mut scale) = (0.0f64, 0.0f64);
     let mut lost = [false; 2];
@@ -203,7 +203,7 @@ fn rigid_bearing_idler_equals_reduced_rotational_model() {
     }
     // The running contact-loss fraction against the oracle's share of separated samples.
     for (j, name) in ["mesh1", "mesh2"].iter().enumerate() {
-        let model = out[col(&format!("{name}_contact_loss_fraction"))];
+        let model = out[col(&format!("{name}.contact_loss_fraction"))];
         let oracle = lost_samples[j] as f64 / 1200.0;
         println!("{name}: contact-loss fraction {model:.4} (oracle samples {oracle:.4})");
         assert!((model - oracle).abs() < 0.01, "{name}: {model} vs {oracle}");
@@ -243,15 +243,15 @@ fn mesh_phase_shift_equals_time_shift() {
         a.outputs(&mut oa);
         b.outputs(&mut ob);
         for (name, (x, y)) in a.output_names().iter().zip(oa.iter().zip(&ob)) {
-            if name.ends_with("_dte") || name.ends_with("_force") {
+            if name.ends_with(".dte") || name.ends_with(".force") {
                 err = err.max(
                     (x - y).abs()
                         / x.abs()
                             .max(1e-30)
-                            .max(if name.ends_with("_dte") { 1e-5 } else { 2e3 }),
+                            .max(if name.ends_with(".dte") { 1e-5 } else { 2e3 }),
                 );
             }
-            if name.ends_with("_pairs_in_contact") {
+            if name.ends_with(".pairs_in_contact") {
                 assert_eq!(x, y, "{name} at t = {t}");
             }
         }
@@ -276,7 +276,7 @@ fn mesh_phase_shift_equals_time_shift() {
     let idx = a
         .output_names()
         .iter()
-        .position(|n| n == "mesh2_force")
+        .position(|n| n == "mesh2.force")
         .unwrap();
     assert!(
         (oc[idx] - oa[idx]).abs() > 1.0,
@@ -310,7 +310,7 @@ fn exact_and_rk_agree_on_model_1_idler() {
         exact.outputs(&mut oe);
         rk.outputs(&mut or);
         for (name, (a, b)) in exact.output_names().iter().zip(oe.iter().zip(&or)) {
-            if name.ends_with("_dte") {
+            if name.ends_with(".dte") {
                 err = err.max((a - b).abs());
                 scale = scale.max(a.abs());
             }
@@ -364,7 +364,7 @@ fn model_1_without_relief_equals_lumped_mesh() {
         b.advance_to(t).unwrap();
         a.outputs(&mut oa);
         b.outputs(&mut ob);
-        for name in ["mesh1_dte", "mesh2_dte", "mesh1_force", "mesh2_force"] {
+        for name in ["mesh1.dte", "mesh2.dte", "mesh1.force", "mesh2.force"] {
             let ia = a.output_names().iter().position(|n| n == name).unwrap();
             let ib = b.output_names().iter().position(|n| n == name).unwrap();
             let s = if name.ends_with("dte") { 1e-5 } else { 2205.0 };
@@ -374,7 +374,7 @@ fn model_1_without_relief_equals_lumped_mesh() {
         let ic = b
             .output_names()
             .iter()
-            .position(|n| n == "mesh2_contact_state")
+            .position(|n| n == "mesh2.contact_state")
             .unwrap();
         lost += usize::from(ob[ic] == 0.0);
     }
@@ -418,7 +418,7 @@ fn rigid_bearing_idler_with_couplings_equals_eq_2_7() {
     rk.set_state(0.0, &sys.static_state());
     let names = sim.output_names().to_vec();
     let col = |n: &str| names.iter().position(|x| x == n).unwrap();
-    let (c1, c2) = (col("mesh1_dte"), col("mesh2_dte"));
+    let (c1, c2) = (col("mesh1.dte"), col("mesh2.dte"));
     let mut out = Vec::new();
     let (mut err, mut scale, mut lost) = (0.0f64, 0.0f64, [false; 2]);
     for k in 1..=60 * 20 {

@@ -103,7 +103,7 @@ fn snapshot_carries_contact_loss_bookkeeping() {
     let names = sim.output_names().to_vec();
     let loss = names
         .iter()
-        .position(|n| n == "mesh1_contact_loss_fraction")
+        .position(|n| n == "mesh1.contact_loss_fraction")
         .unwrap();
     let snap = sim.snapshot();
     assert!(

@@ -63,20 +63,20 @@ fn zero_friction_equals_frictionless_pair() {
     let a = run_train(&zero, stop, dt).unwrap();
     let b = run_train(&plain, stop, dt).unwrap();
     // The friction mesh keeps the off-line-of-action translations (x) as DOFs.
-    assert!(a.column("pinion_y").is_some() && b.column("pinion_y").is_none());
+    assert!(a.column("pinion.y").is_some() && b.column("pinion.y").is_none());
     println!("μ = 0, β = 0 vs no [mesh.friction], 200 mesh periods:");
     let rel = max_relative(
         &a,
         &b,
         &[
-            "mesh1_dte",
-            "mesh1_dte_rate",
-            "mesh1_force",
-            "pinion_x",
-            "gear_x",
+            "mesh1.dte",
+            "mesh1.dte_rate",
+            "mesh1.force",
+            "pinion.x",
+            "gear.x",
         ],
     );
-    let iy = a.column("pinion_y").unwrap();
+    let iy = a.column("pinion.y").unwrap();
     // Only round-off reaches the off-line-of-action DOF (through the reduced mass matrix).
     assert!(
         a.rows.iter().all(|r| r[iy].abs() < 1e-18),
@@ -173,7 +173,7 @@ fn dynamics_settle_on_the_frictional_statics() {
         let mut out = Vec::new();
         sim.outputs(&mut out);
         let col = |n: &str| sim.output_names().iter().position(|x| x == n).unwrap();
-        let (force, friction) = (out[col("mesh1_force")], out[col("mesh1_friction_force")]);
+        let (force, friction) = (out[col("mesh1.force")], out[col("mesh1.friction_force")]);
         println!(
             "s = {s}: settled N = {force:.9} N, statics {:.9} N",
             st.mesh_force[0]

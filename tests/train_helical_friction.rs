@@ -181,7 +181,7 @@ fn six_dof_approaches_sdof_as_bearings_stiffen() {
     for kb in cases {
         let sc = scene(kb);
         let run = run_train(&sc, stop, dt).unwrap();
-        let col = run.column("mesh1_dte").unwrap();
+        let col = run.column("mesh1.dte").unwrap();
         let dte: Vec<f64> = run.rows.iter().map(|r| r[col]).collect();
         let reference = sdof(dte[0], f_mesh, &run.times, 20_000);
         let scale = reference.iter().fold(0.0f64, |a, b| a.max(b.abs()));
@@ -191,10 +191,10 @@ fn six_dof_approaches_sdof_as_bearings_stiffen() {
             .fold(0.0f64, |a, (x, y)| a.max((x - y).abs()))
             / scale;
         let label = kb.map_or("rigid".to_owned(), |k| format!("{k:.0e} N/m"));
-        let y = run.column("pinion_y").map_or(0.0, |c| {
+        let y = run.column("pinion.y").map_or(0.0, |c| {
             run.rows.iter().fold(0.0f64, |a, r| a.max(r[c].abs()))
         });
-        println!("  bearings {label:>10}: max |DTE_6dof − DTE_sdof| / max|DTE| = {err:.3e}  (max |pinion_y| {y:.2e} m)");
+        println!("  bearings {label:>10}: max |DTE_6dof − DTE_sdof| / max|DTE| = {err:.3e}  (max |pinion.y| {y:.2e} m)");
         errors.push(err);
     }
     for w in errors[..7].windows(2) {
@@ -330,7 +330,7 @@ fn six_dof_approaches_the_single_mesh_helical_model() {
     let mut errors = Vec::new();
     for kb in [1e8, 1e10, 1e12, 1e14] {
         let run = run_train(&scene(Some(kb)), n as f64 * dt, dt).unwrap();
-        let col = run.column("mesh1_dte").unwrap();
+        let col = run.column("mesh1.dte").unwrap();
         let sdof_scene = Scene::from_toml_str(&single_mesh_text(run.rows[0][col]), "sdof").unwrap();
         let mut sim = Simulation::new(&sdof_scene).unwrap();
         let (mut err, mut scale) = (0.0f64, 0.0f64);

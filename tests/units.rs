@@ -265,11 +265,11 @@ fn units_header_only_on_request() {
     for (scene, first) in [
         (
             "spur_pair",
-            "time [s],dte [m],dte_rate [m/s],mesh_force [N],",
+            "time [s],mesh.dte [m],mesh.dte_rate [m/s],mesh.force [N],",
         ),
         (
             "idler_gearset",
-            "time [s],mesh1_dte [m],mesh1_dte_rate [m/s],",
+            "time [s],mesh1.dte [m],mesh1.dte_rate [m/s],",
         ),
     ] {
         let (plain, units) = (dir.join("plain.csv"), dir.join("units.csv"));

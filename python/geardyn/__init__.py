@@ -9,7 +9,7 @@ threads run in parallel.
 >>> scene = geardyn.Scene.example("spur_pair")
 >>> scene["mesh.stiffness.mean"] = 2.5e8          # validated like the scene file
 >>> run = geardyn.simulate(scene)
->>> run["dte"].std(), run.units["dte"]
+>>> run["mesh.dte"].std(), run.units["mesh.dte"]
 
 Scene parameters are addressed by their path in the TOML file (``mesh.stiffness.mean``,
 ``gear[1].inertia``); the CLI's solver options (``--stop-time``, ``--rtol``, …) are the

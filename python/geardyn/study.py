@@ -159,7 +159,7 @@ class Study:
     def result_columns(self) -> List[str]:
         if self.kind == "simulate" and self.base_scene().is_train:
             meshes = _train_meshes(self.base_scene())
-            return [f"{m}_{r}" for m in meshes for r in self.results]
+            return [f"{m}.{r}" for m in meshes for r in self.results]
         return list(self.results)
 
 
@@ -315,10 +315,10 @@ def _simulate_results(scene, results: Sequence[str]) -> Dict[str, float]:
     if scene.is_train:
         out = {}
         for m in _train_meshes(scene):
-            contact = run[f"{m}_pairs_in_contact"] == 0
-            out.update(_series_results(run[f"{m}_dte"], run[f"{m}_force"], contact, results, prefix=f"{m}_"))
+            contact = run[f"{m}.pairs_in_contact"] == 0
+            out.update(_series_results(run[f"{m}.dte"], run[f"{m}.force"], contact, results, prefix=f"{m}."))
         return out
-    return _series_results(run["dte"], run["mesh_force"], run["contact_state"] != 1, results)
+    return _series_results(run["mesh.dte"], run["mesh.force"], run["mesh.contact_state"] != 1, results)
 
 
 def _series_results(dte, force, lost, results, prefix="") -> Dict[str, float]:

@@ -53,7 +53,7 @@ pub const HB_STABILITY_COLUMNS: [&str; 3] = ["spectral_radius", "stable", "fold"
 
 /// The column names of the `geardyn hb` CSV of a model with the given mesh prefixes: the
 /// single pair keeps `speed, speed_rpm, mesh_frequency, dte_mean, dte_rms, a1, a2, …, spectral_radius,
-/// stable, fold`; a drivetrain prefixes each mesh's columns with `<mesh name>_`.
+/// stable, fold`; a drivetrain prefixes each mesh's columns with `<mesh name>.`.
 pub fn hb_columns(prefixes: &[String]) -> Vec<String> {
     let mut names: Vec<String> = HB_POINT_COLUMNS.iter().map(|s| s.to_string()).collect();
     for p in prefixes {
@@ -226,7 +226,7 @@ impl HbBranch {
                 });
             }
         }
-        let which = self.prefixes[mesh].trim_end_matches('_');
+        let which = self.prefixes[mesh].trim_end_matches('.');
         let title = format!(
             "{}{}{}: harmonic balance, H = {} (DTE RMS, mean removed)",
             scene.name(),
@@ -256,7 +256,7 @@ impl HbBranch {
                 p.speed, p.solution.mesh_frequency,
             );
             for m in &p.solution.meshes {
-                let name = m.prefix.trim_end_matches('_');
+                let name = m.prefix.trim_end_matches('.');
                 let sep = if name.is_empty() { "" } else { " " };
                 let _ = write!(s, "{sep}{name} {:.4e} m", m.dte_rms);
             }

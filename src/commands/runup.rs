@@ -110,7 +110,7 @@ pub fn mesh_names(scene: &AnyScene) -> Result<Vec<String>, String> {
         Ok((0..sim.model().mesh_count())
             .map(|n| {
                 let p = sim.model().mesh_prefix(n);
-                if p.is_empty() { "mesh".to_owned() } else { p.trim_end_matches('_').to_owned() }
+                if p.is_empty() { "mesh".to_owned() } else { p.trim_end_matches('.').to_owned() }
             })
             .collect())
     })

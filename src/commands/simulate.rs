@@ -139,7 +139,7 @@ pub fn simulate(
         let meshes: Vec<(String, MeshColumns)> = (0..sim.model().mesh_count())
             .map(|n| {
                 let prefix = sim.model().mesh_prefix(n);
-                let label = if prefix.is_empty() { "mesh".to_owned() } else { prefix.trim_end_matches('_').to_owned() };
+                let label = if prefix.is_empty() { "mesh".to_owned() } else { prefix.trim_end_matches('.').to_owned() };
                 (label, sim.model().mesh_columns(n))
             })
             .collect();

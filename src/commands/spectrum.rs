@@ -58,7 +58,7 @@ pub fn column_unit(name: &str) -> &'static str {
         "N"
     } else if name.ends_with("_rate") || name.ends_with("velocity") {
         "m/s"
-    } else if name.contains("dte") || name.ends_with("_x") || name.ends_with("_y") {
+    } else if name.contains("dte") || name.ends_with(".x") || name.ends_with(".y") {
         "m"
     } else {
         "1"
@@ -306,7 +306,7 @@ fn mesh_lines<M: Drivetrain>(model: &M) -> Vec<(String, f64)> {
             let name = if prefix.is_empty() {
                 "mesh".to_string()
             } else {
-                prefix.trim_end_matches('_').to_string()
+                prefix.trim_end_matches('.').to_string()
             };
             (name, model.mesh_frequency(m))
         })

@@ -186,7 +186,7 @@ pub fn sweep_plot(scene: &AnyScene, sweep: &Sweep, path: &Path) -> Result<(), St
         .prefixes
         .iter()
         .flat_map(|p| {
-            let mesh = p.trim_end_matches('_');
+            let mesh = p.trim_end_matches('.');
             let sep = if mesh.is_empty() { "" } else { " " };
             [
                 format!("{mesh}{sep}up sweep"),
@@ -224,9 +224,9 @@ pub fn sweep_plot(scene: &AnyScene, sweep: &Sweep, path: &Path) -> Result<(), St
     frequency_response_plot(&title, series, markers).save(path)
 }
 
-/// `"mesh1 "` for a drivetrain mesh prefix `mesh1_`, `""` for the single pair.
+/// `"mesh1 "` for a drivetrain mesh prefix `mesh1.`, `""` for the single pair.
 pub fn mesh_tag(prefix: &str) -> String {
-    let mesh = prefix.trim_end_matches('_');
+    let mesh = prefix.trim_end_matches('.');
     if mesh.is_empty() {
         String::new()
     } else {

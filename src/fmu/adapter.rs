@@ -491,7 +491,7 @@ mod tests {
         assert!(Drivetrain::input_rates(a.sim.model())
             .iter()
             .all(|&r| r == 0.0));
-        // input_speed is a parameter with ports: no rate.
+        // operating.input_speed is a parameter with ports: no rate.
         assert!(a.set_input_derivative(30, 1.0).is_err());
     }
 

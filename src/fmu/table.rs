@@ -33,7 +33,7 @@ pub fn calculated(name: &str, vr: u32, unit: &str, desc: &str) -> Variable {
 
 /// How a kernel declares the three inputs every kernel has, in
 /// [`crate::fmu::Kernel::INPUTS`] order: the driving speed (named by the kernel; never
-/// negative), `input_torque` and `load_torque`.
+/// negative), `operating.input_torque` and `operating.load_torque` (their scene keys).
 pub struct InputRows {
     pub vrs: [u32; 3],
     pub speed: &'static str,
@@ -47,8 +47,8 @@ pub fn inputs(rows: &InputRows, start: [f64; 3]) -> [Variable; 3] {
     speed.min = Some(0.0);
     [
         speed,
-        input("input_torque", vr[1], start[1], "N.m", desc[1]),
-        input("load_torque", vr[2], start[2], "N.m", desc[2]),
+        input("operating.input_torque", vr[1], start[1], "N.m", desc[1]),
+        input("operating.load_torque", vr[2], start[2], "N.m", desc[2]),
     ]
 }
 

@@ -53,8 +53,9 @@ pub struct MeshColumns {
 /// What the analyses need from a model beyond its equations ([`DrivenModel`]).
 pub trait Drivetrain: DrivenModel {
     fn mesh_count(&self) -> usize;
-    /// Prefix of mesh `n`'s columns (`""` for the single pair, whose columns are `dte`,
-    /// `mesh_force`, …; `"<mesh name>_"` in a drivetrain).
+    /// Prefix of mesh `n`'s columns in the summary tables of `sweep`, `hb` and `steady`
+    /// (`""` for the single pair, whose one mesh's statistics are the row's: `dte_rms`, …;
+    /// `"<mesh name>."` in a drivetrain: `mesh1.dte_rms`).
     fn mesh_prefix(&self, n: usize) -> String;
     /// Mesh frequency of mesh `n` at the current input speed, Hz.
     fn mesh_frequency(&self, n: usize) -> f64;
@@ -110,7 +111,7 @@ pub trait Drivetrain: DrivenModel {
     fn linear_part(&self) -> LinearPart;
     /// `a_n`: mesh `n`'s deflection `S_n = a_n·ξ`, m (before STE and gaps).
     fn mesh_deflection_row(&self, n: usize) -> Vec<f64>;
-    /// `d_n`: mesh `n`'s DTE `= d_n·ξ`, m (the `dte` output).
+    /// `d_n`: mesh `n`'s DTE `= d_n·ξ`, m (the `<mesh>.dte` output).
     fn mesh_dte_row(&self, n: usize) -> Vec<f64>;
     /// The directions `v_{n,k}` of mesh `n`'s forces: first `a_n` (the mesh force), then any
     /// other generalised force the mesh exerts (tooth friction), at most
@@ -254,7 +255,7 @@ impl Drivetrain for GearPair {
         row.extend_from_slice(&out);
     }
     fn mesh_columns(&self, _n: usize) -> MeshColumns {
-        // dte 0, mesh_force 2, contact_state 3 (1 = drive-side contact).
+        // mesh.dte 0, mesh.force 2, mesh.contact_state 3 (1 = drive-side contact).
         MeshColumns {
             dte: 0,
             force: 2,
@@ -309,7 +310,7 @@ impl Drivetrain for GearTrain {
         GearTrain::mesh_count(self)
     }
     fn mesh_prefix(&self, n: usize) -> String {
-        format!("{}_", self.mesh_name(n))
+        format!("{}.", self.mesh_name(n))
     }
     fn mesh_frequency(&self, n: usize) -> f64 {
         1.0 / self.mesh_period(n)
@@ -376,7 +377,7 @@ impl Drivetrain for GearTrain {
     fn mesh_columns(&self, n: usize) -> MeshColumns {
         let names = GearTrain::output_names(self);
         let column = |q: &str| {
-            let c = format!("{}_{q}", self.mesh_name(n));
+            let c = format!("{}.{q}", self.mesh_name(n));
             names
                 .iter()
                 .position(|name| *name == c)

@@ -29,7 +29,7 @@ use crate::scene::{ContactLaw, InitialDte, Scene, SmoothTerms};
 use crate::solve::exact::PiecewiseLti;
 use crate::solve::HybridSystem;
 
-/// Contact state of the mesh; the value is the `contact_state` output.
+/// Contact state of the mesh; the value is the `mesh.contact_state` output.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum ContactState {
     Drive = 1,
@@ -67,13 +67,13 @@ pub struct ForceLaw {
 
 /// Output names in CSV/FMU order (`docs/model.md`, "Outputs").
 pub const OUTPUT_NAMES: [&str; 7] = [
-    "dte",
-    "dte_rate",
-    "mesh_force",
-    "contact_state",
-    "mesh_phase",
-    "mesh_stiffness",
-    "static_deflection",
+    "mesh.dte",
+    "mesh.dte_rate",
+    "mesh.force",
+    "mesh.contact_state",
+    "mesh.phase",
+    "mesh.stiffness",
+    "mesh.static_deflection",
 ];
 
 /// The part of a [`GearPair`] that changes during a run: inputs, phase clock, stiffness
@@ -425,14 +425,14 @@ impl GearPair {
         let rate = TAU * self.mesh_frequency_at(speed) * harmonics;
         if !(rate <= MAX_RATE) {
             return Err(format!(
-                "pinion_speed = {speed:?} rad/s gives the mesh harmonics a rate of {rate:e} 1/s, \
+                "operating.pinion_speed = {speed:?} rad/s gives the mesh harmonics a rate of {rate:e} 1/s, \
                  beyond {MAX_RATE:e} 1/s (the propagators square it)"
             ));
         }
         let force = self.external_force_for(inputs);
         if !(force.is_finite() && (force / self.k_mean).is_finite()) {
             return Err(format!(
-                "input_torque = {:?} N.m and load_torque = {:?} N.m give the mean mesh force \
+                "operating.input_torque = {:?} N.m and operating.load_torque = {:?} N.m give the mean mesh force \
                  {force:e} N: not finite",
                 inputs.input_torque, inputs.load_torque
             ));
@@ -445,7 +445,7 @@ impl GearPair {
     pub fn check_advance(&self, t: f64, t_end: f64) -> Result<(), String> {
         self.clock.check_advance(t, t_end).map_err(|e| {
             format!(
-                "pinion_speed = {:e} rad/s, mesh phase {:e} cycles at t = {t:e} s: {e}",
+                "operating.pinion_speed = {:e} rad/s, mesh phase {:e} cycles at t = {t:e} s: {e}",
                 self.inputs.pinion_speed,
                 self.clock.phase_at(t)
             )

@@ -51,6 +51,10 @@ impl Default for RunLimits {
 pub struct RunScales {
     /// Mesh frequency of the fastest mesh, Hz (0 at standstill).
     pub mesh_frequency: f64,
+    /// How fast the torques change the fastest mesh frequency, Hz/s: 0 for a prescribed speed;
+    /// with the rotation carried (ports, `docs/ports.md`) the rigid-body acceleration the port
+    /// torques give. A run spans about `(f + ½ḟt) t` mesh periods.
+    pub mesh_frequency_slope: f64,
     /// Largest |mesh phase| at t = 0, cycles.
     pub start_phase: f64,
     /// The input speed: its TOML field and value, rad/s.
@@ -82,13 +86,18 @@ impl RunLimits {
                 self.max_rows
             ));
         }
-        let periods = scales.mesh_frequency * stop_time;
+        let periods =
+            (scales.mesh_frequency + 0.5 * scales.mesh_frequency_slope * stop_time) * stop_time;
         if !(periods <= self.max_mesh_periods) {
             return Err(format!(
-                "{} = {:e} rad/s with stop_time = {stop_time:e} s is {periods:.4e} mesh periods (mesh \
-                 frequency {:.4e} Hz); the limit is {:e} mesh periods per run (raise it with \
-                 --max-periods)",
-                scales.speed.0, scales.speed.1, scales.mesh_frequency, self.max_mesh_periods
+                "{} = {:e} rad/s with stop_time = {stop_time:e} s is {periods:.4e} mesh \
+                 periods (mesh frequency {:.4e} Hz, changing by {:.4e} Hz/s under the port \
+                 torques); the limit is {:e} mesh periods per run (raise it with --max-periods)",
+                scales.speed.0,
+                scales.speed.1,
+                scales.mesh_frequency,
+                scales.mesh_frequency_slope,
+                self.max_mesh_periods
             ));
         }
         let phase = scales.start_phase + periods;

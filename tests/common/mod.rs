@@ -9,6 +9,7 @@
 pub mod idler2;
 pub mod idler3;
 pub mod meissner;
+pub mod ports;
 pub mod rng;
 
 use geardyn::scene::Scene;

@@ -114,7 +114,7 @@ def simulate(s: pr.PortScene, el: Elements, stop_time: float, times, rtol=1e-12)
         events += 1
         hit = next(i for i, te in enumerate(sol.t_events) if len(te))
         stage.on_event(guards[hit], t, y)
-    cols = {k: [] for k in ("pinion_speed", "gear_speed", "motor_speed", "load_speed", "tau1", "tau2")}
+    cols = {k: [] for k in ("pinion.speed", "gear.speed", "motor.speed", "load.speed", "tau1", "tau2")}
     for tt, yy in zip(times, out):
         _, w1, _, w2, _, wm, _, wl, tau1, tau2 = kinematics(tt, yy)
         for k, v in zip(cols, (w1, w2, wm, wl, tau1, tau2)):
@@ -123,8 +123,8 @@ def simulate(s: pr.PortScene, el: Elements, stop_time: float, times, rtol=1e-12)
     # The reference has no clamp: refuse a solution whose command leaves the full-load curve
     # (checked on the solution, not inside rhs, where the integrator's trial states of its
     # initial step selection can be far off).
-    command = np.abs(el.kp * (el.omega_ref - res["motor_speed"]))
-    over = np.nonzero(command > np.interp(res["motor_speed"], *el.t_max))[0]
+    command = np.abs(el.kp * (el.omega_ref - res["motor.speed"]))
+    over = np.nonzero(command > np.interp(res["motor.speed"], *el.t_max))[0]
     if len(over):
         raise ValueError(f"the motor command left the full-load curve at t = {times[over[0]]}: "
                          "this reference has no clamp")
@@ -174,11 +174,11 @@ class SteadyPoint:
 
     def bindings(self) -> dict:
         """The SSD's parameter bindings at this point, ``element.variable`` → value."""
-        return {"motor.controller.ki": 0.0, "motor.speed_reference": self.omega_ref,
+        return {"motor.controller.ki": 0.0, "motor.controller.speed_reference": self.omega_ref,
                 "motor.initial.speed": self.omega, "motor.initial.angle": self.theta_motor,
                 "shaft1.flange_a.angle": self.theta_motor, "shaft1.flange_a.speed": self.omega,
                 "shaft1.flange_b.angle": 0.0, "shaft1.flange_b.speed": self.omega,
-                "gear.input_speed": self.omega, "gear.input.torque": self.t_pinion,
+                "gear.operating.input_speed": self.omega, "gear.input.torque": self.t_pinion,
                 "gear.output.torque": -self.t_wheel,
                 "shaft2.flange_a.angle": self.theta_wheel, "shaft2.flange_a.speed": self.omega2,
                 "shaft2.flange_b.angle": self.theta_load, "shaft2.flange_b.speed": self.omega2,

@@ -58,16 +58,17 @@ from scipy.integrate import solve_ivp
 
 TWO_PI = 2.0 * math.pi
 
-#: Output names and order of the CSV (docs/model.md, "Outputs"); `time` comes first.
-OUTPUT_NAMES = (
-    "dte",
-    "dte_rate",
-    "mesh_force",
-    "contact_state",
-    "mesh_phase",
-    "mesh_stiffness",
-    "static_deflection",
-)
+#: Output columns of the CSV in order (docs/model.md, "Outputs"; `time` comes first), each with
+#: the attribute of `ReferenceResult` that holds it.
+OUTPUT_NAMES = {
+    "mesh.dte": "dte",
+    "mesh.dte_rate": "dte_rate",
+    "mesh.force": "mesh_force",
+    "mesh.contact_state": "contact_state",
+    "mesh.phase": "mesh_phase",
+    "mesh.stiffness": "mesh_stiffness",
+    "mesh.static_deflection": "static_deflection",
+}
 
 
 class SceneError(ValueError):
@@ -563,7 +564,7 @@ class ReferenceResult:
     steps: int = 0  # accepted steps of all solve_ivp calls
 
     def columns(self) -> dict[str, np.ndarray]:
-        return {"time": self.time, **{n: getattr(self, n) for n in OUTPUT_NAMES}}
+        return {"time": self.time, **{n: getattr(self, a) for n, a in OUTPUT_NAMES.items()}}
 
 
 def default_atol(scene: Scene, rtol: float) -> np.ndarray:

@@ -236,9 +236,9 @@ def simulate(s: PortScene, stop_time: float, times, rtol=1e-12):
     return {
         "dte": out[:, 0],
         "dte_rate": out[:, 1],
-        "pinion_angle": theta1,
-        "pinion_speed": speed1,
-        "gear_angle": theta2,
-        "gear_speed": speed2,
+        "pinion.angle": theta1,
+        "pinion.speed": speed1,
+        "gear.angle": theta2,
+        "gear.speed": speed2,
         "events": events,
     }

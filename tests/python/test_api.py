@@ -328,7 +328,7 @@ def test_every_output_has_a_unit_and_the_views_carry_them():
     run = geardyn.simulate(geardyn.Scene.example("spur_pair"))
     assert run.data.flags.writeable and run.data.dtype == np.float64 and run.data.shape == (2001, 7)
     df = run.to_pandas()
-    assert df.attrs["units"]["mesh_force"] == "N"
-    identical(df["dte"].to_numpy(), run["dte"])
+    assert df.attrs["units"]["mesh.force"] == "N"
+    identical(df["mesh.dte"].to_numpy(), run["mesh.dte"])
     ds = run.to_xarray()
-    assert ds["dte_rate"].attrs["units"] == "m/s" and ds["time"].attrs["units"] == "s"
+    assert ds["mesh.dte_rate"].attrs["units"] == "m/s" and ds["time"].attrs["units"] == "s"

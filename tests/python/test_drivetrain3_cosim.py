@@ -30,10 +30,10 @@ SYSTEM = REPO / "examples" / "systems" / "drivetrain3"
 FMUS = ("emotor", "spur_stage_speed", "vehicle_load")
 # (system column, monolithic column, sign): the stage's port torques are the torques it
 # applies to the motor (−τ1 of the input shaft) and to the load (+τ2 of the output shaft).
-SIGNALS = [("gear.mesh1_dte", "dte", 1.0), ("motor.flange.speed", "motor_speed", 1.0),
-           ("load.flange.speed", "load_speed", 1.0), ("gear.input.torque", "tau1", -1.0),
+SIGNALS = [("gear.mesh1.dte", "dte", 1.0), ("motor.flange.speed", "motor.speed", 1.0),
+           ("load.flange.speed", "load.speed", 1.0), ("gear.input.torque", "tau1", -1.0),
            ("gear.output.torque", "tau2", 1.0)]
-COLS = [c for c, _, _ in SIGNALS] + ["gear.pinion_speed", "gear.gear_speed"]
+COLS = [c for c, _, _ in SIGNALS] + ["gear.pinion.speed", "gear.gear.speed"]
 
 
 # The system's operating point: the stage's start torques (fmu/spur_stage_speed) and the SSD's
@@ -104,8 +104,8 @@ def test_the_system_starts_in_the_monolithic_state(fmus, monolithic, tmp_path):
     r = native(tmp_path / "n.csv", 1e-5, 1e-5, monolithic)
     for c, k, sign in SIGNALS:
         assert sign * col(d, c)[0] == pytest.approx(r[k][0], rel=1e-12, abs=1e-18), (c, col(d, c)[0], r[k][0])
-    assert col(d, "gear.pinion_speed")[0] == pytest.approx(r["pinion_speed"][0], rel=1e-15)
-    assert col(d, "gear.gear_speed")[0] == pytest.approx(r["gear_speed"][0], rel=1e-15)
+    assert col(d, "gear.pinion.speed")[0] == pytest.approx(r["pinion.speed"][0], rel=1e-15)
+    assert col(d, "gear.gear.speed")[0] == pytest.approx(r["gear.speed"][0], rel=1e-15)
 
 
 COUPLINGS = [("jacobi", "none", "Jacobi hold"), ("jacobi", "linear", "Jacobi linear"),
@@ -131,16 +131,16 @@ def test_convergence_against_the_monolithic_model(fmus, monolithic, tmp_path, re
             e["rms"] = float(np.sqrt(np.mean((r["dte"] - r["dte"].mean()) ** 2)))
             errs.append(e)
         table[label] = errs
-        for k in ("dte", "load_speed", "tau1"):
+        for k in ("dte", "load.speed", "tau1"):
             e = [x[k] for x in errs]
             orders = [math.log2(a / b) for a, b in zip(e, e[1:])]
             scale = errs[0]["rms"] if k == "dte" else 1.0
-            unit = " / DTE RMS" if k == "dte" else (" rad/s" if k == "load_speed" else " N.m")
+            unit = " / DTE RMS" if k == "dte" else (" rad/s" if k == "load.speed" else " N.m")
             report(f"3-FMU {label}: {k} error{unit} at T_mesh/{divisors} = "
                    + ", ".join(f"{x / scale:.3g}" for x in e)
                    + "; observed orders " + ", ".join(f"{p:.2f}" for p in orders))
     for label, lo, hi in (("Jacobi hold", 0.7, 1.3), ("GS hold", 0.7, 1.3)):
-        for k in ("dte", "load_speed", "tau1"):
+        for k in ("dte", "load.speed", "tau1"):
             e = [x[k] for x in table[label]]
             p = math.log2(e[-2] / e[-1])
             assert lo <= p <= hi, (label, k, e, p)
@@ -151,9 +151,9 @@ def test_convergence_against_the_monolithic_model(fmus, monolithic, tmp_path, re
             e = [x[k] for x in table[label]]
             for a, b in zip(e[-3:], e[-2:]):
                 assert 1.7 <= math.log2(a / b) <= 2.7, (label, k, e)
-        e = [x["load_speed"] for x in table[label]]
+        e = [x["load.speed"] for x in table[label]]
         for a, b in zip(e[-3:], e[-2:]):
-            assert math.log2(a / b) >= 1.7, (label, "load_speed", e)
+            assert math.log2(a / b) >= 1.7, (label, "load.speed", e)
     # Issue 18 acceptance 2: at h = T_mesh/20 the DTE error is at most 1e-3 of the DTE RMS,
     # with either second-order coupling (the five-FMU system misses it: its shafts' torques are
     # held or extrapolated between separately stepped angles, test_drivetrain_cosim.py).
@@ -217,5 +217,5 @@ def test_geardyn_jacobi_matches_libcosim(fmus, tmp_path, report):
            f"max |diff| / max|value| = {worst:.2e} over {', '.join(COLS)}")
     # The agreement identifies the algorithm: Gauss-Seidel is visibly different.
     gs = geardyn(tmp_path / "gs.csv", h, n * h, "gauss-seidel", "none")
-    d_gs = np.abs(col(gs, "gear.mesh1_dte")[1:] - theirs[:, 0]).max() / np.abs(theirs[:, 0]).max()
+    d_gs = np.abs(col(gs, "gear.mesh1.dte")[1:] - theirs[:, 0]).max() / np.abs(theirs[:, 0]).max()
     assert d_gs > 1e-3, d_gs

@@ -69,7 +69,7 @@ def geardyn(tmp_path, stop, interval):
     out = tmp_path / "mono.csv"
     run_geardyn("simulate", SCENE, "--out", out, "--stop-time", repr(stop), "--output-interval",
                 repr(interval), "--rtol", "1e-12", "--atol", "1e-18", "--quiet")
-    return np.genfromtxt(out, delimiter=",", names=True)
+    return np.genfromtxt(out, delimiter=",", names=True, deletechars="")
 
 
 def compare(tmp_path, stop, interval, tweak=None):
@@ -79,12 +79,12 @@ def compare(tmp_path, stop, interval, tweak=None):
     g = geardyn(tmp_path, stop, interval)
     r = dr.simulate(s, el, stop, g["time"])
     scale = abs(pr.f_ext(s) / s.base.stiffness.mean)
-    err = {"dte": np.max(np.abs(r["dte"] - g["mesh1_dte"])) / scale}
-    for ours, theirs in (("pinion_speed", "pinion_speed"), ("gear_speed", "gear_speed"),
-                         ("motor_speed", "motor_speed"), ("load_speed", "load_speed")):
+    err = {"dte": np.max(np.abs(r["dte"] - g["mesh1.dte"])) / scale}
+    for ours, theirs in (("pinion.speed", "pinion.speed"), ("gear.speed", "gear.speed"),
+                         ("motor.speed", "motor.speed"), ("load.speed", "load.speed")):
         err[ours] = np.max(np.abs(r[theirs] - g[ours]) / np.abs(r[theirs]))
-    err["shaft1_torque"] = np.max(np.abs(r["tau1"] - g["shaft1_torque"])) / abs(s.t_in)
-    err["shaft2_torque"] = np.max(np.abs(r["tau2"] - g["shaft2_torque"])) / abs(s.t_out)
+    err["shaft1.torque"] = np.max(np.abs(r["tau1"] - g["shaft1.torque"])) / abs(s.t_in)
+    err["shaft2.torque"] = np.max(np.abs(r["tau2"] - g["shaft2.torque"])) / abs(s.t_out)
     return err, g, r
 
 
@@ -94,12 +94,12 @@ def test_monolithic_drivetrain_matches_scipy(geardyn_bin, tmp_path):
           + ", ".join(f"{k} {v:.2e}" for k, v in err.items()))
     assert r["events"] > 30  # 38 stiffness knots in 10 ms at 3000 rpm, no contact changes
     # The start matches the documented rule (and the co-simulated system's SSD start values).
-    assert g["motor_angle"][0] == pytest.approx(0.0025106658760038576, rel=1e-12)
-    assert g["load_angle"][0] == pytest.approx(-0.0015253264657221178, rel=1e-12)
+    assert g["motor.angle"][0] == pytest.approx(0.0025106658760038576, rel=1e-12)
+    assert g["load.angle"][0] == pytest.approx(-0.0015253264657221178, rel=1e-12)
     assert err["dte"] <= DTE_TOL
-    for k in ("pinion_speed", "gear_speed", "motor_speed", "load_speed"):
+    for k in ("pinion.speed", "gear.speed", "motor.speed", "load.speed"):
         assert err[k] <= SPEED_TOL, k
-    for k in ("shaft1_torque", "shaft2_torque"):
+    for k in ("shaft1.torque", "shaft2.torque"):
         assert err[k] <= TORQUE_TOL, k
 
 

@@ -21,11 +21,11 @@ STOP = 0.02
 
 # Per FMU: the DTE columns compared, and the discrete columns that must match exactly.
 CASES = {
-    "spur_pair": (["dte"], ["contact_state"]),
-    "idler_gearset": (["mesh1_dte", "mesh2_dte"],
-                      ["mesh1_contact_state", "mesh1_pairs_in_contact", "mesh2_pairs_in_contact"]),
-    "countershaft_gearset": (["mesh1_dte", "mesh2_dte"],
-                             ["mesh1_contact_state", "mesh2_contact_state"]),
+    "spur_pair": (["mesh.dte"], ["mesh.contact_state"]),
+    "idler_gearset": (["mesh1.dte", "mesh2.dte"],
+                      ["mesh1.contact_state", "mesh1.pairs_in_contact", "mesh2.pairs_in_contact"]),
+    "countershaft_gearset": (["mesh1.dte", "mesh2.dte"],
+                             ["mesh1.contact_state", "mesh2.contact_state"]),
 }
 
 
@@ -53,7 +53,7 @@ def case(request, shipped_fmus, tmp_path_factory):
     native = native_run(scene, tmp_path_factory.mktemp("native") / "dte.csv", H, STOP)
     dte, discrete = CASES[name]
     if name == "spur_pair":
-        static = native["static_deflection"][0]
+        static = native["mesh.static_deflection"][0]
     else:
         static = train_static_deflection(scene / "scene.toml")
     return dict(name=name, fmu=REPO / "out" / "fmus" / f"{name}.fmu", native=native, dte=dte,
@@ -87,11 +87,11 @@ def test_same_partition_is_identical(case, report):
     # The run is not trivial: contact is lost (single mesh), tooth pairs engage and leave
     # (Model-1 idler), or the stiffness switches (counter-shaft), on the grid.
     if case["name"] == "spur_pair":
-        assert (native["contact_state"] != 1).any()
+        assert (native["mesh.contact_state"] != 1).any()
     elif case["name"] == "idler_gearset":
-        assert len(np.unique(native["mesh1_pairs_in_contact"])) == 2
+        assert len(np.unique(native["mesh1.pairs_in_contact"])) == 2
     else:
-        assert np.ptp(native["mesh2_dte"]) > 0.1 * case["static"]
+        assert np.ptp(native["mesh2.dte"]) > 0.1 * case["static"]
 
 
 @pytest.mark.parametrize("factor", [0.1, 10.0])
@@ -119,9 +119,9 @@ def test_drivetrain_with_contact_loss_is_identical(shipped_fmus, tmp_path, repor
     scene = tmp_path / "scene.toml"
     scene.write_text(text.replace("input_torque = 100.0", f"input_torque = {t_in!r}\nload_torque = {t_load!r}"))
     native = native_run(scene, tmp_path / "dte.csv", H, STOP)
-    case = dict(fmu=REPO / "out/fmus/idler_gearset.fmu", dte=["mesh1_dte", "mesh2_dte"],
-                discrete=["mesh1_contact_state", "mesh2_contact_state", "mesh1_pairs_in_contact"])
-    r = _fmpy(case, H, start_values={"input_torque": t_in, "load_torque": t_load})
+    case = dict(fmu=REPO / "out/fmus/idler_gearset.fmu", dte=["mesh1.dte", "mesh2.dte"],
+                discrete=["mesh1.contact_state", "mesh2.contact_state", "mesh1.pairs_in_contact"])
+    r = _fmpy(case, H, start_values={"operating.input_torque": t_in, "operating.load_torque": t_load})
     for col in case["dte"]:
         amp = np.abs(native[col]).max()
         err = np.abs(r[col] - native[col]).max()
@@ -129,7 +129,7 @@ def test_drivetrain_with_contact_loss_is_identical(shipped_fmus, tmp_path, repor
         assert err <= 1e-12 * amp
     for col in case["discrete"]:
         assert np.array_equal(r[col], native[col]), col
-    assert (native["mesh1_contact_state"] == 0).any() and (native["mesh2_contact_state"] == 0).any()
+    assert (native["mesh1.contact_state"] == 0).any() and (native["mesh2.contact_state"] == 0).any()
 
 
 def test_libcosim_agrees(case, report):
@@ -184,11 +184,11 @@ def test_inputs_drive_phase_and_static_deflection(spur_fmu, tmp_path):
     for k in range(300):
         omega = rng.uniform(0.0, 700.0)
         t1, t2 = rng.uniform(-50, 200), rng.uniform(-50, 300)
-        s.setReal([vr["pinion_speed"], vr["input_torque"], vr["load_torque"]], [omega, t1, t2])
+        s.setReal([vr["operating.pinion_speed"], vr["operating.input_torque"], vr["operating.load_torque"]], [omega, t1, t2])
         s.doStep(t, h)
         t += h
         phase += z1 * omega / (2 * np.pi) * h
-        got_phase, got_static = s.getReal([vr["mesh_phase"], vr["static_deflection"]])
+        got_phase, got_static = s.getReal([vr["mesh.phase"], vr["mesh.static_deflection"]])
         assert abs(got_phase - phase % 1.0) < 1e-9 or abs(abs(got_phase - phase % 1.0) - 1) < 1e-9
         static = m_e * (r1 * t1 / i1 + r2 * t2 / i2) / k_mean
         assert abs(got_static - static) <= 1e-12 * abs(static) + 1e-22
@@ -228,14 +228,14 @@ def test_drivetrain_mesh_phases_follow_the_input_speed(name, shipped_fmus, tmp_p
     s.setupExperiment(startTime=0.0)
     s.enterInitializationMode()
     s.exitInitializationMode()
-    names = [f"{m['name']}_phase" for m in s_toml["mesh"]]
+    names = [f"{m['name']}.phase" for m in s_toml["mesh"]]
     rng = np.random.default_rng(11)
     h, t = 2e-5, 0.0
     phase = np.array(p0, dtype=float)
     assert np.allclose(s.getReal([vr[n] for n in names]), phase % 1.0, atol=1e-12)
     for _ in range(200):
         omega = rng.uniform(100.0, 500.0)
-        s.setReal([vr["input_speed"]], [omega])
+        s.setReal([vr["operating.input_speed"]], [omega])
         s.doStep(t, h)
         t += h
         phase += np.array(per_rad) * omega * h

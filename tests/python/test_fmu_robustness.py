@@ -39,7 +39,7 @@ def _rss_kib():
 
 
 def test_instantiate_free_cycles_keep_memory_flat(host, report):
-    vr_dte = vrs(host.vr("dte"))
+    vr_dte = vrs(host.vr("mesh.dte"))
     out = reals(0.0)
     state = C.c_void_p()
 
@@ -95,7 +95,7 @@ class Oracle:
         if var.name in positive or var.name.endswith(".inertia"):
             return x > 0
         if var.name.endswith("damping") or var.name.endswith("damping_ratio") or var.name in (
-                "pinion_speed", "input_speed"):
+                "operating.pinion_speed", "operating.input_speed"):
             return x >= 0
         return True
 

@@ -18,14 +18,14 @@ H = 3.7e-5
 # Per FMU: outputs compared, and the DTE followed by simulate_fmu; a scene edit that makes
 # another FMU of the same model name (another GUID).
 OUTPUTS = {
-    "spur_pair": ["dte", "dte_rate", "mesh_force", "mesh_phase", "mesh_stiffness"],
-    "idler_gearset": ["mesh1_dte", "mesh1_dte_rate", "mesh1_force", "mesh1_phase", "mesh1_stiffness",
-                      "mesh2_dte", "mesh2_force", "mesh1_pair0_force", "follower_y",
-                      "mesh1_contact_loss_fraction"],
-    "countershaft_gearset": ["mesh1_dte", "mesh1_dte_rate", "mesh1_force", "mesh1_phase",
-                             "mesh2_dte", "mesh2_force", "mesh2_stiffness"],
+    "spur_pair": ["mesh.dte", "mesh.dte_rate", "mesh.force", "mesh.phase", "mesh.stiffness"],
+    "idler_gearset": ["mesh1.dte", "mesh1.dte_rate", "mesh1.force", "mesh1.phase", "mesh1.stiffness",
+                      "mesh2.dte", "mesh2.force", "mesh1.pair0.force", "follower.y",
+                      "mesh1.contact_loss_fraction"],
+    "countershaft_gearset": ["mesh1.dte", "mesh1.dte_rate", "mesh1.force", "mesh1.phase",
+                             "mesh2.dte", "mesh2.force", "mesh2.stiffness"],
 }
-DTE = {"spur_pair": "dte", "idler_gearset": "mesh2_dte", "countershaft_gearset": "mesh2_dte"}
+DTE = {"spur_pair": "mesh.dte", "idler_gearset": "mesh2.dte", "countershaft_gearset": "mesh2.dte"}
 EDITS = {
     "spur_pair": ("damping_ratio = 0.05", "damping_ratio = 0.06"),
     "idler_gearset": ("modal_damping_ratio = 0.02", "modal_damping_ratio = 0.03"),

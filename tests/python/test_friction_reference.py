@@ -32,9 +32,9 @@ static mesh force larger in approach, as (4.40) with the text's "sgn = +1 in app
 Fig. 5.3 say). Both are used as printed here, each with its own sign.
 
 Mapping to the drivetrain scene `examples/friction_pair.toml` (line of action along the scene's
-x axis, pinion counter-clockwise): mesh1_dte = u, pinion_x = y_1, gear_x = y_2, and the
+x axis, pinion counter-clockwise): mesh1.dte = u, pinion.x = y_1, gear.x = y_2, and the
 off-line-of-action axis of (4.44) points against the flanks' sliding velocity, which is the
-scene's +y: pinion_y = −x_1, gear_y = −x_2. The mesh phase of the scene starts where the
+scene's +y: pinion.y = −x_1, gear.y = −x_2. The mesh phase of the scene starts where the
 number of pairs drops (docs/train.md), Liu's τ = c − 1 + γ.
 
 Integrated with scipy's DOP853 at rtol 1e-12 piece by piece between the known stiffness and
@@ -210,7 +210,7 @@ def run_geardyn(tmp_path, geardyn_bin):
     subprocess.run([str(geardyn_bin), "simulate", str(SCENE), "--out", str(csv),
                     "--stop-time", repr(PERIODS / fm), "--output-interval", repr(h),
                     "--rtol", "1e-12", "--quiet"], check=True)
-    return np.genfromtxt(csv, delimiter=",", names=True)
+    return np.genfromtxt(csv, delimiter=",", names=True, deletechars="")
 
 
 def test_scene_holds_the_reference_data():
@@ -225,12 +225,12 @@ def test_geardyn_matches_scipy_reference(tmp_path, geardyn_bin):
     data = run_geardyn(tmp_path, geardyn_bin)
     times = data["time"]
     assert len(times) == PERIODS * SAMPLES_PER_PERIOD + 1
-    ours = np.column_stack([data["mesh1_dte"], -data["pinion_y"], data["pinion_x"],
-                            -data["gear_y"], data["gear_x"]])
+    ours = np.column_stack([data["mesh1.dte"], -data["pinion.y"], data["pinion.x"],
+                            -data["gear.y"], data["gear.x"]])
     ref, min_deflection = reference(times, ours[0])
     assert min_deflection > 0, "the reference case must keep contact"
-    assert (data["mesh1_pairs_in_contact"] > 0).all()
-    names = ["u (dte)", "x_1 (-pinion_y)", "y_1 (pinion_x)", "x_2 (-gear_y)", "y_2 (gear_x)"]
+    assert (data["mesh1.pairs_in_contact"] > 0).all()
+    names = ["u (dte)", "x_1 (-pinion.y)", "y_1 (pinion.x)", "x_2 (-gear.y)", "y_2 (gear.x)"]
     worst = 0.0
     for i, name in enumerate(names):
         scale = np.max(np.abs(ref[:, i]))

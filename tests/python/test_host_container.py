@@ -26,16 +26,16 @@ def test_container_fmu_matches_fmpy_and_the_inner_fmu(tmp_path, report):
     assert run_geardyn("validate", container).returncode == 0
 
     g = tmp_path / "g.csv"
-    r = run_geardyn("run", container, "--out", g, "--start", "input_torque=130", check=False)
+    r = run_geardyn("run", container, "--out", g, "--start", "operating.input_torque=130", check=False)
     assert r.returncode == 0, r.stderr
-    f = fmpy_cli(container, tmp_path / "f.csv", "--start-values", "input_torque", "130")
+    f = fmpy_cli(container, tmp_path / "f.csv", "--start-values", "operating.input_torque", "130")
     rel = assert_same(g, f)
     assert g.read_text() == f.read_text()
 
     # The same experiment on the inner FMU directly: equal up to the container's own step
     # arithmetic (it accumulates its internal time, so steps differ in the last bits).
     d = tmp_path / "d.csv"
-    r = run_geardyn("run", inner, "--out", d, "--outputs", "dte,mesh_force", "--start", "input_torque=130",
+    r = run_geardyn("run", inner, "--out", d, "--outputs", "mesh.dte,mesh.force", "--start", "operating.input_torque=130",
                     "--stop-time", "0.005", "--output-interval", "1e-5", check=False)
     assert r.returncode == 0, r.stderr
     _, a = read(g)

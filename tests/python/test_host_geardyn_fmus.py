@@ -21,22 +21,23 @@ FMU_DIR = REPO / "out" / "fmus"
 
 def names(scene: pathlib.Path):
     """(speed input, a damping parameter) of the scene's FMU: drivetrain FMUs name them
-    `input_speed` and `mesh1.damping`, single-mesh FMUs `pinion_speed` and `mesh.damping`."""
+    `operating.input_speed` and `mesh1.damping`, single-mesh FMUs `operating.pinion_speed` and
+    `mesh.damping` (the scene's key paths)."""
     text = (scene / "scene.toml").read_text()
     if "[[mesh]]" in text:
-        return "input_speed", "mesh1.damping"
-    return "pinion_speed", "mesh.damping"
+        return "operating.input_speed", "mesh1.damping"
+    return "operating.pinion_speed", "mesh.damping"
 
 
 def driving_input(scene: pathlib.Path) -> tuple[str, str]:
-    """The input that drives the stage and a start value for it: `input_torque`, or
+    """The input that drives the stage and a start value for it: `operating.input_torque`, or
     `<port>.torque` of a scene with torque ports, or the neighbour's `<port>.speed` of a speed
     port (docs/ports.md; the port on the input gear is named `input` in fmu/spur_stage and
     fmu/spur_stage_speed)."""
     text = (scene / "scene.toml").read_text()
     if 'causality = "speed"' in text:
         return "input.speed", "480"
-    return ("input.torque" if "[[port]]" in text else "input_torque"), "150"
+    return ("input.torque" if "[[port]]" in text else "operating.input_torque"), "150"
 
 
 def shipped(name: str) -> pathlib.Path:
@@ -86,7 +87,7 @@ def test_input_csv_matches_fmpy(scene, tmp_path, report):
     speed, _ = names(scene)
     csv = tmp_path / "in.csv"
     csv.write_text(
-        f'"time","input_torque","{speed}"\n'
+        f'"time","operating.input_torque","{speed}"\n'
         "0,100,471.238898038469\n"
         "0.004,160,471.238898038469\n"
         "0.00655,160,480\n"

@@ -443,12 +443,12 @@ def _simulate(tmp_path, o, omega, phi=0.0, periods=600, record=8, samples=64):
     scene.write_text(ch3_idler.scene(eps=o.eps, gamma=o.gamma, phi=phi, omega=omega, periods=periods, samples=samples))
     csv = tmp_path / "out.csv"
     _geardyn("simulate", scene, "--out", csv, "--quiet")
-    d = np.genfromtxt(csv, delimiter=",", names=True)
+    d = np.genfromtxt(csv, delimiter=",", names=True, deletechars="")
     n = periods * samples
     assert len(d) == n + 1
-    y = np.column_stack([d["mesh1_dte"], d["mesh2_dte"]])[n - record * samples:n] / o.x1bar
+    y = np.column_stack([d["mesh1.dte"], d["mesh2.dte"]])[n - record * samples:n] / o.x1bar
     spec = np.fft.rfft(y - y.mean(axis=0), axis=0) / len(y) * 2
-    loss = (np.column_stack([d["mesh1_contact_state"], d["mesh2_contact_state"]])[n - record * samples:n] == 0).mean(axis=0)
+    loss = (np.column_stack([d["mesh1.contact_state"], d["mesh2.contact_state"]])[n - record * samples:n] == 0).mean(axis=0)
     return dict(a1=np.abs(spec[record]), a_half=np.abs(spec[record // 2]), mean=y.mean(axis=0), loss=loss, y=y)
 
 
@@ -511,7 +511,7 @@ def _sweep_supported():
         if r.returncode != 0:
             return False
         head = (pathlib.Path(d) / "s.csv").read_text().splitlines()[0].split(",")
-        return "mesh2_dte_rms" in head
+        return "mesh2.dte_rms" in head
 
 
 SWEEP_OK = _sweep_supported()
@@ -523,13 +523,13 @@ def _sweep(tmp_path, o, w_from, w_to, points, direction, tol="1e-6", max_periods
     csv = tmp_path / f"sweep_{o.eps:.3f}_{direction}.csv"
     _geardyn("sweep", scene, "--speed", f"{o.pinion_speed(w_from)!r}:{o.pinion_speed(w_to)!r}:{points}",
              "--direction", direction, "--tolerance", tol, "--max-periods", max_periods, "--out", csv)
-    d = np.genfromtxt(csv, delimiter=",", names=True)
+    d = np.genfromtxt(csv, delimiter=",", names=True, deletechars="")
     d = d[d["direction"] == (1 if direction == "up" else -1)]
     order = np.argsort(d["speed"])
     if direction == "down":
         order = order[::-1]
     d = d[order]
-    return o.omega_of_speed(d["speed"]), d["mesh2_dte_rms"] / o.x1bar, d
+    return o.omega_of_speed(d["speed"]), d["mesh2.dte_rms"] / o.x1bar, d
 
 
 def _jump(w, rms, sign):
@@ -539,7 +539,7 @@ def _jump(w, rms, sign):
     return 0.5 * (w[i] + w[i + 1]), float(dr[i]), abs(w[i + 1] - w[i])
 
 
-@pytest.mark.skipif(not SWEEP_OK, reason="geardyn sweep does not take drivetrain scenes yet (or lacks mesh2_dte_rms)")
+@pytest.mark.skipif(not SWEEP_OK, reason="geardyn sweep does not take drivetrain scenes yet (or lacks mesh2.dte_rms)")
 def test_geardyn_sweep_jumps_and_peak(tmp_path, report):
     """Up/down sweeps across the first resonance for ε = 0.2, 0.1, 0.05 (μ = 0.4).
 

@@ -143,9 +143,9 @@ def test_runout_and_pitch_sidebands_match_scipy(tmp_path, geardyn_bin, report):
     out = tmp_path / "out.csv"
     subprocess.run([str(geardyn_bin), "simulate", str(path), "--out", str(out), "--quiet"],
                    check=True)
-    data = np.genfromtxt(out, delimiter=",", names=True)
+    data = np.genfromtxt(out, delimiter=",", names=True, deletechars="")
     times = data["time"]
-    dte = data["mesh1_dte"]
+    dte = data["mesh1.dte"]
     assert len(times) == PERIODS * SAMPLES + 1
     ref = reference(times)
 
@@ -298,11 +298,11 @@ def test_idler_runout_and_pitch_act_on_both_meshes(tmp_path, geardyn_bin, report
     out = tmp_path / "out.csv"
     subprocess.run([str(geardyn_bin), "simulate", str(path), "--out", str(out), "--quiet"],
                    check=True)
-    data = np.genfromtxt(out, delimiter=",", names=True)
+    data = np.genfromtxt(out, delimiter=",", names=True, deletechars="")
     times = data["time"]
     n = IDLER_HUNT * IDLER_SAMPLES
     assert len(times) == IDLER_PERIODS * n + 1
-    ours = np.column_stack([data["mesh1_dte"], data["mesh2_dte"]])
+    ours = np.column_stack([data["mesh1.dte"], data["mesh2.dte"]])
     ref = idler_reference(times)
     err = np.max(np.abs(ours - ref)) / np.max(np.abs(ref))
     report(f"idler with runout + pitch errors: max |DTE − scipy| = {err:.2e} relative")

@@ -80,7 +80,7 @@ def test_output_derivatives_are_the_rates(slave):
     s.freeFMUstate(state)
     # Other outputs have no derivative: a clear error (the instance enters the error state).
     with pytest.raises(Exception):
-        s.getRealOutputDerivatives([vr["mesh1_dte"]], [1])
+        s.getRealOutputDerivatives([vr["mesh1.dte"]], [1])
 
 
 def test_torque_step_changes_the_momentum(slave):

@@ -96,12 +96,12 @@ def test_an_angle_rate_equal_to_the_speed_is_the_held_motion(slave):
     s, vr, _ = slave
     state = s.getFMUstate()
     s.doStep(0.0, 1e-4)
-    held = s.getReal([vr["mesh1_dte"], vr["input.torque"], vr["output.torque"]])
+    held = s.getReal([vr["mesh1.dte"], vr["input.torque"], vr["output.torque"]])
     s.setFMUstate(state)
     w = s.getReal([vr["input.speed"], vr["output.speed"]])
     s.setRealInputDerivatives([vr["input.angle"], vr["output.angle"]], [1, 1], list(w))
     s.doStep(0.0, 1e-4)
-    ramped = s.getReal([vr["mesh1_dte"], vr["input.torque"], vr["output.torque"]])
+    ramped = s.getReal([vr["mesh1.dte"], vr["input.torque"], vr["output.torque"]])
     s.freeFMUstate(state)
     for a, b in zip(held, ramped):
         assert b == pytest.approx(a, rel=1e-9, abs=1e-15)

@@ -112,7 +112,7 @@ def test_dte_matches_reference(scene_id, variant, repo_root, geardyn_bin, tmp_pa
         assert method == want, f"auto picked {method!r}, expected {want!r}"
 
     scale = scene.static_deflection
-    err = np.abs(cli["dte"] - expected.dte) / scale
+    err = np.abs(cli["mesh.dte"] - expected.dte) / scale
     worst = int(np.argmax(err))
     _report(capsys, f"{scene_id:19s} {variant:10s} ({method}): max |DTE - ref| = "
                     f"{err[worst]:.3e} x static deflection at t = {times[worst]:.6g} s")
@@ -123,13 +123,13 @@ def test_dte_matches_reference(scene_id, variant, repo_root, geardyn_bin, tmp_pa
 
     # The other outputs follow from the same state and the spec's output definitions.
     v_scale = scale * 2.0 * np.pi * max(scene.mesh_frequency, 1.0)
-    rate_err = np.max(np.abs(cli["dte_rate"] - expected.dte_rate)) / v_scale
-    force_err = np.max(np.abs(cli["mesh_force"] - expected.mesh_force)) / abs(scene.f_ext)
+    rate_err = np.max(np.abs(cli["mesh.dte_rate"] - expected.dte_rate)) / v_scale
+    force_err = np.max(np.abs(cli["mesh.force"] - expected.mesh_force)) / abs(scene.f_ext)
     assert rate_err <= TOL, f"dte_rate error {rate_err:.3e}"
-    assert force_err <= TOL, f"mesh_force error {force_err:.3e} of F_ext"
-    np.testing.assert_allclose(cli["mesh_stiffness"], expected.mesh_stiffness, rtol=1e-12)
-    np.testing.assert_allclose(cli["static_deflection"], expected.static_deflection, rtol=1e-12)
-    dphase = np.abs(cli["mesh_phase"] - expected.mesh_phase)
+    assert force_err <= TOL, f"mesh.force error {force_err:.3e} of F_ext"
+    np.testing.assert_allclose(cli["mesh.stiffness"], expected.mesh_stiffness, rtol=1e-12)
+    np.testing.assert_allclose(cli["mesh.static_deflection"], expected.static_deflection, rtol=1e-12)
+    dphase = np.abs(cli["mesh.phase"] - expected.mesh_phase)
     assert np.max(np.minimum(dphase, 1.0 - dphase)) <= 1e-9
 
     # Contact state on the grid: identical except at samples within 1 ns of a reference event
@@ -137,10 +137,10 @@ def test_dte_matches_reference(scene_id, variant, repo_root, geardyn_bin, tmp_pa
     near_event = np.zeros(times.shape, dtype=bool)
     for t_ev, _state in expected.events:
         near_event |= np.abs(times - t_ev) <= 1e-9
-    mismatch = (cli["contact_state"] != expected.contact_state) & ~near_event
+    mismatch = (cli["mesh.contact_state"] != expected.contact_state) & ~near_event
     assert not mismatch.any(), (
         f"contact state differs at t = {times[mismatch][:5]} "
-        f"(cli {cli['contact_state'][mismatch][:5]}, ref {expected.contact_state[mismatch][:5]})"
+        f"(cli {cli['mesh.contact_state'][mismatch][:5]}, ref {expected.contact_state[mismatch][:5]})"
     )
     if scene.contact != "linear":
         assert len(expected.events) >= 50, "scene meant to lose contact repeatedly"
@@ -205,7 +205,7 @@ def test_comparison_detects_perturbed_model(scene_id, variant, what, edit, repo_
     original = ref.load_scene(repo_root / scene_path)
     perturbed = _perturbed(repo_root, scene_path, edit)
     result = ref.simulate(perturbed, float(times[-1]), output_times=times)
-    err = np.max(np.abs(cli["dte"] - result.dte)) / original.static_deflection
+    err = np.max(np.abs(cli["mesh.dte"] - result.dte)) / original.static_deflection
     _report(capsys, f"{scene_id:19s} vs reference with {what}: max |DTE - ref| = {err:.3e} "
                     f"x static deflection (must exceed {TOL:g})")
     assert err > 100 * TOL, f"a 1 % model change ({what}) went unnoticed: {err:.3e}"
@@ -321,10 +321,10 @@ def test_edge_scene_matches_reference(case, geardyn_bin, tmp_path, capsys):
             coarse = ref.simulate(scene, float(times[-1]), output_times=times, rtol=1e-11)
             self_diff = np.max(np.abs(expected.dte - coarse.dte)) / scene.static_deflection
             assert self_diff <= REF_SELF_TOL, f"reference not converged: {self_diff:.3e}"
-        err = np.max(np.abs(cli["dte"] - expected.dte)) / scene.static_deflection
+        err = np.max(np.abs(cli["mesh.dte"] - expected.dte)) / scene.static_deflection
         line.append(f"{variant} {err:.3e}")
         assert err <= TOL, f"{case} / {variant}: max DTE error {err:.3e} of the static deflection"
-        states_differ = cli["contact_state"] != expected.contact_state
+        states_differ = cli["mesh.contact_state"] != expected.contact_state
         assert not states_differ.any(), f"contact state differs at t = {times[states_differ][:5]}"
     _report(capsys, f"edge {case:31s} max |DTE - ref| / x_st: " + ", ".join(line)
                     + f" ({len(expected.events)} events)")

@@ -195,7 +195,7 @@ def run(scene, tmp_path, *args):
     out = tmp_path / "out.csv"
     proc = run_geardyn("simulate", scene, "--out", out, *args)
     method = [ln for ln in proc.stdout.splitlines() if "method" in ln]
-    return np.genfromtxt(out, delimiter=",", names=True), (method[0] if method else "")
+    return np.genfromtxt(out, delimiter=",", names=True, deletechars=""), (method[0] if method else "")
 
 
 @pytest.mark.parametrize("contact,torque_profile,speed_kind", [
@@ -208,7 +208,7 @@ def test_pair_runup_matches_scipy(contact, torque_profile, speed_kind, tmp_path,
     cli, _ = run(scene, tmp_path, "--method", "rk", "--rtol", "1e-12", "--atol", "1e-18")
     ref = pair_reference(cli["time"], contact == "contact_loss", torque_profile)
     static = 100.0 / RB1 / K_MEAN
-    err = np.max(np.abs(cli["dte"] - ref)) / static
+    err = np.max(np.abs(cli["mesh.dte"] - ref)) / static
     with capsys.disabled():
         print(f"\n  pair run-up ({contact}, torque profile {torque_profile}): max |DTE − scipy| = "
               f"{err:.2e} static deflections, DTE peak-to-peak {np.ptp(ref) / static:.3f}")
@@ -218,7 +218,7 @@ def test_pair_runup_matches_scipy(contact, torque_profile, speed_kind, tmp_path,
     # The phase column follows the quadratic phase.
     speed = Piecewise(SPEED_T, SPEED_V)
     p = np.array([Z1 / TWO_PI * speed.integral(t) for t in cli["time"]])
-    dp = np.abs(cli["mesh_phase"] - (p - np.floor(p)))
+    dp = np.abs(cli["mesh.phase"] - (p - np.floor(p)))
     assert np.max(np.minimum(dp, 1.0 - dp)) <= 1e-9
 
 
@@ -230,7 +230,7 @@ def test_exact_propagator_on_a_runup_without_ste(tmp_path, geardyn_bin):
     assert method.split()[1] == "exact", method
     ref = pair_reference(cli["time"], True, False, ste=False)
     static = 100.0 / RB1 / K_MEAN
-    assert np.max(np.abs(cli["dte"] - ref)) / static <= TOL
+    assert np.max(np.abs(cli["mesh.dte"] - ref)) / static <= TOL
 
 
 def train_scene(tmp_path, ground_stiffness):
@@ -350,12 +350,12 @@ def test_grounded_train_runup_has_the_inertial_force(tmp_path, geardyn_bin, caps
     cli, _ = run(scene, tmp_path, "--method", "rk", "--rtol", "1e-12", "--atol", "1e-18")
     ref = grounded_reference(cli["time"], k_s)
     static = 100.0 / RB1 / K_MEAN
-    err = np.max(np.abs(cli["mesh1_dte"] - ref)) / static
+    err = np.max(np.abs(cli["mesh1.dte"] - ref)) / static
     with capsys.disabled():
         print(f"\n  grounded two-gear train run-up: max |DTE − scipy| = {err:.2e} static deflections")
     assert err <= TOL
     without = grounded_reference(cli["time"], k_s, inertia=False)
-    miss = np.max(np.abs(cli["mesh1_dte"] - without)) / static
+    miss = np.max(np.abs(cli["mesh1.dte"] - without)) / static
     with capsys.disabled():
         print(f"  the same reference without −M v Ω̇ misses by {miss:.2e} static deflections")
     assert miss > 1e4 * TOL
@@ -368,7 +368,7 @@ def test_free_train_runup_equals_the_pair_model(tmp_path, geardyn_bin, capsys):
     cli, _ = run(scene, tmp_path, "--method", "rk", "--rtol", "1e-12", "--atol", "1e-18")
     ref = pair_reference(cli["time"], True, False, ste=False)
     static = 100.0 / RB1 / K_MEAN
-    err = np.max(np.abs(cli["mesh1_dte"] - ref)) / static
+    err = np.max(np.abs(cli["mesh1.dte"] - ref)) / static
     with capsys.disabled():
         print(f"\n  free two-gear train run-up vs the pair model: {err:.2e} static deflections")
     assert err <= TOL
@@ -380,7 +380,7 @@ def test_runup_example_orders_and_resonance(repo_root, geardyn_bin, tmp_path, ca
     through the origin; and the response envelope peaks where the mesh frequency crosses the
     natural frequency of the mean system, f_n = sqrt(k̄/m_e)/2π from the scene's numbers."""
     cli, method = run(repo_root / "examples" / "runup_spur.toml", tmp_path)
-    t, x = cli["time"], cli["dte"]
+    t, x = cli["time"], cli["mesh.dte"]
     n0, n1, t_end = 1000.0, 8000.0, 2.0
     rpm = n0 + (n1 - n0) * np.minimum(t / t_end, 1.0)
     f_n = math.sqrt(K_MEAN / M_E) / TWO_PI

@@ -41,7 +41,7 @@ def serial(point, solver):
     scene = geardyn.Scene.from_file(SPUR)
     scene.update({**solver, **point})
     run = geardyn.simulate(scene)
-    dte, force = run["dte"], run["mesh_force"]
+    dte, force = run["mesh.dte"], run["mesh.force"]
     return np.sqrt(np.mean((dte - dte.mean()) ** 2)), np.abs(force).max()
 
 

@@ -73,7 +73,7 @@ def test_tutorial_runs_end_to_end(tmp_path):
     lines = {float(r["frequency_Hz"]): r for r in spectrum}
     assert lines[1250.0]["order"] == "1×mesh" and lines[2500.0]["order"] == "2×mesh"
     ac = [r for r in spectrum if float(r["frequency_Hz"]) > 0]
-    assert max(ac, key=lambda r: float(r["dte_amplitude_m"]))["order"] == "1×mesh"
+    assert max(ac, key=lambda r: float(r["mesh.dte_amplitude_m"]))["order"] == "1×mesh"
 
     # The waterfall's strongest line in each window lies on a mesh order k·25·n/60 Hz.
     windows = {}

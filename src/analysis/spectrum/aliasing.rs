@@ -74,7 +74,7 @@ pub fn model_aliasing_warning<M: Drivetrain>(
     let mesh = if prefix.is_empty() {
         "the mesh".to_string()
     } else {
-        format!("mesh {}", prefix.trim_end_matches('_'))
+        format!("mesh {}", prefix.trim_end_matches('.'))
     };
     aliasing_warning(interval, &mesh, worst.1, worst.2)
 }

@@ -11,7 +11,7 @@ a_n = Q' d_n,   S_n = a_n' xi                      (mesh deflection of mesh n)
 F_n = sum over tooth pairs j in contact of k_j(s) (S_n - e_n(p_n) - g_j(s) + o_j) + c_n (S_n' - e_n')</pre>
 <p><code>M</code>, <code>K_b</code>, <code>C</code>: reduced mass, bearing/shaft/ground stiffness and
 damping (viscous plus modal damping on the mean-stiffness modes); <code>F_ext</code> from
-<code>input_torque</code> on the input gear and <code>load_torque</code> resisting the output gear.
+<code>operating.input_torque</code> on the input gear and <code>operating.load_torque</code> resisting the output gear.
 Each mesh has its own phase <code>p_n = phi_n + (f_n/f_1) p_1(0) + f_n t</code>, its mesh frequency
 <code>f_n</code> following the input speed by the train's kinematics. Per tooth pair: stiffness over
 its engagement window, tip-relief gap <code>g_j</code>, contact flag (drive, separated, back side with

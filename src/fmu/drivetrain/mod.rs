@@ -1,7 +1,7 @@
 //! A drivetrain as an FMU kernel: [`TrainSimulation`] (the scene format of `docs/train.md`)
 //! under the one adapter [`crate::fmu::Adapter`].
 //!
-//! The inputs are `input_speed`, `input_torque` and `load_torque`; a change after
+//! The inputs are `operating.input_speed`, `operating.input_torque` and `operating.load_torque`; a change after
 //! initialization re-anchors every mesh's phase clock ([`TrainSimulation::set_inputs`]).
 //! Before initialization ends they are part of the initial operating point (the static
 //! initial state uses them).
@@ -58,8 +58,8 @@ fn start_inputs(scene: &TrainScene) -> Vec<f64> {
     u
 }
 
-/// The third input is `load_torque`, or with a torque port on the output gear that port's
-/// `<port>.torque` = −load_torque (the neighbour's torque on the wheel shaft, `docs/ports.md`).
+/// The third input is `operating.load_torque`, or with a torque port on the output gear that port's
+/// `<port>.torque` = −operating.load_torque (the neighbour's torque on the wheel shaft, `docs/ports.md`).
 fn load_sign(scene: &TrainScene) -> f64 {
     if scene.ports.iter().any(|p| p.end == PortEnd::Output) {
         -1.0
@@ -310,7 +310,7 @@ impl Kernel for Drivetrain {
     }
 
     /// The `<port>.torque` inputs of torque ports and the `<port>.angle`, `<port>.speed`
-    /// inputs of speed ports (`docs/ports.md`); `input_speed` and the torques of a train
+    /// inputs of speed ports (`docs/ports.md`); `operating.input_speed` and the torques of a train
     /// without ports stay held.
     fn rate_inputs(scene: &TrainScene) -> Vec<bool> {
         let torque_port = |end| (scene.ports.iter()).any(|p| p.end == end && p.coupling.is_none());

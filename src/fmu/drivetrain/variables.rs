@@ -33,7 +33,7 @@ pub const BLOCK: usize = 1000;
 /// The inputs (their value references are the kernel's `INPUTS`).
 pub(super) const INPUTS: InputRows = InputRows {
     vrs: [VR_INPUT_SPEED, VR_INPUT_TORQUE, VR_LOAD_TORQUE],
-    speed: "input_speed",
+    speed: "operating.input_speed",
     descriptions: [
         "Nominal speed of the input gear; every mesh phase advances with it by the train's kinematics",
         "Torque driving the input gear",
@@ -111,7 +111,7 @@ fn describe_output(
     for m in &scene.meshes {
         let Some(q) = name
             .strip_prefix(m.name.as_str())
-            .and_then(|r| r.strip_prefix('_'))
+            .and_then(|r| r.strip_prefix('.'))
         else {
             continue;
         };
@@ -120,7 +120,7 @@ fn describe_output(
         }
         if let Some(j) = q
             .strip_prefix("pair")
-            .and_then(|r| r.strip_suffix("_force"))
+            .and_then(|r| r.strip_suffix(".force"))
         {
             return Ok((
                 Some("N"),
@@ -134,7 +134,7 @@ fn describe_output(
     }
     for g in &scene.gears {
         for axis in ["x", "y"] {
-            if name == format!("{}_{axis}", g.name) {
+            if name == format!("{}.{axis}", g.name) {
                 return Ok((
                     Some("m"),
                     false,
@@ -152,7 +152,7 @@ fn describe_output(
         ("acceleration", "rad/s2", "Angular acceleration"),
     ] {
         for g in &scene.gears {
-            if name == format!("{}_{q}", g.name) {
+            if name == format!("{}.{q}", g.name) {
                 return Ok((
                     Some(unit),
                     false,
@@ -294,7 +294,7 @@ pub(super) fn variables(scene: &TrainScene, outputs: &[String]) -> Result<Vec<Va
         } else if let Some(mesh) = scene
             .meshes
             .iter()
-            .find(|m| *name == format!("{}_force", m.name))
+            .find(|m| *name == format!("{}.force", m.name))
         {
             o.depends_on = vec![VR_INPUT_SPEED];
             if matches!(

@@ -25,7 +25,7 @@ fn motor_state(y: &[f64]) -> MotorState {
 }
 
 /// The motor's inputs from the FMU inputs `[flange.torque, torque_fraction |
-/// speed_reference]`; the input the motor does not have keeps its scene value (a rate of 0).
+/// controller.speed_reference]`; the input the motor does not have keeps its scene value (a rate of 0).
 fn motor_inputs(m: &MotorSpec, u: &[f64], base: MotorInputs) -> MotorInputs {
     if m.controller.is_some() {
         MotorInputs {

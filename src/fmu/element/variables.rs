@@ -1,7 +1,10 @@
 //! The variable table of an element FMU (FMI 2.0.x §2.2.7): parameters from value reference
 //! [`VR_PARAM0`], continuous inputs from [`VR_INPUT0`], continuous outputs from
-//! [`VR_OUTPUT0`], each with its unit, bounds and description. Port variables follow
-//! `<port>.<quantity>` (`flange.angle`, `flange_a.torque`, …; `docs/elements.md`).
+//! [`VR_OUTPUT0`], each with its unit, bounds and description. Names follow `docs/fmu.md`:
+//! parameters and inputs are the key paths inside the scene's `[element]` table
+//! (`controller.kp`, `controller.speed_reference`) or `[initial]` (`initial.speed`); outputs
+//! are `<owner>.<quantity>`, the owner a port (`flange.angle`, `flange_a.torque`) or the
+//! element by its kind (`motor.electric_torque`, `shaft.torque`, `load.resisting_torque`).
 
 use crate::fmi::model::{Causality, Variability, Variable};
 use crate::fmu::table::{output, param};
@@ -173,7 +176,7 @@ fn inputs(spec: &ElementSpec) -> Vec<Input> {
                 vec![
                     first,
                     (
-                        "speed_reference",
+                        "controller.speed_reference",
                         "rad/s",
                         None,
                         "Speed reference of the PI controller",
@@ -242,7 +245,7 @@ fn outputs(spec: &ElementSpec) -> Vec<Output> {
                 ALL,
             ),
             (
-                "torque",
+                "shaft.torque",
                 "N.m",
                 "Shaft torque tau = k (phi_a - phi_b) + c (w_a - w_b)",
                 ALL,
@@ -251,13 +254,13 @@ fn outputs(spec: &ElementSpec) -> Vec<Output> {
         ElementSpec::Motor(_) => {
             let mut v = body_outputs("flange").to_vec();
             v.push((
-                "electric_torque",
+                "motor.electric_torque",
                 "N.m",
                 "Electromagnetic torque T_e (curve or PI, clamped)",
                 &[1],
             ));
             v.push((
-                "ripple_torque",
+                "motor.ripple_torque",
                 "N.m",
                 "Ripple torque T_r = sum a cos(o theta + phi)",
                 &[],
@@ -266,7 +269,12 @@ fn outputs(spec: &ElementSpec) -> Vec<Output> {
         }
         ElementSpec::Load(_) => {
             let mut v = body_outputs("flange").to_vec();
-            v.push(("resisting_torque", "N.m", "T_0 + c_v w + c_d w|w|", &[]));
+            v.push((
+                "load.resisting_torque",
+                "N.m",
+                "T_0 + c_v w + c_d w|w|",
+                &[],
+            ));
             v
         }
     }

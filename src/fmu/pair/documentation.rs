@@ -8,7 +8,7 @@ pub(super) const DOCUMENTATION: &str = r#"<h2>Model</h2>
 when the drive flanks are pressed together). Eliminating the rigid-body mode gives</p>
 <pre>m_e x'' + F(x, x', p) = F_ext
 m_e   = 1 / (r_b1^2/I1 + r_b2^2/I2)
-F_ext = m_e (r_b1 T1/I1 + r_b2 T2/I2)        (T1 = input_torque, T2 = load_torque)</pre>
+F_ext = m_e (r_b1 T1/I1 + r_b2 T2/I2)        (T1 = operating.input_torque, T2 = operating.load_torque)</pre>
 <p>Mesh stiffness <code>k(p)</code> and static transmission error <code>e(p)</code> are functions of
 the mesh phase <code>p</code> (mesh cycles), which advances with the nominal pinion speed input
 &Omega;: <code>dp/dt = z1 &Omega; / (2&pi;)</code>. Mesh deflection <code>&delta; = x &minus; e(p)</code>.</p>

@@ -1,7 +1,7 @@
 //! The single-mesh gear pair as an FMU kernel: [`Simulation`] (the scene format of
 //! `docs/model.md`) under the one adapter [`crate::fmu::Adapter`].
 //!
-//! The inputs are `pinion_speed`, `input_torque` and `load_torque`; a change after
+//! The inputs are `operating.pinion_speed`, `operating.input_torque` and `operating.load_torque`; a change after
 //! initialization re-anchors the mesh-phase clock ([`Simulation::set_inputs`]). Before
 //! initialization they are part of the initial operating point: the static initial DTE is
 //! computed from them.

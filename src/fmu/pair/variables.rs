@@ -30,7 +30,7 @@ pub const VR_CONTACT_STATE: u32 = VR_OUTPUT0 + 3;
 /// The inputs (their value references are the kernel's `INPUTS`).
 pub(super) const INPUTS: InputRows = InputRows {
     vrs: [VR_PINION_SPEED, VR_INPUT_TORQUE, VR_LOAD_TORQUE],
-    speed: "pinion_speed",
+    speed: "operating.pinion_speed",
     descriptions: [
         "Nominal pinion speed; the mesh phase advances with it (z1*speed/2pi mesh cycles per second)",
         "Torque driving the pinion",
@@ -41,25 +41,25 @@ pub(super) const INPUTS: InputRows = InputRows {
 /// (name, unit, description) of the outputs, in `OUTPUT_NAMES` order (`docs/model.md`).
 const OUTPUTS: [(&str, Option<&str>, &str); 7] = [
     (
-        "dte",
+        "mesh.dte",
         Some("m"),
         "Dynamic transmission error x = r_b1*theta1 + r_b2*theta2 along the line of action",
     ),
-    ("dte_rate", Some("m/s"), "Rate of the dynamic transmission error"),
+    ("mesh.dte_rate", Some("m/s"), "Rate of the dynamic transmission error"),
     (
-        "mesh_force",
+        "mesh.force",
         Some("N"),
         "Dynamic mesh force k(p)*delta + c_m*delta' in the current contact state (0 when separated)",
     ),
     (
-        "contact_state",
+        "mesh.contact_state",
         None,
         "Contact state: 1 drive side, 0 separated, -1 back side",
     ),
-    ("mesh_phase", Some("cycle"), "Mesh phase frac(p), in mesh cycles"),
-    ("mesh_stiffness", Some("N/m"), "Mesh stiffness k(p) of the current segment"),
+    ("mesh.phase", Some("cycle"), "Mesh phase frac(p), in mesh cycles"),
+    ("mesh.stiffness", Some("N/m"), "Mesh stiffness k(p) of the current segment"),
     (
-        "static_deflection",
+        "mesh.static_deflection",
         Some("m"),
         "Mean static deflection F_ext / mean stiffness under the current inputs",
     ),
@@ -177,8 +177,8 @@ pub(super) fn variables(scene: &Scene, initial_dte: f64) -> Vec<Variable> {
         // Direct feedthrough (ModelStructure/Outputs, FMI 2.0.x §2.2.8): the STE rate in the
         // damping term scales with the speed; the static deflection is F_ext / k̄.
         o.depends_on = match *name {
-            "mesh_force" => vec![VR_PINION_SPEED],
-            "static_deflection" => vec![VR_INPUT_TORQUE, VR_LOAD_TORQUE],
+            "mesh.force" => vec![VR_PINION_SPEED],
+            "mesh.static_deflection" => vec![VR_INPUT_TORQUE, VR_LOAD_TORQUE],
             _ => Vec::new(),
         };
         v.push(o);

@@ -14,7 +14,7 @@ use crate::plot::{Axis, Plot, Series};
 pub fn csv_names(pairs: usize) -> Vec<String> {
     let mut names: Vec<String> = [
         "phase",
-        "pinion_angle",
+        "pinion.angle",
         "stiffness",
         "deflection",
         "pairs_loaded",

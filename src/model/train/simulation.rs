@@ -129,7 +129,7 @@ impl TrainTrajectory {
 
     /// Fraction of samples with total contact loss on the mesh named `mesh`.
     pub fn contact_loss_fraction(&self, mesh: &str) -> f64 {
-        let Some(c) = self.column(&format!("{mesh}_pairs_in_contact")) else {
+        let Some(c) = self.column(&format!("{mesh}.pairs_in_contact")) else {
             return 0.0;
         };
         let lost = self.rows.iter().filter(|r| r[c] == 0.0).count();

@@ -449,7 +449,7 @@ impl GearTrain {
             .iter()
             .enumerate()
             .filter(|(_, d)| !matches!(d, DofKind::Rotation { .. }))
-            .map(|(i, _)| (i, asm.labels[i].replace('.', "_")))
+            .map(|(i, _)| (i, asm.labels[i].clone()))
             .collect();
         let mut train = GearTrain {
             m,
@@ -647,7 +647,7 @@ impl GearTrain {
                 "stiffness",
                 "contact_loss_fraction",
             ] {
-                names.push(format!("{}_{q}", m.name));
+                names.push(format!("{}.{q}", m.name));
             }
             let per_pair = matches!(
                 m.force,
@@ -658,10 +658,10 @@ impl GearTrain {
             );
             let slots = if per_pair { self.meshes[n].slots() } else { 0 };
             for j in 0..slots {
-                names.push(format!("{}_pair{j}_force", m.name));
+                names.push(format!("{}.pair{j}.force", m.name));
             }
             if self.meshes[n].friction.is_some() {
-                names.push(format!("{}_friction_force", m.name));
+                names.push(format!("{}.friction_force", m.name));
             }
             self.pair_outputs.push(slots);
         }
@@ -680,7 +680,6 @@ impl GearTrain {
         self.meshes.len()
     }
 
-    /// Name of mesh n (its column prefix without the `_`).
     /// Each gear's name, teeth and rotation frequency at the current input speed, Hz.
     pub fn gear_rotations(&self) -> Vec<(String, u32, f64)> {
         let f_in = self.inputs.input_speed / std::f64::consts::TAU;
@@ -690,6 +689,7 @@ impl GearTrain {
             .collect()
     }
 
+    /// Name of mesh n (the owner of its output columns, `<mesh>.dte`).
     pub fn mesh_name(&self, n: usize) -> &str {
         &self.mesh_names[n]
     }
@@ -829,7 +829,7 @@ impl GearTrain {
             let rate = mesh.cycles_per_rev * inputs.input_speed;
             if !(rate <= crate::model::MAX_RATE) {
                 return Err(format!(
-                    "input_speed = {:?} rad/s gives mesh {n} a mesh rate of {rate:e} 1/s, \
+                    "operating.input_speed = {:?} rad/s gives mesh {n} a mesh rate of {rate:e} 1/s, \
                      beyond {:e} 1/s (the propagators square it)",
                     inputs.input_speed,
                     crate::model::MAX_RATE
@@ -1290,6 +1290,9 @@ impl GearTrain {
                     None => mesh.clock.mesh_frequency().abs(),
                 })
                 .fold(0.0, f64::max),
+            mesh_frequency_slope: self.rotation.as_ref().map_or(0.0, |r| {
+                r.mesh_frequency_slope(self.inputs.input_torque, self.inputs.load_torque)
+            }),
             start_phase: self
                 .meshes
                 .iter()
@@ -1319,7 +1322,7 @@ impl GearTrain {
         for (n, mesh) in self.meshes.iter().enumerate() {
             mesh.clock.check_advance(t, t_end).map_err(|e| {
                 format!(
-                    "input_speed = {:e} rad/s, mesh {n} phase {:e} cycles at t = {t:e} s: {e}",
+                    "operating.input_speed = {:e} rad/s, mesh {n} phase {:e} cycles at t = {t:e} s: {e}",
                     self.inputs.input_speed,
                     mesh.clock.phase_at(t)
                 )

@@ -124,6 +124,15 @@ pub(super) fn ports(
                 p.name
             ));
         }
+        if find(&field("name"), &p.name).is_ok() {
+            // The port's outputs `<name>.angle`, … would repeat the gear's body outputs.
+            return err(format!(
+                "{} = {:?}: is also a gear's name; a port and a gear would own outputs of the \
+                 same names (<name>.angle, <name>.speed, ...)",
+                field("name"),
+                p.name
+            ));
+        }
         let coupling = match p.causality.as_str() {
             "torque" => {
                 for (key, given) in [

@@ -1,6 +1,6 @@
 """Wrap an FMI 2.0 CS FMU in fmpy's container FMU (a third-party C binary shipped in the fmpy
 wheel, `fmpy/container_fmu/binaries/x86_64-linux/container_fmu.so`), exposing its input
-`input_torque` and outputs `dte`, `mesh_force`.
+`operating.input_torque` and outputs `mesh.dte`, `mesh.force`.
 
 Usage: python make_container.py <inner.fmu> <out.fmu>
 fmpy's container API is experimental; this follows fmpy 0.3.32 (`create_container_fmu`).
@@ -34,7 +34,7 @@ mappings = {}
 t = ModelVariable(name="time", causality="independent", valueReference=0, type="Real")
 t.variability = "continuous"
 md.modelVariables.append(t)
-for name, causality in [("input_torque", "input"), ("dte", "output"), ("mesh_force", "output")]:
+for name, causality in [("operating.input_torque", "input"), ("mesh.dte", "output"), ("mesh.force", "output")]:
     src = iv[name]
     v = ModelVariable(name=name, causality=causality, valueReference=0, type="Real")
     v.variability = "continuous"

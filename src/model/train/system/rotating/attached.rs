@@ -212,20 +212,20 @@ impl Attached {
         }
     }
 
-    /// Output names: per element body `<name>_angle`, `_speed`, `_acceleration`, per motor
-    /// `<name>_drive_torque` (`T_e + T_r`), per shaft `<name>_torque` (τ).
+    /// Output names: per element body `<name>.angle`, `.speed`, `.acceleration`, per motor
+    /// `<name>.drive_torque` (`T_e + T_r`), per shaft `<name>.torque` (τ).
     pub(super) fn names(&self) -> Vec<String> {
         let mut names = Vec::new();
         for b in &self.elements.bodies {
             for q in ["angle", "speed", "acceleration"] {
-                names.push(format!("{}_{q}", b.name));
+                names.push(format!("{}.{q}", b.name));
             }
             if matches!(b.kind, ElementKind::Motor(_)) {
-                names.push(format!("{}_drive_torque", b.name));
+                names.push(format!("{}.drive_torque", b.name));
             }
         }
         for s in &self.elements.shafts {
-            names.push(format!("{}_torque", s.name));
+            names.push(format!("{}.torque", s.name));
         }
         names
     }

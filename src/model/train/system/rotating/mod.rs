@@ -374,14 +374,13 @@ impl Carried {
         }
     }
 
-    /// Output names: per body `<gear>_angle`, `_speed`, `_acceleration` (the `geardyn
-    /// simulate` columns), then per port `<port>.angle`, `.speed`, `.acceleration` (the port
-    /// variables of the element convention, `docs/ports.md`).
+    /// Output names (`<owner>.<quantity>`, `docs/fmu.md`): per body `<gear>.angle`, `.speed`,
+    /// `.acceleration`, then per port `<port>.angle`, `.speed`, `.acceleration`.
     pub(crate) fn names(&self) -> Vec<String> {
         let mut names = Vec::new();
         for b in &self.bodies {
             for q in ["angle", "speed", "acceleration"] {
-                names.push(format!("{}_{q}", b.name));
+                names.push(format!("{}.{q}", b.name));
             }
         }
         for p in &self.ports {
@@ -399,6 +398,32 @@ impl Carried {
             names.extend(a.names());
         }
         names
+    }
+
+    /// The largest `|dfₙ/dt|` over the meshes, Hz/s, that the port torques give the rigid-body
+    /// rotation (input port `input_torque`, output port `−load_torque`): body b accelerates at
+    /// `Σₖ ηₖ(b) Σₚ Tₚ ηₖ(p)` (η mass-normalised), and a mesh's frequency is its pinion's
+    /// teeth times its speed over 2π. Balanced torques give 0; the elastic motion oscillates
+    /// about the rigid one.
+    pub(crate) fn mesh_frequency_slope(&self, input_torque: f64, load_torque: f64) -> f64 {
+        let torque = |p: &PortRt| match p.end {
+            PortEnd::Input => input_torque,
+            PortEnd::Output => -load_torque,
+        };
+        let accel = |b: usize| -> f64 {
+            (0..self.r)
+                .map(|k| {
+                    let drive: f64 = (self.ports.iter())
+                        .map(|p| torque(p) * self.bodies[p.body].eta[k])
+                        .sum();
+                    self.bodies[b].eta[k] * drive
+                })
+                .sum::<f64>()
+                .abs()
+        };
+        (self.mesh_body.iter().zip(&self.mesh_teeth))
+            .map(|(&b, z)| z * accel(b) / std::f64::consts::TAU)
+            .fold(0.0, f64::max)
     }
 
     /// Whether a port sits on the output gear (a torque port's torque is minus the load

@@ -1,0 +1,189 @@
+//! Issue 18 acceptance 1 on the shipped multi-mesh stages with torque ports, `fmu/idler_stage`
+//! (compliant bearings, Model-1 tooth pairs with tip relief) and `fmu/countershaft_stage`
+//! (two stages on a rigid middle shaft). Each test has its own oracle:
+//!
+//! - speed ratio: the tooth ratio, from the tooth counts of the scene file;
+//! - power balance: every term by its own quadrature from the recorded columns and the
+//!   scene's numbers: port work `∫T ω dt`, the work done on each mesh `∫F dS` (a Stieltjes
+//!   sum over the recorded deflection, so the stiffness jumps, tip relief and contact loss
+//!   need no model of their own), kinetic energy of every rotation and translation, bearing
+//!   energy `½k x²`.
+
+mod common;
+
+use common::ports::{col, integral, ratio_errors, scene, stage_text, stieltjes};
+use geardyn::model::train::{run_train, TrainTrajectory};
+use geardyn::scene::train::TrainScene;
+
+/// The tooth ratio ω_out/ω_in of a chain of meshes, each `(driver, driven)` by gear name.
+fn tooth_ratio(sc: &TrainScene, chain: &[(&str, &str)]) -> f64 {
+    let z = |g: &str| f64::from(sc.gears[sc.gear_index(g).unwrap()].teeth);
+    chain.iter().map(|(a, b)| z(a) / z(b)).product()
+}
+
+/// Mean speed ratio of the shipped stage over `[t_a, stop]` against the tooth ratio: ≤ 1e-6
+/// relative (acceptance 1). The stage starts at its static state under balanced torques, so
+/// the transient is the settling of that start; `t_a` leaves it out.
+fn speed_ratio(name: &str, chain: &[(&str, &str)], stop: f64, t_a: f64) {
+    let sc = scene(&stage_text(name));
+    let ratio = tooth_ratio(&sc, chain);
+    let run = run_train(&sc, stop, 1e-5).unwrap();
+    let (means, pointwise) = ratio_errors(&run, "input.speed", "output.speed", ratio, t_a);
+    println!(
+        "{name}: {stop} s, mean(ω_out)/mean(ω_in)/ratio − 1 = {means:.3e}, \
+         mean(ω_out/ω_in)/ratio − 1 = {pointwise:.3e} (ratio {ratio:.9})"
+    );
+    assert!(means.abs() <= 1e-6, "{name}: speed ratio error {means:e}");
+    assert!(pointwise.abs() <= 1e-4, "{name}: pointwise {pointwise:e}");
+}
+
+#[test]
+fn idler_stage_speed_ratio_is_the_tooth_ratio() {
+    speed_ratio(
+        "idler_stage",
+        &[("pinion", "idler"), ("idler", "follower")],
+        0.2,
+        0.02,
+    );
+}
+
+#[test]
+fn countershaft_stage_speed_ratio_is_the_tooth_ratio() {
+    speed_ratio(
+        "countershaft_stage",
+        &[("pinion", "middle1"), ("middle2", "wheel")],
+        0.2,
+        0.02,
+    );
+}
+
+/// Kinetic and bearing energy at sample `i` (1 ≤ i ≤ n − 2): ½Jω² of each gear from the speed
+/// column of its body (`speeds`: gear → column), ½m v² + ½k x² of every translation, v by the
+/// central difference of the recorded position.
+fn stored(run: &TrainTrajectory, sc: &TrainScene, speeds: &[(&str, &str)], i: usize) -> f64 {
+    let mut e = 0.0;
+    for (gear, column) in speeds {
+        let g = &sc.gears[sc.gear_index(gear).unwrap()];
+        e += 0.5 * g.inertia * col(run, column)(i).powi(2);
+    }
+    for g in &sc.gears {
+        let Some(b) = &g.bearing else { continue };
+        for (axis, k) in ["x", "y"].iter().zip(b.stiffness) {
+            let Some(c) = run.column(&format!("{}.{axis}", g.name)) else {
+                continue;
+            };
+            let x = |j: usize| run.rows[j][c];
+            let v = (x(i + 1) - x(i - 1)) / (run.times[i + 1] - run.times[i - 1]);
+            e += 0.5 * g.mass.unwrap() * v * v + 0.5 * k * x(i).powi(2);
+        }
+    }
+    e
+}
+
+/// Power balance over a run of the stage with its damping set to zero (the dissipation of
+/// modal damping is not a function of the recorded columns): W_in − W_out − ΣW_mesh − ΔE = 0
+/// to 1e-6 of W_in, where W_mesh = ∫F dS is the work the gears do on mesh n (its stored
+/// energy, the parametric work of its stiffness and gaps, its impacts).
+fn power_balance(name: &str, meshes: &[&str], speeds: &[(&str, &str)]) {
+    let text = stage_text(name);
+    let text = text.replace(
+        &text[text.find("modal_damping_ratio").unwrap()..]
+            .lines()
+            .next()
+            .unwrap()
+            .to_string(),
+        "modal_damping_ratio = 0.0",
+    );
+    let sc = scene(&text);
+    let (t_in, t_out) = (sc.ports[0].torque, sc.ports[1].torque);
+    let mut sub = run_train(&sc, 0.005, 5e-8).unwrap();
+    let n = sub.times.len();
+    let delta_e = stored(&sub, &sc, speeds, n - 2) - stored(&sub, &sc, speeds, 1);
+    // Samples 0 and n − 1 are left out: the central differences of the translations at the
+    // ends of the balance need a neighbour on each side.
+    sub.times = sub.times[1..n - 1].to_vec();
+    sub.rows = sub.rows[1..n - 1].to_vec();
+    let (w_in_speed, w_out_speed) = (col(&sub, "input.speed"), col(&sub, "output.speed"));
+    let w_in = integral(&sub, &|i| t_in * w_in_speed(i));
+    let w_out = integral(&sub, &|i| -t_out * w_out_speed(i));
+    let mut w_mesh = 0.0;
+    for m in meshes {
+        let (f, s) = (
+            col(&sub, &format!("{m}.force")),
+            col(&sub, &format!("{m}.deflection")),
+        );
+        w_mesh += stieltjes(sub.times.len(), &f, &s);
+    }
+    let residual = w_in - w_out - w_mesh - delta_e;
+    println!(
+        "{name}: W_in {w_in:.9e} J, W_out {w_out:.9e} J, mesh work {w_mesh:.6e} J, \
+         ΔE {delta_e:.6e} J; residual {residual:.3e} J = {:.3e} of W_in",
+        residual / w_in
+    );
+    assert!(
+        w_mesh.abs() > 1e-6 * w_in && delta_e.abs() > 1e-6 * w_in,
+        "terms that matter"
+    );
+    assert!(
+        residual.abs() <= 1e-6 * w_in,
+        "{name}: power balance residual {residual:e} J"
+    );
+}
+
+#[test]
+fn idler_stage_power_balance() {
+    power_balance(
+        "idler_stage",
+        &["mesh1", "mesh2"],
+        &[
+            ("pinion", "pinion.speed"),
+            ("idler", "idler.speed"),
+            ("follower", "follower.speed"),
+        ],
+    );
+}
+
+#[test]
+fn countershaft_stage_power_balance() {
+    // middle2 sits on middle1's rigid shaft: one body, whose speed column is middle1's.
+    power_balance(
+        "countershaft_stage",
+        &["mesh1", "mesh2"],
+        &[
+            ("pinion", "pinion.speed"),
+            ("middle1", "middle1.speed"),
+            ("middle2", "middle1.speed"),
+            ("wheel", "wheel.speed"),
+        ],
+    );
+}
+
+#[test]
+fn an_unbalanced_torque_beyond_the_run_limits_is_refused_before_the_run() {
+    // A port torque of 9e15 N·m (a fuzzed value) accelerates the carried rotation so fast that
+    // 1 ms spans ~1e16 mesh periods: the run limits refuse it at once, naming the numbers,
+    // instead of letting the integrator work through a million steps.
+    let text = stage_text("idler_stage").replace(
+        "torque = -247.3684210526316",
+        "torque = 9.007199254740993e15",
+    );
+    let dir = std::env::temp_dir().join(format!("geardyn-ports-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, text).unwrap();
+    let scene = geardyn::commands::simulate::AnyScene::from_path(&path).unwrap();
+    let options = geardyn::commands::simulate::SimulateOptions {
+        stop_time: Some(1e-3),
+        ..Default::default()
+    };
+    let start = std::time::Instant::now();
+    let e = geardyn::commands::simulate::simulate(scene, &options, &dir.join("out.csv"))
+        .err()
+        .unwrap();
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(
+        e.contains("mesh periods") && e.contains("Hz/s under the port torques"),
+        "{e}"
+    );
+    assert!(start.elapsed().as_secs_f64() < 1.0, "{e}");
+}
