@@ -182,7 +182,7 @@ fn idler_with_ports_exact_matches_dop853() {
         let dte = error(
             &exact,
             &rk,
-            &format!("{mesh}_dte"),
+            &format!("{mesh}.dte"),
             static_deflection(100.0, 0.04535, mean),
         );
         worst = worst.max(dte);

@@ -15,7 +15,7 @@ use std::f64::consts::TAU;
 use std::path::PathBuf;
 
 use common::ports::{col, ratio_errors, scene};
-use geardyn::model::train::run_train;
+use geardyn::model::train::{run_train, TrainTrajectory};
 use geardyn::scene::train::TrainScene;
 
 fn stage_text() -> String {
