@@ -285,7 +285,7 @@ def test_convergence_against_the_monolithic_model(fmus, tmp_path, report, name, 
                + f"; / DTE RMS ({errs[0]['rms']:.3e} m) " + ", ".join(f"{e['dte'] / e['rms']:.3g}" for e in errs)
                + "; RMS DTE error / DTE RMS " + ", ".join(f"{e['dte_rms_err'] / e['rms']:.3g}" for e in errs)
                + "; observed orders " + ", ".join(f"{p:.2f}" for p in orders(dte))
-               + "; load speed errors (rad/s) " + ", ".join(f"{e['load_speed']:.2e}" for e in errs)
+               + "; load speed errors (rad/s) " + ", ".join(f"{e['load.speed']:.2e}" for e in errs)
                + "; shaft1 torque errors (N.m) " + ", ".join(f"{e['tau1']:.2e}" for e in errs))
     # The orders are asserted on n = 5 … 80 (GEARDYN_LONG's finer steps are reported): at
     # n = 320 the load speed error, 1.4e-7 rad/s with Gauss-Seidel/linear, nears what the

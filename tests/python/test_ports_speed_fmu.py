@@ -66,7 +66,7 @@ def coupling_torque(s, vr, port, gear):
     """−[k(φ − θ) + c(ω − ω_g)] from the inputs and the gear's outputs."""
     k, c = PORTS[port]["stiffness"], PORTS[port]["damping"]
     phi, omega, theta, omega_g = s.getReal([vr[f"{port}.angle"], vr[f"{port}.speed"],
-                                            vr[f"{gear}_angle"], vr[f"{gear}_speed"]])
+                                            vr[f"{gear}.angle"], vr[f"{gear}.speed"]])
     return -(k * (phi - theta) + c * (omega - omega_g))
 
 
