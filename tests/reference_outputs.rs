@@ -11,7 +11,7 @@
 use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
 
 /// Scene and output interval of its reference run.
-const REFERENCES: [(&str, f64); 10] = [
+const REFERENCES: [(&str, f64); 11] = [
     ("spur_pair", 1e-4),
     ("geometry_pair", 1e-4),
     ("bugaru_pair", 1e-4),
@@ -22,6 +22,7 @@ const REFERENCES: [(&str, f64); 10] = [
     ("spur_stage_speed", 1e-4),
     ("idler_stage", 1e-4),
     ("countershaft_stage", 1e-4),
+    ("geometry_stage", 1e-4),
 ];
 
 #[test]
