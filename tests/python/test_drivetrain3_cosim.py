@@ -17,14 +17,13 @@ causality").
 from __future__ import annotations
 
 import math
-import shutil
 
 import numpy as np
 import pytest
 
 import drivetrain_reference as dr
 from conftest import FMU_DIR, REPO, run_geardyn
-from test_drivetrain_cosim import LONG, MONOLITHIC, RATTLING_RPM, ROAD_LOAD_T0, native
+from test_drivetrain_cosim import LONG, MONOLITHIC, RATTLING_RPM, ROAD_LOAD_T0, libcosim_agreement, native
 
 SYSTEM = REPO / "examples" / "systems" / "drivetrain3"
 FMUS = ("emotor", "spur_stage_speed", "vehicle_load")
@@ -165,57 +164,8 @@ def test_convergence_against_the_monolithic_model(fmus, monolithic, tmp_path, re
         assert table["Jacobi linear"][n]["dte"] < table["Jacobi hold"][n]["dte"]
 
 
-def libcosim(folder, h, n):
-    import fmpy
-    from libcosimpy.CosimExecution import CosimExecution
-    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
-    from libcosimpy.CosimObserver import CosimObserver
-
-    log_output_level(CosimLogLevel.WARNING)
-    files = {"motor": "emotor", "gear": "spur_stage_speed", "load": "vehicle_load"}
-    vrs = {}
-    for el, f in files.items():
-        md = fmpy.read_model_description(str(folder / "resources" / f"{f}.fmu"))
-        vrs[el] = {v.name: v.valueReference for v in md.modelVariables}
-    ex = CosimExecution.from_ssp_file(str(folder), step_size=int(round(h * 1e9)))
-    assert ex.num_slaves() == 3
-    obs = CosimObserver.create_last_value()
-    ex.add_observer(observer=obs)
-    idx = {el: ex.slave_index_from_instance_name(el) for el in files}
-    rows = []
-    for _ in range(n):
-        assert ex.step()
-        row = []
-        for c in COLS:
-            el, var = c.split(".", 1)
-            row += obs.last_real_values(slave_index=idx[el], variable_references=[vrs[el][var]])
-        rows.append(row)
-    return np.array(rows)
-
-
 def test_geardyn_jacobi_matches_libcosim(fmus, tmp_path, report):
     """Same SSD, same algorithm (Jacobi, zero-order hold): agreement to rounding."""
-    folder = tmp_path / "drivetrain3"
-    (folder / "resources").mkdir(parents=True)
-    ssd = (SYSTEM / "SystemStructure.ssd").read_text()
-    for f in FMUS:
-        shutil.copy(FMU_DIR / f"{f}.fmu", folder / "resources" / f"{f}.fmu")
-        assert f"../../../out/fmus/{f}.fmu" in ssd
-        ssd = ssd.replace(f"../../../out/fmus/{f}.fmu", f"resources/{f}.fmu")
-    (folder / "SystemStructure.ssd").write_text(ssd)
-    h, n = 2e-5, 250  # libcosim counts time in integer ns; 5 ms, 14 mesh periods
-    ours = geardyn(tmp_path / "g.csv", h, n * h, "jacobi", "none")
-    theirs = libcosim(folder, h, n)
-    assert len(ours) == n + 1
-    worst = 0.0
-    for j, c in enumerate(COLS):
-        a, b = col(ours, c)[1:], theirs[:, j]
-        d = float(np.abs(a - b).max() / np.abs(b).max())
-        worst = max(worst, d)
-        assert d <= 1e-12, (c, d)
+    h, n, worst = libcosim_agreement(SYSTEM, FMUS, COLS, geardyn, col, tmp_path, 1e-12)
     report(f"3-FMU drivetrain, geardyn Jacobi/hold vs libcosim fixed-step, h = {h}, {n} steps: "
            f"max |diff| / max|value| = {worst:.2e} over {', '.join(COLS)}")
-    # The agreement identifies the algorithm: Gauss-Seidel is visibly different.
-    gs = geardyn(tmp_path / "gs.csv", h, n * h, "gauss-seidel", "none")
-    d_gs = np.abs(col(gs, "gear.mesh1.dte")[1:] - theirs[:, 0]).max() / np.abs(theirs[:, 0]).max()
-    assert d_gs > 1e-3, d_gs
