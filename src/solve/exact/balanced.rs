@@ -158,7 +158,6 @@ impl BalancedMatrix {
         true
     }
 
-
     /// `e^{Aτ}` and, if `product`, `e^{Aτ} A` (else an empty matrix).
     pub fn exp_with_product(&self, tau: f64, product: bool) -> (DMatrix<f64>, DMatrix<f64>) {
         let n = self.b.nrows();

@@ -14,7 +14,7 @@
 use nalgebra::DMatrix;
 
 use super::balanced::{BalancedMatrix, TaylorWork};
-use super::guard_series::DerivativeRows;
+use super::guard_series::{DerivativeRows, NullSpace};
 use super::recurrence::{Decision, ModeOperators, Recurrences, SearchedSegment};
 use crate::solve::SolverStats;
 
@@ -118,6 +118,8 @@ pub struct ModeTransitions {
     sample_increment: DMatrix<f64>,
     /// Per guard index: its row and derivative rows along this mode's flow (crossing search).
     pub guard_rows: Vec<DerivativeRows>,
+    /// The mode's equilibrium directions (for the guards' curvature bounds).
+    pub null_space: NullSpace,
     /// `(centre bits of τ_c, Φ = e^{A τ_c}, ΦA)` per duration bin.
     recurring: Vec<TransitionBin>,
     next_recurring_slot: usize,
@@ -159,6 +161,7 @@ impl ModeTransitions {
             sample_step,
             sample_increment,
             guard_rows: Vec::new(),
+            null_space: NullSpace::default(),
             recurring: Vec::new(),
             next_recurring_slot: 0,
             recent_bins: [0; 2],
@@ -190,6 +193,7 @@ impl ModeTransitions {
         let mode = ModeOperators {
             a: &self.a,
             balanced: &self.balanced,
+            null_space: &self.null_space,
             sample_step: self.sample_step,
         };
         let segment = SearchedSegment { z, tau, outcome };
@@ -284,9 +288,7 @@ impl ModeTransitions {
             }
             std::mem::swap(&mut state, &mut next);
         }
-        let done = self
-            .balanced
-            .exp_times(rest, &state, out, &mut self.taylor);
+        let done = self.balanced.exp_times(rest, &state, out, &mut self.taylor);
         self.taylor_state = state;
         self.taylor_next = next;
         done
