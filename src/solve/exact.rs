@@ -461,10 +461,12 @@ impl ExactPropagator {
         }
     }
 
-    /// Drops the recurring-segment references ([`recurrence`]) and keeps the rest of the
-    /// cache. A reference decides an event time to the same tolerance as the full search but
-    /// not to the same last bit, so a state that is captured (and later restored into a
-    /// fresh propagator) must continue without the references learned before it.
+    /// Drops the recurring-segment references ([`recurrence`]) and the duration history of
+    /// each mode (its binned transitions: a duration met once is applied without a matrix,
+    /// [`transition::ModeTransitions::apply`]), and keeps the rest of the cache. A reference
+    /// decides an event time, and the two transition paths a state, to the same tolerance but
+    /// not to the same last bit, so a state that is captured (and later restored into a fresh
+    /// propagator) must continue without the history learned before it.
     pub fn forget_recurrences(&mut self) {
         for mode in &mut self.modes.modes {
             mode.forget_recurring();

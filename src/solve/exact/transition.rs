@@ -5,11 +5,17 @@
 //! and in a periodic steady state also the times to and from contact events. `Φ(τ) = e^{Aτ}`
 //! is therefore cached per mode and duration bin (Padé scaling-and-squaring on the stack,
 //! Higham 2005, on the balanced matrix), together with the first two remainder terms, so a
-//! steady run pays one fused mat-vec per segment and a matrix exponential only for a duration
-//! it has not met before. The guard sample step `e^{Ah} − I` is cached per mode too.
+//! steady run pays one fused mat-vec per segment. A duration met for the first time (the event
+//! times of an orbit that is not periodic to 2⁻³², a transient) builds no matrix: it is
+//! applied to the vector by cached sample steps `e^{Ah}` and a Taylor series with a rigorous
+//! tail bound (a few tens of mat-vecs instead of `n_z³`·~20 flops); only its second meeting
+//! pays the Padé exponential of its bin. The guard sample step `e^{Ah} − I` is cached per mode
+//! too.
 //!
-//! Every result is a pure function of the mode and the duration (the cache only saves
-//! work), so a run restored into a fresh propagator continues bit for bit.
+//! Every result is a function of the mode, the duration and the durations met before in the
+//! mode (which of the two paths, both exact to rounding); a state capture drops that history
+//! ([`ModeTransitions::forget_recurring`]), so a run restored into a fresh propagator
+//! continues bit for bit.
 
 use nalgebra::DMatrix;
 
