@@ -277,7 +277,7 @@ impl ModeTransitions {
     fn apply_once(&mut self, tau: f64, z: &[f64], out: &mut [f64]) -> bool {
         let h = self.sample_step;
         let steps = (tau / h).floor();
-        if !(steps >= 0.0 && steps <= MAX_ONE_OFF_STEPS) {
+        if !(0.0..=MAX_ONE_OFF_STEPS).contains(&steps) {
             return false;
         }
         let rest = tau - steps * h;
