@@ -138,6 +138,9 @@ pub struct ModeTransitions {
     taylor: TaylorWork,
     taylor_state: Vec<f64>,
     taylor_next: Vec<f64>,
+    /// Bins built (tests).
+    #[cfg(test)]
+    builds: usize,
     /// Earlier segments of the mode that decide the crossings of recurring ones.
     recurrences: Recurrences,
 }
@@ -176,6 +179,8 @@ impl ModeTransitions {
             taylor: TaylorWork::default(),
             taylor_state: Vec::new(),
             taylor_next: Vec::new(),
+            #[cfg(test)]
+            builds: 0,
             recurrences: Recurrences::default(),
         }
     }
@@ -237,9 +242,9 @@ impl ModeTransitions {
     /// reused for every event of a periodic orbit drifts coherently (the undamped rattle of
     /// `tests/backlash.rs` gains energy ~3× faster at 2⁻²⁶ than at 2⁻³²).
     ///
-    /// A duration whose bin is not built and that was not met before (the event times of an
-    /// orbit that is not periodic to 2⁻³², a transient) is applied without a matrix
-    /// ([`Self::apply_once`]); its second meeting builds the bin. The result is therefore a
+    /// Once all bins are in use, a duration whose bin is not built and that was not met
+    /// before (the event times of an orbit that is not periodic to 2⁻³², a transient) is
+    /// applied without a matrix ([`Self::apply_once`]); its second meeting builds the bin. The result is therefore a
     /// function of the mode, the duration and the durations met before in the mode (both
     /// paths are exact to rounding, not to the same last bit), so a state capture drops that
     /// history with the references ([`Self::forget_recurring`]) and a run restored into a
@@ -248,8 +253,12 @@ impl ModeTransitions {
         let slot = match self.find_bin(tau) {
             Some(slot) => slot,
             None => {
+                // While the bins are not all used a new duration takes one, as it always did
+                // (a short run's transitions, and the memory a run settles at, are those of a
+                // long one); once they are, a duration met once no longer evicts a recurring
+                // one.
                 let centre_bits = Self::centre_bits(tau);
-                if !self.seen.contains(&centre_bits) {
+                if self.recurring.len() >= RECURRING_CAPACITY && !self.seen.contains(&centre_bits) {
                     self.seen[self.next_seen_slot] = centre_bits;
                     self.next_seen_slot = (self.next_seen_slot + 1) % SEEN_CAPACITY;
                     if self.apply_once(tau, z, out) {
@@ -348,6 +357,10 @@ impl ModeTransitions {
 
     /// Builds the bin of `tau` (the Padé exponential of its centre) and returns its slot.
     fn build_bin(&mut self, tau: f64) -> usize {
+        #[cfg(test)]
+        {
+            self.builds += 1;
+        }
         let centre_bits = Self::centre_bits(tau);
         let (phi, phi_a) = self
             .balanced
@@ -434,10 +447,14 @@ mod tests {
         let mut worst = 0.0f64;
         for &steps in &[0.0, 0.37, 1.0, 2.61, 17.2, MAX_ONE_OFF_STEPS + 0.9] {
             let tau = (steps + 1e-3) * h;
-            let mut once = ModeTransitions::new(a.clone(), (3.5e8f64).sqrt());
+            let mut once = full_bins(&a);
             let mut out = [0.0; 5];
             once.apply(tau, &z0, &mut out);
-            assert!(once.recurring.is_empty(), "{steps} steps: no matrix built");
+            assert_eq!(
+                once.built_bins(),
+                RECURRING_CAPACITY,
+                "{steps} steps: no matrix built"
+            );
             let phi = once.transition_matrix(tau);
             let binned = &phi * nalgebra::DVector::from_column_slice(&z0);
             let err = max_rel_diff(&out, binned.as_slice());
@@ -445,9 +462,30 @@ mod tests {
             assert!(err < 4e-15 * (1.0 + steps), "{steps} steps: {err:e}");
         }
         eprintln!("one-off against Padé: {worst:e}");
-        let mut long = ModeTransitions::new(a.clone(), (3.5e8f64).sqrt());
+        let mut long = full_bins(&a);
         let mut out = [0.0; 5];
         long.apply((MAX_ONE_OFF_STEPS + 2.0) * h, &z0, &mut out);
-        assert_eq!(long.recurring.len(), 1, "a long duration gets its bin");
+        assert_eq!(
+            long.built_bins(),
+            RECURRING_CAPACITY + 1,
+            "a long duration gets its bin"
+        );
+    }
+
+    impl ModeTransitions {
+        fn built_bins(&self) -> usize {
+            self.builds
+        }
+    }
+
+    /// A mode whose bins are all in use (durations unlike the tested ones).
+    fn full_bins(a: &DMatrix<f64>) -> ModeTransitions {
+        let mut mode = ModeTransitions::new(a.clone(), (3.5e8f64).sqrt());
+        let mut out = [0.0; 5];
+        for k in 0..RECURRING_CAPACITY {
+            mode.apply(1e-7 * (1.0 + k as f64 / 7.0), &[1.0; 5], &mut out);
+        }
+        assert_eq!(mode.recurring.len(), RECURRING_CAPACITY);
+        mode
     }
 }
