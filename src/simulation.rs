@@ -108,6 +108,8 @@ impl Driver<GearPair> {
 
     /// Snapshot of the run (see [`SimState`]).
     pub fn snapshot(&self) -> SimState {
+        // The run continues from here as the restored state would (exact: without its history).
+        self.forget_before_next_advance();
         SimState {
             t: self.t(),
             y: self.state(),

@@ -267,6 +267,14 @@ impl<M: DrivenModel> Driver<M> {
         }
     }
 
+    /// [`Driver::forget_recurrences`] before the next advance, for a snapshot that only reads
+    /// the run: the run then continues from the captured state as a restored one does.
+    pub fn forget_before_next_advance(&self) {
+        if let Propagator::Exact(p) = &self.propagator {
+            p.forget_before_next_advance();
+        }
+    }
+
     /// Switches the exact propagator's recurring-segment decisions on (the default) or off
     /// (every segment gets the full crossing search); no effect on the RK path.
     pub fn use_recurrences(&mut self, on: bool) {

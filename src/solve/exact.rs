@@ -42,6 +42,7 @@ mod guard_series;
 mod recurrence;
 pub mod transition;
 
+use std::cell::Cell;
 use std::collections::HashMap;
 use std::hash::{BuildHasherDefault, Hasher};
 
@@ -326,6 +327,9 @@ pub struct ExactPropagator {
     composites: bool,
     /// The sequence being walked.
     sequence: Vec<Step>,
+    /// A capture asked to forget the history before the next advance
+    /// ([`ExactPropagator::forget_before_next_advance`]).
+    forget_pending: Cell<bool>,
 }
 
 /// Events allowed at one instant before the propagation gives up (Zeno guard).
@@ -421,6 +425,7 @@ impl ExactPropagator {
             sensitivity: None,
             composites: true,
             sequence: Vec::new(),
+            forget_pending: Cell::new(false),
         }
     }
 
@@ -461,17 +466,25 @@ impl ExactPropagator {
         }
     }
 
-    /// Drops the recurring-segment references ([`recurrence`]) and keeps the rest of the
-    /// cache. A reference decides an event time to the same tolerance as the full search but
-    /// not to the same last bit, so a state that is captured (and later restored into a
-    /// fresh propagator) must continue without the references learned before it.
+    /// Drops everything the propagator learned from the run so far: the recurring-segment
+    /// references ([`recurrence`]), the duration history of each mode (a duration met once is
+    /// applied without a matrix, [`transition::ModeTransitions::apply`]), the products of
+    /// recurring sequences and the carried forcing states: the cache is then as a fresh
+    /// propagator's. A reference decides an event time, and the two transition paths a state,
+    /// to the same tolerance but not to the same last bit, so a state that is captured (and
+    /// later restored into a fresh propagator) must continue without the history learned
+    /// before it. (The per-mode operators are rebuilt on the next segments; a capture is
+    /// rare.)
     pub fn forget_recurrences(&mut self) {
-        for mode in &mut self.modes.modes {
-            mode.forget_recurring();
-        }
-        // The carried forcing states and the recorded sequences are history too.
+        self.modes.clear();
         self.carried = None;
-        self.modes.composites.clear();
+    }
+
+    /// [`ExactPropagator::forget_recurrences`] at the start of the next advance: for a
+    /// capture that only reads the run (a snapshot), so that the run continues from the
+    /// captured state exactly as a restored one does.
+    pub fn forget_before_next_advance(&self) {
+        self.forget_pending.set(true);
     }
 
     /// Switches the composite transitions of recurring guard-free sequences ([`composite`])
@@ -513,6 +526,9 @@ impl ExactPropagator {
     ) -> Result<(), SolveError> {
         if t_end < self.t {
             return Err(SolveError::BackwardTime { t: self.t, t_end });
+        }
+        if self.forget_pending.replace(false) {
+            self.forget_recurrences();
         }
         let n = sys.dim();
         let nz = sys.lti_dim();

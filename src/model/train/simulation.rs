@@ -84,6 +84,8 @@ impl Driver<GearTrain> {
 
     /// Snapshot of the run (see [`TrainSimState`]).
     pub fn snapshot(&self) -> TrainSimState {
+        // The run continues from here as the restored state would (exact: without its history).
+        self.forget_before_next_advance();
         TrainSimState {
             t: self.t(),
             y: self.state().to_vec(),

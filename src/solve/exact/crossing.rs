@@ -116,7 +116,7 @@ pub fn first_crossing(
             }
             // |g''| ≤ C on the interval (σ units: C width²), from the mode's weights.
             let curvature = rows
-                .curvature_bound(&mode.a, h, &ws.z_left)
+                .curvature_bound(&mode.a, &mode.null_space, h, &ws.z_left)
                 .map(|c| c * width * width);
             stats.guard_evals += 1;
             if let Some(c) = curvature.filter(|_| g_right >= 0.0) {

@@ -7,6 +7,8 @@
 //! enter `Σ_j M_j |z_j|` ([`NullDirection`]). The series is evaluated by four interleaved
 //! Horner chains (value and slope in one pass).
 
+use std::cell::OnceCell;
+
 use nalgebra::{DMatrix, DVector};
 
 use crate::solve::first_crossing::polynomial_range;
@@ -48,6 +50,38 @@ struct NullDirection {
     weight: f64,
 }
 
+/// The mode's equilibrium directions: the right singular vectors of `A`'s (numerically) zero
+/// singular values, computed on first use and shared by the mode's guards (one SVD per mode,
+/// not per guard: a drivetrain with contact loss meets many modes once each).
+#[derive(Default)]
+pub struct NullSpace(OnceCell<Vec<Vec<f64>>>);
+
+impl NullSpace {
+    /// The directions of `a` (the mode's matrix; the same on every call).
+    pub fn vectors(&self, a: &DMatrix<f64>) -> &[Vec<f64>] {
+        self.0.get_or_init(|| {
+            // (`try_svd` with an iteration limit: a mode with non-finite entries, e.g. an
+            // overflowing input, must not hang the propagator, which then reports the state.)
+            let svd = a
+                .iter()
+                .all(|v| v.is_finite())
+                .then(|| a.clone().try_svd(false, true, f64::EPSILON, 1000))
+                .flatten();
+            let Some((v_t, singular_values)) = svd.and_then(|s| Some((s.v_t?, s.singular_values)))
+            else {
+                return Vec::new();
+            };
+            let largest = singular_values.iter().fold(0.0f64, |x, &v| x.max(v));
+            singular_values
+                .iter()
+                .enumerate()
+                .filter(|&(_, &sigma)| sigma <= 1e-12 * largest)
+                .map(|(i, _)| v_t.row(i).iter().copied().collect())
+                .collect()
+        })
+    }
+}
+
 impl DerivativeRows {
     /// Makes `w` the guard row (the derivative rows are dropped only when it changed).
     pub fn set_row(&mut self, w: &[f64]) {
@@ -63,9 +97,15 @@ impl DerivativeRows {
     /// `M_j ≥ max_s |(e^{Aᵀs} r_2)_j|` ([`DerivativeRows::build_curvature_weights`]), and the
     /// same for `z` with its equilibrium parts removed ([`NullDirection`]); the smaller one.
     /// The weights are computed once per mode and guard; each bound then costs two dots.
-    pub fn curvature_bound(&mut self, a: &DMatrix<f64>, h: f64, z: &[f64]) -> Option<f64> {
+    pub fn curvature_bound(
+        &mut self,
+        a: &DMatrix<f64>,
+        null_space: &NullSpace,
+        h: f64,
+        z: &[f64],
+    ) -> Option<f64> {
         if self.curvature_weights.as_ref().is_none_or(|c| c.h != h) {
-            self.curvature_weights = self.build_curvature_weights(a, h);
+            self.curvature_weights = self.build_curvature_weights(a, null_space, h);
         }
         let c = self.curvature_weights.as_ref()?;
         let plain: f64 = c.weights.iter().zip(z).map(|(m, x)| m * x.abs()).sum();
@@ -87,55 +127,45 @@ impl DerivativeRows {
     /// the term-by-term weights, up to `e^{|λh|} ≈ 4.8` above the maxima, left a steady
     /// separating scene with several polynomial searches per period that a tight bound proves
     /// free) and the mode's equilibrium directions.
-    fn build_curvature_weights(&mut self, a: &DMatrix<f64>, h: f64) -> Option<CurvatureWeights> {
-        let weights = self.sup_weights(a, h, 2)?;
-        let loose = self.series_magnitudes(a, h, 2)?;
+    fn build_curvature_weights(
+        &mut self,
+        a: &DMatrix<f64>,
+        null_space: &NullSpace,
+        h: f64,
+    ) -> Option<CurvatureWeights> {
+        let (weights, loose) = self.sup_weights_and_magnitudes(a, h, 2)?;
         let n = self.n;
         let terms = self.rows.len() / n - 2;
-        // Equilibrium directions: the right singular vectors of A's (numerically) zero
-        // singular values, reduced so that each cancels one component of z (the one it weighs
-        // most) and none of the others' (Gauss–Jordan on the pivots).
-        // (`try_svd` with an iteration limit: a mode with non-finite entries, e.g. an
-        // overflowing input, must not hang the propagator, which then reports the state.)
-        let svd = a
-            .iter()
-            .all(|v| v.is_finite())
-            .then(|| a.clone().try_svd(false, true, f64::EPSILON, 1000))
-            .flatten();
         let mut shifts: Vec<NullDirection> = Vec::new();
-        if let Some((v_t, singular_values)) = svd.and_then(|s| Some((s.v_t?, s.singular_values))) {
-            let largest = singular_values.iter().fold(0.0f64, |x, &v| x.max(v));
-            for (i, &sigma) in singular_values.iter().enumerate() {
-                if !(sigma <= 1e-12 * largest) {
-                    continue;
+        // Equilibrium directions, reduced so that each cancels one component of z (the one it
+        // weighs most) and none of the others' (Gauss–Jordan on the pivots).
+        for v in null_space.vectors(a) {
+            let mut q = v.clone();
+            for d in &shifts {
+                let factor = q[d.pivot];
+                for (x, y) in q.iter_mut().zip(&d.q) {
+                    *x -= factor * y;
                 }
-                let mut q: Vec<f64> = v_t.row(i).iter().copied().collect();
-                for d in &shifts {
-                    let factor = q[d.pivot];
-                    for (x, y) in q.iter_mut().zip(&d.q) {
-                        *x -= factor * y;
-                    }
-                }
-                let (pivot, score) = (0..n)
-                    .map(|j| (j, weights[j] * q[j].abs()))
-                    .fold((0, 0.0), |best, c| if c.1 > best.1 { c } else { best });
-                if !(score > 0.0) {
-                    continue;
-                }
-                let scale = q[pivot];
-                q.iter_mut().for_each(|x| *x /= scale);
-                for d in &mut shifts {
-                    let factor = d.q[pivot];
-                    for (x, y) in d.q.iter_mut().zip(&q) {
-                        *x -= factor * y;
-                    }
-                }
-                shifts.push(NullDirection {
-                    pivot,
-                    q,
-                    weight: 0.0,
-                });
             }
+            let (pivot, score) = (0..n)
+                .map(|j| (j, weights[j] * q[j].abs()))
+                .fold((0, 0.0), |best, c| if c.1 > best.1 { c } else { best });
+            if !(score > 0.0) {
+                continue;
+            }
+            let scale = q[pivot];
+            q.iter_mut().for_each(|x| *x /= scale);
+            for d in &mut shifts {
+                let factor = d.q[pivot];
+                for (x, y) in d.q.iter_mut().zip(&q) {
+                    *x -= factor * y;
+                }
+            }
+            shifts.push(NullDirection {
+                pivot,
+                q,
+                weight: 0.0,
+            });
         }
         // |r_2·e^{As} q| ≤ Σ_k |r_{k+2}·q| h^k/k!, each dot with its rounding bound.
         for d in &mut shifts {
@@ -163,23 +193,38 @@ impl DerivativeRows {
     /// the true maxima; the term-by-term ones exceed them by up to `e^{|λh|} ≈ 4.8` for an
     /// oscillation (`|λh| ≤ π/2`).
     pub fn sup_weights(&mut self, a: &DMatrix<f64>, h: f64, first: usize) -> Option<Vec<f64>> {
+        self.sup_weights_and_magnitudes(a, h, first)
+            .map(|(weights, _)| weights)
+    }
+
+    /// [`Self::sup_weights`] and the term-by-term bounds [`Self::series_magnitudes`] it starts
+    /// from.
+    fn sup_weights_and_magnitudes(
+        &mut self,
+        a: &DMatrix<f64>,
+        h: f64,
+        first: usize,
+    ) -> Option<(Vec<f64>, Vec<f64>)> {
         let loose = self.series_magnitudes(a, h, first)?;
         let loose_second = self.series_magnitudes(a, h, first + 2)?;
         let n = self.n;
         let terms = self.rows.len() / n - first;
-        let f = |rows: &[f64], s: f64, j: usize| {
-            // Horner in s over r_{k+first}: Σ_k (r_{k+first})_j s^k / k!.
-            let mut acc = 0.0;
-            for k in (0..terms).rev() {
-                acc = rows[(k + first) * n + j] + acc * s / (k + 1) as f64;
-            }
-            acc
-        };
+        // Horner in s over r_{k+first}, all components at once (contiguous rows, one
+        // division per term and node): Σ_k (r_{k+first})_j s^k / k!.
         let mut weights = vec![0.0f64; n];
+        let mut value = vec![0.0f64; n];
         for i in 0..=CURVATURE_NODES {
             let s = h * i as f64 / CURVATURE_NODES as f64;
-            for (j, m) in weights.iter_mut().enumerate() {
-                *m = m.max(f(&self.rows, s, j).abs());
+            value.fill(0.0);
+            for k in (0..terms).rev() {
+                let step = s / (k + 1) as f64;
+                let row = &self.rows[(k + first) * n..(k + first + 1) * n];
+                for (v, &r) in value.iter_mut().zip(row) {
+                    *v = r + *v * step;
+                }
+            }
+            for (m, v) in weights.iter_mut().zip(&value) {
+                *m = m.max(v.abs());
             }
         }
         // Between two nodes |f| exceeds the larger node value by at most max|f''| Δ²/8; the
@@ -188,7 +233,7 @@ impl DerivativeRows {
         for ((m, l), l2) in weights.iter_mut().zip(&loose).zip(&loose_second) {
             *m = l.min(*m + l2 * gap * gap / 8.0 + 1e-12 * l);
         }
-        Some(weights)
+        Some((weights, loose))
     }
 
     /// `Σ_k |(r_{k+first})_j| h^k / k!` for each component `j` (an upper bound of
@@ -249,7 +294,7 @@ impl DerivativeRows {
             // (Aᵀ r)_j = Σ_i A_ij r_i: column j of A (column-major) dotted with r.
             for j in 0..n {
                 let column = &a.as_slice()[j * n..(j + 1) * n];
-                let v: f64 = (0..n).map(|i| column[i] * self.rows[last + i]).sum();
+                let v = dot_in_lanes(column, &self.rows[last..last + n]);
                 self.rows.push(v);
             }
         }
@@ -487,6 +532,26 @@ pub fn dot(a: &[f64], b: &[f64]) -> f64 {
     }
 }
 
+/// `a·b` in four interleaved partial sums: the compiler cannot reorder a floating-point sum,
+/// and one running sum is latency-bound (the derivative rows of a new mode of a large train
+/// are ~60 of these per component).
+fn dot_in_lanes(a: &[f64], b: &[f64]) -> f64 {
+    let mut lanes = [0.0f64; 4];
+    let (a4, b4) = (a.chunks_exact(4), b.chunks_exact(4));
+    let tail: f64 = a4
+        .remainder()
+        .iter()
+        .zip(b4.remainder())
+        .map(|(x, y)| x * y)
+        .sum();
+    for (x, y) in a4.zip(b4) {
+        for k in 0..4 {
+            lanes[k] += x[k] * y[k];
+        }
+    }
+    (lanes[0] + lanes[1]) + (lanes[2] + lanes[3]) + tail
+}
+
 #[inline(always)]
 fn dot_fixed<const N: usize>(a: &[f64], b: &[f64]) -> f64 {
     let (a, b): (&[f64; N], &[f64; N]) = (
@@ -557,7 +622,9 @@ mod tests {
             [3e-8, 0.17, 0.03, 1.0, 1.0],
             [-4e-5, -1.2, 0.0, -1.0, 1.0],
         ] {
-            let bound = rows.curvature_bound(&a, h, &z).expect("settles");
+            let bound = rows
+                .curvature_bound(&a, &NullSpace::default(), h, &z)
+                .expect("settles");
             let a2 = &a * &a;
             let w = DVector::from_column_slice(&[1.0, 0.0, -1e-6, 0.0, 0.0]);
             let mut largest = 0.0f64;

@@ -28,7 +28,7 @@ use nalgebra::DMatrix;
 
 use super::balanced::BalancedMatrix;
 use super::enclosure::{taylor_lower_bound, Point};
-use super::guard_series::{dot, DerivativeRows, GuardSeries};
+use super::guard_series::{dot, DerivativeRows, GuardSeries, NullSpace};
 use crate::solve::SolverStats;
 
 /// Pieces per sample step of the reference guard's certificate.
@@ -71,6 +71,7 @@ pub enum Decision {
 pub struct ModeOperators<'a> {
     pub a: &'a DMatrix<f64>,
     pub balanced: &'a BalancedMatrix,
+    pub null_space: &'a NullSpace,
     pub sample_step: f64,
 }
 
@@ -354,6 +355,7 @@ impl Reference {
         let ModeOperators {
             a,
             balanced,
+            null_space,
             sample_step: h,
         } = mode;
         let SearchedSegment { z, tau, outcome } = segment;
@@ -414,7 +416,7 @@ impl Reference {
                 for (s, v) in scan.rate_weights.iter_mut().zip(&rate_weights) {
                     *s = s.max(*v);
                 }
-                let curvature = rows[i].curvature_bound(a, h, &z_chunk)?;
+                let curvature = rows[i].curvature_bound(a, null_space, h, &z_chunk)?;
                 let series = GuardSeries::from_rows(&mut rows[i], a, &z_chunk, width);
                 let values: Vec<(f64, f64)> = (0..=PIECES_PER_STEP)
                     .map(|k| series.value_and_slope(width * k as f64 / PIECES_PER_STEP as f64))

@@ -5,16 +5,22 @@
 //! and in a periodic steady state also the times to and from contact events. `Φ(τ) = e^{Aτ}`
 //! is therefore cached per mode and duration bin (Padé scaling-and-squaring on the stack,
 //! Higham 2005, on the balanced matrix), together with the first two remainder terms, so a
-//! steady run pays one fused mat-vec per segment and a matrix exponential only for a duration
-//! it has not met before. The guard sample step `e^{Ah} − I` is cached per mode too.
+//! steady run pays one fused mat-vec per segment. A duration met for the first time (the event
+//! times of an orbit that is not periodic to 2⁻³², a transient) builds no matrix: it is
+//! applied to the vector by cached sample steps `e^{Ah}` and a Taylor series with a rigorous
+//! tail bound (a few tens of mat-vecs instead of `n_z³`·~20 flops); only its second meeting
+//! pays the Padé exponential of its bin. The guard sample step `e^{Ah} − I` is cached per mode
+//! too.
 //!
-//! Every result is a pure function of the mode and the duration (the cache only saves
-//! work), so a run restored into a fresh propagator continues bit for bit.
+//! Every result is a function of the mode, the duration and the durations met before in the
+//! mode (which of the two paths, both exact to rounding); a state capture drops that history
+//! ([`ModeTransitions::forget_recurring`]), so a run restored into a fresh propagator
+//! continues bit for bit.
 
 use nalgebra::DMatrix;
 
-use super::balanced::BalancedMatrix;
-use super::guard_series::DerivativeRows;
+use super::balanced::{BalancedMatrix, TaylorWork};
+use super::guard_series::{DerivativeRows, NullSpace};
 use super::recurrence::{Decision, ModeOperators, Recurrences, SearchedSegment};
 use crate::solve::SolverStats;
 
@@ -22,6 +28,12 @@ use crate::solve::SolverStats;
 const RECURRING_CAPACITY: usize = 32;
 /// Low mantissa bits rounded away by the duration bins (relative bin width 2^(LOW−52) = 2⁻³²).
 const BIN_LOW_BITS: u32 = 20;
+/// Durations met once and applied without a matrix, remembered so that the second meeting
+/// builds the bin ([`ModeTransitions::apply`]); replaced round-robin.
+const SEEN_CAPACITY: usize = 16;
+/// Sample steps `e^{Ah}` a duration met once may take before its Taylor remainder; a longer
+/// one gets the Padé matrix (`n_z³`·~20 flops against `n_z²` per step).
+const MAX_ONE_OFF_STEPS: f64 = 64.0;
 
 /// `out = m · z` for a column-major `n × n` matrix (the single pair's augmented sizes
 /// `3 + 2H` get a fixed-size, unrolled loop).
@@ -112,12 +124,23 @@ pub struct ModeTransitions {
     sample_increment: DMatrix<f64>,
     /// Per guard index: its row and derivative rows along this mode's flow (crossing search).
     pub guard_rows: Vec<DerivativeRows>,
+    /// The mode's equilibrium directions (for the guards' curvature bounds).
+    pub null_space: NullSpace,
     /// `(centre bits of τ_c, Φ = e^{A τ_c}, ΦA)` per duration bin.
     recurring: Vec<TransitionBin>,
     next_recurring_slot: usize,
     /// The two bins used last (a mode's segments of a periodic orbit alternate between a few
     /// durations; the bins of a transient before it can fill the rest).
     recent_bins: [usize; 2],
+    /// Centre bits of durations met once and applied without a bin, and the next slot.
+    seen: [u64; SEEN_CAPACITY],
+    next_seen_slot: usize,
+    taylor: TaylorWork,
+    taylor_state: Vec<f64>,
+    taylor_next: Vec<f64>,
+    /// Bins built (tests).
+    #[cfg(test)]
+    builds: usize,
     /// Earlier segments of the mode that decide the crossings of recurring ones.
     recurrences: Recurrences,
 }
@@ -147,9 +170,17 @@ impl ModeTransitions {
             sample_step,
             sample_increment,
             guard_rows: Vec::new(),
+            null_space: NullSpace::default(),
             recurring: Vec::new(),
             next_recurring_slot: 0,
             recent_bins: [0; 2],
+            seen: [u64::MAX; SEEN_CAPACITY],
+            next_seen_slot: 0,
+            taylor: TaylorWork::default(),
+            taylor_state: Vec::new(),
+            taylor_next: Vec::new(),
+            #[cfg(test)]
+            builds: 0,
             recurrences: Recurrences::default(),
         }
     }
@@ -173,15 +204,23 @@ impl ModeTransitions {
         let mode = ModeOperators {
             a: &self.a,
             balanced: &self.balanced,
+            null_space: &self.null_space,
             sample_step: self.sample_step,
         };
         let segment = SearchedSegment { z, tau, outcome };
         self.recurrences.learn(mode, &mut self.guard_rows, segment);
     }
 
-    /// Drops the references (see [`super::ExactPropagator::forget_recurrences`]).
+    /// Drops the references and the duration history (see
+    /// [`super::ExactPropagator::forget_recurrences`]): whether a duration is applied through
+    /// its bin or once without one depends on what came before ([`ModeTransitions::apply`]).
     pub fn forget_recurring(&mut self) {
         self.recurrences = Recurrences::default();
+        self.recurring.clear();
+        self.next_recurring_slot = 0;
+        self.recent_bins = [0; 2];
+        self.seen = [u64::MAX; SEEN_CAPACITY];
+        self.next_seen_slot = 0;
     }
 
     /// `e^{A h} − I` (one guard sample step), column-major.
@@ -189,9 +228,7 @@ impl ModeTransitions {
         self.sample_increment.as_slice()
     }
 
-    /// `out = e^{A·tau} z`, the transition of one segment: a pure function of the mode and
-    /// `tau`, never of what the cache holds, so a run restored from a snapshot into a fresh
-    /// propagator continues bit for bit (FMI 2.0.x §2.1.8).
+    /// `out = e^{A·tau} z`, the transition of one segment.
     ///
     /// Durations recur: whole stiffness pieces and output intervals at constant speed, and
     /// in a periodic steady state also the times to and from contact events, so `e^{A τ_c}` is
@@ -204,8 +241,34 @@ impl ModeTransitions {
     /// run (jitter `4ε·t` of the root finding) share bins too, but one rounded `e^{Aτ_c}`
     /// reused for every event of a periodic orbit drifts coherently (the undamped rattle of
     /// `tests/backlash.rs` gains energy ~3× faster at 2⁻²⁶ than at 2⁻³²).
+    ///
+    /// Once all bins are in use, a duration whose bin is not built and that was not met
+    /// before (the event times of an orbit that is not periodic to 2⁻³², a transient) is
+    /// applied without a matrix ([`Self::apply_once`]); its second meeting builds the bin. The result is therefore a
+    /// function of the mode, the duration and the durations met before in the mode (both
+    /// paths are exact to rounding, not to the same last bit), so a state capture drops that
+    /// history with the references ([`Self::forget_recurring`]) and a run restored into a
+    /// fresh propagator continues bit for bit (FMI 2.0.x §2.1.8).
     pub fn apply(&mut self, tau: f64, z: &[f64], out: &mut [f64]) {
-        let (slot, delta) = self.bin(tau);
+        let slot = match self.find_bin(tau) {
+            Some(slot) => slot,
+            None => {
+                // While the bins are not all used a new duration takes one, as it always did
+                // (a short run's transitions, and the memory a run settles at, are those of a
+                // long one); once they are, a duration met once no longer evicts a recurring
+                // one.
+                let centre_bits = Self::centre_bits(tau);
+                if self.recurring.len() >= RECURRING_CAPACITY && !self.seen.contains(&centre_bits) {
+                    self.seen[self.next_seen_slot] = centre_bits;
+                    self.next_seen_slot = (self.next_seen_slot + 1) % SEEN_CAPACITY;
+                    if self.apply_once(tau, z, out) {
+                        return;
+                    }
+                }
+                self.build_bin(tau)
+            }
+        };
+        let delta = tau - f64::from_bits(self.recurring[slot].0);
         let (_, phi, phi_a) = &self.recurring[slot];
         if delta == 0.0 {
             mat_vec(phi.as_slice(), z, out);
@@ -214,9 +277,46 @@ impl ModeTransitions {
         }
     }
 
-    /// The matrix [`ModeTransitions::apply`] applies for `tau`: `e^{Aτ_c} + δ e^{Aτ_c}A`.
+    /// `out = e^{A·tau} z` without a matrix exponential: `q = ⌊τ/h⌋` cached sample steps
+    /// `z ← z + (e^{Ah} − I) z` (the crossing search's own steps), then the Taylor series of
+    /// the rest `r = τ − qh < h` on the vector ([`BalancedMatrix::exp_times`], with a rigorous
+    /// truncation bound). `q + K` mat-vecs (`K` ≈ 20–40 terms) instead of a Padé
+    /// scaling-and-squaring; `false` when the duration spans more than
+    /// [`MAX_ONE_OFF_STEPS`] sample steps or the rest's norm is too large for the series.
+    fn apply_once(&mut self, tau: f64, z: &[f64], out: &mut [f64]) -> bool {
+        let h = self.sample_step;
+        let steps = (tau / h).floor();
+        if !(0.0..=MAX_ONE_OFF_STEPS).contains(&steps) {
+            return false;
+        }
+        let rest = tau - steps * h;
+        // Ping-pong between `out` and a work vector; the series starts from the last step.
+        let mut state = std::mem::take(&mut self.taylor_state);
+        state.clear();
+        state.extend_from_slice(z);
+        let mut next = std::mem::take(&mut self.taylor_next);
+        next.resize(z.len(), 0.0);
+        for _ in 0..steps as u32 {
+            mat_vec(self.sample_increment.as_slice(), &state, &mut next);
+            for (x, s) in next.iter_mut().zip(&state) {
+                *x += s;
+            }
+            std::mem::swap(&mut state, &mut next);
+        }
+        let done = self.balanced.exp_times(rest, &state, out, &mut self.taylor);
+        self.taylor_state = state;
+        self.taylor_next = next;
+        done
+    }
+
+    /// The matrix of the binned path of [`ModeTransitions::apply`] for `tau`:
+    /// `e^{Aτ_c} + δ e^{Aτ_c}A` (products of recurring sequences are built from it).
     pub fn transition_matrix(&mut self, tau: f64) -> DMatrix<f64> {
-        let (slot, delta) = self.bin(tau);
+        let slot = match self.find_bin(tau) {
+            Some(slot) => slot,
+            None => self.build_bin(tau),
+        };
+        let delta = tau - f64::from_bits(self.recurring[slot].0);
         let (_, phi, phi_a) = &self.recurring[slot];
         if delta == 0.0 {
             phi.clone()
@@ -225,11 +325,16 @@ impl ModeTransitions {
         }
     }
 
-    /// The duration bin of `tau` (built on first use) and the remainder `δ = τ − τ_c`.
-    fn bin(&mut self, tau: f64) -> (usize, f64) {
+    /// The centre of the duration bin of `tau`: its bits with the low [`BIN_LOW_BITS`]
+    /// rounded away.
+    fn centre_bits(tau: f64) -> u64 {
         const LOW: u32 = BIN_LOW_BITS;
-        let bits = tau.to_bits();
-        let centre_bits = bits.wrapping_add(1 << (LOW - 1)) & !((1u64 << LOW) - 1);
+        tau.to_bits().wrapping_add(1 << (LOW - 1)) & !((1u64 << LOW) - 1)
+    }
+
+    /// The slot of the built bin of `tau`, if there is one.
+    fn find_bin(&mut self, tau: f64) -> Option<usize> {
+        let centre_bits = Self::centre_bits(tau);
         let is_bin = |slot: usize| self.recurring.get(slot).is_some_and(|e| e.0 == centre_bits);
         let found = if is_bin(self.recent_bins[0]) {
             Some(self.recent_bins[0])
@@ -238,28 +343,40 @@ impl ModeTransitions {
         } else {
             self.recurring.iter().position(|e| e.0 == centre_bits)
         };
-        let slot = match found {
-            Some(slot) => slot,
-            None => {
-                let (phi, phi_a) = self
-                    .balanced
-                    .exp_with_product(f64::from_bits(centre_bits), true);
-                let entry = (centre_bits, phi, phi_a);
-                if self.recurring.len() < RECURRING_CAPACITY {
-                    self.recurring.push(entry);
-                    self.recurring.len() - 1
-                } else {
-                    let slot = self.next_recurring_slot;
-                    self.recurring[slot] = entry;
-                    self.next_recurring_slot = (slot + 1) % RECURRING_CAPACITY;
-                    slot
-                }
-            }
-        };
+        if let Some(slot) = found {
+            self.touch_bin(slot);
+        }
+        found
+    }
+
+    fn touch_bin(&mut self, slot: usize) {
         if self.recent_bins[0] != slot {
             self.recent_bins = [slot, self.recent_bins[0]];
         }
-        (slot, tau - f64::from_bits(centre_bits))
+    }
+
+    /// Builds the bin of `tau` (the Padé exponential of its centre) and returns its slot.
+    fn build_bin(&mut self, tau: f64) -> usize {
+        #[cfg(test)]
+        {
+            self.builds += 1;
+        }
+        let centre_bits = Self::centre_bits(tau);
+        let (phi, phi_a) = self
+            .balanced
+            .exp_with_product(f64::from_bits(centre_bits), true);
+        let entry = (centre_bits, phi, phi_a);
+        let slot = if self.recurring.len() < RECURRING_CAPACITY {
+            self.recurring.push(entry);
+            self.recurring.len() - 1
+        } else {
+            let slot = self.next_recurring_slot;
+            self.recurring[slot] = entry;
+            self.next_recurring_slot = (slot + 1) % RECURRING_CAPACITY;
+            slot
+        };
+        self.touch_bin(slot);
+        slot
     }
 }
 
@@ -289,9 +406,10 @@ mod tests {
             .fold(0.0, f64::max)
     }
 
-    /// The binned transitions against nalgebra's `expm` of the full step (an independent
-    /// evaluation: Padé scaling-and-squaring of the unbalanced `Aτ` itself), at the bin
-    /// centre and off it (the remainder terms), and the same result from a fresh cache.
+    /// The transitions against nalgebra's `expm` of the full step (an independent
+    /// evaluation: Padé scaling-and-squaring of the unbalanced `Aτ` itself): at a duration's
+    /// first meeting (no matrix), its second (the bin, at its centre and off it: the
+    /// remainder terms), and after the history is dropped the same result as a fresh cache.
     #[test]
     fn binned_transitions_match_expm() {
         let a = forced_oscillator();
@@ -301,15 +419,73 @@ mod tests {
             for shift in [0.0, 3e-16, 1e-9, -1e-8, 1.1e-7] {
                 let tau = tau * (1.0 + shift);
                 let reference = (&a * tau).exp() * nalgebra::DVector::from_column_slice(&z0);
-                let mut out = [0.0; 5];
-                modes.apply(tau, &z0, &mut out);
-                let err = max_rel_diff(&out, reference.as_slice());
-                assert!(err < 1e-13, "tau = {tau:e}: {err:e}");
+                for meeting in 0..2 {
+                    let mut out = [0.0; 5];
+                    modes.apply(tau, &z0, &mut out);
+                    let err = max_rel_diff(&out, reference.as_slice());
+                    assert!(err < 1e-13, "tau = {tau:e}, meeting {meeting}: {err:e}");
+                }
                 let mut fresh = ModeTransitions::new(a.clone(), (3.5e8f64).sqrt());
                 let mut again = [0.0; 5];
                 fresh.apply(tau, &z0, &mut again);
-                assert_eq!(out, again, "history-independent");
+                modes.forget_recurring();
+                let mut replay = [0.0; 5];
+                modes.apply(tau, &z0, &mut replay);
+                assert_eq!(replay, again, "history dropped");
             }
         }
+    }
+
+    /// A duration met once (sample steps and the Taylor series on the vector, no matrix)
+    /// against the Padé bin of the same duration, to rounding: from a fraction of a sample
+    /// step to the most steps the path takes; beyond them the bin is built at once.
+    #[test]
+    fn one_off_durations_match_the_pade_bins() {
+        let a = forced_oscillator();
+        let z0 = [1e-5, 0.2, 0.6, 0.8, 1.0];
+        let h = ModeTransitions::new(a.clone(), (3.5e8f64).sqrt()).sample_step;
+        let mut worst = 0.0f64;
+        for &steps in &[0.0, 0.37, 1.0, 2.61, 17.2, MAX_ONE_OFF_STEPS + 0.9] {
+            let tau = (steps + 1e-3) * h;
+            let mut once = full_bins(&a);
+            let mut out = [0.0; 5];
+            once.apply(tau, &z0, &mut out);
+            assert_eq!(
+                once.built_bins(),
+                RECURRING_CAPACITY,
+                "{steps} steps: no matrix built"
+            );
+            let phi = once.transition_matrix(tau);
+            let binned = &phi * nalgebra::DVector::from_column_slice(&z0);
+            let err = max_rel_diff(&out, binned.as_slice());
+            worst = worst.max(err);
+            assert!(err < 4e-15 * (1.0 + steps), "{steps} steps: {err:e}");
+        }
+        eprintln!("one-off against Padé: {worst:e}");
+        let mut long = full_bins(&a);
+        let mut out = [0.0; 5];
+        long.apply((MAX_ONE_OFF_STEPS + 2.0) * h, &z0, &mut out);
+        assert_eq!(
+            long.built_bins(),
+            RECURRING_CAPACITY + 1,
+            "a long duration gets its bin"
+        );
+    }
+
+    impl ModeTransitions {
+        fn built_bins(&self) -> usize {
+            self.builds
+        }
+    }
+
+    /// A mode whose bins are all in use (durations unlike the tested ones).
+    fn full_bins(a: &DMatrix<f64>) -> ModeTransitions {
+        let mut mode = ModeTransitions::new(a.clone(), (3.5e8f64).sqrt());
+        let mut out = [0.0; 5];
+        for k in 0..RECURRING_CAPACITY {
+            mode.apply(1e-7 * (1.0 + k as f64 / 7.0), &[1.0; 5], &mut out);
+        }
+        assert_eq!(mode.recurring.len(), RECURRING_CAPACITY);
+        mode
     }
 }
