@@ -4,7 +4,9 @@
 if it is missing rather than building behind the user's back.
 """
 
+import contextlib
 import pathlib
+import shutil
 import subprocess
 
 import pytest
@@ -50,6 +52,34 @@ def shipped_fmus() -> list:
 @pytest.fixture(scope="session")
 def spur_fmu(shipped_fmus) -> pathlib.Path:
     return FMU_DIR / "spur_pair.fmu"
+
+
+@contextlib.contextmanager
+def initialized_slave(fmu, tmp_path):
+    """An fmpy FMU2Slave of `fmu`, instantiated and initialized at t = 0 with its start values:
+    yields (slave, value reference by name, model description); frees it afterwards."""
+    import fmpy
+    from fmpy.fmi2 import FMU2Slave
+
+    if not pathlib.Path(fmu).exists():
+        pytest.fail(f"{fmu} missing: run `bash scripts/build-fmus.sh`")
+    md = fmpy.read_model_description(fmu)
+    unzip = fmpy.extract(fmu, unzipdir=tmp_path / "x")
+    s = FMU2Slave(guid=md.guid, unzipDirectory=unzip,
+                  modelIdentifier=md.coSimulation.modelIdentifier, instanceName="stage")
+    s.instantiate()
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    try:
+        yield s, {v.name: v.valueReference for v in md.modelVariables}, md
+    finally:
+        try:
+            s.terminate()
+        except Exception:  # an instance in the error state (a refused call) cannot terminate
+            pass
+        s.freeInstance()
+        shutil.rmtree(tmp_path / "x", ignore_errors=True)
 
 
 def native_run(scene, out_csv, output_interval, stop_time):

@@ -9,39 +9,20 @@ cannot change, against (T_in + (r1/r2)T_out)·t (inertias and radii from the sce
 
 from __future__ import annotations
 
-import shutil
 import tomllib
 
-import fmpy
 import numpy as np
 import pytest
-from fmpy.fmi2 import FMU2Slave
 
-from conftest import FMU_DIR, REPO
+from conftest import initialized_slave, FMU_DIR, REPO
 
 FMU = FMU_DIR / "spur_stage.fmu"
 
 
 @pytest.fixture()
 def slave(tmp_path):
-    if not FMU.exists():
-        pytest.fail(f"{FMU} missing: run `bash scripts/build-fmus.sh`")
-    md = fmpy.read_model_description(FMU)
-    unzip = fmpy.extract(FMU, unzipdir=tmp_path / "x")
-    s = FMU2Slave(guid=md.guid, unzipDirectory=unzip,
-                  modelIdentifier=md.coSimulation.modelIdentifier, instanceName="stage")
-    s.instantiate()
-    s.setupExperiment(startTime=0.0)
-    s.enterInitializationMode()
-    s.exitInitializationMode()
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    yield s, vr, md
-    try:
-        s.terminate()
-    except Exception:  # an instance in the error state (a refused call) cannot terminate
-        pass
-    s.freeInstance()
-    shutil.rmtree(tmp_path / "x", ignore_errors=True)
+    with initialized_slave(FMU, tmp_path) as s:
+        yield s
 
 
 def test_port_variables_are_declared(slave):

@@ -17,16 +17,13 @@ with the ramp as a lifted coordinate; docs/ports.md, "What stays piecewise-LTI")
 
 from __future__ import annotations
 
-import shutil
 import xml.etree.ElementTree as ET
 
-import fmpy
 import numpy as np
 import pytest
-from fmpy.fmi2 import FMU2Slave
 
 import ports_reference as pr
-from conftest import REPO, run_geardyn
+from conftest import initialized_slave, REPO, run_geardyn
 
 SCENE = REPO / "fmu" / "spur_stage" / "scene.toml"
 H = 5e-4  # one communication step, 1.4 mesh periods at 4500 rpm
@@ -58,22 +55,8 @@ def fmu(stage):
 
 @pytest.fixture()
 def slave(fmu, tmp_path):
-    md = fmpy.read_model_description(fmu)
-    unzip = fmpy.extract(fmu, unzipdir=tmp_path / "x")
-    s = FMU2Slave(guid=md.guid, unzipDirectory=unzip,
-                  modelIdentifier=md.coSimulation.modelIdentifier, instanceName="stage")
-    s.instantiate()
-    s.setupExperiment(startTime=0.0)
-    s.enterInitializationMode()
-    s.exitInitializationMode()
-    vr = {v.name: v.valueReference for v in md.modelVariables}
-    yield s, vr, md
-    try:
-        s.terminate()
-    except Exception:  # an instance in the error state cannot terminate
-        pass
-    s.freeInstance()
-    shutil.rmtree(tmp_path / "x", ignore_errors=True)
+    with initialized_slave(fmu, tmp_path) as s:
+        yield s
 
 
 def read(s, vr, names):
