@@ -55,9 +55,14 @@ fn time_rk(
     let st = sim.stats();
     if std::env::var("CHAIN_DEBUG").is_ok() {
         eprintln!(
-            "composites (builds, hits): {:?}, modes (builds, cache clears): {:?}",
+            "composites (builds, hits): {:?}, modes (builds, cache clears): {:?}, per period: \
+             guard evals {:.1}, recurring segments {:.2}, exclusions {:.2}, stops {:.2}",
             sim.composite_counts(),
-            sim.mode_counts()
+            sim.mode_counts(),
+            st.guard_evals as f64 / periods,
+            st.recurring_segments as f64 / periods,
+            st.guard_exclusions as f64 / periods,
+            st.stops as f64 / periods,
         );
     }
     (us, st.steps as f64 / periods, st.events as f64 / periods)

@@ -206,16 +206,45 @@ struct ModeCache {
     scratch: ModeKey,
     /// Products of recurring sequences of guard-free segments of these modes.
     composites: Composites,
+    /// Heap bytes of the cached modes: exact after [`ModeCache::recount`], plus each new
+    /// mode's bytes at its build (a mode's bins, rows and references grow after it).
+    bytes: usize,
+    /// Modes built since the last recount.
+    since_recount: u32,
     /// Modes built and times the full cache was cleared (for benchmarks; never reset).
     builds: u64,
     clears: u64,
 }
 
 impl ModeCache {
-    /// Drivetrains can have many contact combinations; the cache is bounded so a long
-    /// co-simulation cannot grow it without limit.
-    const CAPACITY: usize = 256;
+    /// Heap bytes the cached modes may hold before the cache is cleared. A drivetrain with
+    /// contact loss meets many contact combinations (the 8-mesh benchmark chain all 4096 of
+    /// its 16 stiffness patterns × 2⁸ contact states, ~70 kB each), and rebuilding a mode
+    /// costs ~100 µs, so the bound is in bytes rather than modes: small modes are cheap to
+    /// keep, and a long co-simulation still cannot grow the cache without limit.
+    const MEMORY_BUDGET: usize = 512 << 20;
+    /// Modes at most, whatever their size (the index's own memory).
+    const MAX_MODES: usize = 1 << 16;
+    /// New modes between two exact recounts of the bytes.
+    const RECOUNT_EVERY: u32 = 64;
     const RECENT: usize = 16;
+
+    /// Whether building one more mode would exceed the budget (recounted exactly first when
+    /// the estimate says so).
+    fn full(&mut self) -> bool {
+        if self.modes.len() >= Self::MAX_MODES {
+            return true;
+        }
+        if self.bytes > Self::MEMORY_BUDGET || self.since_recount >= Self::RECOUNT_EVERY {
+            self.recount();
+        }
+        self.bytes > Self::MEMORY_BUDGET
+    }
+
+    fn recount(&mut self) {
+        self.bytes = self.modes.iter().map(ModeTransitions::heap_bytes).sum();
+        self.since_recount = 0;
+    }
 
     /// The current mode of `sys`, built on first use (its `A` from `lti_matrix`).
     fn get<S: PiecewiseLti>(&mut self, sys: &S) -> &mut ModeTransitions {
@@ -246,12 +275,15 @@ impl ModeCache {
         let position = match self.find_scratch() {
             Some(position) => position,
             None => {
-                if self.modes.len() >= Self::CAPACITY {
+                if self.full() {
                     self.clear();
                     self.clears += 1;
                 }
                 self.builds += 1;
-                self.modes.push(Self::build(sys));
+                let mode = Self::build(sys);
+                self.bytes += mode.heap_bytes();
+                self.since_recount += 1;
+                self.modes.push(mode);
                 self.keys.push(self.scratch.clone());
                 let position = self.modes.len() - 1;
                 self.index.entry(hash).or_default().push(position);
@@ -268,12 +300,14 @@ impl ModeCache {
         self.index.clear();
         self.recent = Default::default();
         self.composites.clear();
+        self.bytes = 0;
+        self.since_recount = 0;
     }
 
     /// The position of the current mode of `sys` (built on first use), or `None` if building
     /// it would clear the cache (positions recorded before would then be stale).
     fn position<S: PiecewiseLti>(&mut self, sys: &S) -> Option<usize> {
-        if self.modes.len() >= Self::CAPACITY {
+        if self.full() {
             self.scratch.clear();
             sys.mode_key(&mut self.scratch);
             self.find_scratch()?;

@@ -26,6 +26,8 @@ pub struct DerivativeRows {
     rows: Vec<f64>,
     /// The curvature weights for one sample step.
     curvature_weights: Option<CurvatureWeights>,
+    /// `z` with its equilibrium parts removed ([`DerivativeRows::curvature_bound`]).
+    shifted: Vec<f64>,
 }
 
 /// `M_j ≥ |(e^{Aᵀs} r_2)_j|` for `s ∈ [0, h]`, and the directions along which `z` can be
@@ -57,6 +59,13 @@ struct NullDirection {
 pub struct NullSpace(OnceCell<Vec<Vec<f64>>>);
 
 impl NullSpace {
+    /// Heap bytes held.
+    pub fn heap_bytes(&self) -> usize {
+        self.0
+            .get()
+            .map_or(0, |v| v.iter().map(|q| q.capacity() * 8).sum())
+    }
+
     /// The directions of `a` (the mode's matrix; the same on every call).
     pub fn vectors(&self, a: &DMatrix<f64>) -> &[Vec<f64>] {
         self.0.get_or_init(|| {
@@ -83,6 +92,15 @@ impl NullSpace {
 }
 
 impl DerivativeRows {
+    /// Heap bytes held (the mode cache's memory budget).
+    pub fn heap_bytes(&self) -> usize {
+        self.rows.capacity() * 8
+            + self.curvature_weights.as_ref().map_or(0, |c| {
+                c.weights.capacity() * 8
+                    + c.shifts.iter().map(|d| d.q.capacity() * 8).sum::<usize>()
+            })
+    }
+
     /// Makes `w` the guard row (the derivative rows are dropped only when it changed).
     pub fn set_row(&mut self, w: &[f64]) {
         if self.n != w.len() || self.rows.len() < w.len() || self.rows[..w.len()] != *w {
@@ -112,11 +130,25 @@ impl DerivativeRows {
         if c.shifts.is_empty() {
             return Some(plain);
         }
-        let mut shifted = 0.0;
-        for (j, (m, &x)) in c.weights.iter().zip(z).enumerate() {
-            let y = c.shifts.iter().fold(x, |y, d| y - z[d.pivot] * d.q[j]);
-            shifted += m * y.abs();
+        // One pass over z per direction (vectorises; a fold over the directions per
+        // component was a serial chain, the search's hottest loop on trains with contact
+        // loss, whose separated gears add equilibrium directions). Same operations in the
+        // same order per component, so the same bound.
+        let y = &mut self.shifted;
+        y.clear();
+        y.extend_from_slice(z);
+        for d in &c.shifts {
+            let along = z[d.pivot];
+            for (yj, qj) in y.iter_mut().zip(&d.q) {
+                *yj -= along * qj;
+            }
         }
+        let mut shifted: f64 = c
+            .weights
+            .iter()
+            .zip(y.iter())
+            .map(|(m, v)| m * v.abs())
+            .sum();
         for d in &c.shifts {
             shifted += z[d.pivot].abs() * d.weight;
         }

@@ -150,6 +150,32 @@ struct CrossingCertificate {
 }
 
 impl Recurrences {
+    /// Heap bytes held by the references (the mode cache's memory budget).
+    pub fn heap_bytes(&self) -> usize {
+        let f64s = |v: &Vec<f64>| v.capacity() * 8;
+        let references: usize = self
+            .references
+            .iter()
+            .map(|r| {
+                f64s(&r.z)
+                    + r.guards
+                        .iter()
+                        .map(|g| {
+                            std::mem::size_of::<GuardCertificate>()
+                                + f64s(&g.value_weights)
+                                + f64s(&g.rate_weights)
+                                + g.crossing.as_ref().map_or(0, |c| {
+                                    f64s(&c.taylor_rows)
+                                        + f64s(&c.remainder_weights)
+                                        + f64s(&c.rounding_weights)
+                                })
+                        })
+                        .sum::<usize>()
+            })
+            .sum();
+        references + f64s(&self.distance) + f64s(&self.magnitude)
+    }
+
     /// The decision of a reference for the segment of duration `tau` from `z`, if one holds.
     /// `rows` are the mode's guard rows (`r_0 = w`, `r_1 = Aᵀw`); `tol` is the root-finding
     /// tolerance of the full search.

@@ -4,8 +4,8 @@
 //! Segment durations recur: whole stiffness pieces and output intervals at constant speed,
 //! and in a periodic steady state also the times to and from contact events. `Φ(τ) = e^{Aτ}`
 //! is therefore cached per mode and duration bin (Padé scaling-and-squaring on the stack,
-//! Higham 2005, on the balanced matrix), together with the first two remainder terms, so a
-//! steady run pays one fused mat-vec per segment. A duration met for the first time (the event
+//! Higham 2005, on the balanced matrix), so a steady run pays one mat-vec per segment (two
+//! off the bin's centre). A duration met for the first time (the event
 //! times of an orbit that is not periodic to 2⁻³², a transient) builds no matrix: it is
 //! applied to the vector by cached sample steps `e^{Ah}` and a Taylor series with a rigorous
 //! tail bound (a few tens of mat-vecs instead of `n_z³`·~20 flops); only its second meeting
@@ -24,8 +24,13 @@ use super::guard_series::{DerivativeRows, NullSpace};
 use super::recurrence::{Decision, ModeOperators, Recurrences, SearchedSegment};
 use crate::solve::SolverStats;
 
-/// Duration bins kept per mode with their own `e^{Aτ}`; replaced round-robin.
+/// Duration bins kept per mode with their own `e^{Aτ}` at most; replaced round-robin.
 const RECURRING_CAPACITY: usize = 32;
+/// Bytes of bin matrices per mode that set its number of bins (between 2 and
+/// [`RECURRING_CAPACITY`]): 16 bins of the 19-state drivetrains, 32 of the single pair, 2 of a
+/// 195-DOF chain (1.2 MB each), so a train with thousands of contact combinations keeps
+/// thousands of modes in the cache's budget.
+const BIN_BYTES_PER_MODE: usize = 48 << 10;
 /// Low mantissa bits rounded away by the duration bins (relative bin width 2^(LOW−52) = 2⁻³²).
 const BIN_LOW_BITS: u32 = 20;
 /// Durations met once and applied without a matrix, remembered so that the second meeting
@@ -68,48 +73,33 @@ fn mat_vec_fixed<const N: usize>(m: &[f64], z: &[f64], out: &mut [f64]) {
     out[..N].copy_from_slice(&acc);
 }
 
-/// `out = (m + δ·p) z` in one pass (a binned transition with its remainder).
-#[inline]
-fn mat_vec_shifted(m: &[f64], p: &[f64], delta: f64, z: &[f64], out: &mut [f64]) {
-    match z.len() {
-        3 => mat_vec_shifted_fixed::<3>(m, p, delta, z, out),
-        5 => mat_vec_shifted_fixed::<5>(m, p, delta, z, out),
-        7 => mat_vec_shifted_fixed::<7>(m, p, delta, z, out),
-        9 => mat_vec_shifted_fixed::<9>(m, p, delta, z, out),
-        n => {
-            out.fill(0.0);
-            for (j, &zj) in z.iter().enumerate() {
-                for (i, o) in out[..n].iter_mut().enumerate() {
-                    let k = j * n + i;
-                    *o += (m[k] + delta * p[k]) * zj;
-                }
-            }
-        }
-    }
+/// The duration bins of one mode: the centre bits of `τ_c` per slot, and the matrices
+/// `Φ = e^{A τ_c}` of every slot in one allocation of [`Bins::slots`] slots, made with the
+/// mode. A mode's memory is then fixed when it is built: the bins a long run fills do not
+/// take more memory than those of a short one (`tests/simulate_memory.rs`).
+#[derive(Default)]
+struct Bins {
+    centres: Vec<u64>,
+    /// Slot `s`: `Φ` at `[s·n², (s+1)·n²)`, column-major.
+    matrices: Vec<f64>,
 }
 
-#[inline(always)]
-fn mat_vec_shifted_fixed<const N: usize>(
-    m: &[f64],
-    p: &[f64],
-    delta: f64,
-    z: &[f64],
-    out: &mut [f64],
-) {
-    let (m, p) = (&m[..N * N], &p[..N * N]);
-    let z: &[f64; N] = z.try_into().expect("vector of the matrix size");
-    let mut acc = [0.0; N];
-    for (j, &zj) in z.iter().enumerate() {
-        for (i, a) in acc.iter_mut().enumerate() {
-            let k = j * N + i;
-            *a += (m[k] + delta * p[k]) * zj;
-        }
+impl Bins {
+    /// The bins of a mode of `n` states.
+    fn slots(n: usize) -> usize {
+        (BIN_BYTES_PER_MODE / (8 * n * n).max(1)).clamp(2, RECURRING_CAPACITY)
     }
-    out[..N].copy_from_slice(&acc);
-}
 
-/// A duration bin: `(centre bits of τ_c, Φ = e^{A τ_c}, ΦA)`.
-type TransitionBin = (u64, DMatrix<f64>, DMatrix<f64>);
+    fn phi(&self, slot: usize, n: usize) -> &[f64] {
+        let nn = n * n;
+        &self.matrices[slot * nn..(slot + 1) * nn]
+    }
+
+    /// Heap bytes held.
+    fn heap_bytes(&self) -> usize {
+        self.centres.capacity() * 8 + self.matrices.capacity() * 8
+    }
+}
 
 /// Everything the propagator needs of one mode.
 pub struct ModeTransitions {
@@ -126,8 +116,8 @@ pub struct ModeTransitions {
     pub guard_rows: Vec<DerivativeRows>,
     /// The mode's equilibrium directions (for the guards' curvature bounds).
     pub null_space: NullSpace,
-    /// `(centre bits of τ_c, Φ = e^{A τ_c}, ΦA)` per duration bin.
-    recurring: Vec<TransitionBin>,
+    /// The duration bins.
+    recurring: Bins,
     next_recurring_slot: usize,
     /// The two bins used last (a mode's segments of a periodic orbit alternate between a few
     /// durations; the bins of a transient before it can fill the rest).
@@ -171,7 +161,12 @@ impl ModeTransitions {
             sample_increment,
             guard_rows: Vec::new(),
             null_space: NullSpace::default(),
-            recurring: Vec::new(),
+            // The bins' memory is taken with the mode, so a mode whose first duration
+            // recurs late in a run does not grow the run's memory then.
+            recurring: Bins {
+                centres: Vec::with_capacity(Bins::slots(n)),
+                matrices: vec![0.0; Bins::slots(n) * n * n],
+            },
             next_recurring_slot: 0,
             recent_bins: [0; 2],
             seen: [u64::MAX; SEEN_CAPACITY],
@@ -183,6 +178,23 @@ impl ModeTransitions {
             builds: 0,
             recurrences: Recurrences::default(),
         }
+    }
+
+    /// Heap bytes held by the mode's operators, bins, guard rows and references (the mode
+    /// cache's memory budget, [`super::ModeCache`]).
+    pub fn heap_bytes(&self) -> usize {
+        let n = self.a.nrows();
+        // `a`, the balanced matrix and the sample increment.
+        3 * n * n * 8
+            + self.recurring.heap_bytes()
+            + self
+                .guard_rows
+                .iter()
+                .map(DerivativeRows::heap_bytes)
+                .sum::<usize>()
+            + self.null_space.heap_bytes()
+            + self.recurrences.heap_bytes()
+            + (self.taylor_state.capacity() + self.taylor_next.capacity()) * 8
     }
 
     /// The first crossing in the segment `(z, tau)` decided by a recurring reference of this
@@ -216,7 +228,7 @@ impl ModeTransitions {
     /// its bin or once without one depends on what came before ([`ModeTransitions::apply`]).
     pub fn forget_recurring(&mut self) {
         self.recurrences = Recurrences::default();
-        self.recurring.clear();
+        self.recurring.centres.clear();
         self.next_recurring_slot = 0;
         self.recent_bins = [0; 2];
         self.seen = [u64::MAX; SEEN_CAPACITY];
@@ -235,16 +247,18 @@ impl ModeTransitions {
     /// cached per duration bin (the exponential of the balanced matrix, once per bin) and a
     /// steady run pays one mat-vec per segment. Durations that differ only in their last bits
     /// (`t_stop − t` rounds differently every period) share one bin of relative width 2⁻³²;
-    /// the remainder `δ = τ − τ_c` (`|δ| ≤ 2⁻³³ τ`) is applied in one pass as
-    /// `(e^{Aτ_c} + δ e^{Aτ_c}A) z` — exact because `A` commutes with itself, truncation
-    /// `|Aδ|²/2 ≤ (1.2e-10 |Aτ|)²/2`, below 2e-18 for `|Aτ| ≤ 15`. Wider bins would let the event times of a long
+    /// the remainder `δ = τ − τ_c` (`|δ| ≤ 2⁻³³ τ`) is applied as `e^{Aτ_c}(z + δ A z)` —
+    /// exact because `A` commutes with its exponential, truncation `|Aδ|²/2 ≤ (1.2e-10
+    /// |Aτ|)²/2`, below 2e-18 for `|Aτ| ≤ 15`; a bin holds `e^{Aτ_c}` alone, so a mode's
+    /// bins take half the memory of a stored `e^{Aτ_c}A`. Wider bins would let the event times of a long
     /// run (jitter `4ε·t` of the root finding) share bins too, but one rounded `e^{Aτ_c}`
     /// reused for every event of a periodic orbit drifts coherently (the undamped rattle of
     /// `tests/backlash.rs` gains energy ~3× faster at 2⁻²⁶ than at 2⁻³²).
     ///
-    /// Once all bins are in use, a duration whose bin is not built and that was not met
-    /// before (the event times of an orbit that is not periodic to 2⁻³², a transient) is
-    /// applied without a matrix ([`Self::apply_once`]); its second meeting builds the bin. The result is therefore a
+    /// A duration whose bin is not built and that was not met before (the event times of an
+    /// orbit that is not periodic to 2⁻³², a transient, the many contact combinations of a
+    /// train met once each) is applied without a matrix ([`Self::apply_once`]); its second
+    /// meeting builds the bin. The result is therefore a
     /// function of the mode, the duration and the durations met before in the mode (both
     /// paths are exact to rounding, not to the same last bit), so a state capture drops that
     /// history with the references ([`Self::forget_recurring`]) and a run restored into a
@@ -253,12 +267,11 @@ impl ModeTransitions {
         let slot = match self.find_bin(tau) {
             Some(slot) => slot,
             None => {
-                // While the bins are not all used a new duration takes one, as it always did
-                // (a short run's transitions, and the memory a run settles at, are those of a
-                // long one); once they are, a duration met once no longer evicts a recurring
-                // one.
+                // A duration met once costs a few mat-vecs instead of a Padé exponential and
+                // takes no bin, so it neither evicts a recurring duration nor makes a mode
+                // that never recurs allocate bins.
                 let centre_bits = Self::centre_bits(tau);
-                if self.recurring.len() >= RECURRING_CAPACITY && !self.seen.contains(&centre_bits) {
+                if !self.seen.contains(&centre_bits) {
                     self.seen[self.next_seen_slot] = centre_bits;
                     self.next_seen_slot = (self.next_seen_slot + 1) % SEEN_CAPACITY;
                     if self.apply_once(tau, z, out) {
@@ -268,12 +281,20 @@ impl ModeTransitions {
                 self.build_bin(tau)
             }
         };
-        let delta = tau - f64::from_bits(self.recurring[slot].0);
-        let (_, phi, phi_a) = &self.recurring[slot];
+        let n = z.len();
+        let delta = tau - f64::from_bits(self.recurring.centres[slot]);
+        let phi = self.recurring.phi(slot, n);
         if delta == 0.0 {
-            mat_vec(phi.as_slice(), z, out);
+            mat_vec(phi, z, out);
         } else {
-            mat_vec_shifted(phi.as_slice(), phi_a.as_slice(), delta, z, out);
+            // e^{A(τ_c+δ)} z = e^{Aτ_c}(z + δ A z) + O(δ²): A commutes with its exponential.
+            let shifted = &mut self.taylor_next;
+            shifted.resize(n, 0.0);
+            mat_vec(self.a.as_slice(), z, shifted);
+            for (s, &x) in shifted.iter_mut().zip(z) {
+                *s = x + delta * *s;
+            }
+            mat_vec(phi, shifted, out);
         }
     }
 
@@ -310,17 +331,19 @@ impl ModeTransitions {
     }
 
     /// The matrix of the binned path of [`ModeTransitions::apply`] for `tau`:
-    /// `e^{Aτ_c} + δ e^{Aτ_c}A` (products of recurring sequences are built from it).
+    /// `e^{Aτ_c}(I + δA)` (products of recurring sequences are built from it).
     pub fn transition_matrix(&mut self, tau: f64) -> DMatrix<f64> {
         let slot = match self.find_bin(tau) {
             Some(slot) => slot,
             None => self.build_bin(tau),
         };
-        let delta = tau - f64::from_bits(self.recurring[slot].0);
-        let (_, phi, phi_a) = &self.recurring[slot];
+        let n = self.a.nrows();
+        let delta = tau - f64::from_bits(self.recurring.centres[slot]);
+        let phi = DMatrix::from_column_slice(n, n, self.recurring.phi(slot, n));
         if delta == 0.0 {
-            phi.clone()
+            phi
         } else {
+            let phi_a = &phi * &self.a;
             phi + phi_a * delta
         }
     }
@@ -335,13 +358,14 @@ impl ModeTransitions {
     /// The slot of the built bin of `tau`, if there is one.
     fn find_bin(&mut self, tau: f64) -> Option<usize> {
         let centre_bits = Self::centre_bits(tau);
-        let is_bin = |slot: usize| self.recurring.get(slot).is_some_and(|e| e.0 == centre_bits);
+        let centres = &self.recurring.centres;
+        let is_bin = |slot: usize| centres.get(slot).is_some_and(|&c| c == centre_bits);
         let found = if is_bin(self.recent_bins[0]) {
             Some(self.recent_bins[0])
         } else if is_bin(self.recent_bins[1]) {
             Some(self.recent_bins[1])
         } else {
-            self.recurring.iter().position(|e| e.0 == centre_bits)
+            centres.iter().position(|&c| c == centre_bits)
         };
         if let Some(slot) = found {
             self.touch_bin(slot);
@@ -362,19 +386,22 @@ impl ModeTransitions {
             self.builds += 1;
         }
         let centre_bits = Self::centre_bits(tau);
-        let (phi, phi_a) = self
+        let (phi, _) = self
             .balanced
-            .exp_with_product(f64::from_bits(centre_bits), true);
-        let entry = (centre_bits, phi, phi_a);
-        let slot = if self.recurring.len() < RECURRING_CAPACITY {
-            self.recurring.push(entry);
-            self.recurring.len() - 1
+            .exp_with_product(f64::from_bits(centre_bits), false);
+        let n = self.a.nrows();
+        let bins = &mut self.recurring;
+        let slots = Bins::slots(n);
+        let slot = if bins.centres.len() < slots {
+            bins.centres.push(centre_bits);
+            bins.centres.len() - 1
         } else {
             let slot = self.next_recurring_slot;
-            self.recurring[slot] = entry;
-            self.next_recurring_slot = (slot + 1) % RECURRING_CAPACITY;
+            bins.centres[slot] = centre_bits;
+            self.next_recurring_slot = (slot + 1) % slots;
             slot
         };
+        bins.matrices[slot * n * n..(slot + 1) * n * n].copy_from_slice(phi.as_slice());
         self.touch_bin(slot);
         slot
     }
@@ -483,9 +510,12 @@ mod tests {
         let mut mode = ModeTransitions::new(a.clone(), (3.5e8f64).sqrt());
         let mut out = [0.0; 5];
         for k in 0..RECURRING_CAPACITY {
-            mode.apply(1e-7 * (1.0 + k as f64 / 7.0), &[1.0; 5], &mut out);
+            // Met twice: the first meeting takes no bin, the second builds it.
+            for _ in 0..2 {
+                mode.apply(1e-7 * (1.0 + k as f64 / 7.0), &[1.0; 5], &mut out);
+            }
         }
-        assert_eq!(mode.recurring.len(), RECURRING_CAPACITY);
+        assert_eq!(mode.recurring.centres.len(), RECURRING_CAPACITY);
         mode
     }
 }
