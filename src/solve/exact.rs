@@ -34,6 +34,8 @@
 mod balanced;
 #[cfg(test)]
 mod budget_tests;
+#[cfg(test)]
+mod cache_tests;
 mod composite;
 mod crossing;
 mod enclosure;
@@ -211,6 +213,8 @@ struct ModeCache {
     bytes: usize,
     /// Modes built since the last recount.
     since_recount: u32,
+    /// The budget in bytes ([`ModeCache::MEMORY_BUDGET`]; smaller in tests).
+    budget: Option<usize>,
     /// Modes built and times the full cache was cleared (for benchmarks; never reset).
     builds: u64,
     clears: u64,
@@ -235,10 +239,18 @@ impl ModeCache {
         if self.modes.len() >= Self::MAX_MODES {
             return true;
         }
-        if self.bytes > Self::MEMORY_BUDGET || self.since_recount >= Self::RECOUNT_EVERY {
+        // (No recount without a new mode since the last: the composite walk asks on every
+        // segment while the cache is over its budget.)
+        if self.since_recount > 0
+            && (self.bytes > self.budget() || self.since_recount >= Self::RECOUNT_EVERY)
+        {
             self.recount();
         }
-        self.bytes > Self::MEMORY_BUDGET
+        self.bytes > self.budget()
+    }
+
+    fn budget(&self) -> usize {
+        self.budget.unwrap_or(Self::MEMORY_BUDGET)
     }
 
     fn recount(&mut self) {
