@@ -10,6 +10,7 @@
 //!
 //! Run: `cargo bench --bench analysis` (or `scripts/bench.sh`).
 
+use std::hint::black_box;
 use std::time::Instant;
 
 use geardyn::analysis::hb::{continuation, ContinuationOptions, HbOptions};
@@ -53,9 +54,34 @@ fn bench(name: &str, from: f64, to: f64, transient: u32) {
         .collect();
     let options = SweepOptions::new(speeds.clone(), Direction::Both);
 
-    let t = Instant::now();
-    let shot = sweep(&scene, &options, &|_, _| {}).expect("sweep");
-    let shooting = t.elapsed().as_secs_f64();
+    let shooting_options = options.clone();
+    let plain_options = SweepOptions {
+        shooting: false,
+        ..options.clone()
+    };
+    let both: Vec<f64> = speeds.iter().chain(speeds.iter().rev()).copied().collect();
+    // Warm-up of all three (also the counts below), then rounds alternating them so that load
+    // from other processes on the shared cores hits all alike; medians.
+    let shot = sweep(&scene, &shooting_options, &|_, _| {}).expect("sweep");
+    let plain = sweep(&scene, &plain_options, &|_, _| {}).expect("sweep");
+    let checksum = brute_force(&scene, &both, transient);
+    let (mut t_shooting, mut t_warm, mut t_brute) = (Vec::new(), Vec::new(), Vec::new());
+    for _ in 0..ROUNDS {
+        let t = Instant::now();
+        black_box(sweep(&scene, &shooting_options, &|_, _| {}).expect("sweep"));
+        t_shooting.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        black_box(sweep(&scene, &plain_options, &|_, _| {}).expect("sweep"));
+        t_warm.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        black_box(brute_force(&scene, &both, transient));
+        t_brute.push(t.elapsed().as_secs_f64());
+    }
+    let (shooting, warm, brute) = (
+        median(&mut t_shooting),
+        median(&mut t_warm),
+        median(&mut t_brute),
+    );
     let newton = shot
         .points
         .iter()
@@ -67,27 +93,11 @@ fn bench(name: &str, from: f64, to: f64, transient: u32) {
         .filter(|p| p.transient_periods > 0)
         .count();
     let unconverged = shot.points.iter().filter(|p| !p.converged).count();
-
-    let t = Instant::now();
-    let plain = sweep(
-        &scene,
-        &SweepOptions {
-            shooting: false,
-            ..options.clone()
-        },
-        &|_, _| {},
-    )
-    .expect("sweep");
-    let warm = t.elapsed().as_secs_f64();
     let plain_unconverged = plain.points.iter().filter(|p| !p.converged).count();
 
-    let both: Vec<f64> = speeds.iter().chain(speeds.iter().rev()).copied().collect();
-    let t = Instant::now();
-    let checksum = brute_force(&scene, &both, transient);
-    let brute = t.elapsed().as_secs_f64();
-
     println!(
-        "{name}: steady state over {from}..{to} rad/s, {} points up+down",
+        "{name}: steady state over {from}..{to} rad/s, {} points up+down (median of {ROUNDS} \
+         alternated rounds after a warm-up)",
         both.len()
     );
     println!(
@@ -106,23 +116,44 @@ fn bench(name: &str, from: f64, to: f64, transient: u32) {
     );
 }
 
+/// Timed rounds after the warm-up.
+const ROUNDS: usize = 3;
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
 fn main() {
     bench("spur_pair", 300.0, 600.0, 800);
     bench("idler_gearset", 250.0, 760.0, 500);
 
     let scene = Scene::example("spur_pair").expect("built-in scene");
-    let t = Instant::now();
-    let branch = continuation(
-        &scene,
-        &HbOptions::new(20),
-        &ContinuationOptions::new(300.0, 600.0),
-    )
-    .expect("continuation");
-    let hb = t.elapsed().as_secs_f64();
+    let spur_hb = || {
+        continuation(
+            &scene,
+            &HbOptions::new(20),
+            &ContinuationOptions::new(300.0, 600.0),
+        )
+        .expect("continuation")
+    };
+    let branch = spur_hb();
+    let mut times = Vec::new();
+    for _ in 0..ROUNDS {
+        let t = Instant::now();
+        black_box(spur_hb());
+        times.push(t.elapsed().as_secs_f64());
+    }
+    let hb = median(&mut times);
     let folds = branch.iter().filter(|p| p.fold).count();
     println!(
-        "spur_pair: harmonic balance H = 20, continuation with Floquet stability: {hb:.3} s, {} \
-         points, {folds} folds",
+        "spur_pair: harmonic balance H = 20, continuation with Floquet stability: {hb:.3} s (median of \
+         {ROUNDS} after a warm-up), {} points, {folds} folds",
         branch.len()
     );
 
@@ -130,32 +161,49 @@ fn main() {
     // 3851 Hz; 250..760 rad/s is 1512..4596 Hz of mesh frequency).
     let idler = AnyScene::example("idler_gearset").expect("built-in scene");
     let (from, to) = (250.0, 760.0);
-    println!("idler_gearset: harmonic balance over {from}..{to} rad/s (best of 3)");
+    println!(
+        "idler_gearset: harmonic balance over {from}..{to} rad/s (median of {ROUNDS} rounds \
+         alternating with and without stability, after a warm-up)"
+    );
     for h in [10, 20] {
-        for stability in [true, false] {
-            let options = ContinuationOptions {
-                stability,
-                ..ContinuationOptions::new(from, to)
-            };
-            let mut best = f64::INFINITY;
-            let mut branch = Vec::new();
-            for _ in 0..3 {
-                let t = Instant::now();
-                branch = continuation(&idler, &HbOptions::new(h), &options).expect("continuation");
-                best = best.min(t.elapsed().as_secs_f64());
+        let variants: Vec<(bool, ContinuationOptions)> = [true, false]
+            .into_iter()
+            .map(|stability| {
+                (
+                    stability,
+                    ContinuationOptions {
+                        stability,
+                        ..ContinuationOptions::new(from, to)
+                    },
+                )
+            })
+            .collect();
+        let run = |options: &ContinuationOptions| {
+            continuation(&idler, &HbOptions::new(h), options).expect("continuation")
+        };
+        let branches: Vec<_> = variants.iter().map(|(_, o)| run(o)).collect();
+        let mut times = vec![Vec::new(); variants.len()];
+        for _ in 0..ROUNDS {
+            for ((_, o), t) in variants.iter().zip(times.iter_mut()) {
+                let started = Instant::now();
+                black_box(run(o));
+                t.push(started.elapsed().as_secs_f64());
             }
+        }
+        for (((stability, _), branch), t) in variants.iter().zip(&branches).zip(times.iter_mut()) {
             let folds: Vec<String> = branch
                 .iter()
                 .filter(|p| p.fold)
                 .map(|p| format!("{:.1}", p.speed))
                 .collect();
             println!(
-                "  H = {h:2}, {}: {best:.3} s, {} points, folds at {} rad/s",
-                if stability {
+                "  H = {h:2}, {}: {:.3} s, {} points, folds at {} rad/s",
+                if *stability {
                     "with Floquet stability"
                 } else {
                     "without stability    "
                 },
+                median(t),
                 branch.len(),
                 folds.join(", ")
             );

@@ -18,7 +18,7 @@
 //!    piecewise LTI. Cost per mesh period, RHS and root-function evaluations, events.
 //! 3. The RHS kernels alone: ns per evaluation, specialised vs generic.
 //!
-//! All timings are the least of interleaved runs in one process (load from other processes
+//! All timings are the medians of interleaved runs in one process (load from other processes
 //! hits all configurations alike); ratios are the meaningful numbers.
 
 use std::hint::black_box;
@@ -155,15 +155,26 @@ fn run(scene: &Scene, periods: u64, drive: Drive, generic: bool) -> (f64, Solver
     (seconds, sim.stats(), sim.state())
 }
 
-/// Least time of `rounds` interleaved runs of every configuration.
-fn best_of<T>(configs: &[T], rounds: usize, mut once: impl FnMut(&T) -> f64) -> Vec<f64> {
-    let mut best = vec![f64::INFINITY; configs.len()];
+/// Median time of `rounds` interleaved runs of every configuration (one run of each per
+/// round, so that load from other processes on the shared cores hits all of them alike).
+fn median_of<T>(configs: &[T], rounds: usize, mut once: impl FnMut(&T) -> f64) -> Vec<f64> {
+    let mut times = vec![Vec::with_capacity(rounds); configs.len()];
     for _ in 0..rounds {
-        for (c, b) in configs.iter().zip(best.iter_mut()) {
-            *b = b.min(once(c));
+        for (c, t) in configs.iter().zip(times.iter_mut()) {
+            t.push(once(c));
         }
     }
-    best
+    times.iter_mut().map(|t| median(t)).collect()
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
 }
 
 /// ns per `n × n` mat-vec with the propagator's kernel, in a dependent chain (as segments are).
@@ -177,7 +188,7 @@ fn mat_vec_ns(n: usize) -> f64 {
     let mut z = vec![1.0; n];
     let mut out = vec![0.0; n];
     let iterations = 20_000_000u64;
-    let mut best = f64::INFINITY;
+    let mut times = Vec::new();
     for _ in 0..3 {
         let started = Instant::now();
         for _ in 0..iterations {
@@ -185,9 +196,9 @@ fn mat_vec_ns(n: usize) -> f64 {
             std::mem::swap(&mut z, &mut out);
         }
         black_box(&z);
-        best = best.min(started.elapsed().as_secs_f64() * 1e9 / iterations as f64);
+        times.push(started.elapsed().as_secs_f64() * 1e9 / iterations as f64);
     }
-    best
+    median(&mut times)
 }
 
 fn per(v: u64, periods: u64) -> f64 {
@@ -261,7 +272,7 @@ fn long_runs(periods: u64, quick: bool) {
     for (_, s, d) in &cases {
         counters.push(run(s, periods, *d, false).1);
     }
-    let times = best_of(&cases, rounds, |(_, s, d)| run(s, periods, *d, false).0);
+    let times = median_of(&cases, rounds, |(_, s, d)| run(s, periods, *d, false).0);
     println!("### {periods} mesh periods, exact propagator\n");
     println!(
         "| scene | time (s) | ns/period | segments/period | events/period | root-fn evals/period | excluded segments/period | recurring segments/period | floor: {n}×{n} mat-vec/segment (s) | ratio to floor |"
@@ -389,7 +400,7 @@ fn feature_table(quick: bool) {
         .iter()
         .map(|(i, m, g, s)| run(s, periods_of(m), rows[*i].drive, *g))
         .collect();
-    let times = best_of(&configs, rounds, |(i, m, g, s)| {
+    let times = median_of(&configs, rounds, |(i, m, g, s)| {
         run(s, periods_of(m), rows[*i].drive, *g).0
     });
     println!("### Feature on/off (cost per mesh period)\n");
@@ -473,7 +484,7 @@ fn kernel_table() {
         let mut generic = Simulation::new(&s).expect("assembles");
         generic.model_mut().use_generic_kernel();
         let pairs = [special.model().clone(), generic.model().clone()];
-        let time = best_of(&pairs, 5, |pair| {
+        let time = median_of(&pairs, 5, |pair| {
             let mut dy = [0.0; 2];
             let mut y = [7e-6, 0.01];
             let started = Instant::now();

@@ -2,10 +2,12 @@
 //! (`helical_pair_friction`, He & Singh 2007): the monodromy at 200 speeds from 15,000 to
 //! 25,000 rpm by the polynomial (Peano–Baker) segment propagator, against the same monodromy
 //! by RK (DOP853, rtol 1e-11) from two unit initial states, measured side by side in one run.
-//! The ratio and the largest multiplier difference are the result.
+//! The ratio and the largest multiplier difference are the result. Times are medians of
+//! alternated rounds after a warm-up of both.
 //!
 //! Run: `cargo bench --bench helical`.
 
+use std::hint::black_box;
 use std::time::Instant;
 
 use geardyn::analysis::LinearPeriodMap;
@@ -15,6 +17,18 @@ use geardyn::units::from_rpm;
 use nalgebra::DMatrix;
 
 const POINTS: usize = 200;
+/// Timed rounds after the warm-up; each round runs the closed form and RK once.
+const ROUNDS: usize = 7;
+
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
 
 fn rk_monodromy(scene: &Scene, period: f64) -> DMatrix<f64> {
     let w = (scene.mesh.stiffness.mean() / scene.equivalent_mass()).sqrt();
@@ -46,29 +60,47 @@ fn main() {
         })
         .collect();
 
-    let t = Instant::now();
-    let closed: Vec<DMatrix<f64>> = scenes
-        .iter()
-        .map(|s| LinearPeriodMap::new(s).expect("map").monodromy())
-        .collect();
-    let t_closed = t.elapsed().as_secs_f64();
-
-    let t = Instant::now();
-    let numeric: Vec<DMatrix<f64>> = scenes
-        .iter()
-        .map(|s| {
-            let period = std::f64::consts::TAU / (s.pinion.teeth as f64 * s.operating.pinion_speed);
-            rk_monodromy(s, period)
-        })
-        .collect();
-    let t_rk = t.elapsed().as_secs_f64();
+    let closed_form = || -> Vec<DMatrix<f64>> {
+        scenes
+            .iter()
+            .map(|s| LinearPeriodMap::new(s).expect("map").monodromy())
+            .collect()
+    };
+    let by_rk = || -> Vec<DMatrix<f64>> {
+        scenes
+            .iter()
+            .map(|s| {
+                let period =
+                    std::f64::consts::TAU / (s.pinion.teeth as f64 * s.operating.pinion_speed);
+                rk_monodromy(s, period)
+            })
+            .collect()
+    };
+    // Warm-up of both (also the results compared below), then rounds that alternate the two
+    // so that load from other processes on the shared cores hits both alike; medians.
+    let closed = closed_form();
+    let numeric = by_rk();
+    let (mut times_closed, mut times_rk) = (Vec::new(), Vec::new());
+    for _ in 0..ROUNDS {
+        let t = Instant::now();
+        black_box(closed_form());
+        times_closed.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        black_box(by_rk());
+        times_rk.push(t.elapsed().as_secs_f64());
+    }
+    let t_closed = median(&mut times_closed);
+    let t_rk = median(&mut times_rk);
 
     let worst = closed
         .iter()
         .zip(&numeric)
         .map(|(a, b)| (a.trace() - b.trace()).abs())
         .fold(0.0, f64::max);
-    println!("helical_pair_friction monodromy at {POINTS} speeds (15,000–25,000 rpm, μ = 0.2):");
+    println!(
+        "helical_pair_friction monodromy at {POINTS} speeds (15,000–25,000 rpm, μ = 0.2), \
+         median of {ROUNDS} alternated rounds after a warm-up:"
+    );
     println!(
         "  closed form (polynomial series) {:.3} ms, {:.1} µs per speed",
         1e3 * t_closed,

@@ -147,6 +147,16 @@ struct Measurement {
     err_vs_exact: Option<f64>,
 }
 
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
 fn main() {
     let mut quick = false;
     let mut csv: Option<PathBuf> = None;
@@ -191,21 +201,22 @@ fn main() {
             // Warm-up run of every propagator (also the accuracy sample and the counters).
             let samples: Vec<_> = scenes.iter().map(|s| run_once(s, &grid)).collect();
             // Timed rounds, interleaved (one run of each propagator per round) so that load
-            // from other processes on shared cores hits all of them alike; the minimum per
-            // propagator is reported (the least disturbed run).
-            let mut best = [f64::INFINITY; PROPS.len()];
+            // from other processes on shared cores hits all of them alike; the median per
+            // propagator is reported.
+            let mut times: Vec<Vec<f64>> = vec![Vec::new(); PROPS.len()];
             let mut rounds = 0;
             let started = Instant::now();
             while rounds < min_reps
                 || started.elapsed().as_secs_f64() < min_wall * PROPS.len() as f64
             {
-                for (scene, b) in scenes.iter().zip(best.iter_mut()) {
+                for (scene, t) in scenes.iter().zip(times.iter_mut()) {
                     let t0 = Instant::now();
                     black_box(run_once(black_box(scene), &grid));
-                    *b = b.min(t0.elapsed().as_secs_f64());
+                    t.push(t0.elapsed().as_secs_f64());
                 }
                 rounds += 1;
             }
+            let median_time: Vec<f64> = times.iter_mut().map(|t| median(t)).collect();
             let exact_dte = &samples[0].0;
             for (i, &prop) in PROPS.iter().enumerate() {
                 let (dte, stats) = &samples[i];
@@ -223,7 +234,7 @@ fn main() {
                     case: case.name,
                     prop,
                     grid: h,
-                    ns_per_period: best[i] * 1e9 / periods,
+                    ns_per_period: median_time[i] * 1e9 / periods,
                     steps_per_period: stats.steps as f64 / periods,
                     rhs_per_period: stats.rhs_evals as f64 / periods,
                     events_per_period: stats.events as f64 / periods,
@@ -272,7 +283,7 @@ fn load_average() -> String {
 
 fn print_table(cases: &[Case], results: &[Measurement], stop_time: f64, load_before: &str) {
     println!(
-        "geardyn benchmark: spur_pair, {stop_time} s simulated per run, best of interleaved runs"
+        "geardyn benchmark: spur_pair, {stop_time} s simulated per run, median of interleaved runs after a warm-up"
     );
     println!(
         "load average before/after: {load_before} / {} (timings compare only on an idle machine)",

@@ -101,7 +101,7 @@ def sweep(points, divisors, stop):
         for p in points:
             r0 = native(p, tmp, p.t_mesh / 200, stop)
             ac, rms, loss = dte_measures(r0)
-            print(f"\n{p.label()}: DTE mean {r0['mesh1_dte'].mean():.3e} m, RMS about the mean {ac:.3e} m, "
+            print(f"\n{p.label()}: DTE mean {r0['mesh1.dte'].mean():.3e} m, RMS about the mean {ac:.3e} m, "
                   f"RMS {rms:.3e} m, contact lost {100 * loss:.1f} % of {stop * 1e3:g} ms")
             for alg, ex, label in COUPLINGS:
                 rows = []

@@ -1229,8 +1229,8 @@ def ch4():
     s2 = summ.iloc[(summ.w - w2).abs().idxmin()]
     for name, sm, mesh, other, thesis in (("mode-3 fundamental (ω_1 ≈ c_3)", s3, "mesh1", "mesh2", 5),
                                           ("mode-2 fundamental (ω_1 ≈ c_2/ρ)", s2, "mesh2", "mesh1", 3)):
-        n_m = float(sm[f"{mesh}_losses_per_response_period"])
-        n_o = float(sm[f"{other}_losses_per_response_period"])
+        n_m = float(sm[f"{mesh}.losses_per_response_period"])
+        n_o = float(sm[f"{other}.losses_per_response_period"])
         row(S, f"ρ = 3/5: contact losses per response period, {name}",
             f"only {mesh.replace('mesh', 'mesh ')} separates, {thesis} times (§3.6, Fig. 4.9)",
             f"ω_1 = {float(sm.w):.3f}: {mesh.replace('mesh', 'mesh ')} {n_m:g}, "

@@ -39,20 +39,29 @@ const TARGET_ERROR: f64 = 1e-8;
 /// Method name of the extended-precision reference rows (`scripts/workprecision_mpmath.py`).
 const MPMATH: &str = "mpmath reference";
 
-/// Least time of `runs` after the warm-up, at least `min_runs` runs and `min_wall` seconds
+/// Median time of the runs after the warm-up, at least `min_runs` runs and `min_wall` seconds
 /// (a single run when it takes more than 1 s).
-fn best_time(min_runs: u32, min_wall: f64, mut f: impl FnMut()) -> (f64, u64) {
-    let (mut best, mut runs, started) = (f64::INFINITY, 0u64, Instant::now());
-    while runs < min_runs as u64 || started.elapsed().as_secs_f64() < min_wall {
+fn median_time(min_runs: u32, min_wall: f64, mut f: impl FnMut()) -> (f64, u64) {
+    let (mut times, started) = (Vec::new(), Instant::now());
+    while times.len() < min_runs as usize || started.elapsed().as_secs_f64() < min_wall {
         let t0 = Instant::now();
         f();
-        best = best.min(t0.elapsed().as_secs_f64());
-        runs += 1;
-        if best > 1.0 {
+        times.push(t0.elapsed().as_secs_f64());
+        if times[0] > 1.0 {
             break;
         }
     }
-    (best, runs)
+    (median(&mut times), times.len() as u64)
+}
+
+/// Median of the samples (NaN for none).
+fn median(v: &mut [f64]) -> f64 {
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
 }
 
 fn geardyn_row(
@@ -81,7 +90,7 @@ fn geardyn_row(
     match run(problem, prop, rtol, atol) {
         Err(e) => row.status = format!("failed: {e}"),
         Ok(out) => {
-            let (wall, runs) = best_time(timing.0, timing.1, || {
+            let (wall, runs) = median_time(timing.0, timing.1, || {
                 std::hint::black_box(run(problem, prop, rtol, atol)).ok();
             });
             // Reference runs are not timed (no timed run, no wall time).
@@ -615,7 +624,7 @@ fn main() {
     md += "\n## Results per problem\n\nColumns: DTE error = RMS over the grid of |x − x_ref| / x_st; max = largest; \
         final = at the end time; RMS err = |RMS(x) − RMS(x_ref)| / x_st (mean removed); event-time error = largest \
         |t_i − t_ref,i| over the contact changes (s; – when the counts differ or there are none); Δevents = count minus the \
-        reference's; wall = least of the timed runs after a warm-up; rhs, steps (accepted), rej (rejected; scipy \
+        reference's; wall = median of the timed runs after a warm-up; rhs, steps (accepted), rej (rejected; scipy \
         does not report it), events = contact changes located. Dashed lines in the plots are the other \
         libraries.\n";
     let mut csv = String::from("problem,method,tol,status,wall_s,timed_runs,rhs,steps,rejected,events,dte_l2,dte_max,final,dte_rms,event_time,event_mismatch\n");

@@ -248,8 +248,10 @@ pub fn write_doc_head(
          by the static deflection x_st: the **DTE error** is the RMS of |x − x_ref| / x_st over the grid \
          (and, for G3, both meshes); also the largest, the final-point and the DTE-RMS error, the \
          event-time error and the contact-change count mismatch.\n\n\
-         **Work**: wall time = least of ≥ {} timed runs (≥ {} s in all) after a warm-up run (geardyn and \
-         the peer; scipy: ≥ 2 runs, ≥ 1 s, or one run when it takes > 2 s); RHS evaluations; accepted and \
+         **Work**: wall time = median of ≥ {} timed runs (≥ {} s in all) after a warm-up run (geardyn and \
+         the peer; scipy: ≥ 2 runs, ≥ 1 s, or one run when it takes > 2 s); the three harnesses run one \
+         after the other in separate processes, so ratios across them are not side by side; RHS \
+         evaluations; accepted and \
          rejected steps; contact events. Failures are listed, never dropped.",
         LADDER.iter().map(|t| format!("{t:.0e}")).collect::<Vec<_>>().join(", "),
         SAMPLES + 1,

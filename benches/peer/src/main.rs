@@ -847,7 +847,7 @@ fn main() {
             .expect("usage: geardyn-peer-bench DIR [--quick]"),
     );
     let quick = args.iter().any(|a| a == "--quick");
-    // Least timed runs and least total timed wall per configuration (min of N after a warm-up).
+    // Least timed runs and least total timed wall per configuration (median of N after a warm-up).
     let (min_runs, min_wall) = if quick { (2, 0.02) } else { (5, 0.25) };
     let mut out = String::from(
         "problem,method,tol,rtol,atol,status,wall_s,timed_runs,rhs,steps,rejected,events,final_x,final_v,dte,event_times\n",
@@ -888,19 +888,25 @@ fn main() {
                         label(method, mode)
                     ),
                     Ok(run) => {
-                        let (mut best, mut runs, started) = (f64::INFINITY, 0, Instant::now());
-                        while runs < min_runs || started.elapsed().as_secs_f64() < min_wall {
+                        let (mut times, started) = (Vec::new(), Instant::now());
+                        while times.len() < min_runs || started.elapsed().as_secs_f64() < min_wall {
                             let t0 = Instant::now();
                             let r = simulate(&pair, p.stop_time, &grid, method, mode, rtol, atol);
-                            best = best.min(t0.elapsed().as_secs_f64());
+                            times.push(t0.elapsed().as_secs_f64());
                             std::hint::black_box(r).ok();
-                            runs += 1;
-                            if best > 1.0 {
+                            if times[0] > 1.0 {
                                 break;
                             }
                         }
+                        let runs = times.len();
+                        times.sort_by(f64::total_cmp);
+                        let median = if runs % 2 == 1 {
+                            times[runs / 2]
+                        } else {
+                            0.5 * (times[runs / 2 - 1] + times[runs / 2])
+                        };
                         format!(
-                            "{},{},{tol:e},{rtol:e},{atol:e},ok,{best:e},{runs},{},{},{},{},{:e},{:e},{},{}\n",
+                            "{},{},{tol:e},{rtol:e},{atol:e},ok,{median:e},{runs},{},{},{},{},{:e},{:e},{},{}\n",
                             p.name,
                             label(method, mode),
                             run.rhs,
