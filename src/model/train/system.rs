@@ -1724,7 +1724,8 @@ impl HybridSystem for GearTrain {
                 }
             }
             let cn = if touching { mesh.damping } else { 0.0 };
-            for i in 0..m {
+            // A mesh couples a few coordinates: the rows of the others are unchanged.
+            for i in (0..m).filter(|&i| mesh.a[i] != 0.0) {
                 for l in 0..m {
                     k[i * m + l] += kn * mesh.a[i] * mesh.a[l];
                     c[i * m + l] += cn * mesh.a[i] * mesh.a[l];
@@ -1733,21 +1734,30 @@ impl HybridSystem for GearTrain {
         }
         let n = 2 * m;
         jac.fill(0.0);
+        // `M̂⁻¹K` and `M̂⁻¹C` row by row as sums of rows of `K`, `C` (contiguous, in the order
+        // of `q` as a dot product would take them): this runs once per RODAS4 step and is
+        // O(m³), as large as the step's LU on big trains.
         for i in 0..m {
             jac[i * n + m + i] = 1.0;
-            for l in 0..m {
-                let (mut dk, mut dc) = (0.0, 0.0);
-                for q in 0..m {
-                    let minv = if m == 1 {
-                        1.0 / self.m_hat[0]
-                    } else {
-                        self.minv[i * m + q]
-                    };
-                    dk += minv * k[q * m + l];
-                    dc += minv * c[q * m + l];
+            let row = &mut jac[(m + i) * n..(m + i + 1) * n];
+            let (dk, dc) = row.split_at_mut(m);
+            for q in 0..m {
+                let minv = if m == 1 {
+                    1.0 / self.m_hat[0]
+                } else {
+                    self.minv[i * m + q]
+                };
+                for ((dk, dc), (&kq, &cq)) in dk
+                    .iter_mut()
+                    .zip(dc.iter_mut())
+                    .zip(k[q * m..(q + 1) * m].iter().zip(&c[q * m..(q + 1) * m]))
+                {
+                    *dk += minv * kq;
+                    *dc += minv * cq;
                 }
-                jac[(m + i) * n + l] = -dk;
-                jac[(m + i) * n + m + l] = -dc;
+            }
+            for v in row.iter_mut() {
+                *v = -*v;
             }
         }
         true
