@@ -442,15 +442,26 @@ fn rigid_bearing_idler_with_couplings_equals_eq_2_7() {
 }
 
 /// The drivetrain's frozen-mode Jacobian (variational equations of `periodic` and `floquet` on
-/// non-LTI trains) is the derivative of its right-hand side: central differences on the
-/// 8-DOF idler gearset (bearings, modal damping, contact loss), in every coordinate.
+/// non-LTI trains, RODAS4) is the derivative of its right-hand side: central differences on
+/// the 8-DOF idler gearset (bearings, modal damping, contact loss) and the 15-DOF 4-mesh
+/// compliant benchmark chain, in every coordinate.
 #[test]
 fn train_jacobian_is_the_derivative_of_the_right_hand_side() {
+    use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec};
+    let chain = ChainSpec::new(4, ChainBearings::Compliant, ChainContact::ContactLoss);
+    for scene in [
+        TrainScene::example("idler_gearset").unwrap(),
+        TrainScene::chain(chain).unwrap(),
+    ] {
+        jacobian_matches_central_differences(&scene);
+    }
+}
+
+fn jacobian_matches_central_differences(scene: &TrainScene) {
     use geardyn::model::train::GearTrain;
     use geardyn::solve::HybridSystem;
-    let scene = TrainScene::example("idler_gearset").unwrap();
-    let mut train = GearTrain::new(&scene).unwrap();
-    let y0 = train.initial_state(&scene).unwrap();
+    let mut train = GearTrain::new(scene).unwrap();
+    let y0 = train.initial_state(scene).unwrap();
     let n = y0.len();
     // A state inside the mode (away from the contact surfaces): the static one, moving.
     let y: Vec<f64> = y0
@@ -485,7 +496,8 @@ fn train_jacobian_is_the_derivative_of_the_right_hand_side() {
         }
     }
     println!(
-        "train Jacobian vs central differences: {:.3e} of its largest entry",
+        "{}: train Jacobian vs central differences: {:.3e} of its largest entry",
+        scene.name,
         worst / norm
     );
     assert!(worst <= 1e-7 * norm, "{worst} vs {norm}");

@@ -33,10 +33,12 @@ use crate::scene::train::{MeshForceModel, PairModel, TrainScene};
 use crate::scene::{ContactLaw, InitialDte};
 use crate::solve::exact::PiecewiseLti;
 use crate::solve::HybridSystem;
+use jacobian::JacobianParts;
 
 mod friction;
 mod frozen;
 mod harmonic;
+mod jacobian;
 pub(crate) mod rotating;
 mod snapshot;
 pub use frozen::FrozenStatics;
@@ -239,6 +241,8 @@ pub struct GearTrain {
     minv: Vec<f64>,
     k_b: Vec<f64>,
     c: Vec<f64>,
+    /// `M̂⁻¹K̂_b`, `M̂⁻¹Ĉ`, `M̂⁻¹a_n` for the frozen mode's Jacobian.
+    jacobian_parts: JacobianParts,
     f_in: Vec<f64>,
     f_out: Vec<f64>,
     f_ext: Vec<f64>,
@@ -457,6 +461,7 @@ impl GearTrain {
             minv: row_major(&minv),
             k_b: row_major(&k_b),
             c: row_major(&c),
+            jacobian_parts: JacobianParts::default(),
             f_in: f_in.as_slice().to_vec(),
             f_out: f_out.as_slice().to_vec(),
             f_ext: vec![0.0; m],
@@ -502,6 +507,19 @@ impl GearTrain {
             train.m_hat = vec![m_e];
             train.minv = vec![1.0 / m_e];
         }
+        // The single mass as the right-hand side divides by it.
+        let minv = if m == 1 {
+            vec![1.0 / train.m_hat[0]]
+        } else {
+            train.minv.clone()
+        };
+        train.jacobian_parts = JacobianParts::new(
+            m,
+            &minv,
+            &train.k_b,
+            &train.c,
+            train.meshes.iter().map(|mesh| mesh.a.as_slice()),
+        );
         train.names = train.build_names(scene);
         train.apply_inputs(0.0, train.inputs)?;
         if let Some(pr) = &train.profiles {
@@ -1709,10 +1727,7 @@ impl HybridSystem for GearTrain {
         if self.rotation.is_some() || self.meshes.iter().any(|mesh| mesh.friction.is_some()) {
             return false;
         }
-        let m = self.m;
-        let mut k = self.k_b.clone();
-        let mut c = self.c.clone();
-        for mesh in &self.meshes {
+        let gains = self.meshes.iter().map(|mesh| {
             let p = mesh.clock.phase_at(t);
             let mut kn = 0.0;
             let mut touching = false;
@@ -1723,33 +1738,9 @@ impl HybridSystem for GearTrain {
                     touching = true;
                 }
             }
-            let cn = if touching { mesh.damping } else { 0.0 };
-            for i in 0..m {
-                for l in 0..m {
-                    k[i * m + l] += kn * mesh.a[i] * mesh.a[l];
-                    c[i * m + l] += cn * mesh.a[i] * mesh.a[l];
-                }
-            }
-        }
-        let n = 2 * m;
-        jac.fill(0.0);
-        for i in 0..m {
-            jac[i * n + m + i] = 1.0;
-            for l in 0..m {
-                let (mut dk, mut dc) = (0.0, 0.0);
-                for q in 0..m {
-                    let minv = if m == 1 {
-                        1.0 / self.m_hat[0]
-                    } else {
-                        self.minv[i * m + q]
-                    };
-                    dk += minv * k[q * m + l];
-                    dc += minv * c[q * m + l];
-                }
-                jac[(m + i) * n + l] = -dk;
-                jac[(m + i) * n + m + l] = -dc;
-            }
-        }
+            (kn, if touching { mesh.damping } else { 0.0 })
+        });
+        self.jacobian_parts.fill(gains, jac);
         true
     }
 

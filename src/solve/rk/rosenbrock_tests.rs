@@ -2,11 +2,13 @@
 //! 7.1) of the solution (order 4) and of the embedded solution (order 3), `R(∞) = 0`
 //! (L-stability) and `|R(iy)| ≤ 1`; the observed order on a linear non-autonomous problem
 //! with a closed-form solution; a very stiff problem (λ = −1e8) at large steps; and the event
-//! location through the shared step loop.
+//! location through the shared step loop; the reduced (Schur complement) solve of a
+//! second-order system's `E` against `E` itself, and a coupled damped oscillator against its
+//! modal closed form.
 
-use super::rosenbrock::{A, C, CIJ, D, GAMMA, M, STAGES};
+use super::rosenbrock::{LinearlyImplicit, A, C, CIJ, D, GAMMA, M, STAGES};
 use super::{Method, RkOptions, RkStepper};
-use crate::solve::HybridSystem;
+use crate::solve::{HybridSystem, SolverStats};
 
 const S: usize = STAGES;
 
@@ -349,4 +351,151 @@ fn rodas4_locates_events_on_its_dense_output() {
         "event at {t_c:e}, closed form {expected:e}"
     );
     assert_eq!(st.stats().events, 1);
+}
+
+/// `y' = J y` with `J = [[0, I], [A, B]]` (or any `J` given), row-major.
+struct Linear {
+    jac: Vec<f64>,
+}
+
+impl HybridSystem for Linear {
+    fn dim(&self) -> usize {
+        (self.jac.len() as f64).sqrt().round() as usize
+    }
+    fn rhs(&self, _t: f64, y: &[f64], dy: &mut [f64]) {
+        let n = y.len();
+        for (i, d) in dy.iter_mut().enumerate() {
+            *d = (0..n).map(|j| self.jac[i * n + j] * y[j]).sum();
+        }
+    }
+    fn jacobian(&self, _t: f64, _y: &[f64], jac: &mut [f64]) -> bool {
+        jac.copy_from_slice(&self.jac);
+        true
+    }
+}
+
+/// A deterministic pseudo-random number in `[-1, 1)` (64-bit LCG, Knuth's MMIX constants).
+fn uniform(state: &mut u64) -> f64 {
+    *state = state
+        .wrapping_mul(6364136223846793005)
+        .wrapping_add(1442695040888963407);
+    (*state >> 11) as f64 / (1u64 << 52) as f64 - 1.0
+}
+
+/// `‖E x − b‖∞ / (‖E‖∞ ‖x‖∞ + ‖b‖∞)` with `E = I/(hγ) − J` formed explicitly.
+fn relative_residual(jac: &[f64], h: f64, x: &[f64], b: &[f64]) -> f64 {
+    let n = x.len();
+    let (mut worst, mut norm_e) = (0.0f64, 0.0f64);
+    for i in 0..n {
+        let (mut r, mut row) = (-b[i], 0.0);
+        for j in 0..n {
+            let e = if i == j { 1.0 / (h * GAMMA) } else { 0.0 } - jac[i * n + j];
+            r += e * x[j];
+            row += e.abs();
+        }
+        worst = worst.max(r.abs());
+        norm_e = norm_e.max(row);
+    }
+    let inf = |v: &[f64]| v.iter().fold(0.0f64, |a, x| a.max(x.abs()));
+    worst / (norm_e * inf(x) + inf(b))
+}
+
+#[test]
+fn the_schur_complement_solves_e_of_a_second_order_system() {
+    let m = 7;
+    let n = 2 * m;
+    let mut state = 1u64;
+    // `A` ~ −1e6 (stiff: hγ·√|A| ≫ 1 at h = 1e-2), `B` ~ −1e2; random couplings.
+    let mut jac = vec![0.0; n * n];
+    for i in 0..m {
+        jac[i * n + m + i] = 1.0;
+        for l in 0..m {
+            jac[(m + i) * n + l] = 1e6 * uniform(&mut state) - if i == l { 3e6 } else { 0.0 };
+            jac[(m + i) * n + m + l] = 1e2 * uniform(&mut state);
+        }
+    }
+    for (h, reduced) in [(1e-2, true), (1e-7, true)] {
+        let sys = Linear { jac: jac.clone() };
+        let mut li = LinearlyImplicit::new(n);
+        let y = vec![0.0; n];
+        li.linearise(&sys, 0.0, &y, &y, 1.0, &mut SolverStats::default());
+        assert_eq!(li.uses_schur_complement(), reduced);
+        assert!(li.factor(h));
+        let b: Vec<f64> = (0..n).map(|_| uniform(&mut state)).collect();
+        let mut x = b.clone();
+        li.solve(&mut x);
+        let r = relative_residual(&jac, h, &x, &b);
+        assert!(r < 1e-14, "h = {h:e}: relative residual {r:e}");
+    }
+    // The test can fail: one entry off the `[0, I]` pattern takes the full LU, and the
+    // reduced solve of the Jacobian without that entry does not solve this `E`.
+    let mut off = jac.clone();
+    off[1] = 1e3;
+    let sys = Linear { jac: off.clone() };
+    let mut li = LinearlyImplicit::new(n);
+    let y = vec![0.0; n];
+    li.linearise(&sys, 0.0, &y, &y, 1.0, &mut SolverStats::default());
+    assert!(!li.uses_schur_complement());
+    assert!(li.factor(1e-2));
+    let b: Vec<f64> = (0..n).map(|_| uniform(&mut state)).collect();
+    let mut x = b.clone();
+    li.solve(&mut x);
+    assert!(relative_residual(&off, 1e-2, &x, &b) < 1e-14);
+    let mut reduced = LinearlyImplicit::new(n);
+    reduced.linearise(
+        &Linear { jac },
+        0.0,
+        &y,
+        &y,
+        1.0,
+        &mut SolverStats::default(),
+    );
+    assert!(reduced.factor(1e-2));
+    let mut x = b.clone();
+    reduced.solve(&mut x);
+    assert!(relative_residual(&off, 1e-2, &x, &b) > 1e-8);
+}
+
+#[test]
+fn rodas4_with_the_schur_complement_matches_a_coupled_oscillator() {
+    // x'' = −K x − c K x', K = [[2, −1], [−1, 2]]: modes (1, 1)/√2 with λ = 1 and (1, −1)/√2
+    // with λ = 3, each q'' + cλ q' + λ q = 0. From x = (1, 0), x' = 0 both modal
+    // amplitudes start at 1/√2.
+    let c = 0.1;
+    let k = [[2.0, -1.0], [-1.0, 2.0]];
+    let mut jac = vec![0.0; 16];
+    for i in 0..2 {
+        jac[i * 4 + 2 + i] = 1.0;
+        for l in 0..2 {
+            jac[(2 + i) * 4 + l] = -k[i][l];
+            jac[(2 + i) * 4 + 2 + l] = -c * k[i][l];
+        }
+    }
+    let mut sys = Linear { jac };
+    let modal = |lambda: f64, t: f64| {
+        let sigma = 0.5 * c * lambda;
+        let wd = (lambda - sigma * sigma).sqrt();
+        let q0 = std::f64::consts::FRAC_1_SQRT_2;
+        (-sigma * t).exp() * q0 * ((wd * t).cos() + sigma / wd * (wd * t).sin())
+    };
+    let t_end = 10.0;
+    let (q1, q2) = (modal(1.0, t_end), modal(3.0, t_end));
+    let exact = [
+        (q1 + q2) * std::f64::consts::FRAC_1_SQRT_2,
+        (q1 - q2) * std::f64::consts::FRAC_1_SQRT_2,
+    ];
+    let mut st = RkStepper::new(
+        RkOptions {
+            rtol: 1e-10,
+            atol: 1e-12,
+            ..RkOptions::new(Method::Rodas4)
+        },
+        4,
+    )
+    .unwrap();
+    st.set_state(0.0, &[1.0, 0.0, 0.0, 0.0]);
+    st.advance_to(&mut sys, t_end).unwrap();
+    for (got, want) in st.y()[..2].iter().zip(exact) {
+        assert!((got - want).abs() < 1e-8, "x = {got}, closed form {want}");
+    }
 }
