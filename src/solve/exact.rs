@@ -229,15 +229,22 @@ impl ModeCache {
     const MEMORY_BUDGET: usize = 512 << 20;
     /// Modes at most, whatever their size (the index's own memory).
     const MAX_MODES: usize = 1 << 16;
+    /// Modes always kept, whatever their size: the stiffness pieces of one mesh period of a
+    /// 64-mesh chain (128 modes of 390 states, ~6 MB each) must stay cached together, or its
+    /// recurring sequences are rebuilt every period.
+    const MIN_MODES: usize = 256;
     /// New modes between two exact recounts of the bytes.
     const RECOUNT_EVERY: u32 = 64;
     const RECENT: usize = 16;
 
     /// Whether building one more mode would exceed the budget (recounted exactly first when
-    /// the estimate says so).
+    /// the estimate says so), once the cache holds [`ModeCache::MIN_MODES`].
     fn full(&mut self) -> bool {
         if self.modes.len() >= Self::MAX_MODES {
             return true;
+        }
+        if self.modes.len() < Self::MIN_MODES {
+            return false;
         }
         // (No recount without a new mode since the last: the composite walk asks on every
         // segment while the cache is over its budget.)

@@ -1,6 +1,6 @@
 //! The mode cache's memory budget ([`super::ModeCache`]): a run that meets more modes than
 //! the budget holds clears the cache and rebuilds, with the same result as a run that keeps
-//! them all; the bytes held never exceed the budget by more than one mode.
+//! them all; it never holds more than `MIN_MODES` modes or the budget, plus one mode.
 
 use nalgebra::DMatrix;
 
@@ -65,7 +65,9 @@ impl PiecewiseLti for NewModeEveryPiece {
     }
 }
 
-/// Runs 100 pieces with the cache budget `budget` (bytes; `None`: the default); returns the
+const PIECES: u64 = 600;
+
+/// Runs [`PIECES`] pieces with the cache budget `budget` (bytes; `None`: the default); returns the
 /// final state, the builds and clears, and the most bytes the cache held.
 fn run(budget: Option<usize>) -> (Vec<f64>, u64, u64, usize) {
     let mut sys = NewModeEveryPiece { piece: 0 };
@@ -74,7 +76,7 @@ fn run(budget: Option<usize>) -> (Vec<f64>, u64, u64, usize) {
     let y0: Vec<f64> = (0..NZ).map(|i| 1.0 / (1 + i) as f64).collect();
     p.set_state(0.0, &y0);
     let mut held = 0;
-    for k in 1..=100 {
+    for k in 1..=PIECES {
         p.advance_to(&mut sys, k as f64).unwrap();
         p.modes.recount();
         held = held.max(p.modes.bytes);
@@ -88,17 +90,19 @@ fn a_cache_over_its_budget_clears_and_continues_alike() {
     let (kept, builds, clears, held_all) = run(None);
     assert_eq!(
         (builds, clears),
-        (100, 0),
-        "the default budget keeps 100 small modes"
+        (PIECES, 0),
+        "the default budget keeps {PIECES} small modes"
     );
-    let one_mode = held_all / 100;
+    let one_mode = held_all / PIECES as usize;
+    // A budget of 10 modes: the cache still keeps its floor of MIN_MODES, then clears.
     let budget = 10 * one_mode;
     let (cleared, builds, clears, held) = run(Some(budget));
-    assert_eq!(builds, 100);
-    assert!(clears >= 9, "{clears} clears");
+    assert_eq!(builds, PIECES);
+    let floor = super::ModeCache::MIN_MODES;
+    assert_eq!(clears, (PIECES - 1) / floor as u64, "{clears} clears");
     assert!(
-        held <= budget + one_mode,
-        "held {held} B, budget {budget} B"
+        held <= (floor + 1) * one_mode,
+        "held {held} B, {floor} modes of {one_mode} B"
     );
     assert_eq!(cleared, kept, "the same transitions after a clear");
 }
