@@ -19,6 +19,10 @@ use geardyn::model::{response_period, AnyScene, Drivetrain};
 use geardyn::scene::Scene;
 use geardyn::with_drivetrain;
 
+#[path = "common/stats.rs"]
+mod stats;
+use stats::median;
+
 const POINTS: usize = 200;
 
 /// Brute force: every point from the scene's start, `transient` response periods, then one
@@ -118,16 +122,6 @@ fn bench(name: &str, from: f64, to: f64, transient: u32) {
 
 /// Timed rounds after the warm-up.
 const ROUNDS: usize = 3;
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
 
 fn main() {
     bench("spur_pair", 300.0, 600.0, 800);

@@ -17,6 +17,10 @@ use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec, TrainScene};
 use geardyn::scene::MethodChoice;
 use geardyn::solve::rk::Method as Rk;
 
+#[path = "common/stats.rs"]
+mod stats;
+use stats::median;
+
 fn time(
     scene: &TrainScene,
     method: MethodChoice,
@@ -102,11 +106,6 @@ fn idler_with_ports() -> TrainScene {
     TrainScene::from_toml_str(&text, "idler_ports").unwrap()
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(|a, b| a.partial_cmp(b).unwrap());
-    v[v.len() / 2]
-}
-
 fn main() {
     let quick = std::env::args().any(|a| a == "quick");
     let rounds = if quick { 1 } else { 3 };
@@ -174,7 +173,12 @@ fn main() {
             rk.push(time(scene, MethodChoice::Rk, false, periods / 5.0).0);
             dp5.push(time_rk(scene, MethodChoice::Rk, Rk::Dp5, false, periods / 5.0).0);
         }
-        let (seg, ex, rk, dp5) = (median(seg), median(ex), median(rk), median(dp5));
+        let (seg, ex, rk, dp5) = (
+            median(&mut seg),
+            median(&mut ex),
+            median(&mut rk),
+            median(&mut dp5),
+        );
         // A failed RK run is NaN: the best RK is the faster one that completed.
         let best_rk = if dp5.is_nan() || rk <= dp5 { rk } else { dp5 };
         println!(

@@ -30,6 +30,10 @@ use geardyn::solve::exact::transition::mat_vec;
 use geardyn::solve::rk::Method;
 use geardyn::solve::{HybridSystem, SolverStats};
 
+#[path = "common/stats.rs"]
+mod stats;
+use stats::median;
+
 /// The shipped example (the same text `geardyn simulate --example spur_pair` uses).
 const SPUR_PAIR: &str = include_str!("../fmu/spur_pair/scene.toml");
 
@@ -165,16 +169,6 @@ fn median_of<T>(configs: &[T], rounds: usize, mut once: impl FnMut(&T) -> f64) -
         }
     }
     times.iter_mut().map(|t| median(t)).collect()
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 /// ns per `n × n` mat-vec with the propagator's kernel, in a dependent chain (as segments are).

@@ -16,19 +16,13 @@ use geardyn::simulation::Simulation;
 use geardyn::units::from_rpm;
 use nalgebra::DMatrix;
 
+#[path = "common/stats.rs"]
+mod stats;
+use stats::median;
+
 const POINTS: usize = 200;
 /// Timed rounds after the warm-up; each round runs the closed form and RK once.
 const ROUNDS: usize = 7;
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
-}
 
 fn rk_monodromy(scene: &Scene, period: f64) -> DMatrix<f64> {
     let w = (scene.mesh.stiffness.mean() / scene.equivalent_mass()).sqrt();

@@ -32,6 +32,10 @@ use geardyn::model::train::TrainSimulation;
 use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec, TrainScene};
 use geardyn::scene::MethodChoice;
 
+#[path = "common/stats.rs"]
+mod stats;
+use stats::median;
+
 /// Longest timed run of one (chain, method) per round; slower methods time fewer periods.
 const MAX_RUN_SECONDS: f64 = 20.0;
 /// The warm-up stops after this long even if the exact propagator still builds (contact
@@ -205,16 +209,6 @@ fn warm_up(scene: &TrainScene, min_periods: usize, max_periods: usize) -> Result
     warmed.set_up_seconds = start.elapsed().as_secs_f64();
     warmed.warm_up_periods = warmed.done;
     Ok(warmed)
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 /// Least-squares slope of `ln y` against `ln x`.

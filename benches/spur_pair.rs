@@ -28,6 +28,10 @@ use geardyn::scene::{MethodChoice, Scene};
 use geardyn::simulation::{output_grid, Simulation};
 use geardyn::solve::rk::Method;
 
+#[path = "common/stats.rs"]
+mod stats;
+use stats::median;
+
 /// The shipped example, compiled in (the same text `geardyn simulate --example` uses).
 const SPUR_PAIR: &str = include_str!("../fmu/spur_pair/scene.toml");
 
@@ -145,16 +149,6 @@ struct Measurement {
     guards_per_period: f64,
     /// Max |DTE − DTE_exact| / static deflection on the grid (RK rows only).
     err_vs_exact: Option<f64>,
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 fn main() {

@@ -15,6 +15,10 @@ use geardyn::scene::train::{MeshForceModel, TrainScene};
 use geardyn::scene::MethodChoice;
 use geardyn::solve::SolverStats;
 
+#[path = "common/stats.rs"]
+mod stats;
+use stats::median;
+
 const PERIODS: f64 = 400.0;
 const RUNS: usize = 5;
 
@@ -53,16 +57,6 @@ fn run_once(scene: &TrainScene) -> (f64, SolverStats, String) {
     }
     let elapsed = start.elapsed().as_secs_f64();
     (elapsed, sim.stats(), sim.method_name())
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 /// Exact propagator and DOP853 on one scene: a warm-up of both, then `RUNS` rounds that run

@@ -30,6 +30,10 @@ use problems::{problems, tolerance_pair, Kind, Problem, LADDER, REFERENCE_TOL, S
 use report::{fmt_e, fmt_u, footer, pass, plot, write_doc_head, OBSERVATIONS};
 use rows::{find, read_rows, Row};
 
+#[path = "../common/stats.rs"]
+mod stats;
+use stats::median;
+
 /// References must agree to this (largest DTE difference over the grid / largest |DTE| of the
 /// reference, numerics-notes §1.4 item 1) with the same contact-change count before they are
 /// used.
@@ -52,16 +56,6 @@ fn median_time(min_runs: u32, min_wall: f64, mut f: impl FnMut()) -> (f64, u64) 
         }
     }
     (median(&mut times), times.len() as u64)
-}
-
-/// Median of the samples (NaN for none).
-fn median(v: &mut [f64]) -> f64 {
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => v[n / 2],
-        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
 }
 
 fn geardyn_row(
