@@ -108,6 +108,11 @@ fn derived_inertia_reproduces_ross() {
     assert!(!text.contains("inertia ="));
     let scene = Scene::from_toml_str(&text, "t").unwrap();
     for g in [&scene.pinion, &scene.gear] {
+        eprintln!(
+            "derived inertia {} kg·m² vs ROSS 0.0036024860: relative {:.1e}",
+            g.inertia,
+            rel(g.inertia, 0.0036024860)
+        );
         assert!(rel(g.inertia, 0.0036024860) < 1e-8, "{}", g.inertia);
         assert!(rel(g.base_radius, 0.062 * 20f64.to_radians().cos()) < 1e-15);
     }

@@ -360,7 +360,8 @@ def test_speed_ratio_is_the_tooth_ratio(fmus, tmp_path, report, algorithm):
     window divided by its length (exact time means; sample means of ω at the output grid alias
     the mesh-frequency vibration). The elastic DTE is what remains: r1 Δθ1 − r2 Δθ2 = ΔS.
     Communication step T_mesh/20, the system's own: at T_mesh/10 (5.3e-5 s at 3000 rpm) Jacobi
-    with hold is unstable, its error grows from 0.04 s on until the gear stage refuses a step."""
+    with hold is unstable, its error grows (0.05 of the DTE RMS over 20 ms, 6 over 80 ms) until
+    the gear stage refuses a step at 0.26 s (docs/cosimulation.md)."""
     stop = 1.0 if not LONG else 5.0
     d = geardyn(tmp_path / "r.csv", t_mesh() / 20, stop, algorithm, "none", ["gear.mesh1.dte"])
     i = np.searchsorted(d["time"], 0.1)
@@ -391,8 +392,10 @@ def dte_error_at_a_twentieth_of_the_mesh_period(case, tmp_path, report):
     err = col(d, "gear.mesh1.dte") - r["dte"]
     rms, rms_ac = np.sqrt(np.mean(r["dte"] ** 2)), np.sqrt(np.mean((r["dte"] - r["dte"].mean()) ** 2))
     ratios = (np.sqrt(np.mean(err ** 2)) / rms, np.abs(err).max() / rms, np.abs(err).max() / rms_ac)
+    after_first_ms = np.abs(err[d["time"] > 1e-3]).max() / rms
     report(f"{case.name} ({case.point.rpm:g} rpm), GS linear at T_mesh/20: RMS DTE error / DTE RMS = {ratios[0]:.3g}, "
-           f"max DTE error / DTE RMS = {ratios[1]:.3g}, max DTE error / DTE RMS about its mean = {ratios[2]:.3g}")
+           f"max DTE error / DTE RMS = {ratios[1]:.3g} ({after_first_ms:.3g} after the first ms), "
+           f"max DTE error / DTE RMS about its mean = {ratios[2]:.3g}")
     return ratios
 
 
