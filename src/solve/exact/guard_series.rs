@@ -111,6 +111,23 @@ impl DerivativeRows {
         }
     }
 
+    /// `Σ_j M_j |z_j|` alone, without the equilibrium directions: a bound of `|g''|` on
+    /// `[0, h]` no smaller than [`DerivativeRows::curvature_bound`], from the weights alone
+    /// (the directions are as much data again per direction, and cold in a mode met rarely).
+    pub fn plain_curvature_bound(
+        &mut self,
+        a: &DMatrix<f64>,
+        null_space: &NullSpace,
+        h: f64,
+        z: &[f64],
+    ) -> Option<f64> {
+        if self.curvature_weights.as_ref().is_none_or(|c| c.h != h) {
+            self.curvature_weights = self.build_curvature_weights(a, null_space, h);
+        }
+        let c = self.curvature_weights.as_ref()?;
+        Some(c.weights.iter().zip(z).map(|(m, x)| m * x.abs()).sum())
+    }
+
     /// A bound of `|g''(s)| = |r_2 · e^{As} z|` for all `s ∈ [0, h]`: `Σ_j M_j |z_j|` with
     /// `M_j ≥ max_s |(e^{Aᵀs} r_2)_j|` ([`DerivativeRows::build_curvature_weights`]), and the
     /// same for `z` with its equilibrium parts removed ([`NullDirection`]); the smaller one.
