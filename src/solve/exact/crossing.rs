@@ -114,41 +114,39 @@ pub fn first_crossing(
                 best = Some((0.0, i));
                 break;
             }
+            // The cheap proof: the larger of the two Taylor minorants from the ends bounds
+            // the guard below for |g''| ≤ C (σ units: C width²; a start on the surface,
+            // rising, counts as zero).
             let ends = |sigma: f64, g: f64, slope: f64| Point {
                 at: sigma,
                 g,
                 slope: slope * width,
             };
-            // The cheapest proof first, with the weights alone: if it holds, the tighter
-            // bound below (never larger) would hold too, so the decision is the same.
-            if g_right >= 0.0 {
-                let plain = rows.plain_curvature_bound(&mode.a, &mode.null_space, h, &ws.z_left);
-                if let Some(c) = plain.map(|c| c * width * width) {
-                    stats.guard_evals += 1;
-                    let bound = taylor_lower_bound(
-                        ends(0.0, g_left.max(0.0), d_left),
-                        ends(1.0, g_right, d_right),
-                        -c,
-                    );
-                    if bound >= 0.0 {
-                        continue;
-                    }
+            let proves_free = |c: f64| {
+                let start = ends(0.0, g_left.max(0.0), d_left);
+                taylor_lower_bound(start, ends(1.0, g_right, d_right), -c) >= 0.0
+            };
+            // First with the weights alone: if that holds, the tighter bound (never larger)
+            // would hold too, so the decision is the same.
+            let plain = if g_right >= 0.0 {
+                rows.plain_curvature_bound(&mode.a, &mode.null_space, h, &ws.z_left)
+                    .map(|c| c * width * width)
+            } else {
+                None
+            };
+            if let Some(c) = plain {
+                stats.guard_evals += 1;
+                if proves_free(c) {
+                    continue;
                 }
             }
-            // |g''| ≤ C on the interval (σ units: C width²), from the mode's weights.
+            // Then with the mode's equilibrium directions removed from z.
             let curvature = rows
                 .curvature_bound(&mode.a, &mode.null_space, h, &ws.z_left)
                 .map(|c| c * width * width);
             stats.guard_evals += 1;
-            if let Some(c) = curvature.filter(|_| g_right >= 0.0) {
-                // The cheap proof: the larger of the two Taylor minorants from the ends
-                // bounds the guard below (a start on the surface, rising, counts as zero).
-                let bound = taylor_lower_bound(
-                    ends(0.0, g_left.max(0.0), d_left),
-                    ends(1.0, g_right, d_right),
-                    -c,
-                );
-                if bound >= 0.0 {
+            if let Some(c) = curvature.filter(|&c| g_right >= 0.0 && plain.is_none_or(|p| c < p)) {
+                if proves_free(c) {
                     continue;
                 }
             }

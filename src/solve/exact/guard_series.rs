@@ -39,6 +39,13 @@ struct CurvatureWeights {
     shifts: Vec<NullDirection>,
 }
 
+impl CurvatureWeights {
+    /// `Σ_j M_j |z_j|`.
+    fn plain(&self, z: &[f64]) -> f64 {
+        self.weights.iter().zip(z).map(|(m, x)| m * x.abs()).sum()
+    }
+}
+
 /// A direction `q` with `A q ≈ 0` (an equilibrium of the mode, e.g. the static deflection
 /// under the constant load): `g'' = r_2·e^{As}(z − α q) + α r_2·e^{As} q` and the last term
 /// vanishes up to the rounding of `q`, which `weight` bounds. Removing `α q` keeps the large
@@ -121,11 +128,20 @@ impl DerivativeRows {
         h: f64,
         z: &[f64],
     ) -> Option<f64> {
+        Some(self.weights_for(a, null_space, h)?.plain(z))
+    }
+
+    /// The curvature weights for the sample step `h`, built on first use.
+    fn weights_for(
+        &mut self,
+        a: &DMatrix<f64>,
+        null_space: &NullSpace,
+        h: f64,
+    ) -> Option<&CurvatureWeights> {
         if self.curvature_weights.as_ref().is_none_or(|c| c.h != h) {
             self.curvature_weights = self.build_curvature_weights(a, null_space, h);
         }
-        let c = self.curvature_weights.as_ref()?;
-        Some(c.weights.iter().zip(z).map(|(m, x)| m * x.abs()).sum())
+        self.curvature_weights.as_ref()
     }
 
     /// A bound of `|g''(s)| = |r_2 · e^{As} z|` for all `s ∈ [0, h]`: `Σ_j M_j |z_j|` with
@@ -139,11 +155,9 @@ impl DerivativeRows {
         h: f64,
         z: &[f64],
     ) -> Option<f64> {
-        if self.curvature_weights.as_ref().is_none_or(|c| c.h != h) {
-            self.curvature_weights = self.build_curvature_weights(a, null_space, h);
-        }
+        self.weights_for(a, null_space, h)?;
         let c = self.curvature_weights.as_ref()?;
-        let plain: f64 = c.weights.iter().zip(z).map(|(m, x)| m * x.abs()).sum();
+        let plain = c.plain(z);
         if c.shifts.is_empty() {
             return Some(plain);
         }
