@@ -6,8 +6,9 @@
 //! ends). Within each sample interval a guard that is not below zero at its start is decided
 //! in the cheapest way that is still rigorous:
 //!
-//! 1. a bound `|g''| ≤ C` (per-mode weights, [`DerivativeRows::curvature_bound`], one or two
-//!    dots) and the two-sided Taylor minorant from the ends prove most intervals free;
+//! 1. a bound `|g''| ≤ C` (per-mode weights, [`DerivativeRows::plain_curvature_bound`],
+//!    then if needed [`DerivativeRows::tightened_curvature_bound`], one or two dots) and the
+//!    two-sided Taylor minorant from the ends prove most intervals free;
 //! 2. an interval that starts falling and ends below zero (the usual event interval) gets the
 //!    guard's Taylor series ([`GuardSeries`]), a safeguarded Newton search on it from the root
 //!    of the ends' cubic Hermite interpolant, and the same Taylor bound on `[0, root]`, whose
@@ -23,7 +24,8 @@
 //! 3; see `benches/features.rs`). A crossing needs a guard value `< 0`: a touch is not an
 //! event, as in the RK event search (`src/solve/rk/graze.rs`).
 //!
-//! [`DerivativeRows::curvature_bound`]: super::guard_series::DerivativeRows::curvature_bound
+//! [`DerivativeRows::plain_curvature_bound`]: super::guard_series::DerivativeRows::plain_curvature_bound
+//! [`DerivativeRows::tightened_curvature_bound`]: super::guard_series::DerivativeRows::tightened_curvature_bound
 //! [`enclosure`]: super::enclosure
 
 use super::enclosure::{taylor_lower_bound, GuardOnInterval, Point};
@@ -126,26 +128,22 @@ pub fn first_crossing(
                 let start = ends(0.0, g_left.max(0.0), d_left);
                 taylor_lower_bound(start, ends(1.0, g_right, d_right), -c) >= 0.0
             };
-            // First with the weights alone: if that holds, the tighter bound (never larger)
+            // First with the weights alone: if that holds, the tightened bound (never larger)
             // would hold too, so the decision is the same.
-            let plain = if g_right >= 0.0 {
-                rows.plain_curvature_bound(&mode.a, &mode.null_space, h, &ws.z_left)
-                    .map(|c| c * width * width)
-            } else {
-                None
-            };
-            if let Some(c) = plain {
-                stats.guard_evals += 1;
-                if proves_free(c) {
+            let plain = rows.plain_curvature_bound(&mode.a, &mode.null_space, h, &ws.z_left);
+            stats.guard_evals += 1;
+            if let Some(p) = plain.filter(|_| g_right >= 0.0) {
+                if proves_free(p * width * width) {
                     continue;
                 }
             }
             // Then with the mode's equilibrium directions removed from z.
-            let curvature = rows
-                .curvature_bound(&mode.a, &mode.null_space, h, &ws.z_left)
-                .map(|c| c * width * width);
-            stats.guard_evals += 1;
-            if let Some(c) = curvature.filter(|&c| g_right >= 0.0 && plain.is_none_or(|p| c < p)) {
+            let curvature = plain.map(|p| {
+                stats.guard_evals += 1;
+                rows.tightened_curvature_bound(&ws.z_left, p) * width * width
+            });
+            let tighter = |c: &f64| plain.is_some_and(|p| *c < p * width * width);
+            if let Some(c) = curvature.filter(|c| g_right >= 0.0 && tighter(c)) {
                 if proves_free(c) {
                     continue;
                 }

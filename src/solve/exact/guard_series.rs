@@ -26,7 +26,7 @@ pub struct DerivativeRows {
     rows: Vec<f64>,
     /// The curvature weights for one sample step.
     curvature_weights: Option<CurvatureWeights>,
-    /// `z` with its equilibrium parts removed ([`DerivativeRows::curvature_bound`]).
+    /// `z` with its equilibrium parts removed ([`DerivativeRows::tightened_curvature_bound`]).
     shifted: Vec<f64>,
 }
 
@@ -118,9 +118,10 @@ impl DerivativeRows {
         }
     }
 
-    /// `Σ_j M_j |z_j|` alone, without the equilibrium directions: a bound of `|g''|` on
-    /// `[0, h]` no smaller than [`DerivativeRows::curvature_bound`], from the weights alone
-    /// (the directions are as much data again per direction, and cold in a mode met rarely).
+    /// `Σ_j M_j |z_j|` with `M_j ≥ max_s |(e^{Aᵀs} r_2)_j|`
+    /// ([`DerivativeRows::build_curvature_weights`], computed once per mode and guard): a
+    /// bound of `|g''(s)| = |r_2 · e^{As} z|` for all `s ∈ [0, h]` from the weights alone, one
+    /// dot. [`DerivativeRows::tightened_curvature_bound`] may lower it.
     pub fn plain_curvature_bound(
         &mut self,
         a: &DMatrix<f64>,
@@ -128,38 +129,23 @@ impl DerivativeRows {
         h: f64,
         z: &[f64],
     ) -> Option<f64> {
-        Some(self.weights_for(a, null_space, h)?.plain(z))
-    }
-
-    /// The curvature weights for the sample step `h`, built on first use.
-    fn weights_for(
-        &mut self,
-        a: &DMatrix<f64>,
-        null_space: &NullSpace,
-        h: f64,
-    ) -> Option<&CurvatureWeights> {
         if self.curvature_weights.as_ref().is_none_or(|c| c.h != h) {
             self.curvature_weights = self.build_curvature_weights(a, null_space, h);
         }
-        self.curvature_weights.as_ref()
+        Some(self.curvature_weights.as_ref()?.plain(z))
     }
 
-    /// A bound of `|g''(s)| = |r_2 · e^{As} z|` for all `s ∈ [0, h]`: `Σ_j M_j |z_j|` with
-    /// `M_j ≥ max_s |(e^{Aᵀs} r_2)_j|` ([`DerivativeRows::build_curvature_weights`]), and the
-    /// same for `z` with its equilibrium parts removed ([`NullDirection`]); the smaller one.
-    /// The weights are computed once per mode and guard; each bound then costs two dots.
-    pub fn curvature_bound(
-        &mut self,
-        a: &DMatrix<f64>,
-        null_space: &NullSpace,
-        h: f64,
-        z: &[f64],
-    ) -> Option<f64> {
-        self.weights_for(a, null_space, h)?;
-        let c = self.curvature_weights.as_ref()?;
-        let plain = c.plain(z);
+    /// The smaller of `plain` (the [`DerivativeRows::plain_curvature_bound`] of `z`, whose
+    /// weights are built) and the same sum for `z` with its equilibrium parts removed
+    /// ([`NullDirection`]): the directions are as much data again per direction, and cold in
+    /// a mode met rarely, so the crossing search reads them only when `plain` does not prove
+    /// an interval free.
+    pub fn tightened_curvature_bound(&mut self, z: &[f64], plain: f64) -> f64 {
+        let Some(c) = self.curvature_weights.as_ref() else {
+            return plain;
+        };
         if c.shifts.is_empty() {
-            return Some(plain);
+            return plain;
         }
         // One pass over z per direction (vectorises; a fold over the directions per
         // component was a serial chain, the search's hottest loop on trains with contact
@@ -183,7 +169,7 @@ impl DerivativeRows {
         for d in &c.shifts {
             shifted += z[d.pivot].abs() * d.weight;
         }
-        Some(plain.min(shifted))
+        plain.min(shifted)
     }
 
     /// The curvature weights `M_j ≥ max_{s∈[0,h]} |(e^{Aᵀs} r_2)_j|` ([`Self::sup_weights`];
@@ -685,9 +671,10 @@ mod tests {
             [3e-8, 0.17, 0.03, 1.0, 1.0],
             [-4e-5, -1.2, 0.0, -1.0, 1.0],
         ] {
-            let bound = rows
-                .curvature_bound(&a, &NullSpace::default(), h, &z)
+            let plain = rows
+                .plain_curvature_bound(&a, &NullSpace::default(), h, &z)
                 .expect("settles");
+            let bound = rows.tightened_curvature_bound(&z, plain);
             let a2 = &a * &a;
             let w = DVector::from_column_slice(&[1.0, 0.0, -1e-6, 0.0, 0.0]);
             let mut largest = 0.0f64;

@@ -442,7 +442,8 @@ impl Reference {
                 for (s, v) in scan.rate_weights.iter_mut().zip(&rate_weights) {
                     *s = s.max(*v);
                 }
-                let curvature = rows[i].curvature_bound(a, null_space, h, &z_chunk)?;
+                let plain = rows[i].plain_curvature_bound(a, null_space, h, &z_chunk)?;
+                let curvature = rows[i].tightened_curvature_bound(&z_chunk, plain);
                 let series = GuardSeries::from_rows(&mut rows[i], a, &z_chunk, width);
                 let values: Vec<(f64, f64)> = (0..=PIECES_PER_STEP)
                     .map(|k| series.value_and_slope(width * k as f64 / PIECES_PER_STEP as f64))
