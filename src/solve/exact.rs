@@ -209,7 +209,8 @@ struct ModeCache {
     /// Products of recurring sequences of guard-free segments of these modes.
     composites: Composites,
     /// Heap bytes of the cached modes: exact after [`ModeCache::recount`], plus each new
-    /// mode's bytes at its build (a mode's bins, rows and references grow after it).
+    /// mode's bytes at its build (its guard rows and references grow after it; its bins are
+    /// allocated with it).
     bytes: usize,
     /// Modes built since the last recount.
     since_recount: u32,
