@@ -42,6 +42,7 @@ mod enclosure;
 mod expm;
 mod guard_series;
 mod recurrence;
+mod series_segment;
 pub mod transition;
 
 use std::cell::Cell;
@@ -55,6 +56,7 @@ use composite::{Composites, Lookup, Step};
 use crossing::{first_crossing, root_tolerance, Crossing, Workspace};
 use guard_series::DerivativeRows;
 use recurrence::Decision;
+use series_segment::SeriesWorkspace;
 use transition::ModeTransitions;
 
 /// A hybrid system whose segments are linear time-invariant in an augmented state.
@@ -214,6 +216,8 @@ struct ModeCache {
     bytes: usize,
     /// Modes built since the last recount.
     since_recount: u32,
+    /// Estimated heap bytes of the modes promoted to the full path.
+    promoted_bytes: usize,
     /// The budget in bytes ([`ModeCache::MEMORY_BUDGET`]; smaller in tests).
     budget: Option<usize>,
     /// Modes built and times the full cache was cleared (for benchmarks; never reset).
@@ -237,6 +241,15 @@ impl ModeCache {
     /// New modes between two exact recounts of the bytes.
     const RECOUNT_EVERY: u32 = 64;
     const RECENT: usize = 16;
+    /// Segments with guards a mode takes by its series ([`series_segment`]) before the full
+    /// path (sample steps, duration bins, curvature bounds, recurring references), whose
+    /// build costs about as much as ~20 series segments, may take over.
+    const PROMOTE_AFTER: u32 = 8;
+    /// Estimated heap bytes of the modes on the full path at most (about the L2 caches of a
+    /// small machine): beyond them the full path's data is cold when its mode returns, and a
+    /// segment by the series is cheaper (the 8-mesh chain with contact loss: 4096 modes;
+    /// `docs/scaling.md`).
+    const PROMOTED_BUDGET: usize = 4 << 20;
 
     /// Whether building one more mode would exceed the budget (recounted exactly first when
     /// the estimate says so), once the cache holds [`ModeCache::MIN_MODES`].
@@ -322,6 +335,7 @@ impl ModeCache {
         self.composites.clear();
         self.bytes = 0;
         self.since_recount = 0;
+        self.promoted_bytes = 0;
     }
 
     /// The position of the current mode of `sys` (built on first use), or `None` if building
@@ -366,6 +380,7 @@ pub struct ExactPropagator {
     /// A sensitivity column lifted into `z` (forcing entries zero) while it is propagated.
     column: Vec<f64>,
     crossing: Workspace,
+    series: SeriesWorkspace,
     /// Events without time progress, to stop a Zeno cascade.
     stalled_events: u64,
     /// Whether recurring segments are decided by earlier ones ([`recurrence`]; on by default).
@@ -473,6 +488,7 @@ impl ExactPropagator {
             z_event: vec![0.0; n],
             column: vec![0.0; n],
             crossing: Workspace::default(),
+            series: SeriesWorkspace::default(),
             stalled_events: 0,
             recurrences: true,
             carried: None,
@@ -642,16 +658,33 @@ impl ExactPropagator {
                     self.carried = Some(0);
                 }
             }
-            let mode = self.modes.get(sys);
+            let position = self.modes.get_position(sys);
+            let mode = &mut self.modes.modes[position];
             self.stats.steps += 1;
 
             let guards = sys.guard_count();
             if guards > 0 {
+                // A mode goes by its series until it has recurred enough to pay for the full
+                // path's build, and only while the promoted modes' data stays near the core
+                // ([`ModeCache::PROMOTE_AFTER`], [`ModeCache::PROMOTED_BUDGET`],
+                // `docs/scaling.md`). Sensitivities need the full path's transition matrices.
+                mode.meetings = mode.meetings.saturating_add(1);
+                let series_ok = self.sensitivity.is_none() && series_segment::applies(mode);
+                if !mode.promoted
+                    && (!series_ok
+                        || (mode.meetings > ModeCache::PROMOTE_AFTER
+                            && self.modes.promoted_bytes < ModeCache::PROMOTED_BUDGET))
+                {
+                    mode.promoted = true;
+                    self.modes.promoted_bytes += mode.full_bytes_estimate();
+                }
+                let by_series = !mode.promoted;
+                let mut event_state_ready = false;
                 // A recurring segment is decided by an earlier one of its mode; otherwise
                 // guards the model proves positive for the whole mode need no root function
                 // and the others get the full search, which may keep the segment as a
                 // reference.
-                let decided = if self.recurrences {
+                let decided = if self.recurrences && !by_series {
                     let tol = root_tolerance(self.t, tau);
                     mode.decide_recurring(&self.z, tau, tol, &mut self.stats)
                 } else {
@@ -679,6 +712,32 @@ impl ExactPropagator {
                             self.stats.guard_exclusions += 1;
                             mode.apply(tau, &self.z, &mut self.z_next);
                             None
+                        } else if by_series {
+                            let samples = series_segment::work_in_samples(mode, tau);
+                            if samples > samples_left {
+                                return Err(SolveError::TooManyGuardSamples {
+                                    t: self.t,
+                                    tau,
+                                    samples,
+                                    rate: std::f64::consts::FRAC_PI_2 / mode.sample_step,
+                                });
+                            }
+                            samples_left -= samples;
+                            let found = series_segment::first_crossing_by_series(
+                                mode,
+                                &mut self.series,
+                                &mut self.stats,
+                                self.t,
+                                &self.z,
+                                &mut self.z_next,
+                                tau,
+                                excluded,
+                            );
+                            if found.is_some() {
+                                self.z_event.copy_from_slice(&self.z_next);
+                                event_state_ready = true;
+                            }
+                            found
                         } else {
                             let samples = (tau / mode.sample_step).ceil();
                             if samples > samples_left {
@@ -715,7 +774,9 @@ impl ExactPropagator {
                     // The event state from the segment's start: in a periodic steady state
                     // τ* recurs, so this is one mat-vec of a cached bin.
                     let z_event = &mut self.z_event;
-                    mode.apply(found.tau, &self.z, z_event);
+                    if !event_state_ready {
+                        mode.apply(found.tau, &self.z, z_event);
+                    }
                     let t_event = self.t + found.tau;
                     self.stalled_events = if t_event > self.t {
                         0

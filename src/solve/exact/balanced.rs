@@ -98,6 +98,21 @@ impl BalancedMatrix {
         BalancedMatrix { b, scale, norm }
     }
 
+    /// `B = D⁻¹ A D`, column-major.
+    pub fn matrix(&self) -> &[f64] {
+        self.b.as_slice()
+    }
+
+    /// The diagonal of `D`.
+    pub fn scale(&self) -> &[f64] {
+        &self.scale
+    }
+
+    /// `‖B‖₁`.
+    pub fn norm(&self) -> f64 {
+        self.norm
+    }
+
     /// `e^{Aτ}`.
     pub fn exp(&self, tau: f64) -> DMatrix<f64> {
         self.exp_with_product(tau, false).0

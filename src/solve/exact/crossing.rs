@@ -160,52 +160,7 @@ pub fn first_crossing(
                 g: g_right,
                 slope: d_right * width,
             };
-            // Root first, then the proof that it is the first: on a falling start the crossing
-            // the root search finds is the first one when the guard provably stays >= 0 before
-            // it (the cheap Taylor bound on [0, root], whose right end is a guard value >= 0).
-            // The usual event interval needs no enclosure or bisection then.
-            let verified = match curvature {
-                Some(c) if g_right < 0.0 && d_left < 0.0 => {
-                    let (after, at_root) = newton_on_series(&series, start, end, tol, stats);
-                    (at_root.g >= 0.0 && taylor_lower_bound(start, at_root, -c) >= 0.0)
-                        .then_some(after)
-                }
-                _ => None,
-            };
-            let found = verified.or_else(|| {
-                // Otherwise the rigorous search: enclosures and bisection, left half first,
-                // then Brent on its bracket (the bracket holds one crossing, but an end at the
-                // rounding level of the guard can look like another: Brent's bisection steps
-                // do not settle there, where a Newton iteration may).
-                let mut guard = GuardOnInterval::new(&series, curvature);
-                // Both ends' slopes from the series (they agree with the rows' up to rounding).
-                let start = Point {
-                    slope: series.slope_sigma(0.0),
-                    ..start
-                };
-                let end = Point {
-                    slope: series.slope_sigma(1.0),
-                    ..end
-                };
-                let bracket = guard.first_crossing(start, end);
-                stats.guard_evals += guard.evals;
-                bracket.map(|(lo, hi)| {
-                    let mut evals = 0u64;
-                    let (_, after) = brent_bracket(
-                        |s| {
-                            evals += 1;
-                            series.value(s)
-                        },
-                        lo.at * width,
-                        hi.at * width,
-                        lo.g,
-                        hi.g,
-                        tol,
-                    );
-                    stats.guard_evals += evals;
-                    after
-                })
-            });
+            let found = crossing_on_series(&series, start, end, curvature, tol, stats);
             if let Some(after) = found {
                 if best.is_none_or(|(s_best, _)| after < s_best) {
                     best = Some((after, i));
@@ -224,6 +179,66 @@ pub fn first_crossing(
         std::mem::swap(&mut ws.z_left, &mut ws.z_right);
         k += 1;
     }
+}
+
+/// The first crossing of one guard on one interval of width `series.width()` (`σ ∈ [0, 1]`),
+/// given its series, its ends `start` (value clamped to `>= 0`) and `end` (slopes in `σ`
+/// units) and a curvature bound `C ≥ |d²g/dσ²|` if known: `τ` just past the crossing (from
+/// the interval's start, in s), or `None` when the guard stays `>= 0`.
+///
+/// Root first, then the proof that it is the first: on a falling start the crossing the root
+/// search finds is the first one when the guard provably stays `>= 0` before it (the cheap
+/// Taylor bound on `[0, root]`, whose right end is a guard value `>= 0`). The usual event
+/// interval needs no enclosure or bisection then. Otherwise the rigorous search: enclosures
+/// and bisection, left half first, then Brent on its bracket (the bracket holds one crossing,
+/// but an end at the rounding level of the guard can look like another: Brent's bisection
+/// steps do not settle there, where a Newton iteration may).
+pub(super) fn crossing_on_series(
+    series: &GuardSeries,
+    start: Point,
+    end: Point,
+    curvature: Option<f64>,
+    tol: f64,
+    stats: &mut SolverStats,
+) -> Option<f64> {
+    let width = series.width();
+    let verified = match curvature {
+        Some(c) if end.g < 0.0 && start.slope < 0.0 => {
+            let (after, at_root) = newton_on_series(series, start, end, tol, stats);
+            (at_root.g >= 0.0 && taylor_lower_bound(start, at_root, -c) >= 0.0).then_some(after)
+        }
+        _ => None,
+    };
+    verified.or_else(|| {
+        let mut guard = GuardOnInterval::new(series, curvature);
+        // Both ends' slopes from the series (they agree with the given ones up to rounding).
+        let start = Point {
+            slope: series.slope_sigma(0.0),
+            ..start
+        };
+        let end = Point {
+            slope: series.slope_sigma(1.0),
+            ..end
+        };
+        let bracket = guard.first_crossing(start, end);
+        stats.guard_evals += guard.evals;
+        bracket.map(|(lo, hi)| {
+            let mut evals = 0u64;
+            let (_, after) = brent_bracket(
+                |s| {
+                    evals += 1;
+                    series.value(s)
+                },
+                lo.at * width,
+                hi.at * width,
+                lo.g,
+                hi.g,
+                tol,
+            );
+            stats.guard_evals += evals;
+            after
+        })
+    })
 }
 
 /// The tolerance of an event time in the segment of duration `tau` from `t`: a few ulps of

@@ -367,7 +367,7 @@ pub struct GuardSeries<'a> {
 }
 
 impl<'a> GuardSeries<'a> {
-    const MAX_TERMS: usize = 60;
+    pub const MAX_TERMS: usize = 60;
     const STORAGE: usize = (Self::MAX_TERMS + 1).next_multiple_of(4);
 
     /// `g(s) = Σ d_k σ^k`, `σ = s / width`.
@@ -458,6 +458,20 @@ impl<'a> GuardSeries<'a> {
             series.fallback = Some((rows.row(0), a, z));
         }
         series
+    }
+
+    /// The series `g(s) = Σ d_k σ^k`, `σ = s / width`, of coefficients `d_k` already in `σ`
+    /// units (the guard row applied to the Taylor terms of the state:
+    /// [`super::series_segment`]); at most [`GuardSeries::MAX_TERMS`] of them.
+    pub fn from_coefficients(d: &[f64], width: f64) -> GuardSeries<'static> {
+        let mut coefficients = [0.0; Self::STORAGE];
+        coefficients[..d.len()].copy_from_slice(d);
+        GuardSeries {
+            coefficients,
+            len: d.len(),
+            width,
+            fallback: None,
+        }
     }
 
     /// The interval's width (`σ = s / width`).
@@ -584,7 +598,7 @@ pub fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// `a·b` in four interleaved partial sums: the compiler cannot reorder a floating-point sum,
 /// and one running sum is latency-bound (the derivative rows of a new mode of a large train
 /// are ~60 of these per component).
-fn dot_in_lanes(a: &[f64], b: &[f64]) -> f64 {
+pub fn dot_in_lanes(a: &[f64], b: &[f64]) -> f64 {
     let mut lanes = [0.0f64; 4];
     let (a4, b4) = (a.chunks_exact(4), b.chunks_exact(4));
     let tail: f64 = a4
