@@ -198,10 +198,15 @@ impl Hasher for ModeKeyHasher {
 #[derive(Default)]
 struct ModeCache {
     modes: Vec<ModeTransitions>,
-    /// The key of each mode in `modes`.
-    keys: Vec<ModeKey>,
-    /// Positions in `modes` by key hash (a bucket holds the rare hash collisions).
-    index: HashMap<u64, Vec<usize>, BuildHasherDefault<ModeKeyHasher>>,
+    /// The keys of the modes in one allocation: mode `p`'s words and then its last word's
+    /// capacity end at `key_ends[p]` (a lookup of a train's thousands of modes touches one
+    /// line of keys rather than a separate allocation per key).
+    key_words: Vec<u64>,
+    key_ends: Vec<u32>,
+    /// The first position in `modes` by key hash; the rare others of the same hash follow
+    /// through `same_hash_next` (`u32::MAX`: none).
+    index: HashMap<u64, u32, BuildHasherDefault<ModeKeyHasher>>,
+    same_hash_next: Vec<u32>,
     /// Direct-mapped `(hash + 1, position)` by `hash mod RECENT`: a periodic orbit cycles
     /// through a few modes, and a segment then finds its mode without a map lookup (`0`:
     /// empty; the key itself is compared before a hit is used).
@@ -216,6 +221,9 @@ struct ModeCache {
     bytes: usize,
     /// Modes built since the last recount.
     since_recount: u32,
+    /// The system's bound of the fastest rate of any mode ([`PiecewiseLti::max_frequency`],
+    /// a property of the parameter set), asked once per cache.
+    max_rate: Option<f64>,
     /// Estimated heap bytes of the modes promoted to the full path.
     promoted_bytes: usize,
     /// The budget in bytes ([`ModeCache::MEMORY_BUDGET`]; smaller in tests).
@@ -238,7 +246,9 @@ impl ModeCache {
     /// 64-mesh chain (128 modes of 390 states, ~6 MB each) must stay cached together, or its
     /// recurring sequences are rebuilt every period.
     const MIN_MODES: usize = 256;
-    /// New modes between two exact recounts of the bytes.
+    /// New modes between two exact recounts of the bytes, at least (and a quarter of the
+    /// cached modes: a recount visits every mode, so a cache of thousands of modes recounts
+    /// in proportion to its size, O(1) per build).
     const RECOUNT_EVERY: u32 = 64;
     const RECENT: usize = 16;
     /// Segments with guards a mode takes by its series ([`series_segment`]) before the full
@@ -263,7 +273,9 @@ impl ModeCache {
         // (No recount without a new mode since the last: the composite walk asks on every
         // segment while the cache is over its budget.)
         if self.since_recount > 0
-            && (self.bytes > self.budget() || self.since_recount >= Self::RECOUNT_EVERY)
+            && (self.bytes > self.budget()
+                || self.since_recount as usize
+                    >= (self.modes.len() / 4).max(Self::RECOUNT_EVERY as usize))
         {
             self.recount();
         }
@@ -285,14 +297,27 @@ impl ModeCache {
         &mut self.modes[position]
     }
 
+    /// Whether mode `position` has the key in `scratch`.
+    fn has_scratch_key(&self, position: usize) -> bool {
+        let start = match position {
+            0 => 0,
+            p => self.key_ends[p - 1] as usize,
+        };
+        let stored = &self.key_words[start..self.key_ends[position] as usize];
+        let (capacity, words) = stored.split_last().expect("a key has its capacity");
+        *words == *self.scratch.words() && *capacity == self.scratch.capacity
+    }
+
     /// The position in `modes` of the mode whose key is in `scratch`, if cached.
     fn find_scratch(&self) -> Option<usize> {
-        self.index.get(&self.scratch.hash()).and_then(|bucket| {
-            bucket
-                .iter()
-                .copied()
-                .find(|&p| self.keys[p] == self.scratch)
-        })
+        let mut position = *self.index.get(&self.scratch.hash())?;
+        while position != u32::MAX {
+            if self.has_scratch_key(position as usize) {
+                return Some(position as usize);
+            }
+            position = self.same_hash_next[position as usize];
+        }
+        None
     }
 
     /// The position of the current mode of `sys` in `modes`, built on first use.
@@ -302,7 +327,7 @@ impl ModeCache {
         let hash = self.scratch.hash();
         let slot = (hash % Self::RECENT as u64) as usize;
         let (tag, position) = self.recent[slot];
-        if tag == hash.wrapping_add(1) && self.keys[position] == self.scratch {
+        if tag == hash.wrapping_add(1) && self.has_scratch_key(position) {
             return position;
         }
         let position = match self.find_scratch() {
@@ -313,13 +338,18 @@ impl ModeCache {
                     self.clears += 1;
                 }
                 self.builds += 1;
-                let mode = Self::build(sys);
+                let rate = *self.max_rate.get_or_insert_with(|| sys.max_frequency());
+                let mode = Self::build(sys, rate);
                 self.bytes += mode.heap_bytes();
                 self.since_recount += 1;
                 self.modes.push(mode);
-                self.keys.push(self.scratch.clone());
+                self.key_words.extend_from_slice(self.scratch.words());
+                self.key_words.push(self.scratch.capacity);
+                self.key_ends.push(self.key_words.len() as u32);
                 let position = self.modes.len() - 1;
-                self.index.entry(hash).or_default().push(position);
+                // The new mode heads its hash's chain.
+                let previous = self.index.insert(hash, position as u32);
+                self.same_hash_next.push(previous.unwrap_or(u32::MAX));
                 position
             }
         };
@@ -329,13 +359,16 @@ impl ModeCache {
 
     fn clear(&mut self) {
         self.modes.clear();
-        self.keys.clear();
+        self.key_words.clear();
+        self.key_ends.clear();
         self.index.clear();
+        self.same_hash_next.clear();
         self.recent = Default::default();
         self.composites.clear();
         self.bytes = 0;
         self.since_recount = 0;
         self.promoted_bytes = 0;
+        self.max_rate = None;
     }
 
     /// The position of the current mode of `sys` (built on first use), or `None` if building
@@ -349,12 +382,17 @@ impl ModeCache {
         Some(self.get_position(sys))
     }
 
-    /// The operators of the current mode: `A` from `lti_matrix`, the guard rows.
-    fn build<S: PiecewiseLti>(sys: &S) -> ModeTransitions {
+    /// The operators of the current mode: `A` from `lti_matrix`, the guard rows (`rate`:
+    /// the system's [`PiecewiseLti::max_frequency`]).
+    fn build<S: PiecewiseLti>(sys: &S, rate: f64) -> ModeTransitions {
         let nz = sys.lti_dim();
         let mut a = DMatrix::zeros(nz, nz);
         sys.lti_matrix(&mut a);
-        let mut mode = ModeTransitions::new(a, sys.max_frequency());
+        let mut mode = ModeTransitions::new(a, rate);
+        if sys.guard_count() == 0 {
+            // No guards, no series search: the full path (bins, composite products) at once.
+            mode.promote();
+        }
         let mut w = vec![0.0; nz];
         mode.guard_rows = (0..sys.guard_count())
             .map(|i| {
@@ -670,15 +708,21 @@ impl ExactPropagator {
                 // `docs/scaling.md`). Sensitivities need the full path's transition matrices.
                 mode.meetings = mode.meetings.saturating_add(1);
                 let series_ok = self.sensitivity.is_none() && series_segment::applies(mode);
-                if !mode.promoted
+                if !mode.promoted()
                     && (!series_ok
                         || (mode.meetings > ModeCache::PROMOTE_AFTER
                             && self.modes.promoted_bytes < ModeCache::PROMOTED_BUDGET))
                 {
-                    mode.promoted = true;
+                    mode.promote();
                     self.modes.promoted_bytes += mode.full_bytes_estimate();
                 }
-                let by_series = !mode.promoted;
+                // On a promoted mode, a segment of one sub-step whose duration does not recur
+                // still goes by the series: the full path would apply it without a bin
+                // (sample steps and a series of its own) after its sampled search.
+                let by_series = series_ok
+                    && (!mode.promoted()
+                        || (mode.balanced().norm() * tau <= series_segment::THETA_MAX
+                            && !mode.duration_recurs(tau)));
                 let mut event_state_ready = false;
                 // A recurring segment is decided by an earlier one of its mode; otherwise
                 // guards the model proves positive for the whole mode need no root function

@@ -34,6 +34,47 @@ pub struct BalancedMatrix {
     scale: Vec<f64>,
     /// `‖B‖₁`, for the remainder bound of [`BalancedMatrix::exp_times`].
     norm: f64,
+    /// `B` by rows, its non-zeros only, when they are few enough to pay
+    /// ([`BalancedMatrix::times`]).
+    sparse: Option<SparseRows>,
+}
+
+/// A matrix by rows, non-zeros only (compressed sparse rows).
+#[derive(Clone)]
+struct SparseRows {
+    /// Row `i`'s entries are `[starts[i], starts[i + 1])`.
+    starts: Vec<u32>,
+    columns: Vec<u32>,
+    values: Vec<f64>,
+}
+
+impl SparseRows {
+    /// The rows of `b` if at most a third of its entries are non-zero (a gear mode: the
+    /// identity block, and mass-coupled stiffness and damping rows of a few gears each).
+    fn of(b: &DMatrix<f64>) -> Option<SparseRows> {
+        let n = b.nrows();
+        let nonzeros = b.iter().filter(|v| **v != 0.0).count();
+        if n < 8 || 3 * nonzeros > n * n {
+            return None;
+        }
+        let mut rows = SparseRows {
+            starts: Vec::with_capacity(n + 1),
+            columns: Vec::with_capacity(nonzeros),
+            values: Vec::with_capacity(nonzeros),
+        };
+        rows.starts.push(0);
+        for i in 0..n {
+            for j in 0..n {
+                let v = b[(i, j)];
+                if v != 0.0 {
+                    rows.columns.push(j as u32);
+                    rows.values.push(v);
+                }
+            }
+            rows.starts.push(rows.columns.len() as u32);
+        }
+        Some(rows)
+    }
 }
 
 impl BalancedMatrix {
@@ -45,7 +86,12 @@ impl BalancedMatrix {
             // Nothing to balance; the exponential is non-finite and the caller detects the
             // non-finite state.
             let norm = f64::INFINITY;
-            return BalancedMatrix { b, scale, norm };
+            return BalancedMatrix {
+                b,
+                scale,
+                norm,
+                sparse: None,
+            };
         }
         // LAPACK gebal converges in a few sweeps; the cap only guards against cycling.
         for _sweep in 0..32 {
@@ -95,12 +141,39 @@ impl BalancedMatrix {
         let norm = (0..n)
             .map(|j| b.column(j).iter().map(|x| x.abs()).sum::<f64>())
             .fold(0.0, f64::max);
-        BalancedMatrix { b, scale, norm }
+        let sparse = SparseRows::of(&b);
+        BalancedMatrix {
+            b,
+            scale,
+            norm,
+            sparse,
+        }
     }
 
-    /// `B = D⁻¹ A D`, column-major.
-    pub fn matrix(&self) -> &[f64] {
-        self.b.as_slice()
+    /// `out = B u`. With few non-zeros by rows, each row's products in ascending column
+    /// order, as the dense product sums them (the skipped terms are exact zeros), so the
+    /// result is the same; otherwise the dense product.
+    pub fn times(&self, u: &[f64], out: &mut [f64]) {
+        match &self.sparse {
+            Some(rows) => {
+                for (i, o) in out.iter_mut().enumerate() {
+                    let range = rows.starts[i] as usize..rows.starts[i + 1] as usize;
+                    let mut sum = 0.0;
+                    for (&j, &v) in rows.columns[range.clone()].iter().zip(&rows.values[range]) {
+                        sum += v * u[j as usize];
+                    }
+                    *o = sum;
+                }
+            }
+            None => super::transition::mat_vec(self.b.as_slice(), u, out),
+        }
+    }
+
+    /// Heap bytes of the sparse rows (the dense matrix is counted by the mode).
+    pub fn sparse_bytes(&self) -> usize {
+        self.sparse.as_ref().map_or(0, |r| {
+            r.starts.capacity() * 4 + r.columns.capacity() * 4 + r.values.capacity() * 8
+        })
     }
 
     /// The diagonal of `D`.

@@ -30,10 +30,11 @@
 //! last bit; which one a segment takes depends only on how often its mode was met since the
 //! cache was last cleared, so a restored run repeats it ([`super::ExactPropagator`]).
 
+use super::balanced::BalancedMatrix;
 use super::crossing::{crossing_on_series, root_tolerance, Crossing};
 use super::enclosure::{taylor_lower_bound, Point};
 use super::guard_series::{dot_in_lanes, GuardSeries};
-use super::transition::{mat_vec, ModeTransitions};
+use super::transition::ModeTransitions;
 use crate::solve::SolverStats;
 
 /// Largest `θ = ‖B‖₁ w` of one sub-step: about the guard sample step of a built mode
@@ -46,8 +47,6 @@ pub const THETA_MAX: f64 = 2.0;
 pub struct SeriesWorkspace {
     /// The balanced Taylor terms `u_k` of the current sub-step, `k`-th at `[k n, (k+1) n)`.
     terms: Vec<f64>,
-    /// Per guard its row times `D`, `i`-th at `[i n, (i+1) n)`.
-    rows: Vec<f64>,
     /// One guard's coefficients `d_k`.
     coefficients: Vec<f64>,
     /// Per state component `Σ_{k≥1} |u_k|` of the current sub-step.
@@ -84,23 +83,15 @@ pub fn first_crossing_by_series(
     excluded: u64,
 ) -> Option<Crossing> {
     let balanced = mode.balanced();
-    let (b, scale, norm) = (balanced.matrix(), balanced.scale(), balanced.norm());
+    let (scale, norm) = (balanced.scale(), balanced.norm());
     let n = z.len();
     let m = mode.guard_rows.len();
     let max_terms = GuardSeries::MAX_TERMS;
     ws.terms.resize((max_terms + 1) * n, 0.0);
-    ws.rows.resize(m * n, 0.0);
+
     ws.coefficients.resize(max_terms + 1, 0.0);
     ws.travel.resize(n, 0.0);
-    for (i, rows) in mode.guard_rows.iter().enumerate() {
-        for ((r, &c), &d) in ws.rows[i * n..(i + 1) * n]
-            .iter_mut()
-            .zip(rows.row(0))
-            .zip(scale)
-        {
-            *r = c * d;
-        }
-    }
+    let rows = mode.balanced_guard_rows();
     // The balanced state at the sub-step's start.
     for ((u, &x), &d) in ws.terms[..n].iter_mut().zip(z).zip(scale) {
         *u = x / d;
@@ -115,7 +106,8 @@ pub fn first_crossing_by_series(
     loop {
         let last = left + width_max >= tau;
         let w = if last { tau - left } else { width_max };
-        let count = taylor_terms(b, norm * w, w, n, &mut ws.terms);
+        let count = taylor_terms(balanced, norm * w, w, n, &mut ws.terms);
+
         // Step 2 for every guard at once, before any coefficient beyond `d_0`:
         // `Σ_{k≥1} |d_k| ≤ |c_i ∘ D| · Σ_{k≥1} |u_k|`.
         ws.travel.fill(0.0);
@@ -129,7 +121,7 @@ pub fn first_crossing_by_series(
             if i < 64 && excluded & (1 << i) != 0 {
                 continue;
             }
-            let row = &ws.rows[i * n..(i + 1) * n];
+            let row = &rows[i * n..(i + 1) * n];
             let d0 = dot_in_lanes(row, &ws.terms[..n]);
             stats.guard_evals += 1;
             if d0 > 0.0 {
@@ -209,26 +201,32 @@ pub fn first_crossing_by_series(
     }
 }
 
-/// Fills `terms[k n..(k+1) n]` with `u_k = (B w)^k u_0 / k!` from `u_0` in `terms[..n]`,
-/// until the rigorous tail bound is below `2⁻⁵⁴ ‖u_0‖₁` (`θ = ‖B‖₁ w`); returns the number
-/// of terms.
-fn taylor_terms(b: &[f64], theta: f64, w: f64, n: usize, terms: &mut [f64]) -> usize {
+/// Fills `terms[k n..(k+1) n]` with `u_k = (B w)^k u_0 / k!` from `u_0` in `terms[..n]`
+/// until the rigorous bound of the remaining terms is below `2⁻⁵⁴ ‖u_0‖₁`; returns the number
+/// of terms. With `θ = ‖B‖₁ w`, `‖u_{k+j}‖₁ ≤ ‖u_k‖₁ θ^j k!/(k+j)!`, so the terms after `u_k`
+/// sum to at most `‖u_k‖₁ (θ/(k+1)) / (1 − θ/(k+2))` (for `θ < k + 2`): the bound from the
+/// last term itself rather than from `θ^k/k! ‖u_0‖₁`, which saves the terms a state near its
+/// mode's equilibrium does not need (the constant forcing component does not grow).
+fn taylor_terms(b: &BalancedMatrix, theta: f64, w: f64, n: usize, terms: &mut [f64]) -> usize {
     let max_terms = terms.len() / n - 1;
-    // θ^(k−1)/(k−1)!, the bound of term k − 1 relative to ‖u_0‖₁.
-    let mut bound = 1.0;
-    for k in 1..=max_terms {
-        let tail = bound * theta / k as f64 / (1.0 - theta / (k + 1) as f64);
-        if theta < (k + 1) as f64 && tail <= f64::EPSILON / 4.0 {
-            return k;
+    let one_norm = |u: &[f64]| u.iter().map(|x| x.abs()).sum::<f64>();
+    let goal = f64::EPSILON / 4.0 * one_norm(&terms[..n]);
+    let mut last_norm = one_norm(&terms[..n]);
+    for k in 0..max_terms {
+        let (next_ratio, after_ratio) = (theta / (k + 1) as f64, theta / (k + 2) as f64);
+        // `u_1` always: the guards' slopes decide a start on the surface (a series of `u_0`
+        // alone would read a rising guard as flat).
+        if k >= 1 && after_ratio < 1.0 && last_norm * next_ratio / (1.0 - after_ratio) <= goal {
+            return k + 1;
         }
-        let (done, rest) = terms.split_at_mut(k * n);
+        let (done, rest) = terms.split_at_mut((k + 1) * n);
         let next = &mut rest[..n];
-        mat_vec(b, &done[(k - 1) * n..], next);
-        let factor = w / k as f64;
+        b.times(&done[k * n..], next);
+        let factor = w / (k + 1) as f64;
         for x in next.iter_mut() {
             *x *= factor;
         }
-        bound *= theta / k as f64;
+        last_norm = one_norm(next);
     }
     // θ ≤ THETA_MAX settles within ~25 terms; reaching the storage means a non-finite θ
     // (then the state is non-finite and the caller reports it).

@@ -164,6 +164,9 @@ pub struct ModeTransitions {
     sample_increment: OnceCell<DMatrix<f64>>,
     /// Per guard index: its row and derivative rows along this mode's flow (crossing search).
     pub guard_rows: Vec<DerivativeRows>,
+    /// The guard rows times `D` (balanced), guard `i` at `[i n, (i+1) n)`: the series search's
+    /// rows in one allocation, built at its first use.
+    balanced_guard_rows: OnceCell<Vec<f64>>,
     /// The mode's equilibrium directions (for the guards' curvature bounds).
     pub null_space: NullSpace,
     /// The duration bins.
@@ -180,9 +183,10 @@ pub struct ModeTransitions {
     taylor_next: Vec<f64>,
     /// Segments with guards that met this mode since it was built.
     pub meetings: u32,
-    /// Whether a segment took the full path (sample steps, bins, curvature bounds) in this
-    /// mode; until then its segments go by their series ([`super::series_segment`]).
-    pub promoted: bool,
+    /// Whether the mode is on the full path (sample steps, bins, curvature bounds,
+    /// references; [`ModeTransitions::promote`]); until then its segments go by their series
+    /// ([`super::series_segment`]).
+    promoted: bool,
     /// Bins built (tests).
     #[cfg(test)]
     builds: usize,
@@ -196,9 +200,10 @@ impl ModeTransitions {
         let n = a.nrows();
         // The system's bound may miss a fast real eigenvalue (heavy damping): the diagonals
         // of A and A² estimate it from the mode itself.
-        let a2 = &a * &a;
+        // (A²)_ii = Σ_k a_ik a_ki: the diagonal alone, n² flops instead of the product's n³.
+        let a2_diagonal = |i: usize| (0..n).map(|k| a[(i, k)] * a[(k, i)]).sum::<f64>();
         let own = (0..n)
-            .map(|i| a[(i, i)].abs().max(a2[(i, i)].abs().sqrt()))
+            .map(|i| a[(i, i)].abs().max(a2_diagonal(i).abs().sqrt()))
             .fold(0.0, f64::max);
         let rate = rate.max(own);
         let sample_step = if rate > 0.0 && rate.is_finite() {
@@ -214,6 +219,7 @@ impl ModeTransitions {
             sample_step,
             sample_increment: OnceCell::new(),
             guard_rows: Vec::new(),
+            balanced_guard_rows: OnceCell::new(),
             null_space: NullSpace::default(),
             // The bins' memory is taken with the mode's first bin, all of it at once, so a
             // mode whose bins fill late in a run does not grow the run's memory then.
@@ -239,6 +245,11 @@ impl ModeTransitions {
         let n = self.a.nrows();
         // `a`, the balanced matrix and the sample increment.
         (2 + usize::from(self.sample_increment.get().is_some())) * n * n * 8
+            + self.balanced.sparse_bytes()
+            + self
+                .balanced_guard_rows
+                .get()
+                .map_or(0, |r| r.capacity() * 8)
             + self.recurring.heap_bytes()
             + self
                 .guard_rows
@@ -288,10 +299,50 @@ impl ModeTransitions {
         self.next_seen_slot = 0;
     }
 
+    /// Whether the mode is on the full path.
+    pub fn promoted(&self) -> bool {
+        self.promoted
+    }
+
+    /// Puts the mode on the full path and takes its memory now, all of it: the sample step
+    /// and every duration bin (so the run's memory does not grow later when the bins fill;
+    /// `tests/simulate_memory.rs`). Its guard rows and references grow with use, within
+    /// their own bounds.
+    pub fn promote(&mut self) {
+        if self.promoted {
+            return;
+        }
+        self.promoted = true;
+        self.sample_increment();
+        if self.recurring.matrices.is_empty() {
+            // (A mode whose guards were all excluded so far has applied bins already.)
+            let n = self.a.nrows();
+            let slots = Bins::slots(n);
+            self.recurring.centres.reserve_exact(slots);
+            self.recurring.matrices = vec![0.0; slots * n * n];
+        }
+    }
+
     /// Heap bytes the full path will give this mode (its sample step, bins and guard rows).
     pub fn full_bytes_estimate(&self) -> usize {
         let n = self.a.nrows();
         3 * n * n * 8 + Bins::slots(n) * n * n * 8 + self.guard_rows.len() * 24 * n * 8
+    }
+
+    /// Whether the full path would apply a segment of `tau` with one mat-vec: its duration
+    /// bin is built, or this is the duration's second meeting (which builds it). Records the
+    /// meeting, as [`ModeTransitions::apply`] does.
+    pub fn duration_recurs(&mut self, tau: f64) -> bool {
+        if self.find_bin(tau).is_some() {
+            return true;
+        }
+        let centre_bits = Self::centre_bits(tau);
+        if self.seen.contains(&centre_bits) {
+            return true;
+        }
+        self.seen[self.next_seen_slot] = centre_bits;
+        self.next_seen_slot = (self.next_seen_slot + 1) % SEEN_CAPACITY;
+        false
     }
 
     /// `e^{A h} − I` (one guard sample step), column-major.
@@ -307,6 +358,17 @@ impl ModeTransitions {
     /// `A` balanced (the series propagation of [`super::series_segment`]).
     pub fn balanced(&self) -> &BalancedMatrix {
         &self.balanced
+    }
+
+    /// Every guard row times `D`, guard `i` at `[i n, (i+1) n)`.
+    pub fn balanced_guard_rows(&self) -> &[f64] {
+        self.balanced_guard_rows.get_or_init(|| {
+            let scale = self.balanced.scale();
+            self.guard_rows
+                .iter()
+                .flat_map(|rows| rows.row(0).iter().zip(scale).map(|(c, d)| c * d))
+                .collect()
+        })
     }
 
     /// `out = e^{A·tau} z`, the transition of one segment.
@@ -462,6 +524,8 @@ impl ModeTransitions {
         let bins = &mut self.recurring;
         let slots = Bins::slots(n);
         if bins.matrices.is_empty() {
+            // A mode used before its promotion: its guards all excluded by the model, or
+            // the unit tests of the transitions alone.
             bins.centres.reserve_exact(slots);
             bins.matrices = vec![0.0; slots * n * n];
         }
@@ -570,6 +634,26 @@ mod tests {
             RECURRING_CAPACITY + 1,
             "a long duration gets its bin"
         );
+    }
+
+    /// A mode that applied bins before its promotion (its guards all excluded) keeps them:
+    /// promotion takes the bins' memory only if it was not taken yet.
+    #[test]
+    fn promotion_keeps_the_bins_built_before_it() {
+        let a = forced_oscillator();
+        let mut mode = ModeTransitions::new(a.clone(), (3.5e8f64).sqrt());
+        let z0 = [1e-5, 0.2, 0.6, 0.8, 1.0];
+        let tau = 3.1e-5;
+        let (mut before, mut after) = ([0.0; 5], [0.0; 5]);
+        for _ in 0..2 {
+            mode.apply(tau, &z0, &mut before);
+        }
+        assert_eq!(mode.built_bins(), 1, "the second meeting built the bin");
+        mode.promote();
+        mode.apply(tau, &z0, &mut after);
+        assert_eq!(after, before, "the same bin after the promotion");
+        let reference = (&a * tau).exp() * nalgebra::DVector::from_column_slice(&z0);
+        assert!(max_rel_diff(&after, reference.as_slice()) < 1e-13);
     }
 
     impl ModeTransitions {
