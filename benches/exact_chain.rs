@@ -60,11 +60,13 @@ fn time_rk(
     if std::env::var("CHAIN_DEBUG").is_ok() {
         eprintln!(
             "composites (builds, hits): {:?}, modes (builds, cache clears): {:?}, per period: \
-             guard evals {:.1}, recurring segments {:.2}, exclusions {:.2}, stops {:.2}",
+             guard evals {:.1}, recurring segments {:.2}, series segments {:.2}, exclusions \
+             {:.2}, stops {:.2}",
             sim.composite_counts(),
             sim.mode_counts(),
             st.guard_evals as f64 / periods,
             st.recurring_segments as f64 / periods,
+            st.series_segments as f64 / periods,
             st.guard_exclusions as f64 / periods,
             st.stops as f64 / periods,
         );

@@ -10,7 +10,11 @@
 //! transition operators are built once ([`transition`]); a segment whose duration recurs
 //! (stiffness pieces, output intervals, event times of a periodic steady state) costs one
 //! fused mat-vec of a duration-binned `e^{Aτ}`; a matrix exponential is paid only for a
-//! duration not met before. Nothing is allocated per segment.
+//! duration met twice. Nothing is allocated per segment. A mode met few times (a train with
+//! contact loss meets thousands of contact combinations, each rarely) is not built at all:
+//! its segments go by the Taylor series of the state and their guards' polynomials
+//! ([`series_segment`]); it is promoted to the full path once it recurs, within a memory
+//! budget that keeps the promoted modes' data near the core ([`ModeCache`]).
 //!
 //! Events inside a segment ([`crossing`]): guards a model can prove positive for the whole
 //! segment ([`PiecewiseLti::guard_excluded`], e.g. an energy bound) are not evaluated at all;
@@ -251,14 +255,12 @@ impl ModeCache {
     /// in proportion to its size, O(1) per build).
     const RECOUNT_EVERY: u32 = 64;
     const RECENT: usize = 16;
-    /// Segments with guards a mode takes by its series ([`series_segment`]) before the full
-    /// path (sample steps, duration bins, curvature bounds, recurring references), whose
-    /// build costs about as much as ~20 series segments, may take over.
-    const PROMOTE_AFTER: u32 = 8;
-    /// Estimated heap bytes of the modes on the full path at most (about the L2 caches of a
-    /// small machine): beyond them the full path's data is cold when its mode returns, and a
-    /// segment by the series is cheaper (the 8-mesh chain with contact loss: 4096 modes;
-    /// `docs/scaling.md`).
+    /// Estimated heap bytes of the modes with guards on the full path (sample steps, duration
+    /// bins, curvature bounds, recurring references) at most, about the L2 caches of a small
+    /// machine: beyond them the full path's data is cold when its mode returns and its build
+    /// is paid for few segments, and a segment by the series ([`series_segment`]) is cheaper
+    /// (the 8-mesh chain with contact loss: 4096 modes; `docs/scaling.md`). A scene with few
+    /// modes (the single pair, the idler) promotes every mode at its first meeting.
     const PROMOTED_BUDGET: usize = 4 << 20;
 
     /// Whether building one more mode would exceed the budget (recounted exactly first when
@@ -702,33 +704,24 @@ impl ExactPropagator {
 
             let guards = sys.guard_count();
             if guards > 0 {
-                // A mode goes by its series until it has recurred enough to pay for the full
-                // path's build, and only while the promoted modes' data stays near the core
-                // ([`ModeCache::PROMOTE_AFTER`], [`ModeCache::PROMOTED_BUDGET`],
-                // `docs/scaling.md`). Sensitivities need the full path's transition matrices.
-                mode.meetings = mode.meetings.saturating_add(1);
+                // A mode is promoted to the full path at its first meeting while the promoted
+                // modes' data stays near the core ([`ModeCache::PROMOTED_BUDGET`]); beyond that
+                // its segments go by their series (`docs/scaling.md`). Sensitivities need the
+                // full path's transition matrices.
                 let series_ok = self.sensitivity.is_none() && series_segment::applies(mode);
                 if !mode.promoted()
-                    && (!series_ok
-                        || (mode.meetings > ModeCache::PROMOTE_AFTER
-                            && self.modes.promoted_bytes < ModeCache::PROMOTED_BUDGET))
+                    && (!series_ok || self.modes.promoted_bytes < ModeCache::PROMOTED_BUDGET)
                 {
                     mode.promote();
                     self.modes.promoted_bytes += mode.full_bytes_estimate();
                 }
-                // On a promoted mode, a segment of one sub-step whose duration does not recur
-                // still goes by the series: the full path would apply it without a bin
-                // (sample steps and a series of its own) after its sampled search.
-                let by_series = series_ok
-                    && (!mode.promoted()
-                        || (mode.balanced().norm() * tau <= series_segment::THETA_MAX
-                            && !mode.duration_recurs(tau)));
+                let by_series = !mode.promoted();
                 let mut event_state_ready = false;
                 // A recurring segment is decided by an earlier one of its mode; otherwise
                 // guards the model proves positive for the whole mode need no root function
                 // and the others get the full search, which may keep the segment as a
                 // reference.
-                let decided = if self.recurrences && !by_series {
+                let decided = if self.recurrences && mode.promoted() {
                     let tol = root_tolerance(self.t, tau);
                     mode.decide_recurring(&self.z, tau, tol, &mut self.stats)
                 } else {
@@ -767,6 +760,7 @@ impl ExactPropagator {
                                 });
                             }
                             samples_left -= samples;
+                            self.stats.series_segments += 1;
                             let found = series_segment::first_crossing_by_series(
                                 mode,
                                 &mut self.series,

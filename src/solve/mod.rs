@@ -102,6 +102,9 @@ pub struct SolverStats {
     /// Segments whose crossing (or its absence) an earlier segment of the same mode decided
     /// (exact propagator, recurring segments of a periodic orbit).
     pub recurring_segments: u64,
+    /// Segments propagated by their Taylor series, their mode not built (exact propagator,
+    /// a mode beyond the memory budget of the full path: `exact::series_segment`).
+    pub series_segments: u64,
 }
 
 impl SolverStats {
@@ -115,6 +118,7 @@ impl SolverStats {
         self.stops += other.stops;
         self.guard_exclusions += other.guard_exclusions;
         self.recurring_segments += other.recurring_segments;
+        self.series_segments += other.series_segments;
     }
 }
 

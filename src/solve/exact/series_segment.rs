@@ -27,8 +27,10 @@
 //!
 //! The state at a crossing or at the sub-step's end is `D Σ u_k σ^k`. Both paths are exact to
 //! rounding (the bins' Padé exponential and this series agree to a few ulps), not to the same
-//! last bit; which one a segment takes depends only on how often its mode was met since the
-//! cache was last cleared, so a restored run repeats it ([`super::ExactPropagator`]).
+//! last bit. Which one a mode takes is fixed at its first meeting: the full path while the
+//! modes promoted to it stay within their memory budget (`ModeCache::PROMOTED_BUDGET`), the
+//! series beyond; so it depends only on the order in which modes were met since the cache was
+//! last cleared, and a restored run repeats it ([`super::ExactPropagator`]).
 
 use super::balanced::BalancedMatrix;
 use super::crossing::{crossing_on_series, root_tolerance, Crossing};

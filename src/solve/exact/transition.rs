@@ -10,7 +10,9 @@
 //! applied to the vector by cached sample steps `e^{Ah}` and a Taylor series with a rigorous
 //! tail bound (a few tens of mat-vecs instead of `n_z³`·~20 flops); only its second meeting
 //! pays the Padé exponential of its bin. The guard sample step `e^{Ah} − I` is cached per mode
-//! too.
+//! too. Both are built only once the mode is promoted to this full path
+//! ([`ModeTransitions::promote`]); before, its segments go by their series
+//! ([`super::series_segment`]).
 //!
 //! Every result is a function of the mode, the duration and the durations met before in the
 //! mode (which of the two paths, both exact to rounding); a state capture drops that history
@@ -123,9 +125,10 @@ fn mat_vec_fixed<const N: usize>(m: &[f64], z: &[f64], out: &mut [f64]) {
 }
 
 /// The duration bins of one mode: the centre bits of `τ_c` per slot, and the matrices
-/// `Φ = e^{A τ_c}` of every slot in one allocation of [`Bins::slots`] slots, made with the
-/// mode. A mode's memory is then fixed when it is built: the bins a long run fills do not
-/// take more memory than those of a short one (`tests/simulate_memory.rs`).
+/// `Φ = e^{A τ_c}` of every slot in one allocation of [`Bins::slots`] slots, made when the
+/// mode is promoted to the full path ([`ModeTransitions::promote`]). A mode's memory is then
+/// fixed at its build and at its promotion: the bins a long run fills do not take more memory
+/// than those of a short one (`tests/simulate_memory.rs`).
 #[derive(Default)]
 struct Bins {
     centres: Vec<u64>,
@@ -181,8 +184,6 @@ pub struct ModeTransitions {
     taylor: TaylorWork,
     taylor_state: Vec<f64>,
     taylor_next: Vec<f64>,
-    /// Segments with guards that met this mode since it was built.
-    pub meetings: u32,
     /// Whether the mode is on the full path (sample steps, bins, curvature bounds,
     /// references; [`ModeTransitions::promote`]); until then its segments go by their series
     /// ([`super::series_segment`]).
@@ -221,8 +222,7 @@ impl ModeTransitions {
             guard_rows: Vec::new(),
             balanced_guard_rows: OnceCell::new(),
             null_space: NullSpace::default(),
-            // The bins' memory is taken with the mode's first bin, all of it at once, so a
-            // mode whose bins fill late in a run does not grow the run's memory then.
+            // The bins' memory is taken at the promotion, all of it at once.
             recurring: Bins::default(),
             next_recurring_slot: 0,
             recent_bins: [0; 2],
@@ -231,7 +231,6 @@ impl ModeTransitions {
             taylor: TaylorWork::default(),
             taylor_state: Vec::new(),
             taylor_next: Vec::new(),
-            meetings: 0,
             promoted: false,
             #[cfg(test)]
             builds: 0,
@@ -327,22 +326,6 @@ impl ModeTransitions {
     pub fn full_bytes_estimate(&self) -> usize {
         let n = self.a.nrows();
         3 * n * n * 8 + Bins::slots(n) * n * n * 8 + self.guard_rows.len() * 24 * n * 8
-    }
-
-    /// Whether the full path would apply a segment of `tau` with one mat-vec: its duration
-    /// bin is built, or this is the duration's second meeting (which builds it). Records the
-    /// meeting, as [`ModeTransitions::apply`] does.
-    pub fn duration_recurs(&mut self, tau: f64) -> bool {
-        if self.find_bin(tau).is_some() {
-            return true;
-        }
-        let centre_bits = Self::centre_bits(tau);
-        if self.seen.contains(&centre_bits) {
-            return true;
-        }
-        self.seen[self.next_seen_slot] = centre_bits;
-        self.next_seen_slot = (self.next_seen_slot + 1) % SEEN_CAPACITY;
-        false
     }
 
     /// `e^{A h} − I` (one guard sample step), column-major.
