@@ -10,9 +10,6 @@
 //! `cargo bench --bench exact_chain [-- quick]` — each line is the median of alternated rounds
 //! after a warm-up run; ratios are only meaningful within one run (the machine is shared).
 
-use std::time::Instant;
-
-use geardyn::model::train::TrainSimulation;
 use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec, TrainScene};
 use geardyn::scene::MethodChoice;
 use geardyn::solve::rk::Method as Rk;
@@ -20,6 +17,8 @@ use geardyn::solve::rk::Method as Rk;
 #[path = "common/stats.rs"]
 mod stats;
 use stats::median;
+#[path = "common/whole_run.rs"]
+mod whole_run;
 
 fn time(
     scene: &TrainScene,
@@ -30,7 +29,8 @@ fn time(
     time_rk(scene, method, Rk::Dop853, composites, periods)
 }
 
-/// [`time`] with the RK method `rk` (used when `method` is [`MethodChoice::Rk`]).
+/// [`time`] with the RK method `rk` (used when `method` is [`MethodChoice::Rk`]): µs per
+/// period, segments and events per period (NaN if the run failed).
 fn time_rk(
     scene: &TrainScene,
     method: MethodChoice,
@@ -38,24 +38,10 @@ fn time_rk(
     composites: bool,
     periods: f64,
 ) -> (f64, f64, f64) {
-    let mut scene = scene.clone();
-    scene.solver.method = method;
-    scene.solver.rtol = 1e-9;
-    scene.solver.atol = 1e-15;
-    scene.solver.rk_method = rk;
-    let f1 = scene.mesh_frequency(0, scene.operating.input_speed);
-    let t_end = periods / f1;
-    let mut sim = TrainSimulation::new(&scene).unwrap();
-    sim.use_composites(composites);
-    let start = Instant::now();
-    let steps = periods as usize;
-    for k in 1..=steps {
-        if let Err(e) = sim.advance_to(k as f64 * t_end / steps as f64) {
-            eprintln!("{}: {e}", scene.name);
-            return (f64::NAN, f64::NAN, f64::NAN);
-        }
-    }
-    let us = start.elapsed().as_secs_f64() / periods * 1e6;
+    let Some((us, sim)) = whole_run::micros_per_period(scene, method, rk, composites, periods)
+    else {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    };
     let st = sim.stats();
     if std::env::var("CHAIN_DEBUG").is_ok() {
         eprintln!(

@@ -74,40 +74,50 @@ unsafe fn mat_vec_blocked_avx(m: &[f64], z: &[f64], out: &mut [f64]) {
     mat_vec_blocked(m, z, out);
 }
 
+/// Rows up to which [`mat_vec_blocked`] holds blocks of rows in registers; a larger matrix
+/// is streamed column by column instead (a block's pass reads every column at a stride of
+/// `8n` bytes, one page per column or so once `n` is in the hundreds).
+const BLOCKED_ROWS: usize = 64;
+
 #[inline(always)]
 fn mat_vec_blocked(m: &[f64], z: &[f64], out: &mut [f64]) {
     let n = z.len();
-    {
-        {
-            // Blocks of eight rows, their sums held in registers across the columns (a
-            // running `out` would be loaded and stored once per column).
-            let m = &m[..n * n];
-            let mut row = 0;
-            while row + 8 <= n {
-                let mut acc = [0.0f64; 8];
-                for (j, &zj) in z.iter().enumerate() {
-                    let column: &[f64; 8] = m[j * n + row..j * n + row + 8]
-                        .try_into()
-                        .expect("eight rows");
-                    for (a, &mij) in acc.iter_mut().zip(column) {
-                        *a += mij * zj;
-                    }
-                }
-                out[row..row + 8].copy_from_slice(&acc);
-                row += 8;
-            }
-            if row < n {
-                let rest = n - row;
-                let mut acc = [0.0f64; 8];
-                for (j, &zj) in z.iter().enumerate() {
-                    let column = &m[j * n + row..j * n + n];
-                    for (a, &mij) in acc[..rest].iter_mut().zip(column) {
-                        *a += mij * zj;
-                    }
-                }
-                out[row..].copy_from_slice(&acc[..rest]);
+    let m = &m[..n * n];
+    if n > BLOCKED_ROWS {
+        out.fill(0.0);
+        for (column, &zj) in m.chunks_exact(n).zip(z) {
+            for (o, &mij) in out.iter_mut().zip(column) {
+                *o += mij * zj;
             }
         }
+        return;
+    }
+    // Blocks of eight rows, their sums held in registers across the columns (a running `out`
+    // would be loaded and stored once per column).
+    let mut row = 0;
+    while row + 8 <= n {
+        let mut acc = [0.0f64; 8];
+        for (j, &zj) in z.iter().enumerate() {
+            let column: &[f64; 8] = m[j * n + row..j * n + row + 8]
+                .try_into()
+                .expect("eight rows");
+            for (a, &mij) in acc.iter_mut().zip(column) {
+                *a += mij * zj;
+            }
+        }
+        out[row..row + 8].copy_from_slice(&acc);
+        row += 8;
+    }
+    if row < n {
+        let rest = n - row;
+        let mut acc = [0.0f64; 8];
+        for (j, &zj) in z.iter().enumerate() {
+            let column = &m[j * n + row..j * n + n];
+            for (a, &mij) in acc[..rest].iter_mut().zip(column) {
+                *a += mij * zj;
+            }
+        }
+        out[row..].copy_from_slice(&acc[..rest]);
     }
 }
 
