@@ -47,6 +47,8 @@ mod expm;
 mod guard_series;
 mod recurrence;
 mod series_segment;
+#[cfg(test)]
+mod test_support;
 pub mod transition;
 
 use std::cell::Cell;
@@ -479,6 +481,26 @@ pub const MAX_WORK_PER_ADVANCE: f64 = 1_073_741_824.0;
 /// pays for.
 pub const SEGMENTS_PER_STOP: u64 = 16;
 
+/// Refuses a search of `samples` guard samples (or their equivalent in series sub-steps) when
+/// the advance has fewer left ([`MAX_GUARD_SAMPLES_PER_ADVANCE`]).
+fn check_samples(
+    samples: f64,
+    samples_left: f64,
+    t: f64,
+    tau: f64,
+    mode: &ModeTransitions,
+) -> Result<(), SolveError> {
+    if samples > samples_left {
+        return Err(SolveError::TooManyGuardSamples {
+            t,
+            tau,
+            samples,
+            rate: std::f64::consts::FRAC_PI_2 / mode.sample_step,
+        });
+    }
+    Ok(())
+}
+
 /// The segment budget of one advance: a base for the events between stops (`MAX_WORK /
 /// n_z³`), plus [`SEGMENTS_PER_STOP`] per stop landed on.
 #[derive(Debug, Clone, Copy)]
@@ -751,14 +773,7 @@ impl ExactPropagator {
                             None
                         } else if by_series {
                             let samples = series_segment::work_in_samples(mode, tau);
-                            if samples > samples_left {
-                                return Err(SolveError::TooManyGuardSamples {
-                                    t: self.t,
-                                    tau,
-                                    samples,
-                                    rate: std::f64::consts::FRAC_PI_2 / mode.sample_step,
-                                });
-                            }
+                            check_samples(samples, samples_left, self.t, tau, mode)?;
                             samples_left -= samples;
                             self.stats.series_segments += 1;
                             let found = series_segment::first_crossing_by_series(
@@ -778,14 +793,7 @@ impl ExactPropagator {
                             found
                         } else {
                             let samples = (tau / mode.sample_step).ceil();
-                            if samples > samples_left {
-                                return Err(SolveError::TooManyGuardSamples {
-                                    t: self.t,
-                                    tau,
-                                    samples,
-                                    rate: std::f64::consts::FRAC_PI_2 / mode.sample_step,
-                                });
-                            }
+                            check_samples(samples, samples_left, self.t, tau, mode)?;
                             let found = first_crossing(
                                 mode,
                                 &mut self.crossing,

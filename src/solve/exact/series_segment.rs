@@ -248,24 +248,16 @@ fn sum_terms(terms: &[f64], n: usize, sigma: f64, out: &mut [f64]) {
 
 #[cfg(test)]
 mod tests {
-    use nalgebra::{DMatrix, DVector};
+    use nalgebra::DVector;
 
+    use super::super::test_support::{forced_oscillator, max_rel_diff};
     use super::*;
     use crate::solve::exact::guard_series::DerivativeRows;
 
-    /// The forced, damped mesh of `transition.rs`'s tests (`z = [x, v, cos, sin, 1]`,
-    /// static deflection 7.4e-6 m) with guards on the deflection.
+    /// The forced, damped mesh of the transitions' tests (static deflection 7.4e-6 m) with
+    /// guards on the deflection.
     fn mode(guards: &[[f64; 5]]) -> ModeTransitions {
-        let (k, c, w) = (3.5e8, 2.0e3, 1.8e4);
-        #[rustfmt::skip]
-        let a = DMatrix::from_row_slice(5, 5, &[
-            0.0, 1.0, 0.0, 0.0, 0.0,
-            -k, -c, 350.0, -20.0, 2.6e3,
-            0.0, 0.0, 0.0, -w, 0.0,
-            0.0, 0.0, w, 0.0, 0.0,
-            0.0, 0.0, 0.0, 0.0, 0.0,
-        ]);
-        let mut mode = ModeTransitions::new(a, k.sqrt());
+        let mut mode = ModeTransitions::new(forced_oscillator(), 3.5e8f64.sqrt());
         mode.guard_rows = guards
             .iter()
             .map(|g| {
@@ -313,14 +305,6 @@ mod tests {
         None
     }
 
-    fn relative(x: &[f64], y: &[f64]) -> f64 {
-        let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        x.iter()
-            .zip(y)
-            .map(|(a, b)| (a - b).abs() / scale)
-            .fold(0.0, f64::max)
-    }
-
     /// Segments from a fraction of the fastest period to ten of them (one to many sub-steps):
     /// the state at the segment's end, or the crossing time and the state there, against the
     /// `expm` oracle. Guard 0 is contact loss (`x > 2e-6 m`), guard 1 a wall never reached
@@ -349,7 +333,7 @@ mod tests {
                     (None, None) => {
                         free += 1;
                         let reference = expm_state(&mode, &z, tau);
-                        let err = relative(&out, reference.as_slice());
+                        let err = max_rel_diff(&out, reference.as_slice());
                         assert!(err < 1e-13, "v {v}, {periods} periods: state {err:e}");
                         worst_state = worst_state.max(err);
                     }
@@ -359,7 +343,7 @@ mod tests {
                         assert!((c.tau - t).abs() < 1e-14, "v {v}: {} against {t}", c.tau);
                         worst_time = worst_time.max((c.tau - t).abs() / period);
                         let reference = expm_state(&mode, &z, c.tau);
-                        let err = relative(&out, reference.as_slice());
+                        let err = max_rel_diff(&out, reference.as_slice());
                         assert!(err < 1e-13, "v {v}, {periods} periods: event state {err:e}");
                         worst_state = worst_state.max(err);
                         assert!(out[0] - 2e-6 < 1e-18, "just past the surface: {}", out[0]);
@@ -403,7 +387,7 @@ mod tests {
         );
         assert!(found.is_none(), "guard 0 excluded");
         let reference = expm_state(&mode, &separating, tau);
-        assert!(relative(&out, reference.as_slice()) < 1e-13);
+        assert!(max_rel_diff(&out, reference.as_slice()) < 1e-13);
         let on_surface_falling = [2e-6, -0.1, 0.6, 0.8, 1.0];
         let found = first_crossing_by_series(
             &mode,

@@ -539,29 +539,8 @@ impl ModeTransitions {
 
 #[cfg(test)]
 mod tests {
+    use super::super::test_support::{forced_oscillator, max_rel_diff};
     use super::*;
-
-    /// A damped oscillator with harmonic and constant forcing in the augmented form.
-    fn forced_oscillator() -> DMatrix<f64> {
-        let (k, c, w) = (3.5e8, 2.0e3, 1.8e4);
-        #[rustfmt::skip]
-        let a = DMatrix::from_row_slice(5, 5, &[
-            0.0, 1.0, 0.0, 0.0, 0.0,
-            -k, -c, 350.0, -20.0, 2.6e3,
-            0.0, 0.0, 0.0, -w, 0.0,
-            0.0, 0.0, w, 0.0, 0.0,
-            0.0, 0.0, 0.0, 0.0, 0.0,
-        ]);
-        a
-    }
-
-    fn max_rel_diff(x: &[f64], y: &[f64]) -> f64 {
-        let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        x.iter()
-            .zip(y)
-            .map(|(a, b)| (a - b).abs() / scale)
-            .fold(0.0, f64::max)
-    }
 
     /// The transitions against nalgebra's `expm` of the full step (an independent
     /// evaluation: Padé scaling-and-squaring of the unbalanced `Aτ` itself): at a duration's
