@@ -13,8 +13,9 @@
 //! duration met twice. Nothing is allocated per segment. A mode met few times (a train with
 //! contact loss meets thousands of contact combinations, each rarely) is not built at all:
 //! its segments go by the Taylor series of the state and their guards' polynomials
-//! ([`series_segment`]); it is promoted to the full path once it recurs, within a memory
-//! budget that keeps the promoted modes' data near the core ([`ModeCache`]).
+//! ([`series_segment`]). A mode takes the full path from its first meeting while the modes
+//! on it stay within a memory budget that keeps their data near the core ([`ModeCache`]), so a
+//! scene with few modes never takes the series.
 //!
 //! Events inside a segment ([`crossing`]): guards a model can prove positive for the whole
 //! segment ([`PiecewiseLti::guard_excluded`], e.g. an energy bound) are not evaluated at all;
@@ -222,8 +223,7 @@ struct ModeCache {
     /// Products of recurring sequences of guard-free segments of these modes.
     composites: Composites,
     /// Heap bytes of the cached modes: exact after [`ModeCache::recount`], plus each new
-    /// mode's bytes at its build (its guard rows and references grow after it; its bins are
-    /// allocated with it).
+    /// mode's bytes at its build (its bins, guard rows and references grow after it).
     bytes: usize,
     /// Modes built since the last recount.
     since_recount: u32,
@@ -787,7 +787,8 @@ impl ExactPropagator {
                                 excluded,
                             );
                             if found.is_some() {
-                                self.z_event.copy_from_slice(&self.z_next);
+                                // `z_next` holds the event state.
+                                std::mem::swap(&mut self.z_event, &mut self.z_next);
                                 event_state_ready = true;
                             }
                             found

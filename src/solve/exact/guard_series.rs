@@ -367,7 +367,7 @@ pub struct GuardSeries<'a> {
 }
 
 impl<'a> GuardSeries<'a> {
-    pub const MAX_TERMS: usize = 60;
+    const MAX_TERMS: usize = 60;
     const STORAGE: usize = (Self::MAX_TERMS + 1).next_multiple_of(4);
 
     /// `g(s) = Σ d_k σ^k`, `σ = s / width`.

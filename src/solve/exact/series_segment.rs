@@ -12,12 +12,10 @@
 //! polynomials come with it: one dot per guard and term.
 //!
 //! Per sub-step of width `w` (`θ = ‖B‖₁ w ≤` [`THETA_MAX`], `B = D⁻¹ A D` the mode's balanced
-//! matrix): `u_0 = D⁻¹ z`, `u_k = B u_{k−1} w / k`, summed until the rigorous bound of the
-//! remaining terms, `θ^K/K! / (1 − θ/(K+1)) ‖u_0‖₁`, is below `2⁻⁵⁴ ‖u_0‖₁` (the truncated
-//! Taylor `expmv` of Al-Mohy & Higham 2011, SIAM J. Sci. Comput. 33(2), with one step and the
-//! exact tail bound, as [`super::balanced::BalancedMatrix::exp_times`]). Guard `i`'s
-//! polynomial in `σ = s / w ∈ [0, 1]` is `p(σ) = Σ d_k σ^k`, `d_k = (c_i ∘ D) · u_k`, and is
-//! decided as in [`super::crossing`], cheapest proof first:
+//! matrix): `u_0 = D⁻¹ z`, `u_k = B u_{k−1} w / k`, until the rigorous bound of the remaining
+//! terms from the last one, `‖u_K‖₁ (θ/(K+1)) / (1 − θ/(K+2))`, is below `2⁻⁵⁴ ‖u_0‖₁`
+//! ([`super::balanced::BalancedMatrix::taylor_terms`]). Guard `i`'s polynomial in `σ = s / w ∈ [0, 1]` is `p(σ) = Σ d_k σ^k`,
+//! `d_k = (c_i ∘ D) · u_k`, and is decided as in [`super::crossing`], cheapest proof first:
 //!
 //! 1. a start on the surface that is not rising is a crossing at once;
 //! 2. `d_0 − Σ_{k≥1} |d_k| ≥ 0` (the guard cannot move further than its terms): free;
@@ -32,7 +30,7 @@
 //! series beyond; so it depends only on the order in which modes were met since the cache was
 //! last cleared, and a restored run repeats it ([`super::ExactPropagator`]).
 
-use super::balanced::BalancedMatrix;
+use super::balanced::{sum_terms, MAX_TERMS};
 use super::crossing::{crossing_on_series, root_tolerance, Crossing};
 use super::enclosure::{taylor_lower_bound, Point};
 use super::guard_series::{dot_in_lanes, GuardSeries};
@@ -88,10 +86,9 @@ pub fn first_crossing_by_series(
     let (scale, norm) = (balanced.scale(), balanced.norm());
     let n = z.len();
     let m = mode.guard_rows.len();
-    let max_terms = GuardSeries::MAX_TERMS;
-    ws.terms.resize((max_terms + 1) * n, 0.0);
+    ws.terms.resize((MAX_TERMS + 1) * n, 0.0);
 
-    ws.coefficients.resize(max_terms + 1, 0.0);
+    ws.coefficients.resize(MAX_TERMS + 1, 0.0);
     ws.travel.resize(n, 0.0);
     let rows = mode.balanced_guard_rows();
     // The balanced state at the sub-step's start.
@@ -108,7 +105,7 @@ pub fn first_crossing_by_series(
     loop {
         let last = left + width_max >= tau;
         let w = if last { tau - left } else { width_max };
-        let count = taylor_terms(balanced, norm * w, w, n, &mut ws.terms);
+        let count = balanced.taylor_terms(w, n, &mut ws.terms);
 
         // Step 2 for every guard at once, before any coefficient beyond `d_0`:
         // `Σ_{k≥1} |d_k| ≤ |c_i ∘ D| · Σ_{k≥1} |u_k|`.
@@ -200,49 +197,6 @@ pub fn first_crossing_by_series(
         }
         ws.terms[..n].copy_from_slice(z_out);
         left += w;
-    }
-}
-
-/// Fills `terms[k n..(k+1) n]` with `u_k = (B w)^k u_0 / k!` from `u_0` in `terms[..n]`
-/// until the rigorous bound of the remaining terms is below `2⁻⁵⁴ ‖u_0‖₁`; returns the number
-/// of terms. With `θ = ‖B‖₁ w`, `‖u_{k+j}‖₁ ≤ ‖u_k‖₁ θ^j k!/(k+j)!`, so the terms after `u_k`
-/// sum to at most `‖u_k‖₁ (θ/(k+1)) / (1 − θ/(k+2))` (for `θ < k + 2`): the bound from the
-/// last term itself rather than from `θ^k/k! ‖u_0‖₁`, which saves the terms a state near its
-/// mode's equilibrium does not need (the constant forcing component does not grow).
-fn taylor_terms(b: &BalancedMatrix, theta: f64, w: f64, n: usize, terms: &mut [f64]) -> usize {
-    let max_terms = terms.len() / n - 1;
-    let one_norm = |u: &[f64]| u.iter().map(|x| x.abs()).sum::<f64>();
-    let goal = f64::EPSILON / 4.0 * one_norm(&terms[..n]);
-    let mut last_norm = one_norm(&terms[..n]);
-    for k in 0..max_terms {
-        let (next_ratio, after_ratio) = (theta / (k + 1) as f64, theta / (k + 2) as f64);
-        // `u_1` always: the guards' slopes decide a start on the surface (a series of `u_0`
-        // alone would read a rising guard as flat).
-        if k >= 1 && after_ratio < 1.0 && last_norm * next_ratio / (1.0 - after_ratio) <= goal {
-            return k + 1;
-        }
-        let (done, rest) = terms.split_at_mut((k + 1) * n);
-        let next = &mut rest[..n];
-        b.times(&done[k * n..], next);
-        let factor = w / (k + 1) as f64;
-        for x in next.iter_mut() {
-            *x *= factor;
-        }
-        last_norm = one_norm(next);
-    }
-    // θ ≤ THETA_MAX settles within ~25 terms; reaching the storage means a non-finite θ
-    // (then the state is non-finite and the caller reports it).
-    max_terms + 1
-}
-
-/// `out = Σ_k u_k σ^k` (Horner from the last term).
-fn sum_terms(terms: &[f64], n: usize, sigma: f64, out: &mut [f64]) {
-    let count = terms.len() / n;
-    out.copy_from_slice(&terms[(count - 1) * n..]);
-    for k in (0..count - 1).rev() {
-        for (o, &u) in out.iter_mut().zip(&terms[k * n..(k + 1) * n]) {
-            *o = *o * sigma + u;
-        }
     }
 }
 

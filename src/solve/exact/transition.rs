@@ -157,6 +157,15 @@ impl Bins {
         &self.matrices[slot * nn..(slot + 1) * nn]
     }
 
+    /// Takes the memory of every slot of a mode of `n` states, once.
+    fn allocate(&mut self, n: usize) {
+        if self.matrices.is_empty() {
+            let slots = Self::slots(n);
+            self.centres.reserve_exact(slots);
+            self.matrices = vec![0.0; slots * n * n];
+        }
+    }
+
     /// Heap bytes held.
     fn heap_bytes(&self) -> usize {
         self.centres.capacity() * 8 + self.matrices.capacity() * 8
@@ -323,13 +332,8 @@ impl ModeTransitions {
         }
         self.promoted = true;
         self.sample_increment();
-        if self.recurring.matrices.is_empty() {
-            // (A mode whose guards were all excluded so far has applied bins already.)
-            let n = self.a.nrows();
-            let slots = Bins::slots(n);
-            self.recurring.centres.reserve_exact(slots);
-            self.recurring.matrices = vec![0.0; slots * n * n];
-        }
+        // (A mode whose guards were all excluded so far has applied bins already.)
+        self.recurring.allocate(self.a.nrows());
     }
 
     /// Heap bytes the full path will give this mode (its sample step, bins and guard rows).
@@ -510,18 +514,13 @@ impl ModeTransitions {
             self.builds += 1;
         }
         let centre_bits = Self::centre_bits(tau);
-        let (phi, _) = self
-            .balanced
-            .exp_with_product(f64::from_bits(centre_bits), false);
+        let phi = self.balanced.exp(f64::from_bits(centre_bits));
         let n = self.a.nrows();
         let bins = &mut self.recurring;
         let slots = Bins::slots(n);
-        if bins.matrices.is_empty() {
-            // A mode used before its promotion: its guards all excluded by the model, or
-            // the unit tests of the transitions alone.
-            bins.centres.reserve_exact(slots);
-            bins.matrices = vec![0.0; slots * n * n];
-        }
+        // A mode used before its promotion: its guards all excluded by the model, or the
+        // unit tests of the transitions alone.
+        bins.allocate(n);
         let slot = if bins.centres.len() < slots {
             bins.centres.push(centre_bits);
             bins.centres.len() - 1
