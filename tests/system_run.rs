@@ -413,6 +413,53 @@ fn a_refused_step_keeps_the_rows_before_and_names_element_time_and_status() {
     }
 }
 
+/// An element that ends the simulation itself (fmi2Discard with fmi2Terminated = true) ends
+/// the run normally (issue 39): exit 0, the rows up to the last communication point, one note
+/// naming the element, its last successful time and its reason; every instance terminated.
+#[test]
+fn an_element_that_ends_the_simulation_is_a_normal_end() {
+    let text = ssd(
+        &[
+            lin("A", &[("u", 1.0)]),
+            lin("B", &[("refuse_at", 0.35), ("refuse_how", 4.0)]),
+        ],
+        &[("A", "x", "B", "u", None)],
+        1.0,
+        "",
+    );
+    let sys = system("ended", &text, CAPS);
+    let out = sys.parent().unwrap().join("o.csv");
+    for alg in ["jacobi", "gauss-seidel"] {
+        let o = geardyn(&[
+            &"run",
+            &sys,
+            &"--out",
+            &out,
+            &"--output-interval",
+            &"0.1",
+            &"--algorithm",
+            &alg,
+            &"--fmi-trace",
+        ]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(0), "{e}");
+        let notes: Vec<&str> = e.lines().filter(|l| !l.starts_with("[FMI]")).collect();
+        assert_eq!(
+            notes,
+            ["note: element \"B\" ended the simulation itself at t = 0.30000000000000004 in the step from t = 0.30000000000000004 (fmi2Terminated after fmi2DoStep returned fmi2Discard: end of the test drive (refuse_at=0.35)); the rows end at t = 0.30000000000000004"],
+            "{alg}: {e}"
+        );
+        assert_eq!(
+            e.matches("fmi2Terminate() -> fmi2OK").count(),
+            2,
+            "{alg}: {e}"
+        );
+        let (_, rows) = read_rows(&out);
+        assert_eq!(rows.len(), 4, "{alg}");
+        assert_eq!(rows[3][0], 0.30000000000000004);
+    }
+}
+
 /// The system runs under the crash supervision of single runs: an FMU that aborts ends the
 /// run with a message naming the signal, the call and the time; the rows before are kept.
 #[test]
@@ -773,4 +820,64 @@ fn unconnected_instances_equal_single_fmu_runs_byte_for_byte() {
         assert_eq!(a.len(), 501);
         assert_eq!(a, b, "instance g{}", k + 1);
     }
+}
+
+/// Issue 32, "a master that says why": a step our own FMU refuses (a pinion speed whose next
+/// step spans more mesh periods than a step may take) is reported at the default log level
+/// with the FMU's logged reason, once, in the one error line: for the FMU alone and in a
+/// system. (Before, the reason showed only with `--log-level all`.)
+#[test]
+fn a_refused_step_names_the_fmus_reason_at_the_default_log_level() {
+    let d = scratch("spur_reason");
+    let sys = d.join("sys");
+    std::fs::create_dir_all(sys.join("resources")).unwrap();
+    std::fs::copy(spur_pair(), sys.join("resources/spur_pair.fmu")).unwrap();
+    let why = "operating.pinion_speed = 1e11 rad/s";
+    let o = geardyn(&[
+        &"run",
+        &sys.join("resources/spur_pair.fmu"),
+        &"--out",
+        &d.join("single.csv"),
+        &"--start",
+        &"operating.pinion_speed=1e11",
+        &"--output-interval",
+        &"2e-4",
+        &"--stop-time",
+        &"4e-4",
+    ]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert_eq!(e.lines().count(), 1, "{e}");
+    assert!(
+        e.starts_with("error: the FMU refused the step from t = 0 with h = 0.0002: fmi2DoStep returned fmi2Discard: ")
+            && e.matches(why).count() == 1
+            && e.contains("more than the 1.048576e6 one step may take")
+            && !e.contains("terminate")
+            && !e.contains("logged no reason"),
+        "{e}"
+    );
+    let comp = Comp {
+        name: "g1",
+        source: "resources/spur_pair.fmu",
+        connectors: vec![],
+        params: vec![("operating.pinion_speed", "1e11".into())],
+    };
+    std::fs::write(sys.join("SystemStructure.ssd"), ssd(&[comp], &[], 4e-4, "")).unwrap();
+    let o = geardyn(&[
+        &"run",
+        &sys,
+        &"--out",
+        &d.join("sys.csv"),
+        &"--output-interval",
+        &"2e-4",
+    ]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert_eq!(e.lines().count(), 1, "{e}");
+    assert!(
+        e.starts_with("error: element \"g1\" refused the step from t = 0 with h = 0.0002 (fmi2Discard): fmi2DoStep returned fmi2Discard: ")
+            && e.matches(why).count() == 1
+            && e.contains("; last successful time 0"),
+        "{e}"
+    );
 }

@@ -369,7 +369,7 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
             return Err(StepFailure::Discard {
                 reason: format!("the integrator stopped: {e}"),
                 reached: start_time + reached,
-                terminate: true,
+                terminate: false,
             });
         }
         let fail = |e: String| StepFailure::Error(format!("end of the input ramp: {e}"));

@@ -23,13 +23,17 @@ use std::process::ExitCode;
 #[derive(clap::Args, Debug)]
 #[command(after_help = "\
 Exit status:
-  0  the run reached the stop time
-  1  anything else: a bad argument or FMU, fmi2Discard (also with fmi2Terminated = true: the
-     FMU asked to end the run early; a row at its last successful time is kept), fmi2Error or
-     fmi2Fatal, the FMU crashing or ending its process, SIGINT, SIGTERM or SIGHUP (also
-     how a blocked FMU is ended: the first asks the run to stop at its next step, a second
-     one or 0.9 s without reaching it kills the FMU's process). The rows computed until
-     then are kept, and the message says what happened, in which FMI call and at which time.
+  0  the run reached the stop time, or an FMU ended the simulation itself before it
+     (fmi2Discard with fmi2Terminated = true, FMI 2.0.5 4.2.3, as fmpy does): the rows end
+     at its last successful time (in a system: at the last communication point), and a
+     note gives its reason
+  1  anything else: a bad argument or FMU, a refused step (fmi2Discard without
+     fmi2Terminated, fmi2Error, fmi2Fatal), a system whose state diverges, the FMU
+     crashing or ending its process, SIGINT, SIGTERM or SIGHUP (also how a blocked FMU is
+     ended: the first asks the run to stop at its next step, a second one or 0.9 s without
+     reaching it kills the FMU's process). The rows computed until then are kept, and the
+     message says what happened, in which FMI call, at which time and, in one line, the
+     reason the FMU logged.
 
 Systems (an .ssp archive, a SystemStructure.ssd file or a folder holding one, SSP 1.0): the
 FMUs run in one process with a fixed-step master (--algorithm, --extrapolation); the CSV has

@@ -452,7 +452,7 @@ impl CoSimModel for ElementFmu {
                 return Err(StepFailure::Discard {
                     reason: format!("the integrator stopped: {e}"),
                     reached: start_time + reached,
-                    terminate: true,
+                    terminate: false,
                 });
             }
         }

@@ -20,7 +20,11 @@
 //!   stepped, *interpolated* (u(t) = y(t) with the slope (y(t+h) − y(t))/h, exact for signals
 //!   linear over the step). Both are second-order couplings; the hold is first order.
 //! * A failing call ends the run: the rows up to then are kept, and the message names the
-//!   element, the call, the time and the status.
+//!   element, the call, the time, the status and the reason the FMU logged.
+//! * An element that ends the simulation itself (`fmi2Discard` with `fmi2Terminated = true`,
+//!   FMI 2.0.5 §4.2.3) ends the run normally at the last communication point: the elements
+//!   are at different times within the macro step it ended in, so that step has no row; a
+//!   note names the element, its last successful time and its reason (issue 39).
 
 use super::check::{Link, System};
 use crate::host::csv::Row;
@@ -160,6 +164,45 @@ struct State<'p, 'a> {
 
 fn at(e: &str, t: f64, err: CallError) -> String {
     format!("element \"{e}\" at t = {t}: {err}")
+}
+
+/// Why a macro step did not complete.
+enum StepEnd {
+    Failed(String),
+    /// An element ended the simulation itself: the note that says so.
+    Ended(String),
+}
+
+impl From<String> for StepEnd {
+    fn from(m: String) -> Self {
+        StepEnd::Failed(m)
+    }
+}
+
+/// `fmi2DoStep` of element `e`; a refused step says why, and a step in which the element
+/// ended the simulation (`fmi2Terminated` after `fmi2Discard`) is [`StepEnd::Ended`].
+fn do_step(inst: &mut Instance, name: &str, time: f64, step: f64) -> Result<(), StepEnd> {
+    let Err(err) = inst.do_step(time, step) else {
+        return Ok(());
+    };
+    let mut msg = format!(
+        "element \"{name}\" refused the step from t = {time} with h = {step} ({}): {err}",
+        err.status
+    );
+    if err.status == crate::host::library::Status::Discard {
+        let (terminated, last) = inst.discard_details();
+        if terminated == Some(true) {
+            let end = last.map_or(String::new(), |t| format!(" at t = {t}"));
+            return Err(StepEnd::Ended(format!(
+                "element \"{name}\" ended the simulation itself{end} in the step from t = {time} (fmi2Terminated after {}); the rows end at t = {time}",
+                err.message
+            )));
+        }
+        if let Some(t) = last {
+            msg.push_str(&format!("; last successful time {t}"));
+        }
+    }
+    Err(StepEnd::Failed(msg))
 }
 
 /// Base type of a group of value references read together.
@@ -554,16 +597,11 @@ pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outco
         }
         st.prev.copy_from_slice(&st.cur);
         stepped.iter_mut().for_each(|s| *s = false);
-        let stepping = (|| -> Result<(), String> {
+        let stepping = (|| -> Result<(), StepEnd> {
             for &e in &plan.order {
                 st.set_inputs(e, &mut insts[e], time, step, &stepped)?;
                 insts[e].activity().at(time);
-                insts[e].do_step(time, step).map_err(|err| {
-                    format!(
-                        "element \"{}\" refused the step from t = {time} with h = {step} ({}): {err}",
-                        elements[e].name, err.status
-                    )
-                })?;
+                do_step(&mut insts[e], &elements[e].name, time, step)?;
                 if plan.algorithm == Algorithm::GaussSeidel {
                     st.read(e, &mut insts[e], next, true)?;
                     stepped[e] = true;
@@ -576,9 +614,16 @@ pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outco
             }
             Ok(())
         })();
-        if let Err(m) = stepping {
-            out.failure = Some(m);
-            return out;
+        match stepping {
+            Ok(()) => {}
+            Err(StepEnd::Failed(m)) => {
+                out.failure = Some(m);
+                return out;
+            }
+            Err(StepEnd::Ended(note)) => {
+                out.notes.push(note);
+                break;
+            }
         }
         time = next;
         if let Err(m) = st.record(insts, sink, time) {

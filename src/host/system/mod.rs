@@ -15,6 +15,7 @@
 pub mod check;
 pub mod graph;
 pub mod master;
+pub mod shipped;
 pub mod ssd;
 pub mod units;
 pub mod xml;
@@ -204,10 +205,17 @@ fn load_fmus(opened: &Opened, sys: &ssd::Ssd) -> Result<Fmus, String> {
         let p = source_path(&opened.root, &c.source, opened._temp.is_some())
             .map_err(|e| format!("component \"{}\": {e}", c.name))?;
         if !p.exists() {
-            return Err(format!(
-                "SystemStructure.ssd line {}: component \"{}\": its FMU source=\"{}\" is not in {}",
-                c.line, c.name, c.source, opened.place
-            ));
+            let at = format!(
+                "SystemStructure.ssd line {}: component \"{}\"",
+                c.line, c.name
+            );
+            match shipped::scene_of(&p).filter(|_| opened._temp.is_none()) {
+                Some(scene) => eprintln!("note: {}", shipped::build(&p, &scene).map_err(|e| format!("{at}: {e}"))?),
+                None => return Err(format!(
+                    "{at}: its FMU source=\"{}\" is not in {} (a geardyn FMU is built from its scene with `geardyn fmu build <scene folder> --out <folder>`)",
+                    c.source, opened.place
+                )),
+            }
         }
         let canonical = std::fs::canonicalize(&p).unwrap_or(p.clone());
         if let Some(i) = paths.iter().position(|q| *q == canonical) {
