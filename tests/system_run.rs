@@ -613,7 +613,7 @@ fn bad_systems_are_refused_naming_the_item() {
         &"jacobi",
     ]);
     assert!(
-        stderr(&o).contains("--algorithm and --extrapolation are for systems"),
+        stderr(&o).contains("--algorithm, --extrapolation and --divergence-factor are for systems"),
         "{}",
         stderr(&o)
     );
@@ -880,4 +880,99 @@ fn a_refused_step_names_the_fmus_reason_at_the_default_log_level() {
             && e.contains("; last successful time 0"),
         "{e}"
     );
+}
+
+/// Issue 32, divergence: the oscillator A.x' = k B.x, B.x' = −k A.x (k = 100, h = 0.01) under
+/// Jacobi with a hold is explicit Euler, whose amplitude grows by √(1 + (kh)²) = √2 per step:
+/// 2^(t/2h). The growth factor 1000 between t/2 and t is reached at t/(4h) = log2(1000), i.e.
+/// t = 0.399 s, give or take the factor up to √2 of the sampled components' phase (from
+/// t = 0.379 s); the run must stop there (plus the persistence of 1/64 of the run), naming an
+/// element and its signal, and keep the rows. Controls that grow
+/// like powers of time (t, t²/2, t³/6 in a chain of integrators) or stay bounded
+/// (Gauss–Seidel, symplectic at kh = 1) run to the end.
+#[test]
+fn a_diverging_system_stops_early_naming_the_element_and_the_signal() {
+    let caps = Caps {
+        u_unit: "m/s",
+        x_unit: "m/s",
+        ..CAPS
+    };
+    let text = ssd(
+        &[
+            lin("A", &[("x0", 1.0), ("k", 100.0)]),
+            lin("B", &[("k", -100.0)]),
+        ],
+        &[("A", "x", "B", "u", None), ("B", "x", "A", "u", None)],
+        10.0,
+        "",
+    );
+    let sys = system("diverging", &text, caps);
+    let out = sys.parent().unwrap().join("o.csv");
+    let run = |extra: &[&str]| {
+        let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> =
+            vec![&"run", &sys, &"--out", &out, &"--output-interval", &"0.01"];
+        for e in extra {
+            args.push(e);
+        }
+        geardyn(&args)
+    };
+    let o = run(&["--algorithm", "jacobi", "--extrapolation", "none"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.starts_with("error: the system diverges: element \"")
+            && (e.contains("\"A\" output \"x\"") || e.contains("\"B\" output \"x\""))
+            && e.contains("more than 1000 times the largest m/s signal up to t = "),
+        "{e}"
+    );
+    let rows = read_rows(&out).1;
+    let t_stop = rows.last().unwrap()[0];
+    assert!((0.379..0.45).contains(&t_stop), "stopped at {t_stop}: {e}");
+    // The rows are explicit Euler's: amplitude 2^(n/2) after n steps.
+    let n = rows.len() - 1;
+    let amplitude = rows[n][1].hypot(rows[n][2]);
+    assert!((amplitude / 2f64.powf(n as f64 / 2.0) - 1.0).abs() < 1e-9);
+    // Off: the run goes on (to t = 3 here, amplitude 2^150, still finite).
+    let o = run(&[
+        "--algorithm",
+        "jacobi",
+        "--extrapolation",
+        "none",
+        "--divergence-factor",
+        "0",
+        "--stop-time",
+        "3",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Bounded: Gauss–Seidel with a hold is symplectic Euler, stable at kh = 1.
+    let o = run(&["--algorithm", "gauss-seidel", "--extrapolation", "none"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(read_rows(&out).1.len(), 1001);
+
+    // Powers of time: A.x = t, B.x = t²/2, C.x = t³/6, D.x = t⁴/24 over 10 s (factors 2 to
+    // 16 per doubling of the time; D.x is recorded, not watched) are no divergence.
+    let text = ssd(
+        &[
+            lin("A", &[("u", 1.0)]),
+            lin("B", &[]),
+            lin("C", &[]),
+            lin("D", &[]),
+        ],
+        &[
+            ("A", "x", "B", "u", None),
+            ("B", "x", "C", "u", None),
+            ("C", "x", "D", "u", None),
+        ],
+        10.0,
+        "",
+    );
+    let sys = system("powers", &text, caps);
+    let (_, rows, _) = run_ok(
+        &sys,
+        &out,
+        &["--output-interval", "0.001", "--outputs", "D.x"],
+    );
+    let last = rows.last().unwrap();
+    assert_eq!(last[0], 10.0);
+    assert!((last[4] - 1e4 / 24.0).abs() < 1e-6 * 1e4, "{last:?}");
 }

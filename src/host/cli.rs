@@ -91,6 +91,11 @@ pub struct RunArgs {
     /// where both FMUs can, else held, with a note naming the connection.
     #[arg(long, value_name = "MODE")]
     pub extrapolation: Option<String>,
+    /// Systems: stop when a connected speed, torque or force grows more than this factor
+    /// within the second half of the run so far (faster than any power of time: a diverging
+    /// coupling; docs/systems.md); 0 turns the check off. Default 1000.
+    #[arg(long, value_name = "FACTOR")]
+    pub divergence_factor: Option<f64>,
     /// Report where the time went: the step loop, the part inside the FMU's calls, CSV writing.
     #[arg(long)]
     pub timing: bool,
@@ -273,9 +278,10 @@ pub(crate) fn rows_kept(out: &Option<PathBuf>, (rows, last): (usize, Option<f64>
 /// instead, its pending rows are written here and the message says how it ended. The
 /// temporary folder is removed when `unpacked` is dropped, in every case.
 fn supervised_run(args: &RunArgs) -> Result<u8, String> {
-    if args.algorithm.is_some() || args.extrapolation.is_some() {
+    if args.algorithm.is_some() || args.extrapolation.is_some() || args.divergence_factor.is_some()
+    {
         return Err(format!(
-            "{}: --algorithm and --extrapolation are for systems (.ssp, .ssd or a folder with SystemStructure.ssd), not a single FMU",
+            "{}: --algorithm, --extrapolation and --divergence-factor are for systems (.ssp, .ssd or a folder with SystemStructure.ssd), not a single FMU",
             args.fmu.display()
         ));
     }

@@ -78,6 +78,10 @@ pub struct Plan<'a> {
     pub h: f64,
     /// Every FMU has `canHandleVariableCommunicationStepSize="true"`.
     pub can_vary: bool,
+    /// The ports watched for divergence, with their units ([`super::divergence`]), and the
+    /// growth factor that stops the run (0: off).
+    pub watched: Vec<(usize, String)>,
+    pub divergence_factor: f64,
     pub interrupt: Option<&'a std::sync::atomic::AtomicBool>,
 }
 
@@ -562,6 +566,7 @@ pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outco
         return out;
     }
     out.rows += 1;
+    let mut watch = super::divergence::Watch::new(plan);
     let (h, stop) = (plan.h, plan.stop_time);
     let mut time = t0;
     let mut n_steps: u64 = 0;
@@ -631,6 +636,10 @@ pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outco
             return out;
         }
         out.rows += 1;
+        if let Some(m) = watch.as_mut().and_then(|w| w.check(plan, time, &st.cur)) {
+            out.failure = Some(m);
+            return out;
+        }
         if isclose(time, t0 + (n_steps + 1) as f64 * h) {
             n_steps += 1;
         }

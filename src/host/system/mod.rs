@@ -13,6 +13,7 @@
 //! if an FMU crashes the child, the parent writes the rows computed before and says where.
 
 pub mod check;
+pub mod divergence;
 pub mod graph;
 pub mod master;
 pub mod shipped;
@@ -433,7 +434,16 @@ fn plan<'a>(
             .as_ref()
             .is_some_and(|c| c.can_handle_variable_communication_step_size)
     });
+    let divergence_factor = args.divergence_factor.unwrap_or(DIVERGENCE_FACTOR);
+    if !(divergence_factor == 0.0 || divergence_factor.is_finite() && divergence_factor > 1.0) {
+        return Err(format!(
+            "--divergence-factor {divergence_factor}: must be a finite number > 1, or 0 to turn the check off"
+        ));
+    }
+    let watched = divergence::watched(&ports, &md_of);
     Ok(Plan {
+        watched,
+        divergence_factor,
         system,
         algorithm,
         order,
@@ -450,6 +460,9 @@ fn plan<'a>(
         interrupt: Some(activity.stop_request()),
     })
 }
+
+/// The default growth factor of the divergence check ([`divergence`]).
+pub const DIVERGENCE_FACTOR: f64 = 1000.0;
 
 /// `geardyn run` on a system: the exit code, or the message of a failure.
 pub fn run(args: &RunArgs) -> Result<u8, String> {
