@@ -56,7 +56,16 @@ pub fn build(fmu: &Path, scene: &Path) -> Result<String, String> {
             tidy(out_dir).display()
         )
     };
-    let built = package::find_cdylib().and_then(|lib| package::build_fmu(scene, out_dir, &lib));
+    // The cdylib next to this executable (`cargo run`, target/release), else the checkout's
+    // own build (a `geardyn` installed with `cargo install` has no cdylib beside it).
+    let checkout_lib = out_dir
+        .parent()
+        .and_then(Path::parent)
+        .map(|x| x.join("target/release/libgeardyn.so"))
+        .filter(|p| p.is_file());
+    let built = package::find_cdylib()
+        .or_else(|e| checkout_lib.ok_or(e))
+        .and_then(|lib| package::build_fmu(scene, out_dir, &lib));
     match built {
         Ok(p) if p.file_name() == fmu.file_name() => Ok(format!(
             "{} did not exist: built it from the shipped scene {} (first use; `bash scripts/build-fmus.sh` builds them all)",
