@@ -4,6 +4,7 @@
 //! The propagator logic is the generic [`Driver`] (shared with the drivetrain); this file adds
 //! what is particular to one pair (its `[x, x']` state and fixed output row).
 
+pub mod budget;
 mod driver;
 pub mod stream;
 

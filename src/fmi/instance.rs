@@ -376,6 +376,22 @@ impl Instance {
         if self.hold_outputs {
             self.answer_held_outputs(vrs, out);
         }
+        // Never a non-finite value with fmi2OK (issue 34): a model whose values are not finite
+        // (an element's start state the arithmetic cannot carry) answers fmi2Discard, naming
+        // the variable; the instance's state is unchanged.
+        if let Some(k) = out.iter().take(vrs.len()).position(|x| !x.is_finite()) {
+            let name = self
+                .lookup(vrs[k], VarKind::Real)
+                .map_or_else(|_| format!("vr {}", vrs[k]), |v| format!("'{}'", v.name));
+            self.logger.log(
+                Status::Discard,
+                &format!(
+                    "fmi2GetReal: {name} (vr {}) is {} at t = {:?}: not a usable value",
+                    vrs[k], out[k], self.time
+                ),
+            );
+            return Status::Discard;
+        }
         Status::Ok
     }
 

@@ -123,13 +123,17 @@ pub fn info(args: FmuArg) -> Result<(), String> {
 }
 
 /// `geardyn validate`: the modelDescription checks plus loading the linux64 binary with all
-/// 34 functions. Returns an error (exit 1) when anything is wrong.
+/// 34 functions. Returns an error (exit 1) when anything is wrong. The library is loaded in a
+/// supervised child process, as `geardyn run` runs an FMU (issue 34): its initialisers may
+/// crash, exit or block, and the parent then reports how, and removes the unpacked folder.
 pub fn validate(args: FmuArg) -> Result<(), String> {
+    // Before the temporary folder exists (see `supervised_run`).
+    let supervisor = Supervisor::new()?;
     let (u, md) = open(&args.fmu)?;
     let mut problems = u.zip_problems.clone();
     problems.extend(check(&md));
     if let Some(cs) = &md.co_simulation {
-        if let Err(e) = FmuLibrary::load(u.root(), &cs.model_identifier) {
+        if let Some(e) = supervised_load(&supervisor, u.root(), &cs.model_identifier)? {
             problems.push(e);
         }
     }
@@ -146,6 +150,64 @@ pub fn validate(args: FmuArg) -> Result<(), String> {
         problems.len(),
         if problems.len() == 1 { "" } else { "s" }
     ))
+}
+
+/// Loads the FMU's library with its 34 functions in a forked child; `Some(problem)` when it
+/// cannot be loaded or its process dies while loading it.
+fn supervised_load(
+    supervisor: &Supervisor,
+    root: &Path,
+    model_identifier: &str,
+) -> Result<Option<String>, String> {
+    let shared = SharedActivity::new()?;
+    let activity = shared.get();
+    // The child's load error comes back through a pipe (read after the child has ended).
+    let mut fds = [0 as libc::c_int; 2];
+    // SAFETY: creates a pipe into `fds`.
+    if unsafe { libc::pipe(fds.as_mut_ptr()) } != 0 {
+        return Err(format!(
+            "cannot create a pipe to the process that loads the FMU: {}",
+            std::io::Error::last_os_error()
+        ));
+    }
+    // SAFETY: the two descriptors were just created and are owned here.
+    let (read, write) = unsafe {
+        use std::os::fd::FromRawFd;
+        (
+            std::fs::File::from_raw_fd(fds[0]),
+            std::fs::File::from_raw_fd(fds[1]),
+        )
+    };
+    if let Some(signal) = supervisor.pending_interrupt() {
+        return Err(format!("interrupted by {signal} before the FMU was loaded"));
+    }
+    let end = supervisor.run(activity, || {
+        activity.phase(HostPhase::LoadingLibrary);
+        match FmuLibrary::load(root, model_identifier) {
+            Ok(_) => 0,
+            Err(e) => {
+                use std::io::Write as _;
+                let mut write = &write;
+                let _ = write.write_all(e.as_bytes());
+                1
+            }
+        }
+    })?;
+    drop(write);
+    Ok(match end {
+        ChildEnd::Reported(0) => None,
+        ChildEnd::Reported(_) => {
+            use std::io::Read as _;
+            let mut message = String::new();
+            let _ = (&read).take(1 << 16).read_to_string(&mut message);
+            Some(if message.is_empty() {
+                "the FMU's library could not be loaded".into()
+            } else {
+                message
+            })
+        }
+        ChildEnd::Abnormal(what) => Some(what),
+    })
 }
 
 fn positive(name: &str, v: f64) -> Result<f64, String> {

@@ -471,6 +471,11 @@ pub(super) fn solver(s: &super::spec::SolverSpec) -> Result<SolverSettings> {
         atol: positive("solver.atol", s.atol)?,
         stop_time,
         output_interval,
+        work_budget: s
+            .work_budget
+            .map(|x| crate::simulation::budget::check_limit("solver.work_budget", x))
+            .transpose()
+            .map_err(SceneError)?,
     })
 }
 

@@ -72,6 +72,7 @@ fn unpack_ssp(path: &Path) -> Result<tempfile::TempDir, String> {
             path.display()
         )
     })?;
+    crate::host::archive::refuse_duplicates(&mut zip, path)?;
     let temp = tempfile::Builder::new()
         .prefix("geardyn-ssp-")
         .tempdir()

@@ -324,22 +324,48 @@ impl Assembly {
     }
 }
 
+/// Iterations per matrix dimension allowed to nalgebra's symmetric-eigen and SVD sweeps (they
+/// converge in a few per dimension for finite, representable matrices; entries near the
+/// bottom of the double range made the SVD loop without end, issue 34). A decomposition that
+/// needs more is refused rather than left spinning.
+const ITERATIONS_PER_DIM: usize = 200;
+
 /// Eigen-decomposition of `(K, M)` for symmetric `K` and symmetric positive definite `M`:
 /// eigenvalues `ω²` ascending and `M`-orthonormal vectors (columns).
 pub fn generalized_eigen(k: &DMatrix<f64>, m: &DMatrix<f64>) -> (Vec<f64>, DMatrix<f64>) {
+    try_generalized_eigen(k, m).expect("mass matrix is positive definite")
+}
+
+/// [`generalized_eigen`] with its failures as errors: a mass matrix that is not positive
+/// definite, matrices that are not finite, or an eigen-iteration beyond its cap.
+pub fn try_generalized_eigen(
+    k: &DMatrix<f64>,
+    m: &DMatrix<f64>,
+) -> Result<(Vec<f64>, DMatrix<f64>), String> {
     let n = k.nrows();
+    if !(k.iter().chain(m.iter()).all(|x| x.is_finite())) {
+        return Err("the mass or stiffness matrix is not finite".into());
+    }
     let chol = m
         .clone()
         .cholesky()
-        .expect("mass matrix is positive definite");
+        .ok_or("the mass matrix is not positive definite")?;
     let l = chol.l();
     let l_inv = l
         .clone()
         .try_inverse()
-        .expect("Cholesky factor is invertible");
+        .ok_or("the mass matrix's Cholesky factor is singular")?;
     let a = &l_inv * k * l_inv.transpose();
     let a = (&a + a.transpose()) * 0.5;
-    let eig = SymmetricEigen::new(a);
+    if !a.iter().all(|x| x.is_finite()) {
+        return Err("the mass-normalised stiffness matrix is not finite".into());
+    }
+    let eig = SymmetricEigen::try_new(a, f64::EPSILON, ITERATIONS_PER_DIM * n.max(1)).ok_or(
+        format!(
+            "the eigenvalues of the {n}×{n} mean system did not converge within {} iterations",
+            ITERATIONS_PER_DIM * n.max(1)
+        ),
+    )?;
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
     let values = order.iter().map(|&i| eig.eigenvalues[i]).collect();
@@ -348,7 +374,7 @@ pub fn generalized_eigen(k: &DMatrix<f64>, m: &DMatrix<f64>) -> (Vec<f64>, DMatr
         let v = l_inv.transpose() * eig.eigenvectors.column(i);
         vectors.set_column(c, &v);
     }
-    (values, vectors)
+    Ok((values, vectors))
 }
 
 /// Relative size below which an eigenvalue of the mean system counts as a rigid-body mode.
@@ -396,7 +422,8 @@ impl Reduction {
                 spread()
             )
         };
-        let (values, vectors) = generalized_eigen(&k_mean, &asm.mass);
+        let (values, vectors) =
+            try_generalized_eigen(&k_mean, &asm.mass).map_err(|e| format!("{}: {e}", spread()))?;
         let top = values.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
         let rigid: Vec<usize> = (0..n)
             .filter(|&i| values[i].abs() <= RIGID_TOL * top)
@@ -431,7 +458,7 @@ impl Reduction {
             let mut trial = rows.clone();
             trial.push(c.clone());
             let stacked = stack(&trial, &rm);
-            if full_row_rank(&stacked) {
+            if full_row_rank(&stacked).ok_or_else(unseparable)? {
                 rows = trial;
             }
         }
@@ -467,10 +494,12 @@ fn stack(rows: &[DVector<f64>], rm: &DMatrix<f64>) -> DMatrix<f64> {
     t
 }
 
-fn full_row_rank(a: &DMatrix<f64>) -> bool {
-    let svd = a.clone().svd(false, false);
+/// Whether `a` has full row rank; `None` when its SVD does not converge within its cap.
+fn full_row_rank(a: &DMatrix<f64>) -> Option<bool> {
+    let cap = ITERATIONS_PER_DIM * a.nrows().max(a.ncols()).max(1);
+    let svd = a.clone().try_svd(false, false, f64::EPSILON, cap)?;
     let s = &svd.singular_values;
     let max = s.iter().fold(0.0f64, |a, &b| a.max(b));
     let min = s.iter().fold(f64::INFINITY, |a, &b| a.min(b));
-    s.len() == a.nrows().min(a.ncols()) && min > 1e-9 * max
+    Some(s.len() == a.nrows().min(a.ncols()) && min > 1e-9 * max)
 }

@@ -1,0 +1,219 @@
+//! The work budget of the solver driver (issue 34): every advance of a [`super::Driver`] —
+//! one `fmi2DoStep` of an FMU, one whole `geardyn simulate` run — either finishes within a
+//! documented amount of work or stops with [`crate::solve::SolveError::OverBudget`], whose
+//! message names the likely cause. The budget counts work, not time, so a run is
+//! deterministic: the same inputs stop at the same step on any machine.
+//!
+//! The unit is an estimate of floating-point work (about one multiply-add; 2–3 ns on the CI
+//! machine's core): an RK step attempt of an `n`-state model costs [`rk_step_cost`], a segment
+//! (or state event) of the exact propagator [`segment_cost`]. The propagators are given the
+//! steps the remaining budget pays for before each advance, so an advance never overruns it
+//! by more than one step; what one advance spent is charged from the propagator's counters.
+//! Matrix decompositions reachable from input (model construction, Floquet analyses) are
+//! bounded by iteration caps of their own (`model::train::assembly`).
+
+use crate::solve::SolverStats;
+
+/// Default budget of one FMI call (`fmi2DoStep`), in work units: about 0.25 s on the CI
+/// machine's core, so a call returns well within a second whatever its inputs.
+pub const DEFAULT_CALL_BUDGET: f64 = 1e8;
+
+/// Default budget of one run (`geardyn simulate`, the Python module's runs): about 5 s of
+/// work, 100 times the work of the longest shipped scene's run; a longer run needs
+/// `solver.work_budget` raised explicitly.
+pub const DEFAULT_RUN_BUDGET: f64 = 2e9;
+
+/// The scene key (`[solver] work_budget`) and FMU parameter that set the budget.
+pub const BUDGET_KEY: &str = "solver.work_budget";
+
+/// Work units of one step attempt of an RK method on an `n`-state model: up to 12 right-hand
+/// side evaluations (DOP853), each dominated by a dense `n × n` product plus a fixed part
+/// (stiffness lookup, contact logic), and the event work of the step.
+pub fn rk_step_cost(n: usize) -> f64 {
+    12.0 * ((n * n) as f64 + 16.0)
+}
+
+/// Work units of one segment or state event of the exact propagator on a lifted state of
+/// `n_z` entries: a few `n_z × n_z` mat-vecs (transition, guard rows) plus a fixed part.
+pub fn segment_cost(n_z: usize) -> f64 {
+    8.0 * (n_z * n_z) as f64 + 64.0
+}
+
+/// Work units of one guard evaluation on a state of `n` entries (a row times the state; the
+/// crossing searches and the RK event checks make many per step).
+pub fn guard_eval_cost(n: usize) -> f64 {
+    2.0 * n as f64 + 8.0
+}
+
+/// Work units of building one mode of the exact propagator on a lifted state of `n_z`
+/// entries: balancing, its rates and first exponentials, `O(n_z³)` with a large constant.
+pub fn mode_cost(n_z: usize) -> f64 {
+    64.0 * (n_z * n_z * n_z) as f64 + 8192.0
+}
+
+/// The budget of a driver: a limit and the work spent since the last [`WorkBudget::reset`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WorkBudget {
+    limit: f64,
+    spent: f64,
+}
+
+impl WorkBudget {
+    pub fn new(limit: f64) -> WorkBudget {
+        WorkBudget { limit, spent: 0.0 }
+    }
+
+    pub fn limit(&self) -> f64 {
+        self.limit
+    }
+
+    pub fn spent(&self) -> f64 {
+        self.spent
+    }
+
+    /// A new limit; the work spent so far counts against it.
+    pub fn set_limit(&mut self, limit: f64) {
+        self.limit = limit;
+    }
+
+    /// Starts a new scope (an FMI call): nothing spent.
+    pub fn reset(&mut self) {
+        self.spent = 0.0;
+    }
+
+    /// How many steps of `cost` units each the rest of the budget pays for (at least 1, so an
+    /// advance that has any budget left can take its first step).
+    pub fn steps_left(&self, cost: f64) -> u64 {
+        let left = (self.limit - self.spent).max(0.0) / cost;
+        if left >= u64::MAX as f64 {
+            u64::MAX
+        } else {
+            (left as u64).max(1)
+        }
+    }
+
+    /// Charges the work between two counter snapshots of a propagator whose steps cost
+    /// `step` units each and guard evaluations `guard_eval`: accepted and rejected attempts (a
+    /// state event ends an RK step and is a segment of the exact propagator, so it is counted
+    /// with them) and the guard evaluations of their event searches.
+    pub fn charge(&mut self, before: &SolverStats, after: &SolverStats, step: f64, guard_eval: f64) {
+        let steps = after.steps.saturating_sub(before.steps)
+            + after.rejected.saturating_sub(before.rejected);
+        let evals = after.guard_evals.saturating_sub(before.guard_evals);
+        self.spent += steps as f64 * step + evals as f64 * guard_eval;
+    }
+
+
+
+    /// Charges other work (mode builds, search samples) already expressed in units.
+    pub fn charge_units(&mut self, units: f64) {
+        self.spent += units;
+    }
+
+    /// The units left in the scope.
+    pub fn left(&self) -> f64 {
+        (self.limit - self.spent).max(0.0)
+    }
+
+    pub fn exhausted(&self) -> bool {
+        self.spent >= self.limit
+    }
+}
+
+/// Checks a budget value (scene key or FMU parameter): a finite number ≥ 1.
+pub fn check_limit(field: &str, x: f64) -> Result<f64, String> {
+    if x.is_finite() && x >= 1.0 {
+        Ok(x)
+    } else {
+        Err(format!(
+            "{field} = {x:e}: the work budget must be a finite number >= 1 (work units, \
+             docs/fmu.md \"Work budget\")"
+        ))
+    }
+}
+
+/// What a driver knew when its budget ran out, to name the likely cause.
+pub struct Exhaustion<'a> {
+    pub limit: f64,
+    /// Simulated time reached and the time the advance started from, s.
+    pub t: f64,
+    pub t_start: f64,
+    /// Counters of the work spent in this budget's scope.
+    pub work: SolverStats,
+    /// The model's time scales: mesh frequency, speed, fastest rate.
+    pub scales: &'a super::RunScales,
+    /// Name of the propagator (`exact`, `dop853`, ...).
+    pub method: &'a str,
+}
+
+/// The one message of an exhausted budget (FMU, `simulate` and Python alike): what was spent,
+/// where the run stopped, the likely cause and how to go on.
+pub fn exhausted_message(e: &Exhaustion) -> String {
+    let w = &e.work;
+    let steps = w.steps + w.rejected;
+    let span = (e.t - e.t_start).max(0.0);
+    let periods = span * e.scales.mesh_frequency;
+    let (rate, rate_fields) = e.scales.fastest_rate;
+    let cause = if w.events * 2 > w.steps && w.events > 1000 {
+        format!(
+            "contact chatter: {} state events in {} steps; check backlash, mesh damping and \
+             stiffness",
+            w.events, w.steps
+        )
+    } else if periods > 0.0 && steps as f64 / periods.max(1.0) > 1000.0 && rate > 0.0 {
+        format!(
+            "stiffness: {:.0} steps per mesh period, the fastest mode at {rate:.3e} rad/s \
+             (set by {rate_fields}) forces steps far below the mesh period",
+            steps as f64 / periods.max(1.0)
+        )
+    } else if periods > 1e4 {
+        let (field, speed) = e.scales.speed;
+        format!(
+            "speed: {periods:.3e} mesh periods of {:.3e} Hz ({field} = {speed:e} rad/s) in \
+             {span:e} s",
+            e.scales.mesh_frequency
+        )
+    } else {
+        format!("step count: {steps} steps ({} rejected)", w.rejected)
+    };
+    format!(
+        "the work budget of {:e} units was spent at t = {:e} s ({} steps with {}, {} events, {} \
+         guard evaluations); \
+         likely cause: {cause}. Shorten the step or raise {BUDGET_KEY} (docs/fmu.md \"Work \
+         budget\")",
+        e.limit, e.t, steps, e.method, w.events, w.guard_evals
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn steps_left_pays_for_the_rest_and_at_least_one() {
+        let mut b = WorkBudget::new(1000.0);
+        assert_eq!(b.steps_left(100.0), 10);
+        let before = SolverStats::default();
+        let after = SolverStats {
+            steps: 10,
+            rejected: 1,
+            events: 3,
+            ..SolverStats::default()
+        };
+        b.charge(&before, &after, 100.0, 1.0);
+        assert_eq!(b.spent(), 1100.0);
+        assert!(b.exhausted());
+        assert_eq!(b.steps_left(100.0), 1);
+        b.reset();
+        assert!(!b.exhausted());
+    }
+
+    #[test]
+    fn limits_are_checked() {
+        assert!(check_limit("solver.work_budget", 1e8).is_ok());
+        for x in [0.0, 0.5, -1.0, f64::NAN, f64::INFINITY] {
+            let e = check_limit("solver.work_budget", x).unwrap_err();
+            assert!(e.contains("solver.work_budget"), "{e}");
+        }
+    }
+}
