@@ -36,8 +36,10 @@ Exit status:
      reason the FMU logged.
 
 Systems (an .ssp archive, a SystemStructure.ssd file or a folder holding one, SSP 1.0): the
-FMUs run in one process with a fixed-step master (--algorithm, --extrapolation); the CSV has
-a column Element.connector per connected signal. See docs/systems.md.")]
+FMUs run in one process with a fixed-step master (--algorithm, --extrapolation; Jacobi steps
+the FMUs on threads, --threads), which stops a diverging run (--divergence-factor); the CSV
+has a column Element.connector per connected signal. The shipped example systems build their
+missing FMUs from fmu/ on first use. See docs/systems.md.")]
 pub struct RunArgs {
     /// The FMU (.fmu file or an extracted FMU folder), or a system of FMUs: an SSP 1.0 `.ssp`
     /// archive, a `SystemStructure.ssd` file, or a folder holding one (docs/systems.md).
