@@ -613,7 +613,9 @@ fn bad_systems_are_refused_naming_the_item() {
         &"jacobi",
     ]);
     assert!(
-        stderr(&o).contains("--algorithm, --extrapolation and --divergence-factor are for systems"),
+        stderr(&o).contains(
+            "--algorithm, --extrapolation, --threads and --divergence-factor are for systems"
+        ),
         "{}",
         stderr(&o)
     );
@@ -975,4 +977,91 @@ fn a_diverging_system_stops_early_naming_the_element_and_the_signal() {
     let last = rows.last().unwrap();
     assert_eq!(last[0], 10.0);
     assert!((last[4] - 1e4 / 24.0).abs() < 1e-6 * 1e4, "{last:?}");
+}
+
+/// Issue 32, parallel Jacobi: the elements' steps on 2 or 3 threads give the bytes of the
+/// serial run (after the first steps, which are serial to measure the elements' costs), and a
+/// refused or final step is reported as the serial run reports it.
+#[test]
+fn parallel_jacobi_is_bit_identical_to_serial() {
+    let chain = |b: &[(&'static str, f64)]| {
+        ssd(
+            &[
+                lin("A", &[("u", 1.0), ("x0", 0.5)]),
+                lin("B", b),
+                lin("C", &[("k", -2.0)]),
+            ],
+            &[
+                ("A", "x", "B", "u", None),
+                ("B", "x", "C", "u", None),
+                ("C", "y", "A", "u", None),
+            ],
+            1.0,
+            "",
+        )
+    };
+    let run = |sys: &Path, out: &Path, threads: &str| {
+        geardyn(&[
+            &"run",
+            &sys,
+            &"--out",
+            &out,
+            &"--output-interval",
+            &"0.001",
+            &"--algorithm",
+            &"jacobi",
+            &"--threads",
+            &threads,
+        ])
+    };
+    let sys = system("parallel", &chain(&[("k", 3.0)]), CAPS);
+    let d = sys.parent().unwrap();
+    let mut texts = Vec::new();
+    for threads in ["1", "2", "3"] {
+        let out = d.join(format!("o{threads}.csv"));
+        let o = run(&sys, &out, threads);
+        assert!(o.status.success(), "{}", stderr(&o));
+        texts.push(std::fs::read_to_string(&out).unwrap());
+    }
+    assert_eq!(texts[0].lines().count(), 1002);
+    assert!(texts[0] == texts[1] && texts[0] == texts[2]);
+    // A refused step and a final step after the serial warm-up, on threads as serially.
+    for (how, code) in [(2.0, 1), (4.0, 0)] {
+        let sys = system(
+            "parallel_end",
+            &chain(&[("k", 3.0), ("refuse_at", 0.5), ("refuse_how", how)]),
+            CAPS,
+        );
+        let d = sys.parent().unwrap();
+        let ends: Vec<(Option<i32>, String, String)> = ["1", "2"]
+            .iter()
+            .map(|threads| {
+                let out = d.join(format!("o{threads}.csv"));
+                let o = run(&sys, &out, threads);
+                (
+                    o.status.code(),
+                    stderr(&o).replace(&format!("o{threads}.csv"), "o.csv"),
+                    std::fs::read_to_string(&out).unwrap(),
+                )
+            })
+            .collect();
+        assert_eq!(ends[0].0, Some(code), "{}", ends[0].1);
+        assert_eq!(ends[0], ends[1]);
+        assert!(ends[0].1.contains("element \"B\""), "{}", ends[0].1);
+    }
+    // Gauss–Seidel steps one element after another.
+    let o = geardyn(&[
+        &"run",
+        &sys,
+        &"--algorithm",
+        &"gauss-seidel",
+        &"--threads",
+        &"2",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("--threads 2: only Jacobi steps the elements in parallel"),
+        "{}",
+        stderr(&o)
+    );
 }

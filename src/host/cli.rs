@@ -36,8 +36,10 @@ Exit status:
      reason the FMU logged.
 
 Systems (an .ssp archive, a SystemStructure.ssd file or a folder holding one, SSP 1.0): the
-FMUs run in one process with a fixed-step master (--algorithm, --extrapolation); the CSV has
-a column Element.connector per connected signal. See docs/systems.md.")]
+FMUs run in one process with a fixed-step master (--algorithm, --extrapolation; Jacobi steps
+the FMUs on threads, --threads), which stops a diverging run (--divergence-factor); the CSV
+has a column Element.connector per connected signal. The shipped example systems build their
+missing FMUs from fmu/ on first use. See docs/systems.md.")]
 pub struct RunArgs {
     /// The FMU (.fmu file or an extracted FMU folder), or a system of FMUs: an SSP 1.0 `.ssp`
     /// archive, a `SystemStructure.ssd` file, or a folder holding one (docs/systems.md).
@@ -91,6 +93,11 @@ pub struct RunArgs {
     /// where both FMUs can, else held, with a note naming the connection.
     #[arg(long, value_name = "MODE")]
     pub extrapolation: Option<String>,
+    /// Systems with --algorithm jacobi: threads for the FMUs' steps (results bit-identical
+    /// to one thread). Default: the number of cores for ≥ 3 FMUs that all allow several
+    /// instances per process, else 1.
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
     /// Systems: stop when a connected speed, torque or force grows more than this factor
     /// within the second half of the run so far (faster than any power of time: a diverging
     /// coupling; docs/systems.md); 0 turns the check off. Default 1000.
@@ -340,10 +347,13 @@ pub(crate) fn rows_kept(out: &Option<PathBuf>, (rows, last): (usize, Option<f64>
 /// instead, its pending rows are written here and the message says how it ended. The
 /// temporary folder is removed when `unpacked` is dropped, in every case.
 fn supervised_run(args: &RunArgs) -> Result<u8, String> {
-    if args.algorithm.is_some() || args.extrapolation.is_some() || args.divergence_factor.is_some()
+    if args.algorithm.is_some()
+        || args.extrapolation.is_some()
+        || args.divergence_factor.is_some()
+        || args.threads.is_some()
     {
         return Err(format!(
-            "{}: --algorithm, --extrapolation and --divergence-factor are for systems (.ssp, .ssd or a folder with SystemStructure.ssd), not a single FMU",
+            "{}: --algorithm, --extrapolation, --threads and --divergence-factor are for systems (.ssp, .ssd or a folder with SystemStructure.ssd), not a single FMU",
             args.fmu.display()
         ));
     }

@@ -27,6 +27,7 @@
 //!   note names the element, its last successful time and its reason (issue 39).
 
 use super::check::{Link, System};
+use super::parallel::Pool;
 use crate::host::csv::Row;
 use crate::host::description::VarType;
 use crate::host::input::isclose;
@@ -78,6 +79,8 @@ pub struct Plan<'a> {
     pub h: f64,
     /// Every FMU has `canHandleVariableCommunicationStepSize="true"`.
     pub can_vary: bool,
+    /// Threads for the `fmi2DoStep` calls of a Jacobi step ([`super::parallel`]; 1: serial).
+    pub threads: usize,
     /// The ports watched for divergence, with their units ([`super::divergence`]), and the
     /// growth factor that stops the run (0: off).
     pub watched: Vec<(usize, String)>,
@@ -171,7 +174,7 @@ fn at(e: &str, t: f64, err: CallError) -> String {
 }
 
 /// Why a macro step did not complete.
-enum StepEnd {
+pub(super) enum StepEnd {
     Failed(String),
     /// An element ended the simulation itself: the note that says so.
     Ended(String),
@@ -185,7 +188,12 @@ impl From<String> for StepEnd {
 
 /// `fmi2DoStep` of element `e`; a refused step says why, and a step in which the element
 /// ended the simulation (`fmi2Terminated` after `fmi2Discard`) is [`StepEnd::Ended`].
-fn do_step(inst: &mut Instance, name: &str, time: f64, step: f64) -> Result<(), StepEnd> {
+pub(super) fn do_step(
+    inst: &mut Instance,
+    name: &str,
+    time: f64,
+    step: f64,
+) -> Result<(), StepEnd> {
     let Err(err) = inst.do_step(time, step) else {
         return Ok(());
     };
@@ -503,8 +511,54 @@ fn set_start(
 }
 
 /// Initialize and run the instances (`insts[i]` is element i), giving every row to `sink`.
-/// Never panics; on failure the rows up to then have been delivered.
-pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outcome {
+/// Never panics; on failure the rows up to then have been delivered. A Jacobi plan with
+/// `threads > 1` steps the elements on that many threads ([`super::parallel`]).
+pub fn run<'a>(insts: &mut [Instance<'a>], plan: &Plan, sink: &mut dyn RowSink) -> Outcome {
+    if plan.algorithm != Algorithm::Jacobi || plan.threads <= 1 {
+        return run_with(insts, plan, sink, None);
+    }
+    let names: Vec<String> = plan
+        .system
+        .elements
+        .iter()
+        .map(|e| e.name.clone())
+        .collect();
+    std::thread::scope(|s| {
+        let mut pool = Pool::<'a>::start(s, plan.threads, &names);
+        run_with(insts, plan, sink, Some(&mut pool))
+    })
+}
+
+/// The Jacobi step on the pool's threads: the results in the plan's order, the first failure
+/// or end as the serial step would report it.
+fn parallel_step<'a>(
+    pool: &Pool<'a>,
+    insts: &mut [Instance<'a>],
+    names: &[String],
+    plan: &Plan,
+    (time, step): (f64, f64),
+) -> Result<(), StepEnd> {
+    let mut results = pool.step(insts, names, time, step);
+    for &e in &plan.order {
+        match results[e].take() {
+            Some(r) => r?,
+            None => {
+                return Err(StepEnd::Failed(format!(
+                "element \"{}\": its step from t = {time} was not done (the worker thread ended)",
+                names[e]
+            )))
+            }
+        }
+    }
+    Ok(())
+}
+
+fn run_with<'a>(
+    insts: &mut [Instance<'a>],
+    plan: &Plan,
+    sink: &mut dyn RowSink,
+    mut pool: Option<&mut Pool<'a>>,
+) -> Outcome {
     let mut out = Outcome {
         rows: 0,
         failure: None,
@@ -567,6 +621,7 @@ pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outco
     }
     out.rows += 1;
     let mut watch = super::divergence::Watch::new(plan);
+    let names: Vec<String> = elements.iter().map(|e| e.name.clone()).collect();
     let (h, stop) = (plan.h, plan.stop_time);
     let mut time = t0;
     let mut n_steps: u64 = 0;
@@ -602,11 +657,34 @@ pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outco
         }
         st.prev.copy_from_slice(&st.cur);
         stepped.iter_mut().for_each(|s| *s = false);
+        let parallel = pool.as_ref().is_some() && n_steps >= super::parallel::MEASURED;
+        if pool.is_some() && n_steps == super::parallel::MEASURED {
+            if let Some(p) = pool.as_mut() {
+                p.assign();
+            }
+        }
         let stepping = (|| -> Result<(), StepEnd> {
+            if parallel {
+                for &e in &plan.order {
+                    st.set_inputs(e, &mut insts[e], time, step, &stepped)?;
+                    insts[e].activity().at(time);
+                }
+                if let Some(p) = pool.as_deref() {
+                    parallel_step(p, insts, &names, plan, (time, step))?;
+                }
+                for (e, inst) in insts.iter_mut().enumerate() {
+                    st.read(e, inst, next, true)?;
+                }
+                return Ok(());
+            }
             for &e in &plan.order {
                 st.set_inputs(e, &mut insts[e], time, step, &stepped)?;
                 insts[e].activity().at(time);
+                let started = pool.is_some().then(std::time::Instant::now);
                 do_step(&mut insts[e], &elements[e].name, time, step)?;
+                if let (Some(p), Some(t)) = (pool.as_deref_mut(), started) {
+                    p.measure(e, t.elapsed());
+                }
                 if plan.algorithm == Algorithm::GaussSeidel {
                     st.read(e, &mut insts[e], next, true)?;
                     stepped[e] = true;

@@ -16,6 +16,7 @@ pub mod check;
 pub mod divergence;
 pub mod graph;
 pub mod master;
+mod parallel;
 pub mod shipped;
 pub mod ssd;
 pub mod units;
@@ -442,7 +443,9 @@ fn plan<'a>(
         ));
     }
     let watched = divergence::watched(&ports, &md_of);
+    let threads = threads(args.threads, algorithm, n, fmus)?;
     Ok(Plan {
+        threads,
         watched,
         divergence_factor,
         system,
@@ -460,6 +463,45 @@ fn plan<'a>(
         can_vary,
         interrupt: Some(activity.stop_request()),
     })
+}
+
+/// The threads of a Jacobi step ([`parallel`]): `--threads`, else as many as there are
+/// cores (at most one per element) for a Jacobi system of ≥ 3 elements whose FMUs all allow
+/// several instances per process (`canBeInstantiatedOnlyOncePerProcess="false"`: an FMU
+/// that does not may keep global state); 1 otherwise.
+fn threads(
+    asked: Option<usize>,
+    algorithm: Algorithm,
+    n: usize,
+    fmus: &Fmus,
+) -> Result<usize, String> {
+    let once: Vec<&str> = fmus
+        .mds
+        .iter()
+        .zip(&fmus.sources)
+        .filter(|(md, _)| {
+            md.co_simulation
+                .as_ref()
+                .is_some_and(|c| c.can_be_instantiated_only_once_per_process)
+        })
+        .map(|(_, s)| s.as_str())
+        .collect();
+    match asked {
+        Some(0) => Err("--threads 0: give at least 1".into()),
+        Some(1) => Ok(1),
+        Some(k) if algorithm != Algorithm::Jacobi => Err(format!(
+            "--threads {k}: only Jacobi steps the elements in parallel (Gauss–Seidel steps them one after another)"
+        )),
+        Some(k) if !once.is_empty() => Err(format!(
+            "--threads {k}: {} declares canBeInstantiatedOnlyOncePerProcess=\"true\" (it may keep global state), so the system is stepped on one thread",
+            once.join(", ")
+        )),
+        Some(k) => Ok(k.min(n)),
+        None if algorithm == Algorithm::Jacobi && n >= 3 && once.is_empty() => Ok(
+            std::thread::available_parallelism().map_or(1, |c| c.get()).min(n),
+        ),
+        None => Ok(1),
+    }
 }
 
 /// The default growth factor of the divergence check ([`divergence`]).
