@@ -33,6 +33,8 @@ use std::time::{Duration, Instant};
 
 use fmu_harness::{guid, quiet_logger, scene_dir, SplitMix};
 use geardyn::fmi::model::{Causality, VarKind};
+use geardyn::fmu::adapter::VR_WORK_BUDGET;
+use geardyn::simulation::budget::DEFAULT_CALL_BUDGET;
 use geardyn::host::library::{CallbackFunctions, FmuLibrary, Functions};
 use geardyn::host::logger::Logger;
 
@@ -63,6 +65,15 @@ fn scenes() -> Vec<&'static str> {
     names.sort_unstable();
     assert!(names.len() >= 15, "{names:?}");
     names
+}
+
+/// `GEARDYN_FMI_FUZZ_REPLAY=<scene>:<session seed, hex>`: the worker runs only that session
+/// (named in a failure's message) and prints every call with its arguments and CPU time.
+fn replay() -> Option<(String, u64)> {
+    let v = std::env::var("GEARDYN_FMI_FUZZ_REPLAY").ok()?;
+    let (scene, seed) = v.split_once(':')?;
+    let seed = u64::from_str_radix(seed.trim_start_matches("0x"), 16).ok()?;
+    Some((scene.to_string(), seed))
 }
 
 /// CPU time of the calling thread (the FMU's calls run on it).
@@ -387,6 +398,12 @@ fn vrs(rng: &mut SplitMix, t: &Target, own: &[u32]) -> Vec<u32> {
 
 /// One session per seed: instantiate, `CALLS_PER_SESSION` random calls, free.
 fn fuzz(calls: u64, current: &Mutex<Current>) -> Tally {
+    if let Some((scene, seed)) = replay() {
+        let name = scenes().into_iter().find(|n| *n == scene).expect("a shipped FMU");
+        let mut tally = Tally::default();
+        Session::run(&Target::new(name), seed, &mut tally, current, calls);
+        return tally;
+    }
     let targets: Vec<Target> = scenes().into_iter().map(Target::new).collect();
     let mut tally = Tally::default();
     let mut master = SplitMix(SEED);
@@ -509,6 +526,9 @@ impl Session<'_> {
         let took = started.elapsed();
         let cpu = thread_cpu().saturating_sub(cpu);
         current.lock().unwrap().started = None;
+        if replay().is_some() {
+            println!("{name} -> {status} ({:.3} ms CPU)", cpu.as_secs_f64() * 1e3);
+        }
         if cpu > tally.most_cpu {
             tally.most_cpu = cpu;
             tally.most_cpu_call = name;
@@ -619,6 +639,16 @@ impl Session<'_> {
             .iter()
             .map(|&vr| real_value(&mut self.rng, t, vr))
             .collect();
+        // The CPU bound holds for budgets up to the default: a raised budget is the user's
+        // explicit choice of longer calls (bad budget values are still tried).
+        for (xi, &vr) in x.iter_mut().zip(&v) {
+            if vr == VR_WORK_BUDGET && *xi > DEFAULT_CALL_BUDGET {
+                *xi = DEFAULT_CALL_BUDGET;
+            }
+        }
+        if replay().is_some() {
+            println!("  fmi2SetReal {v:?} = {x:?}");
+        }
         let (vp, xp) = self.arrays(&v, x.as_mut_ptr());
         self.status_call(tally, current, "fmi2SetReal", null_c, |f, c| unsafe {
             (f.set_real)(c, vp, v.len(), xp)
@@ -678,6 +708,9 @@ impl Session<'_> {
                     real_pick(&mut self.rng, self.time)
                 };
                 let h = step_size(&mut self.rng);
+                if replay().is_some() {
+                    println!("  fmi2DoStep tc = {tc:e}, h = {h:e}");
+                }
                 let s = self.status_call(tally, current, "fmi2DoStep", null_c, |f, c| unsafe {
                     (f.do_step)(c, tc, h, 1)
                 });

@@ -168,8 +168,8 @@ pub fn exhausted_message(e: &Exhaustion) -> String {
     } else if periods > 0.0 && steps as f64 / periods.max(1.0) > 1000.0 && rate > 0.0 {
         format!(
             "stiffness: {:.0} steps per mesh period, so some mode is far faster than the mesh \
-             (a stiff port coupling, mesh or bearing, or heavy damping on a small inertia; the \
-             fastest rate the scene's {rate_fields} give is {rate:.3e} rad/s)",
+             (a stiff port coupling, mesh or bearing, or heavy damping on a small inertia; \
+             the fastest rate known from the scene is {rate:.3e} rad/s, from {rate_fields})",
             steps as f64 / periods.max(1.0)
         )
     } else if periods > 1e4 {
