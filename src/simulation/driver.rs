@@ -70,8 +70,10 @@ pub struct Driver<M> {
     guard_cost: f64,
     /// The RK path's own step limit of one advance (before the budget's cap).
     rk_max_steps: u64,
-    /// Time and counters at the start of the budget's scope (for its message).
+    /// Time and counters at the start of the budget's scope (for its message), and whether
+    /// the scope is one call ([`Driver::reset_work`] was called) rather than the whole run.
     scope: (f64, SolverStats),
+    per_call: bool,
 }
 
 impl<M: DrivenModel> Driver<M> {
@@ -178,6 +180,7 @@ impl<M: DrivenModel> Driver<M> {
             guard_cost,
             rk_max_steps,
             scope: (0.0, SolverStats::default()),
+            per_call: false,
         })
     }
 
@@ -244,6 +247,7 @@ impl<M: DrivenModel> Driver<M> {
     pub fn reset_work(&mut self) {
         self.budget.reset();
         self.scope = (self.t(), self.stats());
+        self.per_call = true;
     }
 
     /// Mutable access to the model for settings that do not change its equations (e.g.
@@ -344,6 +348,7 @@ impl<M: DrivenModel> Driver<M> {
             work,
             scales: &scales,
             method: &self.method_name(),
+            per_call: self.per_call,
         });
         SolveError::OverBudget { t, message }
     }

@@ -98,6 +98,14 @@ fn apply(scene: &mut ElementScene, name: &str, x: f64) -> Result<(), String> {
     Ok(())
 }
 
+/// The RK steps one call may take: the default work budget of an FMI call
+/// ([`crate::simulation::budget`]) at the cost of a step of this size, so an element's
+/// `fmi2DoStep` is bounded like a gear FMU's (issue 34).
+fn call_budget_steps(dim: usize) -> u64 {
+    use crate::simulation::budget::{rk_step_cost, DEFAULT_CALL_BUDGET};
+    (DEFAULT_CALL_BUDGET / rk_step_cost(dim)) as u64
+}
+
 /// The inputs a scene starts from, in value-reference order.
 pub fn start_inputs(spec: &ElementSpec) -> Vec<f64> {
     match spec {
@@ -201,6 +209,7 @@ impl ElementFmu {
         } else {
             let mut st = RkStepper::new(self.scene.solver.rk_options(), y.len())?;
             st.set_state(0.0, &y);
+            st.set_max_steps(call_budget_steps(y.len()));
             Some(st)
         };
         self.y0 = y;
@@ -325,6 +334,7 @@ impl ElementFmu {
             Some(mem) => {
                 let mut st = RkStepper::new(scene.solver.rk_options(), dim)?;
                 st.restore(s.t, &s.y, &mem);
+                st.set_max_steps(call_budget_steps(dim));
                 Some(st)
             }
             None => None,
