@@ -86,13 +86,30 @@ impl RunLimits {
                 self.max_rows
             ));
         }
+        self.check_span(scales, stop_time, " (raise it with --max-periods)")
+    }
+
+    /// The work part of [`RunLimits::check`]: `stop_time` of simulated time within the mesh
+    /// and mode periods of the limits and the phase resolution. For an analysis that
+    /// integrates a known span (the shooting of `periodic`) as for a run; `raise` is the hint
+    /// appended to a limit the user may raise.
+    pub fn check_work(&self, scales: &RunScales, stop_time: f64) -> Result<(), String> {
+        if !(stop_time.is_finite() && stop_time > 0.0) {
+            return Err(format!(
+                "{stop_time:e} s of simulated time: must be a finite number > 0"
+            ));
+        }
+        self.check_span(scales, stop_time, "")
+    }
+
+    fn check_span(&self, scales: &RunScales, stop_time: f64, raise: &str) -> Result<(), String> {
         let periods =
             (scales.mesh_frequency + 0.5 * scales.mesh_frequency_slope * stop_time) * stop_time;
         if !(periods <= self.max_mesh_periods) {
             return Err(format!(
                 "{} = {:e} rad/s with stop_time = {stop_time:e} s is {periods:.4e} mesh \
                  periods (mesh frequency {:.4e} Hz, changing by {:.4e} Hz/s under the port \
-                 torques); the limit is {:e} mesh periods per run (raise it with --max-periods)",
+                 torques); the limit is {:e} mesh periods per run{raise}",
                 scales.speed.0,
                 scales.speed.1,
                 scales.mesh_frequency,
@@ -113,8 +130,7 @@ impl RunLimits {
         if !(mode_periods <= self.max_mode_periods) {
             return Err(format!(
                 "stop_time = {stop_time:e} s spans {mode_periods:.4e} periods of the fastest mode \
-                 ({rate:.4e} rad/s, set by {source}); the limit is {:e} per run (raise it with \
-                 --max-periods)",
+                 ({rate:.4e} rad/s, set by {source}); the limit is {:e} per run{raise}",
                 self.max_mode_periods
             ));
         }
