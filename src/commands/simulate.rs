@@ -9,7 +9,7 @@ use super::positive;
 use crate::model::{Drivetrain, MeshColumns};
 use crate::output::CsvWriter;
 use crate::scene::{MethodChoice, SolverSettings};
-use crate::simulation::{stream, Progress, RunLimits, RunSummary};
+use crate::simulation::{stream, Progress, ProgressDisplay, RunLimits, RunSummary};
 use crate::simulation::{DrivenModel, Driver, OutputGrid};
 use crate::solve::SolverStats;
 use crate::with_drivetrain;
@@ -26,8 +26,8 @@ pub struct SimulateOptions {
     pub rtol: Option<f64>,
     pub atol: Option<f64>,
     pub limits: RunLimits,
-    /// Show a progress line on stderr when it is a terminal.
-    pub progress: bool,
+    /// Where the progress shows on stderr (`--quiet`, `--progress`).
+    pub progress: ProgressDisplay,
     /// Write each column's unit into the header, `dte [m]` (`--units`; [`crate::units`]).
     pub header_units: bool,
 }
@@ -242,7 +242,8 @@ fn run_to_csv<M: DrivenModel>(
         outputs,
         &mut writer,
         &mut summary,
-        &mut Progress::new(stop_time, opts.progress),
+        &mut Progress::with_display(stop_time, opts.progress),
+        opts.limits.max_work,
     )?;
     let rows = writer.rows();
     let peak_buffered_bytes = writer.peak_buffered_bytes();

@@ -242,6 +242,17 @@ impl<M: DrivenModel> Driver<M> {
         }
     }
 
+    /// Caps the step attempts of the RK path's next advances at `steps` (what is left of a
+    /// run's work budget, [`crate::simulation::budget`]), never above its own per-advance
+    /// bound ([`RkOptions::max_steps`]), so that an advance cannot run far past the budget. No
+    /// effect on the exact propagator, whose segments per advance have their own budget.
+    pub fn cap_rk_steps(&mut self, steps: u64) {
+        if let Propagator::Rk(p) = &mut self.propagator {
+            let own = RkOptions::new(p.options().method).max_steps;
+            p.set_max_steps(own.min(steps));
+        }
+    }
+
     /// Applies `change(model, t)`, which alters the right-hand side from the current time on
     /// (new inputs), and on success drops the propagator's cached matrices and FSAL stage.
     /// On failure the model is expected unchanged, so nothing is dropped.

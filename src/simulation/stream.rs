@@ -33,6 +33,9 @@ pub struct RunLimits {
     /// Periods of the fastest mode (natural frequency, damping rate, STE harmonic) over the
     /// run.
     pub max_mode_periods: f64,
+    /// Solver work over the run, counted as it goes ([`super::budget`]): steps, rejected
+    /// steps and events.
+    pub max_work: u64,
 }
 
 impl Default for RunLimits {
@@ -41,6 +44,7 @@ impl Default for RunLimits {
             max_rows: DEFAULT_MAX_ROWS,
             max_mesh_periods: DEFAULT_MAX_MESH_PERIODS,
             max_mode_periods: DEFAULT_MAX_MODE_PERIODS,
+            max_work: super::budget::DEFAULT_MAX_WORK,
         }
     }
 }
@@ -180,6 +184,11 @@ impl OutputGrid {
         }
     }
 
+    /// The last point.
+    pub fn stop_time(&self) -> f64 {
+        self.stop_time
+    }
+
     /// The number of points.
     pub fn rows(&self) -> u64 {
         self.n + 1 + u64::from(self.tail)
@@ -310,43 +319,94 @@ impl RunSummary {
     }
 }
 
-/// A one-line progress display on stderr for long runs, only when stderr is a terminal (a
-/// pipe or a log file gets nothing, so scripted runs stay byte-identical).
+/// When a run shows its progress on stderr (`geardyn simulate`: on a terminal unless
+/// `--quiet`; everywhere with `--progress`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum ProgressDisplay {
+    /// Never (library calls, the Python module).
+    #[default]
+    Off,
+    /// A line redrawn in place, only when stderr is a terminal (a pipe or a log file gets
+    /// nothing, so scripted runs stay byte-identical).
+    Terminal,
+    /// On a terminal as [`ProgressDisplay::Terminal`]; on a pipe or a file, a plain line every
+    /// few seconds (no carriage returns or escapes).
+    Always,
+}
+
+/// A progress display on stderr for long runs: time reached, rows and solver work, elapsed
+/// time and an estimate of the time left. Nothing appears in the first
+/// [`PROGRESS_EVERY`] of a run.
 pub struct Progress {
-    enabled: bool,
+    /// Whether lines are redrawn in place (a terminal); `None` when nothing is shown.
+    in_place: Option<bool>,
     stop_time: f64,
     start: Instant,
     last: Instant,
     shown: bool,
     rows: u64,
+    /// The solver work when the clock was last looked at.
+    clock_work: u64,
 }
 
-/// How often the progress line is redrawn, and how long a run must last before it appears.
+/// Solver work between two looks at the clock.
+const PROGRESS_WORK: u64 = 10_000;
+
+/// How often the progress line is redrawn on a terminal, and how long a run must last before
+/// it appears.
 const PROGRESS_EVERY: Duration = Duration::from_millis(500);
+/// How often a plain progress line is written to a pipe or a file.
+const PROGRESS_LINE_EVERY: Duration = Duration::from_secs(2);
 
 impl Progress {
     /// Progress towards `stop_time`, shown only when `wanted` and stderr is a terminal.
     pub fn new(stop_time: f64, wanted: bool) -> Progress {
+        let display = if wanted {
+            ProgressDisplay::Terminal
+        } else {
+            ProgressDisplay::Off
+        };
+        Progress::with_display(stop_time, display)
+    }
+
+    /// Progress towards `stop_time` as `display` asks.
+    pub fn with_display(stop_time: f64, display: ProgressDisplay) -> Progress {
         let now = Instant::now();
+        let terminal = std::io::stderr().is_terminal();
         Progress {
-            enabled: wanted && std::io::stderr().is_terminal(),
+            in_place: match display {
+                ProgressDisplay::Off => None,
+                ProgressDisplay::Terminal => terminal.then_some(true),
+                ProgressDisplay::Always => Some(terminal),
+            },
             stop_time,
             start: now,
             last: now,
             shown: false,
             rows: 0,
+            clock_work: 0,
         }
     }
 
-    /// Called once per row; looks at the clock only every 256 rows, so the cost per row is an
-    /// increment.
-    pub fn tick(&mut self, t: f64) {
+    /// Called once per row with the solver work so far; looks at the clock only every 256
+    /// rows or every [`PROGRESS_WORK`] steps and events (so the cost per row of a fast run
+    /// stays an increment, and a run whose rows each take long still shows its progress).
+    pub fn tick(&mut self, t: f64, work: u64) {
         self.rows += 1;
-        if !self.enabled || self.rows % 256 != 1 {
+        let Some(in_place) = self.in_place else {
+            return;
+        };
+        if self.rows % 256 != 1 && work < self.clock_work + PROGRESS_WORK {
             return;
         }
+        self.clock_work = work;
         let now = Instant::now();
-        if now.duration_since(self.last) < PROGRESS_EVERY {
+        let every = if in_place {
+            PROGRESS_EVERY
+        } else {
+            PROGRESS_LINE_EVERY
+        };
+        if now.duration_since(self.last) < every {
             return;
         }
         self.last = now;
@@ -354,29 +414,34 @@ impl Progress {
         let done = (t / self.stop_time).clamp(0.0, 1.0);
         let elapsed = now.duration_since(self.start).as_secs_f64();
         let eta = if done > 0.0 {
-            format!("{:.0} s left", elapsed * (1.0 - done) / done)
+            format!(", {:.0} s left", elapsed * (1.0 - done) / done)
         } else {
             String::new()
         };
-        let mut e = std::io::stderr().lock();
-        let _ = write!(
-            e,
-            "\r\x1b[Kt = {t:.6} s of {} s ({:.1} %), {} rows, {elapsed:.0} s elapsed, {eta}",
+        let line = format!(
+            "t = {t:.6e} s of {} s ({:.1} %), {} rows, {work} solver steps and events, \
+             {elapsed:.0} s elapsed{eta}",
             self.stop_time,
             100.0 * done,
             self.rows
         );
+        let mut e = std::io::stderr().lock();
+        let _ = if in_place {
+            write!(e, "\r\x1b[K{line}")
+        } else {
+            writeln!(e, "progress: {line}")
+        };
         let _ = e.flush();
     }
 
-    /// Clears the progress line, if one was shown.
+    /// Clears the progress line, if one was shown in place.
     pub fn finish(&mut self) {
-        if self.shown {
+        if self.shown && self.in_place == Some(true) {
             let mut e = std::io::stderr().lock();
             let _ = write!(e, "\r\x1b[K");
             let _ = e.flush();
-            self.shown = false;
         }
+        self.shown = false;
     }
 }
 
@@ -387,7 +452,8 @@ impl Drop for Progress {
 }
 
 /// Runs `sim` over `grid`, writing `outputs(sim)` of every point to `sink` as it is computed,
-/// accumulating `summary` and showing `progress`. The one loop behind `geardyn simulate`,
+/// accumulating `summary`, showing `progress` and counting the solver's work against
+/// `max_work` ([`super::budget`]). The one loop behind `geardyn simulate`,
 /// [`crate::simulation::run`] and [`crate::model::train::run_train`].
 pub fn stream<M: DrivenModel>(
     sim: &mut Driver<M>,
@@ -396,14 +462,24 @@ pub fn stream<M: DrivenModel>(
     sink: &mut dyn RowSink,
     summary: &mut RunSummary,
     progress: &mut Progress,
+    max_work: u64,
 ) -> Result<(), String> {
+    let stop_time = grid.stop_time();
     let mut row = Vec::new();
-    sim.sample(grid, |sim, t| {
+    for t in grid {
+        let work = super::budget::solver_work(&sim.stats());
+        sim.cap_rk_steps(max_work.saturating_sub(work).saturating_add(1));
+        if let Err(e) = sim.advance_to(t) {
+            // Stopped by the cap: the budget's message; else the solver's, explained.
+            super::budget::check_work(sim, stop_time, max_work)?;
+            return Err(super::budget::explain_failure(sim, &e));
+        }
         outputs(sim, &mut row);
         summary.push(&row);
-        progress.tick(t);
-        sink.row(t, &row)
-    })?;
+        progress.tick(t, super::budget::solver_work(&sim.stats()));
+        sink.row(t, &row)?;
+        super::budget::check_work(sim, stop_time, max_work)?;
+    }
     progress.finish();
     Ok(())
 }
