@@ -5,6 +5,8 @@
 //! (issue 17, issue 20 item 5).
 
 use std::io::{IsTerminal, Write};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
 use super::driver::{DrivenModel, Driver};
@@ -335,22 +337,26 @@ pub enum ProgressDisplay {
 }
 
 /// A progress display on stderr for long runs: time reached, rows and solver work, elapsed
-/// time and an estimate of the time left. Nothing appears in the first
-/// [`PROGRESS_EVERY`] of a run.
+/// time and an estimate of the time left. Nothing appears in the first [`PROGRESS_EVERY`] of
+/// a run. The line is written by a thread of its own from what the run last recorded, so it
+/// keeps appearing while one advance takes long (a stiff stretch between two output points),
+/// and the run itself only stores three numbers per row (the time, rows and work shown are
+/// those of the last output point).
 pub struct Progress {
-    /// Whether lines are redrawn in place (a terminal); `None` when nothing is shown.
-    in_place: Option<bool>,
-    stop_time: f64,
-    start: Instant,
-    last: Instant,
-    shown: bool,
-    rows: u64,
-    /// The solver work when the clock was last looked at.
-    clock_work: u64,
+    shared: Option<Arc<Shown>>,
+    thread: Option<std::thread::JoinHandle<()>>,
 }
 
-/// Solver work between two looks at the clock.
-const PROGRESS_WORK: u64 = 10_000;
+/// What the run records for the progress thread, and its stop signal.
+struct Shown {
+    time_bits: AtomicU64,
+    rows: AtomicU64,
+    work: AtomicU64,
+    stop: Mutex<bool>,
+    wake: Condvar,
+    /// Whether a line is on the terminal (to clear it at the end).
+    drawn: AtomicBool,
+}
 
 /// How often the progress line is redrawn on a terminal, and how long a run must last before
 /// it appears.
@@ -371,77 +377,106 @@ impl Progress {
 
     /// Progress towards `stop_time` as `display` asks.
     pub fn with_display(stop_time: f64, display: ProgressDisplay) -> Progress {
-        let now = Instant::now();
         let terminal = std::io::stderr().is_terminal();
-        Progress {
-            in_place: match display {
-                ProgressDisplay::Off => None,
-                ProgressDisplay::Terminal => terminal.then_some(true),
-                ProgressDisplay::Always => Some(terminal),
-            },
-            stop_time,
-            start: now,
-            last: now,
-            shown: false,
-            rows: 0,
-            clock_work: 0,
-        }
-    }
-
-    /// Called once per row with the solver work so far; looks at the clock only every 256
-    /// rows or every [`PROGRESS_WORK`] steps and events (so the cost per row of a fast run
-    /// stays an increment, and a run whose rows each take long still shows its progress).
-    pub fn tick(&mut self, t: f64, work: u64) {
-        self.rows += 1;
-        let Some(in_place) = self.in_place else {
-            return;
+        let in_place = match display {
+            ProgressDisplay::Off => None,
+            ProgressDisplay::Terminal => terminal.then_some(true),
+            ProgressDisplay::Always => Some(terminal),
         };
-        if self.rows % 256 != 1 && work < self.clock_work + PROGRESS_WORK {
-            return;
-        }
-        self.clock_work = work;
-        let now = Instant::now();
+        let Some(in_place) = in_place else {
+            return Progress {
+                shared: None,
+                thread: None,
+            };
+        };
+        let shared = Arc::new(Shown {
+            time_bits: AtomicU64::new(0),
+            rows: AtomicU64::new(0),
+            work: AtomicU64::new(0),
+            stop: Mutex::new(false),
+            wake: Condvar::new(),
+            drawn: AtomicBool::new(false),
+        });
         let every = if in_place {
             PROGRESS_EVERY
         } else {
             PROGRESS_LINE_EVERY
         };
-        if now.duration_since(self.last) < every {
-            return;
+        let thread = {
+            let shared = shared.clone();
+            std::thread::Builder::new()
+                .name("geardyn-progress".into())
+                .spawn(move || shared.show(stop_time, in_place, every))
+                .ok()
+        };
+        Progress {
+            shared: thread.is_some().then_some(shared),
+            thread,
         }
-        self.last = now;
-        self.shown = true;
-        let done = (t / self.stop_time).clamp(0.0, 1.0);
-        let elapsed = now.duration_since(self.start).as_secs_f64();
-        let eta = if done > 0.0 {
-            format!(", {:.0} s left", elapsed * (1.0 - done) / done)
-        } else {
-            String::new()
-        };
-        let line = format!(
-            "t = {t:.6e} s of {} s ({:.1} %), {} rows, {work} solver steps and events, \
-             {elapsed:.0} s elapsed{eta}",
-            self.stop_time,
-            100.0 * done,
-            self.rows
-        );
-        let mut e = std::io::stderr().lock();
-        let _ = if in_place {
-            write!(e, "\r\x1b[K{line}")
-        } else {
-            writeln!(e, "progress: {line}")
-        };
-        let _ = e.flush();
     }
 
-    /// Clears the progress line, if one was shown in place.
+    /// Records a row at `t` and the solver work so far (three relaxed stores).
+    pub fn tick(&mut self, t: f64, work: u64) {
+        if let Some(s) = &self.shared {
+            s.time_bits.store(t.to_bits(), Ordering::Relaxed);
+            s.rows.fetch_add(1, Ordering::Relaxed);
+            s.work.store(work, Ordering::Relaxed);
+        }
+    }
+
+    /// Stops the display and clears the progress line, if one was drawn in place.
     pub fn finish(&mut self) {
-        if self.shown && self.in_place == Some(true) {
+        if let (Some(s), Some(thread)) = (self.shared.take(), self.thread.take()) {
+            *s.stop.lock().unwrap_or_else(|e| e.into_inner()) = true;
+            s.wake.notify_all();
+            let _ = thread.join();
+        }
+    }
+}
+
+impl Shown {
+    /// The progress thread: a line every `every` until stopped.
+    fn show(&self, stop_time: f64, in_place: bool, every: Duration) {
+        let start = Instant::now();
+        let mut stop = self.stop.lock().unwrap_or_else(|e| e.into_inner());
+        loop {
+            let (guard, _) = self
+                .wake
+                .wait_timeout(stop, every)
+                .unwrap_or_else(|e| e.into_inner());
+            stop = guard;
+            if *stop {
+                break;
+            }
+            let t = f64::from_bits(self.time_bits.load(Ordering::Relaxed));
+            let done = (t / stop_time).clamp(0.0, 1.0);
+            let elapsed = start.elapsed().as_secs_f64();
+            let eta = if done > 0.0 {
+                format!(", {:.0} s left", elapsed * (1.0 - done) / done)
+            } else {
+                String::new()
+            };
+            let line = format!(
+                "t = {t:.6e} s of {stop_time} s ({:.1} %), {} rows, {} solver steps and events, \
+                 {elapsed:.0} s elapsed{eta}",
+                100.0 * done,
+                self.rows.load(Ordering::Relaxed),
+                self.work.load(Ordering::Relaxed),
+            );
+            let mut e = std::io::stderr().lock();
+            let _ = if in_place {
+                write!(e, "\r\x1b[K{line}")
+            } else {
+                writeln!(e, "progress: {line}")
+            };
+            let _ = e.flush();
+            self.drawn.store(in_place, Ordering::Relaxed);
+        }
+        if self.drawn.load(Ordering::Relaxed) {
             let mut e = std::io::stderr().lock();
             let _ = write!(e, "\r\x1b[K");
             let _ = e.flush();
         }
-        self.shown = false;
     }
 }
 
