@@ -114,7 +114,6 @@ pub const MAX_SWEEP_POINTS: usize = 100_000;
 
 /// `from:to:points` of a sweep: `points ≥ 2` evenly spaced speeds (rad/s), `to > from`,
 /// `points ≤` [`MAX_SWEEP_POINTS`].
-
 pub fn parse_speed_range(flag: &str, text: &str) -> Result<Vec<f64>, String> {
     let [from, to, points] = text.split(':').collect::<Vec<_>>()[..] else {
         return Err(format!(

@@ -673,7 +673,7 @@ fn simulate<'py>(
         limits.max_rows = n;
     }
     if let Some(p) = max_periods {
-        if !(p > 0.0) {
+        if p.is_nan() || p <= 0.0 {
             return Err(PyValueError::new_err(format!(
                 "max_periods = {p}: must be a number > 0"
             )));
