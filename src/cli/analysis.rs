@@ -178,6 +178,7 @@ pub struct HbArgs {
 /// `geardyn hb`: harmonic balance with pseudo-arclength continuation and stability.
 pub fn hb(args: HbArgs) -> Result<(), String> {
     let scene = load_any_scene(&args.scene, &args.example)?;
+    hb_commands::check_sweep_points(args.sweep_points)?;
     let mesh = hb_commands::plot_mesh_index(&scene, args.plot_mesh.as_deref())?;
     if let Some(path) = &args.plot {
         Format::of(path)?;

@@ -86,6 +86,18 @@ pub fn plot_mesh_index(scene: &AnyScene, name: Option<&str>) -> Result<usize, St
     })
 }
 
+/// `--sweep-points` within [`crate::units::MAX_SWEEP_POINTS`], checked before the branch
+/// is continued (the sweep runs after it, for the plot).
+pub fn check_sweep_points(points: usize) -> Result<(), String> {
+    let max = crate::units::MAX_SWEEP_POINTS;
+    if points > max {
+        return Err(format!(
+            "--sweep-points = {points}: more than the {max} a sweep may have"
+        ));
+    }
+    Ok(())
+}
+
 impl HbRequest<'_> {
     /// The speed interval of `--speed from:to` (rad/s).
     pub fn interval(&self) -> Result<crate::units::SpeedInterval, String> {
@@ -162,6 +174,7 @@ impl HbBranch {
         mesh: usize,
         path: &Path,
     ) -> Result<(), String> {
+        check_sweep_points(sweep_points)?;
         let branch = &self.points;
         let mut series: Vec<Series> = Vec::new();
         // Consecutive points of equal stability form one segment (shared end points).

@@ -310,10 +310,12 @@ pub fn run(args: RunArgs) -> ExitCode {
     })
 }
 
-/// Print a failure as `main` does for the other commands; the exit code.
+/// Print a failure as `main` does for the other commands; the exit code. A closed pipe on
+/// the output (`geardyn run x.fmu | head`) ends quietly ([`crate::pipe`]).
 pub(crate) fn report(result: Result<(), String>) -> u8 {
     match result {
         Ok(()) => 0,
+        Err(message) if crate::pipe::is_broken_pipe(&message) => crate::pipe::BROKEN_PIPE_STATUS,
         Err(message) => {
             eprintln!("error: {message}");
             1

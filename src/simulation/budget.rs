@@ -12,7 +12,9 @@
 //! Matrix decompositions reachable from input (model construction, Floquet analyses) are
 //! bounded by iteration caps of their own (`model::train::assembly`).
 
-use crate::solve::SolverStats;
+use super::driver::{DrivenModel, Driver};
+use super::stream::RunScales;
+use crate::solve::{SolveError, SolverStats};
 
 /// Default budget of one FMI call (`fmi2DoStep`), in work units: at most about 0.3 s on the
 /// development machine's core for the costliest work per unit the FMI fuzzer finds (typically
@@ -144,7 +146,7 @@ pub struct Exhaustion<'a> {
     /// Counters of the work spent in this budget's scope.
     pub work: SolverStats,
     /// The model's time scales: mesh frequency, speed, fastest rate.
-    pub scales: &'a super::RunScales,
+    pub scales: &'a RunScales,
     /// Name of the propagator (`exact`, `dop853`, ...).
     pub method: &'a str,
     /// Whether the budget bounds one FMI call (else a whole run).
@@ -157,41 +159,87 @@ pub fn exhausted_message(e: &Exhaustion) -> String {
     let w = &e.work;
     let steps = w.steps + w.rejected;
     let span = (e.t - e.t_start).max(0.0);
-    let periods = span * e.scales.mesh_frequency;
-    let (rate, rate_fields) = e.scales.fastest_rate;
-    let cause = if w.events * 2 > w.steps && w.events > 1000 {
-        format!(
-            "contact chatter: {} state events in {} steps; check backlash, mesh damping and \
-             stiffness",
-            w.events, w.steps
-        )
-    } else if periods > 0.0 && steps as f64 / periods.max(1.0) > 1000.0 && rate > 0.0 {
-        format!(
-            "stiffness: {:.0} steps per mesh period, so some mode is far faster than the mesh \
-             (a stiff port coupling, mesh or bearing, or heavy damping on a small inertia; \
-             the fastest rate known from the scene is {rate:.3e} rad/s, from {rate_fields})",
-            steps as f64 / periods.max(1.0)
-        )
-    } else if periods > 1e4 {
-        let (field, speed) = e.scales.speed;
-        format!(
-            "speed: {periods:.3e} mesh periods of {:.3e} Hz ({field} = {speed:e} rad/s) in \
-             {span:e} s",
-            e.scales.mesh_frequency
-        )
-    } else {
-        format!("step count: {steps} steps ({} rejected)", w.rejected)
-    };
+    let cause = likely_cause(e.scales, w, span);
     let remedy = if e.per_call {
         format!("shorten the communication step, or raise the parameter {BUDGET_KEY}")
     } else {
-        format!("raise {BUDGET_KEY} in the scene if the run is meant to do this much work")
+        format!(
+            "raise {BUDGET_KEY} in the scene (--work-budget on the command line, work_budget= \
+             in Python) if the run is meant to do this much work"
+        )
     };
     format!(
         "the work budget of {:e} units was spent at t = {:e} s ({} steps with {}, {} events, {} \
          guard evaluations); likely cause: {cause}. Check the inputs, or {remedy} (docs/fmu.md \
          \"Work budget\")",
         e.limit, e.t, steps, e.method, w.events, w.guard_evals
+    )
+}
+
+/// The solver's refusal of an advance, with the likely cause when it is one of work (too many
+/// steps, a step below the time resolution, too many guard samples or events).
+pub fn explain_failure<M: DrivenModel>(sim: &Driver<M>, e: &SolveError) -> String {
+    match e {
+        SolveError::TooManySteps { .. }
+        | SolveError::StepSizeTooSmall { .. }
+        | SolveError::TooManyGuardSamples { .. }
+        | SolveError::EventStorm { .. } => format!(
+            "integration failed: {e}; likely cause: {}",
+            likely_cause(&sim.model().run_scales(), &sim.stats(), sim.t())
+        ),
+        _ => format!("integration failed: {e}"),
+    }
+}
+
+/// Which of the model's time scales holds the step: the fastest mode (stiffness), the mesh
+/// period (speed), the events, or none of them (the step count itself: tolerance, or a
+/// stiffness the model's bound does not see). `span` is the simulated time over which `stats` were spent.
+pub fn likely_cause(scales: &RunScales, stats: &SolverStats, span: f64) -> String {
+    let t = span;
+    let steps = (stats.steps + stats.rejected).max(1) as f64;
+    let h = t / steps;
+    let (rate, source) = scales.fastest_rate;
+    let mode_period = if rate > 0.0 {
+        std::f64::consts::TAU / rate
+    } else {
+        f64::INFINITY
+    };
+    let mesh_period = if scales.mesh_frequency > 0.0 {
+        1.0 / scales.mesh_frequency
+    } else {
+        f64::INFINITY
+    };
+    let (field, speed) = scales.speed;
+    if stats.events as f64 > 0.5 * steps {
+        return format!(
+            "the event count: {} contact changes by t = {t:e} s ({field} = {speed:e} rad/s, mesh \
+             frequency {:.4e} Hz): the teeth chatter in and out of contact",
+            stats.events, scales.mesh_frequency
+        );
+    }
+    // A step within a few hundred of the fastest mode's period is what an explicit method
+    // needs to stay stable there: that mode sets the pace.
+    if mode_period < 0.1 * mesh_period && h > mode_period / 1000.0 {
+        return format!(
+            "stiffness: the fastest mode ({rate:.4e} rad/s, set by {source}) holds the step near \
+             {h:.3e} s, {:.3e} steps per mesh period; a stiff method (solver.rk_method = \
+             \"rodas4\") or softer values there",
+            mesh_period / h
+        );
+    }
+    if h > mesh_period / 10_000.0 {
+        return format!(
+            "speed: {field} = {speed:e} rad/s gives a mesh frequency of {:.4e} Hz, and each \
+             mesh period takes about {:.0} steps",
+            scales.mesh_frequency,
+            mesh_period / h
+        );
+    }
+    format!(
+        "the step count: the mean step {h:.3e} s is far below the mesh period ({mesh_period:.3e} \
+         s) and the period of the fastest mode the model bounds ({mode_period:.3e} s, set by \
+         {source}); a tight tolerance (solver.rtol, solver.atol) or a stiffness outside that \
+         bound (an element's shaft or port)"
     )
 }
 
@@ -225,5 +273,38 @@ mod tests {
             let e = check_limit("solver.work_budget", x).unwrap_err();
             assert!(e.contains("solver.work_budget"), "{e}");
         }
+    }
+
+    fn scales(mesh_frequency: f64, rate: f64) -> RunScales {
+        RunScales {
+            mesh_frequency,
+            mesh_frequency_slope: 0.0,
+            start_phase: 0.0,
+            speed: ("operating.pinion_speed", 471.0),
+            fastest_rate: (rate, "the mesh and bearing stiffnesses"),
+        }
+    }
+
+    fn stats(steps: u64, events: u64) -> SolverStats {
+        SolverStats {
+            steps,
+            events,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn names_the_scale_that_holds_the_step() {
+        // 1e6 steps over 1e-6 s: h = 1e-12 s against a mode period of 6e-12 s.
+        let c = likely_cause(&scales(2850.0, 1e12), &stats(1_000_000, 0), 1e-6);
+        assert!(c.starts_with("stiffness"), "{c}");
+        // 1e6 steps over 1 s at a 1 GHz mesh: ~1000 steps per mesh period, no stiff mode.
+        let c = likely_cause(&scales(1e9, 1e4), &stats(1_000_000, 0), 1e-3);
+        assert!(c.starts_with("speed"), "{c}");
+        let c = likely_cause(&scales(2850.0, 1e4), &stats(1_000_000, 900_000), 1e-3);
+        assert!(c.starts_with("the event count"), "{c}");
+        // h = 1e-12 s, nothing in the model near it.
+        let c = likely_cause(&scales(2850.0, 1e4), &stats(1_000_000, 0), 1e-6);
+        assert!(c.starts_with("the step count"), "{c}");
     }
 }
