@@ -381,6 +381,8 @@ pub fn stream<M: DrivenModel>(
     summary: &mut RunSummary,
     progress: &mut Progress,
 ) -> Result<(), String> {
+    // A run is bounded as a whole (`docs/fmu.md`, "Work budget").
+    sim.default_work_budget(super::budget::DEFAULT_RUN_BUDGET);
     let mut row = Vec::new();
     sim.sample(grid, |sim, t| {
         outputs(sim, &mut row);
