@@ -104,14 +104,18 @@ impl WorkBudget {
     /// `step` units each and guard evaluations `guard_eval`: accepted and rejected attempts (a
     /// state event ends an RK step and is a segment of the exact propagator, so it is counted
     /// with them) and the guard evaluations of their event searches.
-    pub fn charge(&mut self, before: &SolverStats, after: &SolverStats, step: f64, guard_eval: f64) {
+    pub fn charge(
+        &mut self,
+        before: &SolverStats,
+        after: &SolverStats,
+        step: f64,
+        guard_eval: f64,
+    ) {
         let steps = after.steps.saturating_sub(before.steps)
             + after.rejected.saturating_sub(before.rejected);
         let evals = after.guard_evals.saturating_sub(before.guard_evals);
         self.spent += steps as f64 * step + evals as f64 * guard_eval;
     }
-
-
 
     /// Charges other work (mode builds, search samples) already expressed in units.
     pub fn charge_units(&mut self, units: f64) {

@@ -162,10 +162,7 @@ impl<M: DrivenModel> Driver<M> {
             };
             let mut p = RkStepper::new(options, y0.len())?;
             p.set_state(0.0, y0);
-            (
-                Propagator::Rk(Box::new(p)),
-                budget::rk_step_cost(y0.len()),
-            )
+            (Propagator::Rk(Box::new(p)), budget::rk_step_cost(y0.len()))
         };
         let guard_cost = budget::guard_eval_cost(if exact { model.lti_dim() } else { y0.len() });
         let rk_max_steps = match &propagator {
