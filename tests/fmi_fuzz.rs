@@ -34,9 +34,9 @@ use std::time::{Duration, Instant};
 use fmu_harness::{guid, quiet_logger, scene_dir, SplitMix};
 use geardyn::fmi::model::{Causality, VarKind};
 use geardyn::fmu::adapter::VR_WORK_BUDGET;
-use geardyn::simulation::budget::DEFAULT_CALL_BUDGET;
 use geardyn::host::library::{CallbackFunctions, FmuLibrary, Functions};
 use geardyn::host::logger::Logger;
+use geardyn::simulation::budget::DEFAULT_CALL_BUDGET;
 
 /// The longest any one call may take. Every call the fuzzer makes is refused or computed in
 /// milliseconds (a step spans at most 2^20 mesh periods, and the fuzzer's finite steps are
@@ -399,7 +399,10 @@ fn vrs(rng: &mut SplitMix, t: &Target, own: &[u32]) -> Vec<u32> {
 /// One session per seed: instantiate, `CALLS_PER_SESSION` random calls, free.
 fn fuzz(calls: u64, current: &Mutex<Current>) -> Tally {
     if let Some((scene, seed)) = replay() {
-        let name = scenes().into_iter().find(|n| *n == scene).expect("a shipped FMU");
+        let name = scenes()
+            .into_iter()
+            .find(|n| *n == scene)
+            .expect("a shipped FMU");
         let mut tally = Tally::default();
         Session::run(&Target::new(name), seed, &mut tally, current, calls);
         return tally;

@@ -480,7 +480,7 @@ fn fuzz(mutations: u64, seed: u64) {
                     let partial = wdir.join(".out.csv.partial");
                     let result = std::panic::catch_unwind(|| {
                         if *kind == Kind::Element {
-                            return run_element(&text).map(|()| 0);
+                            return run_element(&text).map(|()| 0.0);
                         }
                         let scene = AnyScene::from_path(&scene_path)?;
                         let opts = SimulateOptions {

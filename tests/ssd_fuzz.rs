@@ -83,7 +83,8 @@ fn mutate(rng: &mut SplitMix64, text: &str) -> String {
     let at = (rng.next() % n as u64) as usize;
     let len = 1 + (rng.next() % 64) as usize;
     let end = (at + len).min(chars.len());
-    let (head, tail): (String, String) = (chars[..at].iter().collect(), chars[at..].iter().collect());
+    let (head, tail): (String, String) =
+        (chars[..at].iter().collect(), chars[at..].iter().collect());
     match rng.next() % 8 {
         0 => head + &chars[end..].iter().collect::<String>(),
         1 => {
@@ -93,7 +94,9 @@ fn mutate(rng: &mut SplitMix64, text: &str) -> String {
         2 | 3 => head + FRAGMENTS[(rng.next() % FRAGMENTS.len() as u64) as usize] + &tail,
         4 => {
             // A number attribute replaced by an extreme.
-            let extremes = ["1e999", "-1e999", "nan", "inf", "1e308", "-0", "4.9e-324", ""];
+            let extremes = [
+                "1e999", "-1e999", "nan", "inf", "1e308", "-0", "4.9e-324", "",
+            ];
             let x = extremes[(rng.next() % extremes.len() as u64) as usize];
             text.replacen("value=\"", &format!("value=\"{x}"), 1)
                 .replacen("factor=\"", &format!("factor=\"{x}"), 1)
@@ -144,7 +147,8 @@ fn fuzz(mutations: usize) {
             }
         }
         let start = Instant::now();
-        let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| parse(&text, &files)));
+        let result =
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| parse(&text, &files)));
         let took = start.elapsed();
         slowest = slowest.max(took);
         if took > PARSE_BOUND {
@@ -222,7 +226,10 @@ fn ssd_parsing_is_linear_in_the_file() {
         mutated: None,
     };
     let e = parse(&padded(200_000, true), &files).unwrap_err();
-    assert!(e.contains("nested deeper than") && e.contains("line"), "{e}");
+    assert!(
+        e.contains("nested deeper than") && e.contains("line"),
+        "{e}"
+    );
     let (small, large) = (padded(50_000, false), padded(200_000, false));
     let ratio = parse_seconds(&large) / parse_seconds(&small);
     println!("ssd parse: 4x the unknown elements took {ratio:.2}x the time");

@@ -46,7 +46,12 @@ fn ctor_fmu(dir: &Path) -> PathBuf {
 
 /// Runs `geardyn validate` with the stub's behaviour `how`, TMPDIR in `tmp`; after `term`
 /// sends SIGTERM. Returns (exit code, stdout + stderr, seconds).
-fn validate(fmu: &Path, tmp: &Path, how: Option<&str>, term: Option<Duration>) -> (i32, String, f64) {
+fn validate(
+    fmu: &Path,
+    tmp: &Path,
+    how: Option<&str>,
+    term: Option<Duration>,
+) -> (i32, String, f64) {
     std::fs::create_dir_all(tmp).unwrap();
     let mut cmd = Command::new(BIN);
     cmd.args(["validate"])
@@ -72,8 +77,15 @@ fn validate(fmu: &Path, tmp: &Path, how: Option<&str>, term: Option<Duration>) -
     );
     assert!(!text.contains("panicked"), "{text}");
     let left: Vec<_> = std::fs::read_dir(tmp).unwrap().collect();
-    assert!(left.is_empty(), "{how:?}: temporary files left behind: {left:?}");
-    (out.status.code().unwrap_or(-1), text, start.elapsed().as_secs_f64())
+    assert!(
+        left.is_empty(),
+        "{how:?}: temporary files left behind: {left:?}"
+    );
+    (
+        out.status.code().unwrap_or(-1),
+        text,
+        start.elapsed().as_secs_f64(),
+    )
 }
 
 #[test]

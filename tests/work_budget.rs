@@ -70,7 +70,10 @@ fn the_slow_calls_end_within_the_budget_naming_a_cause() {
                         && reason.contains("likely cause"),
                     "{case}: {reason}"
                 );
-                assert!(reached >= 0.0 && reached < h && !terminate, "{case}: {reached}");
+                assert!(
+                    reached >= 0.0 && reached < h && !terminate,
+                    "{case}: {reached}"
+                );
             }
             other => panic!("{case}: {other:?}"),
         }
@@ -186,7 +189,11 @@ fn simulate_stops_at_its_budget_naming_the_cause() {
     ] {
         if budget != DEFAULT_RUN_BUDGET {
             let text = std::fs::read_to_string(&path).unwrap();
-            let text = text.replacen("[solver]", &format!("[solver]\nwork_budget = {budget:e}"), 1);
+            let text = text.replacen(
+                "[solver]",
+                &format!("[solver]\nwork_budget = {budget:e}"),
+                1,
+            );
             std::fs::write(&path, text).unwrap();
         }
         let out = Command::new(env!("CARGO_BIN_EXE_geardyn"))

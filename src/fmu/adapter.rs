@@ -34,9 +34,7 @@ pub const VR_WORK_BUDGET: u32 = 29;
 /// `solver.work_budget`, else [`DEFAULT_CALL_BUDGET`].
 fn build_sim<K: Kernel>(settings: &K::Settings) -> Result<Driver<K::Model>, String> {
     let mut sim = K::build(settings)?;
-    if K::header(settings).2.work_budget.is_none() {
-        sim.set_work_budget(DEFAULT_CALL_BUDGET)?;
-    }
+    sim.default_work_budget(DEFAULT_CALL_BUDGET);
     Ok(sim)
 }
 

@@ -141,9 +141,11 @@ impl<M: DrivenModel> Driver<M> {
                 (dim * dim * 8) as f64 / 1e6
             ));
         }
+        // Unset, a driver's advances are unbounded until its owner applies the default of its
+        // scope: one FMI call (the FMU adapter) or one streamed run (`stream`).
         let limit = match settings.work_budget {
             Some(x) => budget::check_limit(budget::BUDGET_KEY, x)?,
-            None => budget::DEFAULT_RUN_BUDGET,
+            None => f64::INFINITY,
         };
         let (propagator, step_cost) = if exact {
             let mut p = ExactPropagator::new(&model);
@@ -160,10 +162,7 @@ impl<M: DrivenModel> Driver<M> {
             };
             let mut p = RkStepper::new(options, y0.len())?;
             p.set_state(0.0, y0);
-            (
-                Propagator::Rk(Box::new(p)),
-                budget::rk_step_cost(y0.len()),
-            )
+            (Propagator::Rk(Box::new(p)), budget::rk_step_cost(y0.len()))
         };
         let guard_cost = budget::guard_eval_cost(if exact { model.lti_dim() } else { y0.len() });
         let rk_max_steps = match &propagator {
@@ -240,6 +239,13 @@ impl<M: DrivenModel> Driver<M> {
         self.budget
             .set_limit(budget::check_limit(budget::BUDGET_KEY, limit)?);
         Ok(())
+    }
+
+    /// Applies `limit` unless the scene set `solver.work_budget` (which then stays).
+    pub fn default_work_budget(&mut self, limit: f64) {
+        if self.budget.limit() == f64::INFINITY {
+            self.budget.set_limit(limit);
+        }
     }
 
     /// Starts a new budget scope: an FMU calls this at the start of every call, so the

@@ -500,8 +500,11 @@ pub fn stream<M: DrivenModel>(
     progress: &mut Progress,
     work_budget: Option<f64>,
 ) -> Result<(), String> {
-    if let Some(limit) = work_budget {
-        sim.set_work_budget(limit)?;
+    // A run is bounded as a whole (`docs/fmu.md`, "Work budget"): the caller's budget, else
+    // the scene's `solver.work_budget`, else the default of a run.
+    match work_budget {
+        Some(limit) => sim.set_work_budget(limit)?,
+        None => sim.default_work_budget(super::budget::DEFAULT_RUN_BUDGET),
     }
     let mut row = Vec::new();
     for t in grid {

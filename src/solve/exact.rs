@@ -555,7 +555,13 @@ impl WorkBudget {
     /// Counts one segment starting at `t`; the error once a budget is exceeded. `work`: the
     /// propagator's guard evaluations and mode builds so far, and the guard samples this
     /// advance's searches took.
-    fn charge(&mut self, t: f64, stats: &SolverStats, builds: u64, samples: f64) -> Result<(), SolveError> {
+    fn charge(
+        &mut self,
+        t: f64,
+        stats: &SolverStats,
+        builds: u64,
+        samples: f64,
+    ) -> Result<(), SolveError> {
         if let Some(cap) = self.cap {
             let evals = stats.guard_evals.saturating_sub(self.guard_evals0) as f64 + samples;
             let builds = builds.saturating_sub(self.builds0) as f64;

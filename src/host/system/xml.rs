@@ -252,7 +252,10 @@ mod tests {
         let deep = "<u>".repeat(200_000) + &"</u>".repeat(200_000);
         let start = std::time::Instant::now();
         let e = parse(&deep, "f").unwrap_err();
-        assert!(e.contains("nested deeper than 256") && e.contains("line 1"), "{e}");
+        assert!(
+            e.contains("nested deeper than 256") && e.contains("line 1"),
+            "{e}"
+        );
         assert!(start.elapsed().as_secs_f64() < 5.0);
     }
 }

@@ -360,12 +360,11 @@ pub fn try_generalized_eigen(
     if !a.iter().all(|x| x.is_finite()) {
         return Err("the mass-normalised stiffness matrix is not finite".into());
     }
-    let eig = SymmetricEigen::try_new(a, f64::EPSILON, ITERATIONS_PER_DIM * n.max(1)).ok_or(
-        format!(
+    let eig =
+        SymmetricEigen::try_new(a, f64::EPSILON, ITERATIONS_PER_DIM * n.max(1)).ok_or(format!(
             "the eigenvalues of the {n}×{n} mean system did not converge within {} iterations",
             ITERATIONS_PER_DIM * n.max(1)
-        ),
-    )?;
+        ))?;
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
     let values = order.iter().map(|&i| eig.eigenvalues[i]).collect();
