@@ -439,7 +439,7 @@ fn a_chattering_contact_is_stopped_by_the_budget_naming_the_events() {
             "--stop-time",
             "1e-3",
         ],
-        &["work budget of 1e8", "likely cause: the event count"],
+        &["work budget of 1e8", "likely cause: contact chatter"],
     );
     nothing_left(dir.path());
 }
