@@ -235,3 +235,29 @@ fn ssd_parsing_is_linear_in_the_file() {
     println!("ssd parse: 4x the unknown elements took {ratio:.2}x the time");
     assert!(ratio < 8.0, "4x the elements took {ratio:.1}x the time");
 }
+
+/// Issue 34 item 8: `ssv:Real value="1e999"` was read as infinity; it is refused, naming the
+/// file, the parameter and the value.
+#[test]
+fn a_non_finite_ssv_literal_is_refused() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/systems/two_stage");
+    let ssd = std::fs::read_to_string(dir.join("SystemStructure.ssd")).unwrap();
+    let ssv = std::fs::read_to_string(dir.join("stage1.ssv")).unwrap();
+    let at = ssv.find("value=\"").expect("a value in stage1.ssv") + "value=\"".len();
+    let end = at + ssv[at..].find('"').unwrap();
+    for literal in ["1e999", "-1e999", "inf", "NaN"] {
+        let files = Files {
+            dir: dir.clone(),
+            mutated: Some((
+                "stage1.ssv".into(),
+                format!("{}{literal}{}", &ssv[..at], &ssv[end..]),
+            )),
+        };
+        let e = parse(&ssd, &files).unwrap_err();
+        assert!(
+            e.contains(&format!("value=\"{literal}\" is not a finite real number"))
+                && e.contains("stage1.ssv"),
+            "{literal}: {e}"
+        );
+    }
+}

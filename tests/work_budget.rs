@@ -213,3 +213,36 @@ fn simulate_stops_at_its_budget_naming_the_cause() {
         );
     }
 }
+
+/// Issue 34 item 8: `--start u=1e999` was read as infinity; it is refused, naming the value.
+#[test]
+fn a_non_finite_start_literal_is_refused() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("work_budget_start");
+    std::fs::create_dir_all(&dir).unwrap();
+    let bin = env!("CARGO_BIN_EXE_geardyn");
+    let built = Command::new(bin)
+        .args(["fmu", "build"])
+        .arg(fmu_dir("spur_pair"))
+        .arg("--out")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(built.status.success(), "{built:?}");
+    for literal in ["1e999", "-1e999", "inf", "nan"] {
+        let out = Command::new(bin)
+            .arg("run")
+            .arg(dir.join("spur_pair.fmu"))
+            .arg("--start")
+            .arg(format!("operating.input_torque={literal}"))
+            .args(["--stop-time", "1e-4", "--out"])
+            .arg(dir.join("out.csv"))
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{literal}: {stderr}");
+        assert!(
+            stderr.contains(&format!("\"{literal}\" is not a finite real number")),
+            "{literal}: {stderr}"
+        );
+    }
+}

@@ -122,7 +122,7 @@ pub fn monodromy(scene: &impl SceneSource) -> Result<Floquet, String> {
         let y0 = sim.y().to_vec();
         let mut map = PeriodMap::new(model, &settings, period)?;
         let (_, monodromy) = map.eval(&y0)?;
-        let multipliers = monodromy.complex_eigenvalues().iter().copied().collect();
+        let multipliers = super::multipliers(&monodromy)?;
         Ok(Floquet {
             period,
             monodromy,

@@ -278,7 +278,7 @@ pub fn newton<M: Drivetrain>(
     let mut residuals = vec![residual];
     loop {
         if residual <= options.tolerance {
-            let multipliers = m.complex_eigenvalues().iter().copied().collect();
+            let multipliers = super::multipliers(&m)?;
             return Ok(PeriodicOrbit {
                 y0: y.as_slice().to_vec(),
                 period: map.duration,

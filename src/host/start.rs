@@ -88,12 +88,11 @@ pub fn resolve(
         let value = match v.var_type {
             // A literal beyond the double range (1e999) parses as inf: refused, not read as
             // infinity (issue 34).
-            VarType::Real => Value::Real(
-                text.parse::<f64>()
-                    .ok()
-                    .filter(|x| x.is_finite())
-                    .ok_or_else(|| bad("a finite real number"))?,
-            ),
+            VarType::Real => match text.parse::<f64>() {
+                Ok(x) if x.is_finite() => Value::Real(x),
+                Ok(_) => return Err(bad("a finite real number")),
+                Err(_) => return Err(bad("a real number")),
+            },
             VarType::Integer | VarType::Enumeration => {
                 Value::Integer(text.parse::<i32>().map_err(|_| bad("a 32-bit integer"))?)
             }

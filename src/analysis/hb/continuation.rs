@@ -255,7 +255,7 @@ fn multipliers<M: Drivetrain>(
 ) -> Option<Vec<Complex<f64>>> {
     let mut map = PeriodMap::new(model, settings, period).ok()?;
     let (_, monodromy) = map.eval(&solution.state_at(0.0)).ok()?;
-    Some(monodromy.complex_eigenvalues().iter().copied().collect())
+    crate::analysis::multipliers(&monodromy).ok()
 }
 
 /// The multipliers of every point of a branch. The period maps are independent of each

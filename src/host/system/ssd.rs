@@ -513,13 +513,11 @@ fn binding(b: &Node, component: &str, resources: &dyn Resources) -> Result<Vec<P
                 let v = t.attr("value");
                 Some(match (t.name.as_str(), v) {
                     // 1e999 parses as inf: refused like any non-finite value (issue 34).
-                    ("Real", Some(v)) => v
-                        .trim()
-                        .parse::<f64>()
-                        .ok()
-                        .filter(|x| x.is_finite())
-                        .map(ParamValue::Real)
-                        .ok_or_else(|| bad("a finite real number", v)),
+                    ("Real", Some(v)) => match v.trim().parse::<f64>() {
+                        Ok(x) if x.is_finite() => Ok(ParamValue::Real(x)),
+                        Ok(_) => Err(bad("a finite real number", v)),
+                        Err(_) => Err(bad("a real number", v)),
+                    },
                     ("Integer" | "Enumeration", Some(v)) => v
                         .trim()
                         .parse::<i64>()
