@@ -26,7 +26,7 @@ use crate::solve::{SolveError, SolverStats};
 pub const DEFAULT_CALL_BUDGET: f64 = 5e7;
 
 /// Default budget of one run (`geardyn simulate`, the Python module's runs): about 5 s of
-/// work, 100 times the work of the longest shipped scene's run; a longer run needs
+/// work, far beyond the shipped scenes' default runs (at most 0.17 s); a longer run needs
 /// `solver.work_budget` raised explicitly.
 pub const DEFAULT_RUN_BUDGET: f64 = 2e9;
 

@@ -148,13 +148,11 @@ pub fn parse(text: &str, file: &str) -> Result<Node, String> {
             // Well-formedness quick-xml leaves to the application (XML 1.0 §2.5, §2.4, §2.1):
             // "--" inside a comment, an undefined entity or a stray "&" in text, and text
             // outside the root element.
-            Event::Comment(ref c) => {
-                if c.contains("--") {
-                    return Err(format!(
-                        "{file}: not well-formed XML at line {}: \"--\" inside a comment",
-                        lines.at(text, pos)
-                    ));
-                }
+            Event::Comment(ref c) if c.contains("--") => {
+                return Err(format!(
+                    "{file}: not well-formed XML at line {}: \"--\" inside a comment",
+                    lines.at(text, pos)
+                ));
             }
             Event::Text(ref t) => {
                 let outside = stack.is_empty() && !t.trim().is_empty();
