@@ -156,9 +156,14 @@ fn runs() -> Vec<Run> {
     runs.push(Run {
         scene: "examples/runup_spur.toml".into(),
         label: "waterfall",
-        args: ["waterfall", "examples/runup_spur.toml", "--out", "{out}/waterfall.csv"]
-            .map(String::from)
-            .to_vec(),
+        args: [
+            "waterfall",
+            "examples/runup_spur.toml",
+            "--out",
+            "{out}/waterfall.csv",
+        ]
+        .map(String::from)
+        .to_vec(),
         files: vec!["waterfall.csv"],
     });
     runs.push(Run {
