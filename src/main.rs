@@ -64,7 +64,7 @@ fn main() -> ExitCode {
         Command::Waterfall(args) => cli::runup::run(args),
         Command::Fmu(args) => geardyn::fmi::cli::run(args),
         // Prints its own errors: its exit status also tells how the FMU's process ended.
-        Command::Run(args) => return geardyn::host::cli::run(args),
+        Command::Run(args) => return geardyn::commands::run::run(args),
         Command::Info(args) => geardyn::host::cli::info(args),
         Command::Validate(args) => geardyn::host::cli::validate(args),
     };

@@ -7,10 +7,8 @@
 mod driver;
 pub mod stream;
 
-pub use driver::{DrivenModel, Driver, Propagator};
-pub use stream::{
-    stream, ColumnStats, OutputGrid, Progress, RowSink, RunLimits, RunScales, RunSummary,
-};
+pub use driver::{DrivenModel, Driver, Propagator, RunScales};
+pub use stream::{stream, ColumnStats, OutputGrid, Progress, RowSink, RunLimits, RunSummary};
 
 use crate::model::{GearPair, Inputs, PairState, OUTPUT_NAMES};
 use crate::scene::Scene;

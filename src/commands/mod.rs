@@ -6,6 +6,7 @@
 
 pub mod hb;
 pub mod modes;
+pub mod run;
 pub mod runup;
 pub mod simulate;
 pub mod spectrum;

@@ -7,7 +7,7 @@
 use std::io::{IsTerminal, Write};
 use std::time::{Duration, Instant};
 
-use super::driver::{DrivenModel, Driver};
+use super::driver::{DrivenModel, Driver, RunScales};
 // The precision limit of the mesh phase is the clock's (a double resolves 2⁻²⁰ cycle there); a
 // run is checked against it before it starts, every advance again (`check_advance`).
 use crate::model::MAX_MESH_CYCLES;
@@ -43,25 +43,6 @@ impl Default for RunLimits {
             max_mode_periods: DEFAULT_MAX_MODE_PERIODS,
         }
     }
-}
-
-/// The time scales of a model that decide the work of a run, from the model itself (see
-/// [`DrivenModel::run_scales`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RunScales {
-    /// Mesh frequency of the fastest mesh, Hz (0 at standstill).
-    pub mesh_frequency: f64,
-    /// How fast the torques change the fastest mesh frequency, Hz/s: 0 for a prescribed speed;
-    /// with the rotation carried (ports, `docs/ports.md`) the rigid-body acceleration the port
-    /// torques give. A run spans about `(f + ½ḟt) t` mesh periods.
-    pub mesh_frequency_slope: f64,
-    /// Largest |mesh phase| at t = 0, cycles.
-    pub start_phase: f64,
-    /// The input speed: its TOML field and value, rad/s.
-    pub speed: (&'static str, f64),
-    /// An upper bound of the fastest rate of any mode (angular frequency or damping rate),
-    /// rad/s, and what sets it (the fields to look at).
-    pub fastest_rate: (f64, &'static str),
 }
 
 impl RunLimits {
