@@ -15,7 +15,8 @@ use pyo3::types::{PyBool, PyByteArray, PyDict, PyFloat, PyInt, PyList, PyString,
 use geardyn::commands;
 use geardyn::model::train::run_train;
 use geardyn::model::AnyScene;
-use geardyn::scene::train::{is_train_text, TrainScene, TRAIN_EXAMPLES};
+use geardyn::scene::is_train_text;
+use geardyn::scene::train::{TrainScene, TRAIN_EXAMPLES};
 use geardyn::scene::{read_scene_file, scene_file, Scene, EXAMPLES};
 
 create_exception!(

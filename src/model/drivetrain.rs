@@ -198,7 +198,7 @@ impl Drivetrain for GearPair {
     }
     fn error_frequencies(&self) -> Vec<f64> {
         // The pair kernel carries no gear errors: a pair scene with errors runs as its
-        // one-mesh drivetrain (`crate::scene::train::is_train_text`).
+        // one-mesh drivetrain (`crate::scene::kernel::choose`).
         Vec::new()
     }
     fn input_speed(&self) -> f64 {
@@ -485,12 +485,19 @@ impl AnyScene {
                  build it with `geardyn fmu build` and run it with `geardyn run` or any FMI master"
             ));
         }
-        if crate::scene::train::is_train_text(&text) {
-            TrainScene::from_toml_str(&text, &origin).map(|s| AnyScene::Train(Box::new(s)))
-        } else {
-            Scene::from_toml_str(&text, &origin).map(|s| AnyScene::Pair(Box::new(s)))
+        Ok(AnyScene::from_loaded(
+            crate::scene::load(&text, &origin)
+                .map_err(|e| e.to_string())?
+                .0,
+        ))
+    }
+
+    /// The scene of a [`crate::scene::load`]: the kernel chosen there decides the variant.
+    pub fn from_loaded(loaded: crate::scene::Loaded) -> AnyScene {
+        match loaded {
+            crate::scene::Loaded::Pair(s) => AnyScene::Pair(s),
+            crate::scene::Loaded::Drivetrain(s) => AnyScene::Train(s),
         }
-        .map_err(|e| e.to_string())
     }
 
     /// A built-in example by name (single-pair or drivetrain).
