@@ -16,6 +16,9 @@ mod cli;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Also print which kernel runs the scene (single pair or drivetrain) and why.
+    #[arg(long, global = true)]
+    verbose: bool,
 }
 
 #[derive(Subcommand)]
@@ -51,7 +54,9 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let result = match Cli::parse().command {
+    let cli = Cli::parse();
+    cli::set_verbose(cli.verbose);
+    let result = match cli.command {
         Command::Simulate(args) => cli::simulate::run(args),
         Command::Spectrum(args) => cli::spectrum::run(args),
         Command::Modes(args) => cli::modes::run(args),
