@@ -5,9 +5,7 @@ use std::collections::VecDeque;
 
 use super::checks::{finite, initial_dte, non_negative, positive, solver};
 use crate::mesh::PhaseSeries;
-use crate::scene::spec::{
-    ContactLawSpec, MeshSpec as TrainMeshSpec, PairStiffnessSpec, ParsedScene, ShaftSpec,
-};
+use crate::scene::spec::{MeshSpec as TrainMeshSpec, PairStiffnessSpec, ParsedScene, ShaftSpec};
 use crate::scene::train::{
     Bearing, GapTable, HelicalPair, MeshForceModel, PairGap, PairModel, PairStiffness, Shaft,
     ShaftCoupling, TipRelief, TrainGear, TrainMesh, TrainOperating, TrainScene,
@@ -613,25 +611,7 @@ fn mesh(
         }
     };
 
-    let contact = match (m.contact, m.backlash) {
-        (ContactLawSpec::Backlash, Some(b)) => ContactLaw::Backlash {
-            clearance: non_negative(&f("backlash"), b)?,
-        },
-        (ContactLawSpec::Backlash, None) => {
-            return err(format!(
-                "{}: missing; contact = \"backlash\" needs the total clearance 2b in m",
-                f("backlash")
-            ))
-        }
-        (other, Some(b)) => {
-            return err(format!(
-                "{} = {b}: only allowed with contact = \"backlash\" (contact is {other:?})",
-                f("backlash")
-            ))
-        }
-        (ContactLawSpec::Linear, None) => ContactLaw::Linear,
-        (ContactLawSpec::ContactLoss, None) => ContactLaw::ContactLoss,
-    };
+    let contact = super::mesh::contact_law(&f, m)?;
 
     let k_mean = match &force {
         MeshForceModel::Lumped { stiffness, .. } => stiffness.mean(),
@@ -639,29 +619,11 @@ fn mesh(
     };
     // Equivalent mass of the two gears alone, as for the single pair (docs/model.md).
     let m_e = 1.0 / (gp.base_radius.powi(2) / gp.inertia + gg.base_radius.powi(2) / gg.inertia);
-    let damping = match (m.damping, m.damping_ratio) {
-        (Some(c), None) => non_negative(&f("damping"), c)?,
-        (None, Some(z)) => 2.0 * non_negative(&f("damping_ratio"), z)? * (k_mean * m_e).sqrt(),
-        (None, None) => 0.0,
-        (Some(_), Some(_)) => {
-            return err(format!(
-                "{} and {}: give one of them, not both",
-                f("damping"),
-                f("damping_ratio")
-            ))
-        }
-    };
     let k_max = match &force {
         MeshForceModel::Lumped { stiffness, .. } => stiffness.maximum(),
         MeshForceModel::Pairs { pair, .. } => pair.mesh_mean(),
     };
-    let damping_field = if m.damping.is_some() {
-        f("damping")
-    } else {
-        f("damping_ratio")
-    };
-    super::checks::mesh_rates(&f("stiffness"), k_max, &damping_field, damping, m_e)?;
-    super::checks::damping_ratio_range(&damping_field, damping, k_mean, m_e)?;
+    let damping = super::mesh::damping(&f, m, k_mean, k_max, m_e)?;
 
     let initial_phase = match (i, m.initial_phase) {
         (0, p) => finite(&f("initial_phase"), p.unwrap_or(0.0))?,

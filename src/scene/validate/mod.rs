@@ -5,6 +5,7 @@
 //!
 //! - [`checks`]: the field checks, `[solver]` and `[initial]`, shared by everything below;
 //! - [`stiffness`], [`geometry`], [`helical`]: the mesh-stiffness sources of any mesh;
+//! - [`mesh`]: what every mesh checks the same (contact law, damping);
 //! - [`errors`]: runout and pitch errors of a gear;
 //! - [`pair`]: a scene on the single-pair kernel;
 //! - [`drivetrain`]: a scene on the drivetrain kernel (topology, kinematics, bearings, shafts,
@@ -15,5 +16,6 @@ pub(crate) mod drivetrain;
 pub(crate) mod errors;
 pub(crate) mod geometry;
 pub(crate) mod helical;
+pub(crate) mod mesh;
 pub(crate) mod pair;
 pub(crate) mod stiffness;

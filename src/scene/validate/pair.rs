@@ -3,13 +3,13 @@
 //! names the field as a TOML path and its value; nothing is clamped.
 
 use super::checks::{
-    damping_ratio_range, err, finite, gear_compliance, harmonic_list, initial_dte, mesh_rates,
-    non_negative, solver, teeth, valid_identifier,
+    err, finite, gear_compliance, harmonic_list, initial_dte, non_negative, solver, teeth,
+    valid_identifier,
 };
 use super::stiffness::{stiffness, stiffness_kind};
 use crate::mesh::PhaseSeries;
 use crate::scene::kernel::{choose, KernelChoice};
-use crate::scene::spec::{ContactLawSpec, ParsedScene, StiffnessSpec};
+use crate::scene::spec::{ParsedScene, StiffnessSpec};
 use crate::scene::{
     equivalent_mass, ContactLaw, Gear, Mesh, MethodChoice, Operating, Scene, SceneError,
     SmoothTerms,
@@ -150,43 +150,10 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
     }
     let k_mean = stiffness.mean();
 
-    let contact =
-        match (m.contact, m.backlash) {
-            (ContactLawSpec::Backlash, Some(b)) => ContactLaw::Backlash {
-                clearance: non_negative("mesh.backlash", b)?,
-            },
-            (ContactLawSpec::Backlash, None) => return err(
-                "mesh.backlash: missing; contact = \"backlash\" needs the total clearance 2b in m"
-                    .into(),
-            ),
-            (other, Some(b)) => {
-                return err(format!(
-            "mesh.backlash = {b}: only allowed with contact = \"backlash\" (contact is {other:?})"
-        ))
-            }
-            (ContactLawSpec::Linear, None) => ContactLaw::Linear,
-            (ContactLawSpec::ContactLoss, None) => ContactLaw::ContactLoss,
-        };
-
+    let field = |key: &str| format!("mesh.{key}");
+    let contact = super::mesh::contact_law(&field, m)?;
     let m_e = equivalent_mass(&pinion, &gear);
-    let damping = match (m.damping, m.damping_ratio) {
-        (Some(c), None) => non_negative("mesh.damping", c)?,
-        (None, Some(zeta)) => {
-            2.0 * non_negative("mesh.damping_ratio", zeta)? * (k_mean * m_e).sqrt()
-        }
-        (None, None) => 0.0,
-        (Some(_), Some(_)) => {
-            return err("mesh.damping and mesh.damping_ratio: give one of them, not both".into())
-        }
-    };
-    let damping_field = if m.damping.is_some() {
-        "mesh.damping"
-    } else {
-        "mesh.damping_ratio"
-    };
-    let k_max = stiffness.maximum();
-    mesh_rates("mesh.stiffness", k_max, damping_field, damping, m_e)?;
-    damping_ratio_range(damping_field, damping, k_mean, m_e)?;
+    let damping = super::mesh::damping(&field, m, k_mean, stiffness.maximum(), m_e)?;
 
     let damping_always = match m.damping_acts.as_deref() {
         None | Some("in_contact") => false,

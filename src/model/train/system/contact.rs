@@ -39,7 +39,13 @@ impl GearTrain {
     }
 
     /// Deflection of slot j relative to its gap, and its rate.
-    pub(super) fn slot_gap(&self, n: usize, j: usize, t: f64, y: &[f64]) -> Option<(f64, f64, SlotLaw)> {
+    pub(super) fn slot_gap(
+        &self,
+        n: usize,
+        j: usize,
+        t: f64,
+        y: &[f64],
+    ) -> Option<(f64, f64, SlotLaw)> {
         let mesh = &self.meshes[n];
         let law = mesh.law(j)?;
         let (p, f) = self.phase_and_rate(n, t, y);

@@ -45,11 +45,9 @@ mod lti;
 pub(crate) mod rotating;
 mod setup;
 mod snapshot;
-use setup::{
-    loaded_ste_table, mesh_errors, nlte_table, nominal_rotation, pair_closed_form,
-};
 pub use frozen::FrozenStatics;
 pub use rotating::Neighbour;
+use setup::{loaded_ste_table, mesh_errors, nlte_table, nominal_rotation, pair_closed_form};
 pub use snapshot::{MeshRunState, TrainRunState};
 
 /// Contact flag of one tooth-pair slot.
