@@ -8,7 +8,9 @@
 # five-FMU system's cruise point, 3000 rpm; for the three-FMU system the scene moved to its
 # 4500 rpm point by tests/python/drivetrain_reference.py SteadyPoint), on the same output grid
 # (communication step = output interval = T_mesh/20 at the SSD's pinion speed, stop 1 s), each
-# writing the CSV of its own columns.
+# writing the CSV of its own columns. Jacobi runs on one thread (--threads 1), and the five-FMU
+# system's Jacobi/hold also on two (parallel Jacobi, issue 32: bit-identical results; its
+# speedup is the ratio of the two rows).
 # The commands run in alternating rounds so that a change of machine load hits all of them
 # alike; reported: median wall and CPU time (user + system, children included: `geardyn run`
 # runs the FMUs in a child process) and the ratio to the native run of the same point.
@@ -49,14 +51,16 @@ def grid(system):
     return h, ["--stop-time", "1", "--output-interval", repr(h)]
 
 
-def run(system, out, grid, algorithm, extrapolation):
-    return [exe, "run", system, "--out", out, *grid, "--algorithm", algorithm, "--extrapolation", extrapolation]
+def run(system, out, grid, algorithm, extrapolation, threads):
+    cmd = [exe, "run", system, "--out", out, *grid, "--algorithm", algorithm, "--extrapolation", extrapolation]
+    return cmd + (["--threads", str(threads)] if algorithm == "jacobi" else [])
 
 
 groups = []
 for system, n_fmus, couplings in (
-        ("examples/systems/drivetrain3", 3, [("jacobi", "none"), ("jacobi", "linear"), ("gauss-seidel", "linear")]),
-        ("examples/systems/drivetrain", 5, [("jacobi", "none"), ("gauss-seidel", "none"), ("gauss-seidel", "linear")])):
+        ("examples/systems/drivetrain3", 3, [("jacobi", "none", 1), ("jacobi", "linear", 1), ("gauss-seidel", "linear", 1)]),
+        ("examples/systems/drivetrain", 5, [("jacobi", "none", 1), ("jacobi", "none", 2), ("gauss-seidel", "none", 1),
+                                            ("gauss-seidel", "linear", 1)])):
     h, g = grid(system)
     rpm = pinion_speed(system) * 30 / math.pi
     point = dr.SteadyPoint(rpm, 10.0)
@@ -64,9 +68,10 @@ for system, n_fmus, couplings in (
     with open(scene, "w") as fh:
         fh.write(point.monolithic_scene(open(native).read()))
     commands = {f"monolithic drivetrain (native), {rpm:.0f} rpm": [exe, "simulate", scene, "--out", f"{tmp}/n{n_fmus}.csv", *g, "--quiet"]}
-    for alg, ex in couplings:
+    for alg, ex, threads in couplings:
         label = f"{n_fmus} FMUs, geardyn run {'GS' if alg == 'gauss-seidel' else 'Jacobi'}/{'hold' if ex == 'none' else 'linear'}"
-        commands[label] = run(system, f"{tmp}/{n_fmus}{alg}{ex}.csv", g, alg, ex)
+        label += ", 2 threads" if threads == 2 else ""
+        commands[label] = run(system, f"{tmp}/{n_fmus}{alg}{ex}{threads}.csv", g, alg, ex, threads)
     groups.append((system, h, commands))
 
 

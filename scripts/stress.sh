@@ -11,5 +11,8 @@ cd "$root"
 cargo test --release --locked --test stress -- --include-ignored --nocapture --test-threads 1 "$@"
 # The long scene-mutation fuzzer (issue 17: 1e5 mutations, no panic, hang or partial output).
 cargo test --release --locked --test scene_fuzz -- --ignored --nocapture
-# The FMI call-sequence fuzzer's long variant (issue 17): 1e6 seeded calls over the C ABI.
+# The long SSD mutation fuzzer (issue 34: 1e5 mutations of the shipped systems).
+cargo test --release --locked --test ssd_fuzz -- --ignored --nocapture --exact ssd_mutations_long
+# The FMI call-sequence fuzzer's long variant (issue 17, 34): 1e6 seeded calls over the C ABI
+# and every shipped FMU, none over 1 s of CPU.
 cargo test --release --locked --test fmi_fuzz -- --ignored --nocapture --exact fmi_call_sequences_long

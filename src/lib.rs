@@ -16,6 +16,7 @@ pub mod host;
 pub mod mesh;
 pub mod model;
 pub mod output;
+pub mod pipe;
 pub mod plot;
 pub mod scene;
 pub mod simulation;

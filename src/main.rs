@@ -1,6 +1,7 @@
 //! The `geardyn` command line: a thin layer over the library; each subcommand lives in
 //! `src/cli/`.
 
+use std::io::Write as _;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
@@ -54,9 +55,35 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // A closed pipe (`geardyn … | head`) ends the run quietly: `println!` panics on it, and
+    // that panic is neither printed nor reported as a crash (`geardyn::pipe`).
+    let default_hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if !geardyn::pipe::is_broken_pipe_panic(info.payload()) {
+            default_hook(info)
+        }
+    }));
     let cli = Cli::parse();
     cli::set_verbose(cli.verbose);
-    let result = match cli.command {
+    let result = match std::panic::catch_unwind(|| dispatch(cli)) {
+        Ok(Ok(code)) => return code,
+        Ok(Err(message)) => message,
+        Err(payload) if geardyn::pipe::is_broken_pipe_panic(payload.as_ref()) => {
+            return ExitCode::from(geardyn::pipe::BROKEN_PIPE_STATUS)
+        }
+        Err(payload) => std::panic::resume_unwind(payload),
+    };
+    if geardyn::pipe::is_broken_pipe(&result) {
+        return ExitCode::from(geardyn::pipe::BROKEN_PIPE_STATUS);
+    }
+    // Not `eprintln!`: stderr may be the closed pipe.
+    let _ = writeln!(std::io::stderr(), "error: {result}");
+    ExitCode::FAILURE
+}
+
+/// Runs the subcommand: its exit status, or the message of its failure.
+fn dispatch(cli: Cli) -> Result<ExitCode, String> {
+    match cli.command {
         Command::Simulate(args) => cli::simulate::run(args),
         Command::Spectrum(args) => cli::spectrum::run(args),
         Command::Modes(args) => cli::modes::run(args),
@@ -69,15 +96,9 @@ fn main() -> ExitCode {
         Command::Waterfall(args) => cli::runup::run(args),
         Command::Fmu(args) => geardyn::fmi::cli::run(args),
         // Prints its own errors: its exit status also tells how the FMU's process ended.
-        Command::Run(args) => return geardyn::commands::run::run(args),
+        Command::Run(args) => return Ok(geardyn::commands::run::run(args)),
         Command::Info(args) => geardyn::host::cli::info(args),
         Command::Validate(args) => geardyn::host::cli::validate(args),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(message) => {
-            eprintln!("error: {message}");
-            ExitCode::FAILURE
-        }
     }
+    .map(|()| ExitCode::SUCCESS)
 }

@@ -58,14 +58,36 @@ const BUFFER_BYTES: usize = 64 * 1024;
 /// A file being written through a temporary sibling `.<name>.partial`: [`AtomicFile::commit`]
 /// renames it into place; dropping it uncommitted (an error, a panic unwinding) removes it,
 /// so no path ever holds a partial result.
+///
+/// A destination that exists and is not a regular file (`/dev/stdout`, `/dev/null`, a named
+/// pipe) is written in place as a stream: renaming onto it would replace the device node or
+/// the pipe by a regular file (issue 34), and a stream cannot hold a partial file anyway.
 struct AtomicFile {
     path: PathBuf,
-    tmp: PathBuf,
+    /// The temporary sibling; `None` for a stream written in place.
+    tmp: Option<PathBuf>,
     w: Option<BufWriter<fs::File>>,
+}
+
+/// Whether `path` exists and is something else than a regular file (after symlinks): a
+/// character device, a pipe or a socket.
+fn is_stream(path: &Path) -> bool {
+    fs::metadata(path).is_ok_and(|m| !m.is_file() && !m.is_dir())
 }
 
 impl AtomicFile {
     fn create(path: &Path) -> Result<AtomicFile, String> {
+        if is_stream(path) {
+            let file = fs::OpenOptions::new()
+                .write(true)
+                .open(path)
+                .map_err(|e| format!("cannot write '{}': {e}", path.display()))?;
+            return Ok(AtomicFile {
+                path: path.to_path_buf(),
+                tmp: None,
+                w: Some(BufWriter::with_capacity(BUFFER_BYTES, file)),
+            });
+        }
         let file_name = path
             .file_name()
             .ok_or_else(|| format!("output path '{}' names no file", path.display()))?;
@@ -74,7 +96,7 @@ impl AtomicFile {
             .map_err(|e| format!("cannot write '{}': {e}", path.display()))?;
         Ok(AtomicFile {
             path: path.to_path_buf(),
-            tmp,
+            tmp: Some(tmp),
             w: Some(BufWriter::with_capacity(BUFFER_BYTES, file)),
         })
     }
@@ -92,7 +114,10 @@ impl AtomicFile {
         let w = self.w.take().expect("committed once");
         let done = w.into_inner().map_err(|e| e.into_error()).and_then(|f| {
             drop(f);
-            fs::rename(&self.tmp, &self.path)
+            match &self.tmp {
+                Some(tmp) => fs::rename(tmp, &self.path),
+                None => Ok(()),
+            }
         });
         self.check(done)
     }
@@ -100,8 +125,11 @@ impl AtomicFile {
 
 impl Drop for AtomicFile {
     fn drop(&mut self) {
-        if self.w.take().is_some() || self.tmp.exists() {
-            let _ = fs::remove_file(&self.tmp);
+        let Some(tmp) = &self.tmp else {
+            return;
+        };
+        if self.w.take().is_some() || tmp.exists() {
+            let _ = fs::remove_file(tmp);
         }
     }
 }

@@ -4,11 +4,16 @@
 //! The propagator logic is the generic [`Driver`] (shared with the drivetrain); this file adds
 //! what is particular to one pair (its `[x, x']` state and fixed output row).
 
+pub mod budget;
 mod driver;
+mod scales;
 pub mod stream;
 
-pub use driver::{DrivenModel, Driver, Propagator, RunScales};
-pub use stream::{stream, ColumnStats, OutputGrid, Progress, RowSink, RunLimits, RunSummary};
+pub use driver::{DrivenModel, Driver, Propagator};
+pub use scales::RunScales;
+pub use stream::{
+    stream, ColumnStats, OutputGrid, Progress, ProgressDisplay, RowSink, RunLimits, RunSummary,
+};
 
 use crate::model::{GearPair, Inputs, PairState, OUTPUT_NAMES};
 use crate::scene::Scene;
@@ -194,8 +199,41 @@ pub fn pair_row(sim: &Simulation, row: &mut Vec<f64>) {
 /// Runs a scene from t = 0 to `stop_time`, sampling every `interval`, into memory. The run is
 /// checked against the default [`RunLimits`] first.
 pub fn run(scene: &Scene, stop_time: f64, interval: f64) -> Result<Trajectory, String> {
+    run_limited(scene, stop_time, interval, &RunLimits::default())
+}
+
+/// Most values (rows times columns) a run held in memory may have: 2e8 doubles are 1.6 GB,
+/// and a caller such as the Python module copies them once more. A longer run streams to a
+/// file instead (`geardyn simulate`).
+pub const MAX_IN_MEMORY_VALUES: f64 = 2e8;
+
+/// Checks that `rows` of `columns` values fit in memory ([`MAX_IN_MEMORY_VALUES`]), before
+/// anything is allocated.
+pub fn check_in_memory(stop_time: f64, interval: f64, columns: usize) -> Result<(), String> {
+    let rows = OutputGrid::rows_f64(stop_time, interval);
+    let values = rows * (columns + 1) as f64;
+    if !(values <= MAX_IN_MEMORY_VALUES) {
+        return Err(format!(
+            "output_interval = {interval:e} s with stop_time = {stop_time:e} s gives {rows:.4e} \
+             rows of {} values, {values:.4e} in all, more than the {MAX_IN_MEMORY_VALUES:e} a \
+             result held in memory may have; write it to a CSV file with `geardyn simulate`, \
+             which streams",
+            columns + 1
+        ));
+    }
+    Ok(())
+}
+
+/// [`run`] with explicit limits (Python's `simulate(max_rows=…, max_periods=…, work_budget=…)`).
+pub fn run_limited(
+    scene: &Scene,
+    stop_time: f64,
+    interval: f64,
+    limits: &RunLimits,
+) -> Result<Trajectory, String> {
     let mut sim = Simulation::new(scene)?;
-    RunLimits::default().check(&sim.model().run_scales(), stop_time, interval)?;
+    limits.check(&sim.model().run_scales(), stop_time, interval)?;
+    check_in_memory(stop_time, interval, OUTPUT_NAMES.len())?;
     let grid = OutputGrid::new(stop_time, interval);
     let mut times = Vec::new();
     let mut rows = Vec::new();
@@ -211,6 +249,7 @@ pub fn run(scene: &Scene, stop_time: f64, interval: f64) -> Result<Trajectory, S
         &mut sink,
         &mut RunSummary::default(),
         &mut Progress::new(stop_time, false),
+        limits.work_budget,
     )?;
     Ok(Trajectory {
         times,

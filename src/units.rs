@@ -108,7 +108,12 @@ pub fn parse_speed_interval(flag: &str, text: &str) -> Result<SpeedInterval, Str
     }
 }
 
-/// `from:to:points` of a sweep: `points ≥ 2` evenly spaced speeds (rad/s), `to > from`.
+/// Most points of a speed sweep: each point is a steady-state run (up to `--max-periods`
+/// response periods) and a row of results, so 1e5 points are already hours of work.
+pub const MAX_SWEEP_POINTS: usize = 100_000;
+
+/// `from:to:points` of a sweep: `points ≥ 2` evenly spaced speeds (rad/s), `to > from`,
+/// `points ≤` [`MAX_SWEEP_POINTS`].
 pub fn parse_speed_range(flag: &str, text: &str) -> Result<Vec<f64>, String> {
     let [from, to, points] = text.split(':').collect::<Vec<_>>()[..] else {
         return Err(format!(
@@ -130,6 +135,12 @@ pub fn parse_speed_range(flag: &str, text: &str) -> Result<Vec<f64>, String> {
     if points < 2 {
         return Err(format!(
             "{flag} '{text}': points = {points}, a sweep needs at least 2"
+        ));
+    }
+    // Checked before the speeds are allocated (issue 34: 1e11 points aborted the process).
+    if points > MAX_SWEEP_POINTS {
+        return Err(format!(
+            "{flag} '{text}': points = {points}, more than the {MAX_SWEEP_POINTS} a sweep may have"
         ));
     }
     Ok((0..points)

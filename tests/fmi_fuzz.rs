@@ -3,13 +3,14 @@
 //! The FMU under test is the cdylib itself (`libgeardyn.so` of this build), loaded with the
 //! host's loader (`geardyn::host::library`, `dlopen` and the 34 symbols with their C
 //! signatures) and called in-process through its C ABI, with statuses read as C `int`s. Each
-//! session instantiates one of the shipped scenes (`fmu/spur_pair`, `fmu/idler_gearset`,
-//! `fmu/bugaru_pair`), makes random calls in random order (any call in any state, unknown
+//! session instantiates one of the shipped FMUs (every `fmu/*/scene.toml`: single pairs,
+//! drivetrains, stages with ports and element FMUs; issue 34), makes random calls in random order (any call in any state, unknown
 //! and wrongly typed value references, NULL arrays and components, extreme values: NaN, ±inf,
 //! ±1e300, 1e308, denormals, huge steps, phases and speeds), and frees it.
 //!
 //! Checked for every call: it returns within [`CALL_BOUND`] (a watchdog thread, which names
-//! the call that exceeded it), its status is a valid `fmi2Status` (0..=5), it did not panic
+//! the call that exceeded it) and takes at most [`CPU_BOUND`] of CPU time (issue 34: the work
+//! budget of every call, `docs/fmu.md`), its status is a valid `fmi2Status` (0..=5), it did not panic
 //! (`fmi2Fatal` is the FMU's report of a caught panic), an error or discard logs a reason,
 //! and Real outputs read with `fmi2OK` are finite (after `fmi2Discard` the last good values).
 //! Signals and aborts are counted from outside: the fuzzing runs in a child process (this
@@ -32,15 +33,59 @@ use std::time::{Duration, Instant};
 
 use fmu_harness::{guid, quiet_logger, scene_dir, SplitMix};
 use geardyn::fmi::model::{Causality, VarKind};
+use geardyn::fmu::adapter::VR_WORK_BUDGET;
 use geardyn::host::library::{CallbackFunctions, FmuLibrary, Functions};
 use geardyn::host::logger::Logger;
+use geardyn::simulation::budget::DEFAULT_CALL_BUDGET;
 
 /// The longest any one call may take. Every call the fuzzer makes is refused or computed in
 /// milliseconds (a step spans at most 2^20 mesh periods, and the fuzzer's finite steps are
 /// short); the bound is far above that for a loaded machine and far below a hang.
 const CALL_BOUND: Duration = Duration::from_secs(10);
 
-const SCENES: [&str; 3] = ["spur_pair", "idler_gearset", "bugaru_pair"];
+/// The most CPU time any one call may take (issue 34, acceptance 2): every call finishes
+/// within its work budget (`docs/fmu.md`, "Work budget") or is refused, well within this on
+/// the CI machine.
+const CPU_BOUND: Duration = Duration::from_secs(1);
+
+/// Every shipped FMU (`fmu/*/scene.toml`: single pairs, drivetrains, stages with ports,
+/// element FMUs), sorted by name.
+fn scenes() -> Vec<&'static str> {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu");
+    let mut names: Vec<&'static str> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| {
+            let path = e.unwrap().path();
+            path.join("scene.toml").is_file().then(|| {
+                let name = path.file_name().unwrap().to_string_lossy().into_owned();
+                &*Box::leak(name.into_boxed_str())
+            })
+        })
+        .collect();
+    names.sort_unstable();
+    assert!(names.len() >= 15, "{names:?}");
+    names
+}
+
+/// `GEARDYN_FMI_FUZZ_REPLAY=<scene>:<session seed, hex>`: the worker runs only that session
+/// (named in a failure's message) and prints every call with its arguments and CPU time.
+fn replay() -> Option<(String, u64)> {
+    let v = std::env::var("GEARDYN_FMI_FUZZ_REPLAY").ok()?;
+    let (scene, seed) = v.split_once(':')?;
+    let seed = u64::from_str_radix(seed.trim_start_matches("0x"), 16).ok()?;
+    Some((scene.to_string(), seed))
+}
+
+/// CPU time of the calling thread (the FMU's calls run on it).
+fn thread_cpu() -> Duration {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: writes the calling thread's CPU clock into `ts`.
+    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
+}
 const SEED: u64 = 0x6765_6172_1717;
 const CALLS_PER_SESSION: usize = 200;
 
@@ -156,15 +201,21 @@ fn fuzz_worker() {
     let t = worker.join().expect("the fuzz thread panicked");
     println!(
         "fmi fuzz: {} calls (seed {SEED:#x}; {}), {} invalid statuses, {} over {:?} \
-         (slowest {:.1} ms: {}), {} panics (fmi2Fatal), {} refusals without a reason, \
-         {} non-finite outputs; statuses ok {} warning {} discard {} error {} fatal {}",
+         (slowest {:.1} ms: {}), {} over {:?} CPU (most {:.1} ms CPU: {} on {}), {} panics \
+         (fmi2Fatal), {} refusals without a reason, {} non-finite outputs; statuses ok {} \
+         warning {} discard {} error {} fatal {}",
         t.calls,
-        SCENES.join(", "),
+        scenes().join(", "),
         t.invalid,
         t.over_bound,
         CALL_BOUND,
         t.slowest.as_secs_f64() * 1e3,
         t.slowest_call,
+        t.over_cpu,
+        CPU_BOUND,
+        t.most_cpu.as_secs_f64() * 1e3,
+        t.most_cpu_call,
+        t.most_cpu_scene,
         t.statuses[FATAL as usize],
         t.silent,
         t.non_finite,
@@ -176,6 +227,7 @@ fn fuzz_worker() {
     );
     assert_eq!(t.invalid, 0);
     assert_eq!(t.over_bound, 0);
+    assert_eq!(t.over_cpu, 0, "calls over {CPU_BOUND:?} of CPU time");
     assert_eq!(t.statuses[FATAL as usize], 0, "panics inside the FMU");
     assert_eq!(t.silent, 0, "refusals without a reason");
     assert_eq!(t.non_finite, 0, "non-finite outputs");
@@ -199,6 +251,10 @@ struct Tally {
     over_bound: u64,
     slowest: Duration,
     slowest_call: &'static str,
+    over_cpu: u64,
+    most_cpu: Duration,
+    most_cpu_call: &'static str,
+    most_cpu_scene: &'static str,
     silent: u64,
     non_finite: u64,
 }
@@ -342,7 +398,16 @@ fn vrs(rng: &mut SplitMix, t: &Target, own: &[u32]) -> Vec<u32> {
 
 /// One session per seed: instantiate, `CALLS_PER_SESSION` random calls, free.
 fn fuzz(calls: u64, current: &Mutex<Current>) -> Tally {
-    let targets: Vec<Target> = SCENES.iter().map(|n| Target::new(n)).collect();
+    if let Some((scene, seed)) = replay() {
+        let name = scenes()
+            .into_iter()
+            .find(|n| *n == scene)
+            .expect("a shipped FMU");
+        let mut tally = Tally::default();
+        Session::run(&Target::new(name), seed, &mut tally, current, calls);
+        return tally;
+    }
+    let targets: Vec<Target> = scenes().into_iter().map(Target::new).collect();
     let mut tally = Tally::default();
     let mut master = SplitMix(SEED);
     let mut session = 0u64;
@@ -452,6 +517,7 @@ impl Session<'_> {
         call: impl FnOnce(&Functions) -> c_int,
     ) -> c_int {
         let started = Instant::now();
+        let cpu = thread_cpu();
         *current.lock().unwrap() = Current {
             index: tally.calls,
             name,
@@ -461,7 +527,25 @@ impl Session<'_> {
         };
         let status = call(&self.f);
         let took = started.elapsed();
+        let cpu = thread_cpu().saturating_sub(cpu);
         current.lock().unwrap().started = None;
+        if replay().is_some() {
+            println!("{name} -> {status} ({:.3} ms CPU)", cpu.as_secs_f64() * 1e3);
+        }
+        if cpu > tally.most_cpu {
+            tally.most_cpu = cpu;
+            tally.most_cpu_call = name;
+            tally.most_cpu_scene = self.t.name;
+        }
+        if cpu > CPU_BOUND {
+            tally.over_cpu += 1;
+            println!(
+                "fmi fuzz: {name} took {:.2} s CPU (scene {}, session seed {:#x})",
+                cpu.as_secs_f64(),
+                self.t.name,
+                self.seed
+            );
+        }
         tally.calls += 1;
         if took > tally.slowest {
             tally.slowest = took;
@@ -558,6 +642,16 @@ impl Session<'_> {
             .iter()
             .map(|&vr| real_value(&mut self.rng, t, vr))
             .collect();
+        // The CPU bound holds for budgets up to the default: a raised budget is the user's
+        // explicit choice of longer calls (bad budget values are still tried).
+        for (xi, &vr) in x.iter_mut().zip(&v) {
+            if vr == VR_WORK_BUDGET && *xi > DEFAULT_CALL_BUDGET {
+                *xi = DEFAULT_CALL_BUDGET;
+            }
+        }
+        if replay().is_some() {
+            println!("  fmi2SetReal {v:?} = {x:?}");
+        }
         let (vp, xp) = self.arrays(&v, x.as_mut_ptr());
         self.status_call(tally, current, "fmi2SetReal", null_c, |f, c| unsafe {
             (f.set_real)(c, vp, v.len(), xp)
@@ -617,6 +711,9 @@ impl Session<'_> {
                     real_pick(&mut self.rng, self.time)
                 };
                 let h = step_size(&mut self.rng);
+                if replay().is_some() {
+                    println!("  fmi2DoStep tc = {tc:e}, h = {h:e}");
+                }
                 let s = self.status_call(tally, current, "fmi2DoStep", null_c, |f, c| unsafe {
                     (f.do_step)(c, tc, h, 1)
                 });

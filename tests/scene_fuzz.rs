@@ -11,6 +11,12 @@
 //! them. The limits are the library's [`RunLimits`], set low here as `--max-rows` and
 //! `--max-periods` would set them.
 //!
+//! Issue 34 extended it to every shipped scene: the FMU scenes (element scenes through the
+//! element FMU's model: load, initialise, three steps, every variable read), the examples
+//! (`examples/**/*.toml`, the Python study spec excepted) and the test scenes
+//! (`tests/scenes`); and to the work budget ([`RunLimits::work_budget`]): a run that succeeds
+//! must have stayed within it, so one beyond it ends with a message.
+//!
 //! `scene_mutations` (1e4) runs in the normal test run; `scene_mutations_long` (1e5) is
 //! `#[ignore]`d and run by `bash scripts/stress.sh`.
 
@@ -265,28 +271,103 @@ fn mutated_scene(base: &Value, rng: &mut Rng) -> (String, String) {
     (text, what.join("; "))
 }
 
-/// The shipped scenes, parsed.
-fn shipped() -> Vec<(String, Value)> {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("fmu");
-    let mut scenes: Vec<(String, Value)> = std::fs::read_dir(&root)
-        .expect("fmu/")
-        .filter_map(|e| {
-            let p = e.ok()?.path().join("scene.toml");
-            let text = std::fs::read_to_string(&p).ok()?;
-            // Element scenes (`[element]`, docs/elements.md) are FMU-only models, not
-            // simulate scenes; their parsing is tested in tests/element_fmus.rs.
-            if geardyn::fmu::element::is_element_text(&text) {
-                return None;
-            }
-            Some((
-                p.display().to_string(),
-                text.parse::<toml::Table>().map(Value::Table).ok()?,
-            ))
-        })
-        .collect();
-    scenes.sort_by(|a, b| a.0.cmp(&b.0));
-    assert!(scenes.len() >= 6, "shipped scenes: {}", scenes.len());
+/// Every `.toml` file below `dir` (recursively), sorted.
+fn toml_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    let mut paths: Vec<PathBuf> = entries.filter_map(|e| Some(e.ok()?.path())).collect();
+    paths.sort();
+    for p in paths {
+        if p.is_dir() {
+            toml_files(&p, out);
+        } else if p.extension().is_some_and(|e| e == "toml") {
+            out.push(p);
+        }
+    }
+}
+
+/// How a shipped file is run: through `geardyn simulate`, or (an `[element]` scene, an
+/// FMU-only model: docs/elements.md) through the element FMU's model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kind {
+    Simulate,
+    Element,
+}
+
+/// A Python study spec (`geardyn-study`, docs/python.md: a `scene` path and `parameter`
+/// grid), not a scene: its mutations are in the Python fuzzer (tests/python).
+fn is_study(doc: &toml::Table) -> bool {
+    doc.get("scene").is_some_and(Value::is_str) && doc.contains_key("parameter")
+}
+
+/// Every shipped scene, parsed: the FMU scenes (`fmu/*/scene.toml`, element scenes
+/// included), the examples (`examples/**/*.toml`) and the test scenes (`tests/scenes`).
+fn shipped() -> Vec<(String, Kind, Value)> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut files: Vec<PathBuf> = Vec::new();
+    toml_files(&root.join("fmu"), &mut files);
+    files.retain(|p| p.file_name().is_some_and(|n| n == "scene.toml"));
+    toml_files(&root.join("examples"), &mut files);
+    toml_files(&root.join("tests/scenes"), &mut files);
+    let mut scenes = Vec::new();
+    for p in files {
+        let text = std::fs::read_to_string(&p).expect("shipped scene");
+        let name = p.strip_prefix(root).unwrap_or(&p).display().to_string();
+        let doc: toml::Table = text
+            .parse()
+            .unwrap_or_else(|e| panic!("{name}: shipped file is not TOML: {e}"));
+        if is_study(&doc) {
+            continue;
+        }
+        let kind = if geardyn::fmu::element::is_element_text(&text) {
+            Kind::Element
+        } else {
+            Kind::Simulate
+        };
+        scenes.push((name, kind, Value::Table(doc)));
+    }
     scenes
+}
+
+#[test]
+fn every_shipped_scene_is_fuzzed() {
+    let scenes = shipped();
+    let count = |dir: &str| scenes.iter().filter(|(n, ..)| n.starts_with(dir)).count();
+    // fmu/: 15 scenes (4 of them elements); examples/: 9 scenes (and one study spec);
+    // tests/scenes: 6.
+    assert!(count("fmu/") >= 15, "{}", count("fmu/"));
+    assert!(count("examples/") >= 9, "{}", count("examples/"));
+    assert!(count("tests/scenes/") >= 6, "{}", count("tests/scenes/"));
+    assert!(scenes.iter().filter(|s| s.1 == Kind::Element).count() >= 4);
+}
+
+/// Runs a mutated element scene as its FMU would be run: load (parse and validate), set up,
+/// initialise, a few steps, every variable read. `Ok` when it ran, `Err` with the message of
+/// the first refusal.
+fn run_element(text: &str) -> Result<(), String> {
+    use geardyn::fmi::model::StepFailure;
+    let mut loaded = geardyn::fmu::element::load(text, "fuzz", "guid".into())?;
+    let m = &mut loaded.model;
+    m.setup_experiment(0.0, Some(1e-2), None)?;
+    m.exit_initialization()?;
+    let vrs: Vec<u32> = m.variables().iter().map(|v| v.value_reference).collect();
+    let mut t = 0.0;
+    for h in [1e-4, 1e-3, 5e-3] {
+        m.do_step(t, h).map_err(|f| match f {
+            StepFailure::Discard { reason, .. } => reason,
+            other => format!("{other:?}"),
+        })?;
+        t += h;
+        for &vr in &vrs {
+            if let Ok(v) = m.get_real(vr) {
+                if !v.is_finite() {
+                    return Err(format!("vr {vr} = {v} after a step that returned OK"));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 #[derive(Default)]
@@ -303,7 +384,16 @@ const FUZZ_LIMITS: RunLimits = RunLimits {
     max_rows: 20_000,
     max_mesh_periods: 2e4,
     max_mode_periods: 2e4,
+    work_budget: Some(FUZZ_WORK_BUDGET),
 };
+
+/// The work budget of the fuzz runs ([`RunLimits::work_budget`], work units): a run that
+/// succeeds must have stayed within it, one beyond it must have been stopped with a message.
+/// The driver checks the budget before each advance and caps the advance's steps at what is
+/// left, so a finished run may pass it only by its last step's guard work:
+/// [`FUZZ_WORK_SLACK`].
+const FUZZ_WORK_BUDGET: f64 = 1e8;
+const FUZZ_WORK_SLACK: f64 = 1.01;
 
 /// Bound on one mutation's wall time: generous for a loaded machine, far below a hang.
 const HANG_BOUND: Duration = Duration::from_secs(20);
@@ -366,7 +456,7 @@ fn fuzz(mutations: u64, seed: u64) {
                         i = only;
                     }
                     let mut rng = Rng(seed ^ i.wrapping_mul(0xD6E8_FEB8_6659_FD93));
-                    let (name, base) = &scenes[rng.below(scenes.len())];
+                    let (name, kind, base) = &scenes[rng.below(scenes.len())];
                     let Ok((text, what)) =
                         std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
                             mutated_scene(base, &mut rng)
@@ -389,12 +479,15 @@ fn fuzz(mutations: u64, seed: u64) {
                     let out = wdir.join("out.csv");
                     let partial = wdir.join(".out.csv.partial");
                     let result = std::panic::catch_unwind(|| {
+                        if *kind == Kind::Element {
+                            return run_element(&text).map(|()| 0.0);
+                        }
                         let scene = AnyScene::from_path(&scene_path)?;
                         let opts = SimulateOptions {
                             limits: FUZZ_LIMITS,
                             ..Default::default()
                         };
-                        simulate(scene, &opts, &out)
+                        simulate(scene, &opts, &out).map(|r| r.work)
                     });
                     let started = busy[w].swap(0, Ordering::SeqCst);
                     if std::env::var_os("SCENE_FUZZ_SLOW").is_some() {
@@ -405,9 +498,15 @@ fn fuzz(mutations: u64, seed: u64) {
                     }
                     let succeeded = matches!(result, Ok(Ok(_)));
                     match result {
-                        Ok(Ok(_)) => {
+                        Ok(Ok(work)) => {
                             counts.ok.fetch_add(1, Ordering::Relaxed);
-                            if std::fs::remove_file(&out).is_err() {
+                            if work > FUZZ_WORK_BUDGET * FUZZ_WORK_SLACK {
+                                failures.lock().unwrap().push(format!(
+                                    "over its work budget without a message ({work}): \
+                                     mutation {i} of {name}: {what}"
+                                ));
+                            }
+                            if *kind == Kind::Simulate && std::fs::remove_file(&out).is_err() {
                                 failures
                                     .lock()
                                     .unwrap()

@@ -413,6 +413,53 @@ fn a_refused_step_keeps_the_rows_before_and_names_element_time_and_status() {
     }
 }
 
+/// An element that ends the simulation itself (fmi2Discard with fmi2Terminated = true) ends
+/// the run normally (issue 39): exit 0, the rows up to the last communication point, one note
+/// naming the element, its last successful time and its reason; every instance terminated.
+#[test]
+fn an_element_that_ends_the_simulation_is_a_normal_end() {
+    let text = ssd(
+        &[
+            lin("A", &[("u", 1.0)]),
+            lin("B", &[("refuse_at", 0.35), ("refuse_how", 4.0)]),
+        ],
+        &[("A", "x", "B", "u", None)],
+        1.0,
+        "",
+    );
+    let sys = system("ended", &text, CAPS);
+    let out = sys.parent().unwrap().join("o.csv");
+    for alg in ["jacobi", "gauss-seidel"] {
+        let o = geardyn(&[
+            &"run",
+            &sys,
+            &"--out",
+            &out,
+            &"--output-interval",
+            &"0.1",
+            &"--algorithm",
+            &alg,
+            &"--fmi-trace",
+        ]);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(0), "{e}");
+        let notes: Vec<&str> = e.lines().filter(|l| !l.starts_with("[FMI]")).collect();
+        assert_eq!(
+            notes,
+            ["note: element \"B\" ended the simulation itself at t = 0.30000000000000004 in the step from t = 0.30000000000000004 (fmi2Terminated after fmi2DoStep returned fmi2Discard: end of the test drive (refuse_at=0.35)); the rows end at t = 0.30000000000000004"],
+            "{alg}: {e}"
+        );
+        assert_eq!(
+            e.matches("fmi2Terminate() -> fmi2OK").count(),
+            2,
+            "{alg}: {e}"
+        );
+        let (_, rows) = read_rows(&out);
+        assert_eq!(rows.len(), 4, "{alg}");
+        assert_eq!(rows[3][0], 0.30000000000000004);
+    }
+}
+
 /// The system runs under the crash supervision of single runs: an FMU that aborts ends the
 /// run with a message naming the signal, the call and the time; the rows before are kept.
 #[test]
@@ -566,7 +613,9 @@ fn bad_systems_are_refused_naming_the_item() {
         &"jacobi",
     ]);
     assert!(
-        stderr(&o).contains("--algorithm and --extrapolation are for systems"),
+        stderr(&o).contains(
+            "--algorithm, --extrapolation, --threads and --divergence-factor are for systems"
+        ),
         "{}",
         stderr(&o)
     );
@@ -773,4 +822,246 @@ fn unconnected_instances_equal_single_fmu_runs_byte_for_byte() {
         assert_eq!(a.len(), 501);
         assert_eq!(a, b, "instance g{}", k + 1);
     }
+}
+
+/// Issue 32, "a master that says why": a step our own FMU refuses (a pinion speed whose next
+/// step spans more mesh periods than a step may take) is reported at the default log level
+/// with the FMU's logged reason, once, in the one error line: for the FMU alone and in a
+/// system. (Before, the reason showed only with `--log-level all`.)
+#[test]
+fn a_refused_step_names_the_fmus_reason_at_the_default_log_level() {
+    let d = scratch("spur_reason");
+    let sys = d.join("sys");
+    std::fs::create_dir_all(sys.join("resources")).unwrap();
+    std::fs::copy(spur_pair(), sys.join("resources/spur_pair.fmu")).unwrap();
+    let why = "operating.pinion_speed = 1e11 rad/s";
+    let o = geardyn(&[
+        &"run",
+        &sys.join("resources/spur_pair.fmu"),
+        &"--out",
+        &d.join("single.csv"),
+        &"--start",
+        &"operating.pinion_speed=1e11",
+        &"--output-interval",
+        &"2e-4",
+        &"--stop-time",
+        &"4e-4",
+    ]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert_eq!(e.lines().count(), 1, "{e}");
+    assert!(
+        e.starts_with("error: the FMU refused the step from t = 0 with h = 0.0002: fmi2DoStep returned fmi2Discard: ")
+            && e.matches(why).count() == 1
+            && e.contains("more than the 1.048576e6 one step may take")
+            && !e.contains("terminate")
+            && !e.contains("logged no reason"),
+        "{e}"
+    );
+    let comp = Comp {
+        name: "g1",
+        source: "resources/spur_pair.fmu",
+        connectors: vec![],
+        params: vec![("operating.pinion_speed", "1e11".into())],
+    };
+    std::fs::write(sys.join("SystemStructure.ssd"), ssd(&[comp], &[], 4e-4, "")).unwrap();
+    let o = geardyn(&[
+        &"run",
+        &sys,
+        &"--out",
+        &d.join("sys.csv"),
+        &"--output-interval",
+        &"2e-4",
+    ]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert_eq!(e.lines().count(), 1, "{e}");
+    assert!(
+        e.starts_with("error: element \"g1\" refused the step from t = 0 with h = 0.0002 (fmi2Discard): fmi2DoStep returned fmi2Discard: ")
+            && e.matches(why).count() == 1
+            && e.contains("; last successful time 0"),
+        "{e}"
+    );
+}
+
+/// Issue 32, divergence: the oscillator A.x' = k B.x, B.x' = −k A.x (k = 100, h = 0.01) under
+/// Jacobi with a hold is explicit Euler, whose amplitude grows by √(1 + (kh)²) = √2 per step:
+/// 2^(t/2h). The growth factor 1000 between t/2 and t is reached at t/(4h) = log2(1000), i.e.
+/// t = 0.399 s, give or take the factor up to √2 of the sampled components' phase (from
+/// t = 0.379 s); the run must stop there (plus the persistence of 1/64 of the run), naming an
+/// element and its signal, and keep the rows. Controls that grow
+/// like powers of time (t, t²/2, t³/6 in a chain of integrators) or stay bounded
+/// (Gauss–Seidel, symplectic at kh = 1) run to the end.
+#[test]
+fn a_diverging_system_stops_early_naming_the_element_and_the_signal() {
+    let caps = Caps {
+        u_unit: "m/s",
+        x_unit: "m/s",
+        ..CAPS
+    };
+    let text = ssd(
+        &[
+            lin("A", &[("x0", 1.0), ("k", 100.0)]),
+            lin("B", &[("k", -100.0)]),
+        ],
+        &[("A", "x", "B", "u", None), ("B", "x", "A", "u", None)],
+        10.0,
+        "",
+    );
+    let sys = system("diverging", &text, caps);
+    let out = sys.parent().unwrap().join("o.csv");
+    let run = |extra: &[&str]| {
+        let mut args: Vec<&dyn AsRef<std::ffi::OsStr>> =
+            vec![&"run", &sys, &"--out", &out, &"--output-interval", &"0.01"];
+        for e in extra {
+            args.push(e);
+        }
+        geardyn(&args)
+    };
+    let o = run(&["--algorithm", "jacobi", "--extrapolation", "none"]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.starts_with("error: the system diverges: element \"")
+            && (e.contains("\"A\" output \"x\"") || e.contains("\"B\" output \"x\""))
+            && e.contains("more than 1000 times the largest m/s signal up to t = "),
+        "{e}"
+    );
+    let rows = read_rows(&out).1;
+    let t_stop = rows.last().unwrap()[0];
+    assert!((0.379..0.45).contains(&t_stop), "stopped at {t_stop}: {e}");
+    // The rows are explicit Euler's: amplitude 2^(n/2) after n steps.
+    let n = rows.len() - 1;
+    let amplitude = rows[n][1].hypot(rows[n][2]);
+    assert!((amplitude / 2f64.powf(n as f64 / 2.0) - 1.0).abs() < 1e-9);
+    // Off: the run goes on (to t = 3 here, amplitude 2^150, still finite).
+    let o = run(&[
+        "--algorithm",
+        "jacobi",
+        "--extrapolation",
+        "none",
+        "--divergence-factor",
+        "0",
+        "--stop-time",
+        "3",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Bounded: Gauss–Seidel with a hold is symplectic Euler, stable at kh = 1.
+    let o = run(&["--algorithm", "gauss-seidel", "--extrapolation", "none"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(read_rows(&out).1.len(), 1001);
+
+    // Powers of time: A.x = t, B.x = t²/2, C.x = t³/6, D.x = t⁴/24 over 10 s (factors 2 to
+    // 16 per doubling of the time; D.x is recorded, not watched) are no divergence.
+    let text = ssd(
+        &[
+            lin("A", &[("u", 1.0)]),
+            lin("B", &[]),
+            lin("C", &[]),
+            lin("D", &[]),
+        ],
+        &[
+            ("A", "x", "B", "u", None),
+            ("B", "x", "C", "u", None),
+            ("C", "x", "D", "u", None),
+        ],
+        10.0,
+        "",
+    );
+    let sys = system("powers", &text, caps);
+    let (_, rows, _) = run_ok(
+        &sys,
+        &out,
+        &["--output-interval", "0.001", "--outputs", "D.x"],
+    );
+    let last = rows.last().unwrap();
+    assert_eq!(last[0], 10.0);
+    assert!((last[4] - 1e4 / 24.0).abs() < 1e-6 * 1e4, "{last:?}");
+}
+
+/// Issue 32, parallel Jacobi: the elements' steps on 2 or 3 threads give the bytes of the
+/// serial run (after the first steps, which are serial to measure the elements' costs), and a
+/// refused or final step is reported as the serial run reports it.
+#[test]
+fn parallel_jacobi_is_bit_identical_to_serial() {
+    let chain = |b: &[(&'static str, f64)]| {
+        ssd(
+            &[
+                lin("A", &[("u", 1.0), ("x0", 0.5)]),
+                lin("B", b),
+                lin("C", &[("k", -2.0)]),
+            ],
+            &[
+                ("A", "x", "B", "u", None),
+                ("B", "x", "C", "u", None),
+                ("C", "y", "A", "u", None),
+            ],
+            1.0,
+            "",
+        )
+    };
+    let run = |sys: &Path, out: &Path, threads: &str| {
+        geardyn(&[
+            &"run",
+            &sys,
+            &"--out",
+            &out,
+            &"--output-interval",
+            &"0.001",
+            &"--algorithm",
+            &"jacobi",
+            &"--threads",
+            &threads,
+        ])
+    };
+    let sys = system("parallel", &chain(&[("k", 3.0)]), CAPS);
+    let d = sys.parent().unwrap();
+    let mut texts = Vec::new();
+    for threads in ["1", "2", "3"] {
+        let out = d.join(format!("o{threads}.csv"));
+        let o = run(&sys, &out, threads);
+        assert!(o.status.success(), "{}", stderr(&o));
+        texts.push(std::fs::read_to_string(&out).unwrap());
+    }
+    assert_eq!(texts[0].lines().count(), 1002);
+    assert!(texts[0] == texts[1] && texts[0] == texts[2]);
+    // A refused step and a final step after the serial warm-up, on threads as serially.
+    for (how, code) in [(2.0, 1), (4.0, 0)] {
+        let sys = system(
+            "parallel_end",
+            &chain(&[("k", 3.0), ("refuse_at", 0.5), ("refuse_how", how)]),
+            CAPS,
+        );
+        let d = sys.parent().unwrap();
+        let ends: Vec<(Option<i32>, String, String)> = ["1", "2"]
+            .iter()
+            .map(|threads| {
+                let out = d.join(format!("o{threads}.csv"));
+                let o = run(&sys, &out, threads);
+                (
+                    o.status.code(),
+                    stderr(&o).replace(&format!("o{threads}.csv"), "o.csv"),
+                    std::fs::read_to_string(&out).unwrap(),
+                )
+            })
+            .collect();
+        assert_eq!(ends[0].0, Some(code), "{}", ends[0].1);
+        assert_eq!(ends[0], ends[1]);
+        assert!(ends[0].1.contains("element \"B\""), "{}", ends[0].1);
+    }
+    // Gauss–Seidel steps one element after another.
+    let o = geardyn(&[
+        &"run",
+        &sys,
+        &"--algorithm",
+        &"gauss-seidel",
+        &"--threads",
+        &"2",
+    ]);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        stderr(&o).contains("--threads 2: only Jacobi steps the elements in parallel"),
+        "{}",
+        stderr(&o)
+    );
 }

@@ -176,10 +176,23 @@ class Stiffness(Table):
     summary: str = ""
 
 
-def simulate(scene: Scene) -> Simulation:
+def simulate(
+    scene: Scene,
+    max_rows: Optional[int] = None,
+    max_periods: Optional[float] = None,
+    work_budget: Optional[float] = None,
+) -> Simulation:
     """Simulates ``scene`` from t = 0 to ``solver.stop_time``, sampled every
-    ``solver.output_interval`` (what ``geardyn simulate`` writes to CSV)."""
-    names, time, data, method, stats = _geardyn.simulate(scene)
+    ``solver.output_interval`` (what ``geardyn simulate`` writes to CSV).
+
+    The run limits of ``geardyn simulate`` apply (``--max-rows``, ``--max-periods``,
+    ``--work-budget``: output rows, mesh and mode periods, and the work budget in work units,
+    the scene's ``solver.work_budget``); pass ``max_rows``, ``max_periods`` or ``work_budget``
+    to change them. A run beyond its work budget
+    stops with a :class:`GeardynError` that names the likely cause (stiffness, speed, step
+    count). The rows are held in memory, so a result of more than 2e8 values is refused:
+    stream it to a CSV file with ``geardyn simulate`` instead."""
+    names, time, data, method, stats = _geardyn.simulate(scene, max_rows, max_periods, work_budget)
     return Simulation(names, time, data, method, stats, scene.name)
 
 

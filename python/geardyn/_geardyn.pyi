@@ -49,6 +49,9 @@ class Scene:
 
 def simulate(
     scene: Scene,
+    max_rows: Optional[int] = None,
+    max_periods: Optional[float] = None,
+    work_budget: Optional[float] = None,
 ) -> Tuple[List[str], npt.NDArray[np.float64], npt.NDArray[np.float64], str, Dict[str, int]]: ...
 def periodic(
     scene: Scene, periods: int = 1, warmup: int = 20, speed: Optional[str] = None

@@ -78,6 +78,12 @@ DISTRIBUTIONS = {
 }
 
 
+# Most points of a study (grid points or samples): every point is a solve and a stored row,
+# and the points are listed in memory before they are submitted. Checked before anything is
+# allocated (issue 34).
+MAX_POINTS = 1_000_000
+
+
 class StudyError(ValueError):
     """A study file that cannot be run; the message names the field and value."""
 
@@ -207,6 +213,8 @@ def load(path) -> Study:
         samples = sampling.get("samples")
         if not isinstance(samples, int) or isinstance(samples, bool) or samples < 1:
             raise StudyError(f"sampling.samples = {samples!r}: {method} needs a whole number of samples >= 1")
+        if samples > MAX_POINTS:
+            raise StudyError(f"sampling.samples = {samples}: more than the {MAX_POINTS} points a study may have")
         seed = data.get("seed")
         if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
             raise StudyError(f"seed = {seed!r}: {method} needs a seed (a whole number >= 0)")
@@ -223,8 +231,10 @@ def load(path) -> Study:
                 values = [_number(v, f"{at}.values") for v in p["values"]]
             elif {"from", "to", "points"} <= set(p):
                 points = p["points"]
-                if not isinstance(points, int) or points < 1:
+                if not isinstance(points, int) or isinstance(points, bool) or points < 1:
                     raise StudyError(f"{at}.points = {points!r}: must be a whole number >= 1")
+                if points > MAX_POINTS:
+                    raise StudyError(f"{at}.points = {points}: more than the {MAX_POINTS} points a study may have")
                 lo, hi = _number(p["from"], f"{at}.from"), _number(p["to"], f"{at}.to")
                 values = [lo] if points == 1 else [lo + (hi - lo) * k / (points - 1) for k in range(points)]
             else:
@@ -277,6 +287,11 @@ def load(path) -> Study:
             raise StudyError(f"results: {r!r} is not a result of {kind} ({', '.join(RESULTS[kind])})")
     store = path.parent / data.get("store", path.stem + ".parquet")
     chunk = data.get("chunk")
+    if method == "grid":
+        total = math.prod(len(p.values) for p in parameters)
+        if total > MAX_POINTS:
+            sizes = " × ".join(str(len(p.values)) for p in parameters)
+            raise StudyError(f"{where}: the grid has {sizes} = {total} points, more than the {MAX_POINTS} a study may have")
     if chunk is not None and (not isinstance(chunk, int) or chunk < 1):
         raise StudyError(f"chunk = {chunk!r}: must be a whole number >= 1 (points per task)")
     study = Study(path, scene_file, scene_text, method, parameters, samples, seed, analysis,

@@ -8,12 +8,12 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use pyo3::create_exception;
-use pyo3::exceptions::{PyException, PyTypeError};
+use pyo3::exceptions::{PyException, PyOverflowError, PyRecursionError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyByteArray, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 
 use geardyn::commands;
-use geardyn::model::train::run_train;
+use geardyn::model::train::run_train_limited;
 use geardyn::model::AnyScene;
 use geardyn::scene::is_train_text;
 use geardyn::scene::train::{TrainScene, TRAIN_EXAMPLES};
@@ -213,14 +213,79 @@ fn leaf_paths(prefix: &str, table: &toml::Table, out: &mut Vec<String>) {
     }
 }
 
+/// Deepest nesting of dicts and lists a scene converted from Python objects may have. Scenes
+/// are a few levels deep; the bound keeps the recursion of the conversion (and of the TOML
+/// writer after it) far from the end of the thread's stack (issue 34: a dict nested 15 000 deep
+/// crashed the interpreter).
+const MAX_DEPTH: usize = 64;
+
+/// The conversion of one Python value to TOML: the containers open on the way down (by
+/// identity, to refuse a cycle) and the path to the current value (for the messages).
+#[derive(Default)]
+struct Conversion {
+    open: Vec<usize>,
+    path: Vec<String>,
+}
+
+impl Conversion {
+    /// `a.b[2]`, or `<top>` at the top.
+    fn at(&self) -> String {
+        if self.path.is_empty() {
+            return "<top>".into();
+        }
+        let mut s = String::new();
+        for p in &self.path {
+            if !p.starts_with('[') && !s.is_empty() {
+                s.push('.');
+            }
+            s.push_str(p);
+        }
+        s
+    }
+
+    /// Enters container `v` (a dict, list or tuple, or an object converted through
+    /// `tolist`): refuses a cycle (`ValueError`) and a nesting beyond [`MAX_DEPTH`]
+    /// (`RecursionError`), as `json.dumps` does.
+    fn enter(&mut self, v: &Bound<'_, PyAny>) -> PyResult<()> {
+        let id = v.as_ptr() as usize;
+        if self.open.contains(&id) {
+            return Err(PyValueError::new_err(format!(
+                "scene value at '{}' contains itself (a circular reference): a scene is a tree",
+                self.at()
+            )));
+        }
+        if self.open.len() >= MAX_DEPTH {
+            return Err(PyRecursionError::new_err(format!(
+                "scene value at '{}' is nested deeper than {MAX_DEPTH} levels",
+                self.at()
+            )));
+        }
+        self.open.push(id);
+        Ok(())
+    }
+
+    fn leave(&mut self) {
+        self.open.pop();
+    }
+}
+
 /// A Python value as TOML. `bool` is tested before `int` (it is a subclass); NumPy scalars
 /// come in through `__index__`/`__float__`.
 fn to_toml(v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
+    to_toml_in(v, &mut Conversion::default())
+}
+
+fn to_toml_in(v: &Bound<'_, PyAny>, conv: &mut Conversion) -> PyResult<toml::Value> {
     if v.is_instance_of::<PyBool>() {
         return Ok(toml::Value::Boolean(v.extract()?));
     }
     if v.is_instance_of::<PyInt>() {
-        return Ok(toml::Value::Integer(v.extract()?));
+        return v.extract().map(toml::Value::Integer).map_err(|_| {
+            PyOverflowError::new_err(format!(
+                "scene value at '{}' = {v}: an integer beyond the 64-bit range of TOML",
+                conv.at()
+            ))
+        });
     }
     if v.is_instance_of::<PyFloat>() {
         return Ok(toml::Value::Float(v.extract()?));
@@ -229,29 +294,65 @@ fn to_toml(v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
         return Ok(toml::Value::String(v.extract()?));
     }
     if let Ok(d) = v.cast::<PyDict>() {
-        return Ok(toml::Value::Table(dict_to_table(d)?));
+        conv.enter(v)?;
+        let table = dict_to_table_in(d, conv);
+        conv.leave();
+        return Ok(toml::Value::Table(table?));
     }
     if v.is_instance_of::<PyList>() || v.is_instance_of::<PyTuple>() {
-        let items: PyResult<Vec<toml::Value>> = v.try_iter()?.map(|i| to_toml(&i?)).collect();
-        return Ok(toml::Value::Array(items?));
+        conv.enter(v)?;
+        let mut items = Vec::new();
+        let mut result = Ok(());
+        for (i, item) in v.try_iter()?.enumerate() {
+            conv.path.push(format!("[{i}]"));
+            let converted = item.and_then(|item| to_toml_in(&item, conv));
+            conv.path.pop();
+            match converted {
+                Ok(x) => items.push(x),
+                Err(e) => {
+                    result = Err(e);
+                    break;
+                }
+            }
+        }
+        conv.leave();
+        return result.map(|()| toml::Value::Array(items));
     }
     if v.hasattr("tolist")? {
-        // NumPy arrays and scalars.
-        return to_toml(&v.call_method0("tolist")?);
+        // NumPy arrays and scalars (an object whose `tolist` returns itself is a cycle).
+        conv.enter(v)?;
+        let converted = v
+            .call_method0("tolist")
+            .and_then(|list| to_toml_in(&list, conv));
+        conv.leave();
+        return converted;
     }
     Err(PyTypeError::new_err(format!(
-        "cannot put a {} into a scene (bool, int, float, str, list or dict)",
+        "scene value at '{}': cannot put a {} into a scene (bool, int, float, str, list or dict)",
+        conv.at(),
         v.get_type().name()?
     )))
 }
 
 fn dict_to_table(d: &Bound<'_, PyDict>) -> PyResult<toml::Table> {
+    let mut conv = Conversion::default();
+    conv.enter(d.as_any())?;
+    dict_to_table_in(d, &mut conv)
+}
+
+fn dict_to_table_in(d: &Bound<'_, PyDict>, conv: &mut Conversion) -> PyResult<toml::Table> {
     let mut t = toml::Table::new();
     for (k, v) in d.iter() {
-        let key: String = k
-            .extract()
-            .map_err(|_| PyTypeError::new_err(format!("scene keys are strings, not {k}")))?;
-        t.insert(key, to_toml(&v)?);
+        let key: String = k.extract().map_err(|_| {
+            PyTypeError::new_err(format!(
+                "scene keys are strings, not {k} (in '{}')",
+                conv.at()
+            ))
+        })?;
+        conv.path.push(key.clone());
+        let value = to_toml_in(&v, conv);
+        conv.path.pop();
+        t.insert(key, value?);
     }
     Ok(t)
 }
@@ -509,13 +610,59 @@ fn table<'py>(
     Ok((names, matrix(py, rows, columns.len())?))
 }
 
+/// A count argument: a Python `int` (not a `bool`) within `min..=max`. The built-in
+/// conversion's `OverflowError` does not name the argument (issue 34); this one does, with
+/// the value and the range.
+fn count<T: TryFrom<i64>>(name: &str, v: &Bound<'_, PyAny>, min: i64, max: i64) -> PyResult<T> {
+    if !v.is_instance_of::<PyInt>() || v.is_instance_of::<PyBool>() {
+        return Err(PyTypeError::new_err(format!(
+            "{name} = {v}: must be an int, not {}",
+            v.get_type().name()?
+        )));
+    }
+    let out_of_range = || {
+        PyOverflowError::new_err(format!(
+            "{name} = {v}: out of range, must be a whole number from {min} to {max}"
+        ))
+    };
+    let n: i64 = v.extract().map_err(|_| out_of_range())?;
+    if n < min || n > max {
+        return Err(out_of_range());
+    }
+    T::try_from(n).map_err(|_| out_of_range())
+}
+
+/// An optional count (`None` keeps the default).
+fn optional_count<T: TryFrom<i64>>(
+    name: &str,
+    v: Option<&Bound<'_, PyAny>>,
+    min: i64,
+    max: i64,
+) -> PyResult<Option<T>> {
+    match v {
+        Some(v) if !v.is_none() => count(name, v, min, max).map(Some),
+        _ => Ok(None),
+    }
+}
+
+const U32_MAX: i64 = u32::MAX as i64;
+
 /// Simulates the scene over its `[solver]` experiment (`stop_time`, `output_interval`):
 /// returns `(names, times, data, method, stats)`, `data` one row per output time.
+///
+/// `max_rows`, `max_periods` and `work_budget` raise (or lower) the run limits as the CLI's
+/// `--max-rows`, `--max-periods` and `--work-budget` do (`work_budget` in work units, the
+/// scene's `solver.work_budget`); the rows held in memory are bounded too
+/// (`geardyn::simulation::MAX_IN_MEMORY_VALUES`).
 #[pyfunction]
+#[pyo3(signature = (scene, max_rows = None, max_periods = None, work_budget = None))]
 #[allow(clippy::type_complexity)]
 fn simulate<'py>(
     py: Python<'py>,
     scene: &PyScene,
+    max_rows: Option<&Bound<'py, PyAny>>,
+    max_periods: Option<f64>,
+    work_budget: Option<f64>,
 ) -> PyResult<(
     Vec<String>,
     Bound<'py, PyAny>,
@@ -523,12 +670,35 @@ fn simulate<'py>(
     String,
     Bound<'py, PyDict>,
 )> {
+    let mut limits = geardyn::simulation::RunLimits::default();
+    if let Some(n) = optional_count("max_rows", max_rows, 1, i64::MAX)? {
+        limits.max_rows = n;
+    }
+    if let Some(p) = max_periods {
+        if p.is_nan() || p <= 0.0 {
+            return Err(PyValueError::new_err(format!(
+                "max_periods = {p}: must be a number > 0"
+            )));
+        }
+        limits.max_mesh_periods = p;
+        limits.max_mode_periods = p;
+    }
+    if let Some(b) = work_budget {
+        geardyn::simulation::budget::check_limit("work_budget", b)
+            .map_err(PyValueError::new_err)?;
+        limits.work_budget = Some(b);
+    }
     let (names, times, data, method, stats) = match &scene.scene {
         Validated::Pair(s) => {
             let s = s.clone();
             let run = py
                 .detach(move || {
-                    geardyn::simulation::run(&s, s.solver.stop_time, s.solver.output_interval)
+                    geardyn::simulation::run_limited(
+                        &s,
+                        s.solver.stop_time,
+                        s.solver.output_interval,
+                        &limits,
+                    )
                 })
                 .map_err(err)?;
             let names = geardyn::model::OUTPUT_NAMES.map(str::to_string).to_vec();
@@ -538,7 +708,9 @@ fn simulate<'py>(
         Validated::Train(s) => {
             let s = s.clone();
             let run = py
-                .detach(move || run_train(&s, s.solver.stop_time, s.solver.output_interval))
+                .detach(move || {
+                    run_train_limited(&s, s.solver.stop_time, s.solver.output_interval, &limits)
+                })
                 .map_err(err)?;
             let data = matrix(py, &run.rows, run.names.len())?;
             (run.names, run.times, data, run.method, run.stats)
@@ -558,14 +730,16 @@ fn simulate<'py>(
 /// `471.24rad/s`, a bare number in rad/s: `geardyn periodic --speed`); returns a dict of the
 /// orbit (with `report`, the text `geardyn periodic` prints, and each mesh's force).
 #[pyfunction]
-#[pyo3(signature = (scene, periods = 1, warmup = 20, speed = None))]
+#[pyo3(signature = (scene, periods = None, warmup = None, speed = None))]
 fn periodic<'py>(
     py: Python<'py>,
     scene: &PyScene,
-    periods: u32,
-    warmup: u32,
+    periods: Option<&Bound<'py, PyAny>>,
+    warmup: Option<&Bound<'py, PyAny>>,
     speed: Option<&str>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let periods: u32 = optional_count("periods", periods, 1, U32_MAX)?.unwrap_or(1);
+    let warmup: u32 = optional_count("warmup", warmup, 0, U32_MAX)?.unwrap_or(20);
     let mut s = scene.any();
     if let Some(text) = speed {
         s.set_input_speed(geardyn::units::parse_speed("--speed", text).map_err(err)?);
@@ -613,15 +787,16 @@ fn periodic<'py>(
 /// Frequency-response sweep over the input-gear speed, for any scene; returns
 /// `(columns, data)` as the CSV of `geardyn sweep` has them (per-mesh columns prefixed).
 #[pyfunction]
-#[pyo3(signature = (scene, speed, direction = "both", tolerance = 1e-7, max_periods = 3000))]
+#[pyo3(signature = (scene, speed, direction = "both", tolerance = 1e-7, max_periods = None))]
 fn sweep<'py>(
     py: Python<'py>,
     scene: &PyScene,
     speed: &str,
     direction: &str,
     tolerance: f64,
-    max_periods: u32,
+    max_periods: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Table<'py>> {
+    let max_periods: u32 = optional_count("max_periods", max_periods, 0, U32_MAX)?.unwrap_or(3000);
     let s = scene.any();
     let request = commands::steady::SweepRequest {
         speed,
@@ -639,14 +814,16 @@ fn sweep<'py>(
 /// Harmonic balance with arclength continuation over `speed = "from:to"`, for any scene;
 /// returns `(columns, data)` as the CSV of `geardyn hb` has them (per-mesh columns prefixed).
 #[pyfunction]
-#[pyo3(signature = (scene, speed, harmonics = 20, subharmonic = 1))]
+#[pyo3(signature = (scene, speed, harmonics = None, subharmonic = None))]
 fn hb<'py>(
     py: Python<'py>,
     scene: &PyScene,
     speed: &str,
-    harmonics: usize,
-    subharmonic: u32,
+    harmonics: Option<&Bound<'py, PyAny>>,
+    subharmonic: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<Table<'py>> {
+    let harmonics: usize = optional_count("harmonics", harmonics, 1, i64::MAX)?.unwrap_or(20);
+    let subharmonic: u32 = optional_count("subharmonic", subharmonic, 1, U32_MAX)?.unwrap_or(1);
     let s = scene.any();
     let request = commands::hb::HbRequest {
         speed,
@@ -693,14 +870,16 @@ fn modes<'py>(
 /// Mesh stiffness over one mesh period from a gears file at pinion torque `torque`; returns
 /// `(columns, data, summary)` as `geardyn stiffness` writes and prints them.
 #[pyfunction]
-#[pyo3(signature = (gears, torque, etc = true, harmonics = 4))]
+#[pyo3(signature = (gears, torque, etc = true, harmonics = None))]
 fn stiffness<'py>(
     py: Python<'py>,
     gears: PathBuf,
     torque: f64,
     etc: bool,
-    harmonics: usize,
+    harmonics: Option<&Bound<'py, PyAny>>,
 ) -> PyResult<(Vec<String>, Bound<'py, PyAny>, String)> {
+    let max = commands::stiffness::MAX_SUMMARY_HARMONICS as i64;
+    let harmonics: usize = optional_count("harmonics", harmonics, 0, max)?.unwrap_or(4);
     let (columns, rows, summary) = py
         .detach(move || {
             commands::stiffness::stiffness(&gears, torque, etc)

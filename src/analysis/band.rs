@@ -84,6 +84,12 @@ pub fn instability_bands(
     if points < 2 {
         return Err(format!("points = {points}: at least 2 are needed"));
     }
+    if points > crate::units::MAX_SWEEP_POINTS {
+        return Err(format!(
+            "points = {points}: more than the {} a scan may have",
+            crate::units::MAX_SWEEP_POINTS
+        ));
+    }
     let scene = &scene.to_any();
     let speed_at = |i: usize| from_speed + (to_speed - from_speed) * i as f64 / (points - 1) as f64;
     let margin = |w: f64| stability_margin(scene, w).map(|m| m.0);

@@ -8,7 +8,7 @@ use geardyn::commands::simulate::{simulate, SimulateOptions};
 use geardyn::commands::time_plot::time_plot;
 use geardyn::plot::Format;
 use geardyn::simulation::stream::{DEFAULT_MAX_MESH_PERIODS, DEFAULT_MAX_ROWS};
-use geardyn::simulation::RunLimits;
+use geardyn::simulation::{ProgressDisplay, RunLimits};
 
 #[derive(Args)]
 pub struct SimulateArgs {
@@ -47,6 +47,16 @@ pub struct SimulateArgs {
     /// (default 1e9; a guard against inputs that would run for days).
     #[arg(long, allow_negative_numbers = true)]
     max_periods: Option<f64>,
+    /// The run's work budget in work units (about one multiply-add each; overrides the
+    /// scene's solver.work_budget, default 2e9, docs/fmu.md "Work budget"). A run beyond it
+    /// stops with a message naming the likely cause (stiffness, speed, events, step count);
+    /// raise it to run such a scene anyway.
+    #[arg(long)]
+    work_budget: Option<f64>,
+    /// Show the progress on stderr also when it is not a terminal (a plain line every 2 s);
+    /// on a terminal it shows anyway unless --quiet.
+    #[arg(long)]
+    progress: bool,
     /// Also plot every mesh's DTE and mesh force over time (PNG or SVG by the extension).
     #[arg(long)]
     plot: Option<PathBuf>,
@@ -79,8 +89,13 @@ pub fn run(args: SimulateArgs) -> Result<(), String> {
             max_rows: args.max_rows.unwrap_or(DEFAULT_MAX_ROWS),
             max_mesh_periods: periods,
             max_mode_periods: periods,
+            work_budget: args.work_budget,
         },
-        progress: !args.quiet,
+        progress: match (args.progress, args.quiet) {
+            (true, _) => ProgressDisplay::Always,
+            (false, false) => ProgressDisplay::Terminal,
+            (false, true) => ProgressDisplay::Off,
+        },
         header_units: args.units,
     };
     if let Some(path) = &args.plot {

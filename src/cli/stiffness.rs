@@ -34,6 +34,7 @@ pub struct StiffnessArgs {
 }
 
 pub fn run(args: StiffnessArgs) -> Result<(), String> {
+    geardyn::commands::stiffness::check_harmonics(args.harmonics)?;
     let st = geardyn::commands::stiffness::stiffness(&args.gears, args.torque, args.etc == "on")?;
     let names = st.columns();
     let rows = st.rows();

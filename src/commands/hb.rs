@@ -87,6 +87,18 @@ pub fn plot_mesh_index(scene: &AnyScene, name: Option<&str>) -> Result<usize, St
     })
 }
 
+/// `--sweep-points` within [`crate::units::MAX_SWEEP_POINTS`], checked before the branch
+/// is continued (the sweep runs after it, for the plot).
+pub fn check_sweep_points(points: usize) -> Result<(), String> {
+    let max = crate::units::MAX_SWEEP_POINTS;
+    if points > max {
+        return Err(format!(
+            "--sweep-points = {points}: more than the {max} a sweep may have"
+        ));
+    }
+    Ok(())
+}
+
 impl HbRequest<'_> {
     /// The speed interval of `--speed from:to` (rad/s).
     pub fn interval(&self) -> Result<crate::units::SpeedInterval, String> {
@@ -163,6 +175,7 @@ impl HbBranch {
         mesh: usize,
         path: &Path,
     ) -> Result<(), String> {
+        check_sweep_points(sweep_points)?;
         let branch = &self.points;
         let mut series: Vec<Series> = Vec::new();
         // Consecutive points of equal stability form one segment (shared end points).
@@ -284,6 +297,7 @@ pub fn hb_command(
     request: &HbRequest,
     files: &HbFiles,
 ) -> Result<String, String> {
+    check_sweep_points(files.sweep_points)?;
     let mesh = plot_mesh_index(scene, files.plot_mesh)?;
     if let Some(path) = files.plot {
         Format::of(path)?;

@@ -9,7 +9,7 @@ use super::positive;
 use crate::model::{Drivetrain, MeshColumns};
 use crate::output::CsvWriter;
 use crate::scene::{MethodChoice, SolverSettings};
-use crate::simulation::{stream, Progress, RunLimits, RunSummary};
+use crate::simulation::{stream, Progress, ProgressDisplay, RunLimits, RunSummary};
 use crate::simulation::{DrivenModel, Driver, OutputGrid};
 use crate::solve::SolverStats;
 use crate::with_drivetrain;
@@ -26,8 +26,8 @@ pub struct SimulateOptions {
     pub rtol: Option<f64>,
     pub atol: Option<f64>,
     pub limits: RunLimits,
-    /// Show a progress line on stderr when it is a terminal.
-    pub progress: bool,
+    /// Where the progress shows on stderr (`--quiet`, `--progress`).
+    pub progress: ProgressDisplay,
     /// Write each column's unit into the header, `dte [m]` (`--units`; [`crate::units`]).
     pub header_units: bool,
 }
@@ -82,6 +82,8 @@ pub struct SimulateReport {
     pub rows: u64,
     pub method: String,
     pub stats: SolverStats,
+    /// Work units the run spent against its budget ([`crate::simulation::budget`]).
+    pub work: f64,
     pub meshes: Vec<MeshSummary>,
     /// Whether the scene is a single pair (its summary is printed in the pair's layout).
     pub pair: bool,
@@ -195,6 +197,7 @@ struct Streamed {
     rows: u64,
     method: String,
     stats: SolverStats,
+    work: f64,
     summary: RunSummary,
     peak_buffered_bytes: usize,
 }
@@ -206,6 +209,7 @@ impl Streamed {
             rows: self.rows,
             method: self.method,
             stats: self.stats,
+            work: self.work,
             meshes,
             pair,
             peak_buffered_bytes: self.peak_buffered_bytes,
@@ -242,7 +246,8 @@ fn run_to_csv<M: DrivenModel>(
         outputs,
         &mut writer,
         &mut summary,
-        &mut Progress::new(stop_time, opts.progress),
+        &mut Progress::with_display(stop_time, opts.progress),
+        opts.limits.work_budget,
     )?;
     let rows = writer.rows();
     let peak_buffered_bytes = writer.peak_buffered_bytes();
@@ -252,6 +257,7 @@ fn run_to_csv<M: DrivenModel>(
         rows,
         method,
         stats: sim.stats(),
+        work: sim.work_budget().spent(),
         summary,
         peak_buffered_bytes,
     })

@@ -65,6 +65,25 @@ pub fn column_unit(name: &str) -> &'static str {
     }
 }
 
+/// Most samples per signal of `geardyn spectrum` (8 MB each): 2^24, a million mesh periods
+/// at 16 samples each.
+pub const MAX_SPECTRUM_SAMPLES: f64 = 16_777_216.0;
+
+/// `--samples` per mesh period over `mesh_cycles` periods of the fastest mesh within
+/// [`MAX_SPECTRUM_SAMPLES`], checked before anything is allocated (issue 34: `--periods 4e9`
+/// aborted on a 2 TB allocation).
+fn check_spectrum_samples(request: &SpectrumRequest, mesh_cycles: f64) -> Result<(), String> {
+    let n = mesh_cycles * request.samples_per_mesh_period as f64;
+    if !(n <= MAX_SPECTRUM_SAMPLES) {
+        return Err(format!(
+            "--samples = {} per mesh period over --periods = {} ({mesh_cycles:e} mesh periods): \
+             {n:e} samples per signal, more than the {MAX_SPECTRUM_SAMPLES:e} a spectrum may take",
+            request.samples_per_mesh_period, request.periods
+        ));
+    }
+    Ok(())
+}
+
 /// Shoots the periodic steady state at the scene's speed, samples `periods` response periods
 /// at `N` uniform instants from the orbit's start and takes the exact DFT of each signal.
 pub fn periodic_spectrum(
@@ -80,6 +99,8 @@ pub fn periodic_spectrum(
     if request.periods == 0 {
         return Err("--periods = 0: need at least one response period".into());
     }
+    // A first bound before the orbit is shot: one mesh period per response period at least.
+    check_spectrum_samples(request, request.periods as f64)?;
     let orbit = shoot(scene, &ShootingOptions::default())?;
     with_drivetrain!(scene.simulation()?, sim => {
         let mut sim = sim;
@@ -97,7 +118,9 @@ pub fn periodic_spectrum(
         let period = response_period(model)?;
         let duration = period * request.periods as f64;
         let f_max = (0..model.mesh_count()).map(|n| model.mesh_frequency(n)).fold(0.0, f64::max);
-        let mesh_cycles = (duration * f_max).round().max(1.0) as usize;
+        let mesh_cycles = (duration * f_max).round().max(1.0);
+        check_spectrum_samples(request, mesh_cycles)?;
+        let mesh_cycles = mesh_cycles as usize;
         let n = mesh_cycles * request.samples_per_mesh_period;
         let meshes = mesh_lines(model);
         let shafts = model.shafts();

@@ -26,7 +26,31 @@ pub fn periodic(scene: &AnyScene, periods: u32, warmup: u32) -> Result<PeriodicO
         warmup_periods: warmup,
         ..ShootingOptions::default()
     };
+    check_shooting_work(scene, &options)?;
     shoot(scene, &options)
+}
+
+/// The most a shooting run may integrate, checked before it starts (issue 34: `periods =
+/// 10**9` ran for hours): the warm-up plus `periods` response periods for each Newton
+/// iteration, within the run limits of `geardyn simulate` (mesh periods and periods of the
+/// fastest mode, [`crate::simulation::RunLimits`]); the message names both counts.
+pub fn check_shooting_work(scene: &AnyScene, options: &ShootingOptions) -> Result<(), String> {
+    let (scales, period) = with_drivetrain!(scene.simulation()?, sim => {
+        let model = sim.model();
+        (crate::simulation::DrivenModel::run_scales(model), crate::model::response_period(model)?)
+    });
+    let periods = options.warmup_periods as f64
+        + options.periods as f64 * (options.max_iterations as f64 + 1.0);
+    let time = period * periods;
+    crate::simulation::RunLimits::default()
+        .check_work(&scales, time)
+        .map_err(|e| {
+            format!(
+                "periods = {} with warmup = {}: shooting integrates up to {periods:e} response \
+                 periods ({time:e} s): {e}",
+                options.periods, options.warmup_periods
+            )
+        })
 }
 
 /// Samples per mesh period of the first mesh for the force statistics of `periodic` (as many
@@ -120,6 +144,18 @@ impl SweepRequest<'_> {
     /// Checks the options (messages name the CLI option): the sweep's settings.
     pub fn options(&self) -> Result<SweepOptions, String> {
         let speeds = SweepOptions::parse_range(self.speed)?;
+        // Each point may integrate up to `max_periods` response periods: the whole sweep within
+        // the mesh periods one `geardyn simulate` run may span.
+        let most = speeds.len() as f64 * f64::from(self.max_periods);
+        let limit = crate::simulation::stream::DEFAULT_MAX_MESH_PERIODS;
+        if most > limit {
+            return Err(format!(
+                "--max-periods = {} over {} points: up to {most:e} response periods, more than \
+                 the {limit:e} a sweep may integrate",
+                self.max_periods,
+                speeds.len()
+            ));
+        }
         let direction = self
             .direction
             .parse()

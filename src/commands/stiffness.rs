@@ -51,8 +51,22 @@ impl Stiffness {
         }
     }
 
-    /// The summary `geardyn stiffness` prints, with `harmonics` Fourier harmonics.
+    /// The summary `geardyn stiffness` prints (`harmonics` checked by [`check_harmonics`]), with `harmonics` Fourier harmonics.
     pub fn summary(&self, harmonics: usize) -> String {
         report::summary(&self.model, &self.curve, harmonics)
     }
+}
+
+/// Most Fourier harmonics of the stiffness summary: far beyond what a curve of a few hundred
+/// knots resolves; a bound so that `--harmonics 1e12` is refused instead of computed.
+pub const MAX_SUMMARY_HARMONICS: usize = 10_000;
+
+/// `--harmonics` within [`MAX_SUMMARY_HARMONICS`].
+pub fn check_harmonics(harmonics: usize) -> Result<(), String> {
+    if harmonics > MAX_SUMMARY_HARMONICS {
+        return Err(format!(
+            "--harmonics = {harmonics}: more than the {MAX_SUMMARY_HARMONICS} the summary lists"
+        ));
+    }
+    Ok(())
 }

@@ -37,6 +37,8 @@ pub fn base_unit(unit: &str) -> Option<BaseUnit> {
         factor: 1.0,
     };
     Some(match unit {
+        // Dimensionless (a fraction, a ratio): every base-unit exponent 0, as in src/units.rs.
+        "1" => u(0, 0, 0, 0),
         // A mesh cycle (one tooth passage) is 2π rad of mesh phase.
         "cycle" => BaseUnit {
             factor: std::f64::consts::TAU,

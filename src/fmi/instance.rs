@@ -376,6 +376,22 @@ impl Instance {
         if self.hold_outputs {
             self.answer_held_outputs(vrs, out);
         }
+        // Never a non-finite value with fmi2OK (issue 34): a model whose values are not finite
+        // (an element's start state the arithmetic cannot carry) answers fmi2Discard, naming
+        // the variable; the instance's state is unchanged.
+        if let Some(k) = out.iter().take(vrs.len()).position(|x| !x.is_finite()) {
+            let name = self
+                .lookup(vrs[k], VarKind::Real)
+                .map_or_else(|_| format!("vr {}", vrs[k]), |v| format!("'{}'", v.name));
+            self.logger.log(
+                Status::Discard,
+                &format!(
+                    "fmi2GetReal: {name} (vr {}) is {} at t = {:?}: not a usable value",
+                    vrs[k], out[k], self.time
+                ),
+            );
+            return Status::Discard;
+        }
         Status::Ok
     }
 
@@ -540,7 +556,8 @@ impl Instance {
                 if let Some(msg) = self.read_outputs() {
                     self.time = tc;
                     self.last_successful_time = tc;
-                    self.terminated = true;
+                    // A failure, not the model ending the run (see `StepFailure::Discard`).
+                    self.terminated = false;
                     self.state = FmuState::StepFailed;
                     self.logger.log(
                         Status::Discard,
@@ -949,7 +966,7 @@ mod tests {
     }
 
     /// The safety net: a step after which an output is not finite is discarded at its start
-    /// and asks the master to terminate, although the model reported success; the output
+    /// (a failure, not a termination), although the model reported success; the output
     /// then reads as its last good value, never the non-finite one (issue 17).
     #[test]
     fn a_non_finite_output_discards_the_step() {
@@ -962,7 +979,7 @@ mod tests {
             assert_eq!(y, [1.0], "the value after initialization, not {bad}");
             assert!(matches!(
                 inst.status_query(Call::GetBooleanStatus, TERMINATED),
-                Ok(StatusAnswer::Boolean(true))
+                Ok(StatusAnswer::Boolean(false))
             ));
             assert!(matches!(
                 inst.status_query(Call::GetRealStatus, LAST_SUCCESSFUL_TIME),

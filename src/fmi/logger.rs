@@ -128,15 +128,19 @@ pub struct Logger {
 unsafe impl Send for Logger {}
 
 impl Logger {
-    /// `logging_on` (from `fmi2Instantiate`) enables every category. Otherwise only error and
-    /// fatal messages are passed on: the spec says the logger "should" only be called for
-    /// enabled categories, but a failing call whose reason is swallowed is worse for users;
-    /// the host can still silence them with `fmi2SetDebugLogging(fmi2False, 0, NULL)`.
+    /// `logging_on` (from `fmi2Instantiate`) enables every category. Otherwise only the
+    /// messages of warnings, discards, errors and fatal errors are passed on: the spec says
+    /// the logger "should" only be called for enabled categories, but a refused step whose
+    /// reason is swallowed is worse for users (issue 32: the reason of an `fmi2Discard` must
+    /// reach a host at its default log level); the host can still silence them with
+    /// `fmi2SetDebugLogging(fmi2False, 0, NULL)`.
     pub fn new(callbacks: CallbackFunctions, instance_name: CString, logging_on: bool) -> Logger {
         let enabled = if logging_on {
             ALL_BITS
         } else {
-            Category::StatusError.bit() | Category::StatusFatal.bit()
+            Category::StatusWarning.bit()
+                | Category::StatusError.bit()
+                | Category::StatusFatal.bit()
         };
         Logger {
             callbacks,

@@ -172,8 +172,11 @@ impl Variable {
 #[derive(Debug, Clone, PartialEq)]
 pub enum StepFailure {
     /// Only part of the step was done (`fmi2Discard`, FMI 2.0.x §4.2.2): the state is valid at
-    /// `reached` (`tc <= reached < tc + h`). `terminate` asks the master to stop the run
-    /// (reported through `fmi2GetBooleanStatus(fmi2Terminated)`), e.g. a non-finite state.
+    /// `reached` (`tc <= reached < tc + h`). `terminate` is the model ending the run itself
+    /// (reported through `fmi2GetBooleanStatus(fmi2Terminated)`, FMI 2.0.5 §4.2.3), e.g. a
+    /// drive cycle that is over: hosts (fmpy, the Reference-FMUs' master, `geardyn run`) take
+    /// it as a normal end. A failure (the integrator stopped, a non-finite state) is never a
+    /// termination: it stays `false`, so the host reports it as one (issue 39).
     Discard {
         reason: String,
         reached: f64,

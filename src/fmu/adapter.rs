@@ -23,7 +23,34 @@ use crate::fmi::model::{
 use crate::fmu::checks::check_snapshot_values;
 use crate::fmu::kernel::{Kernel, KernelSnapshot};
 use crate::fmu::table::{name_of, settable_reals};
+use crate::simulation::budget::{self, DEFAULT_CALL_BUDGET};
 use crate::simulation::Driver;
+
+/// Value reference of the parameter `solver.work_budget` (docs/fmu.md "Work budget"), which
+/// every gear FMU has; free in both kernels' tables.
+pub const VR_WORK_BUDGET: u32 = 29;
+
+/// The simulation of `settings` with the budget of one FMI call: the scene's
+/// `solver.work_budget`, else [`DEFAULT_CALL_BUDGET`].
+fn build_sim<K: Kernel>(settings: &K::Settings) -> Result<Driver<K::Model>, String> {
+    let mut sim = K::build(settings)?;
+    sim.default_work_budget(DEFAULT_CALL_BUDGET);
+    Ok(sim)
+}
+
+/// The parameter `solver.work_budget` with its start value.
+fn work_budget_variable(limit: f64) -> Variable {
+    let mut v = crate::fmu::table::param(
+        budget::BUDGET_KEY,
+        VR_WORK_BUDGET,
+        limit,
+        None,
+        "Work budget of one FMI call (about one floating-point multiply-add per unit): a call \
+         that would need more returns fmi2Discard naming the likely cause (docs/fmu.md)",
+    );
+    v.min = Some(1.0);
+    v
+}
 
 /// A gear model behind an FMU instance.
 pub struct Adapter<K: Kernel> {
@@ -71,8 +98,9 @@ impl Refusal {
 impl<K: Kernel> Adapter<K> {
     /// Builds the model of validated settings and its description data.
     pub fn new(settings: K::Settings, guid: String) -> Result<(Adapter<K>, ModelInfo), String> {
-        let sim = K::build(&settings)?;
-        let vars = K::variables(&settings, &sim)?;
+        let sim = build_sim::<K>(&settings)?;
+        let mut vars = K::variables(&settings, &sim)?;
+        vars.push(work_budget_variable(sim.work_budget().limit()));
         let (name, description, solver) = K::header(&settings);
         let info = ModelInfo {
             model_name: name.to_string(),
@@ -114,7 +142,7 @@ impl<K: Kernel> Adapter<K> {
 
     /// The simulation of `settings` and its initial outputs, which must be finite.
     fn build(&self, settings: &K::Settings) -> Result<(Driver<K::Model>, Vec<f64>), Refusal> {
-        let sim = K::build(settings).map_err(Refusal::Build)?;
+        let sim = build_sim::<K>(settings).map_err(Refusal::Build)?;
         let mut outputs = Vec::new();
         K::outputs(&sim, &mut outputs);
         match outputs.iter().position(|y| !y.is_finite()) {
@@ -128,7 +156,7 @@ impl<K: Kernel> Adapter<K> {
     fn set_before_init(&mut self, vr: u32, x: f64) -> Result<(), String> {
         let name = name_of(&self.vars, vr).to_string();
         let mut settings = self.settings.clone();
-        K::apply(&mut settings, &name, vr, x)?;
+        apply::<K>(&mut settings, &name, vr, x)?;
         let (mut sim, outputs) = self.build(&settings).map_err(|e| e.naming(&name, x))?;
         // Input rates set so far stay set (they are not parameters of the build).
         let du = K::input_rates(self.sim.model());
@@ -173,7 +201,7 @@ impl<K: Kernel> Adapter<K> {
         let mut settings = self.base.clone();
         K::set_extra(&mut settings, &snap.extra);
         for &(vr, x) in &snap.params {
-            K::apply(&mut settings, name_of(&self.vars, vr), vr, x)?;
+            apply::<K>(&mut settings, name_of(&self.vars, vr), vr, x)?;
         }
         Ok(settings)
     }
@@ -213,7 +241,7 @@ impl<K: Kernel> Adapter<K> {
         for &(vr, x) in &snap.params {
             let name = name_of(&self.vars, vr);
             // Each value passed this apply in `settings_of` already.
-            let _ = K::apply(&mut settings, name, vr, x);
+            let _ = apply::<K>(&mut settings, name, vr, x);
             if let Err(e) = self.build(&settings) {
                 return e.naming(name, x);
             }
@@ -250,6 +278,15 @@ impl<K: Kernel> Adapter<K> {
     }
 }
 
+/// Sets a parameter of the settings: the adapter's own (the work budget) or the kernel's.
+fn apply<K: Kernel>(settings: &mut K::Settings, name: &str, vr: u32, x: f64) -> Result<(), String> {
+    if vr == VR_WORK_BUDGET {
+        K::solver_mut(settings).work_budget = Some(budget::check_limit(name, x)?);
+        return Ok(());
+    }
+    K::apply(settings, name, vr, x)
+}
+
 /// The position of an input value reference in `K::INPUTS`.
 #[inline]
 fn input_position<K: Kernel>(vr: u32) -> Option<usize> {
@@ -264,6 +301,9 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
     fn get_real(&self, vr: u32) -> Result<f64, String> {
         if let Some(i) = self.output_index(vr) {
             return Ok(self.current_outputs()[i]);
+        }
+        if vr == VR_WORK_BUDGET {
+            return Ok(self.sim.work_budget().limit());
         }
         let model = self.sim.model();
         if let Some(k) = input_position::<K>(vr) {
@@ -345,6 +385,8 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
         let t0 = self.sim.t();
         let target = ((t + h) - start_time).max(t0);
         let ramp = du.iter().any(|&r| r != 0.0);
+        // The budget bounds each call (docs/fmu.md "Work budget").
+        self.sim.reset_work();
         if ramp {
             let end = K::inputs_after(&self.sim, &u, &du, target - t0);
             for k in (0..du.len()).filter(|&k| du[k] != 0.0) {
@@ -366,10 +408,13 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
                 K::set_inputs(sim, &end).ok();
                 K::set_input_rates(sim, &du).ok();
             }
+            // A refused step is not the FMU ending the simulation (fmi2Terminated stays false,
+            // so hosts report it). An exhausted work budget leaves a valid state: a master may
+            // go on with shorter steps or a raised solver.work_budget.
             return Err(StepFailure::Discard {
                 reason: format!("the integrator stopped: {e}"),
                 reached: start_time + reached,
-                terminate: true,
+                terminate: false,
             });
         }
         let fail = |e: String| StepFailure::Error(format!("end of the input ramp: {e}"));
@@ -384,7 +429,7 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
     }
 
     fn reset(&mut self) -> Result<(), String> {
-        *self.sim_mut() = K::build(&self.base)?;
+        *self.sim_mut() = build_sim::<K>(&self.base)?;
         self.settings = self.base.clone();
         self.lifecycle = Lifecycle::default();
         Ok(())

@@ -49,6 +49,8 @@ pub trait Kernel: 'static {
     fn load(text: &str, origin: &str) -> Result<Self::Settings, String>;
     /// The scene's name, description and solver settings.
     fn header(s: &Self::Settings) -> (&str, &str, &SolverSettings);
+    /// The solver settings, for the adapter's own parameters (the work budget).
+    fn solver_mut(s: &mut Self::Settings) -> &mut SolverSettings;
     /// A simulation of the settings, at `t = 0` in its initial state.
     fn build(s: &Self::Settings) -> Result<Driver<Self::Model>, String>;
     /// The variable table (start values from the settings). Called once per instance.

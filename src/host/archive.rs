@@ -101,6 +101,46 @@ fn absolute_kind(name: &str) -> Option<&'static str> {
     }
 }
 
+/// Entry names that occur more than once in an archive: which copy a reader takes is up to
+/// the reader (the zip crate took the last `modelDescription.xml`, issue 34), so such an
+/// archive is refused, naming the entry and its positions. Names are compared as paths
+/// (`a/b` and `a//b` are one file once unpacked); directory entries may repeat harmlessly.
+pub fn refuse_duplicates<R: io::Read + io::Seek>(
+    zip: &mut zip::ZipArchive<R>,
+    archive: &Path,
+) -> Result<(), String> {
+    if zip.has_duplicate_names() {
+        // The reader's index keeps one copy per name, so it cannot say which name repeats.
+        return Err(format!(
+            "{}: the ZIP archive lists an entry name more than once (a reader would take one \
+             copy and silently drop the other); refusing an archive whose content is ambiguous",
+            archive.display()
+        ));
+    }
+    let mut seen: std::collections::HashMap<PathBuf, usize> = std::collections::HashMap::new();
+    for i in 0..zip.len() {
+        let Ok(entry) = zip.by_index_raw(i) else {
+            continue; // reported with its reason when it is read
+        };
+        if entry.is_dir() {
+            continue;
+        }
+        let Some(rel) = entry.enclosed_name() else {
+            continue; // refused as unsafe when it is read
+        };
+        let rel: PathBuf = rel.components().collect();
+        if let Some(first) = seen.insert(rel.clone(), i) {
+            return Err(format!(
+                "{}: ZIP entry \"{}\" occurs twice (entries #{first} and #{i}); refusing an \
+                 archive whose content is ambiguous",
+                archive.display(),
+                rel.display()
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// [`unpack`] with an explicit limit on the bytes extracted.
 pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
     let meta = fs::metadata(fmu).map_err(|e| match e.kind() {
@@ -130,6 +170,7 @@ pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
             fmu.display()
         )
     })?;
+    refuse_duplicates(&mut zip, fmu)?;
     let temp = tempfile::Builder::new()
         .prefix("geardyn-fmu-")
         .tempdir()

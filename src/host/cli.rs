@@ -22,17 +22,23 @@ use std::path::{Path, PathBuf};
 #[derive(clap::Args, Debug)]
 #[command(after_help = "\
 Exit status:
-  0  the run reached the stop time
-  1  anything else: a bad argument or FMU, fmi2Discard (also with fmi2Terminated = true: the
-     FMU asked to end the run early; a row at its last successful time is kept), fmi2Error or
-     fmi2Fatal, the FMU crashing or ending its process, SIGINT, SIGTERM or SIGHUP (also
-     how a blocked FMU is ended: the first asks the run to stop at its next step, a second
-     one or 0.9 s without reaching it kills the FMU's process). The rows computed until
-     then are kept, and the message says what happened, in which FMI call and at which time.
+  0  the run reached the stop time, or an FMU ended the simulation itself before it
+     (fmi2Discard with fmi2Terminated = true, FMI 2.0.5 4.2.3, as fmpy does): the rows end
+     at its last successful time (in a system: at the last communication point), and a
+     note gives its reason
+  1  anything else: a bad argument or FMU, a refused step (fmi2Discard without
+     fmi2Terminated, fmi2Error, fmi2Fatal), a system whose state diverges, the FMU
+     crashing or ending its process, SIGINT, SIGTERM or SIGHUP (also how a blocked FMU is
+     ended: the first asks the run to stop at its next step, a second one or 0.9 s without
+     reaching it kills the FMU's process). The rows computed until then are kept, and the
+     message says what happened, in which FMI call, at which time and, in one line, the
+     reason the FMU logged.
 
 Systems (an .ssp archive, a SystemStructure.ssd file or a folder holding one, SSP 1.0): the
-FMUs run in one process with a fixed-step master (--algorithm, --extrapolation); the CSV has
-a column Element.connector per connected signal. See docs/systems.md.")]
+FMUs run in one process with a fixed-step master (--algorithm, --extrapolation; Jacobi steps
+the FMUs on threads, --threads), which stops a diverging run (--divergence-factor); the CSV
+has a column Element.connector per connected signal. The shipped example systems build their
+missing FMUs from fmu/ on first use. See docs/systems.md.")]
 pub struct RunArgs {
     /// The FMU (.fmu file or an extracted FMU folder), or a system of FMUs: an SSP 1.0 `.ssp`
     /// archive, a `SystemStructure.ssd` file, or a folder holding one (docs/systems.md).
@@ -86,6 +92,16 @@ pub struct RunArgs {
     /// where both FMUs can, else held, with a note naming the connection.
     #[arg(long, value_name = "MODE")]
     pub extrapolation: Option<String>,
+    /// Systems with --algorithm jacobi: threads for the FMUs' steps (results bit-identical
+    /// to one thread). Default: the number of cores for ≥ 3 FMUs that all allow several
+    /// instances per process, else 1.
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    /// Systems: stop when a connected speed, torque or force grows more than this factor
+    /// within the second half of the run so far (faster than any power of time: a diverging
+    /// coupling; docs/systems.md); 0 turns the check off. Default 1000.
+    #[arg(long, value_name = "FACTOR")]
+    pub divergence_factor: Option<f64>,
     /// Report where the time went: the step loop, the part inside the FMU's calls, CSV writing.
     #[arg(long)]
     pub timing: bool,
@@ -113,13 +129,17 @@ pub fn info(args: FmuArg) -> Result<(), String> {
 }
 
 /// `geardyn validate`: the modelDescription checks plus loading the linux64 binary with all
-/// 34 functions. Returns an error (exit 1) when anything is wrong.
+/// 34 functions. Returns an error (exit 1) when anything is wrong. The library is loaded in a
+/// supervised child process, as `geardyn run` runs an FMU (issue 34): its initialisers may
+/// crash, exit or block, and the parent then reports how, and removes the unpacked folder.
 pub fn validate(args: FmuArg) -> Result<(), String> {
+    // Before the temporary folder exists (see `supervised_run`).
+    let supervisor = Supervisor::new()?;
     let (u, md) = open(&args.fmu)?;
     let mut problems = u.zip_problems.clone();
     problems.extend(check(&md));
     if let Some(cs) = &md.co_simulation {
-        if let Err(e) = FmuLibrary::load(u.root(), &cs.model_identifier) {
+        if let Some(e) = supervised_load(&supervisor, u.root(), &cs.model_identifier)? {
             problems.push(e);
         }
     }
@@ -136,6 +156,64 @@ pub fn validate(args: FmuArg) -> Result<(), String> {
         problems.len(),
         if problems.len() == 1 { "" } else { "s" }
     ))
+}
+
+/// Loads the FMU's library with its 34 functions in a forked child; `Some(problem)` when it
+/// cannot be loaded or its process dies while loading it.
+fn supervised_load(
+    supervisor: &Supervisor,
+    root: &Path,
+    model_identifier: &str,
+) -> Result<Option<String>, String> {
+    let shared = SharedActivity::new()?;
+    let activity = shared.get();
+    // The child's load error comes back through a pipe (read after the child has ended).
+    let mut fds = [0 as libc::c_int; 2];
+    // SAFETY: creates a pipe into `fds`.
+    if unsafe { libc::pipe(fds.as_mut_ptr()) } != 0 {
+        return Err(format!(
+            "cannot create a pipe to the process that loads the FMU: {}",
+            std::io::Error::last_os_error()
+        ));
+    }
+    // SAFETY: the two descriptors were just created and are owned here.
+    let (read, write) = unsafe {
+        use std::os::fd::FromRawFd;
+        (
+            std::fs::File::from_raw_fd(fds[0]),
+            std::fs::File::from_raw_fd(fds[1]),
+        )
+    };
+    if let Some(signal) = supervisor.pending_interrupt() {
+        return Err(format!("interrupted by {signal} before the FMU was loaded"));
+    }
+    let end = supervisor.run(activity, || {
+        activity.phase(HostPhase::LoadingLibrary);
+        match FmuLibrary::load(root, model_identifier) {
+            Ok(_) => 0,
+            Err(e) => {
+                use std::io::Write as _;
+                let mut write = &write;
+                let _ = write.write_all(e.as_bytes());
+                1
+            }
+        }
+    })?;
+    drop(write);
+    Ok(match end {
+        ChildEnd::Reported(0) => None,
+        ChildEnd::Reported(_) => {
+            use std::io::Read as _;
+            let mut message = String::new();
+            let _ = (&read).take(1 << 16).read_to_string(&mut message);
+            Some(if message.is_empty() {
+                "the FMU's library could not be loaded".into()
+            } else {
+                message
+            })
+        }
+        ChildEnd::Abnormal(what) => Some(what),
+    })
 }
 
 fn positive(name: &str, v: f64) -> Result<f64, String> {
@@ -217,10 +295,12 @@ fn plan<'a>(
     Ok(exp)
 }
 
-/// Print a failure as `main` does for the other commands; the exit code.
+/// Print a failure as `main` does for the other commands; the exit code. A closed pipe on
+/// the output (`geardyn run x.fmu | head`) ends quietly ([`crate::pipe`]).
 pub(crate) fn report(result: Result<(), String>) -> u8 {
     match result {
         Ok(()) => 0,
+        Err(message) if crate::pipe::is_broken_pipe(&message) => crate::pipe::BROKEN_PIPE_STATUS,
         Err(message) => {
             eprintln!("error: {message}");
             1
@@ -254,9 +334,13 @@ pub(crate) fn rows_kept(out: &Option<PathBuf>, (rows, last): (usize, Option<f64>
 /// instead, its pending rows are written here and the message says how it ended. The
 /// temporary folder is removed when `unpacked` is dropped, in every case.
 pub(crate) fn supervised_run(args: &RunArgs) -> Result<u8, String> {
-    if args.algorithm.is_some() || args.extrapolation.is_some() {
+    if args.algorithm.is_some()
+        || args.extrapolation.is_some()
+        || args.divergence_factor.is_some()
+        || args.threads.is_some()
+    {
         return Err(format!(
-            "{}: --algorithm and --extrapolation are for systems (.ssp, .ssd or a folder with SystemStructure.ssd), not a single FMU",
+            "{}: --algorithm, --extrapolation, --threads and --divergence-factor are for systems (.ssp, .ssd or a folder with SystemStructure.ssd), not a single FMU",
             args.fmu.display()
         ));
     }

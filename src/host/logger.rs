@@ -38,9 +38,15 @@ pub struct LogRecord {
 
 /// Where an instance's messages go: printed to stderr when at or above `print_level`, and
 /// kept (the last few at warning level or worse) to explain a failing call.
+///
+/// A message of status `fmi2Discard` or worse is the reason of a failing call, so it is said
+/// once, in the host's one-line report of that call (issue 32, "a master that says why"):
+/// below `--log-level all` it is held until the call returns, and printed on its own only
+/// when the call did not fail after all (at [`Logger::clear`]) or was never reported
+/// (when the logger is dropped).
 pub struct LogSink {
     print_level: Status,
-    records: Mutex<Vec<LogRecord>>,
+    records: Mutex<Vec<Kept>>,
     /// Whether `records` may be non-empty: lets [`Logger::clear`] skip the lock on the hot
     /// path (an FMU that logs nothing costs one atomic load per call).
     dirty: AtomicBool,
@@ -50,28 +56,64 @@ pub struct LogSink {
 /// the last ones; a chatty FMU must not grow memory without bound).
 const KEEP: usize = 64;
 
+/// A kept message, and whether it has been printed.
+struct Kept {
+    rec: LogRecord,
+    printed: bool,
+}
+
+fn print(rec: &LogRecord) {
+    eprintln!(
+        "[{}] [{}] {}",
+        rec.status,
+        if rec.category.is_empty() {
+            "-"
+        } else {
+            &rec.category
+        },
+        rec.message
+    );
+}
+
 impl LogSink {
     fn push(&self, rec: LogRecord) {
-        if rec.status >= self.print_level {
-            eprintln!(
-                "[{}] [{}] {}",
-                rec.status,
-                if rec.category.is_empty() {
-                    "-"
-                } else {
-                    &rec.category
-                },
-                rec.message
-            );
+        let wanted = rec.status >= self.print_level;
+        let held = rec.status >= Status::Discard && self.print_level > Status::Ok;
+        if wanted && !held {
+            print(&rec);
         }
         if rec.status >= Status::Warning {
             if let Ok(mut r) = self.records.lock() {
                 if r.len() == KEEP {
-                    r.remove(0);
+                    let dropped = r.remove(0);
+                    self.print_held(&dropped);
                 }
-                r.push(rec);
+                r.push(Kept {
+                    rec,
+                    printed: !held,
+                });
                 self.dirty.store(true, Ordering::Release);
             }
+        }
+    }
+
+    /// Print a held message that no failure report took.
+    fn print_held(&self, k: &Kept) {
+        if !k.printed && k.rec.status >= self.print_level {
+            print(&k.rec);
+        }
+    }
+}
+
+impl Drop for LogSink {
+    fn drop(&mut self) {
+        let kept = self
+            .records
+            .get_mut()
+            .map(std::mem::take)
+            .unwrap_or_default();
+        for k in &kept {
+            self.print_held(k);
         }
     }
 }
@@ -120,23 +162,26 @@ impl Logger {
         }
     }
 
+    /// After a call that did not fail: the held messages are printed now.
     #[cold]
     fn clear_records(&self) {
         if self.sink.dirty.swap(false, Ordering::AcqRel) {
             if let Ok(mut r) = self.sink.records.lock() {
-                r.clear();
+                for k in r.drain(..) {
+                    self.sink.print_held(&k);
+                }
             }
         }
     }
 
-    /// Remove and return the kept warning/error messages.
+    /// Remove and return the kept warning/error messages: the caller reports them.
     pub fn take_records(&self) -> Vec<LogRecord> {
         self.sink
             .records
             .lock()
             .map(|mut r| {
                 self.sink.dirty.store(false, Ordering::Release);
-                std::mem::take(&mut *r)
+                r.drain(..).map(|k| k.rec).collect()
             })
             .unwrap_or_default()
     }

@@ -18,9 +18,11 @@
 //! Rows go to a [`RowSink`] as they are sampled. A failing call ends the loop: the rows computed
 //! until then have been delivered, and the failure (call, time, status, the FMU's logged
 //! reason) is returned. After `fmi2Discard`, `fmi2GetBooleanStatus(fmi2Terminated)` and
-//! `fmi2GetRealStatus(fmi2LastSuccessfulTime)` are asked (FMI 2.0.5 §4.2.3): an FMU that asks
-//! to terminate gets a row at the last successful time, as in fmpy. Every Discard ends the run
-//! as a failure: the run did not reach its stop time (exit 1; one rule for scripts).
+//! `fmi2GetRealStatus(fmi2LastSuccessfulTime)` are asked (FMI 2.0.5 §4.2.3). An FMU that
+//! ends the simulation itself (`fmi2Terminated = true`: a stair at its last step, a drive
+//! cycle that is over) ends the run normally, as in fmpy's `simulate_fmu` and the
+//! Reference-FMUs' co-simulation example: a row at its last successful time, a note with its
+//! reason, exit 0 (issue 39). A Discard without it is a refused step: a failure (exit 1).
 
 use super::csv::Row;
 use super::description::{Causality, ModelDescription, Value, VarType};
@@ -327,6 +329,30 @@ fn record(
     Ok(())
 }
 
+/// A run whose FMU returned `fmi2Discard` with `fmi2Terminated = true` in the step from
+/// `time` (FMI 2.0.5 §4.2.3) ends there: a row at its last successful time `last` when it is
+/// past `time` (as fmpy's `simulate_fmu` samples there), and a note with the FMU's reason. Not
+/// a failure: the FMU ended the simulation itself. Returns the time the rows end at.
+fn ended_by_fmu(
+    inst: &mut Instance,
+    sampler: &mut Sampler,
+    sink: &mut dyn RowSink,
+    out: &mut Outcome,
+    (time, last, stop): (f64, Option<f64>, f64),
+    err: &CallError,
+) -> Result<f64, String> {
+    let end = last.filter(|&tl| tl > time).unwrap_or(time);
+    if end > time {
+        inst.activity().at(end);
+        record(sampler, inst, sink, out, end)?;
+    }
+    out.notes.push(format!(
+        "the FMU ended the simulation itself at t = {end}, before the stop time {stop} (fmi2Terminated after {}); the rows end there",
+        err.message
+    ));
+    Ok(end)
+}
+
 /// Initialize and run the instance, giving every output row to `sink` as it is computed.
 /// Never panics; on failure the rows up to then have been delivered.
 pub fn run(
@@ -435,27 +461,25 @@ pub fn run(
         let call_start = exp.timing.then(std::time::Instant::now);
         let stepped = inst.do_step(time, step);
         if let Err(err) = stepped {
-            let mut msg = format!("step from t = {time} with h = {step}: {err}");
+            let mut msg =
+                format!("the FMU refused the step from t = {time} with h = {step}: {err}");
             if err.status == super::library::Status::Discard {
                 let (terminated, last) = inst.discard_details();
-                if let Some(tl) = last {
-                    msg.push_str(&format!("; last successful time {tl}"));
-                    // Keep what the FMU did compute (fmpy samples at lastSuccessfulTime too).
-                    if tl > time && terminated == Some(true) {
-                        activity.at(tl);
-                        if let Err(m) = record(&mut sampler, inst, sink, &mut out, tl) {
-                            msg.push_str(&format!("; {m}"));
+                if terminated == Some(true) {
+                    let ended = (time, last, stop);
+                    match ended_by_fmu(inst, &mut sampler, sink, &mut out, ended, &err) {
+                        Ok(end) => {
+                            time = end;
+                            break;
+                        }
+                        Err(m) => {
+                            out.failure = Some(m);
+                            return out;
                         }
                     }
                 }
-                if terminated == Some(true) {
-                    // Ended early at the FMU's request: the rows are complete up to there, but
-                    // the run did not reach its stop time, so it is still a failure (exit 1).
-                    out.failure = Some(format!(
-                        "the FMU asked to terminate the simulation before the stop time: {msg}"
-                    ));
-                    let _ = inst.terminate();
-                    return out;
+                if let Some(tl) = last {
+                    msg.push_str(&format!("; last successful time {tl}"));
                 }
             }
             out.failure = Some(msg);

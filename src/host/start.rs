@@ -86,7 +86,14 @@ pub fn resolve(
             )
         };
         let value = match v.var_type {
-            VarType::Real => Value::Real(text.parse::<f64>().map_err(|_| bad("a real number"))?),
+            // A literal beyond the double range (1e999) parses as inf: refused, not read as
+            // infinity (issue 34).
+            VarType::Real => Value::Real(
+                text.parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| bad("a finite real number"))?,
+            ),
             VarType::Integer | VarType::Enumeration => {
                 Value::Integer(text.parse::<i32>().map_err(|_| bad("a 32-bit integer"))?)
             }

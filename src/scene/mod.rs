@@ -142,6 +142,9 @@ pub struct SolverSettings {
     pub atol: f64,
     pub stop_time: f64,
     pub output_interval: f64,
+    /// `solver.work_budget`: the most work one run (or one FMI call) may do, in work units
+    /// ([`crate::simulation::budget`]); `None`: the default of the scope.
+    pub work_budget: Option<f64>,
 }
 
 /// A validated scene.

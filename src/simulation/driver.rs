@@ -4,8 +4,10 @@
 //! here once and the two simulations only add what their model makes different (construction,
 //! inputs, outputs, the shape of their state).
 
+use super::budget::{self, Exhaustion, WorkBudget};
+use super::scales::RunScales;
 use crate::scene::{MethodChoice, SolverSettings};
-use crate::solve::exact::{ExactPropagator, PiecewiseLti};
+use crate::solve::exact::{ExactPropagator, PiecewiseLti, WorkCap};
 use crate::solve::rk::{ControllerMemory, RkOptions, RkStepper};
 use crate::solve::{SolveError, SolverStats};
 
@@ -61,6 +63,18 @@ pub struct Driver<M> {
     propagator: Propagator,
     note: Option<String>,
     choice: String,
+    /// The work budget ([`super::budget`]): per run unless the owner resets it per call.
+    budget: WorkBudget,
+    /// Work units of one step (RK attempt or exact segment) and one guard evaluation of this
+    /// model and propagator.
+    step_cost: f64,
+    guard_cost: f64,
+    /// The RK path's own step limit of one advance (before the budget's cap).
+    rk_max_steps: u64,
+    /// Time and counters at the start of the budget's scope (for its message), and whether
+    /// the scope is one call ([`Driver::reset_work`] was called) rather than the whole run.
+    scope: (f64, SolverStats),
+    per_call: bool,
 }
 
 impl<M: DrivenModel> Driver<M> {
@@ -128,10 +142,19 @@ impl<M: DrivenModel> Driver<M> {
                 (dim * dim * 8) as f64 / 1e6
             ));
         }
-        let propagator = if exact {
+        // Unset, a driver's advances are unbounded until its owner applies the default of its
+        // scope: one FMI call (the FMU adapter) or one streamed run (`stream`).
+        let limit = match settings.work_budget {
+            Some(x) => budget::check_limit(budget::BUDGET_KEY, x)?,
+            None => f64::INFINITY,
+        };
+        let (propagator, step_cost) = if exact {
             let mut p = ExactPropagator::new(&model);
             p.set_state(0.0, y0);
-            Propagator::Exact(Box::new(p))
+            (
+                Propagator::Exact(Box::new(p)),
+                budget::segment_cost(model.lti_dim()),
+            )
         } else {
             let options = RkOptions {
                 rtol: settings.rtol,
@@ -140,13 +163,24 @@ impl<M: DrivenModel> Driver<M> {
             };
             let mut p = RkStepper::new(options, y0.len())?;
             p.set_state(0.0, y0);
-            Propagator::Rk(Box::new(p))
+            (Propagator::Rk(Box::new(p)), budget::rk_step_cost(y0.len()))
+        };
+        let guard_cost = budget::guard_eval_cost(if exact { model.lti_dim() } else { y0.len() });
+        let rk_max_steps = match &propagator {
+            Propagator::Rk(p) => p.options().max_steps,
+            Propagator::Exact(_) => u64::MAX,
         };
         Ok(Driver {
             model,
             propagator,
             note,
             choice,
+            budget: WorkBudget::new(limit),
+            step_cost,
+            guard_cost,
+            rk_max_steps,
+            scope: (0.0, SolverStats::default()),
+            per_call: false,
         })
     }
 
@@ -196,6 +230,33 @@ impl<M: DrivenModel> Driver<M> {
         &self.model
     }
 
+    /// The work budget: its limit and what was spent in its scope.
+    pub fn work_budget(&self) -> &WorkBudget {
+        &self.budget
+    }
+
+    /// A new limit of the work budget (checked: a finite number >= 1).
+    pub fn set_work_budget(&mut self, limit: f64) -> Result<(), String> {
+        self.budget
+            .set_limit(budget::check_limit(budget::BUDGET_KEY, limit)?);
+        Ok(())
+    }
+
+    /// Applies `limit` unless the scene set `solver.work_budget` (which then stays).
+    pub fn default_work_budget(&mut self, limit: f64) {
+        if self.budget.limit() == f64::INFINITY {
+            self.budget.set_limit(limit);
+        }
+    }
+
+    /// Starts a new budget scope: an FMU calls this at the start of every call, so the
+    /// budget bounds each call; a run that never calls it is bounded as a whole.
+    pub fn reset_work(&mut self) {
+        self.budget.reset();
+        self.scope = (self.t(), self.stats());
+        self.per_call = true;
+    }
+
     /// Mutable access to the model for settings that do not change its equations (e.g.
     /// recording events); changes that do go through [`Driver::change_model`].
     pub fn model_mut(&mut self) -> &mut M {
@@ -236,10 +297,67 @@ impl<M: DrivenModel> Driver<M> {
                 return Err(SolveError::BeyondLimits { t, reason });
             }
         }
-        match &mut self.propagator {
-            Propagator::Rk(p) => p.advance_to(&mut self.model, t_end),
-            Propagator::Exact(p) => p.advance_to(&mut self.model, t_end),
+        if t_end != t && self.budget.exhausted() {
+            return Err(self.over_budget());
         }
+        let cap = self.budget.steps_left(self.step_cost);
+        let before = self.stats();
+        let builds_before = self.mode_counts().0;
+        let exp_before = crate::solve::exact::exp_work();
+        let result = match &mut self.propagator {
+            Propagator::Rk(p) => {
+                p.set_max_steps(cap.min(self.rk_max_steps));
+                p.advance_to(&mut self.model, t_end)
+            }
+            Propagator::Exact(p) => {
+                p.set_work_cap(WorkCap {
+                    units: self.budget.left(),
+                    segment: self.step_cost,
+                    guard_eval: self.guard_cost,
+                    mode: budget::mode_cost(self.model.lti_dim()),
+                });
+                p.advance_to(&mut self.model, t_end)
+            }
+        };
+        let after = self.stats();
+        self.budget
+            .charge(&before, &after, self.step_cost, self.guard_cost);
+        self.budget
+            .charge_units(crate::solve::exact::exp_work() - exp_before);
+        let builds = self.mode_counts().0.saturating_sub(builds_before);
+        self.budget
+            .charge_units(builds as f64 * budget::mode_cost(self.model.lti_dim()));
+        match result {
+            Err(SolveError::TooManySteps { max_steps, .. })
+                if max_steps == cap && matches!(self.propagator, Propagator::Rk(_)) =>
+            {
+                Err(self.over_budget())
+            }
+            Err(SolveError::OverBudget { .. }) => Err(self.over_budget()),
+            other => other,
+        }
+    }
+
+    /// The error of an exhausted budget, with the message naming the likely cause.
+    fn over_budget(&self) -> SolveError {
+        let t = self.t();
+        let mut work = self.stats();
+        let start = &self.scope.1;
+        work.steps -= start.steps.min(work.steps);
+        work.rejected -= start.rejected.min(work.rejected);
+        work.events -= start.events.min(work.events);
+        work.guard_evals -= start.guard_evals.min(work.guard_evals);
+        let scales = self.model.run_scales();
+        let message = budget::exhausted_message(&Exhaustion {
+            limit: self.budget.limit(),
+            t,
+            t_start: self.scope.0,
+            work,
+            scales: &scales,
+            method: &self.method_name(),
+            per_call: self.per_call,
+        });
+        SolveError::OverBudget { t, message }
     }
 
     /// Applies `change(model, t)`, which alters the right-hand side from the current time on
@@ -400,23 +518,4 @@ impl<M: DrivenModel> Driver<M> {
         }
         Ok(())
     }
-}
-
-/// The time scales of a model that decide the work of a run, from the model itself (see
-/// [`DrivenModel::run_scales`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RunScales {
-    /// Mesh frequency of the fastest mesh, Hz (0 at standstill).
-    pub mesh_frequency: f64,
-    /// How fast the torques change the fastest mesh frequency, Hz/s: 0 for a prescribed speed;
-    /// with the rotation carried (ports, `docs/ports.md`) the rigid-body acceleration the port
-    /// torques give. A run spans about `(f + ½ḟt) t` mesh periods.
-    pub mesh_frequency_slope: f64,
-    /// Largest |mesh phase| at t = 0, cycles.
-    pub start_phase: f64,
-    /// The input speed: its TOML field and value, rad/s.
-    pub speed: (&'static str, f64),
-    /// An upper bound of the fastest rate of any mode (angular frequency or damping rate),
-    /// rad/s, and what sets it (the fields to look at).
-    pub fastest_rate: (f64, &'static str),
 }

@@ -5,12 +5,16 @@
 //! (issue 17, issue 20 item 5).
 
 use std::io::{IsTerminal, Write};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
-use super::driver::{DrivenModel, Driver, RunScales};
+use super::driver::{DrivenModel, Driver};
+use super::scales::RunScales;
 // The precision limit of the mesh phase is the clock's (a double resolves 2⁻²⁰ cycle there); a
 // run is checked against it before it starts, every advance again (`check_advance`).
 use crate::model::MAX_MESH_CYCLES;
+use crate::solve::SolveError;
 
 /// Default of [`RunLimits::max_rows`]: 1e8 rows are about 15 GB of CSV for a single pair.
 pub const DEFAULT_MAX_ROWS: u64 = 100_000_000;
@@ -33,6 +37,10 @@ pub struct RunLimits {
     /// Periods of the fastest mode (natural frequency, damping rate, STE harmonic) over the
     /// run.
     pub max_mode_periods: f64,
+    /// The run's work budget in work units ([`super::budget`]), counted by the driver as it
+    /// goes; `Some` overrides the scene's `solver.work_budget` (`--work-budget`, Python
+    /// `work_budget=`), `None` keeps it (or the default of a run).
+    pub work_budget: Option<f64>,
 }
 
 impl Default for RunLimits {
@@ -41,6 +49,7 @@ impl Default for RunLimits {
             max_rows: DEFAULT_MAX_ROWS,
             max_mesh_periods: DEFAULT_MAX_MESH_PERIODS,
             max_mode_periods: DEFAULT_MAX_MODE_PERIODS,
+            work_budget: None,
         }
     }
 }
@@ -67,13 +76,30 @@ impl RunLimits {
                 self.max_rows
             ));
         }
+        self.check_span(scales, stop_time, " (raise it with --max-periods)")
+    }
+
+    /// The work part of [`RunLimits::check`]: `stop_time` of simulated time within the mesh
+    /// and mode periods of the limits and the phase resolution. For an analysis that
+    /// integrates a known span (the shooting of `periodic`) as for a run; `raise` is the hint
+    /// appended to a limit the user may raise.
+    pub fn check_work(&self, scales: &RunScales, stop_time: f64) -> Result<(), String> {
+        if !(stop_time.is_finite() && stop_time > 0.0) {
+            return Err(format!(
+                "{stop_time:e} s of simulated time: must be a finite number > 0"
+            ));
+        }
+        self.check_span(scales, stop_time, "")
+    }
+
+    fn check_span(&self, scales: &RunScales, stop_time: f64, raise: &str) -> Result<(), String> {
         let periods =
             (scales.mesh_frequency + 0.5 * scales.mesh_frequency_slope * stop_time) * stop_time;
         if !(periods <= self.max_mesh_periods) {
             return Err(format!(
                 "{} = {:e} rad/s with stop_time = {stop_time:e} s is {periods:.4e} mesh \
                  periods (mesh frequency {:.4e} Hz, changing by {:.4e} Hz/s under the port \
-                 torques); the limit is {:e} mesh periods per run (raise it with --max-periods)",
+                 torques); the limit is {:e} mesh periods per run{raise}",
                 scales.speed.0,
                 scales.speed.1,
                 scales.mesh_frequency,
@@ -94,8 +120,7 @@ impl RunLimits {
         if !(mode_periods <= self.max_mode_periods) {
             return Err(format!(
                 "stop_time = {stop_time:e} s spans {mode_periods:.4e} periods of the fastest mode \
-                 ({rate:.4e} rad/s, set by {source}); the limit is {:e} per run (raise it with \
-                 --max-periods)",
+                 ({rate:.4e} rad/s, set by {source}); the limit is {:e} per run{raise}",
                 self.max_mode_periods
             ));
         }
@@ -143,6 +168,11 @@ impl OutputGrid {
         } else {
             n + 1.0
         }
+    }
+
+    /// The last point.
+    pub fn stop_time(&self) -> f64 {
+        self.stop_time
     }
 
     /// The number of points.
@@ -275,72 +305,161 @@ impl RunSummary {
     }
 }
 
-/// A one-line progress display on stderr for long runs, only when stderr is a terminal (a
-/// pipe or a log file gets nothing, so scripted runs stay byte-identical).
-pub struct Progress {
-    enabled: bool,
-    stop_time: f64,
-    start: Instant,
-    last: Instant,
-    shown: bool,
-    rows: u64,
+/// When a run shows its progress on stderr (`geardyn simulate`: on a terminal unless
+/// `--quiet`; everywhere with `--progress`).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum ProgressDisplay {
+    /// Never (library calls, the Python module).
+    #[default]
+    Off,
+    /// A line redrawn in place, only when stderr is a terminal (a pipe or a log file gets
+    /// nothing, so scripted runs stay byte-identical).
+    Terminal,
+    /// On a terminal as [`ProgressDisplay::Terminal`]; on a pipe or a file, a plain line every
+    /// few seconds (no carriage returns or escapes).
+    Always,
 }
 
-/// How often the progress line is redrawn, and how long a run must last before it appears.
+/// A progress display on stderr for long runs: time reached, rows and solver work, elapsed
+/// time and an estimate of the time left. Nothing appears in the first [`PROGRESS_EVERY`] of
+/// a run. The line is written by a thread of its own from what the run last recorded, so it
+/// keeps appearing while one advance takes long (a stiff stretch between two output points),
+/// and the run itself only stores three numbers per row (the time, rows and work shown are
+/// those of the last output point).
+pub struct Progress {
+    shared: Option<Arc<Shown>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+/// What the run records for the progress thread, and its stop signal.
+struct Shown {
+    time_bits: AtomicU64,
+    rows: AtomicU64,
+    work: AtomicU64,
+    stop: Mutex<bool>,
+    wake: Condvar,
+    /// Whether a line is on the terminal (to clear it at the end).
+    drawn: AtomicBool,
+}
+
+/// How often the progress line is redrawn on a terminal, and how long a run must last before
+/// it appears.
 const PROGRESS_EVERY: Duration = Duration::from_millis(500);
+/// How often a plain progress line is written to a pipe or a file.
+const PROGRESS_LINE_EVERY: Duration = Duration::from_secs(2);
 
 impl Progress {
     /// Progress towards `stop_time`, shown only when `wanted` and stderr is a terminal.
     pub fn new(stop_time: f64, wanted: bool) -> Progress {
-        let now = Instant::now();
-        Progress {
-            enabled: wanted && std::io::stderr().is_terminal(),
-            stop_time,
-            start: now,
-            last: now,
-            shown: false,
-            rows: 0,
-        }
-    }
-
-    /// Called once per row; looks at the clock only every 256 rows, so the cost per row is an
-    /// increment.
-    pub fn tick(&mut self, t: f64) {
-        self.rows += 1;
-        if !self.enabled || self.rows % 256 != 1 {
-            return;
-        }
-        let now = Instant::now();
-        if now.duration_since(self.last) < PROGRESS_EVERY {
-            return;
-        }
-        self.last = now;
-        self.shown = true;
-        let done = (t / self.stop_time).clamp(0.0, 1.0);
-        let elapsed = now.duration_since(self.start).as_secs_f64();
-        let eta = if done > 0.0 {
-            format!("{:.0} s left", elapsed * (1.0 - done) / done)
+        let display = if wanted {
+            ProgressDisplay::Terminal
         } else {
-            String::new()
+            ProgressDisplay::Off
         };
-        let mut e = std::io::stderr().lock();
-        let _ = write!(
-            e,
-            "\r\x1b[Kt = {t:.6} s of {} s ({:.1} %), {} rows, {elapsed:.0} s elapsed, {eta}",
-            self.stop_time,
-            100.0 * done,
-            self.rows
-        );
-        let _ = e.flush();
+        Progress::with_display(stop_time, display)
     }
 
-    /// Clears the progress line, if one was shown.
+    /// Progress towards `stop_time` as `display` asks.
+    pub fn with_display(stop_time: f64, display: ProgressDisplay) -> Progress {
+        let terminal = std::io::stderr().is_terminal();
+        let in_place = match display {
+            ProgressDisplay::Off => None,
+            ProgressDisplay::Terminal => terminal.then_some(true),
+            ProgressDisplay::Always => Some(terminal),
+        };
+        let Some(in_place) = in_place else {
+            return Progress {
+                shared: None,
+                thread: None,
+            };
+        };
+        let shared = Arc::new(Shown {
+            time_bits: AtomicU64::new(0),
+            rows: AtomicU64::new(0),
+            work: AtomicU64::new(0),
+            stop: Mutex::new(false),
+            wake: Condvar::new(),
+            drawn: AtomicBool::new(false),
+        });
+        let every = if in_place {
+            PROGRESS_EVERY
+        } else {
+            PROGRESS_LINE_EVERY
+        };
+        let thread = {
+            let shared = shared.clone();
+            std::thread::Builder::new()
+                .name("geardyn-progress".into())
+                .spawn(move || shared.show(stop_time, in_place, every))
+                .ok()
+        };
+        Progress {
+            shared: thread.is_some().then_some(shared),
+            thread,
+        }
+    }
+
+    /// Records a row at `t` and the solver work so far (three relaxed stores).
+    pub fn tick(&mut self, t: f64, work: u64) {
+        if let Some(s) = &self.shared {
+            s.time_bits.store(t.to_bits(), Ordering::Relaxed);
+            s.rows.fetch_add(1, Ordering::Relaxed);
+            s.work.store(work, Ordering::Relaxed);
+        }
+    }
+
+    /// Stops the display and clears the progress line, if one was drawn in place.
     pub fn finish(&mut self) {
-        if self.shown {
+        if let (Some(s), Some(thread)) = (self.shared.take(), self.thread.take()) {
+            *s.stop.lock().unwrap_or_else(|e| e.into_inner()) = true;
+            s.wake.notify_all();
+            let _ = thread.join();
+        }
+    }
+}
+
+impl Shown {
+    /// The progress thread: a line every `every` until stopped.
+    fn show(&self, stop_time: f64, in_place: bool, every: Duration) {
+        let start = Instant::now();
+        let mut stop = self.stop.lock().unwrap_or_else(|e| e.into_inner());
+        loop {
+            let (guard, _) = self
+                .wake
+                .wait_timeout(stop, every)
+                .unwrap_or_else(|e| e.into_inner());
+            stop = guard;
+            if *stop {
+                break;
+            }
+            let t = f64::from_bits(self.time_bits.load(Ordering::Relaxed));
+            let done = (t / stop_time).clamp(0.0, 1.0);
+            let elapsed = start.elapsed().as_secs_f64();
+            let eta = if done > 0.0 {
+                format!(", {:.0} s left", elapsed * (1.0 - done) / done)
+            } else {
+                String::new()
+            };
+            let line = format!(
+                "t = {t:.6e} s of {stop_time} s ({:.1} %), {} rows, {:.2e} work units spent, \
+                 {elapsed:.0} s elapsed{eta}",
+                100.0 * done,
+                self.rows.load(Ordering::Relaxed),
+                self.work.load(Ordering::Relaxed) as f64,
+            );
+            let mut e = std::io::stderr().lock();
+            let _ = if in_place {
+                write!(e, "\r\x1b[K{line}")
+            } else {
+                writeln!(e, "progress: {line}")
+            };
+            let _ = e.flush();
+            self.drawn.store(in_place, Ordering::Relaxed);
+        }
+        if self.drawn.load(Ordering::Relaxed) {
             let mut e = std::io::stderr().lock();
             let _ = write!(e, "\r\x1b[K");
             let _ = e.flush();
-            self.shown = false;
         }
     }
 }
@@ -352,7 +471,8 @@ impl Drop for Progress {
 }
 
 /// Runs `sim` over `grid`, writing `outputs(sim)` of every point to `sink` as it is computed,
-/// accumulating `summary` and showing `progress`. The one loop behind `geardyn simulate`,
+/// accumulating `summary` and showing `progress`. `work_budget` (work units), when given,
+/// replaces the driver's budget for the run ([`super::budget`]). The one loop behind `geardyn simulate`,
 /// [`crate::simulation::run`] and [`crate::model::train::run_train`].
 pub fn stream<M: DrivenModel>(
     sim: &mut Driver<M>,
@@ -361,14 +481,43 @@ pub fn stream<M: DrivenModel>(
     sink: &mut dyn RowSink,
     summary: &mut RunSummary,
     progress: &mut Progress,
+    work_budget: Option<f64>,
 ) -> Result<(), String> {
+    // A run is bounded as a whole (`docs/fmu.md`, "Work budget"): the caller's budget, else
+    // the scene's `solver.work_budget`, else the default of a run.
+    match work_budget {
+        Some(limit) => sim.set_work_budget(limit)?,
+        None => sim.default_work_budget(super::budget::DEFAULT_RUN_BUDGET),
+    }
     let mut row = Vec::new();
-    sim.sample(grid, |sim, t| {
+    for t in grid {
+        if let Err(e) = sim.advance_to(t) {
+            return Err(match e {
+                // The budget's own message names the work and the likely cause.
+                crate::solve::SolveError::OverBudget { message, .. } => message,
+                e => explain_failure(sim, &e),
+            });
+        }
         outputs(sim, &mut row);
         summary.push(&row);
-        progress.tick(t);
-        sink.row(t, &row)
-    })?;
+        progress.tick(t, sim.work_budget().spent() as u64);
+        sink.row(t, &row)?;
+    }
     progress.finish();
     Ok(())
+}
+
+/// The solver's refusal of an advance, with the likely cause when it is one of work (too many
+/// steps, a step below the time resolution, too many guard samples or events).
+fn explain_failure<M: DrivenModel>(sim: &Driver<M>, e: &SolveError) -> String {
+    match e {
+        SolveError::TooManySteps { .. }
+        | SolveError::StepSizeTooSmall { .. }
+        | SolveError::TooManyGuardSamples { .. }
+        | SolveError::EventStorm { .. } => format!(
+            "integration failed: {e}; likely cause: {}",
+            super::budget::likely_cause(&sim.model().run_scales(), &sim.stats(), sim.t())
+        ),
+        _ => format!("integration failed: {e}"),
+    }
 }

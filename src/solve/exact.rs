@@ -37,6 +37,7 @@
 //! its end (the run is then over anyway).
 
 mod balanced;
+pub use balanced::exp_work;
 #[cfg(test)]
 mod budget_tests;
 #[cfg(test)]
@@ -442,6 +443,22 @@ pub struct ExactPropagator {
     /// A capture asked to forget the history before the next advance
     /// ([`ExactPropagator::forget_before_next_advance`]).
     forget_pending: Cell<bool>,
+    /// The driver's work cap of each advance ([`crate::simulation::budget`]), checked beside
+    /// the propagator's own [`WorkBudget`]; `None` when none is set.
+    work_cap: Option<WorkCap>,
+}
+
+/// The driver's work budget as the exact propagator checks it at every segment: the units
+/// one advance may spend, at `segment` units per segment and `guard_eval` per guard
+/// evaluation (the crossing searches, whose work per segment varies the most).
+#[derive(Debug, Clone, Copy)]
+pub struct WorkCap {
+    pub units: f64,
+    pub segment: f64,
+    /// Per guard evaluation or guard sample of a crossing search.
+    pub guard_eval: f64,
+    /// Per mode built (its transitions' setup: balancing, rates, the first exponentials).
+    pub mode: f64,
 }
 
 /// Events allowed at one instant before the propagation gives up (Zeno guard).
@@ -509,14 +526,25 @@ struct WorkBudget {
     base: u64,
     segments: u64,
     stops: u64,
+    /// The driver's cap ([`ExactPropagator::set_work_cap`]) and the guard evaluations at the
+    /// start of the advance.
+    cap: Option<WorkCap>,
+    guard_evals0: u64,
+    builds0: u64,
+    /// This thread's exponential work at the start ([`balanced::exp_work`]).
+    exp_work0: f64,
 }
 
 impl WorkBudget {
-    fn new(nz: usize) -> Self {
+    fn new(nz: usize, cap: Option<WorkCap>, stats: &SolverStats, builds0: u64) -> Self {
         WorkBudget {
             base: (MAX_WORK_PER_ADVANCE / (nz as f64).powi(3)) as u64,
             segments: 0,
             stops: 0,
+            cap,
+            guard_evals0: stats.guard_evals,
+            builds0,
+            exp_work0: balanced::exp_work(),
         }
     }
 
@@ -525,8 +553,30 @@ impl WorkBudget {
             .saturating_add(self.stops.saturating_mul(SEGMENTS_PER_STOP))
     }
 
-    /// Counts one segment starting at `t`; the error once the budget is exceeded.
-    fn charge(&mut self, t: f64) -> Result<(), SolveError> {
+    /// Counts one segment starting at `t`; the error once a budget is exceeded. `work`: the
+    /// propagator's guard evaluations and mode builds so far, and the guard samples this
+    /// advance's searches took.
+    fn charge(
+        &mut self,
+        t: f64,
+        stats: &SolverStats,
+        builds: u64,
+        samples: f64,
+    ) -> Result<(), SolveError> {
+        if let Some(cap) = self.cap {
+            let evals = stats.guard_evals.saturating_sub(self.guard_evals0) as f64 + samples;
+            let builds = builds.saturating_sub(self.builds0) as f64;
+            let units = self.segments as f64 * cap.segment
+                + evals * cap.guard_eval
+                + builds * cap.mode
+                + (balanced::exp_work() - self.exp_work0);
+            if units >= cap.units {
+                return Err(SolveError::OverBudget {
+                    t,
+                    message: String::new(),
+                });
+            }
+        }
         self.segments += 1;
         if self.segments > self.limit() {
             return Err(SolveError::TooManySteps {
@@ -559,6 +609,7 @@ impl ExactPropagator {
             composites: true,
             sequence: Vec::new(),
             forget_pending: Cell::new(false),
+            work_cap: None,
         }
     }
 
@@ -643,6 +694,13 @@ impl ExactPropagator {
         self.t
     }
 
+    /// Caps the work of each following advance (the driver's work budget,
+    /// [`crate::simulation::budget`]); beyond it the advance stops at the last segment end
+    /// with [`SolveError::OverBudget`] (an empty message: the driver words it).
+    pub fn set_work_cap(&mut self, cap: WorkCap) {
+        self.work_cap = Some(cap);
+    }
+
     pub fn y(&self) -> &[f64] {
         &self.y
     }
@@ -672,7 +730,10 @@ impl ExactPropagator {
             self.column.resize(nz, 0.0);
         }
         let mut samples_left = MAX_GUARD_SAMPLES_PER_ADVANCE;
-        let mut budget = WorkBudget::new(nz);
+        let mut budget = WorkBudget::new(nz, self.work_cap, &self.stats, self.modes.builds);
+        // The mode of the last segment and its bins built before it: the bins its segment
+        // built are counted at the next segment ([`SolverStats::transitions`]).
+        let mut last_mode: Option<(usize, u64)> = None;
         let mut stalled_stops = 0u64;
         while self.t < t_end {
             if self.composites
@@ -704,7 +765,13 @@ impl ExactPropagator {
                 return Err(SolveError::StepSizeTooSmall { t: self.t, h: tau });
             }
             stalled_stops = 0;
-            budget.charge(self.t)?;
+            if let Some((position, before)) = last_mode.take() {
+                if let Some(mode) = self.modes.modes.get(position) {
+                    self.stats.transitions += mode.bin_builds().saturating_sub(before);
+                }
+            }
+            let samples = MAX_GUARD_SAMPLES_PER_ADVANCE - samples_left;
+            budget.charge(self.t, &self.stats, self.modes.builds, samples)?;
             let carries = self.sensitivity.is_none() && sys.forcing_carries_over();
             match self
                 .carried
@@ -723,6 +790,7 @@ impl ExactPropagator {
             }
             let position = self.modes.get_position(sys);
             let mode = &mut self.modes.modes[position];
+            last_mode = Some((position, mode.bin_builds()));
             self.stats.steps += 1;
 
             let guards = sys.guard_count();
@@ -879,6 +947,11 @@ impl ExactPropagator {
                 budget.stops += 1;
             }
         }
+        if let Some((position, before)) = last_mode {
+            if let Some(mode) = self.modes.modes.get(position) {
+                self.stats.transitions += mode.bin_builds().saturating_sub(before);
+            }
+        }
         Ok(())
     }
 
@@ -930,7 +1003,7 @@ impl ExactPropagator {
                 // Back at the first mode after a stop: a new sequence starts here.
                 break;
             }
-            if let Err(e) = budget.charge(t) {
+            if let Err(e) = budget.charge(t, &self.stats, self.modes.builds, 0.0) {
                 failure = Some(e);
                 break;
             }

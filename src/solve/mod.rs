@@ -105,6 +105,8 @@ pub struct SolverStats {
     /// Segments propagated by their Taylor series, their mode not built (exact propagator,
     /// a mode beyond the memory budget of the full path: `exact::series_segment`).
     pub series_segments: u64,
+    /// Transition matrices built (exact propagator: Padé exponentials of a duration bin).
+    pub transitions: u64,
 }
 
 impl SolverStats {
@@ -119,6 +121,7 @@ impl SolverStats {
         self.guard_exclusions += other.guard_exclusions;
         self.recurring_segments += other.recurring_segments;
         self.series_segments += other.series_segments;
+        self.transitions += other.transitions;
     }
 }
 
@@ -158,6 +161,9 @@ pub enum SolveError {
         samples: f64,
         rate: f64,
     },
+    /// The driver's work budget ran out ([`crate::simulation::budget`]); the message names
+    /// the likely cause. The state is the last one reached.
+    OverBudget { t: f64, message: String },
 }
 
 impl fmt::Display for SolveError {
@@ -166,6 +172,7 @@ impl fmt::Display for SolveError {
             SolveError::BeyondLimits { t, reason } => {
                 write!(f, "refused at t = {t:e} s: {reason}")
             }
+            SolveError::OverBudget { message, .. } => f.write_str(message),
             SolveError::TooManyGuardSamples {
                 t,
                 tau,

@@ -101,6 +101,24 @@ impl HbOptions {
         if self.subharmonic == 0 {
             return Err("subharmonic = 0: the response period is at least one mesh period".into());
         }
+        // Before the orders are enumerated (issue 34: 1e12 harmonics ran without end): H
+        // harmonics of the fastest mesh alone are 2H + 1 unknowns.
+        if self.harmonics > problem::MAX_UNKNOWNS / 2 {
+            return Err(format!(
+                "harmonics = {}: at least {} unknowns, more than the {} a dense Newton system \
+                 takes (lower harmonics)",
+                self.harmonics,
+                self.harmonics as u128 * 2 + 1,
+                problem::MAX_UNKNOWNS
+            ));
+        }
+        if self.subharmonic as u64 > problem::MAX_PERIOD_MESH_CYCLES {
+            return Err(format!(
+                "subharmonic = {}: more than {} mesh periods per orbit (lower subharmonic)",
+                self.subharmonic,
+                problem::MAX_PERIOD_MESH_CYCLES
+            ));
+        }
         if !(self.tolerance > 0.0) {
             return Err(format!("tolerance = {}: must be > 0", self.tolerance));
         }

@@ -142,6 +142,10 @@ pub(super) const GAUSS3: [(f64, f64); 3] = [
 /// Largest Newton system (its dense Jacobian is 128 MB and one LU ~4e10 flops).
 pub(super) const MAX_UNKNOWNS: usize = 4096;
 
+/// Most mesh periods of the first mesh one harmonic-balance orbit may span (subharmonic
+/// order times the response period): the time grid holds each cycle's stiffness breakpoints.
+pub(super) const MAX_PERIOD_MESH_CYCLES: u64 = 100_000;
+
 /// Largest number of tabulated basis entries (32 MB); larger problems (a
 /// countershaft's many combination tones over 72 mesh periods) compute rows as needed.
 pub(super) const TABLE_ENTRIES: usize = 1 << 22;
@@ -226,7 +230,17 @@ impl<M: Drivetrain> Problem<M> {
             ));
         }
         let k_resp = response_period_in_mesh_periods(&response_frequencies(&model))?;
-        let mesh_periods = k_resp * options.subharmonic as u64;
+        let mesh_periods = k_resp.saturating_mul(options.subharmonic as u64);
+        // The time grid holds every mesh cycle's stiffness breakpoints: bounded before it is
+        // built (issue 34: subharmonic = 4e9 aborted on a 32 GB allocation).
+        if mesh_periods > MAX_PERIOD_MESH_CYCLES {
+            return Err(format!(
+                "subharmonic = {} with a response period of {k_resp} mesh periods: {mesh_periods} \
+                 mesh periods per orbit, more than the {MAX_PERIOD_MESH_CYCLES} the time grid \
+                 may hold (lower subharmonic)",
+                options.subharmonic
+            ));
+        }
         let period = mesh_periods as f64 / freqs[0];
         let f = 1.0 / period;
         let m = model.dim() / 2;

@@ -90,6 +90,19 @@ pub fn waterfall(
         ));
     }
     let step = (((1.0 - options.overlap) * segment as f64).round() as usize).max(1);
+    // The map holds a spectrum per window: bounded before the windows are taken (issue 34:
+    // an overlap of 1 - 1e-10 made one window per sample, and a map of 10^8 cells).
+    let cells = ((n - segment) / step + 1) as f64 * (segment / 2 + 1) as f64;
+    if cells > MAX_WATERFALL_CELLS {
+        return Err(format!(
+            "waterfall segment = {segment} with overlap = {} over {n} samples: {} windows of {} \
+             lines, {cells:e} values, more than the {MAX_WATERFALL_CELLS:e} a map may hold (lower \
+             the overlap or the segment)",
+            options.overlap,
+            (n - segment) / step + 1,
+            segment / 2 + 1
+        ));
+    }
     let mut map = Waterfall {
         rpm: Vec::new(),
         time: Vec::new(),
@@ -112,6 +125,10 @@ pub fn waterfall(
     }
     Ok(map)
 }
+
+/// Most values (windows times frequency lines) of a waterfall map: 80 MB in memory, about
+/// 1 GB of long-form CSV.
+pub const MAX_WATERFALL_CELLS: f64 = 1e7;
 
 impl Waterfall {
     /// Frequency of the largest amplitude in row `row` within `[lo, hi]` Hz.

@@ -132,6 +132,10 @@ impl Kernel for Drivetrain {
         (&scene.name, &scene.description, &scene.solver)
     }
 
+    fn solver_mut(scene: &mut TrainScene) -> &mut SolverSettings {
+        &mut scene.solver
+    }
+
     fn build(scene: &TrainScene) -> Result<TrainSimulation, String> {
         // The first mesh carries the phase parameter; validation already requires one.
         if scene.meshes.is_empty() {
@@ -147,6 +151,8 @@ impl Kernel for Drivetrain {
                 scene.name, b.name
             ));
         }
+        // The checks `simulate` makes when it reads the scene, for values set since.
+        crate::scene::validate::drivetrain::recheck_gears(&scene.gears)?;
         TrainSimulation::new(scene)
     }
 

@@ -90,7 +90,7 @@ const MESH_OUTPUTS: [(&str, Option<&str>, bool, &str); 10] = [
     ),
     (
         "contact_loss_fraction",
-        None,
+        Some("1"),
         false,
         "Fraction of the time since the (re)start with total contact loss",
     ),
@@ -101,6 +101,19 @@ const MESH_OUTPUTS: [(&str, Option<&str>, bool, &str); 10] = [
         "Tooth friction force on the pinion along the flanks' sliding direction (meshes with [mesh.friction])",
     ),
 ];
+
+/// A gear as a description names it: "the pinion", "the gear" when its name is a gear noun,
+/// else "gear g1", so that a gear named "gear" never reads "gear gear" (issue 32).
+fn gear_named(name: &str) -> String {
+    const NOUNS: [&str; 8] = [
+        "gear", "pinion", "wheel", "idler", "sun", "ring", "planet", "carrier",
+    ];
+    if NOUNS.contains(&name) {
+        format!("the {name}")
+    } else {
+        format!("gear {name}")
+    }
+}
 
 /// Unit, kind and description of output `name` (one of `output_names`), or an error naming
 /// it when the table does not know it (a new output must be described here before it ships).
@@ -139,8 +152,8 @@ fn describe_output(
                     Some("m"),
                     false,
                     format!(
-                        "Bearing translation {axis} of gear {} (scene frame)",
-                        g.name
+                        "Bearing translation {axis} of {} (scene frame)",
+                        gear_named(&g.name)
                     ),
                 ));
             }
@@ -157,9 +170,9 @@ fn describe_output(
                     Some(unit),
                     false,
                     format!(
-                        "{what} of the body of gear {} (positive in its nominal rotation sense; \
+                        "{what} of the body of {} (positive in its nominal rotation sense; \
                          the angle from the pinion at 0 at the start)",
-                        g.name
+                        gear_named(&g.name)
                     ),
                 ));
             }
@@ -170,11 +183,11 @@ fn describe_output(
                     Some(unit),
                     false,
                     format!(
-                        "Port {}: {} of the shaft of gear {} (positive in its nominal rotation \
+                        "Port {}: {} of the shaft of {} (positive in its nominal rotation \
                          sense)",
                         p.name,
                         what.to_lowercase(),
-                        scene.gears[p.gear].name
+                        gear_named(&scene.gears[p.gear].name)
                     ),
                 ));
             }
@@ -186,11 +199,12 @@ fn describe_output(
                 Some("N.m"),
                 false,
                 format!(
-                    "Port {} (speed causality, gear {}): torque the gear stage applies TO its \
+                    "Port {} (speed causality, on {}): torque the gear stage applies TO its \
                      neighbour through the coupling, -(k (angle - theta) + c (speed - omega)), \
                      positive along the gear's nominal rotation (connect it to the neighbour's \
                      flange.torque)",
-                    p.name, scene.gears[p.gear].name
+                    p.name,
+                    gear_named(&scene.gears[p.gear].name)
                 ),
             ));
         }
@@ -231,7 +245,7 @@ pub(super) fn variables(scene: &TrainScene, outputs: &[String]) -> Result<Vec<Va
             VR_GEAR_INERTIA0 + g as u32,
             gear.inertia,
             Some("kg.m2"),
-            &format!("Polar mass moment of inertia of gear {}", gear.name),
+            &format!("Polar mass moment of inertia of {}", gear_named(&gear.name)),
         ));
     }
     for (n, mesh) in scene.meshes.iter().enumerate() {
@@ -322,14 +336,14 @@ fn speed_port_inputs(scene: &TrainScene, start: &[f64]) -> Vec<Variable> {
             PortEnd::Output => (VR_OUTPUT_PORT_ANGLE, "output"),
         };
         let k = (vr - VR_INPUT_PORT_ANGLE) as usize;
-        let gear = &scene.gears[p.gear].name;
+        let gear = gear_named(&scene.gears[p.gear].name);
         rows.push(crate::fmu::table::input(
             &format!("{}.angle", p.name),
             vr,
             start[3 + k],
             "rad",
             &format!(
-                "Port {} ({end} shaft, gear {gear}, speed causality): angle of the neighbour's \
+                "Port {} ({end} shaft of {gear}, speed causality): angle of the neighbour's \
                  flange, positive along the gear's nominal rotation; between communication \
                  points it follows the speed unless given a rate",
                 p.name
@@ -341,7 +355,7 @@ fn speed_port_inputs(scene: &TrainScene, start: &[f64]) -> Vec<Variable> {
             start[4 + k],
             "rad/s",
             &format!(
-                "Port {} ({end} shaft, gear {gear}, speed causality): speed of the neighbour's \
+                "Port {} ({end} shaft of {gear}, speed causality): speed of the neighbour's \
                  flange, positive along the gear's nominal rotation",
                 p.name
             ),
@@ -371,9 +385,10 @@ fn port_inputs(scene: &TrainScene, rows: &mut [Variable; 3]) {
         };
         row.name = format!("{}.torque", p.name);
         row.description = format!(
-            "Port {} ({end} shaft, gear {}): torque applied to the gear stage by its neighbour, \
+            "Port {} ({end} shaft of {}): torque applied to the gear stage by its neighbour, \
              positive along the gear's nominal rotation",
-            p.name, scene.gears[p.gear].name
+            p.name,
+            gear_named(&scene.gears[p.gear].name)
         );
     }
 }

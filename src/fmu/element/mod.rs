@@ -98,6 +98,14 @@ fn apply(scene: &mut ElementScene, name: &str, x: f64) -> Result<(), String> {
     Ok(())
 }
 
+/// The RK steps one call may take: the default work budget of an FMI call
+/// ([`crate::simulation::budget`]) at the cost of a step of this size, so an element's
+/// `fmi2DoStep` is bounded like a gear FMU's (issue 34).
+fn call_budget_steps(dim: usize) -> u64 {
+    use crate::simulation::budget::{rk_step_cost, DEFAULT_CALL_BUDGET};
+    (DEFAULT_CALL_BUDGET / rk_step_cost(dim)) as u64
+}
+
 /// The inputs a scene starts from, in value-reference order.
 pub fn start_inputs(spec: &ElementSpec) -> Vec<f64> {
     match spec {
@@ -201,6 +209,7 @@ impl ElementFmu {
         } else {
             let mut st = RkStepper::new(self.scene.solver.rk_options(), y.len())?;
             st.set_state(0.0, &y);
+            st.set_max_steps(call_budget_steps(y.len()));
             Some(st)
         };
         self.y0 = y;
@@ -325,6 +334,7 @@ impl ElementFmu {
             Some(mem) => {
                 let mut st = RkStepper::new(scene.solver.rk_options(), dim)?;
                 st.restore(s.t, &s.y, &mem);
+                st.set_max_steps(call_budget_steps(dim));
                 Some(st)
             }
             None => None,
@@ -374,39 +384,37 @@ impl CoSimModel for ElementFmu {
         Ok(())
     }
 
+    /// A value the outputs cannot carry is refused where it is set (issue 34: an
+    /// `initial.angle` of -1e308 read back as a non-finite output): the check follows every
+    /// accepted set, and the instance is restored on refusal.
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String> {
-        if let Some(k) = self.input_index(vr) {
-            self.u[k] = value;
-            if self.lifecycle.initialized {
-                // The right-hand side changed at the current time.
-                if let Some(st) = &mut self.stepper {
-                    st.invalidate();
-                }
-            } else {
-                self.u_start[k] = value;
-            }
+        let before = (self.scene.clone(), self.u.clone(), self.u_start.clone());
+        self.set_real_unchecked(vr, value)?;
+        let outputs = self.outputs();
+        let Some(k) = outputs.iter().position(|y| !y.is_finite()) else {
             return Ok(());
-        }
-        let name = self
-            .param_name(vr)
-            .ok_or_else(|| format!("no settable variable with value reference {vr}"))?;
-        if self.lifecycle.initialized {
-            return Err(format!("'{name}' is fixed after initialization"));
-        }
-        let mut scene = self.scene.clone();
-        apply(&mut scene, name, value)?;
-        let old = std::mem::replace(&mut self.scene, scene);
-        let (u, du, du_now) = (self.u.clone(), self.du.clone(), self.du_now.clone());
-        if let Err(e) = self.rebuild() {
-            self.scene = old;
+        };
+        let output = self
+            .vars
+            .iter()
+            .find(|v| v.value_reference == VR_OUTPUT0 + k as u32)
+            .map_or("?", |v| v.name.as_str())
+            .to_string();
+        let name = name_of(&self.vars, vr).to_string();
+        let (scene, u, u_start) = before;
+        let rebuilt = self.scene != scene;
+        (self.scene, self.u, self.u_start) = (scene, u, u_start);
+        if rebuilt {
+            let (u, du, du_now) = (self.u.clone(), self.du.clone(), self.du_now.clone());
             self.rebuild().ok();
-            return Err(format!("'{name}' = {value:?}: {e}"));
+            (self.u, self.du, self.du_now) = (u, du, du_now);
+        } else if let Some(st) = &mut self.stepper {
+            st.invalidate();
         }
-        // Inputs set so far stay set.
-        self.u = u;
-        self.du = du;
-        self.du_now = du_now;
-        Ok(())
+        Err(format!(
+            "'{name}' = {value:?}: the output '{output}' would be {}",
+            outputs[k]
+        ))
     }
 
     fn lifecycle_mut(&mut self) -> &mut Lifecycle {
@@ -452,7 +460,7 @@ impl CoSimModel for ElementFmu {
                 return Err(StepFailure::Discard {
                     reason: format!("the integrator stopped: {e}"),
                     reached: start_time + reached,
-                    terminate: true,
+                    terminate: false,
                 });
             }
         }
@@ -516,6 +524,44 @@ impl CoSimModel for ElementFmu {
             &mut out,
         );
         Ok(out[k])
+    }
+}
+
+impl ElementFmu {
+    /// [`CoSimModel::set_real`] without the check of the outputs.
+    fn set_real_unchecked(&mut self, vr: u32, value: f64) -> Result<(), String> {
+        if let Some(k) = self.input_index(vr) {
+            self.u[k] = value;
+            if self.lifecycle.initialized {
+                // The right-hand side changed at the current time.
+                if let Some(st) = &mut self.stepper {
+                    st.invalidate();
+                }
+            } else {
+                self.u_start[k] = value;
+            }
+            return Ok(());
+        }
+        let name = self
+            .param_name(vr)
+            .ok_or_else(|| format!("no settable variable with value reference {vr}"))?;
+        if self.lifecycle.initialized {
+            return Err(format!("'{name}' is fixed after initialization"));
+        }
+        let mut scene = self.scene.clone();
+        apply(&mut scene, name, value)?;
+        let old = std::mem::replace(&mut self.scene, scene);
+        let (u, du, du_now) = (self.u.clone(), self.du.clone(), self.du_now.clone());
+        if let Err(e) = self.rebuild() {
+            self.scene = old;
+            self.rebuild().ok();
+            return Err(format!("'{name}' = {value:?}: {e}"));
+        }
+        // Inputs set so far stay set.
+        self.u = u;
+        self.du = du;
+        self.du_now = du_now;
+        Ok(())
     }
 }
 

@@ -88,6 +88,10 @@ impl Kernel for Pair {
         (&s.scene.name, &s.scene.description, &s.scene.solver)
     }
 
+    fn solver_mut(s: &mut PairSettings) -> &mut SolverSettings {
+        &mut s.scene.solver
+    }
+
     fn build(s: &PairSettings) -> Result<Simulation, String> {
         Simulation::new(&s.scene)
     }

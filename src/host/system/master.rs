@@ -20,62 +20,22 @@
 //!   stepped, *interpolated* (u(t) = y(t) with the slope (y(t+h) − y(t))/h, exact for signals
 //!   linear over the step). Both are second-order couplings; the hold is first order.
 //! * A failing call ends the run: the rows up to then are kept, and the message names the
-//!   element, the call, the time and the status.
+//!   element, the call, the time, the status and the reason the FMU logged.
+//! * An element that ends the simulation itself (`fmi2Discard` with `fmi2Terminated = true`,
+//!   FMI 2.0.5 §4.2.3) ends the run normally at the last communication point: the elements
+//!   are at different times within the macro step it ended in, so that step has no row; a
+//!   note names the element, its last successful time and its reason (issue 39).
 
-use super::check::{Link, System};
+use super::check::Link;
+use super::parallel::Pool;
+pub use super::plan::{Algorithm, Column, Coupling, Plan};
+use super::step::{do_step, StepEnd};
 use crate::host::csv::Row;
 use crate::host::description::VarType;
 use crate::host::input::isclose;
 use crate::host::instance::{CallError, Instance};
 use crate::host::runner::RowSink;
 use crate::host::start::Phase;
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Algorithm {
-    Jacobi,
-    GaussSeidel,
-}
-
-/// How a connection's value reaches its consumer over a step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Coupling {
-    Hold,
-    Extrapolate,
-    Interpolate,
-}
-
-/// One CSV column: an output port of the links (`port`) or another variable.
-#[derive(Debug, Clone)]
-pub struct Column {
-    pub element: usize,
-    pub vr: u32,
-    pub var_type: VarType,
-    pub name: String,
-    pub port: Option<usize>,
-}
-
-/// Everything decided before the FMUs are loaded.
-pub struct Plan<'a> {
-    pub system: System,
-    pub algorithm: Algorithm,
-    pub order: Vec<usize>,
-    /// Per link: whether its consumer steps before its producer (Gauss–Seidel).
-    pub cut: Vec<bool>,
-    pub coupling: Vec<Coupling>,
-    /// Distinct producer ports `(element, vr, type)`; `port_of[link]` indexes them.
-    pub ports: Vec<(usize, u32, VarType)>,
-    pub port_of: Vec<usize>,
-    /// Ports whose first derivative is read after each step (for [`Coupling::Extrapolate`]).
-    pub needs_derivative: Vec<bool>,
-    /// In fmpy's order: Reals, then Integers, then Booleans.
-    pub columns: Vec<Column>,
-    pub start_time: f64,
-    pub stop_time: f64,
-    pub h: f64,
-    /// Every FMU has `canHandleVariableCommunicationStepSize="true"`.
-    pub can_vary: bool,
-    pub interrupt: Option<&'a std::sync::atomic::AtomicBool>,
-}
 
 /// Distinct producer ports of `links`, in order of first appearance, and each link's port.
 pub fn producer_ports(links: &[Link]) -> (Vec<(usize, u32, VarType)>, Vec<usize>) {
@@ -456,8 +416,54 @@ fn set_start(
 }
 
 /// Initialize and run the instances (`insts[i]` is element i), giving every row to `sink`.
-/// Never panics; on failure the rows up to then have been delivered.
-pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outcome {
+/// Never panics; on failure the rows up to then have been delivered. A Jacobi plan with
+/// `threads > 1` steps the elements on that many threads ([`super::parallel`]).
+pub fn run<'a>(insts: &mut [Instance<'a>], plan: &Plan, sink: &mut dyn RowSink) -> Outcome {
+    if plan.algorithm != Algorithm::Jacobi || plan.threads <= 1 {
+        return run_with(insts, plan, sink, None);
+    }
+    let names: Vec<String> = plan
+        .system
+        .elements
+        .iter()
+        .map(|e| e.name.clone())
+        .collect();
+    std::thread::scope(|s| {
+        let mut pool = Pool::<'a>::start(s, plan.threads, &names);
+        run_with(insts, plan, sink, Some(&mut pool))
+    })
+}
+
+/// The Jacobi step on the pool's threads: the results in the plan's order, the first failure
+/// or end as the serial step would report it.
+fn parallel_step<'a>(
+    pool: &Pool<'a>,
+    insts: &mut [Instance<'a>],
+    names: &[String],
+    plan: &Plan,
+    (time, step): (f64, f64),
+) -> Result<(), StepEnd> {
+    let mut results = pool.step(insts, names, time, step);
+    for &e in &plan.order {
+        match results[e].take() {
+            Some(r) => r?,
+            None => {
+                return Err(StepEnd::Failed(format!(
+                "element \"{}\": its step from t = {time} was not done (the worker thread ended)",
+                names[e]
+            )))
+            }
+        }
+    }
+    Ok(())
+}
+
+fn run_with<'a>(
+    insts: &mut [Instance<'a>],
+    plan: &Plan,
+    sink: &mut dyn RowSink,
+    mut pool: Option<&mut Pool<'a>>,
+) -> Outcome {
     let mut out = Outcome {
         rows: 0,
         failure: None,
@@ -519,6 +525,8 @@ pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outco
         return out;
     }
     out.rows += 1;
+    let mut watch = super::divergence::Watch::new(plan);
+    let names: Vec<String> = elements.iter().map(|e| e.name.clone()).collect();
     let (h, stop) = (plan.h, plan.stop_time);
     let mut time = t0;
     let mut n_steps: u64 = 0;
@@ -554,16 +562,34 @@ pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outco
         }
         st.prev.copy_from_slice(&st.cur);
         stepped.iter_mut().for_each(|s| *s = false);
-        let stepping = (|| -> Result<(), String> {
+        let parallel = pool.as_ref().is_some() && n_steps >= super::parallel::MEASURED;
+        if pool.is_some() && n_steps == super::parallel::MEASURED {
+            if let Some(p) = pool.as_mut() {
+                p.assign();
+            }
+        }
+        let stepping = (|| -> Result<(), StepEnd> {
+            if parallel {
+                for &e in &plan.order {
+                    st.set_inputs(e, &mut insts[e], time, step, &stepped)?;
+                    insts[e].activity().at(time);
+                }
+                if let Some(p) = pool.as_deref() {
+                    parallel_step(p, insts, &names, plan, (time, step))?;
+                }
+                for (e, inst) in insts.iter_mut().enumerate() {
+                    st.read(e, inst, next, true)?;
+                }
+                return Ok(());
+            }
             for &e in &plan.order {
                 st.set_inputs(e, &mut insts[e], time, step, &stepped)?;
                 insts[e].activity().at(time);
-                insts[e].do_step(time, step).map_err(|err| {
-                    format!(
-                        "element \"{}\" refused the step from t = {time} with h = {step} ({}): {err}",
-                        elements[e].name, err.status
-                    )
-                })?;
+                let started = pool.is_some().then(std::time::Instant::now);
+                do_step(&mut insts[e], &elements[e].name, time, step)?;
+                if let (Some(p), Some(t)) = (pool.as_deref_mut(), started) {
+                    p.measure(e, t.elapsed());
+                }
                 if plan.algorithm == Algorithm::GaussSeidel {
                     st.read(e, &mut insts[e], next, true)?;
                     stepped[e] = true;
@@ -576,9 +602,16 @@ pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outco
             }
             Ok(())
         })();
-        if let Err(m) = stepping {
-            out.failure = Some(m);
-            return out;
+        match stepping {
+            Ok(()) => {}
+            Err(StepEnd::Failed(m)) => {
+                out.failure = Some(m);
+                return out;
+            }
+            Err(StepEnd::Ended(note)) => {
+                out.notes.push(note);
+                break;
+            }
         }
         time = next;
         if let Err(m) = st.record(insts, sink, time) {
@@ -586,6 +619,10 @@ pub fn run(insts: &mut [Instance], plan: &Plan, sink: &mut dyn RowSink) -> Outco
             return out;
         }
         out.rows += 1;
+        if let Some(m) = watch.as_mut().and_then(|w| w.check(plan, time, &st.cur)) {
+            out.failure = Some(m);
+            return out;
+        }
         if isclose(time, t0 + (n_steps + 1) as f64 * h) {
             n_steps += 1;
         }

@@ -13,9 +13,14 @@
 //! if an FMU crashes the child, the parent writes the rows computed before and says where.
 
 pub mod check;
+pub mod divergence;
 pub mod graph;
 pub mod master;
+mod parallel;
+pub mod plan;
+pub mod shipped;
 pub mod ssd;
+mod step;
 pub mod units;
 pub mod xml;
 
@@ -70,6 +75,7 @@ fn unpack_ssp(path: &Path) -> Result<tempfile::TempDir, String> {
             path.display()
         )
     })?;
+    crate::host::archive::refuse_duplicates(&mut zip, path)?;
     let temp = tempfile::Builder::new()
         .prefix("geardyn-ssp-")
         .tempdir()
@@ -204,10 +210,17 @@ fn load_fmus(opened: &Opened, sys: &ssd::Ssd) -> Result<Fmus, String> {
         let p = source_path(&opened.root, &c.source, opened._temp.is_some())
             .map_err(|e| format!("component \"{}\": {e}", c.name))?;
         if !p.exists() {
-            return Err(format!(
-                "SystemStructure.ssd line {}: component \"{}\": its FMU source=\"{}\" is not in {}",
-                c.line, c.name, c.source, opened.place
-            ));
+            let at = format!(
+                "SystemStructure.ssd line {}: component \"{}\"",
+                c.line, c.name
+            );
+            match shipped::scene_of(&p).filter(|_| opened._temp.is_none()) {
+                Some(scene) => eprintln!("note: {}", shipped::build(&p, &scene).map_err(|e| format!("{at}: {e}"))?),
+                None => return Err(format!(
+                    "{at}: its FMU source=\"{}\" is not in {} (a geardyn FMU is built from its scene with `geardyn fmu build <scene folder> --out <folder>`)",
+                    c.source, opened.place
+                )),
+            }
         }
         let canonical = std::fs::canonicalize(&p).unwrap_or(p.clone());
         if let Some(i) = paths.iter().position(|q| *q == canonical) {
@@ -425,7 +438,18 @@ fn plan<'a>(
             .as_ref()
             .is_some_and(|c| c.can_handle_variable_communication_step_size)
     });
+    let divergence_factor = args.divergence_factor.unwrap_or(DIVERGENCE_FACTOR);
+    if !(divergence_factor == 0.0 || divergence_factor.is_finite() && divergence_factor > 1.0) {
+        return Err(format!(
+            "--divergence-factor {divergence_factor}: must be a finite number > 1, or 0 to turn the check off"
+        ));
+    }
+    let watched = divergence::watched(&ports, &md_of);
+    let threads = threads(args.threads, algorithm, n, fmus)?;
     Ok(Plan {
+        threads,
+        watched,
+        divergence_factor,
         system,
         algorithm,
         order,
@@ -442,6 +466,48 @@ fn plan<'a>(
         interrupt: Some(activity.stop_request()),
     })
 }
+
+/// The threads of a Jacobi step ([`parallel`]): `--threads`, else as many as there are
+/// cores (at most one per element) for a Jacobi system of ≥ 3 elements whose FMUs all allow
+/// several instances per process (`canBeInstantiatedOnlyOncePerProcess="false"`: an FMU
+/// that does not may keep global state); 1 otherwise.
+fn threads(
+    asked: Option<usize>,
+    algorithm: Algorithm,
+    n: usize,
+    fmus: &Fmus,
+) -> Result<usize, String> {
+    let once: Vec<&str> = fmus
+        .mds
+        .iter()
+        .zip(&fmus.sources)
+        .filter(|(md, _)| {
+            md.co_simulation
+                .as_ref()
+                .is_some_and(|c| c.can_be_instantiated_only_once_per_process)
+        })
+        .map(|(_, s)| s.as_str())
+        .collect();
+    match asked {
+        Some(0) => Err("--threads 0: give at least 1".into()),
+        Some(1) => Ok(1),
+        Some(k) if algorithm != Algorithm::Jacobi => Err(format!(
+            "--threads {k}: only Jacobi steps the elements in parallel (Gauss–Seidel steps them one after another)"
+        )),
+        Some(k) if !once.is_empty() => Err(format!(
+            "--threads {k}: {} declares canBeInstantiatedOnlyOncePerProcess=\"true\" (it may keep global state), so the system is stepped on one thread",
+            once.join(", ")
+        )),
+        Some(k) => Ok(k.min(n)),
+        None if algorithm == Algorithm::Jacobi && n >= 3 && once.is_empty() => Ok(
+            std::thread::available_parallelism().map_or(1, |c| c.get()).min(n),
+        ),
+        None => Ok(1),
+    }
+}
+
+/// The default growth factor of the divergence check ([`divergence`]).
+pub const DIVERGENCE_FACTOR: f64 = 1000.0;
 
 /// `geardyn run` on a system: the exit code, or the message of a failure.
 pub fn run(args: &RunArgs) -> Result<u8, String> {

@@ -512,11 +512,14 @@ fn binding(b: &Node, component: &str, resources: &dyn Resources) -> Result<Vec<P
             .find_map(|t| {
                 let v = t.attr("value");
                 Some(match (t.name.as_str(), v) {
+                    // 1e999 parses as inf: refused like any non-finite value (issue 34).
                     ("Real", Some(v)) => v
                         .trim()
                         .parse::<f64>()
+                        .ok()
+                        .filter(|x| x.is_finite())
                         .map(ParamValue::Real)
-                        .map_err(|_| bad("a real number", v)),
+                        .ok_or_else(|| bad("a finite real number", v)),
                     ("Integer" | "Enumeration", Some(v)) => v
                         .trim()
                         .parse::<i64>()

@@ -56,10 +56,12 @@ impl TorqueCurve {
         Ok(())
     }
 
-    /// The segment index `i` with `speed[i] <= ω < speed[i + 1]`, or `None` beyond the ends.
+    /// The segment index `i` with `speed[i] <= ω < speed[i + 1]`, or `None` beyond the ends
+    /// or for a NaN speed (a diverged state: issue 34 found `partition_point` then returning
+    /// 0 and the index underflowing).
     fn segment(&self, speed: f64) -> Option<usize> {
         let s = &self.speed;
-        if speed < s[0] || speed >= s[s.len() - 1] {
+        if !(speed >= s[0] && speed < s[s.len() - 1]) {
             return None;
         }
         // First point above `speed`, minus one (the curve has few points; a linear scan
@@ -73,6 +75,8 @@ impl TorqueCurve {
         match self.segment(speed) {
             Some(i) => t[i] + (t[i + 1] - t[i]) * (speed - s[i]) / (s[i + 1] - s[i]),
             None if speed < s[0] => t[0],
+            // NaN in, NaN out: the solver's finiteness checks report the diverged state.
+            None if speed.is_nan() => f64::NAN,
             None => t[t.len() - 1],
         }
     }
@@ -106,6 +110,13 @@ mod tests {
         assert_eq!(c.max_torque(300.0), 75.0);
         assert_eq!(c.slope(150.0), -0.75);
         assert_eq!(c.slope(300.0), 0.0);
+    }
+
+    #[test]
+    fn a_nan_speed_gives_nan_not_a_panic() {
+        let c = curve();
+        assert!(c.max_torque(f64::NAN).is_nan());
+        assert_eq!(c.slope(f64::NAN), 0.0);
     }
 
     #[test]

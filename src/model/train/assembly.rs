@@ -324,22 +324,47 @@ impl Assembly {
     }
 }
 
+/// Iterations per matrix dimension allowed to nalgebra's symmetric-eigen and SVD sweeps (they
+/// converge in a few per dimension for finite, representable matrices; entries near the
+/// bottom of the double range made the SVD loop without end, issue 34). A decomposition that
+/// needs more is refused rather than left spinning.
+const ITERATIONS_PER_DIM: usize = 200;
+
 /// Eigen-decomposition of `(K, M)` for symmetric `K` and symmetric positive definite `M`:
 /// eigenvalues `ω²` ascending and `M`-orthonormal vectors (columns).
 pub fn generalized_eigen(k: &DMatrix<f64>, m: &DMatrix<f64>) -> (Vec<f64>, DMatrix<f64>) {
+    try_generalized_eigen(k, m).expect("mass matrix is positive definite")
+}
+
+/// [`generalized_eigen`] with its failures as errors: a mass matrix that is not positive
+/// definite, matrices that are not finite, or an eigen-iteration beyond its cap.
+pub fn try_generalized_eigen(
+    k: &DMatrix<f64>,
+    m: &DMatrix<f64>,
+) -> Result<(Vec<f64>, DMatrix<f64>), String> {
     let n = k.nrows();
+    if !(k.iter().chain(m.iter()).all(|x| x.is_finite())) {
+        return Err("the mass or stiffness matrix is not finite".into());
+    }
     let chol = m
         .clone()
         .cholesky()
-        .expect("mass matrix is positive definite");
+        .ok_or("the mass matrix is not positive definite")?;
     let l = chol.l();
     let l_inv = l
         .clone()
         .try_inverse()
-        .expect("Cholesky factor is invertible");
+        .ok_or("the mass matrix's Cholesky factor is singular")?;
     let a = &l_inv * k * l_inv.transpose();
     let a = (&a + a.transpose()) * 0.5;
-    let eig = SymmetricEigen::new(a);
+    if !a.iter().all(|x| x.is_finite()) {
+        return Err("the mass-normalised stiffness matrix is not finite".into());
+    }
+    let eig =
+        SymmetricEigen::try_new(a, f64::EPSILON, ITERATIONS_PER_DIM * n.max(1)).ok_or(format!(
+            "the eigenvalues of the {n}×{n} mean system did not converge within {} iterations",
+            ITERATIONS_PER_DIM * n.max(1)
+        ))?;
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&i, &j| eig.eigenvalues[i].total_cmp(&eig.eigenvalues[j]));
     let values = order.iter().map(|&i| eig.eigenvalues[i]).collect();
@@ -348,7 +373,7 @@ pub fn generalized_eigen(k: &DMatrix<f64>, m: &DMatrix<f64>) -> (Vec<f64>, DMatr
         let v = l_inv.transpose() * eig.eigenvectors.column(i);
         vectors.set_column(c, &v);
     }
-    (values, vectors)
+    Ok((values, vectors))
 }
 
 /// Relative size below which an eigenvalue of the mean system counts as a rigid-body mode.
@@ -396,7 +421,8 @@ impl Reduction {
                 spread()
             )
         };
-        let (values, vectors) = generalized_eigen(&k_mean, &asm.mass);
+        let (values, vectors) =
+            try_generalized_eigen(&k_mean, &asm.mass).map_err(|e| format!("{}: {e}", spread()))?;
         let top = values.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
         let rigid: Vec<usize> = (0..n)
             .filter(|&i| values[i].abs() <= RIGID_TOL * top)
@@ -431,7 +457,7 @@ impl Reduction {
             let mut trial = rows.clone();
             trial.push(c.clone());
             let stacked = stack(&trial, &rm);
-            if full_row_rank(&stacked) {
+            if full_row_rank(&stacked).ok_or_else(unseparable)? {
                 rows = trial;
             }
         }
@@ -440,10 +466,13 @@ impl Reduction {
         }
         // Square and of full rank by construction, up to rounding.
         let t_inv = stack(&rows, &rm).try_inverse().ok_or_else(unseparable)?;
-        Ok(Reduction {
-            q: t_inv.columns(0, m_el).clone_owned(),
-            r,
-        })
+        let q = t_inv.columns(0, m_el).clone_owned();
+        // The reduced mass matrix must stay positive definite in floating point: every
+        // decomposition downstream (modal damping, modes, statics) factorises it.
+        if (q.transpose() * &asm.mass * &q).cholesky().is_none() {
+            return Err(unseparable());
+        }
+        Ok(Reduction { q, r })
     }
 
     pub fn elastic_dim(&self) -> usize {
@@ -467,10 +496,32 @@ fn stack(rows: &[DVector<f64>], rm: &DMatrix<f64>) -> DMatrix<f64> {
     t
 }
 
-fn full_row_rank(a: &DMatrix<f64>) -> bool {
-    let svd = a.clone().svd(false, false);
+/// Whether the rows of `a` are independent by a margin: its rows scaled to unit length
+/// (masses and radii then do not count as dependence) have a smallest singular value above
+/// [`INDEPENDENT_ROWS`] of the largest. A row that adds a direction only through the rounding
+/// of the rigid-body modes must not pass: issue 34 found a bearing stiffness of 8 N/m next
+/// to 1.5e8 N/m mixing a 1e-7 part of the soft translation into the rigid rotation, a
+/// 1e-8-independent row accepted, and the reduced mass matrix lost to cancellation (a panic
+/// in its Cholesky factorisation). `None` when the SVD does not converge within its cap.
+fn full_row_rank(a: &DMatrix<f64>) -> Option<bool> {
+    let mut a = a.clone();
+    for mut row in a.row_iter_mut() {
+        let norm = row.norm();
+        if !(norm > 0.0 && norm.is_finite()) {
+            return Some(false);
+        }
+        row /= norm;
+    }
+    let cap = ITERATIONS_PER_DIM * a.nrows().max(a.ncols()).max(1);
+    let (rows, cols) = a.shape();
+    let svd = a.try_svd(false, false, f64::EPSILON, cap)?;
     let s = &svd.singular_values;
     let max = s.iter().fold(0.0f64, |a, &b| a.max(b));
     let min = s.iter().fold(f64::INFINITY, |a, &b| a.min(b));
-    s.len() == a.nrows().min(a.ncols()) && min > 1e-9 * max
+    Some(s.len() == rows.min(cols) && min > INDEPENDENT_ROWS * max)
 }
+
+/// Relative smallest singular value of unit rows counted as independent (see
+/// [`full_row_rank`]): well above the ~1e-7 that rounding mixes into nearly rigid modes,
+/// far below the spread of any real layout.
+const INDEPENDENT_ROWS: f64 = 1e-5;

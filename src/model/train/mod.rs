@@ -21,7 +21,7 @@ pub mod system;
 pub use assembly::{Assembly, DofKind, Reduction};
 pub use modes::{modes, Mode};
 pub use simulation::TrainSimState;
-pub use simulation::{run_train, train_row, TrainSimulation, TrainTrajectory};
+pub use simulation::{run_train, run_train_limited, train_row, TrainSimulation, TrainTrajectory};
 pub use system::{
     FrozenStatics, GearTrain, MeshRunState, MeshState, Neighbour, SlotContact, TrainInputs,
     TrainRunState,

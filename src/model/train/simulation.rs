@@ -160,8 +160,20 @@ pub fn run_train(
     stop_time: f64,
     interval: f64,
 ) -> Result<TrainTrajectory, String> {
+    run_train_limited(scene, stop_time, interval, &RunLimits::default())
+}
+
+/// [`run_train`] with explicit limits (Python's `simulate(max_rows=…, …)`); the rows held in
+/// memory are checked first ([`crate::simulation::check_in_memory`]).
+pub fn run_train_limited(
+    scene: &TrainScene,
+    stop_time: f64,
+    interval: f64,
+    limits: &RunLimits,
+) -> Result<TrainTrajectory, String> {
     let mut sim = TrainSimulation::new(scene)?;
-    RunLimits::default().check(&sim.model().run_scales(), stop_time, interval)?;
+    limits.check(&sim.model().run_scales(), stop_time, interval)?;
+    crate::simulation::check_in_memory(stop_time, interval, sim.output_names().len())?;
     let mut times = Vec::new();
     let mut rows = Vec::new();
     let mut sink = FnSink(|t: f64, row: &[f64]| {
@@ -176,6 +188,7 @@ pub fn run_train(
         &mut sink,
         &mut RunSummary::default(),
         &mut Progress::new(stop_time, false),
+        limits.work_budget,
     )?;
     Ok(TrainTrajectory {
         names: sim.output_names().to_vec(),

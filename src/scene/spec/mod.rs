@@ -304,6 +304,8 @@ pub struct SolverSpec {
     #[serde(default = "SolverSpec::default_stop_time")]
     pub stop_time: f64,
     pub output_interval: Option<f64>,
+    /// The work budget (docs/fmu.md "Work budget"); default per scope.
+    pub work_budget: Option<f64>,
 }
 
 impl SolverSpec {
@@ -333,6 +335,7 @@ impl Default for SolverSpec {
             atol: Self::default_atol(),
             stop_time: Self::default_stop_time(),
             output_interval: None,
+            work_budget: None,
         }
     }
 }

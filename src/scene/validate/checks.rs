@@ -165,6 +165,11 @@ pub(crate) fn solver(s: &SolverSpec) -> Result<SolverSettings> {
         atol: positive("solver.atol", s.atol)?,
         stop_time,
         output_interval,
+        work_budget: s
+            .work_budget
+            .map(|x| crate::simulation::budget::check_limit("solver.work_budget", x))
+            .transpose()
+            .map_err(SceneError)?,
     })
 }
 

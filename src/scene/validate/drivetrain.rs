@@ -1139,6 +1139,17 @@ fn kinematics(
 /// modes, whose separation degrades with the square root of this ratio).
 const MAX_MASS_SPREAD: f64 = 1e10;
 
+/// The checks of the gears' settable values (inertias) that reading a scene makes, for a
+/// scene changed after validation: an FMU's rebuild after `fmi2SetReal` applies the checks of
+/// `simulate` (issue 34: an inertia of 1e-158 hung the reduction's SVD).
+pub(crate) fn recheck_gears(gears: &[TrainGear]) -> std::result::Result<(), String> {
+    for (i, g) in gears.iter().enumerate() {
+        super::checks::gear_compliance(&format!("gear[{i}]"), g.base_radius, g.inertia)
+            .map_err(|e| e.to_string())?;
+    }
+    mass_spread(gears).map_err(|e| e.to_string())
+}
+
 /// Checks that the train's masses lie within [`MAX_MASS_SPREAD`] of each other.
 fn mass_spread(gears: &[TrainGear]) -> Result<()> {
     let masses = gears.iter().enumerate().flat_map(|(i, g)| {

@@ -10,9 +10,50 @@
 //! mode and every duration costs only the exponential itself: on the stack
 //! ([`super::expm`]) for the small augmented sizes, nalgebra's `exp` otherwise.
 
+use std::cell::Cell;
+
 use nalgebra::DMatrix;
 
 use super::expm::{expm, Square};
+
+thread_local! {
+    /// This thread's meter of matrix-exponential work, in the driver's work units
+    /// ([`crate::simulation::budget`]). An exponential's cost grows with its squarings,
+    /// `log₂ ‖Bτ‖₁`, which a state or input near the top of the double range drives to ~1000
+    /// (issue 34: a load torque of 1e300 made every segment cost milliseconds). The exact
+    /// propagator reads differences within one advance, which runs on one thread, so the
+    /// count is deterministic.
+    static EXP_WORK: Cell<f64> = const { Cell::new(0.0) };
+}
+
+/// Meters one exponential of an `n × n` matrix of one-norm `norm`: a Padé-13 (about 6
+/// products and a solve) and one product per squaring, `log₂(norm/θ₁₃)` of them (all the
+/// squarings a double allows when the norm is not finite).
+fn meter_exp(n: usize, norm: f64) {
+    let squarings = if norm.is_finite() {
+        (norm / 5.37).log2().ceil().clamp(0.0, 2100.0)
+    } else {
+        2100.0
+    };
+    // Vectorised dense products: about 16 flops per work unit.
+    let cube = (n * n * n) as f64;
+    EXP_WORK.with(|w| w.set(w.get() + cube * (squarings + 8.0) / 8.0 + 256.0));
+}
+
+/// nalgebra's `e^M`, metered ([`exp_work`]).
+pub(super) fn metered_exp(m: &DMatrix<f64>) -> DMatrix<f64> {
+    let norm = m
+        .column_iter()
+        .map(|c| c.iter().map(|x| x.abs()).sum::<f64>())
+        .fold(0.0, f64::max);
+    meter_exp(m.nrows(), norm);
+    m.clone().exp()
+}
+
+/// The matrix-exponential work metered on this thread so far (work units).
+pub fn exp_work() -> f64 {
+    EXP_WORK.with(Cell::get)
+}
 
 /// Sizes with a stack-allocated exponential (the single pair's `3 + 2H` up to four STE
 /// harmonics; small drivetrains).
@@ -298,7 +339,15 @@ impl BalancedMatrix {
             MAX_FIXED => self.fixed::<MAX_FIXED>(tau),
             _ => None,
         };
-        fixed.unwrap_or_else(|| self.unbalance((&self.b * tau).exp()))
+        match fixed {
+            Some(e) => {
+                meter_exp(n, self.norm * tau.abs());
+                e
+            }
+            // nalgebra's exponential (also where the stack one found no finite result: its
+            // cost then follows the actual norm, not the balanced one).
+            None => self.unbalance(metered_exp(&(&self.b * tau))),
+        }
     }
 
     /// `D M D⁻¹`.

@@ -11,6 +11,7 @@ use std::cell::OnceCell;
 
 use nalgebra::{DMatrix, DVector};
 
+use super::balanced::metered_exp;
 use crate::solve::first_crossing::polynomial_range;
 
 /// Sub-intervals of `[0, h]` at whose nodes the curvature weights are sampled.
@@ -518,7 +519,7 @@ impl<'a> GuardSeries<'a> {
     pub fn value(&self, s: f64) -> f64 {
         match self.fallback {
             Some((row, a, z)) => {
-                let zs = (a * s).exp() * DVector::from_column_slice(z);
+                let zs = metered_exp(&(a * s)) * DVector::from_column_slice(z);
                 row.iter().zip(zs.iter()).map(|(w, x)| w * x).sum()
             }
             None => self.horner_value(s),
@@ -536,7 +537,7 @@ impl<'a> GuardSeries<'a> {
     pub fn slope(&self, s: f64) -> f64 {
         match self.fallback {
             Some((row, a, z)) => {
-                let zs = a * ((a * s).exp() * DVector::from_column_slice(z));
+                let zs = a * (metered_exp(&(a * s)) * DVector::from_column_slice(z));
                 row.iter().zip(zs.iter()).map(|(w, x)| w * x).sum()
             }
             None => self.horner_slope(s),

@@ -118,9 +118,8 @@ pub struct ModeTransitions {
     /// references; [`ModeTransitions::promote`]); until then its segments go by their series
     /// ([`super::series_segment`]).
     promoted: bool,
-    /// Bins built (tests).
-    #[cfg(test)]
-    builds: usize,
+    /// Bins built (Padé exponentials; the driver's work budget counts them).
+    builds: u64,
     /// Earlier segments of the mode that decide the crossings of recurring ones.
     recurrences: Recurrences,
 }
@@ -162,7 +161,6 @@ impl ModeTransitions {
             taylor_state: Vec::new(),
             taylor_next: Vec::new(),
             promoted: false,
-            #[cfg(test)]
             builds: 0,
             recurrences: Recurrences::default(),
         }
@@ -170,6 +168,11 @@ impl ModeTransitions {
 
     /// Heap bytes held by the mode's operators, bins, guard rows and references (the mode
     /// cache's memory budget, [`super::ModeCache`]).
+    /// Duration bins built so far (each a Padé exponential of the mode's matrix).
+    pub fn bin_builds(&self) -> u64 {
+        self.builds
+    }
+
     pub fn heap_bytes(&self) -> usize {
         let n = self.a.nrows();
         // `a`, the balanced matrix and the sample increment.
@@ -420,10 +423,7 @@ impl ModeTransitions {
 
     /// Builds the bin of `tau` (the Padé exponential of its centre) and returns its slot.
     fn build_bin(&mut self, tau: f64) -> usize {
-        #[cfg(test)]
-        {
-            self.builds += 1;
-        }
+        self.builds += 1;
         let centre_bits = Self::centre_bits(tau);
         let phi = self.balanced.exp(f64::from_bits(centre_bits));
         let n = self.a.nrows();
@@ -540,7 +540,7 @@ mod tests {
 
     impl ModeTransitions {
         fn built_bins(&self) -> usize {
-            self.builds
+            self.builds as usize
         }
     }
 

@@ -355,6 +355,12 @@ impl RkStepper {
         self.stats = SolverStats::default();
     }
 
+    /// Sets the most step attempts of one `advance_to` ([`RkOptions::max_steps`], > 0): a
+    /// caller with a work budget of its own lowers it to what is left (issue 34).
+    pub fn set_max_steps(&mut self, max_steps: u64) {
+        self.opts.max_steps = max_steps.max(1);
+    }
+
     pub fn options(&self) -> &RkOptions {
         &self.opts
     }

@@ -247,7 +247,12 @@ impl GearTrain {
                     })
                     .sum::<f64>()
             })
-            .fold(0.0, f64::max);
+            .fold(0.0, f64::max)
+            .max(
+                self.rotation
+                    .as_ref()
+                    .map_or(0.0, |r| r.shaft_damping_bound(self)),
+            );
         let peak_speed = self
             .profiles
             .as_ref()
@@ -277,7 +282,7 @@ impl GearTrain {
             fastest_rate: if !(damping_rate <= self.max_frequency()) {
                 (
                     damping_rate,
-                    "the damping on the masses: mesh damping, bearing damping, modal damping ratio",
+                    "the damping on the masses: mesh damping, bearing damping, modal damping ratio, shaft damping",
                 )
             } else {
                 (

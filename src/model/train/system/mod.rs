@@ -22,7 +22,7 @@ use std::f64::consts::TAU;
 
 use nalgebra::{DMatrix, DVector};
 
-use super::assembly::{generalized_eigen, Assembly, DofKind, Reduction};
+use super::assembly::{try_generalized_eigen, Assembly, DofKind, Reduction};
 use super::friction::FrictionTable;
 use super::mesh::{CycleTable, Interval, SlotLaw};
 use super::statics::{equilibrium, loaded_ste, Ste};
@@ -320,7 +320,7 @@ impl GearTrain {
         if zeta > 0.0 {
             // Modal damping on the mean-stiffness modes: C = M̂ Φ diag(2ζω) Φᵀ M̂ with Φ
             // mass-normalised (Liu 2007 eq. 2.14, ζ = εμ/2); rigid modes are already removed.
-            let (w2, phi) = generalized_eigen(&k_mean, &mass);
+            let (w2, phi) = try_generalized_eigen(&k_mean, &mass)?;
             let diag = DMatrix::from_diagonal(&DVector::from_iterator(
                 m,
                 w2.iter().map(|&w| 2.0 * zeta * w.max(0.0).sqrt()),

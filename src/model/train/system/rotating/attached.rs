@@ -353,6 +353,22 @@ impl Attached {
     /// `max_b 2 Σ_s k_s / J_b` over the bodies the shafts join (Gershgorin on `J⁻¹K` of the
     /// shafts), square-rooted; `train_inertia(b)` the inertia of carried body b.
     pub(super) fn shaft_frequency_bound(&self, train_inertia: &dyn Fn(usize) -> f64) -> f64 {
+        self.gershgorin(train_inertia, |s| s.stiffness).sqrt()
+    }
+
+    /// `max_b 2 Σ_s c_s / J_b` (Gershgorin on `J⁻¹C` of the shafts): the fastest decay rate
+    /// the shaft dampers give, rad/s (issue 34: a shaft damping of 1e15 N.m.s/rad was
+    /// invisible to the run limits and ground the RK path to a halt).
+    pub(super) fn shaft_damping_bound(&self, train_inertia: &dyn Fn(usize) -> f64) -> f64 {
+        self.gershgorin(train_inertia, |s| s.damping)
+    }
+
+    /// `max_b 2 Σ_s coefficient(s) / J_b` over the bodies the shafts join.
+    fn gershgorin(
+        &self,
+        train_inertia: &dyn Fn(usize) -> f64,
+        coefficient: impl Fn(&crate::model::elements::ShaftSpec) -> f64,
+    ) -> f64 {
         let inertia = |end: End| match end {
             End::Train(b) => train_inertia(b),
             End::Element(i) => match &self.elements.bodies[i].kind {
@@ -365,13 +381,12 @@ impl Attached {
         ends.dedup();
         ends.iter()
             .map(|&end| {
-                let k: f64 = (self.elements.shafts.iter().zip(&self.ends))
+                let sum: f64 = (self.elements.shafts.iter().zip(&self.ends))
                     .filter(|(_, e)| e.contains(&end))
-                    .map(|(s, _)| s.spec.stiffness)
+                    .map(|(s, _)| coefficient(&s.spec))
                     .sum();
-                2.0 * k / inertia(end)
+                2.0 * sum / inertia(end)
             })
             .fold(0.0, f64::max)
-            .sqrt()
     }
 }

@@ -141,12 +141,23 @@ impl Carried {
     /// A bound of the angular frequency the element shafts add (rad/s): Gershgorin on their
     /// stiffness over the inertias of the bodies they join, `max_b 2 Σ k_s / J_b`.
     pub(crate) fn shaft_frequency_bound(&self, train: &GearTrain) -> f64 {
-        // A body's rotation DOF is `u_b = ρ_b θ_b`, so its mass entry is `J_b / ρ_b²`.
-        let asm = &train.asm;
-        let inertia =
-            |b: usize| asm.mass[(asm.body_dof[b], asm.body_dof[b])] * asm.body_radius[b].powi(2);
+        self.attached.as_ref().map_or(0.0, |a| {
+            a.shaft_frequency_bound(&|b| body_inertia(train, b))
+        })
+    }
+
+    /// A bound of the decay rate the element shafts' dampers add (rad/s),
+    /// `max_b 2 Σ c_s / J_b`.
+    pub(crate) fn shaft_damping_bound(&self, train: &GearTrain) -> f64 {
         self.attached
             .as_ref()
-            .map_or(0.0, |a| a.shaft_frequency_bound(&inertia))
+            .map_or(0.0, |a| a.shaft_damping_bound(&|b| body_inertia(train, b)))
     }
+}
+
+/// The inertia of carried body `b`: its rotation DOF is `u_b = ρ_b θ_b`, so its mass entry is
+/// `J_b / ρ_b²`.
+fn body_inertia(train: &GearTrain, b: usize) -> f64 {
+    let asm = &train.asm;
+    asm.mass[(asm.body_dof[b], asm.body_dof[b])] * asm.body_radius[b].powi(2)
 }

@@ -1,0 +1,304 @@
+//! The work budget of the solver driver (issue 34): the work of a [`super::Driver`] in one
+//! scope — one FMI call of an FMU, one whole streamed run (`geardyn simulate`, the Python
+//! module's runs) — either stays within a documented amount or stops with
+//! [`crate::solve::SolveError::OverBudget`], whose message names the likely cause. The scene's
+//! `[solver] work_budget` sets it; unset, the scope's default applies ([`DEFAULT_CALL_BUDGET`],
+//! [`DEFAULT_RUN_BUDGET`]); a driver used directly (benchmarks, analyses) is unbounded until
+//! its owner applies one ([`super::Driver::default_work_budget`]). The budget counts work, not time, so a run is
+//! deterministic: the same inputs stop at the same step on any machine.
+//!
+//! The unit is an estimate of floating-point work (about one multiply-add; 2–3 ns on the CI
+//! machine's core): an RK step attempt of an `n`-state model costs [`rk_step_cost`], a segment
+//! (or state event) of the exact propagator [`segment_cost`]. The propagators are given the
+//! steps the remaining budget pays for before each advance, so an advance never overruns it
+//! by more than one step; what one advance spent is charged from the propagator's counters.
+//! Matrix decompositions reachable from input (model construction, Floquet analyses) are
+//! bounded by iteration caps of their own (`model::train::assembly`).
+
+use super::scales::RunScales;
+use crate::solve::SolverStats;
+
+/// Default budget of one FMI call (`fmi2DoStep`), in work units: at most about 0.3 s on the
+/// development machine's core for the costliest work per unit the FMI fuzzer finds (typically
+/// far less), so a call returns well within a second whatever its inputs; 4 times the work of
+/// the costliest shipped FMU's whole default experiment in one step.
+pub const DEFAULT_CALL_BUDGET: f64 = 5e7;
+
+/// Default budget of one run (`geardyn simulate`, the Python module's runs): about 5 s of
+/// work, 100 times the work of the longest shipped scene's run; a longer run needs
+/// `solver.work_budget` raised explicitly.
+pub const DEFAULT_RUN_BUDGET: f64 = 2e9;
+
+/// The scene key (`[solver] work_budget`) and FMU parameter that set the budget.
+pub const BUDGET_KEY: &str = "solver.work_budget";
+
+/// Work units of one step attempt of an RK method on an `n`-state model: up to 16 right-hand
+/// side evaluations (DOP853's 12 stages and its 3 dense-output stages when events are
+/// searched), each dominated by a dense `n × n` product plus a fixed part (stiffness lookup,
+/// contact logic).
+pub fn rk_step_cost(n: usize) -> f64 {
+    16.0 * ((n * n) as f64 + 16.0)
+}
+
+/// Work units of one segment or state event of the exact propagator on a lifted state of
+/// `n_z` entries: a mat-vec or two (transition, guard rows) plus a fixed part. Large dense
+/// products run several flops per unit (vectorised), so the quadratic and cubic terms below
+/// are weighted by what they cost, not by their flop count.
+pub fn segment_cost(n_z: usize) -> f64 {
+    2.0 * (n_z * n_z) as f64 + 64.0
+}
+
+/// Work units of building one mode of the exact propagator on a lifted state of `n_z`
+/// entries: balancing, its rates and first exponentials (which are metered on their own).
+pub fn mode_cost(n_z: usize) -> f64 {
+    0.5 * (n_z * n_z * n_z) as f64 + 4096.0
+}
+
+/// Work units of one guard evaluation on a state of `n` entries (a row times the state; the
+/// crossing searches and the RK event checks make many per step).
+pub fn guard_eval_cost(n: usize) -> f64 {
+    2.0 * n as f64 + 8.0
+}
+
+/// The budget of a driver: a limit and the work spent since the last [`WorkBudget::reset`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WorkBudget {
+    limit: f64,
+    spent: f64,
+}
+
+impl WorkBudget {
+    pub fn new(limit: f64) -> WorkBudget {
+        WorkBudget { limit, spent: 0.0 }
+    }
+
+    pub fn limit(&self) -> f64 {
+        self.limit
+    }
+
+    pub fn spent(&self) -> f64 {
+        self.spent
+    }
+
+    /// A new limit; the work spent so far counts against it.
+    pub fn set_limit(&mut self, limit: f64) {
+        self.limit = limit;
+    }
+
+    /// Starts a new scope (an FMI call): nothing spent.
+    pub fn reset(&mut self) {
+        self.spent = 0.0;
+    }
+
+    /// How many steps of `cost` units each the rest of the budget pays for (at least 1, so an
+    /// advance that has any budget left can take its first step).
+    pub fn steps_left(&self, cost: f64) -> u64 {
+        let left = (self.limit - self.spent).max(0.0) / cost;
+        if left >= u64::MAX as f64 {
+            u64::MAX
+        } else {
+            (left as u64).max(1)
+        }
+    }
+
+    /// Charges the work between two counter snapshots of a propagator whose steps cost
+    /// `step` units each and guard evaluations `guard_eval`: accepted and rejected attempts (a
+    /// state event ends an RK step and is a segment of the exact propagator, so it is counted
+    /// with them) and the guard evaluations of their event searches.
+    pub fn charge(
+        &mut self,
+        before: &SolverStats,
+        after: &SolverStats,
+        step: f64,
+        guard_eval: f64,
+    ) {
+        let steps = after.steps.saturating_sub(before.steps)
+            + after.rejected.saturating_sub(before.rejected);
+        let evals = after.guard_evals.saturating_sub(before.guard_evals);
+        self.spent += steps as f64 * step + evals as f64 * guard_eval;
+    }
+
+    /// Charges other work (mode builds, search samples) already expressed in units.
+    pub fn charge_units(&mut self, units: f64) {
+        self.spent += units;
+    }
+
+    /// The units left in the scope.
+    pub fn left(&self) -> f64 {
+        (self.limit - self.spent).max(0.0)
+    }
+
+    pub fn exhausted(&self) -> bool {
+        self.spent >= self.limit
+    }
+}
+
+/// Checks a budget value (scene key or FMU parameter): a finite number ≥ 1.
+pub fn check_limit(field: &str, x: f64) -> Result<f64, String> {
+    if x.is_finite() && x >= 1.0 {
+        Ok(x)
+    } else {
+        Err(format!(
+            "{field} = {x:e}: the work budget must be a finite number >= 1 (work units, \
+             docs/fmu.md \"Work budget\")"
+        ))
+    }
+}
+
+/// What a driver knew when its budget ran out, to name the likely cause.
+pub struct Exhaustion<'a> {
+    pub limit: f64,
+    /// Simulated time reached and the time the advance started from, s.
+    pub t: f64,
+    pub t_start: f64,
+    /// Counters of the work spent in this budget's scope.
+    pub work: SolverStats,
+    /// The model's time scales: mesh frequency, speed, fastest rate.
+    pub scales: &'a RunScales,
+    /// Name of the propagator (`exact`, `dop853`, ...).
+    pub method: &'a str,
+    /// Whether the budget bounds one FMI call (else a whole run).
+    pub per_call: bool,
+}
+
+/// The one message of an exhausted budget (FMU, `simulate` and Python alike): what was spent,
+/// where the run stopped, the likely cause and how to go on.
+pub fn exhausted_message(e: &Exhaustion) -> String {
+    let w = &e.work;
+    let steps = w.steps + w.rejected;
+    let span = (e.t - e.t_start).max(0.0);
+    let cause = likely_cause(e.scales, w, span);
+    let remedy = if e.per_call {
+        format!("shorten the communication step, or raise the parameter {BUDGET_KEY}")
+    } else {
+        format!(
+            "raise {BUDGET_KEY} in the scene (--work-budget on the command line, work_budget= \
+             in Python) if the run is meant to do this much work"
+        )
+    };
+    format!(
+        "the work budget of {:e} units was spent at t = {:e} s ({} steps with {}, {} events, {} \
+         guard evaluations); likely cause: {cause}. Check the inputs, or {remedy} (docs/fmu.md \
+         \"Work budget\")",
+        e.limit, e.t, steps, e.method, w.events, w.guard_evals
+    )
+}
+
+/// Which of the model's time scales holds the step: the fastest mode (stiffness), the mesh
+/// period (speed), the events, or none of them (the step count itself: tolerance, or a
+/// stiffness the model's bound does not see). `span` is the simulated time over which `stats` were spent.
+pub fn likely_cause(scales: &RunScales, stats: &SolverStats, span: f64) -> String {
+    let t = span;
+    let steps = (stats.steps + stats.rejected).max(1) as f64;
+    let h = t / steps;
+    let (rate, source) = scales.fastest_rate;
+    let mode_period = if rate > 0.0 {
+        std::f64::consts::TAU / rate
+    } else {
+        f64::INFINITY
+    };
+    let mesh_period = if scales.mesh_frequency > 0.0 {
+        1.0 / scales.mesh_frequency
+    } else {
+        f64::INFINITY
+    };
+    let (field, speed) = scales.speed;
+    if stats.events as f64 > 0.5 * steps {
+        return format!(
+            "contact chatter: {} contact changes in {t:e} s ({field} = {speed:e} rad/s, mesh \
+             frequency {:.4e} Hz): the teeth chatter in and out of contact",
+            stats.events, scales.mesh_frequency
+        );
+    }
+    // A step within a few hundred of the fastest mode's period is what an explicit method
+    // needs to stay stable there: that mode sets the pace.
+    if mode_period < 0.1 * mesh_period && h > mode_period / 1000.0 {
+        return format!(
+            "stiffness: the fastest mode ({rate:.4e} rad/s, set by {source}) holds the step near \
+             {h:.3e} s, {:.3e} steps per mesh period; a stiff method (solver.rk_method = \
+             \"rodas4\") or softer values there",
+            mesh_period / h
+        );
+    }
+    if h > mesh_period / 10_000.0 {
+        return format!(
+            "speed: {field} = {speed:e} rad/s gives a mesh frequency of {:.4e} Hz, and each \
+             mesh period takes about {:.0} steps",
+            scales.mesh_frequency,
+            mesh_period / h
+        );
+    }
+    format!(
+        "stiffness outside the model's frequency bound, or the tolerance: the mean step \
+         {h:.3e} s is far below the mesh period ({mesh_period:.3e} s) and the period of the \
+         fastest mode the model bounds ({mode_period:.3e} s, set by {source}); a stiff port or \
+         shaft coupling (try solver.rk_method = \"rodas4\" or a softer value there) or a tight \
+         tolerance (solver.rtol, solver.atol)"
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn steps_left_pays_for_the_rest_and_at_least_one() {
+        let mut b = WorkBudget::new(1000.0);
+        assert_eq!(b.steps_left(100.0), 10);
+        let before = SolverStats::default();
+        let after = SolverStats {
+            steps: 10,
+            rejected: 1,
+            events: 3,
+            ..SolverStats::default()
+        };
+        b.charge(&before, &after, 100.0, 1.0);
+        assert_eq!(b.spent(), 1100.0);
+        assert!(b.exhausted());
+        assert_eq!(b.steps_left(100.0), 1);
+        b.reset();
+        assert!(!b.exhausted());
+    }
+
+    #[test]
+    fn limits_are_checked() {
+        assert!(check_limit("solver.work_budget", 1e8).is_ok());
+        for x in [0.0, 0.5, -1.0, f64::NAN, f64::INFINITY] {
+            let e = check_limit("solver.work_budget", x).unwrap_err();
+            assert!(e.contains("solver.work_budget"), "{e}");
+        }
+    }
+
+    fn scales(mesh_frequency: f64, rate: f64) -> RunScales {
+        RunScales {
+            mesh_frequency,
+            mesh_frequency_slope: 0.0,
+            start_phase: 0.0,
+            speed: ("operating.pinion_speed", 471.0),
+            fastest_rate: (rate, "the mesh and bearing stiffnesses"),
+        }
+    }
+
+    fn stats(steps: u64, events: u64) -> SolverStats {
+        SolverStats {
+            steps,
+            events,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn names_the_scale_that_holds_the_step() {
+        // 1e6 steps over 1e-6 s: h = 1e-12 s against a mode period of 6e-12 s.
+        let c = likely_cause(&scales(2850.0, 1e12), &stats(1_000_000, 0), 1e-6);
+        assert!(c.starts_with("stiffness"), "{c}");
+        // 1e6 steps over 1 s at a 1 GHz mesh: ~1000 steps per mesh period, no stiff mode.
+        let c = likely_cause(&scales(1e9, 1e4), &stats(1_000_000, 0), 1e-3);
+        assert!(c.starts_with("speed"), "{c}");
+        let c = likely_cause(&scales(2850.0, 1e4), &stats(1_000_000, 900_000), 1e-3);
+        assert!(c.starts_with("contact chatter"), "{c}");
+        // h = 1e-12 s, nothing in the model near it.
+        let c = likely_cause(&scales(2850.0, 1e4), &stats(1_000_000, 0), 1e-6);
+        assert!(c.starts_with("stiffness outside"), "{c}");
+    }
+}
