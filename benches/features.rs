@@ -26,7 +26,7 @@ use std::time::Instant;
 
 use geardyn::scene::{MethodChoice, Scene};
 use geardyn::simulation::Simulation;
-use geardyn::solve::exact::transition::mat_vec;
+use geardyn::solve::exact::mat_vec::mat_vec;
 use geardyn::solve::rk::Method;
 use geardyn::solve::{HybridSystem, SolverStats};
 

@@ -17,6 +17,9 @@ mod cli;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Also print which kernel runs the scene (single pair or drivetrain) and why.
+    #[arg(long, global = true)]
+    verbose: bool,
 }
 
 #[derive(Subcommand)]
@@ -61,6 +64,7 @@ fn main() -> ExitCode {
         }
     }));
     let cli = Cli::parse();
+    cli::set_verbose(cli.verbose);
     let result = match std::panic::catch_unwind(|| dispatch(cli)) {
         Ok(Ok(code)) => return code,
         Ok(Err(message)) => message,
@@ -92,7 +96,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode, String> {
         Command::Waterfall(args) => cli::runup::run(args),
         Command::Fmu(args) => geardyn::fmi::cli::run(args),
         // Prints its own errors: its exit status also tells how the FMU's process ended.
-        Command::Run(args) => return Ok(geardyn::host::cli::run(args)),
+        Command::Run(args) => return Ok(geardyn::commands::run::run(args)),
         Command::Info(args) => geardyn::host::cli::info(args),
         Command::Validate(args) => geardyn::host::cli::validate(args),
     }

@@ -6,12 +6,13 @@
 
 pub mod budget;
 mod driver;
+mod scales;
 pub mod stream;
 
 pub use driver::{DrivenModel, Driver, Propagator};
+pub use scales::RunScales;
 pub use stream::{
-    stream, ColumnStats, OutputGrid, Progress, ProgressDisplay, RowSink, RunLimits, RunScales,
-    RunSummary,
+    stream, ColumnStats, OutputGrid, Progress, ProgressDisplay, RowSink, RunLimits, RunSummary,
 };
 
 use crate::model::{GearPair, Inputs, PairState, OUTPUT_NAMES};

@@ -6,7 +6,8 @@
 use std::f64::consts::TAU;
 
 use geardyn::model::{response_period, AnyScene};
-use geardyn::scene::train::{is_train_text, TrainScene};
+use geardyn::scene::is_train_text;
+use geardyn::scene::train::TrainScene;
 use geardyn::scene::Scene;
 use geardyn::simulation::run;
 use geardyn::with_drivetrain;

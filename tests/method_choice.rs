@@ -6,7 +6,8 @@
 use std::process::Command;
 
 use geardyn::model::AnyScene;
-use geardyn::scene::train::{is_train_text, TrainScene};
+use geardyn::scene::is_train_text;
+use geardyn::scene::train::TrainScene;
 use geardyn::scene::{MethodChoice, Scene};
 use geardyn::with_drivetrain;
 

@@ -32,7 +32,7 @@ fn pair_scene_converts_to_the_drivetrain_the_train_reader_builds() {
 #[test]
 fn a_pair_file_with_tip_relief_runs_as_its_one_mesh_drivetrain() {
     use geardyn::model::train::run_train;
-    use geardyn::scene::train::is_train_text;
+    use geardyn::scene::is_train_text;
     let pair = r#"
 name = "relieved_pair"
 [[gear]]

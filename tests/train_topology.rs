@@ -226,7 +226,7 @@ fn single_mesh_scene_reads_as_a_train() {
     let s = TrainScene::from_toml_str(text, "spur_pair").unwrap();
     assert_eq!(s.meshes.len(), 1);
     assert_eq!(s.gears.len(), 2);
-    assert!(!geardyn::scene::train::is_train_text(text));
+    assert!(!geardyn::scene::is_train_text(text));
 }
 
 #[test]

@@ -15,7 +15,8 @@ use pyo3::types::{PyBool, PyByteArray, PyDict, PyFloat, PyInt, PyList, PyString,
 use geardyn::commands;
 use geardyn::model::train::run_train_limited;
 use geardyn::model::AnyScene;
-use geardyn::scene::train::{is_train_text, TrainScene, TRAIN_EXAMPLES};
+use geardyn::scene::is_train_text;
+use geardyn::scene::train::{TrainScene, TRAIN_EXAMPLES};
 use geardyn::scene::{read_scene_file, scene_file, Scene, EXAMPLES};
 
 create_exception!(
@@ -683,7 +684,8 @@ fn simulate<'py>(
         limits.max_mode_periods = p;
     }
     if let Some(b) = work_budget {
-        geardyn::simulation::budget::check_limit("work_budget", b).map_err(PyValueError::new_err)?;
+        geardyn::simulation::budget::check_limit("work_budget", b)
+            .map_err(PyValueError::new_err)?;
         limits.work_budget = Some(b);
     }
     let (names, times, data, method, stats) = match &scene.scene {

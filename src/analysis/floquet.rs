@@ -10,46 +10,12 @@
 //! stiffness (sloped pieces) the closed-form monodromy is [`super::LinearPeriodMap`], whose
 //! segments are propagated by the polynomial (Peano–Baker) series of `solve::polynomial`.
 
-use nalgebra::{Complex, DMatrix};
-
+use super::multipliers::Floquet;
 use super::shooting::PeriodMap;
 use super::LinearPeriodMap;
 use crate::model::{parametric_period, AnyScene, Drivetrain, GearPair, SceneSource};
 use crate::scene::{ContactLaw, MethodChoice};
 use crate::with_drivetrain;
-
-/// Monodromy matrix and Floquet multipliers over one mesh period.
-#[derive(Debug, Clone)]
-pub struct Floquet {
-    /// Response period `T` (the mesh period of a single mesh), s.
-    pub period: f64,
-    /// `M = ∂y(T)/∂y(0)` for the model's state (`[x, x']` of a single pair).
-    pub monodromy: DMatrix<f64>,
-    /// Eigenvalues of `M`.
-    pub multipliers: Vec<Complex<f64>>,
-    /// How `M` was computed.
-    pub method: String,
-}
-
-/// A multiplier as the reports print it: real and imaginary part and modulus.
-pub fn multiplier_line(m: &Complex<f64>) -> String {
-    format!(
-        "  multiplier {:+.12} {:+.12}i  |μ| = {:.12}",
-        m.re,
-        m.im,
-        m.norm()
-    )
-}
-
-impl Floquet {
-    /// Largest `|μ|`; the linear response is asymptotically stable when it is below 1.
-    pub fn spectral_radius(&self) -> f64 {
-        self.multipliers
-            .iter()
-            .map(|m| m.norm())
-            .fold(0.0, f64::max)
-    }
-}
 
 /// The monodromy of any linear scene (every mesh with `contact = "linear"`, any number of
 /// meshes and DOF) over one response period (the least common multiple of the mesh periods)

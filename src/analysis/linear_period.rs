@@ -18,7 +18,7 @@
 
 use nalgebra::{Complex, DMatrix, DVector};
 
-use super::Floquet;
+use super::multipliers::Floquet;
 use crate::model::GearPair;
 use crate::scene::{ContactLaw, Scene};
 use crate::solve::polynomial;

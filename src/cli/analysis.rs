@@ -1,15 +1,11 @@
-//! `geardyn periodic`, `geardyn sweep` and `geardyn hb`: steady states and frequency
-//! responses of any scene.
+//! `geardyn periodic`, `geardyn sweep` and `geardyn hb`: the arguments of the steady states
+//! and frequency responses of any scene; the commands are in `geardyn::commands`.
 
 use std::path::PathBuf;
 
 use clap::Args;
 
 use geardyn::commands::{hb as hb_commands, steady as commands};
-use geardyn::output;
-use geardyn::plot::Format;
-
-use geardyn::units::{both_units, parse_speed};
 
 use super::load_any_scene;
 
@@ -74,21 +70,14 @@ pub struct SweepArgs {
 
 pub fn periodic(args: PeriodicArgs) -> Result<(), String> {
     let mut scene = load_any_scene(&args.scene, &args.example)?;
-    if let Some(text) = &args.speed {
-        let speed = parse_speed("--speed", text)?;
-        eprintln!("periodic: input speed {}", both_units(speed));
-        scene.set_input_speed(speed);
-    }
-    let orbit = commands::periodic(&scene, args.periods, args.warmup)?;
-    print!("{}", commands::periodic_report(&scene, &orbit)?);
+    let report =
+        commands::periodic_command(&mut scene, args.speed.as_deref(), args.periods, args.warmup)?;
+    print!("{report}");
     Ok(())
 }
 
 pub fn sweep(args: SweepArgs) -> Result<(), String> {
     let scene = load_any_scene(&args.scene, &args.example)?;
-    if let Some(path) = &args.plot {
-        Format::of(path)?;
-    }
     let request = commands::SweepRequest {
         speed: &args.speed,
         direction: &args.direction,
@@ -96,44 +85,13 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
         max_periods: args.max_periods,
         poincare: args.poincare.is_some(),
     };
-    let options = request.options()?;
-    let speeds = &options.speeds;
-    eprintln!(
-        "sweep: input speed {} to {}, {} points",
-        both_units(speeds[0]),
-        both_units(speeds[speeds.len() - 1]),
-        speeds.len()
-    );
-    // A progress line only on a terminal: in a pipe or a log the carriage returns are noise.
-    let terminal = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let progress = |done: usize, total: usize| {
-        if terminal {
-            eprint!("\rsweep {done}/{total} points");
-            if done == total {
-                eprintln!();
-            }
-        }
+    let files = commands::SweepFiles {
+        out: &args.out,
+        poincare: args.poincare.as_deref(),
+        plot: args.plot.as_deref(),
+        units: args.units,
     };
-    let sweep = geardyn::analysis::sweep(&scene, &options, &progress)?;
-    let columns = sweep.columns();
-    output::write_table_with_units(
-        &args.out,
-        &columns,
-        sweep.points.iter().map(|p| p.row()),
-        args.units,
-    )?;
-    if let Some(path) = &args.poincare {
-        output::write_table_with_units(
-            path,
-            &commands::POINCARE_COLUMNS,
-            commands::poincare_rows(&sweep),
-            args.units,
-        )?;
-    }
-    if let Some(path) = &args.plot {
-        commands::sweep_plot(&scene, &sweep, path)?;
-    }
-    print!("{}", commands::sweep_summary(&scene, &sweep, &args.out));
+    print!("{}", commands::sweep_command(&scene, &request, &files)?);
     Ok(())
 }
 
@@ -178,28 +136,18 @@ pub struct HbArgs {
 /// `geardyn hb`: harmonic balance with pseudo-arclength continuation and stability.
 pub fn hb(args: HbArgs) -> Result<(), String> {
     let scene = load_any_scene(&args.scene, &args.example)?;
-    hb_commands::check_sweep_points(args.sweep_points)?;
-    let mesh = hb_commands::plot_mesh_index(&scene, args.plot_mesh.as_deref())?;
-    if let Some(path) = &args.plot {
-        Format::of(path)?;
-    }
     let request = hb_commands::HbRequest {
         speed: &args.speed,
         harmonics: args.harmonics,
         subharmonic: args.subharmonic,
     };
-    let interval = request.interval()?;
-    eprintln!(
-        "hb: input speed {} to {}",
-        both_units(interval.from),
-        both_units(interval.to)
-    );
-    let branch = request.run(&scene)?;
-    let columns = branch.columns();
-    output::write_table_with_units(&args.out, &columns, branch.rows(), args.units)?;
-    if let Some(path) = &args.plot {
-        branch.plot(&scene, args.harmonics, args.sweep_points, mesh, path)?;
-    }
-    print!("{}", branch.summary(&scene, &args.out));
+    let files = hb_commands::HbFiles {
+        out: &args.out,
+        plot: args.plot.as_deref(),
+        plot_mesh: args.plot_mesh.as_deref(),
+        sweep_points: args.sweep_points,
+        units: args.units,
+    };
+    print!("{}", hb_commands::hb_command(&scene, &request, &files)?);
     Ok(())
 }

@@ -2,6 +2,7 @@
 //! library (one file per family of subcommands).
 
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use geardyn::model::AnyScene;
 
@@ -15,14 +16,26 @@ pub mod stiffness;
 
 pub use geardyn::commands::positive;
 
-/// The scene named on the command line, in either format (single pair or drivetrain).
+/// Whether `--verbose` was given (set once by `main` before the command runs).
+static VERBOSE: AtomicBool = AtomicBool::new(false);
+
+pub fn set_verbose(on: bool) {
+    VERBOSE.store(on, Ordering::Relaxed);
+}
+
+/// The scene named on the command line, in either format (single pair or drivetrain); with
+/// `--verbose` the kernel chosen for it, and why, goes to stderr.
 pub fn load_any_scene(
     path: &Option<PathBuf>,
     example: &Option<String>,
 ) -> Result<AnyScene, String> {
-    match (path, example) {
-        (_, Some(name)) => AnyScene::example(name),
-        (Some(path), None) => AnyScene::from_path(path),
+    let (scene, kernel) = match (path, example) {
+        (_, Some(name)) => AnyScene::example_with_kernel(name)?,
+        (Some(path), None) => AnyScene::from_path_with_kernel(path)?,
         (None, None) => unreachable!("clap requires a scene or --example"),
+    };
+    if VERBOSE.load(Ordering::Relaxed) {
+        eprintln!("scene {}: {}", scene.name(), kernel.describe());
     }
+    Ok(scene)
 }

@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
+use geardyn::commands::simulate::{simulate, SimulateOptions};
 use geardyn::commands::time_plot::time_plot;
 use geardyn::plot::Format;
 use geardyn::simulation::stream::{DEFAULT_MAX_MESH_PERIODS, DEFAULT_MAX_ROWS};
@@ -73,11 +73,7 @@ pub struct SimulateArgs {
 }
 
 pub fn run(args: SimulateArgs) -> Result<(), String> {
-    let scene = match (&args.scene, &args.example) {
-        (_, Some(name)) => AnyScene::example(name)?,
-        (Some(path), None) => AnyScene::from_path(path)?,
-        (None, None) => unreachable!("clap requires a scene or --example"),
-    };
+    let scene = super::load_any_scene(&args.scene, &args.example)?;
     let periods = match args.max_periods {
         Some(p) => super::positive("max-periods", p)?,
         None => DEFAULT_MAX_MESH_PERIODS,

@@ -7,8 +7,9 @@ use std::path::Path;
 use crate::analysis::hb::{continuation, BranchPoint, ContinuationOptions, HbOptions};
 use crate::analysis::{self, Direction, SweepOptions};
 use crate::model::AnyScene;
-use crate::plot::{Marker, Series};
-use crate::units::rpm;
+use crate::output;
+use crate::plot::{Format, Marker, Series};
+use crate::units::{both_units, rpm};
 
 use super::steady::{branch_points, frequency_response_plot};
 
@@ -277,4 +278,41 @@ impl HbBranch {
         }
         s
     }
+}
+
+/// The files `geardyn hb` writes: the table, and optionally the FRF plot of one mesh (by name;
+/// default the first) with `sweep_points` sweep points overlaid; `units` puts each column's
+/// unit in the header.
+pub struct HbFiles<'a> {
+    pub out: &'a Path,
+    pub plot: Option<&'a Path>,
+    pub plot_mesh: Option<&'a str>,
+    pub sweep_points: usize,
+    pub units: bool,
+}
+
+/// `geardyn hb`: runs the continuation, writes its files and returns the summary it prints.
+pub fn hb_command(
+    scene: &AnyScene,
+    request: &HbRequest,
+    files: &HbFiles,
+) -> Result<String, String> {
+    check_sweep_points(files.sweep_points)?;
+    let mesh = plot_mesh_index(scene, files.plot_mesh)?;
+    if let Some(path) = files.plot {
+        Format::of(path)?;
+    }
+    let interval = request.interval()?;
+    eprintln!(
+        "hb: input speed {} to {}",
+        both_units(interval.from),
+        both_units(interval.to)
+    );
+    let branch = request.run(scene)?;
+    let columns = branch.columns();
+    output::write_table_with_units(files.out, &columns, branch.rows(), files.units)?;
+    if let Some(path) = files.plot {
+        branch.plot(scene, request.harmonics, files.sweep_points, mesh, path)?;
+    }
+    Ok(branch.summary(scene, files.out))
 }

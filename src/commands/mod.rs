@@ -2,10 +2,12 @@
 //! Python module (`python/`): option checks with the CLI's messages, the analyses, and their
 //! tables, plots and text reports. Keeping them here (not in the binary crate) is what makes
 //! a Python call and a CLI run of the same scene give identical numbers and messages; the CLI
-//! only parses arguments and writes files.
+//! (`src/cli/`) only parses arguments and hands them to the function of its command here.
 
+pub mod floquet;
 pub mod hb;
 pub mod modes;
+pub mod run;
 pub mod runup;
 pub mod simulate;
 pub mod spectrum;

@@ -11,8 +11,9 @@ use crate::analysis::{
     self, multiplier_line, shoot, Direction, PeriodicOrbit, ShootingOptions, SweepOptions,
 };
 use crate::model::{AnyScene, Drivetrain};
-use crate::plot::{Axis, Marker, Plot, Series};
-use crate::units::{both_units, rpm};
+use crate::output;
+use crate::plot::{Axis, Format, Marker, Plot, Series};
+use crate::units::{both_units, parse_speed, rpm};
 use crate::with_drivetrain;
 
 use super::positive;
@@ -346,4 +347,80 @@ pub fn poincare_rows(sweep: &Sweep) -> Vec<[f64; 5]> {
         }
     }
     rows
+}
+
+/// `geardyn periodic`: the orbit at `speed` (`--speed` text; default the scene's input
+/// speed) and the text the command prints.
+pub fn periodic_command(
+    scene: &mut AnyScene,
+    speed: Option<&str>,
+    periods: u32,
+    warmup: u32,
+) -> Result<String, String> {
+    if let Some(text) = speed {
+        let speed = parse_speed("--speed", text)?;
+        eprintln!("periodic: input speed {}", both_units(speed));
+        scene.set_input_speed(speed);
+    }
+    let orbit = periodic(scene, periods, warmup)?;
+    periodic_report(scene, &orbit)
+}
+
+/// The files `geardyn sweep` writes: the table, and optionally the Poincaré samples and the
+/// frequency-response plot; `units` puts each column's unit in the headers.
+pub struct SweepFiles<'a> {
+    pub out: &'a Path,
+    pub poincare: Option<&'a Path>,
+    pub plot: Option<&'a Path>,
+    pub units: bool,
+}
+
+/// `geardyn sweep`: runs the sweep, writes its files and returns the summary it prints. A
+/// progress line goes to stderr on a terminal only.
+pub fn sweep_command(
+    scene: &AnyScene,
+    request: &SweepRequest,
+    files: &SweepFiles,
+) -> Result<String, String> {
+    if let Some(path) = files.plot {
+        Format::of(path)?;
+    }
+    let options = request.options()?;
+    let speeds = &options.speeds;
+    eprintln!(
+        "sweep: input speed {} to {}, {} points",
+        both_units(speeds[0]),
+        both_units(speeds[speeds.len() - 1]),
+        speeds.len()
+    );
+    // A progress line only on a terminal: in a pipe or a log the carriage returns are noise.
+    let terminal = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let progress = |done: usize, total: usize| {
+        if terminal {
+            eprint!("\rsweep {done}/{total} points");
+            if done == total {
+                eprintln!();
+            }
+        }
+    };
+    let sweep = analysis::sweep(scene, &options, &progress)?;
+    let columns = sweep.columns();
+    output::write_table_with_units(
+        files.out,
+        &columns,
+        sweep.points.iter().map(|p| p.row()),
+        files.units,
+    )?;
+    if let Some(path) = files.poincare {
+        output::write_table_with_units(
+            path,
+            &POINCARE_COLUMNS,
+            poincare_rows(&sweep),
+            files.units,
+        )?;
+    }
+    if let Some(path) = files.plot {
+        sweep_plot(scene, &sweep, path)?;
+    }
+    Ok(sweep_summary(scene, &sweep, files.out))
 }

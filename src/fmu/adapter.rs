@@ -577,7 +577,7 @@ mod tests {
                     assert!((-1..=64).contains(&n), "{}: {n}", v.name);
                 }
             }
-            if crate::scene::train::is_train_text(&std::fs::read_to_string(&scene).unwrap()) {
+            if crate::scene::is_train_text(&std::fs::read_to_string(&scene).unwrap()) {
                 kernels.1 += 1;
             } else {
                 kernels.0 += 1;

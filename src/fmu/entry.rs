@@ -11,7 +11,7 @@ use crate::fmu::drivetrain::Drivetrain;
 use crate::fmu::kernel::Kernel;
 use crate::fmu::pair::Pair;
 use crate::fmu::Adapter;
-use crate::scene::train::is_train_text;
+use crate::scene::is_train_text;
 
 /// Name of the scene file inside an FMU's `resources/` folder.
 pub const SCENE_FILE: &str = "scene.toml";

@@ -18,7 +18,6 @@ use super::runner::{self, Experiment};
 use super::start;
 use super::supervise::{Activity, ChildEnd, HostPhase, SharedActivity, Supervisor};
 use std::path::{Path, PathBuf};
-use std::process::ExitCode;
 
 #[derive(clap::Args, Debug)]
 #[command(after_help = "\
@@ -296,20 +295,6 @@ fn plan<'a>(
     Ok(exp)
 }
 
-/// `geardyn run`, with its exit status (see `RunArgs`' help).
-pub fn run(args: RunArgs) -> ExitCode {
-    if super::system::is_system(&args.fmu) {
-        return ExitCode::from(match super::system::run(&args) {
-            Ok(code) => code,
-            Err(message) => report(Err(message)),
-        });
-    }
-    ExitCode::from(match supervised_run(&args) {
-        Ok(code) => code,
-        Err(message) => report(Err(message)),
-    })
-}
-
 /// Print a failure as `main` does for the other commands; the exit code. A closed pipe on
 /// the output (`geardyn run x.fmu | head`) ends quietly ([`crate::pipe`]).
 pub(crate) fn report(result: Result<(), String>) -> u8 {
@@ -348,7 +333,7 @@ pub(crate) fn rows_kept(out: &Option<PathBuf>, (rows, last): (usize, Option<f64>
 /// child process and wait. The child reports its own end (message, exit code); when it dies
 /// instead, its pending rows are written here and the message says how it ended. The
 /// temporary folder is removed when `unpacked` is dropped, in every case.
-fn supervised_run(args: &RunArgs) -> Result<u8, String> {
+pub(crate) fn supervised_run(args: &RunArgs) -> Result<u8, String> {
     if args.algorithm.is_some()
         || args.extrapolation.is_some()
         || args.divergence_factor.is_some()

@@ -198,7 +198,7 @@ impl Drivetrain for GearPair {
     }
     fn error_frequencies(&self) -> Vec<f64> {
         // The pair kernel carries no gear errors: a pair scene with errors runs as its
-        // one-mesh drivetrain (`crate::scene::train::is_train_text`).
+        // one-mesh drivetrain (`crate::scene::kernel::choose`).
         Vec::new()
     }
     fn input_speed(&self) -> f64 {
@@ -476,6 +476,13 @@ impl SceneSource for TrainScene {
 impl AnyScene {
     /// A scene file, or a folder holding `scene.toml`.
     pub fn from_path(path: &std::path::Path) -> Result<AnyScene, String> {
+        Self::from_path_with_kernel(path).map(|(scene, _)| scene)
+    }
+
+    /// [`AnyScene::from_path`] with the kernel chosen for the scene and why (`--verbose`).
+    pub fn from_path_with_kernel(
+        path: &std::path::Path,
+    ) -> Result<(AnyScene, crate::scene::KernelChoice), String> {
         // Read once; the text decides the format.
         let (text, origin) = crate::scene::read_scene_file(&crate::scene::scene_file(path))
             .map_err(|e| e.to_string())?;
@@ -485,35 +492,46 @@ impl AnyScene {
                  build it with `geardyn fmu build` and run it with `geardyn run` or any FMI master"
             ));
         }
-        if crate::scene::train::is_train_text(&text) {
-            TrainScene::from_toml_str(&text, &origin).map(|s| AnyScene::Train(Box::new(s)))
-        } else {
-            Scene::from_toml_str(&text, &origin).map(|s| AnyScene::Pair(Box::new(s)))
-        }
-        .map_err(|e| e.to_string())
+        Self::load(&text, &origin)
+    }
+
+    /// Scene text through the one path of [`crate::scene::load`]: the kernel chosen there
+    /// decides the variant.
+    fn load(text: &str, origin: &str) -> Result<(AnyScene, crate::scene::KernelChoice), String> {
+        let (loaded, choice) = crate::scene::load(text, origin).map_err(|e| e.to_string())?;
+        let scene = match loaded {
+            crate::scene::Loaded::Pair(s) => AnyScene::Pair(s),
+            crate::scene::Loaded::Drivetrain(s) => AnyScene::Train(s),
+        };
+        Ok((scene, choice))
     }
 
     /// A built-in example by name (single-pair or drivetrain).
     pub fn example(name: &str) -> Result<AnyScene, String> {
+        Self::example_with_kernel(name).map(|(scene, _)| scene)
+    }
+
+    /// [`AnyScene::example`] with the kernel chosen for it and why.
+    pub fn example_with_kernel(
+        name: &str,
+    ) -> Result<(AnyScene, crate::scene::KernelChoice), String> {
         use crate::scene::{train::TRAIN_EXAMPLES, EXAMPLES};
-        if TRAIN_EXAMPLES.iter().any(|(n, _)| *n == name) {
-            TrainScene::example(name)
-                .map(|s| AnyScene::Train(Box::new(s)))
-                .map_err(|e| e.to_string())
-        } else if EXAMPLES.iter().any(|(n, _)| *n == name) {
-            Scene::example(name)
-                .map(|s| AnyScene::Pair(Box::new(s)))
-                .map_err(|e| e.to_string())
-        } else {
+        let text = TRAIN_EXAMPLES
+            .iter()
+            .chain(EXAMPLES)
+            .find(|(n, _)| *n == name)
+            .map(|(_, text)| *text);
+        let Some(text) = text else {
             let names = |list: &[(&str, &str)]| -> String {
                 list.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
             };
-            Err(format!(
+            return Err(format!(
                 "no built-in example named '{name}' (single pairs: {}; drivetrains: {})",
                 names(EXAMPLES),
                 names(TRAIN_EXAMPLES)
-            ))
-        }
+            ));
+        };
+        Self::load(text, &format!("example '{name}'"))
     }
 
     pub fn name(&self) -> &str {

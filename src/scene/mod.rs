@@ -1,20 +1,25 @@
 //! Scene description: TOML via serde, defaults, validation with located messages.
 //!
-//! [`spec`] mirrors the file; [`Scene`] is the validated, resolved description in SI units
-//! that the model is assembled from. The format is specified in `docs/model.md`.
+//! Data flow: [`spec`] mirrors the file (one description for every scene); [`kernel`] chooses
+//! the kernel that runs it; [`validate`] checks it into the resolved scene of that kernel, in
+//! SI units: [`Scene`] for the single-pair kernel, [`train::TrainScene`] for the drivetrain
+//! kernel. [`load`] is the one path from text to a resolved scene. The format is specified in
+//! `docs/model.md` and `docs/train.md`.
 
-mod geometry;
-mod helical;
+pub mod kernel;
+mod load;
 pub mod profile;
 pub mod spec;
 pub mod train;
-mod validate;
+pub(crate) mod validate;
 
 use std::fmt;
 use std::path::{Path, PathBuf};
 
 use crate::mesh::{MeshStiffness, PhaseSeries};
 
+pub use kernel::KernelChoice;
+pub use load::{is_train_text, load, Loaded};
 pub use profile::{Profile, Profiles};
 pub use spec::SceneSpec;
 
@@ -182,51 +187,10 @@ pub const EXAMPLES: &[(&str, &str)] = &[
 ];
 
 impl Scene {
-    /// Parses and validates scene text. `origin` names the source in messages.
-    pub fn from_toml_str(text: &str, origin: &str) -> Result<Scene, SceneError> {
-        parse(text, origin, validate::validate)
-    }
-
-    /// Reads and validates a scene file.
-    pub fn from_file(path: &Path) -> Result<Scene, SceneError> {
-        let (text, origin) = read_scene_file(path)?;
-        Self::from_toml_str(&text, &origin)
-    }
-
-    /// A built-in example by name.
-    pub fn example(name: &str) -> Result<Scene, SceneError> {
-        let (_, text) = EXAMPLES.iter().find(|(n, _)| *n == name).ok_or_else(|| {
-            let names: Vec<_> = EXAMPLES.iter().map(|(n, _)| *n).collect();
-            SceneError(format!(
-                "no built-in example named '{name}' (available: {})",
-                names.join(", ")
-            ))
-        })?;
-        Self::from_toml_str(text, &format!("example '{name}'"))
-    }
-
-    /// Resolves a scene argument: a `.toml` file, or a folder holding `scene.toml`
-    /// (such as `fmu/spur_pair`).
-    pub fn from_path(path: &Path) -> Result<Scene, SceneError> {
-        Self::from_file(&scene_file(path))
-    }
-
     /// Equivalent mass on the line of action, `m_e = 1/(r_b1²/I1 + r_b2²/I2)`, kg.
     pub fn equivalent_mass(&self) -> f64 {
         equivalent_mass(&self.pinion, &self.gear)
     }
-}
-
-/// Parses scene text into its spec and validates it; messages start with `origin` (both
-/// formats).
-pub(crate) fn parse<Spec: serde::de::DeserializeOwned, T>(
-    text: &str,
-    origin: &str,
-    validate: impl FnOnce(Spec, &str) -> Result<T, SceneError>,
-) -> Result<T, SceneError> {
-    let spec: Spec = toml::from_str(text)
-        .map_err(|e| SceneError(format!("{origin}: {}", e.to_string().trim_end())))?;
-    validate(spec, text).map_err(|e| SceneError(format!("{origin}: {}", e.0)))
 }
 
 /// A scene argument as a file: the path itself, or the `scene.toml` inside a folder.

@@ -15,9 +15,8 @@
 //! Matrix decompositions reachable from input (model construction, Floquet analyses) are
 //! bounded by iteration caps of their own (`model::train::assembly`).
 
-use super::driver::{DrivenModel, Driver};
-use super::stream::RunScales;
-use crate::solve::{SolveError, SolverStats};
+use super::scales::RunScales;
+use crate::solve::SolverStats;
 
 /// Default budget of one FMI call (`fmi2DoStep`), in work units: at most about 0.3 s on the
 /// development machine's core for the costliest work per unit the FMI fuzzer finds (typically
@@ -183,21 +182,6 @@ pub fn exhausted_message(e: &Exhaustion) -> String {
          \"Work budget\")",
         e.limit, e.t, steps, e.method, w.events, w.guard_evals
     )
-}
-
-/// The solver's refusal of an advance, with the likely cause when it is one of work (too many
-/// steps, a step below the time resolution, too many guard samples or events).
-pub fn explain_failure<M: DrivenModel>(sim: &Driver<M>, e: &SolveError) -> String {
-    match e {
-        SolveError::TooManySteps { .. }
-        | SolveError::StepSizeTooSmall { .. }
-        | SolveError::TooManyGuardSamples { .. }
-        | SolveError::EventStorm { .. } => format!(
-            "integration failed: {e}; likely cause: {}",
-            likely_cause(&sim.model().run_scales(), &sim.stats(), sim.t())
-        ),
-        _ => format!("integration failed: {e}"),
-    }
 }
 
 /// Which of the model's time scales holds the step: the fastest mode (stiffness), the mesh

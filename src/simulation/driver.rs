@@ -5,6 +5,7 @@
 //! inputs, outputs, the shape of their state).
 
 use super::budget::{self, Exhaustion, WorkBudget};
+use super::scales::RunScales;
 use crate::scene::{MethodChoice, SolverSettings};
 use crate::solve::exact::{ExactPropagator, PiecewiseLti, WorkCap};
 use crate::solve::rk::{ControllerMemory, RkOptions, RkStepper};
@@ -29,7 +30,7 @@ pub trait DrivenModel: PiecewiseLti + Clone {
     fn restore_run_state(&mut self, s: &Self::RunState) -> Result<(), String>;
     /// The time scales that decide the work of a run, checked against
     /// [`crate::simulation::RunLimits`] before a streamed run starts.
-    fn run_scales(&self) -> crate::simulation::RunScales;
+    fn run_scales(&self) -> RunScales;
     /// Whether advancing from `t` to `t_end` stays within the limits of one advance: each
     /// mesh clock's [`crate::model::PhaseClock::check_advance`]. O(1) per mesh.
     fn check_advance(&self, t: f64, t_end: f64) -> Result<(), String>;

@@ -10,9 +10,11 @@ use std::sync::{Arc, Condvar, Mutex};
 use std::time::{Duration, Instant};
 
 use super::driver::{DrivenModel, Driver};
+use super::scales::RunScales;
 // The precision limit of the mesh phase is the clock's (a double resolves 2⁻²⁰ cycle there); a
 // run is checked against it before it starts, every advance again (`check_advance`).
 use crate::model::MAX_MESH_CYCLES;
+use crate::solve::SolveError;
 
 /// Default of [`RunLimits::max_rows`]: 1e8 rows are about 15 GB of CSV for a single pair.
 pub const DEFAULT_MAX_ROWS: u64 = 100_000_000;
@@ -50,25 +52,6 @@ impl Default for RunLimits {
             work_budget: None,
         }
     }
-}
-
-/// The time scales of a model that decide the work of a run, from the model itself (see
-/// [`DrivenModel::run_scales`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RunScales {
-    /// Mesh frequency of the fastest mesh, Hz (0 at standstill).
-    pub mesh_frequency: f64,
-    /// How fast the torques change the fastest mesh frequency, Hz/s: 0 for a prescribed speed;
-    /// with the rotation carried (ports, `docs/ports.md`) the rigid-body acceleration the port
-    /// torques give. A run spans about `(f + ½ḟt) t` mesh periods.
-    pub mesh_frequency_slope: f64,
-    /// Largest |mesh phase| at t = 0, cycles.
-    pub start_phase: f64,
-    /// The input speed: its TOML field and value, rad/s.
-    pub speed: (&'static str, f64),
-    /// An upper bound of the fastest rate of any mode (angular frequency or damping rate),
-    /// rad/s, and what sets it (the fields to look at).
-    pub fastest_rate: (f64, &'static str),
 }
 
 impl RunLimits {
@@ -512,7 +495,7 @@ pub fn stream<M: DrivenModel>(
             return Err(match e {
                 // The budget's own message names the work and the likely cause.
                 crate::solve::SolveError::OverBudget { message, .. } => message,
-                e => super::budget::explain_failure(sim, &e),
+                e => explain_failure(sim, &e),
             });
         }
         outputs(sim, &mut row);
@@ -522,4 +505,19 @@ pub fn stream<M: DrivenModel>(
     }
     progress.finish();
     Ok(())
+}
+
+/// The solver's refusal of an advance, with the likely cause when it is one of work (too many
+/// steps, a step below the time resolution, too many guard samples or events).
+fn explain_failure<M: DrivenModel>(sim: &Driver<M>, e: &SolveError) -> String {
+    match e {
+        SolveError::TooManySteps { .. }
+        | SolveError::StepSizeTooSmall { .. }
+        | SolveError::TooManyGuardSamples { .. }
+        | SolveError::EventStorm { .. } => format!(
+            "integration failed: {e}; likely cause: {}",
+            super::budget::likely_cause(&sim.model().run_scales(), &sim.stats(), sim.t())
+        ),
+        _ => format!("integration failed: {e}"),
+    }
 }

@@ -47,6 +47,7 @@ mod crossing;
 mod enclosure;
 mod expm;
 mod guard_series;
+pub mod mat_vec;
 mod recurrence;
 mod series_segment;
 #[cfg(test)]
@@ -1026,7 +1027,7 @@ impl ExactPropagator {
             let tol = composite::offset_tolerance(t);
             match self.modes.composites.lookup(&steps, tol) {
                 Lookup::Product(product) => {
-                    transition::mat_vec(product.as_slice(), &self.z, &mut self.z_next);
+                    mat_vec::mat_vec(product.as_slice(), &self.z, &mut self.z_next);
                     std::mem::swap(&mut self.z, &mut self.z_next);
                 }
                 Lookup::Segments { build } => {
@@ -1098,7 +1099,7 @@ impl ExactPropagator {
         let mut w = vec![0.0; nz];
         sys.guard_row(index, &mut w);
         let mut flow_before = vec![0.0; nz];
-        transition::mat_vec(
+        mat_vec::mat_vec(
             self.modes.get(sys).a.as_slice(),
             &self.z_next,
             &mut flow_before,
@@ -1112,7 +1113,7 @@ impl ExactPropagator {
         let mut z_after = vec![0.0; nz];
         sys.lift(self.t, &self.y, &mut z_after);
         let mut flow_after = vec![0.0; nz];
-        transition::mat_vec(self.modes.get(sys).a.as_slice(), &z_after, &mut flow_after);
+        mat_vec::mat_vec(self.modes.get(sys).a.as_slice(), &z_after, &mut flow_after);
         let mut saltation = DMatrix::<f64>::identity(n, n);
         for i in 0..n {
             let jump = (flow_after[i] - flow_before[i]) / rate;

@@ -152,7 +152,7 @@ impl Kernel for Drivetrain {
             ));
         }
         // The checks `simulate` makes when it reads the scene, for values set since.
-        crate::scene::train::validate::recheck_gears(&scene.gears)?;
+        crate::scene::validate::drivetrain::recheck_gears(&scene.gears)?;
         TrainSimulation::new(scene)
     }
 

@@ -24,7 +24,7 @@
 //! then steps to F times that, e.g. a system at rest whose every torque is switched on at
 //! once; `--divergence-factor 0` turns the check off.
 
-use super::master::Plan;
+use super::plan::Plan;
 use super::units::BaseUnit;
 use crate::host::description::{ModelDescription, VarType};
 

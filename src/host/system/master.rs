@@ -26,67 +26,16 @@
 //!   are at different times within the macro step it ended in, so that step has no row; a
 //!   note names the element, its last successful time and its reason (issue 39).
 
-use super::check::{Link, System};
+use super::check::Link;
 use super::parallel::Pool;
+pub use super::plan::{Algorithm, Column, Coupling, Plan};
+use super::step::{do_step, StepEnd};
 use crate::host::csv::Row;
 use crate::host::description::VarType;
 use crate::host::input::isclose;
 use crate::host::instance::{CallError, Instance};
 use crate::host::runner::RowSink;
 use crate::host::start::Phase;
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Algorithm {
-    Jacobi,
-    GaussSeidel,
-}
-
-/// How a connection's value reaches its consumer over a step.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Coupling {
-    Hold,
-    Extrapolate,
-    Interpolate,
-}
-
-/// One CSV column: an output port of the links (`port`) or another variable.
-#[derive(Debug, Clone)]
-pub struct Column {
-    pub element: usize,
-    pub vr: u32,
-    pub var_type: VarType,
-    pub name: String,
-    pub port: Option<usize>,
-}
-
-/// Everything decided before the FMUs are loaded.
-pub struct Plan<'a> {
-    pub system: System,
-    pub algorithm: Algorithm,
-    pub order: Vec<usize>,
-    /// Per link: whether its consumer steps before its producer (Gauss–Seidel).
-    pub cut: Vec<bool>,
-    pub coupling: Vec<Coupling>,
-    /// Distinct producer ports `(element, vr, type)`; `port_of[link]` indexes them.
-    pub ports: Vec<(usize, u32, VarType)>,
-    pub port_of: Vec<usize>,
-    /// Ports whose first derivative is read after each step (for [`Coupling::Extrapolate`]).
-    pub needs_derivative: Vec<bool>,
-    /// In fmpy's order: Reals, then Integers, then Booleans.
-    pub columns: Vec<Column>,
-    pub start_time: f64,
-    pub stop_time: f64,
-    pub h: f64,
-    /// Every FMU has `canHandleVariableCommunicationStepSize="true"`.
-    pub can_vary: bool,
-    /// Threads for the `fmi2DoStep` calls of a Jacobi step ([`super::parallel`]; 1: serial).
-    pub threads: usize,
-    /// The ports watched for divergence, with their units ([`super::divergence`]), and the
-    /// growth factor that stops the run (0: off).
-    pub watched: Vec<(usize, String)>,
-    pub divergence_factor: f64,
-    pub interrupt: Option<&'a std::sync::atomic::AtomicBool>,
-}
 
 /// Distinct producer ports of `links`, in order of first appearance, and each link's port.
 pub fn producer_ports(links: &[Link]) -> (Vec<(usize, u32, VarType)>, Vec<usize>) {
@@ -171,50 +120,6 @@ struct State<'p, 'a> {
 
 fn at(e: &str, t: f64, err: CallError) -> String {
     format!("element \"{e}\" at t = {t}: {err}")
-}
-
-/// Why a macro step did not complete.
-pub(super) enum StepEnd {
-    Failed(String),
-    /// An element ended the simulation itself: the note that says so.
-    Ended(String),
-}
-
-impl From<String> for StepEnd {
-    fn from(m: String) -> Self {
-        StepEnd::Failed(m)
-    }
-}
-
-/// `fmi2DoStep` of element `e`; a refused step says why, and a step in which the element
-/// ended the simulation (`fmi2Terminated` after `fmi2Discard`) is [`StepEnd::Ended`].
-pub(super) fn do_step(
-    inst: &mut Instance,
-    name: &str,
-    time: f64,
-    step: f64,
-) -> Result<(), StepEnd> {
-    let Err(err) = inst.do_step(time, step) else {
-        return Ok(());
-    };
-    let mut msg = format!(
-        "element \"{name}\" refused the step from t = {time} with h = {step} ({}): {err}",
-        err.status
-    );
-    if err.status == crate::host::library::Status::Discard {
-        let (terminated, last) = inst.discard_details();
-        if terminated == Some(true) {
-            let end = last.map_or(String::new(), |t| format!(" at t = {t}"));
-            return Err(StepEnd::Ended(format!(
-                "element \"{name}\" ended the simulation itself{end} in the step from t = {time} (fmi2Terminated after {}); the rows end at t = {time}",
-                err.message
-            )));
-        }
-        if let Some(t) = last {
-            msg.push_str(&format!("; last successful time {t}"));
-        }
-    }
-    Err(StepEnd::Failed(msg))
 }
 
 /// Base type of a group of value references read together.

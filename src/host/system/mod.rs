@@ -17,8 +17,10 @@ pub mod divergence;
 pub mod graph;
 pub mod master;
 mod parallel;
+pub mod plan;
 pub mod shipped;
 pub mod ssd;
+mod step;
 pub mod units;
 pub mod xml;
 

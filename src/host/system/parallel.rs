@@ -14,7 +14,7 @@
 //! steps, longest measured `fmi2DoStep` time first, each to the least loaded thread (the
 //! master's own thread is one of them).
 
-use super::master::StepEnd;
+use super::step::{do_step, StepEnd};
 use crate::host::instance::Instance;
 use std::sync::mpsc::{channel, Receiver, Sender};
 use std::time::Duration;
@@ -72,10 +72,7 @@ impl<'a> Pool<'a> {
                         // SAFETY: see `Ptr`: this thread is the only user of the instance
                         // until it is sent back below.
                         let inst = unsafe { &mut *p.0 };
-                        out.push((
-                            e,
-                            super::master::do_step(inst, &names[e], job.time, job.step),
-                        ));
+                        out.push((e, do_step(inst, &names[e], job.time, job.step)));
                     }
                     if done_tx.send(out).is_err() {
                         break;
@@ -141,7 +138,7 @@ impl<'a> Pool<'a> {
         for e in (0..n).filter(|&e| self.thread_of[e] == 0) {
             // SAFETY: as above; element e is stepped by this thread only.
             let inst = unsafe { &mut *base.add(e) };
-            results[e] = Some(super::master::do_step(inst, &names[e], time, step));
+            results[e] = Some(do_step(inst, &names[e], time, step));
         }
         for _ in 0..sent {
             if let Ok(done) = self.done.recv() {

@@ -10,84 +10,11 @@
 //! on body a and `+τ` on body b. A shaft that reaches an element is an element shaft; it must
 //! not be rigid.
 
-use serde::Deserialize;
-
-use super::spec::ShaftSpec as TrainShaftSpec;
 use crate::model::elements::{InertiaSpec, LoadSpec, MotorSpec, ShaftSpec};
+use crate::scene::spec::{
+    InertiaBodySpec, LoadBodySpec, MotorBodySpec, ShaftSpec as TrainShaftSpec,
+};
 use crate::scene::SceneError;
-
-/// `[[motor]]`: a name (the rotor body) and the motor's fields (`docs/elements.md`).
-#[derive(Debug, Clone, Deserialize)]
-#[serde(try_from = "toml::Table")]
-pub struct MotorBodySpec {
-    pub name: String,
-    pub motor: MotorSpec,
-}
-
-impl TryFrom<toml::Table> for MotorBodySpec {
-    type Error = String;
-    fn try_from(table: toml::Table) -> Result<Self, String> {
-        let (name, rest) = split_name(table)?;
-        Ok(MotorBodySpec {
-            name,
-            motor: rest
-                .try_into()
-                .map_err(|e: toml::de::Error| e.message().to_owned())?,
-        })
-    }
-}
-
-/// `[[load]]`: a name (the load body) and the load's fields.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(try_from = "toml::Table")]
-pub struct LoadBodySpec {
-    pub name: String,
-    pub load: LoadSpec,
-}
-
-impl TryFrom<toml::Table> for LoadBodySpec {
-    type Error = String;
-    fn try_from(table: toml::Table) -> Result<Self, String> {
-        let (name, rest) = split_name(table)?;
-        Ok(LoadBodySpec {
-            name,
-            load: rest
-                .try_into()
-                .map_err(|e: toml::de::Error| e.message().to_owned())?,
-        })
-    }
-}
-
-/// `[[inertia]]`: a toothless body (a name, `inertia`, optional `damping` to ground).
-#[derive(Debug, Clone, Deserialize)]
-#[serde(try_from = "toml::Table")]
-pub struct InertiaBodySpec {
-    pub name: String,
-    pub inertia: InertiaSpec,
-}
-
-impl TryFrom<toml::Table> for InertiaBodySpec {
-    type Error = String;
-    fn try_from(table: toml::Table) -> Result<Self, String> {
-        let (name, rest) = split_name(table)?;
-        Ok(InertiaBodySpec {
-            name,
-            inertia: rest
-                .try_into()
-                .map_err(|e: toml::de::Error| e.message().to_owned())?,
-        })
-    }
-}
-
-/// `name` and the element's own fields. (Not `#[serde(flatten)]`: it would let unknown keys
-/// through, and the element specs reject them.)
-fn split_name(mut table: toml::Table) -> Result<(String, toml::Table), String> {
-    match table.remove("name") {
-        Some(toml::Value::String(name)) => Ok((name, table)),
-        Some(v) => Err(format!("name = {v}: must be a string")),
-        None => Err("missing field `name`".into()),
-    }
-}
 
 /// The physics of an element body.
 #[derive(Debug, Clone, PartialEq)]
@@ -144,7 +71,7 @@ fn err<T>(msg: String) -> Result<T, SceneError> {
 
 /// Names of the element bodies in the order motors, loads, inertias (the body order of
 /// [`Elements::bodies`]).
-pub(super) fn body_names(
+pub(crate) fn body_names(
     motors: &[MotorBodySpec],
     loads: &[LoadBodySpec],
     inertias: &[InertiaBodySpec],
@@ -156,7 +83,7 @@ pub(super) fn body_names(
 }
 
 /// `(<table>[i], name)` of every element body, in the order of [`body_names`].
-pub(super) fn body_tables(
+pub(crate) fn body_tables(
     motors: &[MotorBodySpec],
     loads: &[LoadBodySpec],
     inertias: &[InertiaBodySpec],
@@ -180,7 +107,7 @@ pub(super) fn body_tables(
 /// train (`input_torque` on the input gear, `load_torque` resisting at the output gear) give
 /// the shafts' static torques.
 #[allow(clippy::too_many_arguments)]
-pub(super) fn elements(
+pub(crate) fn elements(
     motors: &[MotorBodySpec],
     loads: &[LoadBodySpec],
     inertias: &[InertiaBodySpec],

@@ -11,9 +11,9 @@
 //! point (approach) and negative after it (recess): the friction sign is a function of the
 //! mesh phase alone (`v_i ≈ v̄_i`, §5.2).
 
-use super::spec::FrictionSpec;
 use super::{PairStiffness, TrainGear};
 use crate::mesh::helical::HelicalGeometry;
+use crate::scene::spec::FrictionSpec;
 use crate::scene::SceneError;
 
 /// A helical tooth-pair mesh (He & Singh 2007): the contact-line geometry and the stiffness
@@ -168,7 +168,7 @@ impl MeshFriction {
 /// Validates `[mesh.friction]` (`field` is its name in messages) for a Model-1 mesh with
 /// contact ratio `c` and operating pressure angle `phi` (0 when not given); a helical pair
 /// fixes the pitch line and has no friction-bending factor.
-pub(super) fn validate(
+pub(crate) fn validate(
     field: &str,
     spec: &FrictionSpec,
     pinion: &TrainGear,

@@ -1,29 +1,23 @@
 //! Drivetrain scenes: a graph of gears (rotation, optional translations on bearings), shafts
 //! and meshes (Liu 2007, Ch. 2–4; notes `models-liu-parker-2007.md` §1–§3).
 //!
-//! [`spec`] mirrors the file; [`TrainScene`] is the validated scene with the kinematics
-//! resolved (nominal speed ratio and rotation sense of every gear). The format is specified in
-//! `docs/train.md`. A single-mesh scene of `docs/model.md` is read here as a train with one
-//! mesh, so the single pair is one case of the graph.
+//! [`TrainScene`] is the resolved scene of the drivetrain kernel, with the kinematics
+//! resolved (nominal speed ratio and rotation sense of every gear). The file is read by the
+//! one scene description (`crate::scene::spec`) and checked by `crate::scene::validate`; the
+//! format is specified in `docs/train.md`. A single-mesh scene of `docs/model.md` reads as a
+//! train with one mesh, so the single pair is one case of the graph.
 
 pub mod chain;
 pub mod elements;
-mod friction;
+pub(crate) mod friction;
 pub mod ports;
-pub mod spec;
-pub(crate) mod validate;
-
-use std::path::Path;
 
 use crate::mesh::{MeshStiffness, PhaseSeries, Piece};
-use crate::scene::{
-    read_scene_file, scene_file, ContactLaw, InitialDte, SceneError, SolverSettings,
-};
+use crate::scene::{ContactLaw, InitialDte, SolverSettings};
 
 pub use chain::{ChainBearings, ChainContact, ChainSpec};
 pub use friction::{HelicalPair, MeshFriction};
 pub use ports::{Port, PortEnd, SpeedCoupling};
-pub use spec::TrainSpec;
 
 /// Bearing stiffness and damping of a gear with translational DOFs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -461,26 +455,6 @@ pub const TRAIN_EXAMPLES: &[(&str, &str)] = &[
 ];
 
 impl TrainScene {
-    /// Parses and validates scene text; `origin` names the source in messages.
-    pub fn from_toml_str(text: &str, origin: &str) -> Result<TrainScene, SceneError> {
-        crate::scene::parse::<TrainSpec, _>(text, origin, validate::validate)
-    }
-
-    /// Reads a scene file, or the `scene.toml` inside a folder.
-    pub fn from_path(path: &Path) -> Result<TrainScene, SceneError> {
-        let (text, origin) = read_scene_file(&scene_file(path))?;
-        Self::from_toml_str(&text, &origin)
-    }
-
-    /// A built-in drivetrain scene by name.
-    pub fn example(name: &str) -> Result<TrainScene, SceneError> {
-        let (_, text) = TRAIN_EXAMPLES
-            .iter()
-            .find(|(n, _)| *n == name)
-            .ok_or_else(|| SceneError(format!("no built-in drivetrain example named '{name}'")))?;
-        Self::from_toml_str(text, &format!("example '{name}'"))
-    }
-
     /// Index of a gear by name.
     pub fn gear_index(&self, name: &str) -> Option<usize> {
         self.gears.iter().position(|g| g.name == name)
@@ -499,69 +473,6 @@ impl TrainScene {
         }
         s
     }
-}
-
-/// Whether a scene file is a drivetrain scene (`[[mesh]]` array, `[[shaft]]` or `[model]`)
-/// rather than the single-mesh format of `docs/model.md`.
-pub fn is_train_file(path: &Path) -> Result<bool, SceneError> {
-    let (text, _) = read_scene_file(&scene_file(path))?;
-    Ok(is_train_text(&text))
-}
-
-/// See [`is_train_file`]; unparsable text is left to the single-mesh reader's messages.
-pub fn is_train_text(text: &str) -> bool {
-    match text.parse::<toml::Table>() {
-        Ok(table) => {
-            matches!(table.get("mesh"), Some(toml::Value::Array(_)))
-                || table.contains_key("shaft")
-                || table.contains_key("model")
-                || table.contains_key("port")
-                || table.contains_key("motor")
-                || table.contains_key("load")
-                || table.contains_key("inertia")
-                || has_gear_errors(&table)
-                || has_pair_features(&table)
-        }
-        Err(_) => false,
-    }
-}
-
-/// Whether the one `[mesh]` table uses per-tooth-pair features (`model = "pairs"`, pair
-/// stiffness, tip relief, gap tables, tooth friction): a single-mesh scene that does is run as
-/// its one-mesh drivetrain, which has them (Liu 2007 Model-1; `docs/errors.md`).
-fn has_pair_features(table: &toml::Table) -> bool {
-    let Some(toml::Value::Table(mesh)) = table.get("mesh") else {
-        return false;
-    };
-    ["model", "pairs", "tip_relief", "gaps", "friction"]
-        .iter()
-        .any(|k| mesh.contains_key(*k))
-}
-
-/// Whether a `[[gear]]` carries manufacturing errors that are not all zero: a single-mesh
-/// scene with errors is run as its one-mesh drivetrain, the one kernel that carries them
-/// (`docs/errors.md`). All-zero errors leave it on the pair kernel, bit for bit unchanged;
-/// anything else that is not a zero number (a negative amplitude, a string) goes to the
-/// drivetrain reader, whose validation names it.
-fn has_gear_errors(table: &toml::Table) -> bool {
-    let Some(toml::Value::Array(gears)) = table.get("gear") else {
-        return false;
-    };
-    let zero = |v: &toml::Value| match v {
-        toml::Value::Float(x) => *x == 0.0,
-        toml::Value::Integer(i) => *i == 0,
-        _ => false,
-    };
-    gears.iter().any(|g| {
-        let runout = g
-            .get("runout")
-            .is_some_and(|r| r.get("amplitude").is_none_or(|a| !zero(a)));
-        let pitch = ["pitch_errors", "cumulative_pitch_errors"].iter().any(|k| {
-            g.get(k)
-                .is_some_and(|t| t.as_array().is_none_or(|a| !a.iter().all(zero)))
-        });
-        runout || pitch
-    })
 }
 
 impl TrainScene {

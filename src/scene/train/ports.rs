@@ -90,7 +90,7 @@ fn err<T>(msg: String) -> Result<T, SceneError> {
 /// Checks the `[[port]]` tables against the gears, the input and output gear, and the
 /// operating torques they replace. `find` resolves a gear name; `input_torque` and
 /// `load_torque` tell whether the file gave those keys.
-pub(super) fn ports(
+pub(crate) fn ports(
     specs: &[PortSpec],
     find: &dyn Fn(&str, &str) -> Result<usize, SceneError>,
     input_gear: usize,

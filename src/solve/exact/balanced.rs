@@ -209,7 +209,7 @@ impl BalancedMatrix {
                     *o = sum;
                 }
             }
-            None => super::transition::mat_vec(self.b.as_slice(), u, out),
+            None => super::mat_vec::mat_vec(self.b.as_slice(), u, out),
         }
     }
 
@@ -275,7 +275,7 @@ impl BalancedMatrix {
             if k == MAX_TERMS {
                 return false;
             }
-            super::transition::mat_vec(b, &work.term, &mut work.next);
+            super::mat_vec::mat_vec(b, &work.term, &mut work.next);
             let factor = tau / k as f64;
             for ((t, o), &x) in work.term.iter_mut().zip(out.iter_mut()).zip(&work.next) {
                 *t = x * factor;

@@ -30,7 +30,8 @@
 
 use super::enclosure::{taylor_lower_bound, GuardOnInterval, Point};
 use super::guard_series::{dot, GuardSeries};
-use super::transition::{mat_vec, ModeTransitions};
+use super::mat_vec::mat_vec;
+use super::transition::ModeTransitions;
 use crate::solve::roots::{brent_bracket, newton_bracket};
 use crate::solve::SolverStats;
 

@@ -3,11 +3,11 @@
 //! piecewise-linear K_e(t) (eq. 25) is computed once, at scene load, as linear pieces, so the
 //! dynamic model, the solvers and the FMU see nothing new.
 
-use super::spec::StiffnessSpec;
-use super::validate::{finite, non_negative, positive};
-use super::{Gear, SceneError};
+use super::checks::{finite, non_negative, positive};
 use crate::mesh::helical::{FrictionStiffness, HelicalGeometry};
 use crate::mesh::MeshStiffness;
+use crate::scene::spec::StiffnessSpec;
+use crate::scene::{Gear, SceneError};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -60,10 +60,10 @@ pub(super) fn stiffness(spec: &StiffnessSpec, pinion: &Gear, gear: &Gear) -> Res
     Ok(geometry.piecewise_stiffness(&params, phase))
 }
 
-impl super::Scene {
+impl crate::scene::Scene {
     /// The same scene with another friction coefficient μ of its `helical` stiffness (the
     /// scene text is edited and validated again, so μ is checked like in a file).
-    pub fn with_friction_coefficient(&self, mu: f64) -> Result<super::Scene> {
+    pub fn with_friction_coefficient(&self, mu: f64) -> Result<crate::scene::Scene> {
         let mut table: toml::Table = toml::from_str(&self.source)
             .map_err(|e| SceneError(format!("scene {}: {e}", self.name)))?;
         let stiffness = table
@@ -81,7 +81,7 @@ impl super::Scene {
         stiffness.insert("friction_coefficient".into(), toml::Value::Float(mu));
         let text =
             toml::to_string(&table).map_err(|e| SceneError(format!("scene {}: {e}", self.name)))?;
-        let mut scene = super::Scene::from_toml_str(&text, &self.name)?;
+        let mut scene = crate::scene::Scene::from_toml_str(&text, &self.name)?;
         scene.operating = self.operating;
         Ok(scene)
     }

@@ -6,11 +6,11 @@
 //! model, the solvers and the FMU see nothing new. Keys: `docs/model.md` ("Gears"),
 //! `docs/train.md` ("Gears and geometry meshes"), `docs/stiffness.md`.
 
-use super::spec::{GeometryForm, StiffnessSpec};
-use super::validate::{finite, positive};
-use super::SceneError;
+use super::checks::{finite, positive};
 use crate::mesh::geometry::{CurveOptions, MeshModel, Pair};
 use crate::mesh::MeshStiffness;
+use crate::scene::spec::{GeometryForm, StiffnessSpec};
+use crate::scene::SceneError;
 
 type Result<T> = std::result::Result<T, SceneError>;
 

@@ -1,55 +1,24 @@
-//! The scene file as written by the user: serde types that mirror the TOML one to one.
-//!
-//! These types only describe *syntax* (unknown keys are rejected here). Meaning and ranges are
-//! checked in [`super::validate`], which turns a [`SceneSpec`] into a validated
-//! [`super::Scene`]. The format is specified in `docs/model.md`.
+//! The `[mesh]` / `[[mesh]]` tables of a scene file: one mesh description for both kernels.
 
 use serde::Deserialize;
 
 pub use crate::mesh::geometry::GearPairSpec;
 pub use crate::mesh::helical::HelicalPairSpec;
 
-/// A whole scene file.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SceneSpec {
-    pub name: String,
-    #[serde(default)]
-    pub description: String,
-    pub gear: Vec<GearSpec>,
-    pub mesh: MeshSpec,
-    pub operating: OperatingSpec,
-    #[serde(default)]
-    pub initial: InitialSpec,
-    #[serde(default)]
-    pub solver: SolverSpec,
-}
-
-/// One gear body.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct GearSpec {
-    pub name: String,
-    pub teeth: i64,
-    /// Base-circle radius, m (default: from a `geometry` mesh stiffness).
-    pub base_radius: Option<f64>,
-    /// Polar mass moment of inertia, kg·m² (default: from a `geometry` mesh stiffness with a
-    /// density).
-    pub inertia: Option<f64>,
-    /// Manufacturing errors (`docs/errors.md`); non-zero ones make the scene run as its
-    /// one-mesh drivetrain (`crate::scene::train::is_train_text`).
-    pub runout: Option<crate::scene::train::spec::RunoutSpec>,
-    pub pitch_errors: Option<Vec<f64>>,
-    pub cumulative_pitch_errors: Option<Vec<f64>>,
-}
-
-/// The mesh between the two gears.
+/// One mesh between a driving and a driven gear: `[mesh]` in a single-mesh scene
+/// (`docs/model.md`), each `[[mesh]]` of a drivetrain (`docs/train.md`). Which fields a mesh
+/// may use depends on the kernel that runs the scene ([`crate::scene::kernel`]): the
+/// drivetrain fields (`name`, `phase`, angles, tooth-pair models, friction) send a scene to the
+/// drivetrain kernel; the smooth terms of Bugaru (2006) (`cubic`, `damping_variation`,
+/// `damping_acts`) are the pair kernel's.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MeshSpec {
-    /// Name of the driving gear (its nominal speed sets the mesh phase).
+    /// Name used in output columns (default `mesh1`, `mesh2`, …).
+    pub name: Option<String>,
+    /// Driving gear (its nominal speed sets the mesh phase).
     pub pinion: String,
-    /// Name of the driven gear.
+    /// Driven gear.
     pub gear: String,
     pub contact: ContactLawSpec,
     /// Total clearance 2b, m (only with `contact = "backlash"`).
@@ -66,12 +35,28 @@ pub struct MeshSpec {
     /// Where the viscous damping acts: `in_contact` (default) or `always` (the
     /// Kahraman–Singh form `x'' + 2ζx' + k f(x) = F`, damping also during separation).
     pub damping_acts: Option<String>,
-    /// Mesh phase at t = 0, mesh cycles.
-    #[serde(default)]
-    pub initial_phase: f64,
-    pub stiffness: StiffnessSpec,
-    #[serde(default)]
+    /// Mesh phase at t = 0 (first mesh only), mesh cycles.
+    pub initial_phase: Option<f64>,
+    /// Mesh phasing φ relative to the first mesh (meshes 2, 3, …), cycles of this mesh.
+    pub phase: Option<f64>,
+    /// Operating pressure angle, degrees (needed with translational DOFs).
+    pub pressure_angle: Option<f64>,
+    /// Direction of the centre line from the pinion's to the gear's centre, rad.
+    pub centre_angle: Option<f64>,
+    /// `"lumped"` (default), `"pairs"` (Model-1), `"loaded_ste"` (Model-2), `"nlte"` (Model-3).
+    pub model: Option<String>,
+    /// Mesh stiffness source (lumped model).
+    pub stiffness: Option<StiffnessSpec>,
+    /// Static transmission error `e(p)` (lumped model).
     pub ste: Option<FourierSpec>,
+    /// Single tooth-pair stiffness (pair-based models).
+    pub pairs: Option<PairStiffnessSpec>,
+    /// Linear tip relief (pair-based models).
+    pub tip_relief: Option<TipReliefSpec>,
+    /// Tabulated pair gap over the engagement window (instead of tip_relief).
+    pub gaps: Option<GapTableSpec>,
+    /// Coulomb tooth friction of the tooth pairs (Model-1 only; Liu 2007 Ch. 5).
+    pub friction: Option<FrictionSpec>,
 }
 
 /// Contact law of a mesh (`docs/model.md`, "Mesh force and contact law").
@@ -175,24 +160,6 @@ pub struct FourierSpec {
     pub sin: Vec<f64>,
 }
 
-/// Operating point; every field is an input of the FMU.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct OperatingSpec {
-    /// Nominal pinion speed, rad/s (or `speed_profile`).
-    pub pinion_speed: Option<f64>,
-    /// Torque driving the pinion, N·m (or `torque_profile`).
-    pub input_torque: Option<f64>,
-    /// Pinion speed over time, rad/s (a run-up; `docs/runup.md`).
-    pub speed_profile: Option<super::profile::ProfileSpec>,
-    /// Input torque over time, N·m.
-    pub torque_profile: Option<super::profile::ProfileSpec>,
-    /// Load torque magnitude on the gear, N·m; `None` means balanced (`T1·r_b2/r_b1`).
-    pub load_torque: Option<f64>,
-    /// Amplitude of an input-torque ripple at mesh frequency, `T1 + T̃1 cos 2πp`, N·m.
-    pub torque_ripple: Option<f64>,
-}
-
 /// Cubic terms of the mesh force: `k(p)(δ + stiffness_factor·δ³) + spring·δ³`.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -205,86 +172,66 @@ pub struct CubicSpec {
     pub spring: f64,
 }
 
-/// Initial DTE: the mean static deflection or a value in metres.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(untagged)]
-pub enum InitialDteSpec {
-    Value(f64),
-    Keyword(String),
-}
-
-/// Initial conditions.
+/// `[mesh.friction]`: Coulomb sliding friction on every tooth pair (Liu 2007 Ch. 5).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct InitialSpec {
-    #[serde(default = "InitialSpec::default_dte")]
-    pub dte: InitialDteSpec,
+pub struct FrictionSpec {
+    /// Friction coefficient μ (>= 0).
+    pub coefficient: f64,
+    /// Friction-bending factor β̃ of eq. (4.42): pair stiffness `k(1 ± β̃μ)` (default 0).
     #[serde(default)]
-    pub dte_rate: f64,
+    pub bending_factor: f64,
+    /// Position of the pitch point in the pair's engagement window, mesh cycles
+    /// (default: from the gear geometry with standard addenda).
+    pub pitch_point: Option<f64>,
 }
 
-impl InitialSpec {
-    fn default_dte() -> InitialDteSpec {
-        InitialDteSpec::Keyword("static".to_owned())
-    }
-}
-
-impl Default for InitialSpec {
-    fn default() -> Self {
-        InitialSpec {
-            dte: Self::default_dte(),
-            dte_rate: 0.0,
-        }
-    }
-}
-
-/// Solver settings and the default experiment.
+/// A pair gap table: `points` from 0 to the contact ratio (mesh cycles), `values` in m.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct SolverSpec {
-    #[serde(default = "SolverSpec::default_method")]
-    pub method: String,
-    #[serde(default = "SolverSpec::default_rk_method")]
-    pub rk_method: String,
-    #[serde(default = "SolverSpec::default_rtol")]
-    pub rtol: f64,
-    #[serde(default = "SolverSpec::default_atol")]
-    pub atol: f64,
-    #[serde(default = "SolverSpec::default_stop_time")]
-    pub stop_time: f64,
-    pub output_interval: Option<f64>,
-    /// The work budget (docs/fmu.md "Work budget"); default per scope.
-    pub work_budget: Option<f64>,
+pub struct GapTableSpec {
+    pub points: Vec<f64>,
+    pub values: Vec<f64>,
 }
 
-impl SolverSpec {
-    fn default_method() -> String {
-        "auto".to_owned()
-    }
-    fn default_rk_method() -> String {
-        "dop853".to_owned()
-    }
-    fn default_rtol() -> f64 {
-        1e-9
-    }
-    fn default_atol() -> f64 {
-        1e-15
-    }
-    fn default_stop_time() -> f64 {
-        0.05
-    }
+/// Stiffness of one tooth pair over its engagement window `ξ ∈ [0, c)` (mesh cycles).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum PairStiffnessSpec {
+    /// Liu 2007 §2.5 rectangular idealisation: the mesh has mean `mean` and peak-to-peak
+    /// `peak_to_peak_ratio·mean`; each pair carries `K_d/2` in double contact, `K_s` alone.
+    Rectangular {
+        mean: f64,
+        peak_to_peak_ratio: f64,
+        contact_ratio: f64,
+        /// Liu 2007 §5.2: share α of `K_d` the leaving pair carries when double contact
+        /// starts, falling linearly to `1 − α` (default ½: the constant halves of §2.5).
+        load_share: Option<f64>,
+    },
+    /// Helical pair of He & Singh (2007): a constant stiffness density along the contact lines
+    /// of the helical geometry (`src/mesh/helical`, `docs/helical.md`); the pair stiffness is
+    /// `k cos β_b Δz(ξ)`, its window the total contact ratio ε_α + ε_β.
+    Helical {
+        /// Stiffness density k per unit contact-line length projected on the face, N/m².
+        density: f64,
+        geometry: crate::mesh::helical::HelicalPairSpec,
+    },
+    /// Piecewise-linear table over `ξ ∈ [0, contact_ratio]`.
+    Table {
+        contact_ratio: f64,
+        points: Vec<f64>,
+        values: Vec<f64>,
+    },
 }
 
-impl Default for SolverSpec {
-    fn default() -> Self {
-        SolverSpec {
-            method: Self::default_method(),
-            rk_method: Self::default_rk_method(),
-            rtol: Self::default_rtol(),
-            atol: Self::default_atol(),
-            stop_time: Self::default_stop_time(),
-            output_interval: None,
-            work_budget: None,
-        }
-    }
+/// Linear tip relief of driver and driven teeth: magnitude (m) and length (mesh cycles).
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TipReliefSpec {
+    #[serde(default)]
+    pub driver_magnitude: f64,
+    pub driver_length: Option<f64>,
+    #[serde(default)]
+    pub driven_magnitude: f64,
+    pub driven_length: Option<f64>,
 }

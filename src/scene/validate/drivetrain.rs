@@ -3,14 +3,13 @@
 
 use std::collections::VecDeque;
 
-use super::spec::{PairStiffnessSpec, ShaftSpec, TrainMeshSpec, TrainSpec};
-use super::{
+use super::checks::{finite, initial_dte, non_negative, positive, solver};
+use crate::mesh::PhaseSeries;
+use crate::scene::spec::{MeshSpec as TrainMeshSpec, PairStiffnessSpec, ParsedScene, ShaftSpec};
+use crate::scene::train::{
     Bearing, GapTable, HelicalPair, MeshForceModel, PairGap, PairModel, PairStiffness, Shaft,
     ShaftCoupling, TipRelief, TrainGear, TrainMesh, TrainOperating, TrainScene,
 };
-use crate::mesh::PhaseSeries;
-use crate::scene::spec::ContactLawSpec;
-use crate::scene::validate::{finite, initial_dte, non_negative, positive, solver};
 use crate::scene::{ContactLaw, MethodChoice, SceneError};
 
 type Result<T> = std::result::Result<T, SceneError>;
@@ -30,14 +29,23 @@ const KINEMATIC_TOL: f64 = 1e-9;
 /// Largest relative difference of the base pitches `2π r_b/z` of two meshing gears.
 const BASE_PITCH_TOL: f64 = 0.01;
 
-pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
+pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<TrainScene> {
+    if let Some(field) = crate::scene::kernel::pair_only_field(&parsed) {
+        return err(format!(
+            "{field}: a term of the single-pair kernel (Bugaru 2006), which runs a scene with one \
+             mesh between two gears and no drivetrain feature; the drivetrain kernel does not \
+             carry it"
+        ));
+    }
+    let spec = parsed.spec;
+    let model = spec.model.clone().unwrap_or_default();
     if !identifier(&spec.name) {
         return err(format!(
             "name = {:?}: must be an identifier ([A-Za-z_][A-Za-z0-9_]*), it names the FMU",
             spec.name
         ));
     }
-    let compliant = match spec.model.bearings.as_str() {
+    let compliant = match model.bearings.as_str() {
         "compliant" => true,
         "rigid" => false,
         other => {
@@ -46,7 +54,7 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
             ))
         }
     };
-    let input_sense = match spec.model.input_rotation.as_str() {
+    let input_sense = match model.input_rotation.as_str() {
         "ccw" => 1.0,
         "cw" => -1.0,
         other => {
@@ -55,23 +63,21 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
             ))
         }
     };
-    let modal = non_negative("model.modal_damping_ratio", spec.model.modal_damping_ratio)?;
+    let modal = non_negative("model.modal_damping_ratio", model.modal_damping_ratio)?;
 
     if spec.gear.is_empty() {
         return err("gear: no [[gear]] given; a train needs at least 2".into());
     }
-    let mesh_specs = spec.mesh.into_vec();
+    let mesh_specs = spec.mesh;
     // Geometry meshes define the bodies of their gears (docs/train.md, "Gears and geometry
     // meshes"); the first geometry mesh naming a gear defines it, later ones are checked
     // against its base radius.
-    let mut bodies: Vec<(String, crate::scene::geometry::GearBody)> = Vec::new();
+    let mut bodies: Vec<(String, super::geometry::GearBody)> = Vec::new();
     for (i, m) in mesh_specs.iter().enumerate() {
         let Some(stiffness) = &m.stiffness else {
             continue;
         };
-        if let Some([p, g]) =
-            crate::scene::geometry::bodies(stiffness, &format!("mesh[{i}].stiffness"))?
-        {
+        if let Some([p, g]) = super::geometry::bodies(stiffness, &format!("mesh[{i}].stiffness"))? {
             for (name, body) in [(&m.pinion, p), (&m.gear, g)] {
                 if !bodies.iter().any(|(n, _)| n == name) {
                     bodies.push((name.clone(), body));
@@ -96,14 +102,14 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
                 g.name
             ));
         }
-        let teeth = crate::scene::validate::teeth(&f("teeth"), g.teeth)?;
+        let teeth = super::checks::teeth(&f("teeth"), g.teeth)?;
         let table = format!("gear[{i}]");
         let derived = bodies.iter().find(|(n, _)| *n == g.name).map(|(_, b)| b);
         let mass = match (g.mass, derived) {
             (Some(m), _) => Some(positive(&f("mass"), m)?),
             // A derived mass only where the translations need one.
             (None, Some(d)) if compliant && g.bearing_stiffness.is_some() => Some(
-                crate::scene::geometry::body_value(&table, "mass", None, Some((d, d.mass)))?,
+                super::geometry::body_value(&table, "mass", None, Some((d, d.mass)))?,
             ),
             (None, _) => None,
         };
@@ -145,8 +151,8 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
         gears.push(TrainGear {
             name: g.name.clone(),
             teeth,
-            base_radius: crate::scene::geometry::base_radius(&table, g.base_radius, derived)?,
-            inertia: crate::scene::geometry::body_value(
+            base_radius: super::geometry::base_radius(&table, g.base_radius, derived)?,
+            inertia: super::geometry::body_value(
                 &table,
                 "inertia",
                 g.inertia,
@@ -156,23 +162,10 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
             bearing,
             ground_stiffness: non_negative(&f("ground_stiffness"), g.ground_stiffness)?,
             ground_damping: non_negative(&f("ground_damping"), g.ground_damping)?,
-            errors: gear_errors(
-                &f,
-                &g.name,
-                teeth,
-                ErrorKeys {
-                    runout: &g.runout,
-                    pitch_errors: &g.pitch_errors,
-                    cumulative_pitch_errors: &g.cumulative_pitch_errors,
-                },
-            )?,
+            errors: super::errors::gear_errors(&f, &g.name, teeth, g)?,
         });
         let gear = &gears[gears.len() - 1];
-        crate::scene::validate::gear_compliance(
-            &format!("gear[{i}]"),
-            gear.base_radius,
-            gear.inertia,
-        )?;
+        super::checks::gear_compliance(&format!("gear[{i}]"), gear.base_radius, gear.inertia)?;
     }
     mass_spread(&gears)?;
     // A train without any ground stiffness turns freely; its rigid-body rotation is removed
@@ -204,8 +197,11 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
 
     // A shaft that reaches an element ([[motor]], [[load]], [[inertia]]) is an element
     // shaft (`super::elements`); the others couple coaxial gears of the train.
-    let element_names = super::elements::body_names(&spec.motor, &spec.load, &spec.inertia);
-    for (table, name) in super::elements::body_tables(&spec.motor, &spec.load, &spec.inertia) {
+    let element_names =
+        crate::scene::train::elements::body_names(&spec.motor, &spec.load, &spec.inertia);
+    for (table, name) in
+        crate::scene::train::elements::body_tables(&spec.motor, &spec.load, &spec.inertia)
+    {
         if gears.iter().any(|g| g.name == name) {
             return err(format!(
                 "{table}.name = {name:?}: a gear has that name already"
@@ -343,7 +339,7 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
             input_torque * radius_ratio(&gears, &shafts, &ends, input_gear, output_gear)
         }
     };
-    let ports = super::ports::ports(
+    let ports = crate::scene::train::ports::ports(
         &spec.port,
         &find,
         input_gear,
@@ -351,7 +347,7 @@ pub(super) fn validate(spec: TrainSpec, source: &str) -> Result<TrainScene> {
         op.input_torque.is_some() || op.torque_profile.is_some(),
         op.load_torque.is_some(),
     )?;
-    let elements = super::elements::elements(
+    let elements = crate::scene::train::elements::elements(
         &spec.motor,
         &spec.load,
         &spec.inertia,
@@ -541,13 +537,13 @@ fn mesh(
             };
             let stiffness = match spec {
                 crate::scene::spec::StiffnessSpec::Geometry { .. } => {
-                    let body = |which: &str, g: usize| crate::scene::geometry::MeshGear {
+                    let body = |which: &str, g: usize| super::geometry::MeshGear {
                         which: f(which),
                         name: &gears[g].name,
                         teeth: gears[g].teeth,
                         base_radius: gears[g].base_radius,
                     };
-                    crate::scene::geometry::stiffness(
+                    super::geometry::stiffness(
                         spec,
                         &f("stiffness"),
                         [body("pinion", pinion), body("gear", gear)],
@@ -565,7 +561,7 @@ fn mesh(
                         f("stiffness")
                     ));
                 }
-                _ => crate::scene::validate::stiffness(spec)
+                _ => super::stiffness::stiffness(spec)
                     .map_err(|e| SceneError(e.0.replacen("mesh.", &format!("mesh[{i}]."), 1)))?,
             };
             let (k_min, s_min) = stiffness.minimum();
@@ -577,8 +573,8 @@ fn mesh(
             }
             let ste = match &m.ste {
                 Some(s) => {
-                    crate::scene::validate::harmonic_list(&f("ste.cos"), &s.cos)?;
-                    crate::scene::validate::harmonic_list(&f("ste.sin"), &s.sin)?;
+                    super::checks::harmonic_list(&f("ste.cos"), &s.cos)?;
+                    super::checks::harmonic_list(&f("ste.sin"), &s.sin)?;
                     PhaseSeries::new(&s.cos, &s.sin)
                 }
                 None => PhaseSeries::default(),
@@ -615,25 +611,7 @@ fn mesh(
         }
     };
 
-    let contact = match (m.contact, m.backlash) {
-        (ContactLawSpec::Backlash, Some(b)) => ContactLaw::Backlash {
-            clearance: non_negative(&f("backlash"), b)?,
-        },
-        (ContactLawSpec::Backlash, None) => {
-            return err(format!(
-                "{}: missing; contact = \"backlash\" needs the total clearance 2b in m",
-                f("backlash")
-            ))
-        }
-        (other, Some(b)) => {
-            return err(format!(
-                "{} = {b}: only allowed with contact = \"backlash\" (contact is {other:?})",
-                f("backlash")
-            ))
-        }
-        (ContactLawSpec::Linear, None) => ContactLaw::Linear,
-        (ContactLawSpec::ContactLoss, None) => ContactLaw::ContactLoss,
-    };
+    let contact = super::mesh::contact_law(&f, m)?;
 
     let k_mean = match &force {
         MeshForceModel::Lumped { stiffness, .. } => stiffness.mean(),
@@ -641,29 +619,11 @@ fn mesh(
     };
     // Equivalent mass of the two gears alone, as for the single pair (docs/model.md).
     let m_e = 1.0 / (gp.base_radius.powi(2) / gp.inertia + gg.base_radius.powi(2) / gg.inertia);
-    let damping = match (m.damping, m.damping_ratio) {
-        (Some(c), None) => non_negative(&f("damping"), c)?,
-        (None, Some(z)) => 2.0 * non_negative(&f("damping_ratio"), z)? * (k_mean * m_e).sqrt(),
-        (None, None) => 0.0,
-        (Some(_), Some(_)) => {
-            return err(format!(
-                "{} and {}: give one of them, not both",
-                f("damping"),
-                f("damping_ratio")
-            ))
-        }
-    };
     let k_max = match &force {
         MeshForceModel::Lumped { stiffness, .. } => stiffness.maximum(),
         MeshForceModel::Pairs { pair, .. } => pair.mesh_mean(),
     };
-    let damping_field = if m.damping.is_some() {
-        f("damping")
-    } else {
-        f("damping_ratio")
-    };
-    crate::scene::validate::mesh_rates(&f("stiffness"), k_max, &damping_field, damping, m_e)?;
-    crate::scene::validate::damping_ratio_range(&damping_field, damping, k_mean, m_e)?;
+    let damping = super::mesh::damping(&f, m, k_mean, k_max, m_e)?;
 
     let initial_phase = match (i, m.initial_phase) {
         (0, p) => finite(&f("initial_phase"), p.unwrap_or(0.0))?,
@@ -691,19 +651,19 @@ fn mesh(
     // A geometry mesh defines its operating pressure angle α_w (docs/train.md, "Gears and
     // geometry meshes").
     let working = match &m.stiffness {
-        Some(s) => crate::scene::geometry::working_pressure_angle(s, &f("stiffness"))?,
+        Some(s) => super::geometry::working_pressure_angle(s, &f("stiffness"))?,
         None => None,
     };
     let pressure_angle = match (m.pressure_angle, working) {
         (Some(deg), Some((alpha_w, field))) => {
             let given = pressure_angle(&f("pressure_angle"), deg)?;
-            if ((given - alpha_w) / alpha_w).abs() > crate::scene::geometry::BASE_RADIUS_TOL {
+            if ((given - alpha_w) / alpha_w).abs() > super::geometry::BASE_RADIUS_TOL {
                 return err(format!(
                     "{} = {deg}: differs from the working pressure angle {:.6}° of {field} by more \
                      than {:e} (relative); omit pressure_angle to use the geometry's",
                     f("pressure_angle"),
                     alpha_w.to_degrees(),
-                    crate::scene::geometry::BASE_RADIUS_TOL
+                    super::geometry::BASE_RADIUS_TOL
                 ));
             }
             given
@@ -756,7 +716,7 @@ fn mesh(
                 pair,
                 ..
             },
-        ) => Some(super::friction::validate(
+        ) => Some(crate::scene::train::friction::validate(
             &f("friction"),
             spec,
             gp,
@@ -952,7 +912,7 @@ fn pair_stiffness(field: &str, spec: &PairStiffnessSpec) -> Result<PairStiffness
     }
 }
 
-fn gap_table(field: &str, g: &super::spec::GapTableSpec, c: f64) -> Result<GapTable> {
+fn gap_table(field: &str, g: &crate::scene::spec::GapTableSpec, c: f64) -> Result<GapTable> {
     if g.points.len() != g.values.len() || g.points.len() < 2 {
         return err(format!(
             "{field}.values: {} values for {} points; need the same number, at least 2",
@@ -1184,7 +1144,7 @@ const MAX_MASS_SPREAD: f64 = 1e10;
 /// `simulate` (issue 34: an inertia of 1e-158 hung the reduction's SVD).
 pub(crate) fn recheck_gears(gears: &[TrainGear]) -> std::result::Result<(), String> {
     for (i, g) in gears.iter().enumerate() {
-        crate::scene::validate::gear_compliance(&format!("gear[{i}]"), g.base_radius, g.inertia)
+        super::checks::gear_compliance(&format!("gear[{i}]"), g.base_radius, g.inertia)
             .map_err(|e| e.to_string())?;
     }
     mass_spread(gears).map_err(|e| e.to_string())
@@ -1220,90 +1180,6 @@ fn mass_spread(gears: &[TrainGear]) -> Result<()> {
         }
     }
     Ok(())
-}
-
-/// The error keys of a `[[gear]]`, in either scene format.
-pub(crate) struct ErrorKeys<'a> {
-    pub runout: &'a Option<super::spec::RunoutSpec>,
-    pub pitch_errors: &'a Option<Vec<f64>>,
-    pub cumulative_pitch_errors: &'a Option<Vec<f64>>,
-}
-
-/// Runout and pitch tables of a gear (`docs/errors.md`): finite values, a non-negative runout
-/// amplitude, one pitch value per tooth, and one pitch key only.
-pub(crate) fn gear_errors(
-    f: &dyn Fn(&str) -> String,
-    name: &str,
-    teeth: u32,
-    g: ErrorKeys,
-) -> Result<crate::mesh::errors::GearErrors> {
-    use crate::mesh::errors::{cumulative_from_individual, GearErrors, Runout};
-    let runout = match g.runout {
-        Some(r) => {
-            let amplitude = r.amplitude;
-            if !(amplitude.is_finite() && amplitude >= 0.0) {
-                return err(format!(
-                    "{}.amplitude = {amplitude}: the runout (eccentricity) amplitude must be a \
-                     finite number >= 0 in m; give its direction with runout.phase",
-                    f("runout")
-                ));
-            }
-            Some(Runout {
-                amplitude,
-                phase: finite(&format!("{}.phase", f("runout")), r.phase)?,
-            })
-        }
-        None => None,
-    };
-    let table = |key: &str, values: &[f64]| -> Result<()> {
-        if values.len() != teeth as usize {
-            return err(format!(
-                "{} has {} values: a pitch table needs one value per tooth, {teeth} for gear {:?}",
-                f(key),
-                values.len(),
-                name
-            ));
-        }
-        for (i, &v) in values.iter().enumerate() {
-            finite(&format!("{}[{i}]", f(key)), v)?;
-        }
-        Ok(())
-    };
-    let cumulative_pitch = match (g.pitch_errors, g.cumulative_pitch_errors) {
-        (Some(_), Some(_)) => {
-            return err(format!(
-                "{} and {}: give one of them (the cumulative table is the running sum of the \
-                 individual one)",
-                f("pitch_errors"),
-                f("cumulative_pitch_errors")
-            ))
-        }
-        (Some(individual), None) => {
-            table("pitch_errors", individual)?;
-            let cumulative = cumulative_from_individual(individual);
-            // Around a whole gear the single pitches add up to the circumference: their
-            // deviations sum to zero (ISO 1328-1), else the last tooth would not close on the first.
-            let sum = cumulative[cumulative.len() - 1];
-            let scale: f64 = individual.iter().map(|v| v.abs()).sum();
-            if sum.abs() > 1e-9 * scale {
-                return err(format!(
-                    "{}: the individual pitch deviations sum to {sum:e} m, not 0: around the \
-                     gear they must close (or give cumulative_pitch_errors)",
-                    f("pitch_errors")
-                ));
-            }
-            cumulative
-        }
-        (None, Some(cumulative)) => {
-            table("cumulative_pitch_errors", cumulative)?;
-            cumulative.clone()
-        }
-        (None, None) => Vec::new(),
-    };
-    Ok(GearErrors {
-        runout,
-        cumulative_pitch,
-    })
 }
 
 /// A gear with errors in several meshes sees them at different places around its rim: the

@@ -1,0 +1,58 @@
+//! What the master runs: the system, the algorithm and coupling, the order, the recorded
+//! columns and the watches (divergence, interrupt).
+
+use super::check::System;
+use crate::host::description::VarType;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Algorithm {
+    Jacobi,
+    GaussSeidel,
+}
+
+/// How a connection's value reaches its consumer over a step.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Coupling {
+    Hold,
+    Extrapolate,
+    Interpolate,
+}
+
+/// One CSV column: an output port of the links (`port`) or another variable.
+#[derive(Debug, Clone)]
+pub struct Column {
+    pub element: usize,
+    pub vr: u32,
+    pub var_type: VarType,
+    pub name: String,
+    pub port: Option<usize>,
+}
+
+/// Everything decided before the FMUs are loaded.
+pub struct Plan<'a> {
+    pub system: System,
+    pub algorithm: Algorithm,
+    pub order: Vec<usize>,
+    /// Per link: whether its consumer steps before its producer (Gauss–Seidel).
+    pub cut: Vec<bool>,
+    pub coupling: Vec<Coupling>,
+    /// Distinct producer ports `(element, vr, type)`; `port_of[link]` indexes them.
+    pub ports: Vec<(usize, u32, VarType)>,
+    pub port_of: Vec<usize>,
+    /// Ports whose first derivative is read after each step (for [`Coupling::Extrapolate`]).
+    pub needs_derivative: Vec<bool>,
+    /// In fmpy's order: Reals, then Integers, then Booleans.
+    pub columns: Vec<Column>,
+    pub start_time: f64,
+    pub stop_time: f64,
+    pub h: f64,
+    /// Every FMU has `canHandleVariableCommunicationStepSize="true"`.
+    pub can_vary: bool,
+    /// Threads for the `fmi2DoStep` calls of a Jacobi step ([`super::parallel`]; 1: serial).
+    pub threads: usize,
+    /// The ports watched for divergence, with their units ([`super::divergence`]), and the
+    /// growth factor that stops the run (0: off).
+    pub watched: Vec<(usize, String)>,
+    pub divergence_factor: f64,
+    pub interrupt: Option<&'a std::sync::atomic::AtomicBool>,
+}

@@ -1,0 +1,202 @@
+//! The drivetrain as a hybrid system for the RK integrator ([`HybridSystem`]): the right-hand
+//! side, the contact guards as state events and the knots as stops, the event maps.
+
+use super::*;
+
+/// The sign of a guard relative to the slot deflection.
+pub(super) fn surface_sign(surface: Surface) -> f64 {
+    match surface {
+        Surface::Drive | Surface::SepBack => 1.0,
+        Surface::SepDrive | Surface::Back => -1.0,
+    }
+}
+
+impl HybridSystem for GearTrain {
+    fn dim(&self) -> usize {
+        2 * self.m + self.rotation.as_ref().map_or(0, |r| r.extra_dim())
+    }
+
+    fn rhs(&self, t: f64, y: &[f64], dy: &mut [f64]) {
+        // With elements the train's torques are those of their shafts, from the state.
+        // With elements or speed ports the train's torques are those of their shafts and
+        // couplings, from the state.
+        let given = self.torques_at(t);
+        let torques = (self.rotation.as_ref()).and_then(|rot| rot.train_torques(t, y, given));
+        if let Some(rot) = &self.rotation {
+            rot.rigid_rhs(self, t, y, dy, torques.unwrap_or(given));
+        }
+        let m = self.m;
+        let mut acc = self.scratch.borrow_mut();
+        for i in 0..m {
+            dy[i] = y[m + i];
+            let mut f = match torques {
+                Some((t_in, t_load)) => self.external_force(i, t_in, t_load),
+                None => self.f_ext[i],
+            };
+            for k in 0..m {
+                f -= self.k_b[i * m + k] * y[k] + self.c[i * m + k] * y[m + k];
+            }
+            acc[i] = f;
+        }
+        // The torques from the state already hold the ramps of `torques_at`.
+        if self.force_ramp && torques.is_none() {
+            for (a, r) in acc.iter_mut().zip(&self.f_rate) {
+                *a += r * (t - self.f_anchor);
+            }
+        }
+        for n in 0..self.meshes.len() {
+            if self.meshes[n].friction.is_some() {
+                self.add_friction_mesh_force(n, t, y, &mut acc);
+                continue;
+            }
+            let force = self.mesh_force(n, t, y, None);
+            let a = &self.meshes[n].a;
+            for i in 0..m {
+                acc[i] -= a[i] * force;
+            }
+        }
+        if m == 1 {
+            dy[1] = acc[0] / self.m_hat[0];
+        } else {
+            for i in 0..m {
+                dy[m + i] = (0..m).map(|k| self.minv[i * m + k] * acc[k]).sum();
+            }
+        }
+    }
+
+    fn guard_count(&self) -> usize {
+        self.guards.len() + self.rotation.as_ref().map_or(0, |r| r.knot_count())
+    }
+
+    /// `∂f/∂y` of the frozen mode, `[[0, I], [−M̂⁻¹(K̂_b + Σ k_n a_n a_nᵀ), −M̂⁻¹(Ĉ + Σ c_n a_n
+    /// a_nᵀ)]]` with `k_n` the stiffness of mesh n's slots in contact and `c_n` its damping
+    /// while any is (the STE and gaps are functions of time only). Tooth friction is not
+    /// covered (its arms move with the phase).
+    fn jacobian(&self, t: f64, _y: &[f64], jac: &mut [f64]) -> bool {
+        if self.rotation.is_some() || self.meshes.iter().any(|mesh| mesh.friction.is_some()) {
+            return false;
+        }
+        let gains = self.meshes.iter().map(|mesh| {
+            let p = mesh.clock.phase_at(t);
+            let mut kn = 0.0;
+            let mut touching = false;
+            for (j, flag) in mesh.flags.iter().enumerate() {
+                if matches!(flag, SlotContact::Drive | SlotContact::Back) {
+                    let law = mesh.law(j).expect("a slot in contact is engaged");
+                    kn += mesh.k(j, p, &law);
+                    touching = true;
+                }
+            }
+            (kn, if touching { mesh.damping } else { 0.0 })
+        });
+        self.jacobian_parts.fill(gains, jac);
+        true
+    }
+
+    fn guards(&self, t: f64, y: &[f64], g: &mut [f64]) {
+        for (slot, &(n, j, surface)) in g.iter_mut().zip(&self.guards) {
+            let delta = self.slot_gap(n, j, t, y).map_or(0.0, |v| v.0);
+            let back = delta + self.meshes[n].clearance();
+            *slot = match surface {
+                Surface::Drive => delta,
+                Surface::SepDrive => -delta,
+                Surface::SepBack => back,
+                Surface::Back => -back,
+            };
+        }
+        if let Some(rot) = &self.rotation {
+            rot.knot_guards(self, t, y, &mut g[self.guards.len()..]);
+        }
+    }
+
+    /// Slot gaps `±(a·ξ − e(p) − g_j(r)) (+ clearance)`: gradient `±a` over the positions,
+    /// explicit time derivative `∓(ė + g1 f)`.
+    fn guard_gradient(&self, t: f64, _y: &[f64], index: usize, grad: &mut [f64]) -> Option<f64> {
+        if self.rotation.is_some() {
+            // The gaps depend on the carried angle through the phase: not affine.
+            return None;
+        }
+        let (n, j, surface) = self.guards[index];
+        let sign = surface_sign(surface);
+        let mesh = &self.meshes[n];
+        grad.fill(0.0);
+        // A slot without a law has the constant guard 0 (see `guards`).
+        let Some(law) = mesh.law(j) else {
+            return Some(0.0);
+        };
+        for (g, a) in grad.iter_mut().zip(&mesh.a) {
+            *g = sign * a;
+        }
+        let (p, f) = mesh.clock.phase_and_frequency(t);
+        let slope = mesh.ste_at(p).1;
+        Some(-sign * (slope * f + law.g1 * f))
+    }
+
+    /// Slot gaps are affine in the state; the time part `e(p) + g0 + g1 r` has the STE's
+    /// curvature only (`r` runs linearly between stops): `|ë| ≤ (2π f)² Σ_h h² |(a_h, b_h)|`.
+    /// On a speed ramp (`docs/runup.md`) `f` is the larger of its values at the ends, and the
+    /// ramp adds `|ḟ| Σ_h 2πh |(a_h, b_h)| + |g1 ḟ|` (`ë = e'' f² + e' ḟ`, `r̈ = ḟ`).
+    fn affine_guard(&self, index: usize, t0: f64, t1: f64, w: &mut [f64]) -> Option<f64> {
+        if self.rotation.is_some() {
+            return None;
+        }
+        let (n, j, _) = self.guards[index];
+        self.guard_gradient(t0, &[], index, w)?;
+        let mesh = &self.meshes[n];
+        let f = mesh.clock.frequency_at(t0).max(mesh.clock.frequency_at(t1));
+        let omega = TAU * f;
+        let curvature: f64 = (mesh.ste.coefficients().iter().enumerate())
+            .map(|(i, &(a, b))| ((i + 1) as f64 * omega).powi(2) * a.hypot(b))
+            .sum::<f64>()
+            + mesh.errors.curvature_bound() * f.powi(2);
+        let rate = mesh.clock.rate();
+        if rate == 0.0 {
+            return Some(curvature);
+        }
+        let g1 = mesh.law(j).map_or(0.0, |l| l.g1);
+        let slope: f64 = (mesh.ste.coefficients().iter().enumerate())
+            .map(|(i, &(a, b))| TAU * (i + 1) as f64 * a.hypot(b))
+            .sum::<f64>()
+            + mesh.errors.slope_bound();
+        Some(curvature + rate.abs() * (slope + g1.abs()))
+    }
+
+    fn next_stop(&self) -> f64 {
+        if self.rotation.is_some() {
+            // Stiffness knots are state events on the pinion angle.
+            return f64::INFINITY;
+        }
+        self.meshes
+            .iter()
+            .map(MeshRt::next_stop)
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Switches every mesh whose interval ends at `t`, each past any interval that ends at `t`
+    /// too: an interval narrower than the time resolution (trapezoidal ramps that touch) lasts
+    /// no time. At most one cycle of intervals per mesh, as for the single pair.
+    fn on_stop(&mut self, t: f64, y: &mut [f64]) {
+        let due: Vec<usize> = (0..self.meshes.len())
+            .filter(|&n| self.meshes[n].next_stop() <= t)
+            .collect();
+        for n in due {
+            let count = self.meshes[n].table().map_or(1, |tb| tb.intervals.len());
+            for _ in 0..count {
+                self.on_mesh_stop(n, t, y);
+                if self.meshes[n].next_stop() > t {
+                    break;
+                }
+            }
+            self.book_loss(n, t);
+        }
+        self.refresh_guards();
+    }
+
+    fn on_event(&mut self, t: f64, y: &mut [f64], index: usize) {
+        if index >= self.guards.len() {
+            self.knot_event(t, y, index - self.guards.len());
+            return;
+        }
+        self.switch_slot(t, None, y, index);
+    }
+}

@@ -1,0 +1,345 @@
+//! The drivetrain as a piecewise-LTI system for the exact propagator ([`PiecewiseLti`]):
+//! the lifted state (STE harmonics, phase ramps, a constant), the segment matrices, the guard
+//! rows and the mode keys.
+
+use super::*;
+
+impl GearTrain {
+    /// The contact switch of guard `index` at an event at `t`: snaps `ξ` onto the crossed
+    /// surface and switches the slot. With the lifted event state `z`, a one-DOF train reads
+    /// its STE from the propagated harmonic states (as the single pair does).
+    pub(super) fn switch_slot(&mut self, t: f64, z: Option<&[f64]>, y: &mut [f64], index: usize) {
+        let (n, j, surface) = self.guards[index];
+        let clearance = self.meshes[n].clearance();
+        let (level, next) = match surface {
+            Surface::Drive => (0.0, SlotContact::Separated),
+            Surface::SepDrive => (0.0, SlotContact::Drive),
+            Surface::SepBack => (-clearance, SlotContact::Back),
+            Surface::Back => (-clearance, SlotContact::Separated),
+        };
+        // Snap onto the surface δ = level (numerics-notes §2.1): the smallest mass-weighted
+        // change of ξ that puts S_n − e_n − g_j at `level`.
+        if let Some((delta, _, _)) = self.slot_gap(n, j, t, y) {
+            let m = self.m;
+            let a = &self.meshes[n].a;
+            if m == 1 {
+                // S = a·ξ must equal e + g + level; formed like the single pair (`x = e + surface`).
+                let mesh = &self.meshes[n];
+                let p = self.phase_of(n, t, y);
+                let g = mesh.law(j).map_or(0.0, |l| l.g(mesh.local(p)));
+                let e = match z {
+                    Some(z) => mesh.ste.value_from_harmonics(&z[self.forcing_base(n)..]),
+                    None => mesh.ste_at(p).0,
+                };
+                y[0] = (e + g + level) / a[0];
+            } else {
+                let w: Vec<f64> = (0..m)
+                    .map(|i| (0..m).map(|k| self.minv[i * m + k] * a[k]).sum())
+                    .collect();
+                let aw: f64 = (0..m).map(|i| a[i] * w[i]).sum();
+                let step = (level - delta) / aw;
+                for i in 0..m {
+                    y[i] += w[i] * step;
+                }
+            }
+        }
+        self.meshes[n].flags[j] = next;
+        self.book_loss(n, t);
+        if let Some(log) = &mut self.event_log {
+            log.push((t, n, j, next));
+        }
+        self.refresh_guards();
+    }
+
+    /// First lifted entry of every mesh's forcing block (its STE harmonics, then its phase
+    /// ramp if it has one), after the state `y`.
+    pub(super) fn harmonic_base(&self) -> Vec<usize> {
+        let mut base = Vec::with_capacity(self.meshes.len());
+        let mut k = self.dim();
+        for mesh in &self.meshes {
+            base.push(k);
+            k += 2 * mesh.ste.harmonics() + usize::from(self.phase_ramp(mesh));
+        }
+        base
+    }
+
+    /// [`GearTrain::harmonic_base`] of mesh n alone (no allocation: called at every event).
+    pub(super) fn forcing_base(&self, n: usize) -> usize {
+        self.dim()
+            + (self.meshes[..n].iter())
+                .map(|k| 2 * k.ste.harmonics() + usize::from(self.phase_ramp(k)))
+                .sum::<usize>()
+    }
+
+    /// Whether mesh's forcing block ends with a phase ramp `r = s − interval start`: for
+    /// affine gaps in the nominal form, and always with the carried rotation, where `r` is
+    /// affine in the state and carries the knot guards (`rotating::lti`).
+    pub(super) fn phase_ramp(&self, mesh: &MeshRt) -> bool {
+        mesh.ramp || self.rotation.is_some()
+    }
+
+    /// Lifted entry of `t − f_anchor` (the time along a torque ramp of the carried rotation:
+    /// the FMU's input derivatives), if the lifted state has it; the constant is after it.
+    pub(super) fn ramp_time_index(&self) -> Option<usize> {
+        (self.rotation.is_some() && self.force_ramp).then(|| self.lti_dim() - 2)
+    }
+
+    /// Row of the slot deflection `δ_j = S − e − g_j` over the augmented state.
+    pub(super) fn delta_row(&self, n: usize, j: usize, base: usize, w: &mut [f64]) {
+        let mesh = &self.meshes[n];
+        w[..self.m].copy_from_slice(&mesh.a);
+        for (i, &(ah, bh)) in mesh.ste.coefficients().iter().enumerate() {
+            w[base + 2 * i] -= ah;
+            w[base + 2 * i + 1] -= bh;
+        }
+        if let Some(l) = mesh.law(j) {
+            let last = w.len() - 1;
+            w[last] -= l.g0;
+            if self.phase_ramp(mesh) {
+                w[base + 2 * mesh.ste.harmonics()] -= l.g1;
+            }
+        }
+    }
+}
+
+impl PiecewiseLti for GearTrain {
+    /// The STE at the event from the propagated harmonic states (one-DOF trains, as the
+    /// single pair).
+    fn on_event_lifted(&mut self, t: f64, z: &[f64], y: &mut [f64], index: usize) {
+        if index >= self.guards.len() {
+            self.knot_event(t, y, index - self.guards.len());
+            return;
+        }
+        self.switch_slot(t, Some(z), y, index);
+    }
+
+    /// Harmonic states and the constant are continuous; a stiffness ramp restarts at every
+    /// piece (the carried rotation always has one per mesh).
+    fn forcing_carries_over(&self) -> bool {
+        self.meshes.iter().all(|mesh| !self.phase_ramp(mesh))
+    }
+
+    /// With a linear contact law on every mesh a stop only moves a mesh to its next stiffness
+    /// piece (its slots are classified in contact whatever the state) and books nothing that
+    /// depends on `y`.
+    fn stops_independent_of_state(&self) -> bool {
+        self.meshes
+            .iter()
+            .all(|mesh| mesh.contact == ContactLaw::Linear)
+    }
+
+    fn lti_dim(&self) -> usize {
+        self.dim()
+            + self
+                .meshes
+                .iter()
+                .map(|m| 2 * m.ste.harmonics() + usize::from(self.phase_ramp(m)))
+                .sum::<usize>()
+            + usize::from(self.rotation.is_some() && self.force_ramp)
+            + 1
+    }
+
+    /// `z = [y, per mesh (cos 2πhp, sin 2πhp)_h and the ramp r = s − start, 1]`; with the
+    /// carried rotation on a torque ramp `t − f_anchor` before the constant.
+    fn lift(&self, t: f64, y: &[f64], z: &mut [f64]) {
+        z[..y.len()].copy_from_slice(y);
+        for ((n, mesh), base) in self.meshes.iter().enumerate().zip(self.harmonic_base()) {
+            let p = self.phase_of(n, t, y);
+            let pf = crate::mesh::cycle_fraction(p);
+            for h in 1..=mesh.ste.harmonics() {
+                let (s, c) = (TAU * h as f64 * pf).sin_cos();
+                z[base + 2 * (h - 1)] = c;
+                z[base + 2 * (h - 1) + 1] = s;
+            }
+            if self.phase_ramp(mesh) {
+                z[base + 2 * mesh.ste.harmonics()] = mesh.local(p);
+            }
+        }
+        if let Some(u) = self.ramp_time_index() {
+            z[u] = t - self.f_anchor;
+        }
+        let last = z.len() - 1;
+        z[last] = 1.0;
+    }
+
+    fn lti_matrix(&self, a: &mut DMatrix<f64>) {
+        a.fill(0.0);
+        let nz = a.nrows();
+        let last = nz - 1;
+        let m = self.m;
+        // Generalised force rows over z (before M̂⁻¹): f_ext − K_b ξ − C ξ' − Σ a_n F_n.
+        let mut force = DMatrix::<f64>::zeros(m, nz);
+        let torque_rows =
+            (self.rotation.as_ref()).map(|rot| rot.torque_rows(self, nz, self.ramp_time_index()));
+        for i in 0..m {
+            match &torque_rows {
+                // The port or shaft torques over z, through the same map as `external_force`.
+                Some([t_in, t_load]) => {
+                    let (per_in, per_load) = (
+                        self.external_force(i, 1.0, 0.0),
+                        self.external_force(i, 0.0, 1.0),
+                    );
+                    for col in 0..nz {
+                        force[(i, col)] = per_in * t_in[col] + per_load * t_load[col];
+                    }
+                }
+                None => force[(i, last)] = self.f_ext[i],
+            }
+            for k in 0..m {
+                force[(i, k)] -= self.k_b[i * m + k];
+                force[(i, m + k)] -= self.c[i * m + k];
+            }
+        }
+        let bases = self.harmonic_base();
+        let mut w = vec![0.0; nz];
+        let mut row = vec![0.0; nz];
+        for (n, mesh) in self.meshes.iter().enumerate() {
+            let base = bases[n];
+            let omega = TAU * mesh.clock.mesh_frequency();
+            let f = mesh.clock.mesh_frequency();
+            row.fill(0.0);
+            let mut touching = false;
+            for (j, flag) in mesh.flags.iter().enumerate() {
+                let offset = match flag {
+                    SlotContact::Inactive | SlotContact::Separated => continue,
+                    SlotContact::Drive => 0.0,
+                    SlotContact::Back => mesh.clearance(),
+                };
+                let law = mesh.law(j).expect("engaged");
+                w.fill(0.0);
+                self.delta_row(n, j, base, &mut w);
+                w[last] += offset;
+                for (r, v) in row.iter_mut().zip(&w) {
+                    *r += law.k0 * v;
+                }
+                touching = true;
+            }
+            if touching && mesh.damping != 0.0 {
+                let c = mesh.damping;
+                for i in 0..m {
+                    row[m + i] += c * mesh.a[i];
+                }
+                for (i, &(ah, bh)) in mesh.ste.coefficients().iter().enumerate() {
+                    let h = (i + 1) as f64;
+                    // ė = Σ hω(−a_h sin + b_h cos).
+                    row[base + 2 * i] -= c * h * omega * bh;
+                    row[base + 2 * i + 1] += c * h * omega * ah;
+                }
+            }
+            for i in 0..m {
+                for col in 0..nz {
+                    force[(i, col)] -= mesh.a[i] * row[col];
+                }
+            }
+            for (i, _) in mesh.ste.coefficients().iter().enumerate() {
+                let h = (i + 1) as f64;
+                let (ci, si) = (base + 2 * i, base + 2 * i + 1);
+                a[(ci, si)] = -h * omega;
+                a[(si, ci)] = h * omega;
+            }
+            if mesh.ramp && self.rotation.is_none() {
+                a[(base + 2 * mesh.ste.harmonics(), last)] = f;
+            }
+        }
+        if let (Some(rot), Some(rows)) = (&self.rotation, &torque_rows) {
+            let ramps: Vec<usize> = (self.meshes.iter().zip(&bases))
+                .map(|(mesh, &base)| base + 2 * mesh.ste.harmonics())
+                .collect();
+            rot.lti_rows(self, rows, &ramps, a);
+            if let Some(u) = self.ramp_time_index() {
+                a[(u, last)] = 1.0;
+            }
+        }
+        for i in 0..m {
+            a[(i, m + i)] = 1.0;
+            for col in 0..nz {
+                a[(m + i, col)] = if m == 1 {
+                    force[(0, col)] / self.m_hat[0]
+                } else {
+                    (0..m).map(|k| self.minv[i * m + k] * force[(k, col)]).sum()
+                };
+            }
+        }
+    }
+
+    fn guard_row(&self, index: usize, w: &mut [f64]) {
+        w.fill(0.0);
+        if index >= self.guards.len() {
+            let rot = self
+                .rotation
+                .as_ref()
+                .expect("knot guards need the rotation");
+            let n = rot.knot_mesh(index - self.guards.len());
+            let ramp = self.forcing_base(n) + 2 * self.meshes[n].ste.harmonics();
+            rot.knot_guard_row(&self.meshes[n], index - self.guards.len(), ramp, w);
+            return;
+        }
+        let (n, j, surface) = self.guards[index];
+        let base = self.harmonic_base()[n];
+        self.delta_row(n, j, base, w);
+        let last = w.len() - 1;
+        let clearance = self.meshes[n].clearance();
+        let (sign, offset) = match surface {
+            Surface::Drive => (1.0, 0.0),
+            Surface::SepDrive => (-1.0, 0.0),
+            Surface::SepBack => (1.0, clearance),
+            Surface::Back => (-1.0, clearance),
+        };
+        w[last] += offset;
+        for v in w.iter_mut() {
+            *v *= sign;
+        }
+    }
+
+    fn mode_key(&self, key: &mut crate::solve::exact::ModeKey) {
+        for mesh in &self.meshes {
+            let intervals = mesh.table().map_or(1, |t| t.intervals.len()) as u64;
+            key.push(mesh.interval as u64, intervals);
+            for f in &mesh.flags {
+                key.push(*f as u64, 4);
+            }
+        }
+    }
+
+    fn max_frequency(&self) -> f64 {
+        // ‖M̂⁻¹ K_max‖_∞ bounds the largest ω² of any mode.
+        let m = self.m;
+        let mut k = DMatrix::from_row_slice(m, m, &self.k_b);
+        for mesh in &self.meshes {
+            let kmax = match &mesh.stiffness {
+                Stiffness::Table(t) => t.max_total_stiffness(),
+                Stiffness::Smooth { mean, series, .. } => mean + series.amplitude_bound(),
+            };
+            let a = DVector::from_column_slice(&mesh.a);
+            k += kmax * &a * a.transpose();
+            if let Some(fr) = &mesh.friction {
+                // The friction stiffness (w0 b0 + w1 b1) aᵀ at its largest weights.
+                let t = DVector::from_iterator(
+                    m,
+                    fr.b0
+                        .iter()
+                        .zip(&fr.b1)
+                        .map(|(b0, b1)| b0.abs() * fr.bound.0 + b1.abs() * fr.bound.1),
+                );
+                k += t * a.abs().transpose();
+            }
+        }
+        let minv = DMatrix::from_row_slice(m, m, &self.minv);
+        let prod = minv * k;
+        let bound = (0..m)
+            .map(|i| (0..m).map(|j| prod[(i, j)].abs()).sum::<f64>())
+            .fold(0.0, f64::max);
+        let harmonic = self
+            .meshes
+            .iter()
+            .map(|mesh| TAU * mesh.clock.mesh_frequency() * mesh.ste.harmonics() as f64)
+            .fold(0.0, f64::max);
+        match &self.rotation {
+            // The element shafts on their bodies add their own modes (Gershgorin).
+            Some(rot) => (bound + rot.shaft_frequency_bound(self).powi(2))
+                .sqrt()
+                .max(harmonic),
+            None => bound.sqrt().max(harmonic),
+        }
+    }
+}

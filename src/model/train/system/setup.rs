@@ -1,0 +1,188 @@
+//! What [`GearTrain::new`] derives from the scene besides the assembly: each mesh's
+//! manufacturing errors seen in the mesh, the nominal rotation, and the cycle tables of the
+//! pair-based models (Liu 2007 Models 1–3).
+
+use super::*;
+
+/// The errors of mesh `n`'s two gears as the mesh sees them (`docs/errors.md`): the line of
+/// action `β_n = centre_angle + σ_a·pressure_angle` of the assembly, and per gear the teeth
+/// between this mesh and the gear's first mesh, `k = round(σ_g z (α_n − α_1)/2π)` with `α` the
+/// direction from the gear's centre to its mate (teeth numbered against the rotation, so the
+/// tooth at a mesh further along the rotation sense has a lower number).
+pub(super) fn mesh_errors(scene: &TrainScene, n: usize, p0: f64, offset: f64) -> MeshErrors {
+    let sm = &scene.meshes[n];
+    let beta = sm.centre_angle + scene.rotation[sm.pinion] * sm.pressure_angle;
+    let towards_mate = |g: usize, m: &crate::scene::train::TrainMesh| {
+        if m.pinion == g {
+            m.centre_angle
+        } else {
+            m.centre_angle + std::f64::consts::PI
+        }
+    };
+    let gear = |g: usize, side: f64| {
+        let first = scene
+            .meshes
+            .iter()
+            .find(|m| m.pinion == g || m.gear == g)
+            .expect("the gear takes part in mesh n");
+        let z = scene.gears[g].teeth;
+        let turn =
+            scene.rotation[g] * f64::from(z) * (towards_mate(g, sm) - towards_mate(g, first)) / TAU;
+        GearInMesh {
+            errors: &scene.gears[g].errors,
+            teeth: z,
+            side,
+            sense: scene.rotation[g],
+            line_of_action: beta,
+            tooth_offset: turn.round() as i64,
+        }
+    };
+    MeshErrors::new(&[gear(sm.pinion, 1.0), gear(sm.gear, -1.0)], p0, offset)
+}
+
+/// The nominal motion per rad/s of input speed in the physical coordinates (`u_b = ρ_b θ_b`,
+/// translations 0): rolling without slip on the base circles, `d_n·v = 0` for every mesh (so
+/// the nominal motion deflects no mesh even where tabulated radii and tooth counts differ in
+/// the last digits), and coaxial gears on an elastic shaft turning together. Parts the input
+/// does not drive stand still.
+pub(super) fn nominal_rotation(scene: &TrainScene, asm: &Assembly) -> DVector<f64> {
+    let bodies = asm.body_radius.len();
+    let mut omega: Vec<Option<f64>> = vec![None; bodies];
+    omega[asm.body_of[scene.input_gear]] = Some(1.0);
+    let mut changed = true;
+    while changed {
+        changed = false;
+        for (n, m) in scene.meshes.iter().enumerate() {
+            let (a, b) = (asm.body_of[m.pinion], asm.body_of[m.gear]);
+            // d_n·v = 0 on the two rotations: c_a ρ_a ω_a + c_b ρ_b ω_b = 0.
+            let ca = asm.mesh[n][asm.body_dof[a]] * asm.body_radius[a];
+            let cb = asm.mesh[n][asm.body_dof[b]] * asm.body_radius[b];
+            match (omega[a], omega[b]) {
+                (Some(wa), None) => {
+                    omega[b] = Some(-ca * wa / cb);
+                    changed = true;
+                }
+                (None, Some(wb)) => {
+                    omega[a] = Some(-cb * wb / ca);
+                    changed = true;
+                }
+                _ => {}
+            }
+        }
+        for s in &scene.shafts {
+            let (a, b) = (asm.body_of[s.gears[0]], asm.body_of[s.gears[1]]);
+            match (omega[a], omega[b]) {
+                (Some(w), None) => {
+                    omega[b] = Some(w);
+                    changed = true;
+                }
+                (None, Some(w)) => {
+                    omega[a] = Some(w);
+                    changed = true;
+                }
+                _ => {}
+            }
+        }
+    }
+    let mut v = DVector::zeros(asm.dim());
+    for (body, w) in omega.iter().enumerate() {
+        v[asm.body_dof[body]] = asm.body_radius[body] * w.unwrap_or(0.0);
+    }
+    v
+}
+
+/// The closed form of a free single pair: one mesh, two rotating bodies (the input and the
+/// output), nothing else. Returns `(d_θ, J)` per body, `d_θ = ±r_b` the mesh vector in
+/// rotation angle and `J` the body inertia.
+pub(super) fn pair_closed_form(
+    scene: &TrainScene,
+    asm: &Assembly,
+    m: usize,
+    rigid: usize,
+) -> Option<[(f64, f64); 2]> {
+    let single = m == 1
+        && rigid == 1
+        && asm.dim() == 2
+        && scene.meshes.len() == 1
+        && asm.k_base.iter().all(|&v| v == 0.0)
+        && asm
+            .dofs
+            .iter()
+            .all(|d| matches!(d, DofKind::Rotation { .. }));
+    if !single {
+        return None;
+    }
+    let mesh = &scene.meshes[0];
+    let body = |g: usize| -> (f64, f64) {
+        let b = asm.body_of[g];
+        let j: f64 = (0..scene.gears.len())
+            .filter(|&k| asm.body_of[k] == b)
+            .map(|k| scene.gears[k].inertia)
+            .sum();
+        let r = scene.gears[g].base_radius;
+        let d = if g == mesh.pinion { r } else { -r };
+        (d, j)
+    };
+    let (i, o) = (scene.input_gear, scene.output_gear);
+    let on_mesh = |g: usize| g == mesh.pinion || g == mesh.gear;
+    (on_mesh(i) && on_mesh(o) && asm.body_of[i] != asm.body_of[o]).then(|| [body(i), body(o)])
+}
+
+/// Model-3 table: one slot with the total engaged stiffness and the NLTE as gap (eq. 2.11).
+pub(super) fn nlte_table(pairs: &CycleTable) -> CycleTable {
+    let nlte = loaded_ste(pairs, 0.0);
+    single_slot_table(pairs, &nlte, |iv, r| {
+        let k0: f64 = iv.laws.iter().flatten().map(|l| l.k(r)).sum();
+        let k1: f64 = iv.laws.iter().flatten().map(|l| l.k1).sum();
+        (k0, k1)
+    })
+}
+
+/// Model-2 table: one slot with the mean stiffness and the loaded STE minus its mean as gap
+/// (eq. 2.10), at the static mesh force `force`.
+pub(super) fn loaded_ste_table(pairs: &CycleTable, force: f64, k_mean: f64) -> CycleTable {
+    let ste = loaded_ste(pairs, force);
+    let mean = ste.mean();
+    let shifted = Ste {
+        pieces: ste
+            .pieces
+            .iter()
+            .map(|p| crate::model::train::statics::LinPiece {
+                v0: p.v0 - mean,
+                ..*p
+            })
+            .collect(),
+    };
+    single_slot_table(pairs, &shifted, |_, _| (k_mean, 0.0))
+}
+
+pub(super) fn single_slot_table(
+    pairs: &CycleTable,
+    gap: &Ste,
+    k: impl Fn(&Interval, f64) -> (f64, f64),
+) -> CycleTable {
+    let intervals = gap
+        .pieces
+        .iter()
+        .filter(|p| p.end > p.start)
+        .map(|p| {
+            let iv = &pairs.intervals[pairs.interval_at(0.5 * (p.start + p.end))];
+            let (k0, k1) = k(iv, p.start - iv.start);
+            Interval {
+                start: p.start,
+                end: p.end,
+                laws: vec![Some(SlotLaw {
+                    k0,
+                    k1,
+                    g0: p.v0,
+                    g1: p.slope,
+                })],
+            }
+        })
+        .collect();
+    CycleTable {
+        slots: 1,
+        shift_on_wrap: false,
+        intervals,
+    }
+}

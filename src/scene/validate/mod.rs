@@ -1,0 +1,21 @@
+//! Validation of a scene: the one tree that turns a parsed [`super::spec::SceneSpec`] into
+//! the resolved scene of the kernel [`super::kernel`] chose (ranges, consistency, defaults,
+//! kinematics). Every message names the field as the file wrote it, with its value; nothing
+//! is clamped.
+//!
+//! - [`checks`]: the field checks, `[solver]` and `[initial]`, shared by everything below;
+//! - [`stiffness`], [`geometry`], [`helical`]: the mesh-stiffness sources of any mesh;
+//! - [`mesh`]: what every mesh checks the same (contact law, damping);
+//! - [`errors`]: runout and pitch errors of a gear;
+//! - [`pair`]: a scene on the single-pair kernel;
+//! - [`drivetrain`]: a scene on the drivetrain kernel (topology, kinematics, bearings, shafts,
+//!   ports and elements).
+
+pub(crate) mod checks;
+pub(crate) mod drivetrain;
+pub(crate) mod errors;
+pub(crate) mod geometry;
+pub(crate) mod helical;
+pub(crate) mod mesh;
+pub(crate) mod pair;
+pub(crate) mod stiffness;
