@@ -88,9 +88,11 @@ class Oracle:
 
     def value_ok(self, var, x):
         """Physical ranges from docs/fmu.md and docs/train.md: inertias, radii and backlash
-        > 0; damping (viscous or a modal ratio) and speeds >= 0."""
+        > 0; damping (viscous or a modal ratio) and speeds >= 0; the work budget >= 1."""
         if not math.isfinite(x):
             return False
+        if var.name == "solver.work_budget":  # docs/fmu.md "Work budget": work units >= 1
+            return x >= 1
         positive = {"pinion.base_radius", "gear.base_radius", "mesh.backlash"}
         if var.name in positive or var.name.endswith(".inertia"):
             return x > 0
