@@ -32,6 +32,24 @@ def run_geardyn(*args, check=True):
     return subprocess.run([str(GEARDYN), *map(str, args)], capture_output=True, text=True, check=check)
 
 
+def build_stub_fmu(directory: pathlib.Path, model_description: str) -> pathlib.Path:
+    """Compiles the project's C stub (`tests/fixtures/stub_fmu.c`) and packs it with
+    `model_description` (modelIdentifier "stub") into `directory/stub.fmu`; skips the test
+    where no C compiler is installed."""
+    import zipfile
+
+    cc = shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        pytest.skip("no C compiler (cc) to build the stub FMU")
+    so = directory / "stub.so"
+    subprocess.run([cc, "-shared", "-fPIC", "-O1", "-o", str(so), str(REPO / "tests/fixtures/stub_fmu.c")], check=True)
+    fmu = directory / "stub.fmu"
+    with zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("modelDescription.xml", model_description)
+        z.write(so, "binaries/linux64/stub.so")
+    return fmu
+
+
 FMU_DIR = REPO / "out" / "fmus"
 SCENES = sorted(p.parent for p in (REPO / "fmu").glob("*/scene.toml"))
 # The gear scenes (single mesh or drivetrain); the element scenes (`[element]`,

@@ -6,13 +6,10 @@ stop time off the grid ends the run at the last full grid point (fmpy's rule). O
 the integral of the held input, so any difference in input timing shows.
 """
 
-import shutil
-import subprocess
-import zipfile
 
 import pytest
 
-from conftest import REPO, run_geardyn
+from conftest import build_stub_fmu, run_geardyn
 from test_host_thirdparty import assert_same, fmpy_cli, read
 
 MD = """<?xml version="1.0" encoding="UTF-8"?>
@@ -35,17 +32,7 @@ MD = """<?xml version="1.0" encoding="UTF-8"?>
 
 @pytest.fixture(scope="module")
 def stub(tmp_path_factory):
-    cc = shutil.which("cc") or shutil.which("gcc")
-    if cc is None:
-        pytest.skip("no C compiler (cc) to build the stub FMU")
-    d = tmp_path_factory.mktemp("stub")
-    so = d / "stub.so"
-    subprocess.run([cc, "-shared", "-fPIC", "-O1", "-o", str(so), str(REPO / "tests/fixtures/stub_fmu.c")], check=True)
-    fmu = d / "stub.fmu"
-    with zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as z:
-        z.writestr("modelDescription.xml", MD)
-        z.write(so, "binaries/linux64/stub.so")
-    return fmu
+    return build_stub_fmu(tmp_path_factory.mktemp("stub"), MD)
 
 
 def test_no_variable_step_no_event_cut_and_early_stop(stub, tmp_path, report):

@@ -10,15 +10,12 @@ The C stub FMU of the Rust tests (tests/fixtures/stub_fmu.c, compiled here with 
 y = k·∫u, t = the FMU's time: the rows show exactly where each run stopped.
 """
 
-import shutil
-import subprocess
-import zipfile
 
 import numpy as np
 import pytest
 from fmpy import simulate_fmu
 
-from conftest import REPO, run_geardyn
+from conftest import build_stub_fmu, run_geardyn
 
 MD = """<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="2.0" modelName="stub" guid="{stub-fmu}">
@@ -42,17 +39,7 @@ MD = """<?xml version="1.0" encoding="UTF-8"?>
 
 @pytest.fixture(scope="module")
 def stub(tmp_path_factory):
-    cc = shutil.which("cc") or shutil.which("gcc")
-    if cc is None:
-        pytest.skip("no C compiler (cc) to build the stub FMU")
-    d = tmp_path_factory.mktemp("stub_ends")
-    so = d / "stub.so"
-    subprocess.run([cc, "-shared", "-fPIC", "-O1", "-o", str(so), str(REPO / "tests/fixtures/stub_fmu.c")], check=True)
-    fmu = d / "stub.fmu"
-    with zipfile.ZipFile(fmu, "w", zipfile.ZIP_DEFLATED) as z:
-        z.writestr("modelDescription.xml", MD)
-        z.write(so, "binaries/linux64/stub.so")
-    return fmu
+    return build_stub_fmu(tmp_path_factory.mktemp("stub_ends"), MD)
 
 
 def rows(csv):
