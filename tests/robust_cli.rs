@@ -152,15 +152,17 @@ fn a_closed_pipe_ends_quietly_with_status_141() {
         // The host runner writes its rows to stdout from the process that runs the FMU.
         vec!["run", fmu.to_str().unwrap()],
     ] {
+        // The reader is gone before the child starts (`| head -c 0`), so the outcome does
+        // not depend on how fast the child writes or whether its output fits in the pipe's
+        // buffer (dropping the reader after the spawn raced with a fast `modes`).
+        let (reader, writer) = std::io::pipe().unwrap();
+        drop(reader);
         let mut child = Command::new(BIN)
             .args(&args)
-            .stdout(Stdio::piped())
+            .stdout(Stdio::from(writer))
             .stderr(Stdio::piped())
             .spawn()
             .unwrap();
-        // The reader goes away before the first write (`| head -c 0`), so the outcome does
-        // not depend on whether the output fits in the pipe's buffer.
-        drop(child.stdout.take());
         let mut err = String::new();
         child
             .stderr

@@ -188,9 +188,8 @@ pub fn exhausted_message(e: &Exhaustion) -> String {
 /// period (speed), the events, or none of them (the step count itself: tolerance, or a
 /// stiffness the model's bound does not see). `span` is the simulated time over which `stats` were spent.
 pub fn likely_cause(scales: &RunScales, stats: &SolverStats, span: f64) -> String {
-    let t = span;
     let steps = (stats.steps + stats.rejected).max(1) as f64;
-    let h = t / steps;
+    let h = span / steps;
     let (rate, source) = scales.fastest_rate;
     let mode_period = if rate > 0.0 {
         std::f64::consts::TAU / rate
@@ -205,7 +204,7 @@ pub fn likely_cause(scales: &RunScales, stats: &SolverStats, span: f64) -> Strin
     let (field, speed) = scales.speed;
     if stats.events as f64 > 0.5 * steps {
         return format!(
-            "contact chatter: {} contact changes in {t:e} s ({field} = {speed:e} rad/s, mesh \
+            "contact chatter: {} contact changes in {span:e} s ({field} = {speed:e} rad/s, mesh \
              frequency {:.4e} Hz): the teeth chatter in and out of contact",
             stats.events, scales.mesh_frequency
         );
