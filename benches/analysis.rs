@@ -15,7 +15,8 @@ use std::time::Instant;
 
 use geardyn::analysis::hb::{continuation, ContinuationOptions, HbOptions};
 use geardyn::analysis::{sweep, Direction, SweepOptions};
-use geardyn::model::{response_period, AnyScene, Drivetrain};
+use geardyn::model::{response_period, Drivetrain};
+use geardyn::scene::PairScene;
 use geardyn::scene::Scene;
 use geardyn::with_drivetrain;
 
@@ -28,7 +29,7 @@ const POINTS: usize = 200;
 /// Brute force: every point from the scene's start, `transient` response periods, then one
 /// recorded response period at 64 samples per mesh period, as the sweep records a periodic
 /// point.
-fn brute_force(scene: &AnyScene, speeds: &[f64], transient: u32) -> f64 {
+fn brute_force(scene: &Scene, speeds: &[f64], transient: u32) -> f64 {
     let mut checksum = 0.0;
     for &speed in speeds {
         let mut s = scene.clone();
@@ -52,7 +53,7 @@ fn brute_force(scene: &AnyScene, speeds: &[f64], transient: u32) -> f64 {
 }
 
 fn bench(name: &str, from: f64, to: f64, transient: u32) {
-    let scene = AnyScene::example(name).expect("built-in scene");
+    let scene = Scene::example(name).expect("built-in scene");
     let speeds: Vec<f64> = (0..POINTS)
         .map(|i| from + (to - from) * i as f64 / (POINTS - 1) as f64)
         .collect();
@@ -127,7 +128,7 @@ fn main() {
     bench("spur_pair", 300.0, 600.0, 800);
     bench("idler_gearset", 250.0, 760.0, 500);
 
-    let scene = Scene::example("spur_pair").expect("built-in scene");
+    let scene = PairScene::example("spur_pair").expect("built-in scene");
     let spur_hb = || {
         continuation(
             &scene,
@@ -153,7 +154,7 @@ fn main() {
 
     // The 8-DOF idler train across both fundamental resonances (mesh modes at 2529 and
     // 3851 Hz; 250..760 rad/s is 1512..4596 Hz of mesh frequency).
-    let idler = AnyScene::example("idler_gearset").expect("built-in scene");
+    let idler = Scene::example("idler_gearset").expect("built-in scene");
     let (from, to) = (250.0, 760.0);
     println!(
         "idler_gearset: harmonic balance over {from}..{to} rad/s (median of {ROUNDS} rounds \

@@ -10,8 +10,9 @@
 //! `cargo bench --bench exact_chain [-- quick]` — each line is the median of alternated rounds
 //! after a warm-up run; ratios are only meaningful within one run (the machine is shared).
 
-use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec, TrainScene};
+use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec};
 use geardyn::scene::MethodChoice;
+use geardyn::scene::Scene;
 use geardyn::solve::rk::Method as Rk;
 
 #[path = "common/stats.rs"]
@@ -20,19 +21,14 @@ use stats::median;
 #[path = "common/whole_run.rs"]
 mod whole_run;
 
-fn time(
-    scene: &TrainScene,
-    method: MethodChoice,
-    composites: bool,
-    periods: f64,
-) -> (f64, f64, f64) {
+fn time(scene: &Scene, method: MethodChoice, composites: bool, periods: f64) -> (f64, f64, f64) {
     time_rk(scene, method, Rk::Dop853, composites, periods)
 }
 
 /// [`time`] with the RK method `rk` (used when `method` is [`MethodChoice::Rk`]): µs per
 /// period, segments and events per period (NaN if the run failed).
 fn time_rk(
-    scene: &TrainScene,
+    scene: &Scene,
     method: MethodChoice,
     rk: Rk,
     composites: bool,
@@ -62,7 +58,7 @@ fn time_rk(
 
 /// `fmu/spur_stage` without its STE harmonic (with the rotation carried an STE is not
 /// piecewise-LTI), with contact law `contact`.
-fn spur_stage(contact: &str) -> TrainScene {
+fn spur_stage(contact: &str) -> Scene {
     let text =
         include_str!("../fmu/spur_stage/scene.toml").replace("[mesh.ste]\ncos = [1.0e-6]\n", "");
     let text = match contact {
@@ -72,12 +68,12 @@ fn spur_stage(contact: &str) -> TrainScene {
             &format!("contact = \"{contact}\""),
         ),
     };
-    TrainScene::from_toml_str(&text, "spur_stage").unwrap()
+    Scene::from_toml_str(&text, "spur_stage").unwrap()
 }
 
 /// The `idler_gearset` data without its ground springs, driven and loaded through torque
 /// ports on the pinion and the follower (balanced through the base radii), at 2000 Hz.
-fn idler_with_ports() -> TrainScene {
+fn idler_with_ports() -> Scene {
     let speed = std::f64::consts::TAU * 2000.0 / 38.0;
     let load = -100.0 * 0.11218 / 0.04535;
     let text = include_str!("../fmu/idler_gearset/scene.toml")
@@ -91,7 +87,7 @@ fn idler_with_ports() -> TrainScene {
                  gear = \"follower\"\ncausality = \"torque\"\ntorque = {load:?}\n"
             ),
         );
-    TrainScene::from_toml_str(&text, "idler_ports").unwrap()
+    Scene::from_toml_str(&text, "idler_ports").unwrap()
 }
 
 fn main() {
@@ -99,7 +95,7 @@ fn main() {
     let rounds = if quick { 1 } else { 3 };
     println!("| scene | DOF | exact, segment-wise µs/period | exact µs/period | DOP853 µs/period | DP5 µs/period | best RK/exact | segment-wise/exact | segments/period | events/period |");
     println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
-    let mut scenes: Vec<(String, TrainScene, f64)> = Vec::new();
+    let mut scenes: Vec<(String, Scene, f64)> = Vec::new();
     use ChainBearings::{Compliant, Rigid};
     use ChainContact::{ContactLoss, Linear};
     for &(m, bearings, contact) in &[
@@ -112,9 +108,9 @@ fn main() {
         (4, Compliant, ContactLoss),
     ] {
         let spec = ChainSpec::new(m, bearings, contact);
-        scenes.push((spec.name(), TrainScene::chain(spec).unwrap(), 2000.0));
+        scenes.push((spec.name(), Scene::chain(spec).unwrap(), 2000.0));
     }
-    let mut idler = TrainScene::example("idler_gearset").unwrap();
+    let mut idler = Scene::example("idler_gearset").unwrap();
     idler.operating.input_speed = std::f64::consts::TAU * 2000.0 / 38.0;
     scenes.push(("idler_gearset (pairs, contact loss)".into(), idler, 2000.0));
     scenes.push((

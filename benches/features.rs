@@ -24,7 +24,7 @@
 use std::hint::black_box;
 use std::time::Instant;
 
-use geardyn::scene::{MethodChoice, Scene};
+use geardyn::scene::{MethodChoice, PairScene};
 use geardyn::simulation::Simulation;
 use geardyn::solve::exact::mat_vec::mat_vec;
 use geardyn::solve::rk::Method;
@@ -103,8 +103,8 @@ input_torque = 100.0
     )
 }
 
-fn scene(text: &str, method: Option<Method>) -> Scene {
-    let mut scene = Scene::from_toml_str(text, "bench").expect("bench scene is valid");
+fn scene(text: &str, method: Option<Method>) -> PairScene {
+    let mut scene = PairScene::from_toml_str(text, "bench").expect("bench scene is valid");
     match method {
         None => scene.solver.method = MethodChoice::Exact,
         Some(m) => {
@@ -116,7 +116,7 @@ fn scene(text: &str, method: Option<Method>) -> Scene {
     scene
 }
 
-fn mesh_frequency(scene: &Scene) -> f64 {
+fn mesh_frequency(scene: &PairScene) -> f64 {
     scene.pinion.teeth as f64 * scene.operating.pinion_speed / std::f64::consts::TAU
 }
 
@@ -133,7 +133,12 @@ enum Drive {
 }
 
 /// One run over `periods` mesh periods; returns (seconds, counters, final state).
-fn run(scene: &Scene, periods: u64, drive: Drive, generic: bool) -> (f64, SolverStats, [f64; 2]) {
+fn run(
+    scene: &PairScene,
+    periods: u64,
+    drive: Drive,
+    generic: bool,
+) -> (f64, SolverStats, [f64; 2]) {
     let t_mesh = 1.0 / mesh_frequency(scene);
     let mut sim = Simulation::new(scene).expect("simulation assembles");
     if generic {
@@ -233,7 +238,7 @@ fn long_runs(periods: u64, quick: bool) {
     let linear = SPUR_PAIR
         .replace("contact = \"backlash\"", "contact = \"linear\"")
         .replace("backlash = 1.0e-4", "");
-    let cases: Vec<(&str, Scene, Drive)> = vec![
+    let cases: Vec<(&str, PairScene, Drive)> = vec![
         (
             "spur_pair (separates every period)",
             scene(SPUR_PAIR, None),

@@ -11,7 +11,7 @@ use std::hint::black_box;
 use std::time::Instant;
 
 use geardyn::analysis::LinearPeriodMap;
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 use geardyn::simulation::Simulation;
 use geardyn::units::from_rpm;
 use nalgebra::DMatrix;
@@ -24,7 +24,7 @@ const POINTS: usize = 200;
 /// Timed rounds after the warm-up; each round runs the closed form and RK once.
 const ROUNDS: usize = 7;
 
-fn rk_monodromy(scene: &Scene, period: f64) -> DMatrix<f64> {
+fn rk_monodromy(scene: &PairScene, period: f64) -> DMatrix<f64> {
     let w = (scene.mesh.stiffness.mean() / scene.equivalent_mass()).sqrt();
     let mut m = DMatrix::zeros(2, 2);
     for (j, y0) in [[1.0, 0.0], [0.0, w]].into_iter().enumerate() {
@@ -44,8 +44,8 @@ fn main() {
         .replace("input_torque = 225.96965805523337", "input_torque = 0.0")
         .replace("rtol = 1e-10", "rtol = 1e-11\nmethod = \"rk\"")
         .replace("atol = 1e-16", "atol = 1e-18");
-    let base = Scene::from_toml_str(&text, "bench").expect("scene");
-    let scenes: Vec<Scene> = (0..POINTS)
+    let base = PairScene::from_toml_str(&text, "bench").expect("scene");
+    let scenes: Vec<PairScene> = (0..POINTS)
         .map(|i| {
             let mut s = base.clone();
             s.operating.pinion_speed =

@@ -1,5 +1,5 @@
 //! Scaling benchmark of issue 20 (acceptance 1 and 3): µs per mesh period against DOF for the
-//! benchmark chains (`TrainScene::chain`, `src/scene/train/chain.rs`) of 1, 2, 4, 8, 16, 32
+//! benchmark chains (`Scene::chain`, `src/scene/train/chain.rs`) of 1, 2, 4, 8, 16, 32
 //! and 64 meshes, rigid and compliant bearings, with and without contact loss, for the exact
 //! propagator, DP5, DOP853 and the stiff RODAS4 (rtol 1e-9, atol 1e-15), all in one run.
 //!
@@ -35,8 +35,9 @@
 use std::time::Instant;
 
 use geardyn::model::train::TrainSimulation;
-use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec, TrainScene};
+use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec};
 use geardyn::scene::MethodChoice;
+use geardyn::scene::Scene;
 
 #[path = "common/stats.rs"]
 mod stats;
@@ -81,7 +82,7 @@ impl Method {
     }
 }
 
-fn configure(mut s: TrainScene, method: Method) -> TrainScene {
+fn configure(mut s: Scene, method: Method) -> Scene {
     match method {
         Method::Exact => s.solver.method = MethodChoice::Exact,
         Method::Dp5 | Method::Dop853 | Method::Rodas4 => {
@@ -175,7 +176,7 @@ const SETTLED_PERIODS: usize = 5;
 /// `max_periods` or [`MAX_WARM_UP_SECONDS`] (at least one period); an RK method whose first
 /// period shows that `max_periods` would take above [`MAX_RUN_SECONDS`] stops after it (its
 /// timed run is shortened anyway). The set-up time includes the assembly.
-fn warm_up(scene: &TrainScene, min_periods: usize, max_periods: usize) -> Result<Warmed, String> {
+fn warm_up(scene: &Scene, min_periods: usize, max_periods: usize) -> Result<Warmed, String> {
     let settle = if scene.solver.method == MethodChoice::Exact {
         SETTLED_PERIODS
     } else {
@@ -372,7 +373,7 @@ fn main() {
                 }
                 let spec = ChainSpec::new(meshes, bearings, contact);
                 let dof = spec.dof() as f64;
-                let base = TrainScene::chain(spec).expect("benchmark chain");
+                let base = Scene::chain(spec).expect("benchmark chain");
                 let mut cells: Vec<Cell> = Vec::new();
                 for (i, &method) in METHODS.iter().enumerate() {
                     if bearings == ChainBearings::Rigid {
@@ -528,13 +529,13 @@ fn main() {
 fn contact_loss_goals(rounds: usize) {
     use geardyn::solve::rk::Method as Rk;
     use whole_run::micros_per_period;
-    let chain = TrainScene::chain(ChainSpec::new(
+    let chain = Scene::chain(ChainSpec::new(
         8,
         ChainBearings::Rigid,
         ChainContact::ContactLoss,
     ))
     .unwrap();
-    let mut idler = TrainScene::example("idler_gearset").unwrap();
+    let mut idler = Scene::example("idler_gearset").unwrap();
     idler.operating.input_speed = std::f64::consts::TAU * 2000.0 / 38.0;
     for (label, scene) in [
         ("8-mesh rigid chain with contact loss (9 DOF)", chain),

@@ -3,7 +3,7 @@
 //!
 //! Run with `scripts/bench.sh` (or `cargo bench --bench spur_pair`). Every configuration is
 //! measured in the same process, side by side, through the library API
-//! (`Scene` → `Simulation::advance_to` on an output grid → `Simulation::outputs`), the way
+//! (`PairScene` → `Simulation::advance_to` on an output grid → `Simulation::outputs`), the way
 //! `geardyn simulate` and the FMU drive it.
 //!
 //! Scenes, all derived from the shipped `fmu/spur_pair/scene.toml` by editing single lines:
@@ -24,7 +24,7 @@ use std::hint::black_box;
 use std::path::PathBuf;
 use std::time::Instant;
 
-use geardyn::scene::{MethodChoice, Scene};
+use geardyn::scene::{MethodChoice, PairScene};
 use geardyn::simulation::{output_grid, Simulation};
 use geardyn::solve::rk::Method;
 
@@ -112,8 +112,8 @@ const PROPS: [Prop; 3] = [Prop::Exact, Prop::Rk(Method::Dp5), Prop::Rk(Method::D
 const GRIDS: [f64; 2] = [1e-5, 1e-3];
 const RTOL: f64 = 1e-9;
 
-fn scene_for(case: &Case, prop: Prop) -> Scene {
-    let mut scene = Scene::from_toml_str(&case.toml, case.name).expect("bench scene is valid");
+fn scene_for(case: &Case, prop: Prop) -> PairScene {
+    let mut scene = PairScene::from_toml_str(&case.toml, case.name).expect("bench scene is valid");
     match prop {
         Prop::Exact => scene.solver.method = MethodChoice::Exact,
         Prop::Rk(m) => {
@@ -126,7 +126,7 @@ fn scene_for(case: &Case, prop: Prop) -> Scene {
 }
 
 /// One run over `grid`; returns the DTE samples and the solver counters.
-fn run_once(scene: &Scene, grid: &[f64]) -> (Vec<f64>, geardyn::solve::SolverStats) {
+fn run_once(scene: &PairScene, grid: &[f64]) -> (Vec<f64>, geardyn::solve::SolverStats) {
     let mut sim = Simulation::new(scene).expect("simulation assembles");
     let mut dte = Vec::with_capacity(grid.len());
     for &t in grid {
@@ -191,7 +191,7 @@ fn main() {
         let static_deflection = sim.model().static_deflection();
         for &h in &GRIDS {
             let grid = output_grid(stop_time, h);
-            let scenes: Vec<Scene> = PROPS.iter().map(|&p| scene_for(case, p)).collect();
+            let scenes: Vec<PairScene> = PROPS.iter().map(|&p| scene_for(case, p)).collect();
             // Warm-up run of every propagator (also the accuracy sample and the counters).
             let samples: Vec<_> = scenes.iter().map(|s| run_once(s, &grid)).collect();
             // Timed rounds, interleaved (one run of each propagator per round) so that load

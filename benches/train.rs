@@ -11,8 +11,9 @@ use std::time::Instant;
 
 use geardyn::mesh::MeshStiffness;
 use geardyn::model::train::TrainSimulation;
-use geardyn::scene::train::{MeshForceModel, TrainScene};
+use geardyn::scene::train::MeshForceModel;
 use geardyn::scene::MethodChoice;
+use geardyn::scene::Scene;
 use geardyn::solve::SolverStats;
 
 #[path = "common/stats.rs"]
@@ -22,8 +23,8 @@ use stats::median;
 const PERIODS: f64 = 400.0;
 const RUNS: usize = 5;
 
-fn idler(dof8: bool, per_pair: bool) -> TrainScene {
-    let mut s = TrainScene::example("idler_gearset").unwrap();
+fn idler(dof8: bool, per_pair: bool) -> Scene {
+    let mut s = Scene::example("idler_gearset").unwrap();
     if !dof8 {
         s = s.with_rigid_bearings();
         for g in &mut s.gears {
@@ -46,7 +47,7 @@ fn idler(dof8: bool, per_pair: bool) -> TrainScene {
 
 /// One run of `PERIODS` mesh periods, advanced in communication steps of a quarter mesh
 /// period as an FMU master would: wall time, work counts and the method's name.
-fn run_once(scene: &TrainScene) -> (f64, SolverStats, String) {
+fn run_once(scene: &Scene) -> (f64, SolverStats, String) {
     let f1 = scene.mesh_frequency(0, scene.operating.input_speed);
     let t_end = PERIODS / f1;
     let mut sim = TrainSimulation::new(scene).unwrap();
@@ -61,8 +62,8 @@ fn run_once(scene: &TrainScene) -> (f64, SolverStats, String) {
 
 /// Exact propagator and DOP853 on one scene: a warm-up of both, then `RUNS` rounds that run
 /// each once (alternated, so load from other processes hits both alike); medians.
-fn bench(name: &str, scene: &TrainScene) {
-    let variants: Vec<TrainScene> = [MethodChoice::Exact, MethodChoice::Rk]
+fn bench(name: &str, scene: &Scene) {
+    let variants: Vec<Scene> = [MethodChoice::Exact, MethodChoice::Rk]
         .into_iter()
         .map(|method| {
             let mut s = scene.clone();

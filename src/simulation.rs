@@ -16,7 +16,7 @@ pub use stream::{
 };
 
 use crate::model::{GearPair, Inputs, PairState, OUTPUT_NAMES};
-use crate::scene::Scene;
+use crate::scene::PairScene;
 use crate::solve::rk::ControllerMemory;
 use crate::solve::SolverStats;
 
@@ -73,7 +73,7 @@ impl DrivenModel for GearPair {
 impl Driver<GearPair> {
     /// Assembles the model and picks the propagator (`auto`: exact when the scene is piecewise
     /// LTI). Starts at `t = 0` from the scene's initial state.
-    pub fn new(scene: &Scene) -> Result<Simulation, String> {
+    pub fn new(scene: &PairScene) -> Result<Simulation, String> {
         let mut pair = GearPair::new(scene);
         pair.check_scales()?;
         let y0 = pair.initial_state(scene);
@@ -198,7 +198,7 @@ pub fn pair_row(sim: &Simulation, row: &mut Vec<f64>) {
 
 /// Runs a scene from t = 0 to `stop_time`, sampling every `interval`, into memory. The run is
 /// checked against the default [`RunLimits`] first.
-pub fn run(scene: &Scene, stop_time: f64, interval: f64) -> Result<Trajectory, String> {
+pub fn run(scene: &PairScene, stop_time: f64, interval: f64) -> Result<Trajectory, String> {
     run_limited(scene, stop_time, interval, &RunLimits::default())
 }
 
@@ -226,7 +226,7 @@ pub fn check_in_memory(stop_time: f64, interval: f64, columns: usize) -> Result<
 
 /// [`run`] with explicit limits (Python's `simulate(max_rows=…, max_periods=…, work_budget=…)`).
 pub fn run_limited(
-    scene: &Scene,
+    scene: &PairScene,
     stop_time: f64,
     interval: f64,
     limits: &RunLimits,

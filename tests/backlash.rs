@@ -5,7 +5,7 @@
 mod common;
 
 use geardyn::model::ContactState;
-use geardyn::scene::{MethodChoice, Scene};
+use geardyn::scene::{MethodChoice, PairScene};
 use geardyn::simulation::{output_grid, Simulation};
 use geardyn::solve::rk::Method;
 
@@ -16,7 +16,7 @@ struct Run {
     static_deflection: f64,
 }
 
-fn run(scene: &Scene, method: MethodChoice, rk: Method, rtol: f64, atol: f64) -> Run {
+fn run(scene: &PairScene, method: MethodChoice, rk: Method, rtol: f64, atol: f64) -> Run {
     let mut s = scene.clone();
     s.solver.method = method;
     s.solver.rk_method = rk;
@@ -40,16 +40,16 @@ fn run(scene: &Scene, method: MethodChoice, rk: Method, rtol: f64, atol: f64) ->
     }
 }
 
-fn spur_pair() -> Scene {
-    Scene::example("spur_pair").expect("built-in scene")
+fn spur_pair() -> PairScene {
+    PairScene::example("spur_pair").expect("built-in scene")
 }
 
 /// `spur_pair` with a smaller clearance and a larger STE: drive-side and back-side impacts.
-fn double_sided() -> Scene {
+fn double_sided() -> PairScene {
     let text = include_str!("../fmu/spur_pair/scene.toml")
         .replacen("backlash = 1.0e-4", "backlash = 1.0e-5", 1)
         .replacen("cos = [1.0e-6]", "cos = [3.0e-6]", 1);
-    Scene::from_toml_str(&text, "double_sided").expect("scene")
+    PairScene::from_toml_str(&text, "double_sided").expect("scene")
 }
 
 #[test]
@@ -58,7 +58,7 @@ fn rk_and_exact_agree_with_identical_event_sequences() {
     agree_with_identical_event_sequences(&double_sided(), true);
 }
 
-fn agree_with_identical_event_sequences(scene: &Scene, back_side: bool) {
+fn agree_with_identical_event_sequences(scene: &PairScene, back_side: bool) {
     let scene = scene.clone();
     let exact = run(&scene, MethodChoice::Exact, Method::Dop853, 0.0, 0.0);
     let separations = exact

@@ -11,7 +11,7 @@ mod common;
 use std::f64::consts::{PI, TAU};
 
 use common::M_E;
-use geardyn::scene::{MethodChoice, Scene};
+use geardyn::scene::{MethodChoice, PairScene};
 use geardyn::simulation::Simulation;
 use geardyn::solve::rk::Method;
 
@@ -24,7 +24,7 @@ fn omega_n() -> f64 {
 }
 
 /// The scene for dimensionless parameters (Ω = 1 units, amplitudes in L).
-fn bugaru(nu: f64, alpha: f64, alpha0: f64, mu: f64, kappa: f64, forcing: f64) -> Scene {
+fn bugaru(nu: f64, alpha: f64, alpha0: f64, mu: f64, kappa: f64, forcing: f64) -> PairScene {
     let w = omega_n();
     let damping = alpha * w * M_E;
     let variation = alpha0 * w * M_E;
@@ -54,7 +54,7 @@ fn bugaru(nu: f64, alpha: f64, alpha0: f64, mu: f64, kappa: f64, forcing: f64) -
 
 /// Steady amplitude (in L) of the response component at `ratio` × mesh frequency, after
 /// `settle` dimensionless time units, by a DFT over 20 response periods.
-fn amplitude(scene: &Scene, nu: f64, ratio: f64, settle: f64) -> f64 {
+fn amplitude(scene: &PairScene, nu: f64, ratio: f64, settle: f64) -> f64 {
     let w = omega_n();
     let mut sim = Simulation::new(scene).unwrap();
     let period = TAU / (ratio * nu * w);

@@ -1,17 +1,18 @@
-//! The benchmark chains of issue 20 (`TrainScene::chain`, `src/scene/train/chain.rs`):
+//! The benchmark chains of issue 20 (`Scene::chain`, `src/scene/train/chain.rs`):
 //! the contact-loss variant loses contact in its steady state (events counted), the exact
 //! propagator has no mesh-count limit (a 64-mesh chain against DOP853 at tight tolerance,
 //! acceptance 2), and every compliant chain completes with every method (acceptance 3).
 
 use geardyn::model::train::TrainSimulation;
-use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec, TrainScene};
+use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec};
+use geardyn::scene::Scene;
 use geardyn::scene::{ContactLaw, MethodChoice};
 
-fn scene(m: usize, b: ChainBearings, c: ChainContact) -> TrainScene {
-    TrainScene::chain(ChainSpec::new(m, b, c)).unwrap()
+fn scene(m: usize, b: ChainBearings, c: ChainContact) -> Scene {
+    Scene::chain(ChainSpec::new(m, b, c)).unwrap()
 }
 
-fn with_method(mut s: TrainScene, method: &str, rtol: f64) -> TrainScene {
+fn with_method(mut s: Scene, method: &str, rtol: f64) -> Scene {
     match method {
         "exact" => s.solver.method = MethodChoice::Exact,
         rk => {
@@ -37,7 +38,7 @@ fn chain_16_example_file_is_the_constructor_output() {
 }
 
 /// Contact events per mesh period over periods `from..to` (advanced one period at a time).
-fn events_per_period(scene: &TrainScene, from: usize, to: usize) -> Vec<u64> {
+fn events_per_period(scene: &Scene, from: usize, to: usize) -> Vec<u64> {
     let mut sim = TrainSimulation::new(scene).unwrap();
     let period = 1.0 / scene.mesh_frequency(0, scene.operating.input_speed);
     let mut counts = Vec::new();
@@ -78,7 +79,7 @@ fn contact_loss_chains_lose_contact_in_every_steady_period() {
 type Recorded = (Vec<(f64, usize, usize)>, Vec<Vec<f64>>, String);
 
 /// Runs `scene` to `periods` mesh periods recording contact events.
-fn run_recorded(scene: &TrainScene, periods: usize) -> Recorded {
+fn run_recorded(scene: &Scene, periods: usize) -> Recorded {
     let mut sim = TrainSimulation::new(scene).unwrap();
     sim.model_mut().record_events();
     let period = 1.0 / scene.mesh_frequency(0, scene.operating.input_speed);

@@ -227,8 +227,8 @@ fn trapezoid_transition_equal_to_the_zone_is_accepted() {
         1,
     );
     assert!(text.contains("transition = 0.4"));
-    geardyn::scene::Scene::from_toml_str(&text, "t").expect("transition = zone accepted");
+    geardyn::scene::PairScene::from_toml_str(&text, "t").expect("transition = zone accepted");
     let too_long = text.replacen("transition = 0.4", "transition = 0.4001", 1);
-    let err = geardyn::scene::Scene::from_toml_str(&too_long, "t").unwrap_err();
+    let err = geardyn::scene::PairScene::from_toml_str(&too_long, "t").unwrap_err();
     assert!(err.to_string().contains("transition = 0.4001"), "{err}");
 }

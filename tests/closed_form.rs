@@ -7,7 +7,7 @@ mod common;
 use std::f64::consts::TAU;
 
 use common::{pinion_speed_for_mesh_frequency, scene, M_E};
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 use geardyn::simulation::Simulation;
 
 const K: f64 = 2.0e8;
@@ -38,7 +38,7 @@ fn particular(c: f64, force: f64, ste: &[(f64, f64)], wm: f64, t: f64) -> (f64, 
     (x, v)
 }
 
-fn sample(scene: &Scene, times: &[f64]) -> (String, Vec<f64>) {
+fn sample(scene: &PairScene, times: &[f64]) -> (String, Vec<f64>) {
     let mut sim = Simulation::new(scene).expect("simulation");
     let xs = times
         .iter()
@@ -58,7 +58,7 @@ fn solver_variants() -> [&'static str; 3] {
     ]
 }
 
-fn check(label: &str, scene: &Scene, times: &[f64], oracle: impl Fn(f64) -> f64) -> f64 {
+fn check(label: &str, scene: &PairScene, times: &[f64], oracle: impl Fn(f64) -> f64) -> f64 {
     let (method, xs) = sample(scene, times);
     let expected: Vec<f64> = times.iter().map(|&t| oracle(t)).collect();
     let scale = expected.iter().map(|x| x.abs()).fold(0.0, f64::max);

@@ -14,7 +14,7 @@ use std::f64::consts::TAU;
 use std::path::PathBuf;
 
 use geardyn::model::train::{run_train, TrainTrajectory};
-use geardyn::scene::train::TrainScene;
+use geardyn::scene::Scene;
 
 fn text() -> String {
     let path =
@@ -22,12 +22,12 @@ fn text() -> String {
     std::fs::read_to_string(path).unwrap()
 }
 
-fn scene(text: &str) -> TrainScene {
-    TrainScene::from_toml_str(text, "test").unwrap()
+fn scene(text: &str) -> Scene {
+    Scene::from_toml_str(text, "test").unwrap()
 }
 
 fn refused(text: &str) -> String {
-    TrainScene::from_toml_str(text, "test")
+    Scene::from_toml_str(text, "test")
         .map(|_| ())
         .unwrap_err()
         .to_string()

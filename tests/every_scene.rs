@@ -11,7 +11,8 @@
 use geardyn::analysis::{
     instability_bands, monodromy, shoot, sweep, Direction, ShootingOptions, SweepOptions,
 };
-use geardyn::model::{response_period, AnyScene, Drivetrain};
+use geardyn::model::{response_period, Drivetrain};
+use geardyn::scene::Scene;
 use geardyn::scene::{ContactLaw, MethodChoice};
 use geardyn::simulation::Driver;
 use geardyn::with_drivetrain;
@@ -20,9 +21,9 @@ use nalgebra::DMatrix;
 const SCENES: [&str; 3] = ["spur_pair", "idler_gearset", "countershaft_gearset"];
 
 /// The scene with the RK propagator at tight tolerances: the independent integrator.
-fn rk(scene: &AnyScene) -> AnyScene {
+fn rk(scene: &Scene) -> Scene {
     let mut s = scene.clone();
-    let solver = s.solver_mut();
+    let solver = &mut s.solver;
     solver.method = MethodChoice::Rk;
     solver.rk_method = "dop853".parse().unwrap();
     solver.rtol = 1e-12;
@@ -31,7 +32,7 @@ fn rk(scene: &AnyScene) -> AnyScene {
 }
 
 /// `y(t0 + duration)` from `y0` at `t0 = 0` by RK.
-fn rk_map(scene: &AnyScene, y0: &[f64], duration: f64) -> Vec<f64> {
+fn rk_map(scene: &Scene, y0: &[f64], duration: f64) -> Vec<f64> {
     with_drivetrain!(rk(scene).simulation().unwrap(), sim => {
         let mut sim = sim;
         sim.set_y(0.0, y0);
@@ -41,7 +42,7 @@ fn rk_map(scene: &AnyScene, y0: &[f64], duration: f64) -> Vec<f64> {
 }
 
 /// The monodromy by central differences of the RK period map, steps `h_i = 1e-6 · scale_i`.
-fn rk_monodromy(scene: &AnyScene, y0: &[f64], duration: f64, scale: &[f64]) -> DMatrix<f64> {
+fn rk_monodromy(scene: &Scene, y0: &[f64], duration: f64, scale: &[f64]) -> DMatrix<f64> {
     let n = y0.len();
     let mut m = DMatrix::zeros(n, n);
     for j in 0..n {
@@ -60,7 +61,7 @@ fn rk_monodromy(scene: &AnyScene, y0: &[f64], duration: f64, scale: &[f64]) -> D
     m
 }
 
-fn scale_of(scene: &AnyScene, y: &[f64]) -> Vec<f64> {
+fn scale_of(scene: &Scene, y: &[f64]) -> Vec<f64> {
     with_drivetrain!(scene.simulation().unwrap(), sim => {
         geardyn::analysis::shooting::state_scale(sim.model(), y)
     })
@@ -76,7 +77,7 @@ fn sorted_moduli(m: &DMatrix<f64>) -> Vec<f64> {
 fn shooting_orbits_are_fixed_points_of_an_independent_rk_map() {
     println!("scene                 DOF  |P_rk(y0) − y0|/scale  max ||μ| − |μ_fd||");
     for name in SCENES {
-        let scene = AnyScene::example(name).unwrap();
+        let scene = Scene::example(name).unwrap();
         let orbit = shoot(&scene, &ShootingOptions::default()).unwrap();
         let scale = scale_of(&scene, &orbit.y0);
         let end = rk_map(&scene, &orbit.y0, orbit.period);
@@ -107,19 +108,12 @@ fn shooting_orbits_are_fixed_points_of_an_independent_rk_map() {
 
 /// The drivetrain with every mesh's contact law linear (no contact loss): a linear periodic
 /// system.
-fn linear(name: &str) -> AnyScene {
-    match AnyScene::example(name).unwrap() {
-        AnyScene::Pair(mut s) => {
-            s.mesh.contact = ContactLaw::Linear;
-            AnyScene::Pair(s)
-        }
-        AnyScene::Train(mut s) => {
-            for m in &mut s.meshes {
-                m.contact = ContactLaw::Linear;
-            }
-            AnyScene::Train(s)
-        }
+fn linear(name: &str) -> Scene {
+    let mut s = Scene::example(name).unwrap();
+    for m in &mut s.meshes {
+        m.contact = ContactLaw::Linear;
     }
+    s
 }
 
 #[test]
@@ -148,7 +142,7 @@ fn exact_monodromy_of_linear_drivetrains_matches_rk_differences() {
 #[test]
 fn floquet_refuses_contact_loss_and_says_what_to_use() {
     for name in ["idler_gearset", "countershaft_gearset"] {
-        let err = monodromy(&AnyScene::example(name).unwrap()).unwrap_err();
+        let err = monodromy(&Scene::example(name).unwrap()).unwrap_err();
         assert!(
             err.contains("mesh[0].contact") && err.contains("geardyn periodic"),
             "{err}"
@@ -163,9 +157,7 @@ fn band_edges_of_a_linear_drivetrain_bound_unstable_speeds() {
     // finite-difference monodromy at its centre has a multiplier outside the unit circle, and
     // 1 % outside its edges none.
     let mut scene = linear("idler_gearset");
-    if let AnyScene::Train(s) = &mut scene {
-        s.modal_damping_ratio = 0.002;
-    }
+    scene.modal_damping_ratio = 0.002;
     let bands = instability_bands(&scene, 380.0, 440.0, 60).unwrap();
     println!("linear idler bands (rad/s): {bands:?}");
     assert!(
@@ -205,7 +197,7 @@ fn band_edges_of_a_linear_drivetrain_bound_unstable_speeds() {
 #[test]
 fn sweep_points_match_an_rk_time_series_from_their_state() {
     for name in SCENES {
-        let scene = AnyScene::example(name).unwrap();
+        let scene = Scene::example(name).unwrap();
         let speed = scene.input_speed();
         let options = SweepOptions::new(vec![0.97 * speed, speed], Direction::Up);
         let result = sweep(&scene, &options, &|_, _| {}).unwrap();
@@ -261,9 +253,7 @@ fn a_diverging_point_is_marked_and_the_sweep_goes_on() {
     // grows until the state is not finite. The point is kept with the reason, and the
     // branch continues from the scene's start.
     let mut scene = linear("idler_gearset");
-    if let AnyScene::Train(s) = &mut scene {
-        s.modal_damping_ratio = 0.002;
-    }
+    scene.modal_damping_ratio = 0.002;
     let options = SweepOptions {
         max_transient_periods: 20_000,
         ..SweepOptions::new(vec![400.0, 420.0, 440.0], Direction::Up)

@@ -8,12 +8,12 @@
 
 use geardyn::model::train::system::TrainInputs;
 use geardyn::model::train::TrainSimulation;
-use geardyn::scene::train::TrainScene;
 use geardyn::scene::MethodChoice;
+use geardyn::scene::Scene;
 
 /// A simple chain of `meshes` lumped rectangular meshes at 2000 Hz (all meshes of a simple
 /// chain share the mesh frequency), phases staggered by 0.37 cycles, compliant bearings.
-fn chain(meshes: usize, contact: &str) -> TrainScene {
+fn chain(meshes: usize, contact: &str) -> Scene {
     let mut s = String::from("name = \"chain\"\n[model]\nmodal_damping_ratio = 0.02\n");
     for g in 0..=meshes {
         s.push_str(&format!(
@@ -39,10 +39,10 @@ fn chain(meshes: usize, contact: &str) -> TrainScene {
         "[operating]\ninput_speed = {}\ninput_torque = 100.0\n[solver]\nmethod = \"exact\"\n",
         std::f64::consts::TAU * 2000.0 / 40.0
     ));
-    TrainScene::from_toml_str(&s, "chain").expect("chain scene")
+    Scene::from_toml_str(&s, "chain").expect("chain scene")
 }
 
-fn sim(scene: &TrainScene, method: MethodChoice, composites: bool) -> TrainSimulation {
+fn sim(scene: &Scene, method: MethodChoice, composites: bool) -> TrainSimulation {
     let mut scene = scene.clone();
     scene.solver.method = method;
     scene.solver.rtol = 1e-12;

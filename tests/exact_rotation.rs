@@ -7,8 +7,8 @@
 use std::path::PathBuf;
 
 use geardyn::model::train::TrainSimulation;
-use geardyn::scene::train::TrainScene;
 use geardyn::scene::MethodChoice;
+use geardyn::scene::Scene;
 use geardyn::solve::rk::Method;
 
 fn read(path: &str) -> String {
@@ -69,7 +69,7 @@ fn run(text: &str, exact: bool, stop: f64, dt: f64) -> Run {
 /// [`run`] with the input and load torques ramping at `rates` (N·m/s) from t = 0, as the
 /// FMU's input derivatives make them over a step.
 fn run_with_rates(text: &str, exact: bool, stop: f64, dt: f64, rates: [f64; 2]) -> Run {
-    let mut scene = TrainScene::from_toml_str(text, "test").unwrap();
+    let mut scene = Scene::from_toml_str(text, "test").unwrap();
     scene.solver.method = if exact {
         MethodChoice::Exact
     } else {
@@ -272,7 +272,7 @@ fn torque_ramps_of_the_fmu_inputs_run_exact() {
 fn auto_says_why_it_chose_rk() {
     // The shipped stage has an STE harmonic: a function of the carried angle.
     let c = TrainSimulation::new(
-        &TrainScene::from_toml_str(&read("fmu/spur_stage/scene.toml"), "t").unwrap(),
+        &Scene::from_toml_str(&read("fmu/spur_stage/scene.toml"), "t").unwrap(),
     )
     .unwrap()
     .method_choice()
@@ -281,14 +281,14 @@ fn auto_says_why_it_chose_rk() {
         c.starts_with("dop853 (auto: exact refused: mesh 'mesh1' has an STE"),
         "{c}"
     );
-    let c = TrainSimulation::new(&TrainScene::from_toml_str(&stage("backlash"), "t").unwrap())
+    let c = TrainSimulation::new(&Scene::from_toml_str(&stage("backlash"), "t").unwrap())
         .unwrap()
         .method_choice()
         .to_owned();
     assert!(c.starts_with("exact (auto"), "{c}");
     // The monolithic drivetrain: its motor's curve is not linear.
     let c = TrainSimulation::new(
-        &TrainScene::from_toml_str(&read("examples/drivetrain_monolithic.toml"), "t").unwrap(),
+        &Scene::from_toml_str(&read("examples/drivetrain_monolithic.toml"), "t").unwrap(),
     )
     .unwrap()
     .method_choice()
@@ -306,7 +306,7 @@ fn auto_says_why_it_chose_rk() {
         &text[..start],
         &text[end..]
     );
-    let c = TrainSimulation::new(&TrainScene::from_toml_str(&text, "t").unwrap())
+    let c = TrainSimulation::new(&Scene::from_toml_str(&text, "t").unwrap())
         .unwrap()
         .method_choice()
         .to_owned();
@@ -318,7 +318,7 @@ fn auto_says_why_it_chose_rk() {
     // port is the reason).
     let text = read("fmu/spur_stage_speed/scene.toml").replace("[mesh.ste]\ncos = [1.0e-6]\n", "");
     assert!(!text.contains("[mesh.ste]"));
-    let c = TrainSimulation::new(&TrainScene::from_toml_str(&text, "t").unwrap())
+    let c = TrainSimulation::new(&Scene::from_toml_str(&text, "t").unwrap())
         .unwrap()
         .method_choice()
         .to_owned();

@@ -10,14 +10,14 @@ use std::f64::consts::TAU;
 use common::meissner::{closed_form_monodromy, f_n, meissner, K_MEAN};
 use common::M_E;
 use geardyn::analysis::monodromy;
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 use geardyn::simulation::Simulation;
 use nalgebra::{Complex, DMatrix};
 
 /// Monodromy fitted to RK samples `y(jT)`, j = 0..=periods, from two initial conditions:
 /// least squares of `Y_{j+1} = M Y_j` with every pair scaled by `1/|Y_j|` so the growing tail
 /// does not swamp the early, well-conditioned samples.
-fn rk_fitted_monodromy(scene: &Scene, periods: usize) -> DMatrix<f64> {
+fn rk_fitted_monodromy(scene: &PairScene, periods: usize) -> DMatrix<f64> {
     let period = 1.0 / (common::TEETH * scene.operating.pinion_speed / TAU);
     let w_n = (K_MEAN / M_E).sqrt();
     let mut lhs = DMatrix::<f64>::zeros(2, 2); // Σ Y1 Y0ᵀ
@@ -123,7 +123,7 @@ fn contact_loss_scene_is_refused() {
         "pinion_speed = 300.0\ninput_torque = 10.0",
         "",
     );
-    let s = Scene::from_toml_str(&text, "t").unwrap();
+    let s = PairScene::from_toml_str(&text, "t").unwrap();
     let err = monodromy(&s).unwrap_err();
     assert!(err.contains("mesh.contact"), "{err}");
 }

@@ -12,7 +12,7 @@ use std::ptr::{null, null_mut};
 use geardyn::fmi::abi::*;
 use geardyn::fmi::logger::{CallbackFunctions, Status};
 use geardyn::fmu::pair::*;
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 use geardyn::simulation::Simulation;
 
 const OK: Status = Status::Ok;
@@ -57,7 +57,7 @@ impl Fmu {
 
     /// An instance of the shipped scene switched to the RK integrator (written to a
     /// temporary resources folder; the GUID follows the changed bytes).
-    fn rk() -> (Fmu, Scene) {
+    fn rk() -> (Fmu, PairScene) {
         let text = std::fs::read_to_string(scene_dir().join("scene.toml"))
             .unwrap()
             .replace("method = \"auto\"", "method = \"rk\"");
@@ -69,7 +69,7 @@ impl Fmu {
         for call in [fmi2EnterInitializationMode, fmi2ExitInitializationMode] {
             assert_eq!(unsafe { call(f.0) }, OK);
         }
-        (f, Scene::from_toml_str(&text, "rk").unwrap())
+        (f, PairScene::from_toml_str(&text, "rk").unwrap())
     }
 
     /// Instantiated, set up with stopTime 1 s, initialized.
@@ -147,7 +147,7 @@ impl Drop for Fmu {
 }
 
 fn native() -> Simulation {
-    Simulation::new(&Scene::from_path(&scene_dir()).unwrap()).unwrap()
+    Simulation::new(&PairScene::from_path(&scene_dir()).unwrap()).unwrap()
 }
 
 #[test]
@@ -210,7 +210,7 @@ fn outputs_are_consistent_in_initialization_mode() {
     assert_eq!(unsafe { fmi2EnterInitializationMode(f.0) }, OK);
     let (s, v) = f.get(&[VR_OUTPUT0, VR_OUTPUT0 + 6, VR_EQUIVALENT_MASS]);
     assert_eq!(s, OK);
-    let mut scene = Scene::from_path(&scene_dir()).unwrap();
+    let mut scene = PairScene::from_path(&scene_dir()).unwrap();
     scene.operating.input_torque = 200.0;
     scene.operating.load_torque = 200.0 * 0.06564 / 0.04535;
     let sim = Simulation::new(&scene).unwrap();

@@ -13,7 +13,7 @@ use geardyn::fmi::blob;
 use geardyn::fmi::logger::Status;
 use geardyn::fmu::pair::state::{decode, encode};
 use geardyn::fmu::pair::*;
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 use geardyn::simulation::Simulation;
 use geardyn::solve::SolveError;
 
@@ -198,7 +198,7 @@ fn input_speeds_beyond_the_work_bound_are_refused_naming_the_speed() {
 /// driver, not in the FMU adapters).
 #[test]
 fn a_native_run_refuses_an_advance_beyond_the_work_bound() {
-    let mut scene = Scene::from_path(&fmu_harness::scene_dir("spur_pair")).unwrap();
+    let mut scene = PairScene::from_path(&fmu_harness::scene_dir("spur_pair")).unwrap();
     scene.operating.pinion_speed = 1e12;
     let mut sim = Simulation::new(&scene).unwrap();
     let e = sim.advance_to(2e-4).unwrap_err();

@@ -4,18 +4,18 @@
 //! here by hand (r_b = m z cos α / 2, solid-disc inertia and mass, ISO 6336-2's Z_E of steel),
 //! ROSS's printed inertia, and the single-pair geometry stiffness for the drivetrain mesh.
 
-use geardyn::scene::train::TrainScene;
+use geardyn::scene::Scene;
 
 const FRICTION_PAIR: &str = include_str!("../examples/friction_pair.toml");
 
 fn train_err(text: &str) -> String {
-    TrainScene::from_toml_str(text, "t").unwrap_err().0
+    Scene::from_toml_str(text, "t").unwrap_err().0
 }
 
 #[test]
 fn drivetrain_pressure_angle_is_in_degrees() {
     // The shipped scene says 20.0; the model holds 20° in radians, to the bit.
-    let scene = TrainScene::from_toml_str(FRICTION_PAIR, "t").unwrap();
+    let scene = Scene::from_toml_str(FRICTION_PAIR, "t").unwrap();
     assert_eq!(scene.meshes[0].pressure_angle, 20f64.to_radians());
     assert_eq!(scene.meshes[0].pressure_angle, 0.3490658503988659);
     // A value left in radians is refused with the unit named, not read as 0.349°.
@@ -49,7 +49,7 @@ use std::f64::consts::PI;
 use geardyn::mesh::geometry::spec::parse_gears_file;
 use geardyn::mesh::geometry::MeshModel;
 use geardyn::model::train::TrainSimulation;
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 
 const USER_PAIR: &str = include_str!("../examples/user_pair.toml");
 const GEOMETRY_PAIR: &str = include_str!("../fmu/geometry_pair/scene.toml");
@@ -70,13 +70,13 @@ fn rel(a: f64, b: f64) -> f64 {
 }
 
 fn pair_err(text: &str) -> String {
-    Scene::from_toml_str(text, "t").unwrap_err().0
+    PairScene::from_toml_str(text, "t").unwrap_err().0
 }
 
 #[test]
 fn user_pair_builds_from_geometry_and_steel_alone() {
     assert!(!USER_PAIR.contains("base_radius =") && !USER_PAIR.contains("inertia ="));
-    let scene = Scene::from_toml_str(USER_PAIR, "user_pair").unwrap();
+    let scene = PairScene::from_toml_str(USER_PAIR, "user_pair").unwrap();
     for (gear, z, bore) in [(&scene.pinion, 25.0, 0.010), (&scene.gear, 40.0, 0.015)] {
         let (base, inertia, _) = by_hand(z, bore);
         assert!(rel(gear.base_radius, base) < 1e-15, "{gear:?} r_b {base}");
@@ -106,7 +106,7 @@ fn derived_inertia_reproduces_ross() {
             "poisson_ratio = 0.2993\ndensity = 7810.0\n",
         );
     assert!(!text.contains("inertia ="));
-    let scene = Scene::from_toml_str(&text, "t").unwrap();
+    let scene = PairScene::from_toml_str(&text, "t").unwrap();
     for g in [&scene.pinion, &scene.gear] {
         eprintln!(
             "derived inertia {} kg·m² vs ROSS 0.0036024860: relative {:.1e}",
@@ -117,7 +117,7 @@ fn derived_inertia_reproduces_ross() {
         assert!(rel(g.base_radius, 0.062 * 20f64.to_radians().cos()) < 1e-15);
     }
     // Given values win: the shipped scene (rounded r_b, ROSS inertia) is unchanged.
-    let shipped = Scene::from_toml_str(GEOMETRY_PAIR, "t").unwrap();
+    let shipped = PairScene::from_toml_str(GEOMETRY_PAIR, "t").unwrap();
     assert_eq!(shipped.pinion.base_radius, 0.0582609393);
     assert_eq!(shipped.pinion.inertia, 0.0036024860);
 }
@@ -179,7 +179,10 @@ fn bad_gear_data_in_scenes_is_rejected_with_field_and_value() {
     // Within the tolerance, a rounded radius is kept as given.
     let text = USER_PAIR.replace("teeth = 25\n\n", "teeth = 25\nbase_radius = 0.035238\n\n");
     assert_eq!(
-        Scene::from_toml_str(&text, "t").unwrap().pinion.base_radius,
+        PairScene::from_toml_str(&text, "t")
+            .unwrap()
+            .pinion
+            .base_radius,
         0.035238
     );
     // No density anywhere: the inertia cannot be derived.
@@ -251,15 +254,15 @@ fn idler_train(bearings: &str) -> String {
 #[test]
 fn drivetrain_geometry_mesh_equals_the_single_pair_geometry_stiffness() {
     // The user's pair read as a one-mesh drivetrain: same bodies, same stiffness.
-    let pair = Scene::from_toml_str(USER_PAIR, "p").unwrap();
-    let train = TrainScene::from_toml_str(USER_PAIR, "t").unwrap();
+    let pair = PairScene::from_toml_str(USER_PAIR, "p").unwrap();
+    let train = Scene::from_toml_str(USER_PAIR, "t").unwrap();
     assert_eq!(train.gears[0].base_radius, pair.pinion.base_radius);
     assert_eq!(train.gears[1].inertia, pair.gear.inertia);
     assert_eq!(train.meshes[0].mean_stiffness(), pair.mesh.stiffness.mean());
 
     // Two geometry meshes: the second carries the idler's torque T·r_b,idler/r_b,pinion =
     // 150·40/25 = 240 N·m, so it equals the single pair 40/25 computed at torque = 240.
-    let train = TrainScene::from_toml_str(&idler_train("compliant"), "t").unwrap();
+    let train = Scene::from_toml_str(&idler_train("compliant"), "t").unwrap();
     let single = |z1: i64, b1: f64, z2: i64, b2: f64, torque: &str| {
         let text = USER_PAIR
             .replace("teeth = 25\n", "teeth = Z1\n")
@@ -272,7 +275,7 @@ fn drivetrain_geometry_mesh_equals_the_single_pair_geometry_stiffness() {
                 "kind = \"geometry\"",
                 &format!("kind = \"geometry\"\n{torque}"),
             );
-        Scene::from_toml_str(&text, "p").unwrap()
+        PairScene::from_toml_str(&text, "p").unwrap()
     };
     let first = single(25, 0.010, 40, 0.015, "");
     let second = single(40, 0.015, 25, 0.010, "torque = 240.0");
@@ -346,7 +349,7 @@ fn drivetrain_geometry_mesh_equals_the_single_pair_geometry_stiffness() {
 
 #[test]
 fn drivetrain_with_geometry_meshes_runs() {
-    let scene = TrainScene::from_toml_str(&idler_train("compliant"), "t").unwrap();
+    let scene = Scene::from_toml_str(&idler_train("compliant"), "t").unwrap();
     let mut sim = TrainSimulation::new(&scene).unwrap();
     let names = sim.output_names().to_vec();
     let col = |n: &str| names.iter().position(|x| x == n).unwrap();

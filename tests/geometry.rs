@@ -3,7 +3,7 @@
 //! 1. contact extents vs the textbook involute contact ratio; ETC widening and eq. (6);
 //! 3. per-unit-width mean vs the ISO 6336-1 range; load dependence;
 //! 4. quadrature convergence and bounded load-sharing iterations;
-//! 5. the `geometry` scene source through `Scene::from_toml_str` + `Simulation::new`;
+//! 5. the `geometry` scene source through `PairScene::from_toml_str` + `Simulation::new`;
 //! 6. impossible gears rejected with the field and value named.
 //!
 //! (2, the comparison with ROSS, is in `tests/python/test_stiffness_ross.py`.)
@@ -12,7 +12,7 @@ use std::f64::consts::{PI, TAU};
 
 use geardyn::mesh::geometry::spec::parse_gears_file;
 use geardyn::mesh::geometry::{CurveOptions, GearPairSpec, MeshModel};
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 use geardyn::simulation::Simulation;
 
 const GEARS: &str = include_str!("../fmu/geometry_pair/gears.toml");
@@ -311,7 +311,7 @@ fn quadrature_converges_and_load_sharing_iterations_are_bounded() {
 
 #[test]
 fn geometry_scene_runs_and_feeds_the_computed_curve() {
-    let scene = Scene::from_toml_str(SCENE, "geometry_pair").unwrap();
+    let scene = PairScene::from_toml_str(SCENE, "geometry_pair").unwrap();
     // The scene's stiffness is the curve of the same gears at the operating torque.
     let m = model(GEARS);
     let c = curve(&m, scene.operating.input_torque, true);
@@ -346,7 +346,7 @@ fn geometry_scene_runs_and_feeds_the_computed_curve() {
     );
     // The Fourier form of the same source also loads and runs.
     let fourier = SCENE.replace("form = \"table\"", "form = \"fourier\"\nharmonics = 4");
-    let scene = Scene::from_toml_str(&fourier, "fourier").unwrap();
+    let scene = PairScene::from_toml_str(&fourier, "fourier").unwrap();
     assert!((scene.mesh.stiffness.mean() / c.mean() - 1.0).abs() < 1e-12);
     let mut sim = Simulation::new(&scene).unwrap();
     sim.advance_to(0.002).unwrap();
@@ -404,7 +404,7 @@ fn impossible_gears_are_rejected_naming_field_and_value() {
 }
 
 fn scene_rejected(text: &str, needles: &[&str]) {
-    let err = Scene::from_toml_str(text, "s")
+    let err = PairScene::from_toml_str(text, "s")
         .expect_err("must be rejected")
         .0;
     for n in needles {
@@ -446,12 +446,12 @@ fn geometry_scene_must_agree_with_its_gears() {
         &["solver.method = \"exact\"", "geometry"],
     );
     // An explicit torque overrides the operating torque.
-    let explicit = Scene::from_toml_str(
+    let explicit = PairScene::from_toml_str(
         &SCENE.replace("etc = true", "etc = true\ntorque = 400.0"),
         "s",
     )
     .unwrap();
-    let default = Scene::from_toml_str(SCENE, "s").unwrap();
+    let default = PairScene::from_toml_str(SCENE, "s").unwrap();
     assert!(explicit.mesh.stiffness.mean() > default.mesh.stiffness.mean());
 }
 

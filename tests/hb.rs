@@ -6,7 +6,7 @@ mod common;
 
 use geardyn::analysis::hb::{self, ContinuationOptions, HbOptions};
 use geardyn::analysis::{shoot, sweep, Direction, ShootingOptions, SweepOptions};
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 use geardyn::simulation::Simulation;
 
 /// Max |x_HB(τ) − x_ref(τ)| over `samples` points of one mesh period, relative to `scale`.
@@ -19,7 +19,7 @@ fn orbit_error(sol: &hb::HbSolution, reference: &[(f64, f64)], scale: f64) -> f6
 }
 
 /// Samples `(τ, x)` of the orbit through `y0` at t = 0 (exact propagator over one period).
-fn sample_orbit(scene: &Scene, y0: [f64; 2], samples: usize) -> Vec<(f64, f64)> {
+fn sample_orbit(scene: &PairScene, y0: [f64; 2], samples: usize) -> Vec<(f64, f64)> {
     let mut sim = Simulation::new(scene).unwrap();
     sim.set_state(0.0, y0);
     let period = sim.model().mesh_period();
@@ -34,7 +34,7 @@ fn sample_orbit(scene: &Scene, y0: [f64; 2], samples: usize) -> Vec<(f64, f64)> 
 
 #[test]
 fn hb_error_against_shooting_falls_with_harmonics() {
-    let scene = Scene::example("spur_pair").unwrap();
+    let scene = PairScene::example("spur_pair").unwrap();
     let orbit = shoot(&scene, &ShootingOptions::default()).unwrap();
     let reference = sample_orbit(&scene, [orbit.y0[0], orbit.y0[1]], 400);
     let scale = scene.operating.input_torque / scene.pinion.base_radius / 2.9831e8;
@@ -114,7 +114,7 @@ fn smooth_scene_converges_to_1e_10() {
 
 #[test]
 fn continuation_folds_match_multipliers_and_sweep_jumps() {
-    let scene = Scene::example("spur_pair").unwrap();
+    let scene = PairScene::example("spur_pair").unwrap();
     let branch = hb::continuation(
         &scene,
         &HbOptions::new(20),

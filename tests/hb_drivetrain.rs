@@ -7,13 +7,14 @@
 
 use geardyn::analysis::hb::{self, BranchPoint, ContinuationOptions, HbOptions, HbSolution};
 use geardyn::analysis::{shoot, sweep, Direction, ShootingOptions, SweepOptions};
-use geardyn::model::{AnyScene, Drivetrain};
+use geardyn::model::Drivetrain;
+use geardyn::scene::Scene;
 use geardyn::with_drivetrain;
 
 /// Each mesh's DTE on the orbit through `y0` at `t = 0` at `samples` points per HB period of
 /// `mesh_periods` mesh periods of the first mesh: `(τ, [dte_n])`, τ in mesh cycles.
 fn sample_orbit(
-    scene: &AnyScene,
+    scene: &Scene,
     y0: &[f64],
     mesh_periods: u64,
     samples: usize,
@@ -50,7 +51,7 @@ fn orbit_error(sol: &HbSolution, reference: &[(f64, Vec<f64>)], scale: f64) -> f
 }
 
 /// The largest static mesh deflection (static mesh force over mean mesh stiffness), m.
-fn static_deflection(scene: &AnyScene) -> f64 {
+fn static_deflection(scene: &Scene) -> f64 {
     with_drivetrain!(scene.simulation().unwrap(), sim => {
         let m = sim.model();
         m.static_mesh_forces()
@@ -73,7 +74,7 @@ enum Oracle {
 
 /// The state at `t = 0` of the periodic orbit at the scene's speed, by `oracle`, and a line
 /// describing it.
-fn reference_state(scene: &AnyScene, oracle: Oracle) -> (Vec<f64>, String) {
+fn reference_state(scene: &Scene, oracle: Oracle) -> (Vec<f64>, String) {
     match oracle {
         Oracle::Shooting => {
             let orbit = shoot(scene, &ShootingOptions::default()).unwrap();
@@ -112,7 +113,7 @@ fn error_table(
     samples: usize,
 ) -> Vec<Vec<f64>> {
     error_table_of(
-        &AnyScene::example(name).unwrap(),
+        &Scene::example(name).unwrap(),
         oracle,
         speeds,
         harmonics,
@@ -121,13 +122,13 @@ fn error_table(
 }
 
 fn error_table_of(
-    base: &AnyScene,
+    base: &Scene,
     oracle: Oracle,
     speeds: &[f64],
     harmonics: &[usize],
     samples: usize,
 ) -> Vec<Vec<f64>> {
-    let name = base.name();
+    let name = &base.name;
     let scale = static_deflection(base);
     let mut all = Vec::new();
     for &speed in speeds {
@@ -229,7 +230,7 @@ fn critical(p: &BranchPoint) -> nalgebra::Complex<f64> {
 /// Up- and down-sweep jumps of mesh `mesh` between neighbouring speeds: its DTE RMS changes by
 /// a ratio beyond 1.3 or its contact-loss fraction by more than 0.1 (a jump onto the
 /// contact-loss branch may keep the RMS): `(direction, low speed, high speed)`.
-fn sweep_jumps(scene: &AnyScene, speeds: Vec<f64>, mesh: usize) -> Vec<(Direction, f64, f64)> {
+fn sweep_jumps(scene: &Scene, speeds: Vec<f64>, mesh: usize) -> Vec<(Direction, f64, f64)> {
     let points = sweep(
         scene,
         &SweepOptions::new(speeds, Direction::Both),
@@ -254,10 +255,8 @@ fn sweep_jumps(scene: &AnyScene, speeds: Vec<f64>, mesh: usize) -> Vec<(Directio
 
 #[test]
 fn idler_continuation_folds_over_both_fundamental_resonances() {
-    let scene = AnyScene::example("idler_gearset").unwrap();
-    let AnyScene::Train(train) = &scene else {
-        panic!("a drivetrain")
-    };
+    let scene = Scene::example("idler_gearset").unwrap();
+    let train = &scene;
     // The two mesh modes of the mean system (the highest two of the eight, dominated by the
     // mesh deflections): the fundamental resonances sit where the mesh frequency meets them.
     let model = geardyn::model::train::GearTrain::new(train).unwrap();
@@ -433,9 +432,7 @@ fn smooth_stiffness_train_hb_converges_to_integration() {
             "method = \"rk\"\nrk_method = \"dop853\"\nrtol = 1e-12\natol = 1e-20",
         );
     assert_eq!(text.matches("fourier").count(), 2);
-    let scene = AnyScene::Train(Box::new(
-        geardyn::scene::train::TrainScene::from_toml_str(&text, "smooth countershaft").unwrap(),
-    ));
+    let scene = Scene::from_toml_str(&text, "smooth countershaft").unwrap();
     let errors = error_table_of(
         &scene,
         Oracle::Integration(1500),

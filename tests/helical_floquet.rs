@@ -6,7 +6,7 @@
 
 use geardyn::analysis::{instability_bands, LinearPeriodMap};
 use geardyn::mesh::helical::{HelicalGeometry, HelicalPairSpec};
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 use geardyn::simulation::Simulation;
 use geardyn::units::{from_rpm, rpm};
 
@@ -18,7 +18,7 @@ const Y0: [f64; 2] = [2e-6 * INCH, 20.0 * INCH];
 /// The shipped scene with μ, speed, torque, helix reading and RK settings replaced. For the
 /// pitch reading the density is recalibrated as in the scene comments (f_n = 9.5 f_mesh at
 /// 1000 rpm, μ = 0), so both readings share the paper's frequency ratio.
-fn scene(mu: f64, rpm_: f64, torque: f64, reference: &str) -> Scene {
+fn scene(mu: f64, rpm_: f64, torque: f64, reference: &str) -> PairScene {
     let mut text = SCENE
         .replace(
             "friction_coefficient = 0.2",
@@ -35,7 +35,7 @@ fn scene(mu: f64, rpm_: f64, torque: f64, reference: &str) -> Scene {
         .replace("rtol = 1e-10", "rtol = 1e-11\nmethod = \"rk\"")
         .replace("atol = 1e-16", "atol = 1e-18");
     if reference == "pitch" {
-        let base = Scene::from_toml_str(&text, "base").unwrap();
+        let base = PairScene::from_toml_str(&text, "base").unwrap();
         let table: toml::Table = toml::from_str(&text).unwrap();
         let helical: HelicalPairSpec = table["mesh"]["stiffness"]["helical"]
             .clone()
@@ -51,14 +51,14 @@ fn scene(mu: f64, rpm_: f64, torque: f64, reference: &str) -> Scene {
             &format!("stiffness_density = {density:?}"),
         );
     }
-    let mut s = Scene::from_toml_str(&text, "helical test").expect("scene");
+    let mut s = PairScene::from_toml_str(&text, "helical test").expect("scene");
     s.operating.pinion_speed = from_rpm(rpm_);
     s.operating.load_torque = torque * s.gear.base_radius / s.pinion.base_radius;
     s
 }
 
 /// RK states at `times` from `y0`.
-fn rk(scene: &Scene, y0: [f64; 2], times: &[f64]) -> Vec<[f64; 2]> {
+fn rk(scene: &PairScene, y0: [f64; 2], times: &[f64]) -> Vec<[f64; 2]> {
     let mut sim = Simulation::new(scene).expect("simulation");
     assert_eq!(sim.method_name(), "dop853", "the oracle is the RK path");
     sim.set_state(0.0, y0);
@@ -129,7 +129,7 @@ fn periodic_steady_state_repeats_under_rk() {
 }
 
 /// max |x| over each of `periods` mesh periods, RK from the paper's initial conditions.
-fn rk_period_amplitudes(s: &Scene, periods: usize) -> Vec<f64> {
+fn rk_period_amplitudes(s: &PairScene, periods: usize) -> Vec<f64> {
     let map = LinearPeriodMap::new(s).unwrap();
     let per = 40;
     let times: Vec<f64> = (1..=periods * per)
@@ -309,12 +309,16 @@ fn bad_scene_input_is_rejected_naming_field_and_value() {
     for (from, to, expected) in cases {
         assert!(SCENE.contains(from), "{from}");
         let text = SCENE.replacen(from, to, 1);
-        let err = Scene::from_toml_str(&text, "bad").unwrap_err().to_string();
+        let err = PairScene::from_toml_str(&text, "bad")
+            .unwrap_err()
+            .to_string();
         assert!(err.contains(expected), "expected '{expected}' in: {err}");
     }
     // The teeth of the dynamic model and the geometry must agree.
     let text = SCENE.replacen("teeth = 25\nbase_radius", "teeth = 24\nbase_radius", 1);
-    let err = Scene::from_toml_str(&text, "bad").unwrap_err().to_string();
+    let err = PairScene::from_toml_str(&text, "bad")
+        .unwrap_err()
+        .to_string();
     assert!(err.contains("teeth = 24"), "{err}");
 }
 
@@ -333,7 +337,7 @@ fn phase_offsets_shift_the_segments_consistently() {
         )
         .replace("rtol = 1e-10", "rtol = 1e-11\nmethod = \"rk\"")
         .replace("atol = 1e-16", "atol = 1e-18");
-    let mut s = Scene::from_toml_str(&text, "phase test").unwrap();
+    let mut s = PairScene::from_toml_str(&text, "phase test").unwrap();
     s.operating.pinion_speed = from_rpm(3000.0);
     let map = LinearPeriodMap::new(&s).unwrap();
     assert_eq!(map.segments().len(), 7, "a start inside a piece splits it");

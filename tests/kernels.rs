@@ -6,14 +6,14 @@
 
 mod common;
 
-use geardyn::scene::{MethodChoice, Scene};
+use geardyn::scene::{MethodChoice, PairScene};
 use geardyn::simulation::Simulation;
 use geardyn::solve::rk::Method;
 
 const SPUR_PAIR: &str = include_str!("../fmu/spur_pair/scene.toml");
 
 /// The test pair with `mesh` lines, `[mesh.*]` tables and `operating` lines added.
-fn scene(mesh: &str, tables: &str, operating: &str, method: MethodChoice) -> Scene {
+fn scene(mesh: &str, tables: &str, operating: &str, method: MethodChoice) -> PairScene {
     let torque = if operating.contains("input_torque") {
         ""
     } else {
@@ -37,7 +37,7 @@ fn scene(mesh: &str, tables: &str, operating: &str, method: MethodChoice) -> Sce
 }
 
 /// States on a grid with the kernel the scene selects and with the generic kernel.
-fn both_kernels(scene: &Scene) -> (Vec<[f64; 2]>, Vec<[f64; 2]>, &'static str) {
+fn both_kernels(scene: &PairScene) -> (Vec<[f64; 2]>, Vec<[f64; 2]>, &'static str) {
     let run = |generic: bool| {
         let mut sim = Simulation::new(scene).expect("simulation");
         if generic {
@@ -144,7 +144,7 @@ fn scenes_without_contact_loss_evaluate_no_root_function() {
     // Backlash that stays in contact (spur_pair off resonance): the exact propagator proves
     // every segment free of crossings with the energy bound, so it evaluates no guard.
     let text = SPUR_PAIR.replace("pinion_speed = 471.238898038469", "pinion_speed = 300.0");
-    let mut s = Scene::from_toml_str(&text, "in contact").expect("scene");
+    let mut s = PairScene::from_toml_str(&text, "in contact").expect("scene");
     s.solver.method = MethodChoice::Exact;
     let mut sim = Simulation::new(&s).expect("simulation");
     sim.advance_to(0.2).expect("advance");
@@ -166,7 +166,7 @@ fn scenes_without_contact_loss_evaluate_no_root_function() {
 fn guard_bound_hides_no_event() {
     // spur_pair at resonance separates every period: the bound must not exclude those
     // segments, so the exact propagator finds the events the RK root finding finds.
-    let mut s = Scene::from_toml_str(SPUR_PAIR, "spur_pair").expect("scene");
+    let mut s = PairScene::from_toml_str(SPUR_PAIR, "spur_pair").expect("scene");
     let mut count = |method| {
         s.solver.method = method;
         s.solver.rtol = 1e-10;

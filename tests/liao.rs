@@ -11,14 +11,14 @@ use std::f64::consts::{PI, TAU};
 
 use common::M_E;
 use geardyn::analysis::{shoot, ShootingOptions};
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 
 const K0: f64 = 2.0e8;
 const XI: f64 = 0.047;
 /// Characteristic length b_c and dimensionless half-backlash b̄ = 1.
 const BC: f64 = 1.0e-5;
 
-fn liao_scene(omega: f64, damping_acts: &str) -> Scene {
+fn liao_scene(omega: f64, damping_acts: &str) -> PairScene {
     let f_n = (K0 / M_E).sqrt() / TAU;
     let c = [0.25, -0.08, 0.03, 0.01].map(|v| v * K0);
     let d = [-0.15, 0.05, 0.02, -0.008].map(|v| v * K0);
@@ -47,14 +47,14 @@ fn liao_scene(omega: f64, damping_acts: &str) -> Scene {
     )
 }
 
-fn hsu(scene: &Scene, parts: usize) -> Scene {
+fn hsu(scene: &PairScene, parts: usize) -> PairScene {
     let mut s = scene.clone();
     s.mesh.stiffness = scene.mesh.stiffness.cell_averaged(parts).unwrap();
     s
 }
 
 /// Fraction of the orbit period spent out of drive-side contact (sampled).
-fn orbit_separation(scene: &Scene, orbit: &geardyn::analysis::PeriodicOrbit) -> f64 {
+fn orbit_separation(scene: &PairScene, orbit: &geardyn::analysis::PeriodicOrbit) -> f64 {
     let mut sim = geardyn::simulation::Simulation::new(scene).unwrap();
     sim.set_state(0.0, [orbit.y0[0], orbit.y0[1]]);
     let n = 1000;

@@ -3,7 +3,7 @@
 //! reports at an upper-branch point is the fraction of a time series run from the sweep's
 //! state at that speed.
 //!
-//! Scene: `examples/liu2007/ch2_idler.toml` — Table 2.1 with **rigid bearings** (eq. 2.7, the
+//! PairScene: `examples/liu2007/ch2_idler.toml` — Table 2.1 with **rigid bearings** (eq. 2.7, the
 //! three rotations with the couplings k_s: modes 69.5 / 1605.0 / 3230.7 Hz), Model-1
 //! rectangular tooth pairs without relief, ζ = 2 % (assumed), contact loss. The thesis'
 //! FE-stiffness results (Figs. 2.5–2.7, notes §1.11): jump-down near 1.2 kHz (mode 1) and
@@ -15,7 +15,8 @@
 use std::path::Path;
 
 use geardyn::analysis::{sweep, Direction, SweepOptions, SweepPoint};
-use geardyn::model::{response_period, AnyScene, AnySimulation, Drivetrain};
+use geardyn::model::{response_period, AnySimulation, Drivetrain};
+use geardyn::scene::Scene;
 
 const TEETH: f64 = 38.0;
 
@@ -71,7 +72,7 @@ fn hysteresis(
 #[test]
 fn idler_sweeps_show_both_softening_jumps_and_consistent_contact_loss() {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/liu2007/ch2_idler.toml");
-    let scene = AnyScene::from_path(&path).unwrap();
+    let scene = Scene::from_path(&path).unwrap();
     // Mesh frequencies 1000 … 3500 Hz in 50 Hz steps: across f_1 = 1605 Hz and f_2 = 3231 Hz.
     let speeds: Vec<f64> = (0..=50)
         .map(|i| speed_of(1000.0 + 50.0 * i as f64))
@@ -152,14 +153,14 @@ fn idler_sweeps_show_both_softening_jumps_and_consistent_contact_loss() {
 /// fraction (exact, from the contact events) must equal the sweep's (sampled at
 /// `samples_per_period` per mesh period) within 1/samples_per_period, and its DTE RMS the
 /// sweep's.
-fn check_against_time_series(scene: &AnyScene, point: &SweepPoint, options: &SweepOptions) {
+fn check_against_time_series(scene: &Scene, point: &SweepPoint, options: &SweepOptions) {
     assert!(
         point.converged,
         "the upper-branch point must be periodic: {point:?}"
     );
     let mut at = scene.clone();
     at.set_input_speed(point.speed);
-    let solver = at.solver_mut();
+    let solver = &mut at.solver;
     solver.method = geardyn::scene::MethodChoice::Rk;
     solver.rk_method = "dop853".parse().unwrap();
     solver.rtol = 1e-12;
@@ -214,7 +215,7 @@ fn shipped_8_dof_idler_upper_branch_matches_a_time_series() {
     // first mesh resonance (linear at 418 rad/s, upper-branch fold near 341 rad/s,
     // `tests/hb_drivetrain.rs`): at 350 rad/s the down sweep is on the upper branch, with
     // contact loss, and the time series from its state has the same contact loss.
-    let scene = AnyScene::example("idler_gearset").unwrap();
+    let scene = Scene::example("idler_gearset").unwrap();
     let speeds: Vec<f64> = (0..=40).map(|i| 350.0 + 2.0 * i as f64).collect();
     let options = SweepOptions::new(speeds, Direction::Down);
     let points = sweep(&scene, &options, &|_, _| {}).unwrap().points;

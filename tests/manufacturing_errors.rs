@@ -5,21 +5,16 @@
 
 use std::f64::consts::TAU;
 
-use geardyn::model::{response_period, AnyScene};
-use geardyn::scene::is_train_text;
-use geardyn::scene::train::TrainScene;
+use geardyn::model::response_period;
+use geardyn::scene::PairScene;
 use geardyn::scene::Scene;
+use geardyn::scene::{is_train_text, KernelChoice};
 use geardyn::simulation::run;
 use geardyn::with_drivetrain;
 
 /// The scene of either format, as every command reads it.
-fn any(text: &str) -> Result<AnyScene, String> {
-    if is_train_text(text) {
-        TrainScene::from_toml_str(text, "t").map(|s| AnyScene::Train(Box::new(s)))
-    } else {
-        Scene::from_toml_str(text, "t").map(|s| AnyScene::Pair(Box::new(s)))
-    }
-    .map_err(|e| e.to_string())
+fn any(text: &str) -> Result<Scene, String> {
+    Scene::from_toml_str(text, "t").map_err(|e| e.to_string())
 }
 
 const Z: [u32; 2] = [25, 40];
@@ -82,9 +77,11 @@ fn runout_on_a_constant_stiffness_is_the_closed_form_sdof_response() {
         "",
     );
     let scene = any(&text).unwrap();
-    let AnyScene::Train(train) = &scene else {
-        panic!("a pair scene with errors runs as its one-mesh drivetrain");
-    };
+    assert!(
+        matches!(scene.kernel, KernelChoice::Drivetrain(_)),
+        "a pair scene with errors runs as its one-mesh drivetrain"
+    );
+    let train = &scene;
     let (k, c, speed) = (3.0e8, 500.0, 400.0);
     let m = 1.0 / (R[0] * R[0] / I[0] + R[1] * R[1] / I[1]);
     let force = 150.0 / R[0];
@@ -142,9 +139,14 @@ fn zero_errors_change_nothing_bit_for_bit() {
         "backlash = 1e-4",
     );
     let without = pair(["", ""], RECTANGULAR, "backlash", "backlash = 1e-4");
-    assert!(matches!(any(&with).unwrap(), AnyScene::Pair(_)));
-    let a = run(&Scene::from_toml_str(&with, "t").unwrap(), 0.01, 1e-5).unwrap();
-    let b = run(&Scene::from_toml_str(&without, "t").unwrap(), 0.01, 1e-5).unwrap();
+    assert!(any(&with).unwrap().kernel == KernelChoice::Pair);
+    let a = run(&PairScene::from_toml_str(&with, "t").unwrap(), 0.01, 1e-5).unwrap();
+    let b = run(
+        &PairScene::from_toml_str(&without, "t").unwrap(),
+        0.01,
+        1e-5,
+    )
+    .unwrap();
     assert_eq!(a.rows, b.rows);
     // A drivetrain (`[model]` makes it one): the same.
     let train = |t: &str| {
@@ -156,7 +158,7 @@ fn zero_errors_change_nothing_bit_for_bit() {
     let (tw, to) = (train(&with), train(&without));
     assert!(is_train_text(&tw) && is_train_text(&to));
     let run_train = |t: &str| {
-        let s = TrainScene::from_toml_str(t, "t").unwrap();
+        let s = Scene::from_toml_str(t, "t").unwrap();
         geardyn::model::train::run_train(&s, 0.01, 1e-5)
             .unwrap()
             .rows
@@ -187,7 +189,7 @@ fn errors_set_the_hunting_period_and_the_method() {
     let one = any(&pair([runout, ""], RECTANGULAR, "linear", "")).unwrap();
     let none = any(&pair(["", ""], RECTANGULAR, "linear", "")).unwrap();
     let mesh_period = TAU / (400.0 * f64::from(Z[0]));
-    let period = |s: &AnyScene| {
+    let period = |s: &Scene| {
         with_drivetrain!(s.simulation().unwrap(), sim => {
             (response_period(sim.model()).unwrap(), sim.method_name())
         })

@@ -5,31 +5,22 @@
 
 use std::process::Command;
 
-use geardyn::model::AnyScene;
-use geardyn::scene::is_train_text;
-use geardyn::scene::train::TrainScene;
-use geardyn::scene::{MethodChoice, Scene};
+use geardyn::scene::MethodChoice;
+use geardyn::scene::Scene;
 use geardyn::with_drivetrain;
 
-fn any(text: &str) -> AnyScene {
-    if is_train_text(text) {
-        AnyScene::Train(Box::new(TrainScene::from_toml_str(text, "t").unwrap()))
-    } else {
-        AnyScene::Pair(Box::new(Scene::from_toml_str(text, "t").unwrap()))
-    }
+fn any(text: &str) -> Scene {
+    Scene::from_toml_str(text, "t").unwrap()
 }
 
-fn choice(scene: &AnyScene) -> String {
+fn choice(scene: &Scene) -> String {
     with_drivetrain!(scene.simulation().unwrap(), sim => sim.method_choice().to_owned())
 }
 
 /// The refusal of `method = exact` for the scene (it must be refused).
-fn exact_refusal(scene: &AnyScene) -> String {
+fn exact_refusal(scene: &Scene) -> String {
     let mut s = scene.clone();
-    match &mut s {
-        AnyScene::Pair(p) => p.solver.method = MethodChoice::Exact,
-        AnyScene::Train(t) => t.solver.method = MethodChoice::Exact,
-    }
+    s.solver.method = MethodChoice::Exact;
     match s.simulation() {
         Err(e) => e,
         Ok(_) => panic!("exact must be refused"),
@@ -40,9 +31,9 @@ const EXACT: &str = "exact (auto: every segment is linear time-invariant)";
 
 #[test]
 fn pair_and_idler_choose_exact_and_say_why() {
-    let pair = AnyScene::Pair(Box::new(Scene::example("spur_pair").unwrap()));
+    let pair = Scene::example("spur_pair").unwrap();
     assert_eq!(choice(&pair), EXACT);
-    let idler = AnyScene::Train(Box::new(TrainScene::example("idler_gearset").unwrap()));
+    let idler = Scene::example("idler_gearset").unwrap();
     assert_eq!(choice(&idler), EXACT);
     // A chain beyond the old 64-bit mode key (21 meshes) is exact too, not a silent fallback.
     let chain = geardyn::scene::train::ChainSpec::new(
@@ -50,7 +41,7 @@ fn pair_and_idler_choose_exact_and_say_why() {
         geardyn::scene::train::ChainBearings::Compliant,
         geardyn::scene::train::ChainContact::ContactLoss,
     );
-    let chain = AnyScene::Train(Box::new(TrainScene::chain(chain).unwrap()));
+    let chain = Scene::chain(chain).unwrap();
     assert_eq!(choice(&chain), EXACT);
 }
 

@@ -9,8 +9,9 @@
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
-use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
+use geardyn::commands::simulate::{simulate, SimulateOptions};
 use geardyn::host::description::{parse, Causality};
+use geardyn::scene::Scene;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -220,7 +221,7 @@ fn fmu_outputs_are_the_native_csv_columns() {
             stop_time: Some(1e-4),
             ..SimulateOptions::default()
         };
-        simulate(AnyScene::from_path(&folder).unwrap(), &options, &out).unwrap();
+        simulate(Scene::from_path(&folder).unwrap(), &options, &out).unwrap();
         let native = std::fs::read_to_string(&out).unwrap();
         assert_eq!(native.lines().next().unwrap(), expected, "{name}: simulate");
     }

@@ -1,28 +1,26 @@
-//! A single-mesh scene is a one-mesh drivetrain: [`TrainScene::from_pair`] gives the same
-//! drivetrain the train reader builds from the same file, and the two kernels give the same
-//! run.
+//! A single-mesh scene is a one-mesh drivetrain: the resolved scene of a single-pair file is
+//! the pair's one-mesh drivetrain, the pair kernel's view of it ([`Scene::pair`]) is the pair
+//! the single-pair validation checked, and the two kernels give the same run.
 
-use geardyn::scene::train::TrainScene;
+use geardyn::scene::PairScene;
 use geardyn::scene::Scene;
 
 #[test]
-fn pair_scene_converts_to_the_drivetrain_the_train_reader_builds() {
-    let pair = Scene::from_path("fmu/spur_pair".as_ref()).unwrap();
-    let read = TrainScene::from_path("fmu/spur_pair".as_ref()).unwrap();
-    let converted = TrainScene::from_pair(&pair);
-    assert_eq!(converted.gears, read.gears);
-    assert_eq!(converted.meshes[0].force, read.meshes[0].force);
-    assert_eq!(converted.meshes[0].contact, read.meshes[0].contact);
-    assert_eq!(converted.meshes[0].damping, read.meshes[0].damping);
-    assert_eq!(
-        converted.meshes[0].cycles_per_input_rev,
-        read.meshes[0].cycles_per_input_rev
-    );
-    assert_eq!(converted.speed_ratio, read.speed_ratio);
-    assert_eq!(converted.rotation, read.rotation);
-    assert_eq!(converted.operating, read.operating);
-    assert_eq!(converted.initial_dte, read.initial_dte);
-    println!("{:?}\n{:?}", converted.meshes[0], read.meshes[0]);
+fn pair_scene_is_the_one_mesh_drivetrain_and_lifts_without_loss() {
+    let pair = PairScene::from_path("fmu/spur_pair".as_ref()).unwrap();
+    let read = Scene::from_path("fmu/spur_pair".as_ref()).unwrap();
+    assert_eq!(read.pair().as_ref(), Some(&pair));
+    let lifted = Scene::from(&pair);
+    assert_eq!(lifted, read);
+    assert_eq!(read.gears.len(), 2);
+    assert_eq!(read.meshes.len(), 1);
+    assert_eq!((read.meshes[0].pinion, read.meshes[0].gear), (0, 1));
+    assert_eq!(read.gears[0].name, pair.pinion.name);
+    assert_eq!(read.speed_ratio, [1.0, 38.0 / 55.0]);
+    assert_eq!(read.rotation, [1.0, -1.0]);
+    assert_eq!(read.meshes[0].cycles_per_input_rev, 38.0);
+    let train = read.on_drivetrain_kernel().unwrap();
+    assert!(train.pair().is_none());
 }
 
 /// A single-mesh file that uses per-tooth-pair features (Model-1 pairs with tip relief) is read
@@ -72,8 +70,8 @@ stop_time = 0.005
         "[[gear]]\nname = \"pinion\"",
         "[model]\n[[gear]]\nname = \"pinion\"",
     );
-    let a = TrainScene::from_toml_str(pair, "pair").unwrap();
-    let b = TrainScene::from_toml_str(&train, "train").unwrap();
+    let a = Scene::from_toml_str(pair, "pair").unwrap();
+    let b = Scene::from_toml_str(&train, "train").unwrap();
     let (ra, rb) = (
         run_train(&a, 0.005, 1e-5).unwrap(),
         run_train(&b, 0.005, 1e-5).unwrap(),
@@ -82,6 +80,6 @@ stop_time = 0.005
     assert_eq!(ra.rows, rb.rows);
     // The relief is there: without it the run differs.
     let plain = pair.replace("driver_magnitude = 10e-6", "driver_magnitude = 0.0");
-    let c = TrainScene::from_toml_str(&plain, "plain").unwrap();
+    let c = Scene::from_toml_str(&plain, "plain").unwrap();
     assert_ne!(run_train(&c, 0.005, 1e-5).unwrap().rows, ra.rows);
 }

@@ -14,10 +14,10 @@ mod common;
 
 use common::ports::{col, integral, ratio_errors, scene, stage_text, stieltjes};
 use geardyn::model::train::{run_train, TrainTrajectory};
-use geardyn::scene::train::TrainScene;
+use geardyn::scene::Scene;
 
 /// The tooth ratio ω_out/ω_in of a chain of meshes, each `(driver, driven)` by gear name.
-fn tooth_ratio(sc: &TrainScene, chain: &[(&str, &str)]) -> f64 {
+fn tooth_ratio(sc: &Scene, chain: &[(&str, &str)]) -> f64 {
     let z = |g: &str| f64::from(sc.gears[sc.gear_index(g).unwrap()].teeth);
     chain.iter().map(|(a, b)| z(a) / z(b)).product()
 }
@@ -61,7 +61,7 @@ fn countershaft_stage_speed_ratio_is_the_tooth_ratio() {
 /// Kinetic and bearing energy at sample `i` (1 ≤ i ≤ n − 2): ½Jω² of each gear from the speed
 /// column of its body (`speeds`: gear → column), ½m v² + ½k x² of every translation, v by the
 /// central difference of the recorded position.
-fn stored(run: &TrainTrajectory, sc: &TrainScene, speeds: &[(&str, &str)], i: usize) -> f64 {
+fn stored(run: &TrainTrajectory, sc: &Scene, speeds: &[(&str, &str)], i: usize) -> f64 {
     let mut e = 0.0;
     for (gear, column) in speeds {
         let g = &sc.gears[sc.gear_index(gear).unwrap()];
@@ -197,7 +197,7 @@ fn an_unbalanced_torque_beyond_the_run_limits_is_refused_before_the_run() {
     std::fs::create_dir_all(&dir).unwrap();
     let path = dir.join("scene.toml");
     std::fs::write(&path, text).unwrap();
-    let scene = geardyn::commands::simulate::AnyScene::from_path(&path).unwrap();
+    let scene = geardyn::scene::Scene::from_path(&path).unwrap();
     let options = geardyn::commands::simulate::SimulateOptions {
         stop_time: Some(1e-3),
         ..Default::default()

@@ -16,13 +16,13 @@ use std::path::PathBuf;
 
 use common::ports::{col, ratio_errors, scene};
 use geardyn::model::train::{run_train, TrainTrajectory};
-use geardyn::scene::train::TrainScene;
+use geardyn::scene::Scene;
 
 fn stage_text() -> String {
     common::ports::stage_text("spur_stage")
 }
 
-/// Scene numbers of the stage (read from the file, so the test follows the shipped data).
+/// PairScene numbers of the stage (read from the file, so the test follows the shipped data).
 struct Stage {
     z1: f64,
     z2: f64,
@@ -32,7 +32,7 @@ struct Stage {
     j2: f64,
 }
 
-fn stage(s: &TrainScene) -> Stage {
+fn stage(s: &Scene) -> Stage {
     let (p, g) = (&s.gears[0], &s.gears[1]);
     Stage {
         z1: f64::from(p.teeth),
@@ -214,35 +214,25 @@ fn power_balance_over_a_run() {
 fn scene_checks_name_the_keys() {
     let text = stage_text();
     let both = text.replace("[operating]", "[operating]\ninput_torque = 100.0");
-    let e = TrainScene::from_toml_str(&both, "t")
-        .unwrap_err()
-        .to_string();
+    let e = Scene::from_toml_str(&both, "t").unwrap_err().to_string();
     assert!(
         e.contains("operating.input_torque") && e.contains("port[0]"),
         "{e}"
     );
     let both = text.replace("[operating]", "[operating]\nload_torque = 100.0");
-    let e = TrainScene::from_toml_str(&both, "t")
-        .unwrap_err()
-        .to_string();
+    let e = Scene::from_toml_str(&both, "t").unwrap_err().to_string();
     assert!(
         e.contains("operating.load_torque") && e.contains("port[1]"),
         "{e}"
     );
     let other = text.replacen("causality = \"torque\"", "causality = \"force\"", 1);
-    let e = TrainScene::from_toml_str(&other, "t")
-        .unwrap_err()
-        .to_string();
+    let e = Scene::from_toml_str(&other, "t").unwrap_err().to_string();
     assert!(e.contains("port[0].causality"), "{e}");
     let same = text.replace("gear = \"gear\"\ncausality", "gear = \"pinion\"\ncausality");
-    let e = TrainScene::from_toml_str(&same, "t")
-        .unwrap_err()
-        .to_string();
+    let e = Scene::from_toml_str(&same, "t").unwrap_err().to_string();
     assert!(e.contains("port[1].gear"), "{e}");
     let clash = text.replace("name = \"output\"", "name = \"gear\"");
-    let e = TrainScene::from_toml_str(&clash, "t")
-        .unwrap_err()
-        .to_string();
+    let e = Scene::from_toml_str(&clash, "t").unwrap_err().to_string();
     assert!(
         e.contains("port[1].name") && e.contains("gear's name"),
         "{e}"
@@ -274,7 +264,7 @@ fn without_ports_the_nominal_form_runs() {
 #[test]
 fn nominal_analyses_refuse_ports_and_simulate_runs() {
     let folder = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("fmu/spur_stage");
-    let scene = geardyn::model::AnyScene::from_path(&folder).unwrap();
+    let scene = geardyn::scene::Scene::from_path(&folder).unwrap();
     let e = scene.simulation().err().unwrap();
     assert!(
         e.contains("[[port]]") && e.contains("geardyn simulate"),
@@ -412,10 +402,10 @@ fn a_speed_port_settles_to_the_static_twist_and_the_tooth_ratio() {
 #[test]
 fn speed_port_checks_name_the_keys() {
     let base = speed_port_text(Some((2.0e4, 1.0)), None);
-    assert!(TrainScene::from_toml_str(&base, "t").is_ok());
+    assert!(Scene::from_toml_str(&base, "t").is_ok());
     let case = |from: &str, to: &str, expect: &[&str]| {
         assert!(base.contains(from), "{from}");
-        let e = TrainScene::from_toml_str(&base.replacen(from, to, 1), "t")
+        let e = Scene::from_toml_str(&base.replacen(from, to, 1), "t")
             .unwrap_err()
             .to_string();
         assert!(expect.iter().all(|x| e.contains(x)), "{e}");

@@ -6,19 +6,19 @@
 //! and stay together at every mesh period, to the root-finding tolerance; and the fast path
 //! must actually decide most segments of a periodic orbit (else the comparison says nothing).
 
-use geardyn::scene::{MethodChoice, Scene};
+use geardyn::scene::{MethodChoice, PairScene};
 use geardyn::simulation::Simulation;
 
 const SPUR_PAIR: &str = include_str!("../fmu/spur_pair/scene.toml");
 
-fn scene(text: &str) -> Scene {
-    let mut scene = Scene::from_toml_str(text, "test").expect("scene");
+fn scene(text: &str) -> PairScene {
+    let mut scene = PairScene::from_toml_str(text, "test").expect("scene");
     scene.solver.method = MethodChoice::Exact;
     scene
 }
 
 /// `spur_pair` with `old` replaced by `new` in its scene text.
-fn variant(old: &str, new: &str) -> Scene {
+fn variant(old: &str, new: &str) -> PairScene {
     assert!(SPUR_PAIR.contains(old), "{old}");
     scene(&SPUR_PAIR.replace(old, new))
 }
@@ -33,7 +33,7 @@ struct Comparison {
 
 /// Runs `periods` mesh periods with and without recurring decisions, comparing the states at
 /// every `stride` of a mesh period.
-fn compare(scene: &Scene, periods: u64, stride: f64) -> Comparison {
+fn compare(scene: &PairScene, periods: u64, stride: f64) -> Comparison {
     let mut fast = Simulation::new(scene).expect("simulation");
     let mut full = Simulation::new(scene).expect("simulation");
     full.use_recurrences(false);
@@ -64,7 +64,7 @@ fn compare(scene: &Scene, periods: u64, stride: f64) -> Comparison {
     }
 }
 
-fn check(label: &str, scene: &Scene, periods: u64, stride: f64, min_decided: f64) {
+fn check(label: &str, scene: &PairScene, periods: u64, stride: f64, min_decided: f64) {
     let c = compare(scene, periods, stride);
     println!(
         "{label}: {periods} mesh periods, events {} / {} (fast / full search), \

@@ -8,9 +8,10 @@
 //! FMU-only models without a `simulate` path: their references are checked through the FMU
 //! model in `tests/element_fmus.rs`.
 
-use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
+use geardyn::commands::simulate::{simulate, SimulateOptions};
+use geardyn::scene::Scene;
 
-/// Scene and output interval of its reference run.
+/// PairScene and output interval of its reference run.
 const REFERENCES: [(&str, f64); 11] = [
     ("spur_pair", 1e-4),
     ("geometry_pair", 1e-4),
@@ -31,7 +32,7 @@ fn shipped_scenes_reproduce_their_reference_outputs() {
     std::fs::create_dir_all(&dir).unwrap();
     for (name, interval) in REFERENCES {
         let folder = std::path::Path::new("fmu").join(name);
-        let scene = AnyScene::from_path(&folder).unwrap();
+        let scene = Scene::from_path(&folder).unwrap();
         let out = dir.join(format!("{name}.csv"));
         let options = SimulateOptions {
             output_interval: Some(interval),

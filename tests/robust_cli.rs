@@ -115,9 +115,8 @@ fn a_nearly_free_bearing_axis_simulates_and_has_its_closed_form_mode() {
     );
     assert!(!text.contains("NaN"));
 
-    let any = geardyn::model::AnyScene::from_path(&scene).unwrap();
-    let result =
-        geardyn::commands::modes::modes(&any.mean_drivetrain(), false, &mut Vec::new()).unwrap();
+    let any = geardyn::scene::Scene::from_path(&scene).unwrap();
+    let result = geardyn::commands::modes::modes(&any, false, &mut Vec::new()).unwrap();
     let expected = (8.0f64 / 4.4380).sqrt() / std::f64::consts::TAU;
     let nearest = result
         .modes

@@ -5,9 +5,8 @@
 //! periodic orbits, sweeps, harmonic balance, Floquet) refusing a run-up by name. The
 //! dynamics are checked against independent scipy models in `tests/python/test_runup.py`.
 
-use geardyn::model::AnyScene;
-use geardyn::scene::train::TrainScene;
-use geardyn::scene::{MethodChoice, Scene};
+use geardyn::scene::MethodChoice;
+use geardyn::scene::Scene;
 use geardyn::with_drivetrain;
 
 const SPUR: &str = include_str!("../fmu/spur_pair/scene.toml");
@@ -25,20 +24,15 @@ fn with_operating(text: &str, speed_line: &str, operating: &str, tables: &str) -
     t.replacen("[solver]", &format!("{tables}\n[solver]"), 1)
 }
 
-fn any(text: &str, train: bool) -> Result<AnyScene, String> {
-    if train {
-        TrainScene::from_toml_str(text, "test")
-            .map(|s| AnyScene::Train(Box::new(s)))
-            .map_err(|e| e.0)
-    } else {
-        Scene::from_toml_str(text, "test")
-            .map(|s| AnyScene::Pair(Box::new(s)))
-            .map_err(|e| e.0)
-    }
+/// The scene, checked to run on the kernel the test means (`train`: the drivetrain kernel).
+fn any(text: &str, train: bool) -> Result<Scene, String> {
+    let scene = Scene::from_toml_str(text, "test").map_err(|e| e.0)?;
+    assert_eq!(scene.pair().is_none(), train, "kernel of {}", scene.name);
+    Ok(scene)
 }
 
 /// Every output row on a grid of `rows` points over `stop`, with the method name.
-fn run(scene: &AnyScene, stop: f64, rows: usize) -> (Vec<Vec<f64>>, String) {
+fn run(scene: &Scene, stop: f64, rows: usize) -> (Vec<Vec<f64>>, String) {
     with_drivetrain!(scene.simulation().unwrap(), sim => {
         let mut sim = sim;
         let mut out = Vec::new();
@@ -90,7 +84,7 @@ fn a_constant_profile_is_the_constant_operating_point_bit_for_bit() {
         ];
         for method in [MethodChoice::Auto, MethodChoice::Rk] {
             let mut base = any(text, train).unwrap();
-            base.solver_mut().method = method;
+            base.solver.method = method;
             let (want, want_method) = run(&base, 0.006, 60);
             for (i, profile) in profiles.iter().enumerate() {
                 let src = if i == 1 {
@@ -100,8 +94,8 @@ fn a_constant_profile_is_the_constant_operating_point_bit_for_bit() {
                     with_operating(text, line, "", profile)
                 };
                 let mut scene = any(&src, train).unwrap_or_else(|e| panic!("{key}: {e}"));
-                assert!(scene.profiles().any());
-                scene.solver_mut().method = method;
+                assert!(scene.profiles.any());
+                scene.solver.method = method;
                 let (got, got_method) = run(&scene, 0.006, 60);
                 assert_eq!(got_method, want_method, "{key} profile {i}");
                 assert!(
@@ -139,13 +133,13 @@ fn exact_applies_to_a_runup_without_ste_and_refuses_a_chirp() {
     let ramp = "[operating.speed_profile]\nkind = \"ramp\"\nfrom = 100.0\nto = 400.0\nstart = 0.0\nend = 0.01";
     let src = with_operating(SPUR, SPUR_SPEED, "", ramp);
     let mut scene = any(&src, false).unwrap();
-    scene.solver_mut().method = MethodChoice::Exact;
+    scene.solver.method = MethodChoice::Exact;
     let e = scene.simulation().err().expect("exact must refuse");
     assert!(
         e.contains("operating.speed_profile") && e.contains("chirp"),
         "{e}"
     );
-    scene.solver_mut().method = MethodChoice::Auto;
+    scene.solver.method = MethodChoice::Auto;
     let (_, method) = run(&scene, 0.002, 4);
     assert_ne!(method, "exact");
     // Without STE the segments stay LTI: auto keeps the exact propagator.
@@ -161,13 +155,13 @@ fn exact_applies_to_a_runup_without_ste_and_refuses_a_chirp() {
         "",
     );
     let mut scene = any(&src, false).unwrap();
-    scene.solver_mut().method = MethodChoice::Exact;
+    scene.solver.method = MethodChoice::Exact;
     let e = scene.simulation().err().expect("exact must refuse");
     assert!(e.contains("operating.torque_profile"), "{e}");
     // The idler train with its tip relief: gaps affine in a quadratic phase.
     let src = with_operating(IDLER, IDLER_SPEED, "", ramp);
     let mut scene = any(&src, true).unwrap();
-    scene.solver_mut().method = MethodChoice::Exact;
+    scene.solver.method = MethodChoice::Exact;
     let e = scene.simulation().err().expect("exact must refuse");
     assert!(e.contains("tip relief"), "{e}");
 }

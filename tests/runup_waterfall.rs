@@ -9,8 +9,7 @@ use std::f64::consts::TAU;
 
 use geardyn::analysis::spectrum::WaterfallOptions;
 use geardyn::commands::runup::{runup_waterfall, RunupSignal};
-use geardyn::model::AnyScene;
-use geardyn::scene::train::TrainScene;
+use geardyn::scene::PairScene;
 use geardyn::scene::Scene;
 
 const RUNUP: &str = include_str!("../examples/runup_spur.toml");
@@ -29,8 +28,8 @@ fn fit(points: &[(f64, f64)]) -> (f64, f64) {
     (slope, my - slope * mx)
 }
 
-fn check(scene: &AnyScene, kernel: &str) {
-    let pair = Scene::from_toml_str(RUNUP, "runup").unwrap();
+fn check(scene: &Scene, kernel: &str) {
+    let pair = PairScene::from_toml_str(RUNUP, "runup").unwrap();
     let z1 = f64::from(pair.pinion.teeth);
     let m_e = 1.0
         / (pair.pinion.base_radius.powi(2) / pair.pinion.inertia
@@ -118,20 +117,20 @@ fn check(scene: &AnyScene, kernel: &str) {
 
 #[test]
 fn runup_waterfall_orders_and_resonance_single_pair() {
-    let scene = AnyScene::example("runup_spur").unwrap();
-    assert!(matches!(scene, AnyScene::Pair(_)));
+    let scene = Scene::example("runup_spur").unwrap();
+    assert!(scene.pair().is_some());
     check(&scene, "pair");
 }
 
 #[test]
 fn runup_waterfall_orders_and_resonance_drivetrain() {
-    let train = TrainScene::from_toml_str(RUNUP, "runup as drivetrain").unwrap();
-    check(&AnyScene::Train(Box::new(train)), "drivetrain");
+    let train = Scene::from_toml_str(RUNUP, "runup as drivetrain").unwrap();
+    check(&train.on_drivetrain_kernel().unwrap(), "drivetrain");
 }
 
 #[test]
 fn waterfall_refuses_a_scene_without_a_runup() {
-    let scene = AnyScene::example("spur_pair").unwrap();
+    let scene = Scene::example("spur_pair").unwrap();
     let e = runup_waterfall(&scene, 0, RunupSignal::Dte, &WaterfallOptions::default()).unwrap_err();
     assert!(e.contains("operating.speed_profile"), "{e}");
 }

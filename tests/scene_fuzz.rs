@@ -1,4 +1,4 @@
-//! Scene-mutation fuzzer (issue 17, acceptance 3): every shipped scene (`fmu/*/scene.toml`:
+//! PairScene-mutation fuzzer (issue 17, acceptance 3): every shipped scene (`fmu/*/scene.toml`:
 //! single pairs, geometry, helical, Bugaru, drivetrains) is mutated at random, deterministically
 //! from a seed, and run through the path of `geardyn simulate` (scene file → load → validate →
 //! limits → streamed CSV, [`geardyn::commands::simulate::simulate`]). Each mutation must end in a result
@@ -25,7 +25,8 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
+use geardyn::commands::simulate::{simulate, SimulateOptions};
+use geardyn::scene::Scene;
 use geardyn::simulation::RunLimits;
 use toml::Value;
 
@@ -482,7 +483,7 @@ fn fuzz(mutations: u64, seed: u64) {
                         if *kind == Kind::Element {
                             return run_element(&text).map(|()| 0.0);
                         }
-                        let scene = AnyScene::from_path(&scene_path)?;
+                        let scene = Scene::from_path(&scene_path)?;
                         let opts = SimulateOptions {
                             limits: FUZZ_LIMITS,
                             ..Default::default()

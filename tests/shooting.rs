@@ -3,23 +3,23 @@
 //! the monodromy against central finite differences of the RK period map.
 
 use geardyn::analysis::{shoot, ShootingOptions, Stability};
-use geardyn::scene::{MethodChoice, Scene};
+use geardyn::scene::{MethodChoice, PairScene};
 use geardyn::simulation::Simulation;
 use geardyn::solve::rk::Method;
 use nalgebra::DMatrix;
 
-fn spur_pair() -> Scene {
-    Scene::example("spur_pair").unwrap()
+fn spur_pair() -> PairScene {
+    PairScene::example("spur_pair").unwrap()
 }
 
-fn double_sided() -> Scene {
+fn double_sided() -> PairScene {
     let text = include_str!("../fmu/spur_pair/scene.toml")
         .replacen("backlash = 1.0e-4", "backlash = 1.0e-5", 1)
         .replacen("cos = [1.0e-6]", "cos = [3.0e-6]", 1);
-    Scene::from_toml_str(&text, "double_sided").unwrap()
+    PairScene::from_toml_str(&text, "double_sided").unwrap()
 }
 
-fn rk(scene: &Scene) -> Scene {
+fn rk(scene: &PairScene) -> PairScene {
     let mut s = scene.clone();
     s.solver.method = MethodChoice::Rk;
     s.solver.rk_method = Method::Dop853;
@@ -29,14 +29,14 @@ fn rk(scene: &Scene) -> Scene {
 }
 
 /// RK period map from `y0` at t = 0.
-fn rk_period_map(scene: &Scene, y0: [f64; 2], duration: f64) -> [f64; 2] {
+fn rk_period_map(scene: &PairScene, y0: [f64; 2], duration: f64) -> [f64; 2] {
     let mut sim = Simulation::new(&rk(scene)).unwrap();
     sim.set_state(0.0, y0);
     sim.advance_to(duration).unwrap();
     sim.state()
 }
 
-fn check_scene(label: &str, scene: &Scene) {
+fn check_scene(label: &str, scene: &PairScene) {
     let orbit = shoot(scene, &ShootingOptions::default()).expect("shooting");
     println!(
         "{label}: residuals {:?}\n  y0 = {:?}, multipliers {:?}, {:?}",
@@ -159,6 +159,6 @@ fn smooth_scene_orbit_by_rk_variational_equations() {
             1,
         )
         .replacen("method = \"auto\"", "method = \"rk\"\nrtol = 1e-12\natol = 1e-20", 1);
-    let scene = Scene::from_toml_str(&text, "trapezoidal").unwrap();
+    let scene = PairScene::from_toml_str(&text, "trapezoidal").unwrap();
     check_scene("trapezoidal (RK variational)", &scene);
 }

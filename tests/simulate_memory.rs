@@ -9,7 +9,8 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
+use geardyn::commands::simulate::{simulate, SimulateOptions};
+use geardyn::scene::Scene;
 
 struct Counting;
 
@@ -38,13 +39,13 @@ static ALLOCATOR: Counting = Counting;
 /// of live heap bytes above the level before the run, the writer's peak buffered bytes and
 /// the rows written.
 fn peak_bytes(scene: &str, periods: f64) -> (usize, usize, u64) {
-    let s = AnyScene::example(scene).unwrap();
-    let period = match &s {
-        AnyScene::Pair(p) => geardyn::simulation::Simulation::new(p)
+    let s = Scene::example(scene).unwrap();
+    let period = match s.pair() {
+        Some(p) => geardyn::simulation::Simulation::new(&p)
             .unwrap()
             .model()
             .mesh_period(),
-        AnyScene::Train(t) => geardyn::model::train::TrainSimulation::new(t)
+        None => geardyn::model::train::TrainSimulation::new(&s)
             .unwrap()
             .model()
             .mesh_period(0),

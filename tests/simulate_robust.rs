@@ -7,7 +7,8 @@
 
 use std::path::{Path, PathBuf};
 
-use geardyn::commands::simulate::{simulate, AnyScene, SimulateOptions};
+use geardyn::commands::simulate::{simulate, SimulateOptions};
+use geardyn::scene::Scene;
 
 const SPUR_PAIR: &str = include_str!("../fmu/spur_pair/scene.toml");
 const IDLER: &str = include_str!("../fmu/idler_gearset/scene.toml");
@@ -25,7 +26,9 @@ fn run(text: &str, opts: &SimulateOptions) -> (tempfile::TempDir, PathBuf, Resul
     let scene = dir.path().join("scene.toml");
     std::fs::write(&scene, text).unwrap();
     let out = dir.path().join("out.csv");
-    let result = AnyScene::from_path(&scene).and_then(|s| simulate(s, opts, &out).map(|_| ()));
+    let result = Scene::from_path(&scene)
+        .map_err(String::from)
+        .and_then(|s| simulate(s, opts, &out).map(|_| ()));
     (dir, out, result)
 }
 

@@ -11,8 +11,7 @@
 
 use geardyn::analysis::spectrum::{exact_dft, windowed_fft, Window};
 use geardyn::commands::spectrum::{periodic_spectrum, SpectrumRequest};
-use geardyn::model::AnyScene;
-use geardyn::scene::train::TrainScene;
+use geardyn::scene::PairScene;
 use geardyn::scene::Scene;
 use std::f64::consts::PI;
 
@@ -44,12 +43,12 @@ pinion_speed = 314.159
 input_torque = 150.0
 "#;
 
-fn pair() -> Scene {
-    Scene::from_toml_str(SCENE, "test").unwrap()
+fn pair() -> PairScene {
+    PairScene::from_toml_str(SCENE, "test").unwrap()
 }
 
 /// The closed-form DTE amplitudes `|X_h|`, h = 1..=3, and the mean.
-fn oracle(scene: &Scene) -> (f64, Vec<f64>, f64) {
+fn oracle(scene: &PairScene) -> (f64, Vec<f64>, f64) {
     let (r1, r2) = (scene.pinion.base_radius, scene.gear.base_radius);
     let (i1, i2) = (scene.pinion.inertia, scene.gear.inertia);
     let m_e = 1.0 / (r1 * r1 / i1 + r2 * r2 / i2);
@@ -70,7 +69,7 @@ fn oracle(scene: &Scene) -> (f64, Vec<f64>, f64) {
     (f_m, amps, 150.0 / r1 / k)
 }
 
-fn check(scene: AnyScene, label_mesh: &str) {
+fn check(scene: Scene, label_mesh: &str) {
     let s = pair();
     let (f_m, amps, mean) = oracle(&s);
     let report = periodic_spectrum(&scene, &SpectrumRequest::default()).unwrap();
@@ -113,14 +112,14 @@ fn check(scene: AnyScene, label_mesh: &str) {
 
 #[test]
 fn exact_spectrum_of_the_pair_matches_the_closed_form() {
-    check(AnyScene::Pair(Box::new(pair())), "mesh");
+    check(Scene::from(pair()), "mesh");
 }
 
 #[test]
 fn exact_spectrum_of_the_pair_as_a_drivetrain_matches_the_closed_form() {
-    let train = TrainScene::from_pair(&pair());
+    let train = Scene::from(pair()).on_drivetrain_kernel().unwrap();
     let mesh = train.meshes[0].name.clone();
-    check(AnyScene::Train(Box::new(train)), &mesh);
+    check(train, &mesh);
 }
 
 #[test]
@@ -189,7 +188,7 @@ fn exact_dft_of_a_trigonometric_polynomial_and_bad_input() {
 #[test]
 fn record_spectrum_is_exact_over_integer_periods_and_flat_top_otherwise() {
     use geardyn::commands::spectrum::record_spectrum;
-    let scene = AnyScene::Pair(Box::new(pair()));
+    let scene = Scene::from(pair());
     let f_m = 25.0 * 314.159 / (2.0 * PI);
     let record = |periods: f64, per_period: usize| {
         let n = (periods * per_period as f64).round() as usize + 1;
@@ -234,8 +233,8 @@ fn aliasing_warning_names_the_highest_harmonic_that_matters() {
     use geardyn::commands::spectrum::aliasing;
     let f3 = 3.0 * 25.0 * 314.159 / (2.0 * PI);
     for scene in [
-        AnyScene::Pair(Box::new(pair())),
-        AnyScene::Train(Box::new(TrainScene::from_pair(&pair()))),
+        Scene::from(pair()),
+        Scene::from(pair()).on_drivetrain_kernel().unwrap(),
     ] {
         // Nyquist 5000 Hz > 3750 Hz: no warning.
         assert_eq!(aliasing(&scene, 1e-4).unwrap(), None);

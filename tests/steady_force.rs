@@ -13,8 +13,7 @@ use std::f64::consts::TAU;
 use common::{pinion_speed_for_mesh_frequency, scene, M_E};
 use geardyn::analysis::{self, Direction, SweepOptions};
 use geardyn::commands::steady::{periodic, periodic_forces, PERIODIC_SAMPLES};
-use geardyn::model::AnyScene;
-use geardyn::scene::train::TrainScene;
+use geardyn::scene::{KernelChoice, Scene};
 
 const K: f64 = 2.0e8;
 const C: f64 = 200.0;
@@ -29,7 +28,7 @@ fn force_amplitude(w: f64) -> f64 {
     M_E * w * w * ((nr * nr + ni * ni) / (dr * dr + di * di)).sqrt()
 }
 
-fn scenes(f_mesh: f64) -> [AnyScene; 2] {
+fn scenes(f_mesh: f64) -> [Scene; 2] {
     let pair = scene(
         &format!(
             "contact = \"linear\"\ndamping = {C}\n[mesh.stiffness]\nkind = \"constant\"\n\
@@ -41,11 +40,9 @@ fn scenes(f_mesh: f64) -> [AnyScene; 2] {
         ),
         "",
     );
-    let train = TrainScene::from_pair(&pair);
-    [
-        AnyScene::Pair(Box::new(pair)),
-        AnyScene::Train(Box::new(train)),
-    ]
+    let pair = Scene::from(pair);
+    let train = pair.on_drivetrain_kernel().unwrap();
+    [pair, train]
 }
 
 /// Checks one mesh's statistics against the closed form. The RMS of a sinusoid sampled evenly
@@ -79,9 +76,9 @@ fn periodic_and_sweep_force_match_the_closed_form_for_both_kernels() {
     for ratio in [0.6, 1.3] {
         let f_mesh = ratio * f_n;
         for scene in scenes(f_mesh) {
-            let kind = match scene {
-                AnyScene::Pair(_) => "pair",
-                AnyScene::Train(_) => "drivetrain",
+            let kind = match scene.kernel {
+                KernelChoice::Pair => "pair",
+                KernelChoice::Drivetrain(_) => "drivetrain",
             };
             let orbit = periodic(&scene, 1, 20).unwrap();
             let meshes = periodic_forces(&scene, &orbit).unwrap();

@@ -8,7 +8,7 @@ use std::f64::consts::TAU;
 
 use common::M_E;
 use geardyn::analysis::{sweep, Direction, SweepOptions};
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 
 fn quiet(_: usize, _: usize) {}
 
@@ -59,7 +59,7 @@ fn linear_scene_matches_closed_form_frequency_response() {
 
 #[test]
 fn backlash_scene_shows_softening_jump() {
-    let scene = Scene::example("spur_pair").unwrap();
+    let scene = PairScene::example("spur_pair").unwrap();
     let speeds: Vec<f64> = (0..21).map(|i| 300.0 + 15.0 * i as f64).collect();
     let points = sweep(
         &scene,
@@ -133,7 +133,7 @@ fn bad_ranges_and_unconverged_points() {
         let err = SweepOptions::parse_range(range).unwrap_err();
         assert!(err.contains(needle), "{range}: {err}");
     }
-    let scene = Scene::example("spur_pair").unwrap();
+    let scene = PairScene::example("spur_pair").unwrap();
     let err = sweep(&scene, &SweepOptions::new(vec![], Direction::Up), &quiet).unwrap_err();
     assert!(err.contains("zero points"), "{err}");
     // Too short a transient (and no shooting to finish it): the point is kept and marked.

@@ -4,7 +4,8 @@
 use geardyn::model::train::mesh::CycleTable;
 use geardyn::model::train::statics::loaded_ste;
 use geardyn::model::train::TrainSimulation;
-use geardyn::scene::train::{PairStiffness, TipRelief, TrainScene};
+use geardyn::scene::train::{PairStiffness, TipRelief};
+use geardyn::scene::Scene;
 
 /// Table 2.1, mesh 1.
 const K_HAT: f64 = 2.9831e8;
@@ -116,7 +117,7 @@ fn tip_relief_toward_the_optimum_reduces_peak_to_peak_ste() {
 }
 
 /// A free single-mesh pair with the Table 2.1 mesh 1 as `model`, at standstill phase `s`.
-fn pair_scene(model: &str, rho: f64, contact: &str) -> TrainScene {
+fn pair_scene(model: &str, rho: f64, contact: &str) -> Scene {
     let text = format!(
         r#"name = "pairs"
 [[gear]]
@@ -151,12 +152,12 @@ input_torque = 100.0
 "#,
         l = C - 1.0
     );
-    TrainScene::from_toml_str(&text, "pairs").unwrap()
+    Scene::from_toml_str(&text, "pairs").unwrap()
 }
 
 /// Mesh force at phase `s` and deflection `x`: the initial phase is set to `s` and the state
 /// to `[x, 0]` (the mode is re-derived from the state).
-fn force_at(scene: &TrainScene, s: f64, x: f64) -> (f64, Vec<f64>) {
+fn force_at(scene: &Scene, s: f64, x: f64) -> (f64, Vec<f64>) {
     let mut sc = scene.clone();
     sc.meshes[0].initial_phase = s;
     let mut sim = TrainSimulation::new(&sc).unwrap();
@@ -330,20 +331,20 @@ fn tabulated_gaps() {
             nlte.value(s)
         );
     }
-    // Scene syntax, and the table must span the window.
+    // PairScene syntax, and the table must span the window.
     let scene = pair_scene("pairs", 0.0, "contact = \"contact_loss\"");
     let text = scene.source.replace(
         "[mesh.tip_relief]\ndriver_magnitude = 0\n",
         "[mesh.gaps]\npoints = [0.0, 1.504]\nvalues = [1e-6, 2e-6]\n[mesh.tip_relief]\ndriver_magnitude = 0\n",
     );
-    let e = TrainScene::from_toml_str(&text, "gaps").unwrap_err().0;
+    let e = Scene::from_toml_str(&text, "gaps").unwrap_err().0;
     assert!(e.contains("tip_relief or gaps"), "{e}");
     let text = text.replace(
         "[mesh.tip_relief]\ndriver_magnitude = 0\ndriver_length = 0.504\ndriven_magnitude = 0\ndriven_length = 0.504\n",
         "",
     );
-    TrainScene::from_toml_str(&text, "gaps").unwrap();
+    Scene::from_toml_str(&text, "gaps").unwrap();
     let bad = text.replace("points = [0.0, 1.504]", "points = [0.0, 1.4]");
-    let e = TrainScene::from_toml_str(&bad, "gaps").unwrap_err().0;
+    let e = Scene::from_toml_str(&bad, "gaps").unwrap_err().0;
     assert!(e.contains("mesh[0].gaps.points[1] = 1.4"), "{e}");
 }

@@ -8,16 +8,17 @@ mod common;
 use common::idler2::Idler2;
 use geardyn::mesh::MeshStiffness;
 use geardyn::model::train::TrainSimulation;
-use geardyn::scene::train::{MeshForceModel, TrainScene};
-use geardyn::scene::{ContactLaw, MethodChoice, Scene};
+use geardyn::scene::train::MeshForceModel;
+use geardyn::scene::Scene;
+use geardyn::scene::{ContactLaw, MethodChoice, PairScene};
 use geardyn::simulation::Simulation;
 use geardyn::solve::rk::{Method, RkOptions, RkStepper};
 
 /// Runs the core pair and the one-mesh train side by side and returns the largest DTE and
 /// force differences relative to the largest |DTE| and |force|.
 fn pair_vs_train(text: &str, method: MethodChoice, periods: f64) -> (f64, f64, u64) {
-    let mut core_scene = Scene::from_toml_str(text, "core").unwrap();
-    let mut train_scene = TrainScene::from_toml_str(text, "train").unwrap();
+    let mut core_scene = PairScene::from_toml_str(text, "core").unwrap();
+    let mut train_scene = Scene::from_toml_str(text, "train").unwrap();
     core_scene.solver.method = method;
     train_scene.solver.method = method;
     let mut core = Simulation::new(&core_scene).unwrap();
@@ -111,8 +112,8 @@ fn one_mesh_train_equals_core_pair() {
 }
 
 /// The Table 2.1 idler with rigid bearings, no ground couplings, lumped rectangular meshes.
-fn rotational_idler(f_mesh: f64, damping: f64, phase2: f64) -> TrainScene {
-    let mut s = TrainScene::example("idler_gearset")
+fn rotational_idler(f_mesh: f64, damping: f64, phase2: f64) -> Scene {
+    let mut s = Scene::example("idler_gearset")
         .unwrap()
         .with_rigid_bearings();
     for g in &mut s.gears {
@@ -223,7 +224,7 @@ fn rigid_bearing_idler_equals_reduced_rotational_model() {
 #[test]
 fn mesh_phase_shift_equals_time_shift() {
     // Model-1 idler with compliant bearings, tip relief, modal damping (exact propagator).
-    let a_scene = TrainScene::example("idler_gearset").unwrap();
+    let a_scene = Scene::example("idler_gearset").unwrap();
     let f1 = a_scene.mesh_frequency(0, a_scene.operating.input_speed);
     let shift_cycles = 0.37;
     let delta = shift_cycles / f1;
@@ -289,7 +290,7 @@ fn mesh_phase_shift_equals_time_shift() {
 /// tip relief (partial contact loss events) they agree to the RK tolerance.
 #[test]
 fn exact_and_rk_agree_on_model_1_idler() {
-    let mut scene = TrainScene::example("idler_gearset").unwrap();
+    let mut scene = Scene::example("idler_gearset").unwrap();
     // Near the 2530 Hz mode with light damping: pairs separate and re-engage.
     scene.operating.input_speed = std::f64::consts::TAU * 2450.0 / 38.0;
     scene.modal_damping_ratio = 0.01;
@@ -332,7 +333,7 @@ fn exact_and_rk_agree_on_model_1_idler() {
 /// contact ratio), contact loss included. Two different codings: per-pair slots vs one spring.
 #[test]
 fn model_1_without_relief_equals_lumped_mesh() {
-    let mut pairs = TrainScene::example("idler_gearset").unwrap();
+    let mut pairs = Scene::example("idler_gearset").unwrap();
     for m in &mut pairs.meshes {
         if let MeshForceModel::Pairs { relief, .. } = &mut m.force {
             *relief = Default::default();
@@ -450,14 +451,14 @@ fn train_jacobian_is_the_derivative_of_the_right_hand_side() {
     use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec};
     let chain = ChainSpec::new(4, ChainBearings::Compliant, ChainContact::ContactLoss);
     for scene in [
-        TrainScene::example("idler_gearset").unwrap(),
-        TrainScene::chain(chain).unwrap(),
+        Scene::example("idler_gearset").unwrap(),
+        Scene::chain(chain).unwrap(),
     ] {
         jacobian_matches_central_differences(&scene);
     }
 }
 
-fn jacobian_matches_central_differences(scene: &TrainScene) {
+fn jacobian_matches_central_differences(scene: &Scene) {
     use geardyn::model::train::GearTrain;
     use geardyn::solve::HybridSystem;
     let mut train = GearTrain::new(scene).unwrap();

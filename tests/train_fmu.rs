@@ -16,8 +16,8 @@ use geardyn::fmi::model::VarKind;
 use geardyn::fmi::state::FmuState;
 use geardyn::fmu::drivetrain::{VR_GEAR_INERTIA0, VR_INPUT_SPEED, VR_INPUT_TORQUE, VR_OUTPUT0};
 use geardyn::model::train::{SlotContact, TrainInputs, TrainSimulation};
-use geardyn::scene::train::TrainScene;
 use geardyn::scene::MethodChoice;
+use geardyn::scene::Scene;
 
 const OK: Status = Status::Ok;
 const ERR: Status = Status::Error;
@@ -28,8 +28,8 @@ fn dir(name: &str) -> PathBuf {
         .join(name)
 }
 
-fn scene(name: &str) -> TrainScene {
-    TrainScene::from_path(&dir(name)).unwrap()
+fn scene(name: &str) -> Scene {
+    Scene::from_path(&dir(name)).unwrap()
 }
 
 /// Outputs and state after each of `n` steps of `h` from the simulation's time.
@@ -48,7 +48,7 @@ fn run(sim: &mut TrainSimulation, n: usize, h: f64) -> Vec<Vec<f64>> {
 
 /// A run with an input change on the way (re-anchored clocks), then snapshot, 5 steps,
 /// restore into the same and into a fresh simulation, the same 5 steps: bit-identical.
-fn check_rollback(mut s: TrainScene, label: &str) {
+fn check_rollback(mut s: Scene, label: &str) {
     s.solver.stop_time = 1.0;
     let mut sim = TrainSimulation::new(&s).unwrap();
     let h = 3.7e-5;

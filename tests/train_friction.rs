@@ -9,14 +9,15 @@ use std::f64::consts::{PI, TAU};
 
 use geardyn::model::train::mesh::CycleTable;
 use geardyn::model::train::{run_train, GearTrain, TrainSimulation};
-use geardyn::scene::train::{PairGap, PairStiffness, TrainScene};
+use geardyn::scene::train::{PairGap, PairStiffness};
+use geardyn::scene::Scene;
 
 const FRICTION_PAIR: &str = include_str!("../examples/friction_pair.toml");
 const FRICTION_BLOCK: &str =
     "[mesh.friction]\ncoefficient = 0.1\nbending_factor = 0.5\npitch_point = 0.72\n";
 
-fn scene(text: &str) -> TrainScene {
-    TrainScene::from_toml_str(text, "test").unwrap()
+fn scene(text: &str) -> Scene {
+    Scene::from_toml_str(text, "test").unwrap()
 }
 
 fn with_friction(block: &str) -> String {
@@ -87,7 +88,7 @@ fn zero_friction_equals_frictionless_pair() {
 
 /// The example with the gear held by a torsional ground spring (Liu's eq. 4.40 holds it
 /// fixed) at mesh phase `phase`, nominal speed `speed`.
-fn grounded(phase: f64, speed: f64, zeta: f64) -> TrainScene {
+fn grounded(phase: f64, speed: f64, zeta: f64) -> Scene {
     let text = FRICTION_PAIR
         .replace(
             "bearing_stiffness = [1.4732e8, 1.4732e8]",
@@ -234,7 +235,7 @@ fn friction_bending_harmonics_match_notes_table() {
 }
 
 fn rejects(block: &str, needles: &[&str]) {
-    let msg = TrainScene::from_toml_str(&with_friction(block), "test")
+    let msg = Scene::from_toml_str(&with_friction(block), "test")
         .expect_err("scene must be rejected")
         .0;
     for n in needles {
@@ -273,24 +274,22 @@ fn bad_friction_input_is_rejected() {
         &f("coefficient = 0.1\npitch_point = -0.2"),
         &["mesh[0].friction.pitch_point = -0.2"],
     );
-    assert!(TrainScene::from_toml_str(
-        &with_friction(&f("coefficient = 0.1\nvelocity = 2.0")),
-        "t"
-    )
-    .is_err());
+    assert!(
+        Scene::from_toml_str(&with_friction(&f("coefficient = 0.1\nvelocity = 2.0")), "t").is_err()
+    );
     // The contact path must stay between the base tangent points: a small pressure angle
     // (5°) puts the pitch point r_b1 tan α = 4.0 mm from T_1, less than the 5.4 mm before it
     // in the window.
     let text = with_friction(&f("coefficient = 0.1\npitch_point = 0.72"))
         .replace("pressure_angle = 20.0 ", "pressure_angle = 5.0 ");
-    let msg = TrainScene::from_toml_str(&text, "t").unwrap_err().0;
+    let msg = Scene::from_toml_str(&text, "t").unwrap_err().0;
     assert!(
         msg.contains("mesh[0].friction.pitch_point = 0.72") && msg.contains("line of action"),
         "{msg}"
     );
     // Friction needs Model-1 pairs, and the drive flanks only.
     let text = FRICTION_PAIR.replace("model = \"pairs\"", "model = \"nlte\"");
-    let msg = TrainScene::from_toml_str(&text, "t").unwrap_err().0;
+    let msg = Scene::from_toml_str(&text, "t").unwrap_err().0;
     assert!(
         msg.contains("mesh[0].friction") && msg.contains("\"nlte\""),
         "{msg}"
@@ -299,13 +298,13 @@ fn bad_friction_input_is_rejected() {
         "contact = \"contact_loss\"",
         "contact = \"backlash\"\nbacklash = 1e-4",
     );
-    let msg = TrainScene::from_toml_str(&text, "t").unwrap_err().0;
+    let msg = Scene::from_toml_str(&text, "t").unwrap_err().0;
     assert!(
         msg.contains("mesh[0].friction") && msg.contains("backlash"),
         "{msg}"
     );
     let text = FRICTION_PAIR.replace("load_share = 0.6", "load_share = 1.5");
-    let msg = TrainScene::from_toml_str(&text, "t").unwrap_err().0;
+    let msg = Scene::from_toml_str(&text, "t").unwrap_err().0;
     assert!(msg.contains("mesh[0].pairs.load_share = 1.5"), "{msg}");
 }
 

@@ -14,7 +14,7 @@ use std::f64::consts::TAU;
 
 use geardyn::mesh::helical::{FrictionStiffness, HelicalGeometry, HelicalPairSpec};
 use geardyn::model::train::{run_train, GearTrain};
-use geardyn::scene::train::TrainScene;
+use geardyn::scene::PairScene;
 use geardyn::scene::Scene;
 use geardyn::simulation::Simulation;
 
@@ -48,7 +48,7 @@ fn geometry() -> HelicalGeometry {
 }
 
 /// The pair as a drivetrain scene; `bearing = None` means rigid bearings.
-fn scene(bearing: Option<f64>) -> TrainScene {
+fn scene(bearing: Option<f64>) -> Scene {
     let g = geometry();
     let bearings = |m: f64| match bearing {
         Some(k) => format!("mass = {m:?}\nbearing_stiffness = [{k:?}, {k:?}]\n"),
@@ -94,7 +94,7 @@ input_torque = {T_P:?}
         -alpha,
         RPM * TAU / 60.0,
     );
-    TrainScene::from_toml_str(&text, "helical").unwrap()
+    Scene::from_toml_str(&text, "helical").unwrap()
 }
 
 fn params() -> FrictionStiffness {
@@ -219,7 +219,7 @@ fn bad_helical_friction_input_is_rejected() {
         let mut t = sc.source.clone();
         assert!(t.contains(from), "{from}");
         t = t.replacen(from, to, 1);
-        TrainScene::from_toml_str(&t, "t").unwrap_err().0
+        Scene::from_toml_str(&t, "t").unwrap_err().0
     };
     let msg = text(
         "coefficient = 0.2",
@@ -254,7 +254,7 @@ fn bad_helical_friction_input_is_rejected() {
     );
     // The single-mesh `[mesh.stiffness] kind = "helical"` source is not a graph source.
     let lumped = sc_text_lumped();
-    let msg = TrainScene::from_toml_str(&lumped, "t").unwrap_err().0;
+    let msg = Scene::from_toml_str(&lumped, "t").unwrap_err().0;
     assert!(
         msg.contains("mesh[0].stiffness.kind = \"helical\""),
         "{msg}"
@@ -331,7 +331,8 @@ fn six_dof_approaches_the_single_mesh_helical_model() {
     for kb in [1e8, 1e10, 1e12, 1e14] {
         let run = run_train(&scene(Some(kb)), n as f64 * dt, dt).unwrap();
         let col = run.column("mesh1.dte").unwrap();
-        let sdof_scene = Scene::from_toml_str(&single_mesh_text(run.rows[0][col]), "sdof").unwrap();
+        let sdof_scene =
+            PairScene::from_toml_str(&single_mesh_text(run.rows[0][col]), "sdof").unwrap();
         let mut sim = Simulation::new(&sdof_scene).unwrap();
         let (mut err, mut scale) = (0.0f64, 0.0f64);
         for (k, row) in run.rows.iter().enumerate().skip(1) {

@@ -2,10 +2,10 @@
 //! and closed forms from the notes (issue 5, acceptance 1 and 2).
 
 use geardyn::model::train::{modes, statics, Assembly, GearTrain};
-use geardyn::scene::train::TrainScene;
+use geardyn::scene::Scene;
 use nalgebra::{DMatrix, SymmetricEigen};
 
-fn frequencies(scene: &TrainScene) -> Vec<f64> {
+fn frequencies(scene: &Scene) -> Vec<f64> {
     modes(&Assembly::new(scene))
         .iter()
         .map(|m| m.frequency)
@@ -24,7 +24,7 @@ fn within(got: &[f64], printed: &[f64], rel: f64) {
 
 #[test]
 fn table_2_2_compliant_bearings() {
-    let scene = TrainScene::example("idler_gearset").unwrap();
+    let scene = Scene::example("idler_gearset").unwrap();
     let f = frequencies(&scene);
     println!("compliant: {f:?}");
     within(
@@ -43,7 +43,7 @@ fn table_2_2_compliant_bearings() {
 
 #[test]
 fn table_2_2_rigid_bearings() {
-    let scene = TrainScene::example("idler_gearset")
+    let scene = Scene::example("idler_gearset")
         .unwrap()
         .with_rigid_bearings();
     let f = frequencies(&scene);
@@ -55,7 +55,7 @@ fn table_2_2_rigid_bearings() {
 /// two modes of `M̃ ẍ + diag(k̂_1, k̂_2) x = 0`, solved here in closed form.
 #[test]
 fn free_rotational_idler_matches_eq_2_12() {
-    let mut scene = TrainScene::example("idler_gearset")
+    let mut scene = Scene::example("idler_gearset")
         .unwrap()
         .with_rigid_bearings();
     for g in &mut scene.gears {
@@ -90,7 +90,7 @@ fn free_rotational_idler_matches_eq_2_12() {
 
 #[test]
 fn table_2_1_statics() {
-    let scene = TrainScene::example("idler_gearset").unwrap();
+    let scene = Scene::example("idler_gearset").unwrap();
     // Torque balance: T_3 = −T_1 r_3/r_1 (Table 2.1 prints −247 N·m).
     let t3 = scene.operating.load_torque;
     assert!((t3 - 100.0 * 0.11218 / 0.04535).abs() < 1e-12 * t3);
@@ -127,12 +127,12 @@ fn table_2_1_statics() {
 /// `x_2 = −(r_3ψ_3 + r_4ψ_4)` (corrected), `x_3 = r_2(ψ_2 − ψ_3)`.
 #[test]
 fn countershaft_matches_notes_mass_matrix() {
-    let mut scene = TrainScene::example("countershaft_gearset").unwrap();
+    let mut scene = Scene::example("countershaft_gearset").unwrap();
     let k_r = 6.35e5;
     let text = scene
         .source
         .replace("rigid = true", &format!("stiffness = {k_r}"));
-    scene = TrainScene::from_toml_str(&text, "countershaft").unwrap();
+    scene = Scene::from_toml_str(&text, "countershaft").unwrap();
     let f = frequencies(&scene);
     let j: Vec<f64> = scene.gears.iter().map(|g| g.inertia).collect();
     let r: Vec<f64> = scene.gears.iter().map(|g| g.base_radius).collect();

@@ -1,7 +1,7 @@
 //! Drivetrain scenes: bad topology and bad parameters are rejected with a message naming the
 //! field and its value (issue 5, acceptance 6); valid variants are accepted.
 
-use geardyn::scene::train::TrainScene;
+use geardyn::scene::Scene;
 
 const GEARS: &str = r#"
 [[gear]]
@@ -37,10 +37,10 @@ value = 2e8
     )
 }
 
-fn scene(body: &str) -> Result<TrainScene, String> {
+fn scene(body: &str) -> Result<Scene, String> {
     let text =
         format!("name = \"t\"\n{body}\n[operating]\ninput_speed = 100.0\ninput_torque = 10.0\n");
-    TrainScene::from_toml_str(&text, "test").map_err(|e| e.0)
+    Scene::from_toml_str(&text, "test").map_err(|e| e.0)
 }
 
 fn rejects(body: &str, needles: &[&str]) {
@@ -108,7 +108,7 @@ fn disconnected_train_without_ground() {
     let text = format!(
         "name = \"t\"\n{grounded}\n[operating]\noutput_gear = \"b\"\ninput_speed = 1.0\ninput_torque = 1.0\n"
     );
-    let s = TrainScene::from_toml_str(&text, "test").unwrap_or_else(|e| panic!("{e}"));
+    let s = Scene::from_toml_str(&text, "test").unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(s.speed_ratio[2], 0.0);
 }
 
@@ -223,7 +223,7 @@ fn mesh_parameters_are_located() {
 #[test]
 fn single_mesh_scene_reads_as_a_train() {
     let text = include_str!("../fmu/spur_pair/scene.toml");
-    let s = TrainScene::from_toml_str(text, "spur_pair").unwrap();
+    let s = Scene::from_toml_str(text, "spur_pair").unwrap();
     assert_eq!(s.meshes.len(), 1);
     assert_eq!(s.gears.len(), 2);
     assert!(!geardyn::scene::is_train_text(text));

@@ -9,7 +9,8 @@ use std::process::{Command, Output};
 use geardyn::analysis::sweep::sweep_columns;
 use geardyn::commands::hb::hb_columns;
 use geardyn::commands::steady::POINCARE_COLUMNS;
-use geardyn::model::{AnyScene, Drivetrain};
+use geardyn::model::Drivetrain;
+use geardyn::scene::Scene;
 use geardyn::units::{from_rpm, with_units};
 use geardyn::with_drivetrain;
 
@@ -233,7 +234,7 @@ fn every_output_column_has_a_unit() {
         "idler_gearset",
         "countershaft_gearset",
     ] {
-        let scene = AnyScene::from_path(&PathBuf::from("fmu").join(name)).unwrap();
+        let scene = Scene::from_path(&PathBuf::from("fmu").join(name)).unwrap();
         let (rows, prefixes) = with_drivetrain!(scene.simulation().unwrap(), sim => {
             let model = sim.model();
             let prefixes: Vec<String> = (0..model.mesh_count()).map(|m| model.mesh_prefix(m)).collect();

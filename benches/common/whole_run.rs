@@ -7,8 +7,8 @@
 use std::time::Instant;
 
 use geardyn::model::train::TrainSimulation;
-use geardyn::scene::train::TrainScene;
 use geardyn::scene::MethodChoice;
+use geardyn::scene::Scene;
 use geardyn::solve::rk::Method as Rk;
 
 /// µs per mesh period of `periods` mesh periods of `scene` from its start with `method` (the
@@ -16,7 +16,7 @@ use geardyn::solve::rk::Method as Rk;
 /// `advance_to` per mesh period, and the finished simulation (its counters); `None` (and the
 /// error printed) if the run fails.
 pub fn micros_per_period(
-    scene: &TrainScene,
+    scene: &Scene,
     method: MethodChoice,
     rk: Rk,
     composites: bool,

@@ -9,7 +9,8 @@
 
 #![allow(dead_code)]
 
-use geardyn::scene::train::{TrainScene, TRAIN_EXAMPLES};
+use geardyn::scene::train::TRAIN_EXAMPLES;
+use geardyn::scene::PairScene;
 use geardyn::scene::Scene;
 
 /// What kind of scene a problem is.
@@ -29,7 +30,7 @@ pub struct Problem {
     /// One line for the report.
     pub what: &'static str,
     pub kind: Kind,
-    /// Scene text.
+    /// PairScene text.
     pub toml: String,
     /// Simulated time, s.
     pub stop_time: f64,
@@ -129,25 +130,25 @@ pub fn problems() -> Vec<Problem> {
 
 impl Problem {
     /// The validated single-mesh scene (panics for a drivetrain problem).
-    pub fn pair_scene(&self) -> Scene {
+    pub fn pair_scene(&self) -> PairScene {
         assert_eq!(
             self.kind,
             Kind::Pair,
             "{} is not a single-mesh problem",
             self.name
         );
-        Scene::from_toml_str(&self.toml, self.name).expect("problem scene is valid")
+        PairScene::from_toml_str(&self.toml, self.name).expect("problem scene is valid")
     }
 
     /// The validated drivetrain scene (panics for a single-mesh problem).
-    pub fn train_scene(&self) -> TrainScene {
+    pub fn train_scene(&self) -> Scene {
         assert_eq!(
             self.kind,
             Kind::Train,
             "{} is not a drivetrain problem",
             self.name
         );
-        TrainScene::from_toml_str(&self.toml, self.name).expect("problem scene is valid")
+        Scene::from_toml_str(&self.toml, self.name).expect("problem scene is valid")
     }
 
     /// The dense error grid `t_k = k · stop_time / SAMPLES`.

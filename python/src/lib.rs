@@ -14,10 +14,10 @@ use pyo3::types::{PyBool, PyByteArray, PyDict, PyFloat, PyInt, PyList, PyString,
 
 use geardyn::commands;
 use geardyn::model::train::run_train_limited;
-use geardyn::model::AnyScene;
-use geardyn::scene::is_train_text;
-use geardyn::scene::train::{TrainScene, TRAIN_EXAMPLES};
-use geardyn::scene::{read_scene_file, scene_file, Scene, EXAMPLES};
+use geardyn::scene::train::TRAIN_EXAMPLES;
+use geardyn::scene::KernelChoice;
+use geardyn::scene::Scene;
+use geardyn::scene::{read_scene_file, scene_file, PairScene, EXAMPLES};
 
 create_exception!(
     _geardyn,
@@ -30,22 +30,11 @@ fn err(message: impl Into<String>) -> PyErr {
     GeardynError::new_err(message.into())
 }
 
-/// A validated scene of either format: the single-mesh pair or the drivetrain.
-#[derive(Clone)]
-enum Validated {
-    Pair(Arc<Scene>),
-    Train(Arc<TrainScene>),
-}
-
-/// Validates scene text the way the CLI does: a drivetrain file goes to the drivetrain reader,
-/// anything else to the single-mesh reader (whose messages then describe what is wrong).
-fn validate(text: &str, origin: &str) -> Result<Validated, String> {
-    if is_train_text(text) {
-        TrainScene::from_toml_str(text, origin).map(|s| Validated::Train(Arc::new(s)))
-    } else {
-        Scene::from_toml_str(text, origin).map(|s| Validated::Pair(Arc::new(s)))
-    }
-    .map_err(|e| e.to_string())
+/// Validates scene text the way the CLI does: the one scene reader, which chooses the kernel.
+fn validate(text: &str, origin: &str) -> Result<Arc<Scene>, String> {
+    Scene::from_toml_str(text, origin)
+        .map(Arc::new)
+        .map_err(|e| e.to_string())
 }
 
 /// A scene: its TOML text, where it came from, and the validated model description. Changing
@@ -61,7 +50,7 @@ struct PyScene {
     /// The scene file, while the scene is unchanged since it was read (FMUs built from it
     /// then carry the file itself, comments and README included).
     file: Option<PathBuf>,
-    scene: Validated,
+    scene: Arc<Scene>,
 }
 
 impl PyScene {
@@ -80,11 +69,8 @@ impl PyScene {
     }
 
     /// The scene in either format, for the commands that take every scene.
-    fn any(&self) -> AnyScene {
-        match &self.scene {
-            Validated::Pair(s) => AnyScene::Pair(Box::new((**s).clone())),
-            Validated::Train(s) => AnyScene::Train(Box::new((**s).clone())),
-        }
+    fn any(&self) -> Scene {
+        (*self.scene).clone()
     }
 }
 
@@ -415,7 +401,7 @@ impl PyScene {
         match EXAMPLES.iter().find(|(n, _)| *n == name) {
             Some((_, text)) => PyScene::new(text.to_string(), origin, None),
             // The single-mesh reader's message (it lists the available names).
-            None => Err(err(Scene::example(name).expect_err("not an example").0)),
+            None => Err(err(PairScene::example(name).expect_err("not an example").0)),
         }
     }
 
@@ -497,16 +483,13 @@ impl PyScene {
 
     #[getter]
     fn name(&self) -> String {
-        match &self.scene {
-            Validated::Pair(s) => s.name.clone(),
-            Validated::Train(s) => s.name.clone(),
-        }
+        self.scene.name.clone()
     }
 
     /// True for a drivetrain scene (docs/train.md), false for a single mesh (docs/model.md).
     #[getter]
     fn is_train(&self) -> bool {
-        matches!(self.scene, Validated::Train(_))
+        self.scene.kernel != KernelChoice::Pair
     }
 
     #[getter]
@@ -688,9 +671,8 @@ fn simulate<'py>(
             .map_err(PyValueError::new_err)?;
         limits.work_budget = Some(b);
     }
-    let (names, times, data, method, stats) = match &scene.scene {
-        Validated::Pair(s) => {
-            let s = s.clone();
+    let (names, times, data, method, stats) = match scene.scene.pair() {
+        Some(s) => {
             let run = py
                 .detach(move || {
                     geardyn::simulation::run_limited(
@@ -705,8 +687,8 @@ fn simulate<'py>(
             let data = matrix(py, &run.rows, names.len())?;
             (names, run.times, data, run.method, run.stats)
         }
-        Validated::Train(s) => {
-            let s = s.clone();
+        None => {
+            let s = scene.scene.clone();
             let run = py
                 .detach(move || {
                     run_train_limited(&s, s.solver.stop_time, s.solver.output_interval, &limits)
@@ -844,7 +826,7 @@ fn modes<'py>(
     scene: &PyScene,
     rigid_bearings: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let s = scene.any().mean_drivetrain();
+    let s = scene.any();
     let (result, report) = py.detach(move || {
         let mut report = Vec::new();
         let r = commands::modes::modes(&s, rigid_bearings, &mut report);

@@ -15,7 +15,8 @@
 use std::f64::consts::TAU;
 
 use super::monodromy;
-use crate::model::{AnyScene, SceneSource};
+use crate::model::SceneSource;
+use crate::scene::Scene;
 
 /// One unstable speed interval.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -33,7 +34,7 @@ pub struct InstabilityBand {
 /// The stability margin (positive inside a band: `|tr Φ| − (1 + det Φ)` for a 2 × 2
 /// monodromy, `|μ|max − 1` otherwise) and the spectral radius at an input speed.
 pub fn stability_margin(scene: &impl SceneSource, speed: f64) -> Result<(f64, f64), String> {
-    let mut s = scene.to_any();
+    let mut s = scene.to_scene();
     s.set_input_speed(speed);
     let floquet = monodromy(&s)?;
     let phi = &floquet.monodromy;
@@ -49,18 +50,13 @@ pub fn stability_margin(scene: &impl SceneSource, speed: f64) -> Result<(f64, f6
 /// Mean natural frequency of a single pair `f̄_n = sqrt(k̄/m_e)/2π`, Hz; `None` for a
 /// drivetrain (see `geardyn modes`).
 pub fn mean_natural_frequency(scene: &impl SceneSource) -> Option<f64> {
-    match scene.to_any() {
-        AnyScene::Pair(s) => Some((s.mesh.stiffness.mean() / s.equivalent_mass()).sqrt() / TAU),
-        AnyScene::Train(_) => None,
-    }
+    let s = scene.to_scene().pair()?;
+    Some((s.mesh.stiffness.mean() / s.equivalent_mass()).sqrt() / TAU)
 }
 
 /// Mesh cycles of the first mesh per input revolution.
-fn first_mesh_teeth(scene: &AnyScene) -> f64 {
-    match scene {
-        AnyScene::Pair(s) => s.pinion.teeth as f64,
-        AnyScene::Train(s) => s.meshes[0].cycles_per_input_rev,
-    }
+fn first_mesh_teeth(scene: &Scene) -> f64 {
+    scene.meshes[0].cycles_per_input_rev
 }
 
 /// Unstable bands between `from_speed` and `to_speed` (rad/s), scanned at `points` evenly
@@ -73,8 +69,8 @@ pub fn instability_bands(
     points: usize,
 ) -> Result<Vec<InstabilityBand>, String> {
     scene
-        .to_any()
-        .profiles()
+        .to_scene()
+        .profiles
         .require_constant("the instability-band scan")?;
     if !(from_speed > 0.0 && to_speed > from_speed && to_speed.is_finite()) {
         return Err(format!(
@@ -90,7 +86,7 @@ pub fn instability_bands(
             crate::units::MAX_SWEEP_POINTS
         ));
     }
-    let scene = &scene.to_any();
+    let scene = &scene.to_scene();
     let speed_at = |i: usize| from_speed + (to_speed - from_speed) * i as f64 / (points - 1) as f64;
     let margin = |w: f64| stability_margin(scene, w).map(|m| m.0);
     let edge = |mut lo: f64, mut hi: f64, lo_unstable: bool| -> Result<f64, String> {

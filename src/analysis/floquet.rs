@@ -13,7 +13,7 @@
 use super::multipliers::Floquet;
 use super::shooting::PeriodMap;
 use super::LinearPeriodMap;
-use crate::model::{parametric_period, AnyScene, Drivetrain, GearPair, SceneSource};
+use crate::model::{parametric_period, Drivetrain, GearPair, SceneSource};
 use crate::scene::{ContactLaw, MethodChoice};
 use crate::with_drivetrain;
 
@@ -29,12 +29,13 @@ use crate::with_drivetrain;
 ///
 /// A scene with contact loss or backlash is refused with the reason and the command to use.
 pub fn monodromy(scene: &impl SceneSource) -> Result<Floquet, String> {
-    let scene = scene.to_any();
-    scene.profiles().require_constant("the Floquet analysis")?;
-    let nonlinear = match &scene {
-        AnyScene::Pair(s) => (s.mesh.contact != ContactLaw::Linear)
+    let scene = scene.to_scene();
+    scene.profiles.require_constant("the Floquet analysis")?;
+    let pair = scene.pair();
+    let nonlinear = match &pair {
+        Some(s) => (s.mesh.contact != ContactLaw::Linear)
             .then(|| format!("mesh.contact = {:?}", s.mesh.contact)),
-        AnyScene::Train(s) => s
+        None => scene
             .meshes
             .iter()
             .enumerate()
@@ -54,7 +55,7 @@ pub fn monodromy(scene: &impl SceneSource) -> Result<Floquet, String> {
             scene.input_speed()
         ));
     }
-    if let AnyScene::Pair(s) = &scene {
+    if let Some(s) = &pair {
         let pair = GearPair::new(s);
         if !pair.is_piecewise_lti()
             && s.mesh.smooth.is_zero()
@@ -80,7 +81,7 @@ pub fn monodromy(scene: &impl SceneSource) -> Result<Floquet, String> {
         // for time runs: they are the closed form of the monodromy.
         let settings = crate::scene::SolverSettings {
             method: MethodChoice::Auto,
-            ..scene.solver().clone()
+            ..scene.solver.clone()
         };
         let exact = model.is_piecewise_lti();
         // From the scene's initial state, as a run starts (the monodromy of a linear system
@@ -96,7 +97,7 @@ pub fn monodromy(scene: &impl SceneSource) -> Result<Floquet, String> {
             method: if exact {
                 "exact segment transitions".into()
             } else {
-                format!("RK variational equations (rtol {:e})", scene.solver().rtol)
+                format!("RK variational equations (rtol {:e})", scene.solver.rtol)
             },
         })
     })

@@ -20,7 +20,7 @@ use nalgebra::{Complex, DMatrix, DVector};
 
 use super::multipliers::Floquet;
 use crate::model::GearPair;
-use crate::scene::{ContactLaw, Scene};
+use crate::scene::{ContactLaw, PairScene};
 use crate::solve::polynomial;
 
 /// One stiffness piece in time: `k(t) = k_start + slope·(t − start)` on
@@ -52,7 +52,7 @@ pub struct LinearPeriodMap {
 
 impl LinearPeriodMap {
     /// Builds the map at the scene's pinion speed, starting at the mesh phase of `t = 0`.
-    pub fn new(scene: &Scene) -> Result<LinearPeriodMap, String> {
+    pub fn new(scene: &PairScene) -> Result<LinearPeriodMap, String> {
         if scene.mesh.contact != ContactLaw::Linear {
             return Err(format!(
                 "mesh.contact = {:?}: the closed-form period map needs contact = \"linear\"",

@@ -5,7 +5,8 @@
 //! tests compare them with.
 
 use super::shooting::PeriodicOrbit;
-use crate::model::{response_period, AnyScene, Drivetrain};
+use crate::model::{response_period, Drivetrain};
+use crate::scene::Scene;
 use crate::with_drivetrain;
 
 /// Peak, RMS and dynamic factor of one mesh's force.
@@ -49,7 +50,7 @@ pub struct OrbitMesh {
 /// integrated from `orbit.y0` at `t = 0` over one orbit period, `samples_per_mesh_period`
 /// samples per period of the first mesh.
 pub fn orbit_mesh_forces(
-    scene: &AnyScene,
+    scene: &Scene,
     orbit: &PeriodicOrbit,
     samples_per_mesh_period: u32,
 ) -> Result<Vec<OrbitMesh>, String> {

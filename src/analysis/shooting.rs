@@ -198,10 +198,10 @@ pub fn period_map(
     y0: &[f64],
     periods: u32,
 ) -> Result<(Vec<f64>, DMatrix<f64>), String> {
-    let scene = scene.to_any();
+    let scene = scene.to_scene();
     with_drivetrain!(scene.simulation()?, sim => {
         let duration = response_period(sim.model())? * periods as f64;
-        let mut map = PeriodMap::new(sim.model().clone(), scene.solver(), duration)?;
+        let mut map = PeriodMap::new(sim.model().clone(), &scene.solver, duration)?;
         let (y, m) = map.eval(y0)?;
         Ok((y.as_slice().to_vec(), m))
     })
@@ -213,8 +213,8 @@ pub fn period_map(
 /// periods of a drivetrain.
 pub fn shoot(scene: &impl SceneSource, options: &ShootingOptions) -> Result<PeriodicOrbit, String> {
     scene
-        .to_any()
-        .profiles()
+        .to_scene()
+        .profiles
         .require_constant("the periodic orbit (shooting)")?;
     if options.periods == 0 {
         return Err("periods = 0: an orbit spans at least one mesh period".into());
@@ -225,18 +225,18 @@ pub fn shoot(scene: &impl SceneSource, options: &ShootingOptions) -> Result<Peri
             options.tolerance
         ));
     }
-    let scene = scene.to_any();
+    let scene = scene.to_scene();
     if !(scene.input_speed() > 0.0) {
-        let field = match scene {
-            crate::model::AnyScene::Pair(_) => "operating.pinion_speed",
-            crate::model::AnyScene::Train(_) => "operating.input_speed",
+        let field = match scene.kernel {
+            crate::scene::KernelChoice::Pair => "operating.pinion_speed",
+            crate::scene::KernelChoice::Drivetrain(_) => "operating.input_speed",
         };
         return Err(format!(
             "{field} = {}: a periodic orbit needs a positive speed",
             scene.input_speed()
         ));
     }
-    with_drivetrain!(scene.simulation()?, sim => shoot_from(sim, scene.solver(), options))
+    with_drivetrain!(scene.simulation()?, sim => shoot_from(sim, &scene.solver, options))
 }
 
 /// [`shoot`] on a running simulation: the warm-up continues from its state.

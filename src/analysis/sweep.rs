@@ -310,8 +310,8 @@ pub fn sweep(
     progress: &(dyn Fn(usize, usize) + Sync),
 ) -> Result<Sweep, String> {
     options.validate()?;
-    let first = scene.to_any();
-    first.profiles().require_constant("a speed sweep")?;
+    let first = scene.to_scene();
+    first.profiles.require_constant("a speed sweep")?;
     let speeds = options.speeds.clone();
     let start = |d: Direction| {
         if d == Direction::Down {
@@ -334,7 +334,7 @@ pub fn sweep(
         at.set_input_speed(start(d));
         with_drivetrain!(at.simulation()?, sim => {
             let prefixes = (0..sim.model().mesh_count()).map(|n| sim.model().mesh_prefix(n)).collect();
-            let points = branch(sim, at.solver(), options, d, &tick)?;
+            let points = branch(sim, &at.solver, options, d, &tick)?;
             Ok(Sweep { prefixes, points })
         })
     };

@@ -7,13 +7,13 @@ use std::path::PathBuf;
 use clap::Args;
 
 use geardyn::commands::floquet as floquet_commands;
-use geardyn::model::AnyScene;
+use geardyn::scene::Scene;
 
 use super::load_any_scene;
 
 #[derive(Args)]
 pub struct FloquetArgs {
-    /// Scene file (`scene.toml`) or a folder holding one.
+    /// PairScene file (`scene.toml`) or a folder holding one.
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     scene: Option<PathBuf>,
     /// A built-in example scene instead of a file (e.g. `helical_pair_friction`).
@@ -33,7 +33,7 @@ pub struct FloquetArgs {
 
 #[derive(Args)]
 pub struct BandArgs {
-    /// Scene file (`scene.toml`) or a folder holding one.
+    /// PairScene file (`scene.toml`) or a folder holding one.
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     scene: Option<PathBuf>,
     /// A built-in example scene instead of a file.
@@ -55,7 +55,7 @@ fn scene_with(
     path: &Option<PathBuf>,
     example: &Option<String>,
     mu: Option<f64>,
-) -> Result<AnyScene, String> {
+) -> Result<Scene, String> {
     floquet_commands::with_friction(load_any_scene(path, example)?, mu)
 }
 

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use geardyn::model::AnyScene;
+use geardyn::scene::Scene;
 
 pub mod analysis;
 pub mod floquet;
@@ -25,17 +25,15 @@ pub fn set_verbose(on: bool) {
 
 /// The scene named on the command line, in either format (single pair or drivetrain); with
 /// `--verbose` the kernel chosen for it, and why, goes to stderr.
-pub fn load_any_scene(
-    path: &Option<PathBuf>,
-    example: &Option<String>,
-) -> Result<AnyScene, String> {
-    let (scene, kernel) = match (path, example) {
-        (_, Some(name)) => AnyScene::example_with_kernel(name)?,
-        (Some(path), None) => AnyScene::from_path_with_kernel(path)?,
+pub fn load_any_scene(path: &Option<PathBuf>, example: &Option<String>) -> Result<Scene, String> {
+    let scene = match (path, example) {
+        (_, Some(name)) => Scene::example(name),
+        (Some(path), None) => Scene::from_path(path),
         (None, None) => unreachable!("clap requires a scene or --example"),
-    };
+    }
+    .map_err(|e| e.to_string())?;
     if VERBOSE.load(Ordering::Relaxed) {
-        eprintln!("scene {}: {}", scene.name(), kernel.describe());
+        eprintln!("scene {}: {}", scene.name, scene.kernel.describe());
     }
     Ok(scene)
 }

@@ -9,7 +9,7 @@ use super::load_any_scene;
 
 #[derive(Args)]
 pub struct ModesArgs {
-    /// Scene file or folder (e.g. `fmu/idler_gearset`), single pair or drivetrain.
+    /// PairScene file or folder (e.g. `fmu/idler_gearset`), single pair or drivetrain.
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     pub scene: Option<PathBuf>,
     /// A built-in example scene instead of a file (e.g. `idler_gearset`).
@@ -21,7 +21,7 @@ pub struct ModesArgs {
 }
 
 pub fn run(args: ModesArgs) -> Result<(), String> {
-    let scene = load_any_scene(&args.scene, &args.example)?.mean_drivetrain();
+    let scene = load_any_scene(&args.scene, &args.example)?;
     geardyn::commands::modes::modes(&scene, args.rigid_bearings, &mut std::io::stdout().lock())?;
     Ok(())
 }

@@ -12,7 +12,7 @@ use super::load_any_scene;
 
 #[derive(Args)]
 pub struct WaterfallArgs {
-    /// Scene file with `[operating.speed_profile]` (single pair or drivetrain).
+    /// PairScene file with `[operating.speed_profile]` (single pair or drivetrain).
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     pub scene: Option<PathBuf>,
     /// A built-in example scene instead of a file (e.g. `runup_spur`).
@@ -76,7 +76,7 @@ pub fn run(args: WaterfallArgs) -> Result<(), String> {
         let orders: Vec<(String, f64)> = (1..=3)
             .map(|k| (format!("{k}×mesh"), k as f64 * w.mesh_order))
             .collect();
-        let title = format!("{}: waterfall of the {}", scene.name(), args.signal);
+        let title = format!("{}: waterfall of the {}", scene.name, args.signal);
         w.map.save_plot(path, &title, &orders)?;
     }
     let map = &w.map;
@@ -86,7 +86,7 @@ pub fn run(args: WaterfallArgs) -> Result<(), String> {
     );
     println!(
         "scene {} → {} ({} windows × {} frequencies, {:.0}–{:.0} rpm, {:.1} Hz resolution)",
-        scene.name(),
+        scene.name,
         args.out.display(),
         map.rpm.len(),
         map.frequency.len(),

@@ -12,7 +12,7 @@ use geardyn::simulation::{ProgressDisplay, RunLimits};
 
 #[derive(Args)]
 pub struct SimulateArgs {
-    /// Scene file (`scene.toml`) or a folder holding one (e.g. `fmu/spur_pair`).
+    /// PairScene file (`scene.toml`) or a folder holding one (e.g. `fmu/spur_pair`).
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     scene: Option<PathBuf>,
     /// A built-in example scene instead of a file (e.g. `spur_pair`).
@@ -101,9 +101,7 @@ pub fn run(args: SimulateArgs) -> Result<(), String> {
     if let Some(path) = &args.plot {
         Format::of(path)?;
     }
-    let interval = args
-        .output_interval
-        .unwrap_or(scene.solver().output_interval);
+    let interval = args.output_interval.unwrap_or(scene.solver.output_interval);
     if interval > 0.0 {
         if let Some(warning) = geardyn::commands::spectrum::aliasing(&scene, interval)? {
             eprintln!("{warning}");

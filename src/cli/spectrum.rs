@@ -8,7 +8,7 @@ use geardyn::commands::spectrum::{periodic_spectrum, SpectrumRequest};
 
 #[derive(Args)]
 pub struct SpectrumArgs {
-    /// Scene file (`scene.toml`) or a folder holding one.
+    /// PairScene file (`scene.toml`) or a folder holding one.
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     scene: Option<PathBuf>,
     /// A built-in example scene instead of a file (e.g. `spur_pair`).

@@ -7,37 +7,38 @@ use std::fmt::Write as _;
 
 use crate::analysis::band::mean_natural_frequency;
 use crate::analysis::{instability_bands, monodromy, multiplier_line, Floquet, LinearPeriodMap};
-use crate::model::{AnyScene, Drivetrain};
+use crate::model::Drivetrain;
+use crate::scene::Scene;
 use crate::units::{both_units, parse_speed, parse_speed_interval, rpm, significant};
 use crate::with_drivetrain;
 
 /// The scene with the friction coefficient of its `helical` stiffness replaced (`--mu`).
-pub fn with_friction(scene: AnyScene, mu: Option<f64>) -> Result<AnyScene, String> {
-    match (mu, scene) {
-        (Some(mu), AnyScene::Pair(s)) => s
+pub fn with_friction(scene: Scene, mu: Option<f64>) -> Result<Scene, String> {
+    let Some(mu) = mu else { return Ok(scene) };
+    match scene.pair() {
+        Some(s) => s
             .with_friction_coefficient(mu)
-            .map(|s| AnyScene::Pair(Box::new(s)))
+            .map(Scene::from)
             .map_err(|e| format!("--mu {mu}: {e}")),
-        (Some(mu), AnyScene::Train(s)) => Err(format!(
+        None => Err(format!(
             "--mu {mu}: scene {} is a drivetrain; its tooth friction is set per mesh in \
              [mesh.friction] (docs/train.md)",
-            s.name
+            scene.name
         )),
-        (None, scene) => Ok(scene),
     }
 }
 
 /// `geardyn floquet`: the monodromy at `speed` (`--speed` text; default the scene's) as the
 /// text (or with `json` the JSON) the command prints.
-pub fn floquet(mut scene: AnyScene, speed: Option<&str>, json: bool) -> Result<String, String> {
+pub fn floquet(mut scene: Scene, speed: Option<&str>, json: bool) -> Result<String, String> {
     if let Some(text) = speed {
         let speed = parse_speed("--speed", text)?;
         eprintln!("floquet: input speed {}", both_units(speed));
         scene.set_input_speed(speed);
     }
     let floquet = monodromy(&scene)?;
-    let closed_form = match &scene {
-        AnyScene::Pair(s) if floquet.method.starts_with("closed form") => Some(s.clone()),
+    let closed_form = match scene.pair() {
+        Some(s) if floquet.method.starts_with("closed form") => Some(s),
         _ => None,
     };
     let Some(scene) = closed_form else {
@@ -141,7 +142,7 @@ pub fn floquet(mut scene: AnyScene, speed: Option<&str>, json: bool) -> Result<S
 
 /// `geardyn band`: the instability bands over the `--speed` interval `speed` from `points`
 /// scan points, as the text the command prints.
-pub fn band(scene: &AnyScene, speed: &str, points: usize) -> Result<String, String> {
+pub fn band(scene: &Scene, speed: &str, points: usize) -> Result<String, String> {
     let range = parse_speed_interval("--speed", speed)?;
     let (from, to) = (range.from, range.to);
     if to <= from {
@@ -162,7 +163,7 @@ pub fn band(scene: &AnyScene, speed: &str, points: usize) -> Result<String, Stri
     let _ = writeln!(
         out,
         "scene {}: instability bands between {} and {} rpm ({points} scan points{})",
-        scene.name(),
+        scene.name,
         significant(rpm(from)),
         significant(rpm(to)),
         f_n.map_or(String::new(), |f| format!("; mean f_n = {f:.3} Hz"))
@@ -207,7 +208,7 @@ pub fn band(scene: &AnyScene, speed: &str, points: usize) -> Result<String, Stri
 
 /// The report of a monodromy that is not the single pair's closed form: method, period,
 /// multipliers and stability.
-fn floquet_report(scene: &AnyScene, floquet: &Floquet, json: bool) -> String {
+fn floquet_report(scene: &Scene, floquet: &Floquet, json: bool) -> String {
     let speed_rpm = rpm(scene.input_speed());
     let rho = floquet.spectral_radius();
     let mut out = String::new();
@@ -217,12 +218,7 @@ fn floquet_report(scene: &AnyScene, floquet: &Floquet, json: bool) -> String {
             out,
             "{{\"scene\": {:?}, \"rpm\": {:e}, \"period\": {:e}, \"method\": {:?}, \
              \"spectral_radius\": {:e}, \"multipliers\": [{}]}}",
-            scene.name(),
-            speed_rpm,
-            floquet.period,
-            floquet.method,
-            rho,
-            multipliers
+            scene.name, speed_rpm, floquet.period, floquet.method, rho, multipliers
         );
         return out;
     }
@@ -230,7 +226,7 @@ fn floquet_report(scene: &AnyScene, floquet: &Floquet, json: bool) -> String {
         out,
         "scene {}: monodromy at {speed_rpm:.6} rpm over one response period T = {:.6e} s \
          ({} states; {})",
-        scene.name(),
+        scene.name,
         floquet.period,
         floquet.monodromy.nrows(),
         floquet.method

@@ -6,9 +6,9 @@ use std::path::Path;
 
 use crate::analysis::hb::{continuation, BranchPoint, ContinuationOptions, HbOptions};
 use crate::analysis::{self, Direction, SweepOptions};
-use crate::model::AnyScene;
 use crate::output;
 use crate::plot::{Format, Marker, Series};
+use crate::scene::{KernelChoice, Scene};
 use crate::units::{both_units, rpm};
 
 use super::steady::{branch_points, frequency_response_plot};
@@ -69,11 +69,11 @@ pub fn hb_columns(prefixes: &[String]) -> Vec<String> {
 
 /// The index of the mesh named `name` in `scene` (`--plot-mesh`), or 0 (the single pair, or
 /// the first mesh of a drivetrain) without a name; checked before any work is done.
-pub fn plot_mesh_index(scene: &AnyScene, name: Option<&str>) -> Result<usize, String> {
+pub fn plot_mesh_index(scene: &Scene, name: Option<&str>) -> Result<usize, String> {
     let Some(name) = name else { return Ok(0) };
-    let names: Vec<&str> = match scene {
-        AnyScene::Pair(_) => Vec::new(),
-        AnyScene::Train(t) => t.meshes.iter().map(|m| m.name.as_str()).collect(),
+    let names: Vec<&str> = match scene.kernel {
+        KernelChoice::Pair => Vec::new(),
+        KernelChoice::Drivetrain(_) => scene.meshes.iter().map(|m| m.name.as_str()).collect(),
     };
     names.iter().position(|n| *n == name).ok_or_else(|| {
         if names.is_empty() {
@@ -106,7 +106,7 @@ impl HbRequest<'_> {
     }
 
     /// Checks the options (messages name the CLI option) and continues the branch.
-    pub fn run(&self, scene: &AnyScene) -> Result<HbBranch, String> {
+    pub fn run(&self, scene: &Scene) -> Result<HbBranch, String> {
         let crate::units::SpeedInterval { from, to } = self.interval()?;
         let hb_options = HbOptions {
             subharmonic: self.subharmonic,
@@ -169,7 +169,7 @@ impl HbBranch {
     /// the same interval overlaid. Written to `path` (PNG or SVG by its extension).
     pub fn plot(
         &self,
-        scene: &AnyScene,
+        scene: &Scene,
         harmonics: usize,
         sweep_points: usize,
         mesh: usize,
@@ -243,7 +243,7 @@ impl HbBranch {
         let which = self.prefixes[mesh].trim_end_matches('.');
         let title = format!(
             "{}{}{}: harmonic balance, H = {} (DTE RMS, mean removed)",
-            scene.name(),
+            scene.name,
             if which.is_empty() { "" } else { " " },
             which,
             harmonics
@@ -253,12 +253,12 @@ impl HbBranch {
 
     /// The text `geardyn hb` prints after writing `out`: point and fold counts, then one line
     /// per fold with every mesh's DTE RMS.
-    pub fn summary(&self, scene: &AnyScene, out: &Path) -> String {
+    pub fn summary(&self, scene: &Scene, out: &Path) -> String {
         let branch = &self.points;
         let folds = branch.iter().filter(|p| p.fold).count();
         let mut s = format!(
             "scene {}: {} branch points, {} folds → {}\n",
-            scene.name(),
+            scene.name,
             branch.len(),
             folds,
             out.display()
@@ -292,11 +292,7 @@ pub struct HbFiles<'a> {
 }
 
 /// `geardyn hb`: runs the continuation, writes its files and returns the summary it prints.
-pub fn hb_command(
-    scene: &AnyScene,
-    request: &HbRequest,
-    files: &HbFiles,
-) -> Result<String, String> {
+pub fn hb_command(scene: &Scene, request: &HbRequest, files: &HbFiles) -> Result<String, String> {
     check_sweep_points(files.sweep_points)?;
     let mesh = plot_mesh_index(scene, files.plot_mesh)?;
     if let Some(path) = files.plot {

@@ -5,7 +5,8 @@ use std::io::Write;
 
 use crate::model::train::mesh::CycleTable;
 use crate::model::train::{self, statics, Assembly, GearTrain, Mode};
-use crate::scene::train::{MeshForceModel, TrainScene};
+use crate::scene::train::MeshForceModel;
+use crate::scene::Scene;
 
 /// The modes of a drivetrain's mean system, in the order the report lists them.
 pub struct Modes {
@@ -17,11 +18,7 @@ pub struct Modes {
 /// Computes the modes of `scene` (with `rigid_bearings`, of the purely rotational model) and
 /// writes the report of `geardyn modes` to `out` as it goes: the CLI streams it to stdout,
 /// so a failure late in the report (the friction statics) still shows everything before it.
-pub fn modes(
-    scene: &TrainScene,
-    rigid_bearings: bool,
-    out: &mut dyn Write,
-) -> Result<Modes, String> {
+pub fn modes(scene: &Scene, rigid_bearings: bool, out: &mut dyn Write) -> Result<Modes, String> {
     let io = |e: std::io::Error| format!("cannot write the report: {e}");
     let scene = if rigid_bearings {
         scene.with_rigid_bearings()

@@ -7,7 +7,8 @@
 use std::f64::consts::TAU;
 
 use crate::analysis::spectrum::{waterfall, Waterfall, WaterfallOptions};
-use crate::model::{AnyScene, Drivetrain};
+use crate::model::Drivetrain;
+use crate::scene::Scene;
 use crate::simulation::{DrivenModel, OutputGrid};
 use crate::with_drivetrain;
 
@@ -54,18 +55,18 @@ pub struct RunupWaterfall {
 /// `solver.stop_time` on its `output_interval` grid and returns the waterfall of mesh `mesh`'s
 /// `signal` (the 0 Hz line is the window mean), with the input gear's speed in rpm.
 pub fn runup_waterfall(
-    scene: &AnyScene,
+    scene: &Scene,
     mesh: usize,
     signal: RunupSignal,
     options: &WaterfallOptions,
 ) -> Result<RunupWaterfall, String> {
-    let Some(speed) = scene.profiles().speed.clone() else {
+    let Some(speed) = scene.profiles.speed.clone() else {
         return Err(format!(
             "scene {}: a waterfall needs a run-up (operating.speed_profile, docs/runup.md)",
-            scene.name()
+            scene.name
         ));
     };
-    let (stop, interval) = (scene.solver().stop_time, scene.solver().output_interval);
+    let (stop, interval) = (scene.solver.stop_time, scene.solver.output_interval);
     with_drivetrain!(scene.simulation()?, sim => {
         let mut sim = sim;
         let count = sim.model().mesh_count();
@@ -105,7 +106,7 @@ pub fn runup_waterfall(
 }
 
 /// The mesh names of a scene as `--mesh` takes them (`mesh` for the single pair).
-pub fn mesh_names(scene: &AnyScene) -> Result<Vec<String>, String> {
+pub fn mesh_names(scene: &Scene) -> Result<Vec<String>, String> {
     with_drivetrain!(scene.simulation()?, sim => {
         Ok((0..sim.model().mesh_count())
             .map(|n| {

@@ -14,7 +14,7 @@ use crate::simulation::{DrivenModel, Driver, OutputGrid};
 use crate::solve::SolverStats;
 use crate::with_drivetrain;
 
-pub use crate::model::AnyScene;
+use crate::scene::{KernelChoice, Scene};
 
 /// The command-line options of `geardyn simulate` (each `None` keeps the scene's setting).
 #[derive(Debug, Clone, Default)]
@@ -129,13 +129,13 @@ impl SimulateReport {
 /// goes to `.<out>.partial` as it is computed, and the file is renamed into place when the
 /// run succeeds; on any error nothing is left at either path.
 pub fn simulate(
-    mut scene: AnyScene,
+    mut scene: Scene,
     opts: &SimulateOptions,
     out: &Path,
 ) -> Result<SimulateReport, String> {
-    let (stop_time, interval) = opts.apply(scene.solver_mut())?;
-    let name = scene.name().to_owned();
-    let pair = matches!(scene, AnyScene::Pair(_));
+    let (stop_time, interval) = opts.apply(&mut scene.solver)?;
+    let name = scene.name.to_owned();
+    let pair = scene.kernel == KernelChoice::Pair;
     with_drivetrain!(scene.run()?, sim => {
         let names = sim.model().row_names();
         let meshes: Vec<(String, MeshColumns)> = (0..sim.model().mesh_count())

@@ -7,8 +7,9 @@ use crate::analysis::spectrum::{
     exact_dft, label_lines, model_aliasing_warning, windowed_fft, OrderLabel, Spectrum, Window,
 };
 use crate::analysis::{shoot, ShootingOptions};
-use crate::model::{response_period, AnyScene, Drivetrain};
+use crate::model::{response_period, Drivetrain};
 use crate::plot::{Axis, Plot, Series};
+use crate::scene::Scene;
 use crate::with_drivetrain;
 
 /// What to transform and how finely.
@@ -87,7 +88,7 @@ fn check_spectrum_samples(request: &SpectrumRequest, mesh_cycles: f64) -> Result
 /// Shoots the periodic steady state at the scene's speed, samples `periods` response periods
 /// at `N` uniform instants from the orbit's start and takes the exact DFT of each signal.
 pub fn periodic_spectrum(
-    scene: &AnyScene,
+    scene: &Scene,
     request: &SpectrumRequest,
 ) -> Result<SpectrumReport, String> {
     if request.samples_per_mesh_period < 4 {
@@ -145,7 +146,7 @@ pub fn periodic_spectrum(
                 labels,
             });
         }
-        Ok(SpectrumReport { scene: scene.name().to_string(), duration, samples: n, signals })
+        Ok(SpectrumReport { scene: scene.name.to_string(), duration, samples: n, signals })
     })
 }
 
@@ -224,7 +225,7 @@ impl SpectrumReport {
 /// The aliasing warning for `scene`'s outputs every `interval` s at its constant speed
 /// ([`crate::analysis::spectrum::model_aliasing_warning`]); a run whose speed varies passes
 /// its highest speed through that function's `speed_factor`.
-pub fn aliasing(scene: &AnyScene, interval: f64) -> Result<Option<String>, String> {
+pub fn aliasing(scene: &Scene, interval: f64) -> Result<Option<String>, String> {
     // At the start speed for a scene with ports (docs/ports.md).
     with_drivetrain!(scene.run()?, sim => {
         Ok(model_aliasing_warning(sim.model(), interval, 1.0))
@@ -239,7 +240,7 @@ pub fn aliasing(scene: &AnyScene, interval: f64) -> Result<Option<String>, Strin
 /// `simulate --spectrum`: the spectrum of every mesh's DTE and force of the run `report`
 /// wrote to `csv`, written to `out`.
 pub fn spectrum_of_run(
-    scene: &AnyScene,
+    scene: &Scene,
     report: &crate::commands::simulate::SimulateReport,
     csv: &Path,
     out: &Path,
@@ -267,7 +268,7 @@ pub fn spectrum_of_run(
 }
 
 pub fn record_spectrum(
-    scene: &AnyScene,
+    scene: &Scene,
     time: &[f64],
     columns: &[(String, Vec<f64>)],
 ) -> Result<SpectrumReport, String> {
@@ -316,7 +317,7 @@ pub fn record_spectrum(
             });
         }
         let samples = if exact { n - 1 } else { n };
-        Ok(SpectrumReport { scene: scene.name().to_string(), duration: span, samples, signals })
+        Ok(SpectrumReport { scene: scene.name.to_string(), duration: span, samples, signals })
     })
 }
 

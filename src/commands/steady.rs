@@ -10,9 +10,10 @@ use crate::analysis::sweep::{Periodicity, Sweep, SweepPoint};
 use crate::analysis::{
     self, multiplier_line, shoot, Direction, PeriodicOrbit, ShootingOptions, SweepOptions,
 };
-use crate::model::{AnyScene, Drivetrain};
+use crate::model::Drivetrain;
 use crate::output;
 use crate::plot::{Axis, Format, Marker, Plot, Series};
+use crate::scene::Scene;
 use crate::units::{both_units, parse_speed, rpm};
 use crate::with_drivetrain;
 
@@ -20,7 +21,7 @@ use super::positive;
 
 /// Periodic steady state by shooting at the scene's input speed: a period-`periods` orbit
 /// (in response periods) found after `warmup` response periods of integration.
-pub fn periodic(scene: &AnyScene, periods: u32, warmup: u32) -> Result<PeriodicOrbit, String> {
+pub fn periodic(scene: &Scene, periods: u32, warmup: u32) -> Result<PeriodicOrbit, String> {
     let options = ShootingOptions {
         periods,
         warmup_periods: warmup,
@@ -34,7 +35,7 @@ pub fn periodic(scene: &AnyScene, periods: u32, warmup: u32) -> Result<PeriodicO
 /// 10**9` ran for hours): the warm-up plus `periods` response periods for each Newton
 /// iteration, within the run limits of `geardyn simulate` (mesh periods and periods of the
 /// fastest mode, [`crate::simulation::RunLimits`]); the message names both counts.
-pub fn check_shooting_work(scene: &AnyScene, options: &ShootingOptions) -> Result<(), String> {
+pub fn check_shooting_work(scene: &Scene, options: &ShootingOptions) -> Result<(), String> {
     let (scales, period) = with_drivetrain!(scene.simulation()?, sim => {
         let model = sim.model();
         (crate::simulation::DrivenModel::run_scales(model), crate::model::response_period(model)?)
@@ -58,20 +59,20 @@ pub fn check_shooting_work(scene: &AnyScene, options: &ShootingOptions) -> Resul
 pub const PERIODIC_SAMPLES: u32 = 64;
 
 /// Each mesh's dynamic force on the orbit (peak, RMS about the mean, dynamic factor).
-pub fn periodic_forces(scene: &AnyScene, orbit: &PeriodicOrbit) -> Result<Vec<OrbitMesh>, String> {
+pub fn periodic_forces(scene: &Scene, orbit: &PeriodicOrbit) -> Result<Vec<OrbitMesh>, String> {
     orbit_mesh_forces(scene, orbit, PERIODIC_SAMPLES)
 }
 
 /// The text `geardyn periodic` prints for an orbit of `scene`: the Newton residuals, the
 /// initial state with its coordinate names, each mesh's DTE at the start of the orbit, each
 /// mesh's frequency and dynamic force (peak, RMS, dynamic factor), and the multipliers with the stability they imply.
-pub fn periodic_report(scene: &AnyScene, orbit: &PeriodicOrbit) -> Result<String, String> {
+pub fn periodic_report(scene: &Scene, orbit: &PeriodicOrbit) -> Result<String, String> {
     let mut s = String::new();
     // Writing to a String cannot fail.
     let _ = writeln!(
         s,
         "scene {}: period-{} orbit at input speed {} (T = {:.6e} s)",
-        scene.name(),
+        scene.name,
         orbit.periods,
         both_units(scene.input_speed()),
         orbit.period
@@ -171,7 +172,7 @@ impl SweepRequest<'_> {
     /// Checks the options and runs the sweep.
     pub fn run(
         &self,
-        scene: &AnyScene,
+        scene: &Scene,
         progress: &(dyn Fn(usize, usize) + Sync),
     ) -> Result<Sweep, String> {
         analysis::sweep(scene, &self.options()?, progress)
@@ -212,7 +213,7 @@ fn jumps(points: &[(f64, f64)]) -> Vec<f64> {
 /// `geardyn sweep --plot`: each mesh's DTE RMS against the input speed, one series per mesh and
 /// branch that has points, with the jumps of each branch marked. Written to `path` (PNG or
 /// SVG by its extension).
-pub fn sweep_plot(scene: &AnyScene, sweep: &Sweep, path: &Path) -> Result<(), String> {
+pub fn sweep_plot(scene: &Scene, sweep: &Sweep, path: &Path) -> Result<(), String> {
     const COLORS: [(&str, &str); 4] = [
         ("#c0392b", "#2471a3"),
         ("#e67e22", "#16a085"),
@@ -257,7 +258,7 @@ pub fn sweep_plot(scene: &AnyScene, sweep: &Sweep, path: &Path) -> Result<(), St
             }
         }
     }
-    let title = format!("{}: DTE RMS (mean removed)", scene.name());
+    let title = format!("{}: DTE RMS (mean removed)", scene.name);
     frequency_response_plot(&title, series, markers).save(path)
 }
 
@@ -289,7 +290,7 @@ pub fn frequency_response_plot<'a>(
 }
 
 /// The lines `geardyn sweep` prints after writing `out`.
-pub fn sweep_summary(scene: &AnyScene, sweep: &Sweep, out: &Path) -> String {
+pub fn sweep_summary(scene: &Scene, sweep: &Sweep, out: &Path) -> String {
     let points = &sweep.points;
     let unconverged = points.iter().filter(|p| !p.converged).count();
     let aperiodic = points
@@ -298,7 +299,7 @@ pub fn sweep_summary(scene: &AnyScene, sweep: &Sweep, out: &Path) -> String {
         .count();
     let mut s = format!(
         "scene {}: {} points → {}{}\n",
-        scene.name(),
+        scene.name,
         points.len(),
         out.display(),
         if unconverged > 0 {
@@ -352,7 +353,7 @@ pub fn poincare_rows(sweep: &Sweep) -> Vec<[f64; 5]> {
 /// `geardyn periodic`: the orbit at `speed` (`--speed` text; default the scene's input
 /// speed) and the text the command prints.
 pub fn periodic_command(
-    scene: &mut AnyScene,
+    scene: &mut Scene,
     speed: Option<&str>,
     periods: u32,
     warmup: u32,
@@ -378,7 +379,7 @@ pub struct SweepFiles<'a> {
 /// `geardyn sweep`: runs the sweep, writes its files and returns the summary it prints. A
 /// progress line goes to stderr on a terminal only.
 pub fn sweep_command(
-    scene: &AnyScene,
+    scene: &Scene,
     request: &SweepRequest,
     files: &SweepFiles,
 ) -> Result<String, String> {

@@ -18,8 +18,7 @@
 use super::train::{GearTrain, SlotContact, TrainInputs, TrainSimulation};
 use super::{GearPair, Inputs};
 use crate::analysis::spectrum::ShaftFrequency;
-use crate::scene::train::TrainScene;
-use crate::scene::Scene;
+use crate::scene::{PairScene, Scene};
 use crate::simulation::{DrivenModel, Driver, Simulation};
 use nalgebra::DMatrix;
 
@@ -420,14 +419,6 @@ impl Drivetrain for GearTrain {
     }
 }
 
-/// A scene of either format, as every command accepts it: the single-mesh file of
-/// `docs/model.md` or the drivetrain file of `docs/train.md` (the kind is read from the file).
-#[derive(Debug, Clone)]
-pub enum AnyScene {
-    Pair(Box<Scene>),
-    Train(Box<TrainScene>),
-}
-
 /// A running simulation of either kernel. Generic code takes `Driver<M: Drivetrain>`; this
 /// enum is the one place where the kernel is chosen ([`with_drivetrain!`]).
 // One value per command, moved straight into generic code: boxing would only add a deref.
@@ -449,178 +440,66 @@ macro_rules! with_drivetrain {
     };
 }
 
-/// Anything that names a scene: the analyses accept either format, or the parsed
-/// [`AnyScene`].
+/// Anything that names a scene: the analyses take the resolved [`Scene`], or the single-pair
+/// kernel's [`PairScene`] (lifted into the scene it is).
 pub trait SceneSource {
-    fn to_any(&self) -> AnyScene;
+    fn to_scene(&self) -> Scene;
 }
 
-impl SceneSource for AnyScene {
-    fn to_any(&self) -> AnyScene {
+impl SceneSource for Scene {
+    fn to_scene(&self) -> Scene {
         self.clone()
     }
 }
 
-impl SceneSource for Scene {
-    fn to_any(&self) -> AnyScene {
-        AnyScene::Pair(Box::new(self.clone()))
+impl SceneSource for PairScene {
+    fn to_scene(&self) -> Scene {
+        Scene::from(self)
     }
 }
 
-impl SceneSource for TrainScene {
-    fn to_any(&self) -> AnyScene {
-        AnyScene::Train(Box::new(self.clone()))
-    }
-}
-
-impl AnyScene {
-    /// A scene file, or a folder holding `scene.toml`.
-    pub fn from_path(path: &std::path::Path) -> Result<AnyScene, String> {
-        Self::from_path_with_kernel(path).map(|(scene, _)| scene)
-    }
-
-    /// [`AnyScene::from_path`] with the kernel chosen for the scene and why (`--verbose`).
-    pub fn from_path_with_kernel(
-        path: &std::path::Path,
-    ) -> Result<(AnyScene, crate::scene::KernelChoice), String> {
-        // Read once; the text decides the format.
-        let (text, origin) = crate::scene::read_scene_file(&crate::scene::scene_file(path))
-            .map_err(|e| e.to_string())?;
-        if crate::fmu::element::is_element_text(&text) {
-            return Err(format!(
-                "{origin}: an [element] scene is a co-simulation element (docs/elements.md): \
-                 build it with `geardyn fmu build` and run it with `geardyn run` or any FMI master"
-            ));
-        }
-        Self::load(&text, &origin)
-    }
-
-    /// Scene text through the one path of [`crate::scene::load`]: the kernel chosen there
-    /// decides the variant.
-    fn load(text: &str, origin: &str) -> Result<(AnyScene, crate::scene::KernelChoice), String> {
-        let (loaded, choice) = crate::scene::load(text, origin).map_err(|e| e.to_string())?;
-        let scene = match loaded {
-            crate::scene::Loaded::Pair(s) => AnyScene::Pair(s),
-            crate::scene::Loaded::Drivetrain(s) => AnyScene::Train(s),
-        };
-        Ok((scene, choice))
-    }
-
-    /// A built-in example by name (single-pair or drivetrain).
-    pub fn example(name: &str) -> Result<AnyScene, String> {
-        Self::example_with_kernel(name).map(|(scene, _)| scene)
-    }
-
-    /// [`AnyScene::example`] with the kernel chosen for it and why.
-    pub fn example_with_kernel(
-        name: &str,
-    ) -> Result<(AnyScene, crate::scene::KernelChoice), String> {
-        use crate::scene::{train::TRAIN_EXAMPLES, EXAMPLES};
-        let text = TRAIN_EXAMPLES
-            .iter()
-            .chain(EXAMPLES)
-            .find(|(n, _)| *n == name)
-            .map(|(_, text)| *text);
-        let Some(text) = text else {
-            let names = |list: &[(&str, &str)]| -> String {
-                list.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
-            };
-            return Err(format!(
-                "no built-in example named '{name}' (single pairs: {}; drivetrains: {})",
-                names(EXAMPLES),
-                names(TRAIN_EXAMPLES)
-            ));
-        };
-        Self::load(text, &format!("example '{name}'"))
-    }
-
-    pub fn name(&self) -> &str {
-        match self {
-            AnyScene::Pair(s) => &s.name,
-            AnyScene::Train(s) => &s.name,
-        }
-    }
-
-    pub fn solver(&self) -> &crate::scene::SolverSettings {
-        match self {
-            AnyScene::Pair(s) => &s.solver,
-            AnyScene::Train(s) => &s.solver,
-        }
-    }
-
-    pub fn solver_mut(&mut self) -> &mut crate::scene::SolverSettings {
-        match self {
-            AnyScene::Pair(s) => &mut s.solver,
-            AnyScene::Train(s) => &mut s.solver,
-        }
-    }
-
-    /// The speed and torque profiles (a run-up, `docs/runup.md`).
-    pub fn profiles(&self) -> &crate::scene::Profiles {
-        match self {
-            AnyScene::Pair(s) => &s.profiles,
-            AnyScene::Train(s) => &s.profiles,
-        }
-    }
-
+impl Scene {
     /// Nominal speed of the input gear, rad/s.
     pub fn input_speed(&self) -> f64 {
-        match self {
-            AnyScene::Pair(s) => s.operating.pinion_speed,
-            AnyScene::Train(s) => s.operating.input_speed,
-        }
+        self.operating.input_speed
     }
 
     /// The same scene at another nominal input speed, rad/s.
     pub fn set_input_speed(&mut self, speed: f64) {
-        match self {
-            AnyScene::Pair(s) => s.operating.pinion_speed = speed,
-            AnyScene::Train(s) => s.operating.input_speed = speed,
-        }
-    }
-
-    /// The scene as a drivetrain description: itself, or a single pair as its one-mesh
-    /// drivetrain ([`TrainScene::from_pair`]) for the mean-system analyses (modes, statics).
-    pub fn mean_drivetrain(&self) -> TrainScene {
-        match self {
-            AnyScene::Pair(s) => TrainScene::from_pair(s),
-            AnyScene::Train(s) => (**s).clone(),
-        }
+        self.operating.input_speed = speed;
     }
 
     /// Assembles the scene's kernel and starts it at `t = 0` from the scene's initial state,
     /// for the analyses of the nominal-speed form (steady states, Floquet, harmonic balance,
     /// sweeps, spectra, run-ups): a scene with `[[port]]` carries its rotation and is refused
-    /// with the reason (`docs/ports.md`); `geardyn simulate` takes [`AnyScene::run`].
+    /// with the reason (`docs/ports.md`); `geardyn simulate` takes [`Scene::run`].
     pub fn simulation(&self) -> Result<AnySimulation, String> {
-        if let AnyScene::Train(s) = self {
-            if let Some(p) = s.ports.first() {
-                return Err(format!(
-                    "scene {:?} has [[port]] ({:?}, ...): its rigid-body rotation is carried and \
-                     the mesh phase follows the pinion angle, so the periodic and \
-                     nominal-speed analyses do not apply; run it with `geardyn simulate` or as \
-                     an FMU (docs/ports.md)",
-                    s.name, p.name
-                ));
-            }
-            if let Some(b) = s.elements.bodies.first() {
-                return Err(format!(
-                    "scene {:?} has elements ({:?}, ...): its rigid-body rotation is carried \
-                     and the mesh phase follows the pinion angle, so the periodic and \
-                     nominal-speed analyses do not apply; run it with `geardyn simulate` \
-                     (docs/ports.md)",
-                    s.name, b.name
-                ));
-            }
+        if let Some(p) = self.ports.first() {
+            return Err(format!(
+                "scene {:?} has [[port]] ({:?}, ...): its rigid-body rotation is carried and \
+                 the mesh phase follows the pinion angle, so the periodic and nominal-speed \
+                 analyses do not apply; run it with `geardyn simulate` or as an FMU \
+                 (docs/ports.md)",
+                self.name, p.name
+            ));
+        }
+        if let Some(b) = self.elements.bodies.first() {
+            return Err(format!(
+                "scene {:?} has elements ({:?}, ...): its rigid-body rotation is carried and \
+                 the mesh phase follows the pinion angle, so the periodic and nominal-speed \
+                 analyses do not apply; run it with `geardyn simulate` (docs/ports.md)",
+                self.name, b.name
+            ));
         }
         self.run()
     }
 
     /// The scene's simulation in any form (nominal speed, or carried rotation with ports).
     pub fn run(&self) -> Result<AnySimulation, String> {
-        Ok(match self {
-            AnyScene::Pair(s) => AnySimulation::Pair(Simulation::new(s)?),
-            AnyScene::Train(s) => AnySimulation::Train(TrainSimulation::new(s)?),
+        // The kernel chosen when the scene was read (`crate::scene::kernel`).
+        Ok(match self.pair() {
+            Some(pair) => AnySimulation::Pair(Simulation::new(&pair)?),
+            None => AnySimulation::Train(TrainSimulation::new(self)?),
         })
     }
 }

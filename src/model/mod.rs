@@ -15,7 +15,7 @@ pub mod train;
 
 pub use clock::{check_phase, PhaseClock, MAX_MESH_CYCLES, MAX_MESH_PERIODS_PER_ADVANCE};
 pub use drivetrain::{
-    parametric_period, response_frequencies, response_period, AnyScene, AnySimulation, Drivetrain,
+    parametric_period, response_frequencies, response_period, AnySimulation, Drivetrain,
     LinearPart, MeshColumns, MeshLaw, MeshSample, SceneSource, MAX_MESH_DIRECTIONS,
 };
 pub use pair::{ContactState, GearPair, Inputs, PairState, MAX_RATE, OUTPUT_NAMES};

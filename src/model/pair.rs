@@ -25,7 +25,7 @@ use super::{PhaseClock, MAX_MESH_CYCLES};
 /// which overflows `f64` beyond ~1.3e154 1/s; 1e150 leaves room for the sums they enter.
 pub const MAX_RATE: f64 = 1e150;
 use crate::mesh::{MeshStiffness, PhaseSeries};
-use crate::scene::{ContactLaw, InitialDte, Scene, SmoothTerms};
+use crate::scene::{ContactLaw, InitialDte, PairScene, SmoothTerms};
 use crate::solve::exact::PiecewiseLti;
 use crate::solve::HybridSystem;
 
@@ -143,7 +143,7 @@ pub struct GearPair {
 impl GearPair {
     /// Assembles the pair at `t = 0` with the scene's inputs; call [`GearPair::initial_state`]
     /// for the matching initial state.
-    pub fn new(scene: &Scene) -> GearPair {
+    pub fn new(scene: &PairScene) -> GearPair {
         let m_e = scene.equivalent_mass();
         let pieces = scene.mesh.stiffness.pieces();
         let has_stops = match pieces {
@@ -260,7 +260,7 @@ impl GearPair {
     }
 
     /// The scene's initial state `[x0, x0']`; also sets the contact state to match it.
-    pub fn initial_state(&mut self, scene: &Scene) -> [f64; 2] {
+    pub fn initial_state(&mut self, scene: &PairScene) -> [f64; 2] {
         let e0 = self.ste_at(0.0).0;
         let x0 = match scene.initial_dte {
             InitialDte::Static => self.static_deflection() + e0,

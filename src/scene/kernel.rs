@@ -8,28 +8,13 @@
 //! with the smooth terms of Bugaru (2006) (`cubic`, `damping_variation`, `damping_acts`,
 //! `torque_ripple`).
 
+use super::resolved::{Gear, Mesh, Operating, Scene};
 use super::spec::{GearSpec, MeshForm, ParsedScene, SceneSpec};
+use super::train::{elements::Elements, MeshForceModel};
+use super::{ContactLaw, InitialDte, Profiles, SmoothTerms, SolverSettings};
+use crate::mesh::{MeshStiffness, PhaseSeries};
 
-/// The kernel chosen for a scene, and why.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum KernelChoice {
-    /// The single-pair kernel.
-    Pair,
-    /// The drivetrain kernel; the reason names the first field that needs it.
-    Drivetrain(String),
-}
-
-impl KernelChoice {
-    /// One line for `--verbose`.
-    pub fn describe(&self) -> String {
-        match self {
-            KernelChoice::Pair => {
-                "kernel: single pair (one mesh between two gears, pair-kernel features only)".into()
-            }
-            KernelChoice::Drivetrain(why) => format!("kernel: drivetrain ({why})"),
-        }
-    }
-}
+pub use super::resolved::KernelChoice;
 
 /// The kernel of a parsed scene. A scene that asks for a pair-kernel term while something
 /// else in it needs the drivetrain kernel is refused by the drivetrain validation, which
@@ -135,4 +120,217 @@ pub(crate) fn pair_only_field(parsed: &ParsedScene) -> Option<String> {
         };
         Some(parsed.mesh_field(i, key))
     })
+}
+
+/// The resolved scene as the single-pair kernel reads it ([`crate::model::GearPair`], the DTE
+/// coordinate of `docs/model.md`): the pinion, the gear and their one lumped mesh. It is the
+/// pair kernel's view of a [`Scene`] whose kernel is [`KernelChoice::Pair`] ([`Scene::pair`]),
+/// and lifts back without loss ([`Scene::from`]); the single-pair validation
+/// (`validate/pair.rs`) checks a scene in these terms.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairScene {
+    pub name: String,
+    pub description: String,
+    pub pinion: PairGear,
+    pub gear: PairGear,
+    pub mesh: PairMesh,
+    /// The operating point at t = 0 (with profiles: their values at t = 0).
+    pub operating: PairOperating,
+    /// Speed and torque over time (a run-up), `docs/runup.md`.
+    pub profiles: Profiles,
+    pub initial_dte: InitialDte,
+    pub initial_dte_rate: f64,
+    pub solver: SolverSettings,
+    /// The TOML text the scene was read from (the FMU GUID is derived from it).
+    pub source: String,
+}
+
+/// A gear body of the pair.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairGear {
+    pub name: String,
+    pub teeth: u32,
+    pub base_radius: f64,
+    pub inertia: f64,
+}
+
+/// The single mesh between the pinion and the gear.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PairMesh {
+    pub contact: ContactLaw,
+    pub stiffness: MeshStiffness,
+    /// Static transmission error `e(p)`, m.
+    pub ste: PhaseSeries,
+    /// Viscous mesh damping `c_m`, N·s/m (resolved from a ratio if given so).
+    pub damping: f64,
+    /// Damping also acts while the teeth are separated (`damping_acts = "always"`).
+    pub damping_always: bool,
+    /// Smooth additions to the mesh force (Bugaru 2006); all zero by default.
+    pub smooth: SmoothTerms,
+    /// Mesh phase at t = 0, mesh cycles.
+    pub initial_phase: f64,
+}
+
+/// Operating point of the pair (inputs of the FMU).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PairOperating {
+    /// Nominal pinion speed Ω, rad/s.
+    pub pinion_speed: f64,
+    /// T1, N·m.
+    pub input_torque: f64,
+    /// T2 (magnitude, resisting), N·m.
+    pub load_torque: f64,
+}
+
+impl PairScene {
+    /// Equivalent mass on the line of action, `m_e = 1/(r_b1²/I1 + r_b2²/I2)`, kg.
+    pub fn equivalent_mass(&self) -> f64 {
+        equivalent_mass(&self.pinion, &self.gear)
+    }
+}
+
+pub(crate) fn equivalent_mass(pinion: &PairGear, gear: &PairGear) -> f64 {
+    1.0 / (pinion.base_radius.powi(2) / pinion.inertia + gear.base_radius.powi(2) / gear.inertia)
+}
+
+impl Scene {
+    /// The scene as the single-pair kernel reads it, when the kernel choice put it there.
+    pub fn pair(&self) -> Option<PairScene> {
+        if self.kernel != KernelChoice::Pair {
+            return None;
+        }
+        let [m] = self.meshes.as_slice() else {
+            return None;
+        };
+        let MeshForceModel::Lumped { stiffness, ste } = &m.force else {
+            return None;
+        };
+        let body = |g: &Gear| PairGear {
+            name: g.name.clone(),
+            teeth: g.teeth,
+            base_radius: g.base_radius,
+            inertia: g.inertia,
+        };
+        Some(PairScene {
+            name: self.name.clone(),
+            description: self.description.clone(),
+            pinion: body(&self.gears[m.pinion]),
+            gear: body(&self.gears[m.gear]),
+            mesh: PairMesh {
+                contact: m.contact,
+                stiffness: stiffness.clone(),
+                ste: ste.clone(),
+                damping: m.damping,
+                damping_always: m.damping_always,
+                smooth: m.smooth,
+                initial_phase: m.initial_phase,
+            },
+            operating: PairOperating {
+                pinion_speed: self.operating.input_speed,
+                input_torque: self.operating.input_torque,
+                load_torque: self.operating.load_torque,
+            },
+            profiles: self.profiles.clone(),
+            initial_dte: self.initial_dte,
+            initial_dte_rate: self.initial_dte_rate,
+            solver: self.solver.clone(),
+            source: self.source.clone(),
+        })
+    }
+}
+
+impl Scene {
+    /// The same scene on the drivetrain kernel, to compare the two kernels where they overlap
+    /// (`tests/pair_as_drivetrain.rs`). A term only the pair kernel carries is refused by
+    /// name rather than dropped.
+    pub fn on_drivetrain_kernel(&self) -> Result<Scene, String> {
+        for (n, m) in self.meshes.iter().enumerate() {
+            if !m.smooth.is_zero() {
+                return Err(format!(
+                    "mesh[{n}]: the smooth terms (cubic, damping_variation, torque_ripple) are \
+                     the single-pair kernel's; the drivetrain kernel does not carry them"
+                ));
+            }
+            if m.damping_always {
+                return Err(format!(
+                    "mesh[{n}].damping_acts = \"always\": the single-pair kernel's; the \
+                     drivetrain kernel does not carry it"
+                ));
+            }
+        }
+        let mut scene = self.clone();
+        scene.kernel = KernelChoice::Drivetrain("asked for by the caller".into());
+        Ok(scene)
+    }
+}
+
+impl From<&PairScene> for Scene {
+    /// The pair as the one-mesh drivetrain it is: two rotating gears on rigid supports (the
+    /// pinion first) and one lumped mesh, on the single-pair kernel. The drivetrain kernel
+    /// runs it too (`tests/pair_as_drivetrain.rs`) without the terms only the pair kernel
+    /// carries (Bugaru's smooth terms, `damping_acts`).
+    fn from(pair: &PairScene) -> Scene {
+        let gear = |g: &PairGear| Gear {
+            name: g.name.clone(),
+            teeth: g.teeth,
+            base_radius: g.base_radius,
+            inertia: g.inertia,
+            mass: None,
+            bearing: None,
+            ground_stiffness: 0.0,
+            ground_damping: 0.0,
+            errors: Default::default(),
+        };
+        let ratio = pair.pinion.teeth as f64 / pair.gear.teeth as f64;
+        Scene {
+            name: pair.name.clone(),
+            description: pair.description.clone(),
+            kernel: KernelChoice::Pair,
+            gears: vec![gear(&pair.pinion), gear(&pair.gear)],
+            shafts: Vec::new(),
+            meshes: vec![Mesh {
+                name: "mesh".into(),
+                pinion: 0,
+                gear: 1,
+                contact: pair.mesh.contact,
+                damping: pair.mesh.damping,
+                initial_phase: pair.mesh.initial_phase,
+                phase: 0.0,
+                pressure_angle: 0.0,
+                centre_angle: 0.0,
+                force: MeshForceModel::Lumped {
+                    stiffness: pair.mesh.stiffness.clone(),
+                    ste: pair.mesh.ste.clone(),
+                },
+                damping_always: pair.mesh.damping_always,
+                smooth: pair.mesh.smooth,
+                friction: None,
+                helical: None,
+                cycles_per_input_rev: pair.pinion.teeth as f64,
+            }],
+            modal_damping_ratio: 0.0,
+            input_gear: 0,
+            output_gear: 1,
+            speed_ratio: vec![1.0, ratio],
+            rotation: vec![1.0, -1.0],
+            operating: Operating {
+                input_speed: pair.operating.pinion_speed,
+                input_torque: pair.operating.input_torque,
+                load_torque: pair.operating.load_torque,
+            },
+            profiles: pair.profiles.clone(),
+            initial_dte: pair.initial_dte,
+            initial_dte_rate: pair.initial_dte_rate,
+            solver: pair.solver.clone(),
+            source: pair.source.clone(),
+            ports: Vec::new(),
+            elements: Elements::default(),
+        }
+    }
+}
+
+impl From<PairScene> for Scene {
+    fn from(pair: PairScene) -> Scene {
+        Scene::from(&pair)
+    }
 }

@@ -1,35 +1,27 @@
-//! The one path from scene text to a resolved scene: read the one description
-//! ([`super::spec`]), choose the kernel ([`super::kernel`]), validate for that kernel
-//! ([`super::validate`]). Messages start with the origin (the file, or `example 'name'`).
+//! The one path from scene text to the resolved [`Scene`]: read the one description
+//! ([`super::spec`]), choose the kernel ([`super::kernel`]), validate ([`super::validate`]).
+//! Messages start with the origin (the file, or `example 'name'`).
 
 use std::path::Path;
 
-use super::kernel::{choose, KernelChoice};
+use super::kernel::{choose, KernelChoice, PairScene};
 use super::spec::ParsedScene;
-use super::train::{TrainScene, TRAIN_EXAMPLES};
+use super::train::TRAIN_EXAMPLES;
 use super::validate::{drivetrain, pair};
 use super::{read_scene_file, scene_file, Scene, SceneError, EXAMPLES};
 
-/// A resolved scene, as the kernel chosen for it takes it.
-#[derive(Debug, Clone)]
-pub enum Loaded {
-    Pair(Box<Scene>),
-    Drivetrain(Box<TrainScene>),
-}
-
-/// Reads, chooses and validates: the resolved scene and the kernel choice (with its reason,
-/// printed by `--verbose`).
-pub fn load(text: &str, origin: &str) -> Result<(Loaded, KernelChoice), SceneError> {
+/// Reads, chooses and validates: the resolved scene, which records the kernel choice (with
+/// its reason, printed by `--verbose`).
+pub fn load(text: &str, origin: &str) -> Result<Scene, SceneError> {
     let parsed = parse(text, origin)?;
-    let choice = choose(&parsed);
-    let loaded = match &choice {
-        KernelChoice::Pair => pair::validate(parsed, text).map(|s| Loaded::Pair(Box::new(s))),
-        KernelChoice::Drivetrain(_) => {
-            drivetrain::validate(parsed, text).map(|s| Loaded::Drivetrain(Box::new(s)))
-        }
+    match choose(&parsed) {
+        KernelChoice::Pair => pair::validate(parsed, text).map(Scene::from),
+        KernelChoice::Drivetrain(why) => drivetrain::validate(parsed, text).map(|mut s| {
+            s.kernel = KernelChoice::Drivetrain(why);
+            s
+        }),
     }
-    .map_err(|e| located(origin, e))?;
-    Ok((loaded, choice))
+    .map_err(|e| located(origin, e))
 }
 
 /// Whether scene text runs on the drivetrain kernel ([`super::kernel::choose`]); text that
@@ -48,21 +40,61 @@ fn located(origin: &str, e: SceneError) -> SceneError {
 }
 
 impl Scene {
+    /// Parses and validates scene text of any form; `origin` names the source in messages.
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<Scene, SceneError> {
+        load(text, origin)
+    }
+
+    /// Reads a scene file, or the `scene.toml` inside a folder. An `[element]` file is a
+    /// co-simulation element, not a scene: the message says where it goes.
+    pub fn from_path(path: &Path) -> Result<Scene, SceneError> {
+        let (text, origin) = read_scene_file(&scene_file(path))?;
+        if crate::fmu::element::is_element_text(&text) {
+            return Err(SceneError(format!(
+                "{origin}: an [element] scene is a co-simulation element (docs/elements.md): \
+                 build it with `geardyn fmu build` and run it with `geardyn run` or any FMI master"
+            )));
+        }
+        load(&text, &origin)
+    }
+
+    /// A built-in example by name (single pair or drivetrain).
+    pub fn example(name: &str) -> Result<Scene, SceneError> {
+        let text = TRAIN_EXAMPLES
+            .iter()
+            .chain(EXAMPLES)
+            .find(|(n, _)| *n == name)
+            .map(|(_, text)| *text);
+        let Some(text) = text else {
+            let names = |list: &[(&str, &str)]| -> String {
+                list.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
+            };
+            return Err(SceneError(format!(
+                "no built-in example named '{name}' (single pairs: {}; drivetrains: {})",
+                names(EXAMPLES),
+                names(TRAIN_EXAMPLES)
+            )));
+        };
+        load(text, &format!("example '{name}'"))
+    }
+}
+
+impl PairScene {
     /// Parses and validates scene text for the single-pair kernel; a scene that needs the
     /// drivetrain kernel is refused with the field that needs it. `origin` names the source
     /// in messages.
-    pub fn from_toml_str(text: &str, origin: &str) -> Result<Scene, SceneError> {
+    pub fn from_toml_str(text: &str, origin: &str) -> Result<PairScene, SceneError> {
         pair::validate(parse(text, origin)?, text).map_err(|e| located(origin, e))
     }
 
     /// Reads and validates a scene file.
-    pub fn from_file(path: &Path) -> Result<Scene, SceneError> {
+    pub fn from_file(path: &Path) -> Result<PairScene, SceneError> {
         let (text, origin) = read_scene_file(path)?;
         Self::from_toml_str(&text, &origin)
     }
 
-    /// A built-in example by name.
-    pub fn example(name: &str) -> Result<Scene, SceneError> {
+    /// A built-in single-pair example by name.
+    pub fn example(name: &str) -> Result<PairScene, SceneError> {
         let (_, text) = EXAMPLES.iter().find(|(n, _)| *n == name).ok_or_else(|| {
             let names: Vec<_> = EXAMPLES.iter().map(|(n, _)| *n).collect();
             SceneError(format!(
@@ -75,30 +107,7 @@ impl Scene {
 
     /// Resolves a scene argument: a `.toml` file, or a folder holding `scene.toml`
     /// (such as `fmu/spur_pair`).
-    pub fn from_path(path: &Path) -> Result<Scene, SceneError> {
+    pub fn from_path(path: &Path) -> Result<PairScene, SceneError> {
         Self::from_file(&scene_file(path))
-    }
-}
-
-impl TrainScene {
-    /// Parses and validates scene text for the drivetrain kernel (a single-mesh scene reads
-    /// as a train with one mesh); `origin` names the source in messages.
-    pub fn from_toml_str(text: &str, origin: &str) -> Result<TrainScene, SceneError> {
-        drivetrain::validate(parse(text, origin)?, text).map_err(|e| located(origin, e))
-    }
-
-    /// Reads a scene file, or the `scene.toml` inside a folder.
-    pub fn from_path(path: &Path) -> Result<TrainScene, SceneError> {
-        let (text, origin) = read_scene_file(&scene_file(path))?;
-        Self::from_toml_str(&text, &origin)
-    }
-
-    /// A built-in drivetrain scene by name.
-    pub fn example(name: &str) -> Result<TrainScene, SceneError> {
-        let (_, text) = TRAIN_EXAMPLES
-            .iter()
-            .find(|(n, _)| *n == name)
-            .ok_or_else(|| SceneError(format!("no built-in drivetrain example named '{name}'")))?;
-        Self::from_toml_str(text, &format!("example '{name}'"))
     }
 }

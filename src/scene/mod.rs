@@ -1,14 +1,16 @@
 //! Scene description: TOML via serde, defaults, validation with located messages.
 //!
 //! Data flow: [`spec`] mirrors the file (one description for every scene); [`kernel`] chooses
-//! the kernel that runs it; [`validate`] checks it into the resolved scene of that kernel, in
-//! SI units: [`Scene`] for the single-pair kernel, [`train::TrainScene`] for the drivetrain
-//! kernel. [`load`] is the one path from text to a resolved scene. The format is specified in
-//! `docs/model.md` and `docs/train.md`.
+//! the kernel that runs it; [`validate`] checks it into the one resolved [`Scene`], in the
+//! drivetrain's terms and SI units (a single-mesh file is a train with one mesh), which
+//! records the kernel choice. [`load`] is the one path from text to a resolved scene. The
+//! single-pair kernel reads its scene as a [`PairScene`] ([`Scene::pair`]). The format is
+//! specified in `docs/model.md` and `docs/train.md`.
 
 pub mod kernel;
 mod load;
 pub mod profile;
+mod resolved;
 pub mod spec;
 pub mod train;
 pub(crate) mod validate;
@@ -16,11 +18,10 @@ pub(crate) mod validate;
 use std::fmt;
 use std::path::{Path, PathBuf};
 
-use crate::mesh::{MeshStiffness, PhaseSeries};
-
-pub use kernel::KernelChoice;
-pub use load::{is_train_text, load, Loaded};
+pub use kernel::{KernelChoice, PairGear, PairMesh, PairOperating, PairScene};
+pub use load::{is_train_text, load};
 pub use profile::{Profile, Profiles};
+pub use resolved::{Gear, Mesh, Operating, Scene};
 pub use spec::SceneSpec;
 
 /// A scene error: the message names the field (as a TOML path) and the offending value, or
@@ -36,13 +37,10 @@ impl fmt::Display for SceneError {
 
 impl std::error::Error for SceneError {}
 
-/// A gear body.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Gear {
-    pub name: String,
-    pub teeth: u32,
-    pub base_radius: f64,
-    pub inertia: f64,
+impl From<SceneError> for String {
+    fn from(e: SceneError) -> String {
+        e.0
+    }
 }
 
 /// Contact law of a mesh with its clearance.
@@ -54,23 +52,6 @@ pub enum ContactLaw {
     ContactLoss,
     /// Drive side, separation and back side with total clearance `clearance` (= 2b), m.
     Backlash { clearance: f64 },
-}
-
-/// The single mesh between the pinion and the gear.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Mesh {
-    pub contact: ContactLaw,
-    pub stiffness: MeshStiffness,
-    /// Static transmission error `e(p)`, m.
-    pub ste: PhaseSeries,
-    /// Viscous mesh damping `c_m`, N·s/m (resolved from a ratio if given so).
-    pub damping: f64,
-    /// Damping also acts while the teeth are separated (`damping_acts = "always"`).
-    pub damping_always: bool,
-    /// Smooth additions to the mesh force (Bugaru 2006); all zero by default.
-    pub smooth: SmoothTerms,
-    /// Mesh phase at t = 0, mesh cycles.
-    pub initial_phase: f64,
 }
 
 /// Smooth terms of the mesh force and excitation (Bugaru et al. 2006, eqs. 8 and 13):
@@ -91,17 +72,6 @@ impl SmoothTerms {
     pub fn is_zero(&self) -> bool {
         *self == SmoothTerms::default()
     }
-}
-
-/// Operating point (inputs of the FMU).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Operating {
-    /// Nominal pinion speed Ω, rad/s.
-    pub pinion_speed: f64,
-    /// T1, N·m.
-    pub input_torque: f64,
-    /// T2 (magnitude, resisting), N·m.
-    pub load_torque: f64,
 }
 
 /// Initial DTE choice.
@@ -147,25 +117,6 @@ pub struct SolverSettings {
     pub work_budget: Option<f64>,
 }
 
-/// A validated scene.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Scene {
-    pub name: String,
-    pub description: String,
-    pub pinion: Gear,
-    pub gear: Gear,
-    pub mesh: Mesh,
-    /// The operating point at t = 0 (with profiles: their values at t = 0).
-    pub operating: Operating,
-    /// Speed and torque over time (a run-up), `docs/runup.md`.
-    pub profiles: Profiles,
-    pub initial_dte: InitialDte,
-    pub initial_dte_rate: f64,
-    pub solver: SolverSettings,
-    /// The TOML text the scene was read from (the FMU GUID is derived from it).
-    pub source: String,
-}
-
 /// Built-in single-pair scenes (`fmu/<name>/scene.toml`, `examples/<name>.toml`), compiled
 /// into the binary.
 pub const EXAMPLES: &[(&str, &str)] = &[
@@ -186,13 +137,6 @@ pub const EXAMPLES: &[(&str, &str)] = &[
     ("runup_spur", include_str!("../../examples/runup_spur.toml")),
 ];
 
-impl Scene {
-    /// Equivalent mass on the line of action, `m_e = 1/(r_b1²/I1 + r_b2²/I2)`, kg.
-    pub fn equivalent_mass(&self) -> f64 {
-        equivalent_mass(&self.pinion, &self.gear)
-    }
-}
-
 /// A scene argument as a file: the path itself, or the `scene.toml` inside a folder.
 pub fn scene_file(path: &Path) -> PathBuf {
     if path.is_dir() {
@@ -207,8 +151,4 @@ pub fn read_scene_file(file: &Path) -> Result<(String, String), SceneError> {
     let text = std::fs::read_to_string(file)
         .map_err(|e| SceneError(format!("cannot read scene file '{}': {e}", file.display())))?;
     Ok((text, file.display().to_string()))
-}
-
-pub(crate) fn equivalent_mass(pinion: &Gear, gear: &Gear) -> f64 {
-    1.0 / (pinion.base_radius.powi(2) / pinion.inertia + gear.base_radius.powi(2) / gear.inertia)
 }

@@ -5,7 +5,7 @@
 use std::f64::consts::TAU;
 
 use super::{pinion_speed_for_mesh_frequency, scene, M_E};
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 use nalgebra::Matrix2;
 
 pub const K_MEAN: f64 = 2.0e8;
@@ -16,7 +16,7 @@ pub fn f_n() -> f64 {
     (K_MEAN / M_E).sqrt() / TAU
 }
 
-pub fn meissner(f_mesh: f64, zeta: f64) -> Scene {
+pub fn meissner(f_mesh: f64, zeta: f64) -> PairScene {
     scene(
         &format!(
             "contact = \"linear\"\ndamping_ratio = {zeta}\n\

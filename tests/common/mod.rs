@@ -1,4 +1,4 @@
-//! Scene builders shared by the integration tests.
+//! PairScene builders shared by the integration tests.
 //!
 //! The test pair is chosen so that closed forms are easy to state: two equal gears with
 //! `r_b = 0.05 m`, `I = 0.0025 kg·m²`, hence `m_e = 1/(r1²/I1 + r2²/I2) = 0.5 kg`, and 20
@@ -12,7 +12,7 @@ pub mod meissner;
 pub mod ports;
 pub mod rng;
 
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 
 pub const M_E: f64 = 0.5;
 pub const TEETH: f64 = 20.0;
@@ -49,9 +49,9 @@ gear = "gear"
     )
 }
 
-pub fn scene(mesh: &str, operating: &str, extra: &str) -> Scene {
+pub fn scene(mesh: &str, operating: &str, extra: &str) -> PairScene {
     let text = scene_text(mesh, operating, extra);
-    Scene::from_toml_str(&text, "test scene").unwrap_or_else(|e| panic!("{e}\n{text}"))
+    PairScene::from_toml_str(&text, "test scene").unwrap_or_else(|e| panic!("{e}\n{text}"))
 }
 
 /// Pinion speed (rad/s) that puts the mesh frequency at `f_mesh` Hz.

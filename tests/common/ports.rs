@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use geardyn::model::train::TrainTrajectory;
-use geardyn::scene::train::TrainScene;
+use geardyn::scene::Scene;
 
 /// The text of the shipped scene `fmu/<name>/scene.toml`.
 pub fn stage_text(name: &str) -> String {
@@ -15,8 +15,8 @@ pub fn stage_text(name: &str) -> String {
     std::fs::read_to_string(path).unwrap()
 }
 
-pub fn scene(text: &str) -> TrainScene {
-    TrainScene::from_toml_str(text, "test").unwrap()
+pub fn scene(text: &str) -> Scene {
+    Scene::from_toml_str(text, "test").unwrap()
 }
 
 /// Column `name` of a run, as a function of the sample index.

@@ -12,7 +12,7 @@
 use std::f64::consts::TAU;
 
 use super::{common, simulation, Propagator};
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 use geardyn::solve::rk::Method;
 
 const M: f64 = 0.5;
@@ -29,7 +29,7 @@ fn delta_s() -> f64 {
     FORCE / K
 }
 
-fn pair_scene(contact: &str) -> Scene {
+fn pair_scene(contact: &str) -> PairScene {
     common::scene(
         &format!(
             "{contact}\ndamping_ratio = {ZETA}\n\
@@ -65,7 +65,7 @@ fn linear_dte(t: f64) -> f64 {
 }
 
 /// Max |x − x_linear|/δ_s over `periods` mesh periods (32 samples each) and events per period.
-fn deviation(scene: &Scene, prop: Propagator, periods: usize) -> (f64, f64) {
+fn deviation(scene: &PairScene, prop: Propagator, periods: usize) -> (f64, f64) {
     let mut sim = simulation(scene, prop, delta_s());
     let samples = 32 * periods;
     let mut worst: f64 = 0.0;

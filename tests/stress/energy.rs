@@ -11,7 +11,7 @@
 //! fail: the test asserts that the jump work is many times the tolerance.
 
 use super::{common, scene_with_mass, simulation, Propagator};
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 use geardyn::solve::rk::Method;
 use geardyn::solve::HybridSystem;
 
@@ -35,7 +35,7 @@ fn mesh_period() -> f64 {
     1.0 / F_MESH
 }
 
-fn tvms_scene(contact: &str, damping_ratio: f64, torque: f64, x0: f64) -> Scene {
+fn tvms_scene(contact: &str, damping_ratio: f64, torque: f64, x0: f64) -> PairScene {
     scene_with_mass(
         M,
         &format!(
@@ -75,7 +75,7 @@ struct Balance {
 /// sampled at `n` (a multiple of 4) equal sub-intervals, and books the energy at every
 /// fourth sample (the end of a Boole panel).
 fn balance(
-    scene: &Scene,
+    scene: &PairScene,
     prop: Propagator,
     periods: usize,
     n: usize,

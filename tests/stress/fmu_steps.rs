@@ -14,7 +14,7 @@ use geardyn::fmi::abi::*;
 use geardyn::fmi::logger::{CallbackFunctions, Status};
 use geardyn::fmu::pair::{VR_CONTACT_STATE, VR_OUTPUT0};
 use geardyn::model::ContactState;
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 use geardyn::simulation::Simulation;
 
 /// One initialized FMU instance of the scene in `dir`, freed on drop.
@@ -87,7 +87,7 @@ fn scene_dir(method: &str) -> PathBuf {
 
 fn check(method: &str, periods: f64, tol: f64) {
     let dir = scene_dir(method);
-    let scene = Scene::from_path(&dir.join("scene.toml")).expect("scene");
+    let scene = PairScene::from_path(&dir.join("scene.toml")).expect("scene");
     let native_sim = || Simulation::new(&scene).expect("simulation");
     let (t_m, ds) = {
         let s = native_sim();

@@ -15,7 +15,7 @@ use std::f64::consts::PI;
 
 use super::{scene_with_mass, simulation, Propagator};
 use geardyn::model::ContactState;
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 use geardyn::solve::rk::Method;
 
 const M: f64 = 0.5;
@@ -31,7 +31,7 @@ fn static_deflection() -> f64 {
     FORCE / K
 }
 
-fn grazing_scene(eta: f64) -> Scene {
+fn grazing_scene(eta: f64) -> PairScene {
     scene_with_mass(
         M,
         &format!(

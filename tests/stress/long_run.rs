@@ -8,7 +8,7 @@
 //! exact propagator's recurring-segment references) and must equal that of the second 10 %.
 
 use geardyn::analysis::shooting::{shoot, ShootingOptions};
-use geardyn::scene::{MethodChoice, Scene};
+use geardyn::scene::{MethodChoice, PairScene};
 use geardyn::simulation::Simulation;
 use geardyn::solve::SolverStats;
 
@@ -21,7 +21,7 @@ fn per_period(a: SolverStats, b: SolverStats, periods: f64) -> [f64; 3] {
 }
 
 fn run(periods: u64, tol: f64) {
-    let mut scene = Scene::example("spur_pair").expect("scene");
+    let mut scene = PairScene::example("spur_pair").expect("scene");
     scene.solver.method = MethodChoice::Exact;
     let orbit = shoot(&scene, &ShootingOptions::default()).expect("shooting");
     let mut sim = Simulation::new(&scene).expect("simulation");

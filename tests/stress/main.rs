@@ -21,18 +21,18 @@ mod rattle;
 mod stiff;
 
 use geardyn::model::ContactState;
-use geardyn::scene::{MethodChoice, Scene};
+use geardyn::scene::{MethodChoice, PairScene};
 use geardyn::simulation::Simulation;
 use geardyn::solve::rk::Method;
 
 /// A scene with two equal 20-tooth gears of base radius 0.05 m and the inertia that gives the
 /// equivalent mass `m_e` (`m_e = I/(2 r²)`); `mesh`, `operating`, `extra` as in
 /// [`common::scene`].
-pub fn scene_with_mass(m_e: f64, mesh: &str, operating: &str, extra: &str) -> Scene {
+pub fn scene_with_mass(m_e: f64, mesh: &str, operating: &str, extra: &str) -> PairScene {
     let inertia = 2.0 * m_e * 0.05 * 0.05;
     let text = common::scene_text(mesh, operating, extra)
         .replace("inertia = 0.0025", &format!("inertia = {inertia:e}"));
-    Scene::from_toml_str(&text, "stress scene").unwrap_or_else(|e| panic!("{e}\n{text}"))
+    PairScene::from_toml_str(&text, "stress scene").unwrap_or_else(|e| panic!("{e}\n{text}"))
 }
 
 /// The propagators compared by the suite.
@@ -44,7 +44,7 @@ pub enum Propagator {
 
 impl Propagator {
     /// `scene` switched to this propagator (RK: `rtol`, and `atol` = `rtol` × `scale`).
-    pub fn apply(self, scene: &Scene, scale: f64) -> Scene {
+    pub fn apply(self, scene: &PairScene, scale: f64) -> PairScene {
         let mut s = scene.clone();
         match self {
             Propagator::Exact => s.solver.method = MethodChoice::Exact,
@@ -60,7 +60,7 @@ impl Propagator {
 }
 
 /// A simulation of `scene` by `prop` that records its contact events.
-pub fn simulation(scene: &Scene, prop: Propagator, scale: f64) -> Simulation {
+pub fn simulation(scene: &PairScene, prop: Propagator, scale: f64) -> Simulation {
     let mut sim = Simulation::new(&prop.apply(scene, scale)).expect("simulation");
     sim.model_mut().record_events();
     sim

@@ -23,7 +23,7 @@ use std::f64::consts::TAU;
 
 use super::{common, max_time_difference, simulation, states, Propagator};
 use geardyn::model::ContactState;
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 use geardyn::solve::rk::Method;
 
 use crate::common::rng::SplitMix64;
@@ -34,7 +34,7 @@ const DELTA_S: f64 = 5.0e-6;
 const PERIODS: f64 = 20.0;
 
 /// The scene of case `seed` and its description.
-fn case(seed: u64) -> (Scene, String) {
+fn case(seed: u64) -> (PairScene, String) {
     let mut r = SplitMix64(seed);
     let zeta = r.uniform(0.005, 0.2);
     let contact_ratio = r.uniform(1.1, 1.9);

@@ -17,7 +17,7 @@ const CLEARANCE: f64 = 2.0e-6;
 const STE: f64 = 5.0e-6;
 const F_MESH: f64 = 1000.0;
 
-fn rattle_scene() -> geardyn::scene::Scene {
+fn rattle_scene() -> geardyn::scene::PairScene {
     common::scene(
         &format!(
             "contact = \"backlash\"\nbacklash = {CLEARANCE:e}\ndamping_ratio = 0.02\n\

@@ -13,7 +13,7 @@ use geardyn::solve::rk::Method;
 
 const FORCE: f64 = 1000.0;
 
-fn constant_scene(m: f64, k: f64, zeta: f64) -> geardyn::scene::Scene {
+fn constant_scene(m: f64, k: f64, zeta: f64) -> geardyn::scene::PairScene {
     scene_with_mass(
         m,
         &format!(

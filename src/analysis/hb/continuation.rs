@@ -82,10 +82,10 @@ pub fn continuation(
             options.from, options.to
         ));
     }
-    let mut scene = scene.to_any();
-    scene.profiles().require_constant("harmonic balance")?;
+    let mut scene = scene.to_scene();
+    scene.profiles.require_constant("harmonic balance")?;
     scene.set_input_speed(options.from);
-    let settings = scene.solver().clone();
+    let settings = scene.solver.clone();
     with_drivetrain!(scene.simulation()?, sim => {
         let problem = Problem::new(sim.model().clone(), settings, hb)?;
         continue_branch(problem, sim, hb, options)

@@ -237,10 +237,10 @@ pub fn solve(
     if !(speed > 0.0 && speed.is_finite()) {
         return Err(format!("speed = {speed}: must be a finite speed > 0"));
     }
-    let mut scene = scene.to_any();
-    scene.profiles().require_constant("harmonic balance")?;
+    let mut scene = scene.to_scene();
+    scene.profiles.require_constant("harmonic balance")?;
     scene.set_input_speed(speed);
-    let settings = scene.solver().clone();
+    let settings = scene.solver.clone();
     with_drivetrain!(scene.simulation()?, sim => {
         let mut problem = Problem::new(sim.model().clone(), settings, options)?;
         let f = problem.f;
@@ -257,11 +257,11 @@ pub fn solve(
 mod tests {
     use super::problem::{combination_orders, factor};
     use super::*;
-    use crate::scene::Scene;
+    use crate::scene::PairScene;
 
     #[test]
     fn projection_inverts_sampling_of_band_limited_signals() {
-        let scene = Scene::example("spur_pair").unwrap();
+        let scene = PairScene::example("spur_pair").unwrap();
         let model = crate::model::GearPair::new(&scene);
         let p = Problem::new(model, scene.solver.clone(), &HbOptions::new(5)).unwrap();
         let u: Vec<f64> = (0..p.len).map(|i| (i as f64 + 1.0).sin()).collect();

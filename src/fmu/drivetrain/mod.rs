@@ -16,7 +16,8 @@ use crate::fmu::kernel::{Kernel, KernelSnapshot};
 use crate::model::train::{
     train_row, GearTrain, Neighbour, TrainInputs, TrainSimState, TrainSimulation,
 };
-use crate::scene::train::{PortEnd, TrainScene};
+use crate::scene::train::PortEnd;
+use crate::scene::Scene;
 use crate::scene::SolverSettings;
 
 pub use variables::*;
@@ -39,7 +40,7 @@ const ENDS: [PortEnd; 2] = [PortEnd::Input, PortEnd::Output];
 /// The scene's operating point as the inputs, in `INPUTS` order: the three of every drivetrain
 /// then the speed ports' neighbour angle and speed (input port, output port; 0 where the
 /// port has no speed causality and the variable does not exist).
-fn start_inputs(scene: &TrainScene) -> Vec<f64> {
+fn start_inputs(scene: &Scene) -> Vec<f64> {
     let op = &scene.operating;
     let mut u = vec![
         op.input_speed,
@@ -60,7 +61,7 @@ fn start_inputs(scene: &TrainScene) -> Vec<f64> {
 
 /// The third input is `operating.load_torque`, or with a torque port on the output gear that port's
 /// `<port>.torque` = −operating.load_torque (the neighbour's torque on the wheel shaft, `docs/ports.md`).
-fn load_sign(scene: &TrainScene) -> f64 {
+fn load_sign(scene: &Scene) -> f64 {
     if scene.ports.iter().any(|p| p.end == PortEnd::Output) {
         -1.0
     } else {
@@ -77,14 +78,14 @@ fn inputs_array(u: TrainInputs, load_sign: f64, neighbours: [Option<Neighbour>; 
 }
 
 /// The scene's speed port on `end`, if any.
-fn speed_port(scene: &TrainScene, end: PortEnd) -> Option<usize> {
+fn speed_port(scene: &Scene, end: PortEnd) -> Option<usize> {
     (scene.ports.iter()).position(|p| p.end == end && p.coupling.is_some())
 }
 
 /// Sets the speed ports' start motion in the scene to the neighbour's motion of a build of
 /// it (pre-twisted by the start torque unless given), so the FMU's start values and its
 /// snapshots hold numbers.
-fn resolve_neighbours(scene: &mut TrainScene) -> Result<(), String> {
+fn resolve_neighbours(scene: &mut Scene) -> Result<(), String> {
     if !ENDS.iter().any(|&e| speed_port(scene, e).is_some()) {
         return Ok(());
     }
@@ -101,7 +102,7 @@ fn resolve_neighbours(scene: &mut TrainScene) -> Result<(), String> {
 
 impl Kernel for Drivetrain {
     type Model = GearTrain;
-    type Settings = TrainScene;
+    type Settings = Scene;
     type Extra = ();
     type SimState = TrainSimState;
 
@@ -119,8 +120,8 @@ impl Kernel for Drivetrain {
     ];
     const OUTPUT0: u32 = VR_OUTPUT0;
 
-    fn load(text: &str, origin: &str) -> Result<TrainScene, String> {
-        let mut scene = TrainScene::from_toml_str(text, origin).map_err(|e| e.to_string())?;
+    fn load(text: &str, origin: &str) -> Result<Scene, String> {
+        let mut scene = Scene::from_toml_str(text, origin).map_err(|e| e.to_string())?;
         scene.profiles.refuse_in_fmu()?;
         if scene.elements.is_empty() && !scene.meshes.is_empty() {
             resolve_neighbours(&mut scene)?;
@@ -128,15 +129,15 @@ impl Kernel for Drivetrain {
         Ok(scene)
     }
 
-    fn header(scene: &TrainScene) -> (&str, &str, &SolverSettings) {
+    fn header(scene: &Scene) -> (&str, &str, &SolverSettings) {
         (&scene.name, &scene.description, &scene.solver)
     }
 
-    fn solver_mut(scene: &mut TrainScene) -> &mut SolverSettings {
+    fn solver_mut(scene: &mut Scene) -> &mut SolverSettings {
         &mut scene.solver
     }
 
-    fn build(scene: &TrainScene) -> Result<TrainSimulation, String> {
+    fn build(scene: &Scene) -> Result<TrainSimulation, String> {
         // The first mesh carries the phase parameter; validation already requires one.
         if scene.meshes.is_empty() {
             return Err("the drivetrain has no mesh".into());
@@ -156,11 +157,11 @@ impl Kernel for Drivetrain {
         TrainSimulation::new(scene)
     }
 
-    fn variables(scene: &TrainScene, sim: &TrainSimulation) -> Result<Vec<Variable>, String> {
+    fn variables(scene: &Scene, sim: &TrainSimulation) -> Result<Vec<Variable>, String> {
         variables::variables(scene, sim.output_names())
     }
 
-    fn apply(scene: &mut TrainScene, name: &str, vr: u32, x: f64) -> Result<(), String> {
+    fn apply(scene: &mut Scene, name: &str, vr: u32, x: f64) -> Result<(), String> {
         let nonnegative =
             |unit: &str| check(name, x, x >= 0.0, &format!("a finite number >= 0 {unit}"));
         match vr {
@@ -211,7 +212,7 @@ impl Kernel for Drivetrain {
         Ok(())
     }
 
-    fn parameter(scene: &TrainScene, _: &GearTrain, vr: u32) -> Option<f64> {
+    fn parameter(scene: &Scene, _: &GearTrain, vr: u32) -> Option<f64> {
         let (gears, meshes) = (scene.gears.len(), scene.meshes.len());
         Some(match vr {
             VR_MODAL_DAMPING => scene.modal_damping_ratio,
@@ -228,7 +229,7 @@ impl Kernel for Drivetrain {
         })
     }
 
-    fn start_inputs(scene: &TrainScene) -> Vec<f64> {
+    fn start_inputs(scene: &Scene) -> Vec<f64> {
         start_inputs(scene)
     }
 
@@ -278,9 +279,9 @@ impl Kernel for Drivetrain {
         train_row(sim, out);
     }
 
-    fn extra(_: &TrainScene) {}
+    fn extra(_: &Scene) {}
 
-    fn set_extra(_: &mut TrainScene, _: &()) {}
+    fn set_extra(_: &mut Scene, _: &()) {}
 
     fn sim_state(sim: &TrainSimulation) -> TrainSimState {
         sim.snapshot()
@@ -288,7 +289,7 @@ impl Kernel for Drivetrain {
 
     /// With ports: the angles and speeds of the ports and bodies, whose rates are the speed
     /// and acceleration outputs (`docs/ports.md`).
-    fn output_derivatives(scene: &TrainScene) -> bool {
+    fn output_derivatives(scene: &Scene) -> bool {
         !scene.ports.is_empty()
     }
 
@@ -318,7 +319,7 @@ impl Kernel for Drivetrain {
     /// The `<port>.torque` inputs of torque ports and the `<port>.angle`, `<port>.speed`
     /// inputs of speed ports (`docs/ports.md`); `operating.input_speed` and the torques of a train
     /// without ports stay held.
-    fn rate_inputs(scene: &TrainScene) -> Vec<bool> {
+    fn rate_inputs(scene: &Scene) -> Vec<bool> {
         let torque_port = |end| (scene.ports.iter()).any(|p| p.end == end && p.coupling.is_none());
         let mut takes = vec![
             false,
@@ -395,7 +396,7 @@ impl Kernel for Drivetrain {
         end
     }
 
-    fn sim_inputs(scene: &TrainScene, state: &TrainSimState) -> Vec<f64> {
+    fn sim_inputs(scene: &Scene, state: &TrainSimState) -> Vec<f64> {
         let mut speed_ports = state.train.neighbours.iter();
         let neighbours =
             ENDS.map(|end| speed_port(scene, end).and_then(|_| speed_ports.next().copied()));

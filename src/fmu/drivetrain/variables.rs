@@ -7,7 +7,8 @@
 use crate::fmi::model::Causality;
 use crate::fmi::model::Variable;
 use crate::fmu::table::{calculated, inputs, output, param, InputRows};
-use crate::scene::train::{MeshForceModel, PairModel, PortEnd, TrainScene};
+use crate::scene::train::{MeshForceModel, PairModel, PortEnd};
+use crate::scene::Scene;
 
 // Value references: stable per meaning, grouped by causality; per-gear and per-mesh blocks
 // are 1000 wide (index = gear or mesh number in the scene).
@@ -118,7 +119,7 @@ fn gear_named(name: &str) -> String {
 /// Unit, kind and description of output `name` (one of `output_names`), or an error naming
 /// it when the table does not know it (a new output must be described here before it ships).
 fn describe_output(
-    scene: &TrainScene,
+    scene: &Scene,
     name: &str,
 ) -> Result<(Option<&'static str>, bool, String), String> {
     for m in &scene.meshes {
@@ -215,7 +216,7 @@ fn describe_output(
 }
 
 /// The variable table of a scene (start values from the scene) for the simulation's outputs.
-pub(super) fn variables(scene: &TrainScene, outputs: &[String]) -> Result<Vec<Variable>, String> {
+pub(super) fn variables(scene: &Scene, outputs: &[String]) -> Result<Vec<Variable>, String> {
     if scene.gears.len() > BLOCK || scene.meshes.len() > BLOCK {
         return Err(format!(
             "{} gears and {} meshes: the FMU variable table holds at most {BLOCK} of each",
@@ -328,7 +329,7 @@ pub(super) fn variables(scene: &TrainScene, outputs: &[String]) -> Result<Vec<Va
 
 /// The inputs of the speed ports (`docs/ports.md`): the neighbour's angle and speed, start
 /// values from `start` (the `INPUTS` order of the kernel).
-fn speed_port_inputs(scene: &TrainScene, start: &[f64]) -> Vec<Variable> {
+fn speed_port_inputs(scene: &Scene, start: &[f64]) -> Vec<Variable> {
     let mut rows = Vec::new();
     for p in scene.ports.iter().filter(|p| p.coupling.is_some()) {
         let (vr, end) = match p.end {
@@ -368,7 +369,7 @@ fn speed_port_inputs(scene: &TrainScene, start: &[f64]) -> Vec<Variable> {
 /// neighbour's torque on the shaft, positive along the gear's nominal rotation; value
 /// references unchanged) and the speed is the start speed of the carried rotation, a
 /// parameter fixed at initialization.
-fn port_inputs(scene: &TrainScene, rows: &mut [Variable; 3]) {
+fn port_inputs(scene: &Scene, rows: &mut [Variable; 3]) {
     use crate::fmi::model::{Initial, Variability};
     let speed = &mut rows[0];
     speed.causality = Causality::Parameter;

@@ -13,7 +13,7 @@ mod variables;
 use crate::fmu::checks::check;
 use crate::fmu::kernel::{Kernel, KernelSnapshot};
 use crate::model::{GearPair, Inputs};
-use crate::scene::{ContactLaw, InitialDte, Scene, SolverSettings};
+use crate::scene::{ContactLaw, InitialDte, PairScene, SolverSettings};
 use crate::simulation::{pair_row, SimState, Simulation};
 
 pub use variables::*;
@@ -32,12 +32,12 @@ pub struct InitialDteChoice {
 /// The scene with the values set so far, and the initial-DTE choice.
 #[derive(Clone)]
 pub struct PairSettings {
-    scene: Scene,
+    scene: PairScene,
     initial: InitialDteChoice,
 }
 
 impl PairSettings {
-    fn new(scene: Scene) -> PairSettings {
+    fn new(scene: PairScene) -> PairSettings {
         let initial = InitialDteChoice {
             static_dte: scene.initial_dte == InitialDte::Static,
             initial_dte: variables::initial_dte_start(&scene),
@@ -56,7 +56,7 @@ impl PairSettings {
 }
 
 /// The scene's operating point as the inputs, in `INPUTS` order.
-fn start_inputs(scene: &Scene) -> [f64; 3] {
+fn start_inputs(scene: &PairScene) -> [f64; 3] {
     let op = &scene.operating;
     [op.pinion_speed, op.input_torque, op.load_torque]
 }
@@ -79,7 +79,7 @@ impl Kernel for Pair {
     const OUTPUT0: u32 = VR_OUTPUT0;
 
     fn load(text: &str, origin: &str) -> Result<PairSettings, String> {
-        let scene = Scene::from_toml_str(text, origin).map_err(|e| e.to_string())?;
+        let scene = PairScene::from_toml_str(text, origin).map_err(|e| e.to_string())?;
         scene.profiles.refuse_in_fmu()?;
         Ok(PairSettings::new(scene))
     }

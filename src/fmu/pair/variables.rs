@@ -4,7 +4,7 @@
 
 use crate::fmi::model::{VarKind, Variable};
 use crate::fmu::table::{calculated, inputs, output, param, InputRows};
-use crate::scene::{ContactLaw, InitialDte, Scene};
+use crate::scene::{ContactLaw, InitialDte, PairScene};
 use crate::simulation::Simulation;
 
 // Value references: stable per meaning, grouped by causality (gaps leave room to grow).
@@ -66,7 +66,7 @@ const OUTPUTS: [(&str, Option<&str>, &str); 7] = [
 ];
 
 /// The start value of `initial.dte`.
-pub(super) fn initial_dte_start(scene: &Scene) -> f64 {
+pub(super) fn initial_dte_start(scene: &PairScene) -> f64 {
     match scene.initial_dte {
         InitialDte::Value(x) => x,
         // Informational while `initial.static_dte` is true; show the value the scene's
@@ -77,7 +77,7 @@ pub(super) fn initial_dte_start(scene: &Scene) -> f64 {
 
 /// The variable table of a scene (start values from the scene; `initial.dte` from
 /// [`initial_dte_start`]).
-pub(super) fn variables(scene: &Scene, initial_dte: f64) -> Vec<Variable> {
+pub(super) fn variables(scene: &PairScene, initial_dte: f64) -> Vec<Variable> {
     let mut v = vec![
         param(
             "pinion.inertia",

@@ -36,7 +36,8 @@
 
 use nalgebra::{DMatrix, DVector, SymmetricEigen};
 
-use crate::scene::train::{ShaftCoupling, TrainScene};
+use crate::scene::train::ShaftCoupling;
+use crate::scene::Scene;
 
 /// What a physical coordinate is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -98,7 +99,7 @@ pub struct FrictionVectors {
 }
 
 impl Assembly {
-    pub fn new(scene: &TrainScene) -> Assembly {
+    pub fn new(scene: &Scene) -> Assembly {
         let ng = scene.gears.len();
         // Bodies: gears joined by rigid shafts (union-find).
         let mut parent: Vec<usize> = (0..ng).collect();

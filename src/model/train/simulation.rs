@@ -4,7 +4,7 @@
 //! (fallible inputs, named outputs of varying count, a state of any dimension).
 
 use super::system::{GearTrain, TrainInputs, TrainRunState};
-use crate::scene::train::TrainScene;
+use crate::scene::Scene;
 use crate::simulation::{
     stream, ColumnStats, DrivenModel, Driver, FnSink, OutputGrid, Progress, RunLimits, RunScales,
     RunSummary,
@@ -49,7 +49,7 @@ impl DrivenModel for GearTrain {
 impl Driver<GearTrain> {
     /// Assembles the model, picks the propagator and starts at `t = 0` from the scene's
     /// initial state.
-    pub fn new(scene: &TrainScene) -> Result<TrainSimulation, String> {
+    pub fn new(scene: &Scene) -> Result<TrainSimulation, String> {
         let mut train = GearTrain::new(scene)?;
         let y0 = train.initial_state(scene)?;
         Driver::with_model(train, &y0, &scene.solver)
@@ -155,18 +155,14 @@ pub fn train_row(sim: &TrainSimulation, row: &mut Vec<f64>) {
 
 /// Runs a drivetrain scene from 0 to `stop_time`, sampling every `interval`, into memory. The
 /// run is checked against the default [`RunLimits`] first.
-pub fn run_train(
-    scene: &TrainScene,
-    stop_time: f64,
-    interval: f64,
-) -> Result<TrainTrajectory, String> {
+pub fn run_train(scene: &Scene, stop_time: f64, interval: f64) -> Result<TrainTrajectory, String> {
     run_train_limited(scene, stop_time, interval, &RunLimits::default())
 }
 
 /// [`run_train`] with explicit limits (Python's `simulate(max_rows=…, …)`); the rows held in
 /// memory are checked first ([`crate::simulation::check_in_memory`]).
 pub fn run_train_limited(
-    scene: &TrainScene,
+    scene: &Scene,
     stop_time: f64,
     interval: f64,
     limits: &RunLimits,

@@ -16,7 +16,7 @@
 //! chain with the linear contact law, whose segments are the `2M` stiffness switches per
 //! period.
 
-use super::TrainScene;
+use crate::scene::Scene;
 use crate::scene::SceneError;
 
 /// Bearings of the gears of a chain.
@@ -195,11 +195,11 @@ const CONTACT_LOSS_MODAL_DAMPING: f64 = 0.02;
 const INERTIA_SCALE_RIGID: f64 = 1.5625;
 const INERTIA_SCALE_COMPLIANT: f64 = 2.25;
 
-impl TrainScene {
+impl Scene {
     /// A benchmark chain (see [`ChainSpec`]).
-    pub fn chain(spec: ChainSpec) -> Result<TrainScene, SceneError> {
+    pub fn chain(spec: ChainSpec) -> Result<Scene, SceneError> {
         let text = spec.toml()?;
-        TrainScene::from_toml_str(&text, &format!("chain '{}'", spec.name()))
+        Scene::from_toml_str(&text, &format!("chain '{}'", spec.name()))
     }
 }
 
@@ -212,7 +212,7 @@ mod tests {
         for (m, dof) in [(1, 6), (4, 15), (8, 27), (16, 51), (32, 99)] {
             let spec = ChainSpec::new(m, ChainBearings::Compliant, ChainContact::Linear);
             assert_eq!(spec.dof(), dof);
-            let scene = TrainScene::chain(spec).unwrap();
+            let scene = Scene::chain(spec).unwrap();
             let sim = crate::model::train::TrainSimulation::new(&scene).unwrap();
             assert_eq!(sim.state().len(), 2 * dof, "{m} meshes");
             assert_eq!(scene.meshes.len(), m);
@@ -222,7 +222,7 @@ mod tests {
             }
         }
         let rigid = ChainSpec::new(8, ChainBearings::Rigid, ChainContact::ContactLoss);
-        let sim = crate::model::train::TrainSimulation::new(&TrainScene::chain(rigid).unwrap());
+        let sim = crate::model::train::TrainSimulation::new(&Scene::chain(rigid).unwrap());
         assert_eq!(sim.unwrap().state().len(), 2 * 9);
     }
 

@@ -1,7 +1,7 @@
 //! Drivetrain scenes: a graph of gears (rotation, optional translations on bearings), shafts
 //! and meshes (Liu 2007, Ch. 2–4; notes `models-liu-parker-2007.md` §1–§3).
 //!
-//! [`TrainScene`] is the resolved scene of the drivetrain kernel, with the kinematics
+//! [`Scene`] is the resolved scene of the drivetrain kernel, with the kinematics
 //! resolved (nominal speed ratio and rotation sense of every gear). The file is read by the
 //! one scene description (`crate::scene::spec`) and checked by `crate::scene::validate`; the
 //! format is specified in `docs/train.md`. A single-mesh scene of `docs/model.md` reads as a
@@ -13,7 +13,6 @@ pub(crate) mod friction;
 pub mod ports;
 
 use crate::mesh::{MeshStiffness, PhaseSeries, Piece};
-use crate::scene::{ContactLaw, InitialDte, SolverSettings};
 
 pub use chain::{ChainBearings, ChainContact, ChainSpec};
 pub use friction::{HelicalPair, MeshFriction};
@@ -24,24 +23,6 @@ pub use ports::{Port, PortEnd, SpeedCoupling};
 pub struct Bearing {
     pub stiffness: [f64; 2],
     pub damping: [f64; 2],
-}
-
-/// A gear body.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TrainGear {
-    pub name: String,
-    pub teeth: u32,
-    pub base_radius: f64,
-    pub inertia: f64,
-    /// Mass, kg (present whenever `bearing` is).
-    pub mass: Option<f64>,
-    /// Bearing with translational DOFs (`None`: rigidly supported, or bearings = "rigid").
-    pub bearing: Option<Bearing>,
-    /// Torsional coupling to ground, N·m/rad.
-    pub ground_stiffness: f64,
-    pub ground_damping: f64,
-    /// Runout and pitch errors (`docs/errors.md`).
-    pub errors: crate::mesh::errors::GearErrors,
 }
 
 /// How two coaxial gears are coupled.
@@ -352,92 +333,6 @@ pub enum MeshForceModel {
     },
 }
 
-/// A mesh between a driving gear (`pinion`) and a driven gear (`gear`).
-#[derive(Debug, Clone, PartialEq)]
-pub struct TrainMesh {
-    pub name: String,
-    pub pinion: usize,
-    pub gear: usize,
-    pub contact: ContactLaw,
-    /// Viscous mesh damping, N·s/m.
-    pub damping: f64,
-    /// Mesh phase at t = 0 of the first mesh, mesh cycles (0 for the others).
-    pub initial_phase: f64,
-    /// Mesh phasing φ relative to the first mesh, cycles of this mesh (0 for the first).
-    pub phase: f64,
-    /// Operating pressure angle, rad (0 when no translation is coupled; the scene key is in
-    /// degrees).
-    pub pressure_angle: f64,
-    /// Centre-line direction from pinion to gear, rad.
-    pub centre_angle: f64,
-    pub force: MeshForceModel,
-    /// Coulomb tooth friction (Model-1 meshes only).
-    pub friction: Option<MeshFriction>,
-    /// Helical pairs (`kind = "helical"`): contact-line geometry for the distributed friction.
-    pub helical: Option<HelicalPair>,
-    /// Mesh cycles per revolution of the input gear: `z_pinion·ω_pinion/ω_input`.
-    pub cycles_per_input_rev: f64,
-}
-
-impl TrainMesh {
-    /// Mean mesh stiffness `k̄`, N/m.
-    pub fn mean_stiffness(&self) -> f64 {
-        match &self.force {
-            MeshForceModel::Lumped { stiffness, .. } => stiffness.mean(),
-            MeshForceModel::Pairs { pair, .. } => pair.mesh_mean(),
-        }
-    }
-}
-
-/// Operating point (inputs).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct TrainOperating {
-    /// Nominal speed of the input gear, rad/s (>= 0).
-    pub input_speed: f64,
-    /// Torque driving the input gear, N·m.
-    pub input_torque: f64,
-    /// Load torque magnitude on the output gear, N·m.
-    pub load_torque: f64,
-}
-
-/// A validated drivetrain scene.
-#[derive(Debug, Clone, PartialEq)]
-pub struct TrainScene {
-    pub name: String,
-    pub description: String,
-    pub gears: Vec<TrainGear>,
-    pub shafts: Vec<Shaft>,
-    pub meshes: Vec<TrainMesh>,
-    /// Modal damping ratio on the mean-stiffness modes.
-    pub modal_damping_ratio: f64,
-    pub input_gear: usize,
-    pub output_gear: usize,
-    /// Nominal speed of each gear over the input speed (0 for a grounded, undriven part).
-    pub speed_ratio: Vec<f64>,
-    /// Nominal rotation sense of each gear: +1 as the input gear's `input_rotation` says
-    /// counter-clockwise, −1 clockwise.
-    pub rotation: Vec<f64>,
-    /// The operating point at t = 0 (with profiles: their values at t = 0).
-    pub operating: TrainOperating,
-    /// Speed and torque over time (a run-up), `docs/runup.md`.
-    pub profiles: crate::scene::Profiles,
-    pub initial_dte: InitialDte,
-    pub initial_dte_rate: f64,
-    pub solver: SolverSettings,
-    pub source: String,
-    /// Mechanical ports (`docs/ports.md`); empty: the nominal-speed form.
-    pub ports: Vec<Port>,
-    /// Drivetrain elements coupled to the train (`docs/ports.md`); empty: none.
-    pub elements: elements::Elements,
-}
-
-impl TrainScene {
-    /// Whether the rigid-body rotation is carried: the scene has ports or elements.
-    pub fn carries_rotation(&self) -> bool {
-        !self.ports.is_empty() || !self.elements.is_empty()
-    }
-}
-
 /// Built-in drivetrain scenes (`fmu/<name>/scene.toml`, `examples/<name>.toml`).
 pub const TRAIN_EXAMPLES: &[(&str, &str)] = &[
     (
@@ -453,89 +348,3 @@ pub const TRAIN_EXAMPLES: &[(&str, &str)] = &[
         include_str!("../../../examples/friction_pair.toml"),
     ),
 ];
-
-impl TrainScene {
-    /// Index of a gear by name.
-    pub fn gear_index(&self, name: &str) -> Option<usize> {
-        self.gears.iter().position(|g| g.name == name)
-    }
-
-    /// Mesh frequency of mesh `n` at the input speed `omega`, Hz.
-    pub fn mesh_frequency(&self, n: usize, omega: f64) -> f64 {
-        self.meshes[n].cycles_per_input_rev * omega / std::f64::consts::TAU
-    }
-
-    /// The same scene with every bearing rigid (translational DOFs removed).
-    pub fn with_rigid_bearings(&self) -> TrainScene {
-        let mut s = self.clone();
-        for g in &mut s.gears {
-            g.bearing = None;
-        }
-        s
-    }
-}
-
-impl TrainScene {
-    /// The single-mesh scene of `docs/model.md` as a one-mesh drivetrain: two rotating gears
-    /// on rigid supports and one lumped mesh with the scene's stiffness, STE, contact law and
-    /// damping. This is the drivetrain the single-pair kernel ([`crate::model::GearPair`])
-    /// computes in its DTE coordinate. Terms only that kernel carries (Bugaru's cubic springs,
-    /// damping variation and torque ripple, He & Singh's sliding friction) are not part of
-    /// it: callers that need the complete pair (simulation, steady states) use the pair
-    /// kernel; this form serves the mean-system analyses (modes, statics).
-    pub fn from_pair(scene: &crate::scene::Scene) -> TrainScene {
-        let gear = |g: &crate::scene::Gear| TrainGear {
-            name: g.name.clone(),
-            teeth: g.teeth,
-            base_radius: g.base_radius,
-            inertia: g.inertia,
-            mass: None,
-            bearing: None,
-            ground_stiffness: 0.0,
-            ground_damping: 0.0,
-            errors: Default::default(),
-        };
-        let ratio = scene.pinion.teeth as f64 / scene.gear.teeth as f64;
-        TrainScene {
-            name: scene.name.clone(),
-            description: scene.description.clone(),
-            gears: vec![gear(&scene.pinion), gear(&scene.gear)],
-            shafts: Vec::new(),
-            meshes: vec![TrainMesh {
-                name: "mesh".into(),
-                pinion: 0,
-                gear: 1,
-                contact: scene.mesh.contact,
-                damping: scene.mesh.damping,
-                initial_phase: scene.mesh.initial_phase,
-                phase: 0.0,
-                pressure_angle: 0.0,
-                centre_angle: 0.0,
-                force: MeshForceModel::Lumped {
-                    stiffness: scene.mesh.stiffness.clone(),
-                    ste: scene.mesh.ste.clone(),
-                },
-                friction: None,
-                helical: None,
-                cycles_per_input_rev: scene.pinion.teeth as f64,
-            }],
-            modal_damping_ratio: 0.0,
-            input_gear: 0,
-            output_gear: 1,
-            speed_ratio: vec![1.0, ratio],
-            rotation: vec![1.0, -1.0],
-            operating: TrainOperating {
-                input_speed: scene.operating.pinion_speed,
-                input_torque: scene.operating.input_torque,
-                load_torque: scene.operating.load_torque,
-            },
-            profiles: scene.profiles.clone(),
-            initial_dte: scene.initial_dte,
-            initial_dte_rate: scene.initial_dte_rate,
-            solver: scene.solver.clone(),
-            source: scene.source.clone(),
-            ports: Vec::new(),
-            elements: elements::Elements::default(),
-        }
-    }
-}

@@ -8,9 +8,11 @@ use crate::mesh::PhaseSeries;
 use crate::scene::spec::{MeshSpec as TrainMeshSpec, PairStiffnessSpec, ParsedScene, ShaftSpec};
 use crate::scene::train::{
     Bearing, GapTable, HelicalPair, MeshForceModel, PairGap, PairModel, PairStiffness, Shaft,
-    ShaftCoupling, TipRelief, TrainGear, TrainMesh, TrainOperating, TrainScene,
+    ShaftCoupling, TipRelief,
 };
-use crate::scene::{ContactLaw, MethodChoice, SceneError};
+use crate::scene::{
+    ContactLaw, Gear, KernelChoice, Mesh, MethodChoice, Operating, Scene, SceneError,
+};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -29,7 +31,7 @@ const KINEMATIC_TOL: f64 = 1e-9;
 /// Largest relative difference of the base pitches `2π r_b/z` of two meshing gears.
 const BASE_PITCH_TOL: f64 = 0.01;
 
-pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<TrainScene> {
+pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
     if let Some(field) = crate::scene::kernel::pair_only_field(&parsed) {
         return err(format!(
             "{field}: a term of the single-pair kernel (Bugaru 2006), which runs a scene with one \
@@ -148,7 +150,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<TrainScene> 
             }
             _ => None,
         };
-        gears.push(TrainGear {
+        gears.push(Gear {
             name: g.name.clone(),
             teeth,
             base_radius: super::geometry::base_radius(&table, g.base_radius, derived)?,
@@ -279,7 +281,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<TrainScene> 
         meshes.push(mesh(i, m, &gears, &find, torque)?);
     }
     for (i, m) in meshes.iter().enumerate() {
-        if let Some(j) = meshes[..i].iter().position(|o: &TrainMesh| {
+        if let Some(j) = meshes[..i].iter().position(|o: &Mesh| {
             (o.pinion, o.gear) == (m.pinion, m.gear) || (o.pinion, o.gear) == (m.gear, m.pinion)
         }) {
             return err(format!(
@@ -407,9 +409,11 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<TrainScene> 
         }
     }
 
-    Ok(TrainScene {
+    Ok(Scene {
         name: spec.name,
         description: spec.description,
+        // `super::super::load` records why the drivetrain kernel was chosen.
+        kernel: KernelChoice::Drivetrain(String::new()),
         gears,
         shafts,
         meshes,
@@ -418,7 +422,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<TrainScene> 
         output_gear,
         speed_ratio,
         rotation,
-        operating: TrainOperating {
+        operating: Operating {
             input_speed,
             input_torque,
             load_torque,
@@ -434,7 +438,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<TrainScene> 
 }
 
 /// Whether the mesh's stiffness is piecewise constant in mesh phase (exact propagation).
-pub(crate) fn piecewise_constant(m: &TrainMesh) -> bool {
+pub(crate) fn piecewise_constant(m: &Mesh) -> bool {
     match &m.force {
         MeshForceModel::Lumped { stiffness, .. } => stiffness.is_piecewise_constant(),
         MeshForceModel::Pairs { pair, .. } => pair.pieces.iter().all(|p| p.slope == 0.0),
@@ -484,10 +488,10 @@ fn shaft(i: usize, s: &ShaftSpec, find: &dyn Fn(&str, &str) -> Result<usize>) ->
 fn mesh(
     i: usize,
     m: &TrainMeshSpec,
-    gears: &[TrainGear],
+    gears: &[Gear],
     find: &dyn Fn(&str, &str) -> Result<usize>,
     pinion_torque: f64,
-) -> Result<TrainMesh> {
+) -> Result<Mesh> {
     let f = |name: &str| format!("mesh[{i}].{name}");
     let pinion = find(&f("pinion"), &m.pinion)?;
     let gear = find(&f("gear"), &m.gear)?;
@@ -716,7 +720,7 @@ fn mesh(
                 pair,
                 ..
             },
-        ) => Some(crate::scene::train::friction::validate(
+        ) => Some(super::friction::validate(
             &f("friction"),
             spec,
             gp,
@@ -734,7 +738,7 @@ fn mesh(
         }
     };
 
-    Ok(TrainMesh {
+    Ok(Mesh {
         name: m.name.clone().unwrap_or_else(|| format!("mesh{}", i + 1)),
         pinion,
         gear,
@@ -745,6 +749,8 @@ fn mesh(
         pressure_angle,
         centre_angle,
         force,
+        damping_always: false,
+        smooth: Default::default(),
         friction,
         helical,
         cycles_per_input_rev: 0.0,
@@ -791,8 +797,8 @@ fn helical_pair(
 fn check_helical(
     field: &str,
     h: &HelicalPair,
-    pinion: &TrainGear,
-    gear: &TrainGear,
+    pinion: &Gear,
+    gear: &Gear,
     pressure_angle: f64,
 ) -> Result<()> {
     for (name, g, hg) in [
@@ -987,7 +993,7 @@ fn tip_relief(field: &str, m: &TrainMeshSpec, c: f64) -> Result<TipRelief> {
 
 /// `Π r_gear/r_pinion` along the path from `input` to `output` (torque amplification).
 fn radius_ratio(
-    gears: &[TrainGear],
+    gears: &[Gear],
     shafts: &[Shaft],
     meshes: &[(usize, usize)],
     input: usize,
@@ -1029,9 +1035,9 @@ fn radius_ratio(
 /// input must be held by a ground coupling (they then stand still); a floating part without
 /// drive or ground has no defined motion.
 fn kinematics(
-    gears: &[TrainGear],
+    gears: &[Gear],
     shafts: &[Shaft],
-    meshes: &[TrainMesh],
+    meshes: &[Mesh],
     input: usize,
     input_sense: f64,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
@@ -1142,7 +1148,7 @@ const MAX_MASS_SPREAD: f64 = 1e10;
 /// The checks of the gears' settable values (inertias) that reading a scene makes, for a
 /// scene changed after validation: an FMU's rebuild after `fmi2SetReal` applies the checks of
 /// `simulate` (issue 34: an inertia of 1e-158 hung the reduction's SVD).
-pub(crate) fn recheck_gears(gears: &[TrainGear]) -> std::result::Result<(), String> {
+pub(crate) fn recheck_gears(gears: &[Gear]) -> std::result::Result<(), String> {
     for (i, g) in gears.iter().enumerate() {
         super::checks::gear_compliance(&format!("gear[{i}]"), g.base_radius, g.inertia)
             .map_err(|e| e.to_string())?;
@@ -1151,7 +1157,7 @@ pub(crate) fn recheck_gears(gears: &[TrainGear]) -> std::result::Result<(), Stri
 }
 
 /// Checks that the train's masses lie within [`MAX_MASS_SPREAD`] of each other.
-fn mass_spread(gears: &[TrainGear]) -> Result<()> {
+fn mass_spread(gears: &[Gear]) -> Result<()> {
     let masses = gears.iter().enumerate().flat_map(|(i, g)| {
         let rotation = (
             format!("gear[{i}].inertia = {:e}", g.inertia),
@@ -1185,7 +1191,7 @@ fn mass_spread(gears: &[TrainGear]) -> Result<()> {
 /// A gear with errors in several meshes sees them at different places around its rim: the
 /// runout phase and the tooth in mesh follow from the lines of action, so each of its meshes
 /// must give `centre_angle` and `pressure_angle` (`docs/errors.md`).
-fn errors_geometry(gears: &[TrainGear], meshes: &[TrainMeshSpec]) -> Result<()> {
+fn errors_geometry(gears: &[Gear], meshes: &[TrainMeshSpec]) -> Result<()> {
     for g in gears.iter().filter(|g| !g.errors.is_zero()) {
         let mine: Vec<(usize, &TrainMeshSpec)> = meshes
             .iter()

@@ -7,14 +7,18 @@ use super::checks::{finite, non_negative, positive};
 use crate::mesh::helical::{FrictionStiffness, HelicalGeometry};
 use crate::mesh::MeshStiffness;
 use crate::scene::spec::StiffnessSpec;
-use crate::scene::{Gear, SceneError};
+use crate::scene::{PairGear, SceneError};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
 const FIELD: &str = "mesh.stiffness";
 
 /// Resolves a `StiffnessSpec::Helical`.
-pub(super) fn stiffness(spec: &StiffnessSpec, pinion: &Gear, gear: &Gear) -> Result<MeshStiffness> {
+pub(super) fn stiffness(
+    spec: &StiffnessSpec,
+    pinion: &PairGear,
+    gear: &PairGear,
+) -> Result<MeshStiffness> {
     let StiffnessSpec::Helical {
         stiffness_density,
         friction_coefficient,
@@ -60,10 +64,10 @@ pub(super) fn stiffness(spec: &StiffnessSpec, pinion: &Gear, gear: &Gear) -> Res
     Ok(geometry.piecewise_stiffness(&params, phase))
 }
 
-impl crate::scene::Scene {
+impl crate::scene::PairScene {
     /// The same scene with another friction coefficient μ of its `helical` stiffness (the
     /// scene text is edited and validated again, so μ is checked like in a file).
-    pub fn with_friction_coefficient(&self, mu: f64) -> Result<crate::scene::Scene> {
+    pub fn with_friction_coefficient(&self, mu: f64) -> Result<crate::scene::PairScene> {
         let mut table: toml::Table = toml::from_str(&self.source)
             .map_err(|e| SceneError(format!("scene {}: {e}", self.name)))?;
         let stiffness = table
@@ -81,7 +85,7 @@ impl crate::scene::Scene {
         stiffness.insert("friction_coefficient".into(), toml::Value::Float(mu));
         let text =
             toml::to_string(&table).map_err(|e| SceneError(format!("scene {}: {e}", self.name)))?;
-        let mut scene = crate::scene::Scene::from_toml_str(&text, &self.name)?;
+        let mut scene = crate::scene::PairScene::from_toml_str(&text, &self.name)?;
         scene.operating = self.operating;
         Ok(scene)
     }

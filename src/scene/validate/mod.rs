@@ -7,6 +7,7 @@
 //! - [`stiffness`], [`geometry`], [`helical`]: the mesh-stiffness sources of any mesh;
 //! - [`mesh`]: what every mesh checks the same (contact law, damping);
 //! - [`errors`]: runout and pitch errors of a gear;
+//! - [`friction`]: `[mesh.friction]` of a Model-1 or helical mesh;
 //! - [`pair`]: a scene on the single-pair kernel;
 //! - [`drivetrain`]: a scene on the drivetrain kernel (topology, kinematics, bearings, shafts,
 //!   ports and elements).
@@ -14,6 +15,7 @@
 pub(crate) mod checks;
 pub(crate) mod drivetrain;
 pub(crate) mod errors;
+pub(crate) mod friction;
 pub(crate) mod geometry;
 pub(crate) mod helical;
 pub(crate) mod mesh;

@@ -1,5 +1,5 @@
 //! A scene on the single-pair kernel ([`crate::scene::kernel`]): one mesh between two gears,
-//! validated into the pair kernel's [`Scene`] (ranges, consistency, defaults). Every message
+//! validated into the pair kernel's [`PairScene`] (ranges, consistency, defaults). Every message
 //! names the field as a TOML path and its value; nothing is clamped.
 
 use super::checks::{
@@ -8,16 +8,15 @@ use super::checks::{
 };
 use super::stiffness::{stiffness, stiffness_kind};
 use crate::mesh::PhaseSeries;
-use crate::scene::kernel::{choose, KernelChoice};
-use crate::scene::spec::{ParsedScene, StiffnessSpec};
-use crate::scene::{
-    equivalent_mass, ContactLaw, Gear, Mesh, MethodChoice, Operating, Scene, SceneError,
-    SmoothTerms,
+use crate::scene::kernel::{
+    choose, equivalent_mass, KernelChoice, PairGear, PairMesh, PairOperating, PairScene,
 };
+use crate::scene::spec::{ParsedScene, StiffnessSpec};
+use crate::scene::{ContactLaw, MethodChoice, SceneError, SmoothTerms};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
-pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
+pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<PairScene> {
     if let KernelChoice::Drivetrain(why) = choose(&parsed) {
         return err(format!(
             "{why}: only the drivetrain kernel carries this; read the scene as a drivetrain \
@@ -62,7 +61,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
                 None
             }
         });
-        let gear = Gear {
+        let gear = PairGear {
             name: g.name.clone(),
             teeth: teeth(&field("teeth"), g.teeth)?,
             base_radius: super::geometry::base_radius(&table, g.base_radius, derived)?,
@@ -84,7 +83,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
             gears[1].name
         ));
     }
-    let find = |field: &str, name: &str| -> Result<Gear> {
+    let find = |field: &str, name: &str| -> Result<PairGear> {
         gears
             .iter()
             .find(|g| g.name == name)
@@ -124,7 +123,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
 
     let stiffness = match m_stiffness {
         StiffnessSpec::Geometry { .. } => {
-            fn body<'a>(which: &str, g: &'a Gear) -> super::geometry::MeshGear<'a> {
+            fn body<'a>(which: &str, g: &'a PairGear) -> super::geometry::MeshGear<'a> {
                 super::geometry::MeshGear {
                     which: which.to_owned(),
                     name: &g.name,
@@ -255,12 +254,12 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
         ));
     }
 
-    Ok(Scene {
+    Ok(PairScene {
         name: spec.name,
         description: spec.description,
         pinion,
         gear,
-        mesh: Mesh {
+        mesh: PairMesh {
             contact,
             stiffness,
             ste,
@@ -269,7 +268,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
             smooth,
             initial_phase: finite("mesh.initial_phase", m.initial_phase.unwrap_or(0.0))?,
         },
-        operating: Operating {
+        operating: PairOperating {
             pinion_speed,
             input_torque,
             load_torque,

@@ -29,7 +29,8 @@ use super::statics::{equilibrium, loaded_ste, Ste};
 use crate::mesh::errors::{GearInMesh, MeshErrors};
 use crate::mesh::{MeshStiffness, PhaseSeries};
 use crate::model::PhaseClock;
-use crate::scene::train::{MeshForceModel, PairModel, TrainScene};
+use crate::scene::train::{MeshForceModel, PairModel};
+use crate::scene::Scene;
 use crate::scene::{ContactLaw, InitialDte};
 use crate::solve::exact::PiecewiseLti;
 use crate::solve::HybridSystem;
@@ -300,7 +301,7 @@ fn row_major(a: &DMatrix<f64>) -> Vec<f64> {
 
 impl GearTrain {
     /// Assembles the model at `t = 0` with the scene's inputs.
-    pub fn new(scene: &TrainScene) -> Result<GearTrain, String> {
+    pub fn new(scene: &Scene) -> Result<GearTrain, String> {
         let asm = Assembly::new(scene);
         let red = Reduction::new(&asm)?;
         let q = red.q.clone();
@@ -656,7 +657,7 @@ impl GearTrain {
         self.profiles.as_ref()?.not_lti_reason(ste, ramp)
     }
 
-    fn build_names(&mut self, scene: &TrainScene) -> Vec<String> {
+    fn build_names(&mut self, scene: &Scene) -> Vec<String> {
         let mut names = Vec::new();
         for (n, m) in scene.meshes.iter().enumerate() {
             for q in [
@@ -959,7 +960,7 @@ impl GearTrain {
     }
 
     /// The scene's initial state `[ξ0, ξ0']`; also sets the contact flags to match it.
-    pub fn initial_state(&mut self, scene: &TrainScene) -> Result<Vec<f64>, String> {
+    pub fn initial_state(&mut self, scene: &Scene) -> Result<Vec<f64>, String> {
         let m = self.m;
         let mut y = vec![0.0; 2 * m];
         match scene.initial_dte {

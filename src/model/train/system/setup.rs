@@ -9,10 +9,10 @@ use super::*;
 /// between this mesh and the gear's first mesh, `k = round(σ_g z (α_n − α_1)/2π)` with `α` the
 /// direction from the gear's centre to its mate (teeth numbered against the rotation, so the
 /// tooth at a mesh further along the rotation sense has a lower number).
-pub(super) fn mesh_errors(scene: &TrainScene, n: usize, p0: f64, offset: f64) -> MeshErrors {
+pub(super) fn mesh_errors(scene: &Scene, n: usize, p0: f64, offset: f64) -> MeshErrors {
     let sm = &scene.meshes[n];
     let beta = sm.centre_angle + scene.rotation[sm.pinion] * sm.pressure_angle;
-    let towards_mate = |g: usize, m: &crate::scene::train::TrainMesh| {
+    let towards_mate = |g: usize, m: &crate::scene::Mesh| {
         if m.pinion == g {
             m.centre_angle
         } else {
@@ -45,7 +45,7 @@ pub(super) fn mesh_errors(scene: &TrainScene, n: usize, p0: f64, offset: f64) ->
 /// the nominal motion deflects no mesh even where tabulated radii and tooth counts differ in
 /// the last digits), and coaxial gears on an elastic shaft turning together. Parts the input
 /// does not drive stand still.
-pub(super) fn nominal_rotation(scene: &TrainScene, asm: &Assembly) -> DVector<f64> {
+pub(super) fn nominal_rotation(scene: &Scene, asm: &Assembly) -> DVector<f64> {
     let bodies = asm.body_radius.len();
     let mut omega: Vec<Option<f64>> = vec![None; bodies];
     omega[asm.body_of[scene.input_gear]] = Some(1.0);
@@ -95,7 +95,7 @@ pub(super) fn nominal_rotation(scene: &TrainScene, asm: &Assembly) -> DVector<f6
 /// output), nothing else. Returns `(d_θ, J)` per body, `d_θ = ±r_b` the mesh vector in
 /// rotation angle and `J` the body inertia.
 pub(super) fn pair_closed_form(
-    scene: &TrainScene,
+    scene: &Scene,
     asm: &Assembly,
     m: usize,
     rigid: usize,

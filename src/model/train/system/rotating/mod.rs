@@ -34,7 +34,8 @@ pub use coupling::Neighbour;
 
 use super::super::assembly::Reduction;
 use super::{GearTrain, SlotContact, Stiffness};
-use crate::scene::train::{PortEnd, TrainScene};
+use crate::scene::train::PortEnd;
+use crate::scene::Scene;
 
 /// Angle of one body as a row over the state.
 #[derive(Debug, Clone)]
@@ -91,7 +92,7 @@ impl TrainMotion for Carried {
 
 impl Carried {
     pub(crate) fn new(
-        scene: &TrainScene,
+        scene: &Scene,
         train: &GearTrain,
         red: &Reduction,
     ) -> Result<Carried, String> {
