@@ -3,7 +3,7 @@
 //! reports at an upper-branch point is the fraction of a time series run from the sweep's
 //! state at that speed.
 //!
-//! PairScene: `examples/liu2007/ch2_idler.toml` — Table 2.1 with **rigid bearings** (eq. 2.7, the
+//! Scene: `examples/liu2007/ch2_idler.toml` — Table 2.1 with **rigid bearings** (eq. 2.7, the
 //! three rotations with the couplings k_s: modes 69.5 / 1605.0 / 3230.7 Hz), Model-1
 //! rectangular tooth pairs without relief, ζ = 2 % (assumed), contact loss. The thesis'
 //! FE-stiffness results (Figs. 2.5–2.7, notes §1.11): jump-down near 1.2 kHz (mode 1) and

@@ -22,7 +22,7 @@ fn stage_text() -> String {
     common::ports::stage_text("spur_stage")
 }
 
-/// PairScene numbers of the stage (read from the file, so the test follows the shipped data).
+/// Scene numbers of the stage (read from the file, so the test follows the shipped data).
 struct Stage {
     z1: f64,
     z2: f64,

@@ -11,7 +11,7 @@
 use geardyn::commands::simulate::{simulate, SimulateOptions};
 use geardyn::scene::Scene;
 
-/// PairScene and output interval of its reference run.
+/// Scene and output interval of its reference run.
 const REFERENCES: [(&str, f64); 11] = [
     ("spur_pair", 1e-4),
     ("geometry_pair", 1e-4),

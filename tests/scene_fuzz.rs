@@ -1,4 +1,4 @@
-//! PairScene-mutation fuzzer (issue 17, acceptance 3): every shipped scene (`fmu/*/scene.toml`:
+//! Scene-mutation fuzzer (issue 17, acceptance 3): every shipped scene (`fmu/*/scene.toml`:
 //! single pairs, geometry, helical, Bugaru, drivetrains) is mutated at random, deterministically
 //! from a seed, and run through the path of `geardyn simulate` (scene file → load → validate →
 //! limits → streamed CSV, [`geardyn::commands::simulate::simulate`]). Each mutation must end in a result

@@ -331,7 +331,7 @@ fn tabulated_gaps() {
             nlte.value(s)
         );
     }
-    // PairScene syntax, and the table must span the window.
+    // Scene syntax, and the table must span the window.
     let scene = pair_scene("pairs", 0.0, "contact = \"contact_loss\"");
     let text = scene.source.replace(
         "[mesh.tip_relief]\ndriver_magnitude = 0\n",

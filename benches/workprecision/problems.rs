@@ -30,7 +30,7 @@ pub struct Problem {
     /// One line for the report.
     pub what: &'static str,
     pub kind: Kind,
-    /// PairScene text.
+    /// Scene text.
     pub toml: String,
     /// Simulated time, s.
     pub stop_time: f64,

@@ -11,7 +11,7 @@ use super::load_any_scene;
 
 #[derive(Args)]
 pub struct PeriodicArgs {
-    /// PairScene file (`scene.toml`) or a folder holding one.
+    /// Scene file (`scene.toml`) or a folder holding one.
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     scene: Option<PathBuf>,
     /// A built-in example scene instead of a file (e.g. `spur_pair`).
@@ -32,7 +32,7 @@ pub struct PeriodicArgs {
 
 #[derive(Args)]
 pub struct SweepArgs {
-    /// PairScene file (`scene.toml`) or a folder holding one.
+    /// Scene file (`scene.toml`) or a folder holding one.
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     scene: Option<PathBuf>,
     /// A built-in example scene instead of a file (e.g. `spur_pair`).
@@ -97,7 +97,7 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
 
 #[derive(Args)]
 pub struct HbArgs {
-    /// PairScene file (`scene.toml`) or a folder holding one (single pair or drivetrain).
+    /// Scene file (`scene.toml`) or a folder holding one (single pair or drivetrain).
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     pub scene: Option<PathBuf>,
     /// A built-in example scene instead of a file (e.g. `spur_pair`, `idler_gearset`).

@@ -13,7 +13,7 @@ use super::load_any_scene;
 
 #[derive(Args)]
 pub struct FloquetArgs {
-    /// PairScene file (`scene.toml`) or a folder holding one.
+    /// Scene file (`scene.toml`) or a folder holding one.
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     scene: Option<PathBuf>,
     /// A built-in example scene instead of a file (e.g. `helical_pair_friction`).
@@ -33,7 +33,7 @@ pub struct FloquetArgs {
 
 #[derive(Args)]
 pub struct BandArgs {
-    /// PairScene file (`scene.toml`) or a folder holding one.
+    /// Scene file (`scene.toml`) or a folder holding one.
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     scene: Option<PathBuf>,
     /// A built-in example scene instead of a file.

@@ -9,7 +9,7 @@ use super::load_any_scene;
 
 #[derive(Args)]
 pub struct ModesArgs {
-    /// PairScene file or folder (e.g. `fmu/idler_gearset`), single pair or drivetrain.
+    /// Scene file or folder (e.g. `fmu/idler_gearset`), single pair or drivetrain.
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     pub scene: Option<PathBuf>,
     /// A built-in example scene instead of a file (e.g. `idler_gearset`).

@@ -4,15 +4,13 @@
 use std::path::PathBuf;
 
 use clap::Args;
-use geardyn::analysis::spectrum::{WaterfallOptions, Window};
-use geardyn::commands::runup::{runup_waterfall, RunupSignal};
-use geardyn::plot::Format;
+use geardyn::commands::runup::{waterfall_command, WaterfallRequest};
 
 use super::load_any_scene;
 
 #[derive(Args)]
 pub struct WaterfallArgs {
-    /// PairScene file with `[operating.speed_profile]` (single pair or drivetrain).
+    /// Scene file with `[operating.speed_profile]` (single pair or drivetrain).
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     pub scene: Option<PathBuf>,
     /// A built-in example scene instead of a file (e.g. `runup_spur`).
@@ -44,59 +42,16 @@ pub struct WaterfallArgs {
 
 pub fn run(args: WaterfallArgs) -> Result<(), String> {
     let scene = load_any_scene(&args.scene, &args.example)?;
-    if let Some(path) = &args.plot {
-        Format::of(path)?;
-    }
-    let signal: RunupSignal = args.signal.parse().map_err(|e| format!("--signal {e}"))?;
-    let window = match args.window.as_str() {
-        "hann" => Window::Hann,
-        "flattop" => Window::FlatTop,
-        other => return Err(format!("--window '{other}': expected hann or flattop")),
-    };
-    let mesh = match &args.mesh {
-        None => 0,
-        Some(name) => {
-            let names = geardyn::commands::runup::mesh_names(&scene)?;
-            names.iter().position(|n| n == name).ok_or_else(|| {
-                format!(
-                    "--mesh '{name}': no such mesh (meshes: {})",
-                    names.join(", ")
-                )
-            })?
-        }
-    };
-    let options = WaterfallOptions {
+    let request = WaterfallRequest {
+        mesh: args.mesh.as_deref(),
+        signal: &args.signal,
         segment: args.segment,
         overlap: args.overlap,
-        window,
+        window: &args.window,
     };
-    let w = runup_waterfall(&scene, mesh, signal, &options)?;
-    w.map.write_csv(&args.out, signal.unit())?;
-    if let Some(path) = &args.plot {
-        let orders: Vec<(String, f64)> = (1..=3)
-            .map(|k| (format!("{k}×mesh"), k as f64 * w.mesh_order))
-            .collect();
-        let title = format!("{}: waterfall of the {}", scene.name, args.signal);
-        w.map.save_plot(path, &title, &orders)?;
-    }
-    let map = &w.map;
-    let (lo, hi) = (
-        map.rpm.iter().copied().fold(f64::INFINITY, f64::min),
-        map.rpm.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-    );
-    println!(
-        "scene {} → {} ({} windows × {} frequencies, {:.0}–{:.0} rpm, {:.1} Hz resolution)",
-        scene.name,
-        args.out.display(),
-        map.rpm.len(),
-        map.frequency.len(),
-        lo,
-        hi,
-        map.frequency.get(1).copied().unwrap_or(f64::NAN)
-    );
-    println!(
-        "  mesh order 1 = shaft order {:.4} of the input gear: f = {:.4}·n/60 Hz",
-        w.mesh_order, w.mesh_order
+    print!(
+        "{}",
+        waterfall_command(&scene, &request, &args.out, args.plot.as_deref())?
     );
     Ok(())
 }

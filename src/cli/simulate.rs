@@ -4,15 +4,14 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use geardyn::commands::simulate::{simulate, SimulateOptions};
-use geardyn::commands::time_plot::time_plot;
-use geardyn::plot::Format;
+use geardyn::commands::simulate::SimulateOptions;
+use geardyn::commands::simulate_command::{simulate_command, SimulateFiles};
 use geardyn::simulation::stream::{DEFAULT_MAX_MESH_PERIODS, DEFAULT_MAX_ROWS};
 use geardyn::simulation::{ProgressDisplay, RunLimits};
 
 #[derive(Args)]
 pub struct SimulateArgs {
-    /// PairScene file (`scene.toml`) or a folder holding one (e.g. `fmu/spur_pair`).
+    /// Scene file (`scene.toml`) or a folder holding one (e.g. `fmu/spur_pair`).
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     scene: Option<PathBuf>,
     /// A built-in example scene instead of a file (e.g. `spur_pair`).
@@ -98,30 +97,12 @@ pub fn run(args: SimulateArgs) -> Result<(), String> {
         },
         header_units: args.units,
     };
-    if let Some(path) = &args.plot {
-        Format::of(path)?;
-    }
-    let interval = args.output_interval.unwrap_or(scene.solver.output_interval);
-    if interval > 0.0 {
-        if let Some(warning) = geardyn::commands::spectrum::aliasing(&scene, interval)? {
-            eprintln!("{warning}");
-        }
-    }
-    let scene_for_spectrum = scene.clone();
-    let report = simulate(scene, &opts, &args.out)?;
-    if let Some(path) = &args.plot {
-        time_plot(&report, &args.out, path)?;
-    }
-    if !args.quiet {
-        report.print(&args.out);
-    }
-    if let Some(path) = &args.spectrum {
-        geardyn::commands::spectrum::spectrum_of_run(
-            &scene_for_spectrum,
-            &report,
-            &args.out,
-            path,
-        )?;
-    }
+    let files = SimulateFiles {
+        out: &args.out,
+        plot: args.plot.as_deref(),
+        spectrum: args.spectrum.as_deref(),
+        quiet: args.quiet,
+    };
+    simulate_command(scene, &opts, &files)?;
     Ok(())
 }

@@ -4,11 +4,11 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use geardyn::commands::spectrum::{periodic_spectrum, SpectrumRequest};
+use geardyn::commands::spectrum::{spectrum_command, SpectrumRequest};
 
 #[derive(Args)]
 pub struct SpectrumArgs {
-    /// PairScene file (`scene.toml`) or a folder holding one.
+    /// Scene file (`scene.toml`) or a folder holding one.
     #[arg(required_unless_present = "example", conflicts_with = "example")]
     scene: Option<PathBuf>,
     /// A built-in example scene instead of a file (e.g. `spur_pair`).
@@ -38,30 +38,9 @@ pub fn run(args: SpectrumArgs) -> Result<(), String> {
         samples_per_mesh_period: args.samples,
         periods: args.periods,
     };
-    let report = periodic_spectrum(&scene, &request)?;
-    report.write_csv(&args.out)?;
-    if let Some(path) = &args.plot {
-        report.save_plot(path)?;
-    }
-    println!(
-        "scene {}: exact DFT of {} samples over {:.6e} s (integer response periods) -> {}",
-        report.scene,
-        report.samples,
-        report.duration,
-        args.out.display()
+    print!(
+        "{}",
+        spectrum_command(&scene, &request, &args.out, args.plot.as_deref())?
     );
-    for s in &report.signals {
-        // The five largest lines, with their orders.
-        let mut k: Vec<usize> = (1..s.spectrum.amplitude.len()).collect();
-        k.sort_by(|a, b| s.spectrum.amplitude[*b].total_cmp(&s.spectrum.amplitude[*a]));
-        println!("  {} (amplitude, {}):", s.column, s.unit);
-        for &i in k.iter().take(5) {
-            let label = s.labels[i].as_ref().map_or("", |l| l.text.as_str());
-            println!(
-                "    {:>12.3} Hz  {:.4e}  {label}",
-                s.spectrum.frequency[i], s.spectrum.amplitude[i]
-            );
-        }
-    }
     Ok(())
 }

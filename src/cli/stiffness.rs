@@ -4,7 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use geardyn::output;
+use geardyn::commands::stiffness::{stiffness_command, StiffnessFiles};
 
 #[derive(Args)]
 pub struct StiffnessArgs {
@@ -34,22 +34,16 @@ pub struct StiffnessArgs {
 }
 
 pub fn run(args: StiffnessArgs) -> Result<(), String> {
-    geardyn::commands::stiffness::check_harmonics(args.harmonics)?;
-    let st = geardyn::commands::stiffness::stiffness(&args.gears, args.torque, args.etc == "on")?;
-    let names = st.columns();
-    let rows = st.rows();
-    output::write_table_with_units(
-        &args.out,
-        &names,
-        rows.iter().map(|r| r.iter().copied()),
-        args.units,
-    )?;
-    if let Some(path) = &args.plot {
-        st.plot(path)?;
-    }
-    if !args.quiet {
-        print!("{}", st.summary(args.harmonics));
-        println!("curve → {}", args.out.display());
-    }
+    let files = StiffnessFiles {
+        out: &args.out,
+        plot: args.plot.as_deref(),
+        harmonics: args.harmonics,
+        quiet: args.quiet,
+        units: args.units,
+    };
+    print!(
+        "{}",
+        stiffness_command(&args.gears, args.torque, args.etc == "on", &files)?
+    );
     Ok(())
 }

@@ -10,6 +10,7 @@ pub mod modes;
 pub mod run;
 pub mod runup;
 pub mod simulate;
+pub mod simulate_command;
 pub mod spectrum;
 pub mod steady;
 pub mod stiffness;

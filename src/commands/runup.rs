@@ -116,3 +116,85 @@ pub fn mesh_names(scene: &Scene) -> Result<Vec<String>, String> {
             .collect())
     })
 }
+
+/// What `geardyn waterfall` analyses, as the command line gives it.
+#[derive(Debug, Clone, Copy)]
+pub struct WaterfallRequest<'a> {
+    /// The mesh by name (a drivetrain); `None`: the first mesh.
+    pub mesh: Option<&'a str>,
+    /// `dte` or `force`.
+    pub signal: &'a str,
+    /// Samples per short-time window.
+    pub segment: usize,
+    /// Fraction of a window shared with the next.
+    pub overlap: f64,
+    /// `hann` or `flattop`.
+    pub window: &'a str,
+}
+
+/// `geardyn waterfall`: the order map of the scene's run-up to the CSV `out` (and a Campbell
+/// plot), and the report of what was written.
+pub fn waterfall_command(
+    scene: &Scene,
+    request: &WaterfallRequest,
+    out: &std::path::Path,
+    plot: Option<&std::path::Path>,
+) -> Result<String, String> {
+    use crate::analysis::spectrum::Window;
+    if let Some(path) = plot {
+        crate::plot::Format::of(path)?;
+    }
+    let signal: RunupSignal = request
+        .signal
+        .parse()
+        .map_err(|e| format!("--signal {e}"))?;
+    let window = match request.window {
+        "hann" => Window::Hann,
+        "flattop" => Window::FlatTop,
+        other => return Err(format!("--window '{other}': expected hann or flattop")),
+    };
+    let mesh = match request.mesh {
+        None => 0,
+        Some(name) => {
+            let names = mesh_names(scene)?;
+            names.iter().position(|n| n == name).ok_or_else(|| {
+                format!(
+                    "--mesh '{name}': no such mesh (meshes: {})",
+                    names.join(", ")
+                )
+            })?
+        }
+    };
+    let options = WaterfallOptions {
+        segment: request.segment,
+        overlap: request.overlap,
+        window,
+    };
+    let w = runup_waterfall(scene, mesh, signal, &options)?;
+    w.map.write_csv(out, signal.unit())?;
+    if let Some(path) = plot {
+        let orders: Vec<(String, f64)> = (1..=3)
+            .map(|k| (format!("{k}×mesh"), k as f64 * w.mesh_order))
+            .collect();
+        let title = format!("{}: waterfall of the {}", scene.name, request.signal);
+        w.map.save_plot(path, &title, &orders)?;
+    }
+    let map = &w.map;
+    let (lo, hi) = (
+        map.rpm.iter().copied().fold(f64::INFINITY, f64::min),
+        map.rpm.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    );
+    Ok(format!(
+        "scene {} → {} ({} windows × {} frequencies, {:.0}–{:.0} rpm, {:.1} Hz resolution)\n  \
+         mesh order 1 = shaft order {:.4} of the input gear: f = {:.4}·n/60 Hz\n",
+        scene.name,
+        out.display(),
+        map.rpm.len(),
+        map.frequency.len(),
+        lo,
+        hi,
+        map.frequency.get(1).copied().unwrap_or(f64::NAN),
+        w.mesh_order,
+        w.mesh_order
+    ))
+}

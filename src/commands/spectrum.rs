@@ -336,3 +336,43 @@ fn mesh_lines<M: Drivetrain>(model: &M) -> Vec<(String, f64)> {
         })
         .collect()
 }
+
+/// `geardyn spectrum`: the spectrum of the scene's periodic steady state to the CSV `out`
+/// (and the plot), and the report: where it went and the five largest lines of each signal.
+pub fn spectrum_command(
+    scene: &Scene,
+    request: &SpectrumRequest,
+    out: &Path,
+    plot: Option<&Path>,
+) -> Result<String, String> {
+    use std::fmt::Write;
+    let report = periodic_spectrum(scene, request)?;
+    report.write_csv(out)?;
+    if let Some(path) = plot {
+        report.save_plot(path)?;
+    }
+    let mut text = String::new();
+    let _ = writeln!(
+        text,
+        "scene {}: exact DFT of {} samples over {:.6e} s (integer response periods) -> {}",
+        report.scene,
+        report.samples,
+        report.duration,
+        out.display()
+    );
+    for s in &report.signals {
+        // The five largest lines, with their orders.
+        let mut k: Vec<usize> = (1..s.spectrum.amplitude.len()).collect();
+        k.sort_by(|a, b| s.spectrum.amplitude[*b].total_cmp(&s.spectrum.amplitude[*a]));
+        let _ = writeln!(text, "  {} (amplitude, {}):", s.column, s.unit);
+        for &i in k.iter().take(5) {
+            let label = s.labels[i].as_ref().map_or("", |l| l.text.as_str());
+            let _ = writeln!(
+                text,
+                "    {:>12.3} Hz  {:.4e}  {label}",
+                s.spectrum.frequency[i], s.spectrum.amplitude[i]
+            );
+        }
+    }
+    Ok(text)
+}

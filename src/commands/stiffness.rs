@@ -70,3 +70,49 @@ pub fn check_harmonics(harmonics: usize) -> Result<(), String> {
     }
     Ok(())
 }
+
+/// The files and summary of `geardyn stiffness`.
+#[derive(Debug, Clone, Copy)]
+pub struct StiffnessFiles<'a> {
+    /// The CSV, one row per knot of the curve.
+    pub out: &'a Path,
+    /// The plot (PNG or SVG by the extension).
+    pub plot: Option<&'a Path>,
+    /// Fourier harmonics in the summary.
+    pub harmonics: usize,
+    /// No summary.
+    pub quiet: bool,
+    /// Units in the CSV header.
+    pub units: bool,
+}
+
+/// `geardyn stiffness`: the curve of the gears file at pinion torque `torque` to the CSV (and
+/// the plot), and the summary (empty with `quiet`).
+pub fn stiffness_command(
+    gears: &Path,
+    torque: f64,
+    etc: bool,
+    files: &StiffnessFiles,
+) -> Result<String, String> {
+    check_harmonics(files.harmonics)?;
+    let st = stiffness(gears, torque, etc)?;
+    let names = st.columns();
+    let rows = st.rows();
+    crate::output::write_table_with_units(
+        files.out,
+        &names,
+        rows.iter().map(|r| r.iter().copied()),
+        files.units,
+    )?;
+    if let Some(path) = files.plot {
+        st.plot(path)?;
+    }
+    if files.quiet {
+        return Ok(String::new());
+    }
+    Ok(format!(
+        "{}curve → {}\n",
+        st.summary(files.harmonics),
+        files.out.display()
+    ))
+}

@@ -1,4 +1,4 @@
-//! PairScene builders shared by the integration tests.
+//! Scene builders shared by the integration tests.
 //!
 //! The test pair is chosen so that closed forms are easy to state: two equal gears with
 //! `r_b = 0.05 m`, `I = 0.0025 kg·m²`, hence `m_e = 1/(r1²/I1 + r2²/I2) = 0.5 kg`, and 20

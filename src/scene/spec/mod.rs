@@ -29,7 +29,7 @@ pub struct SceneFile<M> {
     pub name: String,
     #[serde(default)]
     pub description: String,
-    /// PairScene-wide model switches of a drivetrain (`docs/train.md`).
+    /// Scene-wide model switches of a drivetrain (`docs/train.md`).
     pub model: Option<ModelSpec>,
     pub gear: Vec<GearSpec>,
     #[serde(default)]
@@ -139,7 +139,7 @@ impl<M> SceneFile<M> {
     }
 }
 
-/// PairScene-wide model switches.
+/// Scene-wide model switches.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ModelSpec {

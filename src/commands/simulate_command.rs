@@ -1,0 +1,51 @@
+//! `geardyn simulate` as the command line runs it: the aliasing warning, the run to CSV
+//! ([`super::simulate`]), then the time plot, the summary and the spectrum of the run, each
+//! as asked.
+
+use std::path::Path;
+
+use super::simulate::{simulate, SimulateOptions, SimulateReport};
+use crate::scene::Scene;
+
+/// The files `geardyn simulate` writes besides the CSV.
+#[derive(Debug, Clone, Copy)]
+pub struct SimulateFiles<'a> {
+    /// The CSV of every output row.
+    pub out: &'a Path,
+    /// A plot of every mesh's DTE and force over time (PNG or SVG by the extension).
+    pub plot: Option<&'a Path>,
+    /// The spectrum of every mesh's DTE and force (CSV).
+    pub spectrum: Option<&'a Path>,
+    /// No summary on stdout.
+    pub quiet: bool,
+}
+
+/// `geardyn simulate`: warns of aliasing at the output interval, runs the scene to its CSV,
+/// then writes the plot, prints the summary and writes the spectrum, each as asked.
+pub fn simulate_command(
+    scene: Scene,
+    opts: &SimulateOptions,
+    files: &SimulateFiles,
+) -> Result<SimulateReport, String> {
+    if let Some(path) = files.plot {
+        crate::plot::Format::of(path)?;
+    }
+    let interval = opts.output_interval.unwrap_or(scene.solver.output_interval);
+    if interval > 0.0 {
+        if let Some(warning) = super::spectrum::aliasing(&scene, interval)? {
+            eprintln!("{warning}");
+        }
+    }
+    let scene_for_spectrum = scene.clone();
+    let report = simulate(scene, opts, files.out)?;
+    if let Some(path) = files.plot {
+        super::time_plot::time_plot(&report, files.out, path)?;
+    }
+    if !files.quiet {
+        report.print(files.out);
+    }
+    if let Some(path) = files.spectrum {
+        super::spectrum::spectrum_of_run(&scene_for_spectrum, &report, files.out, path)?;
+    }
+    Ok(report)
+}
