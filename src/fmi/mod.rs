@@ -19,6 +19,7 @@
 //! [`crate::fmu::drivetrain`] (drivetrains).
 
 pub mod abi;
+pub mod attributes;
 pub mod blob;
 pub mod bytes;
 pub mod cli;

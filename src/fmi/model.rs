@@ -8,6 +8,8 @@
 
 use std::collections::HashSet;
 
+pub use super::attributes::{Causality, Initial, Variability};
+
 /// Base type of a scalar variable (FMI 2.0.x §2.2.7, `ScalarVariable` child element).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum VarKind {
@@ -16,74 +18,12 @@ pub enum VarKind {
     Boolean,
 }
 
-/// `causality` attribute (FMI 2.0.x §2.2.7).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Causality {
-    Parameter,
-    CalculatedParameter,
-    Input,
-    Output,
-    Local,
-}
-
-/// `variability` attribute (FMI 2.0.x §2.2.7).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Variability {
-    Constant,
-    Fixed,
-    Tunable,
-    Discrete,
-    Continuous,
-}
-
-/// `initial` attribute (FMI 2.0.x §2.2.7).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Initial {
-    Exact,
-    Approx,
-    Calculated,
-}
-
 impl VarKind {
     pub fn as_str(self) -> &'static str {
         match self {
             VarKind::Real => "Real",
             VarKind::Integer => "Integer",
             VarKind::Boolean => "Boolean",
-        }
-    }
-}
-
-impl Causality {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Causality::Parameter => "parameter",
-            Causality::CalculatedParameter => "calculatedParameter",
-            Causality::Input => "input",
-            Causality::Output => "output",
-            Causality::Local => "local",
-        }
-    }
-}
-
-impl Variability {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Variability::Constant => "constant",
-            Variability::Fixed => "fixed",
-            Variability::Tunable => "tunable",
-            Variability::Discrete => "discrete",
-            Variability::Continuous => "continuous",
-        }
-    }
-}
-
-impl Initial {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            Initial::Exact => "exact",
-            Initial::Approx => "approx",
-            Initial::Calculated => "calculated",
         }
     }
 }
@@ -420,6 +360,8 @@ pub fn validate_variables(vars: &[Variable]) -> Result<(), String> {
                 V::Discrete | V::Continuous => v.initial.is_some(),
                 _ => false,
             },
+            // The independent variable (time) is not part of an exported table.
+            C::Independent => false,
             C::Local => match v.variability {
                 V::Constant => v.initial == Some(Initial::Exact),
                 V::Fixed | V::Tunable => {

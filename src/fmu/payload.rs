@@ -42,6 +42,19 @@ pub fn read_params(r: &mut Reader, n: usize) -> Result<Vec<(u32, f64)>, String> 
     Ok(params)
 }
 
+/// A parameter count then its entries ([`put_params`]), the count bounded by the `payload_len`
+/// bytes of the whole payload: each entry takes 12 bytes, so a count beyond that is corrupt,
+/// not a huge allocation.
+pub fn read_counted_params(r: &mut Reader, payload_len: usize) -> Result<Vec<(u32, f64)>, String> {
+    let n = r.u32()? as usize;
+    if n > payload_len / 12 {
+        return Err(format!(
+            "model state lists {n} parameters in {payload_len} bytes"
+        ));
+    }
+    read_params(r, n)
+}
+
 /// Three flag bits, to be shifted into the layout's flag byte: bit 0 controller present,
 /// bit 1 step proposal present, bit 2 last step rejected.
 pub fn controller_bits(c: Option<ControllerMemory>) -> u8 {

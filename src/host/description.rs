@@ -19,34 +19,7 @@ mod convert;
 mod raw;
 mod scan;
 
-/// `causality` (FMI 2.0.5 §2.2.7, default `local`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Causality {
-    Parameter,
-    CalculatedParameter,
-    Input,
-    Output,
-    Local,
-    Independent,
-}
-
-/// `variability` (FMI 2.0.5 §2.2.7, default `continuous`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Variability {
-    Constant,
-    Fixed,
-    Tunable,
-    Discrete,
-    Continuous,
-}
-
-/// `initial` (FMI 2.0.5 §2.2.7). `None` in [`ScalarVariable::initial`] means "not given".
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Initial {
-    Exact,
-    Approx,
-    Calculated,
-}
+pub use crate::fmi::attributes::{Causality, Initial, Variability};
 
 /// The base type of a scalar variable: the one child element of `<ScalarVariable>`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -78,31 +51,7 @@ impl std::fmt::Display for Value {
     }
 }
 
-macro_rules! str_enum {
-    ($ty:ident { $($text:literal => $var:ident),* $(,)? }) => {
-        impl $ty {
-            /// The spelling used in modelDescription.xml.
-            pub fn as_str(self) -> &'static str {
-                match self { $($ty::$var => $text),* }
-            }
-            /// Parse the XML spelling.
-            pub fn parse(s: &str) -> Option<Self> {
-                match s { $($text => Some($ty::$var),)* _ => None }
-            }
-        }
-        impl std::fmt::Display for $ty {
-            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-                f.write_str(self.as_str())
-            }
-        }
-    };
-}
-str_enum!(Causality { "parameter" => Parameter, "calculatedParameter" => CalculatedParameter,
-    "input" => Input, "output" => Output, "local" => Local, "independent" => Independent });
-str_enum!(Variability { "constant" => Constant, "fixed" => Fixed, "tunable" => Tunable,
-    "discrete" => Discrete, "continuous" => Continuous });
-str_enum!(Initial { "exact" => Exact, "approx" => Approx, "calculated" => Calculated });
-str_enum!(VarType { "Real" => Real, "Integer" => Integer, "Boolean" => Boolean,
+crate::fmi_str_enum!(VarType { "Real" => Real, "Integer" => Integer, "Boolean" => Boolean,
     "String" => String, "Enumeration" => Enumeration });
 
 /// `<CoSimulation>` capabilities (FMI 2.0.5 §4.3.1). Booleans default to `false`.

@@ -9,7 +9,7 @@
 
 use crate::fmi::bytes::{put_f64s, Reader};
 use crate::fmu::payload::{
-    controller_bits, put_controller, put_params, read_controller, read_params,
+    controller_bits, put_controller, put_params, read_controller, read_counted_params,
 };
 use crate::solve::rk::ControllerMemory;
 
@@ -61,14 +61,7 @@ fn read_len(r: &mut Reader, what: &str) -> Result<usize, String> {
 
 pub fn decode(bytes: &[u8]) -> Result<ElementSnapshot, String> {
     let mut r = Reader::new(bytes);
-    let n = r.u32()? as usize;
-    if n > bytes.len() / 12 {
-        return Err(format!(
-            "model state lists {n} parameters in {} bytes",
-            bytes.len()
-        ));
-    }
-    let params = read_params(&mut r, n)?;
+    let params = read_counted_params(&mut r, bytes.len())?;
     let flags = r.u8()?;
     if flags >> 4 != 0 {
         return Err(format!("model state has unknown flags {flags:#04x}"));

@@ -12,7 +12,7 @@
 use super::InitialDteChoice;
 use crate::fmi::bytes::Reader;
 use crate::fmu::payload::{
-    controller_bits, put_controller, put_params, read_controller, read_params, Snapshot,
+    controller_bits, put_controller, put_params, read_controller, read_counted_params, Snapshot,
 };
 use crate::model::{ContactState, Inputs, PairState, PhaseClock};
 use crate::simulation::SimState;
@@ -53,15 +53,7 @@ pub fn encode(s: &PairSnapshot) -> Vec<u8> {
 
 pub fn decode(bytes: &[u8]) -> Result<PairSnapshot, String> {
     let mut r = Reader::new(bytes);
-    let n = r.u32()? as usize;
-    // Each entry takes 12 bytes: a count beyond the payload is corrupt, not a huge alloc.
-    if n > bytes.len() / 12 {
-        return Err(format!(
-            "model state lists {n} parameters in {} bytes",
-            bytes.len()
-        ));
-    }
-    let params = read_params(&mut r, n)?;
+    let params = read_counted_params(&mut r, bytes.len())?;
     let flags = r.u8()?;
     let mut f = [0.0; 12];
     for x in &mut f {
