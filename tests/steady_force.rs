@@ -12,7 +12,7 @@ use std::f64::consts::TAU;
 
 use common::{pinion_speed_for_mesh_frequency, scene, M_E};
 use geardyn::analysis::{self, Direction, SweepOptions};
-use geardyn::commands::steady::{periodic, periodic_forces, PERIODIC_SAMPLES};
+use geardyn::commands::steady::{periodic, periodic_responses, PERIODIC_SAMPLES};
 use geardyn::model::AnyScene;
 use geardyn::scene::train::TrainScene;
 
@@ -84,17 +84,16 @@ fn periodic_and_sweep_force_match_the_closed_form_for_both_kernels() {
                 AnyScene::Train(_) => "drivetrain",
             };
             let orbit = periodic(&scene, 1, 20).unwrap();
-            let meshes = periodic_forces(&scene, &orbit).unwrap();
+            let meshes = periodic_responses(&scene, &orbit).unwrap();
             assert_eq!(meshes.len(), 1);
             let m = &meshes[0];
             assert!((m.mesh_frequency - f_mesh).abs() < 1e-9 * f_mesh);
-            let f = m.force;
             check(
                 &format!("periodic {kind} f_m/f_n = {ratio}"),
                 f_mesh,
-                f.peak_force,
-                f.force_rms,
-                f.dynamic_factor,
+                m.peak_force,
+                m.force_rms,
+                m.dynamic_factor,
             );
             let speed = scene.input_speed();
             let options = SweepOptions::new(vec![speed, speed * 1.001], Direction::Up);
