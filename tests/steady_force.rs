@@ -12,7 +12,7 @@ use std::f64::consts::TAU;
 
 use common::{pinion_speed_for_mesh_frequency, scene, M_E};
 use geardyn::analysis::{self, Direction, SweepOptions};
-use geardyn::commands::steady::{periodic, periodic_responses, PERIODIC_SAMPLES};
+use geardyn::commands::steady::{periodic, periodic_responses};
 use geardyn::model::AnyScene;
 use geardyn::scene::train::TrainScene;
 
@@ -48,25 +48,19 @@ fn scenes(f_mesh: f64) -> [AnyScene; 2] {
     ]
 }
 
-/// Checks one mesh's statistics against the closed form. The RMS of a sinusoid sampled evenly
-/// over whole periods is exact; the largest sample may fall short of the peak by at most
-/// `amp·(1 − cos(π/N))` with `N` samples per period.
+/// Checks one mesh's statistics against the closed form: from the continuous solution
+/// (issue 31), the RMS and the peak are exact to the orbit's convergence.
 fn check(label: &str, f_mesh: f64, peak: f64, rms: f64, factor: f64) {
     let amp = force_amplitude(TAU * f_mesh);
-    let sampling = amp * (1.0 - (std::f64::consts::PI / f64::from(PERIODIC_SAMPLES)).cos());
     let rms_err = (rms - amp / 2f64.sqrt()).abs() / (amp / 2f64.sqrt());
-    let peak_short = (F + amp) - peak;
+    let peak_err = (peak - (F + amp)).abs() / (F + amp);
     println!(
-        "{label}: F_dyn amplitude {amp:.6e} N; RMS rel. error {rms_err:.2e}; peak {peak:.6e} N \
-         (closed form {:.6e}, sampling bound {sampling:.2e} N); dynamic factor {factor:.6}",
+        "{label}: F_dyn amplitude {amp:.6e} N; RMS rel. error {rms_err:.2e}; peak {peak:.9e} N \
+         (closed form {:.9e}, rel. error {peak_err:.2e}); dynamic factor {factor:.6}",
         F + amp
     );
-    assert!(rms_err < 1e-6, "{label}: RMS error {rms_err:e}");
-    assert!(
-        peak_short > -1e-6 * amp && peak_short <= sampling + 1e-6 * amp,
-        "{label}: peak {peak} vs {}",
-        F + amp
-    );
+    assert!(rms_err < 1e-9, "{label}: RMS error {rms_err:e}");
+    assert!(peak_err < 1e-9, "{label}: peak {peak} vs {}", F + amp);
     assert!(
         (factor - peak / F).abs() < 1e-12 * factor,
         "{label}: {factor}"

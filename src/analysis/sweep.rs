@@ -60,8 +60,6 @@ pub struct SweepOptions {
     /// Response periods recorded for the statistics (rounded up to a multiple of the period
     /// found).
     pub record_periods: u32,
-    /// Samples per mesh period of the first mesh in the recording.
-    pub samples_per_period: u32,
     /// Keep each mesh's DTE at the start of every mesh period of the recording (Poincaré
     /// section of the first mesh).
     pub poincare: bool,
@@ -81,7 +79,6 @@ impl SweepOptions {
             tolerance: 1e-7,
             max_subharmonic: 4,
             record_periods: 8,
-            samples_per_period: 64,
             poincare: false,
             shooting: true,
         }
@@ -106,11 +103,8 @@ impl SweepOptions {
         if !(self.tolerance > 0.0) {
             return Err(format!("sweep tolerance = {}: must be > 0", self.tolerance));
         }
-        if self.max_subharmonic == 0 || self.record_periods == 0 || self.samples_per_period < 8 {
-            return Err(
-                "sweep: max_subharmonic and record_periods must be ≥ 1, samples_per_period ≥ 8"
-                    .into(),
-            );
+        if self.max_subharmonic == 0 || self.record_periods == 0 {
+            return Err("sweep: max_subharmonic and record_periods must be ≥ 1".into());
         }
         if self.max_transient_periods < self.min_transient_periods {
             return Err(format!(
@@ -455,6 +449,14 @@ fn steady_state<M: Drivetrain>(
             (None, _) => candidate = None,
         }
     }
+    // A period found by the transient test repeats to the periodicity tolerance only: Newton
+    // from there (its last step polishes the orbit far below the tolerance, `newton`) puts
+    // the run on the orbit (when it is stable and the run's).
+    if let (Some(k), true, 0) = (found, options.shooting, newton_iterations) {
+        if k <= 2 {
+            shoot_here(sim, settings, options, period, k, &mut spectral_radius);
+        }
+    }
     let periodicity = match found {
         Some(k) => Periodicity::Periodic(k),
         None if stalled => Periodicity::Aperiodic,
@@ -474,13 +476,9 @@ fn steady_state<M: Drivetrain>(
     let per_response = (period * f1).round().max(1.0) as usize;
     let recording_phase = model.mesh_phase(0, sim.t()).rem_euclid(per_response as f64);
     let recording_state = sim.y().to_vec();
-    let mesh_responses = super::orbit_statistics::record(
-        sim,
-        record as f64 * period,
-        options.samples_per_period,
-        options.poincare,
-    )
-    .map_err(at)?;
+    let mesh_responses =
+        super::orbit_statistics::record(sim, settings, record as f64 * period, options.poincare)
+            .map_err(at)?;
     Ok(SweepPoint {
         direction,
         speed,

@@ -54,16 +54,12 @@ pub fn check_shooting_work(scene: &AnyScene, options: &ShootingOptions) -> Resul
         })
 }
 
-/// Samples per mesh period of the first mesh for the force statistics of `periodic` (as many
-/// as a sweep records, `SweepOptions::samples_per_period`).
-pub const PERIODIC_SAMPLES: u32 = 64;
-
 /// Each mesh's response on the orbit (the statistics of a `sweep` point).
 pub fn periodic_responses(
     scene: &AnyScene,
     orbit: &PeriodicOrbit,
 ) -> Result<Vec<MeshResponse>, String> {
-    orbit_responses(scene, orbit, PERIODIC_SAMPLES)
+    orbit_responses(scene, orbit)
 }
 
 /// The text `geardyn periodic` prints for an orbit of `scene`: the Newton residuals, the
