@@ -204,12 +204,13 @@ fn sweep_points_match_an_rk_time_series_from_their_state() {
         let point = result.points.last().unwrap();
         assert!(point.converged, "{name}: {point:?}");
         // The orbit at this speed by shooting, integrated by RK: per-mesh DTE RMS and peak
-        // force over one response period, sampled as the sweep samples.
+        // force over one response period, 2048 samples per mesh period (the sweep's are from
+        // the continuous solution: the sampled peak falls short by at most ~(π/2048)²/2 of
+        // the force's swing).
         let mut at = scene.clone();
         at.set_input_speed(speed);
         let orbit = shoot(&at, &ShootingOptions::default()).unwrap();
-        let samples = options.samples_per_period as usize
-            * (point.response_period * point.mesh_frequency).round() as usize;
+        let samples = 2048 * (point.response_period * point.mesh_frequency).round() as usize;
         let (rms, peak) = with_drivetrain!(rk(&at).simulation().unwrap(), sim => {
             let mut sim: Driver<_> = sim;
             sim.set_y(0.0, &orbit.y0);
@@ -241,7 +242,7 @@ fn sweep_points_match_an_rk_time_series_from_their_state() {
                  (RK rel {e_peak:.1e}), dynamic factor {:.4}",
                 mesh.prefix, mesh.dte_rms, rms[m], mesh.peak_force, mesh.dynamic_factor
             );
-            assert!(e_rms <= 1e-6 && e_peak <= 1e-6, "{name} mesh {m}");
+            assert!(e_rms <= 1e-6 && e_peak <= 1e-5, "{name} mesh {m}");
         }
     }
 }

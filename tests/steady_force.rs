@@ -12,7 +12,7 @@ use std::f64::consts::TAU;
 
 use common::{pinion_speed_for_mesh_frequency, scene, M_E};
 use geardyn::analysis::{self, Direction, SweepOptions};
-use geardyn::commands::steady::{periodic, periodic_forces, PERIODIC_SAMPLES};
+use geardyn::commands::steady::{periodic, periodic_responses};
 use geardyn::scene::{KernelChoice, Scene};
 
 const K: f64 = 2.0e8;
@@ -45,25 +45,19 @@ fn scenes(f_mesh: f64) -> [Scene; 2] {
     [pair, train]
 }
 
-/// Checks one mesh's statistics against the closed form. The RMS of a sinusoid sampled evenly
-/// over whole periods is exact; the largest sample may fall short of the peak by at most
-/// `amp·(1 − cos(π/N))` with `N` samples per period.
+/// Checks one mesh's statistics against the closed form: from the continuous solution
+/// (issue 31), the RMS and the peak are exact to the orbit's convergence.
 fn check(label: &str, f_mesh: f64, peak: f64, rms: f64, factor: f64) {
     let amp = force_amplitude(TAU * f_mesh);
-    let sampling = amp * (1.0 - (std::f64::consts::PI / f64::from(PERIODIC_SAMPLES)).cos());
     let rms_err = (rms - amp / 2f64.sqrt()).abs() / (amp / 2f64.sqrt());
-    let peak_short = (F + amp) - peak;
+    let peak_err = (peak - (F + amp)).abs() / (F + amp);
     println!(
-        "{label}: F_dyn amplitude {amp:.6e} N; RMS rel. error {rms_err:.2e}; peak {peak:.6e} N \
-         (closed form {:.6e}, sampling bound {sampling:.2e} N); dynamic factor {factor:.6}",
+        "{label}: F_dyn amplitude {amp:.6e} N; RMS rel. error {rms_err:.2e}; peak {peak:.9e} N \
+         (closed form {:.9e}, rel. error {peak_err:.2e}); dynamic factor {factor:.6}",
         F + amp
     );
-    assert!(rms_err < 1e-6, "{label}: RMS error {rms_err:e}");
-    assert!(
-        peak_short > -1e-6 * amp && peak_short <= sampling + 1e-6 * amp,
-        "{label}: peak {peak} vs {}",
-        F + amp
-    );
+    assert!(rms_err < 1e-9, "{label}: RMS error {rms_err:e}");
+    assert!(peak_err < 1e-9, "{label}: peak {peak} vs {}", F + amp);
     assert!(
         (factor - peak / F).abs() < 1e-12 * factor,
         "{label}: {factor}"
@@ -81,17 +75,16 @@ fn periodic_and_sweep_force_match_the_closed_form_for_both_kernels() {
                 KernelChoice::Drivetrain(_) => "drivetrain",
             };
             let orbit = periodic(&scene, 1, 20).unwrap();
-            let meshes = periodic_forces(&scene, &orbit).unwrap();
+            let meshes = periodic_responses(&scene, &orbit).unwrap();
             assert_eq!(meshes.len(), 1);
             let m = &meshes[0];
             assert!((m.mesh_frequency - f_mesh).abs() < 1e-9 * f_mesh);
-            let f = m.force;
             check(
                 &format!("periodic {kind} f_m/f_n = {ratio}"),
                 f_mesh,
-                f.peak_force,
-                f.force_rms,
-                f.dynamic_factor,
+                m.peak_force,
+                m.force_rms,
+                m.dynamic_factor,
             );
             let speed = scene.input_speed();
             let options = SweepOptions::new(vec![speed, speed * 1.001], Direction::Up);

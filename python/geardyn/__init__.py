@@ -154,7 +154,9 @@ class Orbit:
     report: str
     speed: float  # input speed, rad/s
     speed_rpm: float
-    # Per mesh: prefix, mesh_frequency (Hz), peak_force (N), force_rms (N), dynamic_factor.
+    # Per mesh: prefix, mesh_frequency (Hz) and the per-mesh columns of sweep and hb
+    # (dte_mean, dte_rms, dte_peak_to_peak, a1-a3, contact_loss_fraction, separation_phase,
+    # peak_force, force_rms, dynamic_factor).
     meshes: List[Dict[str, Union[str, float]]]
 
 

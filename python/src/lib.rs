@@ -730,7 +730,7 @@ fn periodic<'py>(
     let (orbit, report, meshes) = py
         .detach(move || {
             let o = commands::steady::periodic(&s, periods, warmup)?;
-            let meshes = commands::steady::periodic_forces(&s, &o)?;
+            let meshes = commands::steady::periodic_responses(&s, &o)?;
             commands::steady::periodic_report(&s, &o).map(|r| (o, r, meshes))
         })
         .map_err(err)?;
@@ -742,9 +742,11 @@ fn periodic<'py>(
         let e = PyDict::new(py);
         e.set_item("prefix", &m.prefix)?;
         e.set_item("mesh_frequency", m.mesh_frequency)?;
-        e.set_item("peak_force", m.force.peak_force)?;
-        e.set_item("force_rms", m.force.force_rms)?;
-        e.set_item("dynamic_factor", m.force.dynamic_factor)?;
+        // The per-mesh columns of `sweep` and `hb` (`MESH_COLUMNS`), by their bare names.
+        let names = geardyn::analysis::mesh_response::mesh_columns(&[String::new()]);
+        for (name, value) in names.iter().zip(m.values()) {
+            e.set_item(name, value)?;
+        }
         per_mesh.append(e)?;
     }
     d.set_item("meshes", per_mesh)?;

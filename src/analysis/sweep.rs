@@ -13,9 +13,7 @@
 //! averaged. Then an integer number of response periods is recorded (no spectral leakage) for
 //! the statistics of every mesh.
 
-use std::f64::consts::TAU;
-
-use super::mesh_force::ForceStatistics;
+pub use super::mesh_response::{mesh_columns, MeshResponse, MESH_COLUMNS};
 use super::shooting::{newton, state_scale, PeriodMap, ShootingOptions};
 use crate::model::{response_period, Drivetrain, SceneSource};
 use crate::scene::SolverSettings;
@@ -62,8 +60,6 @@ pub struct SweepOptions {
     /// Response periods recorded for the statistics (rounded up to a multiple of the period
     /// found).
     pub record_periods: u32,
-    /// Samples per mesh period of the first mesh in the recording.
-    pub samples_per_period: u32,
     /// Keep each mesh's DTE at the start of every mesh period of the recording (Poincaré
     /// section of the first mesh).
     pub poincare: bool,
@@ -83,7 +79,6 @@ impl SweepOptions {
             tolerance: 1e-7,
             max_subharmonic: 4,
             record_periods: 8,
-            samples_per_period: 64,
             poincare: false,
             shooting: true,
         }
@@ -108,11 +103,8 @@ impl SweepOptions {
         if !(self.tolerance > 0.0) {
             return Err(format!("sweep tolerance = {}: must be > 0", self.tolerance));
         }
-        if self.max_subharmonic == 0 || self.record_periods == 0 || self.samples_per_period < 8 {
-            return Err(
-                "sweep: max_subharmonic and record_periods must be ≥ 1, samples_per_period ≥ 8"
-                    .into(),
-            );
+        if self.max_subharmonic == 0 || self.record_periods == 0 {
+            return Err("sweep: max_subharmonic and record_periods must be ≥ 1".into());
         }
         if self.max_transient_periods < self.min_transient_periods {
             return Err(format!(
@@ -135,36 +127,6 @@ pub enum Periodicity {
     /// chaotic (or periodic beyond `max_subharmonic`). The statistics are of the recorded
     /// stretch, marked, not an average over a period.
     Aperiodic,
-}
-
-/// The steady-state response of one mesh at one sweep point.
-#[derive(Debug, Clone, PartialEq)]
-pub struct MeshResponse {
-    /// Column prefix ([`Drivetrain::mesh_prefix`]).
-    pub prefix: String,
-    /// Mesh frequency, Hz.
-    pub mesh_frequency: f64,
-    pub dte_mean: f64,
-    /// RMS of the DTE with the mean removed, m.
-    pub dte_rms: f64,
-    pub dte_peak_to_peak: f64,
-    /// Amplitudes of the first three harmonics of this mesh's frequency in its DTE, m.
-    pub harmonics: [f64; 3],
-    /// Fraction of the recorded samples with total contact loss (no tooth pair in contact;
-    /// for the single pair: not in drive-side or back-side contact).
-    pub contact_loss_fraction: f64,
-    /// Mesh phase (cycles, `[0, 1)`) at which contact is first lost in the recording: the
-    /// separation angle over `2π`; NaN without contact loss.
-    pub separation_phase: f64,
-    /// Largest |mesh force|, N.
-    pub peak_force: f64,
-    /// RMS of the mesh force with its mean removed, N.
-    pub force_rms: f64,
-    /// Peak mesh force over the static mesh force.
-    pub dynamic_factor: f64,
-    /// The DTE at the start of every mesh period of the first mesh in the recording (only when
-    /// [`SweepOptions::poincare`] is set).
-    pub poincare: Vec<f64>,
 }
 
 /// One point of a sweep.
@@ -217,34 +179,10 @@ pub const POINT_COLUMNS: [&str; 10] = [
     "spectral_radius",
 ];
 
-/// Per-mesh columns of a sweep (after the mesh's prefix).
-pub const MESH_COLUMNS: [&str; 12] = [
-    "dte_mean",
-    "dte_rms",
-    "dte_peak_to_peak",
-    "a1",
-    "a2",
-    "a3",
-    "contact_loss_fraction",
-    "separation_phase",
-    "peak_force",
-    "force_rms",
-    "dynamic_factor",
-    "mesh_frequency",
-];
-
 /// The column names of a sweep of a model with the given mesh prefixes.
 pub fn sweep_columns(prefixes: &[String]) -> Vec<String> {
     let mut names: Vec<String> = POINT_COLUMNS.iter().map(|s| s.to_string()).collect();
-    for p in prefixes {
-        for c in MESH_COLUMNS {
-            // The first mesh's frequency is already a point column.
-            if c == "mesh_frequency" && p.is_empty() {
-                continue;
-            }
-            names.push(format!("{p}{c}"));
-        }
-    }
+    names.extend(mesh_columns(prefixes));
     names
 }
 
@@ -268,22 +206,7 @@ impl SweepPoint {
             self.spectral_radius,
         ];
         for m in &self.meshes {
-            row.extend([
-                m.dte_mean,
-                m.dte_rms,
-                m.dte_peak_to_peak,
-                m.harmonics[0],
-                m.harmonics[1],
-                m.harmonics[2],
-                m.contact_loss_fraction,
-                m.separation_phase,
-                m.peak_force,
-                m.force_rms,
-                m.dynamic_factor,
-            ]);
-            if !m.prefix.is_empty() {
-                row.push(m.mesh_frequency);
-            }
+            row.extend(m.values());
         }
         row
     }
@@ -395,20 +318,7 @@ fn failed_point<M: Drivetrain>(
     failure: String,
 ) -> SweepPoint {
     let meshes = (0..model.mesh_count())
-        .map(|m| MeshResponse {
-            prefix: model.mesh_prefix(m),
-            mesh_frequency: model.mesh_frequency(m),
-            dte_mean: f64::NAN,
-            dte_rms: f64::NAN,
-            dte_peak_to_peak: f64::NAN,
-            harmonics: [f64::NAN; 3],
-            contact_loss_fraction: f64::NAN,
-            separation_phase: f64::NAN,
-            peak_force: f64::NAN,
-            force_rms: f64::NAN,
-            dynamic_factor: f64::NAN,
-            poincare: Vec::new(),
-        })
+        .map(|m| MeshResponse::failed(model.mesh_prefix(m), model.mesh_frequency(m)))
         .collect();
     SweepPoint {
         direction,
@@ -539,6 +449,14 @@ fn steady_state<M: Drivetrain>(
             (None, _) => candidate = None,
         }
     }
+    // A period found by the transient test repeats to the periodicity tolerance only: Newton
+    // from there (its last step polishes the orbit far below the tolerance, `newton`) puts
+    // the run on the orbit (when it is stable and the run's).
+    if let (Some(k), true, 0) = (found, options.shooting, newton_iterations) {
+        if k <= 2 {
+            shoot_here(sim, settings, options, period, k, &mut spectral_radius);
+        }
+    }
     let periodicity = match found {
         Some(k) => Periodicity::Periodic(k),
         None if stalled => Periodicity::Aperiodic,
@@ -553,85 +471,14 @@ fn steady_state<M: Drivetrain>(
         options.record_periods
     };
     let model = sim.model();
-    let meshes = model.mesh_count();
     let f1 = model.mesh_frequency(0);
     // Mesh periods of the first mesh per response period (an integer by construction).
     let per_response = (period * f1).round().max(1.0) as usize;
-    let per = options.samples_per_period as usize;
-    let n = record as usize * per_response * per;
-    let dt = period / (per_response * per) as f64;
-    let frequencies: Vec<f64> = (0..meshes).map(|m| model.mesh_frequency(m)).collect();
-    let static_forces = model.static_mesh_forces();
-    let t_start = sim.t();
-    let recording_phase = model.mesh_phase(0, t_start).rem_euclid(per_response as f64);
+    let recording_phase = model.mesh_phase(0, sim.t()).rem_euclid(per_response as f64);
     let recording_state = sim.y().to_vec();
-    let mut dte = vec![Vec::with_capacity(n); meshes];
-    let mut force = vec![Vec::with_capacity(n); meshes];
-    let mut lost = vec![0usize; meshes];
-    let mut separation = vec![f64::NAN; meshes];
-    let mut was_lost: Vec<bool> = (0..meshes)
-        .map(|m| sim.model().mesh_sample(m, sim.t(), sim.y()).lost)
-        .collect();
-    let mut poincare = vec![Vec::new(); meshes];
-    for i in 1..=n {
-        sim.advance_to(t_start + i as f64 * dt)
-            .map_err(|e| at(e.to_string()))?;
-        let (t, y) = (sim.t(), sim.y());
-        for m in 0..meshes {
-            let s = sim.model().mesh_sample(m, t, y);
-            dte[m].push(s.dte);
-            force[m].push(s.force);
-            if s.lost {
-                lost[m] += 1;
-                if !was_lost[m] && separation[m].is_nan() {
-                    separation[m] = s.phase;
-                }
-            }
-            was_lost[m] = s.lost;
-            if options.poincare && i % per == 0 {
-                poincare[m].push(s.dte);
-            }
-        }
-    }
-    let mesh_responses = (0..meshes)
-        .map(|m| {
-            let x = &dte[m];
-            let mean = x.iter().sum::<f64>() / n as f64;
-            let rms = (x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n as f64).sqrt();
-            let (lo, hi) = x
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
-                    (lo.min(v), hi.max(v))
-                });
-            // This mesh's harmonics: its cycles per sample are f_m·dt.
-            let cycles_per_sample = frequencies[m] * dt;
-            let mut harmonics = [0.0; 3];
-            for (h, a) in harmonics.iter_mut().enumerate() {
-                let (mut re, mut im) = (0.0, 0.0);
-                for (i, v) in x.iter().enumerate() {
-                    let angle = TAU * (h + 1) as f64 * cycles_per_sample * (i + 1) as f64;
-                    re += v * angle.cos();
-                    im -= v * angle.sin();
-                }
-                *a = 2.0 * (re * re + im * im).sqrt() / n as f64;
-            }
-            let f = ForceStatistics::of(&force[m], static_forces[m]);
-            MeshResponse {
-                prefix: sim.model().mesh_prefix(m),
-                mesh_frequency: frequencies[m],
-                dte_mean: mean,
-                dte_rms: rms,
-                dte_peak_to_peak: hi - lo,
-                harmonics,
-                contact_loss_fraction: lost[m] as f64 / n as f64,
-                separation_phase: separation[m],
-                peak_force: f.peak_force,
-                force_rms: f.force_rms,
-                dynamic_factor: f.dynamic_factor,
-                poincare: std::mem::take(&mut poincare[m]),
-            }
-        })
-        .collect();
+    let mesh_responses =
+        super::orbit_statistics::record(sim, settings, record as f64 * period, options.poincare)
+            .map_err(at)?;
     Ok(SweepPoint {
         direction,
         speed,

@@ -36,33 +36,18 @@ pub struct HbBranch {
 /// Columns before the per-mesh columns.
 pub const HB_POINT_COLUMNS: [&str; 3] = ["speed", "speed_rpm", "mesh_frequency"];
 
-/// Per-mesh columns (after the mesh's prefix); a prefixed mesh also gets its
-/// `mesh_frequency`.
-pub const HB_MESH_COLUMNS: [&str; 8] = [
-    "dte_mean",
-    "dte_rms",
-    "a1",
-    "a2",
-    "peak_force",
-    "force_rms",
-    "dynamic_factor",
-    "contact_loss_fraction",
-];
+/// Per-mesh columns (after the mesh's prefix): the same as `sweep`'s.
+pub use crate::analysis::mesh_response::MESH_COLUMNS as HB_MESH_COLUMNS;
 
 /// Columns after the per-mesh columns.
 pub const HB_STABILITY_COLUMNS: [&str; 3] = ["spectral_radius", "stable", "fold"];
 
 /// The column names of the `geardyn hb` CSV of a model with the given mesh prefixes: the
-/// single pair keeps `speed, speed_rpm, mesh_frequency, dte_mean, dte_rms, a1, a2, …, spectral_radius,
+/// single pair keeps `speed, speed_rpm, mesh_frequency, dte_mean, dte_rms, dte_peak_to_peak, a1, …, spectral_radius,
 /// stable, fold`; a drivetrain prefixes each mesh's columns with `<mesh name>.`.
 pub fn hb_columns(prefixes: &[String]) -> Vec<String> {
     let mut names: Vec<String> = HB_POINT_COLUMNS.iter().map(|s| s.to_string()).collect();
-    for p in prefixes {
-        names.extend(HB_MESH_COLUMNS.iter().map(|c| format!("{p}{c}")));
-        if !p.is_empty() {
-            names.push(format!("{p}mesh_frequency"));
-        }
-    }
+    names.extend(crate::analysis::mesh_response::mesh_columns(prefixes));
     names.extend(HB_STABILITY_COLUMNS.iter().map(|s| s.to_string()));
     names
 }
@@ -140,19 +125,7 @@ impl HbBranch {
             .map(|p| {
                 let mut row = vec![p.speed, rpm(p.speed), p.solution.mesh_frequency];
                 for m in &p.solution.meshes {
-                    row.extend([
-                        m.dte_mean,
-                        m.dte_rms,
-                        m.harmonics[0],
-                        m.harmonics[1],
-                        m.peak_force,
-                        m.force_rms,
-                        m.dynamic_factor,
-                        m.contact_loss_fraction,
-                    ]);
-                    if !m.prefix.is_empty() {
-                        row.push(m.mesh_frequency);
-                    }
+                    row.extend(m.values());
                 }
                 row.extend([
                     p.spectral_radius().unwrap_or(f64::NAN),

@@ -5,7 +5,8 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::analysis::mesh_force::{orbit_mesh_forces, OrbitMesh};
+use crate::analysis::mesh_response::MeshResponse;
+use crate::analysis::orbit_statistics::orbit_responses;
 use crate::analysis::sweep::{Periodicity, Sweep, SweepPoint};
 use crate::analysis::{
     self, multiplier_line, shoot, Direction, PeriodicOrbit, ShootingOptions, SweepOptions,
@@ -54,13 +55,12 @@ pub fn check_shooting_work(scene: &Scene, options: &ShootingOptions) -> Result<(
         })
 }
 
-/// Samples per mesh period of the first mesh for the force statistics of `periodic` (as many
-/// as a sweep records, `SweepOptions::samples_per_period`).
-pub const PERIODIC_SAMPLES: u32 = 64;
-
-/// Each mesh's dynamic force on the orbit (peak, RMS about the mean, dynamic factor).
-pub fn periodic_forces(scene: &Scene, orbit: &PeriodicOrbit) -> Result<Vec<OrbitMesh>, String> {
-    orbit_mesh_forces(scene, orbit, PERIODIC_SAMPLES)
+/// Each mesh's response on the orbit (the statistics of a `sweep` point).
+pub fn periodic_responses(
+    scene: &Scene,
+    orbit: &PeriodicOrbit,
+) -> Result<Vec<MeshResponse>, String> {
+    orbit_responses(scene, orbit)
 }
 
 /// The text `geardyn periodic` prints for an orbit of `scene`: the Newton residuals, the
@@ -111,14 +111,8 @@ pub fn periodic_report(scene: &Scene, orbit: &PeriodicOrbit) -> Result<String, S
         }
     });
     // The names of the `sweep` and `hb` columns, so the three outputs read alike.
-    for m in periodic_forces(scene, orbit)? {
-        let p = &m.prefix;
-        let _ = writeln!(
-            s,
-            "  {p}mesh_frequency = {:e} Hz, {p}peak_force = {:e} N, {p}force_rms = {:e} N, \
-             {p}dynamic_factor = {:e}",
-            m.mesh_frequency, m.force.peak_force, m.force.force_rms, m.force.dynamic_factor
-        );
+    for m in periodic_responses(scene, orbit)? {
+        let _ = writeln!(s, "  {}", m.report_line());
     }
     for m in &orbit.multipliers {
         let _ = writeln!(s, "{}", multiplier_line(m));

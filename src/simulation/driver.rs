@@ -449,6 +449,20 @@ impl<M: DrivenModel> Driver<M> {
         }
     }
 
+    /// Restarts at `(t, y)` with the model's run state `run`, captured from a driver of the
+    /// same model with the same inputs, keeping the propagator's per-mode operators: the
+    /// probes of a recording (`analysis::orbit_statistics`) go back to a cell's start many
+    /// times. Not bit-identical to the run the state came from (a capture is,
+    /// [`Driver::resume`]); on failure nothing changes.
+    pub fn restart(&mut self, t: f64, y: &[f64], run: &M::RunState) -> Result<(), String> {
+        self.model.restore_run_state(run)?;
+        match &mut self.propagator {
+            Propagator::Rk(p) => p.set_state(t, y),
+            Propagator::Exact(p) => p.set_state(t, y),
+        }
+        Ok(())
+    }
+
     /// The RK controller memory, `None` for the exact propagator, whose steps depend on
     /// `(t, y)` and the mode only (and, in the last bits of event times, on the recurring
     /// segments it learned, which a capture drops: [`Driver::forget_recurrences`]).

@@ -178,6 +178,89 @@ pub fn newton_bracket<F: FnMut(f64) -> (f64, f64)>(
     (same, other)
 }
 
+/// The largest value of a function on `[a, b]` by Brent's minimisation of `−f` (golden-section
+/// steps guarding parabolic interpolation; Brent 1973, ch. 5, procedure `localmin`), located to
+/// `tol` in the abscissa: `(x, f(x))`. For a function with one maximum in the bracket (the
+/// callers bracket it between the samples beside the best one), or one that rises to an end
+/// (a one-sided limit at a switching instant), the result is that maximum or that end to
+/// `tol`; the value is then exact to `O(tol²·f'')` at an interior maximum.
+pub fn brent_maximum<F: FnMut(f64) -> f64>(mut f: F, a: f64, b: f64, tol: f64) -> (f64, f64) {
+    const GOLD: f64 = 0.381_966_011_250_105_1;
+    let (mut lo, mut hi) = (a.min(b), a.max(b));
+    let mut x = lo + GOLD * (hi - lo);
+    let (mut w, mut v) = (x, x);
+    let mut fx = -f(x);
+    let (mut fw, mut fv) = (fx, fx);
+    let (mut d, mut e) = (0.0f64, 0.0f64);
+    for _ in 0..200 {
+        let m = 0.5 * (lo + hi);
+        let tol1 = f64::EPSILON.sqrt() * 1e-3 * x.abs() + tol / 3.0;
+        let tol2 = 2.0 * tol1;
+        if (x - m).abs() <= tol2 - 0.5 * (hi - lo) {
+            break;
+        }
+        let mut golden = true;
+        if e.abs() > tol1 {
+            let r = (x - w) * (fx - fv);
+            let mut q = (x - v) * (fx - fw);
+            let mut p = (x - v) * q - (x - w) * r;
+            q = 2.0 * (q - r);
+            if q > 0.0 {
+                p = -p;
+            }
+            q = q.abs();
+            let etemp = e;
+            e = d;
+            if p.abs() < (0.5 * q * etemp).abs() && p > q * (lo - x) && p < q * (hi - x) {
+                d = p / q;
+                let u = x + d;
+                if u - lo < tol2 || hi - u < tol2 {
+                    d = if m >= x { tol1 } else { -tol1 };
+                }
+                golden = false;
+            }
+        }
+        if golden {
+            e = if x >= m { lo - x } else { hi - x };
+            d = GOLD * e;
+        }
+        let u = if d.abs() >= tol1 {
+            x + d
+        } else {
+            x + tol1.copysign(d)
+        };
+        let fu = -f(u);
+        if fu <= fx {
+            if u >= x {
+                lo = x;
+            } else {
+                hi = x;
+            }
+            (v, fv, w, fw, x, fx) = (w, fw, x, fx, u, fu);
+        } else {
+            if u < x {
+                lo = u;
+            } else {
+                hi = u;
+            }
+            if fu <= fw || w == x {
+                (v, fv, w, fw) = (w, fw, u, fu);
+            } else if fu <= fv || v == x || v == w {
+                (v, fv) = (u, fu);
+            }
+        }
+    }
+    // A maximum at an end of the bracket (a one-sided limit) is the end itself.
+    let (fa, fb) = (f(a.min(b)), f(a.max(b)));
+    let mut best = (x, -fx);
+    for (xe, fe) in [(a.min(b), fa), (a.max(b), fb)] {
+        if fe > best.1 {
+            best = (xe, fe);
+        }
+    }
+    best
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -241,5 +324,19 @@ mod tests {
             1e-12,
         );
         assert!(lo <= 0.0 && hi >= 0.0 && hi - lo <= 1e-12, "{lo} {hi}");
+    }
+
+    #[test]
+    fn brent_maximum_finds_an_interior_maximum_and_an_end() {
+        // cos has its maximum 1 at 0; on [−0.3, 0.5] Brent locates it.
+        let (x, v) = super::brent_maximum(f64::cos, -0.3, 0.5, 1e-12);
+        assert!(x.abs() < 1e-9 && (v - 1.0).abs() < 1e-16, "{x} {v}");
+        // A function rising to the right end: the end.
+        let (x, v) = super::brent_maximum(|t| t * t, 0.1, 0.7, 1e-12);
+        assert_eq!((x, v), (0.7, 0.49));
+        // The maximum of sin(5t) + 0.3 t on [0, 0.6] is at 5 cos(5t) = −0.3.
+        let (x, _) = super::brent_maximum(|t| (5.0 * t).sin() + 0.3 * t, 0.0, 0.6, 1e-13);
+        let exact = (-0.3f64 / 5.0).acos() / 5.0;
+        assert!((x - exact).abs() < 1e-10, "{x} {exact}");
     }
 }

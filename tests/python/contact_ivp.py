@@ -10,9 +10,11 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 
-def integrate(times, y, breaks, rhs_for, contacts, max_step=np.inf):
+def integrate(times, y, breaks, rhs_for, contacts, max_step=np.inf, segments=None):
     """The first `contacts` state components at `times` (from `y` at `times[0] = 0`), and
-    whether each contact was ever lost. `rhs_for(t_mid, contact)` returns the right-hand side
+    whether each contact was ever lost. With a list `segments`, every smooth piece is appended
+    to it as `(t_start, t_end, dense solution, contact flags)` (for statistics from the
+    continuous solution, `test_statistics_reference.py`). `rhs_for(t_mid, contact)` returns the right-hand side
     of the segment around `t_mid` with the contact flags `contact` (a list, updated here).
     `max_step` bounds scipy's step: it only sees a sign change at a step's end, so a short dip
     of a deflection below zero must not fit inside one step."""
@@ -40,6 +42,8 @@ def integrate(times, y, breaks, rhs_for, contacts, max_step=np.inf):
             while k_out < len(times) and times[k_out] <= t_stop:
                 out[k_out] = sol.sol(times[k_out])[:contacts]
                 k_out += 1
+            if segments is not None:
+                segments.append((t, t_stop, sol.sol, list(contact)))
             if hit:
                 j = min(hit, key=lambda i: sol.t_events[i][0])
                 y = sol.y_events[j][0].copy()

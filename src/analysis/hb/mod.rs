@@ -57,11 +57,13 @@
 mod continuation;
 mod evaluate;
 mod problem;
+mod statistics;
 
 pub use continuation::{continuation, BranchPoint, ContinuationOptions};
 
 use std::f64::consts::TAU;
 
+use crate::analysis::mesh_response::MeshResponse;
 use crate::model::SceneSource;
 use crate::with_drivetrain;
 use problem::Problem;
@@ -126,31 +128,6 @@ impl HbOptions {
     }
 }
 
-/// The steady-state response of one mesh on a harmonic-balance orbit.
-#[derive(Debug, Clone, PartialEq)]
-pub struct HbMesh {
-    /// Column prefix ([`crate::model::Drivetrain::mesh_prefix`]).
-    pub prefix: String,
-    /// Mesh frequency, Hz.
-    pub mesh_frequency: f64,
-    /// Mean DTE, m (from the coefficients through the DTE row).
-    pub dte_mean: f64,
-    /// RMS of the DTE with the mean removed, m (Parseval).
-    pub dte_rms: f64,
-    /// Amplitudes of the first and second harmonics of this mesh's frequency in its DTE, m
-    /// (0 when the order is not retained).
-    pub harmonics: [f64; 2],
-    /// Largest |mesh force| at the quadrature nodes, N.
-    pub peak_force: f64,
-    /// RMS of the mesh force with its mean removed (quadrature), N.
-    pub force_rms: f64,
-    /// Peak force over the static mesh force ([`crate::model::Drivetrain::static_mesh_forces`]).
-    pub dynamic_factor: f64,
-    /// Fraction of the HB period with no tooth pair in contact (quadrature of the node
-    /// samples, the cells split at the switching instants).
-    pub contact_loss_fraction: f64,
-}
-
 /// A harmonic-balance orbit.
 #[derive(Debug, Clone)]
 pub struct HbSolution {
@@ -167,7 +144,7 @@ pub struct HbSolution {
     pub coefficients: Vec<f64>,
     pub iterations: usize,
     /// Results per mesh.
-    pub meshes: Vec<HbMesh>,
+    pub meshes: Vec<MeshResponse>,
     /// DTE row of each mesh over the coordinates ([`crate::model::Drivetrain::mesh_dte_row`]).
     pub dte_rows: Vec<Vec<f64>>,
 }

@@ -7,7 +7,7 @@ use std::f64::consts::TAU;
 
 use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
-use super::{HbMesh, HbOptions, HbSolution};
+use super::{HbOptions, HbSolution};
 use crate::model::drivetrain::{response_frequencies, response_period_in_mesh_periods};
 use crate::model::{Drivetrain, MeshLaw};
 use crate::scene::SolverSettings;
@@ -731,51 +731,30 @@ impl<M: Drivetrain> Problem<M> {
                 }
             }
         }
-        let meshes = self
-            .meshes
-            .iter()
-            .enumerate()
-            .map(|(n, mesh)| {
+        // The mesh-deflection coefficients S_n = a_n·ξ of the orbit.
+        let mut s = DVector::zeros(self.meshes.len() * len);
+        for n in 0..self.meshes.len() {
+            for i in 0..m {
+                let a = self.a[(i, n)];
+                if a != 0.0 {
+                    for r in 0..len {
+                        s[n * len + r] += a * coefficients[i * len + r];
+                    }
+                }
+            }
+        }
+        let meshes = (0..self.meshes.len())
+            .map(|n| {
                 let mut dte = vec![0.0; len];
                 for i in 0..m {
-                    let d = mesh.dte[i];
+                    let d = self.meshes[n].dte[i];
                     if d != 0.0 {
                         for r in 0..len {
                             dte[r] += d * coefficients[i * len + r];
                         }
                     }
                 }
-                let harmonic = |h: usize| {
-                    let j = h * mesh.cycles as usize;
-                    self.orders
-                        .iter()
-                        .position(|&o| o == j)
-                        .filter(|&q| q > 0)
-                        .map_or(0.0, |q| dte[2 * q - 1].hypot(dte[2 * q]))
-                };
-                let nm = self.meshes.len();
-                let force = |i: usize| e.sample_force[i * nm + n];
-                let w = &e.sample_w;
-                let total = w.iter().fold(0.0, |a, b| a + b);
-                let mean = (0..w.len()).fold(0.0, |a, i| a + w[i] * force(i)) / total;
-                let var =
-                    (0..w.len()).fold(0.0, |a, i| a + w[i] * (force(i) - mean).powi(2)) / total;
-                let peak = (0..w.len()).fold(0.0, |a: f64, i| a.max(force(i).abs()));
-                let lost = (0..w.len())
-                    .filter(|&i| e.sample_lost[i * nm + n])
-                    .fold(0.0, |a, i| a + w[i])
-                    / total;
-                HbMesh {
-                    prefix: mesh.prefix.clone(),
-                    mesh_frequency: mesh.cycles * f,
-                    dte_mean: dte[0],
-                    dte_rms: (dte[1..].iter().map(|c| c * c).sum::<f64>() / 2.0).sqrt(),
-                    harmonics: [harmonic(1), harmonic(2)],
-                    peak_force: peak,
-                    force_rms: var.sqrt(),
-                    dynamic_factor: peak / mesh.static_force,
-                    contact_loss_fraction: lost,
-                }
+                self.mesh_response(n, f, &s, &dte, e)
             })
             .collect();
         HbSolution {

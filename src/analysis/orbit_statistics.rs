@@ -1,0 +1,583 @@
+//! Each mesh's response over a recorded stretch of a run ([`MeshResponse`]), from the
+//! continuous solution rather than from a sample grid (issue 31): the statistics `sweep` and
+//! `periodic` report.
+//!
+//! The stretch is cut into cells at every known switching instant (each mesh's stiffness and
+//! gap breakpoints, [`Drivetrain::mesh_breakpoints`]) and at a grid short enough for the
+//! fastest mode (`h·ω_max ≤ 3`, at least four cells per period of the first mesh). The run
+//! counts its state events; a cell in which any occurred is searched for them with a probe run
+//! restarted at the cell's start ([`Driver::restart`]): the k-th event is bracketed by the
+//! event count, then located by Brent's method on the guard that crossed
+//! ([`crate::solve::roots::brent_bracket`]), to about 1e-13 of the cell. Between switching
+//! instants the solution is smooth (analytic on an exact segment), so:
+//!
+//! - **contact loss**: the fraction of the stretch, and the separation phase, come from the
+//!   located event times (the mode, hence the contact state, is constant between them);
+//! - **mean, RMS, harmonics** of DTE and force: a 10-point Gauss–Legendre rule on each smooth
+//!   piece; with `h·ω_max ≤ 3` its error on `e^{iωt}` and its square is below 1e-14 of the
+//!   integrand's size (`(n!)⁴/((2n+1)((2n)!)³)·(2hω)^{2n}`, n = 10);
+//! - **extremes** (peak |force|, DTE peak to peak): the largest sample of each smooth piece
+//!   (the nodes, and its one-sided limits 1e-11 of a cell inside a switching instant, where the
+//!   force jumps), refined between its neighbours by Brent's maximisation
+//!   ([`crate::solve::roots::brent_maximum`]) for every piece whose sample comes within 2 % of
+//!   the quantity's spread of the best.
+//!
+//! On the exact propagator the values are those of the exact solution to the root and rule
+//! tolerances above (about 1e-12 relative). On the RK propagator they are those of the RK
+//! solution, which stops at the nodes: its error is the integration tolerance
+//! (`solver.rtol`, `solver.atol`), not a sampling error (`docs/sweep.md`).
+
+use std::f64::consts::TAU;
+
+use super::mesh_response::MeshResponse;
+use crate::model::Drivetrain;
+use crate::scene::SolverSettings;
+use crate::simulation::Driver;
+use crate::solve::roots::{brent_bracket, brent_maximum};
+
+/// 10-point Gauss–Legendre rule on [−1, 1] (Abramowitz & Stegun, Table 25.4).
+const GAUSS10: [(f64, f64); 10] = [
+    (-0.973_906_528_517_171_7, 0.066_671_344_308_688_1),
+    (-0.865_063_366_688_984_5, 0.149_451_349_150_580_6),
+    (-0.679_409_568_299_024_4, 0.219_086_362_515_982_0),
+    (-0.433_395_394_129_247_2, 0.269_266_719_309_996_4),
+    (-0.148_874_338_981_631_2, 0.295_524_224_714_752_9),
+    (0.148_874_338_981_631_2, 0.295_524_224_714_752_9),
+    (0.433_395_394_129_247_2, 0.269_266_719_309_996_4),
+    (0.679_409_568_299_024_4, 0.219_086_362_515_982_0),
+    (0.865_063_366_688_984_5, 0.149_451_349_150_580_6),
+    (0.973_906_528_517_171_7, 0.066_671_344_308_688_1),
+];
+
+/// Largest `h·ω_max` of a cell (see the module documentation).
+const CELL_OMEGA: f64 = 3.0;
+
+/// Fewest cells per period of the first mesh.
+const MIN_CELLS: usize = 4;
+
+/// One-sided limits are taken this fraction of a cell inside a switching instant.
+const ONE_SIDED: f64 = 1e-11;
+
+/// Boundaries closer than this fraction of a cell are merged.
+const MERGE: f64 = 1e-9;
+
+/// Event times are located to this fraction of their cell.
+const EVENT_TOL: f64 = 1e-13;
+
+/// Extremes are located to this fraction of their bracket.
+const PEAK_TOL: f64 = 1e-9;
+
+/// A sampled maximum within this fraction of the quantity's spread of the best is refined.
+const REFINE_MARGIN: f64 = 0.02;
+
+/// The run's state at the start of a cell.
+struct Start<R> {
+    t: f64,
+    y: Vec<f64>,
+    run: R,
+}
+
+/// One mesh's values at one instant.
+#[derive(Clone, Copy)]
+struct Value {
+    dte: f64,
+    force: f64,
+    lost: bool,
+}
+
+fn values<M: Drivetrain>(sim: &Driver<M>, meshes: usize) -> Vec<Value> {
+    let (t, y) = (sim.t(), sim.y());
+    (0..meshes)
+        .map(|m| {
+            let s = sim.model().mesh_sample(m, t, y);
+            Value {
+                dte: s.dte,
+                force: s.force,
+                lost: s.lost,
+            }
+        })
+        .collect()
+}
+
+/// A candidate extreme: its sampled value, the bracket around it and its cell.
+#[derive(Clone, Copy)]
+struct Candidate {
+    value: f64,
+    lo: f64,
+    hi: f64,
+    cell: usize,
+}
+
+/// The three extremes kept per mesh: |force|, DTE, −DTE.
+const EXTREMES: usize = 3;
+
+fn quantity(v: &Value, which: usize) -> f64 {
+    match which {
+        0 => v.force.abs(),
+        1 => v.dte,
+        _ => -v.dte,
+    }
+}
+
+/// Running sums of one mesh.
+struct Sums {
+    force_ref: f64,
+    dte_ref: f64,
+    force: f64,
+    force2: f64,
+    dte: f64,
+    dte2: f64,
+    /// `∫ (d − d_ref) e^{−i2πh f_m (t − t0)} dt`, h = 1, 2, 3.
+    harmonics: [(f64, f64); 3],
+    lost_time: f64,
+    separation: f64,
+    lost: bool,
+    candidates: [Vec<Candidate>; EXTREMES],
+    poincare: Vec<f64>,
+}
+
+/// A smooth piece `[lo, hi]` of a cell: its samples (time, values), of which the Gauss nodes
+/// are `nodes`.
+struct Piece<'a> {
+    lo: f64,
+    hi: f64,
+    samples: &'a [(f64, Vec<Value>)],
+    nodes: std::ops::Range<usize>,
+}
+
+/// The sample times of a smooth piece `[lo, hi]`: a one-sided limit inside each end where the
+/// solution switches (`jump_lo`, `jump_hi`), and the Gauss nodes between; returns the times
+/// and the range of the nodes among them.
+fn piece_times(
+    lo: f64,
+    hi: f64,
+    jump_lo: bool,
+    jump_hi: bool,
+    inset: f64,
+) -> (Vec<f64>, std::ops::Range<usize>) {
+    // A piece too short for an inset has no one-sided samples (its nodes are as close).
+    let room = hi - lo > 4.0 * inset;
+    let mut times = Vec::with_capacity(GAUSS10.len() + 2);
+    if jump_lo && room {
+        times.push(lo + inset);
+    }
+    let first = times.len();
+    let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+    times.extend(GAUSS10.iter().map(|(x, _)| mid + half * x));
+    let nodes = first..times.len();
+    if jump_hi && room {
+        times.push(hi - inset);
+    }
+    (times, nodes)
+}
+
+/// Each mesh's response over `duration` seconds from the run's current state, which the run
+/// advances to its end. `duration` spans whole periods of the first mesh; with `poincare` the
+/// DTE at the start of every period of the first mesh is kept. `settings` are the run's
+/// solver settings (for the probe run that locates events and refines extremes).
+pub fn record<M: Drivetrain>(
+    sim: &mut Driver<M>,
+    settings: &SolverSettings,
+    duration: f64,
+    poincare: bool,
+) -> Result<Vec<MeshResponse>, String> {
+    let model = sim.model().clone();
+    let meshes = model.mesh_count();
+    let f1 = model.mesh_frequency(0);
+    let cycles = (duration * f1).round().max(1.0) as usize;
+    let t0 = sim.t();
+    let t_end = t0 + duration;
+    let period1 = duration / cycles as f64;
+    let per_cycle = ((period1 * model.max_frequency() / CELL_OMEGA).ceil() as usize).max(MIN_CELLS);
+    // The cell boundaries: the grid, then every mesh's breakpoints (flagged: the solution
+    // switches there).
+    let mut bounds: Vec<(f64, bool, bool)> = (0..=cycles * per_cycle)
+        .map(|i| {
+            let t = t0 + duration * i as f64 / (cycles * per_cycle) as f64;
+            (t, false, i % per_cycle == 0 && i > 0)
+        })
+        .collect();
+    for m in 0..meshes {
+        let fm = model.mesh_frequency(m);
+        let p0 = model.mesh_phase(m, t0);
+        let mesh_cycles = (duration * fm).round() as i64;
+        for b in model.mesh_breakpoints(m) {
+            let first = (p0 - b).ceil() as i64;
+            for k in first..=first + mesh_cycles {
+                let t = t0 + (k as f64 + b - p0) / fm;
+                if t > t0 && t < t_end {
+                    bounds.push((t, true, false));
+                }
+            }
+        }
+    }
+    bounds.sort_by(|a, b| a.0.total_cmp(&b.0));
+    // A breakpoint within `MERGE` of a cell of a grid point is one boundary, at the
+    // breakpoint (the start and the end of the stretch stay where they are).
+    let h = duration / (cycles * per_cycle) as f64;
+    let mut merged: Vec<(f64, bool, bool)> = Vec::with_capacity(bounds.len());
+    for b in bounds {
+        match merged.last_mut() {
+            Some(a) if b.0 - a.0 <= MERGE * h => {
+                let pinned = a.0 == t0 || b.0 == t_end;
+                if b.0 == t_end || (!pinned && b.1 && !a.1) {
+                    a.0 = b.0;
+                }
+                a.1 |= b.1;
+                a.2 |= b.2;
+            }
+            _ => merged.push(b),
+        }
+    }
+    let bounds = merged;
+    let inset = ONE_SIDED * h;
+    let mut probe = Driver::with_model(model.clone(), sim.y(), settings)?;
+    let first = values(sim, meshes);
+    let mut sums: Vec<Sums> = first
+        .iter()
+        .map(|v| Sums {
+            force_ref: v.force,
+            dte_ref: v.dte,
+            force: 0.0,
+            force2: 0.0,
+            dte: 0.0,
+            dte2: 0.0,
+            harmonics: [(0.0, 0.0); 3],
+            lost_time: 0.0,
+            separation: f64::NAN,
+            lost: v.lost,
+            candidates: Default::default(),
+            poincare: Vec::new(),
+        })
+        .collect();
+    let frequencies: Vec<f64> = (0..meshes).map(|m| model.mesh_frequency(m)).collect();
+    let mut starts: Vec<Start<M::RunState>> = Vec::with_capacity(bounds.len());
+    let advance = |sim: &mut Driver<M>, t: f64| sim.advance_to(t).map_err(|e| e.to_string());
+    for c in 0..bounds.len() - 1 {
+        let ((a, jump_a, _), (b, jump_b, cycle_end)) = (bounds[c], bounds[c + 1]);
+        starts.push(Start {
+            t: sim.t(),
+            y: sim.y().to_vec(),
+            run: sim.model().run_state(),
+        });
+        let events_before = sim.stats().events;
+        let (times, nodes) = piece_times(a, b, jump_a, jump_b, inset);
+        let mut samples = Vec::with_capacity(times.len());
+        for &t in &times {
+            advance(sim, t)?;
+            samples.push((t, values(sim, meshes)));
+        }
+        advance(sim, b)?;
+        let events = sim.stats().events - events_before;
+        if events == 0 {
+            let piece = Piece {
+                lo: a,
+                hi: b,
+                samples: &samples,
+                nodes,
+            };
+            add_piece(&mut sums, &piece, c, &frequencies, t0, &model);
+        } else {
+            let found = locate_events(&mut probe, &starts[c], b, events)?;
+            let mut ends = vec![a];
+            ends.extend(found);
+            ends.push(b);
+            // Every piece's samples, in one pass of the probe from the cell's start.
+            let mut all = Vec::new();
+            let mut spans = Vec::new();
+            for i in 0..ends.len() - 1 {
+                let (lo, hi) = (ends[i], ends[i + 1]);
+                let (times, nodes) =
+                    piece_times(lo, hi, jump_a || i > 0, jump_b || i + 2 < ends.len(), inset);
+                let base = all.len();
+                all.extend(times);
+                spans.push((lo, hi, base, nodes.start + base..nodes.end + base));
+            }
+            let start = &starts[c];
+            probe.restart(start.t, &start.y, &start.run)?;
+            let mut samples = Vec::with_capacity(all.len());
+            for &t in &all {
+                advance(&mut probe, t)?;
+                samples.push((t, values(&probe, meshes)));
+            }
+            for (i, (lo, hi, base, nodes)) in spans.iter().enumerate() {
+                let end = spans.get(i + 1).map_or(samples.len(), |s| s.2);
+                let piece = Piece {
+                    lo: *lo,
+                    hi: *hi,
+                    samples: &samples[*base..end],
+                    nodes: nodes.start - base..nodes.end - base,
+                };
+                add_piece(&mut sums, &piece, c, &frequencies, t0, &model);
+            }
+        }
+        if poincare && cycle_end {
+            for (s, v) in sums.iter_mut().zip(values(sim, meshes)) {
+                s.poincare.push(v.dte);
+            }
+        }
+    }
+    let statics = model.static_mesh_forces();
+    let mut out = Vec::with_capacity(meshes);
+    for (m, s) in sums.iter_mut().enumerate() {
+        let mut extremes = [0.0; EXTREMES];
+        for (which, extreme) in extremes.iter_mut().enumerate() {
+            *extreme = refine(&mut probe, &starts, &s.candidates[which], m, which)?;
+        }
+        let force_mean = s.force / duration;
+        let dte_mean = s.dte / duration;
+        let harmonic = |h: usize| {
+            let (re, im) = s.harmonics[h];
+            2.0 * re.hypot(im) / duration
+        };
+        out.push(MeshResponse {
+            prefix: model.mesh_prefix(m),
+            mesh_frequency: frequencies[m],
+            dte_mean: s.dte_ref + dte_mean,
+            dte_rms: (s.dte2 / duration - dte_mean * dte_mean).max(0.0).sqrt(),
+            dte_peak_to_peak: extremes[1] + extremes[2],
+            harmonics: [harmonic(0), harmonic(1), harmonic(2)],
+            contact_loss_fraction: s.lost_time / duration,
+            separation_phase: s.separation,
+            peak_force: extremes[0],
+            force_rms: (s.force2 / duration - force_mean * force_mean)
+                .max(0.0)
+                .sqrt(),
+            dynamic_factor: extremes[0] / statics[m].abs(),
+            poincare: std::mem::take(&mut s.poincare),
+        });
+    }
+    Ok(out)
+}
+
+/// Adds a smooth piece of cell `cell` to every mesh's sums and candidates.
+fn add_piece<M: Drivetrain>(
+    sums: &mut [Sums],
+    piece: &Piece,
+    cell: usize,
+    frequencies: &[f64],
+    t0: f64,
+    model: &M,
+) {
+    let half = 0.5 * (piece.hi - piece.lo);
+    for (m, s) in sums.iter_mut().enumerate() {
+        for (k, (_, weight)) in GAUSS10.iter().enumerate() {
+            let (t, v) = &piece.samples[piece.nodes.start + k];
+            let w = weight * half;
+            let (f, d) = (v[m].force - s.force_ref, v[m].dte - s.dte_ref);
+            s.force += w * f;
+            s.force2 += w * f * f;
+            s.dte += w * d;
+            s.dte2 += w * d * d;
+            for (h, acc) in s.harmonics.iter_mut().enumerate() {
+                let angle = TAU * (h + 1) as f64 * frequencies[m] * (t - t0);
+                let (sn, cs) = angle.sin_cos();
+                acc.0 += w * d * cs;
+                acc.1 -= w * d * sn;
+            }
+        }
+        // The contact state is constant on the piece: read it at its middle node.
+        let lost = piece.samples[piece.nodes.start + GAUSS10.len() / 2].1[m].lost;
+        if lost {
+            s.lost_time += piece.hi - piece.lo;
+            if !s.lost && s.separation.is_nan() {
+                s.separation = model.mesh_phase(m, piece.lo).rem_euclid(1.0);
+            }
+        }
+        s.lost = lost;
+        let n = piece.samples.len();
+        for which in 0..EXTREMES {
+            let (best, at) = (0..n)
+                .map(|i| (quantity(&piece.samples[i].1[m], which), i))
+                .fold((f64::NEG_INFINITY, 0), |a, b| if b.0 > a.0 { b } else { a });
+            // The bracket reaches a piece's end only where the solution is smooth across it;
+            // where it switches, the one-sided sample is the bracket's end.
+            let lo = match at {
+                0 if piece.nodes.start == 0 => piece.lo,
+                0 => piece.samples[0].0,
+                _ => piece.samples[at - 1].0,
+            };
+            let hi = if at + 1 < n {
+                piece.samples[at + 1].0
+            } else if piece.nodes.end == n {
+                piece.hi
+            } else {
+                piece.samples[n - 1].0
+            };
+            s.candidates[which].push(Candidate {
+                value: best,
+                lo,
+                hi,
+                cell,
+            });
+        }
+    }
+}
+
+/// The refined maximum of extreme `which` of mesh `m` over its candidates.
+fn refine<M: Drivetrain>(
+    probe: &mut Driver<M>,
+    starts: &[Start<M::RunState>],
+    candidates: &[Candidate],
+    m: usize,
+    which: usize,
+) -> Result<f64, String> {
+    let best = candidates
+        .iter()
+        .map(|c| c.value)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let worst = candidates.iter().map(|c| c.value).fold(best, f64::min);
+    let margin = REFINE_MARGIN * (best - worst).max(1e-300);
+    let mut result = best;
+    for c in candidates.iter().filter(|c| c.value >= best - margin) {
+        let start = &starts[c.cell];
+        let mut failure = None;
+        let mut g = |t: f64| -> f64 {
+            let run = probe
+                .restart(start.t, &start.y, &start.run)
+                .and_then(|_| probe.advance_to(t).map_err(|e| e.to_string()));
+            match run {
+                Ok(()) => {
+                    let s = probe.model().mesh_sample(m, probe.t(), probe.y());
+                    quantity(
+                        &Value {
+                            dte: s.dte,
+                            force: s.force,
+                            lost: s.lost,
+                        },
+                        which,
+                    )
+                }
+                Err(e) => {
+                    failure = Some(e);
+                    f64::NEG_INFINITY
+                }
+            }
+        };
+        let tol = (PEAK_TOL * (c.hi - c.lo)).max(8.0 * f64::EPSILON * c.hi.abs());
+        let (_, v) = brent_maximum(&mut g, c.lo, c.hi, tol);
+        if let Some(e) = failure {
+            return Err(e);
+        }
+        result = result.max(v);
+    }
+    Ok(result)
+}
+
+/// The times of the `count` state events the run met between `start` and `b`, located with
+/// the probe: each bracketed by the probe's event count, then refined by Brent's method on the
+/// guard that crossed (in the mode before it).
+fn locate_events<M: Drivetrain>(
+    probe: &mut Driver<M>,
+    start: &Start<M::RunState>,
+    b: f64,
+    count: u64,
+) -> Result<Vec<f64>, String> {
+    let a = start.t;
+    // Evaluations restart from `base`, the latest state known before the next event (the
+    // cell's start, then the lower end of the last bracket), and count the events after it.
+    let capture = |probe: &Driver<M>| Start {
+        t: probe.t(),
+        y: probe.y().to_vec(),
+        run: probe.model().run_state(),
+    };
+    let run_to =
+        |probe: &mut Driver<M>, base: &Start<M::RunState>, t: f64| -> Result<u64, String> {
+            probe.restart(base.t, &base.y, &base.run)?;
+            let before = probe.stats().events;
+            probe.advance_to(t).map_err(|e| e.to_string())?;
+            Ok(probe.stats().events - before)
+        };
+    // Not below a few rounding units of the time itself (a sweep's clock runs on).
+    let tol = (EVENT_TOL * (b - a)).max(8.0 * f64::EPSILON * b.abs());
+    let mut times = Vec::with_capacity(count as usize);
+    probe.restart(start.t, &start.y, &start.run)?;
+    let mut base = capture(probe);
+    for _ in 0..count {
+        let mut lo = base.t;
+        let mut hi = b;
+        // Bracket the next event to 1/64 of the cell by the event count.
+        while hi - lo > (b - a) / 64.0 {
+            let mid = 0.5 * (lo + hi);
+            if run_to(probe, &base, mid)? >= 1 {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
+        }
+        // The guards of the mode at `lo`: the one that crossed is negative at `hi`.
+        run_to(probe, &base, lo)?;
+        base = capture(probe);
+        let before = probe.model().clone();
+        let guards = before.guard_count();
+        let mut g_lo = vec![0.0; guards];
+        before.guards(lo, probe.y(), &mut g_lo);
+        let mut g = vec![0.0; guards];
+        run_to(probe, &base, hi)?;
+        before.guards(hi, probe.y(), &mut g);
+        let crossed: Vec<usize> = (0..guards)
+            .filter(|&i| g_lo[i] >= 0.0 && g[i] < 0.0)
+            .collect();
+        let mut event = f64::INFINITY;
+        let mut failure = None;
+        let mut scratch = vec![0.0; guards];
+        for &i in &crossed {
+            let mut guard = |t: f64| -> f64 {
+                match run_to(probe, &base, t) {
+                    Ok(_) => {
+                        before.guards(t, probe.y(), &mut scratch);
+                        scratch[i]
+                    }
+                    Err(e) => {
+                        failure = Some(e);
+                        0.0
+                    }
+                }
+            };
+            let (_, after) = brent_bracket(&mut guard, lo, hi, g_lo[i], g[i], tol);
+            event = event.min(after);
+        }
+        if let Some(e) = failure {
+            return Err(e);
+        }
+        if crossed.is_empty() {
+            // No guard of the mode before it stays crossed (the mode's guards do not
+            // describe the switch): bisect the count to the tolerance instead.
+            while hi - lo > tol {
+                let mid = 0.5 * (lo + hi);
+                if mid <= lo || mid >= hi {
+                    break;
+                }
+                if run_to(probe, &base, mid)? >= 1 {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            event = hi;
+        }
+        times.push(event);
+        // The next search starts after this event.
+        if run_to(probe, &base, event)? == 0 {
+            // The located time fell a rounding before the run's own event time.
+            run_to(probe, &base, event + tol)?;
+        }
+        base = capture(probe);
+    }
+    Ok(times)
+}
+
+/// Each mesh's response along a periodic orbit of `scene` (the scene at the orbit's speed),
+/// from `orbit.y0` at `t = 0` over one orbit period.
+pub fn orbit_responses(
+    scene: &crate::scene::Scene,
+    orbit: &super::shooting::PeriodicOrbit,
+) -> Result<Vec<MeshResponse>, String> {
+    crate::with_drivetrain!(scene.simulation()?, sim => {
+        let mut sim = sim;
+        let period = crate::model::response_period(sim.model())? * f64::from(orbit.periods);
+        sim.set_y(0.0, &orbit.y0);
+        record(&mut sim, &scene.solver, period, false)
+            .map_err(|e| format!("periodic orbit: {e}"))
+    })
+}
