@@ -146,7 +146,7 @@ fn paper_stability_statement_holds() {
     let periods = 150;
     for (rpm_, unstable) in [(18_000.0, false), (19_000.0, true)] {
         let s = scene(0.2, rpm_, 0.0, "base");
-        let floquet = LinearPeriodMap::new(&s).unwrap().floquet();
+        let floquet = LinearPeriodMap::new(&s).unwrap().floquet().unwrap();
         let rho = floquet.spectral_radius();
         let trace = floquet.monodromy.trace();
         let amp = rk_period_amplitudes(&s, periods);
@@ -373,4 +373,36 @@ fn cli_rejects_friction_override_on_other_sources_and_bad_ranges() {
     assert!(err.contains("104.72 rad/s (1000 rpm)"), "{err}");
     let err = run(&["floquet", "--example", "spur_pair"]);
     assert!(err.contains("mesh.contact"), "{err}");
+}
+
+/// The closed form's multipliers (capped Schur iteration, issue 34) are the roots of the
+/// characteristic polynomial of its 2×2 monodromy, `μ² − tr Φ μ + det Φ` (an independent
+/// oracle: the quadratic formula), on both sides of the paper's stability boundary.
+#[test]
+fn closed_form_multipliers_are_the_roots_of_the_characteristic_polynomial() {
+    for rpm_ in [18_000.0, 19_000.0] {
+        let s = scene(0.2, rpm_, 0.0, "base");
+        let floquet = LinearPeriodMap::new(&s).unwrap().floquet().unwrap();
+        let m = &floquet.monodromy;
+        let (tr, det) = (m.trace(), m.determinant());
+        let disc = tr * tr / 4.0 - det;
+        let roots: Vec<(f64, f64)> = if disc >= 0.0 {
+            vec![(tr / 2.0 + disc.sqrt(), 0.0), (tr / 2.0 - disc.sqrt(), 0.0)]
+        } else {
+            vec![(tr / 2.0, (-disc).sqrt()), (tr / 2.0, -(-disc).sqrt())]
+        };
+        assert_eq!(floquet.multipliers.len(), 2);
+        for (re, im) in roots {
+            let nearest = floquet
+                .multipliers
+                .iter()
+                .map(|mu| ((mu.re - re).powi(2) + (mu.im - im).powi(2)).sqrt())
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                nearest < 1e-9 * (1.0 + tr.abs()),
+                "{rpm_} rpm: root {re} {im}i, multipliers {:?}",
+                floquet.multipliers
+            );
+        }
+    }
 }

@@ -184,7 +184,7 @@ fn simulate_stops_at_its_budget_naming_the_cause() {
                 "stiffness = 9.0e15",
             ),
             2e8,
-            "stiffness",
+            "stiffness: the fastest mode",
         ),
     ] {
         if budget != DEFAULT_RUN_BUDGET {
@@ -211,6 +211,22 @@ fn simulate_stops_at_its_budget_naming_the_cause() {
             "{}: {stderr}",
             path.display()
         );
+        if cause.starts_with("stiffness") {
+            // The rate quoted is the port coupling's, sqrt(k / J_pinion) (the mesh and
+            // bearings alone bound it near 1e5 rad/s, far below the step the run takes).
+            let rate: f64 = stderr
+                .split("the fastest mode (")
+                .nth(1)
+                .and_then(|r| r.split(' ').next())
+                .and_then(|r| r.parse().ok())
+                .unwrap_or_else(|| panic!("no rate in: {stderr}"));
+            let expected = (9.0e15f64 / 0.002621).sqrt();
+            assert!(
+                (rate / expected - 1.0).abs() < 1e-3
+                    && stderr.contains("set by the speed ports' coupling stiffness"),
+                "rate {rate:e}, expected {expected:e}: {stderr}"
+            );
+        }
     }
 }
 

@@ -64,7 +64,7 @@ pub fn monodromy(scene: &impl SceneSource) -> Result<Floquet, String> {
             let map = LinearPeriodMap::new(s)?;
             return Ok(Floquet {
                 method: "closed form (Peano–Baker per stiffness piece)".into(),
-                ..map.floquet()
+                ..map.floquet()?
             });
         }
     }

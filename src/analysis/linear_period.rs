@@ -16,7 +16,7 @@
 //! x_ss(0) = (I − Φ)⁻¹ g                       (periodic steady state)
 //! ```
 
-use nalgebra::{Complex, DMatrix, DVector};
+use nalgebra::{DMatrix, DVector};
 
 use super::multipliers::Floquet;
 use crate::model::GearPair;
@@ -232,16 +232,16 @@ impl LinearPeriodMap {
         Some([x[0], x[1]])
     }
 
-    /// Monodromy and multipliers as a [`Floquet`].
-    pub fn floquet(&self) -> Floquet {
+    /// Monodromy and multipliers as a [`Floquet`]; the multipliers by the capped Schur
+    /// iteration ([`super::multipliers`]: a monodromy that is not finite is refused, issue 34).
+    pub fn floquet(&self) -> Result<Floquet, String> {
         let monodromy = self.monodromy();
-        let multipliers: Vec<Complex<f64>> =
-            monodromy.complex_eigenvalues().iter().copied().collect();
-        Floquet {
+        let multipliers = super::multipliers(&monodromy)?;
+        Ok(Floquet {
             period: self.period,
             monodromy,
             multipliers,
             method: "closed form (Peano–Baker per stiffness piece)".into(),
-        }
+        })
     }
 }

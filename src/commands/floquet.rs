@@ -45,7 +45,7 @@ pub fn floquet(mut scene: Scene, speed: Option<&str>, json: bool) -> Result<Stri
         return Ok(floquet_report(&scene, &floquet, json));
     };
     let map = LinearPeriodMap::new(&scene)?;
-    let floquet = map.floquet();
+    let floquet = map.floquet()?;
     let phi = &floquet.monodromy;
     let g = map.load_response();
     let speed_rpm = rpm(scene.operating.pinion_speed);

@@ -257,7 +257,7 @@ fn run_to_csv<M: DrivenModel>(
         rows,
         method,
         stats: sim.stats(),
-        work: sim.work_budget().spent(),
+        work: sim.work_spent(),
         summary,
         peak_buffered_bytes,
     })

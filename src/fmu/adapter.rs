@@ -30,6 +30,17 @@ use crate::simulation::Driver;
 /// every gear FMU has; free in both kernels' tables.
 pub const VR_WORK_BUDGET: u32 = 29;
 
+/// A step the integrator stopped at `reached`. Not the FMU ending the simulation
+/// (fmi2Terminated stays false, so hosts report it); an exhausted work budget leaves a valid
+/// state: a master may go on with shorter steps or a raised solver.work_budget.
+fn refused(e: &crate::solve::SolveError, reached: f64) -> StepFailure {
+    StepFailure::Discard {
+        reason: format!("the integrator stopped: {e}"),
+        reached,
+        terminate: false,
+    }
+}
+
 /// The simulation of `settings` with the budget of one FMI call: the scene's
 /// `solver.work_budget`, else [`DEFAULT_CALL_BUDGET`].
 fn build_sim<K: Kernel>(settings: &K::Settings) -> Result<Driver<K::Model>, String> {
@@ -100,7 +111,9 @@ impl<K: Kernel> Adapter<K> {
     pub fn new(settings: K::Settings, guid: String) -> Result<(Adapter<K>, ModelInfo), String> {
         let sim = build_sim::<K>(&settings)?;
         let mut vars = K::variables(&settings, &sim)?;
-        vars.push(work_budget_variable(sim.work_budget().limit()));
+        vars.push(work_budget_variable(
+            sim.work_limit().unwrap_or(DEFAULT_CALL_BUDGET),
+        ));
         let (name, description, solver) = K::header(&settings);
         let info = ModelInfo {
             model_name: name.to_string(),
@@ -303,7 +316,7 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
             return Ok(self.current_outputs()[i]);
         }
         if vr == VR_WORK_BUDGET {
-            return Ok(self.sim.work_budget().limit());
+            return Ok(self.sim.work_limit().unwrap_or(DEFAULT_CALL_BUDGET));
         }
         let model = self.sim.model();
         if let Some(k) = input_position::<K>(vr) {
@@ -379,14 +392,21 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
     /// moved them ([`Kernel::inputs_after`]: `u + u'·h`, a speed port's angle the integral of
     /// its speed) and the rates 0 again.
     fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure> {
+        // The budget bounds each call (docs/fmu.md "Work budget").
+        self.sim.reset_work();
         let start_time = self.lifecycle.start_time;
+        if K::inputs_held(self.sim.model()) {
+            let t0 = self.sim.t();
+            let sim = self.sim_mut();
+            return sim
+                .advance_to(((t + h) - start_time).max(t0))
+                .map_err(|e| refused(&e, start_time + sim.t()));
+        }
         let du = K::input_rates(self.sim.model());
         let u = K::inputs(self.sim.model());
         let t0 = self.sim.t();
         let target = ((t + h) - start_time).max(t0);
         let ramp = du.iter().any(|&r| r != 0.0);
-        // The budget bounds each call (docs/fmu.md "Work budget").
-        self.sim.reset_work();
         if ramp {
             let end = K::inputs_after(&self.sim, &u, &du, target - t0);
             for k in (0..du.len()).filter(|&k| du[k] != 0.0) {
@@ -408,14 +428,7 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
                 K::set_inputs(sim, &end).ok();
                 K::set_input_rates(sim, &du).ok();
             }
-            // A refused step is not the FMU ending the simulation (fmi2Terminated stays false,
-            // so hosts report it). An exhausted work budget leaves a valid state: a master may
-            // go on with shorter steps or a raised solver.work_budget.
-            return Err(StepFailure::Discard {
-                reason: format!("the integrator stopped: {e}"),
-                reached: start_time + reached,
-                terminate: false,
-            });
+            return Err(refused(&e, start_time + reached));
         }
         let fail = |e: String| StepFailure::Error(format!("end of the input ramp: {e}"));
         let end = K::inputs_after(sim, &u, &du, target - t0);

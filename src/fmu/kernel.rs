@@ -104,6 +104,11 @@ pub trait Kernel: 'static {
     fn set_input_rates(_sim: &mut Driver<Self::Model>, _du: &[f64]) -> Result<(), String> {
         Err("the model takes no input derivatives".into())
     }
+    /// Whether a step leaves the inputs as they are (no rate set, nothing the model moves
+    /// over a step): the common case, in which a step only advances the model.
+    fn inputs_held(model: &Self::Model) -> bool {
+        Self::input_rates(model).iter().all(|&r| r == 0.0)
+    }
     /// The inputs at the end of a step of `dt` that started from inputs `u` with rates `du`:
     /// `u + du·dt`, unless the model moves an input otherwise over the step (a speed port's
     /// neighbour angle follows its speed).

@@ -9,9 +9,10 @@
 //!
 //! The unit is an estimate of floating-point work (about one multiply-add; 2–3 ns on the CI
 //! machine's core): an RK step attempt of an `n`-state model costs [`rk_step_cost`], a segment
-//! (or state event) of the exact propagator [`segment_cost`]. The propagators are given the
-//! steps the remaining budget pays for before each advance, so an advance never overruns it
-//! by more than one step; what one advance spent is charged from the propagator's counters.
+//! (or state event) of the exact propagator [`segment_cost`]. The propagators meter their own
+//! work at these prices ([`crate::solve::work`]) and stop at the cumulative work where the
+//! scope's budget ends, so an advance never overruns it by more than one step; the budget
+//! only records where its scope started, and nothing is charged per advance.
 //! Matrix decompositions reachable from input (model construction, Floquet analyses) are
 //! bounded by iteration caps of their own (`model::train::assembly`).
 
@@ -60,76 +61,41 @@ pub fn guard_eval_cost(n: usize) -> f64 {
     2.0 * n as f64 + 8.0
 }
 
-/// The budget of a driver: a limit and the work spent since the last [`WorkBudget::reset`].
+/// The budget of a driver: its limit (`None`: unbounded, until a scope applies one) and the
+/// propagator's cumulative work ([`crate::solve::work`]) where its scope started.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct WorkBudget {
-    limit: f64,
-    spent: f64,
+    limit: Option<f64>,
+    start: f64,
 }
 
 impl WorkBudget {
-    pub fn new(limit: f64) -> WorkBudget {
-        WorkBudget { limit, spent: 0.0 }
+    pub fn new(limit: Option<f64>) -> WorkBudget {
+        WorkBudget { limit, start: 0.0 }
     }
 
-    pub fn limit(&self) -> f64 {
+    pub fn limit(&self) -> Option<f64> {
         self.limit
     }
 
-    pub fn spent(&self) -> f64 {
-        self.spent
-    }
-
-    /// A new limit; the work spent so far counts against it.
+    /// A new limit; the work spent in the scope so far counts against it.
     pub fn set_limit(&mut self, limit: f64) {
-        self.limit = limit;
+        self.limit = Some(limit);
     }
 
-    /// Starts a new scope (an FMI call): nothing spent.
-    pub fn reset(&mut self) {
-        self.spent = 0.0;
+    /// Starts a new scope (an FMI call) where the propagator has done `work` in all.
+    pub fn start_scope(&mut self, work: f64) {
+        self.start = work;
     }
 
-    /// How many steps of `cost` units each the rest of the budget pays for (at least 1, so an
-    /// advance that has any budget left can take its first step).
-    pub fn steps_left(&self, cost: f64) -> u64 {
-        let left = (self.limit - self.spent).max(0.0) / cost;
-        if left >= u64::MAX as f64 {
-            u64::MAX
-        } else {
-            (left as u64).max(1)
-        }
+    /// The work spent in the scope, given the propagator's cumulative `work`.
+    pub fn spent(&self, work: f64) -> f64 {
+        work - self.start
     }
 
-    /// Charges the work between two counter snapshots of a propagator whose steps cost
-    /// `step` units each and guard evaluations `guard_eval`: accepted and rejected attempts (a
-    /// state event ends an RK step and is a segment of the exact propagator, so it is counted
-    /// with them) and the guard evaluations of their event searches.
-    pub fn charge(
-        &mut self,
-        before: &SolverStats,
-        after: &SolverStats,
-        step: f64,
-        guard_eval: f64,
-    ) {
-        let steps = after.steps.saturating_sub(before.steps)
-            + after.rejected.saturating_sub(before.rejected);
-        let evals = after.guard_evals.saturating_sub(before.guard_evals);
-        self.spent += steps as f64 * step + evals as f64 * guard_eval;
-    }
-
-    /// Charges other work (mode builds, search samples) already expressed in units.
-    pub fn charge_units(&mut self, units: f64) {
-        self.spent += units;
-    }
-
-    /// The units left in the scope.
-    pub fn left(&self) -> f64 {
-        (self.limit - self.spent).max(0.0)
-    }
-
-    pub fn exhausted(&self) -> bool {
-        self.spent >= self.limit
+    /// The cumulative work of the propagator at which the scope's budget is spent.
+    pub fn until(&self) -> Option<f64> {
+        self.limit.map(|limit| self.start + limit)
     }
 }
 
@@ -241,22 +207,14 @@ mod tests {
     use super::*;
 
     #[test]
-    fn steps_left_pays_for_the_rest_and_at_least_one() {
-        let mut b = WorkBudget::new(1000.0);
-        assert_eq!(b.steps_left(100.0), 10);
-        let before = SolverStats::default();
-        let after = SolverStats {
-            steps: 10,
-            rejected: 1,
-            events: 3,
-            ..SolverStats::default()
-        };
-        b.charge(&before, &after, 100.0, 1.0);
-        assert_eq!(b.spent(), 1100.0);
-        assert!(b.exhausted());
-        assert_eq!(b.steps_left(100.0), 1);
-        b.reset();
-        assert!(!b.exhausted());
+    fn a_scope_ends_its_limit_after_its_start() {
+        let mut b = WorkBudget::new(None);
+        assert_eq!(b.until(), None);
+        b.set_limit(1000.0);
+        assert_eq!(b.until(), Some(1000.0));
+        b.start_scope(1100.0);
+        assert_eq!(b.spent(1150.0), 50.0);
+        assert_eq!(b.until(), Some(2100.0));
     }
 
     #[test]

@@ -7,8 +7,9 @@
 use super::budget::{self, Exhaustion, WorkBudget};
 use super::scales::RunScales;
 use crate::scene::{MethodChoice, SolverSettings};
-use crate::solve::exact::{ExactPropagator, PiecewiseLti, WorkCap};
+use crate::solve::exact::{ExactPropagator, PiecewiseLti};
 use crate::solve::rk::{ControllerMemory, RkOptions, RkStepper};
+use crate::solve::work::WorkPrices;
 use crate::solve::{SolveError, SolverStats};
 
 /// What the driver needs from a model beyond its equations: the run-time state (mode, phase
@@ -50,6 +51,26 @@ pub trait DrivenModel: PiecewiseLti + Clone {
 /// anything is allocated; 2048 is 34 MB per matrix.
 pub const MAX_EXACT_DIM: usize = 2048;
 
+/// The counters the message of an exhausted budget reports, where its scope started.
+#[derive(Debug, Clone, Copy, Default)]
+struct ScopeCounts {
+    steps: u64,
+    rejected: u64,
+    events: u64,
+    guard_evals: u64,
+}
+
+impl ScopeCounts {
+    fn of(s: &SolverStats) -> ScopeCounts {
+        ScopeCounts {
+            steps: s.steps,
+            rejected: s.rejected,
+            events: s.events,
+            guard_evals: s.guard_evals,
+        }
+    }
+}
+
 /// The propagator actually used.
 pub enum Propagator {
     Rk(Box<RkStepper>),
@@ -64,16 +85,11 @@ pub struct Driver<M> {
     note: Option<String>,
     choice: String,
     /// The work budget ([`super::budget`]): per run unless the owner resets it per call.
+    /// The propagator meters the work and stops at the budget's end itself.
     budget: WorkBudget,
-    /// Work units of one step (RK attempt or exact segment) and one guard evaluation of this
-    /// model and propagator.
-    step_cost: f64,
-    guard_cost: f64,
-    /// The RK path's own step limit of one advance (before the budget's cap).
-    rk_max_steps: u64,
     /// Time and counters at the start of the budget's scope (for its message), and whether
     /// the scope is one call ([`Driver::reset_work`] was called) rather than the whole run.
-    scope: (f64, SolverStats),
+    scope: (f64, ScopeCounts),
     per_call: bool,
 }
 
@@ -145,16 +161,19 @@ impl<M: DrivenModel> Driver<M> {
         // Unset, a driver's advances are unbounded until its owner applies the default of its
         // scope: one FMI call (the FMU adapter) or one streamed run (`stream`).
         let limit = match settings.work_budget {
-            Some(x) => budget::check_limit(budget::BUDGET_KEY, x)?,
-            None => f64::INFINITY,
+            Some(x) => Some(budget::check_limit(budget::BUDGET_KEY, x)?),
+            None => None,
         };
-        let (propagator, step_cost) = if exact {
+        let propagator = if exact {
+            let nz = model.lti_dim();
             let mut p = ExactPropagator::new(&model);
             p.set_state(0.0, y0);
-            (
-                Propagator::Exact(Box::new(p)),
-                budget::segment_cost(model.lti_dim()),
-            )
+            p.set_work_prices(WorkPrices {
+                step: budget::segment_cost(nz),
+                guard_eval: budget::guard_eval_cost(nz),
+                mode: budget::mode_cost(nz),
+            });
+            Propagator::Exact(Box::new(p))
         } else {
             let options = RkOptions {
                 rtol: settings.rtol,
@@ -163,25 +182,24 @@ impl<M: DrivenModel> Driver<M> {
             };
             let mut p = RkStepper::new(options, y0.len())?;
             p.set_state(0.0, y0);
-            (Propagator::Rk(Box::new(p)), budget::rk_step_cost(y0.len()))
+            p.set_work_prices(WorkPrices {
+                step: budget::rk_step_cost(y0.len()),
+                guard_eval: budget::guard_eval_cost(y0.len()),
+                mode: 0.0,
+            });
+            Propagator::Rk(Box::new(p))
         };
-        let guard_cost = budget::guard_eval_cost(if exact { model.lti_dim() } else { y0.len() });
-        let rk_max_steps = match &propagator {
-            Propagator::Rk(p) => p.options().max_steps,
-            Propagator::Exact(_) => u64::MAX,
-        };
-        Ok(Driver {
+        let mut driver = Driver {
             model,
             propagator,
             note,
             choice,
             budget: WorkBudget::new(limit),
-            step_cost,
-            guard_cost,
-            rk_max_steps,
-            scope: (0.0, SolverStats::default()),
+            scope: (0.0, ScopeCounts::default()),
             per_call: false,
-        })
+        };
+        driver.apply_work_limit();
+        Ok(driver)
     }
 
     /// The method in use and why it was chosen, e.g. `exact (auto: every segment is linear
@@ -230,31 +248,60 @@ impl<M: DrivenModel> Driver<M> {
         &self.model
     }
 
-    /// The work budget: its limit and what was spent in its scope.
-    pub fn work_budget(&self) -> &WorkBudget {
-        &self.budget
+    /// The limit of the work budget (`None`: unbounded).
+    pub fn work_limit(&self) -> Option<f64> {
+        self.budget.limit()
+    }
+
+    /// The work spent in the budget's scope, in work units ([`super::budget`]).
+    pub fn work_spent(&self) -> f64 {
+        self.budget.spent(self.work())
+    }
+
+    /// The propagator's cumulative work.
+    fn work(&self) -> f64 {
+        match &self.propagator {
+            Propagator::Rk(p) => p.work(),
+            Propagator::Exact(p) => p.work(),
+        }
+    }
+
+    /// Hands the end of the budget's scope to the propagator, which stops there.
+    fn apply_work_limit(&mut self) {
+        let until = self.budget.until();
+        match &mut self.propagator {
+            Propagator::Rk(p) => p.set_work_limit(until),
+            Propagator::Exact(p) => p.set_work_limit(until),
+        }
     }
 
     /// A new limit of the work budget (checked: a finite number >= 1).
     pub fn set_work_budget(&mut self, limit: f64) -> Result<(), String> {
         self.budget
             .set_limit(budget::check_limit(budget::BUDGET_KEY, limit)?);
+        self.apply_work_limit();
         Ok(())
     }
 
     /// Applies `limit` unless the scene set `solver.work_budget` (which then stays).
     pub fn default_work_budget(&mut self, limit: f64) {
-        if self.budget.limit() == f64::INFINITY {
+        if self.budget.limit().is_none() {
             self.budget.set_limit(limit);
+            self.apply_work_limit();
         }
     }
 
     /// Starts a new budget scope: an FMU calls this at the start of every call, so the
     /// budget bounds each call; a run that never calls it is bounded as a whole.
     pub fn reset_work(&mut self) {
-        self.budget.reset();
-        self.scope = (self.t(), self.stats());
+        let (t, stats, work) = match &self.propagator {
+            Propagator::Rk(p) => (p.t(), p.stats(), p.work()),
+            Propagator::Exact(p) => (p.t(), p.stats(), p.work()),
+        };
+        self.scope = (t, ScopeCounts::of(stats));
+        self.budget.start_scope(work);
         self.per_call = true;
+        self.apply_work_limit();
     }
 
     /// Mutable access to the model for settings that do not change its equations (e.g.
@@ -290,6 +337,7 @@ impl<M: DrivenModel> Driver<M> {
         self.advance_plain(t_end)
     }
 
+    #[inline]
     fn advance_plain(&mut self, t_end: f64) -> Result<(), SolveError> {
         let t = self.t();
         if t_end != t {
@@ -297,50 +345,13 @@ impl<M: DrivenModel> Driver<M> {
                 return Err(SolveError::BeyondLimits { t, reason });
             }
         }
-        // An unbounded driver (analyses, benches: no scope applied a budget) pays nothing for
-        // the bookkeeping below, which costs 10 % of a single-pair mesh period.
-        if self.budget.limit() == f64::INFINITY {
-            return match &mut self.propagator {
-                Propagator::Rk(p) => p.advance_to(&mut self.model, t_end),
-                Propagator::Exact(p) => p.advance_to(&mut self.model, t_end),
-            };
-        }
-        if t_end != t && self.budget.exhausted() {
-            return Err(self.over_budget());
-        }
-        let cap = self.budget.steps_left(self.step_cost);
-        let before = self.stats();
-        let builds_before = self.mode_counts().0;
-        let exp_before = crate::solve::exact::exp_work();
+        // The propagator meters its work and stops where the budget's scope ends
+        // (`apply_work_limit`): nothing to do here per advance but word that stop.
         let result = match &mut self.propagator {
-            Propagator::Rk(p) => {
-                p.set_max_steps(cap.min(self.rk_max_steps));
-                p.advance_to(&mut self.model, t_end)
-            }
-            Propagator::Exact(p) => {
-                p.set_work_cap(WorkCap {
-                    units: self.budget.left(),
-                    segment: self.step_cost,
-                    guard_eval: self.guard_cost,
-                    mode: budget::mode_cost(self.model.lti_dim()),
-                });
-                p.advance_to(&mut self.model, t_end)
-            }
+            Propagator::Rk(p) => p.advance_to(&mut self.model, t_end),
+            Propagator::Exact(p) => p.advance_to(&mut self.model, t_end),
         };
-        let after = self.stats();
-        self.budget
-            .charge(&before, &after, self.step_cost, self.guard_cost);
-        self.budget
-            .charge_units(crate::solve::exact::exp_work() - exp_before);
-        let builds = self.mode_counts().0.saturating_sub(builds_before);
-        self.budget
-            .charge_units(builds as f64 * budget::mode_cost(self.model.lti_dim()));
         match result {
-            Err(SolveError::TooManySteps { max_steps, .. })
-                if max_steps == cap && matches!(self.propagator, Propagator::Rk(_)) =>
-            {
-                Err(self.over_budget())
-            }
             Err(SolveError::OverBudget { .. }) => Err(self.over_budget()),
             other => other,
         }
@@ -357,7 +368,7 @@ impl<M: DrivenModel> Driver<M> {
         work.guard_evals -= start.guard_evals.min(work.guard_evals);
         let scales = self.model.run_scales();
         let message = budget::exhausted_message(&Exhaustion {
-            limit: self.budget.limit(),
+            limit: self.budget.limit().unwrap_or(f64::INFINITY),
             t,
             t_start: self.scope.0,
             work,

@@ -400,11 +400,11 @@ impl Progress {
     }
 
     /// Records a row at `t` and the solver work so far (three relaxed stores).
-    pub fn tick(&mut self, t: f64, work: u64) {
+    pub fn tick(&mut self, t: f64, work: impl FnOnce() -> f64) {
         if let Some(s) = &self.shared {
             s.time_bits.store(t.to_bits(), Ordering::Relaxed);
             s.rows.fetch_add(1, Ordering::Relaxed);
-            s.work.store(work, Ordering::Relaxed);
+            s.work.store(work() as u64, Ordering::Relaxed);
         }
     }
 
@@ -500,7 +500,7 @@ pub fn stream<M: DrivenModel>(
         }
         outputs(sim, &mut row);
         summary.push(&row);
-        progress.tick(t, sim.work_budget().spent() as u64);
+        progress.tick(t, || sim.work_spent());
         sink.row(t, &row)?;
     }
     progress.finish();

@@ -60,6 +60,7 @@ use std::hash::{BuildHasherDefault, Hasher};
 
 use nalgebra::DMatrix;
 
+use super::work::WorkPrices;
 use super::{HybridSystem, SolveError, SolverStats};
 use composite::{Composites, Lookup, Step};
 use crossing::{first_crossing, root_tolerance, Crossing, Workspace};
@@ -443,22 +444,16 @@ pub struct ExactPropagator {
     /// A capture asked to forget the history before the next advance
     /// ([`ExactPropagator::forget_before_next_advance`]).
     forget_pending: Cell<bool>,
-    /// The driver's work cap of each advance ([`crate::simulation::budget`]), checked beside
-    /// the propagator's own [`WorkBudget`]; `None` when none is set.
-    work_cap: Option<WorkCap>,
-}
-
-/// The driver's work budget as the exact propagator checks it at every segment: the units
-/// one advance may spend, at `segment` units per segment and `guard_eval` per guard
-/// evaluation (the crossing searches, whose work per segment varies the most).
-#[derive(Debug, Clone, Copy)]
-pub struct WorkCap {
-    pub units: f64,
-    pub segment: f64,
-    /// Per guard evaluation or guard sample of a crossing search.
-    pub guard_eval: f64,
-    /// Per mode built (its transitions' setup: balancing, rates, the first exponentials).
-    pub mode: f64,
+    /// The owner's prices of this propagator's work, and the cumulative work at which an
+    /// advance stops ([`crate::solve::work`], checked at every segment beside the
+    /// propagator's own [`WorkBudget`]); `None`: unbounded.
+    prices: WorkPrices,
+    work_limit: Option<WorkLimit>,
+    /// Work of the metered exponentials ([`balanced::exp_work`]) and guard samples of the
+    /// crossing searches of all advances so far (the rest of [`ExactPropagator::work`] is
+    /// in the counters).
+    exp_units: f64,
+    guard_samples: f64,
 }
 
 /// Events allowed at one instant before the propagation gives up (Zeno guard).
@@ -526,25 +521,14 @@ struct WorkBudget {
     base: u64,
     segments: u64,
     stops: u64,
-    /// The driver's cap ([`ExactPropagator::set_work_cap`]) and the guard evaluations at the
-    /// start of the advance.
-    cap: Option<WorkCap>,
-    guard_evals0: u64,
-    builds0: u64,
-    /// This thread's exponential work at the start ([`balanced::exp_work`]).
-    exp_work0: f64,
 }
 
 impl WorkBudget {
-    fn new(nz: usize, cap: Option<WorkCap>, stats: &SolverStats, builds0: u64) -> Self {
+    fn new(nz: usize) -> Self {
         WorkBudget {
             base: (MAX_WORK_PER_ADVANCE / (nz as f64).powi(3)) as u64,
             segments: 0,
             stops: 0,
-            cap,
-            guard_evals0: stats.guard_evals,
-            builds0,
-            exp_work0: balanced::exp_work(),
         }
     }
 
@@ -553,30 +537,8 @@ impl WorkBudget {
             .saturating_add(self.stops.saturating_mul(SEGMENTS_PER_STOP))
     }
 
-    /// Counts one segment starting at `t`; the error once a budget is exceeded. `work`: the
-    /// propagator's guard evaluations and mode builds so far, and the guard samples this
-    /// advance's searches took.
-    fn charge(
-        &mut self,
-        t: f64,
-        stats: &SolverStats,
-        builds: u64,
-        samples: f64,
-    ) -> Result<(), SolveError> {
-        if let Some(cap) = self.cap {
-            let evals = stats.guard_evals.saturating_sub(self.guard_evals0) as f64 + samples;
-            let builds = builds.saturating_sub(self.builds0) as f64;
-            let units = self.segments as f64 * cap.segment
-                + evals * cap.guard_eval
-                + builds * cap.mode
-                + (balanced::exp_work() - self.exp_work0);
-            if units >= cap.units {
-                return Err(SolveError::OverBudget {
-                    t,
-                    message: String::new(),
-                });
-            }
-        }
+    /// Counts one segment starting at `t`; the error once the budget is exceeded.
+    fn charge(&mut self, t: f64) -> Result<(), SolveError> {
         self.segments += 1;
         if self.segments > self.limit() {
             return Err(SolveError::TooManySteps {
@@ -585,6 +547,35 @@ impl WorkBudget {
             });
         }
         Ok(())
+    }
+}
+
+/// The owner's work limit as the exact propagator checks it before every segment
+/// ([`ExactPropagator::set_work_limit`]). Summing every term of [`ExactPropagator::work`]
+/// per segment (the exponential meter is thread-local) costs a tenth of a single-pair
+/// segment, so a segment checks only its own and its guard evaluations' work against
+/// `segment_until`, the limit less the other work at the last full check; that other work
+/// (series segments, duration bins and modes built with their exponentials, guard samples)
+/// grows only where `other` changes, which triggers the next full check. The limit is thus
+/// met at the same segment as with the full sum.
+#[derive(Debug, Clone, Copy)]
+struct WorkLimit {
+    until: f64,
+    segment_until: f64,
+    other: (u64, f64),
+}
+
+/// Where this thread's exponential meter and the guard samples stood at the start of an
+/// advance, and the samples it has taken.
+#[derive(Debug, Clone, Copy)]
+struct AdvanceMeter {
+    exp_work0: f64,
+    samples_left: f64,
+}
+
+impl AdvanceMeter {
+    fn samples(&self) -> f64 {
+        MAX_GUARD_SAMPLES_PER_ADVANCE - self.samples_left
     }
 }
 
@@ -609,7 +600,10 @@ impl ExactPropagator {
             composites: true,
             sequence: Vec::new(),
             forget_pending: Cell::new(false),
-            work_cap: None,
+            prices: WorkPrices::default(),
+            work_limit: None,
+            exp_units: 0.0,
+            guard_samples: 0.0,
         }
     }
 
@@ -694,11 +688,93 @@ impl ExactPropagator {
         self.t
     }
 
-    /// Caps the work of each following advance (the driver's work budget,
-    /// [`crate::simulation::budget`]); beyond it the advance stops at the last segment end
-    /// with [`SolveError::OverBudget`] (an empty message: the driver words it).
-    pub fn set_work_cap(&mut self, cap: WorkCap) {
-        self.work_cap = Some(cap);
+    /// Prices this propagator's work ([`ExactPropagator::work`]).
+    pub fn set_work_prices(&mut self, prices: WorkPrices) {
+        self.prices = prices;
+    }
+
+    /// Stops every following advance at the first segment end where the cumulative
+    /// [`ExactPropagator::work`] has reached `until` ([`SolveError::OverBudget`], an empty
+    /// message: the owner words it); `None` lifts the limit.
+    pub fn set_work_limit(&mut self, until: Option<f64>) {
+        self.work_limit = until.map(|until| WorkLimit {
+            until,
+            // Between advances all the work is in the counters and meters.
+            segment_until: until - self.other_work(),
+            other: self.other_work_count(&AdvanceMeter {
+                exp_work0: 0.0,
+                samples_left: MAX_GUARD_SAMPLES_PER_ADVANCE,
+            }),
+        });
+    }
+
+    /// The work of all advances but that of their segments and guard evaluations.
+    fn other_work(&self) -> f64 {
+        self.guard_samples * self.prices.guard_eval
+            + self.modes.builds as i64 as f64 * self.prices.mode
+            + self.exp_units
+    }
+
+    /// The work of the segments and guard evaluations so far.
+    fn segment_work(&self) -> f64 {
+        // Through i64: one instruction (the counts stay far below 2^63).
+        self.stats.steps as i64 as f64 * self.prices.step
+            + self.stats.guard_evals as i64 as f64 * self.prices.guard_eval
+    }
+
+    /// What the rest of [`ExactPropagator::work`] grows with (see [`WorkLimit`]): the
+    /// counts of series segments, bins and modes built, and the guard samples of all
+    /// advances.
+    fn other_work_count(&self, meter: &AdvanceMeter) -> (u64, f64) {
+        let count = (self.stats.series_segments)
+            .wrapping_add(self.stats.transitions)
+            .wrapping_add(self.modes.builds);
+        (count, self.guard_samples + meter.samples())
+    }
+
+    /// Before a segment starting at `t`: the error once the owner's limit is reached.
+    #[inline]
+    fn check_work_limit(&mut self, t: f64, meter: &AdvanceMeter) -> Result<(), SolveError> {
+        match self.work_limit {
+            Some(limit)
+                if self.segment_work() >= limit.segment_until
+                    || self.other_work_count(meter) != limit.other =>
+            {
+                self.check_work_limit_in_full(t, limit.until, meter)
+            }
+            _ => Ok(()),
+        }
+    }
+
+    #[cold]
+    fn check_work_limit_in_full(
+        &mut self,
+        t: f64,
+        until: f64,
+        meter: &AdvanceMeter,
+    ) -> Result<(), SolveError> {
+        let other = self.other_work()
+            + meter.samples() * self.prices.guard_eval
+            + (balanced::exp_work() - meter.exp_work0);
+        if self.segment_work() + other >= until {
+            return Err(SolveError::OverBudget {
+                t,
+                message: String::new(),
+            });
+        }
+        let other_count = self.other_work_count(meter);
+        if let Some(limit) = &mut self.work_limit {
+            limit.segment_until = until - other;
+            limit.other = other_count;
+        }
+        Ok(())
+    }
+
+    /// The work of all advances so far at the prices set: segments, guard evaluations, modes
+    /// built, and (in the advances made under a limit, the only ones whose work is asked
+    /// for) guard samples and metered exponentials ([`crate::solve::work`]).
+    pub fn work(&self) -> f64 {
+        self.segment_work() + self.other_work()
     }
 
     pub fn y(&self) -> &[f64] {
@@ -715,6 +791,29 @@ impl ExactPropagator {
         sys: &mut S,
         t_end: f64,
     ) -> Result<(), SolveError> {
+        let mut meter = AdvanceMeter {
+            exp_work0: 0.0,
+            samples_left: MAX_GUARD_SAMPLES_PER_ADVANCE,
+        };
+        if self.work_limit.is_none() {
+            // Unbounded: the exponentials and samples are metered only under a limit.
+            return self.advance_metered(sys, t_end, &mut meter);
+        }
+        meter.exp_work0 = balanced::exp_work();
+        let result = self.advance_metered(sys, t_end, &mut meter);
+        self.exp_units += balanced::exp_work() - meter.exp_work0;
+        self.guard_samples += meter.samples();
+        result
+    }
+
+    /// [`ExactPropagator::advance_to`], given where the meter stood at its start (the guard
+    /// samples left on return were not taken).
+    fn advance_metered<S: PiecewiseLti>(
+        &mut self,
+        sys: &mut S,
+        t_end: f64,
+        meter: &mut AdvanceMeter,
+    ) -> Result<(), SolveError> {
         if t_end < self.t {
             return Err(SolveError::BackwardTime { t: self.t, t_end });
         }
@@ -729,8 +828,7 @@ impl ExactPropagator {
             self.z_event.resize(nz, 0.0);
             self.column.resize(nz, 0.0);
         }
-        let mut samples_left = MAX_GUARD_SAMPLES_PER_ADVANCE;
-        let mut budget = WorkBudget::new(nz, self.work_cap, &self.stats, self.modes.builds);
+        let mut budget = WorkBudget::new(nz);
         // The mode of the last segment and its bins built before it: the bins its segment
         // built are counted at the next segment ([`SolverStats::transitions`]).
         let mut last_mode: Option<(usize, u64)> = None;
@@ -742,7 +840,7 @@ impl ExactPropagator {
                 && sys.stops_independent_of_state()
                 && sys.forcing_carries_over()
             {
-                let walked = self.advance_sequence(sys, t_end, &mut budget)?;
+                let walked = self.advance_sequence(sys, t_end, &mut budget, meter)?;
                 if walked {
                     continue;
                 }
@@ -770,8 +868,8 @@ impl ExactPropagator {
                     self.stats.transitions += mode.bin_builds().saturating_sub(before);
                 }
             }
-            let samples = MAX_GUARD_SAMPLES_PER_ADVANCE - samples_left;
-            budget.charge(self.t, &self.stats, self.modes.builds, samples)?;
+            self.check_work_limit(self.t, meter)?;
+            budget.charge(self.t)?;
             let carries = self.sensitivity.is_none() && sys.forcing_carries_over();
             match self
                 .carried
@@ -842,8 +940,8 @@ impl ExactPropagator {
                             None
                         } else if by_series {
                             let samples = series_segment::work_in_samples(mode, tau);
-                            check_samples(samples, samples_left, self.t, tau, mode)?;
-                            samples_left -= samples;
+                            check_samples(samples, meter.samples_left, self.t, tau, mode)?;
+                            meter.samples_left -= samples;
                             self.stats.series_segments += 1;
                             let found = series_segment::first_crossing_by_series(
                                 mode,
@@ -863,7 +961,7 @@ impl ExactPropagator {
                             found
                         } else {
                             let samples = (tau / mode.sample_step).ceil();
-                            check_samples(samples, samples_left, self.t, tau, mode)?;
+                            check_samples(samples, meter.samples_left, self.t, tau, mode)?;
                             let found = first_crossing(
                                 mode,
                                 &mut self.crossing,
@@ -875,7 +973,7 @@ impl ExactPropagator {
                                 excluded,
                             );
                             // The samples taken: up to the crossing, or all of them.
-                            samples_left -= found.as_ref().map_or(samples, |c| {
+                            meter.samples_left -= found.as_ref().map_or(samples, |c| {
                                 (c.tau / mode.sample_step).ceil().min(samples)
                             });
                             if self.recurrences {
@@ -968,6 +1066,7 @@ impl ExactPropagator {
         sys: &mut S,
         t_end: f64,
         budget: &mut WorkBudget,
+        meter: &AdvanceMeter,
     ) -> Result<bool, SolveError> {
         let n = sys.dim();
         let start = self.t;
@@ -1003,7 +1102,10 @@ impl ExactPropagator {
                 // Back at the first mode after a stop: a new sequence starts here.
                 break;
             }
-            if let Err(e) = budget.charge(t, &self.stats, self.modes.builds, 0.0) {
+            if let Err(e) = self
+                .check_work_limit(t, meter)
+                .and_then(|()| budget.charge(t))
+            {
                 failure = Some(e);
                 break;
             }
@@ -1033,7 +1135,9 @@ impl ExactPropagator {
                 Lookup::Segments { build } => {
                     for step in &steps {
                         let mode = &mut self.modes.modes[step.mode];
+                        let bins = mode.bin_builds();
                         mode.apply(step.tau, &self.z, &mut self.z_next);
+                        self.stats.transitions += mode.bin_builds() - bins;
                         std::mem::swap(&mut self.z, &mut self.z_next);
                     }
                     if let Some(slot) = build {
@@ -1041,7 +1145,10 @@ impl ExactPropagator {
                         let nz = self.z.len();
                         let mut product = DMatrix::identity(nz, nz);
                         for step in &recorded {
-                            let phi = self.modes.modes[step.mode].transition_matrix(step.tau);
+                            let mode = &mut self.modes.modes[step.mode];
+                            let bins = mode.bin_builds();
+                            let phi = mode.transition_matrix(step.tau);
+                            self.stats.transitions += mode.bin_builds() - bins;
                             product = phi * product;
                         }
                         self.modes.composites.set_product(slot, product);

@@ -14,6 +14,7 @@ pub mod polynomial;
 pub mod rk;
 pub mod roots;
 pub mod variational;
+pub mod work;
 
 use std::fmt;
 

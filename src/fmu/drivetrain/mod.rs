@@ -384,6 +384,12 @@ impl Kernel for Drivetrain {
 
     /// A speed port's neighbour angle and speed where the model's motion puts them (its angle
     /// follows the speed unless the angle has a rate).
+    /// A speed port's neighbour moves its angle over every step.
+    fn inputs_held(train: &GearTrain) -> bool {
+        let ([rate_in, rate_load], _) = train.torque_rates();
+        rate_in == 0.0 && rate_load == 0.0 && ENDS.iter().all(|&e| train.neighbour(e).is_none())
+    }
+
     fn inputs_after(sim: &TrainSimulation, u: &[f64], du: &[f64], dt: f64) -> Vec<f64> {
         let mut end: Vec<f64> = u.iter().zip(du).map(|(u, du)| u + du * dt).collect();
         for (k, e) in ENDS.into_iter().enumerate() {

@@ -28,6 +28,7 @@ mod tableau_tests;
 use std::fmt;
 use std::str::FromStr;
 
+use super::work::{self, WorkPrices};
 use super::{HybridSystem, SolveError, SolverStats};
 use control::Controller;
 use rosenbrock::LinearlyImplicit;
@@ -214,6 +215,10 @@ pub struct RkStepper {
     dense: DenseState,
     ev: event::EventState,
     stats: SolverStats,
+    /// The owner's prices of this stepper's work and the cumulative work at which an advance
+    /// stops ([`crate::solve::work`]); `None`: unbounded.
+    prices: WorkPrices,
+    work_until: Option<f64>,
 }
 
 /// The step-size controller's memory: with `(t, y)` it determines every future step (FSAL
@@ -285,6 +290,8 @@ impl RkStepper {
             },
             ev: event::EventState::default(),
             stats: SolverStats::default(),
+            prices: WorkPrices::default(),
+            work_until: None,
             opts,
         })
     }
@@ -359,6 +366,26 @@ impl RkStepper {
     /// caller with a work budget of its own lowers it to what is left (issue 34).
     pub fn set_max_steps(&mut self, max_steps: u64) {
         self.opts.max_steps = max_steps.max(1);
+    }
+
+    /// Prices this stepper's work ([`RkStepper::work`]).
+    pub fn set_work_prices(&mut self, prices: WorkPrices) {
+        self.prices = prices;
+    }
+
+    /// Stops every following advance before the step attempt that would start with the
+    /// cumulative [`RkStepper::work`] at or above `until` ([`SolveError::OverBudget`], empty
+    /// message); `None` lifts the limit.
+    pub fn set_work_limit(&mut self, until: Option<f64>) {
+        self.work_until = until;
+    }
+
+    /// The work of all step attempts and guard evaluations so far, at the prices set
+    /// ([`crate::solve::work`]).
+    pub fn work(&self) -> f64 {
+        // Through i64: one instruction (the counts stay far below 2^63).
+        (self.stats.steps + self.stats.rejected) as i64 as f64 * self.prices.step
+            + self.stats.guard_evals as i64 as f64 * self.prices.guard_eval
     }
 
     pub fn options(&self) -> &RkOptions {
@@ -475,6 +502,12 @@ impl RkStepper {
                 return Err(SolveError::TooManySteps {
                     t: self.t,
                     max_steps: self.opts.max_steps,
+                });
+            }
+            if work::over_limit(self.work(), self.work_until) {
+                return Err(SolveError::OverBudget {
+                    t: self.t,
+                    message: String::new(),
                 });
             }
 

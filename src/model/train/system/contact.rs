@@ -279,18 +279,45 @@ impl GearTrain {
                 Some(s) => ("operating.speed_profile (its largest value)", s),
                 None => ("operating.input_speed", self.inputs.input_speed),
             },
-            fastest_rate: if !(damping_rate <= self.max_frequency()) {
-                (
-                    damping_rate,
-                    "the damping on the masses: mesh damping, bearing damping, modal damping ratio, shaft damping",
-                )
-            } else {
-                (
-                    self.max_frequency(),
-                    "the mesh and bearing stiffnesses on the masses (or the STE harmonics)",
-                )
-            },
+            fastest_rate: self.fastest_rate(damping_rate),
         }
+    }
+
+    /// The fastest rate of any mode and what sets it: [`PiecewiseLti::max_frequency`] with
+    /// the speed ports' coupling springs added (Gershgorin: `ω² ≤ bound + k/J`), or the
+    /// damping rate with their dampers, whichever is larger (an overdamped mode decays at
+    /// about that rate, and the RK path must resolve it). The couplings are left out of
+    /// `max_frequency` itself, which also paces the exact propagator's guard samples.
+    fn fastest_rate(&self, damping_rate: f64) -> (f64, &'static str) {
+        let frequency = self.max_frequency();
+        let (port_frequency, port_damping) = self
+            .rotation
+            .as_ref()
+            .map_or((0.0, 0.0), |r| r.port_coupling_bounds(self));
+        let with_ports = frequency.hypot(port_frequency);
+        let damping = damping_rate + port_damping;
+        if !(damping <= with_ports) {
+            if port_damping > damping_rate {
+                return (
+                    damping,
+                    "the speed ports' coupling damping (port damping) on the port gears' inertia",
+                );
+            }
+            return (
+                damping,
+                "the damping on the masses: mesh damping, bearing damping, modal damping ratio, shaft damping",
+            );
+        }
+        if port_frequency > frequency {
+            return (
+                with_ports,
+                "the speed ports' coupling stiffness (port stiffness) on the port gears' inertia",
+            );
+        }
+        (
+            with_ports,
+            "the mesh and bearing stiffnesses on the masses (or the STE harmonics)",
+        )
     }
 
     /// Whether advancing from `t` to `t_end` stays within the limits of one advance for

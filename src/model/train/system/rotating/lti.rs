@@ -146,6 +146,22 @@ impl Carried {
         })
     }
 
+    /// Bounds of the angular frequency and decay rate the speed ports' couplings add (rad/s):
+    /// a coupling `k, c` to a neighbour of given motion adds `k/J_b` and `c/J_b` to the row of
+    /// its body `b` (Gershgorin, as [`Carried::shaft_frequency_bound`]).
+    pub(crate) fn port_coupling_bounds(&self, train: &GearTrain) -> (f64, f64) {
+        self.ports
+            .iter()
+            .filter_map(|p| {
+                p.coupling
+                    .as_ref()
+                    .map(|c| (body_inertia(train, p.body), c))
+            })
+            .fold((0.0, 0.0), |(w, d), (j, c)| {
+                (w.max((c.stiffness / j).sqrt()), d.max(c.damping / j))
+            })
+    }
+
     /// A bound of the decay rate the element shafts' dampers add (rad/s),
     /// `max_b 2 Σ c_s / J_b`.
     pub(crate) fn shaft_damping_bound(&self, train: &GearTrain) -> f64 {
