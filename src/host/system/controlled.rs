@@ -16,11 +16,12 @@
 //!   `y(t+H)`: its largest distance from the signal, `H·|y'(t+H) − y'(t)|/8` (≈ `H²|y''|/8`);
 //! * held: `|y(t+H) − y(t)|` (≈ `H|y'|`, first order).
 //!
-//! Each defect is divided by `tol` times the signal's scale: for a signal whose unit has a
-//! time dimension (a speed, a torque) its largest magnitude so far; for one without (an
-//! angle, which grows without bound) its largest increment per second so far times `H`, i.e.
-//! the defect relative to the angle's advance over the step. The step's error `err` is the
-//! largest ratio over the connections; `err ≤ 1` accepts the step. The next step is
+//! Each defect is divided by `tol` times the signal's scale, its largest magnitude so far
+//! (the step's own values included): a relative tolerance as an ODE solver's `rtol·|y|`. An
+//! angle's magnitude grows with the run, so its defects weigh less and less; the torques and
+//! speeds then decide (an angle measured against its advance over the step instead would
+//! reject any held angle at any step: its defect is that advance). The step's error `err` is
+//! the largest ratio over the connections; `err ≤ 1` accepts the step. The next step is
 //! `H·clamp(0.9·err^(−1/p), 0.2, 2)` with `p` = 2 (1 with a held connection), within
 //! `[h_min, h_max]`. A step an FMU refuses (`fmi2Discard`, `fmi2Error`) is undone and redone
 //! at a quarter; at `h_min` the refusal ends the run, and a step at `h_min` over the
@@ -57,8 +58,6 @@ pub struct StepRecord {
 pub(super) fn settings(
     args: &RunArgs,
     h_out: f64,
-    ports: &[(usize, u32, VarType)],
-    watched: &[(usize, String)],
     can_vary: bool,
     fmus: &super::Fmus,
     notes: &mut Vec<String>,
@@ -116,58 +115,27 @@ pub(super) fn settings(
         ));
         return Ok(None);
     }
-    let mut timed = vec![false; ports.len()];
-    for &(p, _) in watched {
-        timed[p] = true;
-    }
     Ok(Some(ErrorControl {
         tolerance: tol,
         h_min,
         h_max,
-        timed,
         impulse_correction: !args.no_impulse_correction,
     }))
 }
 
-/// Per producer port: the running scale its defects are measured against.
-struct Scales {
-    /// Largest |y| so far (timed ports) or largest |Δy|/H so far (the others).
-    scale: Vec<f64>,
-}
+/// Per producer port: its largest magnitude so far, the scale of its defects.
+struct Scales(Vec<f64>);
 
 impl Scales {
-    fn new(ctl: &ErrorControl, cur: &[f64], der: &[f64]) -> Scales {
-        let scale = (0..cur.len())
-            .map(|p| {
-                if ctl.timed[p] {
-                    cur[p].abs()
-                } else {
-                    der[p].abs()
-                }
-            })
-            .collect();
-        Scales { scale }
+    /// The scale of port `p` over a step from `prev` to `cur`.
+    fn of(&self, p: usize, prev: f64, cur: f64) -> f64 {
+        self.0[p].max(prev.abs()).max(cur.abs())
     }
 
-    /// The scale of port `p` over a step of `h` from `prev` to `cur` (the step's own values
-    /// count).
-    fn of(&self, ctl: &ErrorControl, p: usize, prev: f64, cur: f64, h: f64) -> f64 {
-        if ctl.timed[p] {
-            self.scale[p].max(prev.abs()).max(cur.abs())
-        } else {
-            self.scale[p].max((cur - prev).abs() / h) * h
-        }
-    }
-
-    fn accept(&mut self, ctl: &ErrorControl, prev: &[f64], cur: &[f64], h: f64) {
-        for (p, s) in self.scale.iter_mut().enumerate() {
-            let v = if ctl.timed[p] {
-                cur[p].abs()
-            } else {
-                (cur[p] - prev[p]).abs() / h
-            };
+    fn accept(&mut self, cur: &[f64]) {
+        for (s, v) in self.0.iter_mut().zip(cur) {
             if v.is_finite() {
-                *s = s.max(v);
+                *s = s.max(v.abs());
             }
         }
     }
@@ -212,7 +180,7 @@ fn estimate(
         if defect == 0.0 {
             continue;
         }
-        let sc = ctl.tolerance * scales.of(ctl, p, y0, y1, h);
+        let sc = ctl.tolerance * scales.of(p, y0, y1);
         let r = defect / sc;
         err = err.max(if r.is_nan() { f64::INFINITY } else { r });
     }
@@ -285,7 +253,7 @@ pub(super) fn run(
     }
     out.rows += 1;
     let mut watch = super::divergence::Watch::new(plan);
-    let mut scales = Scales::new(ctl, &st.cur, &st.der);
+    let mut scales = Scales(st.cur.iter().map(|v| v.abs()).collect());
     let mut der_start = st.der.clone();
     let mut stepped = vec![false; elements.len()];
     let (h_out, stop) = (plan.h, plan.stop_time);
@@ -401,7 +369,7 @@ pub(super) fn run(
             error: err,
             accepted: true,
         });
-        scales.accept(ctl, &st.prev, &st.cur, step);
+        scales.accept(&st.cur);
         if conserve {
             impulse_deficits(plan, &st, &der_start, step, &mut deficit);
         }

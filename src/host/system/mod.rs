@@ -446,7 +446,7 @@ fn plan<'a>(
         ));
     }
     let watched = divergence::watched(&ports, &md_of);
-    let control = controlled::settings(args, h, &ports, &watched, can_vary, fmus, notes)?;
+    let control = controlled::settings(args, h, can_vary, fmus, notes)?;
     if control.is_some() {
         // The error estimate of an interpolated connection uses its producer's derivative
         // at both ends of the step.

@@ -67,9 +67,6 @@ pub struct ErrorControl {
     /// Bounds of the communication step, s.
     pub h_min: f64,
     pub h_max: f64,
-    /// Per producer port: whether its unit has a time dimension (a speed, a torque: measured
-    /// against its magnitude) or not (an angle, a position: against its increments).
-    pub timed: Vec<bool>,
     /// Carry each step's impulse deficit into the next step (`controlled::impulse_deficits`;
     /// off with `--no-impulse-correction`).
     pub impulse_correction: bool,
