@@ -16,3 +16,6 @@ cargo test --release --locked --test ssd_fuzz -- --ignored --nocapture --exact s
 # The FMI call-sequence fuzzer's long variant (issue 17, 34): 1e6 seeded calls over the C ABI
 # and every shipped FMU, none over 1 s of CPU.
 cargo test --release --locked --test fmi_fuzz -- --ignored --nocapture --exact fmi_call_sequences_long
+# The error-controlled co-simulation master over 1 s against the monolithic drivetrain
+# (issue 32 acceptance 1 and 3; CI runs 0.1 s). Needs the venv and the built FMUs.
+GEARDYN_LONG=1 .venv/bin/python -m pytest tests/python/test_cosim_tolerance.py -q -s

@@ -48,11 +48,14 @@ struct Caps {
     order: u32,
     u_unit: &'static str,
     x_unit: &'static str,
+    /// canGetAndSetFMUstate (the fixture copies its model).
+    state: bool,
 }
 
 const CAPS: Caps = Caps {
     interpolate: true,
     order: 1,
+    state: true,
     u_unit: "m",
     x_unit: "m",
 };
@@ -61,7 +64,7 @@ fn linear_md(c: Caps) -> String {
     format!(
         r#"<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="2.0" modelName="linear" guid="{{linear-fmu}}">
-  <CoSimulation modelIdentifier="linear" canHandleVariableCommunicationStepSize="true" canInterpolateInputs="{}" maxOutputDerivativeOrder="{}"/>
+  <CoSimulation modelIdentifier="linear" canHandleVariableCommunicationStepSize="true" canInterpolateInputs="{}" maxOutputDerivativeOrder="{}" canGetAndSetFMUstate="{}"/>
   <UnitDefinitions>
     <Unit name="m"><BaseUnit m="1"/></Unit>
     <Unit name="mm"><BaseUnit m="1" factor="0.001"/></Unit>
@@ -86,7 +89,7 @@ fn linear_md(c: Caps) -> String {
   </ModelStructure>
 </fmiModelDescription>
 "#,
-        c.interpolate, c.order, c.u_unit, c.x_unit, c.x_unit
+        c.interpolate, c.order, c.state, c.u_unit, c.x_unit, c.x_unit
     )
 }
 
@@ -1064,4 +1067,168 @@ fn parallel_jacobi_is_bit_identical_to_serial() {
         "{}",
         stderr(&o)
     );
+}
+
+/// The error-controlled master (`--tolerance`) on the coupled oscillator x_A' = x_B,
+/// x_B' = −x_A (closed form cos, −sin): the error falls with the tolerance, the rows stay on
+/// the output grid, steps are undone and redone (the fixture's state is a copy of its model),
+/// and the step sequence in `<out>.steps.csv` adds up to the run.
+#[test]
+fn the_error_controlled_master_follows_its_tolerance_on_the_grid() {
+    let text = ssd(
+        &[lin("A", &[("x0", 1.0)]), lin("B", &[("k", -1.0)])],
+        &[("A", "x", "B", "u", None), ("B", "x", "A", "u", None)],
+        2.0,
+        "",
+    );
+    // Speeds (a unit with a time dimension): each defect against the signal's magnitude.
+    let caps = Caps {
+        u_unit: "m/s",
+        x_unit: "m/s",
+        ..CAPS
+    };
+    let sys = system("controlled", &text, caps);
+    let out = sys.parent().unwrap().join("o.csv");
+    let o = geardyn(&[
+        &"run",
+        &sys,
+        &"--out",
+        &out,
+        &"--tolerance",
+        &"1e-3",
+        &"--threads",
+        &"2",
+        &"--algorithm",
+        &"jacobi",
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("--threads 2"),
+        "{}",
+        stderr(&o)
+    );
+    let mut errs = Vec::new();
+    for tol in ["1e-2", "1e-3", "1e-4", "1e-5"] {
+        for alg in ["jacobi", "gauss-seidel"] {
+            let (_, rows, err) = run_ok(
+                &sys,
+                &out,
+                &[
+                    "--output-interval",
+                    "0.1",
+                    "--tolerance",
+                    tol,
+                    "--algorithm",
+                    alg,
+                ],
+            );
+            assert_eq!(rows.len(), 21, "{err}");
+            for (k, r) in rows.iter().enumerate() {
+                assert_eq!(r[0], 0.1 * k as f64, "row {k} off the grid");
+            }
+            let e = rows
+                .iter()
+                .map(|r| (r[1] - r[0].cos()).abs().max((r[2] + r[0].sin()).abs()))
+                .fold(0.0, f64::max);
+            let steps_path = sys.parent().unwrap().join("o.csv.steps.csv");
+            let steps = std::fs::read_to_string(&steps_path).unwrap();
+            let mut lines = steps.lines();
+            assert_eq!(
+                lines.next(),
+                Some("\"time\",\"step\",\"error\",\"accepted\"")
+            );
+            let (mut t, mut undone) = (0.0_f64, 0);
+            for l in lines {
+                let f: Vec<&str> = l.split(',').collect();
+                let (t0, h, e): (f64, f64, f64) = (
+                    f[0].parse().unwrap(),
+                    f[1].parse().unwrap(),
+                    f[2].parse().unwrap(),
+                );
+                assert_eq!(
+                    t0, t,
+                    "each attempt starts where the last accepted step ended"
+                );
+                if f[3] == "True" {
+                    assert!(e <= 1.0, "{l}");
+                    t = t0 + h;
+                } else {
+                    assert!(e > 1.0, "{l}");
+                    undone += 1;
+                }
+            }
+            assert!((t - 2.0).abs() < 1e-12, "the accepted steps end at {t}");
+            assert!(err.contains("steps accepted"), "{err}");
+            if tol == "1e-4" {
+                assert!(
+                    undone > 0,
+                    "the first step (0.1) is too long at 1e-4: {steps}"
+                );
+            }
+            errs.push((tol, alg, e));
+        }
+    }
+    eprintln!("{errs:?}");
+    // The error follows the tolerance: each tenfold tighter tolerance cuts the error by at
+    // least 3 (the local defect is second order: the error falls like tol^(1/2)…tol).
+    for w in errs.chunks(2).collect::<Vec<_>>().windows(2) {
+        for (a, b) in w[0].iter().zip(w[1]) {
+            assert!(b.2 < a.2 / 3.0, "{errs:?}");
+        }
+    }
+    assert!(errs.iter().all(|x| x.2 < 0.05), "{errs:?}");
+}
+
+/// An FMU that cannot get and set its state: `--tolerance` runs fixed steps and says so;
+/// the bounds of the step need `--tolerance`.
+#[test]
+fn the_error_controlled_master_falls_back_to_fixed_steps_without_fmu_state() {
+    let text = ssd(
+        &[lin("A", &[("x0", 1.0)]), lin("B", &[("k", -1.0)])],
+        &[("A", "x", "B", "u", None), ("B", "x", "A", "u", None)],
+        1.0,
+        "",
+    );
+    let sys = system(
+        "controlled_fallback",
+        &text,
+        Caps {
+            state: false,
+            ..CAPS
+        },
+    );
+    let out = sys.parent().unwrap().join("o.csv");
+    let (_, fixed, _) = run_ok(&sys, &out, &["--output-interval", "0.1"]);
+    let (_, rows, err) = run_ok(
+        &sys,
+        &out,
+        &["--output-interval", "0.1", "--tolerance", "1e-3"],
+    );
+    assert!(
+        err.contains("without error control") && err.contains("canGetAndSetFMUstate"),
+        "{err}"
+    );
+    assert_eq!(rows, fixed);
+    for (args, what) in [
+        (vec!["--min-step", "1e-3"], "--min-step"),
+        (vec!["--tolerance", "0"], "--tolerance 0"),
+        (
+            vec![
+                "--tolerance",
+                "1e-3",
+                "--min-step",
+                "1",
+                "--max-step",
+                "0.1",
+            ],
+            "--min-step 1",
+        ),
+    ] {
+        let mut a: Vec<&dyn AsRef<std::ffi::OsStr>> = vec![&"run", &sys, &"--out", &out];
+        for x in &args {
+            a.push(x);
+        }
+        let o = geardyn(&a);
+        assert!(!o.status.success(), "{args:?}");
+        assert!(stderr(&o).contains(what), "{args:?}: {}", stderr(&o));
+    }
 }

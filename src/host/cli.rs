@@ -102,6 +102,24 @@ pub struct RunArgs {
     /// coupling; docs/systems.md); 0 turns the check off. Default 1000.
     #[arg(long, value_name = "FACTOR")]
     pub divergence_factor: Option<f64>,
+    /// Systems: control the communication step by the coupling error (docs/cosimulation.md,
+    /// "Error-controlled master"): each step's relative error estimate ≤ TOL, a step over it
+    /// is undone (fmi2SetFMUstate) and redone smaller. Rows stay on --output-interval's grid;
+    /// the step sequence goes to `<out>.steps.csv`.
+    #[arg(long, value_name = "TOL")]
+    pub tolerance: Option<f64>,
+    /// Systems with --tolerance: the smallest communication step, s (default: the output
+    /// interval / 1e6).
+    #[arg(long, value_name = "S")]
+    pub min_step: Option<f64>,
+    /// Systems with --tolerance: the largest communication step, s (default: the output
+    /// interval).
+    #[arg(long, value_name = "S")]
+    pub max_step: Option<f64>,
+    /// Systems with --tolerance: do not carry each step's impulse deficit into the next step
+    /// (for comparison; the correction keeps the drivetrain's angle from drifting).
+    #[arg(long)]
+    pub no_impulse_correction: bool,
     /// Report where the time went: the step loop, the part inside the FMU's calls, CSV writing.
     #[arg(long)]
     pub timing: bool,

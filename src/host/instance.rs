@@ -9,7 +9,7 @@
 //! fixed address until `fmi2FreeInstance`, since the FMU keeps pointers to them. `Drop` frees
 //! the instance (unless the FMU reported `fmi2Fatal`, after which no call is allowed, §2.1.3).
 
-use super::library::{CallbackFunctions, Component, FmiFunction, FmuLibrary, Status};
+use super::library::{CallbackFunctions, Component, FmiFunction, FmuLibrary, FmuState, Status};
 use super::logger::{geardyn_host_logger, Logger};
 use super::supervise::Activity;
 use std::ffi::{c_char, c_int, CStr, CString};
@@ -53,6 +53,11 @@ pub struct Instance<'a> {
     // Dropped after `c` is freed (field order does not matter: Drop::drop runs first).
     _callbacks: Box<CallbackFunctions>,
     logger: Box<Logger>,
+    /// The one FMU state this instance keeps for a rollback ([`Instance::save_state`]),
+    /// reused from save to save and freed before the instance.
+    saved: FmuState,
+    /// `noSetFMUStatePriorToCurrentPoint` of `fmi2DoStep`: false once a state was saved.
+    may_roll_back: bool,
 }
 
 /// Format a value list for the trace, like fmpy's `[FMI]` lines.
@@ -130,6 +135,8 @@ impl<'a> Instance<'a> {
             fatal: false,
             _callbacks: callbacks,
             logger,
+            saved: std::ptr::null_mut(),
+            may_roll_back: false,
         })
     }
 
@@ -245,11 +252,39 @@ impl<'a> Instance<'a> {
     /// the caller asks [`Instance::discard_details`] what happened.
     pub fn do_step(&mut self, t: f64, h: f64) -> Result<Status, CallError> {
         self.activity.enter(f!("fmi2DoStep"));
-        // SAFETY: valid instance. noSetFMUStatePriorToCurrentPoint = true: we never roll back.
-        let r = unsafe { (self.lib.fns.do_step)(self.c, t, h, 1) };
+        // SAFETY: valid instance. noSetFMUStatePriorToCurrentPoint is true unless a state
+        // was saved (an error-controlled master may restore it).
+        let no_rollback = !self.may_roll_back;
+        let r = unsafe { (self.lib.fns.do_step)(self.c, t, h, c_int::from(no_rollback)) };
         self.call(f!("fmi2DoStep"), r, || {
-            format!("currentCommunicationPoint={t:?}, communicationStepSize={h:?}, noSetFMUStatePriorToCurrentPoint=fmi2True")
+            format!("currentCommunicationPoint={t:?}, communicationStepSize={h:?}, noSetFMUStatePriorToCurrentPoint={}",
+                if no_rollback { "fmi2True" } else { "fmi2False" })
         })
+    }
+
+    /// `fmi2GetFMUstate` (§2.1.8) into the instance's one saved state (overwritten in place
+    /// from the second save on, as the function allows), for [`Instance::restore_state`].
+    pub fn save_state(&mut self) -> Result<Status, CallError> {
+        self.may_roll_back = true;
+        self.activity.enter(f!("fmi2GetFMUstate"));
+        // SAFETY: valid instance; `saved` is NULL or a state this instance returned.
+        let r = unsafe { (self.lib.fns.get_fmu_state)(self.c, &mut self.saved) };
+        self.call(f!("fmi2GetFMUstate"), r, String::new)
+    }
+
+    /// `fmi2SetFMUstate` (§2.1.8) to the state of the last [`Instance::save_state`].
+    pub fn restore_state(&mut self) -> Result<Status, CallError> {
+        if self.saved.is_null() {
+            return Err(CallError {
+                function: "fmi2SetFMUstate",
+                status: Status::Error,
+                message: "fmi2SetFMUstate: no state was saved".into(),
+            });
+        }
+        self.activity.enter(f!("fmi2SetFMUstate"));
+        // SAFETY: valid instance and a state it returned from fmi2GetFMUstate.
+        let r = unsafe { (self.lib.fns.set_fmu_state)(self.c, self.saved) };
+        self.call(f!("fmi2SetFMUstate"), r, String::new)
     }
 
     /// After `fmi2DoStep` returned `fmi2Discard` (§4.2.3): `(terminated, lastSuccessfulTime)`,
@@ -449,6 +484,12 @@ impl Drop for Instance<'_> {
                 eprintln!("[FMI] fmi2FreeInstance skipped: the FMU returned fmi2Fatal");
             }
             return;
+        }
+        if !self.saved.is_null() {
+            self.activity.enter(f!("fmi2FreeFMUstate"));
+            // SAFETY: a state of this instance, freed once, before the instance.
+            unsafe { (self.lib.fns.free_fmu_state)(self.c, &mut self.saved) };
+            self.activity.leave();
         }
         self.activity.enter(f!("fmi2FreeInstance"));
         // SAFETY: c came from fmi2Instantiate of this library and is freed exactly once.

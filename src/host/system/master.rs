@@ -57,6 +57,8 @@ pub struct Outcome {
     pub rows: usize,
     pub failure: Option<String>,
     pub notes: Vec<String>,
+    /// The error-controlled master's step sequence (empty with fixed steps).
+    pub steps: Vec<super::controlled::StepRecord>,
 }
 
 /// Per element: which values to read after its step, and which inputs to set before it.
@@ -105,20 +107,36 @@ impl Inputs {
     }
 }
 
-struct State<'p, 'a> {
+pub(super) struct State<'p, 'a> {
     plan: &'p Plan<'a>,
     set: Inputs,
     io: Vec<Io>,
-    cur: Vec<f64>,
-    prev: Vec<f64>,
-    der: Vec<f64>,
+    /// Per producer port: its value at the current communication point (at t + h once its
+    /// element stepped), at the step's start, and its first derivative (where read).
+    pub(super) cur: Vec<f64>,
+    pub(super) prev: Vec<f64>,
+    pub(super) der: Vec<f64>,
+    /// Per link: a constant added to an interpolated or extrapolated input over the next
+    /// step (the impulse correction of the error-controlled master; 0 with fixed steps, where
+    /// adding it leaves every value's bits unchanged).
+    pub(super) offset: Vec<f64>,
     /// The row being assembled, per column.
     row: Vec<f64>,
     buf_f: Vec<f64>,
     buf_i: Vec<i32>,
 }
 
-fn at(e: &str, t: f64, err: CallError) -> String {
+/// `v` plus the impulse correction `o`; `v` itself (even −0.0) without one, so that the
+/// fixed-step master's inputs keep their bits.
+fn corrected(v: f64, o: f64) -> f64 {
+    if o == 0.0 {
+        v
+    } else {
+        v + o
+    }
+}
+
+pub(super) fn at(e: &str, t: f64, err: CallError) -> String {
     format!("element \"{e}\" at t = {t}: {err}")
 }
 
@@ -166,7 +184,7 @@ fn read_into(
 }
 
 impl<'p, 'a> State<'p, 'a> {
-    fn new(plan: &'p Plan<'a>) -> Self {
+    pub(super) fn new(plan: &'p Plan<'a>) -> Self {
         let n = plan.system.elements.len();
         let mut io: Vec<Io> = (0..n).map(|_| Io::default()).collect();
         for (p, &(e, vr, t)) in plan.ports.iter().enumerate() {
@@ -213,6 +231,7 @@ impl<'p, 'a> State<'p, 'a> {
             cur: vec![0.0; np],
             prev: vec![0.0; np],
             der: vec![0.0; np],
+            offset: vec![0.0; plan.system.links.len()],
             row: vec![0.0; plan.columns.len()],
             buf_f: Vec::new(),
             buf_i: Vec::new(),
@@ -222,7 +241,7 @@ impl<'p, 'a> State<'p, 'a> {
     /// Read element `e`'s producer ports into `cur`, and with `derivatives` their first
     /// derivatives where needed (not in initialization mode: FMI 2.0.5 §4.2.4 allows
     /// `fmi2GetRealOutputDerivatives` only once the slave is initialized).
-    fn read(
+    pub(super) fn read(
         &mut self,
         e: usize,
         inst: &mut Instance,
@@ -254,7 +273,7 @@ impl<'p, 'a> State<'p, 'a> {
     /// Set element `e`'s connected inputs for the step from `t` (length `h`; 0 during
     /// initialization, where every connection is held). `stepped[x]`: element x already
     /// stepped to t+h in this macro step.
-    fn set_inputs(
+    pub(super) fn set_inputs(
         &mut self,
         e: usize,
         inst: &mut Instance,
@@ -299,13 +318,13 @@ impl<'p, 'a> State<'p, 'a> {
                     match coupling {
                         Coupling::Interpolate if stepped[link.from.element] => {
                             rv.push(link.to.vr);
-                            rx.push(affine(self.prev[p]));
+                            rx.push(corrected(affine(self.prev[p]), slope(self.offset[l])));
                             dv.push(link.to.vr);
                             dx.push(slope((self.cur[p] - self.prev[p]) / h));
                         }
                         Coupling::Extrapolate if !stepped[link.from.element] => {
                             rv.push(link.to.vr);
-                            rx.push(affine(self.cur[p]));
+                            rx.push(corrected(affine(self.cur[p]), slope(self.offset[l])));
                             dv.push(link.to.vr);
                             dx.push(slope(self.der[p]));
                         }
@@ -348,7 +367,7 @@ impl<'p, 'a> State<'p, 'a> {
     }
 
     /// Assemble and deliver the row at `t`.
-    fn record(
+    pub(super) fn record(
         &mut self,
         insts: &mut [Instance],
         sink: &mut dyn RowSink,
@@ -419,6 +438,9 @@ fn set_start(
 /// Never panics; on failure the rows up to then have been delivered. A Jacobi plan with
 /// `threads > 1` steps the elements on that many threads ([`super::parallel`]).
 pub fn run<'a>(insts: &mut [Instance<'a>], plan: &Plan, sink: &mut dyn RowSink) -> Outcome {
+    if let Some(ctl) = &plan.control {
+        return super::controlled::run(insts, plan, ctl, sink);
+    }
     if plan.algorithm != Algorithm::Jacobi || plan.threads <= 1 {
         return run_with(insts, plan, sink, None);
     }
@@ -458,6 +480,91 @@ fn parallel_step<'a>(
     Ok(())
 }
 
+/// Set up and initialize every instance (module doc: the initialization pass), leaving each
+/// port's value and derivative at the start time in `st`.
+pub(super) fn initialize(
+    insts: &mut [Instance],
+    plan: &Plan,
+    st: &mut State,
+) -> Result<(), String> {
+    let t0 = plan.start_time;
+    let elements = &plan.system.elements;
+    let n = elements.len();
+    for (e, inst) in insts.iter_mut().enumerate() {
+        let name = &elements[e].name;
+        inst.activity().at(t0);
+        inst.setup_experiment(None, t0, Some(plan.stop_time))
+            .map_err(|err| at(name, t0, err))?;
+        for s in elements[e]
+            .start_values
+            .iter()
+            .filter(|s| s.phase == Phase::Instantiated)
+        {
+            set_start(inst, name, s)?;
+        }
+        inst.enter_initialization_mode()
+            .map_err(|err| at(name, t0, err))?;
+        for s in elements[e]
+            .start_values
+            .iter()
+            .filter(|s| s.phase == Phase::Initialization)
+        {
+            set_start(inst, name, s)?;
+        }
+    }
+    // Every producer's outputs from its start values first: a connection that closes a
+    // cycle in the Gauss–Seidel order reads its producer before that producer's own pass,
+    // and must see the FMU's current output, not an unset buffer.
+    for (e, inst) in insts.iter_mut().enumerate() {
+        st.read(e, inst, t0, false)?;
+    }
+    let none = vec![false; n];
+    for &e in &plan.order {
+        st.set_inputs(e, &mut insts[e], t0, 0.0, &none)?;
+        st.read(e, &mut insts[e], t0, false)?;
+    }
+    for (e, inst) in insts.iter_mut().enumerate() {
+        inst.exit_initialization_mode()
+            .map_err(|err| at(&elements[e].name, t0, err))?;
+    }
+    for (e, inst) in insts.iter_mut().enumerate() {
+        st.read(e, inst, t0, true)?;
+    }
+    Ok(())
+}
+
+/// One macro step from `time` to `next` on this thread, in the plan's order; `stepped` is
+/// all false on entry. With a pool, each element's step is timed for its assignment.
+pub(super) fn serial_step<'a>(
+    st: &mut State,
+    insts: &mut [Instance<'a>],
+    (time, next): (f64, f64),
+    stepped: &mut [bool],
+    mut pool: Option<&mut Pool<'a>>,
+) -> Result<(), StepEnd> {
+    let plan = st.plan;
+    let step = next - time;
+    for &e in &plan.order {
+        st.set_inputs(e, &mut insts[e], time, step, stepped)?;
+        insts[e].activity().at(time);
+        let started = pool.is_some().then(std::time::Instant::now);
+        do_step(&mut insts[e], &plan.system.elements[e].name, time, step)?;
+        if let (Some(p), Some(t)) = (pool.as_deref_mut(), started) {
+            p.measure(e, t.elapsed());
+        }
+        if plan.algorithm == Algorithm::GaussSeidel {
+            st.read(e, &mut insts[e], next, true)?;
+            stepped[e] = true;
+        }
+    }
+    if plan.algorithm == Algorithm::Jacobi {
+        for (e, inst) in insts.iter_mut().enumerate() {
+            st.read(e, inst, next, true)?;
+        }
+    }
+    Ok(())
+}
+
 fn run_with<'a>(
     insts: &mut [Instance<'a>],
     plan: &Plan,
@@ -468,54 +575,13 @@ fn run_with<'a>(
         rows: 0,
         failure: None,
         notes: Vec::new(),
+        steps: Vec::new(),
     };
     let mut st = State::new(plan);
     let t0 = plan.start_time;
     let elements = &plan.system.elements;
     let n = elements.len();
-    let init = (|| -> Result<(), String> {
-        for (e, inst) in insts.iter_mut().enumerate() {
-            let name = &elements[e].name;
-            inst.activity().at(t0);
-            inst.setup_experiment(None, t0, Some(plan.stop_time))
-                .map_err(|err| at(name, t0, err))?;
-            for s in elements[e]
-                .start_values
-                .iter()
-                .filter(|s| s.phase == Phase::Instantiated)
-            {
-                set_start(inst, name, s)?;
-            }
-            inst.enter_initialization_mode()
-                .map_err(|err| at(name, t0, err))?;
-            for s in elements[e]
-                .start_values
-                .iter()
-                .filter(|s| s.phase == Phase::Initialization)
-            {
-                set_start(inst, name, s)?;
-            }
-        }
-        // Every producer's outputs from its start values first: a connection that closes a
-        // cycle in the Gauss–Seidel order reads its producer before that producer's own pass,
-        // and must see the FMU's current output, not an unset buffer.
-        for (e, inst) in insts.iter_mut().enumerate() {
-            st.read(e, inst, t0, false)?;
-        }
-        let none = vec![false; n];
-        for &e in &plan.order {
-            st.set_inputs(e, &mut insts[e], t0, 0.0, &none)?;
-            st.read(e, &mut insts[e], t0, false)?;
-        }
-        for (e, inst) in insts.iter_mut().enumerate() {
-            inst.exit_initialization_mode()
-                .map_err(|err| at(&elements[e].name, t0, err))?;
-        }
-        for (e, inst) in insts.iter_mut().enumerate() {
-            st.read(e, inst, t0, true)?;
-        }
-        Ok(())
-    })();
+    let init = initialize(insts, plan, &mut st);
     if let Err(m) = init {
         out.failure = Some(format!("initialization: {m}"));
         return out;
@@ -582,25 +648,13 @@ fn run_with<'a>(
                 }
                 return Ok(());
             }
-            for &e in &plan.order {
-                st.set_inputs(e, &mut insts[e], time, step, &stepped)?;
-                insts[e].activity().at(time);
-                let started = pool.is_some().then(std::time::Instant::now);
-                do_step(&mut insts[e], &elements[e].name, time, step)?;
-                if let (Some(p), Some(t)) = (pool.as_deref_mut(), started) {
-                    p.measure(e, t.elapsed());
-                }
-                if plan.algorithm == Algorithm::GaussSeidel {
-                    st.read(e, &mut insts[e], next, true)?;
-                    stepped[e] = true;
-                }
-            }
-            if plan.algorithm == Algorithm::Jacobi {
-                for (e, inst) in insts.iter_mut().enumerate() {
-                    st.read(e, inst, next, true)?;
-                }
-            }
-            Ok(())
+            serial_step(
+                &mut st,
+                insts,
+                (time, next),
+                &mut stepped,
+                pool.as_deref_mut(),
+            )
         })();
         match stepping {
             Ok(()) => {}
@@ -627,11 +681,19 @@ fn run_with<'a>(
             n_steps += 1;
         }
     }
+    terminate(insts, plan, time, &mut out);
+    out
+}
+
+/// `fmi2Terminate` every instance at the end of a run.
+pub(super) fn terminate(insts: &mut [Instance], plan: &Plan, time: f64, out: &mut Outcome) {
     for (e, inst) in insts.iter_mut().enumerate() {
         if let Err(err) = inst.terminate() {
-            out.failure = Some(format!("at the end: {}", at(&elements[e].name, time, err)));
+            out.failure = Some(format!(
+                "at the end: {}",
+                at(&plan.system.elements[e].name, time, err)
+            ));
             break;
         }
     }
-    out
 }

@@ -13,6 +13,7 @@
 //! if an FMU crashes the child, the parent writes the rows computed before and says where.
 
 pub mod check;
+pub mod controlled;
 pub mod divergence;
 pub mod graph;
 pub mod master;
@@ -445,11 +446,35 @@ fn plan<'a>(
         ));
     }
     let watched = divergence::watched(&ports, &md_of);
-    let threads = threads(args.threads, algorithm, n, fmus)?;
+    let control = controlled::settings(args, h, can_vary, fmus, notes)?;
+    if control.is_some() {
+        // The error estimate of an interpolated connection uses its producer's derivative
+        // at both ends of the step.
+        for (l, c) in coupling.iter().enumerate() {
+            let prod = system.links[l].from.element;
+            let order = md_of(prod)
+                .co_simulation
+                .as_ref()
+                .map_or(0, |c| c.max_output_derivative_order);
+            if *c == Coupling::Interpolate && order >= 1 {
+                needs_derivative[port_of[l]] = true;
+            }
+        }
+    }
+    let threads = match (&control, args.threads) {
+        (Some(_), Some(k)) if k > 1 => {
+            return Err(format!(
+                "--threads {k}: the error-controlled master (--tolerance) steps the elements on one thread"
+            ))
+        }
+        (Some(_), _) => 1,
+        (None, asked) => threads(asked, algorithm, n, fmus)?,
+    };
     Ok(Plan {
         threads,
         watched,
         divergence_factor,
+        control,
         system,
         algorithm,
         order,
@@ -578,6 +603,13 @@ pub fn run(args: &RunArgs) -> Result<u8, String> {
     }
 }
 
+/// Where the error-controlled master writes its step sequence: `<out>.steps.csv`.
+pub fn steps_path(out: &Path) -> PathBuf {
+    let mut name = out.file_name().unwrap_or_default().to_os_string();
+    name.push(".steps.csv");
+    out.with_file_name(name)
+}
+
 /// The child's part: load each FMU's library once, instantiate every element, run, free.
 fn child_run(
     args: &RunArgs,
@@ -632,6 +664,16 @@ fn child_run(
         .map_err(|e| format!("{where_to}: cannot write: {e}"));
     for n in &outcome.notes {
         eprintln!("note: {n}");
+    }
+    if let (Some(out), false) = (&args.out, outcome.steps.is_empty()) {
+        let path = steps_path(out);
+        match std::fs::write(&path, controlled::steps_csv(&outcome.steps)) {
+            Ok(()) => eprintln!("note: the step sequence is in {}", path.display()),
+            Err(e) => eprintln!(
+                "warning: {}: cannot write the step sequence: {e}",
+                path.display()
+            ),
+        }
     }
     match (&outcome.failure, flushed) {
         (Some(f), Ok(())) => Err(format!("{f}{}", cli::rows_kept(&args.out, csv.written()))),

@@ -54,5 +54,20 @@ pub struct Plan<'a> {
     /// growth factor that stops the run (0: off).
     pub watched: Vec<(usize, String)>,
     pub divergence_factor: f64,
+    /// `--tolerance`: the error-controlled master ([`super::controlled`]); `None`: fixed steps.
+    pub control: Option<ErrorControl>,
     pub interrupt: Option<&'a std::sync::atomic::AtomicBool>,
+}
+
+/// The settings of the error-controlled master ([`super::controlled`]).
+#[derive(Debug, Clone)]
+pub struct ErrorControl {
+    /// Relative tolerance of each communication step's coupling-error estimate.
+    pub tolerance: f64,
+    /// Bounds of the communication step, s.
+    pub h_min: f64,
+    pub h_max: f64,
+    /// Carry each step's impulse deficit into the next step (`controlled::impulse_deficits`;
+    /// off with `--no-impulse-correction`).
+    pub impulse_correction: bool,
 }

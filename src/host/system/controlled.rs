@@ -1,0 +1,436 @@
+//! The error-controlled master (`--tolerance`, issue 32 item 1): the communication step is
+//! chosen by an estimate of the coupling error of every step, a step whose estimate exceeds
+//! the tolerance is undone on every FMU (`fmi2GetFMUstate` before it, `fmi2SetFMUstate` to
+//! undo it, FMI 2.0.5 §2.1.8) and redone smaller, and the step adapts within
+//! `[h_min, h_max]`.
+//!
+//! **The estimate** (Schierz, Arnold & Clauß, "Co-simulation with communication step size
+//! control in an FMI compatible master algorithm", 9th Modelica Conference 2012, §3: the
+//! error of a step is the error of the inputs' polynomial approximation over it). After the
+//! step every producer's output at its end, `y(t+H)`, is known; what each consumer was given
+//! over the step is known too:
+//!
+//! * extrapolated, `y(t) + s·y'(t)`: its defect at the step's end, `|y(t+H) − y(t) − H·y'(t)|`
+//!   (≈ `H²|y''|/2`);
+//! * interpolated (Gauss–Seidel, the producer stepped first), the chord from `y(t)` to
+//!   `y(t+H)`: its largest distance from the signal, `H·|y'(t+H) − y'(t)|/8` (≈ `H²|y''|/8`);
+//! * held: `|y(t+H) − y(t)|` (≈ `H|y'|`, first order).
+//!
+//! Each defect is divided by `tol` times the signal's scale, its largest magnitude so far
+//! (the step's own values included): a relative tolerance as an ODE solver's `rtol·|y|`. An
+//! angle's magnitude grows with the run, so its defects weigh less and less; the torques and
+//! speeds then decide (an angle measured against its advance over the step instead would
+//! reject any held angle at any step: its defect is that advance). The step's error `err` is
+//! the largest ratio over the connections; `err ≤ 1` accepts the step. The next step is
+//! `H·clamp(0.9·err^(−1/p), 0.2, 2)` with `p` = 2 (1 with a held connection), within
+//! `[h_min, h_max]`. A step an FMU refuses (`fmi2Discard`, `fmi2Error`) is undone and redone
+//! at a quarter; at `h_min` the refusal ends the run, and a step at `h_min` over the
+//! tolerance is accepted and counted.
+//!
+//! **Rows on the user's grid.** The steps land on every output point: the time to the next
+//! output point is split into `ceil(remaining / H)` equal steps, so each row is the FMUs'
+//! own output at its time, no interpolation.
+//!
+//! **The step sequence** (every attempt: its start, length, error, accepted or not) is
+//! returned with the outcome and written to `<out>.steps.csv`.
+
+use super::master::{initialize, serial_step, terminate, Outcome, State};
+use super::plan::{Coupling, ErrorControl, Plan};
+use super::step::StepEnd;
+use crate::host::cli::RunArgs;
+use crate::host::description::VarType;
+use crate::host::input::isclose;
+use crate::host::instance::Instance;
+use crate::host::runner::RowSink;
+
+/// One attempted communication step.
+#[derive(Debug, Clone, Copy)]
+pub struct StepRecord {
+    pub time: f64,
+    pub step: f64,
+    /// The error estimate relative to the tolerance (∞: an FMU refused the step).
+    pub error: f64,
+    pub accepted: bool,
+}
+
+/// The settings of `--tolerance`, `--min-step`, `--max-step`; `None` without `--tolerance`
+/// or where the system cannot roll back (a note says so: fixed steps).
+pub(super) fn settings(
+    args: &RunArgs,
+    h_out: f64,
+    can_vary: bool,
+    fmus: &super::Fmus,
+    notes: &mut Vec<String>,
+) -> Result<Option<ErrorControl>, String> {
+    let Some(tol) = args.tolerance else {
+        for (flag, given) in [
+            ("--min-step", args.min_step.is_some()),
+            ("--max-step", args.max_step.is_some()),
+            ("--no-impulse-correction", args.no_impulse_correction),
+        ] {
+            if given {
+                return Err(format!(
+                    "{flag}: a setting of the error-controlled master; give --tolerance too"
+                ));
+            }
+        }
+        return Ok(None);
+    };
+    if !(tol.is_finite() && tol > 0.0 && tol < 1.0) {
+        return Err(format!(
+            "--tolerance {tol}: must be a relative tolerance, > 0 and < 1"
+        ));
+    }
+    let h_max = args.max_step.unwrap_or(h_out);
+    let h_min = args.min_step.unwrap_or(h_max * 1e-6);
+    if !(h_max.is_finite() && h_max > 0.0) {
+        return Err(format!("--max-step {h_max}: must be a finite number > 0"));
+    }
+    if !(h_min.is_finite() && h_min > 0.0 && h_min <= h_max) {
+        return Err(format!(
+            "--min-step {h_min}: must be a finite number > 0 and at most the largest step {h_max}"
+        ));
+    }
+    let cannot: Vec<&str> = fmus
+        .mds
+        .iter()
+        .zip(&fmus.sources)
+        .filter(|(md, _)| {
+            !md.co_simulation
+                .as_ref()
+                .is_some_and(|c| c.can_get_and_set_fmu_state)
+        })
+        .map(|(_, s)| s.as_str())
+        .collect();
+    if !cannot.is_empty() {
+        notes.push(format!(
+            "--tolerance {tol}: fixed communication steps of {h_out} s, without error control: {} cannot get and set its state (canGetAndSetFMUstate), so a step cannot be undone",
+            cannot.join(", ")
+        ));
+        return Ok(None);
+    }
+    if !can_vary {
+        notes.push(format!(
+            "--tolerance {tol}: fixed communication steps of {h_out} s, without error control: not every FMU can vary its communication step (canHandleVariableCommunicationStepSize)"
+        ));
+        return Ok(None);
+    }
+    Ok(Some(ErrorControl {
+        tolerance: tol,
+        h_min,
+        h_max,
+        impulse_correction: !args.no_impulse_correction,
+    }))
+}
+
+/// Per producer port: its largest magnitude so far, the scale of its defects.
+struct Scales(Vec<f64>);
+
+impl Scales {
+    /// The scale of port `p` over a step from `prev` to `cur`.
+    fn of(&self, p: usize, prev: f64, cur: f64) -> f64 {
+        self.0[p].max(prev.abs()).max(cur.abs())
+    }
+
+    fn accept(&mut self, cur: &[f64]) {
+        for (s, v) in self.0.iter_mut().zip(cur) {
+            if v.is_finite() {
+                *s = s.max(v.abs());
+            }
+        }
+    }
+}
+
+/// The step's error relative to the tolerance (module doc), and the order of its defects.
+fn estimate(
+    plan: &Plan,
+    ctl: &ErrorControl,
+    scales: &Scales,
+    st: &State,
+    der_start: &[f64],
+    h: f64,
+) -> (f64, i32) {
+    let mut err: f64 = 0.0;
+    let mut order = 2;
+    for (l, link) in plan.system.links.iter().enumerate() {
+        if link.to.var_type != VarType::Real {
+            continue;
+        }
+        let p = plan.port_of[l];
+        let (y0, y1) = (st.prev[p], st.cur[p]);
+        let defect = match plan.coupling[l] {
+            // As the consumer got it (master::State::set_inputs): an interpolated
+            // connection's producer steps first, an extrapolated one's after or alongside.
+            Coupling::Interpolate => {
+                if plan.needs_derivative[p] {
+                    h * (st.der[p] - der_start[p]).abs() / 8.0
+                } else {
+                    // No derivative: the chord's distance from the line of the step before is
+                    // not known; the change over the step bounds it at first order.
+                    order = 1;
+                    (y1 - y0).abs()
+                }
+            }
+            Coupling::Extrapolate => (y1 - y0 - h * der_start[p]).abs(),
+            Coupling::Hold => {
+                order = 1;
+                (y1 - y0).abs()
+            }
+        };
+        if defect == 0.0 {
+            continue;
+        }
+        let sc = ctl.tolerance * scales.of(p, y0, y1);
+        let r = defect / sc;
+        err = err.max(if r.is_nan() { f64::INFINITY } else { r });
+    }
+    (err, order)
+}
+
+/// Per link: the impulse (time integral) its consumer missed over the step just taken, the
+/// producer's output integrated by the cubic Hermite rule from its values and derivatives at
+/// both ends minus the integral of the line the consumer was given; the next step adds it
+/// spread over that step, so that the impulses exchanged stay equal to that rule's accuracy
+/// (0 where a derivative is missing).
+fn impulse_deficits(plan: &Plan, st: &State, der_start: &[f64], h: f64, deficit: &mut [f64]) {
+    for (l, link) in plan.system.links.iter().enumerate() {
+        let p = plan.port_of[l];
+        if link.to.var_type != VarType::Real || !plan.needs_derivative[p] {
+            continue;
+        }
+        let (y0, y1, d0, d1) = (st.prev[p], st.cur[p], der_start[p], st.der[p]);
+        let hermite = h / 2.0 * (y0 + y1) + h * h / 12.0 * (d0 - d1);
+        let given = match plan.coupling[l] {
+            Coupling::Extrapolate => h * y0 + h * h / 2.0 * d0,
+            Coupling::Interpolate => h / 2.0 * (y0 + y1),
+            Coupling::Hold => continue,
+        };
+        deficit[l] = hermite - given;
+    }
+}
+
+/// Undo a step: every instance back to its saved state, the ports to the step's start.
+fn roll_back(
+    insts: &mut [Instance],
+    plan: &Plan,
+    st: &mut State,
+    der_start: &[f64],
+    time: f64,
+) -> Result<(), String> {
+    for (e, inst) in insts.iter_mut().enumerate() {
+        inst.restore_state()
+            .map_err(|err| super::master::at(&plan.system.elements[e].name, time, err))?;
+    }
+    st.cur.copy_from_slice(&st.prev);
+    st.der.copy_from_slice(der_start);
+    Ok(())
+}
+
+/// Run the instances with error control (module doc), giving a row to `sink` at every
+/// output point. Never panics; on failure the rows up to then have been delivered.
+pub(super) fn run(
+    insts: &mut [Instance],
+    plan: &Plan,
+    ctl: &ErrorControl,
+    sink: &mut dyn RowSink,
+) -> Outcome {
+    let mut out = Outcome {
+        rows: 0,
+        failure: None,
+        notes: Vec::new(),
+        steps: Vec::new(),
+    };
+    let mut st = State::new(plan);
+    let t0 = plan.start_time;
+    let elements = &plan.system.elements;
+    if let Err(m) = initialize(insts, plan, &mut st) {
+        out.failure = Some(format!("initialization: {m}"));
+        return out;
+    }
+    if let Err(m) = st.record(insts, sink, t0) {
+        out.failure = Some(m);
+        return out;
+    }
+    out.rows += 1;
+    let mut watch = super::divergence::Watch::new(plan);
+    let mut scales = Scales(st.cur.iter().map(|v| v.abs()).collect());
+    let mut der_start = st.der.clone();
+    let mut stepped = vec![false; elements.len()];
+    let (h_out, stop) = (plan.h, plan.stop_time);
+    let mut time = t0;
+    let mut k: u64 = 1;
+    let mut h = ctl.h_max;
+    let (mut over, mut refused) = (0u64, 0u64);
+    let mut deficit = vec![0.0; plan.system.links.len()];
+    let conserve = ctl.impulse_correction;
+    // The error of the last undone attempt from `time`: an error that does not fall with
+    // the step is a jump at the step's start (a feed-through output recomputed from its
+    // exact inputs at t), which no smaller step cures: that step is taken.
+    let mut undone: Option<(f64, f64)> = None;
+    while !(time > stop || isclose(time, stop)) {
+        if plan
+            .interrupt
+            .is_some_and(|f| f.load(std::sync::atomic::Ordering::Relaxed))
+        {
+            out.failure = Some(format!("interrupted at t = {time}"));
+            return out;
+        }
+        let mut target = t0 + k as f64 * h_out;
+        if target > stop || isclose(target, stop) {
+            target = stop;
+        }
+        let remaining = target - time;
+        let parts = (remaining / h * (1.0 - 1e-12)).ceil().max(1.0);
+        let next = if parts <= 1.0 {
+            target
+        } else {
+            time + remaining / parts
+        };
+        let step = next - time;
+        if !(step > 0.0) {
+            out.failure = Some(format!(
+                "the communication step from t = {time} is {step}: too small for the time's floating-point resolution"
+            ));
+            return out;
+        }
+        for (e, inst) in insts.iter_mut().enumerate() {
+            if let Err(err) = inst.save_state() {
+                out.failure = Some(super::master::at(&elements[e].name, time, err));
+                return out;
+            }
+        }
+        st.prev.copy_from_slice(&st.cur);
+        der_start.copy_from_slice(&st.der);
+        stepped.iter_mut().for_each(|s| *s = false);
+        for (o, d) in st.offset.iter_mut().zip(&deficit) {
+            *o = d / step;
+        }
+        let at_min = step <= ctl.h_min * (1.0 + 1e-9);
+        match serial_step(&mut st, insts, (time, next), &mut stepped, None) {
+            Ok(()) => {}
+            Err(StepEnd::Ended(note)) => {
+                out.notes.push(note);
+                break;
+            }
+            Err(StepEnd::Failed(m)) if at_min => {
+                out.failure = Some(format!(
+                    "{m} (at the smallest step, --min-step {})",
+                    ctl.h_min
+                ));
+                return out;
+            }
+            Err(StepEnd::Failed(_)) => {
+                refused += 1;
+                out.steps.push(StepRecord {
+                    time,
+                    step,
+                    error: f64::INFINITY,
+                    accepted: false,
+                });
+                if let Err(m) = roll_back(insts, plan, &mut st, &der_start, time) {
+                    out.failure = Some(m);
+                    return out;
+                }
+                h = (step / 4.0).max(ctl.h_min);
+                continue;
+            }
+        }
+        let (err, order) = estimate(plan, ctl, &scales, &st, &der_start, step);
+        let factor = |err: f64| {
+            if err == 0.0 {
+                2.0
+            } else {
+                (0.9 * err.powf(-1.0 / f64::from(order))).clamp(0.2, 2.0)
+            }
+        };
+        let stuck = undone.is_some_and(|(t, e)| t == time && err >= 0.9 * e);
+        if err > 1.0 && !at_min && !stuck {
+            undone = Some((time, err));
+            out.steps.push(StepRecord {
+                time,
+                step,
+                error: err,
+                accepted: false,
+            });
+            if let Err(m) = roll_back(insts, plan, &mut st, &der_start, time) {
+                out.failure = Some(m);
+                return out;
+            }
+            h = (step * factor(err).min(0.9)).max(ctl.h_min);
+            continue;
+        }
+        if err > 1.0 {
+            over += 1;
+        }
+        undone = None;
+        out.steps.push(StepRecord {
+            time,
+            step,
+            error: err,
+            accepted: true,
+        });
+        scales.accept(&st.cur);
+        if conserve {
+            impulse_deficits(plan, &st, &der_start, step, &mut deficit);
+        }
+        // A step cut short to land on an output point does not shrink the next one.
+        let base = if next == target { h.max(step) } else { step };
+        h = (base * factor(err)).clamp(ctl.h_min, ctl.h_max);
+        time = next;
+        if next == target {
+            if let Err(m) = st.record(insts, sink, time) {
+                out.failure = Some(m);
+                return out;
+            }
+            out.rows += 1;
+            if let Some(m) = watch.as_mut().and_then(|w| w.check(plan, time, &st.cur)) {
+                out.failure = Some(m);
+                return out;
+            }
+            k += 1;
+        }
+    }
+    out.notes.push(summary(&out.steps, ctl, over, refused));
+    terminate(insts, plan, time, &mut out);
+    out
+}
+
+/// The note of a controlled run: steps taken and undone, their range.
+fn summary(steps: &[StepRecord], ctl: &ErrorControl, over: u64, refused: u64) -> String {
+    let accepted: Vec<f64> = steps
+        .iter()
+        .filter(|s| s.accepted)
+        .map(|s| s.step)
+        .collect();
+    let rejected = steps.len() - accepted.len();
+    let (lo, hi) = accepted
+        .iter()
+        .fold((f64::INFINITY, 0.0_f64), |(a, b), &h| (a.min(h), b.max(h)));
+    let mut s = format!(
+        "error control at --tolerance {}: {} steps accepted, {rejected} undone ({refused} of them refused by an FMU), step {lo:.3e} to {hi:.3e} s",
+        ctl.tolerance,
+        accepted.len()
+    );
+    if over > 0 {
+        s.push_str(&format!(
+            "; {over} steps exceeded the tolerance (at the smallest step {:e} s, or with an error that did not fall with the step)",
+            ctl.h_min
+        ));
+    }
+    s
+}
+
+/// The step sequence as CSV: `time,step,error,accepted` (error relative to the tolerance).
+pub fn steps_csv(steps: &[StepRecord]) -> String {
+    use crate::host::csv::write_real;
+    let mut s = String::from("\"time\",\"step\",\"error\",\"accepted\"\n");
+    for r in steps {
+        write_real(&mut s, r.time);
+        s.push(',');
+        write_real(&mut s, r.step);
+        s.push(',');
+        write_real(&mut s, r.error);
+        s.push_str(if r.accepted { ",True\n" } else { ",False\n" });
+    }
+    s
+}
