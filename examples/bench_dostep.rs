@@ -15,12 +15,12 @@ use std::time::Instant;
 
 use geardyn::fmi::abi::*;
 use geardyn::fmi::logger::{CallbackFunctions, Status};
-use geardyn::scene::Scene;
+use geardyn::scene::PairScene;
 use geardyn::simulation::Simulation;
 
 const PERIODS: usize = 2000;
 
-fn native(scene: &Scene, period: f64) -> f64 {
+fn native(scene: &PairScene, period: f64) -> f64 {
     let mut sim = Simulation::new(scene).unwrap();
     let start = Instant::now();
     for k in 1..=PERIODS {
@@ -82,7 +82,7 @@ fn main() {
             let tmp = std::env::temp_dir().join(format!("geardyn-bench-{}", std::process::id()));
             std::fs::create_dir_all(&tmp).unwrap();
             std::fs::write(tmp.join("scene.toml"), &text).unwrap();
-            let scene = Scene::from_toml_str(&text, "bench").unwrap();
+            let scene = PairScene::from_toml_str(&text, "bench").unwrap();
             let sim = Simulation::new(&scene).unwrap();
             let period = sim.model().mesh_period();
             let method = sim.method_name();

@@ -24,7 +24,8 @@ use std::path::PathBuf;
 
 use clap::Parser;
 use geardyn::analysis::{sweep, Direction, SweepOptions, SweepPoint};
-use geardyn::model::{response_period, AnyScene, AnySimulation, Drivetrain};
+use geardyn::model::{response_period, AnySimulation, Drivetrain};
+use geardyn::scene::Scene;
 
 #[derive(Parser)]
 struct Args {
@@ -61,7 +62,7 @@ fn main() {
 }
 
 fn run(args: Args) -> Result<(), String> {
-    let scene = AnyScene::from_path(&args.scene)?;
+    let scene = Scene::from_path(&args.scene)?;
     let direction: Direction = args.direction.parse()?;
     if direction == Direction::Both {
         return Err("--direction: up or down (one branch)".into());

@@ -7,6 +7,10 @@
 //! overlap (`tests/pair_as_drivetrain.rs`); the pair kernel is the fast path and the only one
 //! with the smooth terms of Bugaru (2006) (`cubic`, `damping_variation`, `damping_acts`,
 //! `torque_ripple`).
+//!
+//! The choice is recorded in the resolved [`Scene`] (`Scene::kernel`); the pair kernel reads
+//! such a scene through its view [`PairScene`] ([`Scene::pair`]), which lifts back without
+//! loss ([`Scene::from`]).
 
 use super::resolved::{Gear, Mesh, Operating, Scene};
 use super::spec::{GearSpec, MeshForm, ParsedScene, SceneSpec};

@@ -16,10 +16,7 @@ pub fn load(text: &str, origin: &str) -> Result<Scene, SceneError> {
     let parsed = parse(text, origin)?;
     match choose(&parsed) {
         KernelChoice::Pair => pair::validate(parsed, text).map(Scene::from),
-        KernelChoice::Drivetrain(why) => drivetrain::validate(parsed, text).map(|mut s| {
-            s.kernel = KernelChoice::Drivetrain(why);
-            s
-        }),
+        KernelChoice::Drivetrain(why) => drivetrain::validate(parsed, text, why),
     }
     .map_err(|e| located(origin, e))
 }

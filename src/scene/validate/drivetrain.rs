@@ -31,7 +31,9 @@ const KINEMATIC_TOL: f64 = 1e-9;
 /// Largest relative difference of the base pitches `2π r_b/z` of two meshing gears.
 const BASE_PITCH_TOL: f64 = 0.01;
 
-pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
+/// Validates a scene the kernel choice put on the drivetrain kernel; `why` is the choice's
+/// reason, recorded in the scene.
+pub(crate) fn validate(parsed: ParsedScene, source: &str, why: String) -> Result<Scene> {
     if let Some(field) = crate::scene::kernel::pair_only_field(&parsed) {
         return err(format!(
             "{field}: a term of the single-pair kernel (Bugaru 2006), which runs a scene with one \
@@ -412,8 +414,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
     Ok(Scene {
         name: spec.name,
         description: spec.description,
-        // `super::super::load` records why the drivetrain kernel was chosen.
-        kernel: KernelChoice::Drivetrain(String::new()),
+        kernel: KernelChoice::Drivetrain(why),
         gears,
         shafts,
         meshes,
