@@ -103,6 +103,11 @@ fn values<M: Drivetrain>(sim: &Driver<M>, meshes: usize) -> Vec<Value> {
 #[derive(Clone, Copy)]
 struct Candidate {
     value: f64,
+    /// Where the sampled maximum is, and the samples beside it (`None` where the bracket
+    /// reaches a piece's end without a sample there).
+    at: f64,
+    below: Option<f64>,
+    above: Option<f64>,
     lo: f64,
     hi: f64,
     cell: usize,
@@ -404,8 +409,12 @@ fn add_piece<M: Drivetrain>(
             } else {
                 piece.samples[n - 1].0
             };
+            let sample = |i: usize| quantity(&piece.samples[i].1[m], which);
             s.candidates[which].push(Candidate {
                 value: best,
+                at: piece.samples[at].0,
+                below: (lo == piece.samples[at.max(1) - 1].0 && at > 0).then(|| sample(at - 1)),
+                above: (at + 1 < n).then(|| sample(at + 1)),
                 lo,
                 hi,
                 cell,
@@ -455,7 +464,13 @@ fn refine<M: Drivetrain>(
             }
         };
         let tol = (PEAK_TOL * (c.hi - c.lo)).max(8.0 * f64::EPSILON * c.hi.abs());
-        let (_, v) = brent_maximum(&mut g, c.lo, c.hi, tol);
+        let v = match (c.below, c.above) {
+            (Some(fl), Some(fh)) => {
+                parabolic_maximum(&mut g, [(c.lo, fl), (c.at, c.value), (c.hi, fh)], tol)
+            }
+            _ => None,
+        }
+        .unwrap_or_else(|| brent_maximum(&mut g, c.lo, c.hi, tol).1);
         if let Some(e) = failure {
             return Err(e);
         }
@@ -463,6 +478,51 @@ fn refine<M: Drivetrain>(
     }
     Ok(result)
 }
+
+/// Successive parabolic interpolation from three samples `lo < at < hi` with the largest value
+/// at `at` (the samples are already known, so a smooth maximum needs a few evaluations, not
+/// Brent's fresh start): the vertex of the parabola through the three best points bracketing
+/// the maximum, until it moves by less than `tol`. `None` when a step leaves the bracket or
+/// does not settle within [`PARABOLIC_STEPS`] (the caller falls back to Brent).
+fn parabolic_maximum(
+    g: &mut dyn FnMut(f64) -> f64,
+    points: [(f64, f64); 3],
+    tol: f64,
+) -> Option<f64> {
+    let [mut a, mut b, mut c] = points;
+    for _ in 0..PARABOLIC_STEPS {
+        let (p, q) = (b.0 - a.0, b.0 - c.0);
+        let (r, t) = (b.1 - c.1, b.1 - a.1);
+        let den = p * r - q * t;
+        if den == 0.0 || !den.is_finite() {
+            return None;
+        }
+        let x = b.0 - 0.5 * (p * p * r - q * q * t) / den;
+        if !(x > a.0 && x < c.0) {
+            return None;
+        }
+        if (x - b.0).abs() <= tol {
+            return Some(b.1.max(g(x)));
+        }
+        let fx = g(x);
+        if fx >= b.1 {
+            if x < b.0 {
+                c = b;
+            } else {
+                a = b;
+            }
+            b = (x, fx);
+        } else if x < b.0 {
+            a = (x, fx);
+        } else {
+            c = (x, fx);
+        }
+    }
+    None
+}
+
+/// Most steps of [`parabolic_maximum`].
+const PARABOLIC_STEPS: usize = 12;
 
 /// The times of the `count` state events the run met between `start` and `b`, located with
 /// the probe: each bracketed by the probe's event count, then refined by Brent's method on the
