@@ -10,7 +10,8 @@
 # (communication step = output interval = T_mesh/20 at the SSD's pinion speed, stop 1 s), each
 # writing the CSV of its own columns. Jacobi runs on one thread (--threads 1), and the five-FMU
 # system's Jacobi/hold also on two (parallel Jacobi, issue 32: bit-identical results; its
-# speedup is the ratio of the two rows).
+# speedup is the ratio of the two rows). The error-controlled master (--tolerance, issue 32)
+# runs Gauss–Seidel/linear at 1e-3 and 1e-4 on the same output grid (the grid bounds its step).
 # The commands run in alternating rounds so that a change of machine load hits all of them
 # alike; reported: median wall and CPU time (user + system, children included: `geardyn run`
 # runs the FMUs in a child process) and the ratio to the native run of the same point.
@@ -51,16 +52,20 @@ def grid(system):
     return h, ["--stop-time", "1", "--output-interval", repr(h)]
 
 
-def run(system, out, grid, algorithm, extrapolation, threads):
+def run(system, out, grid, algorithm, extrapolation, threads, tol):
     cmd = [exe, "run", system, "--out", out, *grid, "--algorithm", algorithm, "--extrapolation", extrapolation]
+    cmd += ["--tolerance", tol] if tol else []
     return cmd + (["--threads", str(threads)] if algorithm == "jacobi" else [])
 
 
 groups = []
 for system, n_fmus, couplings in (
-        ("examples/systems/drivetrain3", 3, [("jacobi", "none", 1), ("jacobi", "linear", 1), ("gauss-seidel", "linear", 1)]),
-        ("examples/systems/drivetrain", 5, [("jacobi", "none", 1), ("jacobi", "none", 2), ("gauss-seidel", "none", 1),
-                                            ("gauss-seidel", "linear", 1)])):
+        ("examples/systems/drivetrain3", 3, [("jacobi", "none", 1, None), ("jacobi", "linear", 1, None),
+                                             ("gauss-seidel", "linear", 1, None), ("gauss-seidel", "linear", 1, "1e-3"),
+                                             ("gauss-seidel", "linear", 1, "1e-4")]),
+        ("examples/systems/drivetrain", 5, [("jacobi", "none", 1, None), ("jacobi", "none", 2, None),
+                                            ("gauss-seidel", "none", 1, None), ("gauss-seidel", "linear", 1, None),
+                                            ("gauss-seidel", "linear", 1, "1e-3"), ("gauss-seidel", "linear", 1, "1e-4")])):
     h, g = grid(system)
     rpm = pinion_speed(system) * 30 / math.pi
     point = dr.SteadyPoint(rpm, 10.0)
@@ -68,10 +73,11 @@ for system, n_fmus, couplings in (
     with open(scene, "w") as fh:
         fh.write(point.monolithic_scene(open(native).read()))
     commands = {f"monolithic drivetrain (native), {rpm:.0f} rpm": [exe, "simulate", scene, "--out", f"{tmp}/n{n_fmus}.csv", *g, "--quiet"]}
-    for alg, ex, threads in couplings:
+    for alg, ex, threads, tol in couplings:
         label = f"{n_fmus} FMUs, geardyn run {'GS' if alg == 'gauss-seidel' else 'Jacobi'}/{'hold' if ex == 'none' else 'linear'}"
         label += ", 2 threads" if threads == 2 else ""
-        commands[label] = run(system, f"{tmp}/{n_fmus}{alg}{ex}{threads}.csv", g, alg, ex, threads)
+        label += f", --tolerance {tol}" if tol else ""
+        commands[label] = run(system, f"{tmp}/{n_fmus}{alg}{ex}{threads}{tol}.csv", g, alg, ex, threads, tol)
     groups.append((system, h, commands))
 
 
@@ -91,7 +97,8 @@ for _ in range(rounds):
         for name, cmd in commands.items():
             samples[name].append(timed(cmd))
 med = statistics.median
-print(f"median of {rounds} alternating rounds, communication step T_mesh/20, stop 1 s:")
+print(f"median of {rounds} alternating rounds, output interval (fixed communication step) T_mesh/20, stop 1 s;"
+      f" load average before: {os.getloadavg()[0]:.2f}:")
 print(f"  {'':48}  {'wall':>8}  {'ratio':>6}  {'CPU':>8}  {'ratio':>6}")
 for system, h, commands in groups:
     print(f"{system} (h = {h:.4e} s):")
@@ -100,4 +107,5 @@ for system, h, commands in groups:
     for name in commands:
         w, c = med([w for w, _ in samples[name]]), med([c for _, c in samples[name]])
         print(f"  {name:48}  {w:7.3f}s  {w / bw:6.3f}  {c:7.3f}s  {c / bc:6.3f}")
+print(f"load average after: {os.getloadavg()[0]:.2f}")
 EOF_PY

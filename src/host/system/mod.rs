@@ -6,7 +6,8 @@
 //! [`xml`] tree, with [`units`]) → every component's FMU is unpacked and its
 //! modelDescription parsed → [`check`] resolves connectors and connections against the FMUs
 //! → [`graph`] orders the elements and refuses algebraic loops → [`master`] steps the
-//! instances and streams the rows into the CSV writer of single-FMU runs.
+//! instances (with `--tolerance`, [`controlled`] chooses and undoes the steps) and streams the
+//! rows into the CSV writer of single-FMU runs.
 //!
 //! The run is supervised like a single FMU ([`crate::host::supervise`]): the parent checks
 //! everything and writes the CSV header, a forked child loads the FMUs and runs the master;
