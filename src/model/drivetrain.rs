@@ -591,7 +591,10 @@ impl AnyScene {
     /// Assembles the scene's kernel and starts it at `t = 0` from the scene's initial state,
     /// for the analyses of the nominal-speed form (steady states, Floquet, harmonic balance,
     /// sweeps, spectra, run-ups): a scene with `[[port]]` carries its rotation and is refused
-    /// with the reason (`docs/ports.md`); `geardyn simulate` takes [`AnyScene::run`].
+    /// with the reason (`docs/ports.md`); `geardyn simulate` takes [`AnyScene::run`]. The
+    /// run's work budget applies (the scene's `solver.work_budget`, else
+    /// [`crate::simulation::budget::DEFAULT_RUN_BUDGET`]): to each run of an analysis, a
+    /// sweep point starting a new scope ([`crate::simulation::Driver::new_run_scope`]).
     pub fn simulation(&self) -> Result<AnySimulation, String> {
         if let AnyScene::Train(s) = self {
             if let Some(p) = s.ports.first() {
@@ -613,7 +616,11 @@ impl AnyScene {
                 ));
             }
         }
-        self.run()
+        let mut sim = self.run()?;
+        with_drivetrain!(&mut sim, driver => {
+            driver.default_work_budget(crate::simulation::budget::DEFAULT_RUN_BUDGET)
+        });
+        Ok(sim)
     }
 
     /// The scene's simulation in any form (nominal speed, or carried rotation with ports).
