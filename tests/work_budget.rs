@@ -262,3 +262,58 @@ fn a_non_finite_start_literal_is_refused() {
         );
     }
 }
+
+/// Issue 34 item 2 for the analyses: `periodic`, `spectrum`, `hb`, `sweep` and `waterfall`
+/// run under the run budget (here `[solver] work_budget = 1e4`, far below one mesh period's
+/// work) and stop with its message naming a likely cause; a sweep marks each point it could
+/// not finish with that reason and goes on.
+#[test]
+fn analyses_stop_at_their_run_budget_naming_the_cause() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("work_budget_analyses");
+    std::fs::create_dir_all(&dir).unwrap();
+    let with_budget = |from: &Path, name: &str| {
+        let text = std::fs::read_to_string(from).unwrap();
+        assert!(text.contains("\n[solver]\n"), "{}", from.display());
+        let path = dir.join(name);
+        std::fs::write(
+            &path,
+            text.replacen("\n[solver]\n", "\n[solver]\nwork_budget = 1e4\n", 1),
+        )
+        .unwrap();
+        path
+    };
+    let pair = with_budget(&fmu_dir("spur_pair").join("scene.toml"), "pair.toml");
+    let runup = with_budget(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/runup_spur.toml"),
+        "runup.toml",
+    );
+    let out = dir.join("out");
+    let cases: [(&[&str], &Path, i32); 5] = [
+        (&["periodic"], &pair, 1),
+        (&["spectrum", "--out"], &pair, 1),
+        (&["hb", "--speed", "300:400", "--out"], &pair, 1),
+        (&["sweep", "--speed", "300:400:3", "--out"], &pair, 0),
+        (&["waterfall", "--out"], &runup, 1),
+    ];
+    for (args, scene, code) in cases {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_geardyn"));
+        cmd.args(args);
+        if args.last() == Some(&"--out") {
+            let ext = if args[0] == "waterfall" { "png" } else { "csv" };
+            cmd.arg(out.with_extension(ext));
+        }
+        let run = cmd.arg(scene).output().unwrap();
+        let stderr = String::from_utf8_lossy(&run.stderr);
+        let stdout = String::from_utf8_lossy(&run.stdout);
+        let said = format!("{stderr}{stdout}");
+        assert_eq!(run.status.code(), Some(code), "{args:?}: {said}");
+        assert!(
+            said.contains("the work budget of 1e4 units was spent")
+                && said.contains("likely cause: "),
+            "{args:?}: {said}"
+        );
+        if args[0] == "sweep" {
+            assert_eq!(said.matches("failed (row of NaN)").count(), 6, "{said}");
+        }
+    }
+}

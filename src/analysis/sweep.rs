@@ -291,6 +291,7 @@ fn branch<M: Drivetrain>(
     let (start_model, start_state) = (sim.model().clone(), sim.y().to_vec());
     let mut points = Vec::with_capacity(speeds.len());
     for &speed in &speeds {
+        sim.new_run_scope();
         sim.change_model(|model, t| model.set_input_speed(t, speed))
             .map_err(|e| format!("speed {speed} rad/s: {e}"))?;
         match steady_state(&mut sim, settings, options, direction, speed) {
@@ -303,6 +304,7 @@ fn branch<M: Drivetrain>(
                 let mut model = start_model.clone();
                 model.set_input_speed(0.0, speed)?;
                 sim = Driver::with_model(model, &start_state, settings)?;
+                sim.default_work_budget(crate::simulation::budget::DEFAULT_RUN_BUDGET);
             }
         }
         tick();

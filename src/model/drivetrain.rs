@@ -472,7 +472,10 @@ impl Scene {
     /// Assembles the scene's kernel and starts it at `t = 0` from the scene's initial state,
     /// for the analyses of the nominal-speed form (steady states, Floquet, harmonic balance,
     /// sweeps, spectra, run-ups): a scene with `[[port]]` carries its rotation and is refused
-    /// with the reason (`docs/ports.md`); `geardyn simulate` takes [`Scene::run`].
+    /// with the reason (`docs/ports.md`); `geardyn simulate` takes [`Scene::run`]. The
+    /// run's work budget applies (the scene's `solver.work_budget`, else
+    /// [`crate::simulation::budget::DEFAULT_RUN_BUDGET`]): to each run of an analysis, a
+    /// sweep point starting a new scope ([`crate::simulation::Driver::new_run_scope`]).
     pub fn simulation(&self) -> Result<AnySimulation, String> {
         if let Some(p) = self.ports.first() {
             return Err(format!(
@@ -491,7 +494,11 @@ impl Scene {
                 self.name, b.name
             ));
         }
-        self.run()
+        let mut sim = self.run()?;
+        with_drivetrain!(&mut sim, driver => {
+            driver.default_work_budget(crate::simulation::budget::DEFAULT_RUN_BUDGET)
+        });
+        Ok(sim)
     }
 
     /// The scene's simulation in any form (nominal speed, or carried rotation with ports).

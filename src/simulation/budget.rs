@@ -3,8 +3,10 @@
 //! module's runs) — either stays within a documented amount or stops with
 //! [`crate::solve::SolveError::OverBudget`], whose message names the likely cause. The scene's
 //! `[solver] work_budget` sets it; unset, the scope's default applies ([`DEFAULT_CALL_BUDGET`],
-//! [`DEFAULT_RUN_BUDGET`]); a driver used directly (benchmarks, analyses) is unbounded until
-//! its owner applies one ([`super::Driver::default_work_budget`]). The budget counts work, not time, so a run is
+//! [`DEFAULT_RUN_BUDGET`]); the analyses apply the run's default to each of their runs
+//! (`Scene::simulation`, a sweep point a scope of its own); a driver used directly
+//! (benchmarks) is unbounded until its owner applies one
+//! ([`super::Driver::default_work_budget`]). The budget counts work, not time, so a run is
 //! deterministic: the same inputs stop at the same step on any machine.
 //!
 //! The unit is an estimate of floating-point work (about one multiply-add; 2–3 ns on the CI

@@ -291,6 +291,13 @@ impl<M: DrivenModel> Driver<M> {
         }
     }
 
+    /// Starts a new budget scope of one run within an analysis (a sweep point): the run
+    /// budget then bounds each such run, as it bounds a streamed run.
+    pub fn new_run_scope(&mut self) {
+        self.reset_work();
+        self.per_call = false;
+    }
+
     /// Starts a new budget scope: an FMU calls this at the start of every call, so the
     /// budget bounds each call; a run that never calls it is bounded as a whole.
     pub fn reset_work(&mut self) {
