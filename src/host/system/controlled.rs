@@ -35,6 +35,7 @@
 //! returned with the outcome and written to `<out>.steps.csv`.
 
 use super::master::{initialize, serial_step, terminate, Outcome, State};
+pub use super::plan::StepRecord;
 use super::plan::{Coupling, ErrorControl, Plan};
 use super::step::StepEnd;
 use crate::host::cli::RunArgs;
@@ -42,16 +43,6 @@ use crate::host::description::VarType;
 use crate::host::input::isclose;
 use crate::host::instance::Instance;
 use crate::host::runner::RowSink;
-
-/// One attempted communication step.
-#[derive(Debug, Clone, Copy)]
-pub struct StepRecord {
-    pub time: f64,
-    pub step: f64,
-    /// The error estimate relative to the tolerance (∞: an FMU refused the step).
-    pub error: f64,
-    pub accepted: bool,
-}
 
 /// The settings of `--tolerance`, `--min-step`, `--max-step`; `None` without `--tolerance`
 /// or where the system cannot roll back (a note says so: fixed steps).

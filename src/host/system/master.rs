@@ -58,7 +58,7 @@ pub struct Outcome {
     pub failure: Option<String>,
     pub notes: Vec<String>,
     /// The error-controlled master's step sequence (empty with fixed steps).
-    pub steps: Vec<super::controlled::StepRecord>,
+    pub steps: Vec<super::plan::StepRecord>,
 }
 
 /// Per element: which values to read after its step, and which inputs to set before it.
@@ -434,13 +434,12 @@ fn set_start(
     })
 }
 
-/// Initialize and run the instances (`insts[i]` is element i), giving every row to `sink`.
+/// Initialize and run the instances (`insts[i]` is element i) with fixed steps (a plan with
+/// error control runs in the error-controlled master, `controlled::run`), giving every row
+/// to `sink`.
 /// Never panics; on failure the rows up to then have been delivered. A Jacobi plan with
 /// `threads > 1` steps the elements on that many threads ([`super::parallel`]).
 pub fn run<'a>(insts: &mut [Instance<'a>], plan: &Plan, sink: &mut dyn RowSink) -> Outcome {
-    if let Some(ctl) = &plan.control {
-        return super::controlled::run(insts, plan, ctl, sink);
-    }
     if plan.algorithm != Algorithm::Jacobi || plan.threads <= 1 {
         return run_with(insts, plan, sink, None);
     }

@@ -658,7 +658,10 @@ fn child_run(
         }
         insts.push(inst);
     }
-    let outcome = master::run(&mut insts, plan, csv);
+    let outcome = match &plan.control {
+        Some(ctl) => controlled::run(&mut insts, plan, ctl, csv),
+        None => master::run(&mut insts, plan, csv),
+    };
     drop(insts); // fmi2FreeInstance before the libraries are unloaded
     let flushed = csv
         .flush()

@@ -71,3 +71,13 @@ pub struct ErrorControl {
     /// off with `--no-impulse-correction`).
     pub impulse_correction: bool,
 }
+
+/// One attempted communication step.
+#[derive(Debug, Clone, Copy)]
+pub struct StepRecord {
+    pub time: f64,
+    pub step: f64,
+    /// The error estimate relative to the tolerance (∞: an FMU refused the step).
+    pub error: f64,
+    pub accepted: bool,
+}
