@@ -200,15 +200,19 @@ fn hb_writes_per_mesh_columns_for_every_scene() {
     let text = std::fs::read_to_string(&csv).unwrap();
     let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
     let mut expected = vec!["speed", "speed_rpm", "mesh_frequency"];
+    // The per-mesh columns of `sweep` (one list, `analysis::mesh_response::MESH_COLUMNS`).
     let per_mesh = [
         "dte_mean",
         "dte_rms",
+        "dte_peak_to_peak",
         "a1",
         "a2",
+        "a3",
+        "contact_loss_fraction",
+        "separation_phase",
         "peak_force",
         "force_rms",
         "dynamic_factor",
-        "contact_loss_fraction",
         "mesh_frequency",
     ];
     let names: Vec<String> = ["mesh1", "mesh2"]
@@ -273,7 +277,8 @@ fn hb_writes_per_mesh_columns_for_every_scene() {
     let text = std::fs::read_to_string(&pair).unwrap();
     assert_eq!(
         text.lines().next().unwrap(),
-        "speed,speed_rpm,mesh_frequency,dte_mean,dte_rms,a1,a2,peak_force,force_rms,dynamic_factor,\
-         contact_loss_fraction,spectral_radius,stable,fold"
+        "speed,speed_rpm,mesh_frequency,dte_mean,dte_rms,dte_peak_to_peak,a1,a2,a3,\
+         contact_loss_fraction,separation_phase,peak_force,force_rms,dynamic_factor,\
+         spectral_radius,stable,fold"
     );
 }

@@ -114,12 +114,18 @@ impl MeshResponse {
         row
     }
 
-    /// `name = value unit` pairs in column order, for reports (`geardyn periodic`).
+    /// `name = value unit` pairs in column order, for reports (`geardyn periodic`); the
+    /// mesh frequency first (also for the single pair, whose table has it as a point column).
     pub fn report_line(&self) -> String {
-        let names = mesh_columns(std::slice::from_ref(&self.prefix));
+        let mut names = mesh_columns(std::slice::from_ref(&self.prefix));
+        let mut values = self.values();
+        if self.prefix.is_empty() {
+            names.insert(0, "mesh_frequency".to_owned());
+            values.insert(0, self.mesh_frequency);
+        }
         names
             .iter()
-            .zip(self.values())
+            .zip(values)
             .map(|(n, v)| match crate::units::column_unit(n) {
                 None | Some("1") => format!("{n} = {v:e}"),
                 Some(unit) => format!("{n} = {v:e} {unit}"),
