@@ -11,17 +11,24 @@
 # runner's own loop). Not a test: timings depend on the machine and its load.
 # With --instructions (needs valgrind): also the instructions executed by one run of each
 # (callgrind, ~1 min), a measure that does not depend on the load at all.
-# Usage: bash scripts/bench-host.sh [ROUNDS] [--instructions]   (default 9 rounds)
+# With --against DIR (another worktree with a release build and out/fmus, e.g. the commit
+# before a change): each command also runs with DIR's binary and FMU, alternated with this
+# tree's, and the table gives this tree's median CPU over DIR's (the speed-unchanged check);
+# with --instructions the callgrind totals of both, side by side.
+# Usage: bash scripts/bench-host.sh [ROUNDS] [--instructions] [--against DIR]   (default 9 rounds)
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 rounds=9
 instructions=false
-for arg in "$@"; do
-  case "$arg" in
+against=""
+while [ $# -gt 0 ]; do
+  case "$1" in
     --instructions) instructions=true ;;
-    *) rounds=$arg ;;
+    --against) against=$(cd "$2" && pwd); shift ;;
+    *) rounds=$1 ;;
   esac
+  shift
 done
 bin=target/release/geardyn
 fmu=out/fmus/spur_pair.fmu
@@ -31,9 +38,9 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 fmpy=""
 [ -x .venv/bin/python ] && fmpy=.venv/bin/python
-python3 - "$rounds" "$bin" "$fmu" "$tmp" "$fmpy" <<'EOF_PY'
+python3 - "$rounds" "$bin" "$fmu" "$tmp" "$fmpy" "$against" <<'EOF_PY'
 import os, statistics, subprocess, sys, time
-rounds, exe, fmu, tmp, fmpy = int(sys.argv[1]), *sys.argv[2:6]
+rounds, exe, fmu, tmp, fmpy, against = int(sys.argv[1]), *sys.argv[2:7]
 grid = ["--stop-time", "1", "--output-interval", "1e-5"]
 commands = {
     "geardyn simulate (native, CSV)": [exe, "simulate", "fmu/spur_pair", "--out", f"{tmp}/s.csv", *grid, "--quiet"],
@@ -51,6 +58,22 @@ def timed(cmd):
         sys.exit(f"failed: {' '.join(cmd)}")
     return wall, usage.ru_utime + usage.ru_stime
 
+if against:
+    base = {
+        name: [f"{against}/{exe}" if a == exe else f"{against}/{fmu}" if a == fmu else a for a in cmd]
+        for name, cmd in commands.items()
+    }
+    new_cpu, base_cpu = {n: [] for n in commands}, {n: [] for n in commands}
+    for _ in range(rounds):
+        for name in commands:
+            base_cpu[name].append(timed(base[name])[1])
+            new_cpu[name].append(timed(commands[name])[1])
+    print(f"this tree against {against}: median CPU of {rounds} alternated rounds (load average {os.getloadavg()[0]:.1f})")
+    print(f"  {'':44}  {'base':>8}  {'new':>8}  {'new/base':>8}")
+    for name in commands:
+        b, n = statistics.median(base_cpu[name]), statistics.median(new_cpu[name])
+        print(f"  {name:44}  {b:7.3f}s  {n:7.3f}s  {n / b:8.3f}")
+    sys.exit(0)
 samples = {name: [] for name in commands}
 for _ in range(rounds):
     for name, cmd in commands.items():
@@ -70,7 +93,7 @@ if fmpy:
     print(f"  {'fmpy simulate    (FMU, all outputs)':38}  {wall:7.3f}s  {wall / base_wall:6.3f}  {cpu:7.3f}s  {cpu / base_cpu:6.3f}   (one run)")
 EOF_PY
 # Where the time of one `geardyn run` goes: inside the FMU's calls vs the runner itself.
-"$bin" run "$fmu" --out "$tmp/t.csv" --stop-time 1 --output-interval 1e-5 --timing 2>&1 >/dev/null | sed 's/^/  /'
+[ -n "$against" ] || "$bin" run "$fmu" --out "$tmp/t.csv" --stop-time 1 --output-interval 1e-5 --timing 2>&1 >/dev/null | sed 's/^/  /'
 if $instructions; then
   # callgrind's "Collected" totals: every instruction, FMU library included, summed over the
   # processes (`geardyn run` forks the one that runs the FMU; each reports its own total).
@@ -78,7 +101,16 @@ if $instructions; then
     valgrind --tool=callgrind --callgrind-out-file="$tmp/cg.%p" "$@" 2>&1 >/dev/null |
       sed -n 's/.*Collected : //p' | awk '{ total += $1 } END { print total }'
   }
-  sim_ir=$(ir "$bin" simulate fmu/spur_pair --out "$tmp/s.csv" --stop-time 1 --output-interval 1e-5 --quiet)
-  run_ir=$(ir "$bin" run "$fmu" --out "$tmp/r.csv" --stop-time 1 --output-interval 1e-5)
-  python3 -c "s, r = $sim_ir, $run_ir; print(f'  instructions (callgrind): simulate {s / 1e6:.0f} M, run {r / 1e6:.0f} M, ratio run/simulate = {r / s:.3f}')"
+  grid="--stop-time 1 --output-interval 1e-5"
+  trees=("$root")
+  [ -n "$against" ] && trees=("$against" "$root")
+  for tree in "${trees[@]}"; do
+    # shellcheck disable=SC2086
+    sim_ir=$(cd "$tree" && ir "$bin" simulate fmu/spur_pair --out "$tmp/s.csv" $grid --quiet)
+    # shellcheck disable=SC2086
+    run_ir=$(cd "$tree" && ir "$bin" run "$fmu" --out "$tmp/r.csv" $grid)
+    # shellcheck disable=SC2086
+    dte_ir=$(cd "$tree" && ir "$bin" run "$fmu" --out "$tmp/o.csv" $grid --outputs mesh.dte)
+    python3 -c "s, r, o = $sim_ir, $run_ir, $dte_ir; print(f'  instructions (callgrind) in $tree: simulate {s / 1e6:.1f} M, run {r / 1e6:.1f} M, run --outputs mesh.dte {o / 1e6:.1f} M')"
+  done
 fi

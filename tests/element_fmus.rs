@@ -425,3 +425,41 @@ fn shipped_element_scenes_reproduce_their_references() {
         println!("{name}: {} rows identical to the reference", n + 1);
     }
 }
+
+/// Issue 34, failing case 7: before initialization `emotor` with `initial.angle = -1e308` and
+/// `vehicle_load` with `initial.speed = -9.7e215` answered NaN/±inf outputs with fmi2OK. A
+/// set that would make an output non-finite is refused naming the variable; whatever is
+/// accepted reads finite.
+#[test]
+fn unusable_start_values_are_refused_when_set() {
+    for (scene, name, value) in [
+        ("emotor", "initial.angle", -1e308),
+        ("vehicle_load", "initial.speed", -9.7e215),
+    ] {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("fmu")
+            .join(scene)
+            .join("scene.toml");
+        let mut loaded = load_scene(&path).unwrap();
+        let m = loaded.model.as_mut();
+        let r = vr(m, name);
+        match m.set_real(r, value) {
+            Err(e) => assert!(e.contains(name), "{scene}: {e}"),
+            Ok(_) => {
+                let outputs: Vec<(String, u32)> = m
+                    .variables()
+                    .iter()
+                    .map(|v| (v.name.clone(), v.value_reference))
+                    .collect();
+                for (n, vr) in outputs {
+                    if let Ok(x) = m.get_real(vr) {
+                        assert!(
+                            x.is_finite(),
+                            "{scene}: {name} = {value:e} accepted, {n} = {x}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+}

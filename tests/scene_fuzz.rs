@@ -390,8 +390,8 @@ const FUZZ_LIMITS: RunLimits = RunLimits {
 
 /// The work budget of the fuzz runs ([`RunLimits::work_budget`], work units): a run that
 /// succeeds must have stayed within it, one beyond it must have been stopped with a message.
-/// The driver checks the budget before each advance and caps the advance's steps at what is
-/// left, so a finished run may pass it only by its last step's guard work:
+/// The propagators stop at the step where the scope's budget is spent (`solve::work`), so a
+/// finished run may pass it only by its last step's guard work:
 /// [`FUZZ_WORK_SLACK`].
 const FUZZ_WORK_BUDGET: f64 = 1e8;
 const FUZZ_WORK_SLACK: f64 = 1.01;

@@ -1102,10 +1102,13 @@ impl ExactPropagator {
                 // Back at the first mode after a stop: a new sequence starts here.
                 break;
             }
-            if let Err(e) = self
-                .check_work_limit(t, meter)
-                .and_then(|()| budget.charge(t))
-            {
+            if self.work_limit.is_some() {
+                if let Err(e) = self.check_work_limit(t, meter) {
+                    failure = Some(e);
+                    break;
+                }
+            }
+            if let Err(e) = budget.charge(t) {
                 failure = Some(e);
                 break;
             }
