@@ -20,6 +20,8 @@
 //! [`fmi_call_sequences_long`], 1e6 calls, `bash scripts/stress.sh` or
 //! `cargo test --release --test fmi_fuzz -- --ignored --nocapture fmi_call_sequences_long`.
 
+#[path = "common/cpu.rs"]
+mod cpu;
 mod fmu_harness;
 
 use std::ffi::{c_char, c_int, c_void, CString};
@@ -31,6 +33,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
+use cpu::thread_cpu;
 use fmu_harness::{guid, quiet_logger, scene_dir, SplitMix};
 use geardyn::fmi::model::{Causality, VarKind};
 use geardyn::fmu::adapter::VR_WORK_BUDGET;
@@ -76,16 +79,6 @@ fn replay() -> Option<(String, u64)> {
     Some((scene.to_string(), seed))
 }
 
-/// CPU time of the calling thread (the FMU's calls run on it).
-fn thread_cpu() -> Duration {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: writes the calling thread's CPU clock into `ts`.
-    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
-}
 const SEED: u64 = 0x6765_6172_1717;
 const CALLS_PER_SESSION: usize = 200;
 

@@ -4,10 +4,14 @@
 //! spread that kept nalgebra's SVD from converging); shipped FMUs and scenes stay far within
 //! their budgets.
 
+#[path = "common/cpu.rs"]
+mod cpu;
+
 use std::path::Path;
 use std::process::Command;
 use std::time::Duration;
 
+use cpu::thread_cpu;
 use geardyn::fmi::model::{CoSimModel, StepFailure};
 use geardyn::simulation::budget::{DEFAULT_CALL_BUDGET, DEFAULT_RUN_BUDGET};
 
@@ -27,17 +31,6 @@ fn vr(m: &dyn CoSimModel, name: &str) -> u32 {
         .find(|v| v.name == name)
         .unwrap_or_else(|| panic!("no variable {name}"))
         .value_reference
-}
-
-/// CPU time of this thread.
-fn thread_cpu() -> Duration {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: writes the calling thread's CPU clock into `ts`.
-    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    Duration::new(ts.tv_sec as u64, ts.tv_nsec as u32)
 }
 
 /// The calls of issue 34 that took seconds (8.6 s, 55.6 s, 2.4 s of CPU): each now ends
