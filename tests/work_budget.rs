@@ -275,38 +275,71 @@ fn analyses_stop_at_their_run_budget_naming_the_cause() {
         .unwrap();
         path
     };
-    let pair = with_budget(&fmu_dir("spur_pair").join("scene.toml"), "pair.toml");
-    let runup = with_budget(
-        &Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/runup_spur.toml"),
-        "runup.toml",
-    );
+    let pair_scene = fmu_dir("spur_pair").join("scene.toml");
+    let runup_scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/runup_spur.toml");
+    let pair = with_budget(&pair_scene, "pair.toml");
+    let runup = with_budget(&runup_scene, "runup.toml");
     let out = dir.join("out");
-    let cases: [(&[&str], &Path, i32); 5] = [
-        (&["periodic"], &pair, 1),
-        (&["spectrum", "--out"], &pair, 1),
-        (&["hb", "--speed", "300:400", "--out"], &pair, 1),
-        (&["sweep", "--speed", "300:400:3", "--out"], &pair, 0),
-        (&["waterfall", "--out"], &runup, 1),
+    // The budget from the scene's [solver] table, then from `--work-budget` on the shipped
+    // scene: the same stop.
+    let cases: [(&[&str], &Path, &Path, i32); 5] = [
+        (&["periodic"], &pair, &pair_scene, 1),
+        (&["spectrum", "--out"], &pair, &pair_scene, 1),
+        (
+            &["hb", "--speed", "300:400", "--out"],
+            &pair,
+            &pair_scene,
+            1,
+        ),
+        (
+            &["sweep", "--speed", "300:400:3", "--out"],
+            &pair,
+            &pair_scene,
+            0,
+        ),
+        (&["waterfall", "--out"], &runup, &runup_scene, 1),
     ];
-    for (args, scene, code) in cases {
-        let mut cmd = Command::new(env!("CARGO_BIN_EXE_geardyn"));
-        cmd.args(args);
-        if args.last() == Some(&"--out") {
-            let ext = if args[0] == "waterfall" { "png" } else { "csv" };
-            cmd.arg(out.with_extension(ext));
+    for via_flag in [false, true] {
+        for (args, budgeted, shipped, code) in cases {
+            let mut cmd = Command::new(env!("CARGO_BIN_EXE_geardyn"));
+            cmd.args(args);
+            if args.last() == Some(&"--out") {
+                let ext = if args[0] == "waterfall" { "png" } else { "csv" };
+                cmd.arg(out.with_extension(ext));
+            }
+            let run = if via_flag {
+                cmd.args(["--work-budget", "1e4"]).arg(shipped)
+            } else {
+                cmd.arg(budgeted)
+            }
+            .output()
+            .unwrap();
+            let stderr = String::from_utf8_lossy(&run.stderr);
+            let stdout = String::from_utf8_lossy(&run.stdout);
+            let said = format!("{stderr}{stdout}");
+            assert_eq!(run.status.code(), Some(code), "{args:?}: {said}");
+            assert!(
+                said.contains("the work budget of 1e4 units was spent")
+                    && said.contains("likely cause: "),
+                "{args:?} (flag: {via_flag}): {said}"
+            );
+            if args[0] == "sweep" {
+                assert_eq!(said.matches("failed (row of NaN)").count(), 6, "{said}");
+            }
         }
-        let run = cmd.arg(scene).output().unwrap();
+    }
+    // A budget the scene would refuse is refused on the command line too, naming the flag.
+    for bad in ["0", "-1", "inf", "NaN"] {
+        let run = Command::new(env!("CARGO_BIN_EXE_geardyn"))
+            .args(["periodic", "--work-budget", bad])
+            .arg(&pair_scene)
+            .output()
+            .unwrap();
         let stderr = String::from_utf8_lossy(&run.stderr);
-        let stdout = String::from_utf8_lossy(&run.stdout);
-        let said = format!("{stderr}{stdout}");
-        assert_eq!(run.status.code(), Some(code), "{args:?}: {said}");
+        assert_eq!(run.status.code(), Some(1), "{bad}: {stderr}");
         assert!(
-            said.contains("the work budget of 1e4 units was spent")
-                && said.contains("likely cause: "),
-            "{args:?}: {said}"
+            stderr.contains("--work-budget = ") && stderr.contains("must be a finite number >= 1"),
+            "{bad}: {stderr}"
         );
-        if args[0] == "sweep" {
-            assert_eq!(said.matches("failed (row of NaN)").count(), 6, "{said}");
-        }
     }
 }

@@ -7,7 +7,7 @@ use clap::Args;
 
 use geardyn::commands::{hb as hb_commands, steady as commands};
 
-use super::load_any_scene;
+use super::{load_any_scene, WorkBudgetArg};
 
 #[derive(Args)]
 pub struct PeriodicArgs {
@@ -28,6 +28,8 @@ pub struct PeriodicArgs {
     /// Response periods integrated before Newton starts.
     #[arg(long, default_value_t = 20)]
     warmup: u32,
+    #[command(flatten)]
+    budget: WorkBudgetArg,
 }
 
 #[derive(Args)]
@@ -66,10 +68,13 @@ pub struct SweepArgs {
     /// Write each column's unit into the CSV header, `dte [m]` (default: bare names).
     #[arg(long)]
     units: bool,
+    #[command(flatten)]
+    budget: WorkBudgetArg,
 }
 
 pub fn periodic(args: PeriodicArgs) -> Result<(), String> {
     let mut scene = load_any_scene(&args.scene, &args.example)?;
+    args.budget.apply(&mut scene)?;
     let report =
         commands::periodic_command(&mut scene, args.speed.as_deref(), args.periods, args.warmup)?;
     print!("{report}");
@@ -77,7 +82,8 @@ pub fn periodic(args: PeriodicArgs) -> Result<(), String> {
 }
 
 pub fn sweep(args: SweepArgs) -> Result<(), String> {
-    let scene = load_any_scene(&args.scene, &args.example)?;
+    let mut scene = load_any_scene(&args.scene, &args.example)?;
+    args.budget.apply(&mut scene)?;
     let request = commands::SweepRequest {
         speed: &args.speed,
         direction: &args.direction,
@@ -131,11 +137,14 @@ pub struct HbArgs {
     /// Write each column's unit into the CSV header, `dte_rms [m]` (default: bare names).
     #[arg(long)]
     pub units: bool,
+    #[command(flatten)]
+    pub budget: WorkBudgetArg,
 }
 
 /// `geardyn hb`: harmonic balance with pseudo-arclength continuation and stability.
 pub fn hb(args: HbArgs) -> Result<(), String> {
-    let scene = load_any_scene(&args.scene, &args.example)?;
+    let mut scene = load_any_scene(&args.scene, &args.example)?;
+    args.budget.apply(&mut scene)?;
     let request = hb_commands::HbRequest {
         speed: &args.speed,
         harmonics: args.harmonics,

@@ -23,6 +23,32 @@ pub fn set_verbose(on: bool) {
     VERBOSE.store(on, Ordering::Relaxed);
 }
 
+/// `--work-budget` of the analysis commands (`periodic`, `sweep`, `hb`, `spectrum`,
+/// `waterfall`): overrides the scene's `solver.work_budget` for each run the analysis makes
+/// (a shooting orbit, a sweep point, a run-up), as `simulate --work-budget` does for one run.
+#[derive(clap::Args)]
+pub struct WorkBudgetArg {
+    /// Work budget of each run of the analysis, in work units (default: the scene's
+    /// solver.work_budget, else 2e9; docs/fmu.md "Work budget"). A run beyond it stops with a
+    /// message naming the likely cause.
+    #[arg(long, allow_hyphen_values = true)]
+    work_budget: Option<f64>,
+}
+
+impl WorkBudgetArg {
+    /// Sets the scene's `solver.work_budget` from `--work-budget`, refusing a value the scene
+    /// would refuse (not finite, or below 1).
+    pub fn apply(&self, scene: &mut Scene) -> Result<(), String> {
+        if let Some(x) = self.work_budget {
+            scene.solver.work_budget = Some(geardyn::simulation::budget::check_limit(
+                "--work-budget",
+                x,
+            )?);
+        }
+        Ok(())
+    }
+}
+
 /// The scene named on the command line, in either format (single pair or drivetrain); with
 /// `--verbose` the kernel chosen for it, and why, goes to stderr.
 pub fn load_any_scene(path: &Option<PathBuf>, example: &Option<String>) -> Result<Scene, String> {

@@ -38,10 +38,13 @@ pub struct WaterfallArgs {
     /// mesh orders 1–3 overlaid (PNG or SVG by the extension).
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    #[command(flatten)]
+    pub budget: super::WorkBudgetArg,
 }
 
 pub fn run(args: WaterfallArgs) -> Result<(), String> {
-    let scene = load_any_scene(&args.scene, &args.example)?;
+    let mut scene = load_any_scene(&args.scene, &args.example)?;
+    args.budget.apply(&mut scene)?;
     let request = WaterfallRequest {
         mesh: args.mesh.as_deref(),
         signal: &args.signal,

@@ -29,10 +29,13 @@ pub struct SpectrumArgs {
     /// Response periods spanned (finer resolution: 1/(periods·T)).
     #[arg(long, default_value_t = 1)]
     periods: u32,
+    #[command(flatten)]
+    budget: super::WorkBudgetArg,
 }
 
 pub fn run(args: SpectrumArgs) -> Result<(), String> {
-    let scene = super::load_any_scene(&args.scene, &args.example)?;
+    let mut scene = super::load_any_scene(&args.scene, &args.example)?;
+    args.budget.apply(&mut scene)?;
     let request = SpectrumRequest {
         signals: args.signal,
         samples_per_mesh_period: args.samples,

@@ -140,8 +140,8 @@ pub fn exhausted_message(e: &Exhaustion) -> String {
         format!("shorten the communication step, or raise the parameter {BUDGET_KEY}")
     } else {
         format!(
-            "raise {BUDGET_KEY} in the scene's [solver] table (or `simulate --work-budget`, \
-             Python `work_budget=`) if the run is meant to do this much work"
+            "raise {BUDGET_KEY} in the scene's [solver] table (or the command's \
+             --work-budget, Python's work_budget=) if the run is meant to do this much work"
         )
     };
     format!(
