@@ -444,3 +444,32 @@ fn a_chattering_contact_is_stopped_by_the_budget_naming_the_events() {
     );
     nothing_left(dir.path());
 }
+
+/// Issue 34 item 2: `--progress` shows a long analysis' progress on a pipe too. A sweep's
+/// stderr is a pipe here: without the flag it holds only the header line (scripted runs stay
+/// byte-identical); with it, the points done, ending with the total.
+#[test]
+fn sweep_progress_shows_on_a_pipe_only_when_asked_for() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("frf.csv");
+    let out = out.to_str().unwrap();
+    let args = [
+        "sweep",
+        "--example",
+        "spur_pair",
+        "--speed",
+        "300:400:5",
+        "--direction",
+        "both",
+        "--out",
+        out,
+    ];
+    let quiet = geardyn(&args);
+    assert_eq!(quiet.status.code(), Some(0), "{}", stderr(&quiet));
+    assert!(!stderr(&quiet).contains("/10 points"), "{}", stderr(&quiet));
+    let shown = geardyn(&[&args[..], &["--progress"]].concat());
+    assert_eq!(shown.status.code(), Some(0), "{}", stderr(&shown));
+    let e = stderr(&shown);
+    assert!(e.contains("sweep 10/10 points\n"), "{e}");
+    assert!(!e.contains('\r'), "a pipe gets plain lines: {e:?}");
+}

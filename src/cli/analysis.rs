@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use clap::Args;
 
 use geardyn::commands::{hb as hb_commands, steady as commands};
+use geardyn::simulation::stream::ProgressDisplay;
 
 use super::{load_any_scene, WorkBudgetArg};
 
@@ -68,6 +69,10 @@ pub struct SweepArgs {
     /// Write each column's unit into the CSV header, `dte [m]` (default: bare names).
     #[arg(long)]
     units: bool,
+    /// Show the points done on stderr also when it is not a terminal (a plain line every
+    /// 2 s and at the end).
+    #[arg(long)]
+    progress: bool,
     #[command(flatten)]
     budget: WorkBudgetArg,
 }
@@ -97,7 +102,15 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
         plot: args.plot.as_deref(),
         units: args.units,
     };
-    print!("{}", commands::sweep_command(&scene, &request, &files)?);
+    let progress = if args.progress {
+        ProgressDisplay::Always
+    } else {
+        ProgressDisplay::Terminal
+    };
+    print!(
+        "{}",
+        commands::sweep_command(&scene, &request, &files, progress)?
+    );
     Ok(())
 }
 

@@ -15,6 +15,7 @@ use crate::model::Drivetrain;
 use crate::output;
 use crate::plot::{Axis, Format, Marker, Plot, Series};
 use crate::scene::Scene;
+use crate::simulation::stream::{ProgressDisplay, PROGRESS_LINE_EVERY};
 use crate::units::{both_units, parse_speed, rpm};
 use crate::with_drivetrain;
 
@@ -370,12 +371,14 @@ pub struct SweepFiles<'a> {
     pub units: bool,
 }
 
-/// `geardyn sweep`: runs the sweep, writes its files and returns the summary it prints. A
-/// progress line goes to stderr on a terminal only.
+/// `geardyn sweep`: runs the sweep, writes its files and returns the summary it prints. The
+/// points done show on stderr as `progress` says: redrawn in place on a terminal, and with
+/// [`ProgressDisplay::Always`] (`--progress`) as a plain line every few seconds on a pipe.
 pub fn sweep_command(
     scene: &Scene,
     request: &SweepRequest,
     files: &SweepFiles,
+    progress: ProgressDisplay,
 ) -> Result<String, String> {
     if let Some(path) = files.plot {
         Format::of(path)?;
@@ -388,17 +391,28 @@ pub fn sweep_command(
         both_units(speeds[speeds.len() - 1]),
         speeds.len()
     );
-    // A progress line only on a terminal: in a pipe or a log the carriage returns are noise.
+    // On a terminal the line is redrawn in place; in a pipe or a log carriage returns are
+    // noise, so a plain line every few seconds, and only when asked for (`--progress`).
     let terminal = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let progress = |done: usize, total: usize| {
-        if terminal {
+    let last_line = std::sync::Mutex::new(std::time::Instant::now());
+    let show = |done: usize, total: usize| match progress {
+        ProgressDisplay::Off => {}
+        _ if terminal => {
             eprint!("\rsweep {done}/{total} points");
             if done == total {
                 eprintln!();
             }
         }
+        ProgressDisplay::Terminal => {}
+        ProgressDisplay::Always => {
+            let mut last = last_line.lock().unwrap_or_else(|e| e.into_inner());
+            if done == total || last.elapsed() >= PROGRESS_LINE_EVERY {
+                eprintln!("sweep {done}/{total} points");
+                *last = std::time::Instant::now();
+            }
+        }
     };
-    let sweep = analysis::sweep(scene, &options, &progress)?;
+    let sweep = analysis::sweep(scene, &options, &show)?;
     let columns = sweep.columns();
     output::write_table_with_units(
         files.out,

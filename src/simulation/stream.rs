@@ -346,7 +346,7 @@ struct Shown {
 /// it appears.
 const PROGRESS_EVERY: Duration = Duration::from_millis(500);
 /// How often a plain progress line is written to a pipe or a file.
-const PROGRESS_LINE_EVERY: Duration = Duration::from_secs(2);
+pub(crate) const PROGRESS_LINE_EVERY: Duration = Duration::from_secs(2);
 
 impl Progress {
     /// Progress towards `stop_time`, shown only when `wanted` and stderr is a terminal.
