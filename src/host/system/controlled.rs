@@ -225,12 +225,7 @@ pub(super) fn run(
     ctl: &ErrorControl,
     sink: &mut dyn RowSink,
 ) -> Outcome {
-    let mut out = Outcome {
-        rows: 0,
-        failure: None,
-        notes: Vec::new(),
-        steps: Vec::new(),
-    };
+    let mut out = Outcome::default();
     let mut st = State::new(plan);
     let t0 = plan.start_time;
     let elements = &plan.system.elements;

@@ -53,6 +53,7 @@ pub fn producer_ports(links: &[Link]) -> (Vec<(usize, u32, VarType)>, Vec<usize>
 }
 
 /// How a run ended; the rows went to the sink.
+#[derive(Default)]
 pub struct Outcome {
     pub rows: usize,
     pub failure: Option<String>,
@@ -570,12 +571,7 @@ fn run_with<'a>(
     sink: &mut dyn RowSink,
     mut pool: Option<&mut Pool<'a>>,
 ) -> Outcome {
-    let mut out = Outcome {
-        rows: 0,
-        failure: None,
-        notes: Vec::new(),
-        steps: Vec::new(),
-    };
+    let mut out = Outcome::default();
     let mut st = State::new(plan);
     let t0 = plan.start_time;
     let elements = &plan.system.elements;
