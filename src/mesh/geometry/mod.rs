@@ -16,6 +16,7 @@ pub mod fillet;
 pub mod gear;
 pub mod hertz;
 pub mod material;
+pub mod pairs;
 pub mod quadrature;
 pub mod report;
 pub mod sharing;
@@ -24,6 +25,7 @@ pub mod tooth;
 
 pub use curve::{CurveOptions, StiffnessCurve};
 pub use gear::{Gear, Pair};
+pub use pairs::PairCurve;
 pub use spec::{GearPairSpec, HertzLaw};
 
 use hertz::Hertz;

@@ -216,6 +216,18 @@ pub enum PairStiffnessSpec {
         density: f64,
         geometry: crate::mesh::helical::HelicalPairSpec,
     },
+    /// Each pair's stiffness from the gear geometry: potential-energy tooth beams, Sainsot
+    /// fillets and Hertz contact, with extended tooth contact acting as a gap
+    /// (`crate::mesh::geometry::pairs`, `docs/stiffness.md`, "Tooth pairs from geometry").
+    Geometry {
+        /// Pinion torque of the Hertz term, N·m (default: the mesh's static pinion torque).
+        torque: Option<f64>,
+        /// Extended tooth contact (default on).
+        #[serde(default = "default_true")]
+        etc: bool,
+        /// The gear pair, as in a gears file.
+        geometry: Box<GearPairSpec>,
+    },
     /// Piecewise-linear table over `ξ ∈ [0, contact_ratio]`.
     Table {
         contact_ratio: f64,

@@ -7,8 +7,8 @@ use super::checks::{finite, initial_dte, non_negative, positive, solver};
 use crate::mesh::PhaseSeries;
 use crate::scene::spec::{MeshSpec as TrainMeshSpec, PairStiffnessSpec, ParsedScene, ShaftSpec};
 use crate::scene::train::{
-    Bearing, GapTable, HelicalPair, MeshForceModel, PairGap, PairModel, PairStiffness, Shaft,
-    ShaftCoupling, TipRelief,
+    Bearing, GapFunction, GapTable, HelicalPair, MeshForceModel, PairGap, PairModel, PairStiffness,
+    Shaft, ShaftCoupling, TipRelief,
 };
 use crate::scene::{
     ContactLaw, Gear, KernelChoice, Mesh, MethodChoice, Operating, Scene, SceneError,
@@ -600,13 +600,42 @@ fn mesh(
                     m.model.as_deref().unwrap_or("")
                 ));
             };
-            let pair = pair_stiffness(&f("pairs"), spec)?;
+            let (pair, curve) = match spec {
+                PairStiffnessSpec::Geometry { .. } => {
+                    let body = |which: &str, g: usize| super::geometry::MeshGear {
+                        which: f(which),
+                        name: &gears[g].name,
+                        teeth: gears[g].teeth,
+                        base_radius: gears[g].base_radius,
+                    };
+                    let (curve, _) = super::geometry::pair_curve(
+                        spec,
+                        &f("pairs"),
+                        [body("pinion", pinion), body("gear", gear)],
+                        (
+                            &format!("operating.input_torque (carried to {})", f("pinion")),
+                            pinion_torque,
+                        ),
+                    )?;
+                    let pair = PairStiffness::table(curve.window(), &curve.points, &curve.values);
+                    (pair, Some(curve))
+                }
+                _ => (pair_stiffness(&f("pairs"), spec)?, None),
+            };
+            // Profile modifications are given on the theoretical window [0, c).
+            let c = curve
+                .as_ref()
+                .map_or(pair.contact_ratio, |k| k.contact_ratio);
             let relief = match (&m.tip_relief, &m.gaps) {
                 (Some(_), Some(_)) => {
                     return err(format!("{}: give tip_relief or gaps, not both", f("gaps")))
                 }
-                (_, Some(g)) => PairGap::Table(gap_table(&f("gaps"), g, pair.contact_ratio)?),
-                _ => PairGap::Relief(tip_relief(&f("tip_relief"), m, pair.contact_ratio)?),
+                (_, Some(g)) => PairGap::Table(gap_table(&f("gaps"), g, c)?),
+                _ => PairGap::Relief(tip_relief(&f("tip_relief"), m, c)?),
+            };
+            let relief = match &curve {
+                Some(k) if k.extension > 0.0 => PairGap::Table(extended_gap(k, &relief)),
+                _ => relief,
             };
             MeshForceModel::Pairs {
                 model,
@@ -655,9 +684,10 @@ fn mesh(
     let translations = gp.bearing.is_some() || gg.bearing.is_some();
     // A geometry mesh defines its operating pressure angle α_w (docs/train.md, "Gears and
     // geometry meshes").
-    let working = match &m.stiffness {
-        Some(s) => super::geometry::working_pressure_angle(s, &f("stiffness"))?,
-        None => None,
+    let working = match (&m.stiffness, &m.pairs) {
+        (Some(s), _) => super::geometry::working_pressure_angle(s, &f("stiffness"))?,
+        (None, Some(p)) => super::geometry::pair_working_pressure_angle(p, &f("pairs"))?,
+        (None, None) => None,
     };
     let pressure_angle = match (m.pressure_angle, working) {
         (Some(deg), Some((alpha_w, field))) => {
@@ -714,6 +744,14 @@ fn mesh(
     };
     let friction = match (&m.friction, &force) {
         (None, _) => None,
+        (Some(_), _) if matches!(m.pairs, Some(PairStiffnessSpec::Geometry { .. })) => {
+            return err(format!(
+                "{}: tooth friction is not available with [mesh.pairs] kind = \"geometry\" \
+                 (its pitch point would have to follow the ETC-extended window); use \
+                 kind = \"table\" with the geometry's pair curve",
+                f("friction")
+            ))
+        }
         (
             Some(spec),
             MeshForceModel::Pairs {
@@ -829,8 +867,31 @@ fn check_helical(
     Ok(())
 }
 
+/// The gap of a geometry pair over its ETC-extended window `[0, c + 2e]`: the profile
+/// modification `relief` (given on the theoretical window `[0, c]`, shifted by `e`) plus the
+/// ETC gap beyond the path ends ([`crate::mesh::geometry::PairCurve::extension_gap`]); both
+/// are piecewise linear, so the table through their kinks is exact.
+fn extended_gap(curve: &crate::mesh::geometry::PairCurve, relief: &PairGap) -> GapTable {
+    let (c, e) = (curve.contact_ratio, curve.extension);
+    let mut xi: Vec<f64> = vec![0.0, c];
+    xi.extend(relief.kinks(c).into_iter().filter(|&k| k > 0.0 && k < c));
+    xi.sort_by(f64::total_cmp);
+    xi.dedup();
+    let mut points = vec![0.0];
+    points.extend(xi.iter().map(|&k| k + e));
+    points.push(c + 2.0 * e);
+    let values = points
+        .iter()
+        .map(|&p| relief.gap_and_slope(c, (p - e).clamp(0.0, c)).0 + curve.extension_gap(p).0)
+        .collect();
+    GapTable { points, values }
+}
+
 fn pair_stiffness(field: &str, spec: &PairStiffnessSpec) -> Result<PairStiffness> {
     match spec {
+        PairStiffnessSpec::Geometry { .. } => {
+            unreachable!("geometry pairs are resolved with their gears (mesh)")
+        }
         PairStiffnessSpec::Helical { density, geometry } => {
             Ok(helical_pair(field, *density, geometry)?.pair_stiffness())
         }

@@ -7,9 +7,9 @@
 //! `docs/train.md` ("Gears and geometry meshes"), `docs/stiffness.md`.
 
 use super::checks::{finite, positive};
-use crate::mesh::geometry::{CurveOptions, MeshModel, Pair};
+use crate::mesh::geometry::{CurveOptions, MeshModel, Pair, PairCurve};
 use crate::mesh::MeshStiffness;
-use crate::scene::spec::{GeometryForm, StiffnessSpec};
+use crate::scene::spec::{GeometryForm, PairStiffnessSpec, StiffnessSpec};
 use crate::scene::SceneError;
 
 type Result<T> = std::result::Result<T, SceneError>;
@@ -69,6 +69,19 @@ pub(crate) fn working_pressure_angle(
     };
     let geo = format!("{prefix}.geometry.");
     let pair = Pair::new(geometry, &geo).map_err(SceneError)?;
+    Ok(Some((pair.alpha_w, format!("{prefix}.geometry"))))
+}
+
+/// The working pressure angle α_w of `[mesh.pairs] kind = "geometry"`, as
+/// [`working_pressure_angle`] for the stiffness source; `None` for other pair kinds.
+pub(crate) fn pair_working_pressure_angle(
+    spec: &PairStiffnessSpec,
+    prefix: &str,
+) -> Result<Option<(f64, String)>> {
+    let PairStiffnessSpec::Geometry { geometry, .. } = spec else {
+        return Ok(None);
+    };
+    let pair = Pair::new(geometry, &format!("{prefix}.geometry.")).map_err(SceneError)?;
     Ok(Some((pair.alpha_w, format!("{prefix}.geometry"))))
 }
 
@@ -134,6 +147,86 @@ pub(crate) struct MeshGear<'a> {
     pub base_radius: f64,
 }
 
+/// The mesh model of the gear pair `geometry` (the `geometry` table of `field`), checked
+/// against the dynamic model's gears: they must be the geometry's gears.
+fn mesh_model(
+    geometry: &crate::mesh::geometry::GearPairSpec,
+    field: &str,
+    gears: &[MeshGear; 2],
+) -> Result<MeshModel> {
+    let prefix = format!("{field}.geometry.");
+    let model = MeshModel::new(geometry, &prefix).map_err(SceneError)?;
+    for (body, derived, table) in [
+        (&gears[0], &model.pair.pinion, "pinion"),
+        (&gears[1], &model.pair.gear, "gear"),
+    ] {
+        let which = &body.which;
+        if body.teeth != derived.teeth {
+            return Err(SceneError(format!(
+                "{which} ({:?}).teeth = {}: differs from {prefix}{table}.teeth = {}",
+                body.name, body.teeth, derived.teeth
+            )));
+        }
+        if ((body.base_radius - derived.r_base) / derived.r_base).abs() > BASE_RADIUS_TOL {
+            return Err(SceneError(format!(
+                "{which} ({:?}).base_radius = {}: differs from the geometry's base radius m·z·cos α/2 = {} m \
+                 by more than {BASE_RADIUS_TOL:e} (relative)",
+                body.name, body.base_radius, derived.r_base
+            )));
+        }
+    }
+    Ok(model)
+}
+
+/// The pinion torque of a load-dependent geometry stiffness: `given` (`field.torque`) or the
+/// scene's static pinion torque `(source, value)`.
+fn geometry_torque(given: Option<f64>, field: &str, torque: (&str, f64)) -> Result<f64> {
+    match given {
+        Some(t) => positive(&format!("{field}.torque"), t),
+        None => {
+            let (source, t) = torque;
+            let t = finite(source, t)?;
+            if !(t > 0.0) {
+                return Err(SceneError(format!(
+                    "{source} = {t}: the geometry stiffness is load dependent and needs a \
+                     positive pinion torque (or set {field}.torque)"
+                )));
+            }
+            Ok(t)
+        }
+    }
+}
+
+/// The per-tooth-pair curve of `[mesh.pairs] kind = "geometry"` (`field` = `mesh[i].pairs`):
+/// the pair's stiffness over its window, with the ETC extension when `etc`
+/// ([`crate::mesh::geometry::pairs`]).
+pub(crate) fn pair_curve(
+    spec: &PairStiffnessSpec,
+    field: &str,
+    gears: [MeshGear; 2],
+    torque: (&str, f64),
+) -> Result<(PairCurve, f64)> {
+    let PairStiffnessSpec::Geometry {
+        torque: given_torque,
+        etc,
+        geometry,
+    } = spec
+    else {
+        unreachable!("called for the geometry pairs only");
+    };
+    let model = mesh_model(geometry, field, &gears)?;
+    let torque = geometry_torque(*given_torque, field, torque)?;
+    let extension = if *etc {
+        crate::mesh::geometry::pairs::ETC_EXTENSION
+    } else {
+        0.0
+    };
+    let curve = model
+        .pair_curve(torque, extension)
+        .map_err(|e| SceneError(format!("{field}: {e}")))?;
+    Ok((curve, model.pair.alpha_w))
+}
+
 /// Resolves a `StiffnessSpec::Geometry` of the mesh whose stiffness table is `field`
 /// (`mesh.stiffness` or `mesh[i].stiffness`), for both scene formats. `torque` is the default
 /// pinion torque of the load-dependent curve, with the field it comes from.
@@ -154,42 +247,8 @@ pub(crate) fn stiffness(
     else {
         unreachable!("called for the geometry source only");
     };
-    let prefix = format!("{field}.geometry.");
-    let model = MeshModel::new(geometry, &prefix).map_err(SceneError)?;
-    // The dynamic model's gears must be the geometry's gears.
-    for (body, derived, table) in [
-        (&gears[0], &model.pair.pinion, "pinion"),
-        (&gears[1], &model.pair.gear, "gear"),
-    ] {
-        let which = &body.which;
-        if body.teeth != derived.teeth {
-            return Err(SceneError(format!(
-                "{which} ({:?}).teeth = {}: differs from {prefix}{table}.teeth = {}",
-                body.name, body.teeth, derived.teeth
-            )));
-        }
-        if ((body.base_radius - derived.r_base) / derived.r_base).abs() > BASE_RADIUS_TOL {
-            return Err(SceneError(format!(
-                "{which} ({:?}).base_radius = {}: differs from the geometry's base radius m·z·cos α/2 = {} m \
-                 by more than {BASE_RADIUS_TOL:e} (relative)",
-                body.name, body.base_radius, derived.r_base
-            )));
-        }
-    }
-    let torque = match given_torque {
-        Some(t) => positive(&format!("{field}.torque"), *t)?,
-        None => {
-            let (source, t) = torque;
-            let t = finite(source, t)?;
-            if !(t > 0.0) {
-                return Err(SceneError(format!(
-                    "{source} = {t}: the geometry stiffness is load dependent and needs a \
-                     positive pinion torque (or set {field}.torque)"
-                )));
-            }
-            t
-        }
-    };
+    let model = mesh_model(geometry, field, &gears)?;
+    let torque = geometry_torque(*given_torque, field, torque)?;
     let phase = finite(&format!("{field}.phase"), *phase)?;
     let curve = model
         .curve(CurveOptions { torque, etc: *etc })
