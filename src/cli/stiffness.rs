@@ -28,6 +28,11 @@ pub struct StiffnessArgs {
     /// Do not print the summary.
     #[arg(long)]
     quiet: bool,
+    /// Also write the per-tooth-pair curve of Model-1 (`[mesh.pairs] kind = "geometry"`):
+    /// xi (mesh cycles of the pair window), position (m from T1), the compliance terms (m/N)
+    /// and the pair stiffness (N/m).
+    #[arg(long)]
+    pairs: Option<PathBuf>,
     /// Write each column's unit into the CSV header, `dte [m]` (default: bare names).
     #[arg(long)]
     units: bool,
@@ -40,6 +45,7 @@ pub fn run(args: StiffnessArgs) -> Result<(), String> {
         harmonics: args.harmonics,
         quiet: args.quiet,
         units: args.units,
+        pairs: args.pairs.as_deref(),
     };
     print!(
         "{}",

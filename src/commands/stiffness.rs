@@ -51,6 +51,49 @@ impl Stiffness {
         }
     }
 
+    /// `geardyn stiffness --pairs`: the pair curve of Model-1 (`crate::mesh::geometry::pairs`,
+    /// the curve `[mesh.pairs] kind = "geometry"` uses) with each knot's compliance terms, so
+    /// that an independent evaluation can check every term.
+    pub fn write_pairs(&self, path: &Path, torque: f64, etc: bool) -> Result<(), String> {
+        let extension = if etc {
+            crate::mesh::geometry::pairs::ETC_EXTENSION
+        } else {
+            0.0
+        };
+        let curve = self
+            .model
+            .pair_curve(torque, extension)
+            .map_err(|e| format!("--torque {torque}: {e}"))?;
+        let names: Vec<String> = [
+            "xi",
+            "position",
+            "beam_pinion",
+            "beam_gear",
+            "fillet_pinion",
+            "fillet_gear",
+            "hertz",
+            "stiffness",
+        ]
+        .map(String::from)
+        .to_vec();
+        let rows: Vec<Vec<f64>> = (0..curve.points.len())
+            .map(|j| {
+                let c = self.model.compliance_at(curve.positions[j]);
+                vec![
+                    curve.points[j],
+                    curve.positions[j],
+                    c.beam[0],
+                    c.beam[1],
+                    c.fillet[0],
+                    c.fillet[1],
+                    1.0 / curve.hertz,
+                    curve.values[j],
+                ]
+            })
+            .collect();
+        crate::output::write_table(path, &names, rows.iter().map(|r| r.iter().copied()))
+    }
+
     /// The summary `geardyn stiffness` prints (`harmonics` checked by [`check_harmonics`]), with `harmonics` Fourier harmonics.
     pub fn summary(&self, harmonics: usize) -> String {
         report::summary(&self.model, &self.curve, harmonics)
@@ -84,6 +127,9 @@ pub struct StiffnessFiles<'a> {
     pub quiet: bool,
     /// Units in the CSV header.
     pub units: bool,
+    /// The per-tooth-pair curve of Model-1 (`[mesh.pairs] kind = "geometry"`), one row per
+    /// knot, with the compliance terms.
+    pub pairs: Option<&'a Path>,
 }
 
 /// `geardyn stiffness`: the curve of the gears file at pinion torque `torque` to the CSV (and
@@ -106,6 +152,9 @@ pub fn stiffness_command(
     )?;
     if let Some(path) = files.plot {
         st.plot(path)?;
+    }
+    if let Some(path) = files.pairs {
+        st.write_pairs(path, torque, etc)?;
     }
     if files.quiet {
         return Ok(String::new());
