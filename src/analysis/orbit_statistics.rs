@@ -257,7 +257,10 @@ pub fn record<M: Drivetrain>(
         .collect();
     let frequencies: Vec<f64> = (0..meshes).map(|m| model.mesh_frequency(m)).collect();
     let mut starts: Vec<Start<M::RunState>> = Vec::with_capacity(bounds.len());
-    let advance = |sim: &mut Driver<M>, t: f64| sim.advance_to(t).map_err(|e| e.to_string());
+    // A located event can land the propagator a few rounding units past a sample time that
+    // the event search put just before it; that sample is then taken where the state is.
+    let advance =
+        |sim: &mut Driver<M>, t: f64| sim.advance_to(t.max(sim.t())).map_err(|e| e.to_string());
     for c in 0..bounds.len() - 1 {
         let ((a, jump_a, _), (b, jump_b, cycle_end)) = (bounds[c], bounds[c + 1]);
         starts.push(Start {
@@ -545,7 +548,7 @@ fn locate_events<M: Drivetrain>(
         |probe: &mut Driver<M>, base: &Start<M::RunState>, t: f64| -> Result<u64, String> {
             probe.restart(base.t, &base.y, &base.run)?;
             let before = probe.stats().events;
-            probe.advance_to(t).map_err(|e| e.to_string())?;
+            probe.advance_to(t.max(base.t)).map_err(|e| e.to_string())?;
             Ok(probe.stats().events - before)
         };
     // Not below a few rounding units of the time itself (a sweep's clock runs on).
