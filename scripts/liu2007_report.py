@@ -42,6 +42,8 @@ SCENES = ROOT / "examples" / "liu2007"
 
 ARGS = None
 T_START = time.time()
+# Prefix of the work files of the current Ch. 2 model ("" rectangular pairs, "geom_" geometry).
+PREFIX = ""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -59,6 +61,8 @@ class Run:
     aperiodic: int = 0
     max_transient: int = 0
     cached: bool = False
+    # Points where the solver failed (a row of NaN in the sweep CSV).
+    failed: int = 0
 
 
 RUNS: list[Run] = []
@@ -78,6 +82,7 @@ def check(cmd):
 
 
 def scene_file(tag, text):
+    tag = PREFIX + tag
     path = WORK / "scenes" / f"{tag}.toml"
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text)
@@ -95,6 +100,7 @@ def sweep(tag, text, speeds, direction="both", max_periods=3000, poincare=False)
     """`geardyn sweep` of the scene `text` over input speeds (from, to, points): the CSV as a
     DataFrame (plus the Poincaré CSV's when asked)."""
     scene = scene_file(tag, text)
+    tag = PREFIX + tag
     a, b, n = speeds
     out = WORK / "sweeps" / f"{tag}.csv"
     pc = WORK / "sweeps" / f"{tag}.poincare.csv"
@@ -114,16 +120,18 @@ def sweep(tag, text, speeds, direction="both", max_periods=3000, poincare=False)
     df = pd.read_csv(out)
     RUNS.append(Run(tag, "sweep", len(df), float(stamp.with_suffix(".time").read_text()),
                     int((df.converged == 0).sum()), int(df.aperiodic.sum()),
-                    int(df.transient_periods.max()), cached))
+                    int(df.transient_periods.max()), cached,
+                    int(df["mesh1.dte_rms"].isna().sum())))
     if poincare:
         return df, pd.read_csv(pc)
     return df
 
 
-def orbit(tag, text, speeds, direction, at, max_periods=3000, samples=256):
+def orbit(tag, text, speeds, direction, at, max_periods=3000, samples=256, fail_ok=False):
     """The branch time-series helper: the sweep over `speeds` in `direction`, replayed, with a
     time series from the sweep's state at each speed of `at`. Returns (summary, [series])."""
     scene = scene_file(tag, text)
+    tag = PREFIX + tag
     a, b, n = speeds
     prefix = WORK / "orbits" / tag
     prefix.parent.mkdir(parents=True, exist_ok=True)
@@ -133,9 +141,16 @@ def orbit(tag, text, speeds, direction, at, max_periods=3000, samples=256):
     cached = ARGS.reuse and summary.exists() and stamp.exists() and stamp.read_text() == k
     t0 = time.time()
     if not cached:
-        check([ORBIT, scene, "--speed", f"{float(a)!r}:{float(b)!r}:{int(n)}",
+        cmd = [ORBIT, scene, "--speed", f"{float(a)!r}:{float(b)!r}:{int(n)}",
                "--direction", direction, "--at", ",".join(repr(float(s)) for s in at),
-               "--out", prefix, "--max-periods", max_periods, "--samples", samples])
+               "--out", prefix, "--max-periods", max_periods, "--samples", samples]
+        if fail_ok:
+            _, err, rc = sh(cmd)
+            if rc != 0:
+                RUNS.append(Run(tag, "orbit", n, time.time() - t0))
+                return err.strip().splitlines()[-1]
+        else:
+            check(cmd)
         stamp.write_text(k)
         stamp.with_suffix(".time").write_text(f"{time.time() - t0}")
     s = pd.read_csv(summary).sort_values("target")
@@ -161,6 +176,12 @@ def loaded_ste(text, tag):
     """Peak-to-peak loaded STE per mesh (m) from the statics of `geardyn modes` (eq. 2.8)."""
     out = check([BIN, "modes", scene_file(tag, text)])
     return [float(m) for m in re.findall(r"loaded STE mean [0-9.e+-]+ m, p-p ([0-9.e+-]+) m", out)]
+
+
+def mean_deflection(text):
+    """Mean static mesh deflection per mesh (m) from the statics of `geardyn modes`."""
+    out = check([BIN, "modes", scene_file("statics", text)])
+    return [float(m) for m in re.findall(r"mean deflection\s+([0-9.e+-]+) m", out)]
 
 
 # ---------------------------------------------------------------------------------------------
@@ -311,7 +332,9 @@ def peak(df, col, lo, hi, d=None):
 
 
 def nearest(df, x, d):
+    """The point of branch d nearest x, among the points where the solver did not fail."""
     b = branch(df, d)
+    b = b[b["mesh1.dte_rms"].notna()].reset_index(drop=True)
     return b.iloc[(b.x - x).abs().idxmin()]
 
 
@@ -333,6 +356,11 @@ class Row:
     geardyn: str
     verdict: str
     reason: str
+    # Relative difference to the thesis' printed number(s) (largest over the row's numbers) for
+    # a quantitative row; None for a qualitative one.
+    err: float | None = None
+    # Why the row holds by construction (then it is not counted), or None.
+    construction: str | None = None
 
 
 ROWS: list[Row] = []
@@ -340,9 +368,17 @@ CHECKS: list[Row] = []
 NOTES: dict[str, list[str]] = {}
 
 
-def row(section, quantity, thesis, geardyn, verdict, reason, table=None):
+def row(section, quantity, thesis, geardyn, verdict, reason, table=None, err=None,
+        construction=None):
     (ROWS if table is None else table).append(Row(section, quantity, thesis, geardyn, verdict,
-                                                  reason))
+                                                  reason, err, construction))
+
+
+def rel_err(value, target):
+    """Relative difference |value − target|/|target| (inf for a missing value)."""
+    if value is None or not math.isfinite(value):
+        return math.inf
+    return abs(value - target) / abs(target)
 
 
 def note(section, text):
@@ -405,13 +441,37 @@ def sweep_hz(tag, text, f_from, f_to, step, teeth=Z_PINION_CH2, **kw):
     return out
 
 
-def ch2():
+def ch2(model="rect"):
+    """The Ch. 2 rows with the rectangular pairs (`model = "rect"`, ch2_idler.toml) or the
+    pairs from the gear geometry (`"geom"`, ch2_idler_geometry.toml); the same rows in the same
+    order, so that the report puts them side by side."""
+    geom = model == "geom"
     S = "Ch. 2 idler, rigid bearings"
-    base = (SCENES / "ch2_idler.toml").read_text()
+    base = (SCENES / ("ch2_idler_geometry.toml" if geom else "ch2_idler.toml")).read_text()
+    pairs = "geometry pairs" if geom else "rectangular pairs"
     f_rigid = sorted(modes(base, "ch2_rigid_modes"))
     f1, f2 = f_rigid[-2], f_rigid[-1]
     compliant = edit(base, "[model]", "bearings", "compliant")
     f_comp = sorted(modes(compliant, "ch2_compliant_modes"))
+    kbar = [F_STATIC / d for d in mean_deflection(base)]
+    row(S, "Mean mesh stiffness k̂_1 / k̂_2", "2.9831e8 / 3.2108e8 N/m (Table 2.1; from the FE curves)",
+        f"{kbar[0] / 1e8:.4f}e8 / {kbar[1] / 1e8:.4f}e8 N/m",
+        "✓" if max(rel_err(kbar[0], 2.9831e8), rel_err(kbar[1], 3.2108e8)) <= 0.05 else
+        ("≈" if max(rel_err(kbar[0], 2.9831e8), rel_err(kbar[1], 3.2108e8)) <= 0.15 else "✗"),
+        "static mesh force over the mean static deflection (`geardyn modes`)" +
+        ("; the bore radii (not in the thesis) set the fillet compliance, see 'Gear geometry'"
+         if geom else ""),
+        err=max(rel_err(kbar[0], 2.9831e8), rel_err(kbar[1], 3.2108e8)),
+        construction=None if geom else "the printed k̂ are the rectangular pairs' input")
+    row(S, "Natural frequencies f_1 / f_2 (rigid bearings, mean stiffness)",
+        "1600 / 3230 Hz (§1.10)", f"{fmt(f1)} / {fmt(f2)} Hz",
+        "✓" if max(rel_err(f1, 1600), rel_err(f2, 3230)) <= 0.05 else
+        ("≈" if max(rel_err(f1, 1600), rel_err(f2, 3230)) <= 0.15 else "✗"),
+        "eigenvalues of the mean system (`geardyn modes`)",
+        err=max(rel_err(f1, 1600), rel_err(f2, 3230)),
+        construction=None if geom else "eigenvalues of the printed k̂ and Table 2.1 inertias")
+    if ARGS.check:
+        return None    # the fast check: the sweep rows of Ch. 2 are the full run's
     torque = lambda t: edit(base, "[operating]", "input_torque", float(t))  # noqa: E731
     MP = 8000   # the grounded 69.5 Hz mode (ζ = 2 %) needs up to ~2 s of gear time to settle
     sw = {t: sweep_hz(f"ch2_rigid_T{t}", torque(t), 900.0, 3600.0, 15.0, max_periods=MP)
@@ -425,20 +485,26 @@ def ch2():
     # with "state became non-finite".)
 
     # -- jumps ---------------------------------------------------------------------------------
-    h = {t: (hysteresis(sw[t], 1000, 1.05 * f1), hysteresis(sw[t], 0.7 * f2, 1.05 * f2))
+    # Mode 1's window: up to 1.05 f_1 for the rectangular pairs; the geometry pairs' softening
+    # reaches further (their hysteresis near mode 1 ends above f_1), up to (f_1 + f_2)/2.
+    hi1 = 0.5 * (f1 + f2) if geom else 1.05 * f1
+    h = {t: (hysteresis(sw[t], 1000, hi1), hysteresis(sw[t], 0.7 * f2, 1.05 * f2))
          for t in sw}
     h1, h2 = h[100]
+    jump = lambda hh: hh["x_jump_down"] if hh else float("nan")  # noqa: E731
     for name, hh, thesis in (("mode 1", h1, 1200.0), ("mode 2", h2, 2500.0)):
         row(S, f"Jump-down frequency near the {name} resonance, 100 N·m (down sweep)",
             f"≈ {thesis / 1000:.1f} kHz (§1.11, Figs. 2.5–2.7)",
-            f"{fmt(hh['x_jump_down'])} Hz (hysteresis {fmt(hh['lo_x'])}–{fmt(hh['x_jump_up'])} Hz)",
-            within(hh["x_jump_down"], thesis, 0.05, 0.15),
+            (f"{fmt(hh['x_jump_down'])} Hz (hysteresis {fmt(hh['lo_x'])}–{fmt(hh['x_jump_up'])} Hz)"
+             if hh else "no hysteresis (down branch nowhere 1.5× the up branch)"),
+            within(jump(hh), thesis, 0.05, 0.15),
             ("softening by contact loss, jump-up on the up sweep, two stable branches between; "
              f"f_{name[-1]} = {fmt((f1, f2)[int(name[-1]) - 1])} Hz" +
              ("" if name == "mode 1" else
               "; the upper branch near f_2 is mode 1's period-2 response merged with mode 2's "
-              "(2f_1 ≈ f_2, see the notes), which ends higher than the thesis' 2.5 kHz")))
-    jd = {t: (h[t][0]["x_jump_down"], h[t][1]["x_jump_down"]) for t in sw}
+              "(2f_1 ≈ f_2, see the notes), which ends higher than the thesis' 2.5 kHz")),
+            err=rel_err(jump(hh), thesis))
+    jd = {t: (jump(h[t][0]), jump(h[t][1])) for t in sw}
     step = h1["step"]
     same = all(abs(jd[t][i] - jd[100][i]) <= step + 1e-9 for t in sw for i in (0, 1))
     row(S, "Jump frequencies vs torque 50 / 100 / 150 N·m",
@@ -446,9 +512,17 @@ def ch2():
         " / ".join(fmt(jd[t][0]) for t in (50, 100, 150)) + " Hz and " +
         " / ".join(fmt(jd[t][1]) for t in (50, 100, 150)) + " Hz",
         "✓" if same else "✗",
-        f"equal within one sweep step ({fmt(step)} Hz): with load-independent pair stiffness and no relief the "
-        "model scales exactly with torque (eq. 3.51); the FE stiffness' load dependence "
-        "(1.5 vs 1.6 kHz second-harmonic peak at 50 N·m) is not in the rectangular pairs")
+        (f"equal within one sweep step ({fmt(step)} Hz): the geometry pairs' Hertz term "
+         "(K_h ∝ W^0.1) is the only load dependence, and it moves the jumps by less than a step"
+         if same and geom else
+         f"the jumps move by more than one sweep step ({fmt(step)} Hz) with the geometry pairs' "
+         "load-dependent Hertz term" if geom else
+         f"equal within one sweep step ({fmt(step)} Hz): with load-independent pair stiffness and no relief the "
+         "model scales exactly with torque (eq. 3.51); the FE stiffness' load dependence "
+         "(1.5 vs 1.6 kHz second-harmonic peak at 50 N·m) is not in the rectangular pairs"),
+        construction=None if geom else (
+            "load-independent rectangular pairs without relief: the response scales exactly "
+            "with torque (eq. 3.51), so the jumps cannot move"))
     # Scaling on the points that are periodic at every torque (an aperiodic response is a
     # different slice of a chaotic orbit at each torque).
     srt = {t: sw[t].sort_values(["direction", "x"]).reset_index(drop=True) for t in sw}
@@ -461,10 +535,14 @@ def ch2():
         " : ".join(fmt(pk[t] * 1e6, 2) for t in (50, 100, 150)) + " µm",
         "✓" if scale_err < 1e-3 else "≈",
         f"on the {int(periodic.sum())} points periodic at all three torques DTE RMS/T agrees to "
-        f"{scale_err:.0e} of the peak; peak over those points")
+        f"{scale_err:.0e} of the peak; peak over those points",
+        construction=None if geom else (
+            "load-independent rectangular pairs without relief: DTE ∝ torque exactly"))
 
     # -- the mode-2 jump-down: upper and lower branch (Fig. 2.12) -------------------------------
-    z_lo = h2["x_lo"] - 60.0
+    # Below the jump: the zoom's down sweep must reach the upper branch before the jump (the
+    # geometry pairs' down branch jumps further below the overview's jump).
+    z_lo = h2["x_lo"] - (250.0 if geom else 60.0)
     z_hi = max(h2["x_jump_up"], f2) + 250.0
     zoom = sweep_hz("ch2_rigid_T100_zoom", base, z_lo, z_hi, 5.0, max_periods=MP)
     hz = hysteresis(zoom, z_lo, z_hi)
@@ -485,9 +563,12 @@ def ch2():
         "46 % of the mesh cycle at 2490 Hz (§1.11, Fig. 2.12)",
         f"{loss1 * 100:.0f} % at {fmt(f_up)} Hz (mesh 2: {loss2 * 100:.0f} %; {kind})",
         within(loss1, 0.46, 0.15, 0.35),
-        "the response there is mode 1's period-2 (primary parametric, 2f_1 ≈ f_2) response "
-        "merged with mode 2's resonance" +
-        (": mesh 2 carries the long contact loss" if loss2 > loss1 else "") + "; see Ch. 2 notes")
+        err=rel_err(loss1, 0.46),
+        reason=("the response there is mode 1's period-2 (primary parametric, 2f_1 ≈ f_2) "
+                "response merged with mode 2's resonance" +
+                (": mesh 2 carries the long contact loss" if loss2 > loss1 else "") +
+                "; see Ch. 2 notes" if not (kind == "period 1" and loss1 >= loss2) else
+                "a period-1 response of mode 2 with mesh 1 carrying the longer contact loss"))
     dyn = float(pt_up['mesh1.dynamic_factor'])
     hb_ = branch(zoom, -1)
     hb_ = hb_[(hb_.x >= hz["x_hi"]) & (hb_.x <= hz["hi_x"])]
@@ -496,7 +577,8 @@ def ch2():
         "> 3× static (7.6 kN) (§1.11)",
         f"{dyn:.2f}× static ({float(pt_up['mesh1.peak_force']) / 1000:.1f} kN) at {fmt(f_up)} Hz",
         "✓" if dyn > 3 else ("≈" if dyn > 2.5 else "✗"),
-        "peak over the static mesh force; "
+        err=rel_err(float(pt_up['mesh1.peak_force']), 7600.0),
+        reason="peak over the static mesh force; "
         f"the largest mesh-1 factor on the upper branch is {float(hb_['mesh1.dynamic_factor'][i_]):.2f}× "
         f"at {fmt(float(hb_.x[i_]))} Hz")
     lo_mean = float(lo_s['mesh1.force'].mean())
@@ -517,7 +599,8 @@ def ch2():
         f"{fmt(x_nl)} Hz with contact loss; {fmt(x_lin)} Hz with linear contact "
         f"(f_2/2 = {fmt(f2 / 2)} Hz)",
         within(x_nl, 1600.0, 0.05, 0.15),
-        f"f_1 ≈ f_2/2 here ({fmt(f1)} vs {fmt(f2 / 2)} Hz): mode 1's contact-loss resonance "
+        err=rel_err(x_nl, 1600.0),
+        reason=f"f_1 ≈ f_2/2 here ({fmt(f1)} vs {fmt(f2 / 2)} Hz): mode 1's contact-loss resonance "
         f"(mesh 2 loses contact over {fmt(reg1[0])}–{fmt(reg1[1])} Hz) overlaps it, so the "
         "2f-harmonic peak is mode 1's distortion, not a linear peak")
 
@@ -529,7 +612,7 @@ def ch2():
 
     def hyst_rel(df):
         u, d = branch(df, 1), branch(df, -1)
-        return float(np.max(np.abs(rms_max(u) - rms_max(d))) / rms_max(df).max())
+        return float(np.nanmax(np.abs(rms_max(u) - rms_max(d))) / np.nanmax(rms_max(df)))
 
     def maxloss(df):
         return float(max(df['mesh1.contact_loss_fraction'].max(), df['mesh2.contact_loss_fraction'].max()))
@@ -538,7 +621,7 @@ def ch2():
 
     def pk_in(df, w):
         b = df[(df.x >= w[0]) & (df.x <= w[1])]
-        i = np.argmax(rms_max(b))
+        i = np.nanargmax(rms_max(b))
         return float(b.x.iloc[i]), float(rms_max(b)[i])
 
     ste = {k: loaded_ste(t, f"ch2_ste_{k}") for k, t in
@@ -547,7 +630,8 @@ def ch2():
         "A reduces it, B increases it (§1.11)",
         " → ".join(f"{k}: {ste[k][0] * 1e6:.2f} / {ste[k][1] * 1e6:.2f} µm" for k in ("none", "A", "B")),
         "✓" if all(ste["A"][i] < ste["none"][i] < ste["B"][i] for i in (0, 1)) else "✗",
-        "statics of `geardyn modes` (active-set eq. 2.8, exact for the rectangular pairs)")
+        f"statics of `geardyn modes` (active-set eq. 2.8, exact for the {pairs}); "
+        "vs torque: section 'Static transmission error'")
     rA = hyst_rel(A)
     row("Ch. 2 tip relief", "Modification A (10 µm from HPSTC), 100 N·m: jumps",
         "none; no contact loss; all models agree (§1.11, Fig. 2.9)",
@@ -566,32 +650,33 @@ def ch2():
         "but less than in the thesis: A leaves the contact-loss resonances in place (row above)")
     # Sensitivity of the A rows: the minimum-STE relief (2.28) of this idealisation, and more
     # damping (ζ is not given in Ch. 2).
-    Astar = sweep_hz("ch2_rigid_T100_rhostar", tip_relief(base, 5.35e-6, 5.77e-6), 900.0,
-                     3600.0, 30.0, max_periods=MP)
-    A5 = sweep_hz("ch2_rigid_T100_A_zeta5", edit(tip_relief(base, 10e-6), "[model]",
-                                                 "modal_damping_ratio", 0.05),
-                  900.0, 3600.0, 30.0, max_periods=MP)
-    U5 = sweep_hz("ch2_rigid_T100_zeta5", edit(base, "[model]", "modal_damping_ratio", 0.05),
-                  900.0, 3600.0, 30.0, max_periods=MP)
-    note("Ch. 2 tip relief",
-         "Why modification A keeps jumps here: the rectangular pairs' minimum-STE relief (2.28) is "
-         "ρ* = 5.35 / 5.77 µm (notes §1.10; the text's 10/12 µm is 2× that, unresolved), and "
-         "relief does not move the parametric instabilities (§1.8), which with ε = 0.35/0.40 "
-         "and ζ = 2 % are strong here (2f_1 ≈ f_2). Measured: with ρ* at ζ = 2 % the branches "
-         f"still differ by {hyst_rel(Astar) * 100:.0f} % of the peak and total contact loss "
-         f"reaches {maxloss(Astar) * 100:.0f} %; with A at ζ = 5 % they differ by "
-         f"{hyst_rel(A5) * 100:.1f} % (unmodified at ζ = 5 %: {hyst_rel(U5) * 100:.0f} %) and "
-         f"the total contact loss is {maxloss(A5) * 100:.0f} % (unmodified: "
-         f"{maxloss(U5) * 100:.0f} %), peak DTE RMS ×{rms_max(A5).max() / rms_max(U5).max():.2f}. "
-         "So with more damping A does remove the jumps, as in Fig. 2.9, but not all contact loss.")
+    if not geom:
+        Astar = sweep_hz("ch2_rigid_T100_rhostar", tip_relief(base, 5.35e-6, 5.77e-6), 900.0,
+                         3600.0, 30.0, max_periods=MP)
+        A5 = sweep_hz("ch2_rigid_T100_A_zeta5", edit(tip_relief(base, 10e-6), "[model]",
+                                                     "modal_damping_ratio", 0.05),
+                      900.0, 3600.0, 30.0, max_periods=MP)
+        U5 = sweep_hz("ch2_rigid_T100_zeta5", edit(base, "[model]", "modal_damping_ratio", 0.05),
+                      900.0, 3600.0, 30.0, max_periods=MP)
+        note("Ch. 2 tip relief",
+             "Why modification A keeps jumps here: the rectangular pairs' minimum-STE relief (2.28) is "
+             "ρ* = 5.35 / 5.77 µm (notes §1.10; the text's 10/12 µm is 2× that, unresolved), and "
+             "relief does not move the parametric instabilities (§1.8), which with ε = 0.35/0.40 "
+             "and ζ = 2 % are strong here (2f_1 ≈ f_2). Measured: with ρ* at ζ = 2 % the branches "
+             f"still differ by {hyst_rel(Astar) * 100:.0f} % of the peak and total contact loss "
+             f"reaches {maxloss(Astar) * 100:.0f} %; with A at ζ = 5 % they differ by "
+             f"{hyst_rel(A5) * 100:.1f} % (unmodified at ζ = 5 %: {hyst_rel(U5) * 100:.0f} %) and "
+             f"the total contact loss is {maxloss(A5) * 100:.0f} % (unmodified: "
+             f"{maxloss(U5) * 100:.0f} %), peak DTE RMS ×{rms_max(A5).max() / rms_max(U5).max():.2f}. "
+             "So with more damping A does remove the jumps, as in Fig. 2.9, but not all contact loss.")
     rB = hyst_rel(B)
     row("Ch. 2 tip relief", "Modification B (25 µm), 100 N·m: jumps",
         "sharp peaks without jumps, partial contact loss (§1.11, Fig. 2.10)",
         f"up/down differ by {rB * 100:.1f} % of the peak; total contact loss max "
         f"{maxloss(B) * 100:.0f} %",
         "✓" if rB < 0.02 else ("≈" if rB < 0.1 else "✗"),
-        f"B's relief is {25e-6 / (F_STATIC / 2.9831e8):.1f}× the "
-        "mesh-1 mean static deflection (F/k̂_1): the loaded STE p-p grows "
+        f"B's relief is {25e-6 / mean_deflection(base)[0]:.1f}× the "
+        "mesh-1 mean static deflection: the loaded STE p-p grows "
         f"×{ste['B'][0] / ste['none'][0]:.1f} (row above) and drives contact-loss resonances "
         "everywhere; the FE pairs' load sharing (corner contact, smooth stiffness) is milder")
     pB = [pk_in(B, w) for w in (w1, w2)]
@@ -603,7 +688,8 @@ def ch2():
         else ("≈" if "✗" not in (within(pB[0][0], 1300, .05, .15),
                                  within(pB[1][0], 2700, .05, .15)) else "✗"),
         "largest DTE RMS of either mesh in each range, either branch; B's contact-loss "
-        "resonances soften further than the unmodified ones")
+        "resonances soften further than the unmodified ones",
+        err=max(rel_err(pB[0][0], 1300), rel_err(pB[1][0], 2700)))
     row("Ch. 2 tip relief", "Modification B, 100 N·m: fundamental peak heights vs unmodified",
         "lower (§1.11)",
         f"×{pB[0][1] / pU[0][1]:.2f} and ×{pB[1][1] / pU[1][1]:.2f}",
@@ -621,7 +707,7 @@ def ch2():
         f"(×{r1:.1f}), mesh 2 {q['u'][1] * 1e6:.1f} → {q['B'][1] * 1e6:.1f} µm (×{r2:.1f})",
         "✓" if 1.3 <= max(r1, r2) <= 2.5 else ("≈" if max(r1, r2) > 1 else "✗"),
         "rises, as in the thesis, but B's response there is a contact-loss resonance, not a "
-        "linear second-harmonic peak")
+        "linear second-harmonic peak", err=rel_err(max(r1, r2), 8.0 / 4.5))
     pb = nearest(B, 2750.0, 1)
     row("Ch. 2 tip relief", "Modification B at 2750 Hz: mesh-1 peak force and total contact loss",
         "5.5 kN (vs 7.6 kN unmodified); 25 % of the cycle (vs 46 %) (§1.11, Fig. 2.13a)",
@@ -630,30 +716,50 @@ def ch2():
         "✓" if within(float(pb['mesh1.peak_force']), 5500, .15, .3) == "✓" and
         abs(float(pb['mesh1.contact_loss_fraction']) - 0.25) < 0.1 else
         ("≈" if within(float(pb['mesh1.peak_force']), 5500, .15, .4) != "✗" else "✗"),
-        "up-branch sweep point; contact loss of the stated size, force higher: B over-relieves "
-        "the rectangular pairs (rows above)")
+        "up-branch sweep point; " + (
+            f"contact loss of the stated size, force higher: B over-relieves the {pairs} "
+            "(rows above)" if float(pb['mesh1.peak_force']) > 5500 else
+            "force and contact loss below the thesis': 2750 Hz lies above this model's "
+            "mode-2 contact-loss range"),
+        err=max(rel_err(float(pb['mesh1.peak_force']), 5500), rel_err(float(pb['mesh1.contact_loss_fraction']), 0.25)))
     # A at 50 N·m, 1400 Hz: partial contact loss from the time series.
     n50 = int(round((1400.0 - 900.0) / 10.0)) + 1
-    _, (ts50,) = orbit("ch2_rigid_T50_A_1400", edit(tip_relief(base, 10e-6), "[operating]",
-                                                       "input_torque", 50.0),
-                          (hz_to_speed(900.0, 38), hz_to_speed(1400.0, 38), n50), "up",
-                          [hz_to_speed(1400.0, 38)], max_periods=MP)
+    A50 = edit(tip_relief(base, 10e-6), "[operating]", "input_torque", 50.0)
+    # Total contact loss from the up sweep's exact statistics; the partial loss (fewer pairs
+    # in contact than engaged) from the branch time series, sampled (the sweep has no
+    # per-pair fraction).
+    up50 = sweep_hz("ch2_rigid_T50_A_up", A50, 900.0, 1400.0, 10.0, direction="up",
+                    max_periods=MP)
+    p50 = nearest(up50, 1400.0, 1)
+    total = {m: float(p50[f"{m}.contact_loss_fraction"]) for m in ("mesh1", "mesh2")}
+    got = orbit("ch2_rigid_T50_A_1400", A50,
+                (hz_to_speed(900.0, 38), hz_to_speed(1400.0, 38), n50), "up",
+                [hz_to_speed(1400.0, 38)], max_periods=MP, fail_ok=geom)
     frac = {}
-    for m, c in (("mesh1", 1.504), ("mesh2", 1.510)):
-        s = np.mod(ts50[f"{m}.phase"].to_numpy(), 1.0)
-        engaged = np.where(s >= 2.0 - c, 2, 1)
-        p = ts50[f"{m}.pairs_in_contact"].to_numpy()
-        frac[m] = (float(np.mean((p > 0) & (p < engaged))), float(np.mean(p == 0)))
+    if isinstance(got, str):
+        failure = got
+    else:
+        failure = None
+        _, (ts50,) = got
+        for m, c in (("mesh1", 1.504), ("mesh2", 1.510)):
+            s = np.mod(ts50[f"{m}.phase"].to_numpy(), 1.0)
+            engaged = np.where(s >= 2.0 - c, 2, 1)
+            p = ts50[f"{m}.pairs_in_contact"].to_numpy()
+            frac[m] = float(np.mean((p > 0) & (p < engaged)))
+    lost = any(v > 0 for v in total.values()) or any(v > 0 for v in frac.values())
     row("Ch. 2 tip relief", "Modification A at 50 N·m, 1400 Hz: contact loss",
         "reappears (optimal relief depends on torque); patterns I–IV (§1.11, Fig. 2.13b)",
-        f"partial loss {frac['mesh1'][0] * 100:.0f} % / total {frac['mesh1'][1] * 100:.0f} % of the time "
-        f"(mesh 1), {frac['mesh2'][0] * 100:.0f} % / {frac['mesh2'][1] * 100:.0f} % (mesh 2); "
-        f"100 N·m: total max {maxloss(A) * 100:.0f} %",
-        ("✓" if maxloss(A) == 0 else "≈")
-        if frac["mesh1"][0] + frac["mesh1"][1] + frac["mesh2"][0] + frac["mesh2"][1] > 0 else "✗",
-        "partial: fewer pairs in contact than engaged; time series from the up sweep's state. "
-        "Contact loss is there, with partial loss, but it does not *reappear*: A keeps contact "
-        "loss at 100 N·m too (row above)")
+        ("solver failed at 1400 Hz: " + failure if failure and not math.isfinite(total["mesh1"]) else
+         f"total {fmt(total['mesh1'] * 100)} % / {fmt(total['mesh2'] * 100)} % of the time (mesh 1 / 2)" +
+         (f", partial {frac['mesh1'] * 100:.0f} % / {frac['mesh2'] * 100:.0f} % (sampled)" if frac
+          else f"; partial: time series failed ({failure})") +
+         f"; 100 N·m: total max {maxloss(A) * 100:.0f} %"),
+        ("✓" if maxloss(A) == 0 else "≈") if lost else "✗",
+        "total: the up sweep's exact fraction; partial: fewer pairs in contact than engaged, "
+        "from the time series from the up sweep's state (256 samples per mesh period). "
+        + ("Contact loss is there but does not *reappear*: A keeps contact loss at 100 N·m too "
+           "(row above)" if lost and maxloss(A) > 0 else
+           "Contact loss reappears at 50 N·m, none at 100 N·m" if lost else "no contact loss"))
 
     # -- compliant bearings (8 DOF) ---------------------------------------------------------------
     S2 = "Ch. 2 idler, compliant bearings"
@@ -664,25 +770,43 @@ def ch2():
     Cz = sweep_hz("ch2_compliant_T100_zoom", compliant, 950.0, 1400.0, 5.0, max_periods=MP)
     Cz["a1max"] = Cz[["mesh1.a1", "mesh2.a1"]].max(axis=1)
     Cz["a2max"] = Cz[["mesh1.a2", "mesh2.a2"]].max(axis=1)
+    failed = sum(int(d["mesh1.dte_rms"].isna().sum()) for d in (C, CA, Cz))
+    fail_note = (f"; the solver failed at {failed} of {len(C) + len(CA) + len(Cz)} points of "
+                 "these sweeps (contact-event storms, see 'Runs'): the peak is over the others"
+                 if failed else "")
     xa1, _ = peak(Cz, "a1max", 0.9 * f6, 1.1 * f6, 1)
     xa2, _ = peak(Cz, "a2max", 0.45 * f7, 0.55 * f7, 1)
     row(S2, "Resonance of mode 6 (first mesh harmonic)",
         "near 1.08 kHz (mode 6: 1076 Hz) (§1.11, Fig. 2.11)",
         f"{fmt(xa1)} Hz (mode 6: {fmt(f6)} Hz)", within(xa1, 1080, 0.02, 0.06),
         "peak of the 1st mesh harmonic of the DTE (the thesis plots the idler's LOA "
-        "translation, which the sweep does not output)")
+        "translation, which the sweep does not output)" + fail_note, err=rel_err(xa1, 1080),
+        construction=None if geom else (
+            "the peak sits at mode 6 of the mean system, whose frequency is Table 2.2's through "
+            "the printed k̂ and ψ = 0 fitted to Table 2.2"))
     row(S2, "Resonance of mode 7 by the second mesh harmonic",
         "near 1.26 kHz (2530/2) (§1.11)", f"{fmt(xa2)} Hz (f_7/2 = {fmt(f7 / 2)} Hz)",
-        within(xa2, 1260, 0.02, 0.06), "peak of the 2nd mesh harmonic of the DTE")
+        within(xa2, 1260, 0.02, 0.06), "peak of the 2nd mesh harmonic of the DTE" + fail_note,
+        err=rel_err(xa2, 1260),
+        construction=None if geom else (
+            "the peak sits at half mode 7 of the mean system, whose frequency is Table 2.2's "
+            "through the printed k̂ and ψ = 0 fitted to Table 2.2"))
     rCA, rC = hyst_rel(CA), hyst_rel(C)
-    ratio = float(rms_max(CA).max() / rms_max(C).max())
+    ratio = float(np.nanmax(rms_max(CA)) / np.nanmax(rms_max(C)))
     row(S2, "Modification A with compliant bearings",
         "removes the nonlinearity, lowers the amplitudes (§1.11)",
         f"up/down differ {rCA * 100:.1f} % (unmodified {rC * 100:.0f} %); total loss max "
         f"{maxloss(CA) * 100:.0f} % (unmodified {maxloss(C) * 100:.0f} %); peak ×{ratio:.2f}",
         "✓" if rCA < 0.02 and maxloss(CA) == 0 and ratio < 0.7 else
         ("≈" if rCA < 0.1 and ratio < 1 else "✗"),
-        "0.8–3 kHz, 25 Hz steps; same cause as the rigid-bearing A row")
+        "0.8–3 kHz, 25 Hz steps; same cause as the rigid-bearing A row" + fail_note)
+
+    if geom:
+        plot_geometry(d100, A, B, f1, f2)
+        note("geometry", f"Geometry pairs, rigid-bearing modes from `geardyn modes`: "
+             f"{', '.join(fmt(f, 1) for f in f_rigid)} Hz; compliant: "
+             f"{', '.join(fmt(f, 1) for f in f_comp)} Hz.")
+        return dict(f1=f1, f2=f2, d100=d100)
 
     # -- acceptance 2 checks -----------------------------------------------------------------------
     A2 = "acceptance 2"
@@ -824,6 +948,58 @@ def ch2():
     return dict(f1=f1, f2=f2, h1=h1, h2=h2, d100=d100)
 
 
+def plot_geometry(d100, A, B, f1, f2):
+    """The geometry pairs' 100 N·m sweeps without relief and with A and B."""
+    fig, axs = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
+    for ax, m in zip(axs, ("mesh1", "mesh2")):
+        plot_branches(ax, d100, f"{m}.dte_rms", 1e6, "0.4", "unmodified")
+        plot_branches(ax, A, f"{m}.dte_rms", 1e6, "C2", "A (10 µm)")
+        plot_branches(ax, B, f"{m}.dte_rms", 1e6, "C3", "B (25 µm)")
+        for f, lab in ((f1, "$f_1$"), (f2, "$f_2$")):
+            ax.axvline(f, color="0.6", lw=0.8, ls=":")
+        ax.set_ylabel(f"{m} DTE RMS (µm)")
+        ax.grid(alpha=0.3)
+    axs[0].legend(fontsize=7, ncol=3)
+    axs[1].set_xlabel("mesh frequency (Hz)")
+    fig.suptitle("Geometry pairs (potential energy, ETC), rigid bearings, 100 N·m "
+                 "(cf. Figs. 2.6, 2.9, 2.10)")
+    FIGS["ch2_geometry"] = savefig(fig, "ch2_geometry.png")
+
+
+STE_TORQUES = (25, 50, 75, 100, 125, 150, 200, 250)
+
+
+def ste_vs_torque():
+    """Issue 36 item 4: peak-to-peak loaded STE (eq. 2.8, statics of `geardyn modes`) of the
+    Ch. 2 gears vs torque, rectangular and geometry pairs, without relief and with A and B.
+    Returns {(model, relief, torque): [p-p mesh 1, p-p mesh 2]} in m."""
+    out = {}
+    for model, scene in (("rect", "ch2_idler.toml"), ("geom", "ch2_idler_geometry.toml")):
+        base = (SCENES / scene).read_text()
+        for relief, rho in (("none", 0.0), ("A", 10e-6), ("B", 25e-6)):
+            text = base if rho == 0 else tip_relief(base, rho)
+            for t in STE_TORQUES:
+                out[(model, relief, t)] = loaded_ste(
+                    edit(text, "[operating]", "input_torque", float(t)), f"ste_{model}_{relief}_{t}")
+    fig, axs = plt.subplots(1, 2, figsize=(10, 4.2), sharey=True)
+    for ax, mesh in zip(axs, (0, 1)):
+        for model, ls in (("rect", "--"), ("geom", "-")):
+            for relief, color in (("none", "0.3"), ("A", "C2"), ("B", "C3")):
+                ax.plot(STE_TORQUES, [out[(model, relief, t)][mesh] * 1e6 for t in STE_TORQUES],
+                        ls=ls, color=color, marker="o", ms=3,
+                        label=f"{'geometry' if model == 'geom' else 'rectangular'}, {relief}")
+        ax.axvline(100, color="0.6", lw=0.8, ls=":")
+        ax.set_title(f"mesh {mesh + 1}", fontsize=9)
+        ax.set_xlabel("input torque (N·m)")
+        ax.grid(alpha=0.3)
+    axs[0].set_ylabel("loaded STE peak-to-peak (µm)")
+    axs[1].legend(fontsize=7)
+    fig.suptitle("Static transmission error vs torque, Ch. 2 gears (thesis at 100 N·m: "
+                 "A reduces, B increases the p-p STE)")
+    FIGS["ch2_ste"] = savefig(fig, "ch2_ste_torque.png")
+    return out
+
+
 def hb_folds(text, jumps):
     """HB folds against the sweep's jumps (issue 16, acceptance 2), on the shipped 8-DOF idler
     (`fmu/idler_gearset`, compliant bearings, 100 N·m). The rigid-bearing variant of this
@@ -953,7 +1129,8 @@ def ch3():
             f"thesis, rectangular here{extra}" +
             ("; an independent integration of the same waves agrees with geardyn at ω = 1 "
              f"(notes): mesh 1 separates only up to ω = {g[1]:.3f}, the first-order perturbation "
-             "overestimates the interval" if m == "mesh1" else ""))
+             "overestimates the interval" if m == "mesh1" else ""),
+            err=max(rel_err(g[0], thesis[0]), rel_err(g[1], thesis[1])))
     if orc:
         try:
             sys.path.insert(0, where)
@@ -1013,7 +1190,9 @@ def ch3():
         f"present for Γ ≤ {crit[0]:g}, absent for Γ ≥ {crit[1]:g}",
         within(mid, 0.062, 0.1, 0.25) if mono else "✗",
         f"Γ = {', '.join(f'{g:g}' for g in gammas)}; ω ∈ [1.8, 2.2] step 0.005, period 2 with "
-        f"contact loss{extra}")
+        f"contact loss{extra}",
+        construction="ε_pp = 0.390 of the waves is chosen so that |Q_3| = 0.124, and the "
+        "existence bound is Γ = |Q_3|/2 (first order)")
     # -- existence vs mesh phase φ (Figs. 3.10–3.13a) --------------------------------------------
     phis = [0.0, 0.25, 0.35, 0.4, 0.45, 0.5, 0.55, 0.6, 0.75, 1.0]   # φ/π
     P = {ph: sweep_w(f"ch3_sub_phi{ph}", edit(base, "mesh2", "phase", ph / 2), 1.80, 2.20,
@@ -1169,7 +1348,9 @@ def ch4():
              "; no hysteresis"),
             "✓" if reg[0] <= c3 <= reg[1] and h else ("≈" if reg[0] <= c3 <= reg[1] else "✗"),
             "softening resonance: contact loss from the down sweep's jump-down up to the linear "
-            "branch's onset")
+            "branch's onset",
+            construction="the inertias are fitted to c_s = 1 : 2.34 : 3.29, so the resonance "
+            "sits at c_3 by construction")
         w2 = c2 / rho[r]
         reg2 = loss_region(df, "mesh2", w2)
         row(S, f"ρ = {r}: fundamental resonance of mode 2 (mesh 2) at ω_1 = c_2/ρ",
@@ -1177,7 +1358,9 @@ def ch4():
             (f"mesh-2 contact loss over ω_1 = {reg2[0]:.2f}–{reg2[1]:.2f} (c_2/ρ = {w2:.3f})"
              if reg2 else "no mesh-2 contact loss"),
             "✓" if reg2 and reg2[0] <= w2 <= reg2[1] else "✗",
-            "mesh 2's first harmonic at ρω_1 drives mode 2")
+            "mesh 2's first harmonic at ρω_1 drives mode 2",
+            construction="the inertias are fitted to c_s = 1 : 2.34 : 3.29, so the resonance "
+            "sits at c_2/ρ by construction")
     # -- the subharmonic (ρ = 3/5) and the combined resonance (ρ = 1/2) at ω_1 ≈ 2c_3 -----------
     up2 = period_runs(Q["3/5"], 2, 1, 5.0, 7.4)
     dn2 = period_runs(Q["3/5"], 2, -1, 5.0, 7.4)
@@ -1236,7 +1419,8 @@ def ch4():
             f"ω_1 = {float(sm.w):.3f}: {mesh.replace('mesh', 'mesh ')} {n_m:g}, "
             f"{other.replace('mesh', 'mesh ')} {n_o:g}",
             "✓" if n_m == thesis and n_o == 0 else ("≈" if n_m == thesis else "✗"),
-            "down-branch point of the largest first-harmonic response with contact loss; time "
+            err=0.0 if n_m == thesis and n_o == 0 else math.inf,
+            reason="down-branch point of the largest first-harmonic response with contact loss; time "
             "series from the sweep's state over 8 response periods (256 samples per mesh-1 "
             "period), separate losses counted" +
             ("" if n_o == 0 else "; the other mesh also separates: it takes part in this mode "
@@ -1261,7 +1445,8 @@ def ch4():
         f"absent for ε_1 ≤ {crit[0]:g}, present for ε_1 ≥ {crit[1]:g}",
         within(0.5 * sum(crit), 0.2459, 0.05, 0.15) if mono else "✗",
         f"ε_1 = {', '.join(f'{e:g}' for e in eps)} (ε_2 = 0.3), ω_1 ∈ [6.2, 7.0] step 0.01; "
-        f"eq. (4.37) for this reconstruction (|v_13| = {abs(v13):.2f}): {e37:.4f}")
+        f"eq. (4.37) for this reconstruction (|v_13| = {abs(v13):.2f}): {e37:.4f}",
+        construction="|v_13| = 3.20 is fitted so that eq. (4.37) gives the printed 0.2459")
 
     # -- plots -----------------------------------------------------------------------------------
     for r, name in (("3/5", "ch4_rho35"), ("1/2", "ch4_rho12")):
@@ -1349,6 +1534,21 @@ def scene_v13(text):
 # The report
 # ---------------------------------------------------------------------------------------------
 
+def verdict_cell(r):
+    """The verdict, with the relative difference of a quantitative row and the mark of a
+    row that holds by construction (not counted)."""
+    v = r.verdict
+    if r.construction:
+        return f"{v} (by construction)"
+    if r.err is not None:
+        return f"{v} ({r.err * 100:.0f} %)" if math.isfinite(r.err) else f"{v} (–)"
+    return v
+
+
+def why_cell(r):
+    return r.reason + (f". **By construction:** {r.construction}" if r.construction else "")
+
+
 def md_table(rows, with_section=True):
     head = ("| | quantity | thesis | geardyn | verdict | why |\n|---|---|---|---|---|---|\n"
             if with_section else
@@ -1356,9 +1556,36 @@ def md_table(rows, with_section=True):
     out = [head]
     for r in rows:
         cells = ([r.section] if with_section else []) + [r.quantity, r.thesis, r.geardyn,
-                                                          r.verdict, r.reason]
+                                                          verdict_cell(r), why_cell(r)]
         out.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |\n")
     return "".join(out)
+
+
+def md_table_two(rect, geom):
+    """The Ch. 2 rows with the rectangular-pair and the geometry-pair columns."""
+    out = ["| | quantity | thesis | geardyn, rectangular pairs | verdict | geardyn, geometry "
+           "pairs | verdict | why (rectangular; geometry) |\n|---|---|---|---|---|---|---|---|\n"]
+    for a, b in zip(rect, geom):
+        assert a.quantity == b.quantity, (a.quantity, b.quantity)
+        why = why_cell(a) + ("" if b.reason == a.reason and not b.construction else
+                             f" — *geometry:* {why_cell(b)}")
+        cells = [a.section, a.quantity, a.thesis, a.geardyn, verdict_cell(a), b.geardyn,
+                 verdict_cell(b), why]
+        out.append("| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |\n")
+    return "".join(out)
+
+
+def tally(rows):
+    """Counts for the headline: quantitative rows (a printed number, not by construction)
+    within 5 % and 15 %, qualitative verdicts, and the rows that hold by construction."""
+    quant = [r for r in rows if r.err is not None and not r.construction]
+    qual = [r for r in rows if r.err is None and not r.construction]
+    t = dict(m=len(quant), n5=sum(r.err <= 0.05 for r in quant),
+             n15=sum(r.err <= 0.15 for r in quant),
+             construction=sum(bool(r.construction) for r in rows))
+    for v in ("✓", "≈", "✗"):
+        t["q" + v] = sum(r.verdict == v for r in qual)
+    return t
 
 
 def paragraphs(text):
@@ -1399,11 +1626,30 @@ def write_report(ctx):
     elif reused and stamp.exists():
         runtime = float(stamp.read_text())
     counts = {v: sum(r.verdict == v for r in ROWS) for v in ("✓", "≈", "✗")}
+    ch2_rect = [r for r in ROWS if r.section.startswith("Ch. 2")]
+    rest = [r for r in ROWS if not r.section.startswith("Ch. 2")]
+    geom_report = GEOM_ROWS + rest
+    rect_report = ch2_rect + rest
     L = []
     add = L.append
     add("# Liu (2007) reproduction report\n")
     add("<!-- Generated by scripts/liu2007_report.sh (scripts/liu2007_report.py); do not edit "
         "by hand: edit the script or the scenes and regenerate. -->\n")
+    if GEOM_ROWS:
+        g, r_ = tally(geom_report), tally(rect_report)
+        gc, rc = tally(GEOM_ROWS), tally(ch2_rect)
+        add(f"**{g['n5']} of {g['m']} quantitative rows agree within 5 %** ({g['n15']} within "
+            f"15 %) with the Ch. 2 tooth pairs from the gear geometry; with the rectangular "
+            f"pairs, {r_['n5']} of {r_['m']} ({r_['n15']} within 15 %). In Ch. 2 alone: geometry "
+            f"{gc['n5']} of {gc['m']}, rectangular {rc['n5']} of {rc['m']}. A quantitative row is "
+            "one where the thesis prints a number and geardyn's value is compared with it "
+            "(relative difference, the largest over the row's numbers); rows that hold by "
+            f"construction are not counted ({g['construction']} with the geometry pairs, "
+            f"{r_['construction']} with the rectangular ones; marked 'by construction'). "
+            f"Qualitative rows (the thesis states a behaviour, not a number): geometry pairs "
+            f"{g['q✓']} ✓, {g['q≈']} ≈, {g['q✗']} ✗; rectangular pairs {r_['q✓']} ✓, "
+            f"{r_['q≈']} ≈, {r_['q✗']} ✗. So the report reproduces the thesis' Ch. 3 and Ch. 4 "
+            "behaviour and parts of Ch. 2; most of its Ch. 2 numbers it does not.\n")
     add("G. Liu, *Nonlinear Dynamics of Multi-Mesh Gear Systems*, PhD thesis, Ohio State, 2007 "
         "(Ch. 2–4), against geardyn. Thesis values are quoted from the reference notes "
         "`shared/reference/models-liu-parker-2007.md` (section given in each row; the thesis' "
@@ -1411,12 +1657,13 @@ def write_report(ctx):
         "number below is measured by the script from the sweep and time-series CSVs of this "
         "run**; none is typed in.\n")
     add("The thesis' mesh stiffnesses are finite-element curves (Figs. 2.2, 3.5; Ch. 4's "
-        "Table 4.1 system) that are not tabulated and cannot be rebuilt. The scenes use the "
-        "rectangular forms the thesis itself uses for its analysis (per-pair rectangular "
-        "stiffness, §2.5; rectangular waves, Ch. 3–4) with the printed means, peak-to-peak ratios "
-        "and contact ratios. Agreement is therefore judged qualitatively (which branch, which "
-        "mesh, jumps or none, ordering and rough location); rows that disagree stay in the table "
-        "with the reason.\n")
+        "Table 4.1 system) that are not tabulated and cannot be rebuilt. Ch. 2 is run with two "
+        "tooth-pair models side by side: the rectangular pairs the thesis itself uses for its "
+        "analysis (§2.5, with the printed mean, peak-to-peak ratio and contact ratio), and each "
+        "pair's stiffness from the gear geometry (potential-energy method with extended tooth "
+        "contact, Liao et al. 2025; tip relief A/B as gaps on the same pairs, as the thesis "
+        "applies it; section 'Gear geometry'). Ch. 3–4 use rectangular waves. Rows that "
+        "disagree stay in the table with the reason.\n")
     add(f"Regenerated with `bash scripts/liu2007_report.sh` at commit {commit()} on "
         f"{time.strftime('%Y-%m-%d')}"
         f"{' (text from the CSVs of an earlier full run, `--reuse`)' if reused else ''}: "
@@ -1424,8 +1671,11 @@ def write_report(ctx):
         f"{sum(r.points for r in RUNS if r.kind == 'sweep')} sweep points and "
         f"{sum(1 for r in RUNS if r.kind == 'orbit')} branch time-series runs "
         f"({machine()} at the end; the machine is shared).\n")
-    add(f"**Summary:** {len(ROWS)} rows: {counts['✓']} ✓ (agrees), {counts['≈']} ≈ (agrees "
-        f"qualitatively, or partly), {counts['✗']} ✗ (disagrees). Issue 16 acceptance 2: "
+    add(f"**Verdicts:** {len(ROWS)} rows with the rectangular pairs: {counts['✓']} ✓ (agrees), "
+        f"{counts['≈']} ≈ (agrees qualitatively, or partly), {counts['✗']} ✗ (disagrees); Ch. 2 "
+        f"with the geometry pairs: " + ", ".join(
+            f"{sum(r.verdict == v for r in GEOM_ROWS)} {v}" for v in ("✓", "≈", "✗")) +
+        ". Issue 16 acceptance 2: "
         f"{sum(r.verdict == '✓' for r in CHECKS)} of {len(CHECKS)} checks ✓ "
         f"(not ✓: {'; '.join(r.quantity for r in CHECKS if r.verdict != '✓') or 'none'}).\n")
     add("## Scenes and what they approximate\n")
@@ -1434,6 +1684,11 @@ def write_report(ctx):
         "(eq. 2.7); rectangular Model-1 tooth pairs (no FE, no corner contact, load-independent); "
         "ζ = 2 % (not given); no relief (A = 10 µm, B = 25 µm added by the script); compliant "
         "8-DOF variant: `bearings = \"compliant\"`, ψ = 0 |\n"
+        "| `examples/liu2007/ch2_idler_geometry.toml` | Table 2.1 idler, Figs. 2.5–2.13 | as "
+        "ch2_idler.toml, with each tooth pair's stiffness from the gear geometry (`[mesh.pairs] "
+        "kind = \"geometry\"`): potential energy, Sainsot fillet, Hertz eq. (3) at the "
+        "transmitted force, extended tooth contact; profile shifts, tip and bore radii chosen "
+        "(section 'Gear geometry') |\n"
         "| `examples/liu2007/ch3_idler_report.toml` | Table 3.1 idler, Figs. 3.4–3.13 | gear inertia "
         "0.119 kg·m² (printed 1.19e-2), λ = 1.08, k̄_1 = 2.98e8 N/m (not in Table 3.1); "
         "rectangular waves ς = 1.5 with ε_pp = 0.390 chosen so that \\|Q_3\\| = 0.124 as in the "
@@ -1445,7 +1700,24 @@ def write_report(ctx):
     add("\nThe Ch. 3 scene is written here; the Ch. 3 perturbation oracle (`tests/python/"
         "liu_ch3.py`, branch liu-oracle) supplies first-order reference values when present.\n")
     add("## Results\n")
-    add(md_table(ROWS))
+    add("Verdict column: ✓/≈/✗, with the relative difference to the thesis' number in "
+        "parentheses for a quantitative row; '(by construction)' marks a row whose agreement "
+        "follows from a fitted or printed input, not counted in the headline.\n\n")
+    if GEOM_ROWS:
+        add("### Ch. 2: rectangular pairs and pairs from the gear geometry\n\n")
+        add(md_table_two(ch2_rect, GEOM_ROWS))
+        add("\n### Ch. 3 and Ch. 4\n\n")
+        add(md_table(rest))
+        changed = [(a, b) for a, b in zip(ch2_rect, GEOM_ROWS) if a.verdict != b.verdict]
+        add("\n### Ch. 2 rows whose verdict changes with the geometry pairs\n\n")
+        for a, b in changed:
+            add(f"- **{a.quantity}: {a.verdict} → {b.verdict}.** Rectangular: {a.geardyn}. "
+                f"Geometry: {b.geardyn}. Why: {CHANGED.get(a.quantity, b.reason)}.\n")
+        if not changed:
+            add("None.\n")
+    else:
+        add(md_table(ROWS))
+    add(geometry_section(ctx))
     add("\n## Issue 16 acceptance 2: idler sweeps at 100 N·m\n")
     add("The scene is `ch2_idler.toml` with rigid bearings (the rotational form, eq. 2.7, of the "
         "8-DOF model; the compliant 8-DOF model in the second row); "
@@ -1460,6 +1732,8 @@ def write_report(ctx):
                                  "before the mode-2 jump-down and on the lower branch just "
                                  "after it (time series from the down sweep's state)."),
                    ("ch2_relief", "Tip relief A and B against the unmodified gears."),
+                   ("ch2_geometry", "Geometry pairs: rigid bearings, 100 N·m, unmodified and "
+                                    "with A and B (dotted: the geometry mesh's f_1, f_2)."),
                    ("ch2_compliant", "Compliant bearings: DTE RMS (top) and the first and second "
                                      "mesh harmonics of the DTE near modes 6 and 7/2 (bottom).")):
         if k in FIGS:
@@ -1493,22 +1767,24 @@ def write_report(ctx):
     for n in NOTES.get("Ch. 4 counter-shaft", []):
         add(f"- {n}\n")
     add("\n## Rows that disagree or agree only in part\n")
-    for r in ROWS:
-        if r.verdict != "✓":
-            add(f"- **{r.verdict} {r.section}: {r.quantity}.** Thesis: {r.thesis}. geardyn: "
-                f"{r.geardyn}. Why: {r.reason}.\n")
+    for label, rows in (("rectangular pairs", ROWS), ("geometry pairs", GEOM_ROWS)):
+        for r in rows:
+            if r.verdict != "✓":
+                model = f" ({label})" if r.section.startswith("Ch. 2") else ""
+                add(f"- **{r.verdict} {r.section}{model}: {r.quantity}.** Thesis: {r.thesis}. "
+                    f"geardyn: {r.geardyn}. Why: {why_cell(r)}.\n")
     add("\n## Runs\n")
     add("Each sweep runs the up and the down branch on the two cores (`--direction both`); "
         "'unsettled' points reached `--max-periods` without a periodic state, 'aperiodic' ones "
         "also had a stalled residual (quasi-periodic or chaotic, or a slow transient; see the "
         "notes). Wall times are those of the run that computed them.\n\n")
-    add("| run | kind | points | wall (s) | unsettled | of which aperiodic | most transient periods |\n"
-        "|---|---|---|---|---|---|---|\n")
+    add("| run | kind | points | wall (s) | unsettled | of which aperiodic | solver failed | "
+        "most transient periods |\n|---|---|---|---|---|---|---|---|\n")
     for r in RUNS:
+        sw_ = r.kind == 'sweep'
         add(f"| {r.tag} | {r.kind} | {r.points} | {r.seconds:.1f} "
-            f"| {r.unconverged if r.kind == 'sweep' else '–'} | "
-            f"{r.aperiodic if r.kind == 'sweep' else '–'} | "
-            f"{r.max_transient if r.kind == 'sweep' else '–'} |\n")
+            f"| {r.unconverged if sw_ else '–'} | {r.aperiodic if sw_ else '–'} | "
+            f"{r.failed if sw_ else '–'} | {r.max_transient if sw_ else '–'} |\n")
     add(f"\nTotal: {runtime:.0f} s.\n")
     add("\n## Regenerating\n")
     add("`bash scripts/liu2007_report.sh` builds `geardyn` and `examples/liu2007_orbit.rs` and "
@@ -1530,19 +1806,265 @@ def main():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--reuse", action="store_true",
                    help="reuse sweeps and series of an earlier run with the same inputs")
-    p.add_argument("--only", default="", help="comma list of ch2,ch3,ch4 (development)")
+    p.add_argument("--only", default="", help="comma list of ch2,ch2g,ste,ch3,ch4 (development)")
+    p.add_argument("--check", action="store_true",
+                   help="fast staleness check: recompute the rows the check covers (see "
+                        "CHECKED in the script) and fail if any differs from the printed report")
+    p.add_argument("--report", type=Path, action="append",
+                   help="a printed report the check compares with (repeatable; default: "
+                        f"{DOC.relative_to(ROOT)})")
     ARGS = p.parse_args()
     for path in (BIN, ORBIT):
         if not path.exists():
             sys.exit(f"{path} missing: run scripts/liu2007_report.sh (it builds first)")
+    if ARGS.check:
+        sys.exit(check_report(ARGS.report or [DOC]))
     only = set(filter(None, ARGS.only.split(",")))
     ctx = {}
-    for name, fn in (("ch2", ch2), ("ch3", globals().get("ch3")), ("ch4", globals().get("ch4"))):
+    for name, fn in (("ch2", ch2), ("ch2g", ch2_geometry), ("ste", ste_vs_torque),
+                     ("ch3", globals().get("ch3")), ("ch4", globals().get("ch4"))):
         if fn and (not only or name in only):
             t0 = time.time()
             ctx[name] = fn()
             print(f"{name}: {time.time() - t0:.1f} s", file=sys.stderr)
     write_report(ctx)
+
+
+GEOM_ROWS: list[Row] = []
+
+# What the fast check (`--check`, run by tests/python/test_liu_report_fresh.py in
+# scripts/test.sh) recomputes, with exactly the full run's inputs: the Ch. 2 statics rows of
+# both pair models, the static-TE table, and every Ch. 3 and Ch. 4 row. The Ch. 2 sweep rows
+# take minutes (the geometry pairs integrate with RK) and are the full run's only.
+CHECKED = "Ch. 2 statics rows (both pair models), the static-TE table, all Ch. 3 and Ch. 4 rows"
+
+
+def md_rows(text):
+    """Table rows of the report as lists of cells (the escaped '|' kept inside a cell)."""
+    rows = []
+    for line in text.split("\n"):
+        if line.startswith("| ") and not line.startswith("|---"):
+            cells = [c.strip().replace("\\|", "|") for c in
+                     re.split(r"(?<!\\)\|", line.strip())[1:-1]]
+            rows.append(cells)
+    return rows
+
+
+def check_report(reports):
+    """Recomputes the CHECKED rows and compares every geardyn cell (value and verdict, which
+    carries the relative difference) with the printed report, character for character. Returns
+    the exit status (1 on any difference)."""
+    global FIG, PREFIX, ROWS
+    FIG = WORK / "check_figures"    # the check writes no file of the report
+    t0 = time.time()
+    ch2()
+    rect = list(ROWS)
+    ROWS, PREFIX = [], "geom_"
+    ch2("geom")
+    geom = list(ROWS)
+    ROWS, PREFIX = [], ""
+    ste = ste_vs_torque()
+    ch3()
+    ch4()
+    rest = list(ROWS)
+    seconds = time.time() - t0
+    status = 0
+    for report in reports:
+        status = max(status, compare_report(report, rect, geom, rest, ste, seconds))
+    return status
+
+
+def compare_report(report, rect, geom, rest, ste, seconds):
+    """Compares the recomputed rows with one printed report; returns 1 if any differs."""
+    printed = report.read_text()
+    table = md_rows(printed)
+    problems = []
+
+    def find(r, ncells):
+        hits = [c for c in table if len(c) == ncells and c[0] == r.section and c[1] == r.quantity]
+        if len(hits) != 1:
+            problems.append(f"{r.section}: {r.quantity}: {len(hits)} printed rows")
+            return None
+        return hits[0]
+
+    for a, b in zip(rect, geom):
+        c = find(a, 8)
+        if c is not None:
+            for name, got, want in (("rectangular", a.geardyn, c[3]),
+                                    ("rectangular verdict", verdict_cell(a), c[4]),
+                                    ("geometry", b.geardyn, c[5]),
+                                    ("geometry verdict", verdict_cell(b), c[6])):
+                if got != want:
+                    problems.append(f"{a.quantity} ({name}): now '{got}', printed '{want}'")
+    for r in rest:
+        c = find(r, 6)
+        if c is not None:
+            for name, got, want in (("geardyn", r.geardyn, c[3]), ("verdict", verdict_cell(r), c[4])):
+                if got != want:
+                    problems.append(f"{r.section}: {r.quantity} ({name}): now '{got}', printed '{want}'")
+    ste_md = ste_table(ste)
+    if ste_md.strip() not in printed:
+        problems.append("the static-TE table differs from the printed one:\n" + ste_md)
+    n = 2 * len(rect) + len(rest)
+    print(f"liu2007 report check: {n} rows and the static-TE table ({len(ste)} values) "
+          f"recomputed in {seconds:.1f} s; {len(problems)} differ from {report}",
+          file=sys.stderr)
+    for p_ in problems:
+        print("  " + p_, file=sys.stderr)
+    if problems:
+        print("the report is stale: regenerate it with `bash scripts/liu2007_report.sh`",
+              file=sys.stderr)
+    return 1 if problems else 0
+
+
+def ste_table(ste):
+    """The static-TE table of the report (p-p loaded STE, mesh 1 / mesh 2, µm)."""
+    head = ("| torque (N·m) | rectangular, none | rectangular, A | rectangular, B | "
+            "geometry, none | geometry, A | geometry, B |\n|---|---|---|---|---|---|---|\n")
+    lines = [head]
+    for t in STE_TORQUES:
+        cells = [f"{t}"] + [f"{ste[(m, r, t)][0] * 1e6:.2f} / {ste[(m, r, t)][1] * 1e6:.2f}"
+                            for m in ("rect", "geom") for r in ("none", "A", "B")]
+        lines.append("| " + " | ".join(cells) + " |\n")
+    return "".join(lines)
+
+
+# Why a Ch. 2 row changes verdict with the geometry pairs (written from the full run's numbers;
+# the row's own values are printed beside it).
+CHANGED: dict[str, str] = {
+    "Mean mesh stiffness k̂_1 / k̂_2":
+        "the potential-energy pairs with Sainsot fillets are about a quarter softer than the "
+        "thesis' FE mean. The bore radius is the only free input of the geometry here: a "
+        "bore of 0.7 instead of 0.5 root radii raises mesh 1's mean by 6 % only (geardyn "
+        "stiffness, 2.45e8 vs 2.30e8 N/m for the mesh curve); the FE model's rim, web and "
+        "contact are not given. Every frequency below follows from this softer mesh",
+    "Natural frequencies f_1 / f_2 (rigid bearings, mean stiffness)":
+        "the softer geometry mesh (row above): f ∝ √k̂",
+    "Jump-down frequency near the mode 1 resonance, 100 N·m (down sweep)":
+        "the jump moves down with f_1 (1374 instead of 1605 Hz): relative to its own f_1 it is "
+        "where the rectangular pairs' is (0.73 vs 0.75 f_1); against the thesis' 1.2 kHz it is "
+        "17 % low because the mesh is softer",
+    "Jump frequencies vs torque 50 / 100 / 150 N·m":
+        "not by construction any more (the Hertz term makes the pairs load dependent), and not "
+        "invariant: at 150 N·m the largest hysteresis near each mode is a different one (a "
+        "period-2 response of mode 1 at about 1.9 kHz) rather than the same jump moved; the "
+        "geometry pairs' stiffness varies by about 0.6 of the mean (rectangular: 0.35/0.40), "
+        "which makes the parametric instabilities stronger than in the thesis' FE pairs",
+    "Peak DTE RMS vs torque (50 : 100 : 150 N·m)":
+        "50 : 100 N·m scale almost linearly (11.15 : 22.38), as in the thesis; at 150 N·m the "
+        "sweep lands on a larger period-2 branch (same cause as the row above)",
+    "Upper branch at the mode-2 jump-down: total contact loss of mesh 1":
+        "with the geometry pairs the upper branch just before the mode-2 jump-down is a "
+        "period-1 response in which mesh 1 carries the long contact loss, as in the thesis; "
+        "with the rectangular pairs mode 1's period-2 response dominates there and mesh 2 "
+        "carries it",
+    "Second-harmonic resonance of mode 2 (mesh-1 DTE at 2f)":
+        "the resonance moves down with f_2 (f_2/2 = 1422 Hz): the softer mesh, as in the rows "
+        "above",
+    "Peak-to-peak loaded STE at 100 N·m (mesh 1 / mesh 2)":
+        "A reduces the p-p STE on both meshes; B raises it on mesh 1 only. The geometry "
+        "pairs' unrelieved p-p STE is 2.4× the rectangular pairs' (their stiffness varies "
+        "more), so at 100 N·m 25 µm of relief is close to where it stops raising the STE (the "
+        "static-TE table: B lowers it on both meshes from 125 N·m up)",
+    "Modification A, 100 N·m: DTE at the resonances vs unmodified":
+        "A lowers the STE excitation but not the parametric instabilities (§1.8), which the "
+        "geometry pairs' larger stiffness variation makes stronger: the mode-2 range's peak "
+        "(a contact-loss response) is even higher with A",
+    "Modification B, 100 N·m: fundamental peak heights vs unmodified":
+        "with the geometry pairs B does not over-relieve (its STE p-p stays that of the "
+        "unmodified gears, row 'Peak-to-peak loaded STE'), and both peaks are lower, as in "
+        "the thesis",
+    "Modification B: DTE at the second-harmonic resonance, 1.4 kHz":
+        "at 1.4 kHz the geometry pairs are near mode 1's contact-loss resonance (f_1 = 1374 "
+        "Hz), not at a second-harmonic resonance; B lowers the response there",
+    "Modification A at 50 N·m, 1400 Hz: contact loss":
+        "the solver fails there with the geometry pairs (a storm of contact events of the RK "
+        "integrator with sloped pair stiffness and relief gaps; a geardyn defect, see 'Runs', "
+        "column 'solver failed'), so there is no value",
+    "Resonance of mode 7 by the second mesh harmonic":
+        "the softer geometry mesh moves mode 7 down (f_7/2 = 1088 instead of 1264 Hz) and the "
+        "peak with it",
+}
+
+
+def geometry_section(ctx):
+    """The gear geometry of the Ch. 2 pairs and the static TE vs torque (issue 36 item 4)."""
+    L = ["\n## Gear geometry of the Ch. 2 pairs\n\n"]
+    L.append(
+        "The thesis gives teeth 38/55/94, module 2.54 mm, face width 12.7 mm, base radii "
+        "45.35/65.64/112.18 mm, operating pressure angles 21.22°/21.02° and contact ratios "
+        "1.504/1.510 (Table 2.1, notes §1.10, §2.9), but no profile shifts, tip, root or bore "
+        "radii. `examples/liu2007/ch2_idler_geometry.toml` derives them (its header has the "
+        "numbers): a 20° rack (m z cos 20°/2 gives the printed base radii to 1e-4); the idler "
+        "unshifted with the standard addendum (an assumption); the pinion's and follower's "
+        "profile shifts from the operating pressure angles at zero backlash (inv α_w = inv α + "
+        "2 tan α (x_a + x_b)/(z_a + z_b): x_1 = 0.3849, x_3 = 0.5101); their addenda solved for "
+        "the printed contact ratios (h_a1* = 0.7864, h_a3* = 0.7042, tip radii 51.235 and "
+        "122.464 mm); standard 1.25 m dedendum with a full-round cutter; bore radius half the "
+        "root radius; steel (E = 206 GPa, ν = 0.3). "
+        "`tests/python/test_liu_geometry_pairs.py` checks that these gears give c = 1.504/1.510 "
+        "and α_w = 21.22°/21.02°, and checks geardyn's pair stiffness at every knot of both "
+        "meshes against an independent scipy evaluation of the potential-energy integrals "
+        "(≤ 1e-6 relative; measured 4.9e-15).\n\n"
+        "Each pair's stiffness is `1/(beam + fillet compliances of both teeth + 1/K_h)` at its "
+        "contact point (Liao et al. 2025 eqs. (1)–(4), Sainsot fillet). **Load dependence: the "
+        "Hertz term** of eq. (3), evaluated at the transmitted force W = T/r_b1 of the scene's "
+        "torque, so the pair curve is computed per torque (each torque of the report has its "
+        "own curve); within a run a pair is a linear spring, as in Liu's Model-1. Extended tooth "
+        "contact: the pair window runs 0.01 mesh cycles beyond each end of the path of contact "
+        "with the linearised gap p_b × (distance beyond the end) added to the relief gap. Tip "
+        "relief A/B: linear from the highest point of single contact (length c − 1) on driver "
+        "and driven teeth of both meshes, as gaps on the same pairs (notes §1.5).\n\n")
+    for n in NOTES.get("geometry", []):
+        L.append(f"- {n}\n")
+    if "ste" in ctx:
+        L.append("\n## Static transmission error vs torque (issue 36 item 4)\n\n")
+        L.append(f"![Loaded STE peak-to-peak vs torque]({FIGS['ch2_ste']})\n\n"
+                 "*Peak-to-peak loaded STE (eq. 2.8 with the active set, statics of `geardyn "
+                 "modes`) of both meshes against the input torque; dashed: rectangular pairs, "
+                 "solid: geometry pairs.*\n\n")
+        L.append("Peak-to-peak loaded STE, mesh 1 / mesh 2, µm:\n\n")
+        L.append(ste_table(ctx["ste"]))
+        L.append("\nThe thesis' STE figures are lost; its text states only that at 100 N·m A "
+                 "reduces and B increases the peak-to-peak STE (§1.11), and that the optimal "
+                 "relief depends on the torque (A at 50 N·m loses contact again). Both pair "
+                 "models agree with the first statement; the table shows the torque dependence "
+                 "of the second: relief that is too large for the load (B at every torque here, "
+                 "A at low torque) raises the STE.\n")
+    L.append("\n## Fitted and chosen inputs\n\n"
+             "Inputs not printed in the thesis, chosen or fitted here (the rows they make true "
+             "are marked 'by construction' and not counted):\n\n"
+             "- Ch. 2: modal damping ζ = 2 % (never given); ψ = 0 (fitted to Table 2.2); φ = 0 "
+             "(printed '()'); no backlash (not given). Geometry pairs: idler shift 0 and "
+             "addendum 1, bore radii = half the root radii, steel (chosen); shifts and addenda of "
+             "pinion and follower (derived from the printed α_n and c_n).\n"
+             "- Ch. 3: gear inertia 0.119 kg·m² (printed 1.19e-2), λ = 1.08, k̄_1 = 2.98e8 N/m "
+             "(not in Table 3.1); ε_pp = 0.390 of the rectangular waves, fitted so that "
+             "|Q_3| = 0.124 as printed.\n"
+             "- Ch. 4: inertias and radii fitted to c_s = 1 : 2.34 : 3.29, the stated mode "
+             "dominance and signs, and |v_13| = 3.20 (so that eq. 4.37 gives the printed "
+             "0.2459).\n")
+    L.append("\n## Staleness check\n\n"
+             "`bash scripts/test.sh` runs `tests/python/test_liu_report_fresh.py`, which runs "
+             "`scripts/liu2007_report.py --check`: it recomputes, with exactly this report's "
+             f"inputs, {CHECKED}, and fails if any geardyn value or verdict cell differs from the "
+             "printed one, character for character (so to its printed digits). The Ch. 2 sweep "
+             "rows are not in the fast check (the geometry pairs' sweeps take minutes); they "
+             "change only with a full regeneration, `bash scripts/liu2007_report.sh`. The test "
+             "also edits one printed number in a scratch copy of this report and checks that "
+             "the check then fails.\n")
+    return "".join(L)
+
+
+def ch2_geometry():
+    """The Ch. 2 rows again with the pairs from the gear geometry, into GEOM_ROWS."""
+    global ROWS, PREFIX
+    keep, ROWS, PREFIX = ROWS, [], "geom_"
+    try:
+        return ch2("geom")
+    finally:
+        GEOM_ROWS.extend(ROWS)
+        ROWS, PREFIX = keep, ""
 
 
 if __name__ == "__main__":

@@ -7,6 +7,8 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 cd "$root"
 bash scripts/setup-python.sh
 cargo build --release --locked
+# The branch time-series helper of the Liu report's fast check (tests/python/test_liu_report_fresh.py).
+cargo build --release --locked --example liu2007_orbit
 cargo test --release --locked
 # The shipped FMUs (out/fmus/*.fmu) that the Python tests load.
 bash scripts/build-fmus.sh
