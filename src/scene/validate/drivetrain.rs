@@ -329,13 +329,6 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
     }
     errors_geometry(&gears, &mesh_specs)?;
     for (i, m) in meshes.iter().enumerate() {
-        if m.name.is_empty() || !identifier(&m.name) {
-            return err(format!(
-                "{} = {:?}: must be an identifier",
-                mesh_field(form, i, "name"),
-                m.name
-            ));
-        }
         if let Some(j) = meshes[..i].iter().position(|o| o.name == m.name) {
             return err(format!(
                 "mesh[{i}].name = {:?}: duplicates mesh[{j}].name",
@@ -831,14 +824,16 @@ fn mesh(
     };
 
     // A single-pair kernel's mesh is `mesh`, as its FMU variables name it (`mesh.damping`); a
-    // drivetrain's meshes are numbered as its columns (`mesh1.dte`).
-    let default_name = if at.on_pair {
-        "mesh".to_owned()
-    } else {
-        format!("mesh{}", i + 1)
+    // drivetrain's meshes are numbered as its columns (`mesh1.dte`). A given name prefixes the
+    // mesh's output columns, so it must be an identifier.
+    let name = match &m.name {
+        Some(name) if identifier(name) => name.clone(),
+        Some(name) => return err(format!("{} = {name:?}: must be an identifier", f("name"))),
+        None if at.on_pair => "mesh".to_owned(),
+        None => format!("mesh{}", i + 1),
     };
     Ok(Mesh {
-        name: m.name.clone().unwrap_or(default_name),
+        name,
         pinion,
         gear,
         contact,
