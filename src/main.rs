@@ -45,13 +45,13 @@ enum Command {
     /// Order map (waterfall) of a run-up scene: short-time spectra over speed (docs/runup.md).
     Waterfall(cli::runup::WaterfallArgs),
     /// FMI 2.0 Co-Simulation FMUs: build, print or check model descriptions.
-    Fmu(geardyn::fmi::cli::FmuArgs),
+    Fmu(cli::fmu::FmuArgs),
     /// Run any FMI 2.0 Co-Simulation FMU (the host runner, like `fmpy simulate`).
     Run(geardyn::host::cli::RunArgs),
     /// Show an FMU's model description: capabilities and variables.
-    Info(geardyn::host::cli::FmuArg),
+    Info(cli::fmu::FmuArg),
     /// Check an FMU (modelDescription.xml and its linux64 binary); exit 1 on problems.
-    Validate(geardyn::host::cli::FmuArg),
+    Validate(cli::fmu::FmuArg),
 }
 
 fn main() -> ExitCode {
@@ -94,11 +94,11 @@ fn dispatch(cli: Cli) -> Result<ExitCode, String> {
         Command::Hb(args) => cli::analysis::hb(args),
         Command::Stiffness(args) => cli::stiffness::run(args),
         Command::Waterfall(args) => cli::runup::run(args),
-        Command::Fmu(args) => geardyn::fmi::cli::run(args),
+        Command::Fmu(args) => cli::fmu::run(args),
         // Prints its own errors: its exit status also tells how the FMU's process ended.
         Command::Run(args) => return Ok(geardyn::commands::run::run(args)),
-        Command::Info(args) => geardyn::host::cli::info(args),
-        Command::Validate(args) => geardyn::host::cli::validate(args),
+        Command::Info(args) => cli::fmu::info(args),
+        Command::Validate(args) => cli::fmu::validate(args),
     }
     .map(|()| ExitCode::SUCCESS)
 }

@@ -330,9 +330,11 @@ fn drivetrain_geometry_mesh_equals_the_single_pair_geometry_stiffness() {
         "name = \"output\"\nteeth = 26",
     );
     let msg = train_err(&text);
-    // (the geometry's 25-tooth base radius on 26 teeth: the base pitches disagree)
+    // The geometry names the gear that disagrees with it, before the base pitches are compared
+    // (as in a single-pair scene: one mesh validation).
     assert!(
-        msg.contains("mesh[1]: base pitches differ") && msg.contains("\"output\""),
+        msg.contains("mesh[1].gear (\"output\").teeth = 26")
+            && msg.contains("mesh[1].stiffness.geometry.gear.teeth = 25"),
         "{msg}"
     );
     let text = idler_train("compliant").replace(

@@ -1,6 +1,6 @@
 //! A single-mesh scene is a one-mesh drivetrain: the resolved scene of a single-pair file is
-//! the pair's one-mesh drivetrain, the pair kernel's view of it ([`Scene::pair`]) is the pair
-//! the single-pair validation checked, and the two kernels give the same run.
+//! the pair's one-mesh drivetrain, the pair kernel's view of it ([`Scene::pair`]) lifts back
+//! to it without loss, and the two kernels give the same run.
 
 use geardyn::scene::PairScene;
 use geardyn::scene::Scene;

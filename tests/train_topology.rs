@@ -70,6 +70,23 @@ fn mesh_with_unknown_gear() {
 }
 
 #[test]
+fn mesh_name_must_be_an_identifier() {
+    let named = mesh("b", "c").replacen("[[mesh]]", "[[mesh]]\nname = \"mesh 2\"", 1);
+    rejects(
+        &format!("{GEARS}{}{named}", mesh("a", "b")),
+        &["mesh[1].name = \"mesh 2\": must be an identifier"],
+    );
+    // The same check, named as the file wrote it, in a single-mesh file.
+    let one = format!("{GEARS}{}", mesh("a", "b"))
+        .replacen("[[mesh]]", "[mesh]\nname = \"m-1\"", 1)
+        .replace(
+            "[[gear]]\nname = \"c\"",
+            "[[gear]]\nname = \"c\"\nground_stiffness = 1e4",
+        );
+    rejects(&one, &["mesh.name = \"m-1\": must be an identifier"]);
+}
+
+#[test]
 fn gear_in_two_meshes_with_inconsistent_kinematics() {
     // a drives b and c; a rigid shaft joins b (0.5 × input) and c (1 × input): impossible.
     let body = format!(

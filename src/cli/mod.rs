@@ -8,6 +8,7 @@ use geardyn::scene::Scene;
 
 pub mod analysis;
 pub mod floquet;
+pub mod fmu;
 pub mod modes;
 pub mod runup;
 pub mod simulate;

@@ -4,8 +4,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use geardyn::commands::simulate::SimulateOptions;
-use geardyn::commands::simulate_command::{simulate_command, SimulateFiles};
+use geardyn::commands::simulate::{self, SimulateFiles, SimulateOptions};
 use geardyn::simulation::stream::{DEFAULT_MAX_MESH_PERIODS, DEFAULT_MAX_ROWS};
 use geardyn::simulation::{ProgressDisplay, RunLimits};
 
@@ -103,6 +102,6 @@ pub fn run(args: SimulateArgs) -> Result<(), String> {
         spectrum: args.spectrum.as_deref(),
         quiet: args.quiet,
     };
-    simulate_command(scene, &opts, &files)?;
+    simulate::command(scene, &opts, &files)?;
     Ok(())
 }

@@ -5,12 +5,14 @@
 //! (`src/cli/`) only parses arguments and hands them to the function of its command here.
 
 pub mod floquet;
+pub mod fmu;
 pub mod hb;
+pub mod inspect;
 pub mod modes;
 pub mod run;
 pub mod runup;
 pub mod simulate;
-pub mod simulate_command;
+pub mod simulate_run;
 pub mod spectrum;
 pub mod steady;
 pub mod stiffness;

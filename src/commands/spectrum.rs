@@ -241,7 +241,7 @@ pub fn aliasing(scene: &Scene, interval: f64) -> Result<Option<String>, String> 
 /// wrote to `csv`, written to `out`.
 pub fn spectrum_of_run(
     scene: &Scene,
-    report: &crate::commands::simulate::SimulateReport,
+    report: &crate::commands::simulate_run::SimulateReport,
     csv: &Path,
     out: &Path,
 ) -> Result<(), String> {
@@ -258,7 +258,7 @@ pub fn spectrum_of_run(
         .iter()
         .map(|&i| (names.get(i).copied().unwrap_or("?").to_string(), Vec::new()))
         .collect();
-    crate::commands::simulate::for_each_row(csv, |_, v| {
+    crate::commands::simulate_run::for_each_row(csv, |_, v| {
         time.push(v[0]);
         for (c, &i) in wanted.iter().enumerate() {
             columns[c].1.push(v.get(i).copied().unwrap_or(f64::NAN));

@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use super::simulate::{for_each_row, SimulateReport};
+use super::simulate_run::{for_each_row, SimulateReport};
 use crate::plot::{save_stacked, Axis, Plot, Series};
 
 /// Columns of the envelope: about one per pixel of the plot area.

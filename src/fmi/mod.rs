@@ -11,7 +11,7 @@
 //! - [`blob`]: FMU-state envelope (version, length, checksum, GUID) and hashes,
 //!   [`bytes`]: the little-endian reader the envelope and the models' payloads share,
 //! - [`description`]: `modelDescription.xml` writer (§2.2, §4.3),
-//! - [`package`]: the `.fmu` ZIP writer (§2.3), [`cli`]: the `geardyn fmu` subcommand,
+//! - [`package`]: the `.fmu` ZIP writer (§2.3; `geardyn fmu` is `crate::commands::fmu`),
 //! - [`uri`]: `file:` URI decoding, [`vr_index`]: value reference → variable lookup.
 //!
 //! The model is created by [`crate::fmu::entry`], the one factory used by both the binary and
@@ -22,7 +22,6 @@ pub mod abi;
 pub mod attributes;
 pub mod blob;
 pub mod bytes;
-pub mod cli;
 pub mod description;
 pub mod instance;
 pub mod logger;

@@ -1,4 +1,6 @@
-//! The `geardyn run | info | validate` commands. `main.rs` only dispatches here.
+//! Running one FMU for `geardyn run` (its arguments, the supervised child, the output), and
+//! the FMU opening and supervised loading that `geardyn info | validate`
+//! (`crate::commands::inspect`) use.
 //!
 //! Every error is returned as a message (printed as `error: …`, exit code 1); nothing panics
 //! on a bad FMU or bad arguments. The temporary folder of the unpacked FMU is owned by
@@ -125,60 +127,18 @@ pub struct RunArgs {
     pub timing: bool,
 }
 
-#[derive(clap::Args, Debug)]
-pub struct FmuArg {
-    /// The FMU (.fmu file or an extracted FMU folder).
-    pub fmu: PathBuf,
-}
-
-/// Unpack and parse: the first two steps of every command.
-fn open(fmu: &Path) -> Result<(Unpacked, ModelDescription), String> {
+/// Unpacks an FMU and parses its model description: the first two steps of every command
+/// on an FMU.
+pub fn open(fmu: &Path) -> Result<(Unpacked, ModelDescription), String> {
     let unpacked = unpack(fmu)?;
     let text = unpacked.model_description_text()?;
     let md = parse(&text, "modelDescription.xml")?;
     Ok((unpacked, md))
 }
 
-/// `geardyn info`.
-pub fn info(args: FmuArg) -> Result<(), String> {
-    let (_u, md) = open(&args.fmu)?;
-    print!("{}", super::info::render(&md));
-    Ok(())
-}
-
-/// `geardyn validate`: the modelDescription checks plus loading the linux64 binary with all
-/// 34 functions. Returns an error (exit 1) when anything is wrong. The library is loaded in a
-/// supervised child process, as `geardyn run` runs an FMU (issue 34): its initialisers may
-/// crash, exit or block, and the parent then reports how, and removes the unpacked folder.
-pub fn validate(args: FmuArg) -> Result<(), String> {
-    // Before the temporary folder exists (see `supervised_run`).
-    let supervisor = Supervisor::new()?;
-    let (u, md) = open(&args.fmu)?;
-    let mut problems = u.zip_problems.clone();
-    problems.extend(check(&md));
-    if let Some(cs) = &md.co_simulation {
-        if let Some(e) = supervised_load(&supervisor, u.root(), &cs.model_identifier)? {
-            problems.push(e);
-        }
-    }
-    if problems.is_empty() {
-        println!("No problems found.");
-        return Ok(());
-    }
-    for p in &problems {
-        println!("- {p}");
-    }
-    Err(format!(
-        "{}: {} problem{} found",
-        args.fmu.display(),
-        problems.len(),
-        if problems.len() == 1 { "" } else { "s" }
-    ))
-}
-
 /// Loads the FMU's library with its 34 functions in a forked child; `Some(problem)` when it
 /// cannot be loaded or its process dies while loading it.
-fn supervised_load(
+pub fn supervised_load(
     supervisor: &Supervisor,
     root: &Path,
     model_identifier: &str,

@@ -53,7 +53,8 @@ fn drivetrain_reason(parsed: &ParsedScene) -> Option<String> {
         }
     }
     if spec.gear.len() != 2 {
-        // The pair validation names the count; nothing here needs the drivetrain.
+        // The validation names the count (a single-mesh scene has two gears); nothing here
+        // needs the drivetrain.
         return None;
     }
     let op = &spec.operating;
@@ -129,8 +130,8 @@ pub(crate) fn pair_only_field(parsed: &ParsedScene) -> Option<String> {
 /// The resolved scene as the single-pair kernel reads it ([`crate::model::GearPair`], the DTE
 /// coordinate of `docs/model.md`): the pinion, the gear and their one lumped mesh. It is the
 /// pair kernel's view of a [`Scene`] whose kernel is [`KernelChoice::Pair`] ([`Scene::pair`]),
-/// and lifts back without loss ([`Scene::from`]); the single-pair validation
-/// (`validate/pair.rs`) checks a scene in these terms.
+/// and lifts back without loss ([`Scene::from`]). The one validation (`validate/drivetrain.rs`)
+/// makes the [`Scene`]; this view is read from it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PairScene {
     pub name: String,

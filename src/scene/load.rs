@@ -7,18 +7,14 @@ use std::path::Path;
 use super::kernel::{choose, KernelChoice, PairScene};
 use super::spec::ParsedScene;
 use super::train::TRAIN_EXAMPLES;
-use super::validate::{drivetrain, pair};
+use super::validate::drivetrain;
 use super::{read_scene_file, scene_file, Scene, SceneError, EXAMPLES};
 
 /// Reads, chooses and validates: the resolved scene, which records the kernel choice (with
 /// its reason, printed by `--verbose`).
 pub fn load(text: &str, origin: &str) -> Result<Scene, SceneError> {
     let parsed = parse(text, origin)?;
-    match choose(&parsed) {
-        KernelChoice::Pair => pair::validate(parsed, text).map(Scene::from),
-        KernelChoice::Drivetrain(why) => drivetrain::validate(parsed, text, why),
-    }
-    .map_err(|e| located(origin, e))
+    drivetrain::validate(parsed, text).map_err(|e| located(origin, e))
 }
 
 /// Whether scene text runs on the drivetrain kernel ([`super::kernel::choose`]); text that
@@ -81,7 +77,21 @@ impl PairScene {
     /// drivetrain kernel is refused with the field that needs it. `origin` names the source
     /// in messages.
     pub fn from_toml_str(text: &str, origin: &str) -> Result<PairScene, SceneError> {
-        pair::validate(parse(text, origin)?, text).map_err(|e| located(origin, e))
+        let parsed = parse(text, origin)?;
+        if let KernelChoice::Drivetrain(why) = choose(&parsed) {
+            return Err(located(
+                origin,
+                SceneError(format!(
+                    "{why}: only the drivetrain kernel carries this; read the scene as a \
+                     drivetrain (geardyn does so for every command)"
+                )),
+            ));
+        }
+        let scene = drivetrain::validate(parsed, text).map_err(|e| located(origin, e))?;
+        // A scene on the pair kernel always has the pair's view (`Scene::pair`).
+        scene
+            .pair()
+            .ok_or_else(|| located(origin, SceneError("not a single-pair scene".into())))
     }
 
     /// Reads and validates a scene file.

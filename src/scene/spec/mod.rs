@@ -71,6 +71,9 @@ pub type SceneSpec = SceneFile<Vec<MeshSpec>>;
 pub struct ParsedScene {
     pub spec: SceneSpec,
     pub form: MeshForm,
+    /// The key the file gave the input speed under (`pinion_speed` is an alias of
+    /// `input_speed`), for messages that name the field as the user wrote it.
+    pub speed_key: Option<&'static str>,
 }
 
 impl ParsedScene {
@@ -80,23 +83,28 @@ impl ParsedScene {
             |e: toml::de::Error| SceneError(format!("{origin}: {}", e.to_string().trim_end()));
         // The form decides the type the text is read into; text that is not TOML at all is
         // reported by the single-mesh reading, as before the two formats were one.
+        let table = text.parse::<toml::Table>().ok();
         let many = matches!(
-            text.parse::<toml::Table>()
-                .ok()
-                .and_then(|t| t.get("mesh").cloned()),
+            table.as_ref().and_then(|t| t.get("mesh")),
             Some(toml::Value::Array(_))
         );
+        let operating = table.as_ref().and_then(|t| t.get("operating"));
+        let speed_key = ["input_speed", "pinion_speed"]
+            .into_iter()
+            .find(|key| operating.and_then(|o| o.get(key)).is_some());
         if many {
             let spec: SceneSpec = read(text).map_err(fail)?;
             Ok(ParsedScene {
                 spec,
                 form: MeshForm::Many,
+                speed_key,
             })
         } else {
             let one: SceneFile<MeshSpec> = read(text).map_err(fail)?;
             Ok(ParsedScene {
                 spec: one.with_meshes(|m| vec![m]),
                 form: MeshForm::One,
+                speed_key,
             })
         }
     }
@@ -109,9 +117,14 @@ impl ParsedScene {
 
 /// See [`ParsedScene::mesh_field`].
 pub fn mesh_field(form: MeshForm, i: usize, key: &str) -> String {
+    format!("{}.{key}", mesh_table(form, i))
+}
+
+/// The TOML path of mesh `i`'s table, as the file wrote it (`mesh`, `mesh[1]`).
+pub fn mesh_table(form: MeshForm, i: usize) -> String {
     match form {
-        MeshForm::One => format!("mesh.{key}"),
-        MeshForm::Many => format!("mesh[{i}].{key}"),
+        MeshForm::One => "mesh".into(),
+        MeshForm::Many => format!("mesh[{i}]"),
     }
 }
 

@@ -1,46 +1,58 @@
-//! Validation of drivetrain scenes: ranges, topology and kinematics. Every message names the
-//! field as a TOML path and its value; nothing is clamped.
+//! Validation of a scene, whichever kernel runs it: ranges, topology, kinematics and every
+//! mesh option, into the one resolved [`Scene`]. A single-mesh file goes through the same
+//! functions as a train ([`validate`] for the scene, [`mesh`] for each mesh); what only one
+//! kernel carries is checked where it is read, on the kernel's choice ([`super::super::kernel`]).
+//! Every message names the field as the file wrote it (`mesh.damping` for `[mesh]`,
+//! `mesh[1].damping` for `[[mesh]]`) and its value; nothing is clamped.
 
 use std::collections::VecDeque;
 
-use super::checks::{finite, initial_dte, non_negative, positive, solver};
+use super::checks::{
+    err, finite, initial_dte, non_negative, positive, solver, valid_identifier as identifier,
+};
 use crate::mesh::PhaseSeries;
-use crate::scene::spec::{MeshSpec as TrainMeshSpec, PairStiffnessSpec, ParsedScene, ShaftSpec};
+use crate::scene::kernel::{choose, pair_only_field};
+use crate::scene::spec::{
+    mesh_field, mesh_table, MeshForm, MeshSpec as TrainMeshSpec, PairStiffnessSpec, ParsedScene,
+    ShaftSpec,
+};
 use crate::scene::train::{
     Bearing, GapFunction, GapTable, HelicalPair, MeshForceModel, PairGap, PairModel, PairStiffness,
     Shaft, ShaftCoupling, TipRelief,
 };
 use crate::scene::{
-    ContactLaw, Gear, KernelChoice, Mesh, MethodChoice, Operating, Scene, SceneError,
+    ContactLaw, Gear, KernelChoice, Mesh, MethodChoice, Operating, Scene, SceneError, SmoothTerms,
 };
 
 type Result<T> = std::result::Result<T, SceneError>;
-
-fn err<T>(msg: String) -> Result<T> {
-    Err(SceneError(msg))
-}
-
-fn identifier(name: &str) -> bool {
-    let mut c = name.chars();
-    matches!(c.next(), Some(ch) if ch.is_ascii_alphabetic() || ch == '_')
-        && c.all(|ch| ch.is_ascii_alphanumeric() || ch == '_')
-}
 
 /// Relative tolerance of the kinematic consistency checks (speed ratios around loops).
 const KINEMATIC_TOL: f64 = 1e-9;
 /// Largest relative difference of the base pitches `2π r_b/z` of two meshing gears.
 const BASE_PITCH_TOL: f64 = 0.01;
 
-/// Validates a scene the kernel choice put on the drivetrain kernel; `why` is the choice's
-/// reason, recorded in the scene.
-pub(crate) fn validate(parsed: ParsedScene, source: &str, why: String) -> Result<Scene> {
-    if let Some(field) = crate::scene::kernel::pair_only_field(&parsed) {
+/// Validates a scene of any form into the resolved scene, with the kernel
+/// [`crate::scene::kernel::choose`] picks for it recorded.
+pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
+    let kernel = choose(&parsed);
+    let on_pair = kernel == KernelChoice::Pair;
+    if let (false, Some(field)) = (on_pair, pair_only_field(&parsed)) {
         return err(format!(
             "{field}: a term of the single-pair kernel (Bugaru 2006), which runs a scene with one \
              mesh between two gears and no drivetrain feature; the drivetrain kernel does not \
              carry it"
         ));
     }
+    let form = parsed.form;
+    // The input speed's key as the file wrote it; unwritten, as each kernel's docs name it.
+    let speed_field = format!(
+        "operating.{}",
+        parsed.speed_key.unwrap_or(if on_pair {
+            "pinion_speed"
+        } else {
+            "input_speed"
+        })
+    );
     let spec = parsed.spec;
     let model = spec.model.clone().unwrap_or_default();
     if !identifier(&spec.name) {
@@ -69,6 +81,12 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str, why: String) -> Result
     };
     let modal = non_negative("model.modal_damping_ratio", model.modal_damping_ratio)?;
 
+    if on_pair && spec.gear.len() != 2 {
+        return err(format!(
+            "gear: {} [[gear]] tables given; a single-mesh scene needs exactly 2",
+            spec.gear.len()
+        ));
+    }
     if spec.gear.is_empty() {
         return err("gear: no [[gear]] given; a train needs at least 2".into());
     }
@@ -81,7 +99,8 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str, why: String) -> Result
         let Some(stiffness) = &m.stiffness else {
             continue;
         };
-        if let Some([p, g]) = super::geometry::bodies(stiffness, &format!("mesh[{i}].stiffness"))? {
+        if let Some([p, g]) = super::geometry::bodies(stiffness, &mesh_field(form, i, "stiffness"))?
+        {
             for (name, body) in [(&m.pinion, p), (&m.gear, g)] {
                 if !bodies.iter().any(|(n, _)| n == name) {
                     bodies.push((name.clone(), body));
@@ -241,8 +260,8 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str, why: String) -> Result
         .enumerate()
         .map(|(i, m)| {
             Ok((
-                find(&format!("mesh[{i}].pinion"), &m.pinion)?,
-                find(&format!("mesh[{i}].gear"), &m.gear)?,
+                find(&mesh_field(form, i, "pinion"), &m.pinion)?,
+                find(&mesh_field(form, i, "gear"), &m.gear)?,
             ))
         })
         .collect::<Result<Vec<_>>>()?;
@@ -252,7 +271,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str, why: String) -> Result
     };
     let mut profiles = crate::scene::profile::profiles(&op.speed_profile, &op.torque_profile)?;
     let input_speed = crate::scene::profile::resolve(
-        "operating.input_speed",
+        &speed_field,
         op.input_speed,
         "operating.speed_profile",
         profiles.speed.as_ref(),
@@ -274,13 +293,29 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str, why: String) -> Result
             profiles.torque.as_ref(),
         )?,
     };
-    let input_speed = non_negative("operating.input_speed", input_speed)?;
+    let input_speed = non_negative(&speed_field, input_speed)?;
     let input_torque = finite("operating.input_torque", input_torque)?;
+    let torque_ripple = match op.torque_ripple {
+        Some(t) => finite("operating.torque_ripple", t)?,
+        None => 0.0,
+    };
+    // The torque each mesh's pinion carries (of the input torque, along the base circles).
+    let pinion_ratio: Vec<f64> = ends
+        .iter()
+        .map(|&(pinion, _)| radius_ratio(&gears, &shafts, &ends, input_gear, pinion))
+        .collect();
     let mut meshes = Vec::with_capacity(mesh_specs.len());
     for (i, m) in mesh_specs.iter().enumerate() {
-        let ratio = radius_ratio(&gears, &shafts, &ends, input_gear, ends[i].0);
-        let torque = input_torque * ratio;
-        meshes.push(mesh(i, m, &gears, &find, torque)?);
+        let at = MeshAt {
+            i,
+            form,
+            on_pair,
+            pinion_torque: input_torque * pinion_ratio[i],
+            pinion_is_input: ends[i].0 == input_gear,
+        };
+        let mut mesh = mesh(&at, m, &gears, &find)?;
+        mesh.smooth.torque_ripple = torque_ripple;
+        meshes.push(mesh);
     }
     for (i, m) in meshes.iter().enumerate() {
         if let Some(j) = meshes[..i].iter().position(|o: &Mesh| {
@@ -294,12 +329,6 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str, why: String) -> Result
     }
     errors_geometry(&gears, &mesh_specs)?;
     for (i, m) in meshes.iter().enumerate() {
-        if m.name.is_empty() || !identifier(&m.name) {
-            return err(format!(
-                "mesh[{i}].name = {:?}: must be an identifier",
-                m.name
-            ));
-        }
         if let Some(j) = meshes[..i].iter().position(|o| o.name == m.name) {
             return err(format!(
                 "mesh[{i}].name = {:?}: duplicates mesh[{j}].name",
@@ -339,6 +368,12 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str, why: String) -> Result
     let load_torque = match (output_port, op.load_torque) {
         (Some(t), None) => -t,
         (_, Some(t)) => finite("operating.load_torque", t)?,
+        // The single-pair kernel has always rounded its balanced load as T1·r_b2/r_b1; the
+        // product order is kept so that its results stay bit for bit (tests/every_command.rs).
+        (None, None) if on_pair => {
+            let (pinion, gear) = (&gears[meshes[0].pinion], &gears[meshes[0].gear]);
+            input_torque * gear.base_radius / pinion.base_radius
+        }
         (None, None) => {
             input_torque * radius_ratio(&gears, &shafts, &ends, input_gear, output_gear)
         }
@@ -397,15 +432,38 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str, why: String) -> Result
         ));
     }
 
+    let deflection = StaticLoad {
+        input_torque,
+        torque_ripple,
+        load_torque,
+        profiles: &profiles,
+    };
+    // The single-pair kernel refuses such a load when the file is read; on the drivetrain
+    // kernel (ports, elements, unbalanced loads) the run limits and the work budget stop it at
+    // the start of the run, naming the cause (`tests/port_stages.rs`, `tests/robust_cli.rs`).
+    if on_pair {
+        for (i, m) in meshes.iter().enumerate() {
+            deflection.check(form, i, m, &gears, pinion_ratio[i], m.gear == output_gear)?;
+        }
+    }
+
     let initial_dte = initial_dte(&spec.initial.dte)?;
 
     let solver = solver(&spec.solver)?;
     if solver.method == MethodChoice::Exact {
-        for (i, m) in meshes.iter().enumerate() {
+        for (i, (m, m_spec)) in meshes.iter().zip(&mesh_specs).enumerate() {
             if !piecewise_constant(m) {
+                let source = match &m_spec.stiffness {
+                    Some(s) => format!(
+                        "{} ({})",
+                        mesh_field(form, i, "stiffness"),
+                        super::stiffness::stiffness_kind(s)
+                    ),
+                    None => format!("{} (with sloped pieces)", mesh_field(form, i, "pairs")),
+                };
                 return err(format!(
-                    "solver.method = \"exact\": mesh[{i}] has a stiffness that is not piecewise \
-                     constant, so its segments are not time-invariant; use \"rk\" or \"auto\""
+                    "solver.method = \"exact\": {source} is not piecewise constant, so its \
+                     segments are not time-invariant; use \"rk\" or \"auto\""
                 ));
             }
         }
@@ -414,7 +472,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str, why: String) -> Result
     Ok(Scene {
         name: spec.name,
         description: spec.description,
-        kernel: KernelChoice::Drivetrain(why),
+        kernel,
         gears,
         shafts,
         meshes,
@@ -486,14 +544,41 @@ fn shaft(i: usize, s: &ShaftSpec, find: &dyn Fn(&str, &str) -> Result<usize>) ->
     })
 }
 
-fn mesh(
+/// Where a mesh sits in its scene, for [`mesh`].
+struct MeshAt {
+    /// Index in the file's meshes.
     i: usize,
+    /// How the file wrote its meshes (messages name the fields as written).
+    form: MeshForm,
+    /// The scene runs on the single-pair kernel.
+    on_pair: bool,
+    /// The static torque on the pinion (the input torque carried along the base circles).
+    pinion_torque: f64,
+    /// The pinion is the input gear (its torque is `operating.input_torque` itself).
+    pinion_is_input: bool,
+}
+
+impl MeshAt {
+    /// The field a geometry stiffness' static torque comes from, as the user wrote it.
+    fn torque_field(&self, pinion_field: &str) -> String {
+        if self.pinion_is_input {
+            "operating.input_torque".to_owned()
+        } else {
+            format!("operating.input_torque (carried to {pinion_field})")
+        }
+    }
+}
+
+/// One mesh, every option of it: the one function a new mesh option is checked in.
+fn mesh(
+    at: &MeshAt,
     m: &TrainMeshSpec,
     gears: &[Gear],
     find: &dyn Fn(&str, &str) -> Result<usize>,
-    pinion_torque: f64,
 ) -> Result<Mesh> {
-    let f = |name: &str| format!("mesh[{i}].{name}");
+    let i = at.i;
+    let f = |name: &str| mesh_field(at.form, i, name);
+    let table = mesh_table(at.form, i);
     let pinion = find(&f("pinion"), &m.pinion)?;
     let gear = find(&f("gear"), &m.gear)?;
     if pinion == gear {
@@ -505,17 +590,6 @@ fn mesh(
         ));
     }
     let (gp, gg) = (&gears[pinion], &gears[gear]);
-    let pitch_p = gp.base_radius / gp.teeth as f64;
-    let pitch_g = gg.base_radius / gg.teeth as f64;
-    if (pitch_p - pitch_g).abs() > BASE_PITCH_TOL * pitch_p.max(pitch_g) {
-        return err(format!(
-            "mesh[{i}]: base pitches differ ({:?}: base_radius/teeth = {pitch_p:e} m, {:?}: {pitch_g:e} m, \
-             more than {} %), so these gears cannot mesh",
-            gp.name,
-            gg.name,
-            BASE_PITCH_TOL * 100.0
-        ));
-    }
 
     let model = match m.model.as_deref() {
         None | Some("lumped") => None,
@@ -552,11 +626,13 @@ fn mesh(
                         spec,
                         &f("stiffness"),
                         [body("pinion", pinion), body("gear", gear)],
-                        (
-                            &format!("operating.input_torque (carried to {})", f("pinion")),
-                            pinion_torque,
-                        ),
+                        (&at.torque_field(&f("pinion")), at.pinion_torque),
                     )?
+                }
+                // He & Singh's lumped helical stiffness is a pair's (its friction term takes
+                // the two inertias); a train's helical meshes take [mesh.pairs].
+                crate::scene::spec::StiffnessSpec::Helical { .. } if at.on_pair => {
+                    super::helical::stiffness(spec, gp, gg)?
                 }
                 crate::scene::spec::StiffnessSpec::Helical { .. } => {
                     return err(format!(
@@ -567,7 +643,7 @@ fn mesh(
                     ));
                 }
                 _ => super::stiffness::stiffness(spec)
-                    .map_err(|e| SceneError(e.0.replacen("mesh.", &format!("mesh[{i}]."), 1)))?,
+                    .map_err(|e| SceneError(e.0.replacen("mesh.", &format!("{table}."), 1)))?,
             };
             let (k_min, s_min) = stiffness.minimum();
             if !(k_min > 0.0) {
@@ -612,10 +688,7 @@ fn mesh(
                         spec,
                         &f("pairs"),
                         [body("pinion", pinion), body("gear", gear)],
-                        (
-                            &format!("operating.input_torque (carried to {})", f("pinion")),
-                            pinion_torque,
-                        ),
+                        (&at.torque_field(&f("pinion")), at.pinion_torque),
                     )?;
                     let pair = PairStiffness::table(curve.window(), &curve.points, &curve.values);
                     (pair, Some(curve))
@@ -645,6 +718,19 @@ fn mesh(
         }
     };
 
+    // After the stiffness: a geometry or helical source names the gear that disagrees with it.
+    let pitch_p = gp.base_radius / gp.teeth as f64;
+    let pitch_g = gg.base_radius / gg.teeth as f64;
+    if (pitch_p - pitch_g).abs() > BASE_PITCH_TOL * pitch_p.max(pitch_g) {
+        return err(format!(
+            "{table}: base pitches differ ({:?}: base_radius/teeth = {pitch_p:e} m, {:?}: {pitch_g:e} m, \
+             more than {} %), so these gears cannot mesh",
+            gp.name,
+            gg.name,
+            BASE_PITCH_TOL * 100.0
+        ));
+    }
+
     let contact = super::mesh::contact_law(&f, m)?;
 
     let k_mean = match &force {
@@ -658,6 +744,7 @@ fn mesh(
         MeshForceModel::Pairs { pair, .. } => pair.mesh_mean(),
     };
     let damping = super::mesh::damping(&f, m, k_mean, k_max, m_e)?;
+    let (damping_always, smooth) = pair_terms(&f, m, contact, damping)?;
 
     let initial_phase = match (i, m.initial_phase) {
         (0, p) => finite(&f("initial_phase"), p.unwrap_or(0.0))?,
@@ -777,8 +864,17 @@ fn mesh(
         }
     };
 
+    // A single-pair kernel's mesh is `mesh`, as its FMU variables name it (`mesh.damping`); a
+    // drivetrain's meshes are numbered as its columns (`mesh1.dte`). A given name prefixes the
+    // mesh's output columns, so it must be an identifier.
+    let name = match &m.name {
+        Some(name) if identifier(name) => name.clone(),
+        Some(name) => return err(format!("{} = {name:?}: must be an identifier", f("name"))),
+        None if at.on_pair => "mesh".to_owned(),
+        None => format!("mesh{}", i + 1),
+    };
     Ok(Mesh {
-        name: m.name.clone().unwrap_or_else(|| format!("mesh{}", i + 1)),
+        name,
         pinion,
         gear,
         contact,
@@ -788,12 +884,127 @@ fn mesh(
         pressure_angle,
         centre_angle,
         force,
-        damping_always: false,
-        smooth: Default::default(),
+        damping_always,
+        smooth,
         friction,
         helical,
         cycles_per_input_rev: 0.0,
     })
+}
+
+/// The terms only the single-pair kernel carries (Bugaru et al. 2006, eqs. 8 and 13):
+/// `damping_acts` and the smooth additions to the mesh force (the input-torque ripple is the
+/// scene's, set by [`validate`]). On the drivetrain kernel [`validate`] has refused them by
+/// name already.
+fn pair_terms(
+    f: &dyn Fn(&str) -> String,
+    m: &TrainMeshSpec,
+    contact: ContactLaw,
+    damping: f64,
+) -> Result<(bool, SmoothTerms)> {
+    let damping_always = match m.damping_acts.as_deref() {
+        None | Some("in_contact") => false,
+        Some("always") => true,
+        Some(other) => {
+            return err(format!(
+                "{} = \"{other}\": expected \"in_contact\" or \"always\"",
+                f("damping_acts")
+            ))
+        }
+    };
+    let smooth = SmoothTerms {
+        cubic_factor: match &m.cubic {
+            Some(c) => non_negative(&f("cubic.stiffness_factor"), c.stiffness_factor)?,
+            None => 0.0,
+        },
+        cubic_spring: match &m.cubic {
+            Some(c) => non_negative(&f("cubic.spring"), c.spring)?,
+            None => 0.0,
+        },
+        damping_variation: match m.damping_variation {
+            Some(v) => {
+                let v = finite(&f("damping_variation"), v)?;
+                if v.abs() > damping {
+                    return err(format!(
+                        "{} = {v}: |c̃| must not exceed the damping {damping} N·s/m (the damping \
+                         would turn negative)",
+                        f("damping_variation")
+                    ));
+                }
+                v
+            }
+            None => 0.0,
+        },
+        torque_ripple: 0.0,
+    };
+    if (m.cubic.is_some() || m.damping_variation.is_some()) && contact != ContactLaw::Linear {
+        return err(format!(
+            "{} / {}: only with contact = \"linear\" (the cubic spring models the backlash, \
+             Bugaru 2006); contact is {contact:?}",
+            f("cubic"),
+            f("damping_variation")
+        ));
+    }
+    Ok((damping_always, smooth))
+}
+
+/// The static load of the operating point, for the check that no mesh deflects by a whole
+/// tooth under it: a deflection beyond the base pitch means the load or the stiffness is not
+/// physical (and a cubic spring would stiffen the mesh without bound).
+struct StaticLoad<'a> {
+    input_torque: f64,
+    torque_ripple: f64,
+    load_torque: f64,
+    profiles: &'a crate::scene::Profiles,
+}
+
+impl StaticLoad<'_> {
+    /// Checks mesh `i`, whose pinion carries `ratio` × the input torque; the load acts on its
+    /// gear when `at_output`.
+    fn check(
+        &self,
+        form: MeshForm,
+        i: usize,
+        m: &Mesh,
+        gears: &[Gear],
+        ratio: f64,
+        at_output: bool,
+    ) -> Result<()> {
+        let (pinion, gear) = (&gears[m.pinion], &gears[m.gear]);
+        let (input_torque, load_torque) = (self.input_torque, self.load_torque);
+        let ripple = self.torque_ripple.abs();
+        // A profile's extremes are at its knots: the bound holds at every torque it reaches.
+        let (t_abs, load_abs) = match (&self.profiles.torque, self.profiles.load_ratio) {
+            (Some(p), r) => {
+                let t = p.values().iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                (t, r.map_or(load_torque.abs(), |r| t * r))
+            }
+            (None, _) => (input_torque.abs(), load_torque.abs()),
+        };
+        let from_pinion = (t_abs + ripple) * ratio / pinion.base_radius;
+        let force = if at_output {
+            from_pinion.max(load_abs / gear.base_radius)
+        } else {
+            from_pinion
+        };
+        let k_mean = m.mean_stiffness();
+        let deflection = force / k_mean;
+        let base_pitch = std::f64::consts::TAU * pinion.base_radius / f64::from(pinion.teeth);
+        if deflection <= base_pitch {
+            return Ok(());
+        }
+        let which = match form {
+            MeshForm::One => "mesh".to_owned(),
+            MeshForm::Many => format!("mesh[{i}]"),
+        };
+        err(format!(
+            "operating.input_torque = {input_torque:e} N·m (torque_ripple {ripple:e} N·m), load torque \
+             {load_torque:e} N·m: the static {which} deflection {deflection:e} m (mesh force {force:e} N \
+             on the mean stiffness {k_mean:e} N/m, base radii {:e} and {:e} m) exceeds the base pitch \
+             {base_pitch:e} m, a whole tooth",
+            pinion.base_radius, gear.base_radius
+        ))
+    }
 }
 
 /// Smallest operating pressure angle accepted, degrees. Real spur and helical stages run at

@@ -7,18 +7,14 @@ use super::checks::{finite, non_negative, positive};
 use crate::mesh::helical::{FrictionStiffness, HelicalGeometry};
 use crate::mesh::MeshStiffness;
 use crate::scene::spec::StiffnessSpec;
-use crate::scene::{PairGear, SceneError};
+use crate::scene::{Gear, SceneError};
 
 type Result<T> = std::result::Result<T, SceneError>;
 
 const FIELD: &str = "mesh.stiffness";
 
 /// Resolves a `StiffnessSpec::Helical`.
-pub(super) fn stiffness(
-    spec: &StiffnessSpec,
-    pinion: &PairGear,
-    gear: &PairGear,
-) -> Result<MeshStiffness> {
+pub(super) fn stiffness(spec: &StiffnessSpec, pinion: &Gear, gear: &Gear) -> Result<MeshStiffness> {
     let StiffnessSpec::Helical {
         stiffness_density,
         friction_coefficient,

@@ -8,9 +8,8 @@
 //! - [`mesh`]: what every mesh checks the same (contact law, damping);
 //! - [`errors`]: runout and pitch errors of a gear;
 //! - [`friction`]: `[mesh.friction]` of a Model-1 or helical mesh;
-//! - [`pair`]: a scene on the single-pair kernel;
-//! - [`drivetrain`]: a scene on the drivetrain kernel (topology, kinematics, bearings, shafts,
-//!   ports and elements).
+//! - [`drivetrain`]: the scene and each of its meshes, whichever kernel runs it (topology,
+//!   kinematics, bearings, shafts, ports and elements; the single-pair kernel's own terms).
 
 pub(crate) mod checks;
 pub(crate) mod drivetrain;
@@ -19,5 +18,4 @@ pub(crate) mod friction;
 pub(crate) mod geometry;
 pub(crate) mod helical;
 pub(crate) mod mesh;
-pub(crate) mod pair;
 pub(crate) mod stiffness;

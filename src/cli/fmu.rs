@@ -1,11 +1,11 @@
-//! The `geardyn fmu` subcommand: packaging and the checked-in model descriptions. `main.rs`
-//! only forwards to [`run`].
+//! `geardyn fmu`: the arguments of packaging and the checked-in model descriptions; the work
+//! is `geardyn::commands::fmu`.
 
 use std::path::PathBuf;
 
 use clap::{Args, Subcommand};
 
-use super::{description, package};
+use geardyn::commands::fmu;
 
 #[derive(Args)]
 pub struct FmuArgs {
@@ -45,29 +45,26 @@ enum FmuCommand {
 pub fn run(args: FmuArgs) -> Result<(), String> {
     match args.command {
         FmuCommand::Build { scene, out, cdylib } => {
-            let lib = match cdylib {
-                Some(p) => p,
-                None => package::find_cdylib()?,
-            };
-            let fmu = package::build_fmu(&scene, &out, &lib)?;
-            println!("{}", fmu.display());
-            Ok(())
+            fmu::build(&scene, &out, cdylib.as_deref()).map(|_| ())
         }
-        FmuCommand::Description { scene } => {
-            let (scene, _) = package::resolve_scene(&scene)?;
-            let (xml, _) = description::for_scene(&scene)?;
-            print!("{xml}");
-            Ok(())
-        }
-        FmuCommand::Descriptions { scenes, dir, write } => {
-            let problems = description::check_checked_in(&scenes, &dir, write)?;
-            if problems.is_empty() {
-                let what = if write { "refreshed" } else { "up to date" };
-                println!("{}: {what}", dir.display());
-                Ok(())
-            } else {
-                Err(problems.join("\n"))
-            }
-        }
+        FmuCommand::Description { scene } => fmu::description(&scene),
+        FmuCommand::Descriptions { scenes, dir, write } => fmu::descriptions(&scenes, &dir, write),
     }
+}
+
+/// The one FMU of `geardyn info` and `geardyn validate`.
+#[derive(Args, Debug)]
+pub struct FmuArg {
+    /// The FMU (.fmu file or an extracted FMU folder).
+    pub fmu: PathBuf,
+}
+
+/// `geardyn info`.
+pub fn info(args: FmuArg) -> Result<(), String> {
+    geardyn::commands::inspect::info(&args.fmu)
+}
+
+/// `geardyn validate`.
+pub fn validate(args: FmuArg) -> Result<(), String> {
+    geardyn::commands::inspect::validate(&args.fmu)
 }
