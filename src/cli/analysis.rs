@@ -8,16 +8,12 @@ use clap::Args;
 use geardyn::commands::{hb as hb_commands, steady as commands};
 use geardyn::simulation::stream::ProgressDisplay;
 
-use super::{load_any_scene, WorkBudgetArg};
+use super::{SceneArg, WorkBudgetArg};
 
 #[derive(Args)]
 pub struct PeriodicArgs {
-    /// Scene file (`scene.toml`) or a folder holding one.
-    #[arg(required_unless_present = "example", conflicts_with = "example")]
-    scene: Option<PathBuf>,
-    /// A built-in example scene instead of a file (e.g. `spur_pair`).
-    #[arg(long)]
-    example: Option<String>,
+    #[command(flatten)]
+    pub scene: SceneArg,
     /// Input-gear speed: `4500rpm` or `471.24rad/s`; a bare number is rad/s (default: the
     /// scene's `operating.pinion_speed` or `operating.input_speed`).
     #[arg(long, allow_hyphen_values = true)]
@@ -35,12 +31,8 @@ pub struct PeriodicArgs {
 
 #[derive(Args)]
 pub struct SweepArgs {
-    /// Scene file (`scene.toml`) or a folder holding one.
-    #[arg(required_unless_present = "example", conflicts_with = "example")]
-    scene: Option<PathBuf>,
-    /// A built-in example scene instead of a file (e.g. `spur_pair`).
-    #[arg(long)]
-    example: Option<String>,
+    #[command(flatten)]
+    pub scene: SceneArg,
     /// Input-gear speeds `from:to:points`, e.g. `1000rpm:10000rpm:181` or `300rad/s:700rad/s:41`;
     /// bare numbers are rad/s (every other gear follows its ratio).
     #[arg(long, allow_hyphen_values = true)]
@@ -78,7 +70,7 @@ pub struct SweepArgs {
 }
 
 pub fn periodic(args: PeriodicArgs) -> Result<(), String> {
-    let mut scene = load_any_scene(&args.scene, &args.example)?;
+    let mut scene = args.scene.load()?;
     args.budget.apply(&mut scene)?;
     let report =
         commands::periodic_command(&mut scene, args.speed.as_deref(), args.periods, args.warmup)?;
@@ -87,7 +79,7 @@ pub fn periodic(args: PeriodicArgs) -> Result<(), String> {
 }
 
 pub fn sweep(args: SweepArgs) -> Result<(), String> {
-    let mut scene = load_any_scene(&args.scene, &args.example)?;
+    let mut scene = args.scene.load()?;
     args.budget.apply(&mut scene)?;
     let request = commands::SweepRequest {
         speed: &args.speed,
@@ -116,12 +108,8 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
 
 #[derive(Args)]
 pub struct HbArgs {
-    /// Scene file (`scene.toml`) or a folder holding one (single pair or drivetrain).
-    #[arg(required_unless_present = "example", conflicts_with = "example")]
-    pub scene: Option<PathBuf>,
-    /// A built-in example scene instead of a file (e.g. `spur_pair`, `idler_gearset`).
-    #[arg(long)]
-    pub example: Option<String>,
+    #[command(flatten)]
+    pub scene: SceneArg,
     /// Input-speed interval `from:to`, e.g. `3000rpm:6000rpm`; bare numbers are rad/s. The
     /// branch starts at `from`.
     #[arg(long, allow_hyphen_values = true)]
@@ -156,7 +144,7 @@ pub struct HbArgs {
 
 /// `geardyn hb`: harmonic balance with pseudo-arclength continuation and stability.
 pub fn hb(args: HbArgs) -> Result<(), String> {
-    let mut scene = load_any_scene(&args.scene, &args.example)?;
+    let mut scene = args.scene.load()?;
     args.budget.apply(&mut scene)?;
     let request = hb_commands::HbRequest {
         speed: &args.speed,

@@ -2,23 +2,17 @@
 //! and of its parametric instability bands over speed; the commands are in
 //! `geardyn::commands::floquet`.
 
-use std::path::PathBuf;
-
 use clap::Args;
 
 use geardyn::commands::floquet as floquet_commands;
 use geardyn::scene::Scene;
 
-use super::load_any_scene;
+use super::SceneArg;
 
 #[derive(Args)]
 pub struct FloquetArgs {
-    /// Scene file (`scene.toml`) or a folder holding one.
-    #[arg(required_unless_present = "example", conflicts_with = "example")]
-    scene: Option<PathBuf>,
-    /// A built-in example scene instead of a file (e.g. `helical_pair_friction`).
-    #[arg(long)]
-    example: Option<String>,
+    #[command(flatten)]
+    pub scene: SceneArg,
     /// Input-gear speed: `19000rpm` or `1989.7rad/s`; a bare number is rad/s (default: the
     /// scene's `operating.pinion_speed` or `operating.input_speed`).
     #[arg(long, allow_hyphen_values = true)]
@@ -33,12 +27,8 @@ pub struct FloquetArgs {
 
 #[derive(Args)]
 pub struct BandArgs {
-    /// Scene file (`scene.toml`) or a folder holding one.
-    #[arg(required_unless_present = "example", conflicts_with = "example")]
-    scene: Option<PathBuf>,
-    /// A built-in example scene instead of a file.
-    #[arg(long)]
-    example: Option<String>,
+    #[command(flatten)]
+    pub scene: SceneArg,
     /// Scanned input-gear speeds `from:to`, e.g. `15000rpm:25000rpm`; a bare number is
     /// rad/s.
     #[arg(long, allow_hyphen_values = true)]
@@ -51,16 +41,12 @@ pub struct BandArgs {
     mu: Option<f64>,
 }
 
-fn scene_with(
-    path: &Option<PathBuf>,
-    example: &Option<String>,
-    mu: Option<f64>,
-) -> Result<Scene, String> {
-    floquet_commands::with_friction(load_any_scene(path, example)?, mu)
+fn scene_with(scene: &SceneArg, mu: Option<f64>) -> Result<Scene, String> {
+    floquet_commands::with_friction(scene.load()?, mu)
 }
 
 pub fn floquet(args: FloquetArgs) -> Result<(), String> {
-    let scene = scene_with(&args.scene, &args.example, args.mu)?;
+    let scene = scene_with(&args.scene, args.mu)?;
     print!(
         "{}",
         floquet_commands::floquet(scene, args.speed.as_deref(), args.json)?
@@ -69,7 +55,7 @@ pub fn floquet(args: FloquetArgs) -> Result<(), String> {
 }
 
 pub fn band(args: BandArgs) -> Result<(), String> {
-    let scene = scene_with(&args.scene, &args.example, args.mu)?;
+    let scene = scene_with(&args.scene, args.mu)?;
     print!(
         "{}",
         floquet_commands::band(&scene, &args.speed, args.points)?

@@ -50,9 +50,29 @@ impl WorkBudgetArg {
     }
 }
 
-/// The scene named on the command line, in either format (single pair or drivetrain); with
-/// `--verbose` the kernel chosen for it, and why, goes to stderr.
-pub fn load_any_scene(path: &Option<PathBuf>, example: &Option<String>) -> Result<Scene, String> {
+/// The scene of a command: a file or folder, or a built-in example (every scene command takes
+/// it the same way).
+#[derive(clap::Args)]
+pub struct SceneArg {
+    /// Scene file (`scene.toml`) or a folder holding one (e.g. `fmu/spur_pair`), single pair
+    /// or drivetrain.
+    #[arg(required_unless_present = "example", conflicts_with = "example")]
+    scene: Option<PathBuf>,
+    /// A built-in example scene instead of a file (e.g. `spur_pair`, `idler_gearset`,
+    /// `runup_spur`).
+    #[arg(long)]
+    example: Option<String>,
+}
+
+impl SceneArg {
+    /// The scene, in either format (single pair or drivetrain); with `--verbose` the kernel
+    /// chosen for it, and why, goes to stderr.
+    pub fn load(&self) -> Result<Scene, String> {
+        load_any_scene(&self.scene, &self.example)
+    }
+}
+
+fn load_any_scene(path: &Option<PathBuf>, example: &Option<String>) -> Result<Scene, String> {
     let scene = match (path, example) {
         (_, Some(name)) => Scene::example(name),
         (Some(path), None) => Scene::from_path(path),

@@ -6,16 +6,12 @@ use std::path::PathBuf;
 use clap::Args;
 use geardyn::commands::runup::{waterfall_command, WaterfallRequest};
 
-use super::load_any_scene;
+use super::SceneArg;
 
 #[derive(Args)]
 pub struct WaterfallArgs {
-    /// Scene file with `[operating.speed_profile]` (single pair or drivetrain).
-    #[arg(required_unless_present = "example", conflicts_with = "example")]
-    pub scene: Option<PathBuf>,
-    /// A built-in example scene instead of a file (e.g. `runup_spur`).
-    #[arg(long)]
-    pub example: Option<String>,
+    #[command(flatten)]
+    pub scene: SceneArg,
     /// Output CSV, long form: time_s, rpm, frequency_Hz, order, amplitude_<unit>.
     #[arg(long)]
     pub out: PathBuf,
@@ -43,7 +39,7 @@ pub struct WaterfallArgs {
 }
 
 pub fn run(args: WaterfallArgs) -> Result<(), String> {
-    let mut scene = load_any_scene(&args.scene, &args.example)?;
+    let mut scene = args.scene.load()?;
     args.budget.apply(&mut scene)?;
     let request = WaterfallRequest {
         mesh: args.mesh.as_deref(),

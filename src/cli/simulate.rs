@@ -5,17 +5,15 @@ use std::path::PathBuf;
 use clap::Args;
 
 use geardyn::commands::simulate::{self, SimulateFiles, SimulateOptions};
+
+use super::SceneArg;
 use geardyn::simulation::stream::{DEFAULT_MAX_MESH_PERIODS, DEFAULT_MAX_ROWS};
 use geardyn::simulation::{ProgressDisplay, RunLimits};
 
 #[derive(Args)]
 pub struct SimulateArgs {
-    /// Scene file (`scene.toml`) or a folder holding one (e.g. `fmu/spur_pair`).
-    #[arg(required_unless_present = "example", conflicts_with = "example")]
-    scene: Option<PathBuf>,
-    /// A built-in example scene instead of a file (e.g. `spur_pair`).
-    #[arg(long)]
-    example: Option<String>,
+    #[command(flatten)]
+    pub scene: SceneArg,
     /// Output CSV file.
     #[arg(long)]
     out: PathBuf,
@@ -71,7 +69,7 @@ pub struct SimulateArgs {
 }
 
 pub fn run(args: SimulateArgs) -> Result<(), String> {
-    let scene = super::load_any_scene(&args.scene, &args.example)?;
+    let scene = args.scene.load()?;
     let periods = match args.max_periods {
         Some(p) => super::positive("max-periods", p)?,
         None => DEFAULT_MAX_MESH_PERIODS,

@@ -6,14 +6,12 @@ use clap::Args;
 
 use geardyn::commands::spectrum::{spectrum_command, SpectrumRequest};
 
+use super::SceneArg;
+
 #[derive(Args)]
 pub struct SpectrumArgs {
-    /// Scene file (`scene.toml`) or a folder holding one.
-    #[arg(required_unless_present = "example", conflicts_with = "example")]
-    scene: Option<PathBuf>,
-    /// A built-in example scene instead of a file (e.g. `spur_pair`).
-    #[arg(long)]
-    example: Option<String>,
+    #[command(flatten)]
+    pub scene: SceneArg,
     /// Output CSV: frequency (Hz), amplitude and phase per signal, order label.
     #[arg(long)]
     out: PathBuf,
@@ -34,7 +32,7 @@ pub struct SpectrumArgs {
 }
 
 pub fn run(args: SpectrumArgs) -> Result<(), String> {
-    let mut scene = super::load_any_scene(&args.scene, &args.example)?;
+    let mut scene = args.scene.load()?;
     args.budget.apply(&mut scene)?;
     let request = SpectrumRequest {
         signals: args.signal,

@@ -34,7 +34,7 @@
 //! **The step sequence** (every attempt: its start, length, error, accepted or not) is
 //! returned with the outcome and written to `<out>.steps.csv`.
 
-use super::master::{initialize, serial_step, terminate, Outcome, State};
+use super::master::{output_point, serial_step, start, terminate, Outcome, State};
 pub use super::plan::StepRecord;
 use super::plan::{Coupling, ErrorControl, Plan};
 use super::step::StepEnd;
@@ -225,19 +225,12 @@ pub(super) fn run(
     ctl: &ErrorControl,
     sink: &mut dyn RowSink,
 ) -> Outcome {
-    let mut out = Outcome::default();
-    let mut st = State::new(plan);
+    let (mut st, mut out) = match start(insts, plan, sink) {
+        Ok(started) => started,
+        Err(out) => return out,
+    };
     let t0 = plan.start_time;
     let elements = &plan.system.elements;
-    if let Err(m) = initialize(insts, plan, &mut st) {
-        out.failure = Some(format!("initialization: {m}"));
-        return out;
-    }
-    if let Err(m) = st.record(insts, sink, t0) {
-        out.failure = Some(m);
-        return out;
-    }
-    out.rows += 1;
     let mut watch = super::divergence::Watch::new(plan);
     let mut scales = Scales(st.cur.iter().map(|v| v.abs()).collect());
     let mut der_start = st.der.clone();
@@ -364,12 +357,7 @@ pub(super) fn run(
         h = (base * factor(err)).clamp(ctl.h_min, ctl.h_max);
         time = next;
         if next == target {
-            if let Err(m) = st.record(insts, sink, time) {
-                out.failure = Some(m);
-                return out;
-            }
-            out.rows += 1;
-            if let Some(m) = watch.as_mut().and_then(|w| w.check(plan, time, &st.cur)) {
+            if let Err(m) = output_point(&mut st, insts, sink, &mut watch, time, &mut out) {
                 out.failure = Some(m);
                 return out;
             }

@@ -480,6 +480,46 @@ fn parallel_step<'a>(
     Ok(())
 }
 
+/// The start of every master: the instances initialised ([`initialize`]) and the row at the
+/// start time recorded. The run's state and its outcome so far (that row), or the outcome
+/// that ends the run there.
+pub(super) fn start<'p, 'a>(
+    insts: &mut [Instance],
+    plan: &'p Plan<'a>,
+    sink: &mut dyn RowSink,
+) -> Result<(State<'p, 'a>, Outcome), Outcome> {
+    let mut st = State::new(plan);
+    let failed = |failure: String| Outcome {
+        failure: Some(failure),
+        ..Outcome::default()
+    };
+    initialize(insts, plan, &mut st).map_err(|m| failed(format!("initialization: {m}")))?;
+    st.record(insts, sink, plan.start_time).map_err(failed)?;
+    let out = Outcome {
+        rows: 1,
+        ..Outcome::default()
+    };
+    Ok((st, out))
+}
+
+/// An output point of every master: its row recorded and counted, and the divergence watch
+/// asked; the message that ends the run.
+pub(super) fn output_point(
+    st: &mut State,
+    insts: &mut [Instance],
+    sink: &mut dyn RowSink,
+    watch: &mut Option<super::divergence::Watch>,
+    time: f64,
+    out: &mut Outcome,
+) -> Result<(), String> {
+    st.record(insts, sink, time)?;
+    out.rows += 1;
+    match watch.as_mut().and_then(|w| w.check(st.plan, time, &st.cur)) {
+        Some(m) => Err(m),
+        None => Ok(()),
+    }
+}
+
 /// Set up and initialize every instance (module doc: the initialization pass), leaving each
 /// port's value and derivative at the start time in `st`.
 pub(super) fn initialize(
@@ -571,21 +611,13 @@ fn run_with<'a>(
     sink: &mut dyn RowSink,
     mut pool: Option<&mut Pool<'a>>,
 ) -> Outcome {
-    let mut out = Outcome::default();
-    let mut st = State::new(plan);
+    let (mut st, mut out) = match start(insts, plan, sink) {
+        Ok(started) => started,
+        Err(out) => return out,
+    };
     let t0 = plan.start_time;
     let elements = &plan.system.elements;
     let n = elements.len();
-    let init = initialize(insts, plan, &mut st);
-    if let Err(m) = init {
-        out.failure = Some(format!("initialization: {m}"));
-        return out;
-    }
-    if let Err(m) = st.record(insts, sink, t0) {
-        out.failure = Some(m);
-        return out;
-    }
-    out.rows += 1;
     let mut watch = super::divergence::Watch::new(plan);
     let names: Vec<String> = elements.iter().map(|e| e.name.clone()).collect();
     let (h, stop) = (plan.h, plan.stop_time);
@@ -663,12 +695,7 @@ fn run_with<'a>(
             }
         }
         time = next;
-        if let Err(m) = st.record(insts, sink, time) {
-            out.failure = Some(m);
-            return out;
-        }
-        out.rows += 1;
-        if let Some(m) = watch.as_mut().and_then(|w| w.check(plan, time, &st.cur)) {
+        if let Err(m) = output_point(&mut st, insts, sink, &mut watch, time, &mut out) {
             out.failure = Some(m);
             return out;
         }
