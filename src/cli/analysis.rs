@@ -5,10 +5,8 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use super::{load_any_scene, ProgressArg, WorkBudgetArg};
 use geardyn::commands::{hb as hb_commands, steady as commands};
-use geardyn::simulation::stream::ProgressDisplay;
-
-use super::{load_any_scene, WorkBudgetArg};
 
 #[derive(Args)]
 pub struct PeriodicArgs {
@@ -31,6 +29,8 @@ pub struct PeriodicArgs {
     warmup: u32,
     #[command(flatten)]
     budget: WorkBudgetArg,
+    #[command(flatten)]
+    progress: ProgressArg,
 }
 
 #[derive(Args)]
@@ -69,19 +69,22 @@ pub struct SweepArgs {
     /// Write each column's unit into the CSV header, `dte [m]` (default: bare names).
     #[arg(long)]
     units: bool,
-    /// Show the points done on stderr also when it is not a terminal (a plain line every
-    /// 2 s and at the end).
-    #[arg(long)]
-    progress: bool,
     #[command(flatten)]
     budget: WorkBudgetArg,
+    #[command(flatten)]
+    progress: ProgressArg,
 }
 
 pub fn periodic(args: PeriodicArgs) -> Result<(), String> {
     let mut scene = load_any_scene(&args.scene, &args.example)?;
     args.budget.apply(&mut scene)?;
-    let report =
-        commands::periodic_command(&mut scene, args.speed.as_deref(), args.periods, args.warmup)?;
+    let report = commands::periodic_command(
+        &mut scene,
+        args.speed.as_deref(),
+        args.periods,
+        args.warmup,
+        args.progress.display(),
+    )?;
     print!("{report}");
     Ok(())
 }
@@ -102,14 +105,9 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
         plot: args.plot.as_deref(),
         units: args.units,
     };
-    let progress = if args.progress {
-        ProgressDisplay::Always
-    } else {
-        ProgressDisplay::Terminal
-    };
     print!(
         "{}",
-        commands::sweep_command(&scene, &request, &files, progress)?
+        commands::sweep_command(&scene, &request, &files, args.progress.display())?
     );
     Ok(())
 }
@@ -152,6 +150,8 @@ pub struct HbArgs {
     pub units: bool,
     #[command(flatten)]
     pub budget: WorkBudgetArg,
+    #[command(flatten)]
+    pub progress: ProgressArg,
 }
 
 /// `geardyn hb`: harmonic balance with pseudo-arclength continuation and stability.
@@ -170,6 +170,9 @@ pub fn hb(args: HbArgs) -> Result<(), String> {
         sweep_points: args.sweep_points,
         units: args.units,
     };
-    print!("{}", hb_commands::hb_command(&scene, &request, &files)?);
+    print!(
+        "{}",
+        hb_commands::hb_command(&scene, &request, &files, args.progress.display())?
+    );
     Ok(())
 }
