@@ -445,31 +445,89 @@ fn a_chattering_contact_is_stopped_by_the_budget_naming_the_events() {
     nothing_left(dir.path());
 }
 
-/// Issue 34 item 2: `--progress` shows a long analysis' progress on a pipe too. A sweep's
-/// stderr is a pipe here: without the flag it holds only the header line (scripted runs stay
-/// byte-identical); with it, the points done, ending with the total.
+/// Issue 34 item 2: `--progress` shows the progress of a long run or analysis on a pipe too,
+/// through the one progress display of every command. stderr is a pipe here: without the
+/// flag it holds no progress (scripted runs stay byte-identical, `tests/every_command.rs`);
+/// with it, plain `progress: …` lines (every 2 s, and one at the end: these runs are short,
+/// so the end's line is the one every command must show), with what the command last
+/// reported, and no carriage return or escape.
 #[test]
-fn sweep_progress_shows_on_a_pipe_only_when_asked_for() {
+fn progress_shows_on_a_pipe_only_when_asked_for() {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("frf.csv");
-    let out = out.to_str().unwrap();
-    let args = [
-        "sweep",
-        "--example",
-        "spur_pair",
-        "--speed",
-        "300:400:5",
-        "--direction",
-        "both",
-        "--out",
-        out,
+    let out = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    let (csv, png) = (out("out.csv"), out("out.png"));
+    let runup = root().join("examples/runup_spur.toml");
+    let runup = runup.to_str().unwrap();
+    let cases: Vec<(Vec<&str>, &[&str])> = vec![
+        (
+            vec![
+                "simulate",
+                "--example",
+                "spur_pair",
+                "--stop-time",
+                "0.02",
+                "--out",
+                &csv,
+            ],
+            &["progress: t = 2.000000e-2 s of 0.02 s (100.0 %), "],
+        ),
+        (
+            vec![
+                "sweep",
+                "--example",
+                "spur_pair",
+                "--speed",
+                "300:400:5",
+                "--direction",
+                "both",
+                "--out",
+                &csv,
+            ],
+            &["progress: sweep 10/10 points, "],
+        ),
+        (
+            vec!["periodic", "--example", "spur_pair"],
+            &["progress: shooting: Newton iteration ", "scaled residual "],
+        ),
+        (
+            vec![
+                "hb",
+                "--example",
+                "spur_pair",
+                "--speed",
+                "300:320",
+                "--harmonics",
+                "8",
+                "--out",
+                &csv,
+            ],
+            &["progress: hb: Floquet multipliers of "],
+        ),
+        (
+            vec!["spectrum", "--example", "spur_pair", "--out", &csv],
+            &["progress: spectrum: sampling the orbit, "],
+        ),
+        (
+            vec!["waterfall", runup, "--out", &png],
+            &["progress: waterfall: run-up at t = "],
+        ),
     ];
-    let quiet = geardyn(&args);
-    assert_eq!(quiet.status.code(), Some(0), "{}", stderr(&quiet));
-    assert!(!stderr(&quiet).contains("/10 points"), "{}", stderr(&quiet));
-    let shown = geardyn(&[&args[..], &["--progress"]].concat());
-    assert_eq!(shown.status.code(), Some(0), "{}", stderr(&shown));
-    let e = stderr(&shown);
-    assert!(e.contains("sweep 10/10 points\n"), "{e}");
-    assert!(!e.contains('\r'), "a pipe gets plain lines: {e:?}");
+    for (args, expected) in cases {
+        let quiet = geardyn(&args);
+        let e = stderr(&quiet);
+        assert_eq!(quiet.status.code(), Some(0), "{args:?}: {e}");
+        assert!(!e.contains("progress"), "{args:?} without --progress: {e}");
+        let shown = geardyn(&[&args[..], &["--progress"]].concat());
+        let e = stderr(&shown);
+        assert_eq!(shown.status.code(), Some(0), "{args:?}: {e}");
+        for x in expected {
+            assert!(e.contains(x), "{args:?} --progress: {e:?} lacks {x:?}");
+        }
+        assert!(
+            !e.contains('\r') && !e.contains('\x1b'),
+            "a pipe gets plain lines: {e:?}"
+        );
+        // The stdout of a command is the same with and without the flag.
+        assert_eq!(quiet.stdout, shown.stdout, "{args:?}");
+    }
 }

@@ -199,15 +199,20 @@ def simulate(
 
 
 def periodic(
-    scene: Scene, periods: int = 1, warmup: int = 20, speed: Union[str, float, None] = None
+    scene: Scene,
+    periods: int = 1,
+    warmup: int = 20,
+    speed: Union[str, float, None] = None,
+    work_budget: Optional[float] = None,
 ) -> Orbit:
     """Periodic steady state of any scene at its input speed (``operating.pinion_speed`` or
     ``operating.input_speed``, or ``speed``: ``"4500rpm"``, ``"471.24rad/s"`` or a number in
     rad/s) by Newton shooting, with Floquet multipliers and stability: a period-``periods``
     orbit after ``warmup`` response periods (the least common multiple of the mesh periods),
-    and each mesh's peak and RMS force and dynamic factor (``meshes``)."""
+    and each mesh's peak and RMS force and dynamic factor (``meshes``). ``work_budget`` is the
+    work budget of each run, as in :func:`sweep`."""
     text = None if speed is None else _speed_text(speed)
-    raw = _geardyn.periodic(scene, periods, warmup, text)
+    raw = _geardyn.periodic(scene, periods, warmup, text, work_budget)
     raw["multipliers"] = np.array([complex(re, im) for re, im in raw["multipliers"]])
     return Orbit(**raw)
 
@@ -218,19 +223,31 @@ def sweep(
     direction: str = "both",
     tolerance: float = 1e-7,
     max_periods: int = 3000,
+    work_budget: Optional[float] = None,
 ) -> Table:
     """Frequency-response sweep of any scene over input-gear speeds
     ``speed = "from:to:points"`` (``"1000rpm:10000rpm:181"``, ``"300rad/s:700rad/s:41"``; bare
     numbers are rad/s), ``direction`` up | down | both; the table of
-    ``geardyn sweep`` (per-mesh columns prefixed ``<mesh>_`` in a drivetrain)."""
-    return Table(*_geardyn.sweep(scene, speed, direction, tolerance, max_periods))
+    ``geardyn sweep`` (per-mesh columns prefixed ``<mesh>_`` in a drivetrain).
+
+    ``work_budget`` (work units, the scene's ``solver.work_budget``, the CLI's
+    ``--work-budget``) bounds each run of the analysis (each sweep point); unset, the scene's
+    or the default run budget applies. A run beyond it raises :class:`GeardynError` naming
+    the likely cause; a value that is not a finite number >= 1 raises ``ValueError``."""
+    return Table(*_geardyn.sweep(scene, speed, direction, tolerance, max_periods, work_budget))
 
 
-def hb(scene: Scene, speed: str, harmonics: int = 20, subharmonic: int = 1) -> Table:
+def hb(
+    scene: Scene,
+    speed: str,
+    harmonics: int = 20,
+    subharmonic: int = 1,
+    work_budget: Optional[float] = None,
+) -> Table:
     """Harmonic balance with arclength continuation over ``speed = "from:to"``
     (``"3000rpm:6000rpm"``; bare numbers are rad/s); the
-    table of ``geardyn hb``."""
-    return Table(*_geardyn.hb(scene, speed, harmonics, subharmonic))
+    table of ``geardyn hb``. ``work_budget`` as in :func:`sweep`."""
+    return Table(*_geardyn.hb(scene, speed, harmonics, subharmonic, work_budget))
 
 
 def modes(scene: Scene, rigid_bearings: bool = False) -> Modes:

@@ -54,15 +54,28 @@ def simulate(
     work_budget: Optional[float] = None,
 ) -> Tuple[List[str], npt.NDArray[np.float64], npt.NDArray[np.float64], str, Dict[str, int]]: ...
 def periodic(
-    scene: Scene, periods: int = 1, warmup: int = 20, speed: Optional[str] = None
+    scene: Scene,
+    periods: int = 1,
+    warmup: int = 20,
+    speed: Optional[str] = None,
+    work_budget: Optional[float] = None,
 ) -> Dict[str, Any]: ...
 def parse_speed(text: str) -> float: ...
 def column_unit(name: str) -> Optional[str]: ...
 def sweep(
-    scene: Scene, speed: str, direction: str = "both", tolerance: float = 1e-7, max_periods: int = 3000
+    scene: Scene,
+    speed: str,
+    direction: str = "both",
+    tolerance: float = 1e-7,
+    max_periods: int = 3000,
+    work_budget: Optional[float] = None,
 ) -> Tuple[List[str], npt.NDArray[np.float64]]: ...
 def hb(
-    scene: Scene, speed: str, harmonics: int = 20, subharmonic: int = 1
+    scene: Scene,
+    speed: str,
+    harmonics: int = 20,
+    subharmonic: int = 1,
+    work_budget: Optional[float] = None,
 ) -> Tuple[List[str], npt.NDArray[np.float64]]: ...
 def modes(scene: Scene, rigid_bearings: bool = False) -> Dict[str, Any]: ...
 def stiffness(

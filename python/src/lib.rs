@@ -4,11 +4,14 @@
 //! are the CLI's. The GIL is released around every solve so Python threads run in parallel.
 //! The public API, its result classes and docs are in `geardyn/__init__.py`.
 
+use std::ffi::CString;
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use pyo3::create_exception;
-use pyo3::exceptions::{PyException, PyOverflowError, PyRecursionError, PyTypeError, PyValueError};
+use pyo3::exceptions::{
+    PyException, PyOverflowError, PyRecursionError, PyRuntimeWarning, PyTypeError, PyValueError,
+};
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyByteArray, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 
@@ -630,6 +633,19 @@ fn optional_count<T: TryFrom<i64>>(
 
 const U32_MAX: i64 = u32::MAX as i64;
 
+/// `work_budget=`: the work budget of each run of an analysis, in work units (the scene's
+/// `solver.work_budget`, the CLI's `--work-budget`), checked as they are; `None` keeps the
+/// scene's (else the default run budget). The error names the Python argument.
+fn apply_work_budget(scene: &mut Scene, work_budget: Option<f64>) -> PyResult<()> {
+    if let Some(b) = work_budget {
+        scene.solver.work_budget = Some(
+            geardyn::simulation::budget::check_limit("work_budget", b)
+                .map_err(PyValueError::new_err)?,
+        );
+    }
+    Ok(())
+}
+
 /// Simulates the scene over its `[solver]` experiment (`stop_time`, `output_interval`):
 /// returns `(names, times, data, method, stats)`, `data` one row per output time.
 ///
@@ -667,7 +683,7 @@ fn simulate<'py>(
         limits.max_mode_periods = p;
     }
     if let Some(b) = work_budget {
-        geardyn::simulation::budget::check_limit("work_budget", b)
+        let b = geardyn::simulation::budget::check_limit("work_budget", b)
             .map_err(PyValueError::new_err)?;
         limits.work_budget = Some(b);
     }
@@ -712,17 +728,19 @@ fn simulate<'py>(
 /// `471.24rad/s`, a bare number in rad/s: `geardyn periodic --speed`); returns a dict of the
 /// orbit (with `report`, the text `geardyn periodic` prints, and each mesh's force).
 #[pyfunction]
-#[pyo3(signature = (scene, periods = None, warmup = None, speed = None))]
+#[pyo3(signature = (scene, periods = None, warmup = None, speed = None, work_budget = None))]
 fn periodic<'py>(
     py: Python<'py>,
     scene: &PyScene,
     periods: Option<&Bound<'py, PyAny>>,
     warmup: Option<&Bound<'py, PyAny>>,
     speed: Option<&str>,
+    work_budget: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
     let periods: u32 = optional_count("periods", periods, 1, U32_MAX)?.unwrap_or(1);
     let warmup: u32 = optional_count("warmup", warmup, 0, U32_MAX)?.unwrap_or(20);
     let mut s = scene.any();
+    apply_work_budget(&mut s, work_budget)?;
     if let Some(text) = speed {
         s.set_input_speed(geardyn::units::parse_speed("--speed", text).map_err(err)?);
     }
@@ -771,7 +789,7 @@ fn periodic<'py>(
 /// Frequency-response sweep over the input-gear speed, for any scene; returns
 /// `(columns, data)` as the CSV of `geardyn sweep` has them (per-mesh columns prefixed).
 #[pyfunction]
-#[pyo3(signature = (scene, speed, direction = "both", tolerance = 1e-7, max_periods = None))]
+#[pyo3(signature = (scene, speed, direction = "both", tolerance = 1e-7, max_periods = None, work_budget = None))]
 fn sweep<'py>(
     py: Python<'py>,
     scene: &PyScene,
@@ -779,9 +797,11 @@ fn sweep<'py>(
     direction: &str,
     tolerance: f64,
     max_periods: Option<&Bound<'py, PyAny>>,
+    work_budget: Option<f64>,
 ) -> PyResult<Table<'py>> {
     let max_periods: u32 = optional_count("max_periods", max_periods, 0, U32_MAX)?.unwrap_or(3000);
-    let s = scene.any();
+    let mut s = scene.any();
+    apply_work_budget(&mut s, work_budget)?;
     let request = commands::steady::SweepRequest {
         speed,
         direction,
@@ -790,6 +810,19 @@ fn sweep<'py>(
         poincare: false,
     };
     let sweep = py.detach(|| request.run(&s, &|_, _| {})).map_err(err)?;
+    // A point that failed (its run beyond the work budget, say) is kept as a row of NaN, as
+    // in `geardyn sweep`; its reason reaches Python as a RuntimeWarning per point
+    // (`warnings.simplefilter("error")` makes it an exception).
+    for p in sweep.points.iter() {
+        if let Some(failure) = &p.failure {
+            let message = CString::new(format!(
+                "sweep: speed {} rad/s failed (row of NaN): {failure}",
+                p.speed
+            ))
+            .unwrap_or_default();
+            PyErr::warn(py, &py.get_type::<PyRuntimeWarning>(), &message, 1)?;
+        }
+    }
     let rows: Vec<_> = sweep.points.iter().map(|p| p.row()).collect();
     let columns = sweep.columns();
     table(py, &columns, &rows)
@@ -798,17 +831,19 @@ fn sweep<'py>(
 /// Harmonic balance with arclength continuation over `speed = "from:to"`, for any scene;
 /// returns `(columns, data)` as the CSV of `geardyn hb` has them (per-mesh columns prefixed).
 #[pyfunction]
-#[pyo3(signature = (scene, speed, harmonics = None, subharmonic = None))]
+#[pyo3(signature = (scene, speed, harmonics = None, subharmonic = None, work_budget = None))]
 fn hb<'py>(
     py: Python<'py>,
     scene: &PyScene,
     speed: &str,
     harmonics: Option<&Bound<'py, PyAny>>,
     subharmonic: Option<&Bound<'py, PyAny>>,
+    work_budget: Option<f64>,
 ) -> PyResult<Table<'py>> {
     let harmonics: usize = optional_count("harmonics", harmonics, 1, i64::MAX)?.unwrap_or(20);
     let subharmonic: u32 = optional_count("subharmonic", subharmonic, 1, U32_MAX)?.unwrap_or(1);
-    let s = scene.any();
+    let mut s = scene.any();
+    apply_work_budget(&mut s, work_budget)?;
     let request = commands::hb::HbRequest {
         speed,
         harmonics,

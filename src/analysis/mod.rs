@@ -31,9 +31,14 @@ pub fn multipliers(m: &nalgebra::DMatrix<f64>) -> Result<Vec<nalgebra::Complex<f
     Ok(schur.complex_eigenvalues().iter().copied().collect())
 }
 
+/// How a long analysis reports where it stands, for a progress display
+/// ([`crate::simulation::Progress`]): the fraction done (NaN: unknown) and its status line,
+/// formatted only when it is shown. `&|_, _| {}` reports nothing.
+pub type Report<'a> = &'a (dyn Fn(f64, &dyn Fn() -> String) + Sync);
+
 pub use band::{instability_bands, InstabilityBand};
 pub use floquet::monodromy;
 pub use linear_period::LinearPeriodMap;
 pub use multipliers::{multiplier_line, Floquet};
-pub use shooting::{period_map, shoot, PeriodicOrbit, ShootingOptions, Stability};
+pub use shooting::{period_map, shoot, shoot_reporting, PeriodicOrbit, ShootingOptions, Stability};
 pub use sweep::{sweep, Direction, MeshResponse, Periodicity, Sweep, SweepOptions, SweepPoint};

@@ -17,6 +17,8 @@ use crate::solve::rk::{RkOptions, RkStepper};
 use crate::solve::variational::Variational;
 use crate::with_drivetrain;
 
+use super::Report;
+
 /// Settings of [`shoot`].
 #[derive(Debug, Clone)]
 pub struct ShootingOptions {
@@ -212,6 +214,15 @@ pub fn period_map(
 /// response periods: the mesh period of a single mesh, the least common multiple of the mesh
 /// periods of a drivetrain.
 pub fn shoot(scene: &impl SceneSource, options: &ShootingOptions) -> Result<PeriodicOrbit, String> {
+    shoot_reporting(scene, options, &|_, _| {})
+}
+
+/// [`shoot`], reporting the warm-up and each Newton iteration with its residual to `report`.
+pub fn shoot_reporting(
+    scene: &impl SceneSource,
+    options: &ShootingOptions,
+    report: Report,
+) -> Result<PeriodicOrbit, String> {
     scene
         .to_scene()
         .profiles
@@ -236,7 +247,7 @@ pub fn shoot(scene: &impl SceneSource, options: &ShootingOptions) -> Result<Peri
             scene.input_speed()
         ));
     }
-    with_drivetrain!(scene.simulation()?, sim => shoot_from(sim, &scene.solver, options))
+    with_drivetrain!(scene.simulation()?, sim => shoot_from(sim, &scene.solver, options, report))
 }
 
 /// [`shoot`] on a running simulation: the warm-up continues from its state.
@@ -244,6 +255,7 @@ pub fn shoot_from<M: Drivetrain>(
     mut sim: Driver<M>,
     settings: &SolverSettings,
     options: &ShootingOptions,
+    report: Report,
 ) -> Result<PeriodicOrbit, String> {
     let base = response_period(sim.model())?;
     // After whole response periods every mesh phase is where it was at t = 0, so the state
@@ -251,11 +263,17 @@ pub fn shoot_from<M: Drivetrain>(
     let model = sim.model().clone();
     let t0 = sim.t();
     if options.warmup_periods > 0 {
+        report(f64::NAN, &|| {
+            format!(
+                "shooting: warm-up over {} response periods",
+                options.warmup_periods
+            )
+        });
         sim.advance_to(t0 + base * options.warmup_periods as f64)
             .map_err(|e| format!("warm-up: {e}"))?;
     }
     let mut map = PeriodMap::new(model, settings, base * options.periods as f64)?;
-    newton(&mut map, sim.y().to_vec(), options)
+    newton_reporting(&mut map, sim.y().to_vec(), options, report)
 }
 
 /// Damped Newton on `P(y) − y = 0` with the scaled residual of [`state_scale`].
@@ -263,6 +281,16 @@ pub fn newton<M: Drivetrain>(
     map: &mut PeriodMap<M>,
     guess: Vec<f64>,
     options: &ShootingOptions,
+) -> Result<PeriodicOrbit, String> {
+    newton_reporting(map, guess, options, &|_, _| {})
+}
+
+/// [`newton`], reporting each iteration and its residual to `report`.
+pub fn newton_reporting<M: Drivetrain>(
+    map: &mut PeriodMap<M>,
+    guess: Vec<f64>,
+    options: &ShootingOptions,
+    report: Report,
 ) -> Result<PeriodicOrbit, String> {
     let scale = state_scale(map.model(), &guess);
     let scaled_norm = |r: &DVector<f64>| {
@@ -277,6 +305,15 @@ pub fn newton<M: Drivetrain>(
     let mut residual = scaled_norm(&(&py - &y));
     let mut residuals = vec![residual];
     loop {
+        report(f64::NAN, &|| {
+            format!(
+                "shooting: Newton iteration {} of at most {}, scaled residual {residual:.2e} \
+                 (converged below {:.0e})",
+                residuals.len(),
+                options.max_iterations,
+                options.tolerance
+            )
+        });
         if residual <= options.tolerance {
             let multipliers = super::multipliers(&m)?;
             // One more Newton step from the converged iterate, with the map and monodromy

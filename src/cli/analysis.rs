@@ -6,9 +6,8 @@ use std::path::PathBuf;
 use clap::Args;
 
 use geardyn::commands::{hb as hb_commands, steady as commands};
-use geardyn::simulation::stream::ProgressDisplay;
 
-use super::{SceneArg, WorkBudgetArg};
+use super::{ProgressArg, SceneArg, WorkBudgetArg};
 
 #[derive(Args)]
 pub struct PeriodicArgs {
@@ -27,6 +26,8 @@ pub struct PeriodicArgs {
     warmup: u32,
     #[command(flatten)]
     budget: WorkBudgetArg,
+    #[command(flatten)]
+    progress: ProgressArg,
 }
 
 #[derive(Args)]
@@ -61,19 +62,22 @@ pub struct SweepArgs {
     /// Write each column's unit into the CSV header, `dte [m]` (default: bare names).
     #[arg(long)]
     units: bool,
-    /// Show the points done on stderr also when it is not a terminal (a plain line every
-    /// 2 s and at the end).
-    #[arg(long)]
-    progress: bool,
     #[command(flatten)]
     budget: WorkBudgetArg,
+    #[command(flatten)]
+    progress: ProgressArg,
 }
 
 pub fn periodic(args: PeriodicArgs) -> Result<(), String> {
     let mut scene = args.scene.load()?;
     args.budget.apply(&mut scene)?;
-    let report =
-        commands::periodic_command(&mut scene, args.speed.as_deref(), args.periods, args.warmup)?;
+    let report = commands::periodic_command(
+        &mut scene,
+        args.speed.as_deref(),
+        args.periods,
+        args.warmup,
+        args.progress.display(),
+    )?;
     print!("{report}");
     Ok(())
 }
@@ -94,14 +98,9 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
         plot: args.plot.as_deref(),
         units: args.units,
     };
-    let progress = if args.progress {
-        ProgressDisplay::Always
-    } else {
-        ProgressDisplay::Terminal
-    };
     print!(
         "{}",
-        commands::sweep_command(&scene, &request, &files, progress)?
+        commands::sweep_command(&scene, &request, &files, args.progress.display())?
     );
     Ok(())
 }
@@ -140,6 +139,8 @@ pub struct HbArgs {
     pub units: bool,
     #[command(flatten)]
     pub budget: WorkBudgetArg,
+    #[command(flatten)]
+    pub progress: ProgressArg,
 }
 
 /// `geardyn hb`: harmonic balance with pseudo-arclength continuation and stability.
@@ -158,6 +159,9 @@ pub fn hb(args: HbArgs) -> Result<(), String> {
         sweep_points: args.sweep_points,
         units: args.units,
     };
-    print!("{}", hb_commands::hb_command(&scene, &request, &files)?);
+    print!(
+        "{}",
+        hb_commands::hb_command(&scene, &request, &files, args.progress.display())?
+    );
     Ok(())
 }

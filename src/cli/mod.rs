@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use geardyn::scene::Scene;
+use geardyn::simulation::ProgressDisplay;
 
 pub mod analysis;
 pub mod floquet;
@@ -34,6 +35,28 @@ pub struct WorkBudgetArg {
     /// message naming the likely cause.
     #[arg(long, allow_hyphen_values = true)]
     work_budget: Option<f64>,
+}
+
+/// `--progress` of the analysis commands (`periodic`, `sweep`, `hb`, `spectrum`,
+/// `waterfall`), as `simulate --progress` asks for the one progress display
+/// (`geardyn::simulation::Progress`).
+#[derive(clap::Args)]
+pub struct ProgressArg {
+    /// Show the progress on stderr also when it is not a terminal (a plain `progress: …` line
+    /// every 2 s and at the end); on a terminal it shows anyway.
+    #[arg(long)]
+    progress: bool,
+}
+
+impl ProgressArg {
+    /// Where the progress shows ([`ProgressDisplay`]).
+    pub fn display(&self) -> ProgressDisplay {
+        if self.progress {
+            ProgressDisplay::Always
+        } else {
+            ProgressDisplay::Terminal
+        }
+    }
 }
 
 impl WorkBudgetArg {

@@ -36,6 +36,8 @@ pub struct WaterfallArgs {
     pub plot: Option<PathBuf>,
     #[command(flatten)]
     pub budget: super::WorkBudgetArg,
+    #[command(flatten)]
+    pub progress: super::ProgressArg,
 }
 
 pub fn run(args: WaterfallArgs) -> Result<(), String> {
@@ -50,7 +52,13 @@ pub fn run(args: WaterfallArgs) -> Result<(), String> {
     };
     print!(
         "{}",
-        waterfall_command(&scene, &request, &args.out, args.plot.as_deref())?
+        waterfall_command(
+            &scene,
+            &request,
+            &args.out,
+            args.plot.as_deref(),
+            args.progress.display()
+        )?
     );
     Ok(())
 }

@@ -49,8 +49,8 @@ pub struct SimulateArgs {
     /// raise it to run such a scene anyway.
     #[arg(long)]
     work_budget: Option<f64>,
-    /// Show the progress on stderr also when it is not a terminal (a plain line every 2 s);
-    /// on a terminal it shows anyway unless --quiet.
+    /// Show the progress on stderr also when it is not a terminal (a plain `progress: …` line
+    /// every 2 s and at the end); on a terminal it shows anyway unless --quiet.
     #[arg(long)]
     progress: bool,
     /// Also plot every mesh's DTE and mesh force over time (PNG or SVG by the extension).

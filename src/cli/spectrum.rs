@@ -29,6 +29,8 @@ pub struct SpectrumArgs {
     periods: u32,
     #[command(flatten)]
     budget: super::WorkBudgetArg,
+    #[command(flatten)]
+    progress: super::ProgressArg,
 }
 
 pub fn run(args: SpectrumArgs) -> Result<(), String> {
@@ -41,7 +43,13 @@ pub fn run(args: SpectrumArgs) -> Result<(), String> {
     };
     print!(
         "{}",
-        spectrum_command(&scene, &request, &args.out, args.plot.as_deref())?
+        spectrum_command(
+            &scene,
+            &request,
+            &args.out,
+            args.plot.as_deref(),
+            args.progress.display()
+        )?
     );
     Ok(())
 }

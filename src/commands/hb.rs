@@ -4,11 +4,12 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use crate::analysis::hb::{continuation, BranchPoint, ContinuationOptions, HbOptions};
-use crate::analysis::{self, Direction, SweepOptions};
+use crate::analysis::hb::{continuation_reporting, BranchPoint, ContinuationOptions, HbOptions};
+use crate::analysis::{self, Direction, Report, SweepOptions};
 use crate::output;
 use crate::plot::{Format, Marker, Series};
 use crate::scene::{KernelChoice, Scene};
+use crate::simulation::stream::{Progress, ProgressDisplay};
 use crate::units::{both_units, rpm};
 
 use super::steady::{branch_points, frequency_response_plot};
@@ -92,12 +93,22 @@ impl HbRequest<'_> {
 
     /// Checks the options (messages name the CLI option) and continues the branch.
     pub fn run(&self, scene: &Scene) -> Result<HbBranch, String> {
+        self.run_reporting(scene, &|_, _| {})
+    }
+
+    /// [`HbRequest::run`], reporting the branch points to `report`.
+    pub fn run_reporting(&self, scene: &Scene, report: Report) -> Result<HbBranch, String> {
         let crate::units::SpeedInterval { from, to } = self.interval()?;
         let hb_options = HbOptions {
             subharmonic: self.subharmonic,
             ..HbOptions::new(self.harmonics)
         };
-        let points = continuation(scene, &hb_options, &ContinuationOptions::new(from, to))?;
+        let points = continuation_reporting(
+            scene,
+            &hb_options,
+            &ContinuationOptions::new(from, to),
+            report,
+        )?;
         let prefixes = points
             .first()
             .map(|p| p.solution.meshes.iter().map(|m| m.prefix.clone()).collect())
@@ -265,7 +276,13 @@ pub struct HbFiles<'a> {
 }
 
 /// `geardyn hb`: runs the continuation, writes its files and returns the summary it prints.
-pub fn hb_command(scene: &Scene, request: &HbRequest, files: &HbFiles) -> Result<String, String> {
+/// The continuation shows on stderr as `progress` says ([`Progress`]).
+pub fn hb_command(
+    scene: &Scene,
+    request: &HbRequest,
+    files: &HbFiles,
+    progress: ProgressDisplay,
+) -> Result<String, String> {
     check_sweep_points(files.sweep_points)?;
     let mesh = plot_mesh_index(scene, files.plot_mesh)?;
     if let Some(path) = files.plot {
@@ -277,7 +294,10 @@ pub fn hb_command(scene: &Scene, request: &HbRequest, files: &HbFiles) -> Result
         both_units(interval.from),
         both_units(interval.to)
     );
-    let branch = request.run(scene)?;
+    let mut shown = Progress::of_analysis("hb: starting", progress);
+    let branch = request.run_reporting(scene, &shown.reporter());
+    shown.finish();
+    let branch = branch?;
     let columns = branch.columns();
     output::write_table_with_units(files.out, &columns, branch.rows(), files.units)?;
     if let Some(path) = files.plot {

@@ -7,8 +7,10 @@
 use std::f64::consts::TAU;
 
 use crate::analysis::spectrum::{waterfall, Waterfall, WaterfallOptions};
+use crate::analysis::Report;
 use crate::model::Drivetrain;
 use crate::scene::Scene;
+use crate::simulation::stream::{Progress, ProgressDisplay};
 use crate::simulation::{DrivenModel, OutputGrid};
 use crate::with_drivetrain;
 
@@ -60,6 +62,17 @@ pub fn runup_waterfall(
     signal: RunupSignal,
     options: &WaterfallOptions,
 ) -> Result<RunupWaterfall, String> {
+    runup_waterfall_reporting(scene, mesh, signal, options, &|_, _| {})
+}
+
+/// [`runup_waterfall`], reporting the run-up's time reached to `report`.
+pub fn runup_waterfall_reporting(
+    scene: &Scene,
+    mesh: usize,
+    signal: RunupSignal,
+    options: &WaterfallOptions,
+    report: Report,
+) -> Result<RunupWaterfall, String> {
     let Some(speed) = scene.profiles.speed.clone() else {
         return Err(format!(
             "scene {}: a waterfall needs a run-up (operating.speed_profile, docs/runup.md)",
@@ -85,6 +98,11 @@ pub fn runup_waterfall(
         let mut x = Vec::new();
         let mut row = Vec::new();
         sim.sample(OutputGrid::new(stop, interval), |sim, time| {
+            if t.len().is_multiple_of(1024) {
+                report(time / stop, &|| {
+                    format!("waterfall: run-up at t = {time:.6e} s of {stop} s, {} rows", t.len())
+                });
+            }
             sim.model().output_row(time, sim.y(), &mut row);
             t.push(time);
             x.push(row[column]);
@@ -134,11 +152,13 @@ pub struct WaterfallRequest<'a> {
 
 /// `geardyn waterfall`: the order map of the scene's run-up to the CSV `out` (and a Campbell
 /// plot), and the report of what was written.
+/// The run-up shows on stderr as `progress` says ([`Progress`]).
 pub fn waterfall_command(
     scene: &Scene,
     request: &WaterfallRequest,
     out: &std::path::Path,
     plot: Option<&std::path::Path>,
+    progress: ProgressDisplay,
 ) -> Result<String, String> {
     use crate::analysis::spectrum::Window;
     if let Some(path) = plot {
@@ -170,7 +190,10 @@ pub fn waterfall_command(
         overlap: request.overlap,
         window,
     };
-    let w = runup_waterfall(scene, mesh, signal, &options)?;
+    let mut shown = Progress::of_analysis("waterfall: starting", progress);
+    let w = runup_waterfall_reporting(scene, mesh, signal, &options, &shown.reporter());
+    shown.finish();
+    let w = w?;
     w.map.write_csv(out, signal.unit())?;
     if let Some(path) = plot {
         let orders: Vec<(String, f64)> = (1..=3)

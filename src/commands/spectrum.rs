@@ -6,10 +6,11 @@ use std::path::Path;
 use crate::analysis::spectrum::{
     exact_dft, label_lines, model_aliasing_warning, windowed_fft, OrderLabel, Spectrum, Window,
 };
-use crate::analysis::{shoot, ShootingOptions};
+use crate::analysis::{shoot_reporting, Report, ShootingOptions};
 use crate::model::{response_period, Drivetrain};
 use crate::plot::{Axis, Plot, Series};
 use crate::scene::Scene;
+use crate::simulation::stream::{Progress, ProgressDisplay};
 use crate::with_drivetrain;
 
 /// What to transform and how finely.
@@ -91,6 +92,15 @@ pub fn periodic_spectrum(
     scene: &Scene,
     request: &SpectrumRequest,
 ) -> Result<SpectrumReport, String> {
+    periodic_spectrum_reporting(scene, request, &|_, _| {})
+}
+
+/// [`periodic_spectrum`], reporting the shooting and the sampling to `report`.
+pub fn periodic_spectrum_reporting(
+    scene: &Scene,
+    request: &SpectrumRequest,
+    report: Report,
+) -> Result<SpectrumReport, String> {
     if request.samples_per_mesh_period < 4 {
         return Err(format!(
             "--samples = {}: need at least 4 samples per mesh period",
@@ -102,7 +112,7 @@ pub fn periodic_spectrum(
     }
     // A first bound before the orbit is shot: one mesh period per response period at least.
     check_spectrum_samples(request, request.periods as f64)?;
-    let orbit = shoot(scene, &ShootingOptions::default())?;
+    let orbit = shoot_reporting(scene, &ShootingOptions::default(), report)?;
     with_drivetrain!(scene.simulation()?, sim => {
         let mut sim = sim;
         let model = sim.model();
@@ -128,7 +138,14 @@ pub fn periodic_spectrum(
         sim.set_y(0.0, &orbit.y0);
         let mut samples = vec![Vec::with_capacity(n); columns.len()];
         let mut row = Vec::new();
+        let mut taken = 0usize;
         sim.sample((0..n).map(|j| j as f64 * duration / n as f64), |s, t| {
+            if taken.is_multiple_of(1024) {
+                report(taken as f64 / n as f64, &|| {
+                    format!("spectrum: sampling the orbit, {taken} of {n} samples")
+                });
+            }
+            taken += 1;
             s.model().output_row(t, s.y(), &mut row);
             for (c, &col) in columns.iter().enumerate() {
                 samples[c].push(row[col]);
@@ -339,14 +356,19 @@ fn mesh_lines<M: Drivetrain>(model: &M) -> Vec<(String, f64)> {
 
 /// `geardyn spectrum`: the spectrum of the scene's periodic steady state to the CSV `out`
 /// (and the plot), and the report: where it went and the five largest lines of each signal.
+/// The shooting and the sampling show on stderr as `progress` says ([`Progress`]).
 pub fn spectrum_command(
     scene: &Scene,
     request: &SpectrumRequest,
     out: &Path,
     plot: Option<&Path>,
+    progress: ProgressDisplay,
 ) -> Result<String, String> {
     use std::fmt::Write;
-    let report = periodic_spectrum(scene, request)?;
+    let mut shown = Progress::of_analysis("spectrum: starting", progress);
+    let report = periodic_spectrum_reporting(scene, request, &shown.reporter());
+    shown.finish();
+    let report = report?;
     report.write_csv(out)?;
     if let Some(path) = plot {
         report.save_plot(path)?;

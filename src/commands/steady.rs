@@ -9,13 +9,14 @@ use crate::analysis::mesh_response::MeshResponse;
 use crate::analysis::orbit_statistics::orbit_responses;
 use crate::analysis::sweep::{Periodicity, Sweep, SweepPoint};
 use crate::analysis::{
-    self, multiplier_line, shoot, Direction, PeriodicOrbit, ShootingOptions, SweepOptions,
+    self, multiplier_line, shoot_reporting, Direction, PeriodicOrbit, Report, ShootingOptions,
+    SweepOptions,
 };
 use crate::model::Drivetrain;
 use crate::output;
 use crate::plot::{Axis, Format, Marker, Plot, Series};
 use crate::scene::Scene;
-use crate::simulation::stream::{ProgressDisplay, PROGRESS_LINE_EVERY};
+use crate::simulation::stream::{Progress, ProgressDisplay};
 use crate::units::{both_units, parse_speed, rpm};
 use crate::with_drivetrain;
 
@@ -24,13 +25,23 @@ use super::positive;
 /// Periodic steady state by shooting at the scene's input speed: a period-`periods` orbit
 /// (in response periods) found after `warmup` response periods of integration.
 pub fn periodic(scene: &Scene, periods: u32, warmup: u32) -> Result<PeriodicOrbit, String> {
+    periodic_reporting(scene, periods, warmup, &|_, _| {})
+}
+
+/// [`periodic`], reporting the warm-up and the Newton iterations to `report`.
+pub fn periodic_reporting(
+    scene: &Scene,
+    periods: u32,
+    warmup: u32,
+    report: Report,
+) -> Result<PeriodicOrbit, String> {
     let options = ShootingOptions {
         periods,
         warmup_periods: warmup,
         ..ShootingOptions::default()
     };
     check_shooting_work(scene, &options)?;
-    shoot(scene, &options)
+    shoot_reporting(scene, &options, report)
 }
 
 /// The most a shooting run may integrate, checked before it starts (issue 34: `periods =
@@ -347,19 +358,23 @@ pub fn poincare_rows(sweep: &Sweep) -> Vec<[f64; 5]> {
 
 /// `geardyn periodic`: the orbit at `speed` (`--speed` text; default the scene's input
 /// speed) and the text the command prints.
+/// The shooting shows on stderr as `progress` says ([`Progress`]).
 pub fn periodic_command(
     scene: &mut Scene,
     speed: Option<&str>,
     periods: u32,
     warmup: u32,
+    progress: ProgressDisplay,
 ) -> Result<String, String> {
     if let Some(text) = speed {
         let speed = parse_speed("--speed", text)?;
         eprintln!("periodic: input speed {}", both_units(speed));
         scene.set_input_speed(speed);
     }
-    let orbit = periodic(scene, periods, warmup)?;
-    periodic_report(scene, &orbit)
+    let mut shown = Progress::of_analysis("periodic: starting", progress);
+    let orbit = periodic_reporting(scene, periods, warmup, &shown.reporter());
+    shown.finish();
+    periodic_report(scene, &orbit?)
 }
 
 /// The files `geardyn sweep` writes: the table, and optionally the Poincaré samples and the
@@ -372,8 +387,7 @@ pub struct SweepFiles<'a> {
 }
 
 /// `geardyn sweep`: runs the sweep, writes its files and returns the summary it prints. The
-/// points done show on stderr as `progress` says: redrawn in place on a terminal, and with
-/// [`ProgressDisplay::Always`] (`--progress`) as a plain line every few seconds on a pipe.
+/// points done show on stderr as `progress` says ([`Progress`]).
 pub fn sweep_command(
     scene: &Scene,
     request: &SweepRequest,
@@ -391,28 +405,15 @@ pub fn sweep_command(
         both_units(speeds[speeds.len() - 1]),
         speeds.len()
     );
-    // On a terminal the line is redrawn in place; in a pipe or a log carriage returns are
-    // noise, so a plain line every few seconds, and only when asked for (`--progress`).
-    let terminal = std::io::IsTerminal::is_terminal(&std::io::stderr());
-    let last_line = std::sync::Mutex::new(std::time::Instant::now());
-    let show = |done: usize, total: usize| match progress {
-        ProgressDisplay::Off => {}
-        _ if terminal => {
-            eprint!("\rsweep {done}/{total} points");
-            if done == total {
-                eprintln!();
-            }
-        }
-        ProgressDisplay::Terminal => {}
-        ProgressDisplay::Always => {
-            let mut last = last_line.lock().unwrap_or_else(|e| e.into_inner());
-            if done == total || last.elapsed() >= PROGRESS_LINE_EVERY {
-                eprintln!("sweep {done}/{total} points");
-                *last = std::time::Instant::now();
-            }
-        }
+    let mut progress = Progress::of_analysis("sweep 0 points done", progress);
+    let show = |done: usize, total: usize| {
+        progress.report(done as f64 / total as f64, || {
+            format!("sweep {done}/{total} points")
+        })
     };
-    let sweep = analysis::sweep(scene, &options, &show)?;
+    let sweep = analysis::sweep(scene, &options, &show);
+    progress.finish();
+    let sweep = sweep?;
     let columns = sweep.columns();
     output::write_table_with_units(
         files.out,

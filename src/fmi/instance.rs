@@ -365,6 +365,7 @@ impl Instance {
 
     /// Like [`Self::get_values`], but the model answers the whole vector in one call: a host
     /// reads every output after every step.
+    #[inline]
     pub fn get_real(&mut self, vrs: &[u32], out: &mut [f64]) -> Status {
         let call = Call::GetReal;
         if let Err(s) = self.check_get(call, VarKind::Real, vrs) {
@@ -378,21 +379,34 @@ impl Instance {
         }
         // Never a non-finite value with fmi2OK (issue 34): a model whose values are not finite
         // (an element's start state the arithmetic cannot carry) answers fmi2Discard, naming
-        // the variable; the instance's state is unchanged.
-        if let Some(k) = out.iter().take(vrs.len()).position(|x| !x.is_finite()) {
-            let name = self
-                .lookup(vrs[k], VarKind::Real)
-                .map_or_else(|_| format!("vr {}", vrs[k]), |v| format!("'{}'", v.name));
-            self.logger.log(
-                Status::Discard,
-                &format!(
-                    "fmi2GetReal: {name} (vr {}) is {} at t = {:?}: not a usable value",
-                    vrs[k], out[k], self.time
-                ),
-            );
-            return Status::Discard;
+        // the variable; the instance's state is unchanged. `0·x` is ±0 for a finite `x` and
+        // NaN otherwise: one multiply-add per value, no branch per value.
+        let values = &out[..vrs.len().min(out.len())];
+        if values.iter().fold(0.0, |sum, x| sum + 0.0 * x) != 0.0 {
+            return self.refuse_non_finite(vrs, values);
         }
         Status::Ok
+    }
+
+    /// fmi2Discard for the first value of `values` that is not finite, naming its variable
+    /// (the failure path of [`Self::get_real`]).
+    #[cold]
+    #[inline(never)]
+    fn refuse_non_finite(&mut self, vrs: &[u32], values: &[f64]) -> Status {
+        let Some(k) = values.iter().position(|x| !x.is_finite()) else {
+            return Status::Ok;
+        };
+        let name = self
+            .lookup(vrs[k], VarKind::Real)
+            .map_or_else(|_| format!("vr {}", vrs[k]), |v| format!("'{}'", v.name));
+        self.logger.log(
+            Status::Discard,
+            &format!(
+                "fmi2GetReal: {name} (vr {}) is {} at t = {:?}: not a usable value",
+                vrs[k], values[k], self.time
+            ),
+        );
+        Status::Discard
     }
 
     /// Replaces the outputs among `vrs` by their last good values (the failure path only).

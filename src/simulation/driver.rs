@@ -299,16 +299,22 @@ impl<M: DrivenModel> Driver<M> {
     }
 
     /// Starts a new budget scope: an FMU calls this at the start of every call, so the
-    /// budget bounds each call; a run that never calls it is bounded as a whole.
+    /// budget bounds each call; a run that never calls it is bounded as a whole. The
+    /// propagator computes its cumulative work once and returns it as the scope's start.
     pub fn reset_work(&mut self) {
-        let (t, stats, work) = match &self.propagator {
-            Propagator::Rk(p) => (p.t(), p.stats(), p.work()),
-            Propagator::Exact(p) => (p.t(), p.stats(), p.work()),
+        let limit = self.budget.limit();
+        let start = match &mut self.propagator {
+            Propagator::Rk(p) => {
+                self.scope = (p.t(), ScopeCounts::of(p.stats()));
+                p.start_work_scope(limit)
+            }
+            Propagator::Exact(p) => {
+                self.scope = (p.t(), ScopeCounts::of(p.stats()));
+                p.start_work_scope(limit)
+            }
         };
-        self.scope = (t, ScopeCounts::of(stats));
-        self.budget.start_scope(work);
+        self.budget.start_scope(start);
         self.per_call = true;
-        self.apply_work_limit();
     }
 
     /// Mutable access to the model for settings that do not change its equations (e.g.
@@ -325,7 +331,17 @@ impl<M: DrivenModel> Driver<M> {
     /// With speed or torque profiles, the advance stops at every knot where a slope changes
     /// and the model takes the next pieces there ([`DrivenModel::apply_profiles`]); the
     /// profiles are thus followed exactly, whatever the output grid.
+    #[inline]
     pub fn advance_to(&mut self, t_end: f64) -> Result<(), SolveError> {
+        if self.model.profiles().is_some() {
+            return self.advance_with_profiles(t_end);
+        }
+        self.advance_plain(t_end)
+    }
+
+    /// [`Driver::advance_to`] through the knots of the scene's profiles.
+    #[inline(never)]
+    fn advance_with_profiles(&mut self, t_end: f64) -> Result<(), SolveError> {
         let Some(profiles) = self.model.profiles() else {
             return self.advance_plain(t_end);
         };
@@ -344,7 +360,7 @@ impl<M: DrivenModel> Driver<M> {
         self.advance_plain(t_end)
     }
 
-    #[inline]
+    #[inline(always)]
     fn advance_plain(&mut self, t_end: f64) -> Result<(), SolveError> {
         let t = self.t();
         if t_end != t {
@@ -353,18 +369,21 @@ impl<M: DrivenModel> Driver<M> {
             }
         }
         // The propagator meters its work and stops where the budget's scope ends
-        // (`apply_work_limit`): nothing to do here per advance but word that stop.
-        let result = match &mut self.propagator {
+        // (`start_work_scope`): nothing to do here per advance but word that stop, in place
+        // (the result is not moved on the common path).
+        let mut result = match &mut self.propagator {
             Propagator::Rk(p) => p.advance_to(&mut self.model, t_end),
             Propagator::Exact(p) => p.advance_to(&mut self.model, t_end),
         };
-        match result {
-            Err(SolveError::OverBudget { .. }) => Err(self.over_budget()),
-            other => other,
+        if let Err(e @ SolveError::OverBudget { .. }) = &mut result {
+            *e = self.over_budget();
         }
+        result
     }
 
     /// The error of an exhausted budget, with the message naming the likely cause.
+    #[cold]
+    #[inline(never)]
     fn over_budget(&self) -> SolveError {
         let t = self.t();
         let mut work = self.stats();

@@ -320,22 +320,30 @@ pub enum ProgressDisplay {
     Always,
 }
 
-/// A progress display on stderr for long runs: time reached, rows and solver work, elapsed
-/// time and an estimate of the time left. Nothing appears in the first [`PROGRESS_EVERY`] of
-/// a run. The line is written by a thread of its own from what the run last recorded, so it
-/// keeps appearing while one advance takes long (a stiff stretch between two output points),
-/// and the run itself only stores three numbers per row (the time, rows and work shown are
-/// those of the last output point).
+/// A progress display on stderr for long runs and analyses, the one reporter of every
+/// command (`simulate`, `sweep`, `periodic`, `hb`, `spectrum`, `waterfall`). A run towards a
+/// stop time shows the time reached, rows and solver work, elapsed time and an estimate of the
+/// time left; an analysis shows the status it last reported ([`Progress::report`]: points
+/// done, Newton iteration, speed reached) with the elapsed time and, where it knows the
+/// fraction done, the time left. Nothing appears in the first [`PROGRESS_EVERY`]. The line is
+/// written by a thread of its own from what was last recorded, so it keeps appearing while one
+/// step of the work takes long, and the work itself only stores a few numbers. On a terminal
+/// the line is redrawn in place and cleared at the end; on a pipe or a file
+/// ([`ProgressDisplay::Always`]) a plain `progress: …` line every [`PROGRESS_LINE_EVERY`] and
+/// one at the end.
 pub struct Progress {
     shared: Option<Arc<Shown>>,
     thread: Option<std::thread::JoinHandle<()>>,
 }
 
-/// What the run records for the progress thread, and its stop signal.
+/// What the work records for the progress thread, and its stop signal.
 struct Shown {
     time_bits: AtomicU64,
     rows: AtomicU64,
     work: AtomicU64,
+    /// An analysis' status line and fraction done (NaN: unknown), as last reported; `None`
+    /// for a run towards a stop time.
+    status: Option<Mutex<(String, f64)>>,
     stop: Mutex<bool>,
     wake: Condvar,
     /// Whether a line is on the terminal (to clear it at the end).
@@ -346,7 +354,7 @@ struct Shown {
 /// it appears.
 const PROGRESS_EVERY: Duration = Duration::from_millis(500);
 /// How often a plain progress line is written to a pipe or a file.
-pub(crate) const PROGRESS_LINE_EVERY: Duration = Duration::from_secs(2);
+const PROGRESS_LINE_EVERY: Duration = Duration::from_secs(2);
 
 impl Progress {
     /// Progress towards `stop_time`, shown only when `wanted` and stderr is a terminal.
@@ -361,6 +369,24 @@ impl Progress {
 
     /// Progress towards `stop_time` as `display` asks.
     pub fn with_display(stop_time: f64, display: ProgressDisplay) -> Progress {
+        Progress::start(stop_time, None, display)
+    }
+
+    /// The progress of an analysis as `display` asks: the status it reports
+    /// ([`Progress::report`]), starting with `status`.
+    pub fn of_analysis(status: &str, display: ProgressDisplay) -> Progress {
+        Progress::start(
+            f64::NAN,
+            Some(Mutex::new((status.to_owned(), f64::NAN))),
+            display,
+        )
+    }
+
+    fn start(
+        stop_time: f64,
+        status: Option<Mutex<(String, f64)>>,
+        display: ProgressDisplay,
+    ) -> Progress {
         let terminal = std::io::stderr().is_terminal();
         let in_place = match display {
             ProgressDisplay::Off => None,
@@ -377,6 +403,7 @@ impl Progress {
             time_bits: AtomicU64::new(0),
             rows: AtomicU64::new(0),
             work: AtomicU64::new(0),
+            status,
             stop: Mutex::new(false),
             wake: Condvar::new(),
             drawn: AtomicBool::new(false),
@@ -408,7 +435,21 @@ impl Progress {
         }
     }
 
-    /// Stops the display and clears the progress line, if one was drawn in place.
+    /// Records an analysis' status (`status()`, formatted only when shown) and the fraction
+    /// of it done (NaN: unknown). Callable from the analysis' worker threads.
+    pub fn report(&self, fraction: f64, status: impl FnOnce() -> String) {
+        if let Some(Some(shown)) = self.shared.as_ref().map(|s| &s.status) {
+            let text = status();
+            *shown.lock().unwrap_or_else(|e| e.into_inner()) = (text, fraction);
+        }
+    }
+
+    /// [`Progress::report`] as an analysis takes it ([`crate::analysis::Report`]).
+    pub fn reporter(&self) -> impl Fn(f64, &dyn Fn() -> String) + Sync + '_ {
+        move |fraction, status| self.report(fraction, status)
+    }
+
+    /// Stops the display: clears the line drawn in place, or writes the last line to a pipe.
     pub fn finish(&mut self) {
         if let (Some(s), Some(thread)) = (self.shared.take(), self.thread.take()) {
             *s.stop.lock().unwrap_or_else(|e| e.into_inner()) = true;
@@ -419,7 +460,8 @@ impl Progress {
 }
 
 impl Shown {
-    /// The progress thread: a line every `every` until stopped.
+    /// The progress thread: a line every `every` until stopped, then the end (see
+    /// [`Progress`]).
     fn show(&self, stop_time: f64, in_place: bool, every: Duration) {
         let start = Instant::now();
         let mut stop = self.stop.lock().unwrap_or_else(|e| e.into_inner());
@@ -432,21 +474,7 @@ impl Shown {
             if *stop {
                 break;
             }
-            let t = f64::from_bits(self.time_bits.load(Ordering::Relaxed));
-            let done = (t / stop_time).clamp(0.0, 1.0);
-            let elapsed = start.elapsed().as_secs_f64();
-            let eta = if done > 0.0 {
-                format!(", {:.0} s left", elapsed * (1.0 - done) / done)
-            } else {
-                String::new()
-            };
-            let line = format!(
-                "t = {t:.6e} s of {stop_time} s ({:.1} %), {} rows, {:.2e} work units spent, \
-                 {elapsed:.0} s elapsed{eta}",
-                100.0 * done,
-                self.rows.load(Ordering::Relaxed),
-                self.work.load(Ordering::Relaxed) as f64,
-            );
+            let line = self.line(stop_time, start.elapsed().as_secs_f64());
             let mut e = std::io::stderr().lock();
             let _ = if in_place {
                 write!(e, "\r\x1b[K{line}")
@@ -456,11 +484,42 @@ impl Shown {
             let _ = e.flush();
             self.drawn.store(in_place, Ordering::Relaxed);
         }
-        if self.drawn.load(Ordering::Relaxed) {
-            let mut e = std::io::stderr().lock();
+        let mut e = std::io::stderr().lock();
+        if !in_place {
+            let _ = writeln!(
+                e,
+                "progress: {}",
+                self.line(stop_time, start.elapsed().as_secs_f64())
+            );
+        } else if self.drawn.load(Ordering::Relaxed) {
             let _ = write!(e, "\r\x1b[K");
-            let _ = e.flush();
         }
+        let _ = e.flush();
+    }
+
+    /// The line shown after `elapsed` seconds.
+    fn line(&self, stop_time: f64, elapsed: f64) -> String {
+        let left = |done: f64| {
+            if done > 0.0 && done < 1.0 {
+                format!(", {:.0} s left", elapsed * (1.0 - done) / done)
+            } else {
+                String::new()
+            }
+        };
+        if let Some(status) = &self.status {
+            let (text, done) = status.lock().unwrap_or_else(|e| e.into_inner()).clone();
+            return format!("{text}, {elapsed:.0} s elapsed{}", left(done));
+        }
+        let t = f64::from_bits(self.time_bits.load(Ordering::Relaxed));
+        let done = (t / stop_time).clamp(0.0, 1.0);
+        format!(
+            "t = {t:.6e} s of {stop_time} s ({:.1} %), {} rows, {:.2e} work units spent, \
+             {elapsed:.0} s elapsed{}",
+            100.0 * done,
+            self.rows.load(Ordering::Relaxed),
+            self.work.load(Ordering::Relaxed) as f64,
+            left(done),
+        )
     }
 }
 

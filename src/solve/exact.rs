@@ -708,6 +708,26 @@ impl ExactPropagator {
         });
     }
 
+    /// Starts a scope of the owner's budget ([`ExactPropagator::set_work_limit`] at the
+    /// cumulative work now plus `limit`; `None`: unbounded) and returns that work, computed
+    /// once: an FMU starts one at every call.
+    pub fn start_work_scope(&mut self, limit: Option<f64>) -> f64 {
+        let other = self.other_work();
+        let work = self.segment_work() + other;
+        self.work_limit = limit.map(|limit| {
+            let until = work + limit;
+            WorkLimit {
+                until,
+                segment_until: until - other,
+                other: self.other_work_count(&AdvanceMeter {
+                    exp_work0: 0.0,
+                    samples_left: MAX_GUARD_SAMPLES_PER_ADVANCE,
+                }),
+            }
+        });
+        work
+    }
+
     /// The work of all advances but that of their segments and guard evaluations.
     fn other_work(&self) -> f64 {
         self.guard_samples * self.prices.guard_eval
@@ -791,23 +811,24 @@ impl ExactPropagator {
         sys: &mut S,
         t_end: f64,
     ) -> Result<(), SolveError> {
+        // Unbounded, the exponentials and samples are not metered (one call site of the
+        // loop, so that it is inlined here as an unmetered propagator's was).
+        let metered = self.work_limit.is_some();
         let mut meter = AdvanceMeter {
-            exp_work0: 0.0,
+            exp_work0: if metered { balanced::exp_work() } else { 0.0 },
             samples_left: MAX_GUARD_SAMPLES_PER_ADVANCE,
         };
-        if self.work_limit.is_none() {
-            // Unbounded: the exponentials and samples are metered only under a limit.
-            return self.advance_metered(sys, t_end, &mut meter);
-        }
-        meter.exp_work0 = balanced::exp_work();
         let result = self.advance_metered(sys, t_end, &mut meter);
-        self.exp_units += balanced::exp_work() - meter.exp_work0;
-        self.guard_samples += meter.samples();
+        if metered {
+            self.exp_units += balanced::exp_work() - meter.exp_work0;
+            self.guard_samples += meter.samples();
+        }
         result
     }
 
     /// [`ExactPropagator::advance_to`], given where the meter stood at its start (the guard
     /// samples left on return were not taken).
+    #[inline(always)]
     fn advance_metered<S: PiecewiseLti>(
         &mut self,
         sys: &mut S,
@@ -829,9 +850,6 @@ impl ExactPropagator {
             self.column.resize(nz, 0.0);
         }
         let mut budget = WorkBudget::new(nz);
-        // The mode of the last segment and its bins built before it: the bins its segment
-        // built are counted at the next segment ([`SolverStats::transitions`]).
-        let mut last_mode: Option<(usize, u64)> = None;
         let mut stalled_stops = 0u64;
         while self.t < t_end {
             if self.composites
@@ -863,11 +881,6 @@ impl ExactPropagator {
                 return Err(SolveError::StepSizeTooSmall { t: self.t, h: tau });
             }
             stalled_stops = 0;
-            if let Some((position, before)) = last_mode.take() {
-                if let Some(mode) = self.modes.modes.get(position) {
-                    self.stats.transitions += mode.bin_builds().saturating_sub(before);
-                }
-            }
             self.check_work_limit(self.t, meter)?;
             budget.charge(self.t)?;
             let carries = self.sensitivity.is_none() && sys.forcing_carries_over();
@@ -888,7 +901,9 @@ impl ExactPropagator {
             }
             let position = self.modes.get_position(sys);
             let mode = &mut self.modes.modes[position];
-            last_mode = Some((position, mode.bin_builds()));
+            // The bins this segment builds ([`SolverStats::transitions`]), counted where it
+            // last uses its mode.
+            let bins_before = mode.bin_builds();
             self.stats.steps += 1;
 
             let guards = sys.guard_count();
@@ -991,6 +1006,7 @@ impl ExactPropagator {
                     if !event_state_ready {
                         mode.apply(found.tau, &self.z, z_event);
                     }
+                    self.stats.transitions += mode.bin_builds() - bins_before;
                     let t_event = self.t + found.tau;
                     self.stalled_events = if t_event > self.t {
                         0
@@ -1024,6 +1040,7 @@ impl ExactPropagator {
             } else {
                 mode.apply(tau, &self.z, &mut self.z_next);
             }
+            self.stats.transitions += mode.bin_builds() - bins_before;
             // Checked before it replaces `y`: on error the propagator holds the last finite
             // state at `t`, as the RK stepper does.
             if !self.z_next[..n].iter().all(|v| v.is_finite()) {
@@ -1043,11 +1060,6 @@ impl ExactPropagator {
                 sys.on_stop(self.t, &mut self.y);
                 self.stats.stops += 1;
                 budget.stops += 1;
-            }
-        }
-        if let Some((position, before)) = last_mode {
-            if let Some(mode) = self.modes.modes.get(position) {
-                self.stats.transitions += mode.bin_builds().saturating_sub(before);
             }
         }
         Ok(())
@@ -1182,6 +1194,7 @@ impl ExactPropagator {
         };
         let n = s.nrows();
         let mode = self.modes.get(sys);
+        let bins_before = mode.bin_builds();
         let mut out = std::mem::take(&mut self.z);
         for j in 0..n {
             self.column.fill(0.0);
@@ -1189,6 +1202,7 @@ impl ExactPropagator {
             mode.apply(tau, &self.column, &mut out);
             s.column_mut(j).copy_from_slice(&out[..n]);
         }
+        self.stats.transitions += mode.bin_builds() - bins_before;
         self.z = out;
     }
 

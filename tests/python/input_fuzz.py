@@ -292,7 +292,16 @@ def case_counts(rng):
     if k == 6:
         return lambda: geardyn.simulate(s, max_rows=bad64)
     if k == 7:
-        return lambda: geardyn.simulate(s, work_budget=rng.choice([-1.0, 0.0, 0.5, float("nan"), float("inf"), "x"]))
+        # Every analysis takes work_budget= and checks it before any work.
+        budget = rng.choice([-1.0, 0.0, 0.5, float("nan"), float("inf"), "x"])
+        return rng.choice(
+            [
+                lambda: geardyn.simulate(s, work_budget=budget),
+                lambda: geardyn.periodic(s, work_budget=budget),
+                lambda: geardyn.sweep(s, "300:400:3", work_budget=budget),
+                lambda: geardyn.hb(s, "300:400", work_budget=budget),
+            ]
+        )
     return lambda: geardyn.simulate(s, max_periods=rng.choice([-1.0, 0.0, float("nan"), "x"]))
 
 

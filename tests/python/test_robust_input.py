@@ -87,6 +87,25 @@ def outcome(code: str) -> str:
         ("geardyn.simulate(s, work_budget=-1)", ["ValueError", "work_budget = -1"]),
         # The work budget: a run beyond it stops, naming the likely cause.
         ("geardyn.simulate(s, work_budget=1e5)", ["GeardynError", "work budget of 1e5", "likely cause"]),
+        # Every analysis takes work_budget= (issue 34 item 2), checked like simulate's and
+        # the CLI's --work-budget, the error naming the Python argument.
+        ("geardyn.periodic(s, work_budget=-1)", ["ValueError", "work_budget = -1"]),
+        ('geardyn.sweep(s, "300:400:3", work_budget=float("nan"))', ["ValueError", "work_budget = NaN"]),
+        ('geardyn.hb(s, "300:400", work_budget=0)', ["ValueError", "work_budget = 0"]),
+        ('geardyn.hb(s, "300:400", work_budget=float("inf"))', ["ValueError", "work_budget = inf"]),
+        ('geardyn.sweep(s, "300:400:3", work_budget="x")', ["TypeError", "work_budget"]),
+        # A run beyond the budget raises, naming the likely cause; a sweep keeps the point as
+        # a row of NaN (as `geardyn sweep` does) and warns with the cause.
+        ("geardyn.periodic(s, work_budget=1e4)", ["GeardynError", "work budget of 1e4", "likely cause"]),
+        ('geardyn.hb(s, "300:400", work_budget=1e4)', ["GeardynError", "work budget of 1e4", "likely cause"]),
+        (
+            """
+            import warnings
+            warnings.simplefilter("error")
+            geardyn.sweep(s, "300:400:3", work_budget=1e4)
+            """,
+            ["RuntimeWarning", "speed 300 rad/s failed", "work budget of 1e4", "likely cause"],
+        ),
         # Rows held in memory are bounded before they are allocated.
         (
             """
@@ -109,6 +128,22 @@ def test_raised_limits_run():
         """
         r = geardyn.simulate(s, work_budget=1e9)
         assert len(r.time) == 2001, len(r.time)
+        """
+    )
+    assert got == "RETURNED", got
+
+
+def test_analyses_run_within_a_raised_budget():
+    """The analyses that work_budget=1e4 stops above run with a raised one, and a sweep
+    within its budget warns of nothing."""
+    got = outcome(
+        """
+        import warnings
+        warnings.simplefilter("error")
+        o = geardyn.periodic(s, work_budget=1e10)
+        assert o.stability, o
+        t = geardyn.sweep(s, "300:400:3", direction="up", work_budget=1e10)
+        assert len(t.data) == 3, t.data
         """
     )
     assert got == "RETURNED", got

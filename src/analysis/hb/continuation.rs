@@ -6,6 +6,7 @@ use nalgebra::{Complex, DMatrix, DVector};
 use super::problem::{Evaluation, Problem, Want};
 use super::{HbOptions, HbSolution};
 use crate::analysis::shooting::PeriodMap;
+use crate::analysis::Report;
 use crate::model::{Drivetrain, SceneSource};
 use crate::scene::SolverSettings;
 use crate::simulation::Driver;
@@ -74,6 +75,17 @@ pub fn continuation(
     hb: &HbOptions,
     options: &ContinuationOptions,
 ) -> Result<Vec<BranchPoint>, String> {
+    continuation_reporting(scene, hb, options, &|_, _| {})
+}
+
+/// [`continuation`], reporting each branch point (the speed reached of the interval) and the
+/// stability step to `report`.
+pub fn continuation_reporting(
+    scene: &impl SceneSource,
+    hb: &HbOptions,
+    options: &ContinuationOptions,
+    report: Report,
+) -> Result<Vec<BranchPoint>, String> {
     if !(options.from > 0.0 && options.to.is_finite() && options.from.is_finite())
         || options.from == options.to
     {
@@ -88,7 +100,7 @@ pub fn continuation(
     let settings = scene.solver.clone();
     with_drivetrain!(scene.simulation()?, sim => {
         let problem = Problem::new(sim.model().clone(), settings, hb)?;
-        continue_branch(problem, sim, hb, options)
+        continue_branch(problem, sim, hb, options, report)
     })
 }
 
@@ -97,6 +109,7 @@ fn continue_branch<M: Drivetrain + Send>(
     sim: Driver<M>,
     hb: &HbOptions,
     options: &ContinuationOptions,
+    report: Report,
 ) -> Result<Vec<BranchPoint>, String> {
     let f_ref = problem.f;
     let (f_lo, f_hi) = (
@@ -211,6 +224,18 @@ fn continue_branch<M: Drivetrain + Send>(
         tangent = next;
         let f = w[dim] * f_ref;
         points.push(make_point(&problem, f, &e, iterations, fold));
+        let speed = points[points.len() - 1].speed;
+        report(
+            ((speed - options.from) / (options.to - options.from)).clamp(0.0, 1.0),
+            &|| {
+                format!(
+                    "hb: {} branch points, input speed {speed:.6} rad/s of {} to {}",
+                    points.len(),
+                    options.from,
+                    options.to
+                )
+            },
+        );
         if f < f_lo || f > f_hi {
             break;
         }
@@ -223,6 +248,12 @@ fn continue_branch<M: Drivetrain + Send>(
         };
     }
     if options.stability {
+        report(f64::NAN, &|| {
+            format!(
+                "hb: Floquet multipliers of {} branch points (shooting)",
+                points.len()
+            )
+        });
         branch_stability(&problem, &mut points);
     }
     Ok(points)

@@ -59,7 +59,7 @@ mod evaluate;
 mod problem;
 mod statistics;
 
-pub use continuation::{continuation, BranchPoint, ContinuationOptions};
+pub use continuation::{continuation, continuation_reporting, BranchPoint, ContinuationOptions};
 
 use std::f64::consts::TAU;
 

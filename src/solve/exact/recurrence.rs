@@ -178,7 +178,9 @@ impl Recurrences {
 
     /// The decision of a reference for the segment of duration `tau` from `z`, if one holds.
     /// `rows` are the mode's guard rows (`r_0 = w`, `r_1 = Aᵀw`); `tol` is the root-finding
-    /// tolerance of the full search.
+    /// tolerance of the full search. Inlined into its one caller
+    /// ([`super::transition::ModeTransitions::decide_recurring`]).
+    #[inline(always)]
     pub fn decide(
         &mut self,
         rows: &[DerivativeRows],
@@ -283,7 +285,10 @@ fn sized_mut<const N: usize>(s: &mut [f64]) -> &mut [f64] {
 }
 
 impl Reference {
+    /// Inlined into its one caller ([`Recurrences::decide`]): a call per segment and
+    /// reference costs as much as the decision of a recurring one.
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     fn decide(
         &self,
         rows: &[DerivativeRows],

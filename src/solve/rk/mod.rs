@@ -380,6 +380,14 @@ impl RkStepper {
         self.work_until = until;
     }
 
+    /// Starts a scope of the owner's budget ([`RkStepper::set_work_limit`] at the cumulative
+    /// work now plus `limit`; `None`: unbounded) and returns that work.
+    pub fn start_work_scope(&mut self, limit: Option<f64>) -> f64 {
+        let work = self.work();
+        self.work_until = limit.map(|limit| work + limit);
+        work
+    }
+
     /// The work of all step attempts and guard evaluations so far, at the prices set
     /// ([`crate::solve::work`]).
     pub fn work(&self) -> f64 {
