@@ -49,6 +49,7 @@ mod expm;
 mod guard_series;
 pub mod mat_vec;
 mod recurrence;
+pub mod segment_series;
 mod series_segment;
 #[cfg(test)]
 mod test_support;
@@ -66,6 +67,7 @@ use composite::{Composites, Lookup, Step};
 use crossing::{first_crossing, root_tolerance, Crossing, Workspace};
 use guard_series::DerivativeRows;
 use recurrence::Decision;
+use segment_series::{Segment, SegmentObserver, SeriesBuffers, Unobserved};
 use series_segment::SeriesWorkspace;
 use transition::ModeTransitions;
 
@@ -454,6 +456,8 @@ pub struct ExactPropagator {
     /// in the counters).
     exp_units: f64,
     guard_samples: f64,
+    /// The windows' terms of the segment an observer looks into ([`segment_series`]).
+    observed: SeriesBuffers,
 }
 
 /// Events allowed at one instant before the propagation gives up (Zeno guard).
@@ -604,6 +608,7 @@ impl ExactPropagator {
             work_limit: None,
             exp_units: 0.0,
             guard_samples: 0.0,
+            observed: SeriesBuffers::default(),
         }
     }
 
@@ -791,16 +796,29 @@ impl ExactPropagator {
         sys: &mut S,
         t_end: f64,
     ) -> Result<(), SolveError> {
+        self.advance_observed(sys, t_end, &mut Unobserved)
+    }
+
+    /// [`ExactPropagator::advance_to`], handing every segment to `observer` with the system
+    /// still in the segment's mode ([`segment_series`]: the state anywhere inside it from the
+    /// segment's start and its mode's matrix, without re-integration). Recurring guard-free
+    /// sequences are then propagated segment by segment, not as one composite product.
+    pub fn advance_observed<S: PiecewiseLti, O: SegmentObserver<S>>(
+        &mut self,
+        sys: &mut S,
+        t_end: f64,
+        observer: &mut O,
+    ) -> Result<(), SolveError> {
         let mut meter = AdvanceMeter {
             exp_work0: 0.0,
             samples_left: MAX_GUARD_SAMPLES_PER_ADVANCE,
         };
         if self.work_limit.is_none() {
             // Unbounded: the exponentials and samples are metered only under a limit.
-            return self.advance_metered(sys, t_end, &mut meter);
+            return self.advance_metered(sys, t_end, &mut meter, observer);
         }
         meter.exp_work0 = balanced::exp_work();
-        let result = self.advance_metered(sys, t_end, &mut meter);
+        let result = self.advance_metered(sys, t_end, &mut meter, observer);
         self.exp_units += balanced::exp_work() - meter.exp_work0;
         self.guard_samples += meter.samples();
         result
@@ -808,11 +826,12 @@ impl ExactPropagator {
 
     /// [`ExactPropagator::advance_to`], given where the meter stood at its start (the guard
     /// samples left on return were not taken).
-    fn advance_metered<S: PiecewiseLti>(
+    fn advance_metered<S: PiecewiseLti, O: SegmentObserver<S>>(
         &mut self,
         sys: &mut S,
         t_end: f64,
         meter: &mut AdvanceMeter,
+        observer: &mut O,
     ) -> Result<(), SolveError> {
         if t_end < self.t {
             return Err(SolveError::BackwardTime { t: self.t, t_end });
@@ -835,6 +854,7 @@ impl ExactPropagator {
         let mut stalled_stops = 0u64;
         while self.t < t_end {
             if self.composites
+                && !O::ACTIVE
                 && self.sensitivity.is_none()
                 && sys.guard_count() == 0
                 && sys.stops_independent_of_state()
@@ -985,6 +1005,16 @@ impl ExactPropagator {
                     }
                 };
                 if let Some(found) = found {
+                    if O::ACTIVE && found.tau > 0.0 {
+                        let mut segment = Segment::new(
+                            self.t,
+                            self.t + found.tau,
+                            &self.z,
+                            mode.balanced(),
+                            &mut self.observed,
+                        );
+                        observer.segment(sys, &mut segment);
+                    }
                     // The event state from the segment's start: in a periodic steady state
                     // τ* recurs, so this is one mat-vec of a cached bin.
                     let z_event = &mut self.z_event;
@@ -1023,6 +1053,16 @@ impl ExactPropagator {
                 }
             } else {
                 mode.apply(tau, &self.z, &mut self.z_next);
+            }
+            if O::ACTIVE {
+                let mut segment = Segment::new(
+                    self.t,
+                    target,
+                    &self.z,
+                    self.modes.modes[position].balanced(),
+                    &mut self.observed,
+                );
+                observer.segment(sys, &mut segment);
             }
             // Checked before it replaces `y`: on error the propagator holds the last finite
             // state at `t`, as the RK stepper does.
