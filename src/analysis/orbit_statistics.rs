@@ -4,12 +4,8 @@
 //!
 //! The stretch is cut into cells at every known switching instant (each mesh's stiffness and
 //! gap breakpoints, [`Drivetrain::mesh_breakpoints`]) and at a grid short enough for the
-//! fastest mode (`h·ω_max ≤ 3`, at least four cells per period of the first mesh). The run
-//! counts its state events; a cell in which any occurred is searched for them with a probe run
-//! restarted at the cell's start ([`Driver::restart`]): the k-th event is bracketed by the
-//! event count, then located by Brent's method on the guard that crossed
-//! ([`crate::solve::roots::brent_bracket`]), to about 1e-13 of the cell. Between switching
-//! instants the solution is smooth (analytic on an exact segment), so:
+//! fastest mode (`h·ω_max ≤ 3`, at least four cells per period of the first mesh). Between
+//! switching instants the solution is smooth (analytic on an exact segment), so:
 //!
 //! - **contact loss**: the fraction of the stretch, and the separation phase, come from the
 //!   located event times (the mode, hence the contact state, is constant between them);
@@ -17,14 +13,26 @@
 //!   piece; with `h·ω_max ≤ 3` its error on `e^{iωt}` and its square is below 1e-14 of the
 //!   integrand's size (`(n!)⁴/((2n+1)((2n)!)³)·(2hω)^{2n}`, n = 10);
 //! - **extremes** (peak |force|, DTE peak to peak): the largest sample of each smooth piece
-//!   (the nodes, and its one-sided limits 1e-11 of a cell inside a switching instant, where the
-//!   force jumps), refined between its neighbours by Brent's maximisation
-//!   ([`crate::solve::roots::brent_maximum`]) for every piece whose sample comes within 2 % of
-//!   the quantity's spread of the best.
+//!   (its nodes and its ends, where the force may jump), refined between its neighbours by
+//!   successive parabolas or Brent's maximisation ([`crate::solve::roots::brent_maximum`]).
 //!
-//! On the exact propagator the values are those of the exact solution to the root and rule
-//! tolerances above (about 1e-12 relative). On the RK propagator they are those of the RK
-//! solution, which stops at the nodes: its error is the integration tolerance
+//! **On the exact propagator** ([`record_observed`]) the run advances cell by cell and hands
+//! over every segment it takes, with the model still in the segment's mode
+//! ([`Driver::advance_observed`]): a segment's ends are the run's own stops and located
+//! events (located by the propagator to a few ulps of the time), and every value inside it —
+//! nodes, one-sided limits at its ends, the evaluations of the refinement — comes from the
+//! segment's start state and its mode's matrix by a Taylor series
+//! ([`crate::solve::exact::segment_series`]), exact to rounding, with no probe run and no
+//! copy of the model. Every piece's maximum is refined.
+//!
+//! **Elsewhere** (RK, speed or torque profiles: [`record_probed`]) the run counts its state
+//! events; a cell in which any occurred is searched for them with a probe run restarted at the
+//! cell's start ([`Driver::restart`]): the k-th event is bracketed by the event count, then
+//! located by Brent's method on the guard that crossed
+//! ([`crate::solve::roots::brent_bracket`]), to about 1e-13 of the cell; the extremes whose
+//! samples come within 2 % of the quantity's spread of the best are refined on the probe, and
+//! one-sided limits are taken 1e-11 of a cell inside a switching instant. The values are those
+//! of the RK solution, which stops at the nodes: its error is the integration tolerance
 //! (`solver.rtol`, `solver.atol`), not a sampling error (`docs/sweep.md`).
 
 use std::f64::consts::TAU;
@@ -33,6 +41,7 @@ use super::mesh_response::MeshResponse;
 use crate::model::Drivetrain;
 use crate::scene::SolverSettings;
 use crate::simulation::Driver;
+use crate::solve::exact::segment_series::{Segment, SegmentObserver};
 use crate::solve::roots::{brent_bracket, brent_maximum};
 
 /// 10-point Gauss–Legendre rule on [−1, 1] (Abramowitz & Stegun, Table 25.4).
@@ -55,7 +64,8 @@ const CELL_OMEGA: f64 = 3.0;
 /// Fewest cells per period of the first mesh.
 const MIN_CELLS: usize = 4;
 
-/// One-sided limits are taken this fraction of a cell inside a switching instant.
+/// One-sided limits of the probed path are taken this fraction of a cell inside a switching
+/// instant.
 const ONE_SIDED: f64 = 1e-11;
 
 /// Boundaries closer than this fraction of a cell are merged.
@@ -176,21 +186,17 @@ fn piece_times(
     (times, nodes)
 }
 
-/// Each mesh's response over `duration` seconds from the run's current state, which the run
-/// advances to its end. `duration` spans whole periods of the first mesh; with `poincare` the
-/// DTE at the start of every period of the first mesh is kept. `settings` are the run's
-/// solver settings (for the probe run that locates events and refines extremes).
-pub fn record<M: Drivetrain>(
-    sim: &mut Driver<M>,
-    settings: &SolverSettings,
-    duration: f64,
-    poincare: bool,
-) -> Result<Vec<MeshResponse>, String> {
-    let model = sim.model().clone();
+/// The cells of a recorded stretch: `(time, switches there, ends a period of the first mesh)`
+/// per boundary, and the grid step.
+struct Cells {
+    bounds: Vec<(f64, bool, bool)>,
+    h: f64,
+}
+
+fn cells<M: Drivetrain>(model: &M, t0: f64, duration: f64) -> Cells {
     let meshes = model.mesh_count();
     let f1 = model.mesh_frequency(0);
     let cycles = (duration * f1).round().max(1.0) as usize;
-    let t0 = sim.t();
     let t_end = t0 + duration;
     let period1 = duration / cycles as f64;
     let per_cycle = ((period1 * model.max_frequency() / CELL_OMEGA).ceil() as usize).max(MIN_CELLS);
@@ -234,11 +240,11 @@ pub fn record<M: Drivetrain>(
             _ => merged.push(b),
         }
     }
-    let bounds = merged;
-    let inset = ONE_SIDED * h;
-    let mut probe = Driver::with_model(model.clone(), sim.y(), settings)?;
-    let first = values(sim, meshes);
-    let mut sums: Vec<Sums> = first
+    Cells { bounds: merged, h }
+}
+
+fn new_sums(first: &[Value]) -> Vec<Sums> {
+    first
         .iter()
         .map(|v| Sums {
             force_ref: v.force,
@@ -254,7 +260,186 @@ pub fn record<M: Drivetrain>(
             candidates: Default::default(),
             poincare: Vec::new(),
         })
-        .collect();
+        .collect()
+}
+
+/// Each mesh's response from its sums and refined extremes (`[|force|, DTE, −DTE]`).
+fn responses<M: Drivetrain>(
+    model: &M,
+    sums: &mut [Sums],
+    extremes: &[[f64; EXTREMES]],
+    duration: f64,
+) -> Vec<MeshResponse> {
+    let statics = model.static_mesh_forces();
+    let mut out = Vec::with_capacity(sums.len());
+    for (m, s) in sums.iter_mut().enumerate() {
+        let extremes = extremes[m];
+        let force_mean = s.force / duration;
+        let dte_mean = s.dte / duration;
+        let harmonic = |h: usize| {
+            let (re, im) = s.harmonics[h];
+            2.0 * re.hypot(im) / duration
+        };
+        out.push(MeshResponse {
+            prefix: model.mesh_prefix(m),
+            mesh_frequency: model.mesh_frequency(m),
+            dte_mean: s.dte_ref + dte_mean,
+            dte_rms: (s.dte2 / duration - dte_mean * dte_mean).max(0.0).sqrt(),
+            dte_peak_to_peak: extremes[1] + extremes[2],
+            harmonics: [harmonic(0), harmonic(1), harmonic(2)],
+            contact_loss_fraction: s.lost_time / duration,
+            separation_phase: s.separation,
+            peak_force: extremes[0],
+            force_rms: (s.force2 / duration - force_mean * force_mean)
+                .max(0.0)
+                .sqrt(),
+            dynamic_factor: extremes[0] / statics[m].abs(),
+            poincare: std::mem::take(&mut s.poincare),
+        });
+    }
+    out
+}
+
+/// Each mesh's response over `duration` seconds from the run's current state, which the run
+/// advances to its end. `duration` spans whole periods of the first mesh; with `poincare` the
+/// DTE at the start of every period of the first mesh is kept. `settings` are the run's
+/// solver settings (for the probe run of the RK path).
+pub fn record<M: Drivetrain>(
+    sim: &mut Driver<M>,
+    settings: &SolverSettings,
+    duration: f64,
+    poincare: bool,
+) -> Result<Vec<MeshResponse>, String> {
+    let cells = cells(sim.model(), sim.t(), duration);
+    if sim.observes_segments() {
+        record_observed(sim, &cells, duration, poincare)
+    } else {
+        record_probed(sim, settings, &cells, duration, poincare)
+    }
+}
+
+/// The observer of [`record_observed`]: adds each segment of the run as a smooth piece.
+struct Recorder<'a> {
+    sums: &'a mut [Sums],
+    frequencies: &'a [f64],
+    t0: f64,
+    /// Each mesh's refined maxima of `[|force|, DTE, −DTE]` so far.
+    peaks: Vec<[f64; EXTREMES]>,
+    samples: Vec<(f64, Vec<Value>)>,
+    y: Vec<f64>,
+}
+
+impl<M: Drivetrain> SegmentObserver<M> for Recorder<'_> {
+    fn segment(&mut self, model: &M, segment: &mut Segment) {
+        let (lo, hi) = (segment.start(), segment.end());
+        if !(hi > lo) {
+            return;
+        }
+        let meshes = self.sums.len();
+        // The piece's samples: its ends (the one-sided limits of the mode there) and the
+        // Gauss nodes between.
+        let (mid, half) = (0.5 * (lo + hi), 0.5 * (hi - lo));
+        let times = std::iter::once(lo)
+            .chain(GAUSS10.iter().map(|(x, _)| mid + half * x))
+            .chain(std::iter::once(hi));
+        let mut y = std::mem::take(&mut self.y);
+        let mut samples = std::mem::take(&mut self.samples);
+        samples.resize_with(GAUSS10.len() + 2, || (0.0, Vec::new()));
+        for (t, sample) in times.zip(samples.iter_mut()) {
+            segment.state(t, &mut y);
+            sample.0 = t;
+            sample.1.clear();
+            sample.1.extend((0..meshes).map(|m| value(model, m, t, &y)));
+        }
+        let piece = Piece {
+            lo,
+            hi,
+            samples: &samples,
+            nodes: 1..GAUSS10.len() + 1,
+        };
+        add_piece(self.sums, &piece, 0, self.frequencies, self.t0, model);
+        for (m, s) in self.sums.iter_mut().enumerate() {
+            for which in 0..EXTREMES {
+                let c = s.candidates[which]
+                    .pop()
+                    .expect("add_piece adds one per quantity");
+                // Every piece's maximum is refined: the series makes an evaluation cheap, and
+                // a margin over the pieces seen so far would skip a piece whose maximum lies
+                // between its samples before the spread of the stretch is known.
+                let mut g = |t: f64| {
+                    segment.state(t, &mut y);
+                    quantity(&value(model, m, t, &y), which)
+                };
+                let peak = &mut self.peaks[m][which];
+                *peak = peak.max(c.value).max(refine_candidate(&mut g, &c));
+            }
+        }
+        self.y = y;
+        self.samples = samples;
+    }
+}
+
+fn value<M: Drivetrain>(model: &M, m: usize, t: f64, y: &[f64]) -> Value {
+    let s = model.mesh_sample(m, t, y);
+    Value {
+        dte: s.dte,
+        force: s.force,
+        lost: s.lost,
+    }
+}
+
+/// [`record`] on the exact propagator: the run advances cell by cell and its segments are
+/// the smooth pieces.
+fn record_observed<M: Drivetrain>(
+    sim: &mut Driver<M>,
+    cells: &Cells,
+    duration: f64,
+    poincare: bool,
+) -> Result<Vec<MeshResponse>, String> {
+    let meshes = sim.model().mesh_count();
+    let frequencies: Vec<f64> = (0..meshes).map(|m| sim.model().mesh_frequency(m)).collect();
+    let mut sums = new_sums(&values(sim, meshes));
+    let mut recorder = Recorder {
+        sums: &mut sums,
+        frequencies: &frequencies,
+        t0: sim.t(),
+        peaks: vec![[f64::NEG_INFINITY; EXTREMES]; meshes],
+        samples: Vec::new(),
+        y: vec![0.0; sim.y().len()],
+    };
+    for &(b, _, cycle_end) in &cells.bounds[1..] {
+        let observed = sim
+            .advance_observed(b, &mut recorder)
+            .map_err(|e| e.to_string())?;
+        debug_assert!(
+            observed,
+            "record_observed on a run without observable segments"
+        );
+        if poincare && cycle_end {
+            for (s, v) in recorder.sums.iter_mut().zip(values(sim, meshes)) {
+                s.poincare.push(v.dte);
+            }
+        }
+    }
+    let extremes = std::mem::take(&mut recorder.peaks);
+    Ok(responses(sim.model(), &mut sums, &extremes, duration))
+}
+
+/// [`record`] by a probe run restarted at a cell's start (the RK propagator, profiles).
+fn record_probed<M: Drivetrain>(
+    sim: &mut Driver<M>,
+    settings: &SolverSettings,
+    cells: &Cells,
+    duration: f64,
+    poincare: bool,
+) -> Result<Vec<MeshResponse>, String> {
+    let model = sim.model().clone();
+    let meshes = model.mesh_count();
+    let t0 = sim.t();
+    let bounds = &cells.bounds;
+    let inset = ONE_SIDED * cells.h;
+    let mut probe = Driver::with_model(model.clone(), sim.y(), settings)?;
+    let mut sums = new_sums(&values(sim, meshes));
     let frequencies: Vec<f64> = (0..meshes).map(|m| model.mesh_frequency(m)).collect();
     let mut starts: Vec<Start<M::RunState>> = Vec::with_capacity(bounds.len());
     // A located event can land the propagator a few rounding units past a sample time that
@@ -325,37 +510,21 @@ pub fn record<M: Drivetrain>(
             }
         }
     }
-    let statics = model.static_mesh_forces();
-    let mut out = Vec::with_capacity(meshes);
-    for (m, s) in sums.iter_mut().enumerate() {
-        let mut extremes = [0.0; EXTREMES];
-        for (which, extreme) in extremes.iter_mut().enumerate() {
-            *extreme = refine(&mut probe, &starts, &s.candidates[which], m, which)?;
+    let mut extremes = Vec::with_capacity(meshes);
+    for s in &sums {
+        let mut e = [0.0; EXTREMES];
+        for (which, extreme) in e.iter_mut().enumerate() {
+            *extreme = refine(
+                &mut probe,
+                &starts,
+                &s.candidates[which],
+                extremes.len(),
+                which,
+            )?;
         }
-        let force_mean = s.force / duration;
-        let dte_mean = s.dte / duration;
-        let harmonic = |h: usize| {
-            let (re, im) = s.harmonics[h];
-            2.0 * re.hypot(im) / duration
-        };
-        out.push(MeshResponse {
-            prefix: model.mesh_prefix(m),
-            mesh_frequency: frequencies[m],
-            dte_mean: s.dte_ref + dte_mean,
-            dte_rms: (s.dte2 / duration - dte_mean * dte_mean).max(0.0).sqrt(),
-            dte_peak_to_peak: extremes[1] + extremes[2],
-            harmonics: [harmonic(0), harmonic(1), harmonic(2)],
-            contact_loss_fraction: s.lost_time / duration,
-            separation_phase: s.separation,
-            peak_force: extremes[0],
-            force_rms: (s.force2 / duration - force_mean * force_mean)
-                .max(0.0)
-                .sqrt(),
-            dynamic_factor: extremes[0] / statics[m].abs(),
-            poincare: std::mem::take(&mut s.poincare),
-        });
+        extremes.push(e);
     }
-    Ok(out)
+    Ok(responses(&model, &mut sums, &extremes, duration))
 }
 
 /// Adds a smooth piece of cell `cell` to every mesh's sums and candidates.
@@ -466,20 +635,25 @@ fn refine<M: Drivetrain>(
                 }
             }
         };
-        let tol = (PEAK_TOL * (c.hi - c.lo)).max(8.0 * f64::EPSILON * c.hi.abs());
-        let v = match (c.below, c.above) {
-            (Some(fl), Some(fh)) => {
-                parabolic_maximum(&mut g, [(c.lo, fl), (c.at, c.value), (c.hi, fh)], tol)
-            }
-            _ => None,
-        }
-        .unwrap_or_else(|| brent_maximum(&mut g, c.lo, c.hi, tol).1);
+        let v = refine_candidate(&mut g, c);
         if let Some(e) = failure {
             return Err(e);
         }
         result = result.max(v);
     }
     Ok(result)
+}
+
+/// The maximum of `g` around candidate `c`: parabolic steps from its samples, else Brent.
+fn refine_candidate(g: &mut dyn FnMut(f64) -> f64, c: &Candidate) -> f64 {
+    let tol = (PEAK_TOL * (c.hi - c.lo)).max(8.0 * f64::EPSILON * c.hi.abs());
+    match (c.below, c.above) {
+        (Some(fl), Some(fh)) => {
+            parabolic_maximum(g, [(c.lo, fl), (c.at, c.value), (c.hi, fh)], tol)
+        }
+        _ => None,
+    }
+    .unwrap_or_else(|| brent_maximum(g, c.lo, c.hi, tol).1)
 }
 
 /// Successive parabolic interpolation from three samples `lo < at < hi` with the largest value

@@ -7,6 +7,7 @@
 use super::budget::{self, Exhaustion, WorkBudget};
 use super::scales::RunScales;
 use crate::scene::{MethodChoice, SolverSettings};
+use crate::solve::exact::segment_series::SegmentObserver;
 use crate::solve::exact::{ExactPropagator, PiecewiseLti};
 use crate::solve::rk::{ControllerMemory, RkOptions, RkStepper};
 use crate::solve::work::WorkPrices;
@@ -379,6 +380,39 @@ impl<M: DrivenModel> Driver<M> {
             *e = self.over_budget();
         }
         result
+    }
+
+    /// [`Driver::advance_to`] that hands every segment of the exact propagator to
+    /// `observer`, with the model in the segment's mode ([`SegmentObserver`]: the state
+    /// anywhere inside a segment without re-integration). `Ok(false)`, nothing advanced,
+    /// where the run has no such segments: on the RK propagator, or with speed or torque
+    /// profiles (the caller then samples the run itself).
+    pub fn advance_observed<O: SegmentObserver<M>>(
+        &mut self,
+        t_end: f64,
+        observer: &mut O,
+    ) -> Result<bool, SolveError> {
+        if self.model.profiles().is_some() {
+            return Ok(false);
+        }
+        let Propagator::Exact(p) = &mut self.propagator else {
+            return Ok(false);
+        };
+        let t = p.t();
+        if t_end != t {
+            if let Err(reason) = self.model.check_advance(t, t_end) {
+                return Err(SolveError::BeyondLimits { t, reason });
+            }
+        }
+        match p.advance_observed(&mut self.model, t_end, observer) {
+            Err(SolveError::OverBudget { .. }) => Err(self.over_budget()),
+            other => other.map(|()| true),
+        }
+    }
+
+    /// Whether [`Driver::advance_observed`] observes this run's segments.
+    pub fn observes_segments(&self) -> bool {
+        self.model.profiles().is_none() && matches!(self.propagator, Propagator::Exact(_))
     }
 
     /// The error of an exhausted budget, with the message naming the likely cause.

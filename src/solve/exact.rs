@@ -49,6 +49,7 @@ mod expm;
 mod guard_series;
 pub mod mat_vec;
 mod recurrence;
+pub mod segment_series;
 mod series_segment;
 #[cfg(test)]
 mod test_support;
@@ -66,6 +67,7 @@ use composite::{Composites, Lookup, Step};
 use crossing::{first_crossing, root_tolerance, Crossing, Workspace};
 use guard_series::DerivativeRows;
 use recurrence::Decision;
+use segment_series::{Segment, SegmentObserver, SeriesBuffers, Unobserved};
 use series_segment::SeriesWorkspace;
 use transition::ModeTransitions;
 
@@ -454,6 +456,8 @@ pub struct ExactPropagator {
     /// in the counters).
     exp_units: f64,
     guard_samples: f64,
+    /// The windows' terms of the segment an observer looks into ([`segment_series`]).
+    observed: SeriesBuffers,
 }
 
 /// Events allowed at one instant before the propagation gives up (Zeno guard).
@@ -604,6 +608,7 @@ impl ExactPropagator {
             work_limit: None,
             exp_units: 0.0,
             guard_samples: 0.0,
+            observed: SeriesBuffers::default(),
         }
     }
 
@@ -811,14 +816,27 @@ impl ExactPropagator {
         sys: &mut S,
         t_end: f64,
     ) -> Result<(), SolveError> {
+        self.advance_observed(sys, t_end, &mut Unobserved)
+    }
+
+    /// [`ExactPropagator::advance_to`], handing every segment to `observer` with the system
+    /// still in the segment's mode ([`segment_series`]: the state anywhere inside it from the
+    /// segment's start and its mode's matrix, without re-integration). Recurring guard-free
+    /// sequences are then propagated segment by segment, not as one composite product.
+    pub fn advance_observed<S: PiecewiseLti, O: SegmentObserver<S>>(
+        &mut self,
+        sys: &mut S,
+        t_end: f64,
+        observer: &mut O,
+    ) -> Result<(), SolveError> {
         // Unbounded, the exponentials and samples are not metered (one call site of the
-        // loop, so that it is inlined here as an unmetered propagator's was).
+        // loop per observer, so that it is inlined here as an unmetered propagator's was).
         let metered = self.work_limit.is_some();
         let mut meter = AdvanceMeter {
             exp_work0: if metered { balanced::exp_work() } else { 0.0 },
             samples_left: MAX_GUARD_SAMPLES_PER_ADVANCE,
         };
-        let result = self.advance_metered(sys, t_end, &mut meter);
+        let result = self.advance_metered(sys, t_end, &mut meter, observer);
         if metered {
             self.exp_units += balanced::exp_work() - meter.exp_work0;
             self.guard_samples += meter.samples();
@@ -829,11 +847,12 @@ impl ExactPropagator {
     /// [`ExactPropagator::advance_to`], given where the meter stood at its start (the guard
     /// samples left on return were not taken).
     #[inline(always)]
-    fn advance_metered<S: PiecewiseLti>(
+    fn advance_metered<S: PiecewiseLti, O: SegmentObserver<S>>(
         &mut self,
         sys: &mut S,
         t_end: f64,
         meter: &mut AdvanceMeter,
+        observer: &mut O,
     ) -> Result<(), SolveError> {
         if t_end < self.t {
             return Err(SolveError::BackwardTime { t: self.t, t_end });
@@ -853,6 +872,7 @@ impl ExactPropagator {
         let mut stalled_stops = 0u64;
         while self.t < t_end {
             if self.composites
+                && !O::ACTIVE
                 && self.sensitivity.is_none()
                 && sys.guard_count() == 0
                 && sys.stops_independent_of_state()
@@ -1000,6 +1020,16 @@ impl ExactPropagator {
                     }
                 };
                 if let Some(found) = found {
+                    if O::ACTIVE && found.tau > 0.0 {
+                        let mut segment = Segment::new(
+                            self.t,
+                            self.t + found.tau,
+                            &self.z,
+                            mode.balanced(),
+                            &mut self.observed,
+                        );
+                        observer.segment(sys, &mut segment);
+                    }
                     // The event state from the segment's start: in a periodic steady state
                     // τ* recurs, so this is one mat-vec of a cached bin.
                     let z_event = &mut self.z_event;
@@ -1041,6 +1071,16 @@ impl ExactPropagator {
                 mode.apply(tau, &self.z, &mut self.z_next);
             }
             self.stats.transitions += mode.bin_builds() - bins_before;
+            if O::ACTIVE {
+                let mut segment = Segment::new(
+                    self.t,
+                    target,
+                    &self.z,
+                    self.modes.modes[position].balanced(),
+                    &mut self.observed,
+                );
+                observer.segment(sys, &mut segment);
+            }
             // Checked before it replaces `y`: on error the propagator holds the last finite
             // state at `t`, as the RK stepper does.
             if !self.z_next[..n].iter().all(|v| v.is_finite()) {
