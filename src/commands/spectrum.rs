@@ -4,7 +4,8 @@
 use std::path::Path;
 
 use crate::analysis::spectrum::{
-    exact_dft, label_lines, model_aliasing_warning, windowed_fft, OrderLabel, Spectrum, Window,
+    exact_dft, label_lines, model_aliasing_warning, orbit_lines, windowed_fft, OrderLabel,
+    Spectrum, Window,
 };
 use crate::analysis::{shoot_reporting, Report, ShootingOptions};
 use crate::model::{response_period, Drivetrain};
@@ -51,7 +52,20 @@ pub struct SpectrumReport {
     /// Time spanned by the samples (an integer number of response periods), s.
     pub duration: f64,
     pub samples: usize,
+    /// How the lines were obtained.
+    pub method: Lines,
     pub signals: Vec<SignalSpectrum>,
+}
+
+/// How a [`SpectrumReport`]'s lines were obtained.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Lines {
+    /// Integrated over each exact segment of the orbit ([`orbit_lines`]): alias-free, the
+    /// same whatever `--samples` (which then sets only how many lines, `samples / 2`).
+    Integrated,
+    /// The DFT of `samples` uniform samples (the RK propagator, or a record that is not an
+    /// orbit): exact for a band-limited signal, aliased otherwise.
+    Sampled,
 }
 
 /// The unit of an output column, from the naming convention of `simulate`'s columns.
@@ -136,25 +150,35 @@ pub fn periodic_spectrum_reporting(
         let meshes = mesh_lines(model);
         let shafts = model.shafts();
         sim.set_y(0.0, &orbit.y0);
-        let mut samples = vec![Vec::with_capacity(n); columns.len()];
-        let mut row = Vec::new();
-        let mut taken = 0usize;
-        sim.sample((0..n).map(|j| j as f64 * duration / n as f64), |s, t| {
-            if taken.is_multiple_of(1024) {
-                report(taken as f64 / n as f64, &|| {
-                    format!("spectrum: sampling the orbit, {taken} of {n} samples")
-                });
+        // On the exact propagator the lines are integrated over each segment (alias-free);
+        // elsewhere the exact DFT of the samples.
+        report(0.0, &|| "spectrum: integrating the orbit's lines".to_owned());
+        let integrated = orbit_lines(&mut sim, &columns, duration, n / 2)?;
+        let method = if integrated.is_some() { Lines::Integrated } else { Lines::Sampled };
+        let spectra = match integrated {
+            Some(spectra) => spectra,
+            None => {
+                let mut samples = vec![Vec::with_capacity(n); columns.len()];
+                let mut row = Vec::new();
+                let mut taken = 0usize;
+                sim.sample((0..n).map(|j| j as f64 * duration / n as f64), |s, t| {
+                    if taken.is_multiple_of(1024) {
+                        report(taken as f64 / n as f64, &|| {
+                            format!("spectrum: sampling the orbit, {taken} of {n} samples")
+                        });
+                    }
+                    taken += 1;
+                    s.model().output_row(t, s.y(), &mut row);
+                    for (c, &col) in columns.iter().enumerate() {
+                        samples[c].push(row[col]);
+                    }
+                    Ok(())
+                })?;
+                samples.iter().map(|x| exact_dft(x, duration)).collect::<Result<_, _>>()?
             }
-            taken += 1;
-            s.model().output_row(t, s.y(), &mut row);
-            for (c, &col) in columns.iter().enumerate() {
-                samples[c].push(row[col]);
-            }
-            Ok(())
-        })?;
+        };
         let mut signals = Vec::new();
-        for (c, &col) in columns.iter().enumerate() {
-            let spectrum = exact_dft(&samples[c], duration)?;
+        for (spectrum, &col) in spectra.into_iter().zip(&columns) {
             let labels = label_lines(&spectrum.frequency, &meshes, &shafts, 0.25 * spectrum.resolution);
             signals.push(SignalSpectrum {
                 column: names[col].clone(),
@@ -163,7 +187,7 @@ pub fn periodic_spectrum_reporting(
                 labels,
             });
         }
-        Ok(SpectrumReport { scene: scene.name.to_string(), duration, samples: n, signals })
+        Ok(SpectrumReport { scene: scene.name.to_string(), duration, samples: n, method, signals })
     })
 }
 
@@ -334,7 +358,13 @@ pub fn record_spectrum(
             });
         }
         let samples = if exact { n - 1 } else { n };
-        Ok(SpectrumReport { scene: scene.name.to_string(), duration: span, samples, signals })
+        Ok(SpectrumReport {
+            scene: scene.name.to_string(),
+            duration: span,
+            samples,
+            method: Lines::Sampled,
+            signals,
+        })
     })
 }
 
@@ -374,14 +404,26 @@ pub fn spectrum_command(
         report.save_plot(path)?;
     }
     let mut text = String::new();
-    let _ = writeln!(
-        text,
-        "scene {}: exact DFT of {} samples over {:.6e} s (integer response periods) -> {}",
-        report.scene,
-        report.samples,
-        report.duration,
-        out.display()
-    );
+    match report.method {
+        Lines::Integrated => writeln!(
+            text,
+            "scene {}: {} lines integrated over each segment of the orbit (alias-free) over \
+             {:.6e} s (integer response periods) -> {}",
+            report.scene,
+            report.samples / 2 + 1,
+            report.duration,
+            out.display()
+        ),
+        Lines::Sampled => writeln!(
+            text,
+            "scene {}: exact DFT of {} samples over {:.6e} s (integer response periods) -> {}",
+            report.scene,
+            report.samples,
+            report.duration,
+            out.display()
+        ),
+    }
+    .map_err(|e| e.to_string())?;
     for s in &report.signals {
         // The five largest lines, with their orders.
         let mut k: Vec<usize> = (1..s.spectrum.amplitude.len()).collect();

@@ -4,6 +4,7 @@
 mod aliasing;
 mod dft;
 mod labels;
+mod orbit_fourier;
 mod waterfall;
 mod window;
 
@@ -12,5 +13,6 @@ pub use aliasing::{
 };
 pub use dft::{exact_dft, windowed_fft, Spectrum};
 pub use labels::{label_lines, OrderLabel, ShaftFrequency};
+pub use orbit_fourier::orbit_lines;
 pub use waterfall::{waterfall, Waterfall, WaterfallOptions};
 pub use window::Window;
