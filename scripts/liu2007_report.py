@@ -2054,12 +2054,31 @@ def geometry_section(ctx):
                  "solid: geometry pairs.*\n\n")
         L.append("Peak-to-peak loaded STE, mesh 1 / mesh 2, µm:\n\n")
         L.append(ste_table(ctx["ste"]))
+        ste = ctx["ste"]
+
+        def from_torque(model, relief):
+            """Lowest torque of the table from which the relief lowers the p-p STE of both
+            meshes at every larger torque of the table."""
+            ok = [all(ste[(model, relief, t)][i] < ste[(model, "none", t)][i] for i in (0, 1))
+                  for t in STE_TORQUES]
+            for j in range(len(ok)):
+                if all(ok[j:]):
+                    return f"from {STE_TORQUES[j]} N·m up"
+            return "at none of these torques"
+
+        def at100(model):
+            a = all(ste[(model, "A", 100)][i] < ste[(model, "none", 100)][i] for i in (0, 1))
+            b = [ste[(model, "B", 100)][i] > ste[(model, "none", 100)][i] for i in (0, 1)]
+            return ("A lowers and B raises it on both meshes" if a and all(b) else
+                    f"A {'lowers' if a else 'does not lower'} it on both meshes, B raises it on "
+                    f"{'both meshes' if all(b) else 'mesh 1 only' if b[0] else 'mesh 2 only' if b[1] else 'neither mesh'}")
         L.append("\nThe thesis' STE figures are lost; its text states only that at 100 N·m A "
                  "reduces and B increases the peak-to-peak STE (§1.11), and that the optimal "
-                 "relief depends on the torque (A at 50 N·m loses contact again). Both pair "
-                 "models agree with the first statement; the table shows the torque dependence "
-                 "of the second: relief that is too large for the load (B at every torque here, "
-                 "A at low torque) raises the STE.\n")
+                 "relief depends on the torque (A at 50 N·m loses contact again). At 100 N·m: "
+                 f"rectangular pairs: {at100('rect')}; geometry pairs: {at100('geom')}. "
+                 "Relief lowers the STE only above a torque: rectangular pairs A "
+                 f"{from_torque('rect', 'A')}, B {from_torque('rect', 'B')}; geometry pairs A "
+                 f"{from_torque('geom', 'A')}, B {from_torque('geom', 'B')} (in this table).\n")
     L.append("\n## Fitted and chosen inputs\n\n"
              "Inputs not printed in the thesis, chosen or fitted here (the rows they make true "
              "are marked 'by construction' and not counted):\n\n"
