@@ -505,7 +505,7 @@ fn progress_shows_on_a_pipe_only_when_asked_for() {
         ),
         (
             vec!["spectrum", "--example", "spur_pair", "--out", &csv],
-            &["progress: spectrum: sampling the orbit, "],
+            &["progress: spectrum: integrating the orbit's lines"],
         ),
         (
             vec!["waterfall", runup, "--out", &png],
