@@ -5,6 +5,7 @@
 //! extended window, the torque of each mesh is the static one, and bad input is refused with
 //! the field named.
 
+use geardyn::analysis::{sweep, Direction, SweepOptions};
 use geardyn::mesh::geometry::pairs::ETC_EXTENSION;
 use geardyn::mesh::geometry::MeshModel;
 use geardyn::scene::spec::GearPairSpec;
@@ -148,5 +149,73 @@ fn bad_geometry_pairs_are_refused_naming_the_field() {
         assert_ne!(text, SCENE, "edit for {want} did not apply");
         let e = Scene::from_toml_str(&text, "bad").unwrap_err().to_string();
         assert!(e.contains(want), "expected {want:?} in: {e}");
+    }
+}
+
+/// The Ch. 2 geometry scene at 50 N·m with relief A (10 µm) under `rtol`.
+fn relief_a_at_50_nm(rtol: f64) -> Scene {
+    let text = with_relief(1e-5)
+        .replace("input_torque = 100.0", "input_torque = 50.0")
+        .replace(
+            "method = \"auto\"",
+            &format!(
+                "method = \"auto\"\nrtol = {rtol:e}\natol = {:e}",
+                rtol * 1e-6
+            ),
+        );
+    assert!(text.contains("input_torque = 50.0") && text.contains("rtol = "));
+    Scene::from_toml_str(&text, "ch2_idler_geometry.toml (relief A, 50 N·m)").unwrap()
+}
+
+/// Regression (issue 36): sloped pair stiffness puts the scene on the RK integrator, and the
+/// sweep's recording of the orbit (`analysis::orbit_statistics`) restarts it at a cell's start
+/// for each of its probes. Every restart met the same contact event at the same time, and the
+/// count of "events without progress" was carried over the restarts: after 100 of them the
+/// healthy run failed with "state events without progress" (a row of NaN at 2210.5 rpm). The
+/// points must complete and agree with the same sweep at a 100× tighter tolerance.
+#[test]
+fn geometry_pair_sweep_point_survives_probe_restarts_and_matches_a_tighter_run() {
+    let speeds = vec![231.48, 231.486];
+    let run = |rtol: f64| {
+        let scene = relief_a_at_50_nm(rtol);
+        sweep(
+            &scene,
+            &SweepOptions::new(speeds.clone(), Direction::Up),
+            &|_, _| {},
+        )
+        .unwrap()
+        .points
+    };
+    let (nominal, tight) = (run(1e-9), run(1e-11));
+    for (a, b) in nominal.iter().zip(&tight) {
+        assert!(
+            a.converged && b.converged,
+            "speed {}: not converged",
+            a.speed
+        );
+        assert_eq!(a.response_periods, b.response_periods, "speed {}", a.speed);
+        for (ma, mb) in a.meshes.iter().zip(&b.meshes) {
+            let what = format!("speed {} {}", a.speed, ma.prefix);
+            assert!(ma.dte_rms.is_finite(), "{what}: the point failed (NaN row)");
+            let rel = |x: f64, y: f64| (x - y).abs() / y.abs();
+            assert!(
+                rel(ma.dte_rms, mb.dte_rms) < 1e-4,
+                "{what}: DTE RMS {} vs {}",
+                ma.dte_rms,
+                mb.dte_rms
+            );
+            assert!(
+                rel(ma.peak_force, mb.peak_force) < 1e-4,
+                "{what}: peak force {} vs {}",
+                ma.peak_force,
+                mb.peak_force
+            );
+            assert!(
+                (ma.contact_loss_fraction - mb.contact_loss_fraction).abs() < 1e-4,
+                "{what}: contact loss {} vs {}",
+                ma.contact_loss_fraction,
+                mb.contact_loss_fraction
+            );
+        }
     }
 }

@@ -47,6 +47,16 @@ impl EventState {
         self.valid = false;
     }
 
+    /// A restart at a given state: the guards are stale and the run of events without
+    /// progress is over. A caller that re-integrates from a saved state (the probes of
+    /// `analysis::orbit_statistics` go back to a cell's start many times) meets the same event
+    /// at the same time again; that is a new trajectory, not a storm, and counting it with the
+    /// previous runs' events failed healthy runs (issue 36: geometry pairs on the RK path).
+    pub fn restart(&mut self) {
+        self.valid = false;
+        self.storm = 0;
+    }
+
     /// Guard values at the step start, evaluated only after a (re)start.
     pub fn ensure_start<S: HybridSystem>(
         &mut self,

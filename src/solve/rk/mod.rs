@@ -311,7 +311,7 @@ impl RkStepper {
         self.y.copy_from_slice(y);
         self.fsal_valid = false;
         self.dense.valid = false;
-        self.ev.invalidate();
+        self.ev.restart();
         self.ctl.h = self.opts.h_init;
         self.ctl.err_old = 1e-4;
         self.ctl.last_rejected = false;
