@@ -796,7 +796,8 @@ def ch2(model="rect"):
     Cz["a2max"] = Cz[["mesh1.a2", "mesh2.a2"]].max(axis=1)
     failed = sum(int(d["mesh1.dte_rms"].isna().sum()) for d in (C, CA, Cz))
     fail_note = (f"; the solver failed at {failed} of {len(C) + len(CA) + len(Cz)} points of "
-                 "these sweeps (contact-event storms, see 'Runs'): the peak is over the others"
+                 "these sweeps (RK 'step size too small' or the work budget spent on long transients, "
+                 "see 'Runs'): the peak is over the others"
                  if failed else "")
     xa1, _ = peak(Cz, "a1max", 0.9 * f6, 1.1 * f6, 1)
     xa2, _ = peak(Cz, "a2max", 0.45 * f7, 0.55 * f7, 1)
@@ -2007,9 +2008,8 @@ CHANGED: dict[str, str] = {
         "at 1.4 kHz the geometry pairs are near mode 1's contact-loss resonance (f_1 = 1374 "
         "Hz), not at a second-harmonic resonance; B lowers the response there",
     "Modification A at 50 N·m, 1400 Hz: contact loss":
-        "the solver fails there with the geometry pairs (a storm of contact events of the RK "
-        "integrator with sloped pair stiffness and relief gaps; a geardyn defect, see 'Runs', "
-        "column 'solver failed'), so there is no value",
+        "where the RK integrator fails with the geometry pairs ('step size too small', a "
+        "geardyn defect still open; see 'Runs', column 'solver failed'), there is no value",
     "Resonance of mode 7 by the second mesh harmonic":
         "the softer geometry mesh moves mode 7 down (f_7/2 = 1088 instead of 1264 Hz) and the "
         "peak with it",

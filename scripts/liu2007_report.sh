@@ -5,7 +5,7 @@
 # (examples/liu2007_orbit.rs), then runs scripts/liu2007_report.py, which runs every sweep and
 # measures every geardyn number in the report from their CSVs (work files: target/liu2007/).
 #
-#   bash scripts/liu2007_report.sh            # everything (about 3–4 minutes on 2 cores)
+#   bash scripts/liu2007_report.sh            # everything (about 5 minutes on 2 cores, idle)
 #   bash scripts/liu2007_report.sh --reuse    # reuse the CSVs of an earlier run (editing the text)
 #
 # Python: $PYTHON, else ./.venv/bin/python (scripts/setup-python.sh), else python3; it needs
