@@ -96,15 +96,15 @@ def outcome(code: str) -> str:
         ('geardyn.sweep(s, "300:400:3", work_budget="x")', ["TypeError", "work_budget"]),
         # A run beyond the budget raises, naming the likely cause; a sweep keeps the point as
         # a row of NaN (as `geardyn sweep` does) and warns with the cause.
-        ("geardyn.periodic(s, work_budget=1e4)", ["GeardynError", "work budget of 1e4", "likely cause"]),
-        ('geardyn.hb(s, "300:400", work_budget=1e4)', ["GeardynError", "work budget of 1e4", "likely cause"]),
+        ("geardyn.periodic(s, work_budget=1e3)", ["GeardynError", "work budget of 1e3", "likely cause"]),
+        ('geardyn.hb(s, "300:400", work_budget=1e3)', ["GeardynError", "work budget of 1e3", "likely cause"]),
         (
             """
             import warnings
             warnings.simplefilter("error")
-            geardyn.sweep(s, "300:400:3", work_budget=1e4)
+            geardyn.sweep(s, "300:400:3", work_budget=1e3)
             """,
-            ["RuntimeWarning", "speed 300 rad/s failed", "work budget of 1e4", "likely cause"],
+            ["RuntimeWarning", "speed 300 rad/s failed", "work budget of 1e3", "likely cause"],
         ),
         # Rows held in memory are bounded before they are allocated.
         (
@@ -134,7 +134,7 @@ def test_raised_limits_run():
 
 
 def test_analyses_run_within_a_raised_budget():
-    """The analyses that work_budget=1e4 stops above run with a raised one, and a sweep
+    """The analyses that work_budget=1e3 stops above run with a raised one, and a sweep
     within its budget warns of nothing."""
     got = outcome(
         """
