@@ -38,51 +38,54 @@ PHASE2 = 0.25  # mesh phasing of mesh 2, mesh cycles
 PERIODS = 100
 SAMPLES_PER_PERIOD = 20
 
-SCENE = f"""
-name = "idler_2dof"
+def scene_toml(name, peak_to_peak_ratio, speed, phase2=None):
+    """The idler as a geardyn scene: Table 3.1 data, rectangular stiffness of the given
+    peak-to-peak ratio, mesh 2 at phase `phase2` (mesh cycles; none: in phase)."""
+    phase = "" if phase2 is None else f"phase = {phase2}\n"
+    meshes = "".join(
+        f"""[[mesh]]
+pinion = "{pinion}"
+gear = "{gear}"
+contact = "contact_loss"
+{phase if j == 1 else ""}[mesh.stiffness]
+kind = "rectangular"
+mean = {K_MEAN[j]!r}
+peak_to_peak_ratio = {peak_to_peak_ratio!r}
+contact_ratio = {CONTACT_RATIO}
+"""
+        for j, (pinion, gear) in enumerate([("pinion", "idler"), ("idler", "gear")])
+    )
+    gears = "".join(
+        f"""[[gear]]
+name = "{g}"
+teeth = {Z[i]}
+base_radius = {R[i]}
+inertia = {I[i]}
+"""
+        for i, g in enumerate(["pinion", "idler", "gear"])
+    )
+    return f"""
+name = "{name}"
 [model]
 bearings = "rigid"
 modal_damping_ratio = {ZETA}
-[[gear]]
-name = "pinion"
-teeth = {Z[0]}
-base_radius = {R[0]}
-inertia = {I[0]}
-[[gear]]
-name = "idler"
-teeth = {Z[1]}
-base_radius = {R[1]}
-inertia = {I[1]}
-[[gear]]
-name = "gear"
-teeth = {Z[2]}
-base_radius = {R[2]}
-inertia = {I[2]}
-[[mesh]]
-pinion = "pinion"
-gear = "idler"
-contact = "contact_loss"
-[mesh.stiffness]
-kind = "rectangular"
-mean = {K_MEAN[0]!r}
-peak_to_peak_ratio = {EPS}
-contact_ratio = {CONTACT_RATIO}
-[[mesh]]
-pinion = "idler"
-gear = "gear"
-contact = "contact_loss"
-phase = {PHASE2}
-[mesh.stiffness]
-kind = "rectangular"
-mean = {K_MEAN[1]!r}
-peak_to_peak_ratio = {EPS}
-contact_ratio = {CONTACT_RATIO}
-[operating]
-input_speed = {SPEED!r}
+{gears}{meshes}[operating]
+input_speed = {speed!r}
 input_torque = {T1}
 [solver]
 method = "exact"
 """
+
+
+def rectangular_stiffness(j, p, peak_to_peak_ratio):
+    """k_j at mesh position p (docs/model.md): k_low on s ∈ [0, 1 − f), k_high after."""
+    f = CONTACT_RATIO - math.floor(CONTACT_RATIO)
+    low = K_MEAN[j] * (1 - f * peak_to_peak_ratio)
+    s = p - math.floor(p)
+    return low if s < 1 - f else low + peak_to_peak_ratio * K_MEAN[j]
+
+
+SCENE = scene_toml("idler_2dof", EPS, SPEED, PHASE2)
 
 
 def mesh_frequency():
@@ -99,10 +102,7 @@ def model_matrices():
 
 
 def stiffness(j, p):
-    f = CONTACT_RATIO - math.floor(CONTACT_RATIO)
-    low = K_MEAN[j] * (1 - f * EPS)
-    s = p - math.floor(p)
-    return low if s < 1 - f else low + EPS * K_MEAN[j]
+    return rectangular_stiffness(j, p, EPS)
 
 
 def reference(times):

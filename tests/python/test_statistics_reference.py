@@ -24,7 +24,7 @@ from scipy.integrate import quad
 from scipy.optimize import minimize_scalar
 
 from contact_ivp import integrate
-from test_idler_reference import I, K_MEAN, R, Z, CONTACT_RATIO, T1, model_matrices
+from test_idler_reference import K_MEAN, R, T1, Z, model_matrices, rectangular_stiffness, scene_toml
 
 EPS_LIU = 0.3
 PP = math.pi * EPS_LIU / 2  # peak-to-peak ratio for ς = 1.5
@@ -33,62 +33,14 @@ SPEED = 290.0  # rad/s: mesh frequency 1754 Hz, just below the 1784 Hz mode: mes
 TRANSIENT = 170  # mesh periods: the slowest decay is e^{-0.26} per period
 
 
-SCENE = f"""
-name = "liu_ch3_idler_eps03"
-[model]
-bearings = "rigid"
-modal_damping_ratio = 0.04
-[[gear]]
-name = "pinion"
-teeth = {Z[0]}
-base_radius = {R[0]}
-inertia = {I[0]}
-[[gear]]
-name = "idler"
-teeth = {Z[1]}
-base_radius = {R[1]}
-inertia = {I[1]}
-[[gear]]
-name = "gear"
-teeth = {Z[2]}
-base_radius = {R[2]}
-inertia = {I[2]}
-[[mesh]]
-name = "mesh1"
-pinion = "pinion"
-gear = "idler"
-contact = "contact_loss"
-[mesh.stiffness]
-kind = "rectangular"
-mean = {K_MEAN[0]!r}
-peak_to_peak_ratio = {PP!r}
-contact_ratio = {CONTACT_RATIO}
-[[mesh]]
-name = "mesh2"
-pinion = "idler"
-gear = "gear"
-contact = "contact_loss"
-[mesh.stiffness]
-kind = "rectangular"
-mean = {K_MEAN[1]!r}
-peak_to_peak_ratio = {PP!r}
-contact_ratio = {CONTACT_RATIO}
-[operating]
-input_speed = {SPEED!r}
-input_torque = {T1}
-[solver]
-method = "exact"
-"""
+SCENE = scene_toml("liu_ch3_idler_eps03", PP, SPEED)
 
 STATS = ["contact_loss_fraction", "separation_phase", "peak_force", "force_rms", "dte_rms",
          "dte_peak_to_peak", "dte_mean", "a1", "a2", "a3"]
 
 
 def stiffness(j, p):
-    f = CONTACT_RATIO - math.floor(CONTACT_RATIO)
-    low = K_MEAN[j] * (1 - f * PP)
-    s = p - math.floor(p)
-    return low if s < 1 - f else low + PP * K_MEAN[j]
+    return rectangular_stiffness(j, p, PP)
 
 
 def _extreme(segments, sign):
