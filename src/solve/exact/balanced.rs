@@ -300,10 +300,16 @@ impl BalancedMatrix {
     /// truncated-Taylor `expmv` of Al-Mohy & Higham 2011 (SIAM J. Sci. Comput. 33(2), §3) with
     /// one step and this exact tail bound instead of their backward-error `θ_m`.
     pub fn taylor_terms(&self, w: f64, n: usize, terms: &mut [f64]) -> usize {
+        self.taylor_terms_within(w, n, terms, f64::EPSILON / 4.0)
+    }
+
+    /// [`BalancedMatrix::taylor_terms`] until the bound of the remaining terms is below
+    /// `tail ‖u_0‖₁`.
+    pub fn taylor_terms_within(&self, w: f64, n: usize, terms: &mut [f64], tail: f64) -> usize {
         let theta = self.norm * w.abs();
         let max_terms = terms.len() / n - 1;
         let one_norm = |u: &[f64]| u.iter().map(|x| x.abs()).sum::<f64>();
-        let goal = f64::EPSILON / 4.0 * one_norm(&terms[..n]);
+        let goal = tail * one_norm(&terms[..n]);
         let mut last_norm = one_norm(&terms[..n]);
         for k in 0..max_terms {
             let (next_ratio, after_ratio) = (theta / (k + 1) as f64, theta / (k + 2) as f64);

@@ -95,7 +95,12 @@ impl<'a> Segment<'a> {
             } else {
                 window[..nz].copy_from_slice(&b.sum);
             }
-            let count = terms(self.balanced, w, nz, window);
+            // To a tail of [`TAIL`] `‖u₀‖₁`, not `2⁻⁵⁴ ‖u₀‖₁`: a state's components differ by
+            // orders of magnitude (a deflection of micrometres beside a forcing state of order
+            // one), and a norm-wise truncation at the rounding of the largest would leave the
+            // smallest accurate only to `2⁻⁵⁴` of the largest; with `θ ≤ 2` the extra terms are
+            // about five per window.
+            let count = self.balanced.taylor_terms_within(w, nz, window, TAIL);
             b.terms.truncate(start + count * nz);
             b.starts.push(start);
             b.counts.push(count);
@@ -128,35 +133,7 @@ impl<'a> Segment<'a> {
     }
 }
 
-/// Fills `window[k n..(k+1) n]` with `u_k = (B w)^k u_0 / k!` from `u_0` in `window[..n]`
-/// and returns the number of terms: as [`BalancedMatrix::taylor_terms`], but to a tail bound
-/// of [`TAIL`] `‖u₀‖₁` rather than `2⁻⁵⁴ ‖u₀‖₁`. A state's components differ by orders of
-/// magnitude (a deflection of micrometres beside a forcing state of order one), and a norm-wise
-/// truncation at the rounding of the largest would leave the smallest accurate only to
-/// `2⁻⁵⁴` of the largest; with `θ ≤ 2` the extra terms are about five per window.
-fn terms(balanced: &BalancedMatrix, w: f64, n: usize, window: &mut [f64]) -> usize {
-    let theta = balanced.norm() * w.abs();
-    let one_norm = |u: &[f64]| u.iter().map(|x| x.abs()).sum::<f64>();
-    let goal = TAIL * one_norm(&window[..n]);
-    let mut last_norm = one_norm(&window[..n]);
-    for k in 0..MAX_TERMS {
-        let (next_ratio, after_ratio) = (theta / (k + 1) as f64, theta / (k + 2) as f64);
-        if k >= 1 && after_ratio < 1.0 && last_norm * next_ratio / (1.0 - after_ratio) <= goal {
-            return k + 1;
-        }
-        let (done, rest) = window.split_at_mut((k + 1) * n);
-        let next = &mut rest[..n];
-        balanced.times(&done[k * n..], next);
-        let factor = w / (k + 1) as f64;
-        for x in next.iter_mut() {
-            *x *= factor;
-        }
-        last_norm = one_norm(next);
-    }
-    MAX_TERMS + 1
-}
-
-/// The tail bound of a window's series relative to its start ([`terms`]): `2⁻⁵⁴ · 10⁻⁸`.
+/// The tail bound of a window's series relative to its start: `2⁻⁵⁴ · 10⁻⁸`.
 const TAIL: f64 = f64::EPSILON / 4.0 * 1e-8;
 
 /// What sees each segment of an observed advance ([`super::ExactPropagator::advance_observed`]),
