@@ -580,14 +580,17 @@ def default_atol(scene: Scene, rtol: float) -> np.ndarray:
 
 def simulate(scene: Scene, stop_time: float, output_times=None, output_interval=None,
              rtol: float = 1e-12, atol=None, max_events: int = 200000,
-             method: str = "DOP853", check_grazing: bool = True) -> ReferenceResult:
+             method: str = "DOP853", check_grazing: bool = True,
+             pieces: list | None = None) -> ReferenceResult:
     """Integrates the single-mesh model on [0, stop_time] and samples the outputs.
 
     ``output_times`` (sorted, within [0, stop_time]) overrides the grid built from
     ``output_interval`` (t_k = k·H). ``method`` is any ``solve_ivp`` method (the work-precision
     benchmark also runs RK45 and Radau); ``check_grazing=False`` skips the dense-output scan
     for guards that leave and re-enter within one step (the benchmark's "careful user" setup
-    has segment stops and terminal events only).
+    has segment stops and terminal events only). With a list ``pieces``, every smooth piece
+    is appended to it as ``(t_start, t_end, dense solution, contact state, stiffness
+    segment)``, for statistics from the continuous solution (`test_statistics_reference.py`).
     """
     if output_times is None:
         if not output_interval or output_interval <= 0:
@@ -698,6 +701,9 @@ def simulate(scene: Scene, stop_time: float, output_times=None, output_interval=
                         if hit is None or t_ev < hit[0]:
                             hit = (t_ev, i, new_state)
             t_stop = hit[0] if hit else seg.t_end
+            if pieces is not None and t_stop > t:
+                pieces.append((t, t_stop, sol.sol, 1 if contact_law == "linear" else state,
+                                 seg))
 
             # Fill the output times in [t, t_stop) (and t_stop itself at the very end).
             last = seg is segments[-1] and hit is None
