@@ -99,6 +99,14 @@ class Mesh:
         return int(math.floor(self.c)) + 1
 
 
+def scene_text(speed):
+    """The shipped scene at another input speed (rad/s)."""
+    text = SCENE.read_text()
+    old = f"input_speed = {tomllib.loads(text)['operating']['input_speed']!r}"
+    assert text.count(old) == 1, old
+    return text.replace(old, f"input_speed = {speed!r}")
+
+
 class Idler8:
     """The model of the module docstring, for the scene's data at `speed` (rad/s of the
     input gear) and `torque` (input torque, N·m; the load balances it)."""

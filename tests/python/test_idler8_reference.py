@@ -6,21 +6,15 @@ time; its tooth pairs hand over with short dips of one pair's elastic deflection
 and back, which scipy's step-end event check alone would miss).
 """
 
-import re
 import subprocess
 
 import numpy as np
 import pytest
 
-from idler8_reference import N, SCENE, Idler8
+from idler8_reference import N, SCENE, Idler8, scene_text
 
 PERIODS = 100
 SAMPLES_PER_PERIOD = 37  # incommensurate with the knots
-
-
-def scene_at(speed):
-    text = SCENE.read_text()
-    return re.sub(r"input_speed = \S+", f"input_speed = {speed!r}", text, count=1)
 
 
 def test_reference_modes_match_geardyn_modes():
@@ -45,7 +39,7 @@ def test_reference_time_series_match_geardyn_simulate(tmp_path, geardyn_bin, spe
     """Both meshes' DTE and deflection over 100 mesh periods from the static start, to 1e-10
     of the static mesh deflection F/k̂."""
     scene = tmp_path / "scene.toml"
-    scene.write_text(scene_at(speed))
+    scene.write_text(scene_text(speed))
     ref = Idler8(scene)
     csv = tmp_path / "run.csv"
     subprocess.run([str(geardyn_bin), "simulate", str(scene), "--out", str(csv), "--stop-time",
