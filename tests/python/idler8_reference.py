@@ -99,12 +99,16 @@ class Mesh:
         return int(math.floor(self.c)) + 1
 
 
-def scene_text(speed):
-    """The shipped scene at another input speed (rad/s)."""
+def scene_text(speed, torque=None):
+    """The shipped scene at another input speed (rad/s) and input torque (N·m)."""
     text = SCENE.read_text()
-    old = f"input_speed = {tomllib.loads(text)['operating']['input_speed']!r}"
-    assert text.count(old) == 1, old
-    return text.replace(old, f"input_speed = {speed!r}")
+    operating = tomllib.loads(text)["operating"]
+    for key, value in (("input_speed", speed), ("input_torque", torque)):
+        if value is not None:
+            old = f"{key} = {operating[key]!r}"
+            assert text.count(old) == 1, old
+            text = text.replace(old, f"{key} = {value!r}")
+    return text
 
 
 class Idler8:
