@@ -67,3 +67,26 @@ def test_reference_time_series_match_geardyn_simulate(tmp_path, geardyn_bin, spe
         assert lost[j] == bool((data[f"mesh{j + 1}.contact_state"] == 0).any())
     assert worst <= 1e-10, worst
     assert lost[0] == mesh1_loses
+
+
+@pytest.mark.parametrize("speed, stable", [(385.0, True), (390.0, False)])
+def test_reference_orbit_and_multipliers_match_geardyn_periodic(speed, stable):
+    """The period-1 orbit by the reference's own Newton shooting, and the eigenvalues of its
+    finite-difference monodromy (Floquet multipliers, ~1e-7), against `geardyn periodic`
+    (Python module): at 385 rad/s stable (|μ| = 0.99747), at 390 rad/s past the
+    Neimark-Sacker point of issue 31 (|μ| = 1.000198), so the verdict there is independent of
+    either program's stability code."""
+    import geardyn
+
+    ref = Idler8(speed=speed)
+    y, _ = ref.integrate(ref.start_state(), 0.0, 20 * ref.period)
+    y0, multipliers, _ = ref.periodic_orbit(y)
+    orbit = geardyn.periodic(geardyn.Scene.from_toml(scene_text(speed)))
+    dy = np.max(np.abs(orbit.y0 - y0) / ref.state_scale())
+    ours, theirs = np.sort(np.abs(orbit.multipliers)), np.sort(np.abs(multipliers))
+    dmu = np.max(np.abs(ours - theirs))
+    print(f"{speed} rad/s: start state {dy:.2e} of the scale; |μ| {dmu:.2e}; spectral radius "
+          f"{theirs[-1]:.9f} (reference) vs {ours[-1]:.9f}, {orbit.stability}")
+    assert dy <= 1e-11 and dmu <= 1e-6
+    assert (theirs[-1] < 1 - 1e-4) == stable and (theirs[-1] > 1 + 1e-4) == (not stable)
+    assert (orbit.stability == "Stable") == stable
