@@ -278,12 +278,13 @@ class Idler8:
                 lo = tx
         return out
 
-    def integrate(self, y0, t0, t1, segments=None, flags=None, max_step=None):
-        """The state at t1 from y0 at t0, and the contact flags at t1. With a list `segments`,
-        each smooth piece is appended as (a, b, dense solution, pairs, flags)."""
+    def integrate(self, y0, t0, t1, segments=None):
+        """The state at t1 from y0 at t0 (each pair's contact classified at t0 by the sign of
+        S_n − g_p), and the contact flags at t1. With a list `segments`, each smooth piece is
+        appended as (a, b, dense solution, pairs, flags)."""
         y = np.array(y0, dtype=float)
-        flags = {} if flags is None else dict(flags)
-        max_step = self.period / 40 if max_step is None else max_step
+        flags = {}
+        max_step = self.period / 40
         t = t0
         for t_break in self.knot_times(t0, t1) + [t1]:
             while t < t_break:
@@ -365,8 +366,8 @@ class Idler8:
                 for mi, m in enumerate(self.meshes)]
         return out, lost
 
-    def period_map(self, y0, flags=None):
-        return self.integrate(y0, 0.0, self.period, flags=flags)
+    def period_map(self, y0):
+        return self.integrate(y0, 0.0, self.period)
 
     def periodic_orbit(self, y_guess, tol=1e-13, iterations=12):
         """Newton shooting on the period map: the orbit's start state, its finite-difference

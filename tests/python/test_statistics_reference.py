@@ -1,6 +1,6 @@
 """Statistics from the solution, not from samples (issue 31, acceptances 1 and 2): the per-mesh
 statistics of `geardyn periodic` and `geardyn sweep` (both directions), and the mesh harmonics
-of `geardyn spectrum`, against independent scipy references, on three scenes with contact loss:
+of `geardyn spectrum`, against independent scipy references, on four scenes with contact loss:
 
 - the Liu (2007) Ch. 3 two-mesh idler: rectangular stiffness, Ch. 3's ε = 0.3 (peak-to-peak
   ratio πε/2 for ς = 1.5, examples/liu2007/ch3_idler.py), modal damping Γ = 0.04, φ = 0; the
