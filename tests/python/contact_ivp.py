@@ -39,6 +39,10 @@ def integrate(times, y, breaks, rhs_for, contacts, max_step=np.inf, segments=Non
             hit = [j for j in range(contacts)
                    if sol.t_events[j].size > 0 and sol.t_events[j][0] > t]
             t_stop = min((sol.t_events[j][0] for j in hit), default=t_break)
+            if not hit and sol.status == 1:
+                # A terminal event at the start itself: a contact that changed at t and crossed
+                # back within scipy's first step. Skipping to t_break would lose the segment.
+                raise RuntimeError(f"a contact crosses back within the first step after t = {t}")
             while k_out < len(times) and times[k_out] <= t_stop:
                 out[k_out] = sol.sol(times[k_out])[:contacts]
                 k_out += 1
