@@ -154,3 +154,37 @@ pub(crate) fn in_carrier_frame(scene: &Scene, g: usize) -> bool {
 pub(crate) fn is_planet(scene: &Scene, g: usize) -> bool {
     scene.planetary.iter().any(|s| s.planet(g).is_some())
 }
+
+/// The static load of one planet of a stage.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanetLoad {
+    /// Gear index of the planet.
+    pub gear: usize,
+    /// Static mesh force of its sun mesh and of its ring mesh, N.
+    pub sun_force: f64,
+    pub ring_force: f64,
+    /// Its share of the stage's sun-mesh load, `F_sn / Σ_m F_sm` (1/N when the load is shared
+    /// equally).
+    pub share: f64,
+}
+
+/// The planet load sharing of every stage from the static mesh forces (indexed like
+/// `scene.meshes`).
+pub fn load_sharing(scene: &Scene, mesh_force: &[f64]) -> Vec<Vec<PlanetLoad>> {
+    scene
+        .planetary
+        .iter()
+        .map(|st| {
+            let total: f64 = st.planets.iter().map(|p| mesh_force[p.sun_mesh]).sum();
+            st.planets
+                .iter()
+                .map(|p| PlanetLoad {
+                    gear: p.gear,
+                    sun_force: mesh_force[p.sun_mesh],
+                    ring_force: mesh_force[p.ring_mesh],
+                    share: mesh_force[p.sun_mesh] / total,
+                })
+                .collect()
+        })
+        .collect()
+}

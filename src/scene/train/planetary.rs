@@ -37,9 +37,10 @@ pub struct PlanetaryStage {
     /// The central member whose nominal speed is zero (sun, ring or carrier).
     pub fixed: usize,
     pub planets: Vec<Planet>,
-    /// Sense σ of the sun's nominal rotation relative to the carrier (+1 ccw, −1 cw; +1 when
-    /// the stage is locked): the sun's drive flanks, and the sense in which the stage's
-    /// rotation coordinates and tangential translations count (`docs/planetary.md`, eq. P3).
+    /// Sense σ (+1 ccw, −1 cw) of the sun's static torque, or without one of its rotation
+    /// relative to the carrier: it picks the loaded flanks of every stage mesh, and the sense
+    /// in which the stage's rotations and tangential translations count (`docs/planetary.md`,
+    /// eq. P3).
     pub sense: f64,
 }
 

@@ -364,7 +364,13 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
     for m in meshes.iter_mut() {
         m.cycles_per_input_rev = gears[m.pinion].teeth as f64 * speed_ratio[m.pinion];
     }
-    super::planetary::finish_kinematics(&mut stages, &gears, &mut meshes, &speed_ratio, &rotation);
+    super::planetary::finish_kinematics(
+        &mut stages,
+        &gears,
+        &mut meshes,
+        (&speed_ratio, &rotation),
+        (input_gear, input_torque),
+    );
     if speed_ratio[output_gear] == 0.0 {
         return err(format!(
             "operating.output_gear = {:?}: not connected to the input gear {:?}",

@@ -459,19 +459,40 @@ pub(crate) fn kinematic_step(
     Ok(set)
 }
 
-/// After the kinematics: each stage's sense σ (the sun's rotation relative to the carrier) and
-/// the mesh cycles per input revolution of its meshes, `Z_s |ω_s − ω_c|` (eq. P2).
+/// After the kinematics: each stage's sense σ and the mesh cycles per input revolution of its
+/// meshes, `Z_s |ω_s − ω_c|` (eq. P2). σ is the sense of the sun's static torque (eq. P3):
+/// the flanks it loads are the drive flanks of every stage mesh, so the static mesh forces are
+/// positive whichever member drives. With the input on a central member and an input torque,
+/// the sun's torque follows from the torque weights (eq. P9); otherwise σ is the sun's
+/// rotation sense relative to the carrier (the sun driving).
 pub(crate) fn finish_kinematics(
     stages: &mut [PlanetaryStage],
     gears: &[Gear],
     meshes: &mut [Mesh],
-    speed_ratio: &[f64],
-    rotation: &[f64],
+    (speed_ratio, rotation): (&[f64], &[f64]),
+    (input, input_torque): (usize, f64),
 ) {
     for st in stages.iter_mut() {
         let signed = |g: usize| speed_ratio[g] * rotation[g];
         let relative = signed(st.sun) - signed(st.carrier);
-        st.sense = if relative < 0.0 { -1.0 } else { 1.0 };
+        let p = &st.planets[0];
+        let w = torque_weights(
+            gears[st.sun].base_radius,
+            gears[st.ring].base_radius,
+            gears[st.carrier].base_radius,
+            meshes[p.sun_mesh].pressure_angle,
+            meshes[p.ring_mesh].pressure_angle,
+        );
+        let sun_torque = [st.sun, st.ring, st.carrier]
+            .iter()
+            .position(|&g| g == input)
+            .map(|a| input_torque * rotation[input] * w[0] / w[a])
+            .filter(|&t| t != 0.0);
+        st.sense = match sun_torque {
+            Some(t) => t.signum(),
+            None if relative < 0.0 => -1.0,
+            None => 1.0,
+        };
         let cycles = gears[st.sun].teeth as f64 * relative.abs();
         for p in &st.planets {
             meshes[p.sun_mesh].cycles_per_input_rev = cycles;
