@@ -85,6 +85,9 @@ pub fn modes(scene: &Scene, rigid_bearings: bool, out: &mut dyn Write) -> Result
         }
         Err(e) => writeln!(out, "  {e}").map_err(io)?,
     }
+    if let Ok(st) = statics::equilibrium(&asm, t_in, t_load, false) {
+        planet_loads(&scene, &st.mesh_force, out).map_err(io)?;
+    }
     if scene.meshes.iter().any(|m| m.friction.is_some()) {
         // The statics above are of the frictionless mean system (modes too); with friction
         // the static mesh force depends on the phase (Liu 2007 eq. 4.40).
@@ -112,4 +115,29 @@ pub fn modes(scene: &Scene, rigid_bearings: bool, out: &mut dyn Write) -> Result
         labels: asm.labels.clone(),
         modes: all,
     })
+}
+
+/// The planets' load sharing of every planetary stage (docs/planetary.md), forces in full
+/// precision (shortest round-trip form) for the independent oracle of `tests/python`.
+fn planet_loads(scene: &Scene, mesh_force: &[f64], out: &mut dyn Write) -> std::io::Result<()> {
+    for (st, loads) in scene
+        .planetary
+        .iter()
+        .zip(train::planetary::load_sharing(scene, mesh_force))
+    {
+        writeln!(
+            out,
+            "planet load sharing, carrier {} (share of the sun-mesh load; 1/N = {:e}):",
+            scene.gears[st.carrier].name,
+            1.0 / st.planets.len() as f64
+        )?;
+        for l in loads {
+            writeln!(
+                out,
+                "  {:<10} share {:e}   sun mesh force {:e} N   ring mesh force {:e} N",
+                scene.gears[l.gear].name, l.share, l.sun_force, l.ring_force
+            )?;
+        }
+    }
+    Ok(())
 }

@@ -504,6 +504,9 @@ impl Scene {
     /// The scene's simulation in any form (nominal speed, or carried rotation with ports).
     pub fn run(&self) -> Result<AnySimulation, String> {
         // The kernel chosen when the scene was read (`crate::scene::kernel`).
+        if let Some(why) = self.planetary_refusal() {
+            return Err(why);
+        }
         Ok(match self.pair() {
             Some(pair) => AnySimulation::Pair(Simulation::new(&pair)?),
             None => AnySimulation::Train(TrainSimulation::new(self)?),

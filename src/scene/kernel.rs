@@ -36,13 +36,14 @@ fn drivetrain_reason(parsed: &ParsedScene) -> Option<String> {
     if parsed.form == MeshForm::Many {
         return Some("the meshes are a [[mesh]] array".into());
     }
-    let tables: [(&str, bool); 6] = [
+    let tables: [(&str, bool); 7] = [
         ("[model]", spec.model.is_some()),
         ("[[shaft]]", !spec.shaft.is_empty()),
         ("[[port]]", !spec.port.is_empty()),
         ("[[motor]]", !spec.motor.is_empty()),
         ("[[load]]", !spec.load.is_empty()),
         ("[[inertia]]", !spec.inertia.is_empty()),
+        ("[[carrier]] (a planetary stage)", !spec.carrier.is_empty()),
     ];
     if let Some((table, _)) = tables.iter().find(|(_, given)| *given) {
         return Some(format!("it has {table}"));
@@ -102,6 +103,14 @@ fn drivetrain_gear_key(g: &GearSpec) -> Option<&'static str> {
         Some("ground_stiffness")
     } else if g.ground_damping != 0.0 {
         Some("ground_damping")
+    } else if g.internal {
+        Some("internal")
+    } else if g.carrier.is_some() {
+        Some("carrier")
+    } else if g.position_angle.is_some() {
+        Some("position_angle")
+    } else if g.pin_error.is_some() {
+        Some("pin_error")
     } else {
         None
     }
@@ -330,6 +339,7 @@ impl From<&PairScene> for Scene {
             source: pair.source.clone(),
             ports: Vec::new(),
             elements: Elements::default(),
+            planetary: Vec::new(),
         }
     }
 }

@@ -3,7 +3,9 @@
 //! made by [`super::load`] from the one description ([`super::spec`]) through the one
 //! validation tree ([`super::validate`]); [`super::kernel`] chose the kernel that runs it.
 
-use super::train::{elements, Bearing, HelicalPair, MeshForceModel, MeshFriction, Port, Shaft};
+use super::train::{
+    elements, Bearing, HelicalPair, MeshForceModel, MeshFriction, PlanetaryStage, Port, Shaft,
+};
 use super::{ContactLaw, InitialDte, Profiles, SmoothTerms, SolverSettings};
 
 /// The kernel chosen for a scene, and why.
@@ -135,6 +137,8 @@ pub struct Scene {
     pub ports: Vec<Port>,
     /// Drivetrain elements coupled to the train (`docs/ports.md`); empty: none.
     pub elements: elements::Elements,
+    /// Planetary stages (`docs/planetary.md`); their members are entries of `gears`.
+    pub planetary: Vec<PlanetaryStage>,
 }
 
 impl Scene {

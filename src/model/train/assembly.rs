@@ -48,6 +48,10 @@ pub enum DofKind {
     X { gear: usize },
     /// Bearing translation along y (m).
     Y { gear: usize },
+    /// A planet's radial translation ζ in its carrier's frame (m; `docs/planetary.md`).
+    Radial { gear: usize },
+    /// A planet's tangential translation η in its carrier's frame, in the stage's sense (m).
+    Tangential { gear: usize },
 }
 
 /// The assembled drivetrain in physical coordinates.
@@ -81,6 +85,9 @@ pub struct Assembly {
     pub shaft_twist: Vec<DVector<f64>>,
     /// Per mesh with tooth friction: the sliding-direction vectors of [`FrictionVectors`].
     pub friction: Vec<Option<FrictionVectors>>,
+    /// Generalised force of the planets' pin position errors, `−Σ k b e` (a static preload of
+    /// the planet bearings, `docs/planetary.md` eq. P8); zero without planets.
+    pub pin_load: DVector<f64>,
 }
 
 /// Generalised direction of the friction force of a tooth pair of a mesh with friction:
@@ -168,6 +175,7 @@ impl Assembly {
                     (m.pinion == g || m.gear == g)
                         && (along(l) != 0.0 || (m.friction.is_some() && along(e) != 0.0))
                 })
+                || super::planetary::in_carrier_frame(scene, g)
         };
 
         let mut dofs = Vec::new();
@@ -178,10 +186,12 @@ impl Assembly {
                 for (axis, slot) in trans[g].iter_mut().enumerate() {
                     if coupled(g, axis) {
                         *slot = dofs.len();
-                        dofs.push(if axis == 0 {
-                            DofKind::X { gear: g }
-                        } else {
-                            DofKind::Y { gear: g }
+                        let planet = super::planetary::is_planet(scene, g);
+                        dofs.push(match (axis, planet) {
+                            (0, false) => DofKind::X { gear: g },
+                            (_, false) => DofKind::Y { gear: g },
+                            (0, true) => DofKind::Radial { gear: g },
+                            (_, true) => DofKind::Tangential { gear: g },
                         });
                     }
                 }
@@ -199,6 +209,8 @@ impl Assembly {
                 DofKind::Rotation { gear } => format!("{}.u", scene.gears[gear].name),
                 DofKind::X { gear } => format!("{}.x", scene.gears[gear].name),
                 DofKind::Y { gear } => format!("{}.y", scene.gears[gear].name),
+                DofKind::Radial { gear } => format!("{}.radial", scene.gears[gear].name),
+                DofKind::Tangential { gear } => format!("{}.tangential", scene.gears[gear].name),
             })
             .collect();
 
@@ -211,14 +223,23 @@ impl Assembly {
             let (u, rho) = (body_dof[b], body_radius[b]);
             mass[(u, u)] += gear.inertia / (rho * rho);
             k_base[(u, u)] += gear.ground_stiffness / (rho * rho);
-            k_ground[(u, u)] += gear.ground_stiffness / (rho * rho);
+            // A planetary stage's ground coupling is the support that reacts its torque (the
+            // held ring, docs/planetary.md): it carries mean torque, unlike the vibratory
+            // couplings of Liu 2007 eq. (2.8).
+            if !super::planetary::in_carrier_frame(scene, g) {
+                k_ground[(u, u)] += gear.ground_stiffness / (rho * rho);
+            }
             c_base[(u, u)] += gear.ground_damping / (rho * rho);
             if let Some(bearing) = gear.bearing {
+                // A planet's bearing is on its carrier's pin (below), not to ground.
+                let grounded = !super::planetary::is_planet(scene, g);
                 for (axis, &i) in trans[g].iter().enumerate() {
                     if i != usize::MAX {
                         mass[(i, i)] += gear.mass.expect("validated: bearing has mass");
-                        k_base[(i, i)] += bearing.stiffness[axis];
-                        c_base[(i, i)] += bearing.damping[axis];
+                        if grounded {
+                            k_base[(i, i)] += bearing.stiffness[axis];
+                            c_base[(i, i)] += bearing.damping[axis];
+                        }
                     }
                 }
             }
@@ -239,9 +260,26 @@ impl Assembly {
             }
         }
 
+        let at = super::planetary::Coordinates {
+            n,
+            theta: &rot,
+            trans: &trans,
+        };
+        let mut pin_load = DVector::zeros(n);
+        for spring in super::planetary::pin_springs(scene, &at) {
+            let bb = &spring.b * spring.b.transpose();
+            k_base += spring.stiffness * &bb;
+            c_base += spring.damping * &bb;
+            pin_load -= &spring.b * (spring.stiffness * spring.error);
+        }
         let mut mesh = Vec::new();
         let mut dte = Vec::new();
-        for (m, l) in scene.meshes.iter().zip(&loa) {
+        for (i, (m, l)) in scene.meshes.iter().zip(&loa).enumerate() {
+            if let Some((d, rotational)) = super::planetary::mesh_vector(scene, &at, i) {
+                mesh.push(d);
+                dte.push(rotational);
+                continue;
+            }
             let (a, b) = (m.pinion, m.gear);
             let r_a = scene.gears[a].base_radius;
             let r_b = scene.gears[b].base_radius;
@@ -303,6 +341,7 @@ impl Assembly {
             output_load,
             shaft_twist,
             friction,
+            pin_load,
         }
     }
 

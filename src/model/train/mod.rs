@@ -7,6 +7,7 @@
 //! - [`mesh`]: the mesh cycle as tooth-pair slots with stiffness and tip-relief gaps;
 //! - [`statics`]: loaded STE / NLTE by active set, static equilibrium;
 //! - [`modes`]: natural frequencies and shapes of the mean system;
+//! - [`planetary`]: planetary stages' mesh vectors and planet pins in the carrier frame;
 //! - [`system`]: [`GearTrain`], the `HybridSystem` + `PiecewiseLti` model;
 //! - [`simulation`]: [`TrainSimulation`], the propagator driver.
 
@@ -14,6 +15,7 @@ pub mod assembly;
 pub mod friction;
 pub mod mesh;
 pub mod modes;
+pub mod planetary;
 pub mod simulation;
 pub mod statics;
 pub mod system;

@@ -211,7 +211,8 @@ pub fn equilibrium(
     if !include_ground {
         k -= &asm.k_ground;
     }
-    let f = asm.load(t_in, t_load);
+    // The planets' pin errors preload their bearings (docs/planetary.md eq. P8).
+    let f = asm.load(t_in, t_load) + &asm.pin_load;
     let (values, vectors) = generalized_eigen(&k, &asm.mass);
     let top = values.iter().fold(0.0f64, |a, &b| a.max(b.abs()));
     let n = asm.dim();

@@ -9,6 +9,7 @@
 
 mod elements;
 mod mesh;
+mod planetary;
 
 use serde::de::DeserializeOwned;
 use serde::Deserialize;
@@ -20,6 +21,7 @@ pub use mesh::{
     ContactLawSpec, CubicSpec, FourierSpec, FrictionSpec, GapTableSpec, GearPairSpec, GeometryForm,
     HelicalPairSpec, MeshSpec, PairStiffnessSpec, StiffnessSpec, TipReliefSpec,
 };
+pub use planetary::CarrierSpec;
 
 /// A whole scene file with its meshes in the form `M`: `MeshSpec` for `[mesh]`,
 /// `Vec<MeshSpec>` for `[[mesh]]`.
@@ -51,6 +53,9 @@ pub struct SceneFile<M> {
     pub load: Vec<LoadBodySpec>,
     #[serde(default)]
     pub inertia: Vec<InertiaBodySpec>,
+    /// Carriers of planetary stages (`docs/planetary.md`).
+    #[serde(default)]
+    pub carrier: Vec<CarrierSpec>,
 }
 
 /// How the file wrote its meshes; messages name a mesh field as the user wrote it
@@ -148,6 +153,7 @@ impl<M> SceneFile<M> {
             motor: self.motor,
             load: self.load,
             inertia: self.inertia,
+            carrier: self.carrier,
         }
     }
 }
@@ -216,6 +222,16 @@ pub struct GearSpec {
     pub pitch_errors: Option<Vec<f64>>,
     /// Cumulative pitch deviations, one per tooth, m (instead of `pitch_errors`).
     pub cumulative_pitch_errors: Option<Vec<f64>>,
+    /// Internal teeth: the ring of a planetary stage (`docs/planetary.md`).
+    #[serde(default)]
+    pub internal: bool,
+    /// A planet: the `[[carrier]]` whose pin holds it; its `bearing_stiffness` is then
+    /// `[k_radial, k_tangential]` of the pin in the carrier frame.
+    pub carrier: Option<String>,
+    /// A planet's position angle ψ on its carrier, degrees, ccw from the carrier's x axis.
+    pub position_angle: Option<f64>,
+    /// A planet's pin position error `[radial, tangential]`, m (load sharing).
+    pub pin_error: Option<[f64; 2]>,
 }
 
 /// `runout = { amplitude = …, phase = … }`: eccentricity of a gear's geometric centre, m, and

@@ -10,12 +10,14 @@
 pub mod chain;
 pub mod elements;
 pub(crate) mod friction;
+pub mod planetary;
 pub mod ports;
 
 use crate::mesh::{MeshStiffness, PhaseSeries, Piece};
 
 pub use chain::{ChainBearings, ChainContact, ChainSpec};
 pub use friction::{HelicalPair, MeshFriction};
+pub use planetary::{Planet, PlanetaryStage};
 pub use ports::{Port, PortEnd, SpeedCoupling};
 
 /// Bearing stiffness and damping of a gear with translational DOFs.

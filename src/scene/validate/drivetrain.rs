@@ -18,7 +18,7 @@ use crate::scene::spec::{
 };
 use crate::scene::train::{
     Bearing, GapFunction, GapTable, HelicalPair, MeshForceModel, PairGap, PairModel, PairStiffness,
-    Shaft, ShaftCoupling, TipRelief,
+    PlanetaryStage, Shaft, ShaftCoupling, TipRelief,
 };
 use crate::scene::{
     ContactLaw, Gear, KernelChoice, Mesh, MethodChoice, Operating, Scene, SceneError, SmoothTerms,
@@ -190,6 +190,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
         let gear = &gears[gears.len() - 1];
         super::checks::gear_compliance(&format!("gear[{i}]"), gear.base_radius, gear.inertia)?;
     }
+    super::planetary::carriers(&spec.carrier, compliant, &mut gears)?;
     mass_spread(&gears)?;
     // A train without any ground stiffness turns freely; its rigid-body rotation is removed
     // from the state (docs/train.md), which is exact only if nothing couples it to the
@@ -312,6 +313,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
             on_pair,
             pinion_torque: input_torque * pinion_ratio[i],
             pinion_is_input: ends[i].0 == input_gear,
+            planetary: super::planetary::is_planet_mesh(&spec.gear, m),
         };
         let mut mesh = mesh(&at, m, &gears, &find)?;
         mesh.smooth.torque_ripple = torque_ripple;
@@ -337,7 +339,17 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
         }
     }
 
-    let (speed_ratio, rotation) = kinematics(&gears, &shafts, &meshes, input_gear, input_sense)?;
+    let mut stages = super::planetary::stages(
+        &spec.gear,
+        &spec.carrier,
+        &gears,
+        &meshes,
+        &mesh_specs,
+        form,
+        compliant,
+    )?;
+    let (speed_ratio, rotation) =
+        kinematics(&gears, &shafts, &meshes, &stages, input_gear, input_sense)?;
     let output_gear = match &op.output_gear {
         Some(name) => find("operating.output_gear", name)?,
         None => meshes[meshes.len() - 1].gear,
@@ -352,6 +364,13 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
     for m in meshes.iter_mut() {
         m.cycles_per_input_rev = gears[m.pinion].teeth as f64 * speed_ratio[m.pinion];
     }
+    super::planetary::finish_kinematics(
+        &mut stages,
+        &gears,
+        &mut meshes,
+        (&speed_ratio, &rotation),
+        (input_gear, input_torque),
+    );
     if speed_ratio[output_gear] == 0.0 {
         return err(format!(
             "operating.output_gear = {:?}: not connected to the input gear {:?}",
@@ -374,6 +393,14 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
             let (pinion, gear) = (&gears[meshes[0].pinion], &gears[meshes[0].gear]);
             input_torque * gear.base_radius / pinion.base_radius
         }
+        (None, None) if !stages.is_empty() => super::planetary::balanced_load(
+            &stages,
+            &gears,
+            &meshes,
+            &rotation,
+            (input_gear, output_gear),
+            input_torque,
+        )?,
         (None, None) => {
             input_torque * radius_ratio(&gears, &shafts, &ends, input_gear, output_gear)
         }
@@ -493,6 +520,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
         source: source.to_owned(),
         ports,
         elements,
+        planetary: stages,
     })
 }
 
@@ -556,6 +584,8 @@ struct MeshAt {
     pinion_torque: f64,
     /// The pinion is the input gear (its torque is `operating.input_torque` itself).
     pinion_is_input: bool,
+    /// A mesh of a planetary stage: its line of action follows from the planet's position.
+    planetary: bool,
 }
 
 impl MeshAt {
@@ -804,8 +834,15 @@ fn mesh(
         (None, None) => 0.0,
     };
     let centre_angle = match m.centre_angle {
+        Some(a) if at.planetary => {
+            return err(format!(
+                "{} = {a}: a planetary mesh's line of action follows from the planet's \
+                 position_angle and the pressure angle (docs/planetary.md); omit centre_angle",
+                f("centre_angle")
+            ))
+        }
         Some(a) => finite(&f("centre_angle"), a)?,
-        None if translations => {
+        None if translations && !at.planetary => {
             return err(format!(
                 "{}: missing; translational DOFs need the centre-line direction (rad)",
                 f("centre_angle")
@@ -1311,13 +1348,27 @@ fn kinematics(
     gears: &[Gear],
     shafts: &[Shaft],
     meshes: &[Mesh],
+    stages: &[PlanetaryStage],
     input: usize,
     input_sense: f64,
 ) -> Result<(Vec<f64>, Vec<f64>)> {
     let n = gears.len();
+    // A planetary stage's meshes turn with its carrier: Willis' equation links its members
+    // (`super::planetary::kinematic_step`), not a fixed-axis ratio.
+    let planetary_mesh = |i: usize| {
+        stages.iter().any(|s| {
+            s.planets
+                .iter()
+                .any(|p| p.sun_mesh == i || p.ring_mesh == i)
+        })
+    };
     // Edges: (other gear, speed factor, sense factor, description).
     let mut edges: Vec<Vec<(usize, f64, f64, String)>> = vec![Vec::new(); n];
-    for (i, m) in meshes.iter().enumerate() {
+    for (i, m) in meshes
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !planetary_mesh(*i))
+    {
         let zp = gears[m.pinion].teeth as f64;
         let zg = gears[m.gear].teeth as f64;
         edges[m.pinion].push((m.gear, zp / zg, -1.0, format!("mesh[{i}]")));
@@ -1335,30 +1386,48 @@ fn kinematics(
     ratio[input] = Some(1.0);
     sense[input] = input_sense;
     let mut queue = VecDeque::from([input]);
-    while let Some(a) = queue.pop_front() {
-        let ra = ratio[a].expect("queued gears have a ratio");
-        for (b, factor, flip, what) in &edges[a] {
-            let rb = ra * factor;
-            let sb = sense[a] * flip;
-            match ratio[*b] {
-                None => {
-                    ratio[*b] = Some(rb);
-                    sense[*b] = sb;
-                    reached_via[*b] = Some(what.clone());
-                    queue.push_back(*b);
-                }
-                Some(r) => {
-                    if (r - rb).abs() > KINEMATIC_TOL * r.max(rb) || sense[*b] != sb {
-                        return err(format!(
+    loop {
+        while let Some(a) = queue.pop_front() {
+            let ra = ratio[a].expect("queued gears have a ratio");
+            for (b, factor, flip, what) in &edges[a] {
+                let rb = ra * factor;
+                let sb = sense[a] * flip;
+                match ratio[*b] {
+                    None => {
+                        ratio[*b] = Some(rb);
+                        sense[*b] = sb;
+                        reached_via[*b] = Some(what.clone());
+                        queue.push_back(*b);
+                    }
+                    Some(r) => {
+                        if (r - rb).abs() > KINEMATIC_TOL * r.max(rb) || sense[*b] != sb {
+                            return err(format!(
                             "{what}: inconsistent kinematics: gear {:?} would turn at {rb} × the input \
                              speed ({}) through {what}, but at {r} × ({}) through another path",
                             gears[*b].name,
                             if sb > 0.0 { "ccw" } else { "cw" },
                             if sense[*b] > 0.0 { "ccw" } else { "cw" },
                         ));
+                        }
                     }
                 }
             }
+        }
+        let mut signed: Vec<Option<f64>> = ratio
+            .iter()
+            .zip(&sense)
+            .map(|(r, s)| r.map(|r| r * s))
+            .collect();
+        let set = super::planetary::kinematic_step(stages, gears, &mut signed)?;
+        if set.is_empty() {
+            break;
+        }
+        for g in set {
+            let v = signed[g].expect("set by the stage");
+            ratio[g] = Some(v.abs());
+            sense[g] = v.signum() * (v != 0.0) as u8 as f64;
+            reached_via[g] = Some(format!("the planetary stage of {:?}", gears[g].name));
+            queue.push_back(g);
         }
     }
     // The mesh deflection compresses the pinion's drive flanks (docs/train.md), so the pinion

@@ -8,6 +8,7 @@
 //! - [`mesh`]: what every mesh checks the same (contact law, damping);
 //! - [`errors`]: runout and pitch errors of a gear;
 //! - [`friction`]: `[mesh.friction]` of a Model-1 or helical mesh;
+//! - [`planetary`]: carriers, planets and the stages they form (`docs/planetary.md`);
 //! - [`drivetrain`]: the scene and each of its meshes, whichever kernel runs it (topology,
 //!   kinematics, bearings, shafts, ports and elements; the single-pair kernel's own terms).
 
@@ -18,4 +19,5 @@ pub(crate) mod friction;
 pub(crate) mod geometry;
 pub(crate) mod helical;
 pub(crate) mod mesh;
+pub(crate) mod planetary;
 pub(crate) mod stiffness;

@@ -1,0 +1,541 @@
+//! Validation of planetary stages (`docs/planetary.md`): the `[[carrier]]` tables become
+//! bodies of the scene (entries of `Scene::gears` without teeth), the gears that name a
+//! carrier become its planets, and the meshes between them the stage's sun → planet and
+//! planet → ring meshes. Kinematics (Willis) and the balanced load of a stage are resolved
+//! here; what the planetary kernel does not carry yet is refused with the reason.
+
+use super::checks::{err, finite, non_negative, positive, valid_identifier as identifier};
+use crate::scene::spec::{mesh_field, CarrierSpec, GearSpec, MeshForm, MeshSpec, StiffnessSpec};
+use crate::scene::train::planetary::{planet_speed, torque_weights, willis_third};
+use crate::scene::train::{Bearing, Planet, PlanetaryStage};
+use crate::scene::{Gear, Mesh, SceneError};
+
+type Result<T> = std::result::Result<T, SceneError>;
+
+/// Relative tolerance of Willis' equation between speeds given by two paths.
+const WILLIS_TOL: f64 = 1e-9;
+
+/// Appends the carriers of `[[carrier]]` to `gears` (after the `[[gear]]` tables, so a carrier
+/// is named like a gear by shafts, ports and `operating`).
+pub(crate) fn carriers(
+    specs: &[CarrierSpec],
+    compliant: bool,
+    gears: &mut Vec<Gear>,
+) -> Result<()> {
+    for (i, c) in specs.iter().enumerate() {
+        let f = |key: &str| format!("carrier[{i}].{key}");
+        if !identifier(&c.name) {
+            return err(format!(
+                "{} = {:?}: must be an identifier (it names output columns)",
+                f("name"),
+                c.name
+            ));
+        }
+        if let Some(j) = gears.iter().position(|g| g.name == c.name) {
+            return err(format!(
+                "{} = {:?}: a gear or carrier has that name already (body {j})",
+                f("name"),
+                c.name
+            ));
+        }
+        let radius = positive(&f("radius"), c.radius)?;
+        let inertia = positive(&f("inertia"), c.inertia)?;
+        super::checks::gear_compliance(&format!("carrier[{i}]"), radius, inertia)?;
+        let mass = c.mass.map(|m| positive(&f("mass"), m)).transpose()?;
+        let bearing = match (c.bearing_stiffness, compliant) {
+            (Some(k), true) => Some(central_bearing(
+                &f("bearing_stiffness"),
+                &f("bearing_damping"),
+                k,
+                c.bearing_damping,
+                mass,
+                &f("mass"),
+            )?),
+            (None, _) if c.bearing_damping.is_some() => {
+                return err(format!(
+                    "{}: given without bearing_stiffness",
+                    f("bearing_damping")
+                ))
+            }
+            _ => None,
+        };
+        gears.push(Gear {
+            name: c.name.clone(),
+            teeth: 0,
+            base_radius: radius,
+            inertia,
+            mass,
+            bearing,
+            ground_stiffness: non_negative(&f("ground_stiffness"), c.ground_stiffness)?,
+            ground_damping: non_negative(&f("ground_damping"), c.ground_damping)?,
+            errors: Default::default(),
+        });
+    }
+    Ok(())
+}
+
+/// The bearing of a central member (sun, ring, carrier): its translations are in the rotating
+/// carrier frame (Lin & Parker 1999), where an anisotropic support would turn with the frame
+/// and make the stiffness time-varying; it must be isotropic.
+fn central_bearing(
+    field: &str,
+    damping_field: &str,
+    k: [f64; 2],
+    c: Option<[f64; 2]>,
+    mass: Option<f64>,
+    mass_field: &str,
+) -> Result<Bearing> {
+    for (axis, v) in ["x", "y"].iter().zip(k) {
+        if !(v.is_finite() && v > 0.0) {
+            return err(format!(
+                "{field}[{axis}] = {v}: bearing stiffness must be > 0"
+            ));
+        }
+    }
+    let c = c.unwrap_or([0.0, 0.0]);
+    non_negative(&format!("{damping_field}[x]"), c[0])?;
+    non_negative(&format!("{damping_field}[y]"), c[1])?;
+    if k[0] != k[1] || c[0] != c[1] {
+        return err(format!(
+            "{field} = [{}, {}] (damping [{}, {}]): a central member of a planetary stage \
+             translates in the rotating carrier frame (Lin & Parker 1999), where an anisotropic \
+             support turns with the frame; give equal x and y values",
+            k[0], k[1], c[0], c[1]
+        ));
+    }
+    if mass.is_none() {
+        return err(format!(
+            "{mass_field}: missing; the bearing's translations need a mass in kg"
+        ));
+    }
+    Ok(Bearing {
+        stiffness: k,
+        damping: c,
+    })
+}
+
+/// Whether mesh `m` of the file joins a planet (a gear with a `carrier` key): its line of
+/// action follows from the planet's position angle, not from `centre_angle`.
+pub(crate) fn is_planet_mesh(gears: &[GearSpec], m: &MeshSpec) -> bool {
+    gears
+        .iter()
+        .any(|g| g.carrier.is_some() && (g.name == m.pinion || g.name == m.gear))
+}
+
+/// The planetary stages of a scene: one per carrier, its planets the gears naming it, its sun
+/// and ring the gears those planets mesh with. `gears` holds the `[[gear]]` tables first, then
+/// the carriers; `meshes` are resolved. Checks the stage topology and what the first stage of
+/// the planetary model carries.
+pub(crate) fn stages(
+    specs: &[GearSpec],
+    carrier_specs: &[CarrierSpec],
+    gears: &[Gear],
+    meshes: &[Mesh],
+    mesh_specs: &[MeshSpec],
+    form: MeshForm,
+    compliant: bool,
+) -> Result<Vec<PlanetaryStage>> {
+    let index = |name: &str| gears.iter().position(|g| g.name == name);
+    for (i, g) in specs.iter().enumerate() {
+        let f = |key: &str| format!("gear[{i}].{key}");
+        if g.carrier.is_none() {
+            for (key, given) in [
+                ("position_angle", g.position_angle.is_some()),
+                ("pin_error", g.pin_error.is_some()),
+            ] {
+                if given {
+                    return err(format!(
+                        "{}: only a planet (a gear with `carrier`) has it",
+                        f(key)
+                    ));
+                }
+            }
+        }
+        if g.internal && !meshes.iter().any(|m| m.gear == i) {
+            return err(format!(
+                "{} = true: an internal gear is the ring of a planetary stage, driven by its \
+                 planets (mesh gear = {:?}); no mesh has it as gear",
+                f("internal"),
+                g.name
+            ));
+        }
+    }
+    let mut stages = Vec::new();
+    for (ci, c) in carrier_specs.iter().enumerate() {
+        let carrier = index(&c.name).expect("carriers are bodies");
+        let mut planets: Vec<Planet> = Vec::new();
+        let (mut sun, mut ring) = (None::<usize>, None::<usize>);
+        for (i, g) in specs.iter().enumerate() {
+            if g.carrier.as_deref() != Some(c.name.as_str()) {
+                continue;
+            }
+            let f = |key: &str| format!("gear[{i}].{key}");
+            if g.internal {
+                return err(format!("{}: a planet has external teeth", f("internal")));
+            }
+            if g.ground_stiffness != 0.0 || g.ground_damping != 0.0 {
+                return err(format!(
+                    "{}: a planet turns freely on its pin; it has no ground coupling",
+                    f("ground_stiffness")
+                ));
+            }
+            if !compliant || gears[i].bearing.is_none() {
+                return err(format!(
+                    "{}: missing; a planet sits on its carrier's pin through a bearing \
+                     [k_radial, k_tangential] (N/m), and model.bearings must be \"compliant\"",
+                    f("bearing_stiffness")
+                ));
+            }
+            let angle = match g.position_angle {
+                Some(a) => finite(&f("position_angle"), a)?.to_radians(),
+                None => {
+                    return err(format!(
+                        "{}: missing; a planet's position on its carrier (degrees)",
+                        f("position_angle")
+                    ))
+                }
+            };
+            let pin_error = match g.pin_error {
+                Some(e) => [
+                    finite(&format!("{}[radial]", f("pin_error")), e[0])?,
+                    finite(&format!("{}[tangential]", f("pin_error")), e[1])?,
+                ],
+                None => [0.0, 0.0],
+            };
+            let mut sun_mesh = None;
+            let mut ring_mesh = None;
+            for (n, m) in meshes.iter().enumerate() {
+                let field = |key: &str| mesh_field(form, n, key);
+                if m.gear == i {
+                    if specs
+                        .get(m.pinion)
+                        .is_some_and(|p| p.internal || p.carrier.is_some())
+                    {
+                        return err(format!(
+                            "{} = {:?}: a planet is driven by the sun (an external gear without \
+                             carrier)",
+                            field("pinion"),
+                            gears[m.pinion].name
+                        ));
+                    }
+                    if sun_mesh.replace(n).is_some() {
+                        return err(format!(
+                            "{}: planet {:?} meshes with a second sun",
+                            field("pinion"),
+                            g.name
+                        ));
+                    }
+                    match sun {
+                        None => sun = Some(m.pinion),
+                        Some(s) if s != m.pinion => {
+                            return err(format!(
+                                "{} = {:?}: the planets of carrier {:?} mesh with one sun, {:?}",
+                                field("pinion"),
+                                gears[m.pinion].name,
+                                c.name,
+                                gears[s].name
+                            ))
+                        }
+                        _ => {}
+                    }
+                } else if m.pinion == i {
+                    if !specs.get(m.gear).is_some_and(|r| r.internal) {
+                        return err(format!(
+                            "{} = {:?}: a planet drives the ring, a gear with internal = true",
+                            field("gear"),
+                            gears[m.gear].name
+                        ));
+                    }
+                    if ring_mesh.replace(n).is_some() {
+                        return err(format!(
+                            "{}: planet {:?} meshes with a second ring",
+                            field("gear"),
+                            g.name
+                        ));
+                    }
+                    match ring {
+                        None => ring = Some(m.gear),
+                        Some(r) if r != m.gear => {
+                            return err(format!(
+                                "{} = {:?}: the planets of carrier {:?} mesh with one ring, {:?}",
+                                field("gear"),
+                                gears[m.gear].name,
+                                c.name,
+                                gears[r].name
+                            ))
+                        }
+                        _ => {}
+                    }
+                }
+            }
+            let (Some(sun_mesh), Some(ring_mesh)) = (sun_mesh, ring_mesh) else {
+                return err(format!(
+                    "gear[{i}] ({:?}): a planet meshes with the sun (mesh pinion = sun, gear = \
+                     planet) and with the ring (mesh pinion = planet, gear = ring)",
+                    g.name
+                ));
+            };
+            planets.push(Planet {
+                gear: i,
+                angle,
+                pin_error,
+                sun_mesh,
+                ring_mesh,
+            });
+        }
+        let (Some(sun), Some(ring)) = (sun, ring) else {
+            return err(format!(
+                "carrier[{ci}] ({:?}): no planet names it (a planet is a [[gear]] with carrier = \
+                 {:?})",
+                c.name, c.name
+            ));
+        };
+        for (member, what) in [(sun, "sun"), (ring, "ring")] {
+            if let Some(b) = gears[member].bearing {
+                if b.stiffness[0] != b.stiffness[1] || b.damping[0] != b.damping[1] {
+                    return err(format!(
+                        "gear[{member}].bearing_stiffness = [{}, {}]: the {what} of a planetary \
+                         stage translates in the rotating carrier frame (Lin & Parker 1999), \
+                         where an anisotropic support turns with the frame; give equal x and y \
+                         values",
+                        b.stiffness[0], b.stiffness[1]
+                    ));
+                }
+            }
+        }
+        for p in &planets {
+            for n in [p.sun_mesh, p.ring_mesh] {
+                check_mesh(form, n, &mesh_specs[n])?;
+            }
+        }
+        // Other meshes on a stage member would mix the carrier frame with the scene frame.
+        for (n, m) in meshes.iter().enumerate() {
+            let in_stage = planets.iter().any(|p| p.sun_mesh == n || p.ring_mesh == n);
+            let touches =
+                [sun, ring, carrier].contains(&m.pinion) || [sun, ring, carrier].contains(&m.gear);
+            if touches && !in_stage {
+                return err(format!(
+                    "{}: gears {:?} and {:?}: a member of the planetary stage of carrier {:?} \
+                     meshes only inside the stage (its translations are in the carrier frame); \
+                     couple other stages through a [[shaft]]",
+                    mesh_field(form, n, "pinion"),
+                    gears[m.pinion].name,
+                    gears[m.gear].name,
+                    c.name
+                ));
+            }
+        }
+        let fixed = match &c.fixed {
+            Some(name) => match index(name) {
+                Some(g) if [sun, ring, carrier].contains(&g) => g,
+                _ => {
+                    return err(format!(
+                        "carrier[{ci}].fixed = {name:?}: must name the stage's sun {:?}, ring {:?} \
+                         or carrier {:?}",
+                        gears[sun].name, gears[ring].name, c.name
+                    ))
+                }
+            },
+            None => {
+                let held: Vec<usize> = [sun, ring, carrier]
+                    .into_iter()
+                    .filter(|&g| gears[g].ground_stiffness > 0.0)
+                    .collect();
+                match held[..] {
+                    [g] => g,
+                    _ => {
+                        return err(format!(
+                            "carrier[{ci}].fixed: missing; {} of the central members (sun {:?}, \
+                             ring {:?}, carrier {:?}) have a ground_stiffness, so name the one \
+                             whose nominal speed is zero",
+                            held.len(),
+                            gears[sun].name,
+                            gears[ring].name,
+                            c.name
+                        ))
+                    }
+                }
+            }
+        };
+        stages.push(PlanetaryStage {
+            carrier,
+            sun,
+            ring,
+            fixed,
+            planets,
+            sense: 1.0,
+        });
+    }
+    Ok(stages)
+}
+
+/// What the first stage of the planetary model carries on a stage mesh: a lumped or tooth-pair
+/// stiffness given by values; the geometry sources (external-gear potential energy, helical
+/// contact lines) do not describe an internal mesh yet.
+fn check_mesh(form: MeshForm, n: usize, m: &MeshSpec) -> Result<()> {
+    if matches!(
+        m.stiffness,
+        Some(StiffnessSpec::Geometry { .. } | StiffnessSpec::Helical { .. })
+    ) {
+        return err(format!(
+            "{}: a geometry or helical stiffness on a planetary mesh is not available yet (the \
+             potential-energy method here is written for external pairs); give the stiffness \
+             by values (constant, rectangular, trapezoidal, fourier, table)",
+            mesh_field(form, n, "stiffness")
+        ));
+    }
+    if m.pressure_angle.is_none() {
+        return err(format!(
+            "{}: missing; a planetary mesh's line of action is set by the planet's position \
+             angle and the pressure angle (degrees)",
+            mesh_field(form, n, "pressure_angle")
+        ));
+    }
+    if m.friction.is_some() {
+        return err(format!(
+            "{}: tooth friction on a planetary mesh is not available yet",
+            mesh_field(form, n, "friction")
+        ));
+    }
+    Ok(())
+}
+
+/// One step of the stage kinematics inside the walk of the drivetrain's kinematics: for every
+/// stage with two central speeds known (the fixed member counts, at zero), the third by
+/// Willis (eq. P1) and the planets (eq. P2). `speed` holds signed nominal speeds over the input
+/// speed. Returns the gears it set, or the message of a stage whose known speeds contradict
+/// Willis.
+pub(crate) fn kinematic_step(
+    stages: &[PlanetaryStage],
+    gears: &[Gear],
+    speed: &mut [Option<f64>],
+) -> Result<Vec<usize>> {
+    let mut set = Vec::new();
+    for st in stages {
+        let members = [st.sun, st.ring, st.carrier];
+        let known = members.map(|g| {
+            if g == st.fixed {
+                Some(speed[g].unwrap_or(0.0))
+            } else {
+                speed[g]
+            }
+        });
+        let z_s = gears[st.sun].teeth as f64;
+        let z_r = gears[st.ring].teeth as f64;
+        let Some(all) = willis_third(z_s, z_r, known) else {
+            continue;
+        };
+        let residual = z_s * (all[0] - all[2]) + z_r * (all[1] - all[2]);
+        let scale = z_s * all[0].abs() + z_r * all[1].abs() + (z_s + z_r) * all[2].abs();
+        if residual.abs() > WILLIS_TOL * scale.max(f64::MIN_POSITIVE) {
+            return err(format!(
+                "carrier {:?}: inconsistent kinematics: the sun {:?}, ring {:?} and carrier turn \
+                 at {}, {}, {} × the input speed, which breaks Willis' equation \
+                 Z_s(ω_s − ω_c) + Z_r(ω_r − ω_c) = 0 (teeth {}, {})",
+                gears[st.carrier].name,
+                gears[st.sun].name,
+                gears[st.ring].name,
+                all[0],
+                all[1],
+                all[2],
+                z_s,
+                z_r
+            ));
+        }
+        for (g, v) in members.into_iter().zip(all) {
+            if speed[g].is_none() {
+                speed[g] = Some(v);
+                set.push(g);
+            }
+        }
+        for p in &st.planets {
+            if speed[p.gear].is_none() {
+                let z_p = gears[p.gear].teeth as f64;
+                speed[p.gear] = Some(planet_speed(z_s, z_p, all[0], all[2]));
+                set.push(p.gear);
+            }
+        }
+    }
+    Ok(set)
+}
+
+/// After the kinematics: each stage's sense σ and the mesh cycles per input revolution of its
+/// meshes, `Z_s |ω_s − ω_c|` (eq. P2). σ is the sense of the sun's static torque (eq. P3):
+/// the flanks it loads are the drive flanks of every stage mesh, so the static mesh forces are
+/// positive whichever member drives. With the input on a central member and an input torque,
+/// the sun's torque follows from the torque weights (eq. P9); otherwise σ is the sun's
+/// rotation sense relative to the carrier (the sun driving).
+pub(crate) fn finish_kinematics(
+    stages: &mut [PlanetaryStage],
+    gears: &[Gear],
+    meshes: &mut [Mesh],
+    (speed_ratio, rotation): (&[f64], &[f64]),
+    (input, input_torque): (usize, f64),
+) {
+    for st in stages.iter_mut() {
+        let signed = |g: usize| speed_ratio[g] * rotation[g];
+        let relative = signed(st.sun) - signed(st.carrier);
+        let p = &st.planets[0];
+        let w = torque_weights(
+            gears[st.sun].base_radius,
+            gears[st.ring].base_radius,
+            gears[st.carrier].base_radius,
+            meshes[p.sun_mesh].pressure_angle,
+            meshes[p.ring_mesh].pressure_angle,
+        );
+        let sun_torque = [st.sun, st.ring, st.carrier]
+            .iter()
+            .position(|&g| g == input)
+            .map(|a| input_torque * rotation[input] * w[0] / w[a])
+            .filter(|&t| t != 0.0);
+        st.sense = match sun_torque {
+            Some(t) => t.signum(),
+            None if relative < 0.0 => -1.0,
+            None => 1.0,
+        };
+        let cycles = gears[st.sun].teeth as f64 * relative.abs();
+        for p in &st.planets {
+            meshes[p.sun_mesh].cycles_per_input_rev = cycles;
+            meshes[p.ring_mesh].cycles_per_input_rev = cycles;
+        }
+    }
+}
+
+/// The balanced load of a scene with planetary stages (eq. P9): the input and the output are
+/// central members of one stage, the third member reacts. Torques counted in the stage's
+/// sense σ are `T̃_h = λ w_h` ([`torque_weights`]); with `ρ_h = σ·rotation_h` the input torque
+/// is `T̃_a = ρ_a T_in` and the load (a magnitude resisting the output's nominal rotation)
+/// `T̃_b = −ρ_b T_load`, so `T_load = −ρ_a ρ_b T_in w_b / w_a`.
+pub(crate) fn balanced_load(
+    stages: &[PlanetaryStage],
+    gears: &[Gear],
+    meshes: &[Mesh],
+    rotation: &[f64],
+    (input, output): (usize, usize),
+    input_torque: f64,
+) -> Result<f64> {
+    for st in stages {
+        let members = [st.sun, st.ring, st.carrier];
+        let (Some(a), Some(b)) = (
+            members.iter().position(|&g| g == input),
+            members.iter().position(|&g| g == output),
+        ) else {
+            continue;
+        };
+        let p = &st.planets[0];
+        let w = torque_weights(
+            gears[st.sun].base_radius,
+            gears[st.ring].base_radius,
+            gears[st.carrier].base_radius,
+            meshes[p.sun_mesh].pressure_angle,
+            meshes[p.ring_mesh].pressure_angle,
+        );
+        let rho = |g: usize| st.sense * rotation[g];
+        return Ok(-rho(input) * rho(output) * input_torque * w[b] / w[a]);
+    }
+    err(format!(
+        "operating.load_torque: missing; the input gear {:?} and the output gear {:?} are not \
+         two central members of one planetary stage, so give the load torque (N·m)",
+        gears[input].name, gears[output].name
+    ))
+}
