@@ -6,10 +6,9 @@
 # work) and `fmpy simulate` for scale.
 # The commands run in alternating rounds (simulate, run, run --outputs dte, ...) so that a
 # change of machine load hits all of them alike; reported: the median wall time and the median
-# CPU time (user + system of the command and the FMU process it runs; less sensitive to other
-# processes) of each, and the ratios side by side. Then one `--timing` breakdown (time inside
-# the FMU's calls vs CSV formatting vs the runner's own loop). Not a test: timings depend on the
-# machine and its load.
+# CPU time (user + system, less sensitive to other processes) of each, and the ratios side by
+# side. Then one `--timing` breakdown (time inside the FMU's calls vs CSV formatting vs the
+# runner's own loop). Not a test: timings depend on the machine and its load.
 # With --instructions (needs valgrind): also the instructions executed by one run of each
 # (callgrind, ~1 min), a measure that does not depend on the load at all.
 # With --against DIR (another worktree with a release build and out/fmus, e.g. the commit
@@ -40,7 +39,7 @@ trap 'rm -rf "$tmp"' EXIT
 fmpy=""
 [ -x .venv/bin/python ] && fmpy=.venv/bin/python
 python3 - "$rounds" "$bin" "$fmu" "$tmp" "$fmpy" "$against" <<'EOF_PY'
-import os, resource, statistics, subprocess, sys, time
+import os, statistics, subprocess, sys, time
 rounds, exe, fmu, tmp, fmpy, against = int(sys.argv[1]), *sys.argv[2:7]
 grid = ["--stop-time", "1", "--output-interval", "1e-5"]
 commands = {
@@ -50,18 +49,14 @@ commands = {
 }
 
 def timed(cmd):
-    """Wall and CPU (user + system) seconds of one run of `cmd` and every process it waited
-    for: `geardyn run` runs the FMU in a child process, whose CPU the command's own usage
-    (wait4) leaves out; the usage of this script's children counts it once reaped."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    """Wall and CPU (user + system) seconds of one run of `cmd`."""
     start = time.perf_counter()
-    status = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    _, status, usage = os.wait4(proc.pid, 0)
     wall = time.perf_counter() - start
-    if status != 0:
+    if os.waitstatus_to_exitcode(status) != 0:
         sys.exit(f"failed: {' '.join(cmd)}")
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
-    return wall, cpu
+    return wall, usage.ru_utime + usage.ru_stime
 
 if against:
     base = {
