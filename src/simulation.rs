@@ -190,7 +190,9 @@ impl<F: FnMut(f64, &[f64]) -> Result<(), String>> RowSink for FnSink<F> {
     }
 }
 
-/// The outputs of a pair as a row (see [`Simulation::outputs`]).
+/// The outputs of a pair as a row (see [`Simulation::outputs`]); inlined into the FMU's
+/// output path, which runs after every step.
+#[inline]
 pub fn pair_row(sim: &Simulation, row: &mut Vec<f64>) {
     row.clear();
     row.extend_from_slice(&sim.outputs());

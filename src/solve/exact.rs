@@ -829,25 +829,33 @@ impl ExactPropagator {
         t_end: f64,
         observer: &mut O,
     ) -> Result<(), SolveError> {
-        // Unbounded, the exponentials and samples are not metered (one call site of the
-        // loop per observer, so that it is inlined here as an unmetered propagator's was).
-        let metered = self.work_limit.is_some();
-        let mut meter = AdvanceMeter {
-            exp_work0: if metered { balanced::exp_work() } else { 0.0 },
-            samples_left: MAX_GUARD_SAMPLES_PER_ADVANCE,
-        };
-        let result = self.advance_metered(sys, t_end, &mut meter, observer);
-        if metered {
+        // The loop comes in two forms: under a limit it meters its work (the exponentials,
+        // guard samples and bins built, and the limit checked before every segment);
+        // unbounded, it meters nothing, so a run without a budget (a benchmark, a driver used
+        // directly) pays nothing per segment for the meter.
+        if self.work_limit.is_some() {
+            let mut meter = AdvanceMeter {
+                exp_work0: balanced::exp_work(),
+                samples_left: MAX_GUARD_SAMPLES_PER_ADVANCE,
+            };
+            let result = self.advance_metered::<S, O, true>(sys, t_end, &mut meter, observer);
             self.exp_units += balanced::exp_work() - meter.exp_work0;
             self.guard_samples += meter.samples();
+            result
+        } else {
+            let mut meter = AdvanceMeter {
+                exp_work0: 0.0,
+                samples_left: MAX_GUARD_SAMPLES_PER_ADVANCE,
+            };
+            self.advance_metered::<S, O, false>(sys, t_end, &mut meter, observer)
         }
-        result
     }
 
     /// [`ExactPropagator::advance_to`], given where the meter stood at its start (the guard
-    /// samples left on return were not taken).
+    /// samples left on return were not taken); `METERED`: under the owner's work limit
+    /// ([`ExactPropagator::set_work_limit`]), checked before every segment.
     #[inline(always)]
-    fn advance_metered<S: PiecewiseLti, O: SegmentObserver<S>>(
+    fn advance_metered<S: PiecewiseLti, O: SegmentObserver<S>, const METERED: bool>(
         &mut self,
         sys: &mut S,
         t_end: f64,
@@ -878,7 +886,7 @@ impl ExactPropagator {
                 && sys.stops_independent_of_state()
                 && sys.forcing_carries_over()
             {
-                let walked = self.advance_sequence(sys, t_end, &mut budget, meter)?;
+                let walked = self.advance_sequence::<S, METERED>(sys, t_end, &mut budget, meter)?;
                 if walked {
                     continue;
                 }
@@ -901,7 +909,9 @@ impl ExactPropagator {
                 return Err(SolveError::StepSizeTooSmall { t: self.t, h: tau });
             }
             stalled_stops = 0;
-            self.check_work_limit(self.t, meter)?;
+            if METERED {
+                self.check_work_limit(self.t, meter)?;
+            }
             budget.charge(self.t)?;
             let carries = self.sensitivity.is_none() && sys.forcing_carries_over();
             match self
@@ -922,8 +932,8 @@ impl ExactPropagator {
             let position = self.modes.get_position(sys);
             let mode = &mut self.modes.modes[position];
             // The bins this segment builds ([`SolverStats::transitions`]), counted where it
-            // last uses its mode.
-            let bins_before = mode.bin_builds();
+            // last uses its mode: under a limit, where they trigger its full check.
+            let bins_before = if METERED { mode.bin_builds() } else { 0 };
             self.stats.steps += 1;
 
             let guards = sys.guard_count();
@@ -1036,7 +1046,9 @@ impl ExactPropagator {
                     if !event_state_ready {
                         mode.apply(found.tau, &self.z, z_event);
                     }
-                    self.stats.transitions += mode.bin_builds() - bins_before;
+                    if METERED {
+                        self.stats.transitions += mode.bin_builds() - bins_before;
+                    }
                     let t_event = self.t + found.tau;
                     self.stalled_events = if t_event > self.t {
                         0
@@ -1070,7 +1082,9 @@ impl ExactPropagator {
             } else {
                 mode.apply(tau, &self.z, &mut self.z_next);
             }
-            self.stats.transitions += mode.bin_builds() - bins_before;
+            if METERED {
+                self.stats.transitions += mode.bin_builds() - bins_before;
+            }
             if O::ACTIVE {
                 let mut segment = Segment::new(
                     self.t,
@@ -1113,7 +1127,7 @@ impl ExactPropagator {
     /// the sequence's first one at a stop (one mesh period of a train at constant speed), so
     /// long advances are cut into recurring sequences too. Returns whether a segment was
     /// walked.
-    fn advance_sequence<S: PiecewiseLti>(
+    fn advance_sequence<S: PiecewiseLti, const METERED: bool>(
         &mut self,
         sys: &mut S,
         t_end: f64,
@@ -1154,7 +1168,7 @@ impl ExactPropagator {
                 // Back at the first mode after a stop: a new sequence starts here.
                 break;
             }
-            if self.work_limit.is_some() {
+            if METERED {
                 if let Err(e) = self.check_work_limit(t, meter) {
                     failure = Some(e);
                     break;
@@ -1192,7 +1206,9 @@ impl ExactPropagator {
                         let mode = &mut self.modes.modes[step.mode];
                         let bins = mode.bin_builds();
                         mode.apply(step.tau, &self.z, &mut self.z_next);
-                        self.stats.transitions += mode.bin_builds() - bins;
+                        if METERED {
+                            self.stats.transitions += mode.bin_builds() - bins;
+                        }
                         std::mem::swap(&mut self.z, &mut self.z_next);
                     }
                     if let Some(slot) = build {
@@ -1203,7 +1219,9 @@ impl ExactPropagator {
                             let mode = &mut self.modes.modes[step.mode];
                             let bins = mode.bin_builds();
                             let phi = mode.transition_matrix(step.tau);
-                            self.stats.transitions += mode.bin_builds() - bins;
+                            if METERED {
+                                self.stats.transitions += mode.bin_builds() - bins;
+                            }
                             product = phi * product;
                         }
                         self.modes.composites.set_product(slot, product);

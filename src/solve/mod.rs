@@ -106,7 +106,10 @@ pub struct SolverStats {
     /// Segments propagated by their Taylor series, their mode not built (exact propagator,
     /// a mode beyond the memory budget of the full path: `exact::series_segment`).
     pub series_segments: u64,
-    /// Transition matrices built (exact propagator: Padé exponentials of a duration bin).
+    /// Transition matrices built (exact propagator: Padé exponentials of a duration bin), in
+    /// the advances under a work limit: the meter's sign that an exponential was paid for
+    /// (its full check, [`crate::simulation::budget`]). An unbounded advance meters nothing,
+    /// so it does not count them either.
     pub transitions: u64,
 }
 

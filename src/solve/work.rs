@@ -19,7 +19,9 @@ pub struct WorkPrices {
 
 /// Stops an advance whose propagator has spent `until` units in all (its cumulative work,
 /// not the advance's): [`crate::solve::SolveError::OverBudget`] with an empty message, the
-/// state at the last step or segment end (the owner words the message).
-pub fn over_limit(work: f64, until: Option<f64>) -> bool {
-    matches!(until, Some(until) if work >= until)
+/// state at the last step or segment end (the owner words the message). `work` is computed
+/// only under a limit: an unbounded step pays one test for the meter.
+#[inline(always)]
+pub fn over_limit(work: impl FnOnce() -> f64, until: Option<f64>) -> bool {
+    matches!(until, Some(until) if work() >= until)
 }

@@ -512,7 +512,7 @@ impl RkStepper {
                     max_steps: self.opts.max_steps,
                 });
             }
-            if work::over_limit(self.work(), self.work_until) {
+            if work::over_limit(|| self.work(), self.work_until) {
                 return Err(SolveError::OverBudget {
                     t: self.t,
                     message: String::new(),
