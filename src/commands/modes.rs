@@ -95,8 +95,10 @@ pub fn modes(scene: &Scene, rigid_bearings: bool, out: &mut dyn Write) -> Result
         }
         Err(e) => writeln!(out, "  {e}").map_err(io)?,
     }
-    if let Ok(st) = statics::equilibrium(&asm, t_in, t_load, false) {
-        planet_loads(&scene, &st.mesh_force, out).map_err(io)?;
+    if !scene.planetary.is_empty() {
+        if let Ok(st) = statics::equilibrium(&asm, t_in, t_load, false) {
+            planet_loads(&scene, &st.mesh_force, out).map_err(io)?;
+        }
     }
     if scene.meshes.iter().any(|m| m.friction.is_some()) {
         // The statics above are of the frictionless mean system (modes too); with friction
