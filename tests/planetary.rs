@@ -464,3 +464,235 @@ fn time_domain_commands_refuse_a_planetary_scene() {
     let why = geardyn::model::train::GearTrain::new(&scene).err().unwrap();
     assert!(why.contains("planetary stage"), "{why}");
 }
+
+/// Every command on the planetary test scene: `modes` runs, each command the planetary kernel
+/// cannot serve yet exits 1 with a message that names the planetary stage (never a panic,
+/// never a result).
+#[test]
+fn every_command_runs_or_refuses_with_the_reason() {
+    let bin = env!("CARGO_BIN_EXE_geardyn");
+    let scene = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/fixtures/planetary/lin_parker_1999.toml"
+    );
+    let dir = std::env::temp_dir().join(format!("geardyn_planetary_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    let run = |args: &[&str]| {
+        let o = std::process::Command::new(bin).args(args).output().unwrap();
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let (code, stdout, stderr) = run(&["modes", scene]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(stdout.contains("planet load sharing"), "{stdout}");
+    let refused: Vec<Vec<String>> = vec![
+        vec![
+            "simulate".into(),
+            scene.into(),
+            "--out".into(),
+            out("a.csv"),
+        ],
+        vec![
+            "spectrum".into(),
+            scene.into(),
+            "--out".into(),
+            out("s.csv"),
+        ],
+        vec!["periodic".into(), scene.into()],
+        vec![
+            "sweep".into(),
+            scene.into(),
+            "--speed".into(),
+            "50:100:3".into(),
+            "--out".into(),
+            out("w.csv"),
+        ],
+        vec![
+            "hb".into(),
+            scene.into(),
+            "--speed".into(),
+            "50:100".into(),
+            "--out".into(),
+            out("h.csv"),
+        ],
+        vec!["floquet".into(), scene.into()],
+        vec![
+            "band".into(),
+            scene.into(),
+            "--speed".into(),
+            "50:100".into(),
+        ],
+        vec![
+            "fmu".into(),
+            "build".into(),
+            scene.into(),
+            "--out".into(),
+            out("fmu"),
+        ],
+        vec!["modes".into(), scene.into(), "--rigid-bearings".into()],
+    ];
+    for args in refused {
+        let args: Vec<&str> = args.iter().map(String::as_str).collect();
+        let (code, _, stderr) = run(&args);
+        assert_eq!(code, Some(1), "{args:?}: {stderr}");
+        assert!(stderr.contains("planetary stage"), "{args:?}: {stderr}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// The LP stage (N = 4) with a parallel stage on the carrier's shaft: pinion `out_pinion`
+/// (rigid shaft to the carrier) driving `out_wheel`, the output.
+fn with_parallel_stage(stage: &Stage, load_torque: f64) -> String {
+    let text = stage.toml().replace(
+        "output_gear = \"carrier\"",
+        &format!("output_gear = \"out_wheel\"\nload_torque = {load_torque:e}"),
+    );
+    let (head, operating) = text.split_at(text.find("[operating]").unwrap());
+    format!(
+        "{head}[[gear]]\nname = \"out_pinion\"\nteeth = 23\nbase_radius = 0.03\ninertia = 2e-4\n\
+         [[gear]]\nname = \"out_wheel\"\nteeth = 41\nbase_radius = 0.0534782608695652\n\
+         inertia = 4e-3\n\
+         [[shaft]]\ngears = [\"carrier\", \"out_pinion\"]\nrigid = true\n\
+         [[mesh]]\nname = \"parallel\"\npinion = \"out_pinion\"\ngear = \"out_wheel\"\n\
+         contact = \"linear\"\nstiffness = {{ kind = \"constant\", value = 3e8 }}\n{operating}"
+    )
+}
+
+#[test]
+fn a_planetary_stage_followed_by_a_parallel_stage() {
+    let stage = Stage::lin_parker(4);
+    let alone = stage.scene();
+    let w_c = RADIUS[2] * 2.0 * PRESSURE_ANGLE_DEG.to_radians().cos();
+    let carrier_torque = 100.0 * w_c / RADIUS[0];
+    let load = carrier_torque * 0.0534782608695652 / 0.03;
+    let scene = Scene::from_toml_str(&with_parallel_stage(&stage, load), "combined").unwrap();
+
+    // Kinematics: Willis through the stage, then the fixed-axis ratio (closed forms).
+    let g = |name: &str| scene.gear_index(name).unwrap();
+    let carrier = 27.0 / (27.0 + 96.0);
+    let planet = carrier - 27.0 / 35.0 * (1.0 - carrier);
+    let signed = |i: usize| scene.speed_ratio[i] * scene.rotation[i];
+    for (name, expected) in [
+        ("carrier", carrier),
+        ("ring", 0.0),
+        ("planet3", planet),
+        ("out_pinion", carrier),
+        ("out_wheel", -carrier * 23.0 / 41.0),
+    ] {
+        assert!(
+            (signed(g(name)) - expected).abs() <= 1e-15,
+            "{name}: {} vs {expected}",
+            signed(g(name))
+        );
+    }
+    let stage_mesh = scene.planetary[0].planets[0].sun_mesh;
+    assert!((scene.meshes[stage_mesh].cycles_per_input_rev - 27.0 * (1.0 - carrier)).abs() < 1e-12);
+
+    // Planet and translational modes leave the carrier's rotation still, so the parallel
+    // stage on its shaft keeps them (with their multiplicity); the rotational modes change.
+    let clusters = check_structure(&stage);
+    let combined: Vec<f64> = modes(&Assembly::new(&scene))
+        .iter()
+        .map(|m| m.frequency)
+        .collect();
+    let alone_f: Vec<f64> = modes(&Assembly::new(&alone))
+        .iter()
+        .map(|m| m.frequency)
+        .collect();
+    assert_eq!(combined.len(), alone_f.len() + 1);
+    let count = |f: f64, tol: f64| {
+        combined
+            .iter()
+            .filter(|&&c| (c - f).abs() <= tol * f)
+            .count()
+    };
+    let mut moved = 0;
+    for (kind, f, multiplicity) in clusters {
+        match kind {
+            ModeType::Planet | ModeType::Translational => {
+                assert_eq!(
+                    count(f, 1e-9),
+                    multiplicity,
+                    "{kind:?} {f} Hz in {combined:?}"
+                )
+            }
+            // The low rotational modes, where the carrier moves most, shift by ~1 %.
+            ModeType::Rotational => moved += usize::from(f > 0.0 && count(f, 1e-3) == 0),
+        }
+    }
+    assert!(moved >= 3, "{combined:?}");
+
+    // Statics through both stages: equal sharing, and the parallel mesh carries the carrier's
+    // torque.
+    let force = mesh_forces(&scene);
+    for l in &planetary::load_sharing(&scene, &force)[0] {
+        assert!((l.share - 0.25).abs() <= 1e-12, "{}", l.share);
+    }
+    let parallel = scene
+        .meshes
+        .iter()
+        .position(|m| m.name == "parallel")
+        .unwrap();
+    let expected = carrier_torque / 0.03;
+    assert!(
+        (force[parallel] - expected).abs() <= 1e-9 * expected,
+        "{} vs {expected}",
+        force[parallel]
+    );
+}
+
+#[test]
+fn bad_planetary_input_is_refused_naming_the_field() {
+    let base = Stage::lin_parker(3).toml();
+    let cases = [
+        (
+            base.replacen("position_angle = 0e0\n", "", 1),
+            "gear[2].position_angle: missing",
+        ),
+        (
+            base.replacen(
+                "bearing_stiffness = [1e8, 1e8]",
+                "bearing_stiffness = [1e8, 2e8]",
+                1,
+            ),
+            "gear[0].bearing_stiffness",
+        ),
+        (
+            base.replacen(
+                "pressure_angle = 24.6\n",
+                "pressure_angle = 24.6\ncentre_angle = 0.3\n",
+                1,
+            ),
+            "mesh[0].centre_angle = 0.3",
+        ),
+        (
+            base.replacen(
+                "ground_stiffness = 0e0\n",
+                "ground_stiffness = 0e0\nposition_angle = 5.0\n",
+                1,
+            ),
+            "gear[0].position_angle",
+        ),
+        (
+            base.replace("fixed = \"ring\"", "fixed = \"planet1\""),
+            "carrier[0].fixed = \"planet1\"",
+        ),
+        (
+            base.replacen("internal = true\n", "", 1),
+            "a planet drives the ring",
+        ),
+    ];
+    for (text, expected) in cases {
+        let e = Scene::from_toml_str(&text, "bad")
+            .err()
+            .unwrap_or_else(|| panic!("accepted: {expected}"));
+        assert!(
+            e.to_string().contains(expected),
+            "expected {expected:?} in: {e}"
+        );
+    }
+}

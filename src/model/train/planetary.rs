@@ -188,3 +188,19 @@ pub fn load_sharing(scene: &Scene, mesh_force: &[f64]) -> Vec<Vec<PlanetLoad>> {
         })
         .collect()
 }
+
+/// Why the time-domain kernel cannot run `scene` yet, if it has a planetary stage: the first
+/// stage of the planetary model is its mean (linear time-invariant) system, which
+/// `geardyn modes` and the statics use; the time-varying meshes with the phasing of Parker &
+/// Lin (2004) in the carrier frame are not built, and a run without them would be wrong.
+/// Checked where the kernel is built (`Scene::run`, `GearTrain::new`).
+pub fn refusal(scene: &Scene) -> Option<String> {
+    let st = scene.planetary.first()?;
+    Some(format!(
+        "scene {:?} has a planetary stage (carrier {:?}): only its mean system is built so \
+         far (`geardyn modes`: natural frequencies, statics and planet load sharing); the \
+         time-varying planetary meshes with their phasing (Parker & Lin 2004) are not, so \
+         simulations and the analyses built on them refuse it (docs/planetary.md)",
+        scene.name, scene.gears[st.carrier].name
+    ))
+}

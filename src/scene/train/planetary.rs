@@ -98,20 +98,3 @@ pub fn torque_weights(
 ) -> [f64; 3] {
     [r_sun, r_ring, -r_carrier * (alpha_s.cos() + alpha_r.cos())]
 }
-
-impl crate::scene::Scene {
-    /// Why the time-domain kernel cannot run this scene yet, if it has a planetary stage: the
-    /// first stage of the planetary model is its mean (linear time-invariant) system, which
-    /// `geardyn modes` and the statics use; the time-varying meshes with Parker & Lin (2004)
-    /// phasing in the carrier frame are not built, and a run without them would be wrong.
-    pub fn planetary_refusal(&self) -> Option<String> {
-        let st = self.planetary.first()?;
-        Some(format!(
-            "scene {:?} has a planetary stage (carrier {:?}): only its mean system is built so \
-             far (`geardyn modes`: natural frequencies, statics and planet load sharing); the \
-             time-varying planetary meshes with their phasing (Parker & Lin 2004) are not, so \
-             simulations and the analyses built on them refuse it (docs/planetary.md)",
-            self.name, self.gears[st.carrier].name
-        ))
-    }
-}
