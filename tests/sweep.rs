@@ -149,3 +149,96 @@ fn bad_ranges_and_unconverged_points() {
         .iter()
         .all(|p| !p.converged && p.response_periods.is_none()));
 }
+
+/// `geardyn sweep --states`: each point's recording state and phase, from which a run of the
+/// scene at that speed records the point's statistics again; on the hysteresis of the shipped
+/// 8-DOF idler the up and the down branch have different states at the same speed, and each
+/// state gives its own branch (the Liu report's fast check relies on this: the branch a point
+/// is on is pinned by its state).
+#[test]
+fn states_file_records_each_point_again_on_its_own_branch() {
+    use geardyn::analysis::orbit_statistics::record;
+    use geardyn::model::{response_period, Drivetrain};
+    use geardyn::scene::Scene;
+    use geardyn::with_drivetrain;
+
+    let dir = std::env::temp_dir().join(format!("geardyn-sweep-states-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let (out, states) = (dir.join("sweep.csv"), dir.join("states.csv"));
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_geardyn"))
+        .args([
+            "sweep",
+            "--example",
+            "idler_gearset",
+            "--speed",
+            "330:390:7",
+            "--out",
+        ])
+        .arg(&out)
+        .arg("--states")
+        .arg(&states)
+        .output()
+        .unwrap();
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let read = |path: &std::path::Path| -> (Vec<String>, Vec<Vec<f64>>) {
+        let text = std::fs::read_to_string(path).unwrap();
+        let mut lines = text.lines();
+        let head = lines
+            .next()
+            .unwrap()
+            .split(',')
+            .map(str::to_string)
+            .collect();
+        let rows = lines
+            .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+            .collect();
+        (head, rows)
+    };
+    let (columns, table) = read(&out);
+    let (head, pinned) = read(&states);
+    assert_eq!(
+        &head[..4],
+        ["direction", "speed", "recorded_periods", "recording_phase"]
+    );
+    assert_eq!(pinned.len(), table.len(), "one state per point");
+    let col = |name: &str| columns.iter().position(|c| c == name).unwrap();
+    let (rms1, loss2) = (col("mesh1.dte_rms"), col("mesh2.contact_loss_fraction"));
+    let scene = Scene::example("idler_gearset").unwrap();
+    let mut worst: f64 = 0.0;
+    let mut branches_differ = false;
+    for (p, t) in pinned.iter().zip(&table) {
+        assert_eq!(
+            (p[0], p[1]),
+            (t[0], t[1]),
+            "direction and speed of the point"
+        );
+        let mut at = scene.clone();
+        at.set_input_speed(p[1]);
+        let again = with_drivetrain!(at.simulation().unwrap(), sim => {
+            let mut sim = sim;
+            let period = response_period(sim.model()).unwrap();
+            let f1 = Drivetrain::mesh_frequency(sim.model(), 0);
+            let per_response = (period * f1).round().max(1.0);
+            let phase0 = Drivetrain::mesh_phase(sim.model(), 0, 0.0);
+            let t0 = (p[3] - phase0).rem_euclid(per_response) / f1;
+            sim.set_y(t0, &p[4..]);
+            record(&mut sim, &at.solver, p[2] * period, false).unwrap()
+        });
+        worst = worst
+            .max((again[0].dte_rms - t[rms1]).abs() / t[rms1])
+            .max((again[1].contact_loss_fraction - t[loss2]).abs());
+        let other = table.iter().find(|o| o[1] == t[1] && o[0] != t[0]).unwrap();
+        branches_differ |= t[rms1] > 2.0 * other[rms1];
+    }
+    println!("sweep --states: largest difference of a point recorded again {worst:.1e}");
+    assert!(worst <= 1e-9, "{worst:e}");
+    assert!(
+        branches_differ,
+        "the speeds must cross the idler's hysteresis"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

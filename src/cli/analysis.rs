@@ -59,6 +59,11 @@ pub struct SweepArgs {
     /// over the recorded stretch) to this CSV.
     #[arg(long)]
     poincare: Option<PathBuf>,
+    /// Also write each point's recording state to this CSV: direction, speed, the response
+    /// periods recorded, the first mesh's phase (cycles) and the state y0, y1, … where the
+    /// statistics start (a run set to it there records the point's response again).
+    #[arg(long)]
+    states: Option<PathBuf>,
     /// Write each column's unit into the CSV header, `dte [m]` (default: bare names).
     #[arg(long)]
     units: bool,
@@ -95,6 +100,7 @@ pub fn sweep(args: SweepArgs) -> Result<(), String> {
     let files = commands::SweepFiles {
         out: &args.out,
         poincare: args.poincare.as_deref(),
+        states: args.states.as_deref(),
         plot: args.plot.as_deref(),
         units: args.units,
     };

@@ -377,13 +377,50 @@ pub fn periodic_command(
     periodic_report(scene, &orbit?)
 }
 
-/// The files `geardyn sweep` writes: the table, and optionally the Poincaré samples and the
-/// frequency-response plot; `units` puts each column's unit in the headers.
+/// The files `geardyn sweep` writes: the table, and optionally the Poincaré samples, each
+/// point's recording state and the frequency-response plot; `units` puts each column's unit in
+/// the headers.
 pub struct SweepFiles<'a> {
     pub out: &'a Path,
     pub poincare: Option<&'a Path>,
+    pub states: Option<&'a Path>,
     pub plot: Option<&'a Path>,
     pub units: bool,
+}
+
+/// The leading columns of `geardyn sweep --states`; then the state, `y0`, `y1`, … (the run's
+/// state vector: the coordinates, then their rates, in `geardyn periodic`'s order).
+pub const STATE_COLUMNS: [&str; 4] = ["direction", "speed", "recorded_periods", "recording_phase"];
+
+/// `geardyn sweep --states`: per point (rows in the table's order) where its statistics were
+/// recorded from: the response periods recorded, the first mesh's phase in cycles (modulo the
+/// response period's cycles) and the state there ([`SweepPoint::recording_state`]). A run of
+/// the scene at that speed set to that state at that phase records the same response again;
+/// a failed point has 0 periods and NaN state.
+pub fn state_table(sweep: &Sweep, record_periods: u32) -> (Vec<String>, Vec<Vec<f64>>) {
+    let width = sweep
+        .points
+        .iter()
+        .map(|p| p.recording_state.len())
+        .max()
+        .unwrap_or(0);
+    let mut columns: Vec<String> = STATE_COLUMNS.iter().map(|c| c.to_string()).collect();
+    columns.extend((0..width).map(|i| format!("y{i}")));
+    let rows = sweep
+        .points
+        .iter()
+        .map(|p| {
+            let periods = match (&p.failure, p.response_periods) {
+                (Some(_), _) => 0,
+                (None, Some(k)) => k,
+                (None, None) => record_periods,
+            };
+            let mut row = vec![p.row()[0], p.speed, f64::from(periods), p.recording_phase];
+            row.extend((0..width).map(|i| p.recording_state.get(i).copied().unwrap_or(f64::NAN)));
+            row
+        })
+        .collect();
+    (columns, rows)
 }
 
 /// `geardyn sweep`: runs the sweep, writes its files and returns the summary it prints. The
@@ -428,6 +465,10 @@ pub fn sweep_command(
             poincare_rows(&sweep),
             files.units,
         )?;
+    }
+    if let Some(path) = files.states {
+        let (columns, rows) = state_table(&sweep, options.record_periods);
+        output::write_table(path, &columns, rows)?;
     }
     if let Some(path) = files.plot {
         sweep_plot(scene, &sweep, path)?;
