@@ -686,6 +686,13 @@ fn bad_planetary_input_is_refused_naming_the_field() {
             "a planet drives the ring",
         ),
     ];
+    let mut ring_input = Stage::lin_parker(3);
+    ring_input.input = "ring";
+    let cases = [
+        cases.as_slice(),
+        &[(ring_input.toml(), "its fixed member \"ring\" would turn")],
+    ]
+    .concat();
     for (text, expected) in cases {
         let e = Scene::from_toml_str(&text, "bad")
             .err()

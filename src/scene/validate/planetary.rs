@@ -412,6 +412,13 @@ pub(crate) fn kinematic_step(
 ) -> Result<Vec<usize>> {
     let mut set = Vec::new();
     for st in stages {
+        if let Some(v) = speed[st.fixed].filter(|&v| v != 0.0) {
+            return err(format!(
+                "carrier {:?}: its fixed member {:?} would turn at {v} × the input speed (it is \
+                 the input gear or is driven through a shaft); a fixed member stands still",
+                gears[st.carrier].name, gears[st.fixed].name
+            ));
+        }
         let members = [st.sun, st.ring, st.carrier];
         let known = members.map(|g| {
             if g == st.fixed {
