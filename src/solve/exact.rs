@@ -1011,7 +1011,9 @@ impl ExactPropagator {
                             check_samples(samples, meter.samples_left, self.t, tau, mode)?;
                             meter.samples_left -= samples;
                             self.stats.series_segments += 1;
-                            force_check(&mut self.work_limit);
+                            if METERED {
+                                force_check(&mut self.work_limit);
+                            }
                             let found = series_segment::first_crossing_by_series(
                                 mode,
                                 &mut self.series,
@@ -1031,7 +1033,9 @@ impl ExactPropagator {
                         } else {
                             let samples = (tau / mode.sample_step).ceil();
                             check_samples(samples, meter.samples_left, self.t, tau, mode)?;
-                            force_check(&mut self.work_limit);
+                            if METERED {
+                                force_check(&mut self.work_limit);
+                            }
                             let found = first_crossing(
                                 mode,
                                 &mut self.crossing,
