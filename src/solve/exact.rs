@@ -456,6 +456,9 @@ pub struct ExactPropagator {
     /// in the counters).
     exp_units: f64,
     guard_samples: f64,
+    /// Whether the current advance checked its limit in full (and may have read work
+    /// that came with exponentials).
+    checked_in_full: bool,
     /// The windows' terms of the segment an observer looks into ([`segment_series`]).
     observed: SeriesBuffers,
 }
@@ -557,16 +560,43 @@ impl WorkBudget {
 /// The owner's work limit as the exact propagator checks it before every segment
 /// ([`ExactPropagator::set_work_limit`]). Summing every term of [`ExactPropagator::work`]
 /// per segment (the exponential meter is thread-local) costs a tenth of a single-pair
-/// segment, so a segment checks only its own and its guard evaluations' work against
-/// `segment_until`, the limit less the other work at the last full check; that other work
-/// (series segments, duration bins and modes built with their exponentials, guard samples)
-/// grows only where `other` changes, which triggers the next full check. The limit is thus
-/// met at the same segment as with the full sum.
+/// segment, so a segment compares only two counters with thresholds: between full checks
+/// the work grows only by segments and guard evaluations (everything else — searches with
+/// their guard samples, series segments, duration bins and modes built with their
+/// exponentials — forces the next full check ([`force_check`]) or
+/// changes `builds`), and the thresholds allow each of them half of the work left at the
+/// last full check. The limit is thus met at the same segment as with the full sum: a
+/// segment starting at or past `until` has spent half the work left in one of the two.
 #[derive(Debug, Clone, Copy)]
 struct WorkLimit {
     until: f64,
-    segment_until: f64,
-    other: (u64, f64),
+    /// The full check is due at a segment starting with this many segments or guard
+    /// evaluations ([`SolverStats`]) or with another count of modes built.
+    check_steps: u64,
+    check_evals: u64,
+    builds: u64,
+}
+
+/// Work other than segments and guard evaluations was done (a search, a series segment, a
+/// duration bin built): the limit is checked in full before the next segment (a free
+/// function: the mode being walked borrows the propagator's cache).
+#[inline(always)]
+fn force_check(limit: &mut Option<WorkLimit>) {
+    if let Some(limit) = limit {
+        limit.check_steps = 0;
+    }
+}
+
+impl WorkLimit {
+    /// A limit at `until` whose full check is due at the next segment.
+    fn new(until: f64) -> Self {
+        WorkLimit {
+            until,
+            check_steps: 0,
+            check_evals: 0,
+            builds: u64::MAX,
+        }
+    }
 }
 
 /// Where this thread's exponential meter and the guard samples stood at the start of an
@@ -608,6 +638,7 @@ impl ExactPropagator {
             work_limit: None,
             exp_units: 0.0,
             guard_samples: 0.0,
+            checked_in_full: false,
             observed: SeriesBuffers::default(),
         }
     }
@@ -702,32 +733,21 @@ impl ExactPropagator {
     /// [`ExactPropagator::work`] has reached `until` ([`SolveError::OverBudget`], an empty
     /// message: the owner words it); `None` lifts the limit.
     pub fn set_work_limit(&mut self, until: Option<f64>) {
-        self.work_limit = until.map(|until| WorkLimit {
-            until,
-            // Between advances all the work is in the counters and meters.
-            segment_until: until - self.other_work(),
-            other: self.other_work_count(&AdvanceMeter {
-                exp_work0: 0.0,
-                samples_left: MAX_GUARD_SAMPLES_PER_ADVANCE,
-            }),
-        });
+        self.work_limit = until.map(WorkLimit::new);
     }
 
     /// Starts a scope of the owner's budget ([`ExactPropagator::set_work_limit`] at the
     /// cumulative work now plus `limit`; `None`: unbounded) and returns that work, computed
     /// once: an FMU starts one at every call.
     pub fn start_work_scope(&mut self, limit: Option<f64>) -> f64 {
-        let other = self.other_work();
-        let work = self.segment_work() + other;
+        let work = self.work();
         self.work_limit = limit.map(|limit| {
             let until = work + limit;
-            WorkLimit {
-                until,
-                segment_until: until - other,
-                other: self.other_work_count(&AdvanceMeter {
-                    exp_work0: 0.0,
-                    samples_left: MAX_GUARD_SAMPLES_PER_ADVANCE,
-                }),
+            match self.work_limit {
+                // The thresholds of the last full check stay conservative for a later end
+                // (the work grows), so the next call pays no full check.
+                Some(last) if last.until <= until => WorkLimit { until, ..last },
+                _ => WorkLimit::new(until),
             }
         });
         work
@@ -747,23 +767,14 @@ impl ExactPropagator {
             + self.stats.guard_evals as i64 as f64 * self.prices.guard_eval
     }
 
-    /// What the rest of [`ExactPropagator::work`] grows with (see [`WorkLimit`]): the
-    /// counts of series segments, bins and modes built, and the guard samples of all
-    /// advances.
-    fn other_work_count(&self, meter: &AdvanceMeter) -> (u64, f64) {
-        let count = (self.stats.series_segments)
-            .wrapping_add(self.stats.transitions)
-            .wrapping_add(self.modes.builds);
-        (count, self.guard_samples + meter.samples())
-    }
-
     /// Before a segment starting at `t`: the error once the owner's limit is reached.
     #[inline]
     fn check_work_limit(&mut self, t: f64, meter: &AdvanceMeter) -> Result<(), SolveError> {
         match self.work_limit {
             Some(limit)
-                if self.segment_work() >= limit.segment_until
-                    || self.other_work_count(meter) != limit.other =>
+                if self.stats.steps >= limit.check_steps
+                    || self.stats.guard_evals >= limit.check_evals
+                    || self.modes.builds != limit.builds =>
             {
                 self.check_work_limit_in_full(t, limit.until, meter)
             }
@@ -778,19 +789,24 @@ impl ExactPropagator {
         until: f64,
         meter: &AdvanceMeter,
     ) -> Result<(), SolveError> {
-        let other = self.other_work()
+        let work = self.work()
             + meter.samples() * self.prices.guard_eval
             + (balanced::exp_work() - meter.exp_work0);
-        if self.segment_work() + other >= until {
+        self.checked_in_full = true;
+        if work >= until {
             return Err(SolveError::OverBudget {
                 t,
                 message: String::new(),
             });
         }
-        let other_count = self.other_work_count(meter);
+        // Half the work left to each counter (`as u64` saturates: a zero price allows all).
+        let half = 0.5 * (until - work);
+        let (steps, evals, builds) = (self.stats.steps, self.stats.guard_evals, self.modes.builds);
+        let (step_price, eval_price) = (self.prices.step, self.prices.guard_eval);
         if let Some(limit) = &mut self.work_limit {
-            limit.segment_until = until - other;
-            limit.other = other_count;
+            limit.check_steps = steps.saturating_add((half / step_price) as u64);
+            limit.check_evals = evals.saturating_add((half / eval_price) as u64);
+            limit.builds = builds;
         }
         Ok(())
     }
@@ -838,8 +854,15 @@ impl ExactPropagator {
                 exp_work0: balanced::exp_work(),
                 samples_left: MAX_GUARD_SAMPLES_PER_ADVANCE,
             };
+            self.checked_in_full = false;
             let result = self.advance_metered::<S, O, true>(sys, t_end, &mut meter, observer);
-            self.exp_units += balanced::exp_work() - meter.exp_work0;
+            // Exponentials come only with work that forces a full check (bins, modes,
+            // searches): an advance with none, checked or still due, read none.
+            let due = matches!(self.work_limit,
+                Some(limit) if limit.check_steps == 0 || limit.builds != self.modes.builds);
+            if self.checked_in_full || due {
+                self.exp_units += balanced::exp_work() - meter.exp_work0;
+            }
             self.guard_samples += meter.samples();
             result
         } else {
@@ -988,6 +1011,9 @@ impl ExactPropagator {
                             check_samples(samples, meter.samples_left, self.t, tau, mode)?;
                             meter.samples_left -= samples;
                             self.stats.series_segments += 1;
+                            if METERED {
+                                force_check(&mut self.work_limit);
+                            }
                             let found = series_segment::first_crossing_by_series(
                                 mode,
                                 &mut self.series,
@@ -1007,6 +1033,9 @@ impl ExactPropagator {
                         } else {
                             let samples = (tau / mode.sample_step).ceil();
                             check_samples(samples, meter.samples_left, self.t, tau, mode)?;
+                            if METERED {
+                                force_check(&mut self.work_limit);
+                            }
                             let found = first_crossing(
                                 mode,
                                 &mut self.crossing,
@@ -1046,8 +1075,9 @@ impl ExactPropagator {
                     if !event_state_ready {
                         mode.apply(found.tau, &self.z, z_event);
                     }
-                    if METERED {
+                    if METERED && mode.bin_builds() != bins_before {
                         self.stats.transitions += mode.bin_builds() - bins_before;
+                        force_check(&mut self.work_limit);
                     }
                     let t_event = self.t + found.tau;
                     self.stalled_events = if t_event > self.t {
@@ -1082,8 +1112,9 @@ impl ExactPropagator {
             } else {
                 mode.apply(tau, &self.z, &mut self.z_next);
             }
-            if METERED {
+            if METERED && mode.bin_builds() != bins_before {
                 self.stats.transitions += mode.bin_builds() - bins_before;
+                force_check(&mut self.work_limit);
             }
             if O::ACTIVE {
                 let mut segment = Segment::new(
@@ -1206,8 +1237,9 @@ impl ExactPropagator {
                         let mode = &mut self.modes.modes[step.mode];
                         let bins = mode.bin_builds();
                         mode.apply(step.tau, &self.z, &mut self.z_next);
-                        if METERED {
+                        if METERED && mode.bin_builds() != bins {
                             self.stats.transitions += mode.bin_builds() - bins;
+                            force_check(&mut self.work_limit);
                         }
                         std::mem::swap(&mut self.z, &mut self.z_next);
                     }
@@ -1219,8 +1251,9 @@ impl ExactPropagator {
                             let mode = &mut self.modes.modes[step.mode];
                             let bins = mode.bin_builds();
                             let phi = mode.transition_matrix(step.tau);
-                            if METERED {
+                            if METERED && mode.bin_builds() != bins {
                                 self.stats.transitions += mode.bin_builds() - bins;
+                                force_check(&mut self.work_limit);
                             }
                             product = phi * product;
                         }
@@ -1261,6 +1294,7 @@ impl ExactPropagator {
             s.column_mut(j).copy_from_slice(&out[..n]);
         }
         self.stats.transitions += mode.bin_builds() - bins_before;
+        force_check(&mut self.work_limit);
         self.z = out;
     }
 
