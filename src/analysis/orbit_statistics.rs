@@ -546,11 +546,13 @@ fn add_piece<M: Drivetrain>(
             s.force2 += w * f * f;
             s.dte += w * d;
             s.dte2 += w * d * d;
-            for (h, acc) in s.harmonics.iter_mut().enumerate() {
-                let angle = TAU * (h + 1) as f64 * frequencies[m] * (t - t0);
-                let (sn, cs) = angle.sin_cos();
-                acc.0 += w * d * cs;
-                acc.1 -= w * d * sn;
+            // `e^{i2πh f_m (t − t0)}`, h = 1, 2, 3, as powers of the first.
+            let (sn, cs) = (TAU * frequencies[m] * (t - t0)).sin_cos();
+            let (mut c, mut sh) = (cs, sn);
+            for acc in s.harmonics.iter_mut() {
+                acc.0 += w * d * c;
+                acc.1 -= w * d * sh;
+                (c, sh) = (c * cs - sh * sn, c * sn + sh * cs);
             }
         }
         // The contact state is constant on the piece: read it at its middle node.
@@ -645,11 +647,31 @@ fn refine<M: Drivetrain>(
 }
 
 /// The maximum of `g` around candidate `c`: parabolic steps from its samples, else Brent.
+///
+/// A best sample at the end of its bracket (a piece's end, where the solution switches) is
+/// the maximum when `g` does not rise into the bracket from it: one evaluation a tolerance
+/// inside tells, where Brent would spend ~40 on converging to the end. If `g` does rise, that
+/// evaluation is the middle of three points around an inner maximum, refined by parabolas.
 fn refine_candidate(g: &mut dyn FnMut(f64) -> f64, c: &Candidate) -> f64 {
     let tol = (PEAK_TOL * (c.hi - c.lo)).max(8.0 * f64::EPSILON * c.hi.abs());
+    let end = |g: &mut dyn FnMut(f64) -> f64, inside: f64, far: (f64, f64)| {
+        let v = g(inside);
+        if v <= c.value {
+            return Some(c.value);
+        }
+        let mut points = [(c.at, c.value), (inside, v), far];
+        points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        parabolic_maximum(g, points, tol).map(|p| p.max(v))
+    };
     match (c.below, c.above) {
         (Some(fl), Some(fh)) => {
             parabolic_maximum(g, [(c.lo, fl), (c.at, c.value), (c.hi, fh)], tol)
+        }
+        (None, Some(fh)) if c.at == c.lo && c.hi - c.lo > 2.0 * tol => {
+            end(g, c.lo + tol, (c.hi, fh))
+        }
+        (Some(fl), None) if c.at == c.hi && c.hi - c.lo > 2.0 * tol => {
+            end(g, c.hi - tol, (c.lo, fl))
         }
         _ => None,
     }
@@ -659,8 +681,10 @@ fn refine_candidate(g: &mut dyn FnMut(f64) -> f64, c: &Candidate) -> f64 {
 /// Successive parabolic interpolation from three samples `lo < at < hi` with the largest value
 /// at `at` (the samples are already known, so a smooth maximum needs a few evaluations, not
 /// Brent's fresh start): the vertex of the parabola through the three best points bracketing
-/// the maximum, until it moves by less than `tol`. `None` when a step leaves the bracket or
-/// does not settle within [`PARABOLIC_STEPS`] (the caller falls back to Brent).
+/// the maximum, until it moves by less than `tol` or would raise the value by less than a
+/// rounding unit (`g` is analytic on a piece: the parabola then tells the value's remaining
+/// gain). `None` when a step leaves the bracket or does not settle within
+/// [`PARABOLIC_STEPS`] (the caller falls back to Brent).
 fn parabolic_maximum(
     g: &mut dyn FnMut(f64) -> f64,
     points: [(f64, f64); 3],
@@ -678,7 +702,12 @@ fn parabolic_maximum(
         if !(x > a.0 && x < c.0) {
             return None;
         }
-        if (x - b.0).abs() <= tol {
+        // Settled when the step is below `tol`, or when the parabola's vertex lies less than a
+        // rounding unit of the value above the best point (`−A d²`, `A` the second divided
+        // difference): further steps would chase rounding, not the maximum.
+        let curvature = (r / q - t / p) / (c.0 - a.0);
+        let gain = -curvature * (x - b.0) * (x - b.0);
+        if (x - b.0).abs() <= tol || gain <= f64::EPSILON * b.1.abs() {
             return Some(b.1.max(g(x)));
         }
         let fx = g(x);

@@ -14,12 +14,16 @@ impl<M: Drivetrain> Problem<M> {
     /// `(S, dS/dθ)` of mesh `n` from the basis row.
     #[inline]
     pub(super) fn deflection(&self, s: &DVector<f64>, n: usize, phi: &[f64]) -> (f64, f64) {
-        let base = n * self.len;
-        let mut x = s[base];
+        // Over slices (no indexing check per order): the same operations in the same order.
+        let coefficients = &s.as_slice()[n * self.len..(n + 1) * self.len];
+        let mut x = coefficients[0];
         let mut dx = 0.0;
-        for (q, &j) in self.orders.iter().enumerate().skip(1) {
-            let (a, b) = (s[base + 2 * q - 1], s[base + 2 * q]);
-            let (c, sn) = (phi[2 * q - 1], phi[2 * q]);
+        let pairs = coefficients[1..]
+            .chunks_exact(2)
+            .zip(phi[1..].chunks_exact(2));
+        for (&j, (ab, row)) in self.orders[1..].iter().zip(pairs) {
+            let (a, b) = (ab[0], ab[1]);
+            let (c, sn) = (row[0], row[1]);
             x += a * c + b * sn;
             dx += TAU * j as f64 * (b * c - a * sn);
         }

@@ -380,12 +380,32 @@ impl BalancedMatrix {
     }
 }
 
-/// `out = Σ_k u_k σ^k` of the terms `u_k` at `terms[k n..(k+1) n]` (Horner from the last).
+/// `out = Σ_k u_k σ^k` of the terms `u_k` at `terms[k n..(k+1) n]` (Horner from the last),
+/// for the first `out.len() ≤ n` entries (each entry's sum is its own, so a prefix costs only
+/// its share and is bit-identical to the same entries of the whole sum).
 pub fn sum_terms(terms: &[f64], n: usize, sigma: f64, out: &mut [f64]) {
     let count = terms.len() / n;
-    out.copy_from_slice(&terms[(count - 1) * n..]);
+    let m = out.len();
+    if m == 1 || m == 2 {
+        // A few entries (a single mesh's state): each entry's sum on its own, both in one pass
+        // over the terms, the same operations per entry as below.
+        let (rest, last) = terms[..count * n].split_at((count - 1) * n);
+        let (mut a, mut b) = (last[0], last.get(1).copied().unwrap_or(0.0));
+        for row in rest.chunks_exact(n).rev() {
+            a = a * sigma + row[0];
+            if m == 2 {
+                b = b * sigma + row[1];
+            }
+        }
+        out[0] = a;
+        if m == 2 {
+            out[1] = b;
+        }
+        return;
+    }
+    out.copy_from_slice(&terms[(count - 1) * n..(count - 1) * n + m]);
     for k in (0..count - 1).rev() {
-        for (o, &u) in out.iter_mut().zip(&terms[k * n..(k + 1) * n]) {
+        for (o, &u) in out.iter_mut().zip(&terms[k * n..k * n + m]) {
             *o = *o * sigma + u;
         }
     }

@@ -79,15 +79,18 @@ impl<'a> Segment<'a> {
         let w = tau / windows as f64;
         let b = &mut *self.buffers;
         let capacity = (MAX_TERMS + 1) * nz;
-        b.terms.clear();
         b.starts.clear();
         b.counts.clear();
         b.sum.resize(nz, 0.0);
         let scale = self.balanced.scale();
+        // The terms buffer only grows (the windows' terms are written before they are read:
+        // no clearing per segment).
+        let mut start = 0;
         for j in 0..windows {
-            let start = b.terms.len();
-            b.terms.resize(start + capacity, 0.0);
-            let window = &mut b.terms[start..];
+            if b.terms.len() < start + capacity {
+                b.terms.resize(start + capacity, 0.0);
+            }
+            let window = &mut b.terms[start..start + capacity];
             if j == 0 {
                 for ((u, &z), &d) in window[..nz].iter_mut().zip(self.z0).zip(scale) {
                     *u = z / d;
@@ -101,11 +104,11 @@ impl<'a> Segment<'a> {
             // smallest accurate only to `2⁻⁵⁴` of the largest; with `θ ≤ 2` the extra terms are
             // about five per window.
             let count = self.balanced.taylor_terms_within(w, nz, window, TAIL);
-            b.terms.truncate(start + count * nz);
             b.starts.push(start);
             b.counts.push(count);
             // The next window's start, in balanced coordinates.
-            sum_terms(&b.terms[start..], nz, 1.0, &mut b.sum);
+            sum_terms(&b.terms[start..start + count * nz], nz, 1.0, &mut b.sum);
+            start += count * nz;
         }
         self.width = w;
     }
@@ -126,8 +129,10 @@ impl<'a> Segment<'a> {
         let j = (s.floor() as usize).min(windows - 1);
         let sigma = s - j as f64;
         let (start, count) = (b.starts[j], b.counts[j]);
-        sum_terms(&b.terms[start..start + count * nz], nz, sigma, &mut b.sum);
-        for ((o, &u), &d) in y.iter_mut().zip(&b.sum).zip(self.balanced.scale()) {
+        // Only the entries asked for (the model's state, not the forcing states beyond it).
+        let sum = &mut b.sum[..y.len()];
+        sum_terms(&b.terms[start..start + count * nz], nz, sigma, sum);
+        for ((o, &u), &d) in y.iter_mut().zip(sum.iter()).zip(self.balanced.scale()) {
             *o = u * d;
         }
     }
