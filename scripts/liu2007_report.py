@@ -768,12 +768,20 @@ def ch2(model="rect"):
             read_at(srt[100], dev)
     scale_err = max(float(np.max(np.abs(rms_max(srt[t]) / t - rms_max(srt[100]) / 100)[periodic]))
                     for t in (50, 150)) / (pk[100] / 100)
+    # Growth of the peak against the torque ratios 2 and 3 (the thesis: "almost linearly").
+    growth = max(abs(pk[t] / pk[50] / (t / 50) - 1) for t in (100, 150))
     row(S, "Peak DTE RMS vs torque (50 : 100 : 150 N·m)",
         "grows almost linearly (§1.11)",
         " : ".join(fmt(pk[t] * 1e6, 2) for t in (50, 100, 150)) + " µm",
-        "✓" if scale_err < 1e-3 else "≈",
+        "✓" if scale_err < 1e-3 else "≈" if growth <= 0.15 else "✗",
         f"on the {int(periodic.sum())} points periodic at all three torques DTE RMS/T agrees to "
-        f"{scale_err:.0e} of the peak; peak over those points",
+        f"{scale_err:.0e} of the peak; peak over those points" if scale_err < 1e-3 else
+        f"the peak grows ×{pk[100] / pk[50]:.2f} and ×{pk[150] / pk[50]:.2f} for ×2 and ×3 "
+        f"the torque ({growth:.0%} from linear): the geometry pairs' stiffness depends on the "
+        "load (Hertz term, extended tooth contact), so the response does not scale with the "
+        f"torque; on the {int(periodic.sum())} points "
+        f"periodic at all three torques DTE RMS/T differs by up to {scale_err:.0%} of the peak; "
+        "peak over those points",
         construction=None if geom else (
             "load-independent rectangular pairs without relief: DTE ∝ torque exactly"))
 
@@ -2270,8 +2278,10 @@ CHANGED: dict[str, str] = {
         "(rectangular: 0.35/0.40), which makes the parametric instabilities stronger than in "
         "the thesis' FE pairs",
     "Peak DTE RMS vs torque (50 : 100 : 150 N·m)":
-        "50 : 100 N·m scale almost linearly (11.15 : 22.38), as in the thesis; at 150 N·m the "
-        "sweep lands on a larger-amplitude branch (same cause as the row above)",
+        "the peak grows faster than the torque (the ratios are in the row's 'why' column): the "
+        "Hertz term makes the pairs load dependent, and their large stiffness variation puts "
+        "the peak on a different branch or parametric response at each torque (same cause as "
+        "the row above)",
     "Upper branch at the mode-2 jump-down: peak mesh-1 force":
         "the geometry pairs' upper-branch point just before the jump is aperiodic with a lower "
         "peak; further up the same branch the factor exceeds 3 (largest value in the 'why' "
