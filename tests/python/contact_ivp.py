@@ -6,8 +6,43 @@ Between known stiffness switches (`breaks`) the right-hand side is smooth; the d
 switching surface (`y[j] = 0`) before the integration restarts with the new contact set.
 """
 
+import math
+
 import numpy as np
 from scipy.integrate import solve_ivp
+
+
+def switch_times(frequencies, phases, offsets, t_end):
+    """The known stiffness switches in (0, t_end), sorted: mesh j switches where its phase
+    `phases[j] + frequencies[j]·t` reaches `n + s` for every integer n and every s in
+    `offsets[j]` (a rectangular wave: s = 0 and s = 1 − f)."""
+    times = set()
+    for f, p, offs in zip(frequencies, phases, offsets):
+        n = math.floor(p)
+        while (n - p) / f <= t_end:
+            for s in offs:
+                t = (n + s - p) / f
+                if 0 < t < t_end:
+                    times.add(t)
+            n += 1
+    return sorted(times)
+
+
+def dte_model_rhs(minv, force, damping, stiffness):
+    """`rhs_for` of `integrate` for a model in the meshes' DTEs x (`M x'' + C x' + H K(t) x =
+    force`, H the contact flags): `stiffness(j, t)` is mesh j's stiffness, frozen for a segment
+    at its midpoint (segments end at every switch)."""
+    meshes = len(force)
+
+    def rhs_for(mid, contact):
+        k = [stiffness(j, mid) for j in range(meshes)]
+
+        def rhs(_t, state):
+            x, v = state[:meshes], state[meshes:]
+            f_mesh = np.array([k[j] * x[j] if contact[j] else 0.0 for j in range(meshes)])
+            return np.concatenate([v, minv @ (force - f_mesh - damping @ v)])
+        return rhs
+    return rhs_for
 
 
 def integrate(times, y, breaks, rhs_for, contacts, max_step=np.inf, segments=None):

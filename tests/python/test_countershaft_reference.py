@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 from scipy.linalg import eigh
 
-from contact_ivp import integrate
+from contact_ivp import dte_model_rhs, integrate, switch_times
 
 REPO = Path(__file__).resolve().parents[2]
 Z = {"pinion": 51, "middle1": 72, "middle2": 19, "output": 73}
@@ -74,28 +74,13 @@ def reference(times, speed):
     freq = [f1, f1 * Z["middle2"] / Z["middle1"]]
     phases = [0.0, PHASE2]
     t_end = times[-1]
-    switches = set()
-    for j in range(2):
-        f = CONTACT_RATIO[j] - math.floor(CONTACT_RATIO[j])
-        n = math.floor(phases[j])
-        while (n - phases[j]) / freq[j] <= t_end:
-            for b in (n, n + 1 - f):
-                t = (b - phases[j]) / freq[j]
-                if 0 < t < t_end:
-                    switches.add(t)
-            n += 1
-    breaks = sorted(switches) + [t_end]
+    breaks = switch_times(freq, phases, [(0.0, 1 - (c - math.floor(c))) for c in CONTACT_RATIO],
+                          t_end) + [t_end]
     # The static start of the scene: each mesh at its mean-stiffness static deflection.
     x0 = np.linalg.solve(np.diag(K_MEAN), force)
     y = np.concatenate([x0, [0.0, 0.0]])
-    def rhs_for(mid, contact):
-        k = [stiffness(j, phases[j] + freq[j] * mid) for j in range(2)]
-
-        def rhs(_t, state):
-            x, v = state[:2], state[2:]
-            f_mesh = np.array([k[j] * x[j] if contact[j] else 0.0 for j in range(2)])
-            return np.concatenate([v, minv @ (force - f_mesh - damping @ v)])
-        return rhs
+    rhs_for = dte_model_rhs(minv, force, damping,
+                            lambda j, t: stiffness(j, phases[j] + freq[j] * t))
 
     # At most 1/100 mesh period per step: a brief contact loss must not hide inside a step.
     return integrate(times, y, breaks, rhs_for, 2, max_step=0.01 / freq[0])

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 from scipy.linalg import eigh
 
-from contact_ivp import integrate
+from contact_ivp import dte_model_rhs, integrate, switch_times
 
 I = [2.62e-3, 3.27e-3, 0.119]
 R = [0.04535, 0.06564, 0.1122]
@@ -114,28 +114,10 @@ def reference(times):
     phases = [0.0, PHASE2]
     t_end = times[-1]
     # Known switching times of both rectangular waves (s = 0 and s = 1 − f).
-    switches = set()
-    for j in range(2):
-        n = math.floor(phases[j])
-        while True:
-            for b in (n, n + 0.5):
-                t = (b - phases[j]) / fm
-                if 0 < t < t_end:
-                    switches.add(t)
-            if (n - phases[j]) / fm > t_end:
-                break
-            n += 1
-    breaks = sorted(switches) + [t_end]
+    breaks = switch_times([fm, fm], phases, [(0.0, 0.5)] * 2, t_end) + [t_end]
     y = np.array([force / K_MEAN[0], force / K_MEAN[1], 0.0, 0.0])
-    def rhs_for(mid, contact):
-        k = [stiffness(j, phases[j] + fm * mid) for j in range(2)]
-
-        def rhs(_t, state):
-            x, v = state[:2], state[2:]
-            f_mesh = np.array([k[j] * x[j] if contact[j] else 0.0 for j in range(2)])
-            return np.concatenate([v, minv @ (force - f_mesh - damping @ v)])
-        return rhs
-
+    rhs_for = dte_model_rhs(minv, np.array([force, force]), damping,
+                            lambda j, t: stiffness(j, phases[j] + fm * t))
     return integrate(times, y, breaks, rhs_for, 2)
 
 

@@ -35,7 +35,7 @@ import pytest
 
 import gear_reference
 import test_countershaft_reference as countershaft
-from contact_ivp import integrate
+from contact_ivp import dte_model_rhs, integrate, switch_times
 from idler8_reference import Idler8, scene_text
 from orbit_statistics import LINES, Piece, statistics
 from test_idler_reference import K_MEAN, R, T1, Z, model_matrices, rectangular_stiffness, scene_toml
@@ -98,15 +98,7 @@ def idler_reference():
     def stiffness(j, t):
         return rectangular_stiffness(j, fm * t, PP)
 
-    def rhs_for(mid, contact):
-        k = [stiffness(j, mid) for j in range(2)]
-
-        def rhs(_t, state):
-            x, v = state[:2], state[2:]
-            f_mesh = np.array([k[j] * x[j] if contact[j] else 0.0 for j in range(2)])
-            return np.concatenate([v, minv @ (force - f_mesh - damping @ v)])
-        return rhs
-
+    rhs_for = dte_model_rhs(minv, np.array([force, force]), damping, stiffness)
     y = np.array([force / K_MEAN[0], force / K_MEAN[1], 0.0, 0.0])
     segments = []
     integrate(np.array([0.0, t_end]), y, half, rhs_for, 2, segments=segments)
@@ -162,30 +154,13 @@ def countershaft_reference():
     period = countershaft.Z["middle1"] / f1  # 72 mesh-1 periods = 19 mesh-2 periods
     t_a = COUNTERSHAFT_TRANSIENT * period
     t_end = t_a + period
-    switches = set()
-    for j in range(2):
-        f = countershaft.CONTACT_RATIO[j] - math.floor(countershaft.CONTACT_RATIO[j])
-        n = math.floor(phases[j])
-        while (n - phases[j]) / freq[j] <= t_end:
-            for b in (n, n + 1 - f):
-                t = (b - phases[j]) / freq[j]
-                if 0 < t < t_end:
-                    switches.add(t)
-            n += 1
-    breaks = sorted(switches) + [t_end]
+    breaks = switch_times(freq, phases, [(0.0, 1 - (c - math.floor(c)))
+                                         for c in countershaft.CONTACT_RATIO], t_end) + [t_end]
 
     def stiffness(j, t):
         return countershaft.stiffness(j, phases[j] + freq[j] * t)
 
-    def rhs_for(mid, contact):
-        k = [stiffness(j, mid) for j in range(2)]
-
-        def rhs(_t, state):
-            x, v = state[:2], state[2:]
-            f_mesh = np.array([k[j] * x[j] if contact[j] else 0.0 for j in range(2)])
-            return np.concatenate([v, minv @ (force - f_mesh - damping @ v)])
-        return rhs
-
+    rhs_for = dte_model_rhs(minv, force, damping, stiffness)
     x0 = np.linalg.solve(np.diag(countershaft.K_MEAN), force)
     y = np.concatenate([x0, [0.0, 0.0]])
     segments = []
