@@ -647,6 +647,19 @@ fn a_planetary_stage_followed_by_a_parallel_stage() {
 
 #[test]
 fn bad_planetary_input_is_refused_naming_the_field() {
+    let extra_gear = |name: &str, internal: &str| {
+        format!(
+            "[[gear]]\nname = \"{name}\"\nteeth = 27\nbase_radius = {:e}\ninertia = 1e-3\n{internal}",
+            RADIUS[0]
+        )
+    };
+    let extra_mesh = |pinion: &str, gear: &str| {
+        format!(
+            "[[mesh]]\nname = \"extra\"\npinion = \"{pinion}\"\ngear = \"{gear}\"\n\
+             contact = \"linear\"\npressure_angle = {PRESSURE_ANGLE_DEG}\n\
+             stiffness = {{ kind = \"constant\", value = {MESH_STIFFNESS:e} }}\n"
+        )
+    };
     let base = Stage::lin_parker(3).toml();
     let cases = [
         (
@@ -684,6 +697,22 @@ fn bad_planetary_input_is_refused_naming_the_field() {
         (
             base.replacen("internal = true\n", "", 1),
             "a planet drives the ring",
+        ),
+        (
+            format!(
+                "{base}{}{}",
+                extra_gear("sun2", ""),
+                extra_mesh("sun2", "planet1")
+            ),
+            "mesh[6].pinion: planet \"planet1\" meshes with a second sun",
+        ),
+        (
+            format!(
+                "{base}{}{}",
+                extra_gear("ring2", "internal = true\n"),
+                extra_mesh("planet1", "ring2")
+            ),
+            "mesh[6].gear: planet \"planet1\" meshes with a second ring",
         ),
     ];
     let mut ring_input = Stage::lin_parker(3);

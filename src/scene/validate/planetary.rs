@@ -206,6 +206,36 @@ pub(crate) fn stages(
             let mut ring_mesh = None;
             for (n, m) in meshes.iter().enumerate() {
                 let field = |key: &str| mesh_field(form, n, key);
+                // The planet's mesh `n` with its sun or ring `member`: one of each per planet,
+                // and one sun and one ring for all the carrier's planets.
+                let record_central = |stage_member: &mut Option<usize>,
+                                      planet_mesh: &mut Option<usize>,
+                                      member: usize,
+                                      what: &str,
+                                      key: &str|
+                 -> Result<()> {
+                    if planet_mesh.replace(n).is_some() {
+                        return err(format!(
+                            "{}: planet {:?} meshes with a second {what}",
+                            field(key),
+                            g.name
+                        ));
+                    }
+                    match *stage_member {
+                        None => *stage_member = Some(member),
+                        Some(s) if s != member => {
+                            return err(format!(
+                                "{} = {:?}: the planets of carrier {:?} mesh with one {what}, {:?}",
+                                field(key),
+                                gears[member].name,
+                                c.name,
+                                gears[s].name
+                            ))
+                        }
+                        _ => {}
+                    }
+                    Ok(())
+                };
                 if m.gear == i {
                     if specs
                         .get(m.pinion)
@@ -218,26 +248,7 @@ pub(crate) fn stages(
                             gears[m.pinion].name
                         ));
                     }
-                    if sun_mesh.replace(n).is_some() {
-                        return err(format!(
-                            "{}: planet {:?} meshes with a second sun",
-                            field("pinion"),
-                            g.name
-                        ));
-                    }
-                    match sun {
-                        None => sun = Some(m.pinion),
-                        Some(s) if s != m.pinion => {
-                            return err(format!(
-                                "{} = {:?}: the planets of carrier {:?} mesh with one sun, {:?}",
-                                field("pinion"),
-                                gears[m.pinion].name,
-                                c.name,
-                                gears[s].name
-                            ))
-                        }
-                        _ => {}
-                    }
+                    record_central(&mut sun, &mut sun_mesh, m.pinion, "sun", "pinion")?;
                 } else if m.pinion == i {
                     if !specs.get(m.gear).is_some_and(|r| r.internal) {
                         return err(format!(
@@ -246,26 +257,7 @@ pub(crate) fn stages(
                             gears[m.gear].name
                         ));
                     }
-                    if ring_mesh.replace(n).is_some() {
-                        return err(format!(
-                            "{}: planet {:?} meshes with a second ring",
-                            field("gear"),
-                            g.name
-                        ));
-                    }
-                    match ring {
-                        None => ring = Some(m.gear),
-                        Some(r) if r != m.gear => {
-                            return err(format!(
-                                "{} = {:?}: the planets of carrier {:?} mesh with one ring, {:?}",
-                                field("gear"),
-                                gears[m.gear].name,
-                                c.name,
-                                gears[r].name
-                            ))
-                        }
-                        _ => {}
-                    }
+                    record_central(&mut ring, &mut ring_mesh, m.gear, "ring", "gear")?;
                 }
             }
             let (Some(sun_mesh), Some(ring_mesh)) = (sun_mesh, ring_mesh) else {
