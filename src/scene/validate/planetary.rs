@@ -474,14 +474,7 @@ pub(crate) fn finish_kinematics(
     for st in stages.iter_mut() {
         let signed = |g: usize| speed_ratio[g] * rotation[g];
         let relative = signed(st.sun) - signed(st.carrier);
-        let p = &st.planets[0];
-        let w = torque_weights(
-            gears[st.sun].base_radius,
-            gears[st.ring].base_radius,
-            gears[st.carrier].base_radius,
-            meshes[p.sun_mesh].pressure_angle,
-            meshes[p.ring_mesh].pressure_angle,
-        );
+        let w = stage_torque_weights(st, gears, meshes);
         let sun_torque = [st.sun, st.ring, st.carrier]
             .iter()
             .position(|&g| g == input)
@@ -498,6 +491,19 @@ pub(crate) fn finish_kinematics(
             meshes[p.ring_mesh].cycles_per_input_rev = cycles;
         }
     }
+}
+
+/// The stage's [`torque_weights`] from its members' radii and its first planet's pressure
+/// angles (the kinematics and the balanced load both read them there).
+fn stage_torque_weights(st: &PlanetaryStage, gears: &[Gear], meshes: &[Mesh]) -> [f64; 3] {
+    let p = &st.planets[0];
+    torque_weights(
+        gears[st.sun].base_radius,
+        gears[st.ring].base_radius,
+        gears[st.carrier].base_radius,
+        meshes[p.sun_mesh].pressure_angle,
+        meshes[p.ring_mesh].pressure_angle,
+    )
 }
 
 /// The balanced load of a scene with planetary stages (eq. P9): the input and the output are
@@ -521,14 +527,7 @@ pub(crate) fn balanced_load(
         ) else {
             continue;
         };
-        let p = &st.planets[0];
-        let w = torque_weights(
-            gears[st.sun].base_radius,
-            gears[st.ring].base_radius,
-            gears[st.carrier].base_radius,
-            meshes[p.sun_mesh].pressure_angle,
-            meshes[p.ring_mesh].pressure_angle,
-        );
+        let w = stage_torque_weights(st, gears, meshes);
         let rho = |g: usize| st.sense * rotation[g];
         return Ok(-rho(input) * rho(output) * input_torque * w[b] / w[a]);
     }
