@@ -147,6 +147,20 @@ fn describe_output(
         }
     }
     for g in &scene.gears {
+        // A planet's translations on its carrier pin (docs/planetary.md, eq. P3).
+        for (axis, what) in [("radial", "Radial"), ("tangential", "Tangential")] {
+            if name == format!("{}.{axis}", g.name) {
+                return Ok((
+                    Some("m"),
+                    false,
+                    format!(
+                        "{what} translation of planet {} in its carrier's frame (tangential \
+                         in the stage's sense)",
+                        gear_named(&g.name)
+                    ),
+                ));
+            }
+        }
         for axis in ["x", "y"] {
             if name == format!("{}.{axis}", g.name) {
                 return Ok((

@@ -189,18 +189,72 @@ pub fn load_sharing(scene: &Scene, mesh_force: &[f64]) -> Vec<Vec<PlanetLoad>> {
         .collect()
 }
 
-/// Why the time-domain kernel cannot run `scene` yet, if it has a planetary stage: the first
-/// stage of the planetary model is its mean (linear time-invariant) system, which
-/// `geardyn modes` and the statics use; the time-varying meshes with the phasing of Parker &
-/// Lin (2004) in the carrier frame are not built, and a run without them would be wrong.
-/// Checked where the kernel is built (`Scene::run`, `GearTrain::new`).
+/// Why the time-domain kernel cannot run `scene`, if it cannot: with ports or elements the
+/// rigid-body rotation is carried as a reference rotation at the nominal speeds (Willis with
+/// tooth counts, eq. P1–P2), which must be a rigid-body motion of the lumped model (every
+/// spring unloaded, eq. P4–P7); otherwise the reference rotation itself would load the
+/// meshes more and more. That holds when the base radii are proportional to the tooth counts
+/// and the planet circle is where the lines of action put it, `r_c cos α_s = r_s + r_p` and
+/// `r_c cos α_r = r_r − r_p` (relative tolerance 1e-9). The nominal-speed form (no ports) has
+/// no reference rotation and runs any stage. Checked where the kernel is built (`Scene::run`,
+/// `GearTrain::new`).
 pub fn refusal(scene: &Scene) -> Option<String> {
-    let st = scene.planetary.first()?;
-    Some(format!(
-        "scene {:?} has a planetary stage (carrier {:?}): only its mean system is built so \
-         far (`geardyn modes`: natural frequencies, statics and planet load sharing); the \
-         time-varying planetary meshes with their phasing (Parker & Lin 2004) are not, so \
-         simulations and the analyses built on them refuse it (docs/planetary.md)",
-        scene.name, scene.gears[st.carrier].name
-    ))
+    if !scene.carries_rotation() {
+        return None;
+    }
+    for st in &scene.planetary {
+        if let Some(why) = inconsistent_geometry(scene, st) {
+            return Some(format!(
+                "scene {:?}: with [[port]] or elements the rigid-body rotation of the planetary \
+                 stage (carrier {:?}) is carried at the nominal speeds of Willis' equation, \
+                 which must turn the lumped model without loading it (docs/planetary.md, \
+                 \"Carried rotation\"); {why}",
+                scene.name, scene.gears[st.carrier].name
+            ));
+        }
+    }
+    None
+}
+
+/// The first relation of consistent stage geometry that `st` breaks (see [`refusal`]).
+fn inconsistent_geometry(scene: &Scene, st: &PlanetaryStage) -> Option<String> {
+    const TOL: f64 = 1e-9;
+    let gear = |g: usize| &scene.gears[g];
+    let pitch = |g: usize| gear(g).base_radius / f64::from(gear(g).teeth);
+    let r_c = gear(st.carrier).base_radius;
+    let off = |a: f64, b: f64| (a - b).abs() > TOL * a.abs().max(b.abs());
+    for p in &st.planets {
+        for member in [st.sun, st.ring] {
+            if off(pitch(member), pitch(p.gear)) {
+                return Some(format!(
+                    "the base radii of {:?} ({} m, {} teeth) and {:?} ({} m, {} teeth) are not \
+                     in the ratio of their teeth (base pitch {} against {} m per tooth)",
+                    gear(member).name,
+                    gear(member).base_radius,
+                    gear(member).teeth,
+                    gear(p.gear).name,
+                    gear(p.gear).base_radius,
+                    gear(p.gear).teeth,
+                    pitch(member),
+                    pitch(p.gear)
+                ));
+            }
+        }
+        let r_p = gear(p.gear).base_radius;
+        for (n, sum, what) in [
+            (p.sun_mesh, gear(st.sun).base_radius + r_p, "r_s + r_p"),
+            (p.ring_mesh, gear(st.ring).base_radius - r_p, "r_r − r_p"),
+        ] {
+            let along = r_c * scene.meshes[n].pressure_angle.cos();
+            if off(along, sum) {
+                return Some(format!(
+                    "mesh {:?}: carrier radius × cos(pressure angle) = {along} m, but {what} = \
+                     {sum} m (base radii): the planet circle and the pressure angle do not fit \
+                     the base circles",
+                    scene.meshes[n].name
+                ));
+            }
+        }
+    }
+    None
 }

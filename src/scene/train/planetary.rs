@@ -42,6 +42,10 @@ pub struct PlanetaryStage {
     /// in which the stage's rotations and tangential translations count (`docs/planetary.md`,
     /// eq. P3).
     pub sense: f64,
+    /// Sense (+1 ccw, −1 cw) of the sun's nominal rotation relative to the carrier: the
+    /// direction in which the stage's tooth pairs pass, which sets the planet-to-planet mesh
+    /// phases (eq. PL1, PL2); +1 when the sun does not turn relative to the carrier.
+    pub relative_sense: f64,
 }
 
 impl PlanetaryStage {
@@ -97,4 +101,42 @@ pub fn torque_weights(
     alpha_r: f64,
 ) -> [f64; 3] {
     [r_sun, r_ring, -r_carrier * (alpha_s.cos() + alpha_r.cos())]
+}
+
+/// The mesh phases of a planet's sun and ring meshes after Parker & Lin (2004), in cycles in
+/// `[0, 1)`, relative to the sun mesh of the stage's first planet (`docs/planetary.md`,
+/// eq. PL1–PL3). The planet sits `dpsi` (rad, ccw) from the first planet; `relative_sense` is
+/// the sense of the sun's rotation relative to the carrier. A mesh's phase counts its tooth
+/// pairs passing, and phase 0 of every stage mesh is the instant a loaded pair passes that
+/// mesh's pitch point (the paper's reference point):
+///
+/// - (PL1) sun meshes: a sun tooth that meets the first planet meets this one after turning
+///   `dpsi` with the sun: `γ_sn = −s Z_s Δψ_n / 2π`;
+/// - (PL2) ring meshes: the ring turns the other way relative to the carrier:
+///   `γ_rn = γ_r1 + s Z_r Δψ_n / 2π`;
+/// - (PL3) ring against sun mesh of one planet: the planet's sun-mesh pitch point and ring-mesh
+///   pitch point are diametrically opposite on it and load opposite flanks of its teeth, so with
+///   the standard tooth thickness (half the circular pitch) a loaded flank reaches the ring
+///   pitch point `Z_p/2 − 1/2` planet tooth pitches after one reached the sun pitch point:
+///   `γ_r1 = −(Z_p − 1)/2` (0 for odd, ½ for even Z_p).
+///
+/// PL1 and PL3 with PL2 agree for every planet when `(Z_s + Z_r) Δψ_n / 2π` is an integer,
+/// the condition for the planet to fit between sun and ring ([`assembly_residual`]).
+pub fn mesh_phases(
+    (z_sun, z_ring, z_planet): (f64, f64, f64),
+    dpsi: f64,
+    relative_sense: f64,
+) -> (f64, f64) {
+    let turns = dpsi / std::f64::consts::TAU;
+    let fraction = |x: f64| x - x.floor();
+    let sun = -relative_sense * z_sun * turns;
+    let ring = -(z_planet - 1.0) / 2.0 + relative_sense * z_ring * turns;
+    (fraction(sun), fraction(ring))
+}
+
+/// Distance of `(Z_s + Z_r) Δψ / 2π` from the nearest integer (in planet-position "teeth"):
+/// zero where a planet `Δψ` from the first one fits between the sun and the ring.
+pub fn assembly_residual(z_sun: f64, z_ring: f64, dpsi: f64) -> f64 {
+    let x = (z_sun + z_ring) * dpsi / std::f64::consts::TAU;
+    (x - x.round()).abs()
 }

@@ -371,6 +371,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
         (&speed_ratio, &rotation),
         (input_gear, input_torque),
     );
+    super::planetary::phasing(&stages, &gears, &mut meshes, &mesh_specs)?;
     if speed_ratio[output_gear] == 0.0 {
         return err(format!(
             "operating.output_gear = {:?}: not connected to the input gear {:?}",

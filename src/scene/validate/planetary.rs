@@ -6,8 +6,10 @@
 
 use super::checks::{err, finite, non_negative, positive, valid_identifier as identifier};
 use crate::scene::spec::{mesh_field, CarrierSpec, GearSpec, MeshForm, MeshSpec, StiffnessSpec};
-use crate::scene::train::planetary::{planet_speed, torque_weights, willis_third};
-use crate::scene::train::{Bearing, Planet, PlanetaryStage};
+use crate::scene::train::planetary::{
+    assembly_residual, mesh_phases, planet_speed, torque_weights, willis_third,
+};
+use crate::scene::train::{Bearing, MeshForceModel, Planet, PlanetaryStage};
 use crate::scene::{Gear, Mesh, SceneError};
 
 type Result<T> = std::result::Result<T, SceneError>;
@@ -300,6 +302,7 @@ pub(crate) fn stages(
                 check_mesh(form, n, &mesh_specs[n])?;
             }
         }
+        same_pressure_angles(form, &planets, meshes)?;
         // Other meshes on a stage member would mix the carrier frame with the scene frame.
         for (n, m) in meshes.iter().enumerate() {
             let in_stage = planets.iter().any(|p| p.sun_mesh == n || p.ring_mesh == n);
@@ -356,6 +359,7 @@ pub(crate) fn stages(
             fixed,
             planets,
             sense: 1.0,
+            relative_sense: 1.0,
         });
     }
     Ok(stages)
@@ -480,16 +484,117 @@ pub(crate) fn finish_kinematics(
             .position(|&g| g == input)
             .map(|a| input_torque * rotation[input] * w[0] / w[a])
             .filter(|&t| t != 0.0);
+        st.relative_sense = if relative < 0.0 { -1.0 } else { 1.0 };
         st.sense = match sun_torque {
             Some(t) => t.signum(),
-            None if relative < 0.0 => -1.0,
-            None => 1.0,
+            None => st.relative_sense,
         };
         let cycles = gears[st.sun].teeth as f64 * relative.abs();
         for p in &st.planets {
             meshes[p.sun_mesh].cycles_per_input_rev = cycles;
             meshes[p.ring_mesh].cycles_per_input_rev = cycles;
         }
+    }
+}
+
+/// Every planet of a stage meshes at the same pressure angles: the torque weights (eq. P9),
+/// the stage's rigid-body motion and the phasing rules (eq. PL1–PL3) are written for one sun
+/// and one ring pressure angle.
+fn same_pressure_angles(form: MeshForm, planets: &[Planet], meshes: &[Mesh]) -> Result<()> {
+    let first = &planets[0];
+    for p in &planets[1..] {
+        for (n, reference, what) in [
+            (p.sun_mesh, first.sun_mesh, "sun"),
+            (p.ring_mesh, first.ring_mesh, "ring"),
+        ] {
+            let (a, b) = (meshes[n].pressure_angle, meshes[reference].pressure_angle);
+            if a != b {
+                return err(format!(
+                    "{} = {}: every planet's {what} mesh has the same pressure angle; {} has {}                      (the stage's torque balance and mesh phasing are written for one angle)",
+                    mesh_field(form, n, "pressure_angle"),
+                    a.to_degrees(),
+                    mesh_field(form, reference, "pressure_angle"),
+                    b.to_degrees()
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The mesh phases of every stage mesh whose `phase` the file does not give, by the rules of
+/// Parker & Lin (2004) ([`mesh_phases`], eq. PL1–PL3), anchored at the first scene mesh when
+/// it belongs to the stage (its phase is 0 by definition) and else at the phase of the first
+/// planet's sun mesh. Where a derived phase matters (a stage mesh whose stiffness, STE or tooth
+/// pairs vary with the phase), every planet must sit where it fits between sun and ring,
+/// `(Z_s + Z_r) Δψ/2π` an integer, or PL1 and PL2 contradict each other.
+pub(crate) fn phasing(
+    stages: &[PlanetaryStage],
+    gears: &[Gear],
+    meshes: &mut [Mesh],
+    mesh_specs: &[MeshSpec],
+) -> Result<()> {
+    for st in stages {
+        let z = |g: usize| gears[g].teeth as f64;
+        let first = &st.planets[0];
+        let mut derived = Vec::new();
+        for p in &st.planets {
+            let dpsi = p.angle - first.angle;
+            let (sun, ring) =
+                mesh_phases((z(st.sun), z(st.ring), z(p.gear)), dpsi, st.relative_sense);
+            derived.push((p.sun_mesh, sun));
+            derived.push((p.ring_mesh, ring));
+        }
+        let base = match derived.iter().find(|(n, _)| *n == 0) {
+            Some(&(_, d)) => -d,
+            None => meshes[first.sun_mesh].phase,
+        };
+        let given = |n: usize| n == 0 || mesh_specs[n].phase.is_some();
+        if derived.iter().all(|&(n, _)| given(n)) {
+            continue;
+        }
+        let varies = st
+            .planets
+            .iter()
+            .flat_map(|p| [p.sun_mesh, p.ring_mesh])
+            .any(|n| varies_with_phase(&meshes[n]));
+        if varies {
+            for p in &st.planets {
+                let residual = assembly_residual(z(st.sun), z(st.ring), p.angle - first.angle);
+                if residual > ASSEMBLY_TOL {
+                    let i = p.gear;
+                    return err(format!(
+                        "gear[{i}].position_angle = {}: a planet fits between the sun ({} teeth)                          and the ring ({} teeth) only where (Z_s + Z_r)·Δψ/360° is an integer                          (Δψ from the first planet, {}°); here it is {} off. The stage's mesh                          phases follow from the planet positions (Parker & Lin 2004,                          docs/planetary.md): move the planet, or give every stage mesh's `phase`",
+                        p.angle.to_degrees(),
+                        z(st.sun),
+                        z(st.ring),
+                        first.angle.to_degrees(),
+                        residual
+                    ));
+                }
+            }
+        }
+        for (n, d) in derived {
+            if !given(n) {
+                let phase = base + d;
+                meshes[n].phase = phase - phase.floor();
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Planet positions within this many "teeth" of `(Z_s + Z_r)Δψ/2π` to an integer fit (the
+/// angles are given in degrees with finite digits).
+const ASSEMBLY_TOL: f64 = 1e-6;
+
+/// Whether a mesh's excitation depends on its phase: a varying stiffness, an STE, tooth pairs.
+fn varies_with_phase(m: &Mesh) -> bool {
+    match &m.force {
+        MeshForceModel::Lumped { stiffness, ste } => {
+            stiffness.maximum() != stiffness.minimum().0 || !ste.is_zero()
+        }
+        MeshForceModel::Pairs { .. } => true,
     }
 }
 

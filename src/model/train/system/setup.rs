@@ -47,6 +47,16 @@ pub(super) fn mesh_errors(scene: &Scene, n: usize, p0: f64, offset: f64) -> Mesh
 /// does not drive stand still.
 pub(super) fn nominal_rotation(scene: &Scene, asm: &Assembly) -> DVector<f64> {
     let bodies = asm.body_radius.len();
+    if !scene.planetary.is_empty() {
+        // A stage's mesh vectors couple three rotations (sun or ring, planet, carrier): the
+        // nominal speeds are the scene's kinematics (Willis, docs/planetary.md eq. P1–P2).
+        let mut v = DVector::zeros(asm.dim());
+        for (g, &ratio) in scene.speed_ratio.iter().enumerate() {
+            let b = asm.body_of[g];
+            v[asm.body_dof[b]] = asm.body_radius[b] * ratio;
+        }
+        return v;
+    }
     let mut omega: Vec<Option<f64>> = vec![None; bodies];
     omega[asm.body_of[scene.input_gear]] = Some(1.0);
     let mut changed = true;

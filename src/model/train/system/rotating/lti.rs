@@ -85,6 +85,9 @@ impl Carried {
             let scale = self.mesh_teeth[n] / TAU;
             let mut row = vec![0.0; nz];
             self.add_body_rows(self.mesh_body[n], 0.0, scale, &mut row);
+            if let Some((carrier, zc)) = self.mesh_carrier[n] {
+                self.add_body_rows(carrier, 0.0, zc / TAU, &mut row);
+            }
             for (col, v) in row.into_iter().enumerate() {
                 a[(ramp, col)] = v;
             }

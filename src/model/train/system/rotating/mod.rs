@@ -70,6 +70,9 @@ pub(crate) struct Carried {
     mesh_body: Vec<usize>,
     mesh_teeth: Vec<f64>,
     mesh_p0: Vec<f64>,
+    /// Per mesh of a planetary stage: its carrier's body and the carrier angle's coefficient;
+    /// the phase follows the pinion's angle relative to the carrier ([`stage_phase_terms`]).
+    mesh_carrier: Vec<Option<(usize, f64)>>,
     /// Meshes whose stiffness or gaps have knots: two guards each (end, start of the
     /// current interval).
     knot_meshes: Vec<usize>,
@@ -147,6 +150,9 @@ impl Carried {
                 }
             })
             .collect();
+        let stage_terms: Vec<_> = (0..scene.meshes.len())
+            .map(|n| stage_phase_terms(scene, n))
+            .collect();
         let knot_meshes = (0..train.meshes.len())
             .filter(|&n| match &train.meshes[n].stiffness {
                 Stiffness::Table(t) => t.has_stops(),
@@ -163,8 +169,14 @@ impl Carried {
                 .iter()
                 .map(|sm| asm.body_of[sm.pinion])
                 .collect(),
-            mesh_teeth: (scene.meshes.iter())
-                .map(|sm| f64::from(scene.gears[sm.pinion].teeth))
+            mesh_teeth: (scene.meshes.iter().zip(&stage_terms))
+                .map(|(sm, stage)| match stage {
+                    Some((teeth, _)) => *teeth,
+                    None => f64::from(scene.gears[sm.pinion].teeth),
+                })
+                .collect(),
+            mesh_carrier: (stage_terms.iter())
+                .map(|stage| stage.map(|(_, (carrier, c))| (asm.body_of[carrier], c)))
                 .collect(),
             mesh_p0: train
                 .meshes
@@ -283,11 +295,21 @@ impl Carried {
         (angle, speed)
     }
 
-    /// Phase (cycles) and phase rate (1/s) of mesh n from its pinion's carried angle.
+    /// Phase (cycles) and phase rate (1/s) of mesh n from its pinion's carried angle (in a
+    /// planetary stage, relative to the carrier's).
     pub(crate) fn mesh_phase(&self, n: usize, t: f64, y: &[f64]) -> (f64, f64) {
         let (angle, speed) = self.body_motion(self.mesh_body[n], t, y);
         let z = self.mesh_teeth[n];
-        (self.mesh_p0[n] + z * angle / TAU, z * speed / TAU)
+        match self.mesh_carrier[n] {
+            None => (self.mesh_p0[n] + z * angle / TAU, z * speed / TAU),
+            Some((carrier, zc)) => {
+                let (angle_c, speed_c) = self.body_motion(carrier, t, y);
+                (
+                    self.mesh_p0[n] + (z * angle + zc * angle_c) / TAU,
+                    (z * speed + zc * speed_c) / TAU,
+                )
+            }
+        }
     }
 
     /// `[ξ0, ξ0']` extended by η0 (the input body at angle 0) and η0' = 0 (every body at its
@@ -411,7 +433,7 @@ impl Carried {
             PortEnd::Input => input_torque,
             PortEnd::Output => -load_torque,
         };
-        let accel = |b: usize| -> f64 {
+        let signed = |b: usize| -> f64 {
             (0..self.r)
                 .map(|k| {
                     let drive: f64 = (self.ports.iter())
@@ -420,11 +442,18 @@ impl Carried {
                     self.bodies[b].eta[k] * drive
                 })
                 .sum::<f64>()
-                .abs()
         };
-        (self.mesh_body.iter().zip(&self.mesh_teeth))
-            .map(|(&b, z)| z * accel(b) / std::f64::consts::TAU)
-            .fold(0.0, f64::max)
+        let accel = |b: usize| signed(b).abs();
+        (self
+            .mesh_body
+            .iter()
+            .zip(&self.mesh_teeth)
+            .zip(&self.mesh_carrier))
+        .map(|((&b, z), carrier)| match carrier {
+            None => z * accel(b) / std::f64::consts::TAU,
+            Some((c, zc)) => (z * signed(b) + zc * signed(*c)).abs() / std::f64::consts::TAU,
+        })
+        .fold(0.0, f64::max)
     }
 
     /// Whether a port sits on the output gear (a torque port's torque is minus the load
@@ -452,6 +481,32 @@ impl Carried {
             a.outputs(t, y, dy, self, out);
         }
     }
+}
+
+/// The phase terms of mesh `n` if it belongs to a planetary stage: `(z, (carrier, z_c))` with
+/// `p = p0 + (z θ_pinion + z_c θ_carrier)/2π`, angles in the bodies' nominal senses. A stage
+/// mesh's tooth pairs pass at the pinion's rotation relative to the carrier (the sun's for a
+/// sun mesh, the planet's for a ring mesh; `docs/planetary.md`), counted in the sense that
+/// makes the phase grow: `z = Z ς ρ_pinion`, `z_c = −Z ς ρ_carrier` with ς the sense of the
+/// pinion's nominal rotation relative to the carrier.
+fn stage_phase_terms(scene: &Scene, n: usize) -> Option<(f64, (usize, f64))> {
+    let mesh = &scene.meshes[n];
+    let st = scene.planetary.iter().find(|st| {
+        st.planets
+            .iter()
+            .any(|p| p.sun_mesh == n || p.ring_mesh == n)
+    })?;
+    // The planets turn against the sun relative to the carrier (eq. P2).
+    let sense = if mesh.pinion == st.sun {
+        st.relative_sense
+    } else {
+        -st.relative_sense
+    };
+    let z = f64::from(scene.gears[mesh.pinion].teeth) * sense;
+    Some((
+        z * scene.rotation[mesh.pinion],
+        (st.carrier, -z * scene.rotation[st.carrier]),
+    ))
 }
 
 impl GearTrain {

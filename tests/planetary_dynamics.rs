@@ -1,0 +1,285 @@
+//! The planetary stage's time-varying meshes (issue 33, second stage; `docs/planetary.md`):
+//!
+//! - the mesh phases of Parker & Lin (2004) (eq. PL1–PL3) against values worked out by hand
+//!   from the tooth counts and planet angles, their override, and the refusals that name the
+//!   field (pressure angles that differ, a planet that does not fit between sun and ring);
+//! - acceptance 5 (kinematics): with torque ports on the sun and the carrier and a held ring,
+//!   the mean speed ratio after the transient is Willis' `1 + Z_r/Z_s` (over whole mesh
+//!   periods of the steady state, ≤ 1e-9), and an accelerating stage follows it too.
+//!
+//! The independent time-series oracle (acceptance 4) is
+//! `tests/python/test_planetary_reference.py`.
+
+use geardyn::model::train::run_train;
+use geardyn::scene::Scene;
+
+/// A stage with consistent geometry (module `m`, pressure angle α, standard gears): base
+/// radii `m Z cos α / 2`, carrier radius `m (Z_s + Z_p)/2`, so `r_c cos α = r_s + r_p`.
+struct Consistent {
+    teeth: [u32; 3],
+    planets: usize,
+    angles: Option<Vec<f64>>,
+    stiffness: String,
+    contact: &'static str,
+    extra_mesh: String,
+    tail: String,
+}
+
+const MODULE: f64 = 2e-3;
+const ALPHA_DEG: f64 = 20.0;
+
+impl Consistent {
+    fn new(teeth: [u32; 3], planets: usize) -> Consistent {
+        Consistent {
+            teeth,
+            planets,
+            angles: None,
+            stiffness: "{ kind = \"rectangular\", mean = 5e8, peak_to_peak_ratio = 0.4, \
+                        contact_ratio = 1.6 }"
+                .into(),
+            contact: "linear",
+            extra_mesh: String::new(),
+            tail: "[operating]\ninput_gear = \"sun\"\noutput_gear = \"carrier\"\n\
+                   input_speed = 300.0\ninput_torque = 50.0\n"
+                .into(),
+        }
+    }
+
+    fn toml(&self) -> String {
+        let [zs, zp, zr] = self.teeth;
+        let alpha = ALPHA_DEG.to_radians();
+        let rb = |z: u32| MODULE * f64::from(z) / 2.0 * alpha.cos();
+        let rc = MODULE * f64::from(zs + zp) / 2.0;
+        let member = |name: &str, z: u32, mass: f64, i_r2: f64, more: &str| {
+            format!(
+                "[[gear]]\nname = \"{name}\"\nteeth = {z}\nbase_radius = {:?}\ninertia = {:?}\n\
+                 mass = {mass:?}\nbearing_stiffness = [1e8, 1e8]\n\
+                 bearing_damping = [500.0, 500.0]\n{more}",
+                rb(z),
+                i_r2 * rb(z) * rb(z)
+            )
+        };
+        let mut t = "name = \"consistent\"\n[model]\nbearings = \"compliant\"\n".to_string();
+        t += &member("sun", zs, 0.4, 0.39, "");
+        t += &member(
+            "ring",
+            zr,
+            2.35,
+            3.0,
+            &format!(
+                "internal = true\nground_stiffness = {:?}\nground_damping = {:?}\n",
+                1e9 * rb(zr) * rb(zr),
+                1e3 * rb(zr) * rb(zr)
+            ),
+        );
+        for j in 0..self.planets {
+            let angle = match &self.angles {
+                Some(a) => a[j],
+                None => 360.0 * j as f64 / self.planets as f64,
+            };
+            t += &member(
+                &format!("planet{}", j + 1),
+                zp,
+                0.66,
+                0.61,
+                &format!("carrier = \"carrier\"\nposition_angle = {angle:?}\n"),
+            );
+        }
+        t += &format!(
+            "[[carrier]]\nname = \"carrier\"\nradius = {rc:?}\ninertia = {:?}\nmass = 5.43\n\
+             bearing_stiffness = [1e8, 1e8]\nbearing_damping = [500.0, 500.0]\nfixed = \"ring\"\n",
+            6.29 * rc * rc
+        );
+        for j in 1..=self.planets {
+            for (pinion, gear, name) in [
+                ("sun".to_string(), format!("planet{j}"), format!("sp{j}")),
+                (format!("planet{j}"), "ring".to_string(), format!("rp{j}")),
+            ] {
+                t += &format!(
+                    "[[mesh]]\nname = \"{name}\"\npinion = \"{pinion}\"\ngear = \"{gear}\"\n\
+                     contact = \"{}\"\npressure_angle = {ALPHA_DEG:?}\ndamping = 400.0\n\
+                     stiffness = {}\n",
+                    self.contact, self.stiffness
+                );
+                if name == "sp2" {
+                    t += &self.extra_mesh;
+                }
+            }
+        }
+        t + &self.tail
+    }
+
+    fn scene(&self) -> Result<Scene, String> {
+        Scene::from_toml_str(&self.toml(), "consistent stage").map_err(|e| e.to_string())
+    }
+}
+
+fn phase_of(scene: &Scene, name: &str) -> f64 {
+    scene.meshes.iter().find(|m| m.name == name).unwrap().phase
+}
+
+fn assert_phases(scene: &Scene, expected: &[(&str, f64)]) {
+    for &(name, want) in expected {
+        let got = phase_of(scene, name);
+        let d = (got - want).abs();
+        assert!(
+            d.min(1.0 - d) < 1e-12,
+            "{name}: phase {got}, expected {want}"
+        );
+    }
+}
+
+#[test]
+fn mesh_phases_follow_parker_and_lin() {
+    // Z_s = 20, Z_p = 22, Z_r = 64, three planets at 0°, 120°, 240° ((Z_s + Z_r)/3 = 28: they
+    // fit), the sun turning ccw relative to the carrier. By hand: a sun tooth that meets planet
+    // 1 meets planet n after turning ψ_n, 20/3 teeth later: sun meshes lag by 2/3, 1/3 of a
+    // cycle (lead 1/3, 2/3). The ring turns cw relative to the carrier: its meshes lead by
+    // 64·(1/3) = 21 + 1/3 cycles. Even Z_p: the ring pitch point is reached (22 − 1)/2 = 10.5
+    // tooth pitches after the sun pitch point.
+    let stage = Consistent::new([20, 22, 64], 3);
+    let scene = stage.scene().unwrap();
+    assert_phases(
+        &scene,
+        &[
+            ("sp1", 0.0),
+            ("sp2", 1.0 / 3.0),
+            ("sp3", 2.0 / 3.0),
+            ("rp1", 0.5),
+            ("rp2", 0.5 + 1.0 / 3.0),
+            ("rp3", 0.5 + 2.0 / 3.0 - 1.0),
+        ],
+    );
+    // The sun turning cw: the planet-to-planet phases change sign, the sun-ring phase stays.
+    let cw = Consistent::new([20, 22, 64], 3).toml().replace(
+        "bearings = \"compliant\"\n",
+        "bearings = \"compliant\"\ninput_rotation = \"cw\"\n",
+    );
+    assert_phases(
+        &Scene::from_toml_str(&cw, "cw").unwrap(),
+        &[
+            ("sp2", 2.0 / 3.0),
+            ("sp3", 1.0 / 3.0),
+            ("rp1", 0.5),
+            ("rp2", 0.5 - 1.0 / 3.0),
+        ],
+    );
+    // Odd Z_p: sun and ring mesh of a planet in phase; Z_s = 21 a multiple of N: in phase.
+    let odd = Consistent::new([21, 21, 63], 3).scene().unwrap();
+    assert_phases(
+        &odd,
+        &[("sp2", 0.0), ("sp3", 0.0), ("rp1", 0.0), ("rp2", 0.0)],
+    );
+    // An override keeps its value; the others are still derived.
+    let mut given = Consistent::new([20, 22, 64], 3);
+    given.extra_mesh = "phase = 0.125\n".into();
+    assert_phases(
+        &given.scene().unwrap(),
+        &[("sp2", 0.125), ("sp3", 2.0 / 3.0), ("rp2", 0.5 + 1.0 / 3.0)],
+    );
+    // Unequal spacing where the planets fit: (20 + 64)·ψ/360° integer, ψ = 0°, 120°, 180°+
+    // 360°/84·… here 0°, 30°·(…): planet 2 at 360°·29/84, planet 3 at 360°·57/84.
+    let mut unequal = Consistent::new([20, 22, 64], 3);
+    let psi = [0.0, 360.0 * 29.0 / 84.0, 360.0 * 57.0 / 84.0];
+    unequal.angles = Some(psi.to_vec());
+    let frac = |x: f64| x - x.floor();
+    assert_phases(
+        &unequal.scene().unwrap(),
+        &[
+            ("sp2", frac(-20.0 * 29.0 / 84.0)),
+            ("sp3", frac(-20.0 * 57.0 / 84.0)),
+            ("rp2", frac(0.5 + 64.0 * 29.0 / 84.0)),
+            ("rp3", frac(0.5 + 64.0 * 57.0 / 84.0)),
+        ],
+    );
+}
+
+#[test]
+fn stage_phasing_refusals_name_the_field() {
+    // A planet that does not fit between sun and ring, with a varying stiffness.
+    let mut misplaced = Consistent::new([20, 22, 64], 3);
+    misplaced.angles = Some(vec![0.0, 100.0, 240.0]);
+    let e = misplaced.scene().err().unwrap();
+    assert!(
+        e.contains("gear[3].position_angle = 100") && e.contains("fits between"),
+        "{e}"
+    );
+    // With constant stiffness the phases do not matter: accepted.
+    misplaced.stiffness = "{ kind = \"constant\", value = 5e8 }".into();
+    assert!(misplaced.scene().is_ok());
+    // Pressure angles that differ between planets.
+    let stage = Consistent::new([20, 22, 64], 3);
+    let text = stage.toml();
+    let at = text.find("name = \"sp2\"").unwrap();
+    let (head, rest) = text.split_at(at);
+    let rest = rest.replacen("pressure_angle = 20.0", "pressure_angle = 21.0", 1);
+    let e = Scene::from_toml_str(&format!("{head}{rest}"), "angles")
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("mesh[2].pressure_angle = 21") && e.contains("mesh[0].pressure_angle"),
+        "{e}"
+    );
+}
+
+/// The stage with torque ports on the sun (input) and the carrier (output), the ring held.
+fn with_ports(teeth: [u32; 3], input: f64, output: f64) -> Scene {
+    let mut stage = Consistent::new(teeth, 3);
+    stage.contact = "contact_loss";
+    stage.tail = format!(
+        "[operating]\ninput_gear = \"sun\"\noutput_gear = \"carrier\"\ninput_speed = 300.0\n\
+         [[port]]\nname = \"input\"\ngear = \"sun\"\ncausality = \"torque\"\ntorque = {input:?}\n\
+         [[port]]\nname = \"output\"\ngear = \"carrier\"\ncausality = \"torque\"\n\
+         torque = {output:?}\n"
+    );
+    stage.scene().unwrap()
+}
+
+#[test]
+fn torque_ports_turn_the_stage_at_willis_ratio() {
+    let teeth = [20, 22, 64];
+    let willis = 1.0 + 64.0 / 20.0;
+    // Balanced torques: the steady state. Over whole mesh periods after the transient the
+    // elastic motion returns, so Δθ_s/Δθ_c is the rigid-body ratio.
+    let scene = with_ports(teeth, 50.0, -50.0 * willis);
+    let mesh_period = std::f64::consts::TAU / (20.0 * 300.0 * (1.0 - 1.0 / willis));
+    let dt = mesh_period / 16.0;
+    let run = run_train(&scene, 400.0 * mesh_period, dt).unwrap();
+    let (s, c) = (
+        run.column("sun.angle").unwrap(),
+        run.column("carrier.angle").unwrap(),
+    );
+    let a = run
+        .times
+        .iter()
+        .position(|&t| t >= 200.0 * mesh_period - dt / 2.0)
+        .unwrap();
+    let b = run.times.len() - 1;
+    assert!(((run.times[b] - run.times[a]) / mesh_period - 200.0).abs() < 1e-6);
+    let ratio = (run.rows[b][s] - run.rows[a][s]) / (run.rows[b][c] - run.rows[a][c]);
+    println!(
+        "steady state: Δθ_s/Δθ_c = {ratio:.15}, Willis {willis}, {:.3e}",
+        ratio / willis - 1.0
+    );
+    assert!((ratio / willis - 1.0).abs() <= 1e-9, "{ratio}");
+    // An accelerating stage (1 % more input torque): the mean speeds still follow Willis up
+    // to the change of the elastic deflection over the window.
+    let scene = with_ports(teeth, 50.5, -50.0 * willis);
+    let run = run_train(&scene, 200.0 * mesh_period, dt).unwrap();
+    let (s, c) = (
+        run.column("sun.angle").unwrap(),
+        run.column("carrier.angle").unwrap(),
+    );
+    let b = run.times.len() - 1;
+    let a = b / 2;
+    let ratio = (run.rows[b][s] - run.rows[a][s]) / (run.rows[b][c] - run.rows[a][c]);
+    let speed = run.column("sun.speed").unwrap();
+    let gain = run.rows[b][speed] - run.rows[0][speed];
+    println!(
+        "accelerating (+{gain:.3} rad/s): {:.3e}",
+        ratio / willis - 1.0
+    );
+    assert!(gain > 1.0);
+    assert!((ratio / willis - 1.0).abs() <= 1e-6, "{ratio}");
+}
