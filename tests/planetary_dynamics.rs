@@ -283,3 +283,133 @@ fn torque_ports_turn_the_stage_at_willis_ratio() {
     assert!(gain > 1.0);
     assert!((ratio / willis - 1.0).abs() <= 1e-6, "{ratio}");
 }
+
+/// Harmonic amplitudes `|X_l|`, l = 1 … `count`, of samples over one period.
+fn harmonics(samples: &[f64], count: usize) -> Vec<f64> {
+    let m = samples.len() as f64;
+    (1..=count)
+        .map(|l| {
+            let (mut re, mut im) = (0.0, 0.0);
+            for (k, x) in samples.iter().enumerate() {
+                let (s, c) = (std::f64::consts::TAU * (l * k) as f64 / m).sin_cos();
+                re += x * c;
+                im -= x * s;
+            }
+            2.0 * (re * re + im * im).sqrt() / m
+        })
+        .collect()
+}
+
+/// Acceptance 2 (Parker & Lin 2004; Parker 2000): in the periodic steady state of a linear
+/// stage with N equally spaced planets, mesh harmonic l moves the central members (sun, ring,
+/// carrier) only in rotation when `l Z_s/N` is an integer, only in translation when
+/// `(l Z_s ± 1)/N` is, and not at all otherwise; the forbidden lines ≤ 1e-10 of the largest.
+/// The orbit is `geardyn periodic`'s (shooting); one period is sampled 240 times (a multiple
+/// of N, so that aliased harmonics keep their class) by the exact propagator from it.
+/// The largest forbidden line of the phasing rules over the first 40 mesh harmonics, relative
+/// to the largest line, whether each class (rotational, translational, none) occurs with its
+/// allowed motion excited, and the largest line: the periodic orbit of `geardyn periodic`
+/// (shooting), one period sampled 240 times (a multiple of N, so that aliased harmonics keep
+/// their class) by the exact propagator from it.
+fn forbidden_lines(scene: &Scene, z_sun: usize, planets: usize) -> (f64, [bool; 3], f64) {
+    use geardyn::model::train::{DofKind, TrainSimulation};
+    let orbit = geardyn::commands::steady::periodic(scene, 1, 100).unwrap();
+    let mut sim = TrainSimulation::new(scene).unwrap();
+    sim.set_state(0.0, &orbit.y0);
+    let asm = sim.model().assembly().clone();
+    let q = sim.model().reduction_matrix().clone();
+    let m = sim.model().elastic_dim();
+    let st = &scene.planetary[0];
+    let central = [st.sun, st.ring, st.carrier];
+    let (mut rotation, mut translation) = (Vec::new(), Vec::new());
+    for (i, d) in asm.dofs.iter().enumerate() {
+        match *d {
+            DofKind::Rotation { gear } if central.contains(&gear) => rotation.push(i),
+            DofKind::X { gear } | DofKind::Y { gear } if central.contains(&gear) => {
+                translation.push(i)
+            }
+            _ => {}
+        }
+    }
+    assert_eq!((rotation.len(), translation.len()), (3, 6));
+    let samples = 240;
+    let mut series = vec![Vec::with_capacity(samples); asm.dofs.len()];
+    for k in 0..samples {
+        sim.advance_to(orbit.period * k as f64 / samples as f64)
+            .unwrap();
+        let xi = nalgebra::DVector::from_column_slice(&sim.state()[..m]);
+        let physical = &q * xi;
+        for (i, s) in series.iter_mut().enumerate() {
+            s.push(physical[i]);
+        }
+    }
+    let count = 40;
+    let group = |dofs: &[usize]| -> Vec<f64> {
+        let mut best = vec![0.0f64; count];
+        for &i in dofs {
+            for (b, a) in best.iter_mut().zip(harmonics(&series[i], count)) {
+                *b = b.max(a);
+            }
+        }
+        best
+    };
+    let (rot, tra) = (group(&rotation), group(&translation));
+    let largest = rot.iter().chain(&tra).fold(0.0f64, |a, &b| a.max(b));
+    let n = planets;
+    let (mut worst, mut seen) = (0.0f64, [false; 3]);
+    for l in 1..=count {
+        let (r, t) = (rot[l - 1] / largest, tra[l - 1] / largest);
+        let rotational = (l * z_sun) % n == 0;
+        let translational = (l * z_sun + 1) % n == 0 || (l * z_sun + n - 1) % n == 0;
+        let forbidden = match (rotational, translational) {
+            (true, _) => {
+                seen[0] |= r > 1e-6;
+                t
+            }
+            (_, true) => {
+                seen[1] |= t > 1e-6;
+                r
+            }
+            _ => {
+                seen[2] = true;
+                r.max(t)
+            }
+        };
+        worst = worst.max(forbidden);
+    }
+    (worst, seen, largest)
+}
+
+/// Acceptance 2 (Parker & Lin 2004; Parker 2000): in the periodic steady state of a linear
+/// stage with N equally spaced planets, mesh harmonic l moves the central members (sun, ring,
+/// carrier) only in rotation when `l Z_s/N` is an integer, only in translation when
+/// `(l Z_s ± 1)/N` is, and not at all otherwise; the forbidden lines ≤ 1e-10 of the largest.
+/// Control: the same stage with every mesh phase forced to 0 (no phasing) breaks the rules.
+#[test]
+fn phasing_rules_hold_in_the_linear_steady_state() {
+    for (teeth, planets) in [([21, 19, 59], 4), ([22, 23, 68], 5)] {
+        let text = Consistent::new(teeth, planets).toml().replace(
+            "bearings = \"compliant\"\n",
+            "bearings = \"compliant\"\nmodal_damping_ratio = 0.05\n",
+        );
+        let scene = Scene::from_toml_str(&text, "phasing rules").unwrap();
+        let zs = teeth[0] as usize;
+        let (worst, seen, largest) = forbidden_lines(&scene, zs, planets);
+        let unphased = text
+            .replace("damping = 400.0\n", "damping = 400.0\nphase = 0.0\n")
+            .replacen("damping = 400.0\nphase = 0.0\n", "damping = 400.0\n", 1);
+        let unphased = Scene::from_toml_str(&unphased, "no phasing").unwrap();
+        assert!(unphased.meshes.iter().all(|m| m.phase == 0.0));
+        let (control, ..) = forbidden_lines(&unphased, zs, planets);
+        println!(
+            "N = {planets}, Z_s = {zs}: forbidden lines ≤ {worst:.2e} of the largest \
+             ({largest:.3e} m); every mesh in phase instead: {control:.2e}"
+        );
+        assert!(
+            seen == [true; 3],
+            "every class occurs and is excited: {seen:?}"
+        );
+        assert!(worst <= 1e-10, "N = {planets}: forbidden line {worst:e}");
+        assert!(control > 1e-3, "the control breaks the rules: {control:e}");
+    }
+}
