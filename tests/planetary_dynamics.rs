@@ -359,8 +359,9 @@ fn forbidden_lines(scene: &Scene, z_sun: usize, planets: usize) -> (f64, [bool; 
     let (mut worst, mut seen) = (0.0f64, [false; 3]);
     for l in 1..=count {
         let (r, t) = (rot[l - 1] / largest, tra[l - 1] / largest);
-        let rotational = (l * z_sun) % n == 0;
-        let translational = (l * z_sun + 1) % n == 0 || (l * z_sun + n - 1) % n == 0;
+        let rotational = (l * z_sun).is_multiple_of(n);
+        let translational =
+            (l * z_sun + 1).is_multiple_of(n) || (l * z_sun + n - 1).is_multiple_of(n);
         let forbidden = match (rotational, translational) {
             (true, _) => {
                 seen[0] |= r > 1e-6;
