@@ -475,16 +475,13 @@ fn the_nominal_speed_form_runs_and_carried_rotation_needs_consistent_geometry() 
     assert!(why.contains("planetary"), "{why}");
 }
 
-/// Every command on the planetary test scene runs (exit 0); `modes --rigid-bearings`, which
-/// cannot apply (rigid planet pins are a constraint, not removed DOFs), exits 1 with a message
-/// that names the planetary stage.
+/// Every command on each shipped planetary scene (`examples/planetary/`) runs (exit 0) or, where
+/// it cannot apply, exits 1 naming why: `floquet` and `band` (the linear periodic system) on the
+/// contact-loss stage, `waterfall` without a run-up, and `modes --rigid-bearings` (rigid planet
+/// pins are a constraint, not removed DOFs). Never a panic.
 #[test]
 fn every_command_runs_or_refuses_with_the_reason() {
     let bin = env!("CARGO_BIN_EXE_geardyn");
-    let scene = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/tests/fixtures/planetary/lin_parker_1999.toml"
-    );
     let dir = std::env::temp_dir().join(format!("geardyn_planetary_{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let out = |name: &str| dir.join(name).to_string_lossy().into_owned();
@@ -496,64 +493,96 @@ fn every_command_runs_or_refuses_with_the_reason() {
             String::from_utf8_lossy(&o.stderr).into_owned(),
         )
     };
-    let (code, stdout, stderr) = run(&["modes", scene]);
-    assert_eq!(code, Some(0), "{stderr}");
-    assert!(stdout.contains("planet load sharing"), "{stdout}");
-    let runs: Vec<Vec<String>> = vec![
-        vec![
-            "simulate".into(),
-            scene.into(),
-            "--out".into(),
-            out("a.csv"),
-            "--stop-time".into(),
-            "0.01".into(),
-        ],
-        vec![
-            "spectrum".into(),
-            scene.into(),
-            "--out".into(),
-            out("s.csv"),
-        ],
-        vec!["periodic".into(), scene.into()],
-        vec![
-            "sweep".into(),
-            scene.into(),
-            "--speed".into(),
-            "50:100:3".into(),
-            "--out".into(),
-            out("w.csv"),
-        ],
-        vec![
-            "hb".into(),
-            scene.into(),
-            "--speed".into(),
-            "50:100".into(),
-            "--out".into(),
-            out("h.csv"),
-        ],
-        vec!["floquet".into(), scene.into()],
-        vec![
-            "band".into(),
-            scene.into(),
-            "--speed".into(),
-            "50:100".into(),
-        ],
-        vec![
-            "fmu".into(),
-            "build".into(),
-            scene.into(),
-            "--out".into(),
-            out("fmu"),
-        ],
+    // (scene, speed range, commands that refuse and the reason they give)
+    let shipped: [(&str, &str, &[(&str, &str)]); 3] = [
+        ("lin_parker_1999", "50:100", &[]),
+        (
+            "ev_reducer_3p",
+            "800:1000",
+            &[
+                ("floquet", "needs contact = \"linear\""),
+                ("band", "needs contact = \"linear\""),
+            ],
+        ),
+        ("five_planet_stage", "250:300", &[]),
     ];
-    for args in runs {
-        let args: Vec<&str> = args.iter().map(String::as_str).collect();
-        let (code, _, stderr) = run(&args);
-        assert_eq!(code, Some(0), "{args:?}: {stderr}");
+    for (name, speeds, refusals) in shipped {
+        let scene = format!(
+            "{}/examples/planetary/{name}.toml",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        let scene = scene.as_str();
+        let (code, stdout, stderr) = run(&["modes", scene]);
+        assert_eq!(code, Some(0), "{stderr}");
+        assert!(stdout.contains("planet load sharing"), "{stdout}");
+        let commands: Vec<Vec<String>> = vec![
+            vec![
+                "simulate".into(),
+                scene.into(),
+                "--out".into(),
+                out("a.csv"),
+                "--stop-time".into(),
+                "0.01".into(),
+            ],
+            vec![
+                "spectrum".into(),
+                scene.into(),
+                "--out".into(),
+                out("s.csv"),
+            ],
+            vec!["periodic".into(), scene.into()],
+            vec![
+                "sweep".into(),
+                scene.into(),
+                "--speed".into(),
+                format!("{speeds}:3"),
+                "--out".into(),
+                out("w.csv"),
+            ],
+            vec![
+                "hb".into(),
+                scene.into(),
+                "--speed".into(),
+                speeds.into(),
+                "--out".into(),
+                out("h.csv"),
+            ],
+            vec!["floquet".into(), scene.into()],
+            vec!["band".into(), scene.into(), "--speed".into(), speeds.into()],
+            vec![
+                "fmu".into(),
+                "build".into(),
+                scene.into(),
+                "--out".into(),
+                out("fmu"),
+            ],
+            vec![
+                "waterfall".into(),
+                scene.into(),
+                "--out".into(),
+                out("wf.png"),
+            ],
+        ];
+        for args in commands {
+            let args: Vec<&str> = args.iter().map(String::as_str).collect();
+            let (code, _, stderr) = run(&args);
+            let why = match args[0] {
+                "waterfall" => Some("needs a run-up"),
+                c => refusals.iter().find(|r| r.0 == c).map(|r| r.1),
+            };
+            assert!(!stderr.contains("panicked"), "{name} {args:?}: {stderr}");
+            match why {
+                None => assert_eq!(code, Some(0), "{name} {args:?}: {stderr}"),
+                Some(why) => {
+                    assert_eq!(code, Some(1), "{name} {args:?}: {stderr}");
+                    assert!(stderr.contains(why), "{name} {args:?}: {stderr}");
+                }
+            }
+        }
+        let (code, _, stderr) = run(&["modes", scene, "--rigid-bearings"]);
+        assert_eq!(code, Some(1), "{stderr}");
+        assert!(stderr.contains("planetary stage"), "{stderr}");
     }
-    let (code, _, stderr) = run(&["modes", scene, "--rigid-bearings"]);
-    assert_eq!(code, Some(1), "{stderr}");
-    assert!(stderr.contains("planetary stage"), "{stderr}");
     std::fs::remove_dir_all(&dir).ok();
 }
 
