@@ -475,6 +475,14 @@ fn the_nominal_speed_form_runs_and_carried_rotation_needs_consistent_geometry() 
     assert!(why.contains("planetary"), "{why}");
 }
 
+/// A shipped scene, the speed range of its sweeps, and the commands that refuse it with the
+/// reason they give.
+type Shipped = (
+    &'static str,
+    &'static str,
+    &'static [(&'static str, &'static str)],
+);
+
 /// Every command on each shipped planetary scene (`examples/planetary/`) runs (exit 0) or, where
 /// it cannot apply, exits 1 naming why: `floquet` and `band` (the linear periodic system) on the
 /// contact-loss stage, `waterfall` without a run-up, and `modes --rigid-bearings` (rigid planet
@@ -494,7 +502,7 @@ fn every_command_runs_or_refuses_with_the_reason() {
         )
     };
     // (scene, speed range, commands that refuse and the reason they give)
-    let shipped: [(&str, &str, &[(&str, &str)]); 3] = [
+    let shipped: [Shipped; 3] = [
         ("lin_parker_1999", "50:100", &[]),
         (
             "ev_reducer_3p",
