@@ -147,7 +147,7 @@ pub fn periodic_spectrum_reporting(
         check_spectrum_samples(request, mesh_cycles)?;
         let mesh_cycles = mesh_cycles as usize;
         let n = mesh_cycles * request.samples_per_mesh_period;
-        let meshes = mesh_lines(model);
+        let meshes = stage_mesh_lines(scene, mesh_lines(model));
         let shafts = model.shafts();
         sim.set_y(0.0, &orbit.y0);
         // On the exact propagator the lines are integrated over each segment (alias-free);
@@ -323,7 +323,7 @@ pub fn record_spectrum(
         let model = sim.model();
         let periods = span / response_period(model)?;
         let exact = periods >= 1.0 && (periods - periods.round()).abs() <= 1e-9 * periods;
-        let meshes = mesh_lines(model);
+        let meshes = stage_mesh_lines(scene, mesh_lines(model));
         let shafts = model.shafts();
         let mut signals = Vec::new();
         for (name, values) in columns {
@@ -382,6 +382,33 @@ fn mesh_lines<M: Drivetrain>(model: &M) -> Vec<(String, f64)> {
             (name, model.mesh_frequency(m))
         })
         .collect()
+}
+
+/// The meshes of a planetary stage all run at one frequency (`docs/planetary.md`, eq. P2): they
+/// name their lines as one mesh, `<carrier>_mesh` (else a 12th harmonic reads as
+/// `2×sp1+10×rp1`). Other meshes are kept as they are.
+fn stage_mesh_lines(scene: &Scene, meshes: Vec<(String, f64)>) -> Vec<(String, f64)> {
+    if scene.planetary.is_empty() {
+        return meshes;
+    }
+    let mut lines = Vec::new();
+    for (n, line) in meshes.into_iter().enumerate() {
+        let stage = (scene.planetary.iter()).find(|st| {
+            st.planets
+                .iter()
+                .any(|p| p.sun_mesh == n || p.ring_mesh == n)
+        });
+        match stage {
+            None => lines.push(line),
+            Some(st) => {
+                let name = format!("{}_mesh", scene.gears[st.carrier].name);
+                if !lines.iter().any(|(l, _)| *l == name) {
+                    lines.push((name, line.1));
+                }
+            }
+        }
+    }
+    lines
 }
 
 /// `geardyn spectrum`: the spectrum of the scene's periodic steady state to the CSV `out`
