@@ -677,15 +677,16 @@ impl Instance {
         }
         for ((&vr, &order), &x) in vrs.iter().zip(orders).zip(values) {
             let checked = self.lookup(vr, VarKind::Real).and_then(|var| {
-                let who = format!("'{}' (vr {vr})", var.name);
+                // Formatted only on a refusal: this call comes with every step.
+                let who = || format!("'{}' (vr {vr})", var.name);
                 if var.causality != Causality::Input || var.variability != Variability::Continuous {
-                    Err(format!("{who} is not a continuous Real input"))
+                    Err(format!("{} is not a continuous Real input", who()))
                 } else if order != 1 {
                     Err(format!(
-                        "{who}: derivative order {order} is not supported (only order 1: the input is interpolated linearly over the step)"
+                        "{}: derivative order {order} is not supported (only order 1: the input is interpolated linearly over the step)", who()
                     ))
                 } else if !x.is_finite() {
-                    Err(format!("{who}: derivative {x} is not finite"))
+                    Err(format!("{}: derivative {x} is not finite", who()))
                 } else {
                     Ok(())
                 }
@@ -720,12 +721,13 @@ impl Instance {
         }
         for ((&vr, &order), slot) in vrs.iter().zip(orders).zip(out.iter_mut()) {
             let checked = self.lookup(vr, VarKind::Real).and_then(|var| {
-                let who = format!("'{}' (vr {vr})", var.name);
+                // Formatted only on a refusal: this call comes with every step.
+                let who = || format!("'{}' (vr {vr})", var.name);
                 if var.causality != Causality::Output {
-                    Err(format!("{who} is not an output"))
+                    Err(format!("{} is not an output", who()))
                 } else if order != 1 {
                     Err(format!(
-                        "{who}: derivative order {order} is not supported (maxOutputDerivativeOrder=\"{max}\")"
+                        "{}: derivative order {order} is not supported (maxOutputDerivativeOrder=\"{max}\")", who()
                     ))
                 } else {
                     Ok(())

@@ -188,8 +188,19 @@ impl<K: Kernel> Adapter<K> {
     /// they fixed the initial state; the current inputs are in the run-time state): what,
     /// besides the run-time state, distinguishes this instance from a freshly instantiated one.
     fn snapshot(&self) -> KernelSnapshot<K> {
+        KernelSnapshot::<K> {
+            params: self.params(),
+            start_time: self.lifecycle.start_time,
+            initialized: self.lifecycle.initialized,
+            extra: K::extra(&self.settings),
+            sim: K::sim_state(&self.sim),
+        }
+    }
+
+    /// The parameter and start-input values by value reference, as a snapshot records them.
+    fn params(&self) -> Vec<(u32, f64)> {
         let start = K::start_inputs(&self.settings);
-        let params = settable_reals(&self.vars)
+        settable_reals(&self.vars)
             .map(|v| {
                 let vr = v.value_reference;
                 let x = match input_position::<K>(vr) {
@@ -198,14 +209,7 @@ impl<K: Kernel> Adapter<K> {
                 };
                 (vr, x)
             })
-            .collect();
-        KernelSnapshot::<K> {
-            params,
-            start_time: self.lifecycle.start_time,
-            initialized: self.lifecycle.initialized,
-            extra: K::extra(&self.settings),
-            sim: K::sim_state(&self.sim),
-        }
+            .collect()
     }
 
     /// The loaded settings with a snapshot's values applied, each with the checks of
@@ -230,6 +234,19 @@ impl<K: Kernel> Adapter<K> {
             .map(|(&vr, x)| (vr, x))
             .collect();
         check_snapshot_values(&self.vars, &snap.params, &inputs, snap.start_time)?;
+        if K::extra(&self.settings) == snap.extra
+            && crate::fmu::checks::same_values(&snap.params, &self.params())
+        {
+            // This instance's own parameters (the rollback of an error-controlled master, at
+            // every undone step): the simulation resumes from the state (`Driver::resume`,
+            // bit-identical to a new build's) without building the model again.
+            K::restore_sim(self.sim_mut(), &snap.sim)?;
+            self.lifecycle = Lifecycle {
+                start_time: snap.start_time,
+                initialized: snap.initialized,
+            };
+            return Ok(());
+        }
         let settings = self.settings_of(snap)?;
         let mut sim = match self.build(&settings) {
             Ok((sim, _)) => sim,

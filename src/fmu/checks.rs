@@ -45,3 +45,12 @@ pub fn check_snapshot_values(
     }
     Ok(())
 }
+
+/// The same values bit for bit, by value reference in the same order: a state's parameters
+/// against an instance's own (a restore that need not rebuild the model).
+pub fn same_values(a: &[(u32, f64)], b: &[(u32, f64)]) -> bool {
+    a.len() == b.len()
+        && a.iter()
+            .zip(b)
+            .all(|(x, y)| x.0 == y.0 && x.1.to_bits() == y.1.to_bits())
+}

@@ -24,7 +24,7 @@ pub trait Kernel: 'static {
     type Settings: Clone + Send;
     /// What [`Self::Settings`] holds besides the values of its Real parameters, so an FMU
     /// state carries it next to the parameter list (the pair's initial-DTE choice).
-    type Extra: Clone;
+    type Extra: Clone + PartialEq;
     /// The driver's snapshot of a run ([`crate::simulation::SimState`] and its drivetrain
     /// counterpart).
     type SimState;

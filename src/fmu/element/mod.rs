@@ -253,8 +253,8 @@ impl ElementFmu {
         out
     }
 
-    /// The model part of an FMU state.
-    fn snapshot(&self) -> ElementSnapshot {
+    /// The parameter and start-input values by value reference, as a state records them.
+    fn params(&self) -> Vec<(u32, f64)> {
         let names = variables::param_names(&self.scene.element);
         let mut params: Vec<(u32, f64)> = names
             .iter()
@@ -272,8 +272,13 @@ impl ElementFmu {
                 .enumerate()
                 .map(|(k, &x)| (VR_INPUT0 + k as u32, x)),
         );
+        params
+    }
+
+    /// The model part of an FMU state.
+    fn snapshot(&self) -> ElementSnapshot {
         ElementSnapshot {
-            params,
+            params: self.params(),
             start_time: self.lifecycle.start_time,
             initialized: self.lifecycle.initialized,
             t: self.t,
@@ -311,6 +316,11 @@ impl ElementFmu {
                 s.t
             ));
         }
+        if crate::fmu::checks::same_values(&s.params, &self.params()) {
+            // The parameters this instance has (the rollback of an error-controlled master,
+            // at every undone step): only the run-time state changes, no scene is rebuilt.
+            return self.restore_run(s);
+        }
         let mut scene = self.base.clone();
         let mut u_start = start_inputs(&scene.element);
         for &(vr, x) in &s.params {
@@ -344,6 +354,32 @@ impl ElementFmu {
         self.y0 = if dim == 0 { Vec::new() } else { s.y.clone() };
         self.t = s.t;
         self.u_start = u_start;
+        self.u.clone_from(&s.u);
+        self.du.clone_from(&s.du);
+        self.du_now.clone_from(&s.du_now);
+        self.lifecycle = Lifecycle {
+            start_time: s.start_time,
+            initialized: s.initialized,
+        };
+        Ok(())
+    }
+
+    /// [`ElementFmu::restore`] of a state with this instance's own parameters: the stepper
+    /// continues from the state's time, solution and controller memory, as a new one would.
+    fn restore_run(&mut self, s: &ElementSnapshot) -> Result<(), String> {
+        let dim = system::dim(&self.scene.element);
+        if s.y.len() != dim || s.controller.is_some() != self.stepper.is_some() {
+            return Err(format!(
+                "the state holds {} states; the element has {dim}",
+                s.y.len()
+            ));
+        }
+        if let (Some(st), Some(mem)) = (self.stepper.as_mut(), s.controller) {
+            st.restore(s.t, &s.y, &mem);
+        } else {
+            self.y0.clone_from(&s.y);
+        }
+        self.t = s.t;
         self.u.clone_from(&s.u);
         self.du.clone_from(&s.du);
         self.du_now.clone_from(&s.du_now);
