@@ -1,7 +1,7 @@
 //! Pseudo-arclength continuation of the harmonic-balance orbit in the input speed, with fold
 //! detection and the Floquet multipliers of every point.
 
-use nalgebra::{Complex, DMatrix, DVector};
+use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
 use super::problem::{Evaluation, Problem, Want};
 use super::{HbOptions, HbSolution};
@@ -130,7 +130,8 @@ fn continue_branch<M: Drivetrain + Send>(
         frequency: true,
         samples: false,
     };
-    // Scaled residual r/x_s and its Jacobian [∂r/∂s, ∂r/∂λ · f_ref/x_s].
+    // Scaled residual r/x_s and the bordered matrix [∂r/∂s, ∂r/∂λ · f_ref/x_s; 0]: its last
+    // row is the caller's (the tangent), set before it is factorised.
     let scaled = |problem: &mut Problem<M>,
                   w: &DVector<f64>,
                   want: Want|
@@ -138,28 +139,24 @@ fn continue_branch<M: Drivetrain + Send>(
         let s = w.rows(0, dim) * xs;
         let f = w[dim] * f_ref;
         let mut e = problem.evaluate(&s, f, want)?;
-        let mut j = DMatrix::zeros(dim, dim + 1);
-        j.view_mut((0, 0), (dim, dim))
-            .copy_from(e.jacobian.as_ref().expect("asked for"));
-        j.set_column(
-            dim,
-            &(e.d_frequency.take().expect("asked for") * (f_ref / xs)),
-        );
-        Ok((&e.residual / xs, j, e))
-    };
-    let tangent_of = |j: &DMatrix<f64>, previous: &DVector<f64>| -> Option<DVector<f64>> {
         let mut a = DMatrix::zeros(dim + 1, dim + 1);
-        a.view_mut((0, 0), (dim, dim + 1)).copy_from(j);
-        a.set_row(dim, &previous.transpose());
+        a.view_mut((0, 0), (dim, dim))
+            .copy_from(e.jacobian.as_ref().expect("asked for"));
+        a.view_mut((0, dim), (dim, 1))
+            .copy_from(&(e.d_frequency.take().expect("asked for") * (f_ref / xs)));
+        Ok((&e.residual / xs, a, e))
+    };
+    // The unit tangent of the bordered matrix `a` whose last row is the previous tangent.
+    let tangent_of = |a: &LU<f64, Dyn, Dyn>| -> Option<DVector<f64>> {
         let mut rhs = DVector::zeros(dim + 1);
         rhs[dim] = 1.0;
-        let t = a.lu().solve(&rhs)?;
+        let t = a.solve(&rhs)?;
         Some(t.normalize())
     };
     let direction = if options.to > options.from { 1.0 } else { -1.0 };
     let mut seed = DVector::zeros(dim + 1);
     seed[dim] = direction;
-    let (_, j0, e0) = scaled(
+    let (_, mut a0, e0) = scaled(
         &mut problem,
         &w,
         Want {
@@ -167,7 +164,8 @@ fn continue_branch<M: Drivetrain + Send>(
             ..all
         },
     )?;
-    let mut tangent = tangent_of(&j0, &seed).ok_or("continuation: singular start")?;
+    a0.set_row(dim, &seed.transpose());
+    let mut tangent = tangent_of(&a0.lu()).ok_or("continuation: singular start")?;
     if tangent[dim] * direction < 0.0 {
         tangent = -tangent;
     }
@@ -178,8 +176,9 @@ fn continue_branch<M: Drivetrain + Send>(
         let mut candidate = predicted.clone();
         let mut iterations = 0;
         // The corrector: Newton on [r; tᵀ(w − w_pred)] = 0. It stops at the iterate whose
-        // update is below the tolerance and keeps that iterate's evaluation (Jacobian for the
-        // next tangent, node samples for the results): no extra evaluation per point.
+        // update is below the tolerance and keeps that iterate's evaluation (the factorised
+        // bordered matrix, whose last row is the tangent: the next tangent's matrix; node
+        // samples for the results): no extra evaluation or factorisation per point.
         let mut last = None;
         for it in 1..=12 {
             iterations = it;
@@ -187,25 +186,24 @@ fn continue_branch<M: Drivetrain + Send>(
                 samples: true,
                 ..all
             };
-            let Ok((r, j, e)) = scaled(&mut problem, &candidate, with_samples) else {
+            let Ok((r, mut a, e)) = scaled(&mut problem, &candidate, with_samples) else {
                 break;
             };
-            let mut a = DMatrix::zeros(dim + 1, dim + 1);
-            a.view_mut((0, 0), (dim, dim + 1)).copy_from(&j);
             a.set_row(dim, &tangent.transpose());
             let mut g = DVector::zeros(dim + 1);
             g.rows_mut(0, dim).copy_from(&r);
             g[dim] = tangent.dot(&(&candidate - &predicted));
-            let Some(delta) = a.lu().solve(&(-g)) else {
+            let lu = a.lu();
+            let Some(delta) = lu.solve(&(-g)) else {
                 break;
             };
             if delta.amax() <= hb.tolerance.max(1e-13) * 10.0 {
-                last = Some((j, e));
+                last = Some((lu, e));
                 break;
             }
             candidate += &delta;
         }
-        let Some((j, e)) = last else {
+        let Some((lu, e)) = last else {
             step *= 0.5;
             if step < 1e-8 {
                 return Err(format!(
@@ -215,7 +213,7 @@ fn continue_branch<M: Drivetrain + Send>(
             }
             continue;
         };
-        let mut next = tangent_of(&j, &tangent).ok_or("continuation: singular tangent")?;
+        let mut next = tangent_of(&lu).ok_or("continuation: singular tangent")?;
         if next.dot(&tangent) < 0.0 {
             next = -next;
         }

@@ -7,6 +7,7 @@ use std::f64::consts::TAU;
 
 use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
+use super::statistics::{scan_points, scan_roots};
 use super::{HbOptions, HbSolution};
 use crate::model::drivetrain::{response_frequencies, response_period_in_mesh_periods};
 use crate::model::{Drivetrain, MeshLaw};
@@ -130,6 +131,9 @@ pub(super) struct Problem<M: Drivetrain> {
     pub(super) subharmonic: u32,
     pub(super) x_scale: f64,
     pub(super) receptance: Option<Receptance>,
+    /// `(cos, sin)` of the roots of unity of the results' scan grid
+    /// ([`super::statistics::scan_points`]).
+    pub(super) scan_roots: Vec<(f64, f64)>,
 }
 
 /// 3-point Gauss–Legendre rule on [−1, 1]: (node, weight).
@@ -374,6 +378,7 @@ impl<M: Drivetrain> Problem<M> {
             subharmonic: options.subharmonic,
             x_scale: 0.0,
             receptance: None,
+            scan_roots: Vec::new(),
         };
         problem.speed_per_f = problem.model.input_speed() / f;
         // Displacement scale of convergence tests and of the arclength metric: the largest
@@ -409,6 +414,7 @@ impl<M: Drivetrain> Problem<M> {
             !buf.is_empty()
         });
         problem.build_sums();
+        problem.scan_roots = scan_roots(scan_points(&problem.orders));
         // External force: sampled once (it depends on the mesh phase only, not on the speed).
         let mut ext = vec![0.0; m];
         let mut external = DMatrix::zeros(m, len);

@@ -1,11 +1,14 @@
 //! Each mesh's response on a converged harmonic-balance orbit ([`MeshResponse`]), from the
 //! harmonic series itself rather than from samples (issue 31): the DTE's mean, RMS (Parseval)
-//! and harmonics from its coefficients; its extremes and the peak mesh force from the series
-//! evaluated on a fine grid and refined to the maximum ([`brent_maximum`] around every grid
-//! maximum that may be the highest); the separation phase from the contact law along the
-//! series, refined by bisection; the force RMS and the
-//! contact-loss fraction by the Galerkin quadrature, whose cells are split at the switching
-//! instants (so both are exact for the series up to the rule's accuracy on smooth pieces).
+//! and harmonics from its coefficients; its extremes from the series evaluated on a fine grid
+//! and refined by Newton on the series' analytic derivatives; the peak mesh force from the law
+//! along the series on the same grid, refined to the maximum ([`brent_maximum`] around every
+//! grid maximum that may be the highest: the law kinks where a contact switches); the
+//! separation phase at the root of the contact gap that opens (the regula falsi of the
+//! quadrature's split cells, [`Problem::root`]), or by bisection on the contact law where no
+//! single gap decides it; the force RMS and the contact-loss fraction by the Galerkin
+//! quadrature, whose cells are split at the switching instants (so both are exact for the
+//! series up to the rule's accuracy on smooth pieces).
 
 use std::f64::consts::TAU;
 
@@ -22,6 +25,31 @@ const SCAN_PER_ORDER: usize = 8;
 
 /// Abscissa tolerance of the refinement, in HB periods.
 const REFINE_TOL: f64 = 1e-13;
+
+/// Newton steps of a DTE extreme before it falls back to Brent's search.
+const NEWTON_STEPS: usize = 8;
+
+/// A Newton step below this (HB periods) is the last: the point it lands on is within
+/// `~(π j_max)·step²` (< 1e-13 for the orders HB retains) of the extreme, whose value is then
+/// exact to rounding.
+const NEWTON_LAST_STEP: f64 = 1e-8;
+
+/// The scan grid's points for the retained `orders` (at least 64).
+pub(super) fn scan_points(orders: &[usize]) -> usize {
+    let max_order = *orders.last().expect("order 0 at least");
+    (SCAN_PER_ORDER * max_order.max(1)).max(64)
+}
+
+/// `(cos, sin)(2π r/points)` for `r < points`: the scan grid's roots of unity.
+pub(super) fn scan_roots(points: usize) -> Vec<(f64, f64)> {
+    let h = 1.0 / points as f64;
+    (0..points)
+        .map(|r| {
+            let (sn, cs) = (TAU * r as f64 * h).sin_cos();
+            (cs, sn)
+        })
+        .collect()
+}
 
 impl<M: Drivetrain> Problem<M> {
     /// Mesh `n`'s response at frequency `f` from the orbit's mesh-deflection coefficients `s`,
@@ -43,69 +71,63 @@ impl<M: Drivetrain> Problem<M> {
                 .filter(|&q| q > 0)
                 .map_or(0.0, |q| dte[2 * q - 1].hypot(dte[2 * q]))
         };
-        // Every quantity on one grid `θ_i = i/points`, the basis rows from the grid's roots of
-        // unity (`cos, sin 2π j i/points` is entry `j i mod points` of one table: no
-        // trigonometry per row); then each extreme refined from its best grid point and its
-        // neighbours.
-        let max_order = *self.orders.last().expect("order 0 at least");
-        let points = (SCAN_PER_ORDER * max_order.max(1)).max(64);
+        // Every series on one grid `θ_i = i/points`, order by order (`cos, sin 2π j i/points`
+        // is entry `j i mod points` of the roots of unity: no trigonometry per point, and the
+        // points' sums are independent of each other); each sum takes its terms in the order
+        // of [`Problem::deflection`]. The DTE about its mean (`dte[0]`, which cancels in the
+        // peak to peak): its refinement then settles to a rounding unit of the oscillation, not
+        // of the mean.
+        let roots = &self.scan_roots;
+        let points = roots.len();
         let h = 1.0 / points as f64;
-        let roots: Vec<(f64, f64)> = (0..points)
-            .map(|r| {
-                let (sn, cs) = (TAU * r as f64 * h).sin_cos();
-                (cs, sn)
-            })
-            .collect();
-        let mut phi = vec![0.0; self.len];
-        let law_at = |theta: f64, phi: &[f64]| {
-            let (x, dx) = self.deflection(s, n, phi);
-            self.model.mesh_law(n, theta / f, x, f * dx)
-        };
-        // The DTE's extremes about its mean (`dte[0]`, which cancels in the peak to peak): the
-        // refinement then settles to a rounding unit of the oscillation, not of the mean.
-        let dot = |phi: &[f64]| {
-            (dte.iter().zip(phi).skip(1))
-                .map(|(c, p)| c * p)
-                .sum::<f64>()
-        };
-        let (mut dte_grid, mut force_grid, mut lost_grid) = (
-            Vec::with_capacity(points),
-            Vec::with_capacity(points),
-            Vec::with_capacity(points),
-        );
-        phi[0] = 1.0;
-        // Order `j_q`'s entry of row `i`, `j_q i mod points`, stepped by `j_q` per row.
-        let mut entry = vec![0; self.orders.len()];
-        for i in 0..points {
-            for (q, &j) in self.orders.iter().enumerate().skip(1) {
-                let (cs, sn) = roots[entry[q]];
-                phi[2 * q - 1] = cs;
-                phi[2 * q] = sn;
-                let next = entry[q] + j;
-                entry[q] = if next >= points { next - points } else { next };
+        let coefficients = &s.as_slice()[n * self.len..(n + 1) * self.len];
+        let mut x = vec![coefficients[0]; points];
+        let mut dx = vec![0.0; points];
+        let mut dte_grid = vec![0.0; points];
+        for (q, &j) in self.orders.iter().enumerate().skip(1) {
+            let (a, b) = (coefficients[2 * q - 1], coefficients[2 * q]);
+            let (da, db) = (dte[2 * q - 1], dte[2 * q]);
+            let w = TAU * j as f64;
+            let mut entry = 0;
+            for ((x, dx), d) in x.iter_mut().zip(&mut dx).zip(&mut dte_grid) {
+                let (cs, sn) = roots[entry];
+                *x += a * cs + b * sn;
+                *dx += w * (b * cs - a * sn);
+                *d += da * cs;
+                *d += db * sn;
+                entry += j;
+                if entry >= points {
+                    entry -= points;
+                }
             }
-            let law = law_at(i as f64 * h, &phi);
-            dte_grid.push(dot(&phi));
+        }
+        let (mut force_grid, mut lost_grid) =
+            (Vec::with_capacity(points), Vec::with_capacity(points));
+        for (i, (&x, &dx)) in x.iter().zip(&dx).enumerate() {
+            let law = self.model.mesh_law(n, i as f64 * h / f, x, f * dx);
             force_grid.push(law.force[0].abs());
             lost_grid.push(law.in_contact == 0);
         }
         // The refinements evaluate the series with one `sin_cos` and powers of it
         // ([`Problem::basis_fast`]: each entry to a few rounding units per order), about a
         // tenth of the cost of one `sin_cos` per order.
-        let mut dte_at = |theta: f64| {
-            self.basis_fast(theta, &mut phi);
-            dot(&phi)
-        };
-        let hi = series_maximum(&mut dte_at, &dte_grid, 1.0);
-        let minus: Vec<f64> = dte_grid.iter().map(|d| -d).collect();
-        let lo = -series_maximum(&mut |t| -dte_at(t), &minus, 1.0);
         let mut phi = vec![0.0; self.len];
-        let mut law = |theta: f64| {
-            self.basis_fast(theta, &mut phi);
-            law_at(theta, &phi)
+        let hi = series_maximum(&dte_grid, 1.0, &mut |centre| {
+            self.dte_extreme(dte, 1.0, centre, h, &mut phi)
+        });
+        let lo = -series_maximum(&dte_grid, -1.0, &mut |centre| {
+            self.dte_extreme(dte, -1.0, centre, h, &mut phi)
+        });
+        let law_at = |theta: f64, phi: &mut [f64]| {
+            self.basis_fast(theta, phi);
+            let (x, dx) = self.deflection(s, n, phi);
+            self.model.mesh_law(n, theta / f, x, f * dx)
         };
-        let peak = series_maximum(&mut |t| law(t).force[0].abs(), &force_grid, 1.0);
-        let separation = self.separation(&mut |t| law(t).in_contact == 0, &lost_grid, n, f);
+        let peak = series_maximum(&force_grid, 1.0, &mut |centre| {
+            let force = |t: f64| law_at(t, &mut phi).force[0].abs();
+            brent_maximum(force, centre - h, centre + h, REFINE_TOL).1
+        });
+        let separation = self.separation(s, n, f, &lost_grid, &mut phi);
         let nm = self.meshes.len();
         let force = |i: usize| e.sample_force[i * nm + n];
         let w = &e.sample_w;
@@ -132,15 +154,59 @@ impl<M: Drivetrain> Problem<M> {
         }
     }
 
-    /// Mesh `n`'s phase (cycles) at the first instant of the HB period at which `lost` turns
-    /// true (found on the grid `lost_grid` of `θ_i = i/points`, then bisected to
-    /// [`REFINE_TOL`]); NaN without loss.
+    /// `sign` times the DTE series `dte` (about its mean) and its first two θ-derivatives at
+    /// `θ`, from the basis row (computed into `phi`).
+    fn dte_derivatives(&self, dte: &[f64], sign: f64, theta: f64, phi: &mut [f64]) -> [f64; 3] {
+        self.basis_fast(theta, phi);
+        let (mut d, mut d1, mut d2) = (0.0, 0.0, 0.0);
+        let pairs = dte[1..].chunks_exact(2).zip(phi[1..].chunks_exact(2));
+        for (&j, (ab, row)) in self.orders[1..].iter().zip(pairs) {
+            let (a, b) = (sign * ab[0], sign * ab[1]);
+            let (c, sn) = (row[0], row[1]);
+            let w = TAU * j as f64;
+            let value = a * c + b * sn;
+            d += value;
+            d1 += w * (b * c - a * sn);
+            d2 -= w * w * value;
+        }
+        [d, d1, d2]
+    }
+
+    /// The largest value of `sign` times the DTE series about its mean within `h` of the grid
+    /// maximum at `centre`: Newton on its derivative from the grid point (quadratic from a
+    /// grid point of [`SCAN_PER_ORDER`] per period of the highest order), or Brent's search
+    /// where Newton leaves the bracket or meets no maximum.
+    fn dte_extreme(&self, dte: &[f64], sign: f64, centre: f64, h: f64, phi: &mut [f64]) -> f64 {
+        let mut theta = centre;
+        for _ in 0..NEWTON_STEPS {
+            let [_, d1, d2] = self.dte_derivatives(dte, sign, theta, phi);
+            if !(d2 < 0.0) {
+                break;
+            }
+            let step = -d1 / d2;
+            let next = theta + step;
+            if !((next - centre).abs() <= h) {
+                break;
+            }
+            theta = next;
+            if step.abs() <= NEWTON_LAST_STEP {
+                return self.dte_derivatives(dte, sign, theta, phi)[0];
+            }
+        }
+        let value = |t: f64| self.dte_derivatives(dte, sign, t, phi)[0];
+        brent_maximum(value, centre - h, centre + h, REFINE_TOL).1
+    }
+
+    /// Mesh `n`'s phase (cycles) at the first instant of the HB period at which it loses
+    /// contact on every tooth pair (found on the grid `lost_grid` of `θ_i = i/points`, then
+    /// located by [`Problem::loss_onset`]); NaN without loss.
     fn separation(
         &self,
-        lost: &mut dyn FnMut(f64) -> bool,
-        lost_grid: &[bool],
+        s: &DVector<f64>,
         n: usize,
         f: f64,
+        lost_grid: &[bool],
+        phi: &mut [f64],
     ) -> f64 {
         let points = lost_grid.len();
         let h = 1.0 / points as f64;
@@ -148,45 +214,83 @@ impl<M: Drivetrain> Problem<M> {
         // the last loss onset of the period (the orbit is periodic).
         let onset = (1..=points)
             .find(|&i| lost_grid[i % points] && !lost_grid[i - 1])
-            .map(|i| {
-                let (mut a, mut b) = ((i - 1) as f64 * h, i as f64 * h);
-                while b - a > REFINE_TOL {
-                    let m = 0.5 * (a + b);
-                    if lost(m) {
-                        b = m;
-                    } else {
-                        a = m;
-                    }
-                }
-                b
-            });
+            .map(|i| self.loss_onset(s, n, f, ((i - 1) as f64 * h, i as f64 * h), phi));
         onset.map_or(f64::NAN, |theta| {
             self.model.mesh_phase(n, theta / f).rem_euclid(1.0)
         })
     }
+
+    /// The instant in `(a, b)` at which mesh `n`, in contact at `a` and lost at `b`, loses
+    /// its last contact: the root of the one contact gap that changes sign between them
+    /// ([`Problem::root`]), checked by the contact law [`REFINE_TOL`] either side of it; else
+    /// (several gaps change, the engaged pairs change, or the check fails) bisection on the
+    /// contact law to [`REFINE_TOL`].
+    fn loss_onset(
+        &self,
+        s: &DVector<f64>,
+        n: usize,
+        f: f64,
+        (a, b): (f64, f64),
+        phi: &mut [f64],
+    ) -> f64 {
+        let lost = |theta: f64, phi: &mut [f64]| {
+            self.basis_fast(theta, phi);
+            let (x, dx) = self.deflection(s, n, phi);
+            self.model.mesh_law(n, theta / f, x, f * dx).in_contact == 0
+        };
+        let mut buf = Vec::new();
+        let gaps = |theta: f64, phi: &mut [f64], buf: &mut Vec<(f64, f64)>| {
+            self.basis_fast(theta, phi);
+            let (x, dx) = self.deflection(s, n, phi);
+            self.model.contact_gaps(n, theta / f, x, f * dx, buf);
+            buf.iter().map(|g| g.0 > 0.0).collect::<Vec<bool>>()
+        };
+        let (at_a, at_b) = (gaps(a, phi, &mut buf), gaps(b, phi, &mut buf));
+        // `Problem::root` follows the gap at the problem's frequency (the orbit's, as the
+        // results are made right after its evaluation).
+        if at_a.len() == at_b.len() && self.f == f {
+            let mut changed = (0..at_a.len()).filter(|&q| at_a[q] != at_b[q]);
+            if let (Some(q), None) = (changed.next(), changed.next()) {
+                let root = self.root(s, (n, q), (a, b), phi, &mut buf);
+                let (before, after) = ((root - REFINE_TOL).max(a), (root + REFINE_TOL).min(b));
+                if !lost(before, phi) && lost(after, phi) {
+                    return root;
+                }
+            }
+        }
+        let (mut a, mut b) = (a, b);
+        while b - a > REFINE_TOL {
+            let m = 0.5 * (a + b);
+            if lost(m, phi) {
+                b = m;
+            } else {
+                a = m;
+            }
+        }
+        b
+    }
 }
 
-/// The largest value of a periodic series `g(θ)`, `θ ∈ [0, period)`, from its values `grid` at
-/// `θ_i = i·period/grid.len()`: every local maximum of the grid within [`SCAN_MARGIN`] of the
-/// grid's spread below the best, refined from its neighbours (two peaks of nearly one height
-/// are both refined, whichever the grid happens to rank first).
-fn series_maximum(g: &mut dyn FnMut(f64) -> f64, grid: &[f64], period: f64) -> f64 {
+/// The largest value of `sign` times a periodic series `g(θ)`, `θ ∈ [0, 1)`, from its values
+/// `grid` at `θ_i = i/grid.len()`: every local maximum of `sign` times the grid within
+/// [`SCAN_MARGIN`] of its spread below the best, refined by `refine` from its abscissa (the
+/// maximum of `sign·g` near it; two peaks of nearly one height are both refined, whichever the
+/// grid happens to rank first).
+fn series_maximum(grid: &[f64], sign: f64, refine: &mut dyn FnMut(f64) -> f64) -> f64 {
     let points = grid.len();
-    let h = period / points as f64;
-    let best = grid.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let worst = grid.iter().copied().fold(best, f64::min);
+    let h = 1.0 / points as f64;
+    let value = |i: usize| sign * grid[i];
+    let best = (0..points).map(value).fold(f64::NEG_INFINITY, f64::max);
+    let worst = (0..points).map(value).fold(best, f64::min);
     let margin = SCAN_MARGIN * (best - worst);
-    let beside = |at: usize, k: usize| grid[(at + points + k - 1) % points];
+    let beside = |at: usize, k: usize| value((at + points + k - 1) % points);
     let mut result = best;
-    for (at, &value) in grid.iter().enumerate() {
-        if value < best - margin || value < beside(at, 0) || value < beside(at, 2) {
+    for at in 0..points {
+        let v = value(at);
+        if v < best - margin || v < beside(at, 0) || v < beside(at, 2) {
             continue;
         }
-        // Brent on the grid cells beside it: the law may jump or kink between grid points
-        // (a contact or stiffness switch), where a parabola says nothing.
-        let centre = at as f64 * h;
-        let (_, v) = brent_maximum(&mut *g, centre - h, centre + h, REFINE_TOL * period);
-        result = result.max(v);
+        result = result.max(refine(at as f64 * h));
     }
     result
 }
