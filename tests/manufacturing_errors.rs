@@ -62,7 +62,7 @@ const RECTANGULAR: &str =
     "kind = \"rectangular\"\nmean = 3.0e8\npeak_to_peak_ratio = 0.2\ncontact_ratio = 1.6";
 
 /// Constant mesh stiffness: `m x'' + c x' + k x = F + k e + c ė` is linear time-invariant,
-/// so the runout `e = −A_1 cos(Ω_1 t + φ_1) + A_2 cos(−Ω_2 t + φ_2)` (`docs/errors.md`) gives
+/// so the runout `e = −A_1 cos(Ω_1 t + φ_1 − β) + A_2 cos(−Ω_2 t + φ_2 − β)` (`docs/errors.md`) gives
 /// the steady response `x = F/k + Re Σ E_g H(Ω_g) e^{±iΩ_g t}`, `H = (k + icΩ)/(k − mΩ² + icΩ)`.
 #[test]
 fn runout_on_a_constant_stiffness_is_the_closed_form_sdof_response() {
@@ -74,7 +74,9 @@ fn runout_on_a_constant_stiffness_is_the_closed_form_sdof_response() {
         ],
         "kind = \"constant\"\nvalue = 3.0e8",
         "linear",
-        "",
+        // The runout also moves the mesh position and the centre distance; a constant
+        // stiffness without backlash does not see them, so the closed form stays exact.
+        "pressure_angle = 20.0",
     );
     let scene = any(&text).unwrap();
     assert!(
@@ -105,15 +107,18 @@ fn runout_on_a_constant_stiffness_is_the_closed_form_sdof_response() {
         let (x_re, x_im) = (amp_re * h_re - amp_im * h_im, amp_re * h_im + amp_im * h_re);
         x_re * (w * t).cos() - x_im * (w * t).sin()
     };
+    let beta = 20f64.to_radians();
     let mut worst: f64 = 0.0;
     for (t, row) in trajectory.times.iter().zip(&trajectory.rows) {
         if *t < stop {
             continue;
         }
-        // Pinion: E = −A_1 e^{iφ_1} at Ω_1; gear: E = A_2 e^{iφ_2} at −Ω_2.
+        // Pinion: E = −A_1 e^{i(φ_1 − β)} at Ω_1; gear: E = A_2 e^{i(φ_2 − β)} at −Ω_2, with
+        // the line of action at β = centre_angle + pressure_angle = 20°.
+        let (p1, p2) = (phi1 - beta, phi2 - beta);
         let x = force / k
-            + line(-a1 * phi1.cos(), -a1 * phi1.sin(), omega1, *t)
-            + line(a2 * phi2.cos(), a2 * phi2.sin(), -omega2, *t);
+            + line(-a1 * p1.cos(), -a1 * p1.sin(), omega1, *t)
+            + line(a2 * p2.cos(), a2 * p2.sin(), -omega2, *t);
         worst = worst.max((row[dte] - x).abs());
     }
     println!("runout closed form: max error {worst:.3e} m for runouts of 5 and 3 µm");
@@ -185,8 +190,9 @@ fn zero_errors_change_nothing_bit_for_bit() {
 #[test]
 fn errors_set_the_hunting_period_and_the_method() {
     let runout = "runout = { amplitude = 2e-6 }";
-    let both = any(&pair([runout, runout], RECTANGULAR, "linear", "")).unwrap();
-    let one = any(&pair([runout, ""], RECTANGULAR, "linear", "")).unwrap();
+    let alpha = "pressure_angle = 20.0";
+    let both = any(&pair([runout, runout], RECTANGULAR, "linear", alpha)).unwrap();
+    let one = any(&pair([runout, ""], RECTANGULAR, "linear", alpha)).unwrap();
     let none = any(&pair(["", ""], RECTANGULAR, "linear", "")).unwrap();
     let mesh_period = TAU / (400.0 * f64::from(Z[0]));
     let period = |s: &Scene| {
@@ -203,7 +209,7 @@ fn errors_set_the_hunting_period_and_the_method() {
     assert!(!method.contains("exact"), "{method}");
     assert!((period(&one).0 / mesh_period - 25.0).abs() < 1e-9);
     assert!((period(&none).0 / mesh_period - 1.0).abs() < 1e-12);
-    let exact = pair([runout, ""], RECTANGULAR, "linear", "").replace("\"auto\"", "\"exact\"");
+    let exact = pair([runout, ""], RECTANGULAR, "linear", alpha).replace("\"auto\"", "\"exact\"");
     let err = match any(&exact).unwrap().simulation() {
         Err(e) => e,
         Ok(_) => panic!("exact must refuse gear errors"),
@@ -247,6 +253,18 @@ fn bad_errors_name_the_field_and_the_value() {
         let err = any(&text).unwrap_err();
         assert!(err.contains(expected), "{keys}: {err}");
     }
+    // A runout moves the centre distance: the mesh needs its operating pressure angle.
+    let text = pair(
+        ["", "runout = { amplitude = 1e-6 }"],
+        RECTANGULAR,
+        "linear",
+        "",
+    );
+    let err = any(&text).unwrap_err();
+    assert!(
+        err.contains("mesh.pressure_angle: missing; gear \"gear\" has a runout"),
+        "{err}"
+    );
 }
 
 /// An idler with runout sits in two meshes: where each is around it must be given.

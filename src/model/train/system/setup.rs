@@ -3,6 +3,7 @@
 //! pair-based models (Liu 2007 Models 1–3).
 
 use super::*;
+use crate::mesh::eccentricity::{Centre, MeshGeometry};
 
 /// The errors of mesh `n`'s two gears as the mesh sees them (`docs/errors.md`): the line of
 /// action `β_n = centre_angle + σ_a·pressure_angle` of the assembly, and per gear the teeth
@@ -184,5 +185,90 @@ pub(super) fn single_slot_table(
         slots: 1,
         shift_on_wrap: false,
         intervals,
+    }
+}
+
+/// The moving involute geometry of mesh `n` when one of its gears has runout
+/// (`docs/errors.md`, "Runout as a moving centre"); `None` without runout.
+pub(super) fn mesh_eccentricity(
+    scene: &Scene,
+    n: usize,
+    p0: f64,
+) -> Result<Option<Eccentricity>, String> {
+    let sm = &scene.meshes[n];
+    let centre = |g: usize, side: f64| {
+        let r = scene.gears[g].errors.runout?;
+        (r.amplitude != 0.0).then(|| Centre {
+            signed_amplitude: -side * r.amplitude,
+            sense: scene.rotation[g],
+            phase: r.phase,
+            teeth: f64::from(scene.gears[g].teeth),
+        })
+    };
+    let centres: Vec<Centre> = [centre(sm.pinion, 1.0), centre(sm.gear, -1.0)]
+        .into_iter()
+        .flatten()
+        .collect();
+    if centres.is_empty() {
+        return Ok(None);
+    }
+    let alpha = sm.pressure_angle;
+    if !(alpha > 0.0 && alpha < std::f64::consts::FRAC_PI_2) {
+        return Err(format!(
+            "mesh '{}': pressure_angle = {}°; a gear runout moves the operating centre distance, \
+             so the mesh needs its operating pressure angle (docs/errors.md)",
+            sm.name,
+            alpha.to_degrees()
+        ));
+    }
+    let sense = scene.rotation[sm.pinion];
+    let geometry = MeshGeometry {
+        base_radii: (
+            scene.gears[sm.pinion].base_radius,
+            scene.gears[sm.gear].base_radius,
+        ),
+        pinion_teeth: scene.gears[sm.pinion].teeth,
+        pinion_sense: sense,
+        pressure_angle: alpha,
+        line_of_action: sm.centre_angle + sense * alpha,
+    };
+    Eccentricity::new(geometry, &centres, p0)
+        .map(Some)
+        .map_err(|e| format!("mesh '{}': {e}", sm.name))
+}
+
+/// The interval of a two-level lumped table (`kind = "rectangular"`: one level per number of
+/// pairs in contact) that starts where a pair enters; `None` for other stiffness sources,
+/// whose shape the runout does not move (`docs/errors.md`). An error when the runout moves
+/// the start of contact by more than half a level's width.
+pub(super) fn entry_knot(
+    stiffness: &Stiffness,
+    geometry: &Eccentricity,
+    name: &str,
+) -> Result<Option<(usize, f64)>, String> {
+    let Stiffness::Table(t) = stiffness else {
+        return Ok(None);
+    };
+    let constant = |iv: &Interval| match iv.laws.as_slice() {
+        [Some(l)] if l.k1 == 0.0 && l.g0 == 0.0 && l.g1 == 0.0 => Some(l.k0),
+        _ => None,
+    };
+    let [low, high] = t.intervals.as_slice() else {
+        return Ok(None);
+    };
+    match (t.slots, constant(low), constant(high)) {
+        (1, Some(k_low), Some(k_high)) if k_high > k_low => {
+            let start = high.start;
+            let width = start.min(1.0 - start);
+            if !(geometry.entry_bound() < 0.5 * width) {
+                return Err(format!(
+                    "mesh '{name}': the runout moves the start of contact by up to {:e} \
+                     cycles, not small against the narrower stiffness level ({width:e} cycles)",
+                    geometry.entry_bound()
+                ));
+            }
+            Ok(Some((1, start)))
+        }
+        _ => Ok(None),
     }
 }
