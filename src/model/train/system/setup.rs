@@ -237,10 +237,14 @@ pub(super) fn mesh_eccentricity(
         .map_err(|e| format!("mesh '{}': {e}", sm.name))
 }
 
-/// The interval of a two-level lumped table (`kind = "rectangular"`: one level per number of
-/// pairs in contact) that starts where a pair enters; `None` for other stiffness sources,
-/// whose shape the runout does not move (`docs/errors.md`). An error when the runout moves
-/// the start of contact by more than half a level's width.
+/// The interval whose start is where a tooth pair enters, so that the runout moves it
+/// (`docs/errors.md`): in a two-level lumped table (`kind = "rectangular"`: one level per
+/// number of pairs in contact) the start of the higher level; in a Model-1 pair table the
+/// start of the interval where a slot becomes engaged (its pair law read from the nominal
+/// start of contact, so the pair keeps its place relative to the pinion tip). `None` for
+/// other sources (trapezoidal, table, Fourier, geometry curves, Models 2 and 3), whose shape
+/// the runout does not move. An error when the runout moves the start of contact by more
+/// than half the narrower of the two intervals beside it.
 pub(super) fn entry_knot(
     stiffness: &Stiffness,
     geometry: &Eccentricity,
@@ -253,22 +257,37 @@ pub(super) fn entry_knot(
         [Some(l)] if l.k1 == 0.0 && l.g0 == 0.0 && l.g1 == 0.0 => Some(l.k0),
         _ => None,
     };
-    let [low, high] = t.intervals.as_slice() else {
+    let index = if t.slots == 1 {
+        match t.intervals.as_slice() {
+            [low, high] => match (constant(low), constant(high)) {
+                (Some(k_low), Some(k_high)) if k_high > k_low => Some(1),
+                _ => None,
+            },
+            _ => None,
+        }
+    } else if t.shift_on_wrap {
+        // Model-1: the one interval per cycle where a slot goes from no pair to a pair.
+        (1..t.intervals.len()).find(|&i| {
+            let (before, after) = (&t.intervals[i - 1].laws, &t.intervals[i].laws);
+            before
+                .iter()
+                .zip(after)
+                .any(|(b, a)| b.is_none() && a.is_some())
+        })
+    } else {
+        None
+    };
+    let Some(i) = index else {
         return Ok(None);
     };
-    match (t.slots, constant(low), constant(high)) {
-        (1, Some(k_low), Some(k_high)) if k_high > k_low => {
-            let start = high.start;
-            let width = start.min(1.0 - start);
-            if !(geometry.entry_bound() < 0.5 * width) {
-                return Err(format!(
-                    "mesh '{name}': the runout moves the start of contact by up to {:e} \
-                     cycles, not small against the narrower stiffness level ({width:e} cycles)",
-                    geometry.entry_bound()
-                ));
-            }
-            Ok(Some((1, start)))
-        }
-        _ => Ok(None),
+    let start = t.intervals[i].start;
+    let width = (start - t.intervals[i - 1].start).min(t.intervals[i].end - start);
+    if !(geometry.entry_bound() < 0.5 * width) {
+        return Err(format!(
+            "mesh '{name}': the runout moves the start of contact by up to {:e} cycles, not \
+             small against the stiffness intervals beside it ({width:e} cycles)",
+            geometry.entry_bound()
+        ));
     }
+    Ok(Some((i, start)))
 }
