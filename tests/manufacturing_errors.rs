@@ -62,7 +62,7 @@ const RECTANGULAR: &str =
     "kind = \"rectangular\"\nmean = 3.0e8\npeak_to_peak_ratio = 0.2\ncontact_ratio = 1.6";
 
 /// Constant mesh stiffness: `m x'' + c x' + k x = F + k e + c ė` is linear time-invariant,
-/// so the runout `e = −A_1 cos(Ω_1 t + φ_1) + A_2 cos(−Ω_2 t + φ_2)` (`docs/errors.md`) gives
+/// so the runout `e = −A_1 cos(Ω_1 t + φ_1 − β) + A_2 cos(−Ω_2 t + φ_2 − β)` (`docs/errors.md`) gives
 /// the steady response `x = F/k + Re Σ E_g H(Ω_g) e^{±iΩ_g t}`, `H = (k + icΩ)/(k − mΩ² + icΩ)`.
 #[test]
 fn runout_on_a_constant_stiffness_is_the_closed_form_sdof_response() {
@@ -74,7 +74,9 @@ fn runout_on_a_constant_stiffness_is_the_closed_form_sdof_response() {
         ],
         "kind = \"constant\"\nvalue = 3.0e8",
         "linear",
-        "",
+        // The runout also moves the mesh position and the centre distance; a constant
+        // stiffness without backlash does not see them, so the closed form stays exact.
+        "pressure_angle = 20.0",
     );
     let scene = any(&text).unwrap();
     assert!(
@@ -105,15 +107,18 @@ fn runout_on_a_constant_stiffness_is_the_closed_form_sdof_response() {
         let (x_re, x_im) = (amp_re * h_re - amp_im * h_im, amp_re * h_im + amp_im * h_re);
         x_re * (w * t).cos() - x_im * (w * t).sin()
     };
+    let beta = 20f64.to_radians();
     let mut worst: f64 = 0.0;
     for (t, row) in trajectory.times.iter().zip(&trajectory.rows) {
         if *t < stop {
             continue;
         }
-        // Pinion: E = −A_1 e^{iφ_1} at Ω_1; gear: E = A_2 e^{iφ_2} at −Ω_2.
+        // Pinion: E = −A_1 e^{i(φ_1 − β)} at Ω_1; gear: E = A_2 e^{i(φ_2 − β)} at −Ω_2, with
+        // the line of action at β = centre_angle + pressure_angle = 20°.
+        let (p1, p2) = (phi1 - beta, phi2 - beta);
         let x = force / k
-            + line(-a1 * phi1.cos(), -a1 * phi1.sin(), omega1, *t)
-            + line(a2 * phi2.cos(), a2 * phi2.sin(), -omega2, *t);
+            + line(-a1 * p1.cos(), -a1 * p1.sin(), omega1, *t)
+            + line(a2 * p2.cos(), a2 * p2.sin(), -omega2, *t);
         worst = worst.max((row[dte] - x).abs());
     }
     println!("runout closed form: max error {worst:.3e} m for runouts of 5 and 3 µm");
@@ -185,8 +190,9 @@ fn zero_errors_change_nothing_bit_for_bit() {
 #[test]
 fn errors_set_the_hunting_period_and_the_method() {
     let runout = "runout = { amplitude = 2e-6 }";
-    let both = any(&pair([runout, runout], RECTANGULAR, "linear", "")).unwrap();
-    let one = any(&pair([runout, ""], RECTANGULAR, "linear", "")).unwrap();
+    let alpha = "pressure_angle = 20.0";
+    let both = any(&pair([runout, runout], RECTANGULAR, "linear", alpha)).unwrap();
+    let one = any(&pair([runout, ""], RECTANGULAR, "linear", alpha)).unwrap();
     let none = any(&pair(["", ""], RECTANGULAR, "linear", "")).unwrap();
     let mesh_period = TAU / (400.0 * f64::from(Z[0]));
     let period = |s: &Scene| {
@@ -203,7 +209,7 @@ fn errors_set_the_hunting_period_and_the_method() {
     assert!(!method.contains("exact"), "{method}");
     assert!((period(&one).0 / mesh_period - 25.0).abs() < 1e-9);
     assert!((period(&none).0 / mesh_period - 1.0).abs() < 1e-12);
-    let exact = pair([runout, ""], RECTANGULAR, "linear", "").replace("\"auto\"", "\"exact\"");
+    let exact = pair([runout, ""], RECTANGULAR, "linear", alpha).replace("\"auto\"", "\"exact\"");
     let err = match any(&exact).unwrap().simulation() {
         Err(e) => e,
         Ok(_) => panic!("exact must refuse gear errors"),
@@ -247,6 +253,18 @@ fn bad_errors_name_the_field_and_the_value() {
         let err = any(&text).unwrap_err();
         assert!(err.contains(expected), "{keys}: {err}");
     }
+    // A runout moves the centre distance: the mesh needs its operating pressure angle.
+    let text = pair(
+        ["", "runout = { amplitude = 1e-6 }"],
+        RECTANGULAR,
+        "linear",
+        "",
+    );
+    let err = any(&text).unwrap_err();
+    assert!(
+        err.contains("mesh.pressure_angle: missing; gear \"gear\" has a runout"),
+        "{err}"
+    );
 }
 
 /// An idler with runout sits in two meshes: where each is around it must be given.
@@ -298,4 +316,87 @@ input_torque = 100.0
         err.contains("mesh[1].centre_angle: missing; gear \"idler\" has runout or pitch errors"),
         "{err}"
     );
+}
+
+/// The moving start of contact of a runout (`docs/errors.md`, "Runout as a moving centre")
+/// acts alike on a Model-1 pair table and on the lumped rectangular stiffness it sums to:
+/// the same run with `model = "pairs"` and `[mesh.pairs] kind = "rectangular"` as with the
+/// lumped `[mesh.stiffness] kind = "rectangular"` (validated against scipy in
+/// `tests/python/test_runout_modulation.py`). Linear contact: the two models then have one
+/// steady state each, compared after the start transient (the Model-1 start differs).
+#[test]
+fn a_runout_moves_the_start_of_contact_of_pair_tables_as_of_the_lumped_wave() {
+    let scene = |mesh: &str, runout: &str| {
+        format!(
+            r#"
+name = "pairs_vs_lumped"
+[model]
+bearings = "rigid"
+[[gear]]
+name = "pinion"
+teeth = 38
+base_radius = 0.04535
+inertia = 0.002621
+[[gear]]
+name = "gear"
+teeth = 55
+base_radius = 0.06564
+inertia = 0.01091
+{runout}
+[mesh]
+pinion = "pinion"
+gear = "gear"
+contact = "linear"
+damping = 1500.0
+pressure_angle = 20.0
+centre_angle = 0.0
+{mesh}
+[operating]
+input_speed = 471.238898038469
+input_torque = 100.0
+[solver]
+method = "auto"
+rtol = 1e-11
+atol = 1e-18
+stop_time = 0.04
+output_interval = 1e-5
+"#
+        )
+    };
+    let lumped = "[mesh.stiffness]\nkind = \"rectangular\"\nmean = 2.9831e8\n\
+                  peak_to_peak_ratio = 0.35\ncontact_ratio = 1.504";
+    let pairs = "model = \"pairs\"\n[mesh.pairs]\nkind = \"rectangular\"\nmean = 2.9831e8\n\
+                 peak_to_peak_ratio = 0.35\ncontact_ratio = 1.504";
+    let dte = |text: &str| {
+        let s = any(text).unwrap();
+        let run = geardyn::model::train::run_train(&s, 0.04, 1e-5).unwrap();
+        let col = run.names.iter().position(|n| n == "mesh1.dte").unwrap();
+        // The last 10 ms: the start transient (time constant 1.1 ms) has decayed by e^-27.
+        let from = run.times.iter().position(|&t| t >= 0.03).unwrap();
+        run.rows[from..]
+            .iter()
+            .map(|r| r[col])
+            .collect::<Vec<f64>>()
+    };
+    let gap = |a: &[f64], b: &[f64]| {
+        let scale = a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
+            / scale
+    };
+    let runout = "runout = { amplitude = 20e-6, phase = 0.7 }";
+    let plain = gap(&dte(&scene(lumped, "")), &dte(&scene(pairs, "")));
+    let (with_lumped, with_pairs) = (dte(&scene(lumped, runout)), dte(&scene(pairs, runout)));
+    let moved = gap(&with_lumped, &with_pairs);
+    // The size of what the runout does, for scale: without the moving start of contact the
+    // pair table would miss the amplitude modulation of the lumped wave, a part of this.
+    let modulation = gap(&with_lumped, &dte(&scene(lumped, "")));
+    println!(
+        "pairs vs lumped: {plain:.2e} without runout, {moved:.2e} with a 20 µm runout \
+         (the runout itself changes the DTE by {modulation:.2e})"
+    );
+    assert!(moved <= 10.0 * plain.max(1e-10), "{moved} vs {plain}");
+    assert!(modulation > 1e-3);
 }

@@ -3,6 +3,7 @@
 //! Everything here is a function of the **mesh phase** `p` (mesh cycles), never of time: the
 //! model turns time into phase with its nominal-speed clock (`docs/model.md`, "Mesh phase").
 
+pub mod eccentricity;
 pub mod errors;
 pub mod geometry;
 pub mod helical;

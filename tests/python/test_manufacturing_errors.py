@@ -4,14 +4,15 @@ The model is written here from `docs/errors.md` and `docs/model.md`, not from th
 a spur pair in the DTE coordinate x,
 
     m_e x'' + c (x' − ė) + k(s) (x − e) = T_1 / r_1,    m_e = 1 / (r_1²/I_1 + r_2²/I_2),
-    k(s) rectangular: k_low on s ∈ [0, 1 − f), k_high on [1 − f, 1), s = frac(p), p = f_m t,
-    e(p) = −A_1 cos(2π p / z_1 + φ_1)        (pinion runout: driver, ccw)
-           + A_2 cos(−2π p / z_2 + φ_2)      (gear runout: driven, cw)
-           + F_1[floor(p) mod z_1]           (pinion cumulative pitch deviation)
+    k(s) rectangular: k_low on s ∈ [0, 1 − f + entry), k_high after, s = frac(p + δq),
+    e(p) = −(w_1 − w_2)·ℓ                    (runout of both gears, ℓ at β = 20°)
+           + F_1[floor(p + δq) mod z_1]      (pinion cumulative pitch deviation)
     ė = f_m de/dp (the pitch steps act through the spring only),
 
-started from x = T_1/(r_1 k̄) + e(0), x' = 0. Integrated with scipy's DOP853 at rtol 1e-12
-piece by piece between the stiffness switches (the pitch steps fall on the s = 0 switches).
+with the moving centre of the runouts (mesh position δq, start of contact `entry`) of
+`runout_reference.py` (issue 31 item 7), started from x = T_1/(r_1 k̄) + e(0), x' = 0.
+Integrated with scipy's DOP853 at rtol 1e-12 piece by piece between the stiffness switches
+(the pitch steps fall on the s = 0 switches).
 
 Checks: the time series agree; over one hunting period (lcm(z_1, z_2) = 200 mesh cycles,
 an integer number of samples) the DTE spectrum has its lines on the grid f_m/200, the
@@ -39,6 +40,7 @@ RUNOUT = [(5e-6, 0.3), (3e-6, -1.0)]
 PITCH = [0.0, 1e-6, 2e-6, 1e-6, 0.0, -1e-6] + [0.0] * 19
 HUNT = 200                           # mesh cycles per hunting period
 SAMPLES = 8192                       # per hunting period
+PRESSURE_DEG = 20.0
 PERIODS = 3                          # the first holds the start transient
 
 
@@ -64,6 +66,7 @@ pinion = "pinion"
 gear = "gear"
 contact = "linear"
 damping = {DAMPING}
+pressure_angle = {PRESSURE_DEG}
 [mesh.stiffness]
 kind = "rectangular"
 mean = {K_MEAN}
@@ -82,48 +85,15 @@ output_interval = {output_interval!r}
 
 
 def reference(times):
-    m_e = 1.0 / (R[0] ** 2 / I[0] + R[1] ** 2 / I[1])
-    force = T1 / R[0]
-    f = CONTACT_RATIO - math.floor(CONTACT_RATIO)
-    k_low = K_MEAN * (1.0 - f * EPS)
-    k_high = k_low + EPS * K_MEAN
-    (a1, phi1), (a2, phi2) = RUNOUT
-    w1, w2 = 2 * math.pi / Z[0], 2 * math.pi / Z[1]
-
-    def runout(p):
-        e = -a1 * math.cos(w1 * p + phi1) + a2 * math.cos(-w2 * p + phi2)
-        de = a1 * w1 * math.sin(w1 * p + phi1) + a2 * w2 * math.sin(-w2 * p + phi2)
-        return e, de
-
-    def rhs_for(cycle, k):
-        pitch = PITCH[cycle % Z[0]]
-
-        def rhs(t, y):
-            e, de = runout(F_MESH * t)
-            e += pitch
-            return [y[1], (force - DAMPING * (y[1] - F_MESH * de) - k * (y[0] - e)) / m_e]
-        return rhs
-
-    y = np.array([force / K_MEAN + runout(0.0)[0] + PITCH[0], 0.0])
-    out = np.empty(len(times))
-    out[0] = y[0]
-    k_out = 1
-    t_end = times[-1]
-    cycle = 0
-    while cycle / F_MESH < t_end:
-        for k, (s0, s1) in ((k_low, (0.0, 1.0 - f)), (k_high, (1.0 - f, 1.0))):
-            t0, t1 = (cycle + s0) / F_MESH, min((cycle + s1) / F_MESH, t_end)
-            if t1 <= t0:
-                continue
-            sol = solve_ivp(rhs_for(cycle, k), (t0, t1), y, method="DOP853", rtol=1e-12,
-                            atol=1e-20, dense_output=True)
-            while k_out < len(times) and times[k_out] <= t1 * (1 + 1e-15):
-                out[k_out] = sol.sol(times[k_out])[0]
-                k_out += 1
-            y = sol.y[:, -1]
-        cycle += 1
-    assert k_out == len(times)
-    return out
+    from runout_reference import RunoutPair
+    model = RunoutPair(teeth=tuple(Z), base_radii=tuple(R), inertias=tuple(I), k_mean=K_MEAN,
+                       peak_to_peak=EPS, contact_ratio=CONTACT_RATIO, backlash=None,
+                       damping=DAMPING, ste_cos1=0.0, speed=SPEED, torque=T1,
+                       pressure_deg=PRESSURE_DEG, runouts={0: RUNOUT[0], 1: RUNOUT[1]},
+                       pitch=PITCH)
+    assert math.isclose(model.f_mesh, F_MESH, rel_tol=1e-14)
+    x0 = T1 / R[0] / K_MEAN + model.geometry(0.0)[3] + model.pitch_at(0.0)
+    return model.run(times, x0, 0.0)[0]
 
 
 def line_amplitudes(x):
@@ -201,10 +171,14 @@ def test_runout_and_pitch_sidebands_match_scipy(tmp_path, geardyn_bin, report):
 #   k = round(σ z (α_2 − α_1) / 2π), α_1 = centre_angle_1 + π (towards the pinion),
 #   α_2 = centre_angle_2 (towards the gear),
 #
-# with c_j = floor(p_j) the stiffness cycle of mesh j.
+# with c_j = floor(p_j + δq_j) the stiffness cycle of mesh j at its contact phase. The idler's
+# moving centre (issue 31 item 7) acts on both meshes, each with its own geometry
+# (`runout_reference.RunoutPair.geometry`: mesh position δq_j and start of contact; the
+# rectangular stiffness k_low on s ∈ [0, 1/2 + entry_j), s = frac(p_j + δq_j)).
 
 import test_idler_reference as idler  # noqa: E402
 from contact_ivp import integrate  # noqa: E402
+from runout_reference import RunoutPair  # noqa: E402
 
 IDLER_RUNOUT = (1.0e-6, 0.7)
 IDLER_PITCH = [0.5e-6, -0.3e-6] + [0.0] * 50 + [0.2e-6, 0.0, 0.4e-6]
@@ -213,6 +187,23 @@ PRESSURE = 0.35
 IDLER_HUNT = 55          # mesh cycles per idler revolution (both meshes have f_m)
 IDLER_PERIODS = 5        # hunting periods; the last one is analysed
 IDLER_SAMPLES = 20       # per mesh cycle
+
+
+def idler_meshes():
+    """The two meshes' geometry: mesh 1 pinion → idler (the idler is its gear, ccw driver),
+    mesh 2 idler → gear (the idler is its pinion and turns cw)."""
+    common = dict(inertias=(1.0, 1.0), peak_to_peak=idler.EPS,
+                  contact_ratio=idler.CONTACT_RATIO, backlash=None, damping=0.0, ste_cos1=0.0,
+                  torque=0.0, pressure_deg=math.degrees(PRESSURE))
+    idler_speed = idler.SPEED * idler.Z[0] / idler.Z[1]
+    return [
+        RunoutPair(teeth=(idler.Z[0], idler.Z[1]), base_radii=(idler.R[0], idler.R[1]),
+                   k_mean=idler.K_MEAN[0], speed=idler.SPEED, runouts={1: IDLER_RUNOUT},
+                   centre_angle=CENTRE[0], p0=0.0, senses=(1.0, -1.0), **common),
+        RunoutPair(teeth=(idler.Z[1], idler.Z[2]), base_radii=(idler.R[1], idler.R[2]),
+                   k_mean=idler.K_MEAN[1], speed=idler_speed, runouts={0: IDLER_RUNOUT},
+                   centre_angle=CENTRE[1], p0=idler.PHASE2, senses=(-1.0, 1.0), **common),
+    ]
 
 
 def idler_scene(stop, h):
@@ -234,53 +225,39 @@ def idler_scene(stop, h):
     return text
 
 
-def idler_errors(t):
-    fm = idler.mesh_frequency()
-    a, phi = IDLER_RUNOUT
-    theta = 2 * math.pi * fm * t / idler.Z[1]
-    beta = (CENTRE[0] + PRESSURE, CENTRE[1] - PRESSURE)
+def idler_errors(meshes, t, mid=None):
+    """e_j at t: the runout at t, the pitch deviation of the tooth in mesh at `mid` (the
+    segment's midpoint: constant between the breaks)."""
+    mid = t if mid is None else mid
     k = round(-idler.Z[1] * (CENTRE[1] - (CENTRE[0] + math.pi)) / (2 * math.pi))
-    c1 = math.floor(fm * t)
-    c2 = math.floor(idler.PHASE2 + fm * t)
-    return np.array([
-        a * math.cos(-theta + phi - beta[0]) + IDLER_PITCH[c1 % 55],
-        -a * math.cos(-theta + phi - beta[1]) + IDLER_PITCH[(c2 + k) % 55],
-    ])
+    out = []
+    for j, mesh in enumerate(meshes):
+        runout = mesh.geometry(mesh.phase(t))[3]
+        p = mesh.phase(mid)
+        cycle = math.floor(p + mesh.geometry(p)[0])
+        out.append(runout + IDLER_PITCH[(cycle + (k if j == 1 else 0)) % 55])
+    return np.array(out)
 
 
 def idler_reference(times):
     mass, damping, _ = idler.model_matrices()
     minv = np.linalg.inv(mass)
     force = idler.T1 / idler.R[0]
-    fm = idler.mesh_frequency()
-    phases = [0.0, idler.PHASE2]
+    meshes = idler_meshes()
+    assert all(math.isclose(m.f_mesh, idler.mesh_frequency(), rel_tol=1e-14) for m in meshes)
     t_end = times[-1]
-    switches = set()
-    for j in range(2):
-        for n in range(int(fm * t_end) + 3):
-            for b in (n, n + 0.5):
-                t = (b - phases[j]) / fm
-                if 0 < t < t_end:
-                    switches.add(t)
-    breaks = sorted(switches) + [t_end]
+    breaks = sorted(set(meshes[0].switch_times(t_end)) | set(meshes[1].switch_times(t_end)))
+    breaks.append(t_end)
     k_mean = np.array(idler.K_MEAN)
-    y = np.concatenate([force / k_mean + idler_errors(0.0), [0.0, 0.0]])
+    y = np.concatenate([force / k_mean + idler_errors(meshes, 0.0), [0.0, 0.0]])
 
     def rhs_for(mid, _contact):
-        k = np.array([idler.stiffness(j, phases[j] + fm * mid) for j in range(2)])
-        e = idler_errors(mid)  # piecewise: the pitch terms are constant between the breaks
+        k = np.array([m.stiffness_at(mid) for m in meshes])
 
         def rhs(t, state):
-            a, phi = IDLER_RUNOUT
-            e_t = e.copy()
-            theta = 2 * math.pi * fm * t / idler.Z[1]
-            theta_mid = 2 * math.pi * fm * mid / idler.Z[1]
-            beta = (CENTRE[0] + PRESSURE, CENTRE[1] - PRESSURE)
-            # Runout at t (the pitch part of e stays that of the segment).
-            e_t[0] += a * (math.cos(-theta + phi - beta[0]) - math.cos(-theta_mid + phi - beta[0]))
-            e_t[1] -= a * (math.cos(-theta + phi - beta[1]) - math.cos(-theta_mid + phi - beta[1]))
+            e = idler_errors(meshes, t, mid)
             x, v = state[:2], state[2:]
-            return np.concatenate([v, minv @ (force - k * (x - e_t) - damping @ v)])
+            return np.concatenate([v, minv @ (force - k * (x - e) - damping @ v)])
         return rhs
 
     # The linear law ignores the contact flags: a zero crossing of x_j (this speed is near

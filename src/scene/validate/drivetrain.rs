@@ -330,6 +330,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
         }
     }
     errors_geometry(&gears, &mesh_specs)?;
+    runout_pressure_angle(&gears, &meshes, form)?;
     for (i, m) in meshes.iter().enumerate() {
         if let Some(j) = meshes[..i].iter().position(|o| o.name == m.name) {
             return err(format!(
@@ -1525,6 +1526,27 @@ fn mass_spread(gears: &[Gear]) -> Result<()> {
                 "{hf} against {lf}: the train's masses on the line of action (J/r_b² and m) span \
                  {l:e} to {h:e} kg, a ratio above {MAX_MASS_SPREAD:e}; the rigid-body rotation \
                  cannot be separated from the elastic modes in double precision"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// A runout moves the operating centre distance, and with it the pressure angle, the
+/// contact ratio, the backlash and the mesh position (`docs/errors.md`): every mesh of a gear
+/// with runout needs its operating pressure angle.
+fn runout_pressure_angle(gears: &[Gear], meshes: &[Mesh], form: MeshForm) -> Result<()> {
+    for (i, m) in meshes.iter().enumerate() {
+        let runout = [m.pinion, m.gear]
+            .into_iter()
+            .find(|&g| (gears[g].errors.runout).is_some_and(|r| r.amplitude != 0.0));
+        if let (Some(g), true) = (runout, m.pressure_angle == 0.0) {
+            return err(format!(
+                "{}: missing; gear {:?} has a runout, which moves the operating centre distance \
+                 and with it the pressure angle, contact ratio and backlash, so the mesh needs \
+                 its operating pressure angle (degrees)",
+                mesh_field(form, i, "pressure_angle"),
+                gears[g].name
             ));
         }
     }

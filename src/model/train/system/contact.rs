@@ -52,7 +52,11 @@ impl GearTrain {
         let (e, slope) = mesh.ste_at(p);
         let (s, sd) = self.deflection(n, y);
         let r = mesh.local(p);
-        Some((s - e - law.g(r), sd - slope * f - law.g1 * f, law))
+        let g_rate = match mesh.eccentric {
+            None => law.g1 * f,
+            Some(_) => law.g1 * mesh.contact_phase(p).1 * f,
+        };
+        Some((s - e - law.g(r), sd - slope * f - g_rate, law))
     }
 
     pub(super) fn classify(&self, n: usize, j: usize, t: f64, y: &[f64]) -> SlotContact {
@@ -68,8 +72,8 @@ impl GearTrain {
                     SlotContact::Separated
                 }
             }
-            ContactLaw::Backlash { clearance } => {
-                let back = delta + clearance;
+            ContactLaw::Backlash { .. } => {
+                let back = delta + self.meshes[n].clearance_at(self.phase_of(n, t, y)).0;
                 if delta > 0.0 || (delta == 0.0 && rate > 0.0) {
                     SlotContact::Drive
                 } else if back < 0.0 || (back == 0.0 && rate < 0.0) {
@@ -151,7 +155,7 @@ impl GearTrain {
         let (e, e_slope) = mesh.ste_at(p);
         let (s, sd) = self.deflection(n, y);
         let r = mesh.local(p);
-        let clearance = mesh.clearance();
+        let clearance = mesh.clearance_at(p).0;
         let mut force = 0.0;
         let mut touching = false;
         for (j, flag) in mesh.flags.iter().enumerate() {

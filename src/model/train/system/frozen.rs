@@ -49,7 +49,7 @@ impl GearTrain {
                     series,
                     phase,
                 } => {
-                    let k = mean + series.value(p + phase);
+                    let k = mean + series.value(mesh.contact_phase(p).0 + phase);
                     slots.push(FrozenSlot {
                         mesh: n,
                         k,
@@ -59,7 +59,13 @@ impl GearTrain {
                     })
                 }
                 Stiffness::Table(table) => {
-                    let (index, r) = table.locate(p + mesh.offset);
+                    let (index, r) = match mesh.eccentric {
+                        None => table.locate(p + mesh.offset),
+                        Some(_) => {
+                            let (_, index, s) = mesh.locate_free(p);
+                            (index, s - table.intervals[index].start)
+                        }
+                    };
                     let iv = &table.intervals[index];
                     for (j, law) in iv.laws.iter().enumerate() {
                         let Some(law) = law else { continue };

@@ -82,14 +82,21 @@ impl GearTrain {
                 series,
                 phase,
             } => visit(FreeSlot {
-                k: mean + series.value(p + phase),
+                k: mean + series.value(mesh.contact_phase(p).0 + phase),
                 gap: e,
                 gap_rate: e_slope * f,
                 friction: None,
             }),
             Stiffness::Table(table) => {
-                let (index, r) = table.locate(p + mesh.offset);
+                let (index, r) = match mesh.eccentric {
+                    None => table.locate(p + mesh.offset),
+                    Some(_) => {
+                        let (_, index, s) = mesh.locate_free(p);
+                        (index, s - table.intervals[index].start)
+                    }
+                };
                 let iv = &table.intervals[index];
+                let dq = mesh.contact_phase(p).1;
                 for (j, law) in iv.laws.iter().enumerate() {
                     let Some(law) = law else { continue };
                     let friction = mesh
@@ -100,7 +107,7 @@ impl GearTrain {
                     visit(FreeSlot {
                         k: law.k(r),
                         gap: e + law.g(r),
-                        gap_rate: (e_slope + law.g1) * f,
+                        gap_rate: (e_slope + law.g1 * dq) * f,
                         friction,
                     });
                 }
@@ -116,7 +123,7 @@ impl GearTrain {
         let mesh = &self.meshes[n];
         let (p, f) = mesh.clock.phase_and_frequency(t);
         let mut law = MeshLaw::default();
-        let clearance = mesh.clearance();
+        let clearance = mesh.clearance_at(p).0;
         let mut j = 0;
         self.for_each_free_slot(n, p, f, |slot| {
             let bit = 2 * j;
@@ -166,7 +173,7 @@ impl GearTrain {
             return;
         }
         let (p, f) = mesh.clock.phase_and_frequency(t);
-        let clearance = mesh.clearance();
+        let clearance = mesh.clearance_at(p).0;
         self.for_each_free_slot(n, p, f, |slot| {
             let (delta, rate) = (s - slot.gap, s_rate - slot.gap_rate);
             out.push((delta, rate));

@@ -96,7 +96,12 @@ impl HybridSystem for GearTrain {
     fn guards(&self, t: f64, y: &[f64], g: &mut [f64]) {
         for (slot, &(n, j, surface)) in g.iter_mut().zip(&self.guards) {
             let delta = self.slot_gap(n, j, t, y).map_or(0.0, |v| v.0);
-            let back = delta + self.meshes[n].clearance();
+            let mesh = &self.meshes[n];
+            let clearance = match mesh.eccentric {
+                None => mesh.clearance(),
+                Some(_) => mesh.clearance_at(self.phase_of(n, t, y)).0,
+            };
+            let back = delta + clearance;
             *slot = match surface {
                 Surface::Drive => delta,
                 Surface::SepDrive => -delta,
@@ -129,6 +134,17 @@ impl HybridSystem for GearTrain {
         }
         let (p, f) = mesh.clock.phase_and_frequency(t);
         let slope = mesh.ste_at(p).1;
+        if mesh.eccentric.is_some() {
+            // The gaps are read at the contact phase; the back side moves with the backlash.
+            let dq = mesh.contact_phase(p).1;
+            let back = matches!(surface, Surface::SepBack | Surface::Back);
+            let clearance_rate = if back {
+                mesh.clearance_at(p).1 * f
+            } else {
+                0.0
+            };
+            return Some(sign * (clearance_rate - (slope + law.g1 * dq) * f));
+        }
         Some(-sign * (slope * f + law.g1 * f))
     }
 
@@ -149,6 +165,18 @@ impl HybridSystem for GearTrain {
             .map(|(i, &(a, b))| ((i + 1) as f64 * omega).powi(2) * a.hypot(b))
             .sum::<f64>()
             + mesh.errors.curvature_bound() * f.powi(2);
+        let curvature = curvature
+            + mesh.eccentric.as_ref().map_or(0.0, |ec| {
+                // e(q(p)) and g(r(q)) on a moving contact phase, the moving backlash:
+                // |d²/dp²| ≤ |e''|((1 + |δq'|)² − 1) + |e'||δq''| + |g1||δq''| + |Δj''|.
+                let (dq2, _, dj2) = ec.geometry.curvature_bounds();
+                let dq1 = ec.geometry.phase_slope_bound();
+                let g1 = mesh.law(j).map_or(0.0, |l| l.g1.abs());
+                let slope: f64 = (mesh.ste.coefficients().iter().enumerate())
+                    .map(|(i, &(a, b))| TAU * (i + 1) as f64 * a.hypot(b))
+                    .sum();
+                curvature * ((1.0 + dq1).powi(2) - 1.0) + ((slope + g1) * dq2 + dj2) * f.powi(2)
+            });
         let rate = mesh.clock.rate();
         if rate == 0.0 {
             return Some(curvature);
@@ -158,6 +186,11 @@ impl HybridSystem for GearTrain {
             .map(|(i, &(a, b))| TAU * (i + 1) as f64 * a.hypot(b))
             .sum::<f64>()
             + mesh.errors.slope_bound();
+        let slope = slope
+            + mesh.eccentric.as_ref().map_or(0.0, |ec| {
+                let dq1 = ec.geometry.phase_slope_bound();
+                (slope + g1.abs()) * dq1 + ec.geometry.backlash_slope_bound()
+            });
         Some(curvature + rate.abs() * (slope + g1.abs()))
     }
 

@@ -26,6 +26,7 @@ use super::assembly::{try_generalized_eigen, Assembly, DofKind, Reduction};
 use super::friction::FrictionTable;
 use super::mesh::{CycleTable, Interval, SlotLaw};
 use super::statics::{equilibrium, loaded_ste, Ste};
+use crate::mesh::eccentricity::Eccentricity;
 use crate::mesh::errors::{GearInMesh, MeshErrors};
 use crate::mesh::{MeshStiffness, PhaseSeries};
 use crate::model::PhaseClock;
@@ -48,7 +49,10 @@ mod setup;
 mod snapshot;
 pub use frozen::FrozenStatics;
 pub use rotating::Neighbour;
-use setup::{loaded_ste_table, mesh_errors, nlte_table, nominal_rotation, pair_closed_form};
+use setup::{
+    entry_knot, loaded_ste_table, mesh_eccentricity, mesh_errors, nlte_table, nominal_rotation,
+    pair_closed_form,
+};
 pub use snapshot::{MeshRunState, TrainRunState};
 
 /// Contact flag of one tooth-pair slot.
@@ -95,6 +99,9 @@ struct MeshRt {
     ste: PhaseSeries,
     /// Runout and pitch errors of the mesh's gears (`docs/errors.md`).
     errors: MeshErrors,
+    /// The runout's moving centres: mesh position, start of contact and backlash
+    /// (`docs/errors.md`); `None` without runout.
+    eccentric: Option<EccentricMesh>,
     contact: ContactLaw,
     damping: f64,
     k_mean: f64,
@@ -109,11 +116,78 @@ struct MeshRt {
     flags: Vec<SlotContact>,
 }
 
+/// A mesh whose gears have runout: the involute geometry it moves, and the interval of a
+/// two-level (rectangular) table whose start is the start of contact of a tooth pair.
+#[derive(Debug, Clone)]
+struct EccentricMesh {
+    geometry: Eccentricity,
+    /// `(i, s_i)`: interval `i` starts where a pair enters, at `s_i + entry(p)`.
+    entry: Option<(usize, f64)>,
+}
+
 impl MeshRt {
+    /// The nominal total backlash (without runout).
     fn clearance(&self) -> f64 {
         match self.contact {
             ContactLaw::Backlash { clearance } => clearance,
             _ => 0.0,
+        }
+    }
+
+    /// The total backlash at mesh phase `p` (the runout moves the centre distance) and its
+    /// slope per cycle.
+    fn clearance_at(&self, p: f64) -> (f64, f64) {
+        match (&self.eccentric, self.contact) {
+            (Some(ec), ContactLaw::Backlash { clearance }) => {
+                let m = ec.geometry.at(p);
+                (clearance + m.backlash, m.backlash_slope)
+            }
+            _ => (self.clearance(), 0.0),
+        }
+    }
+
+    /// The contact phase `q(p) = p + δq(p)` where the stiffness, the gaps and the mesh STE
+    /// are read, and `dq/dp`.
+    fn contact_phase(&self, p: f64) -> (f64, f64) {
+        match &self.eccentric {
+            None => (p, 1.0),
+            Some(ec) => {
+                let m = ec.geometry.at(p);
+                (p + m.phase, 1.0 + m.phase_slope)
+            }
+        }
+    }
+
+    /// Stiffness cycle, table interval and cycle fraction `s` at nominal phase `p` (the
+    /// moved start of contact included).
+    fn locate_free(&self, p: f64) -> (f64, usize, f64) {
+        let u = self.contact_phase(p).0 + self.offset;
+        let cycle = u.floor();
+        let s = u - cycle;
+        let mut interval = self.table().map_or(0, |tb| tb.interval_at(s));
+        if let Some(EccentricMesh {
+            geometry,
+            entry: Some((i, start)),
+        }) = &self.eccentric
+        {
+            if interval + 1 == *i || interval == *i {
+                let knot = start + geometry.at(p).entry;
+                interval = if s < knot { i - 1 } else { *i };
+            }
+        }
+        (cycle, interval, s)
+    }
+
+    /// The nominal phase at which the shifted contact phase `q + offset` reaches `u_end`, the
+    /// end of the current interval (the moved start of contact for the interval before it).
+    fn phase_of_interval_end(&self, u_end: f64) -> f64 {
+        match &self.eccentric {
+            None => u_end - self.offset,
+            Some(ec) => {
+                let moving = ec.entry.is_some_and(|(i, _)| self.interval + 1 == i);
+                let weight = if moving { 1.0 } else { 0.0 };
+                ec.geometry.solve_phase(u_end - self.offset, weight)
+            }
         }
     }
 
@@ -132,10 +206,14 @@ impl MeshRt {
         self.table().map(|t| &t.intervals[self.interval])
     }
 
-    /// `r = s − interval start` at phase `p`.
+    /// `r = s − interval start` at phase `p` (read at the contact phase).
     fn local(&self, p: f64) -> f64 {
         let start = self.current().map_or(0.0, |iv| iv.start);
-        (p + self.offset - self.cycle) - start
+        let q = match &self.eccentric {
+            None => p,
+            Some(_) => self.contact_phase(p).0,
+        };
+        (q + self.offset - self.cycle) - start
     }
 
     fn law(&self, j: usize) -> Option<SlotLaw> {
@@ -157,7 +235,10 @@ impl MeshRt {
                 mean,
                 series,
                 phase,
-            } => mean + series.value(p + phase),
+            } => match &self.eccentric {
+                None => mean + series.value(p + phase),
+                Some(_) => mean + series.value(self.contact_phase(p).0 + phase),
+            },
             Stiffness::Table(_) => {
                 let _ = j;
                 law.k(self.local(p))
@@ -174,11 +255,23 @@ impl MeshRt {
     /// The same in the stiffness cycle that contains `p` (no frozen mode: statics, harmonic
     /// balance).
     fn ste_free(&self, p: f64) -> (f64, f64) {
-        self.ste_in_cycle(p, (p + self.offset).floor())
+        match &self.eccentric {
+            None => self.ste_in_cycle(p, (p + self.offset).floor()),
+            Some(_) => self.ste_in_cycle(p, self.locate_free(p).0),
+        }
     }
 
     fn ste_in_cycle(&self, p: f64, cycle: f64) -> (f64, f64) {
-        let (e, slope) = self.ste.value_and_slope(p);
+        let (e, slope) = match &self.eccentric {
+            None => self.ste.value_and_slope(p),
+            Some(_) => {
+                // The tooth STE follows the contact position; the runout term below the
+                // nominal rotation.
+                let (q, dq) = self.contact_phase(p);
+                let (e, slope) = self.ste.value_and_slope(q);
+                (e, slope * dq)
+            }
+        };
         if self.errors.is_empty() {
             return (e, slope);
         }
@@ -191,6 +284,10 @@ impl MeshRt {
     }
 
     fn locate_phase(&mut self, p: f64) {
+        if self.eccentric.is_some() {
+            (self.cycle, self.interval, _) = self.locate_free(p);
+            return;
+        }
         let u = p + self.offset;
         self.cycle = u.floor();
         let s = u - self.cycle;
@@ -203,9 +300,11 @@ impl MeshRt {
         match self.table() {
             Some(t) if t.has_stops() || steps => {
                 let end = self.cycle + t.intervals[self.interval].end;
-                self.clock.time_of(end - self.offset)
+                self.clock.time_of(self.phase_of_interval_end(end))
             }
-            None if steps => self.clock.time_of(self.cycle + 1.0 - self.offset),
+            None if steps => self
+                .clock
+                .time_of(self.phase_of_interval_end(self.cycle + 1.0)),
             _ => f64::INFINITY,
         }
     }
@@ -436,6 +535,13 @@ impl GearTrain {
                 _ => None,
             };
             let errors = mesh_errors(scene, n, p0, offset);
+            let eccentric = match mesh_eccentricity(scene, n, p0)? {
+                None => None,
+                Some(geometry) => Some(EccentricMesh {
+                    entry: entry_knot(&stiffness, &geometry, &scene.meshes[n].name)?,
+                    geometry,
+                }),
+            };
             meshes.push(MeshRt {
                 a: a_vecs[n].as_slice().to_vec(),
                 dte: (q.transpose() * &asm.dte[n]).as_slice().to_vec(),
@@ -445,6 +551,7 @@ impl GearTrain {
                 offset,
                 ste,
                 errors,
+                eccentric,
                 contact: sm.contact,
                 damping: sm.damping,
                 k_mean: asm.mean_stiffness[n],

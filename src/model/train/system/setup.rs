@@ -3,6 +3,7 @@
 //! pair-based models (Liu 2007 Models 1–3).
 
 use super::*;
+use crate::mesh::eccentricity::{Centre, MeshGeometry};
 
 /// The errors of mesh `n`'s two gears as the mesh sees them (`docs/errors.md`): the line of
 /// action `β_n = centre_angle + σ_a·pressure_angle` of the assembly, and per gear the teeth
@@ -195,4 +196,108 @@ pub(super) fn single_slot_table(
         shift_on_wrap: false,
         intervals,
     }
+}
+
+/// The moving involute geometry of mesh `n` when one of its gears has runout
+/// (`docs/errors.md`, "Runout as a moving centre"); `None` without runout.
+pub(super) fn mesh_eccentricity(
+    scene: &Scene,
+    n: usize,
+    p0: f64,
+) -> Result<Option<Eccentricity>, String> {
+    let sm = &scene.meshes[n];
+    let centre = |g: usize, side: f64| {
+        let r = scene.gears[g].errors.runout?;
+        (r.amplitude != 0.0).then(|| Centre {
+            signed_amplitude: -side * r.amplitude,
+            sense: scene.rotation[g],
+            phase: r.phase,
+            teeth: f64::from(scene.gears[g].teeth),
+        })
+    };
+    let centres: Vec<Centre> = [centre(sm.pinion, 1.0), centre(sm.gear, -1.0)]
+        .into_iter()
+        .flatten()
+        .collect();
+    if centres.is_empty() {
+        return Ok(None);
+    }
+    let alpha = sm.pressure_angle;
+    if !(alpha > 0.0 && alpha < std::f64::consts::FRAC_PI_2) {
+        return Err(format!(
+            "mesh '{}': pressure_angle = {}°; a gear runout moves the operating centre distance, \
+             so the mesh needs its operating pressure angle (docs/errors.md)",
+            sm.name,
+            alpha.to_degrees()
+        ));
+    }
+    let sense = scene.rotation[sm.pinion];
+    let geometry = MeshGeometry {
+        base_radii: (
+            scene.gears[sm.pinion].base_radius,
+            scene.gears[sm.gear].base_radius,
+        ),
+        pinion_teeth: scene.gears[sm.pinion].teeth,
+        pinion_sense: sense,
+        pressure_angle: alpha,
+        line_of_action: sm.centre_angle + sense * alpha,
+    };
+    Eccentricity::new(geometry, &centres, p0)
+        .map(Some)
+        .map_err(|e| format!("mesh '{}': {e}", sm.name))
+}
+
+/// The interval whose start is where a tooth pair enters, so that the runout moves it
+/// (`docs/errors.md`): in a two-level lumped table (`kind = "rectangular"`: one level per
+/// number of pairs in contact) the start of the higher level; in a Model-1 pair table the
+/// start of the interval where a slot becomes engaged (its pair law read from the nominal
+/// start of contact, so the pair keeps its place relative to the pinion tip). `None` for
+/// other sources (trapezoidal, table, Fourier, geometry curves, Models 2 and 3), whose shape
+/// the runout does not move. An error when the runout moves the start of contact by more
+/// than half the narrower of the two intervals beside it.
+pub(super) fn entry_knot(
+    stiffness: &Stiffness,
+    geometry: &Eccentricity,
+    name: &str,
+) -> Result<Option<(usize, f64)>, String> {
+    let Stiffness::Table(t) = stiffness else {
+        return Ok(None);
+    };
+    let constant = |iv: &Interval| match iv.laws.as_slice() {
+        [Some(l)] if l.k1 == 0.0 && l.g0 == 0.0 && l.g1 == 0.0 => Some(l.k0),
+        _ => None,
+    };
+    let index = if t.slots == 1 {
+        match t.intervals.as_slice() {
+            [low, high] => match (constant(low), constant(high)) {
+                (Some(k_low), Some(k_high)) if k_high > k_low => Some(1),
+                _ => None,
+            },
+            _ => None,
+        }
+    } else if t.shift_on_wrap {
+        // Model-1: the one interval per cycle where a slot goes from no pair to a pair.
+        (1..t.intervals.len()).find(|&i| {
+            let (before, after) = (&t.intervals[i - 1].laws, &t.intervals[i].laws);
+            before
+                .iter()
+                .zip(after)
+                .any(|(b, a)| b.is_none() && a.is_some())
+        })
+    } else {
+        None
+    };
+    let Some(i) = index else {
+        return Ok(None);
+    };
+    let start = t.intervals[i].start;
+    let width = (start - t.intervals[i - 1].start).min(t.intervals[i].end - start);
+    if !(geometry.entry_bound() < 0.5 * width) {
+        return Err(format!(
+            "mesh '{name}': the runout moves the start of contact by up to {:e} cycles, not \
+             small against the stiffness intervals beside it ({width:e} cycles)",
+            geometry.entry_bound()
+        ));
+    }
+    Ok(Some((i, start)))
 }
