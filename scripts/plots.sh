@@ -15,8 +15,8 @@ $g spectrum --example spur_pair --signal mesh.dte,mesh.force --out "$tmp/s.csv" 
 $g spectrum --example idler_gearset --signal mesh1.dte,mesh1.force --out "$tmp/s2.csv" \
     --plot "$out/spectrum_orders_db.png" --db --order-range 0:200
 $g waterfall --example runup_spur --out "$tmp/w.csv" --plot "$out/waterfall.png" \
-    --frequency-range 0:12000 --order-cuts "$tmp/o.csv" --mesh-orders 1,2 \
-    --shaft-orders 1,37,39 --order-plot "$out/order_cuts.png" --db
+    --frequency-range 0:12000 --order-cuts "$tmp/o.csv" --mesh-orders 1,2,3 \
+    --order-plot "$out/order_cuts.png" --db
 $g waterfall --example runup_spur --out "$tmp/w2.csv" --plot "$out/waterfall_orders.png" \
     --order-range 0:130
 $g modes --example runup_spur --campbell "$out/campbell.png" --rpm 0:9000 > /dev/null

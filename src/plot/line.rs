@@ -104,9 +104,9 @@ struct Span {
     bottom: i32,
 }
 
-/// Pixel length of a 13 px label (DejaVu Sans averages about 7.3 px a character).
+/// Pixel length of a 13 px label (DejaVu Sans averages under 6.3 px a character).
 fn label_length(label: &str) -> i32 {
-    (7.3 * label.chars().count() as f64).ceil() as i32 + 6
+    (6.3 * label.chars().count() as f64).ceil() as i32 + 6
 }
 
 /// The bottom of the lowest stretch of `length` px in the pixel column `[a, b]` between
@@ -350,22 +350,28 @@ where
         // Rotated text reads bottom to top in a 13 px wide column beside the line: right of
         // it if a long enough stretch of that column is free of curves and labels, else left.
         let length = label_length(&m.label);
+        // Above the data lies the legend's band: free left of the legend box (at most 240 px
+        // wide at the right).
+        let (area_x, area_y) = chart.plotting_area().get_pixel_range();
+        let top = if px < area_x.end - 260 {
+            area_y.start + 4
+        } else {
+            data_top
+        };
         let place = [(px + 3, px + 17, 16), (px - 16, px - 2, -1)]
             .into_iter()
             .find_map(|(a, b, dx)| {
-                free_stretch(&curves, &taken, (a, b), (data_top, data_bottom), length).map(
-                    |bottom| {
-                        (
-                            Span {
-                                left: a,
-                                right: b,
-                                top: bottom - length,
-                                bottom,
-                            },
-                            dx,
-                        )
-                    },
-                )
+                free_stretch(&curves, &taken, (a, b), (top, data_bottom), length).map(|bottom| {
+                    (
+                        Span {
+                            left: a,
+                            right: b,
+                            top: bottom - length,
+                            bottom,
+                        },
+                        dx,
+                    )
+                })
             });
         // Nowhere free (a crowded plot): the old place, bottom up right of the line.
         let (span, dx) = place.unwrap_or((
