@@ -110,3 +110,102 @@ fn an_unknown_plot_extension_is_refused_before_any_output() {
         );
     }
 }
+
+/// Issue 31 item 6: the spectrum's stem plot (over frequency and over order, in dB), the
+/// waterfall with its colour bar (over frequency and over order), the order cuts and the
+/// Campbell diagram all render as PNGs of the plot size. `scripts/plots.sh` draws the same
+/// plots into `docs/img/` (where they were looked at).
+#[test]
+fn spectrum_waterfall_order_cut_and_campbell_plots_are_pngs() {
+    let dir = workdir("issue31");
+    let p = |name: &str| dir.join(name).to_str().unwrap().to_string();
+    run_ok(&[
+        "spectrum",
+        "--example",
+        "spur_pair",
+        "--signal",
+        "mesh.dte,mesh.force",
+        "--out",
+        &p("s.csv"),
+        "--plot",
+        &p("s.png"),
+    ]);
+    run_ok(&[
+        "spectrum",
+        "--example",
+        "idler_gearset",
+        "--out",
+        &p("s2.csv"),
+        "--plot",
+        &p("s2.png"),
+        "--db",
+        "--order-range",
+        "0:200",
+    ]);
+    run_ok(&[
+        "waterfall",
+        "--example",
+        "runup_spur",
+        "--out",
+        &p("w.csv"),
+        "--plot",
+        &p("w.png"),
+        "--frequency-range",
+        "0:6000",
+        "--order-cuts",
+        &p("o.csv"),
+        "--shaft-orders",
+        "37,39",
+        "--order-plot",
+        &p("o.png"),
+        "--db",
+    ]);
+    run_ok(&[
+        "waterfall",
+        "--example",
+        "runup_spur",
+        "--out",
+        &p("w2.csv"),
+        "--plot",
+        &p("w2.png"),
+        "--order-range",
+        "0:120",
+        "--dynamic-range",
+        "80",
+    ]);
+    run_ok(&[
+        "modes",
+        "--example",
+        "idler_gearset",
+        "--campbell",
+        &p("c.png"),
+    ]);
+    run_ok(&[
+        "modes",
+        "--example",
+        "runup_spur",
+        "--campbell",
+        &p("c2.png"),
+        "--rpm",
+        "0:9000",
+    ]);
+    for name in [
+        "s.png", "s2.png", "w.png", "o.png", "w2.png", "c.png", "c2.png",
+    ] {
+        assert_eq!(png_size(&dir.join(name)), (960, 600), "{name}");
+    }
+    // The order-range map keeps only the rows of its orders.
+    let map = std::fs::read_to_string(dir.join("w2.csv")).unwrap();
+    for line in map.lines().skip(1).take(2000) {
+        let order: f64 = line.split(',').nth(3).unwrap().parse().unwrap();
+        assert!((0.0..=120.0).contains(&order), "{line}");
+    }
+    let cuts = std::fs::read_to_string(dir.join("o.csv")).unwrap();
+    assert!(
+        cuts.starts_with(
+            "time_s,revolutions,speed_rad_s,speed_rpm,order_38_amplitude_m,order_38_phase_rad,"
+        ),
+        "{}",
+        cuts.lines().next().unwrap()
+    );
+}

@@ -4,7 +4,8 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use geardyn::commands::spectrum::{spectrum_command, SpectrumRequest};
+use geardyn::commands::runup::parse_range;
+use geardyn::commands::spectrum::{spectrum_command_with, SpectrumPlot, SpectrumRequest};
 
 use super::SceneArg;
 
@@ -27,6 +28,19 @@ pub struct SpectrumArgs {
     /// Response periods spanned (finer resolution: 1/(periods·T)).
     #[arg(long, default_value_t = 1)]
     periods: u32,
+    /// Frequency range of the plot, `LO:HI` in Hz.
+    #[arg(long)]
+    frequency_range: Option<String>,
+    /// Order range of the plot, `LO:HI` in input-shaft orders (the plot is then drawn over
+    /// order).
+    #[arg(long)]
+    order_range: Option<String>,
+    /// The plot in dB re each signal's largest line.
+    #[arg(long)]
+    db: bool,
+    /// How many of each signal's largest lines the plot names.
+    #[arg(long, default_value_t = 8)]
+    labels: usize,
     #[command(flatten)]
     budget: super::WorkBudgetArg,
     #[command(flatten)]
@@ -41,13 +55,30 @@ pub fn run(args: SpectrumArgs) -> Result<(), String> {
         samples_per_mesh_period: args.samples,
         periods: args.periods,
     };
+    let frequency_range = (args.frequency_range.as_deref())
+        .map(|r| parse_range("--frequency-range", r))
+        .transpose()?;
+    let order_range = (args.order_range.as_deref())
+        .map(|r| parse_range("--order-range", r))
+        .transpose()?;
+    if frequency_range.is_some() && order_range.is_some() {
+        return Err("--frequency-range and --order-range: give one of the two".into());
+    }
+    let drawn = SpectrumPlot {
+        order_axis: order_range.is_some(),
+        range: order_range.or(frequency_range),
+        db: args.db,
+        labelled: args.labels,
+        ..SpectrumPlot::default()
+    };
     print!(
         "{}",
-        spectrum_command(
+        spectrum_command_with(
             &scene,
             &request,
             &args.out,
             args.plot.as_deref(),
+            &drawn,
             args.progress.display()
         )?
     );

@@ -172,7 +172,7 @@ impl HbBranch {
             .filter(|p| p.fold)
             .map(|p| Marker {
                 x: rpm(p.speed),
-                label: format!("fold {:.0} rpm", rpm(p.speed)),
+                label: format!("fold {:.0} rpm, {:.1} rad/s", rpm(p.speed), p.speed),
             })
             .collect();
         for i in 1..=branch.len() {

@@ -4,6 +4,7 @@
 //! a Python call and a CLI run of the same scene give identical numbers and messages; the CLI
 //! (`src/cli/`) only parses arguments and hands them to the function of its command here.
 
+pub mod campbell;
 pub mod floquet;
 pub mod fmu;
 pub mod hb;

@@ -123,6 +123,274 @@ pub fn runup_waterfall_reporting(
     })
 }
 
+/// How a run-up is order-tracked ([`runup_order_cuts`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct OrderTrackRequest {
+    /// Samples per cycle of the analysed mesh (the samples per input revolution are this
+    /// times the mesh order, rounded): the angle-domain Nyquist order is half of that.
+    pub samples_per_mesh_cycle: usize,
+    /// Whole input revolutions per block: the order resolution is `1/revolutions`.
+    pub revolutions: usize,
+    /// Fraction of a block shared with the next, in `[0, 1)`.
+    pub overlap: f64,
+    pub window: crate::analysis::spectrum::Window,
+    /// Orders of the analysed mesh's frequency (1 = mesh order 1).
+    pub mesh_orders: Vec<f64>,
+    /// Input-shaft orders (cycles per input revolution).
+    pub shaft_orders: Vec<f64>,
+}
+
+impl Default for OrderTrackRequest {
+    fn default() -> Self {
+        OrderTrackRequest {
+            samples_per_mesh_cycle: 64,
+            revolutions: 8,
+            overlap: 0.5,
+            window: crate::analysis::spectrum::Window::Hann,
+            mesh_orders: vec![1.0, 2.0, 3.0],
+            shaft_orders: Vec::new(),
+        }
+    }
+}
+
+/// A run-up's order cuts and what locates their orders.
+#[derive(Debug, Clone)]
+pub struct RunupOrderCuts {
+    /// Orders in input-shaft orders, in the order of [`OrderTrackRequest`]: the mesh orders
+    /// first, then the shaft orders.
+    pub cuts: crate::analysis::spectrum::OrderCuts,
+    /// A name per order: `mesh order k` or `shaft order o`.
+    pub names: Vec<String>,
+    /// Mesh cycles per input revolution of the analysed mesh.
+    pub mesh_order: f64,
+    pub samples_per_revolution: usize,
+}
+
+/// Most angle-domain samples of one order-tracked run-up (128 MB).
+pub const MAX_ORDER_SAMPLES: f64 = 16_777_216.0;
+
+/// Order tracking of mesh `mesh`'s `signal` over the run-up of `scene`: the run is sampled
+/// at equal increments of the input gear's nominal angle `φ(t) = ∫Ω dt` (the profile's exact
+/// integral, [`ShaftClock`]; the mesh phase is `z·φ/2π` of it), the driver stopping at each
+/// of those instants on the continuous solution, and the record is cut into blocks of whole
+/// revolutions ([`crate::analysis::spectrum::order_cuts`]).
+pub fn runup_order_cuts(
+    scene: &Scene,
+    mesh: usize,
+    signal: RunupSignal,
+    request: &OrderTrackRequest,
+    report: Report,
+) -> Result<RunupOrderCuts, String> {
+    use crate::analysis::spectrum::{order_cuts, OrderTrackOptions, ShaftClock};
+    let Some(speed) = scene.profiles.speed.clone() else {
+        return Err(format!(
+            "scene {}: order tracking needs a run-up (operating.speed_profile, docs/runup.md)",
+            scene.name
+        ));
+    };
+    if request.samples_per_mesh_cycle < 4 {
+        return Err(format!(
+            "--order-samples = {}: need at least 4 samples per mesh cycle",
+            request.samples_per_mesh_cycle
+        ));
+    }
+    let clock = ShaftClock::new(&speed);
+    let stop = scene.solver.stop_time;
+    with_drivetrain!(scene.simulation()?, sim => {
+        let mut sim = sim;
+        let count = sim.model().mesh_count();
+        if mesh >= count {
+            return Err(format!("mesh {mesh}: the scene has {count} mesh(es)"));
+        }
+        crate::simulation::RunLimits::default().check_work(&sim.model().run_scales(), stop)?;
+        let column = {
+            let c = sim.model().mesh_columns(mesh);
+            match signal {
+                RunupSignal::Dte => c.dte,
+                RunupSignal::Force => c.force,
+            }
+        };
+        let mut probe = sim.model().clone();
+        probe.set_input_speed(0.0, 1.0)?;
+        let mesh_order = probe.mesh_frequency(mesh) * TAU;
+        let per_rev = (request.samples_per_mesh_cycle as f64 * mesh_order).round().max(8.0);
+        let turned = clock.angle_at(stop);
+        let total = (turned / TAU * per_rev).floor() + 1.0;
+        if !(total <= MAX_ORDER_SAMPLES) {
+            return Err(format!(
+                "order tracking: {:.4} input revolutions at {per_rev} samples each are                  {total:e} samples, more than the {MAX_ORDER_SAMPLES:e} a run-up may take                  (lower --order-samples)",
+                turned / TAU
+            ));
+        }
+        let per_rev = per_rev as usize;
+        let total = total as u64;
+        let mut names = Vec::new();
+        let mut orders = Vec::new();
+        for &k in &request.mesh_orders {
+            names.push(format!("mesh order {k}"));
+            orders.push(k * mesh_order);
+        }
+        for &o in &request.shaft_orders {
+            names.push(format!("shaft order {o}"));
+            orders.push(o);
+        }
+        let options = OrderTrackOptions {
+            samples_per_revolution: per_rev,
+            revolutions: request.revolutions,
+            overlap: request.overlap,
+            window: request.window,
+            orders,
+        };
+        options.check().map_err(|e| {
+            format!("{e} (mesh order 1 = shaft order {mesh_order}, {per_rev} samples per revolution)")
+        })?;
+        let dphi = TAU / per_rev as f64;
+        let times = (0..total).map_while(|k| clock.time_at_angle(k as f64 * dphi).filter(|&t| t <= stop));
+        let mut x = Vec::with_capacity(total as usize);
+        let mut row = Vec::new();
+        sim.sample(times, |sim, time| {
+            if x.len().is_multiple_of(4096) {
+                report(time / stop, &|| {
+                    format!("order tracking: run-up at t = {time:.6e} s of {stop} s, {} samples", x.len())
+                });
+            }
+            sim.model().output_row(time, sim.y(), &mut row);
+            x.push(row[column]);
+            Ok(())
+        })?;
+        let cuts = order_cuts(&x, 0, &clock, &options)?;
+        Ok(RunupOrderCuts { cuts, names, mesh_order, samples_per_revolution: per_rev })
+    })
+}
+
+impl RunupOrderCuts {
+    /// One row per block: `time_s, revolutions, speed_rad_s, speed_rpm`, then per order
+    /// `order_<o>_amplitude_<unit>` and `order_<o>_phase_rad` (`o` in input-shaft orders).
+    pub fn write_csv(&self, path: &std::path::Path, unit: &str) -> Result<(), String> {
+        let mut header: Vec<String> = ["time_s", "revolutions", "speed_rad_s", "speed_rpm"]
+            .map(String::from)
+            .to_vec();
+        for o in &self.cuts.orders {
+            header.push(format!("order_{}_amplitude_{unit}", order_text(*o)));
+            header.push(format!("order_{}_phase_rad", order_text(*o)));
+        }
+        let names: Vec<&str> = header.iter().map(String::as_str).collect();
+        let mut csv = crate::output::CsvWriter::create(path, &names)?;
+        let c = &self.cuts;
+        for b in 0..c.time.len() {
+            let mut row = vec![
+                c.time[b],
+                c.angle[b] / TAU,
+                c.speed[b],
+                c.speed[b] * 60.0 / TAU,
+            ];
+            for k in 0..c.orders.len() {
+                row.push(c.amplitude[b][k]);
+                row.push(c.phase[b][k]);
+            }
+            csv.row(row)?;
+        }
+        csv.finish()
+    }
+
+    /// Amplitude of each order over the input speed (rpm), log or dB re the largest value,
+    /// to PNG or SVG by the extension.
+    pub fn save_plot(
+        &self,
+        path: &std::path::Path,
+        title: &str,
+        unit: &str,
+        db: bool,
+    ) -> Result<(), String> {
+        use crate::plot::{Axis, Plot, Series};
+        const COLORS: [&str; 6] = [
+            "#2471a3", "#c0392b", "#16a085", "#8e44ad", "#d68910", "#566573",
+        ];
+        let c = &self.cuts;
+        let peak = c
+            .amplitude
+            .iter()
+            .flatten()
+            .fold(0.0, |m: f64, &v| m.max(v));
+        let labels: Vec<String> = (0..c.orders.len())
+            .map(|k| format!("{} ({} × shaft)", self.names[k], order_text(c.orders[k])))
+            .collect();
+        let series = (0..c.orders.len())
+            .map(|k| Series {
+                label: &labels[k],
+                color: COLORS[k % COLORS.len()],
+                points: (0..c.time.len())
+                    .map(|b| {
+                        let a = c.amplitude[b][k];
+                        let y = if db { 20.0 * (a / peak).log10() } else { a };
+                        (c.speed[b] * 60.0 / TAU, y)
+                    })
+                    .collect(),
+                dashed: false,
+                markers: false,
+                line: true,
+            })
+            .collect();
+        let db_title = format!("level (dB re {})", crate::plot::engineering(peak, unit));
+        let y = if db {
+            Axis::new(&db_title, "")
+        } else {
+            Axis::log("amplitude", unit)
+        };
+        Plot {
+            title,
+            x: Axis::new("input speed", "rpm"),
+            y,
+            series,
+            bands: Vec::new(),
+            band_label: "",
+            markers: Vec::new(),
+        }
+        .save(path)
+    }
+}
+
+impl RunupOrderCuts {
+    /// What `waterfall --order-cuts` prints: where the cuts went, their resolution, and each
+    /// order's largest amplitude with the speed where it occurs.
+    pub fn summary(&self, path: &std::path::Path, unit: &str) -> String {
+        let c = &self.cuts;
+        let revolutions = if c.angle.len() > 1 {
+            // Blocks are whole revolutions; the spacing of their centres is the step.
+            (c.angle[1] - c.angle[0]) / TAU
+        } else {
+            f64::NAN
+        };
+        let mut text = format!(
+            "order cuts → {} ({} blocks, {} samples per input revolution from the continuous \
+             solution, blocks every {revolutions:.3} revolutions)\n",
+            path.display(),
+            c.time.len(),
+            self.samples_per_revolution
+        );
+        for k in 0..c.orders.len() {
+            let best =
+                (0..c.time.len()).max_by(|&a, &b| c.amplitude[a][k].total_cmp(&c.amplitude[b][k]));
+            if let Some(b) = best {
+                text.push_str(&format!(
+                    "  {:<18} (shaft order {:>9}): largest {} at {:.0} rpm\n",
+                    self.names[k],
+                    order_text(c.orders[k]),
+                    crate::plot::engineering(c.amplitude[b][k], unit),
+                    c.speed[b] * 60.0 / TAU
+                ));
+            }
+        }
+        text
+    }
+}
+
+/// An order as a column name takes it: `38`, `26.272727`.
+pub fn order_text(o: f64) -> String {
+    let s = format!("{o:.6}");
+    s.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
 /// The mesh names of a scene as `--mesh` takes them (`mesh` for the single pair).
 pub fn mesh_names(scene: &Scene) -> Result<Vec<String>, String> {
     with_drivetrain!(scene.simulation()?, sim => {
@@ -136,7 +404,7 @@ pub fn mesh_names(scene: &Scene) -> Result<Vec<String>, String> {
 }
 
 /// What `geardyn waterfall` analyses, as the command line gives it.
-#[derive(Debug, Clone, Copy)]
+#[derive(Debug, Clone)]
 pub struct WaterfallRequest<'a> {
     /// The mesh by name (a drivetrain); `None`: the first mesh.
     pub mesh: Option<&'a str>,
@@ -148,10 +416,73 @@ pub struct WaterfallRequest<'a> {
     pub overlap: f64,
     /// `hann` or `flattop`.
     pub window: &'a str,
+    /// Frequency range of the map (CSV and plot), Hz.
+    pub frequency_range: Option<(f64, f64)>,
+    /// Order range of the map (CSV and plot), input-shaft orders; the plot is then drawn
+    /// over order.
+    pub order_range: Option<(f64, f64)>,
+    /// Colour range of the map's plot below its largest value, dB.
+    pub dynamic_range: f64,
+    /// Order cuts of the run-up (angle-domain order tracking) to this CSV.
+    pub order_cuts: Option<&'a std::path::Path>,
+    /// Plot of the order cuts.
+    pub order_plot: Option<&'a std::path::Path>,
+    /// The order-cut plot in dB re its largest value (else a log amplitude axis).
+    pub db: bool,
+    pub tracking: OrderTrackRequest,
 }
 
-/// `geardyn waterfall`: the order map of the scene's run-up to the CSV `out` (and a Campbell
-/// plot), and the report of what was written.
+impl Default for WaterfallRequest<'_> {
+    fn default() -> Self {
+        WaterfallRequest {
+            mesh: None,
+            signal: "dte",
+            segment: 1000,
+            overlap: 0.5,
+            window: "hann",
+            frequency_range: None,
+            order_range: None,
+            dynamic_range: crate::plot::DYNAMIC_RANGE_DB,
+            order_cuts: None,
+            order_plot: None,
+            db: false,
+            tracking: OrderTrackRequest::default(),
+        }
+    }
+}
+
+/// `LO:HI` as two numbers with `LO < HI` (the message names `flag`).
+pub fn parse_range(flag: &str, text: &str) -> Result<(f64, f64), String> {
+    let parts: Vec<&str> = text.split(':').collect();
+    let numbers: Option<Vec<f64>> = (parts.len() == 2)
+        .then(|| parts.iter().map(|p| p.trim().parse::<f64>().ok()).collect())
+        .flatten();
+    match numbers.as_deref() {
+        Some(&[lo, hi]) if lo.is_finite() && hi.is_finite() && lo < hi => Ok((lo, hi)),
+        _ => Err(format!(
+            "{flag} {text:?}: expected LO:HI, two finite numbers with LO < HI"
+        )),
+    }
+}
+
+/// A mesh of `scene` by its `--mesh` name (`None`: the first).
+fn mesh_index(scene: &Scene, name: Option<&str>) -> Result<usize, String> {
+    match name {
+        None => Ok(0),
+        Some(name) => {
+            let names = mesh_names(scene)?;
+            names.iter().position(|n| n == name).ok_or_else(|| {
+                format!(
+                    "--mesh '{name}': no such mesh (meshes: {})",
+                    names.join(", ")
+                )
+            })
+        }
+    }
+}
+
+/// `geardyn waterfall`: the order map of the scene's run-up to the CSV `out` (and its plot),
+/// the order cuts when asked, and the report of what was written.
 /// The run-up shows on stderr as `progress` says ([`Progress`]).
 pub fn waterfall_command(
     scene: &Scene,
@@ -160,9 +491,18 @@ pub fn waterfall_command(
     plot: Option<&std::path::Path>,
     progress: ProgressDisplay,
 ) -> Result<String, String> {
-    use crate::analysis::spectrum::Window;
-    if let Some(path) = plot {
+    use crate::analysis::spectrum::{WaterfallPlot, Window};
+    for path in [plot, request.order_plot].into_iter().flatten() {
         crate::plot::Format::of(path)?;
+    }
+    if request.order_plot.is_some() && request.order_cuts.is_none() {
+        return Err("--order-plot needs --order-cuts FILE (the CSV of the cuts it draws)".into());
+    }
+    if !(request.dynamic_range.is_finite() && request.dynamic_range > 0.0) {
+        return Err(format!(
+            "--dynamic-range = {}: must be a positive number of dB",
+            request.dynamic_range
+        ));
     }
     let signal: RunupSignal = request
         .signal
@@ -173,18 +513,7 @@ pub fn waterfall_command(
         "flattop" => Window::FlatTop,
         other => return Err(format!("--window '{other}': expected hann or flattop")),
     };
-    let mesh = match request.mesh {
-        None => 0,
-        Some(name) => {
-            let names = mesh_names(scene)?;
-            names.iter().position(|n| n == name).ok_or_else(|| {
-                format!(
-                    "--mesh '{name}': no such mesh (meshes: {})",
-                    names.join(", ")
-                )
-            })?
-        }
-    };
+    let mesh = mesh_index(scene, request.mesh)?;
     let options = WaterfallOptions {
         segment: request.segment,
         overlap: request.overlap,
@@ -192,22 +521,45 @@ pub fn waterfall_command(
     };
     let mut shown = Progress::of_analysis("waterfall: starting", progress);
     let w = runup_waterfall_reporting(scene, mesh, signal, &options, &shown.reporter());
+    let cuts = match (request.order_cuts, &w) {
+        (Some(_), Ok(_)) => Some(runup_order_cuts(
+            scene,
+            mesh,
+            signal,
+            &request.tracking,
+            &shown.reporter(),
+        )),
+        _ => None,
+    };
     shown.finish();
     let w = w?;
-    w.map.write_csv(out, signal.unit())?;
+    let cuts = cuts.transpose()?;
+    w.map.write_csv_within(
+        out,
+        signal.unit(),
+        request.frequency_range,
+        request.order_range,
+    )?;
     if let Some(path) = plot {
         let orders: Vec<(String, f64)> = (1..=3)
             .map(|k| (format!("{k}×mesh"), k as f64 * w.mesh_order))
             .collect();
         let title = format!("{}: waterfall of the {}", scene.name, request.signal);
-        w.map.save_plot(path, &title, &orders)?;
+        let drawn = WaterfallPlot {
+            orders,
+            order_axis: request.order_range.is_some(),
+            x_range: request.order_range.or(request.frequency_range),
+            dynamic_range: request.dynamic_range,
+            unit: signal.unit().to_string(),
+        };
+        w.map.save_plot_with(path, &title, &drawn)?;
     }
     let map = &w.map;
     let (lo, hi) = (
         map.rpm.iter().copied().fold(f64::INFINITY, f64::min),
         map.rpm.iter().copied().fold(f64::NEG_INFINITY, f64::max),
     );
-    Ok(format!(
+    let mut text = format!(
         "scene {} → {} ({} windows × {} frequencies, {:.0}–{:.0} rpm, {:.1} Hz resolution)\n  \
          mesh order 1 = shaft order {:.4} of the input gear: f = {:.4}·n/60 Hz\n",
         scene.name,
@@ -219,5 +571,14 @@ pub fn waterfall_command(
         map.frequency.get(1).copied().unwrap_or(f64::NAN),
         w.mesh_order,
         w.mesh_order
-    ))
+    );
+    if let (Some(c), Some(path)) = (&cuts, request.order_cuts) {
+        c.write_csv(path, signal.unit())?;
+        if let Some(plot) = request.order_plot {
+            let title = format!("{}: order cuts of the {}", scene.name, request.signal);
+            c.save_plot(plot, &title, signal.unit(), request.db)?;
+        }
+        text.push_str(&c.summary(path, signal.unit()));
+    }
+    Ok(text)
 }

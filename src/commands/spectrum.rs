@@ -9,7 +9,6 @@ use crate::analysis::spectrum::{
 };
 use crate::analysis::{shoot_reporting, Report, ShootingOptions};
 use crate::model::{response_period, Drivetrain};
-use crate::plot::{Axis, Plot, Series};
 use crate::scene::Scene;
 use crate::simulation::stream::{Progress, ProgressDisplay};
 use crate::with_drivetrain;
@@ -219,47 +218,172 @@ impl SpectrumReport {
         crate::output::write_text(path, &text)
     }
 
-    /// Amplitude over frequency (log scale), one marker per line and signal, to PNG or SVG by the
-    /// extension of `path`.
+    /// Amplitude over frequency (log scale), one stem per line and signal, the largest lines
+    /// named, to PNG or SVG by the extension of `path`.
     pub fn save_plot(&self, path: &Path) -> Result<(), String> {
+        self.save_plot_with(path, &SpectrumPlot::default())
+    }
+
+    /// The stem plot as `plot` says: over frequency or input-shaft order, within a range, on
+    /// a log amplitude axis or in dB re each signal's largest line.
+    pub fn save_plot_with(&self, path: &Path, plot: &SpectrumPlot) -> Result<(), String> {
+        use crate::plot::{StemSeries, Stems};
         const COLORS: [&str; 4] = ["#2471a3", "#c0392b", "#16a085", "#8e44ad"];
-        // Lines as markers on a log axis; bins below 1e-6 of the largest line are rounding
-        // (exact DFT) and are left out so they do not set the axis range.
-        let series = (self.signals.iter().enumerate())
+        let to_x = |f: f64| {
+            if plot.order_axis {
+                f / plot.input_frequency
+            } else {
+                f
+            }
+        };
+        // Signals of different units share no amplitude axis: then levels in dB re each
+        // signal's largest line.
+        let mixed = self.signals.iter().any(|s| s.unit != self.signals[0].unit);
+        let plot = &SpectrumPlot {
+            db: plot.db || mixed,
+            ..plot.clone()
+        };
+        if plot.order_axis && !(plot.input_frequency.is_finite() && plot.input_frequency > 0.0) {
+            return Err(format!(
+                "--order-range: the input shaft turns at {} Hz, so the spectrum has no orders",
+                plot.input_frequency
+            ));
+        }
+        // Bins below 1e-6 of the largest line (−120 dB) are rounding (exact DFT) and are
+        // left out so they do not set the axis range.
+        let peaks: Vec<f64> = (self.signals.iter())
+            .map(|s| {
+                s.spectrum
+                    .amplitude
+                    .iter()
+                    .skip(1)
+                    .fold(0.0, |m: f64, &v| m.max(v))
+            })
+            .collect();
+        let series: Vec<StemSeries> = (self.signals.iter().enumerate())
             .map(|(i, s)| {
                 let a = &s.spectrum.amplitude;
-                let floor = 1e-6 * a.iter().skip(1).fold(0.0, |m: f64, &v| m.max(v));
-                Series {
+                let kept: Vec<usize> = (1..a.len()).filter(|&k| a[k] > 1e-6 * peaks[i]).collect();
+                StemSeries {
                     label: &s.column,
                     color: COLORS[i % COLORS.len()],
-                    points: (1..a.len())
-                        .filter(|&k| a[k] > floor)
-                        .map(|k| (s.spectrum.frequency[k], a[k]))
+                    points: (kept.iter())
+                        .map(|&k| {
+                            let y = if plot.db {
+                                20.0 * (a[k] / peaks[i]).log10()
+                            } else {
+                                a[k]
+                            };
+                            (to_x(s.spectrum.frequency[k]), y)
+                        })
                         .collect(),
-                    dashed: false,
-                    markers: true,
-                    line: false,
+                    names: (kept.iter())
+                        .map(|&k| s.labels[k].as_ref().map(|l| l.text.clone()))
+                        .collect(),
                 }
             })
             .collect();
+        let f_max = (self.signals.iter())
+            .flat_map(|s| s.spectrum.frequency.last().copied())
+            .fold(0.0, f64::max);
+        let x_range = plot.range.unwrap_or((0.0, to_x(f_max)));
+        let smallest = (series.iter())
+            .flat_map(|s| s.points.iter())
+            .filter(|p| p.0 >= x_range.0 && p.0 <= x_range.1)
+            .map(|p| p.1)
+            .fold(f64::INFINITY, f64::min);
         let unit = match self.signals[0].unit.as_str() {
             "1" => "",
             u => u,
         };
+        let (y_title, y_floor) = if plot.db {
+            let floor = if smallest.is_finite() {
+                (smallest / 10.0).floor() * 10.0 - 10.0
+            } else {
+                -120.0
+            };
+            (
+                "level (dB re the signal's largest line)".to_string(),
+                floor.max(-130.0),
+            )
+        } else {
+            let floor = if smallest.is_finite() {
+                smallest / 3.0
+            } else {
+                1e-12
+            };
+            // One unit for every signal on a log axis: the first signal's.
+            (
+                format!("amplitude ({})", if unit.is_empty() { "-" } else { unit }),
+                floor,
+            )
+        };
+        let (y_title, scale) = if plot.db {
+            (y_title, 1.0)
+        } else {
+            let largest = peaks.iter().copied().fold(0.0, f64::max);
+            let (scale, title) = crate::plot::Axis::new("amplitude", unit).scaled(largest);
+            (title, scale)
+        };
+        let series: Vec<StemSeries> = series
+            .into_iter()
+            .map(|mut s| {
+                for p in &mut s.points {
+                    p.1 *= scale;
+                }
+                s
+            })
+            .collect();
         let title = format!(
-            "{}: amplitude spectrum (exact DFT, mean omitted)",
-            self.scene
+            "{}: amplitude spectrum ({}, mean omitted)",
+            self.scene,
+            match self.method {
+                Lines::Integrated => "integrated over the orbit",
+                Lines::Sampled => "exact DFT",
+            }
         );
-        Plot {
+        Stems {
             title: &title,
-            x: Axis::new("frequency", "Hz"),
-            y: Axis::log("amplitude", unit),
+            x_title: if plot.order_axis {
+                "order (cycles per input revolution)"
+            } else {
+                "frequency (Hz)"
+            },
+            y_title: &y_title,
+            x_range,
+            db: plot.db,
+            y_floor: y_floor * scale,
             series,
-            bands: Vec::new(),
-            band_label: "",
-            markers: Vec::new(),
+            labelled: plot.labelled,
         }
         .save(path)
+    }
+}
+
+/// How `spectrum --plot` draws ([`SpectrumReport::save_plot_with`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SpectrumPlot {
+    /// The x axis in input-shaft orders (cycles per input revolution) instead of Hz.
+    pub order_axis: bool,
+    /// The input shaft's rotation frequency, Hz (for the order axis).
+    pub input_frequency: f64,
+    /// The x range drawn: Hz, or orders with `order_axis`; `None`: from 0 to the last line.
+    pub range: Option<(f64, f64)>,
+    /// Levels in dB re each signal's largest line (else amplitudes on a log axis).
+    pub db: bool,
+    /// How many of each signal's largest lines are named.
+    pub labelled: usize,
+}
+
+impl Default for SpectrumPlot {
+    fn default() -> Self {
+        SpectrumPlot {
+            order_axis: false,
+            input_frequency: f64::NAN,
+            range: None,
+            db: false,
+            labelled: 8,
+        }
     }
 }
 
@@ -421,14 +545,41 @@ pub fn spectrum_command(
     plot: Option<&Path>,
     progress: ProgressDisplay,
 ) -> Result<String, String> {
+    spectrum_command_with(
+        scene,
+        request,
+        out,
+        plot,
+        &SpectrumPlot::default(),
+        progress,
+    )
+}
+
+/// [`spectrum_command`] with the plot drawn as `drawn` says (its input frequency is the
+/// scene's).
+pub fn spectrum_command_with(
+    scene: &Scene,
+    request: &SpectrumRequest,
+    out: &Path,
+    plot: Option<&Path>,
+    drawn: &SpectrumPlot,
+    progress: ProgressDisplay,
+) -> Result<String, String> {
     use std::fmt::Write;
+    if let Some(path) = plot {
+        crate::plot::Format::of(path)?;
+    }
     let mut shown = Progress::of_analysis("spectrum: starting", progress);
     let report = periodic_spectrum_reporting(scene, request, &shown.reporter());
     shown.finish();
     let report = report?;
     report.write_csv(out)?;
     if let Some(path) = plot {
-        report.save_plot(path)?;
+        let drawn = SpectrumPlot {
+            input_frequency: scene.operating.input_speed / std::f64::consts::TAU,
+            ..drawn.clone()
+        };
+        report.save_plot_with(path, &drawn)?;
     }
     let mut text = String::new();
     match report.method {

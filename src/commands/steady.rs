@@ -250,7 +250,11 @@ pub fn sweep_plot(scene: &Scene, sweep: &Sweep, path: &Path) -> Result<(), Strin
             let arrow = if d == Direction::Up { "up" } else { "down" };
             markers.extend(jumps(&points).into_iter().map(|x| Marker {
                 x,
-                label: format!("{}jump ({arrow}) {x:.0} rpm", mesh_tag(&sweep.prefixes[m])),
+                label: format!(
+                    "{}jump ({arrow}) {x:.0} rpm, {:.1} rad/s",
+                    mesh_tag(&sweep.prefixes[m]),
+                    x * std::f64::consts::TAU / 60.0
+                ),
             }));
             if !points.is_empty() {
                 series.push(Series {

@@ -70,7 +70,7 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
 }
 
 /// A tick label with no trailing zeros (`3600`, `0.25`, `1.5e-7`).
-fn tick(v: f64) -> String {
+pub(crate) fn tick(v: f64) -> String {
     if v == 0.0 {
         return "0".into();
     }
@@ -95,6 +95,137 @@ fn runs(points: &[(f64, f64)], log_y: bool, sx: f64, sy: f64) -> Vec<Vec<(f64, f
     out
 }
 
+/// A pixel rectangle a label occupies.
+#[derive(Debug, Clone, Copy)]
+struct Span {
+    left: i32,
+    right: i32,
+    top: i32,
+    bottom: i32,
+}
+
+/// Pixel length of a 13 px label (DejaVu Sans averages under 6.3 px a character).
+fn label_length(label: &str) -> i32 {
+    (6.3 * label.chars().count() as f64).ceil() as i32 + 6
+}
+
+/// The bottom of the lowest stretch of `length` px in the pixel column `[a, b]` between
+/// `top` and `bottom` that no curve segment (with 3 px of clearance) and no label crosses.
+fn free_stretch(
+    curves: &[Vec<(i32, i32)>],
+    taken: &[Span],
+    (a, b): (i32, i32),
+    (top, bottom): (i32, i32),
+    length: i32,
+) -> Option<i32> {
+    let mut busy: Vec<(i32, i32)> = Vec::new();
+    for run in curves {
+        for (i, &(x, y)) in run.iter().enumerate() {
+            // Each point (a marker circle) and each segment through the column.
+            if x >= a - 4 && x <= b + 4 {
+                busy.push((y - 5, y + 5));
+            }
+            if let Some(&(xn, yn)) = run.get(i + 1) {
+                let (lo, hi) = (x.min(xn), x.max(xn));
+                if hi < a || lo > b {
+                    continue;
+                }
+                // The segment's y over the column's part of its x span.
+                let at = |xc: i32| {
+                    if xn == x {
+                        y as f64
+                    } else {
+                        y as f64 + (yn - y) as f64 * (xc - x) as f64 / (xn - x) as f64
+                    }
+                };
+                let (ca, cb) = (a.max(lo), b.min(hi));
+                let (ya, yb) = (at(ca), at(cb));
+                let (ya, yb) = if xn == x {
+                    (y.min(yn) as f64, y.max(yn) as f64)
+                } else {
+                    (ya, yb)
+                };
+                busy.push((ya.min(yb).floor() as i32 - 3, ya.max(yb).ceil() as i32 + 3));
+            }
+        }
+    }
+    for t in taken {
+        if t.left < b && t.right > a {
+            busy.push((t.top - 2, t.bottom + 2));
+        }
+    }
+    // Scan from the bottom up for the first gap of `length`.
+    let mut floor = bottom - 6;
+    let mut intervals = busy;
+    intervals.sort_by_key(|iv| std::cmp::Reverse(iv.1));
+    loop {
+        // The busy interval that reaches lowest above `floor` and overlaps [floor - length, floor].
+        let blocking = intervals
+            .iter()
+            .filter(|(t, bt)| *bt >= floor - length && *t <= floor)
+            .map(|(t, _)| *t)
+            .min();
+        match blocking {
+            None => return (floor - length >= top).then_some(floor),
+            Some(t) => {
+                floor = t - 1;
+                if floor - length < top {
+                    return None;
+                }
+            }
+        }
+    }
+}
+
+/// The input speed in rad/s above the plot, beside the rpm of the x axis: ticks at round
+/// values of rad/s along the plotting area's top edge.
+fn rad_per_s_ticks<'c, DB, Y>(
+    chart: &ChartContext<'c, DB, Cartesian2d<plotters::coord::types::RangedCoordf64, Y>>,
+    (x0, x1): (f64, f64),
+    y_any: f64,
+) -> Result<(), String>
+where
+    DB: DrawingBackend + 'c,
+    Y: Ranged<ValueType = f64>,
+{
+    let to_w = std::f64::consts::TAU / 60.0;
+    let (w0, w1) = (x0 * to_w, x1 * to_w);
+    let span = w1 - w0;
+    if !(span > 0.0) {
+        return Ok(());
+    }
+    let raw = span / 6.0;
+    let mag = 10f64.powf(raw.log10().floor());
+    let step = [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|f| f * mag)
+        .find(|s| *s >= raw)
+        .unwrap_or(10.0 * mag);
+    let grey = RGBColor(90, 90, 90);
+    let area = chart.plotting_area().strip_coord_spec();
+    let (base_x, _) = area.get_base_pixel();
+    let style = TextStyle::from((FAMILY, 12).into_font())
+        .color(&grey)
+        .pos(Pos::new(HPos::Center, VPos::Bottom));
+    let mut w = (w0 / step).ceil() * step;
+    while w <= w1 + 1e-9 * span {
+        let px = chart.backend_coord(&(w / to_w, y_any)).0 - base_x;
+        area.draw(&PathElement::new(
+            vec![(px, 0), (px, 5)],
+            grey.stroke_width(1),
+        ))
+        .map_err(drawing)?;
+        area.draw(&Text::new(
+            format!("{} rad/s", tick(w)),
+            (px, -2),
+            style.clone(),
+        ))
+        .map_err(drawing)?;
+        w += step;
+    }
+    Ok(())
+}
+
 fn draw_on<DB: DrawingBackend>(plot: &Plot, root: &DrawingArea<DB, Shift>) -> Result<(), String> {
     let all = || plot.series.iter().flat_map(|s| s.points.iter());
     let (x0, x1) = range(
@@ -112,7 +243,9 @@ fn draw_on<DB: DrawingBackend>(plot: &Plot, root: &DrawingArea<DB, Shift>) -> Re
     // The legend gets a band of its own above the data, so it never hides a curve.
     let rows = plot.series.iter().filter(|s| !s.label.is_empty()).count()
         + usize::from(!plot.bands.is_empty());
-    let area_height = (root.dim_in_pixel().1 - CAPTION - 2 * MARGIN - X_LABELS) as f64;
+    // An rpm axis gets its rad/s ticks above the plot: room for them below the title.
+    let top_ticks = if plot.x.unit == "rpm" { 24 } else { 0 };
+    let area_height = (root.dim_in_pixel().1 - CAPTION - 2 * MARGIN - X_LABELS - top_ticks) as f64;
     let share = if rows == 0 {
         0.0
     } else {
@@ -125,9 +258,18 @@ fn draw_on<DB: DrawingBackend>(plot: &Plot, root: &DrawingArea<DB, Shift>) -> Re
         y1 + (y1 - y0) * grow
     };
 
-    let mut builder = ChartBuilder::on(root);
+    // With the rad/s ticks: the title first, then a strip for the ticks, then the chart.
+    let body = if top_ticks > 0 {
+        let below = root.titled(plot.title, (FAMILY, 22)).map_err(drawing)?;
+        below.split_vertically(top_ticks).1
+    } else {
+        root.clone()
+    };
+    let mut builder = ChartBuilder::on(&body);
+    if top_ticks == 0 {
+        builder.caption(plot.title, (FAMILY, 22));
+    }
     builder
-        .caption(plot.title, (FAMILY, 22))
         .margin(MARGIN)
         .x_label_area_size(X_LABELS)
         .y_label_area_size(Y_LABELS);
@@ -183,8 +325,17 @@ where
     let grey = RGBColor(110, 110, 110);
     let mut markers: Vec<&Marker> = plot.markers.iter().collect();
     markers.sort_by(|a, b| a.x.total_cmp(&b.x));
-    // Labels of markers closer than a text height stack upwards instead of overprinting.
-    let (mut last_px, mut level) = (i32::MIN / 2, 0);
+    // The pixels the curves occupy, so that no marker label is written over one.
+    let curves: Vec<Vec<(i32, i32)>> = (plot.series.iter())
+        .flat_map(|s| runs(&s.points, plot.y.log, sx, sy))
+        .map(|run| run.iter().map(|p| chart.backend_coord(p)).collect())
+        .collect();
+    let x_range = chart.x_range();
+    let (data_top, data_bottom) = (
+        chart.backend_coord(&(x_range.start, y1)).1,
+        chart.backend_coord(&(x_range.start, y0)).1,
+    );
+    let mut taken: Vec<Span> = Vec::new();
     for m in markers {
         let x = m.x * sx;
         chart
@@ -196,20 +347,53 @@ where
             ))
             .map_err(drawing)?;
         let px = chart.backend_coord(&(x, y0)).0;
-        level = if px - last_px < 16 {
-            (level + 1) % 3
+        // Rotated text reads bottom to top in a 13 px wide column beside the line: right of
+        // it if a long enough stretch of that column is free of curves and labels, else left.
+        let length = label_length(&m.label);
+        // Above the data lies the legend's band: free left of the legend box (at most 240 px
+        // wide at the right).
+        let (area_x, area_y) = chart.plotting_area().get_pixel_range();
+        let top = if px < area_x.end - 260 {
+            area_y.start + 4
         } else {
-            0
+            data_top
         };
-        last_px = px;
+        let place = [(px + 3, px + 17, 16), (px - 16, px - 2, -1)]
+            .into_iter()
+            .find_map(|(a, b, dx)| {
+                free_stretch(&curves, &taken, (a, b), (top, data_bottom), length).map(|bottom| {
+                    (
+                        Span {
+                            left: a,
+                            right: b,
+                            top: bottom - length,
+                            bottom,
+                        },
+                        dx,
+                    )
+                })
+            });
+        // Nowhere free (a crowded plot): the old place, bottom up right of the line.
+        let (span, dx) = place.unwrap_or((
+            Span {
+                left: px + 3,
+                right: px + 17,
+                top: data_bottom - 6 - length,
+                bottom: data_bottom - 6,
+            },
+            16,
+        ));
+        taken.push(span);
         let style = TextStyle::from((FAMILY, 13).into_font())
             .color(&grey)
             .transform(FontTransform::Rotate270)
             .pos(Pos::new(HPos::Left, VPos::Bottom));
-        // Beside the line, not on it (the rotated glyphs extend left of the anchor), bottom up.
-        let rise = 6 + level * (8 * m.label.chars().count() as i32 + 12);
-        let label = EmptyElement::at((x, y0)) + Text::new(m.label.clone(), (16, -rise), style);
+        let rise = data_bottom - span.bottom;
+        let label = EmptyElement::at((x, y0)) + Text::new(m.label.clone(), (dx, -rise), style);
         chart.draw_series(std::iter::once(label)).map_err(drawing)?;
+    }
+    if plot.x.unit == "rpm" {
+        rad_per_s_ticks(&chart, (x_range.start, x_range.end), y1)?;
     }
 
     for series in &plot.series {

@@ -7,12 +7,16 @@
 //! Sans (`assets/fonts/`), so rendering needs no system font library.
 
 mod axis;
+mod campbell;
 mod font;
 mod heatmap;
 mod line;
+mod stems;
 
 pub use axis::Axis;
-pub use heatmap::Heatmap;
+pub use campbell::{Campbell, Crossing};
+pub use heatmap::{Heatmap, DYNAMIC_RANGE_DB};
+pub use stems::{StemSeries, Stems};
 
 use std::path::Path;
 
@@ -49,6 +53,28 @@ pub struct Plot<'a> {
     pub bands: Vec<(f64, f64)>,
     pub band_label: &'a str,
     pub markers: Vec<Marker>,
+}
+
+/// `value` in `unit` with the engineering prefix the plots use, to 3 significant digits
+/// (`12.3 µm`, `2.05 kN`); a unitless value as it is.
+pub fn engineering(value: f64, unit: &str) -> String {
+    let unit = if unit == "1" { "" } else { unit };
+    let (scale, title) = Axis::new("", unit).scaled(value.abs());
+    // The title reads " (µm)": the prefixed unit between the parentheses.
+    let prefixed = title
+        .trim()
+        .trim_start_matches('(')
+        .trim_end_matches(')')
+        .to_string();
+    let v = value * scale;
+    let digits = if v.abs() >= 100.0 {
+        0
+    } else if v.abs() >= 10.0 {
+        1
+    } else {
+        2
+    };
+    format!("{v:.digits$} {prefixed}").trim_end().to_string()
 }
 
 /// Image formats, chosen by the file extension.

@@ -64,7 +64,7 @@ def is_png(path):
 def test_tutorial_runs_end_to_end(tmp_path):
     ran = run_tutorial(tmp_path)
     assert ran["sh"] >= 7 and ran["python"] == 1 and ran["file"] == 3, ran
-    for png in ["k.png", "run.png", "spectrum.png", "waterfall.png", "frf.png"]:
+    for png in ["k.png", "run.png", "spectrum.png", "waterfall.png", "cuts.png", "frf.png"]:
         assert is_png(tmp_path / png), png
 
     # The mesh frequency at 3000 rpm is 25 teeth x 50 rev/s = 1250 Hz (closed form); the

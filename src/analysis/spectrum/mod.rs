@@ -5,6 +5,7 @@ mod aliasing;
 mod dft;
 mod labels;
 mod orbit_fourier;
+mod order_track;
 mod waterfall;
 mod window;
 
@@ -14,5 +15,6 @@ pub use aliasing::{
 pub use dft::{exact_dft, windowed_fft, Spectrum};
 pub use labels::{label_lines, OrderLabel, ShaftFrequency};
 pub use orbit_fourier::orbit_lines;
-pub use waterfall::{waterfall, Waterfall, WaterfallOptions};
+pub use order_track::{order_cuts, OrderCuts, OrderTrackOptions, ShaftClock};
+pub use waterfall::{waterfall, Waterfall, WaterfallOptions, WaterfallPlot};
 pub use window::Window;

@@ -144,6 +144,19 @@ impl Waterfall {
     /// `time_s, rpm, frequency_Hz, order, amplitude_<unit>`, where the order is
     /// `frequency / (rpm/60)` (cycles per reference-shaft revolution).
     pub fn write_csv(&self, path: &Path, unit: &str) -> Result<(), String> {
+        self.write_csv_within(path, unit, None, None)
+    }
+
+    /// [`Waterfall::write_csv`] keeping only the lines within `frequency` (Hz) and `order`
+    /// (cycles per reference revolution), both inclusive.
+    pub fn write_csv_within(
+        &self,
+        path: &Path,
+        unit: &str,
+        frequency: Option<(f64, f64)>,
+        order_range: Option<(f64, f64)>,
+    ) -> Result<(), String> {
+        let within = |v: f64, r: Option<(f64, f64)>| r.is_none_or(|(lo, hi)| v >= lo && v <= hi);
         let amplitude = format!("amplitude_{unit}");
         let mut csv = CsvWriter::create(
             path,
@@ -158,10 +171,39 @@ impl Waterfall {
                 } else {
                     f64::NAN
                 };
-                csv.row([self.time[r], self.rpm[r], f, order, *a])?;
+                if within(f, frequency) && within(order, order_range) {
+                    csv.row([self.time[r], self.rpm[r], f, order, *a])?;
+                }
             }
         }
         csv.finish()
+    }
+}
+
+/// How a waterfall is drawn ([`Waterfall::save_plot_with`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct WaterfallPlot {
+    /// Order lines overlaid: (label, order in cycles per reference revolution).
+    pub orders: Vec<(String, f64)>,
+    /// The x axis in orders instead of frequency.
+    pub order_axis: bool,
+    /// The x range drawn: Hz, or orders with `order_axis`.
+    pub x_range: Option<(f64, f64)>,
+    /// Colour range below the largest value shown, dB.
+    pub dynamic_range: f64,
+    /// The amplitudes' unit (the colour bar's reference).
+    pub unit: String,
+}
+
+impl Default for WaterfallPlot {
+    fn default() -> Self {
+        WaterfallPlot {
+            orders: Vec::new(),
+            order_axis: false,
+            x_range: None,
+            dynamic_range: crate::plot::DYNAMIC_RANGE_DB,
+            unit: String::new(),
+        }
     }
 }
 
@@ -174,12 +216,31 @@ impl Waterfall {
         title: &str,
         orders: &[(String, f64)],
     ) -> Result<(), String> {
+        let plot = WaterfallPlot {
+            orders: orders.to_vec(),
+            ..WaterfallPlot::default()
+        };
+        self.save_plot_with(path, title, &plot)
+    }
+
+    /// The map as a heatmap drawn as `plot` says: over frequency or order, in a range, with
+    /// a colour bar in dB re the largest value shown.
+    pub fn save_plot_with(
+        &self,
+        path: &Path,
+        title: &str,
+        plot: &WaterfallPlot,
+    ) -> Result<(), String> {
         crate::plot::Heatmap {
             title,
             x: &self.frequency,
             y: &self.rpm,
             values: &self.amplitude,
-            lines: orders.to_vec(),
+            lines: plot.orders.clone(),
+            order_axis: plot.order_axis,
+            x_range: plot.x_range,
+            dynamic_range: plot.dynamic_range,
+            unit: &plot.unit,
         }
         .save(path)
     }
