@@ -59,7 +59,10 @@ mod evaluate;
 mod problem;
 mod statistics;
 
-pub use continuation::{continuation, continuation_reporting, BranchPoint, ContinuationOptions};
+pub use continuation::{
+    continuation, continuation_reporting, BranchPoint, ContinuationOptions, ShootingCheck,
+    RADIUS_SENSITIVITY, SHOOTING_CHECK_DISTANCE, SHOOTING_CHECK_MARGIN,
+};
 
 use std::f64::consts::TAU;
 
