@@ -132,3 +132,41 @@ fn undamped_helical_orbit_is_neutral() {
     println!("hb |μ| = {hb_rho:.12}: {hb_verdict:?}");
     assert_eq!(hb_verdict, Stability::Neutral);
 }
+
+/// Not a check: the cost of the shooting check, for `/usr/bin/time` (user + sys) of this
+/// test alone with `GEARDYN_HB_COST_MARGIN=0` (never checked) against the default margin:
+/// the idler's 250–760 rad/s branch at H = 10 and 20 and the spur pair's 300–600 at H = 20
+/// (the benchmark's continuations, `benches/analysis.rs`).
+#[test]
+#[ignore]
+fn cost_of_the_shooting_check() {
+    let margin = std::env::var("GEARDYN_HB_COST_MARGIN")
+        .map_or(geardyn::analysis::hb::SHOOTING_CHECK_MARGIN, |m| {
+            m.parse().unwrap()
+        });
+    let idler = Scene::example("idler_gearset").unwrap();
+    let spur = Scene::example("spur_pair").unwrap();
+    for _ in 0..3 {
+        for (scene, from, to, h) in [
+            (&idler, 250.0, 760.0, 10),
+            (&idler, 250.0, 760.0, 20),
+            (&spur, 300.0, 600.0, 20),
+        ] {
+            let branch = continuation(
+                scene,
+                &HbOptions::new(h),
+                &ContinuationOptions {
+                    shooting_check_margin: margin,
+                    ..ContinuationOptions::new(from, to)
+                },
+            )
+            .unwrap();
+            let checked = branch.iter().filter(|p| p.shooting_check.is_some()).count();
+            println!(
+                "{} H = {h}: {} points, {checked} checked",
+                scene.name,
+                branch.len()
+            );
+        }
+    }
+}
