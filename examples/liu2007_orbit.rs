@@ -361,6 +361,7 @@ fn replay(
             transient_periods: 0,
             newton_iterations: 0,
             spectral_radius: f64::NAN,
+            spectral_radius_periods: None,
             meshes,
             recording_phase: phase,
             recording_state: state,

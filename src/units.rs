@@ -208,8 +208,11 @@ fn quantity_unit(q: &str) -> Option<&'static str> {
         | "transient_periods"
         | "aperiodic"
         | "spectral_radius"
+        | "spectral_radius_periods"
         | "stable"
+        | "neutral"
         | "fold"
+        | "shooting_check"
         | "mesh"
         | "sample"
         | "pairs_loaded" => "1",

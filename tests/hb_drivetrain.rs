@@ -354,11 +354,18 @@ fn idler_continuation_folds_over_both_fundamental_resonances() {
         let upper = (last + 1..branch.len())
             .take_while(|&i| branch[i].speed < linear_speed)
             .filter(|&i| branch[i].speed > down + 3.0);
+        // Except at the Neimark–Sacker interval of the first resonance's upper branch
+        // (389.2–393.3 rad/s by `periodic`, issue 31), which the HB radius at H = 10 misses
+        // (0.99856 at 390.22 rad/s) and the shooting check near |μ| = 1 finds.
         for i in upper {
+            let p = &branch[i];
+            let neimark_sacker = p.shooting_checked()
+                && p.stability() == Some(geardyn::analysis::Stability::NeimarkSacker);
             assert!(
-                branch[i].stable().unwrap(),
-                "upper branch at {}",
-                branch[i].speed
+                p.stable().unwrap() || (neimark_sacker && p.speed > 389.0 && p.speed < 393.5),
+                "upper branch at {}: {:?}",
+                p.speed,
+                p.stability()
             );
         }
         // The oracle: up and down sweeps (long time integration with warm start) over the

@@ -220,7 +220,14 @@ fn hb_writes_per_mesh_columns_for_every_scene() {
         .flat_map(|m| per_mesh.iter().map(move |c| format!("{m}.{c}")))
         .collect();
     expected.extend(names.iter().map(String::as_str));
-    expected.extend(["spectral_radius", "stable", "fold"]);
+    expected.extend([
+        "spectral_radius",
+        "spectral_radius_periods",
+        "stable",
+        "neutral",
+        "fold",
+        "shooting_check",
+    ]);
     assert_eq!(header, expected);
     let rows: Vec<Vec<f64>> = text
         .lines()
@@ -279,6 +286,6 @@ fn hb_writes_per_mesh_columns_for_every_scene() {
         text.lines().next().unwrap(),
         "speed,speed_rpm,mesh_frequency,dte_mean,dte_rms,dte_peak_to_peak,a1,a2,a3,\
          contact_loss_fraction,separation_phase,peak_force,force_rms,dynamic_factor,\
-         spectral_radius,stable,fold"
+         spectral_radius,spectral_radius_periods,stable,neutral,fold,shooting_check"
     );
 }

@@ -63,13 +63,63 @@ pub struct PeriodicOrbit {
 /// Bifurcation and Stability Analysis*, §7.4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Stability {
+    /// Every multiplier inside the unit circle by more than [`NEUTRAL_TOLERANCE`].
     Stable,
+    /// The largest multiplier on the unit circle within [`NEUTRAL_TOLERANCE`] (an undamped
+    /// orbit): neither decaying nor growing at the accuracy of the monodromy.
+    Neutral,
     /// A real multiplier beyond +1 (fold / saddle-node branch).
     SaddleNode,
     /// A real multiplier beyond −1.
     PeriodDoubling,
     /// A complex pair outside the unit circle.
     NeimarkSacker,
+}
+
+/// A largest multiplier with `||μ| − 1| ≤ NEUTRAL_TOLERANCE` is on the unit circle: the
+/// verdict is [`Stability::Neutral`]. The tolerance is the accuracy of a computed multiplier
+/// on the unit circle: the exact transitions carry rounding only (an undamped orbit's
+/// multipliers come out within ~1e-13 of the circle), but a double multiplier (two undamped
+/// modes in resonance, the border of a parametric band) splits by `√ε ≈ 1.5e-8` under that
+/// rounding, and the RK variational equations carry the scene's `rtol` (1e-10 where scenes
+/// use them). Half a decade above `√ε`, and growth or decay at `1e-7` per period takes 10⁷
+/// periods to change the amplitude by a factor e, so nothing is lost by calling it neutral.
+pub const NEUTRAL_TOLERANCE: f64 = 1e-7;
+
+impl Stability {
+    /// The verdict of a set of Floquet multipliers.
+    pub fn of(multipliers: &[Complex<f64>]) -> Stability {
+        let Some(critical) = multipliers
+            .iter()
+            .copied()
+            .max_by(|a, b| a.norm().total_cmp(&b.norm()))
+        else {
+            return Stability::Stable;
+        };
+        let radius = critical.norm();
+        if radius < 1.0 - NEUTRAL_TOLERANCE {
+            Stability::Stable
+        } else if radius <= 1.0 + NEUTRAL_TOLERANCE {
+            Stability::Neutral
+        } else if critical.im.abs() > 1e-12 * radius {
+            Stability::NeimarkSacker
+        } else if critical.re > 0.0 {
+            Stability::SaddleNode
+        } else {
+            Stability::PeriodDoubling
+        }
+    }
+
+    /// The verdict as the reports print it.
+    pub fn word(self) -> &'static str {
+        match self {
+            Stability::Stable => "stable",
+            Stability::Neutral => "neutral",
+            Stability::SaddleNode => "unstable (saddle-node)",
+            Stability::PeriodDoubling => "unstable (period doubling)",
+            Stability::NeimarkSacker => "unstable (Neimark–Sacker)",
+        }
+    }
 }
 
 impl PeriodicOrbit {
@@ -81,21 +131,7 @@ impl PeriodicOrbit {
     }
 
     pub fn stability(&self) -> Stability {
-        let critical = self
-            .multipliers
-            .iter()
-            .copied()
-            .max_by(|a, b| a.norm().total_cmp(&b.norm()))
-            .expect("at least one multiplier");
-        if critical.norm() <= 1.0 {
-            Stability::Stable
-        } else if critical.im.abs() > 1e-12 * critical.norm() {
-            Stability::NeimarkSacker
-        } else if critical.re > 0.0 {
-            Stability::SaddleNode
-        } else {
-            Stability::PeriodDoubling
-        }
+        Stability::of(&self.multipliers)
     }
 }
 

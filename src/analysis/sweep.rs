@@ -152,8 +152,15 @@ pub struct SweepPoint {
     /// Newton iterations of the shooting warm start (0 when not used or not converged).
     pub newton_iterations: u32,
     /// Largest Floquet multiplier modulus of the last periodic orbit shooting found at this
-    /// speed (above 1: the orbit exists but is unstable); NaN when shooting found none.
+    /// speed (above 1: the orbit exists but is unstable); NaN when shooting found none. It is
+    /// the radius of the map over [`SweepPoint::spectral_radius_periods`] response periods:
+    /// at a period-2 or aperiodic point, where the last shooting was for a period-2 orbit,
+    /// that of the period-2 map (the square of the period-1 multipliers of that orbit, were it
+    /// period-1).
     pub spectral_radius: f64,
+    /// The response periods of the orbit whose spectral radius is given (None when shooting
+    /// found none).
+    pub spectral_radius_periods: Option<u32>,
     /// One entry per mesh.
     pub meshes: Vec<MeshResponse>,
     /// Where the recording started: the first mesh's phase in cycles, reduced modulo the
@@ -166,7 +173,7 @@ pub struct SweepPoint {
 }
 
 /// Columns shared by every scene; then per mesh [`MESH_COLUMNS`], prefixed.
-pub const POINT_COLUMNS: [&str; 10] = [
+pub const POINT_COLUMNS: [&str; 11] = [
     "direction",
     "speed",
     "speed_rpm",
@@ -177,6 +184,7 @@ pub const POINT_COLUMNS: [&str; 10] = [
     "transient_periods",
     "aperiodic",
     "spectral_radius",
+    "spectral_radius_periods",
 ];
 
 /// The column names of a sweep of a model with the given mesh prefixes.
@@ -204,6 +212,7 @@ impl SweepPoint {
             self.transient_periods as f64,
             f64::from(u8::from(self.periodicity == Periodicity::Aperiodic)),
             self.spectral_radius,
+            self.spectral_radius_periods.map_or(0.0, f64::from),
         ];
         for m in &self.meshes {
             row.extend(m.values());
@@ -334,6 +343,7 @@ fn failed_point<M: Drivetrain>(
         transient_periods: 0,
         newton_iterations: 0,
         spectral_radius: f64::NAN,
+        spectral_radius_periods: None,
         meshes,
         recording_phase: f64::NAN,
         recording_state: Vec::new(),
@@ -362,7 +372,8 @@ fn steady_state<M: Drivetrain>(
     let at = |e: String| format!("speed {speed} rad/s: {e}");
     let period = response_period(sim.model()).map_err(at)?;
     let scale = state_scale(sim.model(), sim.y());
-    let mut spectral_radius = f64::NAN;
+    // The radius and the response periods of its map (see `shoot_here`).
+    let mut spectral_radius = (f64::NAN, None);
     let newton_iterations = if options.shooting {
         shoot_here(sim, settings, options, period, 1, &mut spectral_radius)
     } else {
@@ -492,7 +503,8 @@ fn steady_state<M: Drivetrain>(
         residual,
         transient_periods: j,
         newton_iterations,
-        spectral_radius,
+        spectral_radius: spectral_radius.0,
+        spectral_radius_periods: spectral_radius.1,
         meshes: mesh_responses,
         recording_phase,
         recording_state,
@@ -522,14 +534,15 @@ const NEWTON_ITERATIONS: usize = 8;
 /// Newton shooting for a period-`k` orbit from the run's current state over `k` response
 /// periods; on a stable orbit the run restarts on it and the iterations used are returned, else
 /// 0 and the run is unchanged. The spectral radius of any orbit found (stable or not) is kept
-/// in `spectral_radius`: an unstable orbit there explains a response that does not settle.
+/// in `spectral_radius` with `k`, the response periods of its map: an unstable orbit there
+/// explains a response that does not settle.
 fn shoot_here<M: Drivetrain>(
     sim: &mut Driver<M>,
     settings: &SolverSettings,
     options: &SweepOptions,
     period: f64,
     k: u32,
-    spectral_radius: &mut f64,
+    spectral_radius: &mut (f64, Option<u32>),
 ) -> u32 {
     let t = sim.t();
     let Ok(map) = PeriodMap::new(sim.model().clone(), settings, period * k as f64) else {
@@ -547,7 +560,7 @@ fn shoot_here<M: Drivetrain>(
     match newton(&mut map, y.clone(), &shooting) {
         Ok(orbit) => {
             let rho = orbit.spectral_radius();
-            *spectral_radius = rho;
+            *spectral_radius = (rho, Some(k));
             // The orbit is the attractor the run is heading for only if the run is already in
             // its neighbourhood: for a contracting period map the distance to the fixed point
             // is at most r0/(1 − ρ), r0 the first residual. An orbit farther away is another

@@ -6,7 +6,10 @@
 use std::fmt::Write as _;
 
 use crate::analysis::band::mean_natural_frequency;
-use crate::analysis::{instability_bands, monodromy, multiplier_line, Floquet, LinearPeriodMap};
+use crate::analysis::shooting::NEUTRAL_TOLERANCE;
+use crate::analysis::{
+    instability_bands, monodromy, multiplier_line, Floquet, LinearPeriodMap, Stability,
+};
 use crate::model::Drivetrain;
 use crate::scene::Scene;
 use crate::units::{both_units, parse_speed, parse_speed_interval, rpm, significant};
@@ -117,13 +120,9 @@ pub fn floquet(mut scene: Scene, speed: Option<&str>, json: bool) -> Result<Stri
     for m in &floquet.multipliers {
         let _ = writeln!(out, "{}", multiplier_line(m));
     }
-    // |tr Φ| < 1 + det Φ with det Φ ≤ 1 (Jury test); undamped, det Φ = 1 up to rounding.
-    let stable = phi.trace().abs() < 1.0 + phi.determinant() && phi.determinant() <= 1.0 + 1e-9;
-    let _ = writeln!(
-        out,
-        "  stability: {}",
-        if stable { "stable" } else { "unstable" }
-    );
+    // Undamped (det Φ = 1 up to rounding) and outside the bands (|tr Φ| < 2): both multipliers
+    // on the unit circle, neutral, not stable.
+    let _ = writeln!(out, "  stability: {}", verdict(&floquet));
     let _ = writeln!(
         out,
         "  load response over one period g = [{:e} m, {:e} m/s]",
@@ -234,12 +233,21 @@ fn floquet_report(scene: &Scene, floquet: &Floquet, json: bool) -> String {
     for m in &floquet.multipliers {
         let _ = writeln!(out, "{}", multiplier_line(m));
     }
-    let _ = writeln!(
-        out,
-        "  spectral radius {rho:.12}: {}",
-        if rho < 1.0 { "stable" } else { "unstable" }
-    );
+    let _ = writeln!(out, "  spectral radius {rho:.12}: {}", verdict(floquet));
     out
+}
+
+/// The verdict the reports print: stable, neutral (the largest multiplier on the unit circle
+/// within [`NEUTRAL_TOLERANCE`]: an undamped system outside its instability bands) or
+/// unstable.
+fn verdict(floquet: &Floquet) -> String {
+    match Stability::of(&floquet.multipliers) {
+        Stability::Stable => "stable".into(),
+        Stability::Neutral => {
+            format!("neutral (|μ| within {NEUTRAL_TOLERANCE:.0e} of 1)")
+        }
+        _ => "unstable".into(),
+    }
 }
 
 /// The multipliers as a JSON array of `[re, im]` pairs.

@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use crate::analysis::hb::{continuation_reporting, BranchPoint, ContinuationOptions, HbOptions};
-use crate::analysis::{self, Direction, Report, SweepOptions};
+use crate::analysis::{self, Direction, Report, Stability, SweepOptions};
 use crate::output;
 use crate::plot::{Format, Marker, Series};
 use crate::scene::{KernelChoice, Scene};
@@ -40,8 +40,22 @@ pub const HB_POINT_COLUMNS: [&str; 3] = ["speed", "speed_rpm", "mesh_frequency"]
 /// Per-mesh columns (after the mesh's prefix): the same as `sweep`'s.
 pub use crate::analysis::mesh_response::MESH_COLUMNS as HB_MESH_COLUMNS;
 
-/// Columns after the per-mesh columns.
-pub const HB_STABILITY_COLUMNS: [&str; 3] = ["spectral_radius", "stable", "fold"];
+/// Columns after the per-mesh columns: the spectral radius of the map over
+/// `spectral_radius_periods` response periods (the HB period: the subharmonic order), the
+/// verdict (`stable` 1 / 0, `neutral` 1 when the radius is within
+/// [`crate::analysis::shooting::NEUTRAL_TOLERANCE`] of 1), the fold flag, and `shooting_check`:
+/// 0 where the multipliers are the HB orbit's, 1 where the HB radius lay within
+/// [`crate::analysis::hb::SHOOTING_CHECK_MARGIN`] of 1 and the multipliers (and so radius and
+/// verdict) are those of the periodic orbit Newton shooting found from the HB state, −1 where
+/// that shooting found no orbit near the HB state (the HB estimate stands).
+pub const HB_STABILITY_COLUMNS: [&str; 6] = [
+    "spectral_radius",
+    "spectral_radius_periods",
+    "stable",
+    "neutral",
+    "fold",
+    "shooting_check",
+];
 
 /// The column names of the `geardyn hb` CSV of a model with the given mesh prefixes: the
 /// single pair keeps `speed, speed_rpm, mesh_frequency, dte_mean, dte_rms, dte_peak_to_peak, a1, …, spectral_radius,
@@ -138,10 +152,22 @@ impl HbBranch {
                 for m in &p.solution.meshes {
                     row.extend(m.values());
                 }
+                let verdict = |v: Stability| {
+                    p.stability()
+                        .map_or(f64::NAN, |s| f64::from(u8::from(s == v)))
+                };
+                let check = match &p.shooting_check {
+                    None => 0.0,
+                    Some(c) if c.shooting_radius.is_some() => 1.0,
+                    Some(_) => -1.0,
+                };
                 row.extend([
                     p.spectral_radius().unwrap_or(f64::NAN),
-                    p.stable().map_or(f64::NAN, |s| f64::from(u8::from(s))),
+                    f64::from(p.solution.subharmonic),
+                    verdict(Stability::Stable),
+                    verdict(Stability::Neutral),
                     f64::from(u8::from(p.fold)),
+                    check,
                 ]);
                 row
             })
@@ -164,7 +190,11 @@ impl HbBranch {
         let mut series: Vec<Series> = Vec::new();
         // Consecutive points of equal stability form one segment (shared end points).
         let mut start = 0;
-        let stable = |i: usize| branch[i].stable().unwrap_or(true);
+        // Neutral (undamped) points are drawn solid with the stable ones: they do not grow.
+        let stable = |i: usize| {
+            (branch[i].stability())
+                .is_none_or(|s| matches!(s, Stability::Stable | Stability::Neutral))
+        };
         let (mut stable_labelled, mut unstable_labelled) = (false, false);
         let point = |p: &BranchPoint| (rpm(p.speed), p.solution.meshes[mesh].dte_rms);
         let markers = branch
@@ -180,6 +210,9 @@ impl HbBranch {
                 let is_stable = stable(start);
                 let end = i.min(branch.len() - 1);
                 let label = match (is_stable, stable_labelled, unstable_labelled) {
+                    (true, false, _) if branch[start].stability() == Some(Stability::Neutral) => {
+                        "HB neutral"
+                    }
                     (true, false, _) => "HB stable",
                     (false, _, false) => "HB unstable",
                     _ => "",
@@ -259,6 +292,76 @@ impl HbBranch {
                 let _ = write!(s, "{sep}{name} {:.4e} m", m.dte_rms);
             }
             s.push('\n');
+        }
+        s.push_str(&self.shooting_check_summary());
+        s
+    }
+
+    /// The lines on the points whose stability was checked by shooting (HB spectral radius
+    /// within the margin of 1): how many, each one whose verdict the check changed, and each
+    /// one where shooting found no orbit near the HB state.
+    fn shooting_check_summary(&self) -> String {
+        let checked: Vec<&BranchPoint> = (self.points.iter())
+            .filter(|p| p.shooting_check.is_some())
+            .collect();
+        let uncertain: Vec<&BranchPoint> = self
+            .points
+            .iter()
+            .filter(|p| p.verdict_uncertain())
+            .collect();
+        let mut s = String::new();
+        if let (Some(first), Some(last)) = (uncertain.first(), uncertain.last()) {
+            let _ = writeln!(
+                s,
+                "  {} points ({:.4} to {:.4} rad/s) have an HB spectral radius within {} times \
+                 the HB orbit's error estimate of 1 but beyond the {:.0e} checked: their \
+                 verdict may be wrong (raise --harmonics, or check with `geardyn periodic`)",
+                uncertain.len(),
+                first.speed,
+                last.speed,
+                crate::analysis::hb::RADIUS_SENSITIVITY,
+                crate::analysis::hb::SHOOTING_CHECK_MARGIN
+            );
+        }
+        if checked.is_empty() {
+            return s;
+        }
+        let _ = writeln!(
+            s,
+            "  {} points with the HB spectral radius within {:.0e} of 1 checked by shooting from \
+             the HB orbit (shooting_check = 1: radius and verdict of the shooting orbit)",
+            checked.len(),
+            crate::analysis::hb::SHOOTING_CHECK_MARGIN
+        );
+        for p in checked {
+            let c = p.shooting_check.as_ref().expect("filtered");
+            let shooting = p.stability().filter(|_| c.shooting_radius.is_some());
+            match (c.shooting_radius, shooting) {
+                (Some(r), Some(v)) if v != c.hb_stability => {
+                    let _ = writeln!(
+                        s,
+                        "  {:.4} rad/s: HB radius {:.6} ({}), shooting orbit {:.6} ({}), \
+                         {:.1e} of the state scale from the HB state",
+                        p.speed,
+                        c.hb_radius,
+                        c.hb_stability.word(),
+                        r,
+                        v.word(),
+                        c.distance
+                    );
+                }
+                (Some(_), _) => {}
+                _ => {
+                    let _ = writeln!(
+                        s,
+                        "  {:.4} rad/s: HB radius {:.6} ({}); shooting found no orbit near the \
+                         HB state (shooting_check = -1), the HB verdict stands",
+                        p.speed,
+                        c.hb_radius,
+                        c.hb_stability.word()
+                    );
+                }
+            }
         }
         s
     }

@@ -7,10 +7,11 @@ use std::path::Path;
 
 use crate::analysis::mesh_response::MeshResponse;
 use crate::analysis::orbit_statistics::orbit_responses;
+use crate::analysis::shooting::NEUTRAL_TOLERANCE;
 use crate::analysis::sweep::{Periodicity, Sweep, SweepPoint};
 use crate::analysis::{
     self, multiplier_line, shoot_reporting, Direction, PeriodicOrbit, Report, ShootingOptions,
-    SweepOptions,
+    Stability, SweepOptions,
 };
 use crate::model::Drivetrain;
 use crate::output;
@@ -129,7 +130,14 @@ pub fn periodic_report(scene: &Scene, orbit: &PeriodicOrbit) -> Result<String, S
     for m in &orbit.multipliers {
         let _ = writeln!(s, "{}", multiplier_line(m));
     }
-    let _ = writeln!(s, "  stability: {:?}", orbit.stability());
+    let stability = orbit.stability();
+    let _ = match stability {
+        Stability::Neutral => writeln!(
+            s,
+            "  stability: {stability:?} (|μ| within {NEUTRAL_TOLERANCE:.0e} of 1)"
+        ),
+        _ => writeln!(s, "  stability: {stability:?}"),
+    };
     Ok(s)
 }
 

@@ -5,7 +5,7 @@ use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
 use super::problem::{Evaluation, Problem, Want};
 use super::{HbOptions, HbSolution};
-use crate::analysis::shooting::PeriodMap;
+use crate::analysis::shooting::{newton, state_scale, PeriodMap, ShootingOptions, Stability};
 use crate::analysis::Report;
 use crate::model::{Drivetrain, SceneSource};
 use crate::scene::SolverSettings;
@@ -25,7 +25,46 @@ pub struct ContinuationOptions {
     pub max_points: usize,
     /// Compute the Floquet multipliers of each point (shooting monodromy from the HB state).
     pub stability: bool,
+    /// A point whose HB spectral radius lies within this of 1 has its verdict checked by
+    /// Newton shooting from the HB state ([`ShootingCheck`]); default
+    /// [`SHOOTING_CHECK_MARGIN`], 0 never checks, infinity checks every point.
+    pub shooting_check_margin: f64,
 }
+
+/// Default [`ContinuationOptions::shooting_check_margin`]. The HB radius is that of the
+/// monodromy along the trajectory from the HB state, which lies off the periodic orbit by the
+/// truncation error (the contact kinks make it decay like 1/H: on `idler_gearset` at
+/// 380–400 rad/s 5.5e-4, 2.7e-4, 1.35e-4, 6.7e-5 of the state scale at H = 10, 20, 40, 80).
+/// Where a contact switch of the orbit is sensitive to that offset, the radius errs by up to
+/// [`RADIUS_SENSITIVITY`] times it (the multiplier that crosses the unit circle at the
+/// idler's Neimark–Sacker point: 2.4e-3, 1.24e-3, 6.4e-4, 3.4e-4 at those H; the lightly
+/// damped modes' multipliers within 1e-7). 2e-3 covers that error plus the 1e-4 the verdicts
+/// are compared at for H ≥ 20 and keeps the check to the few points near the circle (11 of
+/// 344 on the idler's 250–760 rad/s branch at H = 20); where a coarser orbit may err by more,
+/// the summary of `geardyn hb` says so ([`BranchPoint::verdict_uncertain`]).
+pub const SHOOTING_CHECK_MARGIN: f64 = 2e-3;
+
+/// The largest measured ratio of the HB radius error near `|μ| = 1` to the HB orbit's scaled
+/// distance from the periodic orbit (4.7 on `idler_gearset` at H = 10–80, rounded up).
+/// Beside folds, where a real multiplier passes +1 with unbounded slope, the ratio is larger
+/// (up to ~150 measured), but there the fold itself marks the change of stability.
+pub const RADIUS_SENSITIVITY: f64 = 5.0;
+
+/// A shooting orbit is taken as the HB orbit's when its start lies within this many times the
+/// first Newton step from the HB state (the step estimates the distance; measured within 5 %
+/// of it away from folds): farther away, Newton has found another orbit.
+pub const SHOOTING_CHECK_DISTANCE: f64 = 2.0;
+
+/// Scaled periodicity residual at which the check's Newton stops. The radius moves by about
+/// five times the orbit's scaled displacement near `|μ| = 1` (measured on `idler_gearset`), so
+/// this keeps the checked radius within ~1e-8 of the converged one, far inside the 1e-4 the
+/// verdicts are compared at, and the Newton step from the HB state usually reaches it with
+/// the one period map the check costs.
+const SHOOTING_CHECK_TOLERANCE: f64 = 1e-9;
+
+/// Newton iterations of the shooting check; the start is the HB orbit, within its truncation
+/// error of the periodic orbit, so Newton converges in a few (quadratically, away from folds).
+const SHOOTING_CHECK_ITERATIONS: usize = 12;
 
 impl ContinuationOptions {
     pub fn new(from: f64, to: f64) -> Self {
@@ -36,6 +75,7 @@ impl ContinuationOptions {
             max_step: 0.05,
             max_points: 2000,
             stability: true,
+            shooting_check_margin: SHOOTING_CHECK_MARGIN,
         }
     }
 }
@@ -46,11 +86,42 @@ pub struct BranchPoint {
     pub solution: HbSolution,
     /// Input speed, rad/s.
     pub speed: f64,
-    /// Floquet multipliers (None when not computed): eigenvalues of the monodromy (with
-    /// saltation) from the HB state at `t = 0`, accurate to the HB truncation error.
+    /// Floquet multipliers over the HB period (None when not computed): eigenvalues of the
+    /// monodromy (with saltation) from the HB state at `t = 0`, accurate to the HB truncation
+    /// error; where the shooting check converged ([`BranchPoint::shooting_check`]), those of
+    /// the periodic orbit Newton shooting found from the HB state.
     pub multipliers: Option<Vec<Complex<f64>>>,
+    /// Set where the HB spectral radius lay within
+    /// [`ContinuationOptions::shooting_check_margin`] of 1.
+    pub shooting_check: Option<ShootingCheck>,
+    /// The scaled size of the Newton step from the HB state (from its period map and
+    /// monodromy, no integration): the estimate of the HB orbit's distance from the periodic
+    /// orbit in the shooting residual's scale ([`state_scale`]); None without multipliers.
+    pub orbit_error: Option<f64>,
     /// Whether the step to this point passed a fold (turning point in speed).
     pub fold: bool,
+}
+
+/// The check of a point's stability near `|μ| = 1` by Newton shooting from the HB state
+/// (the period map and monodromy with saltation that `geardyn periodic` uses).
+#[derive(Debug, Clone)]
+pub struct ShootingCheck {
+    /// The spectral radius of the monodromy along the trajectory from the HB state (the
+    /// estimate that was checked).
+    pub hb_radius: f64,
+    /// The verdict of those multipliers.
+    pub hb_stability: Stability,
+    /// The shooting orbit's spectral radius; None when Newton did not converge within
+    /// [`SHOOTING_CHECK_DISTANCE`] first Newton steps of the HB state (then the HB estimate
+    /// stands).
+    pub shooting_radius: Option<f64>,
+    /// Scaled distance of the shooting orbit's start from the HB state (NaN without one).
+    pub distance: f64,
+    /// Scaled size of the first Newton step from the HB state (computed from the HB map and
+    /// monodromy alone): the estimate of that distance the margin is scaled by.
+    pub newton_step: f64,
+    /// Newton iterations of the check (period maps evaluated after the HB one).
+    pub iterations: usize,
 }
 
 impl BranchPoint {
@@ -61,9 +132,35 @@ impl BranchPoint {
             .map(|m| m.iter().map(|c| c.norm()).fold(0.0, f64::max))
     }
 
-    /// Stable when every multiplier lies inside the unit circle.
+    /// The verdict of the multipliers ([`Stability::of`]; neutral within
+    /// [`crate::analysis::shooting::NEUTRAL_TOLERANCE`] of the unit circle).
+    pub fn stability(&self) -> Option<Stability> {
+        self.multipliers.as_deref().map(Stability::of)
+    }
+
+    /// Stable when every multiplier lies inside the unit circle (by more than the neutral
+    /// tolerance).
     pub fn stable(&self) -> Option<bool> {
-        self.spectral_radius().map(|r| r < 1.0)
+        self.stability().map(|s| s == Stability::Stable)
+    }
+
+    /// Whether the verdict of unchecked HB multipliers may be wrong: the radius lies within
+    /// [`RADIUS_SENSITIVITY`] times the HB orbit's error of 1 (outside the check's margin,
+    /// else it would have been checked).
+    pub fn verdict_uncertain(&self) -> bool {
+        match (self.spectral_radius(), self.orbit_error) {
+            (Some(r), Some(e)) if self.shooting_check.is_none() => {
+                (r - 1.0).abs() <= RADIUS_SENSITIVITY * e
+            }
+            _ => false,
+        }
+    }
+
+    /// Whether the multipliers came from the shooting orbit of the check.
+    pub fn shooting_checked(&self) -> bool {
+        self.shooting_check
+            .as_ref()
+            .is_some_and(|c| c.shooting_radius.is_some())
     }
 }
 
@@ -252,7 +349,7 @@ fn continue_branch<M: Drivetrain + Send>(
                 points.len()
             )
         });
-        branch_stability(&problem, &mut points);
+        branch_stability(&problem, &mut points, options.shooting_check_margin);
     }
     Ok(points)
 }
@@ -269,29 +366,109 @@ fn make_point<M: Drivetrain>(
         speed: problem.speed(f),
         solution: problem.solution(f, e, iterations),
         multipliers: None,
+        shooting_check: None,
+        orbit_error: None,
         fold,
     }
 }
 
+/// A point's multipliers, its shooting check and the HB orbit's estimated error.
+type StabilityResult = (
+    Option<Vec<Complex<f64>>>,
+    Option<ShootingCheck>,
+    Option<f64>,
+);
+
 /// Floquet multipliers of an orbit of `model` (at the orbit's speed) over `period` seconds from
 /// its state at `t = 0`: the shooting monodromy with saltation at contact changes
-/// ([`PeriodMap`]); `None` when the period map fails.
+/// ([`PeriodMap`]); `None` when the period map fails. When their spectral radius is within
+/// `margin` of 1, Newton shooting from the HB state finds the periodic orbit and its
+/// multipliers replace the HB ones (kept in the [`ShootingCheck`]).
 fn multipliers<M: Drivetrain>(
     model: M,
     settings: &SolverSettings,
     period: f64,
     solution: &HbSolution,
-) -> Option<Vec<Complex<f64>>> {
-    let mut map = PeriodMap::new(model, settings, period).ok()?;
-    let (_, monodromy) = map.eval(&solution.state_at(0.0)).ok()?;
-    crate::analysis::multipliers(&monodromy).ok()
+    margin: f64,
+) -> StabilityResult {
+    let Ok(mut map) = PeriodMap::new(model, settings, period) else {
+        return (None, None, None);
+    };
+    let y = solution.state_at(0.0);
+    let Ok((py, monodromy)) = map.eval(&y) else {
+        return (None, None, None);
+    };
+    let Ok(hb) = crate::analysis::multipliers(&monodromy) else {
+        return (None, None, None);
+    };
+    let radius = |m: &[Complex<f64>]| m.iter().map(|c| c.norm()).fold(0.0, f64::max);
+    let hb_radius = radius(&hb);
+    let scale = state_scale(map.model(), &y);
+    // The Newton step from the HB state, from its map and monodromy (no integration).
+    let n = y.len();
+    let step = (&monodromy - DMatrix::identity(n, n))
+        .lu()
+        .solve(&(DVector::from_column_slice(&y) - &py));
+    let newton_step = step.as_ref().map_or(f64::INFINITY, |s| {
+        s.iter()
+            .zip(&scale)
+            .map(|(d, s)| (d / s).abs())
+            .fold(0.0, f64::max)
+    });
+    if !((hb_radius - 1.0).abs() <= margin) {
+        return (Some(hb), None, Some(newton_step));
+    }
+    let options = ShootingOptions {
+        periods: solution.subharmonic,
+        warmup_periods: 0,
+        tolerance: SHOOTING_CHECK_TOLERANCE,
+        max_iterations: SHOOTING_CHECK_ITERATIONS,
+    };
+    let start = match &step {
+        Some(s) if newton_step.is_finite() => y.iter().zip(s.iter()).map(|(a, d)| a + d).collect(),
+        _ => y.clone(),
+    };
+    let orbit = newton(&mut map, start, &options).ok().map(|orbit| {
+        let distance = (y.iter().zip(&orbit.y0).zip(&scale))
+            .map(|((a, b), s)| ((a - b) / s).abs())
+            .fold(0.0, f64::max);
+        (orbit, distance)
+    });
+    match orbit {
+        Some((orbit, distance)) if distance <= SHOOTING_CHECK_DISTANCE * newton_step => {
+            let check = ShootingCheck {
+                hb_radius,
+                hb_stability: Stability::of(&hb),
+                shooting_radius: Some(orbit.spectral_radius()),
+                distance,
+                newton_step,
+                iterations: orbit.residuals.len(),
+            };
+            (Some(orbit.multipliers), Some(check), Some(newton_step))
+        }
+        other => {
+            let check = ShootingCheck {
+                hb_radius,
+                hb_stability: Stability::of(&hb),
+                shooting_radius: None,
+                distance: other.map_or(f64::NAN, |(_, d)| d),
+                newton_step,
+                iterations: 0,
+            };
+            (Some(hb), Some(check), Some(newton_step))
+        }
+    }
 }
 
 /// The multipliers of every point of a branch. The period maps are independent of each
 /// other and dominate the cost of a continuation (each is a shooting integration with
 /// sensitivities), so they run on all available cores; each point's result is the same on any
 /// number of threads.
-fn branch_stability<M: Drivetrain + Send>(problem: &Problem<M>, points: &mut [BranchPoint]) {
+fn branch_stability<M: Drivetrain + Send>(
+    problem: &Problem<M>,
+    points: &mut [BranchPoint],
+    margin: f64,
+) {
     let threads = std::thread::available_parallelism()
         .map_or(1, |n| n.get())
         .clamp(1, points.len().max(1));
@@ -306,7 +483,7 @@ fn branch_stability<M: Drivetrain + Send>(problem: &Problem<M>, points: &mut [Br
         })
         .collect();
     let settings = &problem.settings;
-    let mut results: Vec<(usize, Option<Vec<Complex<f64>>>)> = Vec::with_capacity(jobs.len());
+    let mut results: Vec<(usize, StabilityResult)> = Vec::with_capacity(jobs.len());
     let mut queues: Vec<Vec<_>> = (0..threads).map(|_| Vec::new()).collect();
     for (k, job) in jobs.into_iter().enumerate() {
         queues[k % threads].push(job);
@@ -319,7 +496,7 @@ fn branch_stability<M: Drivetrain + Send>(problem: &Problem<M>, points: &mut [Br
                     queue
                         .into_iter()
                         .map(|(i, model, period, solution)| {
-                            (i, multipliers(model, settings, period, solution))
+                            (i, multipliers(model, settings, period, solution, margin))
                         })
                         .collect::<Vec<_>>()
                 })
@@ -329,7 +506,9 @@ fn branch_stability<M: Drivetrain + Send>(problem: &Problem<M>, points: &mut [Br
             results.extend(h.join().expect("stability thread"));
         }
     });
-    for (i, m) in results {
+    for (i, (m, check, error)) in results {
         points[i].multipliers = m;
+        points[i].shooting_check = check;
+        points[i].orbit_error = error;
     }
 }

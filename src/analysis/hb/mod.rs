@@ -50,16 +50,22 @@
 //!
 //! **Stability.** Floquet multipliers of each continued orbit are the eigenvalues of the
 //! shooting monodromy (with saltation at contact changes,
-//! [`crate::analysis::shooting::PeriodMap`]) started from the HB state at `t = 0`; they are
-//! accurate to the truncation error of the orbit. The period maps of a branch are independent
-//! and run on all cores.
+//! [`crate::analysis::shooting::PeriodMap`]) started from the HB state at `t = 0` (not Hill's
+//! method: no truncated Hill matrix, no sorting of its eigenvalues). Their error is that of the
+//! trajectory from the HB state, which lies off the periodic orbit by the truncation error;
+//! where a contact switch is sensitive to that offset it reaches a few times the offset, so a
+//! radius within [`SHOOTING_CHECK_MARGIN`] of 1 is checked by Newton shooting from the HB state
+//! ([`ShootingCheck`]). The period maps of a branch are independent and run on all cores.
 
 mod continuation;
 mod evaluate;
 mod problem;
 mod statistics;
 
-pub use continuation::{continuation, continuation_reporting, BranchPoint, ContinuationOptions};
+pub use continuation::{
+    continuation, continuation_reporting, BranchPoint, ContinuationOptions, ShootingCheck,
+    RADIUS_SENSITIVITY, SHOOTING_CHECK_DISTANCE, SHOOTING_CHECK_MARGIN,
+};
 
 use std::f64::consts::TAU;
 
