@@ -12,7 +12,8 @@ pub mod stream;
 pub use driver::{DrivenModel, Driver, Propagator};
 pub use scales::RunScales;
 pub use stream::{
-    stream, ColumnStats, OutputGrid, Progress, ProgressDisplay, RowSink, RunLimits, RunSummary,
+    stream, stream_with, ColumnStats, OutputGrid, Progress, ProgressDisplay, RowSink, RunLimits,
+    RunSummary,
 };
 
 use crate::model::{GearPair, Inputs, PairState, OUTPUT_NAMES};

@@ -316,3 +316,49 @@ fn orbit_lines_do_not_depend_on_the_samples() {
         }
     }
 }
+
+/// `simulate --spectrum` over 200 mesh periods of the spur pair at `--output-interval 3e-5`
+/// (issue 31 item 4): the rows end on the grid at 2339·3e-5 s (not at the stop time, 1.75e-5 s
+/// after the previous row), so the record is not an integer number of periods and the
+/// flat-top window is taken, and said; a record with a row off its grid is refused.
+#[test]
+fn simulate_spectrum_rows_stay_on_the_grid() {
+    use geardyn::commands::simulate::{simulate, SimulateOptions};
+    use geardyn::commands::spectrum::{record_spectrum, spectrum_of_run, Lines};
+    let dir = std::env::temp_dir().join(format!("geardyn-spectrum-grid-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = Scene::from_path(std::path::Path::new("fmu/spur_pair")).unwrap();
+    let opts = SimulateOptions {
+        stop_time: Some(200.0 / 2850.0),
+        output_interval: Some(3e-5),
+        no_summary: true,
+        ..SimulateOptions::default()
+    };
+    let csv = dir.join("run.csv");
+    let report = simulate(scene.clone(), &opts, &csv).unwrap();
+    assert_eq!(report.rows, 2340);
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let last: f64 = text
+        .lines()
+        .last()
+        .unwrap()
+        .split(',')
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert_eq!(last, 2339.0 * 3e-5);
+    let method = spectrum_of_run(&scene, &report, &csv, &dir.join("spectrum.csv")).unwrap();
+    assert_eq!(method, Lines::Windowed);
+    assert!(method.describe().contains("windowed"));
+    // Rows off a uniform grid are refused, naming the row.
+    let mut t: Vec<f64> = (0..64).map(|j| j as f64 * 1e-5).collect();
+    t[63] = 62.5e-5;
+    let x = vec![("mesh.dte".to_string(), vec![0.0; 64])];
+    let e = record_spectrum(&scene, &t, &x).unwrap_err();
+    assert!(
+        e.contains("row 1 ") || e.contains("off the uniform grid"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -318,23 +318,67 @@ pub fn record<M: Drivetrain>(
     }
 }
 
-/// The observer of [`record_observed`]: adds each segment of the run as a smooth piece.
-struct Recorder<'a> {
-    sums: &'a mut [Sums],
-    frequencies: &'a [f64],
+/// The observer of [`record_observed`] and [`RunStatistics`]: adds each segment of the run
+/// as smooth pieces.
+struct Recorder {
+    sums: Vec<Sums>,
+    frequencies: Vec<f64>,
     t0: f64,
     /// Each mesh's refined maxima of `[|force|, DTE, −DTE]` so far.
     peaks: Vec<[f64; EXTREMES]>,
+    /// Longest piece: a segment longer than this is cut into equal pieces (a run whose
+    /// advances are not cut at the cells' grid: [`RunStatistics`]); infinite where the
+    /// advances already end at every cell boundary ([`record_observed`]).
+    max_piece: f64,
     samples: Vec<(f64, Vec<Value>)>,
     y: Vec<f64>,
 }
 
-impl<M: Drivetrain> SegmentObserver<M> for Recorder<'_> {
+impl Recorder {
+    fn new<M: Drivetrain>(sim: &Driver<M>, max_piece: f64) -> Recorder {
+        let meshes = sim.model().mesh_count();
+        Recorder {
+            sums: new_sums(&values(sim, meshes)),
+            frequencies: (0..meshes).map(|m| sim.model().mesh_frequency(m)).collect(),
+            t0: sim.t(),
+            peaks: vec![[f64::NEG_INFINITY; EXTREMES]; meshes],
+            max_piece,
+            samples: Vec::new(),
+            y: vec![0.0; sim.y().len()],
+        }
+    }
+}
+
+impl<M: Drivetrain> SegmentObserver<M> for Recorder {
     fn segment(&mut self, model: &M, segment: &mut Segment) {
         let (lo, hi) = (segment.start(), segment.end());
         if !(hi > lo) {
             return;
         }
+        // Equal pieces no longer than `max_piece` (a margin keeps a segment of exactly that
+        // length one piece).
+        let pieces = ((hi - lo) / self.max_piece * (1.0 - 1e-12)).ceil().max(1.0);
+        if pieces > 1.0 && pieces.is_finite() {
+            let n = pieces as usize;
+            let h = (hi - lo) / pieces;
+            for p in 0..n {
+                let a = lo + p as f64 * h;
+                let b = if p + 1 == n {
+                    hi
+                } else {
+                    lo + (p + 1) as f64 * h
+                };
+                self.piece(model, segment, a, b);
+            }
+        } else {
+            self.piece(model, segment, lo, hi);
+        }
+    }
+}
+
+impl Recorder {
+    /// Adds `[lo, hi]` of `segment` as one smooth piece.
+    fn piece<M: Drivetrain>(&mut self, model: &M, segment: &mut Segment, lo: f64, hi: f64) {
         let meshes = self.sums.len();
         // The piece's samples: its ends (the one-sided limits of the mode there) and the
         // Gauss nodes between.
@@ -357,7 +401,7 @@ impl<M: Drivetrain> SegmentObserver<M> for Recorder<'_> {
             samples: &samples,
             nodes: 1..GAUSS10.len() + 1,
         };
-        add_piece(self.sums, &piece, 0, self.frequencies, self.t0, model);
+        add_piece(&mut self.sums, &piece, 0, &self.frequencies, self.t0, model);
         for (m, s) in self.sums.iter_mut().enumerate() {
             for which in 0..EXTREMES {
                 let c = s.candidates[which]
@@ -397,16 +441,7 @@ fn record_observed<M: Drivetrain>(
     poincare: bool,
 ) -> Result<Vec<MeshResponse>, String> {
     let meshes = sim.model().mesh_count();
-    let frequencies: Vec<f64> = (0..meshes).map(|m| sim.model().mesh_frequency(m)).collect();
-    let mut sums = new_sums(&values(sim, meshes));
-    let mut recorder = Recorder {
-        sums: &mut sums,
-        frequencies: &frequencies,
-        t0: sim.t(),
-        peaks: vec![[f64::NEG_INFINITY; EXTREMES]; meshes],
-        samples: Vec::new(),
-        y: vec![0.0; sim.y().len()],
-    };
+    let mut recorder = Recorder::new(sim, f64::INFINITY);
     for &(b, _, cycle_end) in &cells.bounds[1..] {
         let observed = sim
             .advance_observed(b, &mut recorder)
@@ -422,7 +457,83 @@ fn record_observed<M: Drivetrain>(
         }
     }
     let extremes = std::mem::take(&mut recorder.peaks);
-    Ok(responses(sim.model(), &mut sums, &extremes, duration))
+    Ok(responses(
+        sim.model(),
+        &mut recorder.sums,
+        &extremes,
+        duration,
+    ))
+}
+
+/// Each mesh's response over a whole run, accumulated while the run advances to its output
+/// times (issue 31: the `simulate` summary): the same observer as [`record_observed`], whose
+/// segments end at the run's own stops and located events; a segment longer than
+/// `h·ω_max ≤ 3` (or a quarter period of the fastest mesh) is cut into equal pieces, so the
+/// 10-point Gauss rule and the refined extremes carry the accuracy of [`record`] whatever the
+/// output interval. Only where the run's segments are observable (the exact propagator, no
+/// profiles): [`RunStatistics::new`] is `None` elsewhere.
+pub struct RunStatistics {
+    recorder: Recorder,
+}
+
+impl RunStatistics {
+    /// Statistics from the run's current state on, or `None` where its segments are not
+    /// observable (RK, speed or torque profiles).
+    pub fn new<M: Drivetrain>(sim: &Driver<M>) -> Option<RunStatistics> {
+        if !sim.observes_segments() {
+            return None;
+        }
+        let model = sim.model();
+        let f_mesh = (0..model.mesh_count())
+            .map(|m| model.mesh_frequency(m).abs())
+            .fold(0.0, f64::max);
+        let max_piece = (CELL_OMEGA / model.max_frequency())
+            .min(1.0 / (MIN_CELLS as f64 * f_mesh))
+            .min(f64::MAX);
+        Some(RunStatistics {
+            recorder: Recorder::new(sim, max_piece),
+        })
+    }
+
+    /// Advances the run to `t`, adding its segments.
+    pub fn advance<M: Drivetrain>(
+        &mut self,
+        sim: &mut Driver<M>,
+        t: f64,
+    ) -> Result<(), crate::solve::SolveError> {
+        let observed = sim.advance_observed(t, &mut self.recorder)?;
+        debug_assert!(
+            observed,
+            "RunStatistics on a run without observable segments"
+        );
+        Ok(())
+    }
+
+    /// Each mesh's response from the statistics' start to the run's current time.
+    pub fn finish<M: Drivetrain>(mut self, sim: &Driver<M>) -> Vec<MeshResponse> {
+        let duration = sim.t() - self.recorder.t0;
+        // The harmonics were integrated with each mesh's first DTE taken out (a line far below
+        // the mean would otherwise carry the rounding of the mean's integral); over a run that
+        // is not a whole number of mesh periods the constant has lines of its own:
+        // `d_ref ∫₀ᴰ e^{−iωτ} dτ = d_ref (sin ωD, cos ωD − 1)/ω`.
+        for (s, &f) in self
+            .recorder
+            .sums
+            .iter_mut()
+            .zip(&self.recorder.frequencies)
+        {
+            for (h, acc) in s.harmonics.iter_mut().enumerate() {
+                let omega = TAU * (h + 1) as f64 * f;
+                if omega != 0.0 {
+                    let (sn, cs) = (omega * duration).sin_cos();
+                    acc.0 += s.dte_ref * sn / omega;
+                    acc.1 += s.dte_ref * (cs - 1.0) / omega;
+                }
+            }
+        }
+        let extremes = std::mem::take(&mut self.recorder.peaks);
+        responses(sim.model(), &mut self.recorder.sums, &extremes, duration)
+    }
 }
 
 /// [`record`] by a probe run restarted at a cell's start (the RK propagator, profiles).

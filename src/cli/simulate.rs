@@ -93,6 +93,7 @@ pub fn run(args: SimulateArgs) -> Result<(), String> {
             (false, true) => ProgressDisplay::Off,
         },
         header_units: args.units,
+        no_summary: args.quiet,
     };
     let files = SimulateFiles {
         out: &args.out,

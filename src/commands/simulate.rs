@@ -30,11 +30,27 @@ pub fn command(
     if let Some(path) = files.plot {
         crate::plot::Format::of(path)?;
     }
-    let interval = opts.output_interval.unwrap_or(scene.solver.output_interval);
-    if interval > 0.0 {
+    let mut settings = scene.solver.clone();
+    let (stop_time, interval) = opts.apply(&mut settings)?;
+    // The summary comes from the continuous solution (the exact propagator), so the output
+    // interval decides only what the rows show: aliasing matters for a spectrum of the rows
+    // (`--spectrum`) and for a summary of the rows (RK, or no summary with `--quiet`).
+    let sampled_summary = {
+        let mut s = scene.clone();
+        s.solver = settings;
+        !super::spectrum::statistics_from_solution(&s)?
+    };
+    if files.spectrum.is_some() || (sampled_summary && !files.quiet) {
         if let Some(warning) = super::spectrum::aliasing(&scene, interval)? {
             eprintln!("{warning}");
         }
+    }
+    let last = crate::simulation::OutputGrid::new(stop_time, interval).last_point();
+    if last < stop_time {
+        eprintln!(
+            "note: stop time {stop_time:e} s is not a multiple of the output interval \
+             {interval:e} s: the rows stay on the grid and end at {last:e} s"
+        );
     }
     let scene_for_spectrum = scene.clone();
     let report = simulate(scene, opts, files.out)?;
@@ -45,7 +61,11 @@ pub fn command(
         report.print(files.out);
     }
     if let Some(path) = files.spectrum {
-        super::spectrum::spectrum_of_run(&scene_for_spectrum, &report, files.out, path)?;
+        let method =
+            super::spectrum::spectrum_of_run(&scene_for_spectrum, &report, files.out, path)?;
+        if !files.quiet {
+            println!("  spectrum ({}) -> {}", method.describe(), path.display());
+        }
     }
     Ok(report)
 }

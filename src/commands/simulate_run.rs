@@ -7,10 +7,12 @@
 use std::path::Path;
 
 use super::positive;
+use crate::analysis::orbit_statistics::RunStatistics;
+use crate::analysis::MeshResponse;
 use crate::model::{Drivetrain, MeshColumns};
 use crate::output::CsvWriter;
 use crate::scene::{MethodChoice, SolverSettings};
-use crate::simulation::{stream, Progress, ProgressDisplay, RunLimits, RunSummary};
+use crate::simulation::{stream_with, Progress, ProgressDisplay, RunLimits, RunSummary};
 use crate::simulation::{DrivenModel, Driver, OutputGrid};
 use crate::solve::SolverStats;
 use crate::with_drivetrain;
@@ -31,12 +33,15 @@ pub struct SimulateOptions {
     pub progress: ProgressDisplay,
     /// Write each column's unit into the header, `dte [m]` (`--units`; [`crate::units`]).
     pub header_units: bool,
+    /// No statistics from the solution (`--quiet`, which prints no summary): the summary is
+    /// then only that of the output samples, and the run costs nothing for it.
+    pub no_summary: bool,
 }
 
 impl SimulateOptions {
     /// Applies the options to a scene's settings; returns the stop time and the output
     /// interval.
-    fn apply(&self, s: &mut SolverSettings) -> Result<(f64, f64), String> {
+    pub(crate) fn apply(&self, s: &mut SolverSettings) -> Result<(f64, f64), String> {
         if let Some(m) = &self.method {
             s.method = m
                 .parse::<MethodChoice>()
@@ -68,9 +73,14 @@ pub struct MeshSummary {
     pub dte_rms: f64,
     /// Largest |mesh force|, N.
     pub peak_force: f64,
-    /// Fraction of output rows in contact loss (single pair: not in drive-side contact;
-    /// drivetrain: no tooth pair in contact).
+    /// Fraction of the run in contact loss (single pair: not in drive-side contact;
+    /// drivetrain: no tooth pair in contact): from the located event times when
+    /// `response` is there, else of the output rows.
     pub contact_loss: f64,
+    /// The mesh's statistics over the run from the continuous solution
+    /// ([`crate::analysis::orbit_statistics::RunStatistics`]: the exact propagator); `None`
+    /// on the RK propagator or with `--quiet`, where the fields above are of the output rows.
+    pub response: Option<MeshResponse>,
     /// The mesh's DTE and force columns in the CSV (0 is time).
     pub dte_column: usize,
     pub force_column: usize,
@@ -102,20 +112,33 @@ impl SimulateReport {
             self.rows
         );
         println!("  method               {}", self.method);
+        // Where the numbers come from: the continuous solution (event times, segment
+        // integrals and refined extremes), or, on the RK propagator, the output rows.
+        let exact = self.meshes.iter().all(|m| m.response.is_some());
+        let of = if exact {
+            "from the event times"
+        } else {
+            "of output samples"
+        };
         if self.pair {
             let m = &self.meshes[0];
             println!("  DTE RMS (mean removed) {:.6e} m", m.dte_rms);
             println!("  peak mesh force      {:.6e} N", m.peak_force);
-            println!(
-                "  contact-loss fraction {:.4} (of output samples)",
-                m.contact_loss
-            );
+            println!("  contact-loss fraction {:.6} ({of})", m.contact_loss);
         } else {
             for m in &self.meshes {
                 println!(
-                    "  {:<10} DTE RMS {:.6e} m, peak force {:.6e} N, total contact loss {:.4} of samples",
+                    "  {:<10} DTE RMS {:.6e} m, peak force {:.6e} N, total contact loss {:.6} ({of})",
                     m.name, m.dte_rms, m.peak_force, m.contact_loss
                 );
+            }
+        }
+        if exact {
+            println!("  statistics over the run from the continuous solution (as `periodic` reports them):");
+            for m in &self.meshes {
+                if let Some(r) = &m.response {
+                    println!("    {}", r.report_line());
+                }
             }
         }
         let st = &self.stats;
@@ -148,7 +171,8 @@ pub fn simulate(
             .collect();
         let summed: Vec<usize> = meshes.iter().flat_map(|(_, c)| [c.dte, c.force]).collect();
         let tallies: Vec<(usize, f64)> = meshes.iter().map(|(_, c)| (c.contact, c.contact_value)).collect();
-        let run = run_to_csv(
+        let statistics = if opts.no_summary { None } else { RunStatistics::new(&sim) };
+        let (run, responses) = run_to_csv(
             sim,
             &names,
             RunSummary::new(&summed, &tallies),
@@ -157,16 +181,28 @@ pub fn simulate(
             interval,
             opts,
             out,
+            statistics,
         )?;
+        let mut responses = responses.map(Vec::into_iter);
         let meshes = meshes
             .into_iter()
             .map(|(name, c)| {
                 let fraction = run.summary.fraction(c.contact, c.contact_value);
+                let response = responses.as_mut().and_then(Iterator::next);
+                let (dte_rms, peak_force, contact_loss) = match &response {
+                    Some(r) => (r.dte_rms, r.peak_force, r.contact_loss_fraction),
+                    None => (
+                        run.summary.column(c.dte).rms_about_mean(),
+                        run.summary.column(c.force).max_abs(),
+                        if c.value_means_contact { 1.0 - fraction } else { fraction },
+                    ),
+                };
                 MeshSummary {
                     name,
-                    dte_rms: run.summary.column(c.dte).rms_about_mean(),
-                    peak_force: run.summary.column(c.force).max_abs(),
-                    contact_loss: if c.value_means_contact { 1.0 - fraction } else { fraction },
+                    dte_rms,
+                    peak_force,
+                    contact_loss,
+                    response,
                     dte_column: c.dte + 1,
                     force_column: c.force + 1,
                 }
@@ -221,7 +257,7 @@ impl Streamed {
 /// The one streaming run of pair and drivetrain: limits first, then the file, then the rows,
 /// with `summary` accumulated on the way.
 #[allow(clippy::too_many_arguments)]
-fn run_to_csv<M: DrivenModel>(
+fn run_to_csv<M: DrivenModel + Drivetrain>(
     mut sim: Driver<M>,
     names: &[String],
     mut summary: RunSummary,
@@ -230,7 +266,8 @@ fn run_to_csv<M: DrivenModel>(
     interval: f64,
     opts: &SimulateOptions,
     out: &Path,
-) -> Result<Streamed, String> {
+    mut statistics: Option<RunStatistics>,
+) -> Result<(Streamed, Option<Vec<MeshResponse>>), String> {
     opts.limits
         .check(&sim.model().run_scales(), stop_time, interval)?;
     let mut columns: Vec<String> = std::iter::once("time".to_owned())
@@ -241,7 +278,7 @@ fn run_to_csv<M: DrivenModel>(
     }
     let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
     let mut writer = CsvWriter::create(out, &columns)?;
-    stream(
+    stream_with(
         &mut sim,
         OutputGrid::new(stop_time, interval),
         outputs,
@@ -249,17 +286,25 @@ fn run_to_csv<M: DrivenModel>(
         &mut summary,
         &mut Progress::with_display(stop_time, opts.progress),
         opts.limits.work_budget,
+        |sim, t| match &mut statistics {
+            Some(s) => s.advance(sim, t),
+            None => sim.advance_to(t),
+        },
     )?;
+    let responses = statistics.map(|s| s.finish(&sim));
     let rows = writer.rows();
     let peak_buffered_bytes = writer.peak_buffered_bytes();
     writer.finish()?;
     let method = sim.method_choice().to_owned();
-    Ok(Streamed {
-        rows,
-        method,
-        stats: sim.stats(),
-        work: sim.work_spent(),
-        summary,
-        peak_buffered_bytes,
-    })
+    Ok((
+        Streamed {
+            rows,
+            method,
+            stats: sim.stats(),
+            work: sim.work_spent(),
+            summary,
+            peak_buffered_bytes,
+        },
+        responses,
+    ))
 }

@@ -65,6 +65,21 @@ pub enum Lines {
     /// The DFT of `samples` uniform samples (the RK propagator, or a record that is not an
     /// orbit): exact for a band-limited signal, aliased otherwise.
     Sampled,
+    /// The flat-top windowed FFT of a record that does not span an integer number of response
+    /// periods (`simulate --spectrum`): each line within the window's amplitude error, the
+    /// leakage of the window around it.
+    Windowed,
+}
+
+impl Lines {
+    /// How the lines were obtained, as the plot title and the command line say it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Lines::Integrated => "integrated over each segment, alias-free",
+            Lines::Sampled => "exact DFT of integer periods",
+            Lines::Windowed => "flat-top windowed FFT: not an integer number of periods",
+        }
+    }
 }
 
 /// The unit of an output column, from the naming convention of `simulate`'s columns.
@@ -337,10 +352,7 @@ impl SpectrumReport {
         let title = format!(
             "{}: amplitude spectrum ({}, mean omitted)",
             self.scene,
-            match self.method {
-                Lines::Integrated => "integrated over the orbit",
-                Lines::Sampled => "exact DFT",
-            }
+            self.method.describe()
         );
         Stems {
             title: &title,
@@ -397,6 +409,13 @@ pub fn aliasing(scene: &Scene, interval: f64) -> Result<Option<String>, String> 
     })
 }
 
+/// Whether a run of `scene` observes its segments, so that `simulate`'s summary comes from
+/// the continuous solution ([`crate::analysis::orbit_statistics::RunStatistics`]) rather
+/// than from the output rows.
+pub fn statistics_from_solution(scene: &Scene) -> Result<bool, String> {
+    with_drivetrain!(scene.run()?, sim => Ok(sim.observes_segments()))
+}
+
 /// The spectrum of a simulated record (`simulate --spectrum`): `time` uniform from the run's
 /// start, `columns` (name, values) the outputs to transform. When the record spans an integer
 /// number of response periods (to 1e-9) the last sample (the first of the next period) is
@@ -409,7 +428,7 @@ pub fn spectrum_of_run(
     report: &crate::commands::simulate_run::SimulateReport,
     csv: &Path,
     out: &Path,
-) -> Result<(), String> {
+) -> Result<Lines, String> {
     let header = std::fs::read_to_string(csv)
         .ok()
         .and_then(|t| t.lines().next().map(str::to_owned))
@@ -429,7 +448,9 @@ pub fn spectrum_of_run(
             columns[c].1.push(v.get(i).copied().unwrap_or(f64::NAN));
         }
     })?;
-    record_spectrum(scene, &time, &columns)?.write_csv(out)
+    let report = record_spectrum(scene, &time, &columns)?;
+    report.write_csv(out)?;
+    Ok(report.method)
 }
 
 pub fn record_spectrum(
@@ -443,6 +464,17 @@ pub fn record_spectrum(
     }
     let dt = (time[n - 1] - time[0]) / (n - 1) as f64;
     let span = time[n - 1] - time[0];
+    // Both transforms assume uniform samples: a row off the grid would make the record's last
+    // interval another length (issue 31 item 4).
+    if let Some((j, t)) =
+        (time.iter().enumerate()).find(|&(j, &t)| (t - time[0] - j as f64 * dt).abs() > 1e-6 * dt)
+    {
+        return Err(format!(
+            "--spectrum: row {j} at t = {t:e} s is off the uniform grid of {dt:e} s from \
+             {:e} s; the spectrum needs uniform samples",
+            time[0]
+        ));
+    }
     with_drivetrain!(scene.simulation()?, sim => {
         let model = sim.model();
         let periods = span / response_period(model)?;
@@ -486,7 +518,7 @@ pub fn record_spectrum(
             scene: scene.name.to_string(),
             duration: span,
             samples,
-            method: Lines::Sampled,
+            method: if exact { Lines::Sampled } else { Lines::Windowed },
             signals,
         })
     })
@@ -595,6 +627,14 @@ pub fn spectrum_command_with(
         Lines::Sampled => writeln!(
             text,
             "scene {}: exact DFT of {} samples over {:.6e} s (integer response periods) -> {}",
+            report.scene,
+            report.samples,
+            report.duration,
+            out.display()
+        ),
+        Lines::Windowed => writeln!(
+            text,
+            "scene {}: flat-top windowed FFT of {} samples over {:.6e} s -> {}",
             report.scene,
             report.samples,
             report.duration,

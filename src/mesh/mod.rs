@@ -19,4 +19,47 @@ pub use series::PhaseSeries;
 pub fn cycle_fraction(p: f64) -> f64 {
     p - p.floor()
 }
+
+/// The cycle fraction of mesh phase `p` as an output reports it (the `phase` columns, issue 31
+/// item 4): rounded to the decimals the phase resolves. `p` carries a rounding of about
+/// `4ε·max(|p|, 1)` cycles (the clock's `p₀ + f·(t − t₀)`), so a fraction within that of a
+/// whole cycle is the cycle's start, 0 (not 0.9999999999999858), and the digits below the
+/// resolution are dropped: the value printed is the shortest decimal of that resolution.
+pub fn output_phase(p: f64) -> f64 {
+    let resolution = 4.0 * f64::EPSILON * p.abs().max(1.0);
+    // Decimals the phase resolves (at most 15, at least 1).
+    let digits = (-resolution.log10()).floor().clamp(1.0, 15.0) as i32;
+    let scale = 10f64.powi(digits);
+    let fraction = (cycle_fraction(p) * scale).round() / scale;
+    if fraction >= 1.0 {
+        0.0
+    } else {
+        fraction
+    }
+}
 pub use stiffness::{MeshStiffness, Piece};
+
+#[cfg(test)]
+mod output_phase_tests {
+    use super::output_phase;
+
+    /// A phase a rounding below a whole cycle reports the cycle's start; the fraction is
+    /// printed to the decimals the phase resolves; a phase a cycle further resolves fewer.
+    #[test]
+    fn output_phase_is_rounded_to_its_resolution() {
+        let p = 57.0 - 1.42e-14;
+        assert_eq!(output_phase(p), 0.0);
+        assert_eq!(format!("{}", output_phase(0.0285 * 7.0)), "0.1995");
+        assert_eq!(
+            format!("{}", output_phase(2850.0 * 0.004_000_01)),
+            "0.4000285"
+        );
+        let q = 12.3 + 4e-15;
+        assert_eq!(format!("{}", output_phase(q)), "0.3");
+        assert_eq!(output_phase(-0.25), 0.75);
+        assert!((0..10_000).all(|k| {
+            let v = output_phase(k as f64 * 0.0285);
+            (0.0..1.0).contains(&v)
+        }));
+    }
+}

@@ -746,7 +746,7 @@ impl GearPair {
             y[1],
             self.mesh_force(t, y),
             self.contact as i8 as f64,
-            crate::mesh::cycle_fraction(self.clock.phase_at(t)),
+            crate::mesh::output_phase(self.clock.phase_at(t)),
             self.stiffness_at(t),
             self.external_force_at(t) / self.k_mean,
         ];

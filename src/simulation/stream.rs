@@ -128,19 +128,22 @@ impl RunLimits {
     }
 }
 
-/// The output grid `t_k = k·h` up to `stop_time` (the last point is `stop_time` itself when
-/// it is not a multiple of `h`). Each point is computed from its index, not accumulated, so
-/// long runs carry no rounding drift; points are produced one at a time, so the grid costs no
-/// memory.
+/// The output grid `t_k = k·h` up to `stop_time`: every row on the grid (issue 31 item 4).
+/// When `stop_time` is not a multiple of `h` (to 1e-9 of `h`) the last row is the last
+/// multiple before it, not an extra row at `stop_time` off the grid (a record whose last
+/// interval is shorter is not uniform, and its spectrum would not be what it says);
+/// [`OutputGrid::last_point`] tells where the rows end. A multiple within 1e-9 of `h` of
+/// `stop_time` is `stop_time` itself. Each point is computed from its index, not
+/// accumulated, so long runs carry no rounding drift; points are produced one at a time, so
+/// the grid costs no memory.
 #[derive(Debug, Clone)]
 pub struct OutputGrid {
-    stop_time: f64,
+    /// The last point: `stop_time`, or the last multiple of the interval before it.
+    last: f64,
     interval: f64,
-    /// Index of the last multiple of `h`.
+    /// Index of the last point.
     n: u64,
     next: u64,
-    /// Whether `stop_time` follows the last multiple as an extra point.
-    tail: bool,
 }
 
 impl OutputGrid {
@@ -151,11 +154,10 @@ impl OutputGrid {
         let last = n as f64 * interval;
         let snaps = (stop_time - last).abs() <= 1e-9 * interval;
         OutputGrid {
-            stop_time,
+            last: if snaps { stop_time } else { last },
             interval,
             n,
             next: 0,
-            tail: !snaps && last < stop_time,
         }
     }
 
@@ -170,14 +172,14 @@ impl OutputGrid {
         }
     }
 
-    /// The last point.
-    pub fn stop_time(&self) -> f64 {
-        self.stop_time
+    /// The last point: the stop time, or the last multiple of the interval before it.
+    pub fn last_point(&self) -> f64 {
+        self.last
     }
 
     /// The number of points.
     pub fn rows(&self) -> u64 {
-        self.n + 1 + u64::from(self.tail)
+        self.n + 1
     }
 }
 
@@ -185,21 +187,14 @@ impl Iterator for OutputGrid {
     type Item = f64;
     fn next(&mut self) -> Option<f64> {
         let k = self.next;
-        if k > self.n + u64::from(self.tail) {
+        if k > self.n {
             return None;
         }
         self.next += 1;
         Some(if k < self.n {
             k as f64 * self.interval
-        } else if k == self.n {
-            let last = k as f64 * self.interval;
-            if (self.stop_time - last).abs() <= 1e-9 * self.interval {
-                self.stop_time
-            } else {
-                last
-            }
         } else {
-            self.stop_time
+            self.last
         })
     }
 }
@@ -536,11 +531,37 @@ impl Drop for Progress {
 pub fn stream<M: DrivenModel>(
     sim: &mut Driver<M>,
     grid: OutputGrid,
+    outputs: impl FnMut(&Driver<M>, &mut Vec<f64>),
+    sink: &mut dyn RowSink,
+    summary: &mut RunSummary,
+    progress: &mut Progress,
+    work_budget: Option<f64>,
+) -> Result<(), String> {
+    stream_with(
+        sim,
+        grid,
+        outputs,
+        sink,
+        summary,
+        progress,
+        work_budget,
+        |sim, t| sim.advance_to(t),
+    )
+}
+
+/// [`stream`] with the advance to each output time given: `advance(sim, t)` (an advance
+/// that observes the run's segments for statistics from the solution,
+/// [`crate::analysis::orbit_statistics::RunStatistics`]).
+#[allow(clippy::too_many_arguments)]
+pub fn stream_with<M: DrivenModel>(
+    sim: &mut Driver<M>,
+    grid: OutputGrid,
     mut outputs: impl FnMut(&Driver<M>, &mut Vec<f64>),
     sink: &mut dyn RowSink,
     summary: &mut RunSummary,
     progress: &mut Progress,
     work_budget: Option<f64>,
+    mut advance: impl FnMut(&mut Driver<M>, f64) -> Result<(), SolveError>,
 ) -> Result<(), String> {
     // A run is bounded as a whole (`docs/fmu.md`, "Work budget"): the caller's budget, else
     // the scene's `solver.work_budget`, else the default of a run.
@@ -550,7 +571,19 @@ pub fn stream<M: DrivenModel>(
     }
     let mut row = Vec::new();
     for t in grid {
-        if let Err(e) = sim.advance_to(t) {
+        // A row on a switching instant reports the state after the switch (issue 31 item 4,
+        // `docs/reference.md`): a stop of the model (a stiffness or gap breakpoint) that lies
+        // within the rounding of the row's time after it is crossed before the row is taken.
+        let result = advance(sim, t).and_then(|()| {
+            let stop = sim.model().next_stop();
+            let now = sim.t();
+            if stop > now && stop - now <= ROW_AT_SWITCH * now.abs() {
+                advance(sim, stop)
+            } else {
+                Ok(())
+            }
+        });
+        if let Err(e) = result {
             return Err(match e {
                 // The budget's own message names the work and the likely cause.
                 crate::solve::SolveError::OverBudget { message, .. } => message,
@@ -565,6 +598,11 @@ pub fn stream<M: DrivenModel>(
     progress.finish();
     Ok(())
 }
+
+/// A stop this close after a row's time (relative to the time) is the row's own switching
+/// instant: the clock's `t = (k + b − p₀)/f` and the grid's `k·h` carry a few roundings of
+/// `t` each.
+const ROW_AT_SWITCH: f64 = 64.0 * f64::EPSILON;
 
 /// The solver's refusal of an advance, with the likely cause when it is one of work (too many
 /// steps, a step below the time resolution, too many guard samples or events).

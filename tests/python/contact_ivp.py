@@ -45,14 +45,39 @@ def dte_model_rhs(minv, force, damping, stiffness):
     return rhs_for
 
 
+def first_dip(sol, t, t_stop, contact, contacts, per_step=16):
+    """The first time in (t, t_stop) at which a contact's deflection crosses to the wrong side
+    between two of `per_step` points of one of scipy's steps (a dip that starts and ends
+    within a step: scipy's events only see a sign change at a step's end), located on the
+    dense output by Brent's method, with its contact; `None` if there is none."""
+    from scipy.optimize import brentq
+    wrong = [(lambda v: v < 0.0) if contact[j] else (lambda v: v > 0.0) for j in range(contacts)]
+    for a, b in zip(sol.t[:-1], sol.t[1:]):
+        if a >= t_stop:
+            break
+        b = min(b, t_stop)
+        grid = np.linspace(a, b, per_step + 1)
+        vals = sol.sol(grid)[:contacts]
+        for i in range(1, len(grid)):
+            found = [j for j in range(contacts)
+                     if wrong[j](vals[j, i]) and not wrong[j](vals[j, i - 1])]
+            if not found or grid[i] >= t_stop - 1e-9 * (t_stop - t):
+                continue
+            hits = [(brentq(lambda s, j=j: sol.sol(s)[j], grid[i - 1], grid[i], xtol=1e-300,
+                            rtol=4 * np.finfo(float).eps, maxiter=200), j) for j in found]
+            return min(hits)
+    return None
+
+
 def integrate(times, y, breaks, rhs_for, contacts, max_step=np.inf, segments=None):
     """The first `contacts` state components at `times` (from `y` at `times[0] = 0`), and
     whether each contact was ever lost. With a list `segments`, every smooth piece is appended
     to it as `(t_start, t_end, dense solution, contact flags)` (for statistics from the
     continuous solution, `test_statistics_reference.py`). `rhs_for(t_mid, contact)` returns the right-hand side
     of the segment around `t_mid` with the contact flags `contact` (a list, updated here).
-    `max_step` bounds scipy's step: it only sees a sign change at a step's end, so a short dip
-    of a deflection below zero must not fit inside one step."""
+    `max_step` bounds scipy's step: its events only see a sign change at a step's end, so each
+    step's dense output is also scanned for a short dip of a deflection below zero within the
+    step ([`first_dip`]), which ends the segment like an event."""
     contact = [True] * contacts
     lost = [False] * contacts
     out = np.empty((len(times), contacts))
@@ -78,12 +103,26 @@ def integrate(times, y, breaks, rhs_for, contacts, max_step=np.inf, segments=Non
                 # A terminal event at the start itself: a contact that changed at t and crossed
                 # back within scipy's first step. Skipping to t_break would lose the segment.
                 raise RuntimeError(f"a contact crosses back within the first step after t = {t}")
+            # A dip within one step (a brief contact loss) that scipy's events miss.
+            dip = first_dip(sol, t, t_stop, contact, contacts)
+            y_dip = None
+            if dip is not None:
+                t_stop, j_dip = dip
+                hit = [j_dip]
+                y_dip = sol.sol(t_stop).copy()
             while k_out < len(times) and times[k_out] <= t_stop:
                 out[k_out] = sol.sol(times[k_out])[:contacts]
                 k_out += 1
             if segments is not None:
                 segments.append((t, t_stop, sol.sol, list(contact)))
-            if hit:
+            if y_dip is not None:
+                j = hit[0]
+                y = y_dip
+                y[j] = 0.0
+                contact[j] = not contact[j]
+                lost[j] |= not contact[j]
+                t = t_stop
+            elif hit:
                 j = min(hit, key=lambda i: sol.t_events[i][0])
                 y = sol.y_events[j][0].copy()
                 y[j] = 0.0

@@ -394,11 +394,11 @@ class Idler8:
         w = 2 * math.pi * self.natural_frequencies[-1]
         return np.array([x] * N + [w * x] * N)
 
-    def orbit_pieces(self, y0):
-        """Per mesh, the `Piece`s of one period from y0 (t ∈ [0, T]), the contact flags at
-        its end, and the state at its end."""
+    def orbit_pieces(self, y0, duration=None):
+        """Per mesh, the `Piece`s of one period (or of `duration`) from y0 (t ∈ [0, T]), the
+        contact flags at its end, and the state at its end."""
         segments = []
-        y1, flags = self.integrate(y0, 0.0, self.period, segments=segments)
+        y1, flags = self.integrate(y0, 0.0, duration or self.period, segments=segments)
         out = []
         for mi, m in enumerate(self.meshes):
             pieces = []

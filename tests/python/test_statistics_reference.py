@@ -108,6 +108,8 @@ def idler_reference():
                         lost_before(segments, t_a, j))
              for j, pieces in enumerate(two_mesh_pieces(segments, stiffness))]
     assert stats[1]["contact_loss_fraction"] > 0.2, "mesh 2 must lose contact"
+    RUNS["liu_ch3_idler"] = (two_mesh_pieces(segments, stiffness), [fm, fm],
+                             [lambda t: fm * t] * 2, SIMULATE_PERIODS / fm)
     return stats, residual
 
 
@@ -136,6 +138,7 @@ def pair_reference():
     previous = next(s for s in segments if s[0] < t_a <= s[1])[3]
     stats = statistics(pieces, t_a, t_end - t_a, fm, scene.phase_at, previous == 0)
     assert stats["contact_loss_fraction"] > 0.1, "the pair must separate"
+    RUNS["spur_pair"] = ([pieces], [fm], [scene.phase_at], SIMULATE_PERIODS / fm)
     return [stats], residual
 
 
@@ -175,6 +178,9 @@ def countershaft_reference():
                                 lambda t, j=j: phases[j] + freq[j] * t,
                                 lost_before(segments, t_a, j), lines=0))
     assert stats[0]["contact_loss_fraction"] > 0.01, "mesh 1 must lose contact"
+    RUNS["countershaft_gearset"] = (two_mesh_pieces(segments, stiffness), freq,
+                                    [lambda t, j=j: phases[j] + freq[j] * t for j in range(2)],
+                                    SIMULATE_PERIODS / f1)
     return stats, residual
 
 
@@ -202,8 +208,18 @@ def idler8_reference():
     stats = [statistics(p, 0.0, model.period, model.f, model.phase, lost_at_end[j])
              for j, p in enumerate(pieces)]
     assert stats[1]["contact_loss_fraction"] > 0.1, "mesh 2 must lose contact"
+    duration = SIMULATE_PERIODS * model.period
+    run_pieces, _, _ = model.orbit_pieces(model.start_state(), duration)
+    RUNS["idler_gearset"] = (run_pieces, [model.f, model.f], [model.phase] * 2, duration)
     return stats, residual
 
+
+# `simulate` from the scene's start (the static deflection) over this many periods of the
+# first mesh: its summary against the same reference's statistics over the run.
+SIMULATE_PERIODS = 60
+# Per case, the reference's pieces of a run from t = 0 (per mesh), the mesh frequencies and
+# phases, and the run's length (filled by the references).
+RUNS = {}
 
 CASES = {
     "liu_ch3_idler": Case(scene_toml("liu_ch3_idler_eps03", PP, IDLER_SPEED), IDLER_SPEED,
@@ -322,3 +338,46 @@ def test_spectrum_lines_match_the_reference(tmp_path, geardyn_bin, name):
                 worst = max(worst, d)
                 assert d <= 1e-8, f"{mesh}.{q} at --samples {samples}: {d:.2e}"
         print(f"{name} spectrum --samples {samples}: worst {worst:.2e}")
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_simulate_statistics_match_the_reference(tmp_path, geardyn_bin, name):
+    """`simulate`'s summary over a run from the scene's start (the transient included), from
+    the continuous solution: the same statistics, compared with the reference's over the same
+    run at the same bounds; two output intervals give the same numbers (they are not taken
+    from the rows)."""
+    case = CASES[name]
+    reference(name)
+    pieces, freq, phases, stop = RUNS[name]
+    ref = [statistics(p, 0.0, stop, freq[j], phases[j], False, lines=0)
+           for j, p in enumerate(pieces)]
+    scene = write_scene(tmp_path, case)
+    results = []
+    for per_period in (7, 64):
+        interval = 1.0 / (freq[0] * per_period)
+        out = subprocess.run([str(geardyn_bin), "simulate", str(scene), "--out",
+                              str(tmp_path / "run.csv"), "--stop-time", repr(stop),
+                              "--output-interval", repr(interval)],
+                             capture_output=True, text=True, check=True).stdout
+        assert "from the continuous solution" in out, out
+        assert "of output samples" not in out, out
+        ours = {}
+        for token in out.replace("\n", ", ").split(", "):
+            if " = " in token:
+                key, value = token.strip().split(" = ", 1)
+                try:
+                    ours[key] = float(value.split()[0])
+                except ValueError:
+                    pass
+        label = f"simulate ({per_period} rows per mesh period)"
+        print(f"{name} {label}: worst {compare(label, ours, ref, case.prefixes):.2e}")
+        print("contact loss over the run:",
+              [ours[f"{p}contact_loss_fraction"] for p in case.prefixes])
+        results.append(ours)
+    for key, value in results[0].items():
+        other = results[1][key]
+        if math.isnan(value):
+            assert math.isnan(other), key
+        else:
+            assert abs(value - other) <= 1e-12 * max(abs(value), 1e-300) or \
+                abs(value - other) <= 1e-13, (key, value, other)

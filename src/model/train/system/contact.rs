@@ -229,7 +229,7 @@ impl GearTrain {
                 .filter(|f| matches!(f, SlotContact::Drive | SlotContact::Back))
                 .count(),
             any_back: mesh.flags.contains(&SlotContact::Back),
-            phase: crate::mesh::cycle_fraction(p),
+            phase: crate::mesh::output_phase(p),
         }
     }
 
