@@ -92,13 +92,16 @@ def timed(cmd):
 
 
 samples = {name: [] for _, _, commands in groups for name in commands}
+load_before, loads = os.getloadavg()[0], []
 for _ in range(rounds):
     for _, _, commands in groups:
         for name, cmd in commands.items():
             samples[name].append(timed(cmd))
+            loads.append(os.getloadavg()[0])
 med = statistics.median
 print(f"median of {rounds} alternating rounds, output interval (fixed communication step) T_mesh/20, stop 1 s;"
-      f" load average before: {os.getloadavg()[0]:.2f}:")
+      f" load average (1 min) before: {load_before:.2f}, after each run: median {med(loads):.2f},"
+      f" {min(loads):.2f} to {max(loads):.2f}:")
 print(f"  {'':48}  {'wall':>8}  {'ratio':>6}  {'CPU':>8}  {'ratio':>6}")
 for system, h, commands in groups:
     print(f"{system} (h = {h:.4e} s):")

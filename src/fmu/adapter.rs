@@ -82,6 +82,10 @@ pub struct Adapter<K: Kernel> {
     /// buffer is kept, so a step allocates nothing.
     outputs: RefCell<Vec<f64>>,
     outputs_fresh: Cell<bool>,
+    /// [`Adapter::params`] once initialized, where they no longer change (parameters are
+    /// fixed and the start inputs taken): a state is saved at every step of an
+    /// error-controlled master. Dropped by a restore and a reset.
+    params_cache: RefCell<Option<Vec<(u32, f64)>>>,
 }
 
 /// Why a set of parameter values was refused after it was applied: the model cannot be built
@@ -149,6 +153,7 @@ impl<K: Kernel> Adapter<K> {
             n_outputs,
             outputs: RefCell::new(Vec::new()),
             outputs_fresh: Cell::new(false),
+            params_cache: RefCell::new(None),
         };
         Ok((model, info))
     }
@@ -199,6 +204,16 @@ impl<K: Kernel> Adapter<K> {
 
     /// The parameter and start-input values by value reference, as a snapshot records them.
     fn params(&self) -> Vec<(u32, f64)> {
+        if !self.lifecycle.initialized {
+            return self.current_params();
+        }
+        self.params_cache
+            .borrow_mut()
+            .get_or_insert_with(|| self.current_params())
+            .clone()
+    }
+
+    fn current_params(&self) -> Vec<(u32, f64)> {
         let start = K::start_inputs(&self.settings);
         settable_reals(&self.vars)
             .map(|v| {
@@ -247,6 +262,8 @@ impl<K: Kernel> Adapter<K> {
             };
             return Ok(());
         }
+        // Other parameters from here on (or none, on failure: recomputed).
+        self.params_cache.get_mut().take();
         let settings = self.settings_of(snap)?;
         let mut sim = match self.build(&settings) {
             Ok((sim, _)) => sim,
@@ -459,6 +476,7 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
     }
 
     fn reset(&mut self) -> Result<(), String> {
+        self.params_cache.get_mut().take();
         *self.sim_mut() = build_sim::<K>(&self.base)?;
         self.settings = self.base.clone();
         self.lifecycle = Lifecycle::default();

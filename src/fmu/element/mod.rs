@@ -157,6 +157,10 @@ pub struct ElementFmu {
     /// step ends (where `du` returns to 0) so they are the slope of the ramp that ended at `t`.
     du_now: Vec<f64>,
     scratch: RefCell<Vec<f64>>,
+    /// [`ElementFmu::params`] once initialized, where they no longer change (parameters are
+    /// fixed and the start inputs taken): a state is saved at every step of an
+    /// error-controlled master. Dropped by a restore and a reset.
+    params_cache: RefCell<Option<Vec<(u32, f64)>>>,
 }
 
 impl ElementFmu {
@@ -195,6 +199,7 @@ impl ElementFmu {
             du: vec![0.0; n],
             du_now: vec![0.0; n],
             scratch: RefCell::new(Vec::with_capacity(n)),
+            params_cache: RefCell::new(None),
         };
         fmu.rebuild()?;
         Ok((fmu, info))
@@ -255,6 +260,16 @@ impl ElementFmu {
 
     /// The parameter and start-input values by value reference, as a state records them.
     fn params(&self) -> Vec<(u32, f64)> {
+        if !self.lifecycle.initialized {
+            return self.current_params();
+        }
+        self.params_cache
+            .borrow_mut()
+            .get_or_insert_with(|| self.current_params())
+            .clone()
+    }
+
+    fn current_params(&self) -> Vec<(u32, f64)> {
         let names = variables::param_names(&self.scene.element);
         let mut params: Vec<(u32, f64)> = names
             .iter()
@@ -321,6 +336,8 @@ impl ElementFmu {
             // at every undone step): only the run-time state changes, no scene is rebuilt.
             return self.restore_run(s);
         }
+        // Other parameters from here on (or none, on failure: recomputed).
+        self.params_cache.get_mut().take();
         let mut scene = self.base.clone();
         let mut u_start = start_inputs(&scene.element);
         for &(vr, x) in &s.params {
@@ -517,6 +534,7 @@ impl CoSimModel for ElementFmu {
     }
 
     fn reset(&mut self) -> Result<(), String> {
+        self.params_cache.get_mut().take();
         self.scene = self.base.clone();
         self.u_start = start_inputs(&self.scene.element);
         self.lifecycle = Lifecycle::default();
