@@ -22,6 +22,7 @@ use crate::fmi::model::{
 };
 use crate::fmu::checks::check_snapshot_values;
 use crate::fmu::kernel::{Kernel, KernelSnapshot};
+use crate::fmu::payload::RecordedParams;
 use crate::fmu::table::{name_of, settable_reals};
 use crate::simulation::budget::{self, DEFAULT_CALL_BUDGET};
 use crate::simulation::Driver;
@@ -82,10 +83,8 @@ pub struct Adapter<K: Kernel> {
     /// buffer is kept, so a step allocates nothing.
     outputs: RefCell<Vec<f64>>,
     outputs_fresh: Cell<bool>,
-    /// [`Adapter::params`] once initialized, where they no longer change (parameters are
-    /// fixed and the start inputs taken): a state is saved at every step of an
-    /// error-controlled master. Dropped by a restore and a reset.
-    params_cache: RefCell<Option<Vec<(u32, f64)>>>,
+    /// [`Adapter::params`] once initialized.
+    params_cache: RecordedParams,
 }
 
 /// Why a set of parameter values was refused after it was applied: the model cannot be built
@@ -153,7 +152,7 @@ impl<K: Kernel> Adapter<K> {
             n_outputs,
             outputs: RefCell::new(Vec::new()),
             outputs_fresh: Cell::new(false),
-            params_cache: RefCell::new(None),
+            params_cache: RecordedParams::default(),
         };
         Ok((model, info))
     }
@@ -204,13 +203,8 @@ impl<K: Kernel> Adapter<K> {
 
     /// The parameter and start-input values by value reference, as a snapshot records them.
     fn params(&self) -> Vec<(u32, f64)> {
-        if !self.lifecycle.initialized {
-            return self.current_params();
-        }
         self.params_cache
-            .borrow_mut()
-            .get_or_insert_with(|| self.current_params())
-            .clone()
+            .get(self.lifecycle.initialized, || self.current_params())
     }
 
     fn current_params(&self) -> Vec<(u32, f64)> {
@@ -263,7 +257,7 @@ impl<K: Kernel> Adapter<K> {
             return Ok(());
         }
         // Other parameters from here on (or none, on failure: recomputed).
-        self.params_cache.get_mut().take();
+        self.params_cache.clear();
         let settings = self.settings_of(snap)?;
         let mut sim = match self.build(&settings) {
             Ok((sim, _)) => sim,
@@ -476,7 +470,7 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
     }
 
     fn reset(&mut self) -> Result<(), String> {
-        self.params_cache.get_mut().take();
+        self.params_cache.clear();
         *self.sim_mut() = build_sim::<K>(&self.base)?;
         self.settings = self.base.clone();
         self.lifecycle = Lifecycle::default();

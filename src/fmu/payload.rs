@@ -134,3 +134,30 @@ fn sample_controllers() -> [Option<ControllerMemory>; 3] {
         }),
     ]
 }
+
+/// The parameter and start-input values a saved state records, by value reference, kept once
+/// the instance is initialized: from then on they no longer change (parameters are fixed and
+/// the start inputs taken), and an error-controlled master saves a state at every step.
+/// Dropped by a restore with other parameters and by a reset.
+#[derive(Debug, Default)]
+pub struct RecordedParams(std::cell::RefCell<Option<Vec<(u32, f64)>>>);
+
+impl RecordedParams {
+    /// The recorded values: `current()` before initialization, else the kept ones (computed by
+    /// `current` the first time).
+    pub fn get(
+        &self,
+        initialized: bool,
+        current: impl FnOnce() -> Vec<(u32, f64)>,
+    ) -> Vec<(u32, f64)> {
+        if !initialized {
+            return current();
+        }
+        self.0.borrow_mut().get_or_insert_with(current).clone()
+    }
+
+    /// Forget the kept values (the parameters may change).
+    pub fn clear(&mut self) {
+        self.0.get_mut().take();
+    }
+}

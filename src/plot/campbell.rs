@@ -9,7 +9,7 @@ use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 
 use super::font::FAMILY;
-use super::line::Area;
+use super::line::{draw_legend, Area};
 use super::{color, drawing, output, render_with, Format, SIZE};
 
 /// A Campbell diagram.
@@ -365,14 +365,7 @@ impl Campbell<'_> {
                 .map_err(drawing)?;
             }
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperLeft)
-            .label_font((FAMILY, 14))
-            .background_style(WHITE.mix(0.9))
-            .border_style(RGBColor(180, 180, 180))
-            .draw()
-            .map_err(drawing)?;
+        draw_legend(&mut chart, SeriesLabelPosition::UpperLeft)?;
         Ok(())
     }
 }

@@ -30,6 +30,7 @@ use crate::fmi::model::{
     StepFailure, Variable,
 };
 use crate::fmu::checks::check_snapshot_values;
+use crate::fmu::payload::RecordedParams;
 use crate::fmu::table::name_of;
 use crate::model::elements::ElementSpec;
 use crate::solve::rk::RkStepper;
@@ -157,10 +158,8 @@ pub struct ElementFmu {
     /// step ends (where `du` returns to 0) so they are the slope of the ramp that ended at `t`.
     du_now: Vec<f64>,
     scratch: RefCell<Vec<f64>>,
-    /// [`ElementFmu::params`] once initialized, where they no longer change (parameters are
-    /// fixed and the start inputs taken): a state is saved at every step of an
-    /// error-controlled master. Dropped by a restore and a reset.
-    params_cache: RefCell<Option<Vec<(u32, f64)>>>,
+    /// [`ElementFmu::params`] once initialized.
+    params_cache: RecordedParams,
 }
 
 impl ElementFmu {
@@ -199,7 +198,7 @@ impl ElementFmu {
             du: vec![0.0; n],
             du_now: vec![0.0; n],
             scratch: RefCell::new(Vec::with_capacity(n)),
-            params_cache: RefCell::new(None),
+            params_cache: RecordedParams::default(),
         };
         fmu.rebuild()?;
         Ok((fmu, info))
@@ -260,13 +259,8 @@ impl ElementFmu {
 
     /// The parameter and start-input values by value reference, as a state records them.
     fn params(&self) -> Vec<(u32, f64)> {
-        if !self.lifecycle.initialized {
-            return self.current_params();
-        }
         self.params_cache
-            .borrow_mut()
-            .get_or_insert_with(|| self.current_params())
-            .clone()
+            .get(self.lifecycle.initialized, || self.current_params())
     }
 
     fn current_params(&self) -> Vec<(u32, f64)> {
@@ -337,7 +331,7 @@ impl ElementFmu {
             return self.restore_run(s);
         }
         // Other parameters from here on (or none, on failure: recomputed).
-        self.params_cache.get_mut().take();
+        self.params_cache.clear();
         let mut scene = self.base.clone();
         let mut u_start = start_inputs(&scene.element);
         for &(vr, x) in &s.params {
@@ -369,15 +363,8 @@ impl ElementFmu {
         self.scene = scene;
         self.stepper = stepper;
         self.y0 = if dim == 0 { Vec::new() } else { s.y.clone() };
-        self.t = s.t;
         self.u_start = u_start;
-        self.u.clone_from(&s.u);
-        self.du.clone_from(&s.du);
-        self.du_now.clone_from(&s.du_now);
-        self.lifecycle = Lifecycle {
-            start_time: s.start_time,
-            initialized: s.initialized,
-        };
+        self.restore_clock_and_inputs(s);
         Ok(())
     }
 
@@ -396,6 +383,13 @@ impl ElementFmu {
         } else {
             self.y0.clone_from(&s.y);
         }
+        self.restore_clock_and_inputs(s);
+        Ok(())
+    }
+
+    /// The part of a restore that is the same with any parameters: the time, the held inputs
+    /// and their rates, and the life-cycle state.
+    fn restore_clock_and_inputs(&mut self, s: &ElementSnapshot) {
         self.t = s.t;
         self.u.clone_from(&s.u);
         self.du.clone_from(&s.du);
@@ -404,7 +398,6 @@ impl ElementFmu {
             start_time: s.start_time,
             initialized: s.initialized,
         };
-        Ok(())
     }
 }
 
@@ -534,7 +527,7 @@ impl CoSimModel for ElementFmu {
     }
 
     fn reset(&mut self) -> Result<(), String> {
-        self.params_cache.get_mut().take();
+        self.params_cache.clear();
         self.scene = self.base.clone();
         self.u_start = start_inputs(&self.scene.element);
         self.lifecycle = Lifecycle::default();
