@@ -60,6 +60,7 @@
 mod continuation;
 mod evaluate;
 mod problem;
+mod scan;
 mod statistics;
 
 pub use continuation::{

@@ -7,7 +7,7 @@ use std::f64::consts::TAU;
 
 use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
-use super::statistics::{scan_points, scan_roots};
+use super::scan::{scan_points, scan_roots};
 use super::{HbOptions, HbSolution};
 use crate::model::drivetrain::{response_frequencies, response_period_in_mesh_periods};
 use crate::model::{Drivetrain, MeshLaw};
@@ -132,7 +132,7 @@ pub(super) struct Problem<M: Drivetrain> {
     pub(super) x_scale: f64,
     pub(super) receptance: Option<Receptance>,
     /// `(cos, sin)` of the roots of unity of the results' scan grid
-    /// ([`super::statistics::scan_points`]).
+    /// ([`super::scan::scan_points`]).
     pub(super) scan_roots: Vec<(f64, f64)>,
 }
 

@@ -19,10 +19,6 @@ use crate::analysis::mesh_response::MeshResponse;
 use crate::model::Drivetrain;
 use crate::solve::roots::brent_maximum;
 
-/// Grid points per period of the highest retained order on which the series are scanned
-/// before the best point is refined.
-const SCAN_PER_ORDER: usize = 8;
-
 /// Abscissa tolerance of the refinement, in HB periods.
 const REFINE_TOL: f64 = 1e-13;
 
@@ -33,23 +29,6 @@ const NEWTON_STEPS: usize = 8;
 /// `~(π j_max)·step²` (< 1e-13 for the orders HB retains) of the extreme, whose value is then
 /// exact to rounding.
 const NEWTON_LAST_STEP: f64 = 1e-8;
-
-/// The scan grid's points for the retained `orders` (at least 64).
-pub(super) fn scan_points(orders: &[usize]) -> usize {
-    let max_order = *orders.last().expect("order 0 at least");
-    (SCAN_PER_ORDER * max_order.max(1)).max(64)
-}
-
-/// `(cos, sin)(2π r/points)` for `r < points`: the scan grid's roots of unity.
-pub(super) fn scan_roots(points: usize) -> Vec<(f64, f64)> {
-    let h = 1.0 / points as f64;
-    (0..points)
-        .map(|r| {
-            let (sn, cs) = (TAU * r as f64 * h).sin_cos();
-            (cs, sn)
-        })
-        .collect()
-}
 
 impl<M: Drivetrain> Problem<M> {
     /// Mesh `n`'s response at frequency `f` from the orbit's mesh-deflection coefficients `s`,
@@ -174,7 +153,7 @@ impl<M: Drivetrain> Problem<M> {
 
     /// The largest value of `sign` times the DTE series about its mean within `h` of the grid
     /// maximum at `centre`: Newton on its derivative from the grid point (quadratic from a
-    /// grid point of [`SCAN_PER_ORDER`] per period of the highest order), or Brent's search
+    /// grid point of [`super::scan::SCAN_PER_ORDER`] per period of the highest order), or Brent's search
     /// where Newton leaves the bracket or meets no maximum.
     fn dte_extreme(&self, dte: &[f64], sign: f64, centre: f64, h: f64, phi: &mut [f64]) -> f64 {
         let mut theta = centre;
