@@ -162,7 +162,12 @@ fn runout_and_pitch_sidebands_are_resolved_at_their_exact_orders_on_the_shipped_
         pitch.join(", ")
     );
     assert!(RUNUP.contains("inertia = 0.002621\n"));
-    let runup = scene(&RUNUP.replacen("inertia = 0.002621\n", &(errors + "\n"), 1));
+    // A runout moves the operating centre distance, so the mesh needs its pressure angle.
+    let runup = scene(
+        &RUNUP
+            .replacen("inertia = 0.002621\n", &(errors + "\n"), 1)
+            .replacen("[mesh]\n", "[mesh]\npressure_angle = 20.0\n", 1),
+    );
     // A fine order grid, 1/32 order, from 35 to 41: mesh order 1 and both sideband pairs.
     let step = 1.0 / 32.0;
     let grid: Vec<f64> = (0..=192).map(|j| 35.0 + j as f64 * step).collect();
