@@ -20,6 +20,11 @@ pub fn cycle_fraction(p: f64) -> f64 {
     p - p.floor()
 }
 
+/// `10^d` for `d ≤ 15`, each exact in `f64`.
+const POWERS_OF_TEN: [f64; 16] = [
+    1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+];
+
 /// The cycle fraction of mesh phase `p` as an output reports it (the `phase` columns, issue 31
 /// item 4): rounded to the decimals the phase resolves. `p` carries a rounding of about
 /// `4ε·max(|p|, 1)` cycles (the clock's `p₀ + f·(t − t₀)`), so a fraction within that of a
@@ -27,9 +32,14 @@ pub fn cycle_fraction(p: f64) -> f64 {
 /// resolution are dropped: the value printed is the shortest decimal of that resolution.
 pub fn output_phase(p: f64) -> f64 {
     let resolution = 4.0 * f64::EPSILON * p.abs().max(1.0);
-    // Decimals the phase resolves (at most 15, at least 1).
-    let digits = (-resolution.log10()).floor().clamp(1.0, 15.0) as i32;
-    let scale = 10f64.powi(digits);
+    // Decimals the phase resolves (at most 15, at least 1): the largest `d` with
+    // `10^d·resolution ≤ 1`, i.e. `⌊−log₁₀ resolution⌋`, by the table of exact powers rather
+    // than a logarithm per output row (this runs on every row of every run).
+    let mut digits = 15;
+    while digits > 1 && POWERS_OF_TEN[digits] * resolution > 1.0 {
+        digits -= 1;
+    }
+    let scale = POWERS_OF_TEN[digits];
     let fraction = (cycle_fraction(p) * scale).round() / scale;
     if fraction >= 1.0 {
         0.0
