@@ -125,6 +125,9 @@ def test_convergence_against_the_monolithic_model(fmus, monolithic, tmp_path, re
         for n in divisors:
             d = geardyn(tmp_path / "c.csv", tm / n, stop, alg, ex)
             r = native(tmp_path / "n.csv", tm / n, stop, monolithic)
+            # `simulate` writes only rows on the grid (issue 31 item 4); the master also writes
+            # the stop time where it is off the grid: compare the common rows.
+            d = d[: len(r["time"])]
             assert np.abs(r["time"] - d["time"]).max() <= 1e-12 * stop  # same grid
             e = {k: float(np.abs(sign * col(d, c) - r[k]).max()) for c, k, sign in SIGNALS}
             e["rms"] = float(np.sqrt(np.mean((r["dte"] - r["dte"].mean()) ** 2)))

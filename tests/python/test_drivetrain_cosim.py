@@ -265,6 +265,9 @@ def convergence_table(case, tmp_path, stop, divisors):
             h = case.t_mesh / n
             d = case.run(tmp_path / "c.csv", h, stop, alg, ex)
             r = case.oracle(tmp_path / "n.csv", h, stop)
+            # `simulate` writes only rows on the grid (issue 31 item 4); the master also writes
+            # the stop time where it is off the grid: compare the common rows.
+            d = d[: len(r["time"])]
             assert np.abs(r["time"] - d["time"]).max() <= 1e-12 * stop  # same grid
             e = {k: float(np.abs(col(d, c) - r[k]).max()) for c, k in SIGNALS}
             e["dte_rms_err"] = float(np.sqrt(np.mean((col(d, "gear.mesh1.dte") - r["dte"]) ** 2)))
