@@ -173,31 +173,52 @@ impl PhaseClock {
 
     /// Checks that advancing from `t` to `t_end` stays within the limits of this clock: at
     /// most [`MAX_MESH_PERIODS_PER_ADVANCE`] mesh periods, and phase and time (in mesh periods)
-    /// at `t_end` within [`MAX_MESH_CYCLES`]. O(1): called before every advance.
+    /// at `t_end` within [`MAX_MESH_CYCLES`]. O(1): called before every advance, so the test is
+    /// inlined and the message is built out of line.
+    #[inline]
     pub fn check_advance(&self, t: f64, t_end: f64) -> Result<(), String> {
-        let f = self.mesh_frequency;
-        let periods = if self.rate == 0.0 {
-            f * (t_end - t)
+        let (periods, phase) = self.advance_extent(t, t_end);
+        if periods <= MAX_MESH_PERIODS_PER_ADVANCE
+            && phase.abs() <= MAX_MESH_CYCLES
+            && (self.mesh_frequency * t_end).abs() <= MAX_MESH_CYCLES
+        {
+            Ok(())
         } else {
-            self.phase_at(t_end) - self.phase_at(t)
+            Err(self.advance_refusal(t, t_end))
+        }
+    }
+
+    /// The mesh periods an advance from `t` to `t_end` spans, and the phase at `t_end`.
+    #[inline]
+    fn advance_extent(&self, t: f64, t_end: f64) -> (f64, f64) {
+        let phase = self.phase_at(t_end);
+        let periods = if self.rate == 0.0 {
+            self.mesh_frequency * (t_end - t)
+        } else {
+            phase - self.phase_at(t)
         };
+        (periods, phase)
+    }
+
+    /// Why [`PhaseClock::check_advance`] refuses the advance from `t` to `t_end`.
+    #[cold]
+    #[inline(never)]
+    fn advance_refusal(&self, t: f64, t_end: f64) -> String {
+        let f = self.mesh_frequency;
+        let (periods, phase) = self.advance_extent(t, t_end);
         if !(periods <= MAX_MESH_PERIODS_PER_ADVANCE) {
-            return Err(format!(
+            return format!(
                 "advancing from t = {t:e} s to {t_end:e} s at mesh frequency {f:e} Hz spans \
                  {periods:e} mesh periods, more than the {MAX_MESH_PERIODS_PER_ADVANCE:e} one \
                  step may take (shorten the communication step or output interval)"
-            ));
+            );
         }
-        let phase = self.phase_at(t_end);
-        if !(phase.abs() <= MAX_MESH_CYCLES && (f * t_end).abs() <= MAX_MESH_CYCLES) {
-            return Err(format!(
-                "at t = {t_end:e} s the mesh phase would be {phase:e} cycles and the time \
-                 {:e} mesh periods (mesh frequency {f:e} Hz): beyond 2^32 cycles phase and \
-                 time lose the resolution the stiffness and STE need",
-                f * t_end
-            ));
-        }
-        Ok(())
+        format!(
+            "at t = {t_end:e} s the mesh phase would be {phase:e} cycles and the time \
+             {:e} mesh periods (mesh frequency {f:e} Hz): beyond 2^32 cycles phase and \
+             time lose the resolution the stiffness and STE need",
+            f * t_end
+        )
     }
 
     /// Keeps the phase continuous at `t` and changes the frequency from then on (constant).

@@ -442,14 +442,22 @@ impl GearPair {
 
     /// Whether advancing from `t` to `t_end` stays within the limits of one advance
     /// ([`PhaseClock::check_advance`]).
+    #[inline]
     pub fn check_advance(&self, t: f64, t_end: f64) -> Result<(), String> {
-        self.clock.check_advance(t, t_end).map_err(|e| {
-            format!(
-                "operating.pinion_speed = {:e} rad/s, mesh phase {:e} cycles at t = {t:e} s: {e}",
-                self.inputs.pinion_speed,
-                self.clock.phase_at(t)
-            )
-        })
+        self.clock
+            .check_advance(t, t_end)
+            .map_err(|e| self.advance_refusal(t, e))
+    }
+
+    /// [`GearPair::check_advance`]'s refusal `e` with the speed and phase that caused it.
+    #[cold]
+    #[inline(never)]
+    fn advance_refusal(&self, t: f64, e: String) -> String {
+        format!(
+            "operating.pinion_speed = {:e} rad/s, mesh phase {:e} cycles at t = {t:e} s: {e}",
+            self.inputs.pinion_speed,
+            self.clock.phase_at(t)
+        )
     }
 
     /// Resets the discrete mode from a state at time `t`: used at start and after a state is
@@ -740,6 +748,7 @@ impl GearPair {
     }
 
     /// All outputs at `(t, y)` in [`OUTPUT_NAMES`] order.
+    #[inline]
     pub fn outputs(&self, t: f64, y: &[f64], out: &mut [f64; 7]) {
         *out = [
             y[0],

@@ -314,7 +314,12 @@ impl ModeCache {
         };
         let stored = &self.key_words[start..self.key_ends[position] as usize];
         let (capacity, words) = stored.split_last().expect("a key has its capacity");
-        *words == *self.scratch.words() && *capacity == self.scratch.capacity
+        let scratch = self.scratch.words();
+        // Word by word rather than a slice `==`, which calls `memcmp`: keys are a few words and
+        // this runs once per segment.
+        *capacity == self.scratch.capacity
+            && words.len() == scratch.len()
+            && words.iter().zip(scratch).all(|(a, b)| a == b)
     }
 
     /// The position in `modes` of the mode whose key is in `scratch`, if cached.
