@@ -25,7 +25,8 @@ use crate::fmu::kernel::{Kernel, KernelSnapshot};
 use crate::fmu::payload::RecordedParams;
 use crate::fmu::table::{name_of, settable_reals};
 use crate::simulation::budget::{self, DEFAULT_CALL_BUDGET};
-use crate::simulation::Driver;
+use crate::simulation::{DrivenModel, Driver};
+use crate::solve::SolveError;
 
 /// Value reference of the parameter `solver.work_budget` (docs/fmu.md "Work budget"), which
 /// every gear FMU has; free in both kernels' tables.
@@ -34,11 +35,24 @@ pub const VR_WORK_BUDGET: u32 = 29;
 /// A step the integrator stopped at `reached`. Not the FMU ending the simulation
 /// (fmi2Terminated stays false, so hosts report it); an exhausted work budget leaves a valid
 /// state: a master may go on with shorter steps or a raised solver.work_budget.
-fn refused(e: &crate::solve::SolveError, reached: f64) -> StepFailure {
+fn refused(e: &SolveError, reached: f64) -> StepFailure {
     StepFailure::Discard {
         reason: format!("the integrator stopped: {e}"),
         reached,
         terminate: false,
+    }
+}
+
+/// Advances to a communication point. A point on a switching instant reports the state after
+/// the switch, as `simulate`'s rows do ([`Driver::switch_at_now`]).
+fn advance_to_communication_point<M: DrivenModel>(
+    sim: &mut Driver<M>,
+    t: f64,
+) -> Result<(), SolveError> {
+    sim.advance_to(t)?;
+    match sim.switch_at_now() {
+        Some(stop) => sim.advance_to(stop),
+        None => Ok(()),
     }
 }
 
@@ -426,8 +440,7 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
         if K::inputs_held(self.sim.model()) {
             let t0 = self.sim.t();
             let sim = self.sim_mut();
-            return sim
-                .advance_to(((t + h) - start_time).max(t0))
+            return advance_to_communication_point(sim, ((t + h) - start_time).max(t0))
                 .map_err(|e| refused(&e, start_time + sim.t()));
         }
         let du = K::input_rates(self.sim.model());
@@ -448,7 +461,7 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
             }
         }
         let sim = self.sim_mut();
-        if let Err(e) = sim.advance_to(target) {
+        if let Err(e) = advance_to_communication_point(sim, target) {
             let reached = sim.t();
             if ramp {
                 // The inputs follow the state to where the integrator stopped.

@@ -72,6 +72,11 @@ impl ScopeCounts {
     }
 }
 
+/// A stop this close after the current time (relative to the time) is a switch at the current
+/// time: an output grid's `k·h` and a clock's `t = (k + b − p₀)/f` carry a few roundings of `t`
+/// each.
+const SWITCH_AT_NOW: f64 = 64.0 * f64::EPSILON;
+
 /// The propagator actually used.
 pub enum Propagator {
     Rk(Box<RkStepper>),
@@ -228,6 +233,18 @@ impl<M: DrivenModel> Driver<M> {
             Propagator::Rk(p) => p.t(),
             Propagator::Exact(p) => p.t(),
         }
+    }
+
+    /// The model's next stop (a stiffness or gap breakpoint) when it lies within the rounding
+    /// of the current time after it: the current time is that switching instant, and a result
+    /// taken now reports the state after the switch once the caller advances to the stop
+    /// (issue 31 item 4, `docs/reference.md`). The one rule behind `simulate`'s rows
+    /// ([`super::stream`]) and the FMU's communication points. The state is continuous across
+    /// the stop; only the mode changes.
+    pub fn switch_at_now(&self) -> Option<f64> {
+        let stop = self.model.next_stop();
+        let now = self.t();
+        (stop > now && stop - now <= SWITCH_AT_NOW * now.abs()).then_some(stop)
     }
 
     /// The continuous state at [`Driver::t`].

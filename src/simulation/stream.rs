@@ -571,17 +571,11 @@ pub fn stream_with<M: DrivenModel>(
     }
     let mut row = Vec::new();
     for t in grid {
-        // A row on a switching instant reports the state after the switch (issue 31 item 4,
-        // `docs/reference.md`): a stop of the model (a stiffness or gap breakpoint) that lies
-        // within the rounding of the row's time after it is crossed before the row is taken.
-        let result = advance(sim, t).and_then(|()| {
-            let stop = sim.model().next_stop();
-            let now = sim.t();
-            if stop > now && stop - now <= ROW_AT_SWITCH * now.abs() {
-                advance(sim, stop)
-            } else {
-                Ok(())
-            }
+        // A row on a switching instant reports the state after the switch
+        // ([`Driver::switch_at_now`]).
+        let result = advance(sim, t).and_then(|()| match sim.switch_at_now() {
+            Some(stop) => advance(sim, stop),
+            None => Ok(()),
         });
         if let Err(e) = result {
             return Err(match e {
@@ -598,11 +592,6 @@ pub fn stream_with<M: DrivenModel>(
     progress.finish();
     Ok(())
 }
-
-/// A stop this close after a row's time (relative to the time) is the row's own switching
-/// instant: the clock's `t = (k + b − p₀)/f` and the grid's `k·h` carry a few roundings of
-/// `t` each.
-const ROW_AT_SWITCH: f64 = 64.0 * f64::EPSILON;
 
 /// The solver's refusal of an advance, with the likely cause when it is one of work (too many
 /// steps, a step below the time resolution, too many guard samples or events).

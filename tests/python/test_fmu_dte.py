@@ -83,11 +83,6 @@ def test_same_partition_is_identical(case, report):
         report(f"{case['name']} fmpy vs native, h = {H}: {col} max|d| = {err:.3e} m = {err / amp:.3e} of max|DTE|")
         assert err <= 1e-12 * amp
     for col in case["discrete"]:
-        differ = np.flatnonzero(np.asarray(r[col]) != np.asarray(native[col]))
-        if len(differ) and case["name"] == "idler_gearset":
-            # Known gap (issue 31 item 4): `simulate` reports a row on a switching instant after
-            # the switch; the FMU, stepped to that instant, still reports the state before it.
-            pytest.xfail(f"{col}: {len(differ)} rows on a switch report the other side in the FMU")
         assert np.array_equal(r[col], native[col]), col
     # The run is not trivial: contact is lost (single mesh), tooth pairs engage and leave
     # (Model-1 idler), or the stiffness switches (counter-shaft), on the grid.
