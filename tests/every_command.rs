@@ -18,7 +18,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 /// Each scene with the input speed (rad/s) its sweeps, HB branches and bands are centred on.
-const SCENES: [(&str, f64); 30] = [
+const SCENES: [(&str, f64); 31] = [
     ("fmu/bugaru_pair", 493.647),
     ("fmu/countershaft_gearset", 246.4),
     ("fmu/countershaft_stage", 246.4),
@@ -28,6 +28,7 @@ const SCENES: [(&str, f64); 30] = [
     ("fmu/helical_pair_friction", 104.72),
     ("fmu/idler_gearset", 330.69),
     ("fmu/idler_stage", 330.69),
+    ("fmu/planetary_stage", 1047.2),
     ("fmu/shaft_in", 300.0),
     ("fmu/shaft_out", 300.0),
     ("fmu/spur_pair", 471.24),

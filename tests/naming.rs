@@ -84,6 +84,8 @@ fn scene_names(folder: &Path) -> SceneNames {
             owners.insert(name);
         }
         owners.extend(names_of("gear"));
+        // A planetary stage's carrier is a body of its own (`[[carrier]]`, docs/planetary.md).
+        owners.extend(names_of("carrier"));
         owners.extend(names_of("port"));
         // `[model]` has defaults: its keys are parameters whether or not the file has it.
         roots.insert("model".to_string());

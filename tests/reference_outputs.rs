@@ -12,7 +12,7 @@ use geardyn::commands::simulate::{simulate, SimulateOptions};
 use geardyn::scene::Scene;
 
 /// Scene and output interval of its reference run.
-const REFERENCES: [(&str, f64); 11] = [
+const REFERENCES: [(&str, f64); 12] = [
     ("spur_pair", 1e-4),
     ("geometry_pair", 1e-4),
     ("bugaru_pair", 1e-4),
@@ -24,6 +24,7 @@ const REFERENCES: [(&str, f64); 11] = [
     ("idler_stage", 1e-4),
     ("countershaft_stage", 1e-4),
     ("geometry_stage", 1e-4),
+    ("planetary_stage", 1e-4),
 ];
 
 #[test]

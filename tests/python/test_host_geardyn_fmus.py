@@ -8,6 +8,7 @@ relative (in practice the CSV files are byte-identical).
 """
 
 import pathlib
+import tomllib
 
 import pytest
 
@@ -21,11 +22,12 @@ FMU_DIR = REPO / "out" / "fmus"
 
 def names(scene: pathlib.Path):
     """(speed input, a damping parameter) of the scene's FMU: drivetrain FMUs name them
-    `operating.input_speed` and `mesh1.damping`, single-mesh FMUs `operating.pinion_speed` and
-    `mesh.damping` (the scene's key paths)."""
+    `operating.input_speed` and `<first mesh>.damping` (`mesh1` unless the mesh is named),
+    single-mesh FMUs `operating.pinion_speed` and `mesh.damping` (the scene's key paths)."""
     text = (scene / "scene.toml").read_text()
     if "[[mesh]]" in text:
-        return "operating.input_speed", "mesh1.damping"
+        first = tomllib.loads(text)["mesh"][0].get("name", "mesh1")
+        return "operating.input_speed", f"{first}.damping"
     return "operating.pinion_speed", "mesh.damping"
 
 
