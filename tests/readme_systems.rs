@@ -109,6 +109,7 @@ fn the_readme_system_commands_work_on_a_fresh_checkout() {
         built,
         [
             "out/fmus/emotor.fmu",
+            "out/fmus/planetary_stage.fmu",
             "out/fmus/shaft_in.fmu",
             "out/fmus/shaft_out.fmu",
             "out/fmus/spur_stage.fmu",
