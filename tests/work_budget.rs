@@ -395,3 +395,63 @@ fn analyses_stop_at_their_run_budget_naming_the_cause() {
         );
     }
 }
+
+/// The statistics of a `simulate` run (issue 31: from the exact segments, or from the RK
+/// steps' dense output) are charged to the run's work budget: a run with its summary spends
+/// more work than the same run with `--quiet`, and a budget between the two stops the run with
+/// the summary (naming the budget) while the run without it completes. On the shipped pair
+/// (exact) and on it with `solver.method = "rk"`; the rows of both runs are the same.
+#[test]
+fn the_statistics_are_charged_to_the_run_budget() {
+    use geardyn::commands::simulate::{simulate_in_memory, SimulateOptions, SummarySource};
+    let path = fmu_dir("spur_pair").join("scene.toml");
+    for method in ["exact", "rk"] {
+        let scene = geardyn::scene::Scene::from_path(&path).unwrap();
+        let options = |no_summary: bool, budget: Option<f64>| {
+            let mut o = SimulateOptions {
+                stop_time: Some(0.02),
+                method: Some(method.to_owned()),
+                no_summary,
+                ..Default::default()
+            };
+            o.limits.work_budget = budget;
+            o
+        };
+        let (quiet, quiet_rows) = simulate_in_memory(scene.clone(), &options(true, None)).unwrap();
+        let (full, full_rows) = simulate_in_memory(scene.clone(), &options(false, None)).unwrap();
+        let source = if method == "exact" {
+            SummarySource::Segments
+        } else {
+            SummarySource::DenseOutput
+        };
+        assert_eq!(
+            (quiet.source, full.source),
+            (SummarySource::Samples, source)
+        );
+        assert_eq!(
+            quiet_rows, full_rows,
+            "{method}: the summary changed the rows"
+        );
+        println!(
+            "{method}: work {:.4e} units with the summary, {:.4e} without ({:.2}x)",
+            full.work,
+            quiet.work,
+            full.work / quiet.work
+        );
+        assert!(
+            full.work > 1.2 * quiet.work,
+            "{method}: {} vs {}",
+            full.work,
+            quiet.work
+        );
+        let between = 0.5 * (quiet.work + full.work);
+        simulate_in_memory(scene.clone(), &options(true, Some(between))).unwrap();
+        let e = simulate_in_memory(scene, &options(false, Some(between)))
+            .err()
+            .unwrap_or_else(|| panic!("{method}: a summary beyond the budget ran to its end"));
+        assert!(
+            e.contains(&format!("work budget of {between:e} units")),
+            "{method}: {e}"
+        );
+    }
+}

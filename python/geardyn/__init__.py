@@ -70,7 +70,8 @@ def _speed_text(speed: Union[str, float]) -> str:
 
 @dataclass
 class Simulation:
-    """A sampled run: ``time`` (s) and one column per output (``names``, SI ``units``)."""
+    """A sampled run: ``time`` (s) and one column per output (``names``, SI ``units``), and
+    each mesh's statistics over the run (``statistics``: ``geardyn simulate``'s summary)."""
 
     names: List[str]
     time: np.ndarray
@@ -78,6 +79,17 @@ class Simulation:
     method: str
     stats: Dict[str, int]
     scene_name: str
+    # One dict per mesh, the numbers `geardyn simulate` prints, bit for bit: `name`,
+    # `prefix`, `mesh_frequency` (Hz), the per-mesh columns of `sweep` (dte_mean, dte_rms,
+    # dte_peak_to_peak, a1-a3, contact_loss_fraction, separation_phase, peak_force,
+    # force_rms, dynamic_factor) and `pair_contact_loss_fractions` (one per tooth-pair slot
+    # of a Model-1 mesh). From the continuous solution (`statistics_source` "exact segments"
+    # or, on the RK path, "dense output": event times, integrals over each smooth piece,
+    # refined extremes); with speed or torque profiles only `dte_rms`, `peak_force` and
+    # `contact_loss_fraction`, of the output rows ("output samples"). None when
+    # `simulate(..., statistics=False)`.
+    statistics: Optional[List[Dict[str, Union[str, float, List[float]]]]] = None
+    statistics_source: str = "output samples"
     units: Dict[str, Optional[str]] = field(init=False)
 
     def __post_init__(self) -> None:
@@ -156,7 +168,8 @@ class Orbit:
     speed_rpm: float
     # Per mesh: prefix, mesh_frequency (Hz) and the per-mesh columns of sweep and hb
     # (dte_mean, dte_rms, dte_peak_to_peak, a1-a3, contact_loss_fraction, separation_phase,
-    # peak_force, force_rms, dynamic_factor).
+    # peak_force, force_rms, dynamic_factor), and pair_contact_loss_fractions (one per
+    # tooth-pair slot of a Model-1 mesh, from the event times; empty otherwise).
     meshes: List[Dict[str, Union[str, float]]]
 
 
@@ -183,9 +196,13 @@ def simulate(
     max_rows: Optional[int] = None,
     max_periods: Optional[float] = None,
     work_budget: Optional[float] = None,
+    statistics: bool = True,
 ) -> Simulation:
     """Simulates ``scene`` from t = 0 to ``solver.stop_time``, sampled every
-    ``solver.output_interval`` (what ``geardyn simulate`` writes to CSV).
+    ``solver.output_interval`` (what ``geardyn simulate`` writes to CSV), with each mesh's
+    statistics over the run from the continuous solution (``Simulation.statistics``, the
+    summary ``geardyn simulate`` prints, bit for bit; ``statistics=False`` skips them, as
+    ``--quiet`` does, and the run costs about half).
 
     The run limits of ``geardyn simulate`` apply (``--max-rows``, ``--max-periods``,
     ``--work-budget``: output rows, mesh and mode periods, and the work budget in work units,
@@ -194,8 +211,10 @@ def simulate(
     stops with a :class:`GeardynError` that names the likely cause (stiffness, speed, step
     count). The rows are held in memory, so a result of more than 2e8 values is refused:
     stream it to a CSV file with ``geardyn simulate`` instead."""
-    names, time, data, method, stats = _geardyn.simulate(scene, max_rows, max_periods, work_budget)
-    return Simulation(names, time, data, method, stats, scene.name)
+    names, time, data, method, stats, per_mesh, source = _geardyn.simulate(
+        scene, max_rows, max_periods, work_budget, statistics
+    )
+    return Simulation(names, time, data, method, stats, scene.name, per_mesh, source)
 
 
 def periodic(

@@ -52,7 +52,16 @@ def simulate(
     max_rows: Optional[int] = None,
     max_periods: Optional[float] = None,
     work_budget: Optional[float] = None,
-) -> Tuple[List[str], npt.NDArray[np.float64], npt.NDArray[np.float64], str, Dict[str, int]]: ...
+    statistics: bool = True,
+) -> Tuple[
+    List[str],
+    npt.NDArray[np.float64],
+    npt.NDArray[np.float64],
+    str,
+    Dict[str, int],
+    Optional[List[Dict[str, Any]]],
+    str,
+]: ...
 def periodic(
     scene: Scene,
     periods: int = 1,

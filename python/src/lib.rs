@@ -16,7 +16,6 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyByteArray, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 
 use geardyn::commands;
-use geardyn::model::train::run_train_limited;
 use geardyn::scene::train::TRAIN_EXAMPLES;
 use geardyn::scene::KernelChoice;
 use geardyn::scene::Scene;
@@ -647,14 +646,19 @@ fn apply_work_budget(scene: &mut Scene, work_budget: Option<f64>) -> PyResult<()
 }
 
 /// Simulates the scene over its `[solver]` experiment (`stop_time`, `output_interval`):
-/// returns `(names, times, data, method, stats)`, `data` one row per output time.
+/// returns `(names, times, data, method, stats, statistics, source)`, `data` one row per output
+/// time, `statistics` one dict per mesh (`geardyn simulate`'s summary: `name`, `prefix`,
+/// `mesh_frequency`, the per-mesh columns of `sweep` and each tooth pair's contact-loss
+/// fraction; `None` without `statistics`) and `source` where they come from.
 ///
+/// The run is `geardyn simulate`'s own (`geardyn::commands::simulate::simulate_in_memory`):
+/// the same rows and the same summary, bit for bit; `statistics = False` is its `--quiet`.
 /// `max_rows`, `max_periods` and `work_budget` raise (or lower) the run limits as the CLI's
 /// `--max-rows`, `--max-periods` and `--work-budget` do (`work_budget` in work units, the
 /// scene's `solver.work_budget`); the rows held in memory are bounded too
 /// (`geardyn::simulation::MAX_IN_MEMORY_VALUES`).
 #[pyfunction]
-#[pyo3(signature = (scene, max_rows = None, max_periods = None, work_budget = None))]
+#[pyo3(signature = (scene, max_rows = None, max_periods = None, work_budget = None, statistics = true))]
 #[allow(clippy::type_complexity)]
 fn simulate<'py>(
     py: Python<'py>,
@@ -662,16 +666,22 @@ fn simulate<'py>(
     max_rows: Option<&Bound<'py, PyAny>>,
     max_periods: Option<f64>,
     work_budget: Option<f64>,
+    statistics: bool,
 ) -> PyResult<(
     Vec<String>,
     Bound<'py, PyAny>,
     Bound<'py, PyAny>,
     String,
     Bound<'py, PyDict>,
+    Option<Bound<'py, PyList>>,
+    &'static str,
 )> {
-    let mut limits = geardyn::simulation::RunLimits::default();
+    let mut opts = commands::simulate::SimulateOptions {
+        no_summary: !statistics,
+        ..Default::default()
+    };
     if let Some(n) = optional_count("max_rows", max_rows, 1, i64::MAX)? {
-        limits.max_rows = n;
+        opts.limits.max_rows = n;
     }
     if let Some(p) = max_periods {
         if p.is_nan() || p <= 0.0 {
@@ -679,41 +689,26 @@ fn simulate<'py>(
                 "max_periods = {p}: must be a number > 0"
             )));
         }
-        limits.max_mesh_periods = p;
-        limits.max_mode_periods = p;
+        opts.limits.max_mesh_periods = p;
+        opts.limits.max_mode_periods = p;
     }
     if let Some(b) = work_budget {
         let b = geardyn::simulation::budget::check_limit("work_budget", b)
             .map_err(PyValueError::new_err)?;
-        limits.work_budget = Some(b);
+        opts.limits.work_budget = Some(b);
     }
-    let (names, times, data, method, stats) = match scene.scene.pair() {
-        Some(s) => {
-            let run = py
-                .detach(move || {
-                    geardyn::simulation::run_limited(
-                        &s,
-                        s.solver.stop_time,
-                        s.solver.output_interval,
-                        &limits,
-                    )
-                })
-                .map_err(err)?;
-            let names = geardyn::model::OUTPUT_NAMES.map(str::to_string).to_vec();
-            let data = matrix(py, &run.rows, names.len())?;
-            (names, run.times, data, run.method, run.stats)
-        }
-        None => {
-            let s = scene.scene.clone();
-            let run = py
-                .detach(move || {
-                    run_train_limited(&s, s.solver.stop_time, s.solver.output_interval, &limits)
-                })
-                .map_err(err)?;
-            let data = matrix(py, &run.rows, run.names.len())?;
-            (run.names, run.times, data, run.method, run.stats)
-        }
-    };
+    let s = scene.any();
+    let (report, rows) = py
+        .detach(move || commands::simulate::simulate_in_memory(s, &opts))
+        .map_err(err)?;
+    let width = rows.names.len();
+    let data = array(
+        py,
+        rows.values.iter().copied(),
+        rows.values.len(),
+        &[rows.times.len(), width],
+    )?;
+    let stats = report.stats;
     let d = PyDict::new(py);
     d.set_item("steps", stats.steps)?;
     d.set_item("rejected", stats.rejected)?;
@@ -721,7 +716,52 @@ fn simulate<'py>(
     d.set_item("events", stats.events)?;
     d.set_item("stops", stats.stops)?;
     d.set_item("guard_evals", stats.guard_evals)?;
-    Ok((names, vector(py, &times)?, data, method, d))
+    let per_mesh = if statistics {
+        let list = PyList::empty(py);
+        for m in &report.meshes {
+            let e = PyDict::new(py);
+            e.set_item("name", &m.name)?;
+            match &m.response {
+                Some(r) => mesh_response(&e, r)?,
+                // From the output rows: the three numbers the summary prints.
+                None => {
+                    e.set_item("dte_rms", m.dte_rms)?;
+                    e.set_item("peak_force", m.peak_force)?;
+                    e.set_item("contact_loss_fraction", m.contact_loss)?;
+                }
+            }
+            list.append(e)?;
+        }
+        Some(list)
+    } else {
+        None
+    };
+    Ok((
+        rows.names,
+        vector(py, &rows.times)?,
+        data,
+        report.propagator,
+        d,
+        per_mesh,
+        report.source.name(),
+    ))
+}
+
+/// A mesh's response into `e`: `prefix`, `mesh_frequency`, the per-mesh columns of `sweep`
+/// and `hb` (`MESH_COLUMNS`) by their bare names, and `pair_contact_loss_fractions` (one per
+/// tooth-pair slot of a Model-1 mesh; empty otherwise).
+fn mesh_response(e: &Bound<'_, PyDict>, m: &geardyn::analysis::MeshResponse) -> PyResult<()> {
+    e.set_item("prefix", &m.prefix)?;
+    e.set_item("mesh_frequency", m.mesh_frequency)?;
+    let names = geardyn::analysis::mesh_response::mesh_columns(&[String::new()]);
+    for (name, value) in names.iter().zip(m.values()) {
+        e.set_item(name, value)?;
+    }
+    e.set_item(
+        "pair_contact_loss_fractions",
+        m.pair_contact_loss_fractions.clone(),
+    )?;
+    Ok(())
 }
 
 /// Periodic steady state by shooting at the scene's input speed, or at `speed` (`4500rpm`,
@@ -758,13 +798,7 @@ fn periodic<'py>(
     let per_mesh = PyList::empty(py);
     for m in &meshes {
         let e = PyDict::new(py);
-        e.set_item("prefix", &m.prefix)?;
-        e.set_item("mesh_frequency", m.mesh_frequency)?;
-        // The per-mesh columns of `sweep` and `hb` (`MESH_COLUMNS`), by their bare names.
-        let names = geardyn::analysis::mesh_response::mesh_columns(&[String::new()]);
-        for (name, value) in names.iter().zip(m.values()) {
-            e.set_item(name, value)?;
-        }
+        mesh_response(&e, m)?;
         per_mesh.append(e)?;
     }
     d.set_item("meshes", per_mesh)?;

@@ -26,6 +26,12 @@ pub struct MeshResponse {
     /// Fraction of the time with total contact loss (no tooth pair in contact; for the single
     /// pair: neither drive-side nor back-side contact), from the switching instants.
     pub contact_loss_fraction: f64,
+    /// Per tooth-pair slot of a Model-1 mesh ([`crate::model::Drivetrain::mesh_pair_slots`]:
+    /// slot `j` holds the pair at window position `ξ_j = s + c − 1 − j`), the fraction of the
+    /// time that pair is engaged but in contact on neither flank, from the switching instants
+    /// (partial contact loss where another pair still carries the load); empty for a mesh
+    /// without pairs, and from harmonic balance (whose series has no contact events).
+    pub pair_contact_loss_fractions: Vec<f64>,
     /// Mesh phase (cycles, `[0, 1)`) at which contact is first lost in the stretch: the
     /// separation angle over `2π`; NaN without contact loss.
     pub separation_phase: f64,
@@ -85,6 +91,7 @@ impl MeshResponse {
             dte_peak_to_peak: f64::NAN,
             harmonics: [f64::NAN; 3],
             contact_loss_fraction: f64::NAN,
+            pair_contact_loss_fractions: Vec::new(),
             separation_phase: f64::NAN,
             peak_force: f64::NAN,
             force_rms: f64::NAN,
@@ -122,6 +129,11 @@ impl MeshResponse {
         if self.prefix.is_empty() {
             names.insert(0, "mesh_frequency".to_owned());
             values.insert(0, self.mesh_frequency);
+        }
+        // Then each tooth pair's contact-loss fraction (a Model-1 mesh).
+        for (j, &v) in self.pair_contact_loss_fractions.iter().enumerate() {
+            names.push(format!("{}pair{j}_contact_loss_fraction", self.prefix));
+            values.push(v);
         }
         names
             .iter()

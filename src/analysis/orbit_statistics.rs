@@ -42,6 +42,7 @@ use crate::model::Drivetrain;
 use crate::scene::SolverSettings;
 use crate::simulation::Driver;
 use crate::solve::exact::segment_series::{Segment, SegmentObserver};
+use crate::solve::rk::{DenseStep, StepObserver};
 use crate::solve::roots::{brent_bracket, brent_maximum};
 
 /// 10-point Gauss–Legendre rule on [−1, 1] (Abramowitz & Stegun, Table 25.4).
@@ -93,6 +94,8 @@ struct Value {
     dte: f64,
     force: f64,
     lost: bool,
+    /// [`crate::model::MeshSample::separated_pairs`].
+    separated: u64,
 }
 
 fn values<M: Drivetrain>(sim: &Driver<M>, meshes: usize) -> Vec<Value> {
@@ -104,6 +107,7 @@ fn values<M: Drivetrain>(sim: &Driver<M>, meshes: usize) -> Vec<Value> {
                 dte: s.dte,
                 force: s.force,
                 lost: s.lost,
+                separated: s.separated_pairs,
             }
         })
         .collect()
@@ -145,6 +149,9 @@ struct Sums {
     /// `∫ (d − d_ref) e^{−i2πh f_m (t − t0)} dt`, h = 1, 2, 3.
     harmonics: [(f64, f64); 3],
     lost_time: f64,
+    /// Per tooth-pair slot ([`Drivetrain::mesh_pair_slots`]), the time it was engaged and out
+    /// of contact.
+    pair_lost_time: Vec<f64>,
     separation: f64,
     lost: bool,
     candidates: [Vec<Candidate>; EXTREMES],
@@ -243,10 +250,11 @@ fn cells<M: Drivetrain>(model: &M, t0: f64, duration: f64) -> Cells {
     Cells { bounds: merged, h }
 }
 
-fn new_sums(first: &[Value]) -> Vec<Sums> {
+fn new_sums<M: Drivetrain>(model: &M, first: &[Value]) -> Vec<Sums> {
     first
         .iter()
-        .map(|v| Sums {
+        .enumerate()
+        .map(|(m, v)| Sums {
             force_ref: v.force,
             dte_ref: v.dte,
             force: 0.0,
@@ -255,6 +263,7 @@ fn new_sums(first: &[Value]) -> Vec<Sums> {
             dte2: 0.0,
             harmonics: [(0.0, 0.0); 3],
             lost_time: 0.0,
+            pair_lost_time: vec![0.0; model.mesh_pair_slots(m)],
             separation: f64::NAN,
             lost: v.lost,
             candidates: Default::default(),
@@ -288,6 +297,7 @@ fn responses<M: Drivetrain>(
             dte_peak_to_peak: extremes[1] + extremes[2],
             harmonics: [harmonic(0), harmonic(1), harmonic(2)],
             contact_loss_fraction: s.lost_time / duration,
+            pair_contact_loss_fractions: s.pair_lost_time.iter().map(|t| t / duration).collect(),
             separation_phase: s.separation,
             peak_force: extremes[0],
             force_rms: (s.force2 / duration - force_mean * force_mean)
@@ -338,7 +348,7 @@ impl Recorder {
     fn new<M: Drivetrain>(sim: &Driver<M>, max_piece: f64) -> Recorder {
         let meshes = sim.model().mesh_count();
         Recorder {
-            sums: new_sums(&values(sim, meshes)),
+            sums: new_sums(sim.model(), &values(sim, meshes)),
             frequencies: (0..meshes).map(|m| sim.model().mesh_frequency(m)).collect(),
             t0: sim.t(),
             peaks: vec![[f64::NEG_INFINITY; EXTREMES]; meshes],
@@ -349,8 +359,60 @@ impl Recorder {
     }
 }
 
+/// A stretch of one mode whose state is known anywhere inside it: a segment of the exact
+/// propagator, or an accepted RK step with its dense output.
+trait Span {
+    fn start(&self) -> f64;
+    fn end(&self) -> f64;
+    fn state(&mut self, t: f64, y: &mut [f64]);
+    fn charge_evaluations(&mut self, count: usize);
+}
+
+impl Span for Segment<'_> {
+    fn start(&self) -> f64 {
+        Segment::start(self)
+    }
+    fn end(&self) -> f64 {
+        Segment::end(self)
+    }
+    fn state(&mut self, t: f64, y: &mut [f64]) {
+        Segment::state(self, t, y)
+    }
+    fn charge_evaluations(&mut self, count: usize) {
+        Segment::charge_evaluations(self, count)
+    }
+}
+
+impl Span for DenseStep<'_> {
+    fn start(&self) -> f64 {
+        DenseStep::start(self)
+    }
+    fn end(&self) -> f64 {
+        DenseStep::end(self)
+    }
+    fn state(&mut self, t: f64, y: &mut [f64]) {
+        DenseStep::state(self, t, y)
+    }
+    fn charge_evaluations(&mut self, count: usize) {
+        DenseStep::charge_evaluations(self, count)
+    }
+}
+
 impl<M: Drivetrain> SegmentObserver<M> for Recorder {
     fn segment(&mut self, model: &M, segment: &mut Segment) {
+        self.observe(model, segment);
+    }
+}
+
+impl<M: Drivetrain> StepObserver<M> for Recorder {
+    fn step(&mut self, model: &M, step: &mut DenseStep) {
+        self.observe(model, step);
+    }
+}
+
+impl Recorder {
+    /// Adds a segment or step as smooth pieces.
+    fn observe<M: Drivetrain, P: Span>(&mut self, model: &M, segment: &mut P) {
         let (lo, hi) = (segment.start(), segment.end());
         if !(hi > lo) {
             return;
@@ -374,11 +436,9 @@ impl<M: Drivetrain> SegmentObserver<M> for Recorder {
             self.piece(model, segment, lo, hi);
         }
     }
-}
 
-impl Recorder {
     /// Adds `[lo, hi]` of `segment` as one smooth piece.
-    fn piece<M: Drivetrain>(&mut self, model: &M, segment: &mut Segment, lo: f64, hi: f64) {
+    fn piece<M: Drivetrain, P: Span>(&mut self, model: &M, segment: &mut P, lo: f64, hi: f64) {
         let meshes = self.sums.len();
         // The piece's samples: its ends (the one-sided limits of the mode there) and the
         // Gauss nodes between.
@@ -395,6 +455,9 @@ impl Recorder {
             sample.1.clear();
             sample.1.extend((0..meshes).map(|m| value(model, m, t, &y)));
         }
+        // The run's work budget pays for the observation too (the series' terms and
+        // evaluations are charged by the segment itself).
+        segment.charge_evaluations(samples.len() * meshes);
         let piece = Piece {
             lo,
             hi,
@@ -410,12 +473,15 @@ impl Recorder {
                 // Every piece's maximum is refined: the series makes an evaluation cheap, and
                 // a margin over the pieces seen so far would skip a piece whose maximum lies
                 // between its samples before the spread of the stretch is known.
+                let mut evaluations = 0;
                 let mut g = |t: f64| {
+                    evaluations += 1;
                     segment.state(t, &mut y);
                     quantity(&value(model, m, t, &y), which)
                 };
                 let peak = &mut self.peaks[m][which];
                 *peak = peak.max(c.value).max(refine_candidate(&mut g, &c));
+                segment.charge_evaluations(evaluations);
             }
         }
         self.y = y;
@@ -429,6 +495,7 @@ fn value<M: Drivetrain>(model: &M, m: usize, t: f64, y: &[f64]) -> Value {
         dte: s.dte,
         force: s.force,
         lost: s.lost,
+        separated: s.separated_pairs,
     }
 }
 
@@ -470,17 +537,24 @@ fn record_observed<M: Drivetrain>(
 /// segments end at the run's own stops and located events; a segment longer than
 /// `h·ω_max ≤ 3` (or a quarter period of the fastest mesh) is cut into equal pieces, so the
 /// 10-point Gauss rule and the refined extremes carry the accuracy of [`record`] whatever the
-/// output interval. Only where the run's segments are observable (the exact propagator, no
-/// profiles): [`RunStatistics::new`] is `None` elsewhere.
+/// output interval. On the RK propagator the pieces are its accepted steps with their dense
+/// output ([`crate::solve::rk::DenseStep`]): the events are the stepper's own located events,
+/// and the values those of the RK solution (a polynomial of degree ≤ 7 in each step, which
+/// the Gauss rule integrates exactly with its square), accurate to the integration
+/// tolerance. Not with speed or torque profiles: [`RunStatistics::new`] is `None` there.
+///
+/// The observation's work (the series' terms, the dense and model evaluations) is charged to
+/// the run's work budget like the propagator's own, so a run with statistics stops at its
+/// budget too.
 pub struct RunStatistics {
     recorder: Recorder,
 }
 
 impl RunStatistics {
-    /// Statistics from the run's current state on, or `None` where its segments are not
-    /// observable (RK, speed or torque profiles).
+    /// Statistics from the run's current state on, or `None` where the run is not
+    /// observable (speed or torque profiles).
     pub fn new<M: Drivetrain>(sim: &Driver<M>) -> Option<RunStatistics> {
-        if !sim.observes_segments() {
+        if !sim.observes_steps() {
             return None;
         }
         let model = sim.model();
@@ -501,11 +575,8 @@ impl RunStatistics {
         sim: &mut Driver<M>,
         t: f64,
     ) -> Result<(), crate::solve::SolveError> {
-        let observed = sim.advance_observed(t, &mut self.recorder)?;
-        debug_assert!(
-            observed,
-            "RunStatistics on a run without observable segments"
-        );
+        let observed = sim.advance_observed_steps(t, &mut self.recorder)?;
+        debug_assert!(observed, "RunStatistics on a run that is not observable");
         Ok(())
     }
 
@@ -550,7 +621,7 @@ fn record_probed<M: Drivetrain>(
     let bounds = &cells.bounds;
     let inset = ONE_SIDED * cells.h;
     let mut probe = Driver::with_model(model.clone(), sim.y(), settings)?;
-    let mut sums = new_sums(&values(sim, meshes));
+    let mut sums = new_sums(&model, &values(sim, meshes));
     let frequencies: Vec<f64> = (0..meshes).map(|m| model.mesh_frequency(m)).collect();
     let mut starts: Vec<Start<M::RunState>> = Vec::with_capacity(bounds.len());
     // A located event can land the propagator a few rounding units past a sample time that
@@ -559,6 +630,7 @@ fn record_probed<M: Drivetrain>(
         |sim: &mut Driver<M>, t: f64| sim.advance_to(t.max(sim.t())).map_err(|e| e.to_string());
     for c in 0..bounds.len() - 1 {
         let ((a, jump_a, _), (b, jump_b, cycle_end)) = (bounds[c], bounds[c + 1]);
+        share_budget(&mut probe, sim)?;
         starts.push(Start {
             t: sim.t(),
             y: sim.y().to_vec(),
@@ -621,6 +693,7 @@ fn record_probed<M: Drivetrain>(
             }
         }
     }
+    share_budget(&mut probe, sim)?;
     let mut extremes = Vec::with_capacity(meshes);
     for s in &sums {
         let mut e = [0.0; EXTREMES];
@@ -636,6 +709,16 @@ fn record_probed<M: Drivetrain>(
         extremes.push(e);
     }
     Ok(responses(&model, &mut sums, &extremes, duration))
+}
+
+/// Bounds the probe run by what the run's work budget has left: the run and its probe share
+/// one budget (the probe's work since its start and the run's in its scope stay within the
+/// run's limit), so a recording cannot run unbounded on the probe's side either.
+fn share_budget<M: Drivetrain>(probe: &mut Driver<M>, sim: &Driver<M>) -> Result<(), String> {
+    match sim.work_limit() {
+        Some(limit) => probe.set_work_budget((limit - sim.work_spent()).max(1.0)),
+        None => Ok(()),
+    }
 }
 
 /// Adds a smooth piece of cell `cell` to every mesh's sums and candidates.
@@ -667,7 +750,13 @@ fn add_piece<M: Drivetrain>(
             }
         }
         // The contact state is constant on the piece: read it at its middle node.
-        let lost = piece.samples[piece.nodes.start + GAUSS10.len() / 2].1[m].lost;
+        let middle = &piece.samples[piece.nodes.start + GAUSS10.len() / 2].1[m];
+        let lost = middle.lost;
+        for (j, time) in s.pair_lost_time.iter_mut().enumerate() {
+            if middle.separated >> j & 1 == 1 {
+                *time += piece.hi - piece.lo;
+            }
+        }
         if lost {
             s.lost_time += piece.hi - piece.lo;
             if !s.lost && s.separation.is_nan() {
@@ -738,6 +827,7 @@ fn refine<M: Drivetrain>(
                             dte: s.dte,
                             force: s.force,
                             lost: s.lost,
+                            separated: s.separated_pairs,
                         },
                         which,
                     )

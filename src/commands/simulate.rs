@@ -5,6 +5,7 @@
 use std::path::Path;
 
 pub use super::simulate_run::{simulate, MeshSummary, SimulateOptions, SimulateReport};
+pub use super::simulate_run::{simulate_in_memory, RowsInMemory, SummarySource};
 use crate::scene::Scene;
 
 /// The files `geardyn simulate` writes besides the CSV.
@@ -32,13 +33,14 @@ pub fn command(
     }
     let mut settings = scene.solver.clone();
     let (stop_time, interval) = opts.apply(&mut settings)?;
-    // The summary comes from the continuous solution (the exact propagator), so the output
-    // interval decides only what the rows show: aliasing matters for a spectrum of the rows
-    // (`--spectrum`) and for a summary of the rows (RK, or no summary with `--quiet`).
+    // The summary comes from the continuous solution (the exact segments or the RK dense
+    // output), so the output interval decides only what the rows show: aliasing matters for a
+    // spectrum of the rows (`--spectrum`) and for a summary of the rows (profiles, or no
+    // summary with `--quiet`).
     let sampled_summary = {
         let mut s = scene.clone();
         s.solver = settings;
-        !super::spectrum::statistics_from_solution(&s)?
+        !super::simulate_run::summary_from_solution(&s)?
     };
     if files.spectrum.is_some() || (sampled_summary && !files.quiet) {
         if let Some(warning) = super::spectrum::aliasing(&scene, interval)? {

@@ -12,6 +12,7 @@ use crate::analysis::MeshResponse;
 use crate::model::{Drivetrain, MeshColumns};
 use crate::output::CsvWriter;
 use crate::scene::{MethodChoice, SolverSettings};
+use crate::simulation::{check_in_memory, FnSink, RowSink};
 use crate::simulation::{stream_with, Progress, ProgressDisplay, RunLimits, RunSummary};
 use crate::simulation::{DrivenModel, Driver, OutputGrid};
 use crate::solve::SolverStats;
@@ -73,13 +74,14 @@ pub struct MeshSummary {
     pub dte_rms: f64,
     /// Largest |mesh force|, N.
     pub peak_force: f64,
-    /// Fraction of the run in contact loss (single pair: not in drive-side contact;
-    /// drivetrain: no tooth pair in contact): from the located event times when
-    /// `response` is there, else of the output rows.
+    /// Fraction of the run in contact loss: from the located event times when `response`
+    /// is there (no tooth pair in contact on either flank); else of the output rows (single
+    /// pair: not in drive-side contact; drivetrain: no tooth pair in contact).
     pub contact_loss: f64,
     /// The mesh's statistics over the run from the continuous solution
-    /// ([`crate::analysis::orbit_statistics::RunStatistics`]: the exact propagator); `None`
-    /// on the RK propagator or with `--quiet`, where the fields above are of the output rows.
+    /// ([`crate::analysis::orbit_statistics::RunStatistics`]: the exact propagator's segments
+    /// or the RK steps' dense output, [`SimulateReport::source`]); `None` with speed or torque
+    /// profiles or with `--quiet`, where the fields above are of the output rows.
     pub response: Option<MeshResponse>,
     /// The mesh's DTE and force columns in the CSV (0 is time).
     pub dte_column: usize,
@@ -91,15 +93,45 @@ pub struct MeshSummary {
 pub struct SimulateReport {
     pub scene: String,
     pub rows: u64,
+    /// The method as chosen and why (`exact (auto: …)`, printed by the summary).
     pub method: String,
+    /// The propagator that ran (`exact`, `dp5`, `dop853`, `rodas4`).
+    pub propagator: String,
     pub stats: SolverStats,
     /// Work units the run spent against its budget ([`crate::simulation::budget`]).
     pub work: f64,
     pub meshes: Vec<MeshSummary>,
     /// Whether the scene is a single pair (its summary is printed in the pair's layout).
     pub pair: bool,
+    /// Where the summary's numbers come from.
+    pub source: SummarySource,
     /// The most bytes of output the writer held at once (bounded by its buffer).
     pub peak_buffered_bytes: usize,
+}
+
+/// Where the summary of a `simulate` run comes from (issue 31: statistics from the solution,
+/// not from samples).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SummarySource {
+    /// The exact propagator's segments: located event times, closed-form segment states
+    /// integrated by Gauss rules, refined extremes (exact to rounding).
+    Segments,
+    /// The RK solution: the stepper's located events and the dense output of its accepted
+    /// steps, integrated and refined the same way (accurate to the integration tolerance).
+    DenseOutput,
+    /// The output rows (a run with speed or torque profiles, or no statistics asked for).
+    Samples,
+}
+
+impl SummarySource {
+    /// A short name (the Python module's `statistics_source`).
+    pub fn name(self) -> &'static str {
+        match self {
+            SummarySource::Segments => "exact segments",
+            SummarySource::DenseOutput => "dense output",
+            SummarySource::Samples => "output samples",
+        }
+    }
 }
 
 impl SimulateReport {
@@ -113,12 +145,13 @@ impl SimulateReport {
         );
         println!("  method               {}", self.method);
         // Where the numbers come from: the continuous solution (event times, segment
-        // integrals and refined extremes), or, on the RK propagator, the output rows.
+        // integrals and refined extremes: the exact segments or the RK dense output), or,
+        // with profiles, the output rows.
         let exact = self.meshes.iter().all(|m| m.response.is_some());
-        let of = if exact {
-            "from the event times"
-        } else {
-            "of output samples"
+        let of = match self.source {
+            SummarySource::Segments => "from the event times",
+            SummarySource::DenseOutput => "from the RK solution's event times",
+            SummarySource::Samples => "of output samples",
         };
         if self.pair {
             let m = &self.meshes[0];
@@ -134,7 +167,15 @@ impl SimulateReport {
             }
         }
         if exact {
-            println!("  statistics over the run from the continuous solution (as `periodic` reports them):");
+            match self.source {
+                SummarySource::DenseOutput => println!(
+                    "  statistics over the run from the continuous solution (the RK steps' dense \
+                     output, accurate to the integration tolerance; as `periodic` reports them):"
+                ),
+                _ => println!(
+                    "  statistics over the run from the continuous solution (as `periodic` reports them):"
+                ),
+            }
             for m in &self.meshes {
                 if let Some(r) = &m.response {
                     println!("    {}", r.report_line());
@@ -153,9 +194,47 @@ impl SimulateReport {
 /// goes to `.<out>.partial` as it is computed, and the file is renamed into place when the
 /// run succeeds; on any error nothing is left at either path.
 pub fn simulate(
-    mut scene: Scene,
+    scene: Scene,
     opts: &SimulateOptions,
     out: &Path,
+) -> Result<SimulateReport, String> {
+    simulate_to(scene, opts, Destination::Csv(out))
+}
+
+/// The rows of a run held in memory ([`simulate_in_memory`]).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RowsInMemory {
+    /// The output names (the CSV's columns after `time`).
+    pub names: Vec<String>,
+    pub times: Vec<f64>,
+    /// Row after row, `names.len()` values each.
+    pub values: Vec<f64>,
+}
+
+/// [`simulate`] with the rows held in memory instead of written to a file (the Python
+/// module): the same run, the same rows and the same summary, bit for bit. A result of more
+/// than [`crate::simulation::MAX_IN_MEMORY_VALUES`] values is refused before the run.
+pub fn simulate_in_memory(
+    scene: Scene,
+    opts: &SimulateOptions,
+) -> Result<(SimulateReport, RowsInMemory), String> {
+    let mut rows = RowsInMemory::default();
+    let report = simulate_to(scene, opts, Destination::Memory(&mut rows))?;
+    Ok((report, rows))
+}
+
+/// Where the rows of a run go.
+enum Destination<'a> {
+    /// Streamed to this CSV file.
+    Csv(&'a Path),
+    /// Held in memory.
+    Memory(&'a mut RowsInMemory),
+}
+
+fn simulate_to(
+    mut scene: Scene,
+    opts: &SimulateOptions,
+    out: Destination,
 ) -> Result<SimulateReport, String> {
     let (stop_time, interval) = opts.apply(&mut scene.solver)?;
     let name = scene.name.to_owned();
@@ -172,7 +251,12 @@ pub fn simulate(
         let summed: Vec<usize> = meshes.iter().flat_map(|(_, c)| [c.dte, c.force]).collect();
         let tallies: Vec<(usize, f64)> = meshes.iter().map(|(_, c)| (c.contact, c.contact_value)).collect();
         let statistics = if opts.no_summary { None } else { RunStatistics::new(&sim) };
-        let (run, responses) = run_to_csv(
+        let source = match &statistics {
+            Some(_) if sim.observes_segments() => SummarySource::Segments,
+            Some(_) => SummarySource::DenseOutput,
+            None => SummarySource::Samples,
+        };
+        let (run, responses) = run_streamed(
             sim,
             &names,
             RunSummary::new(&summed, &tallies),
@@ -208,8 +292,14 @@ pub fn simulate(
                 }
             })
             .collect();
-        Ok(run.report(name, meshes, pair))
+        Ok(run.report(name, meshes, pair, source))
     })
+}
+
+/// Whether `simulate`'s summary of `scene` (its solver settings applied) comes from the
+/// continuous solution ([`RunStatistics::new`]) rather than from the output rows.
+pub fn summary_from_solution(scene: &Scene) -> Result<bool, String> {
+    with_drivetrain!(scene.run()?, sim => Ok(RunStatistics::new(&sim).is_some()))
 }
 
 /// Reads the run's CSV back row by row (the run itself streams, so its outputs are only in the
@@ -233,6 +323,7 @@ pub fn for_each_row(csv: &Path, mut row: impl FnMut(u64, &[f64])) -> Result<(), 
 struct Streamed {
     rows: u64,
     method: String,
+    propagator: String,
     stats: SolverStats,
     work: f64,
     summary: RunSummary,
@@ -240,24 +331,32 @@ struct Streamed {
 }
 
 impl Streamed {
-    fn report(self, scene: String, meshes: Vec<MeshSummary>, pair: bool) -> SimulateReport {
+    fn report(
+        self,
+        scene: String,
+        meshes: Vec<MeshSummary>,
+        pair: bool,
+        source: SummarySource,
+    ) -> SimulateReport {
         SimulateReport {
             scene,
             rows: self.rows,
             method: self.method,
+            propagator: self.propagator,
             stats: self.stats,
             work: self.work,
             meshes,
             pair,
+            source,
             peak_buffered_bytes: self.peak_buffered_bytes,
         }
     }
 }
 
-/// The one streaming run of pair and drivetrain: limits first, then the file, then the rows,
-/// with `summary` accumulated on the way.
+/// The one streaming run of pair and drivetrain: limits first, then the file (or the memory
+/// check), then the rows, with `summary` accumulated on the way.
 #[allow(clippy::too_many_arguments)]
-fn run_to_csv<M: DrivenModel + Drivetrain>(
+fn run_streamed<M: DrivenModel + Drivetrain>(
     mut sim: Driver<M>,
     names: &[String],
     mut summary: RunSummary,
@@ -265,41 +364,60 @@ fn run_to_csv<M: DrivenModel + Drivetrain>(
     stop_time: f64,
     interval: f64,
     opts: &SimulateOptions,
-    out: &Path,
+    out: Destination,
     mut statistics: Option<RunStatistics>,
 ) -> Result<(Streamed, Option<Vec<MeshResponse>>), String> {
     opts.limits
         .check(&sim.model().run_scales(), stop_time, interval)?;
-    let mut columns: Vec<String> = std::iter::once("time".to_owned())
-        .chain(names.iter().cloned())
-        .collect();
-    if opts.header_units {
-        columns = crate::units::with_units(&columns)?;
-    }
-    let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
-    let mut writer = CsvWriter::create(out, &columns)?;
-    stream_with(
-        &mut sim,
-        OutputGrid::new(stop_time, interval),
-        outputs,
-        &mut writer,
-        &mut summary,
-        &mut Progress::with_display(stop_time, opts.progress),
-        opts.limits.work_budget,
-        |sim, t| match &mut statistics {
-            Some(s) => s.advance(sim, t),
-            None => sim.advance_to(t),
-        },
-    )?;
+    let stream = |sink: &mut dyn RowSink| {
+        stream_with(
+            &mut sim,
+            OutputGrid::new(stop_time, interval),
+            outputs,
+            sink,
+            &mut summary,
+            &mut Progress::with_display(stop_time, opts.progress),
+            opts.limits.work_budget,
+            |sim, t| match &mut statistics {
+                Some(s) => s.advance(sim, t),
+                None => sim.advance_to(t),
+            },
+        )
+    };
+    let (rows, peak_buffered_bytes) = match out {
+        Destination::Csv(path) => {
+            let mut columns: Vec<String> = std::iter::once("time".to_owned())
+                .chain(names.iter().cloned())
+                .collect();
+            if opts.header_units {
+                columns = crate::units::with_units(&columns)?;
+            }
+            let columns: Vec<&str> = columns.iter().map(String::as_str).collect();
+            let mut writer = CsvWriter::create(path, &columns)?;
+            stream(&mut writer)?;
+            let counts = (writer.rows(), writer.peak_buffered_bytes());
+            writer.finish()?;
+            counts
+        }
+        Destination::Memory(memory) => {
+            check_in_memory(stop_time, interval, names.len())?;
+            memory.names = names.to_vec();
+            let (times, values) = (&mut memory.times, &mut memory.values);
+            stream(&mut FnSink(|t: f64, row: &[f64]| {
+                times.push(t);
+                values.extend_from_slice(row);
+                Ok(())
+            }))?;
+            (memory.times.len() as u64, 0)
+        }
+    };
     let responses = statistics.map(|s| s.finish(&sim));
-    let rows = writer.rows();
-    let peak_buffered_bytes = writer.peak_buffered_bytes();
-    writer.finish()?;
     let method = sim.method_choice().to_owned();
     Ok((
         Streamed {
             rows,
             method,
+            propagator: sim.method_name(),
             stats: sim.stats(),
             work: sim.work_spent(),
             summary,

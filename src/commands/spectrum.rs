@@ -409,13 +409,6 @@ pub fn aliasing(scene: &Scene, interval: f64) -> Result<Option<String>, String> 
     })
 }
 
-/// Whether a run of `scene` observes its segments, so that `simulate`'s summary comes from
-/// the continuous solution ([`crate::analysis::orbit_statistics::RunStatistics`]) rather
-/// than from the output rows.
-pub fn statistics_from_solution(scene: &Scene) -> Result<bool, String> {
-    with_drivetrain!(scene.run()?, sim => Ok(sim.observes_segments()))
-}
-
 /// The spectrum of a simulated record (`simulate --spectrum`): `time` uniform from the run's
 /// start, `columns` (name, values) the outputs to transform. When the record spans an integer
 /// number of response periods (to 1e-9) the last sample (the first of the next period) is

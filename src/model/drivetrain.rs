@@ -33,6 +33,10 @@ pub struct MeshSample {
     pub lost: bool,
     /// Mesh phase in cycles of the mesh period, in `[0, 1)`.
     pub phase: f64,
+    /// Bit `j` set while the tooth pair in slot `j` ([`Drivetrain::mesh_pair_slots`]) is
+    /// engaged but in contact on neither flank (partial or total contact loss); 0 for a mesh
+    /// without tooth pairs.
+    pub separated_pairs: u64,
 }
 
 /// Where mesh `n`'s quantities sit in the output row, for run summaries.
@@ -73,6 +77,13 @@ pub trait Drivetrain: DrivenModel {
     fn set_input_speed(&mut self, t: f64, speed: f64) -> Result<(), String>;
     /// Mesh `n` at `(t, y)`.
     fn mesh_sample(&self, n: usize, t: f64, y: &[f64]) -> MeshSample;
+    /// The tooth-pair slots of mesh `n` whose contact the model tracks one by one (a Model-1
+    /// `pairs` mesh: slot `j` holds the pair at window position `ξ_j = s + c − 1 − j`,
+    /// `docs/train.md`, the `<mesh>.pair<j>.force` outputs); 0 for a mesh without pairs.
+    /// At most 64 ([`MeshSample::separated_pairs`] is a bit set).
+    fn mesh_pair_slots(&self, _n: usize) -> usize {
+        0
+    }
     /// Mesh phase of mesh `n` at `t`, cycles (not reduced: it counts the cycles since the
     /// start, so with the response period it locates a state on an orbit).
     fn mesh_phase(&self, n: usize, t: f64) -> f64;
@@ -224,6 +235,7 @@ impl Drivetrain for GearPair {
             force: out[2],
             lost: out[3] == 0.0,
             phase: out[4],
+            separated_pairs: 0,
         }
     }
     fn mesh_phase(&self, _n: usize, t: f64) -> f64 {
@@ -342,14 +354,24 @@ impl Drivetrain for GearTrain {
     }
     fn mesh_sample(&self, n: usize, t: f64, y: &[f64]) -> MeshSample {
         let st = self.mesh_state(n, t, y);
+        let flags = self.slot_flags(n);
+        let separated_pairs = (flags.iter().take(self.mesh_pair_slots(n)).enumerate())
+            .filter(|(_, f)| **f == SlotContact::Separated)
+            .fold(0u64, |bits, (j, _)| bits | 1 << j);
         MeshSample {
             dte: st.dte,
             force: st.force,
-            lost: !self
-                .slot_flags(n)
+            lost: !flags
                 .iter()
                 .any(|f| matches!(f, SlotContact::Drive | SlotContact::Back)),
             phase: st.phase,
+            separated_pairs,
+        }
+    }
+    fn mesh_pair_slots(&self, n: usize) -> usize {
+        match self.pair_slots(n) {
+            slots @ 0..=64 => slots,
+            _ => 0,
         }
     }
     fn mesh_phase(&self, n: usize, t: f64) -> f64 {

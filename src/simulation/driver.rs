@@ -9,6 +9,7 @@ use super::scales::RunScales;
 use crate::scene::{MethodChoice, SolverSettings};
 use crate::solve::exact::segment_series::SegmentObserver;
 use crate::solve::exact::{ExactPropagator, PiecewiseLti};
+use crate::solve::rk::StepObserver;
 use crate::solve::rk::{ControllerMemory, RkOptions, RkStepper};
 use crate::solve::work::WorkPrices;
 use crate::solve::{SolveError, SolverStats};
@@ -430,6 +431,38 @@ impl<M: DrivenModel> Driver<M> {
     /// Whether [`Driver::advance_observed`] observes this run's segments.
     pub fn observes_segments(&self) -> bool {
         self.model.profiles().is_none() && matches!(self.propagator, Propagator::Exact(_))
+    }
+
+    /// [`Driver::advance_observed`] on the exact propagator; on the RK propagator the same
+    /// advance handing every accepted step with its dense output to `observer`
+    /// ([`StepObserver`]). `Ok(false)`, nothing advanced, with speed or torque profiles.
+    pub fn advance_observed_steps<O: SegmentObserver<M> + StepObserver<M>>(
+        &mut self,
+        t_end: f64,
+        observer: &mut O,
+    ) -> Result<bool, SolveError> {
+        let Propagator::Rk(p) = &mut self.propagator else {
+            return self.advance_observed(t_end, observer);
+        };
+        if self.model.profiles().is_some() {
+            return Ok(false);
+        }
+        let t = p.t();
+        if t_end != t {
+            if let Err(reason) = self.model.check_advance(t, t_end) {
+                return Err(SolveError::BeyondLimits { t, reason });
+            }
+        }
+        match p.advance_observed(&mut self.model, t_end, observer) {
+            Err(SolveError::OverBudget { .. }) => Err(self.over_budget()),
+            other => other.map(|()| true),
+        }
+    }
+
+    /// Whether [`Driver::advance_observed_steps`] observes this run (segments or steps: any
+    /// run without speed or torque profiles).
+    pub fn observes_steps(&self) -> bool {
+        self.model.profiles().is_none()
     }
 
     /// The error of an exhausted budget, with the message naming the likely cause.

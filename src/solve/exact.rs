@@ -460,6 +460,8 @@ pub struct ExactPropagator {
     /// crossing searches of all advances so far (the rest of [`ExactPropagator::work`] is
     /// in the counters).
     exp_units: f64,
+    /// Work units of the segment observers ([`SegmentObserver`], priced by the segment).
+    observer_units: f64,
     guard_samples: f64,
     /// Whether the current advance checked its limit in full (and may have read work
     /// that came with exponentials).
@@ -582,6 +584,25 @@ struct WorkLimit {
     builds: u64,
 }
 
+/// Adds the work of the observer of the segment just handed over ([`SegmentObserver`]) to
+/// the run's (`observer_units`); under a limit, the next segment checks it in full (the
+/// observer's work is not counted in segments), so a run with statistics stops at its budget
+/// too, within one segment's observation.
+#[inline]
+fn charge_observation<const METERED: bool>(
+    observed: &mut SeriesBuffers,
+    observer_units: &mut f64,
+    limit: &mut Option<WorkLimit>,
+) {
+    let units = observed.take_work();
+    if units > 0.0 {
+        *observer_units += units;
+        if METERED {
+            force_check(limit);
+        }
+    }
+}
+
 /// Work other than segments and guard evaluations was done (a search, a series segment, a
 /// duration bin built): the limit is checked in full before the next segment (a free
 /// function: the mode being walked borrows the propagator's cache).
@@ -642,6 +663,7 @@ impl ExactPropagator {
             prices: WorkPrices::default(),
             work_limit: None,
             exp_units: 0.0,
+            observer_units: 0.0,
             guard_samples: 0.0,
             checked_in_full: false,
             observed: SeriesBuffers::default(),
@@ -763,6 +785,7 @@ impl ExactPropagator {
         self.guard_samples * self.prices.guard_eval
             + self.modes.builds as i64 as f64 * self.prices.mode
             + self.exp_units
+            + self.observer_units
     }
 
     /// The work of the segments and guard evaluations so far.
@@ -1071,8 +1094,14 @@ impl ExactPropagator {
                             &self.z,
                             mode.balanced(),
                             &mut self.observed,
+                            self.prices,
                         );
                         observer.segment(sys, &mut segment);
+                        charge_observation::<METERED>(
+                            &mut self.observed,
+                            &mut self.observer_units,
+                            &mut self.work_limit,
+                        );
                     }
                     // The event state from the segment's start: in a periodic steady state
                     // τ* recurs, so this is one mat-vec of a cached bin.
@@ -1128,8 +1157,14 @@ impl ExactPropagator {
                     &self.z,
                     self.modes.modes[position].balanced(),
                     &mut self.observed,
+                    self.prices,
                 );
                 observer.segment(sys, &mut segment);
+                charge_observation::<METERED>(
+                    &mut self.observed,
+                    &mut self.observer_units,
+                    &mut self.work_limit,
+                );
             }
             // Checked before it replaces `y`: on error the propagator holds the last finite
             // state at `t`, as the RK stepper does.

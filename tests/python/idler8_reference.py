@@ -323,6 +323,23 @@ class Idler8:
                     t = t_break
         return y, flags
 
+    def pair_loss_fractions(self, segments, duration):
+        """Per mesh, per tooth-pair slot j (the pair at ξ_j = s + c − 1 − j), the fraction of
+        `duration` the pair is engaged but out of contact, from the smooth pieces of
+        `integrate` (each pair's contact is constant on a piece: its ends are the events)."""
+        out = []
+        for mi, m in enumerate(self.meshes):
+            lost = [0.0] * m.slots
+            for a, b, _, pairs, fl in segments:
+                if b <= a:
+                    continue
+                cycle = math.floor(self.phase(0.5 * (a + b)))
+                for pid, *_ in pairs[mi]:
+                    if not fl[(id(m), pid)]:
+                        lost[pid - cycle] += b - a
+            out.append([x / duration for x in lost])
+        return out
+
     # --- statics, orbits, pieces -------------------------------------------------------------
 
     @staticmethod
@@ -394,10 +411,11 @@ class Idler8:
         w = 2 * math.pi * self.natural_frequencies[-1]
         return np.array([x] * N + [w * x] * N)
 
-    def orbit_pieces(self, y0, duration=None):
+    def orbit_pieces(self, y0, duration=None, segments=None):
         """Per mesh, the `Piece`s of one period (or of `duration`) from y0 (t ∈ [0, T]), the
-        contact flags at its end, and the state at its end."""
-        segments = []
+        contact flags at its end, and the state at its end; the smooth pieces of `integrate`
+        are appended to `segments` when given."""
+        segments = [] if segments is None else segments
         y1, flags = self.integrate(y0, 0.0, duration or self.period, segments=segments)
         out = []
         for mi, m in enumerate(self.meshes):

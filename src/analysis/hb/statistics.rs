@@ -125,6 +125,7 @@ impl<M: Drivetrain> Problem<M> {
             dte_peak_to_peak: hi - lo,
             harmonics: [harmonic(1), harmonic(2), harmonic(3)],
             contact_loss_fraction: lost,
+            pair_contact_loss_fractions: Vec::new(),
             separation_phase: separation,
             peak_force: peak,
             force_rms: var.sqrt(),

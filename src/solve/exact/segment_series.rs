@@ -13,6 +13,7 @@
 //! not to the same last bit).
 
 use super::balanced::{sum_terms, BalancedMatrix, MAX_TERMS};
+use crate::solve::work::WorkPrices;
 
 /// Largest `θ = ‖B‖₁ w` of one window: the terms then never grow above the first
 /// (`θ^k/k! ≤ 2`), so their sum loses nothing to cancellation, and settle in ~22 terms.
@@ -27,6 +28,17 @@ pub struct SeriesBuffers {
     starts: Vec<usize>,
     counts: Vec<usize>,
     sum: Vec<f64>,
+    /// Work units of the observation since the propagator last took them
+    /// ([`SeriesBuffers::take_work`]): the observer's work is charged to the run's budget
+    /// like the propagator's own (issue 31: a summary cannot run unbounded).
+    work: f64,
+}
+
+impl SeriesBuffers {
+    /// The work of the observations since the last call, in work units.
+    pub(super) fn take_work(&mut self) -> f64 {
+        std::mem::take(&mut self.work)
+    }
 }
 
 /// One segment of an observed advance: `[start, end]` of one mode, with the model still in
@@ -39,6 +51,12 @@ pub struct Segment<'a> {
     buffers: &'a mut SeriesBuffers,
     /// Window width; 0 until the terms are built.
     width: f64,
+    /// The propagator's prices: a Taylor term is a mat-vec of the mode's `n_z × n_z` matrix
+    /// (`n_z²` units, the budget's unit being one multiply-add), a state evaluation a Horner
+    /// sum over the terms of the entries asked for (terms × entries), an observer's
+    /// evaluation of an output ([`Segment::charge_evaluations`]) a guard evaluation; nothing
+    /// on an unpriced propagator.
+    prices: WorkPrices,
 }
 
 impl<'a> Segment<'a> {
@@ -48,6 +66,7 @@ impl<'a> Segment<'a> {
         z0: &'a [f64],
         balanced: &'a BalancedMatrix,
         buffers: &'a mut SeriesBuffers,
+        prices: WorkPrices,
     ) -> Segment<'a> {
         Segment {
             t0,
@@ -56,7 +75,14 @@ impl<'a> Segment<'a> {
             balanced,
             buffers,
             width: 0.0,
+            prices,
         }
+    }
+
+    /// Charges `count` evaluations of the observer's own (outputs of the model at a state of
+    /// the segment) to the run's work budget.
+    pub fn charge_evaluations(&mut self, count: usize) {
+        self.buffers.work += count as f64 * self.prices.guard_eval;
     }
 
     pub fn start(&self) -> f64 {
@@ -106,6 +132,9 @@ impl<'a> Segment<'a> {
             let count = self.balanced.taylor_terms_within(w, nz, window, TAIL);
             b.starts.push(start);
             b.counts.push(count);
+            if self.prices.step > 0.0 {
+                b.work += (count * nz * nz) as f64;
+            }
             // The next window's start, in balanced coordinates.
             sum_terms(&b.terms[start..start + count * nz], nz, 1.0, &mut b.sum);
             start += count * nz;
@@ -129,6 +158,9 @@ impl<'a> Segment<'a> {
         let j = (s.floor() as usize).min(windows - 1);
         let sigma = s - j as f64;
         let (start, count) = (b.starts[j], b.counts[j]);
+        if self.prices.step > 0.0 {
+            b.work += (count * y.len()) as f64;
+        }
         // Only the entries asked for (the model's state, not the forcing states beyond it).
         let sum = &mut b.sum[..y.len()];
         sum_terms(&b.terms[start..start + count * nz], nz, sigma, sum);
@@ -196,7 +228,14 @@ mod tests {
         let z0 = [1e-6, 2e-2, 1.0, 0.0];
         let mut buffers = SeriesBuffers::default();
         let tau = 6.0 / w0;
-        let mut segment = Segment::new(0.5, 0.5 + tau, &z0, &balanced, &mut buffers);
+        let mut segment = Segment::new(
+            0.5,
+            0.5 + tau,
+            &z0,
+            &balanced,
+            &mut buffers,
+            WorkPrices::default(),
+        );
         let mut y = [0.0; 2];
         for k in 0..=20 {
             let t = 0.5 + tau * k as f64 / 20.0;

@@ -18,6 +18,7 @@ mod control;
 mod dense;
 mod event;
 mod graze;
+mod observe;
 mod rosenbrock;
 #[cfg(test)]
 mod rosenbrock_tests;
@@ -33,6 +34,8 @@ use super::{HybridSystem, SolveError, SolverStats};
 use control::Controller;
 use rosenbrock::LinearlyImplicit;
 use tableau::Tableau;
+
+pub use observe::{DenseStep, StepObserver};
 
 /// The Runge–Kutta pair.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -219,6 +222,8 @@ pub struct RkStepper {
     /// stops ([`crate::solve::work`]); `None`: unbounded.
     prices: WorkPrices,
     work_until: Option<f64>,
+    /// Work units of the step observers ([`StepObserver`], priced by the step).
+    observer_units: f64,
 }
 
 /// The step-size controller's memory: with `(t, y)` it determines every future step (FSAL
@@ -292,6 +297,7 @@ impl RkStepper {
             stats: SolverStats::default(),
             prices: WorkPrices::default(),
             work_until: None,
+            observer_units: 0.0,
             opts,
         })
     }
@@ -394,6 +400,7 @@ impl RkStepper {
         // Through i64: one instruction (the counts stay far below 2^63).
         (self.stats.steps + self.stats.rejected) as i64 as f64 * self.prices.step
             + self.stats.guard_evals as i64 as f64 * self.prices.guard_eval
+            + self.observer_units
     }
 
     pub fn options(&self) -> &RkOptions {
@@ -439,6 +446,19 @@ impl RkStepper {
         &mut self,
         sys: &mut S,
         t_end: f64,
+    ) -> Result<(), SolveError> {
+        self.advance_observed(sys, t_end, &mut observe::Unobserved)
+    }
+
+    /// [`RkStepper::advance_to`], handing every accepted step with its dense output to
+    /// `observer` ([`observe`]) before the event or stop at its end is handled. The steps are
+    /// those of the plain advance (the observer only reads them); the interpolant is then built
+    /// on every step (for DOP853 at 3 more evaluations where no event search needs it).
+    pub fn advance_observed<S: HybridSystem, O: StepObserver<S>>(
+        &mut self,
+        sys: &mut S,
+        t_end: f64,
+        observer: &mut O,
     ) -> Result<(), SolveError> {
         if sys.dim() != self.n {
             return Err(SolveError::DimensionMismatch {
@@ -568,7 +588,7 @@ impl RkStepper {
             }
             self.accept(sys, (h, h_prop, t_new), err)?;
             let t0 = self.t;
-            if n_guards > 0 || self.opts.dense_output {
+            if n_guards > 0 || self.opts.dense_output || O::ACTIVE {
                 self.build_dense(sys, t0, h, t_new);
             } else {
                 self.dense.valid = false;
@@ -584,9 +604,15 @@ impl RkStepper {
                     &mut self.ytmp,
                     &mut self.stats,
                 ) {
+                    if O::ACTIVE {
+                        self.observe(&*sys, t0, t_ev, observer);
+                    }
                     self.handle_event(sys, t_ev, t_new, index)?;
                     continue;
                 }
+            }
+            if O::ACTIVE {
+                self.observe(&*sys, t0, t_new, observer);
             }
             // Commit the step: the FSAL stage becomes stage 0 of the next step (the Rosenbrock
             // method evaluates `f` and `J` afresh at the new start).
@@ -770,6 +796,20 @@ impl RkStepper {
         self.ctl.last_rejected = false;
         self.ctl.h = Some(h_new);
         Ok(())
+    }
+
+    /// Hands the accepted step `[t0, t1]` (its dense output just built) to `observer`.
+    fn observe<S, O: StepObserver<S>>(&mut self, sys: &S, t0: f64, t1: f64, observer: &mut O) {
+        let mut step = DenseStep {
+            method: self.opts.method,
+            r: &self.dense.r,
+            t0,
+            h: self.dense.h,
+            t1,
+            work: &mut self.observer_units,
+            guard_eval: self.prices.guard_eval,
+        };
+        observer.step(sys, &mut step);
     }
 
     fn build_dense<S: HybridSystem>(&mut self, sys: &S, t0: f64, h: f64, t_new: f64) {

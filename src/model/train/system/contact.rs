@@ -201,6 +201,12 @@ impl GearTrain {
         &self.meshes[n].flags
     }
 
+    /// The tooth-pair slots of mesh n with outputs of their own (`<mesh>.pair<j>.force`: a
+    /// Model-1 mesh), 0 otherwise.
+    pub fn pair_slots(&self, n: usize) -> usize {
+        self.pair_outputs.get(n).copied().unwrap_or(0)
+    }
+
     /// Evaluated quantities of mesh n at `(t, y)`.
     pub fn mesh_state(&self, n: usize, t: f64, y: &[f64]) -> MeshState {
         let mesh = &self.meshes[n];
