@@ -21,12 +21,13 @@
 //! (start-up transient, the exact propagator's mode and product builds included), advanced
 //! `--grid N` times per mesh period (default 1: an FMU master's communication step of one mesh
 //! period; `--grid 32` writes 32 rows per period) or every `--output-interval S` seconds (a
-//! grid not locked to the mesh period, as `geardyn simulate` writes), reading every output at
-//! each stop. Runs are 20 000 mesh periods for the pair and 1000 (`--stage-periods`) for the
-//! stage (`--quick`: 2000 and 200); every method of a row runs the same number of periods,
-//! except RODAS4 (a tenth, once; [`periods_of`]). The exact propagator's start-up (its modes
-//! and composite products are built in the first periods) weighs more in shorter runs, so
-//! its cost per period falls with the run length.
+//! grid not locked to the mesh period, as `geardyn simulate` writes at a scene's
+//! `output_interval`), reading every output at each stop. Runs are 20 000 mesh periods for the
+//! pair and 1000 (`--stage-periods`) for the stage (`--quick`: 2000 and 200); every method of
+//! a row runs the same number of periods, except RODAS4 (a tenth but at least 100, once;
+//! [`periods_of`]). The exact propagator's start-up (its modes and composite products are
+//! built in the first periods) weighs more in shorter runs, so its cost per period falls with
+//! the run length. Results: `docs/planetary.md`, "Cost".
 //!
 //! Timing: CPU time of the thread (`CLOCK_THREAD_CPUTIME_ID`, not wall time: the machine is
 //! shared); one warm-up run of every configuration, then rounds that run every configuration
@@ -308,11 +309,12 @@ fn load_average() -> String {
         .join(" ")
 }
 
-/// Periods of a configuration's runs: RODAS4 (an implicit method, 20–60× DOP853's cost on
-/// these non-stiff scenes, never the best) runs a tenth of the row's periods, once.
+/// Periods of a configuration's runs: RODAS4 (an implicit method, 10–40× DOP853's cost on
+/// these non-stiff scenes, never the best) runs a tenth of the row's periods but at least 100
+/// (past the start-up transient), once.
 fn periods_of(row: &Row, method: Method) -> u64 {
     match method {
-        Method::Rk(Rk::Rodas4) => (row.periods / 10).max(1),
+        Method::Rk(Rk::Rodas4) => (row.periods / 10).max(100).min(row.periods),
         _ => row.periods,
     }
 }
@@ -383,7 +385,7 @@ fn main() {
     println!(
         "geardyn planetary-stage benchmark (issue 33, acceptance 7): {stops_text}, CPU time of \
          the thread, median of {rounds} alternated rounds after a warm-up (RODAS4: one run of a \
-         tenth of the periods)"
+         tenth of the periods, at least 100)"
     );
     println!("load average at the start: {}", load_average());
     // Warm-up: every configuration once (its counters and samples are the reported ones).
