@@ -216,7 +216,9 @@ enum Stops {
 }
 
 /// One whole run of `periods` mesh periods of `row` with `method`.
-fn run(row: &Row, method: Method, periods: u64, stops: Stops) -> Run {
+/// `metered`: under a work budget (never reached), so that the exact propagator counts the
+/// duration bins it builds (`SolverStats::transitions`); the timed runs are unbounded.
+fn run(row: &Row, method: Method, periods: u64, stops: Stops, metered: bool) -> Run {
     let mut dte = Vec::new();
     let times = |t_mesh: f64| -> Vec<f64> {
         let t_end = periods as f64 * t_mesh;
@@ -242,6 +244,9 @@ fn run(row: &Row, method: Method, periods: u64, stops: Stops) -> Run {
                 std::f64::consts::TAU / (scene.pinion.teeth as f64 * scene.operating.pinion_speed);
             let grid = times(t_mesh);
             let mut sim = Simulation::new(&scene).expect("pair assembles");
+            if metered {
+                sim.set_work_budget(1e15).expect("a valid budget");
+            }
             let started = thread_cpu_seconds();
             for &t in &grid {
                 sim.advance_to(t).expect("pair run succeeds");
@@ -260,6 +265,9 @@ fn run(row: &Row, method: Method, periods: u64, stops: Stops) -> Run {
             let mut scene = scene.clone();
             method.apply(&mut scene.solver);
             let mut sim = TrainSimulation::new(&scene).expect("stage assembles");
+            if metered {
+                sim.set_work_budget(1e15).expect("a valid budget");
+            }
             let grid = times(sim.model().mesh_period(0));
             let names = sim.output_names().to_vec();
             let dte_columns: Vec<usize> = (0..names.len())
@@ -365,11 +373,15 @@ fn main() {
     if let Some(filter) = profile {
         // For callgrind: the exact propagator alone on the matching rows, one run each.
         for row in rows.iter().filter(|r| r.label.contains(filter.as_str())) {
-            let r = run(row, Method::Exact, row.periods, stops);
+            let r = run(row, Method::Exact, row.periods, stops, true);
+            let p = row.periods as f64;
             println!(
-                "{}: {:.2} µs/period, (modes built, cache clears), (products built, hits): {:?}",
+                "{}: {:.2} µs/period (metered), segments {:.1}, duration bins built {:.2} per \
+                 period, (modes built, cache clears), (products built, hits): {:?}",
                 row.label,
-                r.seconds / row.periods as f64 * 1e6,
+                r.seconds / p * 1e6,
+                r.stats.steps as f64 / p,
+                r.stats.transitions as f64 / p,
                 r.counts
             );
         }
@@ -391,7 +403,7 @@ fn main() {
     // Warm-up: every configuration once (its counters and samples are the reported ones).
     let warm: Vec<Run> = configs
         .iter()
-        .map(|&(r, m)| run(&rows[r], m, periods_of(&rows[r], m), stops))
+        .map(|&(r, m)| run(&rows[r], m, periods_of(&rows[r], m), stops, false))
         .collect();
     let mut times: Vec<Vec<f64>> = warm.iter().map(|w| vec![w.seconds]).collect();
     for round in 0..rounds {
@@ -399,7 +411,7 @@ fn main() {
             if m == Method::Rk(Rk::Rodas4) {
                 continue;
             }
-            let seconds = run(&rows[r], m, periods_of(&rows[r], m), stops).seconds;
+            let seconds = run(&rows[r], m, periods_of(&rows[r], m), stops, false).seconds;
             // The warm-up's time is replaced by the timed rounds'.
             if round == 0 {
                 times[c].clear();
