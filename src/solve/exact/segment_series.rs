@@ -19,6 +19,9 @@ use crate::solve::work::WorkPrices;
 /// (`θ^k/k! ≤ 2`), so their sum loses nothing to cancellation, and settle in ~22 terms.
 pub const WINDOW_THETA: f64 = 2.0;
 
+/// The most memory a segment's windows may hold, in bytes.
+const MAX_SERIES_BYTES: usize = 1 << 30;
+
 /// Buffers of the windows' terms, kept by the propagator (no allocation per segment once
 /// they have held the longest segment).
 #[derive(Default)]
@@ -97,14 +100,21 @@ impl<'a> Segment<'a> {
         let nz = self.z0.len();
         let tau = self.t1 - self.t0;
         let theta = self.balanced.norm() * tau;
-        let windows = if theta.is_finite() {
-            ((theta / WINDOW_THETA).ceil() as usize).max(1)
+        let capacity = (MAX_TERMS + 1) * nz;
+        let b = &mut *self.buffers;
+        let wanted = (theta / WINDOW_THETA).ceil().max(1.0);
+        let windows = if wanted <= (MAX_SERIES_BYTES / (8 * capacity)) as f64 {
+            wanted as usize
         } else {
+            // More windows than memory holds (a state or forcing beyond any physical scale,
+            // e.g. an input torque of 1e300 N·m, makes ‖B‖ huge): their work, at least one
+            // term per state per window, is charged, and the run's work budget stops the run
+            // before its next segment instead of filling memory. The one window built here
+            // is only a placeholder for what is observed until then.
+            b.work += wanted * (nz * nz) as f64;
             1
         };
         let w = tau / windows as f64;
-        let b = &mut *self.buffers;
-        let capacity = (MAX_TERMS + 1) * nz;
         b.starts.clear();
         b.counts.clear();
         b.sum.resize(nz, 0.0);
