@@ -35,6 +35,8 @@ pub struct Segment<'a> {
     t0: f64,
     t1: f64,
     z0: &'a [f64],
+    /// The propagator's own `z(t₁)` (before the jump of an event at `t₁`).
+    z1: &'a [f64],
     balanced: &'a BalancedMatrix,
     buffers: &'a mut SeriesBuffers,
     /// Window width; 0 until the terms are built.
@@ -45,7 +47,7 @@ impl<'a> Segment<'a> {
     pub(super) fn new(
         t0: f64,
         t1: f64,
-        z0: &'a [f64],
+        (z0, z1): (&'a [f64], &'a [f64]),
         balanced: &'a BalancedMatrix,
         buffers: &'a mut SeriesBuffers,
     ) -> Segment<'a> {
@@ -53,6 +55,7 @@ impl<'a> Segment<'a> {
             t0,
             t1,
             z0,
+            z1,
             balanced,
             buffers,
             width: 0.0,
@@ -65,6 +68,26 @@ impl<'a> Segment<'a> {
 
     pub fn end(&self) -> f64 {
         self.t1
+    }
+
+    /// The lifted state `z(t₀)` ([`super::PiecewiseLti::lift`]'s layout).
+    pub fn start_state(&self) -> &[f64] {
+        self.z0
+    }
+
+    /// The lifted state `z(t₁)` as the propagator computed it (at an event: before its jump).
+    pub fn end_state(&self) -> &[f64] {
+        self.z1
+    }
+
+    /// The mode's balanced matrix `B = D⁻¹AD` (`z' = Az`).
+    pub fn balanced_matrix(&self) -> &nalgebra::DMatrix<f64> {
+        self.balanced.matrix()
+    }
+
+    /// The diagonal of `D` (`z = D u` for the balanced state `u`).
+    pub fn balance(&self) -> &[f64] {
+        self.balanced.scale()
     }
 
     fn build(&mut self) {
@@ -196,7 +219,8 @@ mod tests {
         let z0 = [1e-6, 2e-2, 1.0, 0.0];
         let mut buffers = SeriesBuffers::default();
         let tau = 6.0 / w0;
-        let mut segment = Segment::new(0.5, 0.5 + tau, &z0, &balanced, &mut buffers);
+        let z1 = [0.0; 4];
+        let mut segment = Segment::new(0.5, 0.5 + tau, (&z0, &z1), &balanced, &mut buffers);
         let mut y = [0.0; 2];
         for k in 0..=20 {
             let t = 0.5 + tau * k as f64 / 20.0;
