@@ -12,7 +12,8 @@
 //! DTE and force, 40 mesh harmonics, integrated over each segment) against the shooting that
 //! finds the orbit, in thread CPU time.
 //!
-//! Run: `cargo bench --bench analysis` (or `scripts/bench.sh`).
+//! Run: `cargo bench --bench analysis` (or `scripts/bench.sh`); `-- spectrum` for the last
+//! rows alone.
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -139,10 +140,13 @@ fn thread_cpu() -> f64 {
     ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
 }
 
+/// Alternated rounds of [`spectrum_against_shooting`] (each a few milliseconds).
+const SPECTRUM_ROUNDS: usize = 21;
+
 /// Issue 31 acceptance 7b: one shooting orbit (`geardyn periodic`: the warm-up and Newton
 /// shooting) against the spectrum of that orbit as `geardyn spectrum --samples 80` takes it
 /// (the simulation set up on the orbit's start, then each mesh's DTE and force integrated
-/// over one response period), in thread CPU time, median of alternated rounds.
+/// over one response period), in thread CPU time, median of [`SPECTRUM_ROUNDS`] alternated rounds.
 fn spectrum_against_shooting(name: &str, speed: f64, harmonics: usize) {
     use geardyn::analysis::spectrum::orbit_lines;
     use geardyn::analysis::{shoot, ShootingOptions};
@@ -168,7 +172,7 @@ fn spectrum_against_shooting(name: &str, speed: f64, harmonics: usize) {
     let orbit = shoot(&scene, &options).expect("orbit");
     let (lines, first) = spectrum(&orbit.y0);
     let (mut t_shoot, mut t_spectrum) = (Vec::new(), Vec::new());
-    for _ in 0..5 {
+    for _ in 0..SPECTRUM_ROUNDS {
         let t = thread_cpu();
         black_box(shoot(&scene, &options).expect("orbit"));
         t_shoot.push(thread_cpu() - t);
@@ -178,7 +182,9 @@ fn spectrum_against_shooting(name: &str, speed: f64, harmonics: usize) {
     }
     let (shooting, lines_cost) = (median(&mut t_shoot), median(&mut t_spectrum));
     println!(
-        "{name} at {speed} rad/s: one shooting orbit {:.3} ms CPU; its spectrum ({lines} lines,          DTE and force of every mesh) {:.3} ms CPU → {:.3}× the shooting (median of 5          alternated rounds; line 1×mesh of mesh 1's DTE {first:.6e} m)",
+        "{name} at {speed} rad/s: one shooting orbit {:.3} ms CPU; its spectrum ({lines} \
+         lines, DTE and force of every mesh) {:.3} ms CPU → {:.3}× the shooting (median of \
+         {SPECTRUM_ROUNDS} alternated rounds; line 1×mesh of mesh 1's DTE {first:.6e} m)",
         1e3 * shooting,
         1e3 * lines_cost,
         lines_cost / shooting
@@ -189,6 +195,10 @@ fn main() {
     spectrum_against_shooting("idler_gearset", 420.0, 40);
     spectrum_against_shooting("idler_gearset", 390.0, 40);
     spectrum_against_shooting("countershaft_gearset", 232.0, 40);
+    // `cargo bench --bench analysis -- spectrum`: these rows alone.
+    if std::env::args().any(|a| a == "spectrum") {
+        return;
+    }
     bench("spur_pair", 300.0, 600.0, 800);
     bench("idler_gearset", 250.0, 760.0, 500);
 
