@@ -8,7 +8,12 @@
 //! resonances (issue 16; goal ≤ 1 s on the 2-core machine), with and without the stability of
 //! each point. All measured in one run; the ratios are the result.
 //!
-//! Run: `cargo bench --bench analysis` (or `scripts/bench.sh`).
+//! Last (issue 31 acceptance 7b): the alias-free spectrum of a periodic orbit (each mesh's
+//! DTE and force, 40 mesh harmonics, integrated over each segment) against the shooting that
+//! finds the orbit, in thread CPU time.
+//!
+//! Run: `cargo bench --bench analysis` (or `scripts/bench.sh`); `-- spectrum` for the last
+//! rows alone.
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -124,7 +129,76 @@ fn bench(name: &str, from: f64, to: f64, transient: u32) {
 /// Timed rounds after the warm-up.
 const ROUNDS: usize = 3;
 
+/// CPU time of this thread, s (the machine is shared: wall time would count the others).
+fn thread_cpu() -> f64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: writes the calling thread's CPU clock into `ts`.
+    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
+}
+
+/// Alternated rounds of [`spectrum_against_shooting`] (each a few milliseconds).
+const SPECTRUM_ROUNDS: usize = 21;
+
+/// Issue 31 acceptance 7b: one shooting orbit (`geardyn periodic`: the warm-up and Newton
+/// shooting) against the spectrum of that orbit as `geardyn spectrum --samples 80` takes it
+/// (the simulation set up on the orbit's start, then each mesh's DTE and force integrated
+/// over one response period), in thread CPU time, median of [`SPECTRUM_ROUNDS`] alternated rounds.
+fn spectrum_against_shooting(name: &str, speed: f64, harmonics: usize) {
+    use geardyn::analysis::spectrum::orbit_lines;
+    use geardyn::analysis::{shoot, ShootingOptions};
+    let mut scene = Scene::example(name).expect("built-in scene");
+    scene.set_input_speed(speed);
+    let options = ShootingOptions::default();
+    let spectrum = |y0: &[f64]| -> (usize, f64) {
+        with_drivetrain!(scene.simulation().expect("simulation"), sim => {
+            let mut sim = sim;
+            let model = sim.model();
+            let columns: Vec<usize> = (0..model.mesh_count())
+                .flat_map(|n| [model.mesh_columns(n).dte, model.mesh_columns(n).force])
+                .collect();
+            let period = response_period(model).expect("period");
+            let cycles = (period * model.mesh_frequency(0)).round() as usize;
+            sim.set_y(0.0, y0);
+            let lines = orbit_lines(&mut sim, &columns, period, harmonics * cycles)
+                .expect("lines")
+                .expect("integrated");
+            (lines[0].amplitude.len() - 1, lines[0].amplitude[cycles])
+        })
+    };
+    let orbit = shoot(&scene, &options).expect("orbit");
+    let (lines, first) = spectrum(&orbit.y0);
+    let (mut t_shoot, mut t_spectrum) = (Vec::new(), Vec::new());
+    for _ in 0..SPECTRUM_ROUNDS {
+        let t = thread_cpu();
+        black_box(shoot(&scene, &options).expect("orbit"));
+        t_shoot.push(thread_cpu() - t);
+        let t = thread_cpu();
+        black_box(spectrum(&orbit.y0));
+        t_spectrum.push(thread_cpu() - t);
+    }
+    let (shooting, lines_cost) = (median(&mut t_shoot), median(&mut t_spectrum));
+    println!(
+        "{name} at {speed} rad/s: one shooting orbit {:.3} ms CPU; its spectrum ({lines} \
+         lines, DTE and force of every mesh) {:.3} ms CPU → {:.3}× the shooting (median of \
+         {SPECTRUM_ROUNDS} alternated rounds; line 1×mesh of mesh 1's DTE {first:.6e} m)",
+        1e3 * shooting,
+        1e3 * lines_cost,
+        lines_cost / shooting
+    );
+}
+
 fn main() {
+    spectrum_against_shooting("idler_gearset", 420.0, 40);
+    spectrum_against_shooting("idler_gearset", 390.0, 40);
+    spectrum_against_shooting("countershaft_gearset", 232.0, 40);
+    // `cargo bench --bench analysis -- spectrum`: these rows alone.
+    if std::env::args().any(|a| a == "spectrum") {
+        return;
+    }
     bench("spur_pair", 300.0, 600.0, 800);
     bench("idler_gearset", 250.0, 760.0, 500);
 

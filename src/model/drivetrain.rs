@@ -105,6 +105,15 @@ pub trait Drivetrain: DrivenModel {
     fn output_row(&self, t: f64, y: &[f64], row: &mut Vec<f64>);
     /// Where mesh `n`'s DTE, force and contact sit in the output row.
     fn mesh_columns(&self, n: usize) -> MeshColumns;
+    /// Output column `column` of the current mode as a row `w` over the lifted state
+    /// ([`crate::solve::exact::PiecewiseLti::lift`], `w.len()` its size):
+    /// `output_row(t, y)[column] = w·z(t)` throughout a segment of this mode. `false` where
+    /// the column is not linear in `z` (a phase, a cumulative fraction) or the model does not
+    /// give the row: the closed-form spectrum ([`crate::analysis::spectrum::orbit_lines`])
+    /// integrates such a column by quadrature.
+    fn lifted_output_row(&self, _column: usize, _w: &mut [f64]) -> bool {
+        false
+    }
 
     // The equations split for frequency-domain methods (harmonic balance,
     // `crate::analysis::hb`): in the model's displacement coordinates `ξ` (dimension `m`, the
@@ -265,6 +274,9 @@ impl Drivetrain for GearPair {
         row.clear();
         row.extend_from_slice(&out);
     }
+    fn lifted_output_row(&self, column: usize, w: &mut [f64]) -> bool {
+        GearPair::lifted_output_row(self, column, w)
+    }
     fn mesh_columns(&self, _n: usize) -> MeshColumns {
         // mesh.dte 0, mesh.force 2, mesh.contact_state 3 (1 = drive-side contact).
         MeshColumns {
@@ -394,6 +406,9 @@ impl Drivetrain for GearTrain {
     }
     fn output_row(&self, t: f64, y: &[f64], row: &mut Vec<f64>) {
         self.outputs(t, y, row);
+    }
+    fn lifted_output_row(&self, column: usize, w: &mut [f64]) -> bool {
+        GearTrain::lifted_output_row(self, column, w)
     }
     fn mesh_columns(&self, n: usize) -> MeshColumns {
         let names = GearTrain::output_names(self);

@@ -761,6 +761,53 @@ impl GearPair {
         ];
     }
 
+    /// Output `column` ([`OUTPUT_NAMES`]) of the current mode as a row `w` over the lifted
+    /// state `z = [x, x', cos/sin 2πhp…, 1]` where it is linear in `z` (issue 31: the
+    /// closed-form spectrum, `crate::analysis::spectrum::orbit_lines`): the DTE and its rate,
+    /// the mesh force (the stiffness, damping and offset of the mode that `lti_matrix`
+    /// puts into `x''`), and the contact state, the piece's stiffness and
+    /// the static deflection, constants of the mode. `false` for the phase, and off the
+    /// piecewise-LTI form.
+    pub fn lifted_output_row(&self, column: usize, w: &mut [f64]) -> bool {
+        if !self.is_piecewise_lti() || self.f_ext_rate != 0.0 || w.len() != self.lti_dim() {
+            return false;
+        }
+        w.fill(0.0);
+        let last = w.len() - 1;
+        match column {
+            0 => w[0] = 1.0,
+            1 => w[1] = 1.0,
+            2 => {
+                // F = k(x − e + offset) + c(x' − ė), as `lti_matrix` puts it into x''.
+                let (k, c, offset) = self.mode_law();
+                let omega = TAU * self.clock.mesh_frequency();
+                w[0] = k;
+                w[1] = c;
+                w[last] = k * offset;
+                for (i, &(ah, bh)) in self.ste.coefficients().iter().enumerate() {
+                    let h = (i + 1) as f64;
+                    w[2 * (i + 1)] = -(k * ah + c * h * omega * bh);
+                    w[2 * (i + 1) + 1] = -(k * bh - c * h * omega * ah);
+                }
+            }
+            3 => w[last] = self.contact as i8 as f64,
+            5 => w[last] = self.segment_stiffness(),
+            6 => w[last] = self.f_ext / self.k_mean,
+            _ => return false,
+        }
+        true
+    }
+
+    /// Stiffness, damping and back-flank offset of the mesh force in the current mode.
+    fn mode_law(&self) -> (f64, f64, f64) {
+        match self.contact {
+            ContactState::Separated if self.damping_always => (0.0, self.damping, 0.0),
+            ContactState::Separated => (0.0, 0.0, 0.0),
+            ContactState::Drive => (self.segment_stiffness(), self.damping, 0.0),
+            ContactState::Back => (self.segment_stiffness(), self.damping, self.clearance()),
+        }
+    }
+
     /// The constant stiffness of the current piece (piecewise-constant sources only).
     fn segment_stiffness(&self) -> f64 {
         self.stiffness
@@ -982,12 +1029,7 @@ impl PiecewiseLti for GearPair {
         a.fill(0.0);
         let n = a.nrows();
         let last = n - 1;
-        let (k, c, offset) = match self.contact {
-            ContactState::Separated if self.damping_always => (0.0, self.damping, 0.0),
-            ContactState::Separated => (0.0, 0.0, 0.0),
-            ContactState::Drive => (self.segment_stiffness(), self.damping, 0.0),
-            ContactState::Back => (self.segment_stiffness(), self.damping, self.clearance()),
-        };
+        let (k, c, offset) = self.mode_law();
         let m = self.m_e;
         let omega = TAU * self.clock.mesh_frequency();
         a[(0, 1)] = 1.0;

@@ -1087,11 +1087,16 @@ impl ExactPropagator {
                     }
                 };
                 if let Some(found) = found {
+                    // The event state from the segment's start: in a periodic steady state
+                    // τ* recurs, so this is one mat-vec of a cached bin.
+                    if !event_state_ready {
+                        mode.apply(found.tau, &self.z, &mut self.z_event);
+                    }
                     if O::ACTIVE && found.tau > 0.0 {
                         let mut segment = Segment::new(
                             self.t,
                             self.t + found.tau,
-                            &self.z,
+                            (&self.z, &self.z_event),
                             mode.balanced(),
                             &mut self.observed,
                             self.prices,
@@ -1103,12 +1108,7 @@ impl ExactPropagator {
                             &mut self.work_limit,
                         );
                     }
-                    // The event state from the segment's start: in a periodic steady state
-                    // τ* recurs, so this is one mat-vec of a cached bin.
                     let z_event = &mut self.z_event;
-                    if !event_state_ready {
-                        mode.apply(found.tau, &self.z, z_event);
-                    }
                     if METERED && mode.bin_builds() != bins_before {
                         self.stats.transitions += mode.bin_builds() - bins_before;
                         force_check(&mut self.work_limit);
@@ -1154,7 +1154,7 @@ impl ExactPropagator {
                 let mut segment = Segment::new(
                     self.t,
                     target,
-                    &self.z,
+                    (&self.z, &self.z_next),
                     self.modes.modes[position].balanced(),
                     &mut self.observed,
                     self.prices,

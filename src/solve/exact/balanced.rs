@@ -220,6 +220,11 @@ impl BalancedMatrix {
         })
     }
 
+    /// `B = D⁻¹ A D`.
+    pub fn matrix(&self) -> &DMatrix<f64> {
+        &self.b
+    }
+
     /// The diagonal of `D`.
     pub fn scale(&self) -> &[f64] {
         &self.scale

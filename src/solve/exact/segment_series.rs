@@ -50,6 +50,8 @@ pub struct Segment<'a> {
     t0: f64,
     t1: f64,
     z0: &'a [f64],
+    /// The propagator's own `z(t₁)` (before the jump of an event at `t₁`).
+    z1: &'a [f64],
     balanced: &'a BalancedMatrix,
     buffers: &'a mut SeriesBuffers,
     /// Window width; 0 until the terms are built.
@@ -66,7 +68,7 @@ impl<'a> Segment<'a> {
     pub(super) fn new(
         t0: f64,
         t1: f64,
-        z0: &'a [f64],
+        (z0, z1): (&'a [f64], &'a [f64]),
         balanced: &'a BalancedMatrix,
         buffers: &'a mut SeriesBuffers,
         prices: WorkPrices,
@@ -75,6 +77,7 @@ impl<'a> Segment<'a> {
             t0,
             t1,
             z0,
+            z1,
             balanced,
             buffers,
             width: 0.0,
@@ -94,6 +97,26 @@ impl<'a> Segment<'a> {
 
     pub fn end(&self) -> f64 {
         self.t1
+    }
+
+    /// The lifted state `z(t₀)` ([`super::PiecewiseLti::lift`]'s layout).
+    pub fn start_state(&self) -> &[f64] {
+        self.z0
+    }
+
+    /// The lifted state `z(t₁)` as the propagator computed it (at an event: before its jump).
+    pub fn end_state(&self) -> &[f64] {
+        self.z1
+    }
+
+    /// The mode's balanced matrix `B = D⁻¹AD` (`z' = Az`).
+    pub fn balanced_matrix(&self) -> &nalgebra::DMatrix<f64> {
+        self.balanced.matrix()
+    }
+
+    /// The diagonal of `D` (`z = D u` for the balanced state `u`).
+    pub fn balance(&self) -> &[f64] {
+        self.balanced.scale()
     }
 
     fn build(&mut self) {
@@ -238,10 +261,11 @@ mod tests {
         let z0 = [1e-6, 2e-2, 1.0, 0.0];
         let mut buffers = SeriesBuffers::default();
         let tau = 6.0 / w0;
+        let z1 = [0.0; 4];
         let mut segment = Segment::new(
             0.5,
             0.5 + tau,
-            &z0,
+            (&z0, &z1),
             &balanced,
             &mut buffers,
             WorkPrices::default(),

@@ -84,6 +84,110 @@ impl GearTrain {
         (self.rotation.is_some() && self.force_ramp).then(|| self.lti_dim() - 2)
     }
 
+    /// Row of mesh n's force over the augmented state in the current mode (its forcing block
+    /// from `base`; `w` is scratch of the same length): the engaged slots' `k₀(δ_j + offset)`
+    /// and the damper on `Ṡ − ė`.
+    pub(super) fn mesh_force_row(&self, n: usize, base: usize, w: &mut [f64], row: &mut [f64]) {
+        let mesh = &self.meshes[n];
+        let m = self.m;
+        let last = row.len() - 1;
+        let omega = TAU * mesh.clock.mesh_frequency();
+        row.fill(0.0);
+        let mut touching = false;
+        for (j, flag) in mesh.flags.iter().enumerate() {
+            let offset = match flag {
+                SlotContact::Inactive | SlotContact::Separated => continue,
+                SlotContact::Drive => 0.0,
+                SlotContact::Back => mesh.clearance(),
+            };
+            let law = mesh.law(j).expect("engaged");
+            w.fill(0.0);
+            self.delta_row(n, j, base, w);
+            w[last] += offset;
+            for (r, v) in row.iter_mut().zip(w.iter()) {
+                *r += law.k0 * v;
+            }
+            touching = true;
+        }
+        if touching && mesh.damping != 0.0 {
+            let c = mesh.damping;
+            for i in 0..m {
+                row[m + i] += c * mesh.a[i];
+            }
+            for (i, &(ah, bh)) in mesh.ste.coefficients().iter().enumerate() {
+                let h = (i + 1) as f64;
+                // ė = Σ hω(−a_h sin + b_h cos).
+                row[base + 2 * i] -= c * h * omega * bh;
+                row[base + 2 * i + 1] += c * h * omega * ah;
+            }
+        }
+    }
+
+    /// Output `column` ([`GearTrain::outputs`]) of the current mode as a row `w` over the
+    /// augmented state, where it is linear in it (issue 31: the closed-form spectrum,
+    /// `crate::analysis::spectrum::orbit_lines`): per mesh the DTE, its rate, the deflection,
+    /// the mesh force ([`GearTrain::mesh_force_row`], the force the propagator integrates),
+    /// the contact state and pairs in contact (constants of the mode), and the scene's
+    /// translations. `false` for the phase, the stiffness, the loss fraction and per-pair or
+    /// friction forces, and for a mesh with runout or pitch errors or the carried rotation
+    /// (their terms are not in the rows); the caller integrates those otherwise.
+    pub fn lifted_output_row(&self, column: usize, w: &mut [f64]) -> bool {
+        if self.rotation.is_some() || w.len() != self.lti_dim() {
+            return false;
+        }
+        w.fill(0.0);
+        let m = self.m;
+        let last = w.len() - 1;
+        let bases = self.harmonic_base();
+        let mut first = 0;
+        for (n, mesh) in self.meshes.iter().enumerate() {
+            let width = 9 + self.pair_outputs[n] + usize::from(mesh.friction.is_some());
+            if column >= first + width {
+                first += width;
+                continue;
+            }
+            if mesh.eccentric.is_some() || !mesh.errors.is_empty() {
+                return false;
+            }
+            let in_contact = (mesh.flags.iter())
+                .filter(|f| matches!(f, SlotContact::Drive | SlotContact::Back))
+                .count();
+            match column - first {
+                0 => (0..m).for_each(|i| w[i] = mesh.dte[i]),
+                1 => (0..m).for_each(|i| w[m + i] = mesh.dte[i]),
+                2 => (0..m).for_each(|i| w[i] = mesh.a[i]),
+                3 => {
+                    let mut scratch = vec![0.0; w.len()];
+                    self.mesh_force_row(n, bases[n], &mut scratch, w);
+                }
+                4 => {
+                    w[last] = if in_contact == 0 {
+                        0.0
+                    } else if mesh.flags.contains(&SlotContact::Back)
+                        && !mesh.flags.contains(&SlotContact::Drive)
+                    {
+                        -1.0
+                    } else {
+                        1.0
+                    }
+                }
+                5 => w[last] = in_contact as f64,
+                _ => return false,
+            }
+            return true;
+        }
+        match self.scene_translations.get(column - first) {
+            Some((i, _)) => {
+                let row = self.q.row(*i);
+                for k in 0..m {
+                    w[k] = row[k];
+                }
+                true
+            }
+            None => false,
+        }
+    }
+
     /// Row of the slot deflection `δ_j = S − e − g_j` over the augmented state.
     pub(super) fn delta_row(&self, n: usize, j: usize, base: usize, w: &mut [f64]) {
         let mesh = &self.meshes[n];
@@ -197,35 +301,7 @@ impl PiecewiseLti for GearTrain {
             let base = bases[n];
             let omega = TAU * mesh.clock.mesh_frequency();
             let f = mesh.clock.mesh_frequency();
-            row.fill(0.0);
-            let mut touching = false;
-            for (j, flag) in mesh.flags.iter().enumerate() {
-                let offset = match flag {
-                    SlotContact::Inactive | SlotContact::Separated => continue,
-                    SlotContact::Drive => 0.0,
-                    SlotContact::Back => mesh.clearance(),
-                };
-                let law = mesh.law(j).expect("engaged");
-                w.fill(0.0);
-                self.delta_row(n, j, base, &mut w);
-                w[last] += offset;
-                for (r, v) in row.iter_mut().zip(&w) {
-                    *r += law.k0 * v;
-                }
-                touching = true;
-            }
-            if touching && mesh.damping != 0.0 {
-                let c = mesh.damping;
-                for i in 0..m {
-                    row[m + i] += c * mesh.a[i];
-                }
-                for (i, &(ah, bh)) in mesh.ste.coefficients().iter().enumerate() {
-                    let h = (i + 1) as f64;
-                    // ė = Σ hω(−a_h sin + b_h cos).
-                    row[base + 2 * i] -= c * h * omega * bh;
-                    row[base + 2 * i + 1] += c * h * omega * ah;
-                }
-            }
+            self.mesh_force_row(n, base, &mut w, &mut row);
             for i in 0..m {
                 for col in 0..nz {
                     force[(i, col)] -= mesh.a[i] * row[col];
