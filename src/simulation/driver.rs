@@ -410,19 +410,32 @@ impl<M: DrivenModel> Driver<M> {
         t_end: f64,
         observer: &mut O,
     ) -> Result<bool, SolveError> {
-        if self.model.profiles().is_some() {
+        if !self.observes_segments() {
             return Ok(false);
         }
-        let Propagator::Exact(p) = &mut self.propagator else {
-            return Ok(false);
+        self.check_observed_advance(t_end)?;
+        let result = match &mut self.propagator {
+            Propagator::Exact(p) => p.advance_observed(&mut self.model, t_end, observer),
+            Propagator::Rk(_) => return Ok(false),
         };
-        let t = p.t();
+        self.observed(result)
+    }
+
+    /// [`DrivenModel::check_advance`] of an observed advance from now to `t_end`.
+    fn check_observed_advance(&self, t_end: f64) -> Result<(), SolveError> {
+        let t = self.t();
         if t_end != t {
             if let Err(reason) = self.model.check_advance(t, t_end) {
                 return Err(SolveError::BeyondLimits { t, reason });
             }
         }
-        match p.advance_observed(&mut self.model, t_end, observer) {
+        Ok(())
+    }
+
+    /// The result of an observed advance: `true`, or the error with an exhausted budget's
+    /// message naming the likely cause.
+    fn observed(&self, result: Result<(), SolveError>) -> Result<bool, SolveError> {
+        match result {
             Err(SolveError::OverBudget { .. }) => Err(self.over_budget()),
             other => other.map(|()| true),
         }
@@ -441,22 +454,18 @@ impl<M: DrivenModel> Driver<M> {
         t_end: f64,
         observer: &mut O,
     ) -> Result<bool, SolveError> {
-        let Propagator::Rk(p) = &mut self.propagator else {
+        if matches!(self.propagator, Propagator::Exact(_)) {
             return self.advance_observed(t_end, observer);
-        };
-        if self.model.profiles().is_some() {
+        }
+        if !self.observes_steps() {
             return Ok(false);
         }
-        let t = p.t();
-        if t_end != t {
-            if let Err(reason) = self.model.check_advance(t, t_end) {
-                return Err(SolveError::BeyondLimits { t, reason });
-            }
-        }
-        match p.advance_observed(&mut self.model, t_end, observer) {
-            Err(SolveError::OverBudget { .. }) => Err(self.over_budget()),
-            other => other.map(|()| true),
-        }
+        self.check_observed_advance(t_end)?;
+        let result = match &mut self.propagator {
+            Propagator::Rk(p) => p.advance_observed(&mut self.model, t_end, observer),
+            Propagator::Exact(_) => return Ok(false),
+        };
+        self.observed(result)
     }
 
     /// Whether [`Driver::advance_observed_steps`] observes this run (segments or steps: any
