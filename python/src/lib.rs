@@ -139,8 +139,9 @@ fn index<'v>(v: &'v toml::Value, i: usize, key: &str) -> Result<&'v toml::Value,
         .ok_or_else(|| format!("index {i} out of range ('{key}' has {} elements)", a.len()))
 }
 
-/// Sets `path` in `table`; the last key may be new (the scene reader then says whether the
-/// format knows it).
+/// Sets `path` in `table`. The last key may be new, and so may the tables on the way to it
+/// (`solver.stop_time` on a file without `[solver]`): the scene reader then says whether the
+/// format knows them. Array elements are never created: an index names an existing one.
 fn assign(table: &mut toml::Table, path: &str, value: toml::Value) -> PyResult<()> {
     let steps = parse_path(path)?;
     let missing = |what: String| err(format!("scene path '{path}': {what}"));
@@ -151,9 +152,14 @@ fn assign(table: &mut toml::Table, path: &str, value: toml::Value) -> PyResult<(
             tab.insert(step.key.to_string(), value);
             return Ok(());
         }
-        let v = tab
-            .get_mut(step.key)
-            .ok_or_else(|| missing(format!("no key '{}'", step.key)))?;
+        let v = match step.index {
+            None => tab
+                .entry(step.key)
+                .or_insert_with(|| toml::Value::Table(toml::Table::new())),
+            Some(_) => tab
+                .get_mut(step.key)
+                .ok_or_else(|| missing(format!("no key '{}'", step.key)))?,
+        };
         let v = match step.index {
             None => v,
             Some(i) => {

@@ -332,3 +332,18 @@ def test_every_output_has_a_unit_and_the_views_carry_them():
     identical(df["mesh.dte"].to_numpy(), run["mesh.dte"])
     ds = run.to_xarray()
     assert ds["mesh.dte_rate"].attrs["units"] == "m/s" and ds["time"].attrs["units"] == "s"
+
+
+def test_a_parameter_in_a_table_the_file_does_not_have():
+    """`solver.stop_time` on a scene file without `[solver]` creates the table (as writing it
+    into the file would); a table the format does not know is refused by the scene reader with
+    its name, and the scene is left unchanged."""
+    scene = geardyn.Scene.from_file(REPO / "examples" / "planetary" / "ev_reducer_3p.toml")
+    assert "solver" not in scene.to_dict()
+    scene["solver.stop_time"] = 0.002
+    assert scene["solver.stop_time"] == 0.002
+    assert geardyn.simulate(scene).time[-1] == pytest.approx(0.002, rel=1e-12)
+    before = scene.to_toml()
+    with pytest.raises(geardyn.GeardynError, match="nonsense"):
+        scene["nonsense.value"] = 1.0
+    assert scene.to_toml() == before
