@@ -27,9 +27,10 @@ def _binary(geardyn_bin):
 def test_simulate_matches_cli(tmp_path):
     scene = geardyn.Scene.from_file(STAGE)
     assert scene.is_train
-    scene["solver.stop_time"] = 0.004
+    scene.update({"solver.stop_time": 0.004, "solver.output_interval": 1e-5})
     run = geardyn.simulate(scene)
-    run_geardyn("simulate", STAGE, "--stop-time", "0.004", "--out", tmp_path / "cli.csv", "--quiet")
+    run_geardyn("simulate", STAGE, "--stop-time", "0.004", "--output-interval", "1e-5",
+                "--out", tmp_path / "cli.csv", "--quiet")
     header, rows = read_csv(tmp_path / "cli.csv")
     assert header == ["time", *run.names]
     identical(np.column_stack([run.time, run.data]), rows)
@@ -65,7 +66,9 @@ def client():
 
 
 def test_study_matches_the_points_run_serially(client, tmp_path):
-    body = f"""scene = "{STAGE}"
+    short = tmp_path / "stage.toml"
+    short.write_text(STAGE.read_text() + "\n[solver]\nstop_time = 0.004\n")
+    body = f"""scene = "{short}"
 results = ["dte_rms", "peak_force"]
 [[parameter]]
 path = "operating.input_torque"
@@ -75,21 +78,24 @@ path = "gear[2].bearing_stiffness[0]"
 values = [1.5e8, 3.0e8]
 [analysis]
 kind = "simulate"
-stop_time = 0.004
 """
     path = tmp_path / "study.toml"
     path.write_text(body)
     study = gs.load(path)
     summary = gs.run(study, client=client, progress=False)
     assert (summary.total, summary.computed, summary.failed) == (4, 4, 0)
-    rows = list(gs.results(study).itertuples())
+    rows = gs.results(study).to_dict("records")
     assert len(rows) == 4
     seen = set()
     for row, point in zip(rows, study.points()):
-        scene = geardyn.Scene.from_file(STAGE)
-        scene.update({**point, "solver.stop_time": 0.004})
-        mesh = geardyn.simulate(scene).statistics[0]
-        assert (row.dte_rms, row.peak_force) == (mesh["dte_rms"], mesh["peak_force"])
-        seen.add((row.dte_rms, row.peak_force))
+        scene = geardyn.Scene.from_file(short)
+        scene.update(point)
+        stats = geardyn.simulate(scene).statistics
+        # A drivetrain study keeps each result per mesh: `sp1.dte_rms`, ..., `rp3.peak_force`.
+        assert len(stats) == 6
+        for mesh in stats:
+            for result in ("dte_rms", "peak_force"):
+                assert row[f"{mesh['name']}.{result}"] == mesh[result]
+        seen.add((row["sp1.dte_rms"], row["rp1.peak_force"]))
     # The parameters reach the model: four distinct answers.
     assert len(seen) == 4
