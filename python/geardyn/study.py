@@ -31,12 +31,13 @@ import json
 import math
 import os
 import sys
+import threading
 import time
 import tomllib
 import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Dict, List, Optional, Sequence
+from typing import Callable, Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
@@ -96,7 +97,9 @@ class Parameter:
     """A scene path and how it varies: grid ``values``, or a ``distribution``."""
 
     path: str
-    values: Optional[List[float]] = None
+    # Grid values as written: numbers, whole numbers (``gear[0].teeth``), strings (a stiffness
+    # kind) or booleans; each reaches the scene with its type.
+    values: Optional[List[Union[float, int, str, bool]]] = None
     distribution: Optional[str] = None
     args: Dict[str, float] = field(default_factory=dict)
 
@@ -146,7 +149,7 @@ class Study:
         names = [p.path for p in self.parameters]
         if self.method == "grid":
             grid = itertools.product(*[p.values for p in self.parameters])
-            return [dict(zip(names, map(float, values))) for values in grid]
+            return [dict(zip(names, values)) for values in grid]
         rng = np.random.Generator(np.random.PCG64(self.seed))
         n, d = self.samples, len(self.parameters)
         if self.method == "lhs":
@@ -176,6 +179,30 @@ def _need(table: dict, key: str, where: str):
     if key not in table:
         raise StudyError(f"{where}: missing '{key}'")
     return table[key]
+
+
+def _grid_value(v, where: str):
+    """A grid value with its type: a finite number (a whole number stays one, for integer
+    parameters such as ``gear[0].teeth``), a string (``mesh.stiffness.kind``) or a boolean."""
+    if isinstance(v, (bool, str)):
+        return v
+    if isinstance(v, int):
+        return v
+    return _number(v, where)
+
+
+def _arrow_type(values: Sequence):
+    """The store's column type of a parameter: int64, bool or string where every value is
+    one, else float64."""
+    import pyarrow as pa
+
+    if values and all(isinstance(v, bool) for v in values):
+        return pa.bool_()
+    if values and all(isinstance(v, int) and not isinstance(v, bool) for v in values):
+        return pa.int64()
+    if values and all(isinstance(v, str) for v in values):
+        return pa.string()
+    return pa.float64()
 
 
 def _number(v, where: str) -> float:
@@ -231,7 +258,11 @@ def load(path) -> Study:
         name = _need(p, "path", at)
         if method == "grid":
             if "values" in p:
-                values = [_number(v, f"{at}.values") for v in p["values"]]
+                values = [_grid_value(v, f"{at}.values") for v in p["values"]]
+                kinds = {"boolean" if isinstance(v, bool) else "string" if isinstance(v, str) else "number"
+                         for v in values}
+                if len(kinds) > 1:
+                    raise StudyError(f"{at}.values = {p['values']!r}: mixes {' and '.join(sorted(kinds))}s")
             elif {"from", "to", "points"} <= set(p):
                 points = p["points"]
                 if not isinstance(points, int) or isinstance(points, bool) or points < 1:
@@ -453,15 +484,16 @@ def stored_keys(store: Path) -> set:
     return keys
 
 
-def _write_part(store: Path, records: List[dict], names: List[str], columns: List[str]) -> None:
-    """One Parquet file per flush, renamed into place so a reader never sees half a file."""
+def _write_part(store: Path, records: List[dict], parameters: List[Parameter], columns: List[str]) -> None:
+    """One Parquet file per flush, renamed into place so a reader never sees half a file.
+    A parameter's column has the type of its values (:func:`_arrow_type`)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
     store.mkdir(parents=True, exist_ok=True)
     schema = pa.schema(
         [("index", pa.int64()), ("key", pa.string())]
-        + [(n, pa.float64()) for n in names]
+        + [(p.path, _arrow_type(p.values or [])) for p in parameters]
         + [(c, pa.float64()) for c in columns]
         + [("error", pa.string())]
     )
@@ -547,13 +579,65 @@ def local_cluster(workers: Optional[int] = None):
     # arena (the workers have one task thread, so one arena costs no contention). Dask's
     # MALLOC_TRIM_THRESHOLD_ would also turn off glibc's dynamic mmap threshold, so every
     # output array of a solve would be a fresh mmap with its page faults. docs/python.md.
+    _refuse_unguarded_script()
     environ = dict(dask.config.get("distributed.nanny.pre-spawn-environ", {}))
     environ.pop("MALLOC_TRIM_THRESHOLD_", None)
     environ["MALLOC_ARENA_MAX"] = 1
-    with dask.config.set({"distributed.worker.profile.enabled": False,
-                          "distributed.nanny.pre-spawn-environ": environ}):
-        return LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1,
-                            processes=True, dashboard_address=None)
+    # The worker processes ignore SIGINT: Ctrl-C in a terminal reaches the whole process
+    # group, and each worker would print its own traceback; the study's process handles it
+    # (stores what arrived) and closes the cluster. A SIGINT ignored at spawn stays ignored
+    # in the new interpreters (CPython installs its handler only over the default one).
+    import signal
+
+    interactive = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if interactive else None
+    try:
+        with dask.config.set({"distributed.worker.profile.enabled": False,
+                              "distributed.nanny.pre-spawn-environ": environ}):
+            return LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1,
+                                processes=True, dashboard_address=None)
+    finally:
+        if interactive:
+            signal.signal(signal.SIGINT, previous)
+
+
+def _refuse_unguarded_script() -> None:
+    """Worker processes start by importing the script's ``__main__`` module again; a script
+    that starts a study at its top level, outside ``if __name__ == "__main__":``, would start
+    it again in every worker (multiprocessing's "safe importing of main module"), which ends in
+    pages of errors. Refused here with one message, found from the script's source."""
+    import ast
+    import inspect
+
+    main = sys.modules.get("__main__")
+    path = getattr(main, "__file__", None)
+    if path is None:  # an interactive session or a notebook: nothing is imported again
+        return
+    line = None
+    for info in inspect.stack(context=0):
+        f = info.frame
+        if f.f_code.co_name == "<module>" and f.f_globals.get("__name__") in ("__main__", "__mp_main__"):
+            line = info.lineno
+    if line is None:
+        return
+    try:
+        tree = ast.parse(Path(path).read_text(), filename=path)
+    except (OSError, SyntaxError, ValueError):
+        return
+
+    def guarded(node) -> bool:
+        t = node.test
+        return (isinstance(t, ast.Compare) and isinstance(t.left, ast.Name) and t.left.id == "__name__"
+                and len(t.comparators) == 1 and isinstance(t.comparators[0], ast.Constant)
+                and t.comparators[0].value == "__main__")
+
+    for node in tree.body:
+        if isinstance(node, ast.If) and guarded(node) and node.lineno <= line <= (node.end_lineno or node.lineno):
+            return
+    raise StudyError(
+        f"{path}, line {line}: a study with its own worker processes must be started under "
+        "`if __name__ == \"__main__\":` (each worker imports the script again and would start "
+        "the study anew); or pass client= for a cluster started elsewhere")
 
 
 def run(
@@ -663,12 +747,12 @@ def run(
                 if on_result is not None:
                     on_result(r)
             if time.perf_counter() - last_flush >= flush_seconds:
-                _write_part(study.store, buffer, names, columns)
+                _write_part(study.store, buffer, study.parameters, columns)
                 buffer, last_flush = [], time.perf_counter()
             bar.update(computed, failed)
     finally:
         if buffer:
-            _write_part(study.store, buffer, names, columns)
+            _write_part(study.store, buffer, study.parameters, columns)
         bar.update(computed, failed, final=True)
         for f in futures:
             f.cancel()

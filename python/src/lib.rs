@@ -141,7 +141,9 @@ fn index<'v>(v: &'v toml::Value, i: usize, key: &str) -> Result<&'v toml::Value,
 
 /// Sets `path` in `table`. The last key may be new, and so may the tables on the way to it
 /// (`solver.stop_time` on a file without `[solver]`): the scene reader then says whether the
-/// format knows them. Array elements are never created: an index names an existing one.
+/// format knows them. Array elements are never created: an index names an existing one. A
+/// value replacing one of the file's takes its type where that loses nothing
+/// ([`typed_like`]).
 fn assign(table: &mut toml::Table, path: &str, value: toml::Value) -> PyResult<()> {
     let steps = parse_path(path)?;
     let missing = |what: String| err(format!("scene path '{path}': {what}"));
@@ -149,6 +151,7 @@ fn assign(table: &mut toml::Table, path: &str, value: toml::Value) -> PyResult<(
     let last = steps.len() - 1;
     for (n, step) in steps.iter().enumerate() {
         if n == last && step.index.is_none() {
+            let value = typed_like(tab.get(step.key), value, path)?;
             tab.insert(step.key.to_string(), value);
             return Ok(());
         }
@@ -176,7 +179,7 @@ fn assign(table: &mut toml::Table, path: &str, value: toml::Value) -> PyResult<(
             }
         };
         if n == last {
-            *v = value;
+            *v = typed_like(Some(v), value, path)?;
             return Ok(());
         }
         tab = v
@@ -184,6 +187,27 @@ fn assign(table: &mut toml::Table, path: &str, value: toml::Value) -> PyResult<(
             .ok_or_else(|| missing(format!("'{}' is not a table", step.key)))?;
     }
     unreachable!("the last step returns")
+}
+
+/// `new` in the type of the value it replaces, where that is exact: a whole float (NumPy's
+/// `38.0`, a study's grid) for an integer such as `gear[0].teeth`. A fractional one is refused
+/// with the path, rather than rounded. Everything else goes to the scene reader as given (an
+/// integer where the format wants a float is read exactly).
+fn typed_like(old: Option<&toml::Value>, new: toml::Value, path: &str) -> PyResult<toml::Value> {
+    // Integers of f64 up to 2^53 are exact; teeth counts and the like are far below.
+    const EXACT: f64 = 9_007_199_254_740_992.0;
+    match (old, new) {
+        (Some(toml::Value::Integer(_)), toml::Value::Float(f)) => {
+            if f.fract() == 0.0 && f.abs() <= EXACT {
+                Ok(toml::Value::Integer(f as i64))
+            } else {
+                Err(err(format!(
+                    "scene path '{path}' = {f}: must be a whole number (the scene has an integer there)"
+                )))
+            }
+        }
+        (_, new) => Ok(new),
+    }
 }
 
 /// Every leaf path below `table` (arrays of tables indexed, arrays of values as leaves).
@@ -403,13 +427,10 @@ impl PyScene {
     #[staticmethod]
     fn example(name: &str) -> PyResult<PyScene> {
         let origin = format!("example '{name}'");
-        if let Some((_, text)) = TRAIN_EXAMPLES.iter().find(|(n, _)| *n == name) {
-            return PyScene::new(text.to_string(), origin, None);
-        }
-        match EXAMPLES.iter().find(|(n, _)| *n == name) {
+        match TRAIN_EXAMPLES.iter().chain(EXAMPLES).find(|(n, _)| *n == name) {
             Some((_, text)) => PyScene::new(text.to_string(), origin, None),
-            // The single-mesh reader's message (it lists the available names).
-            None => Err(err(PairScene::example(name).expect_err("not an example").0)),
+            // The scene reader's message: it lists every example, pairs and drivetrains.
+            None => Err(err(Scene::example(name).expect_err("not an example").0)),
         }
     }
 
@@ -429,8 +450,18 @@ impl PyScene {
 
     fn __setitem__(&mut self, path: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
         let mut table = self.table.clone();
-        assign(&mut table, path, to_toml(value)?)?;
-        self.replace(table)
+        let value = to_toml(value)?;
+        let shown = value.to_string();
+        assign(&mut table, path, value)?;
+        // The reader's message is the CLI's, and it names the field when it checks a value;
+        // a type error of the TOML reader names only a line of the generated text.
+        self.replace(table).map_err(|e| {
+            if e.contains(path) {
+                err(e)
+            } else {
+                err(format!("scene path '{path}' = {shown}: {e}"))
+            }
+        })
     }
 
     fn __contains__(&self, path: &str) -> bool {
@@ -445,7 +476,7 @@ impl PyScene {
             let path: String = k.extract()?;
             assign(&mut table, &path, to_toml(&v)?)?;
         }
-        self.replace(table)
+        self.replace(table).map_err(err)
     }
 
     /// Every parameter path of the scene as written (defaults not listed).
@@ -526,9 +557,11 @@ impl PyScene {
 }
 
 impl PyScene {
-    fn replace(&mut self, table: toml::Table) -> PyResult<()> {
-        let text = toml::to_string(&table).map_err(|e| err(format!("{}: {e}", self.origin)))?;
-        self.scene = validate(&text, &self.origin).map_err(err)?;
+    /// Validates `table` and makes it the scene; on error the scene is unchanged and the
+    /// reader's message is returned.
+    fn replace(&mut self, table: toml::Table) -> Result<(), String> {
+        let text = toml::to_string(&table).map_err(|e| format!("{}: {e}", self.origin))?;
+        self.scene = validate(&text, &self.origin)?;
         self.table = table;
         self.text = text;
         self.file = None;
