@@ -102,6 +102,10 @@ class Parameter:
     values: Optional[List[Union[float, int, str, bool]]] = None
     distribution: Optional[str] = None
     args: Dict[str, float] = field(default_factory=dict)
+    # Grid parameters of one group vary together (a linked parameter: `path = [...]` with one
+    # list of values per point, e.g. a gear's teeth with its base radius); the grid is the
+    # product over groups.
+    group: int = 0
 
     def from_unit(self, u: np.ndarray) -> np.ndarray:
         """Maps uniform draws u in (0, 1) through the distribution's inverse CDF (so LHS and
@@ -148,8 +152,9 @@ class Study:
     def points(self) -> List[Dict[str, float]]:
         names = [p.path for p in self.parameters]
         if self.method == "grid":
-            grid = itertools.product(*[p.values for p in self.parameters])
-            return [dict(zip(names, values)) for values in grid]
+            axes = [[p for p in self.parameters if p.group == g] for g in self.groups()]
+            choices = [[{p.path: p.values[k] for p in axis} for k in range(len(axis[0].values))] for axis in axes]
+            return [{k: v for part in parts for k, v in part.items()} for parts in itertools.product(*choices)]
         rng = np.random.Generator(np.random.PCG64(self.seed))
         n, d = self.samples, len(self.parameters)
         if self.method == "lhs":
@@ -159,6 +164,14 @@ class Study:
             u = rng.random((n, d))
         columns = [p.from_unit(u[:, j]) for j, p in enumerate(self.parameters)]
         return [dict(zip(names, (float(c[i]) for c in columns))) for i in range(n)]
+
+    def groups(self) -> List[int]:
+        """The grid's axes in order: one group per `[[parameter]]` (linked paths share one)."""
+        return list(dict.fromkeys(p.group for p in self.parameters))
+
+    def axes(self) -> List[str]:
+        """The first path of each axis (what a plot is drawn over)."""
+        return [next(p.path for p in self.parameters if p.group == g) for g in self.groups()]
 
     def key(self, point: Dict[str, float]) -> str:
         """The point's identity: base scene text, analysis and exact parameter values."""
@@ -189,6 +202,37 @@ def _grid_value(v, where: str):
     if isinstance(v, int):
         return v
     return _number(v, where)
+
+
+def _grid_values(raw, where: str) -> list:
+    """A grid's values, each with its type; all numbers, all strings or all booleans."""
+    if not isinstance(raw, list):
+        raise StudyError(f"{where} = {raw!r}: must be a list")
+    values = [_grid_value(v, where) for v in raw]
+    kinds = {"boolean" if isinstance(v, bool) else "string" if isinstance(v, str) else "number" for v in values}
+    if len(kinds) > 1:
+        raise StudyError(f"{where} = {raw!r}: mixes {' and '.join(sorted(kinds))}s")
+    return values
+
+
+def _linked(p: dict, paths: list, at: str, group: int, method: str) -> List["Parameter"]:
+    """`path = ["gear[0].teeth", "gear[0].base_radius"]`, `values = [[36, 0.04297], ...]`:
+    paths that vary together, one row of values per grid step."""
+    if method != "grid":
+        raise StudyError(f"{at}.path = {paths!r}: linked paths are a grid parameter (values = [[...], ...])")
+    if not paths or not all(isinstance(q, str) for q in paths) or len(set(paths)) != len(paths):
+        raise StudyError(f"{at}.path = {paths!r}: must be a list of distinct scene paths")
+    extra = sorted(set(p) - {"path", "values"})
+    if extra:
+        raise StudyError(f"{at}.{extra[0]}: linked paths take values = [[...], ...] only")
+    rows = _need(p, "values", at)
+    if not isinstance(rows, list) or not rows:
+        raise StudyError(f"{at}.values: a non-empty list of rows, one value per path")
+    for k, row in enumerate(rows):
+        if not isinstance(row, list) or len(row) != len(paths):
+            raise StudyError(f"{at}.values[{k}] = {row!r}: must list {len(paths)} values, one per path {paths}")
+    return [Parameter(q, values=_grid_values([row[j] for row in rows], f"{at}.values[*][{j}] ({q})"), group=group)
+            for j, q in enumerate(paths)]
 
 
 def _arrow_type(values: Sequence):
@@ -256,13 +300,14 @@ def load(path) -> Study:
     for i, p in enumerate(_need(data, "parameter", where)):
         at = f"parameter[{i}]"
         name = _need(p, "path", at)
+        if isinstance(name, list):
+            parameters.extend(_linked(p, name, at, i, method))
+            continue
+        if not isinstance(name, str):
+            raise StudyError(f"{at}.path = {name!r}: must be a scene path or a list of them")
         if method == "grid":
             if "values" in p:
-                values = [_grid_value(v, f"{at}.values") for v in p["values"]]
-                kinds = {"boolean" if isinstance(v, bool) else "string" if isinstance(v, str) else "number"
-                         for v in values}
-                if len(kinds) > 1:
-                    raise StudyError(f"{at}.values = {p['values']!r}: mixes {' and '.join(sorted(kinds))}s")
+                values = _grid_values(p["values"], f"{at}.values")
             elif {"from", "to", "points"} <= set(p):
                 points = p["points"]
                 if not isinstance(points, int) or isinstance(points, bool) or points < 1:
@@ -275,7 +320,7 @@ def load(path) -> Study:
                 raise StudyError(f"{at} ({name}): a grid parameter needs values = [...] or from, to, points")
             if not values:
                 raise StudyError(f"{at}.values: empty")
-            parameters.append(Parameter(name, values=values))
+            parameters.append(Parameter(name, values=values, group=i))
         else:
             dist = _need(p, "distribution", at)
             if dist not in DISTRIBUTIONS:
@@ -292,7 +337,7 @@ def load(path) -> Study:
             )
             if bad:
                 raise StudyError(f"{at} ({name}): {dist} {args} is not a distribution")
-            parameters.append(Parameter(name, distribution=dist, args=args))
+            parameters.append(Parameter(name, distribution=dist, args=args, group=i))
     names = [p.path for p in parameters]
     if len(set(names)) != len(names):
         raise StudyError(f"{where}: a parameter is varied twice ({names})")
@@ -322,9 +367,10 @@ def load(path) -> Study:
     store = path.parent / data.get("store", path.stem + ".parquet")
     chunk = data.get("chunk")
     if method == "grid":
-        total = math.prod(len(p.values) for p in parameters)
+        sizes_by_group = {p.group: len(p.values) for p in parameters}
+        total = math.prod(sizes_by_group.values())
         if total > MAX_POINTS:
-            sizes = " × ".join(str(len(p.values)) for p in parameters)
+            sizes = " × ".join(str(n) for n in sizes_by_group.values())
             raise StudyError(f"{where}: the grid has {sizes} = {total} points, more than the {MAX_POINTS} a study may have")
     if chunk is not None and (not isinstance(chunk, int) or chunk < 1):
         raise StudyError(f"chunk = {chunk!r}: must be a whole number >= 1 (points per task)")
@@ -796,7 +842,7 @@ def plot(study, out) -> Path:
         raise StudyError(f"{study.store}: no results to plot yet")
     ok = df[df["error"].isna()]
     columns = study.result_columns()
-    names = [p.path for p in study.parameters]
+    names = study.axes()
     fig, axes = plt.subplots(1, len(columns), figsize=(4.5 * len(columns), 3.8), squeeze=False)
     for ax, c in zip(axes[0], columns):
         if study.method != "grid":

@@ -19,7 +19,7 @@ use geardyn::commands;
 use geardyn::scene::train::TRAIN_EXAMPLES;
 use geardyn::scene::KernelChoice;
 use geardyn::scene::Scene;
-use geardyn::scene::{read_scene_file, scene_file, PairScene, EXAMPLES};
+use geardyn::scene::{read_scene_file, scene_file, EXAMPLES};
 
 create_exception!(
     _geardyn,
