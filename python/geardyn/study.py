@@ -211,7 +211,7 @@ def _grid_values(raw, where: str) -> list:
     values = [_grid_value(v, where) for v in raw]
     kinds = {"boolean" if isinstance(v, bool) else "string" if isinstance(v, str) else "number" for v in values}
     if len(kinds) > 1:
-        raise StudyError(f"{where} = {raw!r}: mixes {' and '.join(sorted(kinds))}s")
+        raise StudyError(f"{where} = {raw!r}: mixes {' and '.join(k + 's' for k in sorted(kinds))}")
     return values
 
 
