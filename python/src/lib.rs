@@ -29,7 +29,54 @@ create_exception!(
 );
 
 fn err(message: impl Into<String>) -> PyErr {
-    GeardynError::new_err(message.into())
+    GeardynError::new_err(pythonic(&message.into()))
+}
+
+/// A library message in this module's terms. The commands name the CLI's options; here they
+/// are a function's arguments (`--max-rows` → `max_rows=`, `--speed` → `speed`) or, for the
+/// options that override the scene on the command line, its `solver.*` parameters
+/// (`--stop-time` → `solver.stop_time`, docs/python.md "The module").
+fn pythonic(message: &str) -> String {
+    // Options that are scene parameters here, and the one that is `statistics=False`.
+    const RENAMED: [(&str, &str); 7] = [
+        ("stop-time", "solver.stop_time"),
+        ("output-interval", "solver.output_interval"),
+        ("method", "solver.method"),
+        ("rk-method", "solver.rk_method"),
+        ("rtol", "solver.rtol"),
+        ("atol", "solver.atol"),
+        ("quiet", "statistics=False"),
+    ];
+    // Arguments that take a value keep `=` (`max_rows=`) where the message says how to
+    // raise a limit; a name in a value's message stays bare (`speed '400:500': …`).
+    const LIMITS: [&str; 3] = ["max-rows", "max-periods", "work-budget"];
+    let message = message.replace("the command's --work-budget, Python's work_budget=", "work_budget=");
+    let mut out = String::with_capacity(message.len());
+    let mut rest = message.as_str();
+    while let Some(at) = rest.find("--") {
+        let name_len = rest[at + 2..]
+            .find(|c: char| !(c.is_ascii_lowercase() || c == '-'))
+            .unwrap_or(rest.len() - at - 2);
+        let name = rest[at + 2..at + 2 + name_len].trim_end_matches('-');
+        if name.is_empty() || !name.starts_with(|c: char| c.is_ascii_lowercase()) {
+            out.push_str(&rest[..at + 2]);
+            rest = &rest[at + 2..];
+            continue;
+        }
+        out.push_str(&rest[..at]);
+        match RENAMED.iter().find(|(cli, _)| *cli == name) {
+            Some((_, python)) => out.push_str(python),
+            None => {
+                out.push_str(&name.replace('-', "_"));
+                if LIMITS.contains(&name) {
+                    out.push('=');
+                }
+            }
+        }
+        rest = &rest[at + 2 + name.len()..];
+    }
+    out.push_str(rest);
+    out
 }
 
 /// Validates scene text the way the CLI does: the one scene reader, which chooses the kernel.
@@ -737,6 +784,16 @@ fn simulate<'py>(
         opts.limits.work_budget = Some(b);
     }
     let s = scene.any();
+    // The CLI's aliasing warning, under the CLI's rule: only a summary taken from the output
+    // rows (a scene with speed or torque profiles) can alias; the continuous solution's cannot.
+    if statistics && !commands::simulate_run::summary_from_solution(&s).map_err(err)? {
+        if let Some(warning) =
+            commands::spectrum::aliasing(&s, s.solver.output_interval).map_err(err)?
+        {
+            let message = CString::new(warning).unwrap_or_default();
+            PyErr::warn(py, &py.get_type::<PyRuntimeWarning>(), &message, 1)?;
+        }
+    }
     let (report, rows) = py
         .detach(move || commands::simulate::simulate_in_memory(s, &opts))
         .map_err(err)?;

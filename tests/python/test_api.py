@@ -250,21 +250,53 @@ def test_bad_parameter_raises_the_cli_message_and_leaves_the_scene(tmp_path):
         scene["gear[2].inertia"] = 1.0
 
 
+def in_python(cli_message):
+    """The CLI's message as Python says it: the options are the functions' arguments."""
+    return cli_message.replace("--speed", "speed").replace("--direction", "direction")
+
+
 def test_bad_option_raises_the_cli_message(tmp_path):
+    """The CLI's messages, with the options named as this module's arguments."""
     scene = geardyn.Scene.example("spur_pair")
     for speed in ["500:400:5", "400:500", "400:500:1"]:
         with pytest.raises(geardyn.GeardynError) as e:
             geardyn.sweep(scene, speed)
-        assert str(e.value) == cli_error("sweep", "--example", "spur_pair", "--speed", speed,
-                                         "--out", tmp_path / "s.csv")
+        cli = cli_error("sweep", "--example", "spur_pair", "--speed", speed, "--out", tmp_path / "s.csv")
+        assert "--speed" in cli and "--" not in str(e.value)
+        assert str(e.value) == in_python(cli)
     with pytest.raises(geardyn.GeardynError) as e:
         geardyn.sweep(scene, "400:500:3", direction="sideways")
-    assert str(e.value) == cli_error("sweep", "--example", "spur_pair", "--speed", "400:500:3",
-                                     "--direction", "sideways", "--out", tmp_path / "s.csv")
+    assert str(e.value) == in_python(cli_error("sweep", "--example", "spur_pair", "--speed", "400:500:3",
+                                               "--direction", "sideways", "--out", tmp_path / "s.csv"))
     with pytest.raises(geardyn.GeardynError) as e:
         geardyn.hb(scene, "-400:500")
-    assert str(e.value) == cli_error("hb", "--example", "spur_pair", "--speed", "-400:500",
-                                     "--out", tmp_path / "h.csv")
+    assert str(e.value) == in_python(cli_error("hb", "--example", "spur_pair", "--speed", "-400:500",
+                                               "--out", tmp_path / "h.csv"))
+    # A limit's message says how to raise it in Python.
+    with pytest.raises(geardyn.GeardynError) as e:
+        geardyn.simulate(scene, max_rows=10)
+    assert "max_rows=" in str(e.value) and "--" not in str(e.value), str(e.value)
+
+
+def test_the_aliasing_warning_reaches_python(tmp_path):
+    """`runup_spur` (a speed profile: its summary is of the output rows) sampled every 1e-4 s
+    while its mesh frequency reaches 38·8000/60 = 5067 Hz: the CLI warns on stderr, Python
+    with the same text as a RuntimeWarning."""
+    scene = geardyn.Scene.example("runup_spur")
+    scene.update({"solver.output_interval": 1e-4})
+    with pytest.warns(RuntimeWarning) as caught:
+        geardyn.simulate(scene)
+    path = tmp_path / "runup.toml"
+    path.write_text(scene.to_toml())
+    p = run_geardyn("simulate", path, "--out", tmp_path / "r.csv")
+    warning = str(caught[0].message)
+    assert "alias" in warning and warning in p.stderr
+    # With the summary off there is nothing to alias, as with --quiet.
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        geardyn.simulate(scene, statistics=False)
     with pytest.raises(geardyn.GeardynError) as e:
         geardyn.stiffness(GEARS, torque=-1.0)
     assert str(e.value) == cli_error("stiffness", GEARS, "--torque", "-1", "--out", tmp_path / "k.csv")
