@@ -44,6 +44,12 @@ __all__ = [
     "hb",
     "modes",
     "stiffness",
+    "spectrum",
+    "waterfall",
+    "floquet",
+    "band",
+    "Spectrum",
+    "Waterfall",
     "build_fmu",
     "unit",
     "parse_speed",
@@ -284,6 +290,133 @@ def stiffness(
     pinion torque ``torque`` (N·m), with extended tooth contact if ``etc``."""
     columns, data, summary = _geardyn.stiffness(os.fspath(gears), torque, etc, harmonics)
     return Stiffness(columns, data, summary)
+
+
+def _read_table(path: Path) -> "tuple[List[str], np.ndarray, Dict[str, List[str]]]":
+    """A CSV the CLI wrote: numeric columns as exact doubles (the CLI writes shortest
+    round-trip floats), text columns (order labels) apart."""
+    import csv
+
+    with open(path, newline="") as f:
+        rows = list(csv.reader(f))
+    header, body = rows[0], rows[1:]
+    numeric, text = [], {}
+    for j, name in enumerate(header):
+        values = [r[j] for r in body]
+        try:
+            numeric.append((name, [float(v) for v in values]))
+        except ValueError:
+            text[name] = values
+    columns = [n for n, _ in numeric]
+    data = np.array([v for _, v in numeric], dtype=float).T.reshape(len(body), len(columns))
+    return columns, data, text
+
+
+@dataclass
+class Spectrum(Table):
+    """The exact spectrum of a periodic steady state (``geardyn spectrum``): one row per line,
+    ``frequency_Hz`` and per signal ``<signal>_amplitude_<unit>``, ``<signal>_phase_rad``;
+    ``labels`` names each line's order (``1×mesh``, ``DC``); ``report`` is the CLI's text."""
+
+    labels: List[str] = field(default_factory=list)
+    report: str = ""
+
+
+@dataclass
+class Waterfall:
+    """A run-up's order map (``geardyn waterfall``): ``map`` in long form (time_s, rpm,
+    frequency_Hz, order, amplitude) and, when asked, ``order_cuts`` (one row per block:
+    time_s, revolutions, speed, the amplitude and phase of each tracked order)."""
+
+    map: Table
+    order_cuts: Optional[Table]
+    report: str
+
+
+def _in_temporary(run, *names):
+    """Runs ``run(paths...)`` with fresh file paths in a temporary folder, returning what it
+    returns and the tables read from the paths it wrote."""
+    with tempfile.TemporaryDirectory() as tmp:
+        paths = [Path(tmp) / n for n in names]
+        result = run(*paths)
+        tables = [_read_table(p) if p.exists() else None for p in paths]
+    return result, tables
+
+
+def spectrum(
+    scene: Scene,
+    signals: Optional[List[str]] = None,
+    samples: int = 64,
+    periods: int = 1,
+    work_budget: Optional[float] = None,
+    plot: Union[str, os.PathLike, None] = None,
+) -> Spectrum:
+    """The exact spectrum of any scene's periodic steady state (``geardyn spectrum``): the
+    Fourier series of the shot orbit integrated over each segment, so the lines do not alias
+    and do not depend on ``samples``, which sets only how far the spectrum reaches (half of it,
+    in mesh orders). ``signals`` are output columns (default: every mesh's DTE); ``periods``
+    response periods give the resolution 1/(periods·T); ``plot`` also draws it (PNG or SVG).
+    The CLI's numbers, bit for bit."""
+    plot_path = None if plot is None else os.fspath(plot)
+    report, (table,) = _in_temporary(
+        lambda out: _geardyn.spectrum(scene, os.fspath(out), list(signals or []), samples, periods,
+                                      work_budget, plot_path),
+        "spectrum.csv",
+    )
+    columns, data, text = table
+    return Spectrum(columns, data, labels=text.get("order", []), report=report)
+
+
+def waterfall(
+    scene: Scene,
+    mesh: Optional[str] = None,
+    signal: str = "dte",
+    segment: int = 1000,
+    overlap: float = 0.5,
+    window: str = "hann",
+    order_cuts: bool = False,
+    mesh_orders: Optional[List[float]] = None,
+    shaft_orders: Optional[List[float]] = None,
+    revolutions: int = 8,
+    order_samples: int = 64,
+    work_budget: Optional[float] = None,
+    plot: Union[str, os.PathLike, None] = None,
+    order_plot: Union[str, os.PathLike, None] = None,
+) -> Waterfall:
+    """The order map of a run-up scene (``geardyn waterfall``): short-time spectra of
+    ``signal`` (dte or force) of ``mesh`` over the run, ``segment`` samples per window; with
+    ``order_cuts`` the orders ``mesh_orders`` (of the mesh) and ``shaft_orders`` (of the input
+    shaft) tracked in the angle domain over blocks of ``revolutions``. ``plot`` and
+    ``order_plot`` also draw them. The CLI's numbers, bit for bit."""
+    fspath = lambda p: None if p is None else os.fspath(p)  # noqa: E731
+
+    def run(out, cuts):
+        return _geardyn.waterfall(
+            scene, os.fspath(out), mesh, signal, segment, overlap, window,
+            os.fspath(cuts) if order_cuts else None, mesh_orders, shaft_orders, revolutions,
+            order_samples, work_budget, fspath(plot), fspath(order_plot))
+
+    report, (table, cuts) = _in_temporary(run, "waterfall.csv", "order_cuts.csv")
+    columns, data, _ = table
+    cut_table = None if cuts is None else Table(cuts[0], cuts[1])
+    return Waterfall(Table(columns, data), cut_table, report)
+
+
+def floquet(scene: Scene, speed: Union[str, float, None] = None, mu: Optional[float] = None) -> dict:
+    """The monodromy of a linear scene over one period at its input speed or ``speed``
+    (``geardyn floquet --json``): a dict with the monodromy, the multipliers, the load
+    response and the stiffness segments. ``mu`` sets a helical pair's friction coefficient."""
+    import json
+
+    text = None if speed is None else _speed_text(speed)
+    return json.loads(_geardyn.floquet(scene, text, mu))
+
+
+def band(scene: Scene, speed: str, points: int = 400, mu: Optional[float] = None) -> str:
+    """The parametric instability bands of a linear scene over input speeds ``speed =
+    "from:to"`` (``geardyn band``), scanned at ``points`` speeds and their edges bisected; the
+    CLI's report."""
+    return _geardyn.band(scene, speed, points, mu)
 
 
 def _default_cdylib() -> Path:

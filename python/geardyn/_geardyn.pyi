@@ -91,3 +91,31 @@ def stiffness(
     gears: str, torque: float, etc: bool = True, harmonics: int = 4
 ) -> Tuple[List[str], npt.NDArray[np.float64], str]: ...
 def build_fmu(scene: str, out: str, cdylib: str) -> pathlib.Path: ...
+def spectrum(
+    scene: Scene,
+    out: str,
+    signals: List[str],
+    samples: int,
+    periods: int,
+    work_budget: Optional[float] = None,
+    plot: Optional[str] = None,
+) -> str: ...
+def waterfall(
+    scene: Scene,
+    out: str,
+    mesh: Optional[str] = None,
+    signal: str = "dte",
+    segment: Optional[int] = None,
+    overlap: float = 0.5,
+    window: str = "hann",
+    order_cuts: Optional[str] = None,
+    mesh_orders: Optional[List[float]] = None,
+    shaft_orders: Optional[List[float]] = None,
+    revolutions: Optional[int] = None,
+    order_samples: Optional[int] = None,
+    work_budget: Optional[float] = None,
+    plot: Optional[str] = None,
+    order_plot: Optional[str] = None,
+) -> str: ...
+def floquet(scene: Scene, speed: Optional[str] = None, mu: Optional[float] = None) -> str: ...
+def band(scene: Scene, speed: str, points: int, mu: Optional[float] = None) -> str: ...

@@ -984,6 +984,145 @@ fn hb<'py>(
     table(py, &columns, &branch.rows())
 }
 
+/// `geardyn spectrum`: the exact spectrum of the scene's periodic steady state, written to
+/// the CSV `out` (and the plot `plot`) as the CLI writes them; returns the text it prints.
+/// The Python wrapper reads the CSV back (shortest round-trip floats: the same doubles).
+#[pyfunction]
+#[pyo3(signature = (scene, out, signals, samples, periods, work_budget = None, plot = None))]
+fn spectrum(
+    py: Python<'_>,
+    scene: &PyScene,
+    out: PathBuf,
+    signals: Vec<String>,
+    samples: &Bound<'_, PyAny>,
+    periods: &Bound<'_, PyAny>,
+    work_budget: Option<f64>,
+    plot: Option<PathBuf>,
+) -> PyResult<String> {
+    let samples: usize = optional_count("samples", Some(samples), 1, i64::MAX)?.unwrap_or(64);
+    let periods: u32 = optional_count("periods", Some(periods), 1, U32_MAX)?.unwrap_or(1);
+    let mut s = scene.any();
+    apply_work_budget(&mut s, work_budget)?;
+    let request = commands::spectrum::SpectrumRequest {
+        signals,
+        samples_per_mesh_period: samples,
+        periods,
+    };
+    let drawn = commands::spectrum::SpectrumPlot::default();
+    py.detach(|| {
+        commands::spectrum::spectrum_command_with(
+            &s,
+            &request,
+            &out,
+            plot.as_deref(),
+            &drawn,
+            geardyn::simulation::stream::ProgressDisplay::Off,
+        )
+    })
+    .map_err(err)
+}
+
+/// `geardyn waterfall` with its defaults but for the arguments given: the order map of a
+/// run-up scene to the CSV `out`, the order cuts to `order_cuts` if given (and the plots);
+/// returns the text the CLI prints.
+#[pyfunction]
+#[pyo3(signature = (scene, out, mesh = None, signal = "dte", segment = None, overlap = 0.5,
+    window = "hann", order_cuts = None, mesh_orders = None, shaft_orders = None,
+    revolutions = None, order_samples = None, work_budget = None, plot = None,
+    order_plot = None))]
+#[allow(clippy::too_many_arguments)]
+fn waterfall(
+    py: Python<'_>,
+    scene: &PyScene,
+    out: PathBuf,
+    mesh: Option<String>,
+    signal: &str,
+    segment: Option<&Bound<'_, PyAny>>,
+    overlap: f64,
+    window: &str,
+    order_cuts: Option<PathBuf>,
+    mesh_orders: Option<Vec<f64>>,
+    shaft_orders: Option<Vec<f64>>,
+    revolutions: Option<&Bound<'_, PyAny>>,
+    order_samples: Option<&Bound<'_, PyAny>>,
+    work_budget: Option<f64>,
+    plot: Option<PathBuf>,
+    order_plot: Option<PathBuf>,
+) -> PyResult<String> {
+    use geardyn::analysis::spectrum::Window;
+    use geardyn::commands::runup::{OrderTrackRequest, WaterfallRequest};
+    let segment: usize = optional_count("segment", segment, 1, i64::MAX)?.unwrap_or(1000);
+    let revolutions: usize = optional_count("revolutions", revolutions, 1, i64::MAX)?.unwrap_or(8);
+    let order_samples: usize =
+        optional_count("order_samples", order_samples, 1, i64::MAX)?.unwrap_or(64);
+    let mut s = scene.any();
+    apply_work_budget(&mut s, work_budget)?;
+    let request = WaterfallRequest {
+        mesh: mesh.as_deref(),
+        signal,
+        segment,
+        overlap,
+        window,
+        frequency_range: None,
+        order_range: None,
+        dynamic_range: 60.0,
+        order_cuts: order_cuts.as_deref(),
+        order_plot: order_plot.as_deref(),
+        db: false,
+        tracking: OrderTrackRequest {
+            samples_per_mesh_cycle: order_samples,
+            revolutions,
+            overlap,
+            // A bad window is refused by the waterfall, which names it (as on the CLI).
+            window: Window::parse(window).unwrap_or(Window::Hann),
+            mesh_orders: mesh_orders.unwrap_or_else(|| vec![1.0, 2.0, 3.0]),
+            shaft_orders: shaft_orders.unwrap_or_default(),
+        },
+    };
+    py.detach(|| {
+        commands::runup::waterfall_command(
+            &s,
+            &request,
+            &out,
+            plot.as_deref(),
+            geardyn::simulation::stream::ProgressDisplay::Off,
+        )
+    })
+    .map_err(err)
+}
+
+/// `geardyn floquet --json`: the monodromy of a linear scene at its speed or `speed`, with
+/// its multipliers, as the JSON text the CLI prints.
+#[pyfunction]
+#[pyo3(signature = (scene, speed = None, mu = None))]
+fn floquet(
+    py: Python<'_>,
+    scene: &PyScene,
+    speed: Option<String>,
+    mu: Option<f64>,
+) -> PyResult<String> {
+    let s = commands::floquet::with_friction(scene.any(), mu).map_err(err)?;
+    py.detach(|| commands::floquet::floquet(s, speed.as_deref(), true))
+        .map_err(err)
+}
+
+/// `geardyn band`: the parametric instability bands of a linear scene over `speed =
+/// "from:to"` with `points` scan points; the text the CLI prints.
+#[pyfunction]
+#[pyo3(signature = (scene, speed, points, mu = None))]
+fn band(
+    py: Python<'_>,
+    scene: &PyScene,
+    speed: &str,
+    points: &Bound<'_, PyAny>,
+    mu: Option<f64>,
+) -> PyResult<String> {
+    let points: usize = optional_count("points", Some(points), 1, i64::MAX)?.unwrap_or(400);
+    let s = commands::floquet::with_friction(scene.any(), mu).map_err(err)?;
+    py.detach(|| commands::floquet::band(&s, speed, points))
+        .map_err(err)
+}
+
 /// Natural frequencies and mode shapes of a drivetrain's mean system; returns a dict with
 /// `report`, the text `geardyn modes` prints.
 #[pyfunction]
@@ -1071,6 +1210,10 @@ fn _geardyn(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(sweep, m)?)?;
     m.add_function(wrap_pyfunction!(hb, m)?)?;
     m.add_function(wrap_pyfunction!(modes, m)?)?;
+    m.add_function(wrap_pyfunction!(spectrum, m)?)?;
+    m.add_function(wrap_pyfunction!(waterfall, m)?)?;
+    m.add_function(wrap_pyfunction!(floquet, m)?)?;
+    m.add_function(wrap_pyfunction!(band, m)?)?;
     m.add_function(wrap_pyfunction!(stiffness, m)?)?;
     m.add_function(wrap_pyfunction!(build_fmu, m)?)?;
     m.add_function(wrap_pyfunction!(parse_speed, m)?)?;
