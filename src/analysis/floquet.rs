@@ -34,13 +34,19 @@ pub fn monodromy(scene: &impl SceneSource) -> Result<Floquet, String> {
     let pair = scene.pair();
     let nonlinear = match &pair {
         Some(s) => (s.mesh.contact != ContactLaw::Linear)
-            .then(|| format!("mesh.contact = {:?}", s.mesh.contact)),
+            .then(|| format!("mesh.contact = {:?}", s.mesh.contact.file_name())),
         None => scene
             .meshes
             .iter()
             .enumerate()
             .find(|(_, m)| m.contact != ContactLaw::Linear)
-            .map(|(n, m)| format!("mesh[{n}].contact = {:?} (mesh '{}')", m.contact, m.name)),
+            .map(|(n, m)| {
+                format!(
+                    "mesh[{n}].contact = {:?} (mesh '{}')",
+                    m.contact.file_name(),
+                    m.name
+                )
+            }),
     };
     if let Some(field) = nonlinear {
         return Err(format!(

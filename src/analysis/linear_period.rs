@@ -56,7 +56,7 @@ impl LinearPeriodMap {
         if scene.mesh.contact != ContactLaw::Linear {
             return Err(format!(
                 "mesh.contact = {:?}: the closed-form period map needs contact = \"linear\"",
-                scene.mesh.contact
+                scene.mesh.contact.file_name()
             ));
         }
         if !scene.mesh.smooth.is_zero() {

@@ -54,6 +54,17 @@ pub enum ContactLaw {
     Backlash { clearance: f64 },
 }
 
+impl ContactLaw {
+    /// The law as the scene file spells it (`contact = "backlash"`), for messages.
+    pub fn file_name(&self) -> &'static str {
+        match self {
+            ContactLaw::Linear => "linear",
+            ContactLaw::ContactLoss => "contact_loss",
+            ContactLaw::Backlash { .. } => "backlash",
+        }
+    }
+}
+
 /// Smooth terms of the mesh force and excitation (Bugaru et al. 2006, eqs. 8 and 13):
 /// `c(p) = c + c̃ cos 2πp`, `F = k(p)(δ + δ̄ δ³) + γ δ³ + c(p) δ'`, and an input-torque ripple.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
