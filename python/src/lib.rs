@@ -50,7 +50,10 @@ fn pythonic(message: &str) -> String {
     // Arguments that take a value keep `=` (`max_rows=`) where the message says how to
     // raise a limit; a name in a value's message stays bare (`speed '400:500': …`).
     const LIMITS: [&str; 3] = ["max-rows", "max-periods", "work-budget"];
-    let message = message.replace("the command's --work-budget, Python's work_budget=", "work_budget=");
+    let message = message.replace(
+        "the command's --work-budget, Python's work_budget=",
+        "work_budget=",
+    );
     let mut out = String::with_capacity(message.len());
     let mut rest = message.as_str();
     while let Some(at) = rest.find("--") {
@@ -474,7 +477,11 @@ impl PyScene {
     #[staticmethod]
     fn example(name: &str) -> PyResult<PyScene> {
         let origin = format!("example '{name}'");
-        match TRAIN_EXAMPLES.iter().chain(EXAMPLES).find(|(n, _)| *n == name) {
+        match TRAIN_EXAMPLES
+            .iter()
+            .chain(EXAMPLES)
+            .find(|(n, _)| *n == name)
+        {
             Some((_, text)) => PyScene::new(text.to_string(), origin, None),
             // The scene reader's message: it lists every example, pairs and drivetrains.
             None => Err(err(Scene::example(name).expect_err("not an example").0)),
@@ -989,6 +996,7 @@ fn hb<'py>(
 /// The Python wrapper reads the CSV back (shortest round-trip floats: the same doubles).
 #[pyfunction]
 #[pyo3(signature = (scene, out, signals, samples, periods, work_budget = None, plot = None))]
+#[allow(clippy::too_many_arguments)]
 fn spectrum(
     py: Python<'_>,
     scene: &PyScene,
