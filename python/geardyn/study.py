@@ -141,6 +141,10 @@ class Study:
     results: List[str]
     store: Path
     chunk: Optional[int]
+    # User outputs: name -> callable on the analysis' result (a `Simulation`, an `Orbit` or the
+    # sweep's `Table`) returning a number; `[[output]]` entries of the file or `load(...,
+    # outputs=)`.
+    outputs: Dict[str, Callable] = field(default_factory=dict)
 
     @property
     def kind(self) -> str:
@@ -175,17 +179,17 @@ class Study:
 
     def key(self, point: Dict[str, float]) -> str:
         """The point's identity: base scene text, analysis and exact parameter values."""
-        blob = json.dumps(
-            {"scene": self.scene_text, "analysis": self.analysis, "point": point},
-            sort_keys=True,
-        )
+        identity = {"scene": self.scene_text, "analysis": self.analysis, "point": point}
+        if self.outputs:
+            identity["outputs"] = {n: _qualified_name(f) for n, f in self.outputs.items()}
+        blob = json.dumps(identity, sort_keys=True)
         return hashlib.sha256(blob.encode()).hexdigest()[:24]
 
     def result_columns(self) -> List[str]:
         if self.kind == "simulate" and self.base_scene().is_train:
             meshes = _train_meshes(self.base_scene())
-            return [f"{m}.{r}" for m in meshes for r in self.results]
-        return list(self.results)
+            return [f"{m}.{r}" for m in meshes for r in self.results] + list(self.outputs)
+        return list(self.results) + list(self.outputs)
 
 
 def _need(table: dict, key: str, where: str):
@@ -255,8 +259,34 @@ def _number(v, where: str) -> float:
     return float(v)
 
 
-def load(path) -> Study:
-    """Reads and checks a study file; paths in it are relative to the file."""
+def _qualified_name(f: Callable) -> str:
+    return f"{getattr(f, '__module__', '?')}:{getattr(f, '__qualname__', repr(f))}"
+
+
+def _import_output(spec: str, where: str) -> Callable:
+    """`package.module:function` of an `[[output]]` entry (importable on every worker)."""
+    import importlib
+
+    module, _, name = spec.partition(":")
+    if not module or not name:
+        raise StudyError(f"{where} = {spec!r}: write the function as 'package.module:function'")
+    try:
+        f = importlib.import_module(module)
+        for part in name.split("."):
+            f = getattr(f, part)
+    except (ImportError, AttributeError) as e:
+        raise StudyError(f"{where} = {spec!r}: {e}") from None
+    if not callable(f):
+        raise StudyError(f"{where} = {spec!r}: not callable")
+    return f
+
+
+def load(path, outputs: Optional[Dict[str, Callable]] = None) -> Study:
+    """Reads and checks a study file; paths in it are relative to the file. ``outputs`` adds
+    user outputs: ``{"name": f}`` with ``f(result) -> number`` called on each point's result
+    (a :class:`geardyn.Simulation`, :class:`geardyn.Orbit` or the sweep's
+    :class:`geardyn.Table`); a function defined in a script is shipped to the workers by
+    Dask."""
     path = Path(path).resolve()
     try:
         data = tomllib.loads(path.read_text())
@@ -265,7 +295,7 @@ def load(path) -> Study:
     except tomllib.TOMLDecodeError as e:
         raise StudyError(f"{path}: {e}") from None
     where = str(path)
-    known = {"scene", "seed", "store", "chunk", "sampling", "parameter", "analysis", "results"}
+    known = {"scene", "seed", "store", "chunk", "sampling", "parameter", "analysis", "results", "output"}
     unknown = sorted(set(data) - known)
     if unknown:
         raise StudyError(f"{where}: unknown key '{unknown[0]}' (known: {', '.join(sorted(known))})")
@@ -364,6 +394,22 @@ def load(path) -> Study:
     for r in results:
         if r not in RESULTS[kind]:
             raise StudyError(f"results: {r!r} is not a result of {kind} ({', '.join(RESULTS[kind])})")
+    user = {}
+    for i, o in enumerate(data.get("output", [])):
+        at = f"output[{i}]"
+        extra = sorted(set(o) - {"name", "function"})
+        if extra:
+            raise StudyError(f"{at}.{extra[0]}: unknown key (name, function)")
+        user[str(_need(o, "name", at))] = _import_output(str(_need(o, "function", at)), f"{at}.function")
+    for name, f in (outputs or {}).items():
+        if not callable(f):
+            raise StudyError(f"outputs[{name!r}] = {f!r}: not callable")
+        if name in user:
+            raise StudyError(f"outputs[{name!r}]: also an [[output]] of the file")
+        user[name] = f
+    clash = sorted(set(user) & (set(RESULTS[kind]) | set(names) | {"index", "key", "error"}))
+    if clash:
+        raise StudyError(f"output {clash[0]!r}: the name of a result or parameter column")
     store = path.parent / data.get("store", path.stem + ".parquet")
     chunk = data.get("chunk")
     if method == "grid":
@@ -375,7 +421,7 @@ def load(path) -> Study:
     if chunk is not None and (not isinstance(chunk, int) or chunk < 1):
         raise StudyError(f"chunk = {chunk!r}: must be a whole number >= 1 (points per task)")
     study = Study(path, scene_file, scene_text, method, parameters, samples, seed, analysis,
-                  list(results), store, chunk)
+                  list(results), store, chunk, user)
     # A misspelt path fails at every point: catch it now rather than store a study of
     # errors. Single bad points are data (stored with their error), so one good point of
     # the first 100 is enough.
@@ -405,8 +451,7 @@ def _base(scene_text: str, origin: str) -> "geardyn.Scene":
     return geardyn.Scene.from_toml(scene_text, origin=origin)
 
 
-def _simulate_results(scene, results: Sequence[str]) -> Dict[str, float]:
-    run = geardyn.simulate(scene)
+def _simulate_results(scene, run, results: Sequence[str]) -> Dict[str, float]:
     if run.statistics_source != "output samples":
         # The summary of `geardyn simulate`, bit for bit (a drivetrain's per mesh).
         out = {}
@@ -454,8 +499,9 @@ def _sweep_results(table, results) -> Dict[str, float]:
 
 
 def run_point(scene_text: str, origin: str, analysis: dict, results: Sequence[str],
-              point: Dict[str, float]) -> Dict[str, float]:
-    """Runs one point and returns its scalar results; raises what the solve raises."""
+              point: Dict[str, float], outputs: Optional[Dict[str, Callable]] = None) -> Dict[str, float]:
+    """Runs one point and returns its scalar results and user outputs; raises what the
+    solve raises."""
     scene = _base(scene_text, origin).copy()
     values = dict(point)
     if analysis["kind"] == "periodic" and "speed" in analysis:
@@ -463,24 +509,33 @@ def run_point(scene_text: str, origin: str, analysis: dict, results: Sequence[st
     scene.update(values)
     kind = analysis["kind"]
     if kind == "simulate":
-        return _simulate_results(scene, results)
-    if kind == "periodic":
-        orbit = geardyn.periodic(scene, periods=int(analysis.get("periods", 1)),
-                                 warmup=int(analysis.get("warmup", 20)))
+        result = geardyn.simulate(scene)
+        out = _simulate_results(scene, result, results)
+    elif kind == "periodic":
+        result = geardyn.periodic(scene, periods=int(analysis.get("periods", 1)),
+                                  warmup=int(analysis.get("warmup", 20)))
         values = {
-            "floquet_max": float(orbit.spectral_radius),
-            "stable": 1.0 if orbit.stability == "Stable" else 0.0,
-            "period": float(orbit.period),
-            "dte0": float(orbit.y0[0]),
+            "floquet_max": float(result.spectral_radius),
+            "stable": 1.0 if result.stability == "Stable" else 0.0,
+            "period": float(result.period),
+            "dte0": float(result.y0[0]),
         }
-        return {r: values[r] for r in results}
-    table = geardyn.sweep(scene, str(analysis["speed"]), str(analysis.get("direction", "both")),
-                          float(analysis.get("tolerance", 1e-7)), int(analysis.get("max_periods", 3000)))
-    return _sweep_results(table, results)
+        out = {r: values[r] for r in results}
+    else:
+        result = geardyn.sweep(scene, str(analysis["speed"]), str(analysis.get("direction", "both")),
+                               float(analysis.get("tolerance", 1e-7)), int(analysis.get("max_periods", 3000)))
+        out = _sweep_results(result, results)
+    for name, f in (outputs or {}).items():
+        value = f(result)
+        if not isinstance(value, (bool, int, float, np.bool_, np.integer, np.floating)):
+            raise StudyError(f"output {name!r} returned {value!r} ({type(value).__name__}): must be a number")
+        out[name] = float(value)
+    return out
 
 
 def run_chunk(scene_text: str, origin: str, analysis: dict, results: Sequence[str],
-              columns: Sequence[str], points: Sequence[tuple]) -> tuple:
+              columns: Sequence[str], points: Sequence[tuple],
+              outputs: Optional[Dict[str, Callable]] = None) -> tuple:
     """A Dask task: several points (index, key, values) in one task so the per-task cost of
     the scheduler is spread; a failing point is recorded with its error and NaN results.
     Returns the records and the task's solve time (it sizes the next tasks; it is not
@@ -489,7 +544,7 @@ def run_chunk(scene_text: str, origin: str, analysis: dict, results: Sequence[st
     records = []
     for index, key, point in points:
         try:
-            values = run_point(scene_text, origin, analysis, results, point)
+            values = run_point(scene_text, origin, analysis, results, point, outputs)
             records.append({"index": index, "key": key, **point,
                             **{c: values[c] for c in columns}, "error": None})
         except (KeyboardInterrupt, SystemExit):
@@ -758,7 +813,7 @@ def run(
         def submit_next():
             batch = next_batch()
             if batch is not None:
-                futures.append(submit(batch))
+                futures.append(submit(batch, study.outputs or None))
                 batch_of[futures[-1].key] = batch
                 return futures[-1]
             return None

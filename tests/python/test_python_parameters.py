@@ -11,7 +11,10 @@ idler_gearset and countershaft_gearset:
 - `Scene.example` of an unknown name lists every example that `Scene.examples()` returns;
 - a script that starts a study at its top level, without `if __name__ == "__main__":`, gets
   one message and no worker errors;
-- Ctrl-C on `geardyn-study run` in a terminal prints one line and no worker traceback.
+- Ctrl-C on `geardyn-study run` in a terminal prints one line and no worker traceback;
+- a user output, a callable on each point's result (given to `load` or named in the file as
+  `module:function`), is stored as a column and equals the callable on the serial run; a
+  callable that returns something other than a number fails its points with the reason.
 
 The reference for every study point is the same scene edited as text (the value written into
 the TOML file as an integer or string) and run through `geardyn.simulate`.
@@ -198,3 +201,67 @@ def test_ctrl_c_prints_one_line(tmp_path):
     assert p.returncode == 130, err
     assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
     assert err.rstrip().splitlines()[-1] == "interrupted: the points that arrived are stored; run again to continue"
+
+
+def largest_dte(run):
+    """A user output: the largest DTE of the run over every mesh (a module-level function,
+    shipped to the workers by reference)."""
+    return max(float(np.abs(run[n]).max()) for n in run.names if n.endswith("dte"))
+
+
+@pytest.mark.parametrize("name", SCENES)
+def test_a_callable_output(client, tmp_path, name):
+    base = short_scene(tmp_path, name)
+    study_file = tmp_path / "out.toml"
+    study_file.write_text(f'''scene = "{base}"
+results = ["dte_rms"]
+[[parameter]]
+path = "{TORQUE}"
+values = [80.0, 120.0]
+[analysis]
+kind = "simulate"
+''')
+    # A module-level function and a lambda (shipped by value).
+    study = gs.load(study_file, outputs={"largest_dte": largest_dte,
+                                         "rows": lambda run: len(run.time)})
+    summary = gs.run(study, client=client, progress=False)
+    assert summary.failed == 0
+    df = gs.results(study)
+    for row in df.to_dict("records"):
+        scene = geardyn.Scene.from_file(base)
+        scene[TORQUE] = row[TORQUE]
+        run = geardyn.simulate(scene)
+        assert row["largest_dte"] == largest_dte(run) and row["rows"] == len(run.time)
+    assert df["largest_dte"].nunique() == 2
+    # Another output is another study: its points are computed, not taken from the store.
+    again = gs.load(study_file, outputs={"largest_dte": lambda run: 0.0})
+    assert {again.key(p) for p in again.points()}.isdisjoint(df["key"])
+
+
+def test_an_output_named_in_the_file_and_its_errors(tmp_path, monkeypatch):
+    module = tmp_path / "my_outputs.py"
+    module.write_text("import numpy as np\n\ndef dte_span(run):\n    return float(np.ptp(run['mesh.dte']))\n\n"
+                      "def not_a_number(run):\n    return 'big'\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    base = short_scene(tmp_path, "spur_pair")
+    text = (f'scene = "{base}"\nresults = ["dte_rms"]\n[[parameter]]\npath = "mesh.damping_ratio"\n'
+            'values = [0.03, 0.06]\n[analysis]\nkind = "simulate"\n')
+    study_file = tmp_path / "file_output.toml"
+    study_file.write_text(text + '[[output]]\nname = "span"\nfunction = "my_outputs:dte_span"\n'
+                          '[[output]]\nname = "word"\nfunction = "my_outputs:not_a_number"\n')
+    study = gs.load(study_file)
+    # A new cluster, whose workers start with the module's folder on their path.
+    summary = gs.run(study, workers=1, progress=False)
+    assert summary.failed == 2  # `word` fails every point, and the point is stored with why
+    df = gs.results(study)
+    assert all("output 'word' returned 'big' (str): must be a number" in e for e in df["error"])
+    with pytest.raises(gs.StudyError, match=r"output\[0\].function = 'my_outputs:nope'"):
+        study_file.write_text(text + '[[output]]\nname = "x"\nfunction = "my_outputs:nope"\n')
+        gs.load(study_file)
+    with pytest.raises(gs.StudyError, match=r"output 'dte_rms': the name of a result or parameter column"):
+        gs.load(_write(tmp_path / "plain.toml", text), outputs={"dte_rms": largest_dte})
+
+
+def _write(path, text):
+    path.write_text(text)
+    return path
