@@ -148,3 +148,18 @@ def pytest_terminal_summary(terminalreporter):
         terminalreporter.section("measurements")
         for line in _MEASUREMENTS:
             terminalreporter.write_line(line)
+
+
+@pytest.fixture(scope="module")
+def client():
+    """A Dask client on `geardyn.study.local_cluster(2)`: 2 single-threaded worker processes,
+    one cluster per test module."""
+    from distributed import Client
+
+    from geardyn import study as gs
+
+    cluster = gs.local_cluster(2)
+    c = Client(cluster)
+    yield c
+    c.close()
+    cluster.close()

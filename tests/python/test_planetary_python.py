@@ -54,16 +54,6 @@ def test_sweep_matches_cli(tmp_path):
     identical(table.data, rows)
 
 
-@pytest.fixture(scope="module")
-def client():
-    from distributed import Client
-
-    cluster = gs.local_cluster(2)
-    c = Client(cluster)
-    yield c
-    c.close()
-    cluster.close()
-
 
 def test_study_matches_the_points_run_serially(client, tmp_path):
     short = tmp_path / "stage.toml"

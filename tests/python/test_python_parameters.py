@@ -44,16 +44,6 @@ SCENES = {
 TORQUE = "operating.input_torque"
 
 
-@pytest.fixture(scope="module")
-def client():
-    from distributed import Client
-
-    cluster = gs.local_cluster(2)
-    c = Client(cluster)
-    yield c
-    c.close()
-    cluster.close()
-
 
 def short_scene(tmp_path, name):
     """The scene with a 5 ms run (its own `[solver]` kept, stop time replaced)."""

@@ -19,16 +19,6 @@ from conftest import REPO
 SPUR = REPO / "fmu" / "spur_pair"
 
 
-@pytest.fixture(scope="module")
-def client():
-    from distributed import Client
-
-    cluster = gs.local_cluster(2)
-    c = Client(cluster)
-    yield c
-    c.close()
-    cluster.close()
-
 
 def write_study(tmp_path, body, name="study.toml"):
     path = tmp_path / name
