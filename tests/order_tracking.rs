@@ -187,9 +187,13 @@ fn at_constant_speed(text: &str, omega: f64) -> String {
 ///    quasi-static reference, the Hann-weighted mean over the block of that order's line in the
 ///    constant-speed spectrum (`periodic_spectrum`: the shot orbit of one pinion revolution,
 ///    its lines integrated in closed form, acceptance 2) at the speed of each angle of the
-///    block. The mean is a 6-point Gauss–Legendre rule over the block: the lines are analytic
-///    in the speed with their poles `ζ·n_r` (≥ 75 rpm) off the real axis, so the rule's error
-///    is far below the bound.
+///    block. The mean is a 3-point Gauss–Legendre rule on each half of the block. The lines
+///    36–40 are analytic in the speed, with their own resonance poles `ζ·n_r` ≥ 224 rpm off
+///    the real axis against a half-block half-width ≤ 90 rpm where they cross (error of the
+///    order of `ρ^-6`, ρ ≥ 5: 6e-5; a 6-point rule over the whole block moves the worst
+///    difference by 3e-4). The parts that the stiffness carries over from mesh orders 2 and 3
+///    have poles 80–120 rpm off the axis, which the rule resolves only roughly in the first
+///    blocks; there the bound is 5 % and those parts are a few percent of the line.
 ///
 /// The bound is physical. A block holds the run's response only if no free vibration of the
 /// resonance sweeps through the orders (its frequency f_n is a constant, so its order
@@ -268,10 +272,12 @@ fn runout_and_pitch_sidebands_are_resolved_at_their_exact_orders_on_the_shipped_
     );
 
     // 2. Against the quasi-static reference, block by block.
+    // 3-point Gauss–Legendre on each half block (blocks overlap by half, so a block is two
+    // halves and each half's constant-speed spectra serve two blocks).
     const GAUSS: [(f64, f64); 3] = [
-        (0.238_619_186_083_196_9, 0.467_913_934_572_691),
-        (0.661_209_386_466_264_5, 0.360_761_573_048_138_6),
-        (0.932_469_514_203_152_1, 0.171_324_492_379_170_4),
+        (-0.774_596_669_241_483_4, 5.0 / 9.0),
+        (0.0, 8.0 / 9.0),
+        (0.774_596_669_241_483_4, 5.0 / 9.0),
     ];
     let clock = ShaftClock::new(runup.profiles.speed.as_ref().unwrap());
     let span = request.revolutions as f64 * TAU;
@@ -286,7 +292,39 @@ fn runout_and_pitch_sidebands_are_resolved_at_their_exact_orders_on_the_shipped_
         let detuning = o * rpm / 60.0 / f_n - 1.0;
         o * ramp / (TAU * f_n * f_n * (detuning * detuning + zeta * zeta))
     };
-    let mut worst: (f64, usize, f64) = (0.0, 0, 0.0);
+    // The lines of orders 36–40 (complex, against the input angle) at each node of each half
+    // block: (angle, lines).
+    let lines_at = |angle: f64| -> [(f64, f64); 5] {
+        let omega = clock.speed_at(clock.time_at_angle(angle).unwrap());
+        let steady = scene(&at_constant_speed(&text, omega));
+        let report = periodic_spectrum(&steady, &SpectrumRequest::default()).unwrap();
+        let s = &report.signals[0].spectrum;
+        orders.map(|o| {
+            let f = o * omega / TAU;
+            let j = s.peak_in(f - 1e-6 * f, f + 1e-6 * f).unwrap();
+            assert!(
+                (s.frequency[j] - f).abs() < 1e-9 * f,
+                "{} vs {f}",
+                s.frequency[j]
+            );
+            (
+                s.amplitude[j] * s.phase[j].cos(),
+                s.amplitude[j] * s.phase[j].sin(),
+            )
+        })
+    };
+    let halves: Vec<Vec<(f64, f64, [(f64, f64); 5])>> = (0..=c.speed.len())
+        .map(|h| {
+            GAUSS
+                .iter()
+                .map(|&(x, g)| {
+                    let angle = (h as f64 + 0.5 * (1.0 + x)) * 0.5 * span;
+                    (angle, g, lines_at(angle))
+                })
+                .collect()
+        })
+        .collect();
+    let mut worst: (f64, usize, f64, f64) = (0.0, 0, 0.0, 0.0);
     for b in 0..c.speed.len() {
         let start = c.angle[b] - 0.5 * span;
         let rpm_at = |angle: f64| clock.speed_at(clock.time_at_angle(angle).unwrap()) * 60.0 / TAU;
@@ -301,25 +339,14 @@ fn runout_and_pitch_sidebands_are_resolved_at_their_exact_orders_on_the_shipped_
             })
             .fold(0.0, f64::max);
         let bound = 0.005 + swept;
+        // ∫ w(u) c du / ∫ w du over the block, u = (φ − start)/span, w = ½(1 − cos 2πu).
         let mut reference = [(0.0f64, 0.0f64); 5];
-        for (x, g) in GAUSS.iter().flat_map(|&(x, g)| [(-x, g), (x, g)]) {
-            let u = 0.5 * (1.0 + x);
-            // Hann weight over its integral (½), times the rule's weight on [0, 1].
-            let weight = 0.5 * g * (1.0 - (TAU * u).cos()) / 0.5 * 0.5;
-            let omega = clock.speed_at(clock.time_at_angle(start + u * span).unwrap());
-            let steady = scene(&at_constant_speed(&text, omega));
-            let report = periodic_spectrum(&steady, &SpectrumRequest::default()).unwrap();
-            let s = &report.signals[0].spectrum;
-            for (k, &o) in orders.iter().enumerate() {
-                let f = o * omega / TAU;
-                let j = s.peak_in(f - 1e-6 * f, f + 1e-6 * f).unwrap();
-                assert!(
-                    (s.frequency[j] - f).abs() < 1e-9 * f,
-                    "{} vs {f}",
-                    s.frequency[j]
-                );
-                reference[k].0 += weight * s.amplitude[j] * s.phase[j].cos();
-                reference[k].1 += weight * s.amplitude[j] * s.phase[j].sin();
+        for &(angle, g, lines) in halves[b].iter().chain(&halves[b + 1]) {
+            let u = (angle - start) / span;
+            let weight = 0.25 * g * (1.0 - (TAU * u).cos());
+            for k in 0..orders.len() {
+                reference[k].0 += weight * lines[k].0;
+                reference[k].1 += weight * lines[k].1;
             }
         }
         for (k, &o) in orders.iter().enumerate() {
@@ -328,7 +355,7 @@ fn runout_and_pitch_sidebands_are_resolved_at_their_exact_orders_on_the_shipped_
             let difference =
                 (amplitude * phase.cos() - re).hypot(amplitude * phase.sin() - im) / re.hypot(im);
             if difference / bound > worst.0 {
-                worst = (difference / bound, b, o);
+                worst = (difference / bound, b, o, difference);
             }
             assert!(
                 difference <= bound,
@@ -342,8 +369,9 @@ fn runout_and_pitch_sidebands_are_resolved_at_their_exact_orders_on_the_shipped_
     }
     println!(
         "orders 36–40 against the quasi-static reference: largest difference {:.2} of its \
-         bound (block {} at {:.0} rpm, order {})",
+         bound ({:.2e} of the reference; block {} at {:.0} rpm, order {})",
         worst.0,
+        worst.3,
         worst.1,
         c.speed[worst.1] * 60.0 / TAU,
         worst.2
