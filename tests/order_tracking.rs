@@ -313,7 +313,9 @@ fn runout_and_pitch_sidebands_are_resolved_at_their_exact_orders_on_the_shipped_
             )
         })
     };
-    let halves: Vec<Vec<(f64, f64, [(f64, f64); 5])>> = (0..=c.speed.len())
+    // (angle, Gauss weight, the lines at that angle's speed)
+    type Node = (f64, f64, [(f64, f64); 5]);
+    let halves: Vec<Vec<Node>> = (0..=c.speed.len())
         .map(|h| {
             GAUSS
                 .iter()
