@@ -172,8 +172,8 @@ pub const MAX_ORDER_SAMPLES: f64 = 16_777_216.0;
 /// Order tracking of mesh `mesh`'s `signal` over the run-up of `scene`: the run is sampled
 /// at equal increments of the input gear's nominal angle `φ(t) = ∫Ω dt` (the profile's exact
 /// integral, [`ShaftClock`]; the mesh phase is `z·φ/2π` of it), the driver stopping at each
-/// of those instants on the continuous solution, and the record is cut into blocks of whole
-/// revolutions ([`crate::analysis::spectrum::order_cuts`]).
+/// of those instants on the continuous solution ([`runup_angle_record`]), and the record is
+/// cut into blocks of whole revolutions ([`crate::analysis::spectrum::order_cuts`]).
 pub fn runup_order_cuts(
     scene: &Scene,
     mesh: usize,
@@ -181,7 +181,41 @@ pub fn runup_order_cuts(
     request: &OrderTrackRequest,
     report: Report,
 ) -> Result<RunupOrderCuts, String> {
-    use crate::analysis::spectrum::{order_cuts, OrderTrackOptions, ShaftClock};
+    let record = runup_angle_record(scene, mesh, signal, request, report)?;
+    let cuts =
+        crate::analysis::spectrum::order_cuts(&record.samples, 0, &record.clock, &record.options)?;
+    Ok(RunupOrderCuts {
+        cuts,
+        names: record.names,
+        mesh_order: record.mesh_order,
+        samples_per_revolution: record.options.samples_per_revolution,
+    })
+}
+
+/// A run-up's signal in the angle domain and what its order tracking needs.
+#[derive(Debug, Clone)]
+pub struct AngleRecord {
+    /// The signal at the input angles `k·2π/samples_per_revolution`, `k = 0, 1, …`.
+    pub samples: Vec<f64>,
+    pub clock: crate::analysis::spectrum::ShaftClock,
+    /// The request in input-shaft orders, checked.
+    pub options: crate::analysis::spectrum::OrderTrackOptions,
+    /// A name per order of `options.orders`: `mesh order k` or `shaft order o`.
+    pub names: Vec<String>,
+    /// Mesh cycles per input revolution of the analysed mesh.
+    pub mesh_order: f64,
+}
+
+/// Mesh `mesh`'s `signal` over the run-up of `scene`, sampled at equal increments of the
+/// input gear's nominal angle on the continuous solution (see [`runup_order_cuts`]).
+pub fn runup_angle_record(
+    scene: &Scene,
+    mesh: usize,
+    signal: RunupSignal,
+    request: &OrderTrackRequest,
+    report: Report,
+) -> Result<AngleRecord, String> {
+    use crate::analysis::spectrum::{OrderTrackOptions, ShaftClock};
     let Some(speed) = scene.profiles.speed.clone() else {
         return Err(format!(
             "scene {}: order tracking needs a run-up (operating.speed_profile, docs/runup.md)",
@@ -258,8 +292,7 @@ pub fn runup_order_cuts(
             x.push(row[column]);
             Ok(())
         })?;
-        let cuts = order_cuts(&x, 0, &clock, &options)?;
-        Ok(RunupOrderCuts { cuts, names, mesh_order, samples_per_revolution: per_rev })
+        Ok(AngleRecord { samples: x, clock, options, names, mesh_order })
     })
 }
 
