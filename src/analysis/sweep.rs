@@ -244,6 +244,7 @@ pub fn sweep(
     options.validate()?;
     let first = scene.to_scene();
     first.profiles.require_constant("a speed sweep")?;
+    crate::model::train::planetary::require_fixed_frame_speed(&first, "a speed sweep")?;
     let speeds = options.speeds.clone();
     let start = |d: Direction| {
         if d == Direction::Down {

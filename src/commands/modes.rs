@@ -30,6 +30,9 @@ pub fn modes(scene: &Scene, rigid_bearings: bool, out: &mut dyn Write) -> Result
             scene.name, scene.gears[st.carrier].name
         ));
     }
+    if let Some(why) = train::planetary::gyroscopic_refusal(scene) {
+        return Err(why);
+    }
     let scene = if rigid_bearings {
         scene.with_rigid_bearings()
     } else {
@@ -45,6 +48,17 @@ pub fn modes(scene: &Scene, rigid_bearings: bool, out: &mut dyn Write) -> Result
         if rigid_bearings { "rigid" } else { "scene" }
     )
     .map_err(io)?;
+    for st in scene.planetary.iter().filter(|s| s.gyroscopic) {
+        writeln!(
+            out,
+            "carrier {} frame at {} rad/s, gyroscopic = true: frequencies of M q'' + Ω_c G q' + \
+             (K_b + K_m − Ω_c² K_Ω) q = 0 (Lin & Parker 1999 eq. 1); the shapes are complex, \
+             listed as the real part of each divided by its largest entry",
+            scene.gears[st.carrier].name,
+            train::planetary::carrier_speed(&scene, st)
+        )
+        .map_err(io)?;
+    }
     write!(out, "{:>4} {:>12}  {:<6}", "mode", "f [Hz]", "kind").map_err(io)?;
     for label in &asm.labels {
         write!(out, " {label:>12}").map_err(io)?;

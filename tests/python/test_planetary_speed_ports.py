@@ -7,7 +7,11 @@ central member:
 - ring held: the sun in, the carrier out (the shipped arrangement);
 - carrier held (the star arrangement): the sun in, the ring out.
 
-Checked on each:
+A third arrangement mixes the causalities: the sun's port speed, the carrier's torque (the
+shipped stage with only its input port turned), so the stage turns freely under the load
+(`test_speed_in_torque_out_matches_simulate_and_willis`, below).
+
+Checked on each of the first two:
 - fmpy validates the FMU, and the ports are declared with speed causality (angle and speed
   inputs, torque output that depends on them);
 - fmpy standalone (the neighbours turn at their start speeds) gives the numbers of
@@ -30,6 +34,7 @@ Checked on each:
 
 from __future__ import annotations
 
+import re
 import tomllib
 
 import fmpy
@@ -155,3 +160,74 @@ def test_the_port_torques_settle_to_the_stage_ratio(name, built, tmp_path, repor
     # rotation would twist the couplings steadily).
     halves = [run["input.torque"][(t >= a) & (t < b)].mean() for a, b in ((0.06, 0.08), (0.08, stop + 1))]
     assert abs(halves[1] - halves[0]) <= 1e-5 * abs(t_in)
+
+
+# The mixed arrangement.
+K_COUPLING, C_COUPLING = 2.0e4, 2.0
+H_MIXED, STOP_MIXED = 1e-5, 0.02
+# The FMU advances the neighbour's angle step by step (φ_c + ω h per communication step),
+# `simulate` as φ_0 + ω t: their roundings differ by ~1e-16 of ~20 rad per step, a random walk
+# of ~1e-13 rad over 2000 steps, times k = 2e4 N·m/rad: ~1e-11 of the coupling torque. Bound:
+BOUND = 1e-10
+
+
+def speed_in_torque_out():
+    text = (REPO / "fmu" / "planetary_stage" / "scene.toml").read_text()
+    text = text.replace('name = "planetary_stage"', 'name = "planetary_stage_speed"', 1)
+    old = 'gear = "sun"\ncausality = "torque"\ntorque = 150.0\n'
+    assert old in text
+    new = (f'gear = "sun"\ncausality = "speed"\nstiffness = {K_COUPLING!r}\n'
+           f'damping = {C_COUPLING!r}\ntorque = 150.0\n')
+    return text.replace(old, new, 1)
+
+
+def test_speed_in_torque_out_matches_simulate_and_willis(tmp_path, geardyn_bin):
+    """The sun's port speed, the carrier's torque, the ring held: fmpy validation, every
+    mesh's DTE and contact state, the sun port's coupling torque and the carrier port's speed
+    equal `geardyn simulate` to BOUND of each signal's largest value (the neighbour's angle is
+    accumulated per step in the FMU, in one product natively: rounding); the imposed speed
+    drives the stage, so over the last 2 ms the carrier's mean speed is the neighbour's speed
+    over Willis' ratio 1 + Z_r/Z_s (to the change of the coupling's twist over the window,
+    bound 1e-4), and the coupling's mean torque balances the carrier's load through the torque
+    ratio (bound 1e-3: the stage still settles)."""
+        scene = tmp_path / "planetary_stage_speed.toml"
+    scene.write_text(speed_in_torque_out())
+    run_geardyn("fmu", "build", scene, "--out", tmp_path)
+    fmu = tmp_path / "planetary_stage_speed.fmu"
+    assert fmpy.validation.validate_fmu(str(fmu)) == []
+    md = fmpy.read_model_description(str(fmu))
+    by = {v.name: v for v in md.modelVariables}
+    assert by["input.angle"].causality == "input" and by["input.speed"].causality == "input"
+    assert by["input.torque"].causality == "output"
+    assert by["output.torque"].causality == "input" and by["output.speed"].causality == "output"
+
+    native = native_run(scene, tmp_path / "native.csv", H_MIXED, STOP_MIXED)
+    meshes = sorted({m.group(1) for m in re.finditer(r'\nname = "((?:sp|rp)\d)"', speed_in_torque_out())})
+    assert len(meshes) == 6
+    cont = [f"{m}.dte" for m in meshes] + ["input.torque", "output.speed", "sun.speed"]
+    cont = [c for c in cont if c in native.dtype.names]
+    assert {"input.torque", "output.speed"} <= set(cont)
+    discrete = [f"{m}.contact_state" for m in meshes]
+    r = fmpy.simulate_fmu(str(fmu), fmi_type="CoSimulation", output_interval=H_MIXED, stop_time=STOP_MIXED,
+                          output=cont + discrete)
+    assert len(r) == len(native)
+    for c in cont:
+        amp = np.abs(native[c]).max()
+        err = np.abs(r[c] - native[c]).max()
+        print(f"{c}: fmpy vs simulate {err / amp:.2e} of its largest value")
+        assert err <= BOUND * amp, c
+    for c in discrete:
+        assert np.array_equal(r[c], native[c]), c
+
+    # The imposed speed drives the stage (Willis, P1) and the torques balance (P9).
+    doc_speed = float(re.search(r"input_speed = ([0-9.e+-]+)", speed_in_torque_out()).group(1))
+    z = {k: int(v) for k, v in re.findall(r'name = "(sun|ring)"\nteeth = (\d+)', speed_in_torque_out())}
+    ratio = 1 + z["ring"] / z["sun"]
+    window = native["time"] >= STOP_MIXED - 0.002
+    carrier = native["output.speed"][window].mean()
+    print(f"carrier mean speed {carrier:.9f} rad/s, neighbour/ratio {doc_speed / ratio:.9f}")
+    assert carrier == pytest.approx(doc_speed / ratio, rel=1e-4)
+    torque_in = -native["input.torque"][window].mean()  # the coupling's torque on the sun
+    load = float(re.search(r"torque = (-[0-9.e+-]+)", speed_in_torque_out()).group(1))
+    print(f"coupling torque on the sun {torque_in:.4f} N·m, load/ratio {-load / ratio:.4f} N·m")
+    assert torque_in == pytest.approx(-load / ratio, rel=1e-3)

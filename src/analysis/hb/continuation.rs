@@ -193,6 +193,7 @@ pub fn continuation_reporting(
     }
     let mut scene = scene.to_scene();
     scene.profiles.require_constant("harmonic balance")?;
+    crate::model::train::planetary::require_fixed_frame_speed(&scene, "harmonic balance")?;
     scene.set_input_speed(options.from);
     let settings = scene.solver.clone();
     with_drivetrain!(scene.simulation()?, sim => {

@@ -88,6 +88,20 @@ pub struct Assembly {
     /// Generalised force of the planets' pin position errors, `−Σ k b e` (a static preload of
     /// the planet bearings, `docs/planetary.md` eq. P8); zero without planets.
     pub pin_load: DVector<f64>,
+    /// The rotating carrier frames' gyroscopic terms, with `gyroscopic = true` on a stage
+    /// (`docs/planetary.md`, "Gyroscopic terms"); their centripetal softening is in `k_base`.
+    pub frame: Option<FrameTerms>,
+}
+
+/// The gyroscopic matrix `Ω_c G` of the stages with `gyroscopic = true` (Lin & Parker 1999
+/// eq. 1; [`super::planetary::frame_terms`]), a skew velocity term: the time-domain model
+/// adds it to the damping, `modes` solves the gyroscopic eigenproblem with it.
+#[derive(Debug, Clone)]
+pub struct FrameTerms {
+    pub gyroscopic: DMatrix<f64>,
+    /// The input speed the terms were assembled at, rad/s: a change of speed needs them
+    /// assembled anew.
+    pub input_speed: f64,
 }
 
 /// Generalised direction of the friction force of a tooth pair of a mesh with friction:
@@ -272,6 +286,13 @@ impl Assembly {
             c_base += spring.damping * &bb;
             pin_load -= &spring.b * (spring.stiffness * spring.error);
         }
+        let frame = super::planetary::frame_terms(scene, &trans, n).map(|(g, k_omega)| {
+            k_base -= k_omega;
+            FrameTerms {
+                gyroscopic: g,
+                input_speed: scene.operating.input_speed,
+            }
+        });
         let mut mesh = Vec::new();
         let mut dte = Vec::new();
         for (i, (m, l)) in scene.meshes.iter().zip(&loa).enumerate() {
@@ -342,6 +363,7 @@ impl Assembly {
             shaft_twist,
             friction,
             pin_load,
+            frame,
         }
     }
 
@@ -349,7 +371,8 @@ impl Assembly {
         self.dofs.len()
     }
 
-    /// Mean stiffness matrix `K_b + Σ k̄_n d_n d_nᵀ` (all pairs in contact).
+    /// Mean stiffness matrix `K_b + Σ k̄_n d_n d_nᵀ` (all pairs in contact; with the rotating
+    /// frames' terms, `K_b` includes their centripetal softening `−Ω_c² K_Ω`).
     pub fn mean_stiffness_matrix(&self) -> DMatrix<f64> {
         let mut k = self.k_base.clone();
         for (d, &kn) in self.mesh.iter().zip(&self.mean_stiffness) {

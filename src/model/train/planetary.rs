@@ -11,7 +11,7 @@
 //! and the rotation of its body. `θ̃_g = σ ρ_g θ_g` is a rotation counted in the stage's
 //! sense σ (`ρ_g` the gear's nominal rotation sense, in which the assembly counts `θ_g`).
 
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 
 use crate::scene::train::{Planet, PlanetaryStage};
 use crate::scene::Scene;
@@ -141,6 +141,121 @@ pub(crate) fn pin_springs(scene: &Scene, at: &Coordinates) -> Vec<PinSpring> {
     springs
 }
 
+/// Signed nominal speed of a stage's carrier, rad/s (counter-clockwise positive): the speed
+/// of its rotating frame.
+pub fn carrier_speed(scene: &Scene, st: &PlanetaryStage) -> f64 {
+    let c = st.carrier;
+    scene.rotation[c] * scene.speed_ratio[c] * scene.operating.input_speed
+}
+
+/// The terms of the rotating carrier frames of the stages with `gyroscopic = true`, at the
+/// carriers' nominal speeds Ω_c (Lin & Parker 1999 eq. 1,
+/// `M q'' + Ω_c G q' + (K_b + K_m − Ω_c² K_Ω) q = T`): the skew gyroscopic matrix `Ω_c G`
+/// and the centripetal softening `Ω_c² K_Ω`, block-diagonal per member, `G_j = 2 m_j J`,
+/// `K_Ω,j = m_j I` on its two translations (no rotational entries), `J = [[0, −1], [1, 0]]`.
+/// They are the Coriolis and centrifugal forces `2 m Ω ẑ × w' − m Ω² w` of a translation
+/// `w` seen in a frame turning at Ω. A central member's `(x, y)` is right-handed; a planet's
+/// `w = ζ e_r + σ η e_t` (eq. P3), so its block of `G` carries the stage's sense σ. The
+/// planets' mean centrifugal force `m r_c Ω_c²` (a constant radial pin load) and the
+/// geometric stiffness of that preload are not in the paper's model and not here.
+pub(crate) fn frame_terms(
+    scene: &Scene,
+    trans: &[[usize; 2]],
+    n: usize,
+) -> Option<(DMatrix<f64>, DMatrix<f64>)> {
+    let stages: Vec<&PlanetaryStage> = scene.planetary.iter().filter(|s| s.gyroscopic).collect();
+    if stages.is_empty() {
+        return None;
+    }
+    let mut gyroscopic = DMatrix::zeros(n, n);
+    let mut centripetal = DMatrix::zeros(n, n);
+    for st in stages {
+        let omega = carrier_speed(scene, st);
+        let members = [(st.sun, 1.0), (st.ring, 1.0), (st.carrier, 1.0)]
+            .into_iter()
+            .chain(st.planets.iter().map(|p| (p.gear, st.sense)));
+        for (g, handed) in members {
+            let Some(m) = scene.gears[g].mass else {
+                continue;
+            };
+            let [i, j] = trans[g];
+            for k in [i, j].into_iter().filter(|&k| k != usize::MAX) {
+                centripetal[(k, k)] += m * omega * omega;
+            }
+            if i != usize::MAX && j != usize::MAX {
+                gyroscopic[(i, j)] -= 2.0 * m * omega * handed;
+                gyroscopic[(j, i)] += 2.0 * m * omega * handed;
+            }
+        }
+    }
+    Some((gyroscopic, centripetal))
+}
+
+/// Why a scene with `gyroscopic = true` on a stage cannot run, if it cannot. The terms are
+/// taken at the carrier's constant nominal speed, so the nominal-speed form is needed (with
+/// ports or elements, or a speed profile, the carrier's speed is not constant), and the
+/// stage must be held torsionally: in a free rotation of the stage the planets orbit (η_n =
+/// r_c θ̃_c), and the centripetal term of eq. (1) pulls on that orbit with nothing to balance
+/// it (the model has no geometric stiffness of the centrifugal preload), so the free
+/// rotation would diverge instead of staying neutral.
+pub fn gyroscopic_refusal(scene: &Scene) -> Option<String> {
+    let st = scene.planetary.iter().find(|s| s.gyroscopic)?;
+    let carrier = &scene.gears[st.carrier].name;
+    let head = format!(
+        "scene {:?}: carrier {carrier:?} has gyroscopic = true (the rotating frame's terms at \
+         the carrier's constant nominal speed, docs/planetary.md, \"Gyroscopic terms\")",
+        scene.name
+    );
+    if scene.carries_rotation() {
+        return Some(format!(
+            "{head}; with [[port]] or elements the carrier's speed is a state, not a constant: \
+             run the nominal-speed form (no ports) or set gyroscopic = false"
+        ));
+    }
+    if scene.profiles.speed.is_some() {
+        return Some(format!(
+            "{head}; a speed profile changes the carrier's speed over the run: run at a \
+             constant operating.input_speed or set gyroscopic = false"
+        ));
+    }
+    let mut rest = scene.clone();
+    for s in &mut rest.planetary {
+        s.gyroscopic = false;
+    }
+    let asm = super::Assembly::new(&rest);
+    if let Ok(red) = super::assembly::Reduction::new(&asm) {
+        if red.rigid_dim() > 0 {
+            return Some(format!(
+                "{head}; the train turns freely ({} rigid-body mode(s)): in a free rotation the \
+                 planets orbit and the centripetal term of Lin & Parker's eq. (1) acts on that \
+                 orbit unbalanced (the model has no geometric stiffness of the centrifugal \
+                 preload), so the free rotation would diverge; hold the stage torsionally \
+                 (a ground_stiffness on the input and output members, as in the papers' \
+                 gyroscopic analyses) or set gyroscopic = false",
+                red.rigid_dim()
+            ));
+        }
+    }
+    None
+}
+
+/// Refuses a tool that changes the speed of one built model (`what`: a speed sweep, a
+/// continuation in speed) on a scene with `gyroscopic = true`: the frame's terms are
+/// assembled at one carrier speed.
+pub fn require_fixed_frame_speed(scene: &Scene, what: &str) -> Result<(), String> {
+    match scene.planetary.iter().find(|s| s.gyroscopic) {
+        Some(st) => Err(format!(
+            "{what} changes the input speed of one assembled model, but carrier {:?} has \
+             gyroscopic = true, whose terms are assembled at one carrier speed and not \
+             reassembled: run `periodic`, `spectrum`, `floquet` or `band` per speed (they \
+             assemble each speed anew), or set gyroscopic = false (docs/planetary.md, \
+             \"Gyroscopic terms\")",
+            scene.gears[st.carrier].name
+        )),
+        None => Ok(()),
+    }
+}
+
 /// Whether gear `g` translates in a planetary stage's carrier frame (a central member with a
 /// bearing, or a planet): both its axes carry force whatever the mesh angles.
 pub(crate) fn in_carrier_frame(scene: &Scene, g: usize) -> bool {
@@ -199,6 +314,9 @@ pub fn load_sharing(scene: &Scene, mesh_force: &[f64]) -> Vec<Vec<PlanetLoad>> {
 /// no reference rotation and runs any stage. Checked where the kernel is built (`Scene::run`,
 /// `GearTrain::new`).
 pub fn refusal(scene: &Scene) -> Option<String> {
+    if let Some(why) = gyroscopic_refusal(scene) {
+        return Some(why);
+    }
     if !scene.carries_rotation() {
         return None;
     }

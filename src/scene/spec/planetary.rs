@@ -30,4 +30,9 @@ pub struct CarrierSpec {
     /// The central member (sun, ring or this carrier) whose nominal speed is zero; default:
     /// the only one of them with a `ground_stiffness`.
     pub fixed: Option<String>,
+    /// Add the gyroscopic and centripetal terms of the rotating carrier frame at the carrier's
+    /// nominal speed (Lin & Parker 1999 eq. 1: `Ω_c G q'` and `−Ω_c² K_Ω q`); off by
+    /// default, as in the papers' analyses (`docs/planetary.md`, "Gyroscopic terms").
+    #[serde(default)]
+    pub gyroscopic: bool,
 }

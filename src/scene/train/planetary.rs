@@ -46,6 +46,9 @@ pub struct PlanetaryStage {
     /// direction in which the stage's tooth pairs pass, which sets the planet-to-planet mesh
     /// phases (eq. PL1, PL2); +1 when the sun does not turn relative to the carrier.
     pub relative_sense: f64,
+    /// The gyroscopic and centripetal terms of the rotating carrier frame are included
+    /// (`[[carrier]] gyroscopic = true`; `crate::model::train::planetary::frame_terms`).
+    pub gyroscopic: bool,
 }
 
 impl PlanetaryStage {

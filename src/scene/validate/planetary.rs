@@ -360,6 +360,7 @@ pub(crate) fn stages(
             planets,
             sense: 1.0,
             relative_sense: 1.0,
+            gyroscopic: c.gyroscopic,
         });
     }
     Ok(stages)

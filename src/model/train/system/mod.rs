@@ -414,6 +414,10 @@ impl GearTrain {
         let mass = q.transpose() * &asm.mass * &q;
         let k_b = q.transpose() * &asm.k_base * &q;
         let mut c = q.transpose() * &asm.c_base * &q;
+        if let Some(frame) = &asm.frame {
+            // The rotating carrier frame's skew velocity term (Lin & Parker 1999 eq. 1).
+            c += q.transpose() * &frame.gyroscopic * &q;
+        }
         let mut k_mean = k_b.clone();
         let a_vecs: Vec<DVector<f64>> = asm.mesh.iter().map(|d| q.transpose() * d).collect();
         for (a, &k) in a_vecs.iter().zip(&asm.mean_stiffness) {
@@ -957,6 +961,18 @@ impl GearTrain {
     }
 
     fn apply_inputs(&mut self, t: f64, inputs: TrainInputs) -> Result<(), String> {
+        if let Some(frame) = &self.asm.frame {
+            if inputs.input_speed != frame.input_speed {
+                return Err(format!(
+                    "operating.input_speed = {} rad/s: the gyroscopic terms of the carrier \
+                     frame (gyroscopic = true) were assembled at {} rad/s and are not \
+                     reassembled when the speed changes (sweeps, continuation in speed, a \
+                     speed input); run one scene per speed (docs/planetary.md, \
+                     \"Gyroscopic terms\")",
+                    inputs.input_speed, frame.input_speed
+                ));
+            }
+        }
         // Before anything changes: every mesh frequency within the range the propagators
         // can square (an input_speed of 1e308 rad/s made it infinite and the outputs NaN).
         for (n, mesh) in self.meshes.iter().enumerate() {
