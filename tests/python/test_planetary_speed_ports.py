@@ -190,7 +190,7 @@ def test_speed_in_torque_out_matches_simulate_and_willis(tmp_path, geardyn_bin):
     over Willis' ratio 1 + Z_r/Z_s (to the change of the coupling's twist over the window,
     bound 1e-4), and the coupling's mean torque balances the carrier's load through the torque
     ratio (bound 1e-3: the stage still settles)."""
-        scene = tmp_path / "planetary_stage_speed.toml"
+    scene = tmp_path / "planetary_stage_speed.toml"
     scene.write_text(speed_in_torque_out())
     run_geardyn("fmu", "build", scene, "--out", tmp_path)
     fmu = tmp_path / "planetary_stage_speed.fmu"
