@@ -251,7 +251,9 @@ fn simulate_stops_at_its_budget_naming_the_cause() {
         assert!(
             stderr.contains(&format!("work budget of {budget:e} units"))
                 && stderr.contains(&format!("likely cause: {cause}"))
-                && stderr.contains("raise solver.work_budget in the scene"),
+                && stderr.contains("raise solver.work_budget in the scene")
+                // --quiet: no statistics, so none of the work is theirs.
+                && !stderr.contains("statistics"),
             "{}: {stderr}",
             path.display()
         );
@@ -453,5 +455,21 @@ fn the_statistics_are_charged_to_the_run_budget() {
             e.contains(&format!("work budget of {between:e} units")),
             "{method}: {e}"
         );
+        // The message names what spent the budget: the statistics' share of the work, and
+        // the statistics as the likely cause where they spent most of it. Over the whole
+        // run their share is `1 − quiet/full`; the run stops halfway between, at about the
+        // same share (the work grows evenly over a steady run).
+        let share = 1.0 - quiet.work / full.work;
+        println!("{method}: the statistics' share of the work {share:.2}: {e}");
+        let named = e.contains("likely cause: the statistics: their observer");
+        assert!(
+            named || e.contains("% of the work by the statistics' observer"),
+            "{method}: {e}"
+        );
+        if share >= 0.6 {
+            assert!(named, "{method}: share {share:.2}: {e}");
+        } else if share <= 0.4 {
+            assert!(!named, "{method}: share {share:.2}: {e}");
+        }
     }
 }

@@ -116,6 +116,10 @@ pub fn check_limit(field: &str, x: f64) -> Result<f64, String> {
 /// What a driver knew when its budget ran out, to name the likely cause.
 pub struct Exhaustion<'a> {
     pub limit: f64,
+    /// The work spent in the scope, and the part of it the observers spent (the statistics
+    /// evaluated on every segment or step, `docs/units.md`).
+    pub spent: f64,
+    pub observer_work: f64,
     /// Simulated time reached and the time the advance started from, s.
     pub t: f64,
     pub t_start: f64,
@@ -135,7 +139,15 @@ pub fn exhausted_message(e: &Exhaustion) -> String {
     let w = &e.work;
     let steps = w.steps + w.rejected;
     let span = (e.t - e.t_start).max(0.0);
-    let cause = likely_cause(e.scales, w, span);
+    let by_observer = observer_cause(e);
+    let observed = match by_observer {
+        None if e.observer_work > 0.0 && e.spent > 0.0 => format!(
+            ", {:.0} % of the work by the statistics' observer",
+            100.0 * e.observer_work / e.spent
+        ),
+        _ => String::new(),
+    };
+    let cause = by_observer.unwrap_or_else(|| likely_cause(e.scales, w, span));
     let remedy = if e.per_call {
         format!("shorten the communication step, or raise the parameter {BUDGET_KEY}")
     } else {
@@ -146,10 +158,30 @@ pub fn exhausted_message(e: &Exhaustion) -> String {
     };
     format!(
         "the work budget of {:e} units was spent at t = {:e} s ({} steps with {}, {} events, {} \
-         guard evaluations); likely cause: {cause}. Check the inputs, or {remedy} (docs/fmu.md \
-         \"Work budget\")",
+         guard evaluations{observed}); likely cause: {cause}. Check the inputs, or {remedy} \
+         (docs/fmu.md \"Work budget\")",
         e.limit, e.t, steps, e.method, w.events, w.guard_evals
     )
+}
+
+/// The statistics as the likely cause when their observer spent at least half of the work,
+/// else `None` (the message then gives their share, where they took any, beside the counters).
+fn observer_cause(e: &Exhaustion) -> Option<String> {
+    if !(e.observer_work > 0.0 && e.spent > 0.0) {
+        return None;
+    }
+    let share = e.observer_work / e.spent;
+    (share >= 0.5).then(|| {
+        format!(
+            "the statistics: their observer (peak, RMS and contact loss evaluated on every \
+             segment or step, docs/units.md) spent {:.0} % of the work ({:e} units), the \
+             integration itself {:e}; a run without them (simulate --quiet, Python's \
+             statistics=False) does only the integration",
+            100.0 * share,
+            e.observer_work,
+            e.spent - e.observer_work
+        )
+    })
 }
 
 /// Which of the model's time scales holds the step: the fastest mode (stiffness), the mesh

@@ -60,15 +60,18 @@ struct ScopeCounts {
     rejected: u64,
     events: u64,
     guard_evals: u64,
+    /// The observers' work ([`SegmentObserver`], [`StepObserver`]: the statistics).
+    observer_work: f64,
 }
 
 impl ScopeCounts {
-    fn of(s: &SolverStats) -> ScopeCounts {
+    fn of(s: &SolverStats, observer_work: f64) -> ScopeCounts {
         ScopeCounts {
             steps: s.steps,
             rejected: s.rejected,
             events: s.events,
             guard_evals: s.guard_evals,
+            observer_work,
         }
     }
 }
@@ -324,11 +327,11 @@ impl<M: DrivenModel> Driver<M> {
         let limit = self.budget.limit();
         let start = match &mut self.propagator {
             Propagator::Rk(p) => {
-                self.scope = (p.t(), ScopeCounts::of(p.stats()));
+                self.scope = (p.t(), ScopeCounts::of(p.stats(), p.observer_work()));
                 p.start_work_scope(limit)
             }
             Propagator::Exact(p) => {
-                self.scope = (p.t(), ScopeCounts::of(p.stats()));
+                self.scope = (p.t(), ScopeCounts::of(p.stats(), p.observer_work()));
                 p.start_work_scope(limit)
             }
         };
@@ -485,9 +488,15 @@ impl<M: DrivenModel> Driver<M> {
         work.rejected -= start.rejected.min(work.rejected);
         work.events -= start.events.min(work.events);
         work.guard_evals -= start.guard_evals.min(work.guard_evals);
+        let observer = match &self.propagator {
+            Propagator::Rk(p) => p.observer_work(),
+            Propagator::Exact(p) => p.observer_work(),
+        } - start.observer_work;
         let scales = self.model.run_scales();
         let message = budget::exhausted_message(&Exhaustion {
             limit: self.budget.limit().unwrap_or(f64::INFINITY),
+            spent: self.work_spent(),
+            observer_work: observer.max(0.0),
             t,
             t_start: self.scope.0,
             work,

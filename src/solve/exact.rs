@@ -839,6 +839,12 @@ impl ExactPropagator {
         Ok(())
     }
 
+    /// The work of the segment observers so far ([`SegmentObserver`], e.g. `simulate`'s
+    /// statistics), part of [`ExactPropagator::work`].
+    pub fn observer_work(&self) -> f64 {
+        self.observer_units
+    }
+
     /// The work of all advances so far at the prices set: segments, guard evaluations, modes
     /// built, and (in the advances made under a limit, the only ones whose work is asked
     /// for) guard samples and metered exponentials ([`crate::solve::work`]).

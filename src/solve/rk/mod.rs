@@ -394,6 +394,12 @@ impl RkStepper {
         work
     }
 
+    /// The work of the step observers so far (e.g. `simulate`'s statistics from the dense
+    /// output), part of [`RkStepper::work`].
+    pub fn observer_work(&self) -> f64 {
+        self.observer_units
+    }
+
     /// The work of all step attempts and guard evaluations so far, at the prices set
     /// ([`crate::solve::work`]).
     pub fn work(&self) -> f64 {
