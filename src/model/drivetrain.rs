@@ -140,6 +140,12 @@ pub trait Drivetrain: DrivenModel {
     /// contact decided from that state and the mesh phase at `t` (the contact law as a static
     /// piecewise-linear function).
     fn mesh_law(&self, n: usize, t: f64, s: f64, s_rate: f64) -> MeshLaw;
+    /// Why the force of some mesh is not a function of its one deflection `S_n` (so that
+    /// [`Drivetrain::mesh_law`] does not describe it), naming the mesh: a mesh whose back
+    /// flanks act along their own line of action (`docs/train.md`, "Back flanks").
+    fn mesh_law_refusal(&self) -> Option<String> {
+        None
+    }
     /// The switching functions of mesh `n`'s contact law at `(t, s, s_rate)` with their time
     /// derivatives: per tooth pair engaged at `t`, its deflection `δ_j` (and `δ_j + 2b` with
     /// backlash). A pair's contact changes where one changes sign; none for a linear law.
@@ -441,6 +447,9 @@ impl Drivetrain for GearTrain {
     }
     fn mesh_law(&self, n: usize, t: f64, s: f64, s_rate: f64) -> MeshLaw {
         self.free_mesh_law(n, t, s, s_rate)
+    }
+    fn mesh_law_refusal(&self) -> Option<String> {
+        self.back_line_refusal()
     }
     fn contact_gaps(&self, n: usize, t: f64, s: f64, s_rate: f64, out: &mut Vec<(f64, f64)>) {
         self.free_contact_gaps(n, t, s, s_rate, out)

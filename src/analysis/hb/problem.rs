@@ -225,6 +225,9 @@ impl<M: Drivetrain> Problem<M> {
         options: &HbOptions,
     ) -> Result<Self, String> {
         options.validate()?;
+        if let Some(why) = model.mesh_law_refusal() {
+            return Err(format!("harmonic balance: {why}"));
+        }
         let meshes_n = model.mesh_count();
         let freqs: Vec<f64> = (0..meshes_n).map(|n| model.mesh_frequency(n)).collect();
         if !(freqs[0] > 0.0 && freqs[0].is_finite()) {

@@ -73,6 +73,10 @@ pub struct Assembly {
     pub k_ground: DMatrix<f64>,
     /// Mesh deflection vectors `d_n`.
     pub mesh: Vec<DVector<f64>>,
+    /// Back-flank deflection vectors `d̃_n` (`back_line_of_action`): equal to `d_n` but for the
+    /// translations, which act along the back flanks' own line of action; `d_n` itself for a
+    /// mesh whose back side cannot touch (no backlash).
+    pub mesh_back: Vec<DVector<f64>>,
     /// Rotational part of `d_n`: the DTE `r_a θ_a − r_b θ_b`.
     pub dte: Vec<DVector<f64>>,
     /// Mean mesh stiffness `k̄_n`.
@@ -164,6 +168,22 @@ impl Assembly {
                 (c, s)
             })
             .collect();
+        // The back flanks' line of action (`back_line_of_action`), for meshes whose back side
+        // can touch.
+        let back_loa: Vec<Option<(f64, f64)>> = scene
+            .meshes
+            .iter()
+            .zip(&loa)
+            .map(|(m, &l)| {
+                let backlash = matches!(m.contact, crate::scene::ContactLaw::Backlash { .. });
+                (backlash && m.pressure_angle != 0.0).then(|| {
+                    back_line_of_action(
+                        l,
+                        centre_line(l, scene.rotation[m.pinion], m.pressure_angle),
+                    )
+                })
+            })
+            .collect();
         // Direction of the tooth flanks' off-line-of-action velocity, `ê_s = σ_a ẑ × ℓ`, along
         // which friction acts (Liu 2007 Ch. 5: the friction force is perpendicular to the
         // line of action).
@@ -184,10 +204,12 @@ impl Assembly {
             scene
                 .meshes
                 .iter()
-                .zip(loa.iter().zip(&sliding))
-                .any(|(m, (l, e))| {
+                .zip(loa.iter().zip(&sliding).zip(&back_loa))
+                .any(|(m, ((l, e), back))| {
                     (m.pinion == g || m.gear == g)
-                        && (along(l) != 0.0 || (m.friction.is_some() && along(e) != 0.0))
+                        && (along(l) != 0.0
+                            || (m.friction.is_some() && along(e) != 0.0)
+                            || back.is_some_and(|b| along(&b) != 0.0))
                 })
                 || super::planetary::in_carrier_frame(scene, g)
         };
@@ -294,9 +316,12 @@ impl Assembly {
             }
         });
         let mut mesh = Vec::new();
+        let mut mesh_back = Vec::new();
         let mut dte = Vec::new();
         for (i, (m, l)) in scene.meshes.iter().zip(&loa).enumerate() {
-            if let Some((d, rotational)) = super::planetary::mesh_vector(scene, &at, i) {
+            let backlash = matches!(m.contact, crate::scene::ContactLaw::Backlash { .. });
+            if let Some((d, back, rotational)) = super::planetary::mesh_vector(scene, &at, i) {
+                mesh_back.push(if backlash { back } else { d.clone() });
                 mesh.push(d);
                 dte.push(rotational);
                 continue;
@@ -308,15 +333,21 @@ impl Assembly {
             d[body_dof[body_of[a]]] += r_a / body_radius[body_of[a]];
             d[body_dof[body_of[b]]] -= r_b / body_radius[body_of[b]];
             dte.push(d.clone());
-            for (g, sign) in [(a, 1.0), (b, -1.0)] {
-                if trans[g][0] != usize::MAX {
-                    d[trans[g][0]] += sign * l.0;
+            let along = |l: (f64, f64)| {
+                let mut d = d.clone();
+                for (g, sign) in [(a, 1.0), (b, -1.0)] {
+                    if trans[g][0] != usize::MAX {
+                        d[trans[g][0]] += sign * l.0;
+                    }
+                    if trans[g][1] != usize::MAX {
+                        d[trans[g][1]] += sign * l.1;
+                    }
                 }
-                if trans[g][1] != usize::MAX {
-                    d[trans[g][1]] += sign * l.1;
-                }
-            }
-            mesh.push(d);
+                d
+            };
+            let drive = along(*l);
+            mesh_back.push(back_loa[i].map_or_else(|| drive.clone(), along));
+            mesh.push(drive);
         }
         let friction = scene
             .meshes
@@ -356,6 +387,7 @@ impl Assembly {
             c_base,
             k_ground,
             mesh,
+            mesh_back,
             dte,
             mean_stiffness,
             input_load,
@@ -588,3 +620,28 @@ fn full_row_rank(a: &DMatrix<f64>) -> Option<bool> {
 /// [`full_row_rank`]): well above the ~1e-7 that rounding mixes into nearly rigid modes,
 /// far below the spread of any real layout.
 const INDEPENDENT_ROWS: f64 = 1e-5;
+
+/// The line of centres of a mesh from its line of action `ℓ` (a unit vector), the pinion's
+/// sense of rotation `σ_a` and the pressure angle `α`: involute geometry puts the line of
+/// action at `90° − α` from the line of centres, on the side the pinion turns to, so the line
+/// of centres is `ℓ` turned by `−σ_a(90° − α)` (`docs/errors.md`, "Assumptions").
+pub(crate) fn centre_line(l: (f64, f64), sense: f64, alpha: f64) -> (f64, f64) {
+    let (s, c) = (-sense * (std::f64::consts::FRAC_PI_2 - alpha)).sin_cos();
+    (c * l.0 - s * l.1, s * l.0 + c * l.1)
+}
+
+/// The back flanks' line of action, in the sign of the drive line `ℓ`: `ℓ̃ = ℓ − 2(ℓ·ĉ)ĉ`,
+/// `ĉ` the line of centres (a unit vector, either orientation).
+///
+/// When the back flanks touch, the contact force acts along the other common tangent of the
+/// base circles: the drive line mirrored about the line of centres. Its component along the
+/// line of centres (the separating force) keeps its sense, the tangential one reverses with
+/// the force. Written as the deflection `S̃ = r_a θ_a − r_b θ_b + (w_a − w_b)·ℓ̃` (the drive
+/// deflection's rotational part, back contact at `S̃ ≤ −2b`), the translations see `ℓ̃`: the
+/// drive line with the pressure angle's sign reversed (`ℓ` at `ĉ + σ_a(90° − α)`, `ℓ̃` at
+/// `ĉ + σ_a(90° + α)`); the base radii, the arms of the torques, stay (docs/train.md, "Back
+/// flanks"). With `α = 0` the two lines coincide.
+pub(crate) fn back_line_of_action(l: (f64, f64), c: (f64, f64)) -> (f64, f64) {
+    let along = l.0 * c.0 + l.1 * c.1;
+    (l.0 - 2.0 * along * c.0, l.1 - 2.0 * along * c.1)
+}

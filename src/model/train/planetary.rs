@@ -79,11 +79,15 @@ pub fn ring_line_of_action(st: &PlanetaryStage, p: &Planet, alpha_r: f64) -> (f6
 /// `n` is one: eq. (P4) `δ_sn = (w_s − w_n)·ℓ_sn + r_s θ̃_s + r_p θ̃_n` for the sun mesh and
 /// eq. (P5) `δ_rn = (w_r − w_n)·ℓ_rn + r_r θ̃_r − r_p θ̃_n` for the ring mesh (Lin & Parker
 /// 1999, with σ = +1 their δ_sn and δ_rn).
+///
+/// Also the back-flank vector: the same with the line of action mirrored about the line of
+/// centres, here the planet's radial direction `e_r` for both meshes
+/// ([`super::assembly::back_line_of_action`]; `docs/planetary.md`, "Back flanks").
 pub(crate) fn mesh_vector(
     scene: &Scene,
     at: &Coordinates,
     mesh: usize,
-) -> Option<(DVector<f64>, DVector<f64>)> {
+) -> Option<(DVector<f64>, DVector<f64>, DVector<f64>)> {
     let alpha = scene.meshes[mesh].pressure_angle;
     for st in &scene.planetary {
         for p in &st.planets {
@@ -95,8 +99,9 @@ pub(crate) fn mesh_vector(
                 continue;
             };
             let dte = at.arc(scene, st, central) + at.arc(scene, st, p.gear) * planet_sign;
-            let d = &dte + at.central_along(central, loa) - at.planet_along(st, p, loa);
-            return Some((d, dte));
+            let along = |l| &dte + at.central_along(central, l) - at.planet_along(st, p, l);
+            let back = super::assembly::back_line_of_action(loa, unit(p.angle));
+            return Some((along(loa), along(back), dte));
         }
     }
     None

@@ -46,11 +46,23 @@ impl GearTrain {
         t: f64,
         y: &[f64],
     ) -> Option<(f64, f64, SlotLaw)> {
+        self.slot_gap_on(n, j, false, t, y)
+    }
+
+    /// [`GearTrain::slot_gap`] on the drive flanks' row, or on the back flanks' (`back`).
+    pub(super) fn slot_gap_on(
+        &self,
+        n: usize,
+        j: usize,
+        back: bool,
+        t: f64,
+        y: &[f64],
+    ) -> Option<(f64, f64, SlotLaw)> {
         let mesh = &self.meshes[n];
         let law = mesh.law(j)?;
         let (p, f) = self.phase_and_rate(n, t, y);
         let (e, slope) = mesh.ste_at(p);
-        let (s, sd) = self.deflection(n, y);
+        let (s, sd) = self.deflection_on(n, back, y);
         let r = mesh.local(p);
         let g_rate = match mesh.eccentric {
             None => law.g1 * f,
@@ -73,10 +85,16 @@ impl GearTrain {
                 }
             }
             ContactLaw::Backlash { .. } => {
-                let back = delta + self.meshes[n].clearance_at(self.phase_of(n, t, y)).0;
+                let (delta_back, rate_back) = match self.meshes[n].a_back {
+                    None => (delta, rate),
+                    Some(_) => self
+                        .slot_gap_on(n, j, true, t, y)
+                        .map_or((delta, rate), |v| (v.0, v.1)),
+                };
+                let back = delta_back + self.meshes[n].clearance_at(self.phase_of(n, t, y)).0;
                 if delta > 0.0 || (delta == 0.0 && rate > 0.0) {
                     SlotContact::Drive
-                } else if back < 0.0 || (back == 0.0 && rate < 0.0) {
+                } else if back < 0.0 || (back == 0.0 && rate_back < 0.0) {
                     SlotContact::Back
                 } else {
                     SlotContact::Separated
@@ -109,7 +127,12 @@ impl GearTrain {
     }
 
     pub(super) fn deflection(&self, n: usize, y: &[f64]) -> (f64, f64) {
-        let a = &self.meshes[n].a;
+        self.deflection_on(n, false, y)
+    }
+
+    /// The deflection along the drive flanks' row, or along the back flanks' (`back`).
+    pub(super) fn deflection_on(&self, n: usize, back: bool, y: &[f64]) -> (f64, f64) {
+        let a = self.meshes[n].flank(back);
         let m = self.m;
         let mut s = 0.0;
         let mut sd = 0.0;
@@ -147,17 +170,38 @@ impl GearTrain {
     pub(super) fn mesh_force_at(
         &self,
         n: usize,
+        pf: (f64, f64),
+        y: &[f64],
+        slots: Option<&mut [f64]>,
+    ) -> f64 {
+        let (drive, back) = self.mesh_force_split_at(n, pf, y, slots);
+        drive + back
+    }
+
+    /// [`GearTrain::mesh_force_at`] split by the row it acts along: `(F, F̃)`, the generalised
+    /// force `−a F − ã F̃`. `F̃` holds the back-flank slots of a mesh with its own back row
+    /// ([`MeshRt::on_back_line`], `docs/train.md`, "Back flanks"), and the damper when only
+    /// they touch; otherwise 0, and `F` is the mesh force as formed without a back row.
+    pub(super) fn mesh_force_split_at(
+        &self,
+        n: usize,
         (p, f): (f64, f64),
         y: &[f64],
         mut slots: Option<&mut [f64]>,
-    ) -> f64 {
+    ) -> (f64, f64) {
         let mesh = &self.meshes[n];
         let (e, e_slope) = mesh.ste_at(p);
         let (s, sd) = self.deflection(n, y);
+        let (s_back, sd_back) = match mesh.a_back {
+            Some(_) => self.deflection_on(n, true, y),
+            None => (s, sd),
+        };
         let r = mesh.local(p);
         let clearance = mesh.clearance_at(p).0;
         let mut force = 0.0;
+        let mut force_back = 0.0;
         let mut touching = false;
+        let mut touching_drive = false;
         for (j, flag) in mesh.flags.iter().enumerate() {
             let offset = match flag {
                 SlotContact::Inactive | SlotContact::Separated => {
@@ -170,21 +214,32 @@ impl GearTrain {
                 SlotContact::Back => clearance,
             };
             let law = mesh.law(j).expect("a slot in contact is engaged");
-            let delta = s - e - law.g(r);
+            let on_back = mesh.on_back_line(*flag);
+            let delta = if on_back { s_back } else { s } - e - law.g(r);
             let fj = mesh.k(j, p, &law) * (delta + offset);
             if let Some(out) = slots.as_deref_mut() {
                 out[j] = fj;
             }
-            force += fj;
+            if on_back {
+                force_back += fj;
+            } else {
+                force += fj;
+                touching_drive = true;
+            }
             touching = true;
         }
         if touching && mesh.damping != 0.0 {
             // The damper acts on Ṡ − ė, never on the rate of a gap: Models 2 and 3 put the
             // loaded STE / NLTE into the gap and damp the velocities only (eqs. 2.10, 2.11:
-            // `C U̇`), like Model-1's tooth pairs.
-            force += mesh.damping * (sd - e_slope * f);
+            // `C U̇`), like Model-1's tooth pairs. It acts along the flanks in contact: the
+            // back row when only back flanks touch.
+            if touching_drive || mesh.a_back.is_none() {
+                force += mesh.damping * (sd - e_slope * f);
+            } else {
+                force_back += mesh.damping * (sd_back - e_slope * f);
+            }
         }
-        force
+        (force, force_back)
     }
 
     /// Starts recording contact changes `(t, mesh, slot, new flag)`.

@@ -57,6 +57,21 @@ impl GearTrain {
         out
     }
 
+    /// The first mesh whose back flanks act along their own line of action (a mesh with
+    /// backlash, a pressure angle and translations): its back-side force depends on the back
+    /// deflection `ã_n·ξ`, not on `S_n`, so a method that condenses onto the mesh deflections
+    /// does not apply (`docs/train.md`, "Back flanks").
+    pub fn back_line_refusal(&self) -> Option<String> {
+        let n = self.meshes.iter().position(|mesh| mesh.a_back.is_some())?;
+        Some(format!(
+            "mesh[{n}] (\"{}\") has contact = \"backlash\" with translations and a pressure \
+             angle: its back flanks touch along their own line of action, a second deflection \
+             the frequency-domain force law does not take; use `periodic` (shooting), or \
+             contact = \"contact_loss\" if the back side never touches",
+            self.mesh_names[n]
+        ))
+    }
+
     /// Mesh phases (cycles, `[0, 1)`) of mesh `n`'s interval knots; none for a smooth
     /// stiffness.
     pub fn mesh_breakpoints(&self, n: usize) -> Vec<f64> {

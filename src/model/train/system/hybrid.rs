@@ -49,10 +49,16 @@ impl HybridSystem for GearTrain {
                 self.add_friction_mesh_force(n, t, y, &mut acc);
                 continue;
             }
-            let force = self.mesh_force(n, t, y, None);
-            let a = &self.meshes[n].a;
+            let mesh = &self.meshes[n];
+            let (force, force_back) =
+                self.mesh_force_split_at(n, self.phase_and_rate(n, t, y), y, None);
             for i in 0..m {
-                acc[i] -= a[i] * force;
+                acc[i] -= mesh.a[i] * force;
+            }
+            if let Some(a_back) = &mesh.a_back {
+                for i in 0..m {
+                    acc[i] -= a_back[i] * force_back;
+                }
             }
         }
         if m == 1 {
@@ -76,26 +82,39 @@ impl HybridSystem for GearTrain {
         if self.rotation.is_some() || self.meshes.iter().any(|mesh| mesh.friction.is_some()) {
             return false;
         }
-        let gains = self.meshes.iter().map(|mesh| {
-            let p = mesh.clock.phase_at(t);
-            let mut kn = 0.0;
-            let mut touching = false;
-            for (j, flag) in mesh.flags.iter().enumerate() {
-                if matches!(flag, SlotContact::Drive | SlotContact::Back) {
-                    let law = mesh.law(j).expect("a slot in contact is engaged");
-                    kn += mesh.k(j, p, &law);
-                    touching = true;
-                }
-            }
-            (kn, if touching { mesh.damping } else { 0.0 })
-        });
-        self.jacobian_parts.fill(gains, jac);
+        // Gains of every drive row, then of the back rows (`JacobianParts::new`'s order).
+        let gains = |back: bool| {
+            self.meshes
+                .iter()
+                .filter(move |mesh| !back || mesh.a_back.is_some())
+                .map(move |mesh| {
+                    let p = mesh.clock.phase_at(t);
+                    let (mut kn, mut touching, mut touching_drive) = (0.0, false, false);
+                    for (j, flag) in mesh.flags.iter().enumerate() {
+                        if matches!(flag, SlotContact::Drive | SlotContact::Back) {
+                            touching = true;
+                            let on_back = mesh.on_back_line(*flag);
+                            touching_drive |= !on_back;
+                            if on_back == back {
+                                let law = mesh.law(j).expect("a slot in contact is engaged");
+                                kn += mesh.k(j, p, &law);
+                            }
+                        }
+                    }
+                    let damped = touching && (touching_drive || mesh.a_back.is_none()) != back;
+                    (kn, if damped { mesh.damping } else { 0.0 })
+                })
+        };
+        self.jacobian_parts
+            .fill(gains(false).chain(gains(true)), jac);
         true
     }
 
     fn guards(&self, t: f64, y: &[f64], g: &mut [f64]) {
         for (slot, &(n, j, surface)) in g.iter_mut().zip(&self.guards) {
-            let delta = self.slot_gap(n, j, t, y).map_or(0.0, |v| v.0);
+            let delta = self
+                .slot_gap_on(n, j, surface.back_flank(), t, y)
+                .map_or(0.0, |v| v.0);
             let mesh = &self.meshes[n];
             let clearance = match mesh.eccentric {
                 None => mesh.clearance(),
@@ -129,7 +148,7 @@ impl HybridSystem for GearTrain {
         let Some(law) = mesh.law(j) else {
             return Some(0.0);
         };
-        for (g, a) in grad.iter_mut().zip(&mesh.a) {
+        for (g, a) in grad.iter_mut().zip(mesh.flank(surface.back_flank())) {
             *g = sign * a;
         }
         let (p, f) = mesh.clock.phase_and_frequency(t);

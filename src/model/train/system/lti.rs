@@ -19,9 +19,9 @@ impl GearTrain {
         };
         // Snap onto the surface δ = level (numerics-notes §2.1): the smallest mass-weighted
         // change of ξ that puts S_n − e_n − g_j at `level`.
-        if let Some((delta, _, _)) = self.slot_gap(n, j, t, y) {
+        if let Some((delta, _, _)) = self.slot_gap_on(n, j, surface.back_flank(), t, y) {
             let m = self.m;
-            let a = &self.meshes[n].a;
+            let a = self.meshes[n].flank(surface.back_flank());
             if m == 1 {
                 // S = a·ξ must equal e + g + level; formed like the single pair (`x = e + surface`).
                 let mesh = &self.meshes[n];
@@ -88,31 +88,70 @@ impl GearTrain {
     /// from `base`; `w` is scratch of the same length): the engaged slots' `k₀(δ_j + offset)`
     /// and the damper on `Ṡ − ė`.
     pub(super) fn mesh_force_row(&self, n: usize, base: usize, w: &mut [f64], row: &mut [f64]) {
+        match self.meshes[n].a_back {
+            None => self.mesh_force_rows(n, base, w, row, None),
+            Some(_) => {
+                let mut back = vec![0.0; row.len()];
+                self.mesh_force_rows(n, base, w, row, Some(&mut back));
+                for (r, b) in row.iter_mut().zip(&back) {
+                    *r += b;
+                }
+            }
+        }
+    }
+
+    /// [`GearTrain::mesh_force_row`] split as [`GearTrain::mesh_force_split_at`]: the force
+    /// along the drive row into `row`, along the back row into `back` (given when the mesh has
+    /// its own back row).
+    pub(super) fn mesh_force_rows(
+        &self,
+        n: usize,
+        base: usize,
+        w: &mut [f64],
+        row: &mut [f64],
+        mut back: Option<&mut [f64]>,
+    ) {
         let mesh = &self.meshes[n];
         let m = self.m;
         let last = row.len() - 1;
         let omega = TAU * mesh.clock.mesh_frequency();
         row.fill(0.0);
+        if let Some(b) = back.as_deref_mut() {
+            b.fill(0.0);
+        }
         let mut touching = false;
+        let mut touching_drive = false;
         for (j, flag) in mesh.flags.iter().enumerate() {
             let offset = match flag {
                 SlotContact::Inactive | SlotContact::Separated => continue,
                 SlotContact::Drive => 0.0,
                 SlotContact::Back => mesh.clearance(),
             };
+            let on_back = mesh.on_back_line(*flag);
             let law = mesh.law(j).expect("engaged");
             w.fill(0.0);
-            self.delta_row(n, j, base, w);
+            self.delta_row_on(n, j, on_back, base, w);
             w[last] += offset;
-            for (r, v) in row.iter_mut().zip(w.iter()) {
+            let target = match back.as_deref_mut() {
+                Some(b) if on_back => b,
+                _ => &mut *row,
+            };
+            for (r, v) in target.iter_mut().zip(w.iter()) {
                 *r += law.k0 * v;
             }
             touching = true;
+            touching_drive |= !on_back;
         }
         if touching && mesh.damping != 0.0 {
             let c = mesh.damping;
+            let on_back = !touching_drive && mesh.a_back.is_some();
+            let row = match back {
+                Some(b) if on_back => b,
+                _ => row,
+            };
+            let a = mesh.flank(on_back);
             for i in 0..m {
-                row[m + i] += c * mesh.a[i];
+                row[m + i] += c * a[i];
             }
             for (i, &(ah, bh)) in mesh.ste.coefficients().iter().enumerate() {
                 let h = (i + 1) as f64;
@@ -188,10 +227,11 @@ impl GearTrain {
         }
     }
 
-    /// Row of the slot deflection `δ_j = S − e − g_j` over the augmented state.
-    pub(super) fn delta_row(&self, n: usize, j: usize, base: usize, w: &mut [f64]) {
+    /// Row of the slot deflection `δ_j = S − e − g_j` over the augmented state, on the drive
+    /// flanks' row or on the back flanks' (`back`).
+    pub(super) fn delta_row_on(&self, n: usize, j: usize, back: bool, base: usize, w: &mut [f64]) {
         let mesh = &self.meshes[n];
-        w[..self.m].copy_from_slice(&mesh.a);
+        w[..self.m].copy_from_slice(mesh.flank(back));
         for (i, &(ah, bh)) in mesh.ste.coefficients().iter().enumerate() {
             w[base + 2 * i] -= ah;
             w[base + 2 * i + 1] -= bh;
@@ -297,14 +337,23 @@ impl PiecewiseLti for GearTrain {
         let bases = self.harmonic_base();
         let mut w = vec![0.0; nz];
         let mut row = vec![0.0; nz];
+        let mut back = vec![0.0; nz];
         for (n, mesh) in self.meshes.iter().enumerate() {
             let base = bases[n];
             let omega = TAU * mesh.clock.mesh_frequency();
             let f = mesh.clock.mesh_frequency();
-            self.mesh_force_row(n, base, &mut w, &mut row);
+            let split = mesh.a_back.is_some().then_some(&mut back[..]);
+            self.mesh_force_rows(n, base, &mut w, &mut row, split);
             for i in 0..m {
                 for col in 0..nz {
                     force[(i, col)] -= mesh.a[i] * row[col];
+                }
+            }
+            if let Some(a_back) = &mesh.a_back {
+                for i in 0..m {
+                    for col in 0..nz {
+                        force[(i, col)] -= a_back[i] * back[col];
+                    }
                 }
             }
             for (i, _) in mesh.ste.coefficients().iter().enumerate() {
@@ -352,7 +401,7 @@ impl PiecewiseLti for GearTrain {
         }
         let (n, j, surface) = self.guards[index];
         let base = self.harmonic_base()[n];
-        self.delta_row(n, j, base, w);
+        self.delta_row_on(n, j, surface.back_flank(), base, w);
         let last = w.len() - 1;
         let clearance = self.meshes[n].clearance();
         let (sign, offset) = match surface {
@@ -388,6 +437,11 @@ impl PiecewiseLti for GearTrain {
             };
             let a = DVector::from_column_slice(&mesh.a);
             k += kmax * &a * a.transpose();
+            if let Some(a_back) = &mesh.a_back {
+                // The back flanks take the stiffness along their own row.
+                let b = DVector::from_column_slice(a_back);
+                k += kmax * &b * b.transpose();
+            }
             if let Some(fr) = &mesh.friction {
                 // The friction stiffness (w0 b0 + w1 b1) aᵀ at its largest weights.
                 let t = DVector::from_iterator(

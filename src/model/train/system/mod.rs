@@ -90,6 +90,9 @@ enum Stiffness {
 #[derive(Debug, Clone)]
 struct MeshRt {
     a: Vec<f64>,
+    /// `Qᵀ d̃_n`, the back flanks' deflection row (`assembly::back_line_of_action`), when it
+    /// differs from `a` (a mesh with backlash whose translations see the back line).
+    a_back: Option<Vec<f64>>,
     dte: Vec<f64>,
     clock: PhaseClock,
     cycles_per_rev: f64,
@@ -126,6 +129,19 @@ struct EccentricMesh {
 }
 
 impl MeshRt {
+    /// The deflection row of the drive flanks, or of the back flanks (`back`).
+    fn flank(&self, back: bool) -> &[f64] {
+        match (&self.a_back, back) {
+            (Some(a_back), true) => a_back,
+            _ => &self.a,
+        }
+    }
+
+    /// Whether slot flag `flag` acts along the back flanks' own row `a_back`.
+    fn on_back_line(&self, flag: SlotContact) -> bool {
+        self.a_back.is_some() && flag == SlotContact::Back
+    }
+
     /// The nominal total backlash (without runout).
     fn clearance(&self) -> f64 {
         match self.contact {
@@ -321,6 +337,13 @@ enum Surface {
     SepBack,
     /// In back contact: `−(δ + 2b) >= 0`.
     Back,
+}
+
+impl Surface {
+    /// Whether the guard watches the back flanks (their deflection row, `MeshRt::flank`).
+    fn back_flank(self) -> bool {
+        matches!(self, Surface::SepBack | Surface::Back)
+    }
 }
 
 /// Evaluated quantities of one mesh.
@@ -546,7 +569,9 @@ impl GearTrain {
                     geometry,
                 }),
             };
+            let back = (q.transpose() * &asm.mesh_back[n]).as_slice().to_vec();
             meshes.push(MeshRt {
+                a_back: (back != a_vecs[n].as_slice()).then_some(back),
                 a: a_vecs[n].as_slice().to_vec(),
                 dte: (q.transpose() * &asm.dte[n]).as_slice().to_vec(),
                 clock: PhaseClock::new(0.0, p0, 0.0),
@@ -638,7 +663,12 @@ impl GearTrain {
             &minv,
             &train.k_b,
             &train.c,
-            train.meshes.iter().map(|mesh| mesh.a.as_slice()),
+            (train.meshes.iter().map(|mesh| mesh.a.as_slice())).chain(
+                train
+                    .meshes
+                    .iter()
+                    .filter_map(|mesh| mesh.a_back.as_deref()),
+            ),
         );
         train.names = train.build_names(scene);
         train.apply_inputs(0.0, train.inputs)?;
