@@ -54,7 +54,6 @@ def test_sweep_matches_cli(tmp_path):
     identical(table.data, rows)
 
 
-
 def test_study_matches_the_points_run_serially(client, tmp_path):
     short = tmp_path / "stage.toml"
     short.write_text(STAGE.read_text() + "\n[solver]\nstop_time = 0.004\n")

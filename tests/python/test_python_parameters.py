@@ -44,7 +44,6 @@ SCENES = {
 TORQUE = "operating.input_torque"
 
 
-
 def short_scene(tmp_path, name):
     """The scene with a 5 ms run (its own `[solver]` kept, stop time replaced)."""
     scene = geardyn.Scene.from_file(SCENES[name])

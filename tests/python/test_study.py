@@ -19,7 +19,6 @@ from conftest import REPO
 SPUR = REPO / "fmu" / "spur_pair"
 
 
-
 def write_study(tmp_path, body, name="study.toml"):
     path = tmp_path / name
     path.write_text(f'scene = "{SPUR}"\n' + body)
