@@ -223,6 +223,45 @@ fn stage_phasing_refusals_name_the_field() {
     );
 }
 
+/// Geometry stiffness (potential energy) on a stage mesh: refused naming the field, with the
+/// reason (`docs/planetary.md`, "Geometry stiffness"): the internal tooth is not in the method
+/// for a ring mesh; the phase origin for a sun mesh.
+#[test]
+fn geometry_stiffness_on_a_stage_mesh_is_refused_with_its_reason() {
+    let geometry = |zp: u32, zg: u32| {
+        format!(
+            "{{ kind = \"geometry\", geometry = {{ module = 0.002, pressure_angle = 20.0, \
+             face_width = 0.02, pinion = {{ teeth = {zp}, bore_radius = 0.01, youngs_modulus = \
+             211.0e9, poisson_ratio = 0.3 }}, gear = {{ teeth = {zg}, bore_radius = 0.01, \
+             youngs_modulus = 211.0e9, poisson_ratio = 0.3 }} }} }}"
+        )
+    };
+    let text = Consistent::new([20, 22, 64], 3).toml();
+    for (mesh, index, teeth, reason) in [
+        ("rp1", 1, (22, 64), "internal (ring) mesh"),
+        ("sp1", 0, (20, 22), "sun mesh"),
+    ] {
+        let at = text.find(&format!("name = \"{mesh}\"")).unwrap();
+        let (head, rest) = text.split_at(at);
+        let start = rest.find("stiffness = {").unwrap();
+        let end = start + rest[start..].find('\n').unwrap();
+        let rest = format!(
+            "{}stiffness = {}{}",
+            &rest[..start],
+            geometry(teeth.0, teeth.1),
+            &rest[end..]
+        );
+        let e = Scene::from_toml_str(&format!("{head}{rest}"), "geometry")
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            e.contains(&format!("mesh[{index}].stiffness")) && e.contains(reason),
+            "{e}"
+        );
+    }
+}
+
 /// The stage with torque ports on the sun (input) and the carrier (output), the ring held.
 fn with_ports(teeth: [u32; 3], input: f64, output: f64) -> Scene {
     let mut stage = Consistent::new(teeth, 3);

@@ -5,7 +5,9 @@
 //! here; what the planetary kernel does not carry yet is refused with the reason.
 
 use super::checks::{err, finite, non_negative, positive, valid_identifier as identifier};
-use crate::scene::spec::{mesh_field, CarrierSpec, GearSpec, MeshForm, MeshSpec, StiffnessSpec};
+use crate::scene::spec::{
+    mesh_field, CarrierSpec, GearSpec, MeshForm, MeshSpec, PairStiffnessSpec, StiffnessSpec,
+};
 use crate::scene::train::planetary::{
     assembly_residual, mesh_phases, planet_speed, torque_weights, willis_third,
 };
@@ -299,6 +301,7 @@ pub(crate) fn stages(
         }
         for p in &planets {
             for n in [p.sun_mesh, p.ring_mesh] {
+                check_geometry_source(form, n, &mesh_specs[n], n == p.ring_mesh)?;
                 check_mesh(form, n, &mesh_specs[n])?;
             }
         }
@@ -366,21 +369,51 @@ pub(crate) fn stages(
     Ok(stages)
 }
 
-/// What the first stage of the planetary model carries on a stage mesh: a lumped or tooth-pair
-/// stiffness given by values; the geometry sources (external-gear potential energy, helical
-/// contact lines) do not describe an internal mesh yet.
+/// The stiffness sources from the gear geometry on a stage mesh (`docs/planetary.md`,
+/// "Geometry stiffness"), refused with the reason:
+///
+/// - ring (internal) mesh: the potential-energy method of `crate::mesh::geometry` (Liu 2007
+///   Ch. 2 / Liao et al. 2025 eq. (1)–(3) with the Sainsot et al. 2004 fillet foundation) is
+///   written for an external tooth: its bending, shear and compression energies integrate an
+///   involute flank from the base circle out to the tip of a tooth that narrows outwards, on a
+///   full-disc body whose fillet-foundation coefficients were fitted for external gears. An
+///   internal tooth is the space of such a tooth: its flank is concave, the tooth widens
+///   towards its root outside the pitch circle, and its rim is a thin ring whose bending
+///   (Chen & Shao 2013, "Mesh stiffness of an internal spur gear pair with ring gear rim
+///   deformation", Mech. Mach. Theory 69) is not a fillet foundation. None of those terms is
+///   in the method here;
+/// - sun (external) mesh: the method applies to the pair, but its curve starts its cycle where
+///   the pair count drops, while the stage's mesh phasing (PL1–PL3) is referred to the pitch
+///   point passing, and the stage's ring meshes could not take the same source; not
+///   available yet.
+fn check_geometry_source(form: MeshForm, n: usize, m: &MeshSpec, ring: bool) -> Result<()> {
+    let (field, kind) = match (&m.stiffness, &m.pairs) {
+        (Some(StiffnessSpec::Geometry { .. }), _) => ("stiffness", "geometry"),
+        (Some(StiffnessSpec::Helical { .. }), _) => ("stiffness", "helical"),
+        (_, Some(PairStiffnessSpec::Geometry { .. })) => ("pairs", "geometry"),
+        (_, Some(PairStiffnessSpec::Helical { .. })) => ("pairs", "helical"),
+        _ => return Ok(()),
+    };
+    let why = if ring {
+        "an internal (ring) mesh: the potential-energy method here integrates an external \
+         tooth (an involute flank narrowing from the base circle to the tip, Sainsot's fillet \
+         foundation of a full gear body); the ring's concave tooth, which widens towards its \
+         root, and its thin rim (Chen & Shao 2013) are not in it"
+    } else {
+        "a sun mesh of a planetary stage: the geometry curves start their cycle where the pair \
+         count drops, not at the pitch point the stage's mesh phasing refers to, and the ring \
+         meshes cannot take them (internal teeth); not available yet"
+    };
+    err(format!(
+        "{}: kind = \"{kind}\" on {why}; give the stiffness by values (constant, rectangular, \
+         trapezoidal, fourier, table, or [mesh.pairs] rectangular/table)",
+        mesh_field(form, n, field)
+    ))
+}
+
+/// What the first stage of the planetary model carries on a stage mesh besides its stiffness
+/// source ([`check_geometry_source`]): the pressure angle, and no tooth friction yet.
 fn check_mesh(form: MeshForm, n: usize, m: &MeshSpec) -> Result<()> {
-    if matches!(
-        m.stiffness,
-        Some(StiffnessSpec::Geometry { .. } | StiffnessSpec::Helical { .. })
-    ) {
-        return err(format!(
-            "{}: a geometry or helical stiffness on a planetary mesh is not available yet (the \
-             potential-energy method here is written for external pairs); give the stiffness \
-             by values (constant, rectangular, trapezoidal, fourier, table)",
-            mesh_field(form, n, "stiffness")
-        ));
-    }
     if m.pressure_angle.is_none() {
         return err(format!(
             "{}: missing; a planetary mesh's line of action is set by the planet's position \
