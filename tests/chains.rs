@@ -320,6 +320,7 @@ fn free_compliant_chains_run_exact_and_match_dop853() {
 /// The 64-mesh free compliant chain (195 DOF) of
 /// [`free_compliant_chains_run_exact_and_match_dop853`], over 3 mesh periods: DOP853 at
 /// rtol 1e-12 takes minutes per period there, so it is a long variant (`scripts/stress.sh`).
+/// Not passing yet (2026-11-29): the same 252 events, but 1.13e-9 δ (`docs/chains.md`).
 #[test]
 #[ignore]
 fn free_compliant_chain_of_64_meshes_matches_dop853() {
