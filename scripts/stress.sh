@@ -16,6 +16,9 @@ cargo test --release --locked --test ssd_fuzz -- --ignored --nocapture --exact s
 # The FMI call-sequence fuzzer's long variant (issue 17, 34): 1e6 seeded calls over the C ABI
 # and every shipped FMU, none over 1 s of CPU.
 cargo test --release --locked --test fmi_fuzz -- --ignored --nocapture --exact fmi_call_sequences_long
+# The free 64-mesh compliant chain, exact against DOP853 at rtol 1e-12 over 3 mesh periods
+# (issue 37 acceptance 2; CI runs 4 and 16 meshes): minutes of DOP853.
+cargo test --release --locked --test chains -- --ignored --nocapture --exact free_compliant_chain_of_64_meshes_matches_dop853
 # The error-controlled co-simulation master over 1 s against the monolithic drivetrain
 # (issue 32 acceptance 1 and 3; CI runs 0.1 s). Needs the venv and the built FMUs.
 GEARDYN_LONG=1 .venv/bin/python -m pytest tests/python/test_cosim_tolerance.py -q -s

@@ -80,12 +80,19 @@ type Recorded = (Vec<(f64, usize, usize)>, Vec<Vec<f64>>, String);
 
 /// Runs `scene` to `periods` mesh periods recording contact events.
 fn run_recorded(scene: &Scene, periods: usize) -> Recorded {
+    run_recorded_columns(scene, periods, &["dte"])
+}
+
+/// [`run_recorded`] with the mesh outputs `columns` (e.g. `dte`, `deflection`) of every mesh
+/// at each period end.
+fn run_recorded_columns(scene: &Scene, periods: usize, columns: &[&str]) -> Recorded {
     let mut sim = TrainSimulation::new(scene).unwrap();
     sim.model_mut().record_events();
     let period = 1.0 / scene.mesh_frequency(0, scene.operating.input_speed);
     let dte: Vec<usize> = (0..scene.meshes.len())
-        .map(|n| {
-            let name = format!("{}.dte", scene.meshes[n].name);
+        .flat_map(|n| columns.iter().map(move |c| (n, c)))
+        .map(|(n, c)| {
+            let name = format!("{}.{c}", scene.meshes[n].name);
             sim.output_names().iter().position(|c| *c == name).unwrap()
         })
         .collect();
@@ -291,4 +298,75 @@ fn every_compliant_chain_completes_with_every_method() {
             }
         }
     }
+}
+
+/// Issue 37, acceptance 2: free (ungrounded) compliant chains run exactly. The free chains of
+/// `ChainSpec::free` (38/55-tooth gears alternating, no ground coupling, a 15 µm STE so that
+/// contact is lost), exact against DOP853 at rtol 1e-12: the same contact events (count,
+/// meshes, slots in order, times within 1e-9 mesh periods) and the DTE and deflection of
+/// every mesh at every period end within 1e-9 of the static deflection δ = T/(r_b k̄).
+/// (Before the segment matrices of free trains were formed through the physical mass,
+/// `Reduction::inverse_mass_rows`, the 16-mesh chain was 1.7e-9 δ off from the first period
+/// on and the 64-mesh chain 1.5e-6 δ.) 20 periods of 4 meshes and 10 of 16 in CI (the
+/// contact-loss orbit is chaotic: the two runs part slowly, 3e-10 δ after 10 periods on 16
+/// meshes); 64 meshes is `free_compliant_chain_of_64_meshes_matches_dop853`.
+#[test]
+fn free_compliant_chains_run_exact_and_match_dop853() {
+    for (meshes, periods) in [(4, 20), (16, 10)] {
+        free_chain_matches_dop853(meshes, periods);
+    }
+}
+
+/// The 64-mesh free compliant chain (195 DOF) of
+/// [`free_compliant_chains_run_exact_and_match_dop853`], over 3 mesh periods: DOP853 at
+/// rtol 1e-12 takes minutes per period there, so it is a long variant (`scripts/stress.sh`).
+/// Not passing yet (2026-11-29): the same 252 events, but 1.13e-9 δ (`docs/chains.md`).
+#[test]
+#[ignore]
+fn free_compliant_chain_of_64_meshes_matches_dop853() {
+    free_chain_matches_dop853(64, 3);
+}
+
+fn free_chain_matches_dop853(meshes: usize, periods: usize) {
+    let s = Scene::chain(ChainSpec::free(
+        meshes,
+        ChainBearings::Compliant,
+        ChainContact::ContactLoss,
+    ))
+    .unwrap();
+    let columns = ["dte", "deflection"];
+    let started = std::time::Instant::now();
+    let (ev_x, x, choice) =
+        run_recorded_columns(&with_method(s.clone(), "exact", 1e-9), periods, &columns);
+    let exact_time = started.elapsed();
+    assert!(choice.starts_with("exact"), "{choice}");
+    let started = std::time::Instant::now();
+    let (ev_r, r, _) =
+        run_recorded_columns(&with_method(s.clone(), "dop853", 1e-12), periods, &columns);
+    let delta = s.operating.input_torque / s.gears[0].base_radius / s.meshes[0].mean_stiffness();
+    let d = max_dte_difference(&x, &r);
+    let period = 1.0 / s.mesh_frequency(0, s.operating.input_speed);
+    let worst_time = (ev_x.iter().zip(&ev_r))
+        .map(|(a, b)| (a.0 - b.0).abs() / period)
+        .fold(0.0, f64::max);
+    println!(
+        "free chain of {meshes} compliant meshes, {periods} periods: exact {exact_time:?}, \
+         DOP853 {:?}; {} events (DOP853 {}), times within {worst_time:.1e} periods; max \
+         |ΔDTE|, |Δdeflection| = {:.2e} δ",
+        started.elapsed(),
+        ev_x.len(),
+        ev_r.len(),
+        d / delta
+    );
+    assert!(
+        ev_x.len() >= periods,
+        "contact must be lost: {} events",
+        ev_x.len()
+    );
+    assert_eq!(ev_x.len(), ev_r.len(), "{meshes} meshes");
+    for (a, b) in ev_x.iter().zip(&ev_r) {
+        assert_eq!((a.1, a.2), (b.1, b.2), "{meshes} meshes");
+        assert!((a.0 - b.0).abs() < 1e-9 * period, "{a:?} vs {b:?}");
+    }
+    assert!(d <= 1e-9 * delta, "{meshes} meshes: {:e} δ", d / delta);
 }

@@ -15,6 +15,11 @@
 //! `tests/chains.rs`, which counts the contact events); [`ChainContact::Linear`] is the same
 //! chain with the linear contact law, whose segments are the `2M` stiffness switches per
 //! period.
+//!
+//! [`ChainSpec::free`] gives the free chain of issue 37 instead ([`ChainLayout::Free`]):
+//! 38/55-tooth gears alternating with Liu (2007) Table 2.1 data and no ground coupling, so
+//! the train turns freely and its rigid-body mode is removed by the reduction to elastic
+//! coordinates (`docs/chains.md`, "Free chains").
 
 use crate::scene::Scene;
 use crate::scene::SceneError;
@@ -37,6 +42,19 @@ pub enum ChainContact {
     ContactLoss,
 }
 
+/// Which chain: the benchmark chain of issue 20 or the free chain of issue 37.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ChainLayout {
+    /// Equal 50-tooth gears, the end gears coupled torsionally to ground (issue 20).
+    Grounded,
+    /// A chain as a user writes it (issue 37): 38- and 55-tooth gears alternating with the
+    /// data of Liu (2007) Table 2.1 (pinion and idler: base radii, inertias, masses, bearing
+    /// stiffness 1.27e8 N/m, mesh stiffness 2.9831e8 N/m, ε = 0.35, contact ratio 1.504),
+    /// no ground coupling, so the train turns freely; [`ChainContact::ContactLoss`] adds a
+    /// 15 µm first STE harmonic on every mesh, with which contact is lost.
+    Free,
+}
+
 /// A benchmark chain (see the module documentation).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ChainSpec {
@@ -44,8 +62,9 @@ pub struct ChainSpec {
     pub meshes: usize,
     pub bearings: ChainBearings,
     pub contact: ChainContact,
-    /// Mesh frequency, Hz (every mesh, since the gears are equal).
+    /// Mesh frequency, Hz (every mesh: the gears of a chain mesh at one tooth frequency).
     pub mesh_frequency: f64,
+    pub layout: ChainLayout,
 }
 
 impl ChainSpec {
@@ -56,6 +75,15 @@ impl ChainSpec {
             bearings,
             contact,
             mesh_frequency: 2000.0,
+            layout: ChainLayout::Grounded,
+        }
+    }
+
+    /// The free chain of `meshes` meshes at 2000 Hz ([`ChainLayout::Free`]).
+    pub fn free(meshes: usize, bearings: ChainBearings, contact: ChainContact) -> Self {
+        ChainSpec {
+            layout: ChainLayout::Free,
+            ..ChainSpec::new(meshes, bearings, contact)
         }
     }
 
@@ -67,10 +95,15 @@ impl ChainSpec {
         }
     }
 
-    /// A short name, e.g. `chain_16_compliant_contact_loss`.
+    /// A short name, e.g. `chain_16_compliant_contact_loss` (`free_chain_…` for the free
+    /// layout).
     pub fn name(&self) -> String {
         format!(
-            "chain_{}_{}_{}",
+            "{}chain_{}_{}_{}",
+            match self.layout {
+                ChainLayout::Grounded => "",
+                ChainLayout::Free => "free_",
+            },
             self.meshes,
             match self.bearings {
                 ChainBearings::Rigid => "rigid",
@@ -95,6 +128,9 @@ impl ChainSpec {
                 "chain.mesh_frequency = {}: must be finite and > 0 (Hz)",
                 self.mesh_frequency
             )));
+        }
+        if self.layout == ChainLayout::Free {
+            return Ok(self.free_toml());
         }
         use std::fmt::Write;
         let m = self.meshes;
@@ -172,6 +208,90 @@ impl ChainSpec {
         Ok(s)
     }
 }
+
+impl ChainSpec {
+    /// The text of a [`ChainLayout::Free`] chain (after the checks of [`ChainSpec::toml`]).
+    fn free_toml(&self) -> String {
+        use std::fmt::Write;
+        let m = self.meshes;
+        let (contact, ste) = match self.contact {
+            ChainContact::Linear => ("linear", None),
+            ChainContact::ContactLoss => ("contact_loss", Some(FREE_STE)),
+        };
+        let mut s = String::new();
+        let _ = writeln!(s, "name = \"{}\"", self.name());
+        let _ = writeln!(
+            s,
+            "description = \"free chain of issue 37: {} spur gears of 38 and 55 teeth \
+             alternating (Liu 2007 Table 2.1), {} lumped rectangular meshes at {} Hz, staggered \
+             phases, no ground coupling\"\n",
+            m + 1,
+            m,
+            self.mesh_frequency
+        );
+        let _ = writeln!(
+            s,
+            "[model]\nbearings = \"{}\"\ninput_rotation = \"ccw\"\nmodal_damping_ratio = 0.02\n",
+            match self.bearings {
+                ChainBearings::Rigid => "rigid",
+                ChainBearings::Compliant => "compliant",
+            }
+        );
+        for i in 0..=m {
+            let (teeth, radius, inertia, mass) = FREE_GEARS[i % 2];
+            let _ = writeln!(
+                s,
+                "[[gear]]\nname = \"g{i}\"\nteeth = {teeth}\nbase_radius = {radius}\n\
+                 inertia = {inertia}\nmass = {mass}\nbearing_stiffness = [{FREE_BEARING}, \
+                 {FREE_BEARING}]\n"
+            );
+        }
+        for n in 0..m {
+            let centre = std::f64::consts::FRAC_PI_6 * if n % 2 == 0 { 1.0 } else { -1.0 };
+            let _ = writeln!(
+                s,
+                "[[mesh]]\nname = \"mesh{}\"\npinion = \"g{n}\"\ngear = \"g{}\"\ncontact = \"{contact}\"\n\
+                 model = \"lumped\"\npressure_angle = 21.22\ncentre_angle = {centre:?}",
+                n + 1,
+                n + 1
+            );
+            if n == 0 {
+                let _ = writeln!(s, "initial_phase = 0.0");
+            } else {
+                let _ = writeln!(s, "phase = {}", stagger(n));
+            }
+            let _ = writeln!(
+                s,
+                "stiffness = {{ kind = \"rectangular\", mean = 2.9831e8, \
+                 peak_to_peak_ratio = 0.35, contact_ratio = 1.504 }}"
+            );
+            if let Some(e) = ste {
+                let _ = writeln!(s, "ste = {{ cos = [{e:e}] }}");
+            }
+            s.push('\n');
+        }
+        let input_speed = std::f64::consts::TAU * self.mesh_frequency / 38.0;
+        let _ = writeln!(
+            s,
+            "[operating]\ninput_speed = {input_speed:?}\ninput_torque = {TORQUE}\n\n\
+             [solver]\nmethod = \"auto\"\nstop_time = {:?}\noutput_interval = {:?}",
+            100.0 / self.mesh_frequency,
+            0.25 / self.mesh_frequency
+        );
+        s
+    }
+}
+
+/// Teeth, base radius (m), inertia (kg·m²) and mass (kg) of the free chain's gears, even and
+/// odd: Liu (2007) Table 2.1's pinion and idler (38 and 55 teeth, Table 3.1).
+const FREE_GEARS: [(u32, f64, f64, f64); 2] = [
+    (38, 0.04535, 0.002621, 2.2325),
+    (55, 0.06564, 0.01091, 4.438),
+];
+/// Bearing stiffness of the free chain, both axes, N/m (Table 2.1's pinion).
+const FREE_BEARING: f64 = 1.27e8;
+/// First STE harmonic of every mesh of the free chain with contact loss, m.
+const FREE_STE: f64 = 15e-6;
 
 /// Mesh phase of mesh `n` relative to the first, mesh cycles: the fractional parts of
 /// `n·(√5 − 1)/2` (golden-ratio staggering, never two meshes in phase).

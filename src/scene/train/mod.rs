@@ -15,7 +15,7 @@ pub mod ports;
 
 use crate::mesh::{MeshStiffness, PhaseSeries, Piece};
 
-pub use chain::{ChainBearings, ChainContact, ChainSpec};
+pub use chain::{ChainBearings, ChainContact, ChainLayout, ChainSpec};
 pub use friction::{HelicalPair, MeshFriction};
 pub use planetary::{Planet, PlanetaryStage};
 pub use ports::{Port, PortEnd, SpeedCoupling};

@@ -7,6 +7,14 @@
 //! `M̂⁻¹K = M̂⁻¹K̂_b + Σ_n k_n (M̂⁻¹a_n) a_nᵀ`: the first term and each `M̂⁻¹a_n` are formed
 //! once, and a mesh adds a rank-one term on the few coordinates its line of action touches
 //! (the nonzero entries of `a_n`).
+//!
+//! On a free train the products are formed through the physical mass instead of `M̂⁻¹`
+//! ([`JacobianParts::through_physical_mass`], issue 37), and the exact propagator's segment
+//! matrices are built from them too (`lti.rs`).
+
+use nalgebra::{DMatrix, DVector};
+
+use super::super::assembly::Assembly;
 
 /// One mesh: `M̂⁻¹a_n` and the nonzero entries `(l, a_n[l])` of `a_n`.
 #[derive(Debug, Clone)]
@@ -22,6 +30,9 @@ pub(super) struct JacobianParts {
     minv_k: Vec<f64>,
     minv_c: Vec<f64>,
     meshes: Vec<MeshColumn>,
+    /// Free trains: `M̂⁻¹F̂` per N·m of input and of load torque, formed with the products
+    /// above through the physical mass ([`JacobianParts::through_physical_mass`]).
+    torque_columns: Option<[Vec<f64>; 2]>,
 }
 
 impl JacobianParts {
@@ -64,7 +75,70 @@ impl JacobianParts {
             minv_k: times(k_b),
             minv_c: times(c),
             meshes,
+            torque_columns: None,
         }
+    }
+
+    /// The parts of a free train from `G = M̂⁻¹Qᵀ` formed without `M̂⁻¹`
+    /// ([`crate::model::train::Reduction::inverse_mass_rows`]): `M̂⁻¹K̂_b = G K_b Q`,
+    /// `M̂⁻¹Ĉ = G C_b Q + M̂⁻¹Ĉ_modal`, `M̂⁻¹a_n = G d_n` and `M̂⁻¹F̂` per N·m of input and
+    /// load torque `= G f_in`, `G f_out` (physical `K_b`, `C_b`, `d_n`, `f`); `modal` is
+    /// `M̂⁻¹Ĉ_modal = Φ diag(2ζω) ΦᵀM̂` (no inverse either). `physical` are the rows `d_n`
+    /// (the meshes', then the back flanks' own), `reduced` the same rows `a_n = Qᵀd_n`.
+    pub(super) fn through_physical_mass(
+        g: &DMatrix<f64>,
+        asm: &Assembly,
+        q: &DMatrix<f64>,
+        modal: Option<DMatrix<f64>>,
+        physical: &[&DVector<f64>],
+        reduced: &[&[f64]],
+    ) -> Self {
+        let m = q.ncols();
+        let row_major =
+            |x: &DMatrix<f64>| -> Vec<f64> { (0..m * m).map(|k| x[(k / m, k % m)]).collect() };
+        let mut minv_c = g * &asm.c_base * q;
+        if let Some(modal) = modal {
+            minv_c += modal;
+        }
+        let meshes = (physical.iter().zip(reduced))
+            .map(|(&d, a)| MeshColumn {
+                minv_a: (g * d).as_slice().to_vec(),
+                support: (a.iter().copied().enumerate())
+                    .filter(|&(_, v)| v != 0.0)
+                    .collect(),
+            })
+            .collect();
+        JacobianParts {
+            m,
+            minv_k: row_major(&(g * &asm.k_base * q)),
+            minv_c: row_major(&minv_c),
+            meshes,
+            torque_columns: Some([
+                (g * &asm.input_load).as_slice().to_vec(),
+                (g * &asm.output_load).as_slice().to_vec(),
+            ]),
+        }
+    }
+
+    /// `M̂⁻¹F̂` per N·m of input and of load torque when the parts were formed through the
+    /// physical mass (free trains); the segment matrices then take every product from here.
+    pub(super) fn torque_columns(&self) -> Option<&[Vec<f64>; 2]> {
+        self.torque_columns.as_ref()
+    }
+
+    /// `M̂⁻¹K̂_b`, row-major.
+    pub(super) fn minv_k(&self) -> &[f64] {
+        &self.minv_k
+    }
+
+    /// `M̂⁻¹Ĉ`, row-major.
+    pub(super) fn minv_c(&self) -> &[f64] {
+        &self.minv_c
+    }
+
+    /// `M̂⁻¹a_n` of mesh `n`.
+    pub(super) fn minv_a(&self, n: usize) -> &[f64] {
+        &self.meshes[n].minv_a
     }
 
     /// `jac = [[0, I], [−M̂⁻¹K, −M̂⁻¹C]]` (row-major `2m × 2m`) with mesh `n` contributing

@@ -246,6 +246,46 @@ impl GearTrain {
     }
 }
 
+impl GearTrain {
+    /// The rows of a free train's segment matrix besides its mesh forces (already in
+    /// `a`): `ξ' = ξ'`, and `M̂⁻¹(F̂ − K̂_b ξ − Ĉ ξ')` from the products formed through the
+    /// physical mass ([`JacobianParts::through_physical_mass`]), `per_in`, `per_load` being
+    /// `M̂⁻¹F̂` per N·m. Formed through `M̂⁻¹`, whose condition grows with the train's length,
+    /// these rows moved every segment's equilibrium (issue 37: 1.7e-9 of the static deflection
+    /// on a free 16-mesh chain, 1.5e-6 on 64 meshes); the right-hand side of the RK path
+    /// subtracts the forces first and is not affected.
+    fn free_train_rows(
+        &self,
+        per_in: &[f64],
+        per_load: &[f64],
+        torque_rows: Option<&[Vec<f64>; 2]>,
+        a: &mut DMatrix<f64>,
+    ) {
+        let m = self.m;
+        let nz = a.ncols();
+        let last = nz - 1;
+        let (k_b, c) = (self.jacobian_parts.minv_k(), self.jacobian_parts.minv_c());
+        for i in 0..m {
+            a[(i, m + i)] = 1.0;
+            match torque_rows {
+                Some([t_in, t_load]) => {
+                    for col in 0..nz {
+                        a[(m + i, col)] += per_in[i] * t_in[col] + per_load[i] * t_load[col];
+                    }
+                }
+                None => {
+                    a[(m + i, last)] += per_in[i] * self.inputs.input_torque
+                        + per_load[i] * self.inputs.load_torque;
+                }
+            }
+            for k in 0..m {
+                a[(m + i, k)] -= k_b[i * m + k];
+                a[(m + i, m + k)] -= c[i * m + k];
+            }
+        }
+    }
+}
+
 impl PiecewiseLti for GearTrain {
     /// The STE at the event from the propagated harmonic states (one-DOF trains, as the
     /// single pair).
@@ -334,25 +374,47 @@ impl PiecewiseLti for GearTrain {
                 force[(i, m + k)] -= self.c[i * m + k];
             }
         }
+        // A free train takes every product with M̂⁻¹ from its Jacobian parts
+        // (`free_train_rows`, issue 37); `force` then stays unused.
+        let solved = self.jacobian_parts.torque_columns();
         let bases = self.harmonic_base();
         let mut w = vec![0.0; nz];
         let mut row = vec![0.0; nz];
         let mut back = vec![0.0; nz];
+        let mut backs_before = 0;
         for (n, mesh) in self.meshes.iter().enumerate() {
             let base = bases[n];
             let omega = TAU * mesh.clock.mesh_frequency();
             let f = mesh.clock.mesh_frequency();
             let split = mesh.a_back.is_some().then_some(&mut back[..]);
             self.mesh_force_rows(n, base, &mut w, &mut row, split);
-            for i in 0..m {
-                for col in 0..nz {
-                    force[(i, col)] -= mesh.a[i] * row[col];
+            // The back flanks' rows follow the drive rows in the Jacobian parts, in mesh order
+            // (`GearTrain::new`).
+            let back_part = mesh.a_back.as_ref().map(|_| {
+                backs_before += 1;
+                self.meshes.len() + backs_before - 1
+            });
+            if solved.is_some() {
+                // −M̂⁻¹a_n F_n (and −M̂⁻¹ã_n F̃_n) straight into the acceleration rows.
+                let parts = std::iter::once((n, &row)).chain(back_part.map(|b| (b, &back)));
+                for (part, force_row) in parts {
+                    for (i, &g) in self.jacobian_parts.minv_a(part).iter().enumerate() {
+                        for col in 0..nz {
+                            a[(m + i, col)] -= g * force_row[col];
+                        }
+                    }
                 }
-            }
-            if let Some(a_back) = &mesh.a_back {
+            } else {
                 for i in 0..m {
                     for col in 0..nz {
-                        force[(i, col)] -= a_back[i] * back[col];
+                        force[(i, col)] -= mesh.a[i] * row[col];
+                    }
+                }
+                if let Some(a_back) = &mesh.a_back {
+                    for i in 0..m {
+                        for col in 0..nz {
+                            force[(i, col)] -= a_back[i] * back[col];
+                        }
                     }
                 }
             }
@@ -374,6 +436,10 @@ impl PiecewiseLti for GearTrain {
             if let Some(u) = self.ramp_time_index() {
                 a[(u, last)] = 1.0;
             }
+        }
+        if let Some([per_in, per_load]) = solved {
+            self.free_train_rows(per_in, per_load, torque_rows.as_ref(), a);
+            return;
         }
         for i in 0..m {
             a[(i, m + i)] = 1.0;

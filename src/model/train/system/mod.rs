@@ -22,7 +22,7 @@ use std::f64::consts::TAU;
 
 use nalgebra::{DMatrix, DVector};
 
-use super::assembly::{try_generalized_eigen, Assembly, DofKind, Reduction};
+use super::assembly::{try_generalized_eigen, Assembly, DofKind, FreeStatics, Reduction};
 use super::friction::FrictionTable;
 use super::mesh::{CycleTable, Interval, SlotLaw};
 use super::statics::{equilibrium, loaded_ste, Ste};
@@ -371,6 +371,8 @@ pub struct GearTrain {
     c: Vec<f64>,
     /// `M̂⁻¹K̂_b`, `M̂⁻¹Ĉ`, `M̂⁻¹a_n` for the frozen mode's Jacobian.
     jacobian_parts: JacobianParts,
+    /// A free train's static solution through the physical coordinates (issue 37).
+    free_statics: Option<Box<FreeStatics>>,
     f_in: Vec<f64>,
     f_out: Vec<f64>,
     f_ext: Vec<f64>,
@@ -447,6 +449,8 @@ impl GearTrain {
             k_mean += k * a * a.transpose();
         }
         let zeta = scene.modal_damping_ratio;
+        // `M̂⁻¹Ĉ_modal = Φ diag(2ζω) ΦᵀM̂`, for the products of a free train.
+        let mut minv_modal = None;
         if zeta > 0.0 {
             // Modal damping on the mean-stiffness modes: C = M̂ Φ diag(2ζω) Φᵀ M̂ with Φ
             // mass-normalised (Liu 2007 eq. 2.14, ζ = εμ/2); rigid modes are already removed.
@@ -455,7 +459,10 @@ impl GearTrain {
                 m,
                 w2.iter().map(|&w| 2.0 * zeta * w.max(0.0).sqrt()),
             ));
-            c += &mass * &phi * diag * phi.transpose() * &mass;
+            c += &mass * &phi * &diag * phi.transpose() * &mass;
+            if red.rigid_dim() > 0 {
+                minv_modal = Some(&phi * diag * (phi.transpose() * &mass));
+            }
         }
         let minv = mass
             .clone()
@@ -607,6 +614,7 @@ impl GearTrain {
             k_b: row_major(&k_b),
             c: row_major(&c),
             jacobian_parts: JacobianParts::default(),
+            free_statics: None,
             f_in: f_in.as_slice().to_vec(),
             f_out: f_out.as_slice().to_vec(),
             f_ext: vec![0.0; m],
@@ -658,18 +666,40 @@ impl GearTrain {
         } else {
             train.minv.clone()
         };
-        train.jacobian_parts = JacobianParts::new(
-            m,
-            &minv,
-            &train.k_b,
-            &train.c,
-            (train.meshes.iter().map(|mesh| mesh.a.as_slice())).chain(
-                train
-                    .meshes
-                    .iter()
-                    .filter_map(|mesh| mesh.a_back.as_deref()),
-            ),
-        );
+        // The meshes' rows `a_n`, then the back flanks' own rows `ã_n` of the meshes that have
+        // them (issue 33), in mesh order: `lti_matrix` and the Jacobian's gains index them so.
+        let backs: Vec<usize> = (train.meshes.iter().enumerate())
+            .filter(|(_, mesh)| mesh.a_back.is_some())
+            .map(|(n, _)| n)
+            .collect();
+        train.jacobian_parts = if red.rigid_dim() > 0 && m > 1 {
+            // A free train: the products through the physical mass (issue 37).
+            let g = red.inverse_mass_rows(&train.asm)?;
+            train.free_statics = FreeStatics::new(&train.asm, &red).map(Box::new);
+            let physical: Vec<&DVector<f64>> = (train.asm.mesh.iter())
+                .chain(backs.iter().map(|&n| &train.asm.mesh_back[n]))
+                .collect();
+            let reduced: Vec<&[f64]> = (train.meshes.iter().map(|mesh| mesh.a.as_slice()))
+                .chain(backs.iter().filter_map(|&n| train.meshes[n].a_back.as_deref()))
+                .collect();
+            JacobianParts::through_physical_mass(
+                &g,
+                &train.asm,
+                &train.q,
+                minv_modal,
+                &physical,
+                &reduced,
+            )
+        } else {
+            JacobianParts::new(
+                m,
+                &minv,
+                &train.k_b,
+                &train.c,
+                (train.meshes.iter().map(|mesh| mesh.a.as_slice()))
+                    .chain(backs.iter().filter_map(|&n| train.meshes[n].a_back.as_deref())),
+            )
+        };
         train.names = train.build_names(scene);
         train.apply_inputs(0.0, train.inputs)?;
         if let Some(pr) = &train.profiles {
@@ -1167,10 +1197,21 @@ impl GearTrain {
                     let e0 = e0s[0];
                     y[0] = self.f_ext[0] / kk + e0 * (mesh.k_mean * mesh.a[0] / kk);
                 } else {
-                    let xi = k
-                        .lu()
-                        .solve(&rhs)
-                        .ok_or("the mean stiffness matrix is singular")?;
+                    let xi = match &self.free_statics {
+                        Some(statics) => {
+                            let mut f = self
+                                .asm
+                                .load(self.inputs.input_torque, self.inputs.load_torque);
+                            for (d, (mesh, e0)) in
+                                self.asm.mesh.iter().zip(self.meshes.iter().zip(&e0s))
+                            {
+                                f += mesh.k_mean * e0 * d;
+                            }
+                            statics.solve(&f)
+                        }
+                        None => k.lu().solve(&rhs),
+                    }
+                    .ok_or("the mean stiffness matrix is singular")?;
                     y[..m].copy_from_slice(xi.as_slice());
                 }
             }
