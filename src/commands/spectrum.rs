@@ -4,8 +4,8 @@
 use std::path::Path;
 
 use crate::analysis::spectrum::{
-    exact_dft, label_lines, model_aliasing_warning, orbit_lines, windowed_fft, OrderLabel,
-    Spectrum, Window,
+    exact_dft, fixed_frame_lines, label_lines, model_aliasing_warning, orbit_lines, windowed_fft,
+    OrderLabel, Spectrum, Window,
 };
 use crate::analysis::{shoot_reporting, Report, ShootingOptions};
 use crate::model::{response_period, Drivetrain};
@@ -88,7 +88,11 @@ pub fn column_unit(name: &str) -> &'static str {
         "N"
     } else if name.ends_with("_rate") || name.ends_with("velocity") {
         "m/s"
-    } else if name.contains("dte") || name.ends_with(".x") || name.ends_with(".y") {
+    } else if name.contains("dte")
+        || name.ends_with(".x")
+        || name.ends_with(".y")
+        || name.ends_with("_fixed")
+    {
         "m"
     } else {
         "1"
@@ -145,23 +149,55 @@ pub fn periodic_spectrum_reporting(
         let mut sim = sim;
         let model = sim.model();
         let names = model.row_names();
+        let fixed = fixed_frame_signals(scene, &request.signals, &names)?;
         let columns: Vec<usize> = if request.signals.is_empty() {
             (0..model.mesh_count()).map(|n| model.mesh_columns(n).dte).collect()
         } else {
-            (request.signals.iter())
-                .map(|s| names.iter().position(|n| n == s).ok_or_else(|| {
-                    format!("--signal {s:?}: no such output column (columns: {})", names.join(", "))
-                }))
-                .collect::<Result<_, _>>()?
+            let mut wanted: Vec<&str> = Vec::new();
+            for (s, f) in request.signals.iter().zip(&fixed) {
+                match f {
+                    Some(f) => wanted.extend([f.x.as_str(), f.y.as_str()]),
+                    None => wanted.push(s),
+                }
+            }
+            let mut columns: Vec<usize> = Vec::new();
+            for s in wanted {
+                let col = names.iter().position(|n| n == s).ok_or_else(|| {
+                    format!("--signal {s:?}: no such output column (columns: {}; and \
+                             <member>.x_fixed, <member>.y_fixed of a planetary stage's \
+                             central members)", names.join(", "))
+                })?;
+                if !columns.contains(&col) {
+                    columns.push(col);
+                }
+            }
+            columns
         };
         let period = response_period(model)?;
-        let duration = period * request.periods as f64;
+        // Fixed-frame signals: a whole number of carrier revolutions in the record, so their
+        // lines `f ± f_c` fall on its bins.
+        let carrier_hz: Vec<f64> = fixed.iter().flatten().map(|f| f.carrier_hz).collect();
+        let revolutions = match carrier_hz.iter().map(|f| f.abs()).fold(0.0, f64::max) {
+            f if f > 0.0 => {
+                let mut with = vec![1.0 / period];
+                with.extend(carrier_hz.iter().map(|f| f.abs()).filter(|&f| f > 0.0));
+                crate::model::drivetrain::response_period_in_mesh_periods(&with).map_err(|e| {
+                    format!("fixed-frame signals need a record of whole carrier revolutions and \
+                             response periods: {e}")
+                })?
+            }
+            _ => 1,
+        };
+        let duration = period * (request.periods as u64 * revolutions) as f64;
         let f_max = (0..model.mesh_count()).map(|n| model.mesh_frequency(n)).fold(0.0, f64::max);
         let mesh_cycles = (duration * f_max).round().max(1.0);
         check_spectrum_samples(request, mesh_cycles)?;
         let mesh_cycles = mesh_cycles as usize;
         let n = mesh_cycles * request.samples_per_mesh_period;
-        let meshes = stage_mesh_lines(scene, mesh_lines(model));
+        let mut meshes = stage_mesh_lines(scene, mesh_lines(model));
+        if fixed.iter().any(Option::is_some) {
+            meshes.extend(planet_pass_lines(scene));
+        }
         let shafts = model.shafts();
         sim.set_y(0.0, &orbit.y0);
         // On the exact propagator the lines are integrated over each segment (alias-free);
@@ -192,11 +228,32 @@ pub fn periodic_spectrum_reporting(
             }
         };
         let mut signals = Vec::new();
-        for (spectrum, &col) in spectra.into_iter().zip(&columns) {
+        let of = |name: &str| -> &Spectrum {
+            let c = columns.iter().position(|&c| names[c] == name).expect("column requested");
+            &spectra[c]
+        };
+        let picked: Vec<(String, Spectrum)> = if request.signals.is_empty() {
+            columns.iter().zip(&spectra).map(|(&c, s)| (names[c].clone(), s.clone())).collect()
+        } else {
+            (request.signals.iter().zip(&fixed)).map(|(name, f)| match f {
+                None => Ok((name.clone(), of(name).clone())),
+                Some(f) => {
+                    let turns = f.carrier_hz * duration;
+                    let shift = turns.round();
+                    if (turns - shift).abs() > 1e-6 {
+                        return Err(format!("--signal {name:?}: the record spans {turns} carrier \
+                                            revolutions, not a whole number"));
+                    }
+                    let (fx, fy) = fixed_frame_lines(of(&f.x), of(&f.y), shift as i64);
+                    Ok((name.clone(), if f.axis == 0 { fx } else { fy }))
+                }
+            }).collect::<Result<_, String>>()?
+        };
+        for (column, spectrum) in picked {
             let labels = label_lines(&spectrum.frequency, &meshes, &shafts, 0.25 * spectrum.resolution);
             signals.push(SignalSpectrum {
-                column: names[col].clone(),
-                unit: column_unit(&names[col]).to_string(),
+                unit: column_unit(&column).to_string(),
+                column,
                 spectrum,
                 labels,
             });
@@ -558,6 +615,71 @@ fn stage_mesh_lines(scene: &Scene, meshes: Vec<(String, f64)>) -> Vec<(String, f
         }
     }
     lines
+}
+
+/// A requested fixed-frame signal `<member>.x_fixed` / `<member>.y_fixed`: the carrier-frame
+/// columns it is made of and the carrier's signed rotation frequency, Hz.
+struct FixedFrameSignal {
+    x: String,
+    y: String,
+    /// 0: X, 1: Y.
+    axis: usize,
+    carrier_hz: f64,
+}
+
+/// For each requested signal, its fixed-frame recipe when it names one (`docs/planetary.md`,
+/// "Fixed-frame spectra"): the central members (sun, ring, carrier) of a planetary stage with
+/// translations, seen from the ground at the carrier's nominal angle.
+fn fixed_frame_signals(
+    scene: &Scene,
+    signals: &[String],
+    names: &[String],
+) -> Result<Vec<Option<FixedFrameSignal>>, String> {
+    signals
+        .iter()
+        .map(|s| {
+            let Some((member, axis)) = (s.strip_suffix(".x_fixed").map(|m| (m, 0)))
+                .or_else(|| s.strip_suffix(".y_fixed").map(|m| (m, 1)))
+            else {
+                return Ok(None);
+            };
+            let g = scene.gear_index(member);
+            let stage = g.and_then(|g| scene.planetary.iter().find(|st| st.is_central(g)));
+            let (Some(st), true) = (stage, names.iter().any(|n| *n == format!("{member}.x")))
+            else {
+                return Err(format!(
+                    "--signal {s:?}: a fixed-frame signal names a central member (sun, ring or \
+                     carrier) of a planetary stage with a bearing (translations x, y)"
+                ));
+            };
+            Ok(Some(FixedFrameSignal {
+                x: format!("{member}.x"),
+                y: format!("{member}.y"),
+                axis,
+                carrier_hz: crate::model::train::planetary::carrier_speed(scene, st)
+                    / std::f64::consts::TAU,
+            }))
+        })
+        .collect()
+}
+
+/// The planet-pass frequency of every stage, `N |f_c − f_r|` (the planets passing a point of
+/// the ring), named `<carrier>_planet_pass`: with the stage's mesh frequency the orders of a
+/// fixed sensor's lines (McFadden & Smith 1985: sidebands `k f_mesh ± m N f_c` with the ring
+/// held).
+fn planet_pass_lines(scene: &Scene) -> Vec<(String, f64)> {
+    let hz = |g: usize| {
+        scene.rotation[g] * scene.speed_ratio[g] * scene.operating.input_speed
+            / std::f64::consts::TAU
+    };
+    (scene.planetary.iter())
+        .map(|st| {
+            (
+                format!("{}_planet_pass", scene.gears[st.carrier].name),
+                st.planets.len() as f64 * (hz(st.carrier) - hz(st.ring)).abs(),
+            )
+        })
+        .collect()
 }
 
 /// `geardyn spectrum`: the spectrum of the scene's periodic steady state to the CSV `out`
