@@ -14,7 +14,12 @@
 //! * `spur_pair, contact loss`: as shipped (backlash 0.1 mm, separates every mesh period);
 //! * `stage, contact loss`: as shipped (`contact = "contact_loss"` on every mesh) with the
 //!   edits [`LOSS_EDITS`] (light load, 1 µm STE, 740 rad/s) under which its sun meshes lose
-//!   contact every mesh period in the steady state.
+//!   contact every mesh period in the steady state;
+//! * dense output (with the default grid; a grid given on the command line applies to every
+//!   row instead): `spur_pair, linear` and `stage, linear` with a row every 10 µs (the output
+//!   interval `fmu/spur_pair` ships, not locked to the mesh period), `spur_pair, contact
+//!   loss` and `stage, contact loss` with 32 rows per mesh period (locked to it). Acceptance 7
+//!   is read from the stage's rows on both grids.
 //!
 //! Methods: the exact propagator, DOP853, DP5 and RODAS4 (rtol 1e-9, atol 1e-15: the
 //! protocol of `benches/common/whole_run.rs`). Each run is a whole run from the scene's start
@@ -108,13 +113,16 @@ enum Model {
 }
 
 struct Row {
-    label: &'static str,
+    label: String,
     /// Whether the row loses contact (the spur pair row it is set against has the same).
     contact_loss: bool,
     /// `Some(contact_loss)`: the row an acceptance line of issue 33 item 7 is read from.
     acceptance: Option<bool>,
     model: Model,
     periods: u64,
+    /// Where its runs stop: `None` for the command line's grid (one stop per mesh period by
+    /// default), else the dense-output grid of the row.
+    stops: Option<Stops>,
 }
 
 /// What one run measured.
@@ -144,7 +152,7 @@ fn replace_once(text: &str, from: &str, to: &str) -> String {
     text.replace(from, to)
 }
 
-fn rows(quick: bool, stage_periods: Option<u64>) -> Vec<Row> {
+fn rows(quick: bool, stage_periods: Option<u64>, dense_rows: bool) -> Vec<Row> {
     let pair_linear = replace_once(
         &replace_once(SPUR_PAIR, "contact = \"backlash\"", "contact = \"linear\""),
         "backlash = 1.0e-4",
@@ -160,14 +168,20 @@ fn rows(quick: bool, stage_periods: Option<u64>) -> Vec<Row> {
     let stage = |text: &str| Model::Stage(Scene::from_toml_str(text, "ev_reducer_3p").unwrap());
     let (pair_periods, default_periods) = if quick { (2000, 200) } else { (20_000, 1000) };
     let stage_periods = stage_periods.unwrap_or(default_periods);
-    let row = |label, contact_loss, acceptance, model, periods| Row {
-        label,
+    let row = |label: &str, contact_loss, acceptance, model, periods| Row {
+        label: label.to_string(),
         contact_loss,
         acceptance,
         model,
         periods,
+        stops: None,
     };
-    vec![
+    let dense = |row: Row, stops: Stops| Row {
+        label: format!("{}, {}", row.label, stops.label()),
+        stops: Some(stops),
+        ..row
+    };
+    let mut rows = vec![
         row(
             "spur_pair, linear",
             false,
@@ -203,7 +217,57 @@ fn rows(quick: bool, stage_periods: Option<u64>) -> Vec<Row> {
             stage(&stage_loss),
             stage_periods,
         ),
-    ]
+    ];
+    if dense_rows {
+        // Dense output, as users write it: a row every 10 µs (the output interval
+        // `fmu/spur_pair` ships, not locked to the mesh period) without contact loss, and 32
+        // rows per mesh period with contact loss; each against the spur pair on the same grid.
+        let grid = Stops::Interval(1e-5);
+        let rows_per_period = Stops::PerPeriod(32);
+        rows.extend([
+            dense(
+                row(
+                    "spur_pair, linear",
+                    false,
+                    None,
+                    pair(&pair_linear),
+                    pair_periods,
+                ),
+                grid,
+            ),
+            dense(
+                row(
+                    "spur_pair, contact loss",
+                    true,
+                    None,
+                    pair(SPUR_PAIR),
+                    pair_periods,
+                ),
+                rows_per_period,
+            ),
+            dense(
+                row(
+                    "3-planet stage, linear",
+                    false,
+                    Some(false),
+                    stage(&linear(STAGE)),
+                    stage_periods,
+                ),
+                grid,
+            ),
+            dense(
+                row(
+                    "3-planet stage, contact loss (20 N·m + 1 µm STE, 740 rad/s)",
+                    true,
+                    Some(true),
+                    stage(&stage_loss),
+                    stage_periods,
+                ),
+                rows_per_period,
+            ),
+        ]);
+    }
+    rows
 }
 
 /// Where a run stops (and reads every output).
@@ -215,10 +279,21 @@ enum Stops {
     Interval(f64),
 }
 
+impl Stops {
+    fn label(self) -> String {
+        match self {
+            Stops::PerPeriod(1) => "1 stop per mesh period".to_string(),
+            Stops::PerPeriod(n) => format!("{n} rows per mesh period"),
+            Stops::Interval(h) => format!("a row every {} µs", h * 1e6),
+        }
+    }
+}
+
 /// One whole run of `periods` mesh periods of `row` with `method`.
 /// `metered`: under a work budget (never reached), so that the exact propagator counts the
 /// duration bins it builds (`SolverStats::transitions`); the timed runs are unbounded.
 fn run(row: &Row, method: Method, periods: u64, stops: Stops, metered: bool) -> Run {
+    let stops = row.stops.unwrap_or(stops);
     let mut dte = Vec::new();
     let times = |t_mesh: f64| -> Vec<f64> {
         let t_end = periods as f64 * t_mesh;
@@ -330,6 +405,7 @@ fn periods_of(row: &Row, method: Method) -> u64 {
 fn main() {
     let mut quick = false;
     let mut stops = Stops::PerPeriod(1);
+    let mut grid_given = false;
     let mut profile: Option<String> = None;
     let mut stage_periods: Option<u64> = None;
     let mut args = std::env::args().skip(1);
@@ -338,6 +414,7 @@ fn main() {
             "--bench" => {}
             "--quick" => quick = true,
             "--grid" => {
+                grid_given = true;
                 stops = Stops::PerPeriod(
                     args.next()
                         .and_then(|v| v.parse().ok())
@@ -346,6 +423,7 @@ fn main() {
                 )
             }
             "--output-interval" => {
+                grid_given = true;
                 stops = Stops::Interval(
                     args.next()
                         .and_then(|v| v.parse().ok())
@@ -369,7 +447,9 @@ fn main() {
         }
     }
     let rounds = if quick { 3 } else { 5 };
-    let rows = rows(quick, stage_periods);
+    // The dense-output rows come with the default grid (a grid given on the command line
+    // applies to every row instead).
+    let rows = rows(quick, stage_periods, !grid_given);
     if let Some(filter) = profile {
         // For callgrind: the exact propagator alone on the matching rows, one run each.
         for row in rows.iter().filter(|r| r.label.contains(filter.as_str())) {
@@ -390,9 +470,14 @@ fn main() {
     let configs: Vec<(usize, Method)> = (0..rows.len())
         .flat_map(|r| METHODS.iter().map(move |&m| (r, m)))
         .collect();
-    let stops_text = match stops {
-        Stops::PerPeriod(n) => format!("{n} stop(s) per mesh period"),
-        Stops::Interval(h) => format!("a stop every {h} s"),
+    let stops_text = if grid_given {
+        stops.label()
+    } else {
+        format!(
+            "{} (the rows without a grid in their label), a row every 10 µs (linear) and 32 \
+             rows per mesh period (contact loss) in the dense-output rows",
+            stops.label()
+        )
     };
     println!(
         "geardyn planetary-stage benchmark (issue 33, acceptance 7): {stops_text}, CPU time of \
@@ -468,9 +553,14 @@ fn main() {
     for (r, row) in rows.iter().enumerate() {
         let [exact, dop853, dp5, rodas4] = per_row(r);
         let best = dop853.min(dp5).min(rodas4);
+        let same_grid = |p: &Row| p.stops.map(Stops::label) == row.stops.map(Stops::label);
         let pair_row = rows
             .iter()
-            .position(|p| matches!(p.model, Model::Pair(_)) && p.contact_loss == row.contact_loss)
+            .position(|p| {
+                matches!(p.model, Model::Pair(_))
+                    && p.contact_loss == row.contact_loss
+                    && same_grid(p)
+            })
             .unwrap();
         let versus_pair = exact / per_row(pair_row)[0];
         println!(
@@ -481,16 +571,18 @@ fn main() {
             rows[pair_row].label,
         );
         if let (Model::Stage(_), Some(contact_loss)) = (&row.model, row.acceptance) {
+            let grid = row.stops.unwrap_or(stops).label();
             verdicts.push(if contact_loss {
                 let ratio = best / exact;
                 format!(
-                    "- with contact loss: best RK / exact = {ratio:.1}× (required ≥ 3): {}",
+                    "- with contact loss, {grid}: best RK / exact = {ratio:.1}× (required ≥ 3): {}",
                     if ratio >= 3.0 { "met" } else { "NOT met" }
                 )
             } else {
                 let ratio = dop853 / exact;
                 format!(
-                    "- without contact loss: DOP853 / exact = {ratio:.1}× (required ≥ 10): {}",
+                    "- without contact loss, {grid}: DOP853 / exact = {ratio:.1}× (required ≥ \
+                     10): {}",
                     if ratio >= 10.0 { "met" } else { "NOT met" }
                 )
             });

@@ -269,6 +269,11 @@ impl ModeCache {
     /// (the 8-mesh chain with contact loss: 4096 modes; `docs/scaling.md`). A scene with few
     /// modes (the single pair, the idler) promotes every mode at its first meeting.
     const PROMOTED_BUDGET: usize = 4 << 20;
+    /// Heap bytes of the cache up to which a promoted mode gets room for more duration bins
+    /// ([`ModeTransitions::promote`]), counted as held from the grant on: a quarter of
+    /// [`ModeCache::MEMORY_BUDGET`], so that the grants never clear a cache that would not
+    /// have been cleared without them by much (scenes with few modes take a few MB).
+    const GROWTH_BUDGET: usize = Self::MEMORY_BUDGET / 4;
 
     /// Whether building one more mode would exceed the budget (recounted exactly first when
     /// the estimate says so), once the cache holds [`ModeCache::MIN_MODES`].
@@ -357,6 +362,11 @@ impl ModeCache {
                 self.bytes += mode.heap_bytes();
                 self.since_recount += 1;
                 self.modes.push(mode);
+                if sys.guard_count() == 0 {
+                    // No guards, no series search: the full path (bins, composite products)
+                    // at once.
+                    self.promote(self.modes.len() - 1);
+                }
                 self.key_words.extend_from_slice(self.scratch.words());
                 self.key_words.push(self.scratch.capacity);
                 self.key_ends.push(self.key_words.len() as u32);
@@ -369,6 +379,17 @@ impl ModeCache {
         };
         self.recent[slot] = (hash.wrapping_add(1), position);
         position
+    }
+
+    /// Puts mode `position` on the full path, with room for its bins to grow
+    /// ([`ModeTransitions::promote`]) while the cache holds less than
+    /// [`ModeCache::GROWTH_BUDGET`] with it; the bytes it takes are counted at once.
+    fn promote(&mut self, position: usize) {
+        let room = Self::GROWTH_BUDGET.min(self.budget());
+        let mode = &mut self.modes[position];
+        let before = mode.heap_bytes();
+        mode.promote(self.bytes + mode.grown_bin_bytes() <= room);
+        self.bytes += mode.heap_bytes().saturating_sub(before);
     }
 
     fn clear(&mut self) {
@@ -403,10 +424,6 @@ impl ModeCache {
         let mut a = DMatrix::zeros(nz, nz);
         sys.lti_matrix(&mut a);
         let mut mode = ModeTransitions::new(a, rate);
-        if sys.guard_count() == 0 {
-            // No guards, no series search: the full path (bins, composite products) at once.
-            mode.promote();
-        }
         let mut w = vec![0.0; nz];
         mode.guard_rows = (0..sys.guard_count())
             .map(|i| {
@@ -987,25 +1004,28 @@ impl ExactPropagator {
                 }
             }
             let position = self.modes.get_position(sys);
-            let mode = &mut self.modes.modes[position];
-            // The bins this segment builds ([`SolverStats::transitions`]), counted where it
-            // last uses its mode: under a limit, where they trigger its full check.
-            let bins_before = if METERED { mode.bin_builds() } else { 0 };
-            self.stats.steps += 1;
-
             let guards = sys.guard_count();
             if guards > 0 {
                 // A mode is promoted to the full path at its first meeting while the promoted
                 // modes' data stays near the core ([`ModeCache::PROMOTED_BUDGET`]); beyond that
                 // its segments go by their series (`docs/scaling.md`). Sensitivities need the
                 // full path's transition matrices.
+                let mode = &self.modes.modes[position];
                 let series_ok = self.sensitivity.is_none() && series_segment::applies(mode);
                 if !mode.promoted()
                     && (!series_ok || self.modes.promoted_bytes < ModeCache::PROMOTED_BUDGET)
                 {
-                    mode.promote();
                     self.modes.promoted_bytes += mode.full_bytes_estimate();
+                    self.modes.promote(position);
                 }
+            }
+            let mode = &mut self.modes.modes[position];
+            // The bins this segment builds ([`SolverStats::transitions`]), counted where it
+            // last uses its mode: under a limit, where they trigger its full check.
+            let bins_before = if METERED { mode.bin_builds() } else { 0 };
+            self.stats.steps += 1;
+
+            if guards > 0 {
                 let by_series = !mode.promoted();
                 let mut event_state_ready = false;
                 // A recurring segment is decided by an earlier one of its mode; otherwise

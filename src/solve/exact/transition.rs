@@ -36,6 +36,14 @@ const RECURRING_CAPACITY: usize = 32;
 /// 195-DOF chain (1.2 MB each), so a train with thousands of contact combinations keeps
 /// thousands of modes in the cache's budget.
 const BIN_BYTES_PER_MODE: usize = 48 << 10;
+/// Bytes of bin matrices a mode may grow to, one bin at a time beyond its first
+/// [`Bins::slots`] and only when a recurring duration finds every bin taken, if the mode cache
+/// granted it the room at its promotion ([`ModeTransitions::promote`]): a fine output grid cuts
+/// every visit of a mode into an entry, a whole output interval and an exit, so a mode meets
+/// more recurring durations than 48 KiB holds once its states number more than 45 (2 bins of
+/// the 67-state modes of `examples/planetary/ev_reducer_3p.toml` against their ~6 durations
+/// at 32 rows per mesh period: 7–14 Padé exponentials rebuilt per period; `docs/planetary.md`).
+const GROWN_BIN_BYTES_PER_MODE: usize = 1 << 20;
 /// Low mantissa bits rounded away by the duration bins (relative bin width 2^(LOW−52) = 2⁻³²).
 const BIN_LOW_BITS: u32 = 20;
 /// Durations met once and applied without a matrix, remembered so that the second meeting
@@ -48,19 +56,30 @@ const MAX_ONE_OFF_STEPS: f64 = 64.0;
 /// The duration bins of one mode: the centre bits of `τ_c` per slot, and the matrices
 /// `Φ = e^{A τ_c}` of every slot in one allocation of [`Bins::slots`] slots, made when the
 /// mode is promoted to the full path ([`ModeTransitions::promote`]). A mode's memory is then
-/// fixed at its build and at its promotion: the bins a long run fills do not take more memory
-/// than those of a short one (`tests/simulate_memory.rs`).
+/// fixed at its build and at its promotion (`tests/simulate_memory.rs`), except that a mode
+/// whose recurring durations outnumber its slots takes the rest of the cache's grant
+/// ([`Bins::grow`], at most [`GROWN_BIN_BYTES_PER_MODE`], counted from the promotion on), so a
+/// long run takes at most that much more than a short one.
 #[derive(Default)]
 struct Bins {
     centres: Vec<u64>,
     /// Slot `s`: `Φ` at `[s·n², (s+1)·n²)`, column-major.
     matrices: Vec<f64>,
+    /// Slots the bins may grow to ([`Bins::grown_slots`] if the cache granted the room at
+    /// the promotion, else [`Bins::slots`]); their memory is counted from the grant on
+    /// ([`Bins::heap_bytes`]), taken when the slots are first used.
+    granted: usize,
 }
 
 impl Bins {
-    /// The bins of a mode of `n` states.
+    /// The bins of a mode of `n` states taken at its promotion.
     fn slots(n: usize) -> usize {
         (BIN_BYTES_PER_MODE / (8 * n * n).max(1)).clamp(2, RECURRING_CAPACITY)
+    }
+
+    /// The bins a mode of `n` states may grow to with the cache's grant.
+    fn grown_slots(n: usize) -> usize {
+        (GROWN_BIN_BYTES_PER_MODE / (8 * n * n).max(1)).clamp(Self::slots(n), RECURRING_CAPACITY)
     }
 
     fn phi(&self, slot: usize, n: usize) -> &[f64] {
@@ -68,18 +87,37 @@ impl Bins {
         &self.matrices[slot * nn..(slot + 1) * nn]
     }
 
-    /// Takes the memory of every slot of a mode of `n` states, once.
+    /// Takes the memory of the first [`Bins::slots`] of a mode of `n` states, once.
     fn allocate(&mut self, n: usize) {
         if self.matrices.is_empty() {
             let slots = Self::slots(n);
-            self.centres.reserve_exact(slots);
+            self.granted = self.granted.max(slots);
+            self.centres.reserve_exact(self.granted);
             self.matrices = vec![0.0; slots * n * n];
         }
     }
 
-    /// Heap bytes held.
-    fn heap_bytes(&self) -> usize {
-        self.centres.capacity() * 8 + self.matrices.capacity() * 8
+    /// Slots in use or ready.
+    fn ready(&self, n: usize) -> usize {
+        self.matrices.len() / (n * n).max(1)
+    }
+
+    /// One more slot within the grant (its memory taken at the first growth, all of it):
+    /// `false` if the grant is used up.
+    fn grow(&mut self, n: usize) -> bool {
+        let ready = self.ready(n);
+        if ready >= self.granted {
+            return false;
+        }
+        self.matrices
+            .reserve_exact(self.granted * n * n - self.matrices.len());
+        self.matrices.resize((ready + 1) * n * n, 0.0);
+        true
+    }
+
+    /// Heap bytes held, and those granted but not taken yet.
+    fn heap_bytes(&self, n: usize) -> usize {
+        self.centres.capacity() * 8 + self.matrices.capacity().max(self.granted * n * n) * 8
     }
 }
 
@@ -182,7 +220,7 @@ impl ModeTransitions {
                 .balanced_guard_rows
                 .get()
                 .map_or(0, |r| r.capacity() * 8)
-            + self.recurring.heap_bytes()
+            + self.recurring.heap_bytes(n)
             + self
                 .guard_rows
                 .iter()
@@ -236,21 +274,37 @@ impl ModeTransitions {
         self.promoted
     }
 
-    /// Puts the mode on the full path and takes its memory now, all of it: the sample step
-    /// and every duration bin (so the run's memory does not grow later when the bins fill;
-    /// `tests/simulate_memory.rs`). Its guard rows and references grow with use, within
+    /// Puts the mode on the full path and takes its memory now: the sample step and its
+    /// first [`Bins::slots`] duration bins (so the run's memory does not grow later when the
+    /// bins fill; `tests/simulate_memory.rs`). With `grow` (the cache's room for
+    /// [`ModeTransitions::grown_bin_bytes`]) the bins may grow to [`Bins::grown_slots`] when a
+    /// recurring duration finds them all taken; that memory counts as held from now on
+    /// ([`ModeTransitions::heap_bytes`]). Its guard rows and references grow with use, within
     /// their own bounds.
-    pub fn promote(&mut self) {
+    pub fn promote(&mut self, grow: bool) {
         if self.promoted {
             return;
         }
         self.promoted = true;
         self.sample_increment();
+        let n = self.a.nrows();
+        if grow {
+            self.recurring.granted = self.recurring.granted.max(Bins::grown_slots(n));
+        }
         // (A mode whose guards were all excluded so far has applied bins already.)
-        self.recurring.allocate(self.a.nrows());
+        self.recurring.allocate(n);
     }
 
-    /// Heap bytes the full path will give this mode (its sample step, bins and guard rows).
+    /// Heap bytes the bins may grow by beyond their first [`Bins::slots`] (the cache's grant
+    /// at the promotion).
+    pub fn grown_bin_bytes(&self) -> usize {
+        let n = self.a.nrows();
+        (Bins::grown_slots(n) - Bins::slots(n)) * n * n * 8
+    }
+
+    /// Heap bytes the full path will give this mode (its sample step, first bins and guard
+    /// rows: what it keeps near the core in a steady run at one stop per mesh period; the
+    /// bins grown for a fine output grid are not counted).
     pub fn full_bytes_estimate(&self) -> usize {
         let n = self.a.nrows();
         3 * n * n * 8 + Bins::slots(n) * n * n * 8 + self.guard_rows.len() * 24 * n * 8
@@ -428,17 +482,17 @@ impl ModeTransitions {
         let phi = self.balanced.exp(f64::from_bits(centre_bits));
         let n = self.a.nrows();
         let bins = &mut self.recurring;
-        let slots = Bins::slots(n);
         // A mode used before its promotion: its guards all excluded by the model, or the
         // unit tests of the transitions alone.
         bins.allocate(n);
-        let slot = if bins.centres.len() < slots {
+        let slot = if bins.centres.len() < bins.ready(n) || bins.grow(n) {
             bins.centres.push(centre_bits);
             bins.centres.len() - 1
         } else {
+            // Every slot taken and the grant used up: replaced round-robin.
             let slot = self.next_recurring_slot;
             bins.centres[slot] = centre_bits;
-            self.next_recurring_slot = (slot + 1) % slots;
+            self.next_recurring_slot = (slot + 1) % bins.centres.len();
             slot
         };
         bins.matrices[slot * n * n..(slot + 1) * n * n].copy_from_slice(phi.as_slice());
@@ -531,7 +585,7 @@ mod tests {
             mode.apply(tau, &z0, &mut before);
         }
         assert_eq!(mode.built_bins(), 1, "the second meeting built the bin");
-        mode.promote();
+        mode.promote(true);
         mode.apply(tau, &z0, &mut after);
         assert_eq!(after, before, "the same bin after the promotion");
         let reference = (&a * tau).exp() * nalgebra::DVector::from_column_slice(&z0);
