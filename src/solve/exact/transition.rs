@@ -55,19 +55,19 @@ const MAX_ONE_OFF_STEPS: f64 = 64.0;
 
 /// The duration bins of one mode: the centre bits of `τ_c` per slot, and the matrices
 /// `Φ = e^{A τ_c}` of every slot in one allocation of [`Bins::slots`] slots, made when the
-/// mode is promoted to the full path ([`ModeTransitions::promote`]). A mode's memory is then
-/// fixed at its build and at its promotion (`tests/simulate_memory.rs`), except that a mode
-/// whose recurring durations outnumber its slots takes the rest of the cache's grant
-/// ([`Bins::grow`], at most [`GROWN_BIN_BYTES_PER_MODE`], counted from the promotion on), so a
-/// long run takes at most that much more than a short one.
+/// mode is promoted to the full path ([`ModeTransitions::promote`]), with the capacity of the
+/// cache's grant ([`Bins::grow`], at most [`GROWN_BIN_BYTES_PER_MODE`]) reserved then too and
+/// filled only as recurring durations need it. A mode's memory is then fixed at its build and
+/// at its promotion: the bins a long run fills do not take more memory than those of a short
+/// one (`tests/simulate_memory.rs`; the reserved pages a mode never fills are not touched).
 #[derive(Default)]
 struct Bins {
     centres: Vec<u64>,
     /// Slot `s`: `Φ` at `[s·n², (s+1)·n²)`, column-major.
     matrices: Vec<f64>,
     /// Slots the bins may grow to ([`Bins::grown_slots`] if the cache granted the room at
-    /// the promotion, else [`Bins::slots`]); their memory is counted from the grant on
-    /// ([`Bins::heap_bytes`]), taken when the slots are first used.
+    /// the promotion, else [`Bins::slots`]); their capacity is reserved with the first slots
+    /// ([`Bins::allocate`]) and filled as they are used.
     granted: usize,
 }
 
@@ -87,13 +87,16 @@ impl Bins {
         &self.matrices[slot * nn..(slot + 1) * nn]
     }
 
-    /// Takes the memory of the first [`Bins::slots`] of a mode of `n` states, once.
+    /// Takes the memory of the first [`Bins::slots`] of a mode of `n` states and reserves
+    /// that of the granted ones (once per grant).
     fn allocate(&mut self, n: usize) {
+        self.granted = self.granted.max(Self::slots(n));
+        self.centres
+            .reserve_exact(self.granted.saturating_sub(self.centres.len()));
+        self.matrices
+            .reserve_exact((self.granted * n * n).saturating_sub(self.matrices.len()));
         if self.matrices.is_empty() {
-            let slots = Self::slots(n);
-            self.granted = self.granted.max(slots);
-            self.centres.reserve_exact(self.granted);
-            self.matrices = vec![0.0; slots * n * n];
+            self.matrices.resize(Self::slots(n) * n * n, 0.0);
         }
     }
 
@@ -102,15 +105,13 @@ impl Bins {
         self.matrices.len() / (n * n).max(1)
     }
 
-    /// One more slot within the grant (its memory taken at the first growth, all of it):
-    /// `false` if the grant is used up.
+    /// One more slot within the grant (its capacity reserved at the promotion): `false` if
+    /// the grant is used up.
     fn grow(&mut self, n: usize) -> bool {
         let ready = self.ready(n);
         if ready >= self.granted {
             return false;
         }
-        self.matrices
-            .reserve_exact(self.granted * n * n - self.matrices.len());
         self.matrices.resize((ready + 1) * n * n, 0.0);
         true
     }
@@ -291,7 +292,8 @@ impl ModeTransitions {
         if grow {
             self.recurring.granted = self.recurring.granted.max(Bins::grown_slots(n));
         }
-        // (A mode whose guards were all excluded so far has applied bins already.)
+        // (A mode whose guards were all excluded so far has applied bins already; its
+        // grant is reserved now.)
         self.recurring.allocate(n);
     }
 
