@@ -3,6 +3,7 @@
 //! hybrid system for the solvers.
 //!
 //! - [`assembly`]: DOFs, `M`, `K_b`, `C_b`, mesh vectors `d_n`, rigid-body reduction;
+//! - [`flanks`]: the back flanks' line of action (mirrored about the line of centres);
 //! - [`friction`]: tooth friction of Model-1 meshes over the mesh cycle (Ch. 5);
 //! - [`mesh`]: the mesh cycle as tooth-pair slots with stiffness and tip-relief gaps;
 //! - [`statics`]: loaded STE / NLTE by active set, static equilibrium;
@@ -12,6 +13,7 @@
 //! - [`simulation`]: [`TrainSimulation`], the propagator driver.
 
 pub mod assembly;
+pub mod flanks;
 pub mod friction;
 pub mod mesh;
 pub mod modes;

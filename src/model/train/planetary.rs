@@ -82,7 +82,7 @@ pub fn ring_line_of_action(st: &PlanetaryStage, p: &Planet, alpha_r: f64) -> (f6
 ///
 /// Also the back-flank vector: the same with the line of action mirrored about the line of
 /// centres, here the planet's radial direction `e_r` for both meshes
-/// ([`super::assembly::back_line_of_action`]; `docs/planetary.md`, "Back flanks").
+/// ([`super::flanks::back_line_of_action`]; `docs/planetary.md`, "Back flanks").
 pub(crate) fn mesh_vector(
     scene: &Scene,
     at: &Coordinates,
@@ -100,7 +100,7 @@ pub(crate) fn mesh_vector(
             };
             let dte = at.arc(scene, st, central) + at.arc(scene, st, p.gear) * planet_sign;
             let along = |l| &dte + at.central_along(central, l) - at.planet_along(st, p, l);
-            let back = super::assembly::back_line_of_action(loa, unit(p.angle));
+            let back = super::flanks::back_line_of_action(loa, unit(p.angle));
             return Some((along(loa), along(back), dte));
         }
     }

@@ -90,7 +90,7 @@ enum Stiffness {
 #[derive(Debug, Clone)]
 struct MeshRt {
     a: Vec<f64>,
-    /// `Qᵀ d̃_n`, the back flanks' deflection row (`assembly::back_line_of_action`), when it
+    /// `Qᵀ d̃_n`, the back flanks' deflection row (`flanks::back_line_of_action`), when it
     /// differs from `a` (a mesh with backlash whose translations see the back line).
     a_back: Option<Vec<f64>>,
     dte: Vec<f64>,
