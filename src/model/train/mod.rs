@@ -12,6 +12,7 @@
 //! - [`simulation`]: [`TrainSimulation`], the propagator driver.
 
 pub mod assembly;
+pub mod frame;
 pub mod friction;
 pub mod mesh;
 pub mod modes;
