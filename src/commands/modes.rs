@@ -30,7 +30,7 @@ pub fn modes(scene: &Scene, rigid_bearings: bool, out: &mut dyn Write) -> Result
             scene.name, scene.gears[st.carrier].name
         ));
     }
-    if let Some(why) = train::planetary::gyroscopic_refusal(scene) {
+    if let Some(why) = train::frame::gyroscopic_refusal(scene) {
         return Err(why);
     }
     let scene = if rigid_bearings {

@@ -550,6 +550,9 @@ impl Scene {
     /// The scene's simulation in any form (nominal speed, or carried rotation with ports).
     pub fn run(&self) -> Result<AnySimulation, String> {
         // The kernel chosen when the scene was read (`crate::scene::kernel`).
+        if let Some(why) = crate::model::train::frame::gyroscopic_refusal(self) {
+            return Err(why);
+        }
         if let Some(why) = crate::model::train::planetary::refusal(self) {
             return Err(why);
         }

@@ -14,6 +14,7 @@
 
 pub mod assembly;
 pub mod flanks;
+pub mod frame;
 pub mod friction;
 pub mod mesh;
 pub mod modes;

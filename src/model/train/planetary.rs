@@ -196,54 +196,6 @@ pub(crate) fn frame_terms(
     Some((gyroscopic, centripetal))
 }
 
-/// Why a scene with `gyroscopic = true` on a stage cannot run, if it cannot. The terms are
-/// taken at the carrier's constant nominal speed, so the nominal-speed form is needed (with
-/// ports or elements, or a speed profile, the carrier's speed is not constant), and the
-/// stage must be held torsionally: in a free rotation of the stage the planets orbit (η_n =
-/// r_c θ̃_c), and the centripetal term of eq. (1) pulls on that orbit with nothing to balance
-/// it (the model has no geometric stiffness of the centrifugal preload), so the free
-/// rotation would diverge instead of staying neutral.
-pub fn gyroscopic_refusal(scene: &Scene) -> Option<String> {
-    let st = scene.planetary.iter().find(|s| s.gyroscopic)?;
-    let carrier = &scene.gears[st.carrier].name;
-    let head = format!(
-        "scene {:?}: carrier {carrier:?} has gyroscopic = true (the rotating frame's terms at \
-         the carrier's constant nominal speed, docs/planetary.md, \"Gyroscopic terms\")",
-        scene.name
-    );
-    if scene.carries_rotation() {
-        return Some(format!(
-            "{head}; with [[port]] or elements the carrier's speed is a state, not a constant: \
-             run the nominal-speed form (no ports) or set gyroscopic = false"
-        ));
-    }
-    if scene.profiles.speed.is_some() {
-        return Some(format!(
-            "{head}; a speed profile changes the carrier's speed over the run: run at a \
-             constant operating.input_speed or set gyroscopic = false"
-        ));
-    }
-    let mut rest = scene.clone();
-    for s in &mut rest.planetary {
-        s.gyroscopic = false;
-    }
-    let asm = super::Assembly::new(&rest);
-    if let Ok(red) = super::assembly::Reduction::new(&asm) {
-        if red.rigid_dim() > 0 {
-            return Some(format!(
-                "{head}; the train turns freely ({} rigid-body mode(s)): in a free rotation the \
-                 planets orbit and the centripetal term of Lin & Parker's eq. (1) acts on that \
-                 orbit unbalanced (the model has no geometric stiffness of the centrifugal \
-                 preload), so the free rotation would diverge; hold the stage torsionally \
-                 (a ground_stiffness on the input and output members, as in the papers' \
-                 gyroscopic analyses) or set gyroscopic = false",
-                red.rigid_dim()
-            ));
-        }
-    }
-    None
-}
-
 /// Refuses a tool that changes the speed of one built model (`what`: a speed sweep, a
 /// continuation in speed) on a scene with `gyroscopic = true`: the frame's terms are
 /// assembled at one carrier speed.
@@ -319,9 +271,6 @@ pub fn load_sharing(scene: &Scene, mesh_force: &[f64]) -> Vec<Vec<PlanetLoad>> {
 /// no reference rotation and runs any stage. Checked where the kernel is built (`Scene::run`,
 /// `GearTrain::new`).
 pub fn refusal(scene: &Scene) -> Option<String> {
-    if let Some(why) = gyroscopic_refusal(scene) {
-        return Some(why);
-    }
     if !scene.carries_rotation() {
         return None;
     }

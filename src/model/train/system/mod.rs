@@ -426,6 +426,9 @@ fn row_major(a: &DMatrix<f64>) -> Vec<f64> {
 impl GearTrain {
     /// Assembles the model at `t = 0` with the scene's inputs.
     pub fn new(scene: &Scene) -> Result<GearTrain, String> {
+        if let Some(why) = super::frame::gyroscopic_refusal(scene) {
+            return Err(why);
+        }
         if let Some(why) = super::planetary::refusal(scene) {
             return Err(why);
         }
