@@ -4,6 +4,7 @@
 //!
 //! - [`assembly`]: DOFs, `M`, `K_b`, `C_b`, mesh vectors `d_n`, rigid-body reduction;
 //! - [`flanks`]: the back flanks' line of action (mirrored about the line of centres);
+//! - [`frame`]: whether the rotating carrier frame's gyroscopic terms apply to a scene;
 //! - [`friction`]: tooth friction of Model-1 meshes over the mesh cycle (Ch. 5);
 //! - [`mesh`]: the mesh cycle as tooth-pair slots with stiffness and tip-relief gaps;
 //! - [`statics`]: loaded STE / NLTE by active set, static equilibrium;
