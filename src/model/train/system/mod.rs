@@ -683,15 +683,14 @@ impl GearTrain {
                 .chain(backs.iter().map(|&n| &train.asm.mesh_back[n]))
                 .collect();
             let reduced: Vec<&[f64]> = (train.meshes.iter().map(|mesh| mesh.a.as_slice()))
-                .chain(backs.iter().filter_map(|&n| train.meshes[n].a_back.as_deref()))
+                .chain(
+                    backs
+                        .iter()
+                        .filter_map(|&n| train.meshes[n].a_back.as_deref()),
+                )
                 .collect();
             JacobianParts::through_physical_mass(
-                &g,
-                &train.asm,
-                &train.q,
-                minv_modal,
-                &physical,
-                &reduced,
+                &g, &train.asm, &train.q, minv_modal, &physical, &reduced,
             )
         } else {
             JacobianParts::new(
@@ -699,8 +698,11 @@ impl GearTrain {
                 &minv,
                 &train.k_b,
                 &train.c,
-                (train.meshes.iter().map(|mesh| mesh.a.as_slice()))
-                    .chain(backs.iter().filter_map(|&n| train.meshes[n].a_back.as_deref())),
+                (train.meshes.iter().map(|mesh| mesh.a.as_slice())).chain(
+                    backs
+                        .iter()
+                        .filter_map(|&n| train.meshes[n].a_back.as_deref()),
+                ),
             )
         };
         train.names = train.build_names(scene);
