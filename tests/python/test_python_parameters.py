@@ -19,13 +19,9 @@ The reference for every study point is the same scene edited as text (the value 
 the TOML file as an integer or string) and run through `geardyn.simulate`.
 """
 
-import os
-import pathlib
 import re
-import signal
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
