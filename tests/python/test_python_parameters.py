@@ -11,7 +11,6 @@ idler_gearset and countershaft_gearset:
 - `Scene.example` of an unknown name lists every example that `Scene.examples()` returns;
 - a script that starts a study at its top level, without `if __name__ == "__main__":`, gets
   one message and no worker errors;
-- Ctrl-C on `geardyn-study run` in a terminal prints one line and no worker traceback;
 - a user output, a callable on each point's result (given to `load` or named in the file as
   `module:function`), is stored as a column and equals the callable on the serial run; a
   callable that returns something other than a number fails its points with the reason.
@@ -20,13 +19,9 @@ The reference for every study point is the same scene edited as text (the value 
 the TOML file as an integer or string) and run through `geardyn.simulate`.
 """
 
-import os
-import pathlib
 import re
-import signal
 import subprocess
 import sys
-import time
 
 import numpy as np
 import pytest
@@ -169,27 +164,6 @@ def test_an_unguarded_script_gets_one_message(tmp_path):
     p = subprocess.run([sys.executable, script], capture_output=True, text=True, timeout=180, cwd=tmp_path)
     assert p.returncode == 0, p.stderr
     assert p.stdout.strip() == "2"
-
-
-def test_ctrl_c_prints_one_line(tmp_path):
-    """SIGINT to the whole process group, as a terminal's Ctrl-C sends it."""
-    study_file = tmp_path / "slow.toml"
-    study_file.write_text(f'scene = "{SCENES["spur_pair"]}"\nresults = ["dte_rms"]\nchunk = 1\n'
-                          '[[parameter]]\npath = "mesh.damping_ratio"\nfrom = 0.02\nto = 0.08\npoints = 400\n'
-                          '[analysis]\nkind = "simulate"\n')
-    script = pathlib.Path(sys.executable).parent / "geardyn-study"
-    p = subprocess.Popen([script, "run", study_file, "--workers", "2"], stdout=subprocess.PIPE,
-                         stderr=subprocess.PIPE, text=True, start_new_session=True)
-    store = tmp_path / "slow.parquet"
-    deadline = time.monotonic() + 120
-    while not (store.is_dir() and any(store.glob("part-*.parquet"))):
-        assert p.poll() is None and time.monotonic() < deadline, "the study did not start"
-        time.sleep(0.2)
-    os.killpg(p.pid, signal.SIGINT)
-    out, err = p.communicate(timeout=120)
-    assert p.returncode == 130, err
-    assert "Traceback" not in err and "KeyboardInterrupt" not in err, err
-    assert err.rstrip().splitlines()[-1] == "interrupted: the points that arrived are stored; run again to continue"
 
 
 def largest_dte(run):

@@ -235,12 +235,23 @@ mod tests {
             }
             t + "</r>\n"
         };
+        // CPU time of this thread, not wall time: a loaded machine (CI runs beside other
+        // jobs) stretches wall time unevenly between the two sizes.
+        let thread_cpu = || {
+            let mut ts = libc::timespec {
+                tv_sec: 0,
+                tv_nsec: 0,
+            };
+            // SAFETY: writes the calling thread's CPU clock into `ts`.
+            unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+            ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
+        };
         let time = |t: &str| {
             (0..3)
                 .map(|_| {
-                    let start = std::time::Instant::now();
+                    let start = thread_cpu();
                     parse(t, "f").unwrap();
-                    start.elapsed().as_secs_f64()
+                    thread_cpu() - start
                 })
                 .fold(f64::INFINITY, f64::min)
         };
