@@ -51,6 +51,8 @@ __all__ = [
     "Spectrum",
     "Waterfall",
     "build_fmu",
+    "run",
+    "FmuRun",
     "unit",
     "parse_speed",
     "__version__",
@@ -203,6 +205,7 @@ def simulate(
     max_periods: Optional[float] = None,
     work_budget: Optional[float] = None,
     statistics: bool = True,
+    timeout: Optional[float] = None,
 ) -> Simulation:
     """Simulates ``scene`` from t = 0 to ``solver.stop_time``, sampled every
     ``solver.output_interval`` (what ``geardyn simulate`` writes to CSV), with each mesh's
@@ -216,9 +219,13 @@ def simulate(
     to change them. A run beyond its work budget
     stops with a :class:`GeardynError` that names the likely cause (stiffness, speed, step
     count). The rows are held in memory, so a result of more than 2e8 values is refused:
-    stream it to a CSV file with ``geardyn simulate`` instead."""
+    stream it to a CSV file with ``geardyn simulate`` instead.
+
+    ``timeout`` (seconds of wall-clock time) stops a solve still running then with a
+    :class:`GeardynError` that says so (a study's per-point timeout). Unlike the work budget it
+    depends on the machine; a run that ends in time is bit-identical to one without it."""
     names, time, data, method, stats, per_mesh, source = _geardyn.simulate(
-        scene, max_rows, max_periods, work_budget, statistics
+        scene, max_rows, max_periods, work_budget, statistics, timeout
     )
     return Simulation(names, time, data, method, stats, scene.name, per_mesh, source)
 
@@ -229,15 +236,16 @@ def periodic(
     warmup: int = 20,
     speed: Union[str, float, None] = None,
     work_budget: Optional[float] = None,
+    timeout: Optional[float] = None,
 ) -> Orbit:
     """Periodic steady state of any scene at its input speed (``operating.pinion_speed`` or
     ``operating.input_speed``, or ``speed``: ``"4500rpm"``, ``"471.24rad/s"`` or a number in
     rad/s) by Newton shooting, with Floquet multipliers and stability: a period-``periods``
     orbit after ``warmup`` response periods (the least common multiple of the mesh periods),
     and each mesh's peak and RMS force and dynamic factor (``meshes``). ``work_budget`` is the
-    work budget of each run, as in :func:`sweep`."""
+    work budget of each run, as in :func:`sweep`; ``timeout`` as in :func:`simulate`."""
     text = None if speed is None else _speed_text(speed)
-    raw = _geardyn.periodic(scene, periods, warmup, text, work_budget)
+    raw = _geardyn.periodic(scene, periods, warmup, text, work_budget, timeout)
     raw["multipliers"] = np.array([complex(re, im) for re, im in raw["multipliers"]])
     return Orbit(**raw)
 
@@ -249,6 +257,7 @@ def sweep(
     tolerance: float = 1e-7,
     max_periods: int = 3000,
     work_budget: Optional[float] = None,
+    timeout: Optional[float] = None,
 ) -> Table:
     """Frequency-response sweep of any scene over input-gear speeds
     ``speed = "from:to:points"`` (``"1000rpm:10000rpm:181"``, ``"300rad/s:700rad/s:41"``; bare
@@ -258,8 +267,10 @@ def sweep(
     ``work_budget`` (work units, the scene's ``solver.work_budget``, the CLI's
     ``--work-budget``) bounds each run of the analysis (each sweep point); unset, the scene's
     or the default run budget applies. A run beyond it raises :class:`GeardynError` naming
-    the likely cause; a value that is not a finite number >= 1 raises ``ValueError``."""
-    return Table(*_geardyn.sweep(scene, speed, direction, tolerance, max_periods, work_budget))
+    the likely cause; a value that is not a finite number >= 1 raises ``ValueError``.
+    ``timeout`` (seconds) bounds the whole sweep, as in :func:`simulate`."""
+    return Table(*_geardyn.sweep(scene, speed, direction, tolerance, max_periods, work_budget,
+                                 timeout))
 
 
 def hb(
@@ -268,11 +279,12 @@ def hb(
     harmonics: int = 20,
     subharmonic: int = 1,
     work_budget: Optional[float] = None,
+    timeout: Optional[float] = None,
 ) -> Table:
     """Harmonic balance with arclength continuation over ``speed = "from:to"``
     (``"3000rpm:6000rpm"``; bare numbers are rad/s); the
-    table of ``geardyn hb``. ``work_budget`` as in :func:`sweep`."""
-    return Table(*_geardyn.hb(scene, speed, harmonics, subharmonic, work_budget))
+    table of ``geardyn hb``. ``work_budget`` and ``timeout`` as in :func:`sweep`."""
+    return Table(*_geardyn.hb(scene, speed, harmonics, subharmonic, work_budget, timeout))
 
 
 def modes(scene: Scene, rigid_bearings: bool = False) -> Modes:
@@ -294,7 +306,8 @@ def stiffness(
 
 def _read_table(path: Path) -> "tuple[List[str], np.ndarray, Dict[str, List[str]]]":
     """A CSV the CLI wrote: numeric columns as exact doubles (the CLI writes shortest
-    round-trip floats), text columns (order labels) apart."""
+    round-trip floats), flags (``True``/``False``) as 1.0/0.0, text columns (order labels)
+    apart."""
     import csv
 
     with open(path, newline="") as f:
@@ -306,7 +319,10 @@ def _read_table(path: Path) -> "tuple[List[str], np.ndarray, Dict[str, List[str]
         try:
             numeric.append((name, [float(v) for v in values]))
         except ValueError:
-            text[name] = values
+            if values and all(v in ("True", "False") for v in values):
+                numeric.append((name, [1.0 if v == "True" else 0.0 for v in values]))
+            else:
+                text[name] = values
     columns = [n for n, _ in numeric]
     data = np.array([v for _, v in numeric], dtype=float).T.reshape(len(body), len(columns))
     return columns, data, text
@@ -452,3 +468,185 @@ def build_fmu(
             path.write_text(scene.to_toml())
             return Path(_geardyn.build_fmu(os.fspath(path), os.fspath(out), os.fspath(lib)))
     return Path(_geardyn.build_fmu(os.fspath(scene), os.fspath(out), os.fspath(lib)))
+
+
+@dataclass
+class FmuRun:
+    """A run of an FMU or a system of FMUs (``geardyn run``): ``time`` (s) and one column per
+    recorded variable (``names``; in a system ``Element.connector``), ``notes`` the lines the
+    run printed (FMU log messages at ``log_level``, the master's notes), and the step sequence
+    of an error-controlled system run (``steps``, else None)."""
+
+    names: List[str]
+    time: np.ndarray
+    data: np.ndarray  # shape (len(time), len(names))
+    notes: List[str]
+    steps: Optional[Table] = None
+    units: Dict[str, Optional[str]] = field(init=False)
+
+    def __post_init__(self) -> None:
+        # The variable's own name after the element's (`gear.pinion_speed` → pinion_speed)
+        # where geardyn knows it; a third-party FMU's variables have no unit here.
+        self.units = {n: unit(n) or unit(n.split(".", 1)[-1]) for n in ["time", *self.names]}
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name == "time":
+            return self.time
+        try:
+            return self.data[:, self.names.index(name)]
+        except ValueError:
+            raise KeyError(f"no variable '{name}' (recorded: {', '.join(self.names)})") from None
+
+    def to_structured(self) -> np.ndarray:
+        """The result as fmpy's ``simulate_fmu`` returns it: a structured array with a
+        ``time`` field and one field per variable."""
+        dtype = [("time", float)] + [(n, float) for n in self.names]
+        out = np.empty(len(self.time), dtype=dtype)
+        out["time"] = self.time
+        for i, n in enumerate(self.names):
+            out[n] = self.data[:, i]
+        return out
+
+    def to_pandas(self):
+        """A DataFrame indexed by time; units in ``df.attrs["units"]`` (needs pandas)."""
+        import pandas as pd
+
+        df = pd.DataFrame(self.data, columns=self.names, index=pd.Index(self.time, name="time"))
+        df.attrs["units"] = dict(self.units)
+        return df
+
+    def to_xarray(self):
+        """An xarray Dataset over ``time``; each variable's unit in ``.attrs["units"]``."""
+        import xarray as xr
+
+        return xr.Dataset(
+            {n: ("time", self.data[:, i], {"units": self.units[n]}) for i, n in enumerate(self.names)},
+            coords={"time": ("time", self.time, {"units": "s"})},
+        )
+
+
+def _write_input(path: Path, signals) -> None:
+    """fmpy's input convention to the CSV ``geardyn run --input`` reads: a structured array
+    with a ``time`` field and one field per input (or a dict of equal-length arrays), written
+    with 17 significant digits, so every double reaches the run exactly."""
+    if isinstance(signals, dict):
+        names = list(signals)
+        columns = [np.asarray(signals[n]) for n in names]
+    else:
+        arr = np.asarray(signals)
+        if arr.dtype.names is None:
+            raise GeardynError(
+                "input: expected a structured array with a 'time' field and one field per "
+                "input (fmpy's convention), or a dict of arrays"
+            )
+        names = list(arr.dtype.names)
+        columns = [arr[n] for n in names]
+    if "time" not in names:
+        raise GeardynError(f"input: no 'time' field (fields: {', '.join(names)})")
+    lengths = {len(c) for c in columns}
+    if len(lengths) != 1:
+        raise GeardynError(f"input: the fields have different lengths {sorted(lengths)}")
+    order = [names.index("time")] + [i for i, n in enumerate(names) if n != "time"]
+    with open(path, "w") as f:
+        f.write(",".join(names[i] for i in order) + "\n")
+        for row in zip(*(columns[i] for i in order)):
+            f.write(",".join(_csv_number(v) for v in row) + "\n")
+
+
+def _csv_number(v) -> str:
+    if isinstance(v, (bool, np.bool_)):
+        return "1" if v else "0"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    return repr(float(v))
+
+
+def _captured_stderr(call):
+    """Runs ``call()`` with the process's standard error (file descriptor 2, where the run
+    and its supervised FMU process print) going to a file; returns what it returned and the
+    lines printed."""
+    import sys
+
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile(mode="w+b") as tmp:
+        os.dup2(tmp.fileno(), 2)
+        try:
+            result = call()
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        tmp.seek(0)
+        lines = tmp.read().decode("utf-8", "replace").splitlines()
+    return result, [line for line in lines if line.strip()]
+
+
+def run(
+    fmu: Union[str, os.PathLike],
+    start_time: Optional[float] = None,
+    stop_time: Optional[float] = None,
+    output_interval: Optional[float] = None,
+    start_values: Optional[Dict[str, Union[float, int, bool, str]]] = None,
+    input=None,
+    output: Optional[List[str]] = None,
+    max_rows: Optional[int] = None,
+    log_level: str = "warning",
+    algorithm: Optional[str] = None,
+    extrapolation: Optional[str] = None,
+    threads: Optional[int] = None,
+    divergence_factor: Optional[float] = None,
+    tolerance: Optional[float] = None,
+    min_step: Optional[float] = None,
+    max_step: Optional[float] = None,
+) -> FmuRun:
+    """Runs any FMI 2.0 Co-Simulation FMU, or a system of FMUs (an ``.ssp``, a
+    ``SystemStructure.ssd`` or a folder holding one), as ``geardyn run`` does, with fmpy's
+    argument names: ``start_values`` (name → value; in a system ``Element.variable``),
+    ``input`` (a structured array with a ``time`` field and one field per input, or a dict of
+    arrays: continuous Reals interpolated linearly at each step start, others held), ``output``
+    (the variables to record). The system options (``algorithm``, ``extrapolation``,
+    ``threads``, ``divergence_factor``, ``tolerance``, ``min_step``, ``max_step``) are the
+    CLI's (docs/systems.md, docs/cosimulation.md). The CLI's rows, bit for bit.
+
+    The run's notes and the FMU's log lines become ``RuntimeWarning``s (and ``notes``); a
+    failed run raises :class:`GeardynError` with the run's message."""
+    import warnings
+
+    starts = []
+    for name, value in (start_values or {}).items():
+        text = value if isinstance(value, str) else _csv_number(value)
+        starts.append(f"{name}={text}")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "run.csv"
+        input_path = None
+        if input is not None:
+            input_path = Path(tmp) / "input.csv"
+            _write_input(input_path, input)
+
+        def call():
+            return _geardyn.run(
+                os.fspath(fmu), os.fspath(out), start_time, stop_time, output_interval,
+                max_rows, starts, None if input_path is None else os.fspath(input_path),
+                None if output is None else list(output), log_level, algorithm, extrapolation,
+                threads, divergence_factor, tolerance, min_step, max_step)
+
+        status, lines = _captured_stderr(call)
+        # The temporary files of this call are named as what they are here: the input
+        # argument, and the result's `steps`.
+        if input_path is not None:
+            lines = [line.replace(f"{input_path}:", "input:") for line in lines]
+        lines = [_geardyn._pythonic(line.replace(f"in {out}.steps.csv", "FmuRun.steps"))
+                 for line in lines]
+        errors = [line[len("error: "):] for line in lines if line.startswith("error: ")]
+        if status != 0:
+            notes = [line for line in lines if not line.startswith("error: ")]
+            raise GeardynError("\n".join(errors + notes) or f"the run ended with status {status}")
+        for line in lines:
+            warnings.warn(line.removeprefix("warning: "), RuntimeWarning, stacklevel=2)
+        columns, data, _ = _read_table(out)
+        steps_path = Path(f"{out}.steps.csv")
+        steps = None
+        if steps_path.exists():
+            s_columns, s_data, _ = _read_table(steps_path)
+            steps = Table(s_columns, s_data)
+    return FmuRun(columns[1:], data[:, 0], data[:, 1:], notes=lines, steps=steps)

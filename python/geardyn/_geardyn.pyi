@@ -53,6 +53,7 @@ def simulate(
     max_periods: Optional[float] = None,
     work_budget: Optional[float] = None,
     statistics: bool = True,
+    timeout: Optional[float] = None,
 ) -> Tuple[
     List[str],
     npt.NDArray[np.float64],
@@ -68,6 +69,7 @@ def periodic(
     warmup: int = 20,
     speed: Optional[str] = None,
     work_budget: Optional[float] = None,
+    timeout: Optional[float] = None,
 ) -> Dict[str, Any]: ...
 def parse_speed(text: str) -> float: ...
 def column_unit(name: str) -> Optional[str]: ...
@@ -78,6 +80,7 @@ def sweep(
     tolerance: float = 1e-7,
     max_periods: int = 3000,
     work_budget: Optional[float] = None,
+    timeout: Optional[float] = None,
 ) -> Tuple[List[str], npt.NDArray[np.float64]]: ...
 def hb(
     scene: Scene,
@@ -85,12 +88,33 @@ def hb(
     harmonics: int = 20,
     subharmonic: int = 1,
     work_budget: Optional[float] = None,
+    timeout: Optional[float] = None,
 ) -> Tuple[List[str], npt.NDArray[np.float64]]: ...
 def modes(scene: Scene, rigid_bearings: bool = False) -> Dict[str, Any]: ...
 def stiffness(
     gears: str, torque: float, etc: bool = True, harmonics: int = 4
 ) -> Tuple[List[str], npt.NDArray[np.float64], str]: ...
 def build_fmu(scene: str, out: str, cdylib: str) -> pathlib.Path: ...
+def run(
+    fmu: str,
+    out: str,
+    start_time: Optional[float] = None,
+    stop_time: Optional[float] = None,
+    output_interval: Optional[float] = None,
+    max_rows: Optional[int] = None,
+    start: List[str] = ...,
+    input: Optional[str] = None,
+    outputs: Optional[List[str]] = None,
+    log_level: str = "warning",
+    algorithm: Optional[str] = None,
+    extrapolation: Optional[str] = None,
+    threads: Optional[int] = None,
+    divergence_factor: Optional[float] = None,
+    tolerance: Optional[float] = None,
+    min_step: Optional[float] = None,
+    max_step: Optional[float] = None,
+) -> int: ...
+def _pythonic(message: str) -> str: ...
 def spectrum(
     scene: Scene,
     out: str,

@@ -381,9 +381,15 @@ def load(path, outputs: Optional[Dict[str, Callable]] = None) -> Study:
         "periodic": {"periods", "warmup", "speed"},
         "sweep": {"speed", "direction", "tolerance", "max_periods"},
     }[kind]
+    allowed = allowed | {"timeout"}
     extra = sorted(set(analysis) - allowed - {"kind"})
     if extra:
         raise StudyError(f"analysis.{extra[0]}: not an option of {kind} ({', '.join(sorted(allowed)) or 'none'})")
+    if "timeout" in analysis:
+        t = analysis["timeout"]
+        if isinstance(t, bool) or not isinstance(t, (int, float)) or not (math.isfinite(t) and t > 0):
+            raise StudyError(f"analysis.timeout = {t!r}: must be a number of seconds > 0 "
+                             "(each point's solve is stopped then and the point recorded as failed)")
     if kind == "sweep" and "speed" not in analysis:
         raise StudyError("analysis.speed: a sweep needs speed = \"from:to:points\" "
                          "(e.g. \"1000rpm:5000rpm:41\"; bare numbers are rad/s)")
@@ -508,12 +514,13 @@ def run_point(scene_text: str, origin: str, analysis: dict, results: Sequence[st
         values["operating.pinion_speed"] = geardyn.parse_speed(analysis["speed"])
     scene.update(values)
     kind = analysis["kind"]
+    timeout = analysis.get("timeout")
     if kind == "simulate":
-        result = geardyn.simulate(scene)
+        result = geardyn.simulate(scene, timeout=timeout)
         out = _simulate_results(scene, result, results)
     elif kind == "periodic":
         result = geardyn.periodic(scene, periods=int(analysis.get("periods", 1)),
-                                  warmup=int(analysis.get("warmup", 20)))
+                                  warmup=int(analysis.get("warmup", 20)), timeout=timeout)
         values = {
             "floquet_max": float(result.spectral_radius),
             "stable": 1.0 if result.stability == "Stable" else 0.0,
@@ -523,7 +530,8 @@ def run_point(scene_text: str, origin: str, analysis: dict, results: Sequence[st
         out = {r: values[r] for r in results}
     else:
         result = geardyn.sweep(scene, str(analysis["speed"]), str(analysis.get("direction", "both")),
-                               float(analysis.get("tolerance", 1e-7)), int(analysis.get("max_periods", 3000)))
+                               float(analysis.get("tolerance", 1e-7)), int(analysis.get("max_periods", 3000)),
+                               timeout=timeout)
         out = _sweep_results(result, results)
     for name, f in (outputs or {}).items():
         value = f(result)

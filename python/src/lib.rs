@@ -20,6 +20,7 @@ use geardyn::scene::train::TRAIN_EXAMPLES;
 use geardyn::scene::KernelChoice;
 use geardyn::scene::Scene;
 use geardyn::scene::{read_scene_file, scene_file, EXAMPLES};
+use geardyn::simulation::budget::with_deadline;
 
 create_exception!(
     _geardyn,
@@ -29,24 +30,26 @@ create_exception!(
 );
 
 fn err(message: impl Into<String>) -> PyErr {
-    GeardynError::new_err(pythonic(&message.into()))
+    GeardynError::new_err(pythonic(&message.into(), &SCENE_OPTIONS))
 }
+
+/// The CLI options that override the scene on the command line: here they are its `solver.*`
+/// parameters, and `--quiet` is `statistics=False`.
+const SCENE_OPTIONS: [(&str, &str); 7] = [
+    ("stop-time", "solver.stop_time"),
+    ("output-interval", "solver.output_interval"),
+    ("method", "solver.method"),
+    ("rk-method", "solver.rk_method"),
+    ("rtol", "solver.rtol"),
+    ("atol", "solver.atol"),
+    ("quiet", "statistics=False"),
+];
 
 /// A library message in this module's terms. The commands name the CLI's options; here they
 /// are a function's arguments (`--max-rows` → `max_rows=`, `--speed` → `speed`) or, for the
 /// options that override the scene on the command line, its `solver.*` parameters
-/// (`--stop-time` → `solver.stop_time`, docs/python.md "The module").
-fn pythonic(message: &str) -> String {
-    // Options that are scene parameters here, and the one that is `statistics=False`.
-    const RENAMED: [(&str, &str); 7] = [
-        ("stop-time", "solver.stop_time"),
-        ("output-interval", "solver.output_interval"),
-        ("method", "solver.method"),
-        ("rk-method", "solver.rk_method"),
-        ("rtol", "solver.rtol"),
-        ("atol", "solver.atol"),
-        ("quiet", "statistics=False"),
-    ];
+/// (`--stop-time` → `solver.stop_time`, docs/python.md "The module"): `renamed` lists those.
+fn pythonic(message: &str, renamed: &[(&str, &str)]) -> String {
     // Arguments that take a value keep `=` (`max_rows=`) where the message says how to
     // raise a limit; a name in a value's message stays bare (`speed '400:500': …`).
     const LIMITS: [&str; 3] = ["max-rows", "max-periods", "work-budget"];
@@ -67,7 +70,7 @@ fn pythonic(message: &str) -> String {
             continue;
         }
         out.push_str(&rest[..at]);
-        match RENAMED.iter().find(|(cli, _)| *cli == name) {
+        match renamed.iter().find(|(cli, _)| *cli == name) {
             Some((_, python)) => out.push_str(python),
             None => {
                 out.push_str(&name.replace('-', "_"));
@@ -725,6 +728,15 @@ fn optional_count<T: TryFrom<i64>>(
 
 const U32_MAX: i64 = u32::MAX as i64;
 
+/// `timeout=`: a wall-clock limit in seconds on the solve (a study's per-point timeout,
+/// `budget::with_deadline`), checked: a finite number > 0, or `None`.
+fn check_timeout(timeout: Option<f64>) -> PyResult<Option<f64>> {
+    timeout
+        .map(|t| geardyn::simulation::budget::check_deadline("timeout", t))
+        .transpose()
+        .map_err(PyValueError::new_err)
+}
+
 /// `work_budget=`: the work budget of each run of an analysis, in work units (the scene's
 /// `solver.work_budget`, the CLI's `--work-budget`), checked as they are; `None` keeps the
 /// scene's (else the default run budget). The error names the Python argument.
@@ -751,7 +763,8 @@ fn apply_work_budget(scene: &mut Scene, work_budget: Option<f64>) -> PyResult<()
 /// scene's `solver.work_budget`); the rows held in memory are bounded too
 /// (`geardyn::simulation::MAX_IN_MEMORY_VALUES`).
 #[pyfunction]
-#[pyo3(signature = (scene, max_rows = None, max_periods = None, work_budget = None, statistics = true))]
+#[pyo3(signature = (scene, max_rows = None, max_periods = None, work_budget = None, statistics = true,
+    timeout = None))]
 #[allow(clippy::type_complexity)]
 fn simulate<'py>(
     py: Python<'py>,
@@ -760,6 +773,7 @@ fn simulate<'py>(
     max_periods: Option<f64>,
     work_budget: Option<f64>,
     statistics: bool,
+    timeout: Option<f64>,
 ) -> PyResult<(
     Vec<String>,
     Bound<'py, PyAny>,
@@ -801,8 +815,9 @@ fn simulate<'py>(
             PyErr::warn(py, &py.get_type::<PyRuntimeWarning>(), &message, 1)?;
         }
     }
+    let timeout = check_timeout(timeout)?;
     let (report, rows) = py
-        .detach(move || commands::simulate::simulate_in_memory(s, &opts))
+        .detach(move || with_deadline(timeout, || commands::simulate::simulate_in_memory(s, &opts)))
         .map_err(err)?;
     let width = rows.names.len();
     let data = array(
@@ -871,7 +886,8 @@ fn mesh_response(e: &Bound<'_, PyDict>, m: &geardyn::analysis::MeshResponse) -> 
 /// `471.24rad/s`, a bare number in rad/s: `geardyn periodic --speed`); returns a dict of the
 /// orbit (with `report`, the text `geardyn periodic` prints, and each mesh's force).
 #[pyfunction]
-#[pyo3(signature = (scene, periods = None, warmup = None, speed = None, work_budget = None))]
+#[pyo3(signature = (scene, periods = None, warmup = None, speed = None, work_budget = None,
+    timeout = None))]
 fn periodic<'py>(
     py: Python<'py>,
     scene: &PyScene,
@@ -879,7 +895,9 @@ fn periodic<'py>(
     warmup: Option<&Bound<'py, PyAny>>,
     speed: Option<&str>,
     work_budget: Option<f64>,
+    timeout: Option<f64>,
 ) -> PyResult<Bound<'py, PyDict>> {
+    let timeout = check_timeout(timeout)?;
     let periods: u32 = optional_count("periods", periods, 1, U32_MAX)?.unwrap_or(1);
     let warmup: u32 = optional_count("warmup", warmup, 0, U32_MAX)?.unwrap_or(20);
     let mut s = scene.any();
@@ -890,9 +908,11 @@ fn periodic<'py>(
     let input_speed = s.input_speed();
     let (orbit, report, meshes) = py
         .detach(move || {
-            let o = commands::steady::periodic(&s, periods, warmup)?;
-            let meshes = commands::steady::periodic_responses(&s, &o)?;
-            commands::steady::periodic_report(&s, &o).map(|r| (o, r, meshes))
+            with_deadline(timeout, || {
+                let o = commands::steady::periodic(&s, periods, warmup)?;
+                let meshes = commands::steady::periodic_responses(&s, &o)?;
+                commands::steady::periodic_report(&s, &o).map(|r| (o, r, meshes))
+            })
         })
         .map_err(err)?;
     let d = PyDict::new(py);
@@ -926,7 +946,9 @@ fn periodic<'py>(
 /// Frequency-response sweep over the input-gear speed, for any scene; returns
 /// `(columns, data)` as the CSV of `geardyn sweep` has them (per-mesh columns prefixed).
 #[pyfunction]
-#[pyo3(signature = (scene, speed, direction = "both", tolerance = 1e-7, max_periods = None, work_budget = None))]
+#[pyo3(signature = (scene, speed, direction = "both", tolerance = 1e-7, max_periods = None, work_budget = None,
+    timeout = None))]
+#[allow(clippy::too_many_arguments)]
 fn sweep<'py>(
     py: Python<'py>,
     scene: &PyScene,
@@ -935,7 +957,9 @@ fn sweep<'py>(
     tolerance: f64,
     max_periods: Option<&Bound<'py, PyAny>>,
     work_budget: Option<f64>,
+    timeout: Option<f64>,
 ) -> PyResult<Table<'py>> {
+    let timeout = check_timeout(timeout)?;
     let max_periods: u32 = optional_count("max_periods", max_periods, 0, U32_MAX)?.unwrap_or(3000);
     let mut s = scene.any();
     apply_work_budget(&mut s, work_budget)?;
@@ -946,7 +970,19 @@ fn sweep<'py>(
         max_periods,
         poincare: false,
     };
-    let sweep = py.detach(|| request.run(&s, &|_, _| {})).map_err(err)?;
+    // A sweep keeps a failed point as a row of NaN and goes on; past its deadline every point
+    // would fail, so the whole sweep fails with the deadline's message.
+    let sweep = py
+        .detach(|| {
+            with_deadline(timeout, || {
+                let sweep = request.run(&s, &|_, _| {})?;
+                match geardyn::simulation::budget::deadline_passed(f64::NAN) {
+                    Some(message) => Err(message),
+                    None => Ok(sweep),
+                }
+            })
+        })
+        .map_err(err)?;
     // A point that failed (its run beyond the work budget, say) is kept as a row of NaN, as
     // in `geardyn sweep`; its reason reaches Python as a RuntimeWarning per point
     // (`warnings.simplefilter("error")` makes it an exception).
@@ -968,7 +1004,8 @@ fn sweep<'py>(
 /// Harmonic balance with arclength continuation over `speed = "from:to"`, for any scene;
 /// returns `(columns, data)` as the CSV of `geardyn hb` has them (per-mesh columns prefixed).
 #[pyfunction]
-#[pyo3(signature = (scene, speed, harmonics = None, subharmonic = None, work_budget = None))]
+#[pyo3(signature = (scene, speed, harmonics = None, subharmonic = None, work_budget = None,
+    timeout = None))]
 fn hb<'py>(
     py: Python<'py>,
     scene: &PyScene,
@@ -976,7 +1013,9 @@ fn hb<'py>(
     harmonics: Option<&Bound<'py, PyAny>>,
     subharmonic: Option<&Bound<'py, PyAny>>,
     work_budget: Option<f64>,
+    timeout: Option<f64>,
 ) -> PyResult<Table<'py>> {
+    let timeout = check_timeout(timeout)?;
     let harmonics: usize = optional_count("harmonics", harmonics, 1, i64::MAX)?.unwrap_or(20);
     let subharmonic: u32 = optional_count("subharmonic", subharmonic, 1, U32_MAX)?.unwrap_or(1);
     let mut s = scene.any();
@@ -986,7 +1025,9 @@ fn hb<'py>(
         harmonics,
         subharmonic,
     };
-    let branch = py.detach(|| request.run(&s)).map_err(err)?;
+    let branch = py
+        .detach(|| with_deadline(timeout, || request.run(&s)))
+        .map_err(err)?;
     let columns = branch.columns();
     table(py, &columns, &branch.rows())
 }
@@ -1194,6 +1235,72 @@ fn build_fmu(py: Python<'_>, scene: PathBuf, out: PathBuf, cdylib: PathBuf) -> P
         .map_err(err)
 }
 
+/// `geardyn run` of an FMU or a system of FMUs (`commands::run::status`) into the CSV `out`,
+/// with the CLI's defaults but for the arguments given. Returns the exit status: 1 after a
+/// failure the run reported itself (its message went to the process's standard error, which
+/// `geardyn.run` reads); a failure before the run raises `GeardynError`.
+#[pyfunction]
+#[pyo3(signature = (fmu, out, start_time = None, stop_time = None, output_interval = None,
+    max_rows = None, start = Vec::new(), input = None, outputs = None, log_level = "warning",
+    algorithm = None, extrapolation = None, threads = None, divergence_factor = None,
+    tolerance = None, min_step = None, max_step = None))]
+#[allow(clippy::too_many_arguments)]
+fn run(
+    py: Python<'_>,
+    fmu: PathBuf,
+    out: PathBuf,
+    start_time: Option<f64>,
+    stop_time: Option<f64>,
+    output_interval: Option<f64>,
+    max_rows: Option<&Bound<'_, PyAny>>,
+    start: Vec<String>,
+    input: Option<PathBuf>,
+    outputs: Option<Vec<String>>,
+    log_level: &str,
+    algorithm: Option<String>,
+    extrapolation: Option<String>,
+    threads: Option<&Bound<'_, PyAny>>,
+    divergence_factor: Option<f64>,
+    tolerance: Option<f64>,
+    min_step: Option<f64>,
+    max_step: Option<f64>,
+) -> PyResult<u8> {
+    let args = geardyn::host::cli::RunArgs {
+        fmu,
+        start_time,
+        stop_time,
+        output_interval,
+        max_rows: optional_count("max_rows", max_rows, 1, i64::MAX)?
+            .unwrap_or(geardyn::host::runner::DEFAULT_MAX_ROWS),
+        start,
+        input,
+        out: Some(out),
+        outputs,
+        log_level: log_level.to_string(),
+        fmi_trace: false,
+        preload: Vec::new(),
+        algorithm,
+        extrapolation,
+        threads: optional_count("threads", threads, 1, i64::MAX)?,
+        divergence_factor,
+        tolerance,
+        min_step,
+        max_step,
+        no_impulse_correction: false,
+        timing: false,
+    };
+    // `run`'s options are this function's arguments, none of them a scene parameter.
+    py.detach(|| commands::run::status(&args))
+        .map_err(|m| GeardynError::new_err(_pythonic(&m)))
+}
+
+/// A message of `geardyn run` in Python's terms: its options are `run`'s arguments, none of
+/// them a scene parameter. `geardyn.run` applies it to the message the supervised run printed.
+#[pyfunction]
+fn _pythonic(message: &str) -> String {
+    pythonic(message, &[])
+}
+
 /// A speed in rad/s from `4500rpm`, `471.24rad/s` or a bare number (rad/s), as `--speed`
 /// reads it (`geardyn::units`).
 #[pyfunction]
@@ -1224,6 +1331,8 @@ fn _geardyn(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(band, m)?)?;
     m.add_function(wrap_pyfunction!(stiffness, m)?)?;
     m.add_function(wrap_pyfunction!(build_fmu, m)?)?;
+    m.add_function(wrap_pyfunction!(run, m)?)?;
+    m.add_function(wrap_pyfunction!(_pythonic, m)?)?;
     m.add_function(wrap_pyfunction!(parse_speed, m)?)?;
     m.add_function(wrap_pyfunction!(column_unit, m)?)?;
     Ok(())

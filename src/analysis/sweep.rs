@@ -274,8 +274,9 @@ pub fn sweep(
     match options.direction {
         Direction::Up | Direction::Down => run(options.direction),
         Direction::Both => {
+            let deadline = crate::simulation::budget::Deadline::current();
             let (up, down) = std::thread::scope(|s| {
-                let up = s.spawn(|| run(Direction::Up));
+                let up = s.spawn(|| deadline.run(|| run(Direction::Up)));
                 let down = run(Direction::Down);
                 (up.join().expect("sweep thread"), down)
             });

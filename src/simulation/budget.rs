@@ -101,6 +101,87 @@ impl WorkBudget {
     }
 }
 
+/// Work between two looks at the clock while a deadline holds ([`with_deadline`]): about
+/// 25 ms of the costliest work per unit, so a run stops within that of its deadline.
+pub const DEADLINE_CHECK_WORK: f64 = 1e7;
+
+thread_local! {
+    static DEADLINE: std::cell::Cell<Option<(std::time::Instant, f64)>> =
+        const { std::cell::Cell::new(None) };
+}
+
+/// Runs `f` with a wall-clock limit of `seconds` on every run of a [`super::Driver`] it
+/// makes on this thread (the Python module's per-point timeout of a study): a run still going
+/// at the deadline stops with [`crate::solve::SolveError::OverBudget`] and a message naming
+/// the limit. The work budget stays deterministic and is checked as before; the deadline
+/// only adds a look at the clock every [`DEADLINE_CHECK_WORK`] units, where the propagator
+/// stops and goes on exactly as after any budget scope. `None`: no limit.
+pub fn with_deadline<R>(seconds: Option<f64>, f: impl FnOnce() -> R) -> R {
+    let limit = seconds.map(|s| {
+        let now = std::time::Instant::now();
+        let end = std::time::Duration::try_from_secs_f64(s)
+            .ok()
+            .and_then(|d| now.checked_add(d))
+            .unwrap_or(now + std::time::Duration::from_secs(u32::MAX as u64));
+        (end, s)
+    });
+    Deadline(limit).run(f)
+}
+
+/// The deadline of this thread ([`with_deadline`]), to hand to the threads an analysis
+/// spawns ([`Deadline::run`]), so that they stop at it too.
+#[derive(Clone, Copy, Debug)]
+pub struct Deadline(Option<(std::time::Instant, f64)>);
+
+impl Deadline {
+    /// This thread's deadline (none outside [`with_deadline`]).
+    pub fn current() -> Deadline {
+        Deadline(DEADLINE.with(|d| d.get()))
+    }
+
+    /// Runs `f` under this deadline on the calling thread.
+    pub fn run<R>(self, f: impl FnOnce() -> R) -> R {
+        struct Restore(Option<(std::time::Instant, f64)>);
+        impl Drop for Restore {
+            fn drop(&mut self) {
+                DEADLINE.with(|d| d.set(self.0));
+            }
+        }
+        let _restore = Restore(DEADLINE.with(|d| d.replace(self.0)));
+        f()
+    }
+}
+
+/// Whether a deadline of [`with_deadline`] holds on this thread.
+pub fn deadline_set() -> bool {
+    DEADLINE.with(|d| d.get().is_some())
+}
+
+/// The message of a passed deadline (`t`: the simulated time reached, NaN where the solve has
+/// none), or `None` while it has not passed (or none is set).
+pub fn deadline_passed(t: f64) -> Option<String> {
+    let (end, seconds) = DEADLINE.with(|d| d.get())?;
+    (std::time::Instant::now() >= end).then(|| {
+        let at = if t.is_nan() {
+            String::new()
+        } else {
+            format!(" at t = {t:e} s")
+        };
+        format!("the time limit of {seconds} s was reached{at} (the point's timeout; its solve was stopped there)")
+    })
+}
+
+/// Checks a time limit in seconds (a study's `timeout`): finite and > 0.
+pub fn check_deadline(field: &str, seconds: f64) -> Result<f64, String> {
+    if seconds.is_finite() && seconds > 0.0 {
+        Ok(seconds)
+    } else {
+        Err(format!(
+            "{field} = {seconds}: the time limit must be a finite number of seconds > 0"
+        ))
+    }
+}
+
 /// Checks a budget value (scene key or FMU parameter): a finite number ≥ 1.
 pub fn check_limit(field: &str, x: f64) -> Result<f64, String> {
     if x.is_finite() && x >= 1.0 {
@@ -239,6 +320,30 @@ pub fn likely_cause(scales: &RunScales, stats: &SolverStats, span: f64) -> Strin
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_deadline_holds_inside_its_scope_and_in_threads_handed_it() {
+        assert!(!deadline_set() && deadline_passed(0.0).is_none());
+        with_deadline(Some(1e-9), || {
+            std::thread::sleep(std::time::Duration::from_millis(2));
+            let message = deadline_passed(0.25).expect("passed");
+            assert!(message.contains("time limit of 0.000000001 s was reached at t = 2.5e-1 s"));
+            // A thread sees it only when handed it.
+            let deadline = Deadline::current();
+            std::thread::scope(|s| {
+                assert!(s.spawn(|| !deadline_set()).join().unwrap());
+                assert!(s.spawn(|| deadline.run(deadline_set)).join().unwrap());
+            });
+            with_deadline(None, || assert!(!deadline_set()));
+            assert!(deadline_set());
+        });
+        assert!(!deadline_set());
+        // A limit beyond what the clock can hold is no limit in practice, not a panic.
+        with_deadline(Some(1e300), || assert!(deadline_passed(0.0).is_none()));
+        assert!(check_deadline("timeout", 0.0).is_err());
+        assert!(check_deadline("timeout", f64::NAN).is_err());
+        assert_eq!(check_deadline("timeout", 2.5), Ok(2.5));
+    }
 
     #[test]
     fn a_scope_ends_its_limit_after_its_start() {

@@ -101,6 +101,11 @@ pub struct Driver<M> {
     /// the scope is one call ([`Driver::reset_work`] was called) rather than the whole run.
     scope: (f64, ScopeCounts),
     per_call: bool,
+    /// Whether the driver was made under a deadline ([`budget::with_deadline`]), read once so
+    /// an advance without one pays nothing for it.
+    timed: bool,
+    /// Under a deadline: the propagator's cumulative work at which to look at the clock next.
+    clock_check: f64,
 }
 
 impl<M: DrivenModel> Driver<M> {
@@ -207,6 +212,8 @@ impl<M: DrivenModel> Driver<M> {
             budget: WorkBudget::new(limit),
             scope: (0.0, ScopeCounts::default()),
             per_call: false,
+            timed: budget::deadline_set(),
+            clock_check: 0.0,
         };
         driver.apply_work_limit();
         Ok(driver)
@@ -393,11 +400,22 @@ impl<M: DrivenModel> Driver<M> {
         // The propagator meters its work and stops where the budget's scope ends
         // (`start_work_scope`): nothing to do here per advance but word that stop, in place
         // (the result is not moved on the common path).
-        let mut result = match &mut self.propagator {
-            Propagator::Rk(p) => p.advance_to(&mut self.model, t_end),
-            Propagator::Exact(p) => p.advance_to(&mut self.model, t_end),
+        let mut result = if self.timed {
+            self.under_deadline(|d| match &mut d.propagator {
+                Propagator::Rk(p) => p.advance_to(&mut d.model, t_end),
+                Propagator::Exact(p) => p.advance_to(&mut d.model, t_end),
+            })
+        } else {
+            match &mut self.propagator {
+                Propagator::Rk(p) => p.advance_to(&mut self.model, t_end),
+                Propagator::Exact(p) => p.advance_to(&mut self.model, t_end),
+            }
         };
+        // (A passed deadline's stop comes worded already.)
         if let Err(e @ SolveError::OverBudget { .. }) = &mut result {
+            if matches!(e, SolveError::OverBudget { message, .. } if !message.is_empty()) {
+                return result;
+            }
             *e = self.over_budget();
         }
         result
@@ -417,10 +435,10 @@ impl<M: DrivenModel> Driver<M> {
             return Ok(false);
         }
         self.check_observed_advance(t_end)?;
-        let result = match &mut self.propagator {
-            Propagator::Exact(p) => p.advance_observed(&mut self.model, t_end, observer),
-            Propagator::Rk(_) => return Ok(false),
-        };
+        let result = self.under_deadline(|d| match &mut d.propagator {
+            Propagator::Exact(p) => p.advance_observed(&mut d.model, t_end, observer),
+            Propagator::Rk(_) => unreachable!("observes_segments: the exact propagator"),
+        });
         self.observed(result)
     }
 
@@ -439,6 +457,9 @@ impl<M: DrivenModel> Driver<M> {
     /// message naming the likely cause.
     fn observed(&self, result: Result<(), SolveError>) -> Result<bool, SolveError> {
         match result {
+            Err(e @ SolveError::OverBudget { .. }) if matches!(&e, SolveError::OverBudget { message, .. } if !message.is_empty()) => {
+                Err(e)
+            }
             Err(SolveError::OverBudget { .. }) => Err(self.over_budget()),
             other => other.map(|()| true),
         }
@@ -464,11 +485,59 @@ impl<M: DrivenModel> Driver<M> {
             return Ok(false);
         }
         self.check_observed_advance(t_end)?;
-        let result = match &mut self.propagator {
-            Propagator::Rk(p) => p.advance_observed(&mut self.model, t_end, observer),
-            Propagator::Exact(_) => return Ok(false),
-        };
+        let result = self.under_deadline(|d| match &mut d.propagator {
+            Propagator::Rk(p) => p.advance_observed(&mut d.model, t_end, observer),
+            Propagator::Exact(_) => unreachable!("matched above: the RK propagator"),
+        });
         self.observed(result)
+    }
+
+    /// Runs `advance` (one advance of the propagator) under this thread's deadline
+    /// ([`budget::with_deadline`]), if one holds: the propagator stops every
+    /// [`budget::DEADLINE_CHECK_WORK`] units (at a step or segment end, as at the end of a
+    /// budget scope) for a look at the clock and then goes on, so the run takes the same steps
+    /// as without the deadline. A passed deadline ends the advance with its message.
+    fn under_deadline(
+        &mut self,
+        mut advance: impl FnMut(&mut Self) -> Result<(), SolveError>,
+    ) -> Result<(), SolveError> {
+        if !self.timed {
+            return advance(self);
+        }
+        let until = self.budget.until();
+        loop {
+            let work = self.work();
+            if work >= self.clock_check {
+                if let Some(message) = budget::deadline_passed(self.t()) {
+                    return Err(SolveError::OverBudget {
+                        t: self.t(),
+                        message,
+                    });
+                }
+                self.clock_check = work + budget::DEADLINE_CHECK_WORK;
+            }
+            let at_check = until.is_none_or(|u| self.clock_check < u);
+            self.set_propagator_limit(if at_check {
+                Some(self.clock_check)
+            } else {
+                until
+            });
+            let result = advance(self);
+            self.set_propagator_limit(until);
+            match result {
+                // The stop to look at the clock (the next pass looks).
+                Err(SolveError::OverBudget { .. })
+                    if at_check && self.work() >= self.clock_check => {}
+                other => return other,
+            }
+        }
+    }
+
+    fn set_propagator_limit(&mut self, until: Option<f64>) {
+        match &mut self.propagator {
+            Propagator::Rk(p) => p.set_work_limit(until),
+            Propagator::Exact(p) => p.set_work_limit(until),
+        }
     }
 
     /// Whether [`Driver::advance_observed_steps`] observes this run (segments or steps: any

@@ -270,6 +270,11 @@ fn continue_branch<M: Drivetrain + Send>(
     let mut points = vec![make_point(&problem, f_ref, &e0, iterations, false)];
     let mut step = options.initial_step;
     while points.len() < options.max_points {
+        // A study's per-point timeout (`budget::with_deadline`): the Newton solves run no
+        // driver, so the branch looks at the clock once per point.
+        if let Some(message) = crate::simulation::budget::deadline_passed(f64::NAN) {
+            return Err(message);
+        }
         let predicted = &w + &tangent * step;
         let mut candidate = predicted.clone();
         let mut iterations = 0;
@@ -489,17 +494,20 @@ fn branch_stability<M: Drivetrain + Send>(
     for (k, job) in jobs.into_iter().enumerate() {
         queues[k % threads].push(job);
     }
+    let deadline = crate::simulation::budget::Deadline::current();
     std::thread::scope(|scope| {
         let handles: Vec<_> = queues
             .into_iter()
             .map(|queue| {
                 scope.spawn(move || {
-                    queue
-                        .into_iter()
-                        .map(|(i, model, period, solution)| {
-                            (i, multipliers(model, settings, period, solution, margin))
-                        })
-                        .collect::<Vec<_>>()
+                    deadline.run(|| {
+                        queue
+                            .into_iter()
+                            .map(|(i, model, period, solution)| {
+                                (i, multipliers(model, settings, period, solution, margin))
+                            })
+                            .collect::<Vec<_>>()
+                    })
                 })
             })
             .collect();
