@@ -176,35 +176,11 @@ impl ChainSpec {
             }
             s.push('\n');
         }
+        let stiffness = (MESH_MEAN, MESH_RATIO, CONTACT_RATIO);
         for n in 0..m {
-            // Zigzag centre lines (±30°), so every line of action is oblique to both axes.
-            let centre = std::f64::consts::FRAC_PI_6 * if n % 2 == 0 { 1.0 } else { -1.0 };
-            let _ = writeln!(
-                s,
-                "[[mesh]]\nname = \"mesh{}\"\npinion = \"g{n}\"\ngear = \"g{}\"\ncontact = \"{contact}\"\n\
-                 model = \"lumped\"\npressure_angle = 20.0\ncentre_angle = {centre:?}",
-                n + 1,
-                n + 1
-            );
-            if n == 0 {
-                let _ = writeln!(s, "initial_phase = 0.0");
-            } else {
-                let _ = writeln!(s, "phase = {}", stagger(n));
-            }
-            let _ = writeln!(
-                s,
-                "stiffness = {{ kind = \"rectangular\", mean = {MESH_MEAN}, \
-                 peak_to_peak_ratio = {MESH_RATIO}, contact_ratio = {CONTACT_RATIO} }}\n"
-            );
+            write_mesh(&mut s, n, contact, 20.0, stiffness, None);
         }
-        let input_speed = std::f64::consts::TAU * self.mesh_frequency / f64::from(teeth);
-        let _ = writeln!(
-            s,
-            "[operating]\ninput_speed = {input_speed:?}\ninput_torque = {TORQUE}\n\n\
-             [solver]\nmethod = \"auto\"\nstop_time = {:?}\noutput_interval = {:?}",
-            100.0 / self.mesh_frequency,
-            0.25 / self.mesh_frequency
-        );
+        self.write_operating(&mut s, teeth);
         Ok(s)
     }
 }
@@ -246,31 +222,20 @@ impl ChainSpec {
                  {FREE_BEARING}]\n"
             );
         }
+        // Liu 2007 Table 2.1's mesh.
+        let stiffness = (2.9831e8, 0.35, 1.504);
         for n in 0..m {
-            let centre = std::f64::consts::FRAC_PI_6 * if n % 2 == 0 { 1.0 } else { -1.0 };
-            let _ = writeln!(
-                s,
-                "[[mesh]]\nname = \"mesh{}\"\npinion = \"g{n}\"\ngear = \"g{}\"\ncontact = \"{contact}\"\n\
-                 model = \"lumped\"\npressure_angle = 21.22\ncentre_angle = {centre:?}",
-                n + 1,
-                n + 1
-            );
-            if n == 0 {
-                let _ = writeln!(s, "initial_phase = 0.0");
-            } else {
-                let _ = writeln!(s, "phase = {}", stagger(n));
-            }
-            let _ = writeln!(
-                s,
-                "stiffness = {{ kind = \"rectangular\", mean = 2.9831e8, \
-                 peak_to_peak_ratio = 0.35, contact_ratio = 1.504 }}"
-            );
-            if let Some(e) = ste {
-                let _ = writeln!(s, "ste = {{ cos = [{e:e}] }}");
-            }
-            s.push('\n');
+            write_mesh(&mut s, n, contact, 21.22, stiffness, ste);
         }
-        let input_speed = std::f64::consts::TAU * self.mesh_frequency / 38.0;
+        self.write_operating(&mut s, FREE_GEARS[0].0);
+        s
+    }
+
+    /// The `[operating]` and `[solver]` tables: the input gear (of `input_teeth`) turning at
+    /// the chain's mesh frequency, 100 mesh periods sampled 4 times per period.
+    fn write_operating(&self, s: &mut String, input_teeth: u32) {
+        use std::fmt::Write;
+        let input_speed = std::f64::consts::TAU * self.mesh_frequency / f64::from(input_teeth);
         let _ = writeln!(
             s,
             "[operating]\ninput_speed = {input_speed:?}\ninput_torque = {TORQUE}\n\n\
@@ -278,8 +243,44 @@ impl ChainSpec {
             100.0 / self.mesh_frequency,
             0.25 / self.mesh_frequency
         );
-        s
     }
+}
+
+/// The `[[mesh]]` table of mesh `n` of a chain (between gears `g{n}` and `g{n+1}`): lumped,
+/// on zigzag centre lines (±30°, so every line of action is oblique to both axes), phases
+/// staggered ([`stagger`]), rectangular stiffness `(mean, peak-to-peak ratio, contact
+/// ratio)` and an optional first STE harmonic (m).
+fn write_mesh(
+    s: &mut String,
+    n: usize,
+    contact: &str,
+    pressure_angle: f64,
+    (mean, ratio, contact_ratio): (f64, f64, f64),
+    ste: Option<f64>,
+) {
+    use std::fmt::Write;
+    let centre = std::f64::consts::FRAC_PI_6 * if n % 2 == 0 { 1.0 } else { -1.0 };
+    let _ = writeln!(
+        s,
+        "[[mesh]]\nname = \"mesh{}\"\npinion = \"g{n}\"\ngear = \"g{}\"\ncontact = \"{contact}\"\n\
+         model = \"lumped\"\npressure_angle = {pressure_angle:?}\ncentre_angle = {centre:?}",
+        n + 1,
+        n + 1
+    );
+    if n == 0 {
+        let _ = writeln!(s, "initial_phase = 0.0");
+    } else {
+        let _ = writeln!(s, "phase = {}", stagger(n));
+    }
+    let _ = writeln!(
+        s,
+        "stiffness = {{ kind = \"rectangular\", mean = {mean:?}, \
+         peak_to_peak_ratio = {ratio:?}, contact_ratio = {contact_ratio:?} }}"
+    );
+    if let Some(e) = ste {
+        let _ = writeln!(s, "ste = {{ cos = [{e:e}] }}");
+    }
+    s.push('\n');
 }
 
 /// Teeth, base radius (m), inertia (kg·m²) and mass (kg) of the free chain's gears, even and
