@@ -76,8 +76,49 @@ def _speed_text(speed: Union[str, float]) -> str:
     return speed if isinstance(speed, str) else repr(float(speed))
 
 
+class _TimeRows:
+    """Rows over ``time`` (s) with one column per name in ``names`` and each column's unit in
+    ``units``: what :class:`Simulation` and :class:`FmuRun` share. ``_attrs()`` gives the
+    attributes of the frame or dataset."""
+
+    names: List[str]
+    time: np.ndarray
+    data: np.ndarray
+    units: Dict[str, Optional[str]]
+
+    def _attrs(self) -> Dict[str, str]:
+        return {}
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        if name == "time":
+            return self.time
+        try:
+            return self.data[:, self.names.index(name)]
+        except ValueError:
+            raise KeyError(f"no column '{name}' (columns: {', '.join(self.names)})") from None
+
+    def to_pandas(self):
+        """A DataFrame indexed by time; units in ``df.attrs["units"]`` (needs pandas)."""
+        import pandas as pd
+
+        df = pd.DataFrame(self.data, columns=self.names, index=pd.Index(self.time, name="time"))
+        df.attrs["units"] = dict(self.units)
+        df.attrs.update(self._attrs())
+        return df
+
+    def to_xarray(self):
+        """An xarray Dataset over ``time``; each variable's unit in ``.attrs["units"]``."""
+        import xarray as xr
+
+        return xr.Dataset(
+            {n: ("time", self.data[:, i], {"units": self.units[n]}) for i, n in enumerate(self.names)},
+            coords={"time": ("time", self.time, {"units": "s"})},
+            attrs=self._attrs(),
+        )
+
+
 @dataclass
-class Simulation:
+class Simulation(_TimeRows):
     """A sampled run: ``time`` (s) and one column per output (``names``, SI ``units``), and
     each mesh's statistics over the run (``statistics``: ``geardyn simulate``'s summary)."""
 
@@ -103,34 +144,8 @@ class Simulation:
     def __post_init__(self) -> None:
         self.units = {n: unit(n) for n in ["time", *self.names]}
 
-    def __getitem__(self, name: str) -> np.ndarray:
-        if name == "time":
-            return self.time
-        try:
-            return self.data[:, self.names.index(name)]
-        except ValueError:
-            raise KeyError(f"no output '{name}' (outputs: {', '.join(self.names)})") from None
-
-    def to_pandas(self):
-        """A DataFrame indexed by time; units in ``df.attrs["units"]`` (needs pandas)."""
-        import pandas as pd
-
-        df = pd.DataFrame(self.data, columns=self.names, index=pd.Index(self.time, name="time"))
-        df.attrs["units"] = dict(self.units)
-        df.attrs["scene"] = self.scene_name
-        df.attrs["method"] = self.method
-        return df
-
-    def to_xarray(self):
-        """An xarray Dataset over ``time``; each variable's unit in ``.attrs["units"]``."""
-        import xarray as xr
-
-        ds = xr.Dataset(
-            {n: ("time", self.data[:, i], {"units": self.units[n]}) for i, n in enumerate(self.names)},
-            coords={"time": ("time", self.time, {"units": "s"})},
-            attrs={"scene": self.scene_name, "method": self.method},
-        )
-        return ds
+    def _attrs(self) -> Dict[str, str]:
+        return {"scene": self.scene_name, "method": self.method}
 
 
 @dataclass
@@ -471,7 +486,7 @@ def build_fmu(
 
 
 @dataclass
-class FmuRun:
+class FmuRun(_TimeRows):
     """A run of an FMU or a system of FMUs (``geardyn run``): ``time`` (s) and one column per
     recorded variable (``names``; in a system ``Element.connector``), ``notes`` the lines the
     run printed (FMU log messages at ``log_level``, the master's notes), and the step sequence
@@ -489,14 +504,6 @@ class FmuRun:
         # where geardyn knows it; a third-party FMU's variables have no unit here.
         self.units = {n: unit(n) or unit(n.split(".", 1)[-1]) for n in ["time", *self.names]}
 
-    def __getitem__(self, name: str) -> np.ndarray:
-        if name == "time":
-            return self.time
-        try:
-            return self.data[:, self.names.index(name)]
-        except ValueError:
-            raise KeyError(f"no variable '{name}' (recorded: {', '.join(self.names)})") from None
-
     def to_structured(self) -> np.ndarray:
         """The result as fmpy's ``simulate_fmu`` returns it: a structured array with a
         ``time`` field and one field per variable."""
@@ -506,23 +513,6 @@ class FmuRun:
         for i, n in enumerate(self.names):
             out[n] = self.data[:, i]
         return out
-
-    def to_pandas(self):
-        """A DataFrame indexed by time; units in ``df.attrs["units"]`` (needs pandas)."""
-        import pandas as pd
-
-        df = pd.DataFrame(self.data, columns=self.names, index=pd.Index(self.time, name="time"))
-        df.attrs["units"] = dict(self.units)
-        return df
-
-    def to_xarray(self):
-        """An xarray Dataset over ``time``; each variable's unit in ``.attrs["units"]``."""
-        import xarray as xr
-
-        return xr.Dataset(
-            {n: ("time", self.data[:, i], {"units": self.units[n]}) for i, n in enumerate(self.names)},
-            coords={"time": ("time", self.time, {"units": "s"})},
-        )
 
 
 def _write_input(path: Path, signals) -> None:

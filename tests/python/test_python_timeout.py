@@ -86,22 +86,28 @@ def test_a_bad_timeout_names_the_argument(bad):
         geardyn.simulate(geardyn.Scene.from_file(IDLER), timeout=bad)
 
 
-def test_a_study_point_over_its_timeout_is_recorded_as_failed(client, tmp_path):
+def idler_study(tmp_path, stop_times, timeout):
+    """A study of the idler over `solver.stop_time` (work budget raised: only the timeout
+    stops a run) with `[analysis] timeout`."""
     path = tmp_path / "study.toml"
     path.write_text(f"""
 scene = "{IDLER}"
 results = ["dte_rms"]
 [[parameter]]
 path = "solver.stop_time"
-values = [0.005, 40.0]
+values = {stop_times!r}
 [[parameter]]
 path = "solver.work_budget"
 values = [1e12]
 [analysis]
 kind = "simulate"
-timeout = 0.5
+timeout = {timeout!r}
 """)
-    study = gs.load(path)
+    return path
+
+
+def test_a_study_point_over_its_timeout_is_recorded_as_failed(client, tmp_path):
+    study = gs.load(idler_study(tmp_path, [0.005, 40.0], 0.5))
     summary = gs.run(study, client=client, progress=False)
     assert (summary.computed, summary.failed) == (2, 1)
     df = gs.results(study)
@@ -118,16 +124,5 @@ timeout = 0.5
 
 
 def test_a_bad_study_timeout_names_the_field(tmp_path):
-    path = tmp_path / "study.toml"
-    path.write_text(f"""
-scene = "{IDLER}"
-results = ["dte_rms"]
-[[parameter]]
-path = "solver.stop_time"
-values = [0.005]
-[analysis]
-kind = "simulate"
-timeout = -2
-""")
     with pytest.raises(gs.StudyError, match=r"analysis.timeout = -2"):
-        gs.load(path)
+        gs.load(idler_study(tmp_path, [0.005], -2))
