@@ -10,7 +10,9 @@
 //! The independent time-series oracle (acceptance 4) is
 //! `tests/python/test_planetary_reference.py`.
 
-use geardyn::model::train::run_train;
+use geardyn::mesh::MeshStiffness;
+use geardyn::model::train::{planetary, run_train, statics, Assembly};
+use geardyn::scene::train::MeshForceModel;
 use geardyn::scene::Scene;
 
 /// A stage with consistent geometry (module `m`, pressure angle α, standard gears): base
@@ -223,42 +225,195 @@ fn stage_phasing_refusals_name_the_field() {
     );
 }
 
-/// Geometry stiffness (potential energy) on a stage mesh: refused naming the field, with the
-/// reason (`docs/planetary.md`, "Geometry stiffness"): the internal tooth is not in the method
-/// for a ring mesh; the phase origin for a sun mesh.
+/// A `kind = "geometry"` stiffness table for the pair `zp`/`zg` of [`Consistent`]'s module
+/// and pressure angle (standard gears, steel-like), with `more` keys (e.g. `etc = false`).
+fn geometry(zp: u32, zg: u32, more: &str) -> String {
+    format!(
+        "{{ kind = \"geometry\", {more}geometry = {{ module = 0.002, pressure_angle = 20.0, \
+         face_width = 0.02, pinion = {{ teeth = {zp}, bore_radius = 0.01, youngs_modulus = \
+         211.0e9, poisson_ratio = 0.3 }}, gear = {{ teeth = {zg}, bore_radius = 0.01, \
+         youngs_modulus = 211.0e9, poisson_ratio = 0.3 }} }} }}"
+    )
+}
+
+/// `text` with the `stiffness = …` line of the mesh named `mesh` replaced by `stiffness`.
+fn with_mesh_stiffness(text: &str, mesh: &str, stiffness: &str) -> String {
+    let at = text.find(&format!("name = \"{mesh}\"")).unwrap();
+    let (head, rest) = text.split_at(at);
+    let start = rest.find("stiffness = {").unwrap();
+    let end = start + rest[start..].find('\n').unwrap();
+    format!(
+        "{head}{}stiffness = {stiffness}{}",
+        &rest[..start],
+        &rest[end..]
+    )
+}
+
+/// Geometry stiffness (potential energy) on a ring mesh: refused naming the field, with the
+/// reason (`docs/planetary.md`, "Geometry stiffness"): the internal tooth and the rim are not in
+/// the method. The same on a sun mesh loads (`geometry_stiffness_on_sun_meshes_*`).
 #[test]
-fn geometry_stiffness_on_a_stage_mesh_is_refused_with_its_reason() {
-    let geometry = |zp: u32, zg: u32| {
-        format!(
-            "{{ kind = \"geometry\", geometry = {{ module = 0.002, pressure_angle = 20.0, \
-             face_width = 0.02, pinion = {{ teeth = {zp}, bore_radius = 0.01, youngs_modulus = \
-             211.0e9, poisson_ratio = 0.3 }}, gear = {{ teeth = {zg}, bore_radius = 0.01, \
-             youngs_modulus = 211.0e9, poisson_ratio = 0.3 }} }} }}"
-        )
-    };
+fn geometry_stiffness_on_a_ring_mesh_is_refused_with_its_reason() {
     let text = Consistent::new([20, 22, 64], 3).toml();
-    for (mesh, index, teeth, reason) in [
-        ("rp1", 1, (22, 64), "internal (ring) mesh"),
-        ("sp1", 0, (20, 22), "sun mesh"),
-    ] {
-        let at = text.find(&format!("name = \"{mesh}\"")).unwrap();
-        let (head, rest) = text.split_at(at);
-        let start = rest.find("stiffness = {").unwrap();
-        let end = start + rest[start..].find('\n').unwrap();
-        let rest = format!(
-            "{}stiffness = {}{}",
-            &rest[..start],
-            geometry(teeth.0, teeth.1),
-            &rest[end..]
-        );
-        let e = Scene::from_toml_str(&format!("{head}{rest}"), "geometry")
-            .err()
-            .unwrap()
-            .to_string();
+    let e = Scene::from_toml_str(
+        &with_mesh_stiffness(&text, "rp1", &geometry(22, 64, "")),
+        "geometry",
+    )
+    .err()
+    .unwrap()
+    .to_string();
+    assert!(
+        e.contains("mesh[1].stiffness") && e.contains("internal (ring) mesh"),
+        "{e}"
+    );
+    let sun = with_mesh_stiffness(&text, "sp1", &geometry(20, 22, ""));
+    assert!(Scene::from_toml_str(&sun, "geometry").is_ok());
+}
+
+/// The lumped stiffness source of the mesh named `name` and its phase.
+fn lumped(scene: &Scene, name: &str) -> (MeshStiffness, f64) {
+    let m = scene.meshes.iter().find(|m| m.name == name).unwrap();
+    match &m.force {
+        MeshForceModel::Lumped { stiffness, .. } => (stiffness.clone(), m.phase),
+        MeshForceModel::Pairs { .. } => panic!("{name}: not lumped"),
+    }
+}
+
+/// Geometry stiffness on the sun meshes of a stage (`docs/planetary.md`, "Geometry
+/// stiffness", eq. PL5), without extended tooth contact so that the contact zones are the
+/// involute ones. Oracles:
+///
+/// - closed form: at the stage's mesh clock q, mesh n's pairs sit at `p_b (q + γ_n + k)` from the
+///   pitch point along the path (γ_n the stage phases worked out by hand above: 0, 1/3, 2/3),
+///   in contact between `−L_AP` and `L_PE`, the approach and recess lengths from the base and
+///   tip radii (`r_b = m z cos α/2`, `r_a = m(z/2 + 1)`); the stiffness jumps down where a pair
+///   leaves at the pinion tip and up where one enters at the gear tip, at those instants to
+///   1e-9 mesh cycles, and every two-pair instant is stiffer than every one-pair instant;
+/// - the parallel pair path: the same teeth as an ordinary drivetrain mesh (at the sun's torque
+///   per planet) give the same curve, shifted by the hand-computed pitch-point origin
+///   `s_P = −L_PE/p_b` and the stage phase: `k_n(q) = k_pair(q + γ_n + s_P)`, to 1e-12;
+/// - statics: every planet carries 1/3 of the load to 1e-12.
+#[test]
+fn geometry_stiffness_on_sun_meshes_is_phased_from_the_pitch_point() {
+    let (zs, zp) = (20.0_f64, 22.0_f64);
+    let mut text = Consistent::new([20, 22, 64], 3).toml();
+    for name in ["sp1", "sp2", "sp3"] {
+        text = with_mesh_stiffness(&text, name, &geometry(20, 22, "etc = false, "));
+    }
+    let scene = Scene::from_toml_str(&text, "geometry sun").unwrap();
+
+    let alpha = ALPHA_DEG.to_radians();
+    let r_b = |z: f64| MODULE * z * alpha.cos() / 2.0;
+    let r_a = |z: f64| MODULE * (z / 2.0 + 1.0);
+    let beyond_pitch = |z: f64| (r_a(z).powi(2) - r_b(z).powi(2)).sqrt() - r_b(z) * alpha.tan();
+    let (recess, approach) = (beyond_pitch(zs), beyond_pitch(zp));
+    let p_b = std::f64::consts::PI * MODULE * alpha.cos();
+    let gammas = [0.0, 1.0 / 3.0, 2.0 / 3.0];
+    let pairs_in_contact = |q: f64| {
+        (-4..=4)
+            .filter(|&k| {
+                let x = p_b * (q + k as f64);
+                (-approach..=recess).contains(&x)
+            })
+            .count()
+    };
+
+    // The parallel path: sun and planet as an ordinary mesh at the sun's torque per planet.
+    let pair_text = format!(
+        "name = \"pair\"\n[[gear]]\nname = \"sun\"\nteeth = 20\ninertia = 1e-4\n\
+         [[gear]]\nname = \"planet\"\nteeth = 22\ninertia = 1e-4\n\
+         [[mesh]]\npinion = \"sun\"\ngear = \"planet\"\ncontact = \"linear\"\n\
+         damping = 400.0\nstiffness = {}\n\
+         [operating]\ninput_speed = 300.0\ninput_torque = {:?}\n",
+        geometry(20, 22, "etc = false, "),
+        50.0 / 3.0
+    );
+    let pair = Scene::from_toml_str(&pair_text, "pair").unwrap();
+    let (k_pair, pair_phase) = lumped(&pair, "mesh1");
+    assert_eq!(pair_phase, 0.0);
+    let s_pitch = -recess / p_b;
+
+    let samples = 3000;
+    for (n, gamma) in gammas.iter().enumerate() {
+        let name = format!("sp{}", n + 1);
+        let (k, phase) = lumped(&scene, &name);
+        let at = |q: f64| k.value(phase + q);
+        // Jumps at the closed-form instants (one cycle: one exit and one entry).
+        let exit = recess / p_b - gamma;
+        let entry = -approach / p_b - gamma;
+        let mean = k.mean();
+        for (q, sign, what) in [(exit, -1.0, "exit"), (entry, 1.0, "entry")] {
+            let jump = at(q + 1e-9) - at(q - 1e-9);
+            assert!(
+                sign * jump > 0.2 * mean,
+                "{name}: {what} at q = {q}: jump {jump:e} (mean {mean:e})"
+            );
+        }
+        let (mut single_max, mut double_min) = (0.0_f64, f64::INFINITY);
+        let mut worst = 0.0_f64;
+        for i in 0..samples {
+            let q = (i as f64 + 0.5) / samples as f64;
+            let near = [exit, entry]
+                .iter()
+                .any(|b| ((q - b) - (q - b).round()).abs() < 1e-6);
+            if near {
+                continue;
+            }
+            match pairs_in_contact(q + gamma) {
+                1 => single_max = single_max.max(at(q)),
+                2 => double_min = double_min.min(at(q)),
+                c => panic!("{name}: {c} pairs at q = {q}"),
+            }
+            let want = k_pair.value(q + gamma + s_pitch);
+            worst = worst.max((at(q) - want).abs() / want);
+        }
         assert!(
-            e.contains(&format!("mesh[{index}].stiffness")) && e.contains(reason),
-            "{e}"
+            double_min > single_max,
+            "{name}: two pairs from {double_min:e}, one pair up to {single_max:e}"
         );
+        assert!(worst < 1e-12, "{name}: against the parallel pair {worst:e}");
+    }
+
+    // The sun's torque per planet is the curve's load: the parallel mesh's mean equals.
+    let (k1, _) = lumped(&scene, "sp1");
+    assert!((k1.mean() - k_pair.mean()).abs() <= 1e-12 * k_pair.mean());
+    // Statics with the mean stiffness: each planet carries 1/3.
+    let asm = Assembly::new(&scene);
+    let force = statics::equilibrium(
+        &asm,
+        scene.operating.input_torque,
+        scene.operating.load_torque,
+        false,
+    )
+    .unwrap()
+    .mesh_force;
+    for l in &planetary::load_sharing(&scene, &force)[0] {
+        assert!((l.share - 1.0 / 3.0).abs() <= 1e-12, "share {}", l.share);
+    }
+
+    // `[mesh.pairs] kind = "geometry"`: slot j of the pair model sits at `ξ = s + w − 1 − j` of
+    // the window `w = c + 2e` (docs/train.md), `ξ = e` at the path start A, so a pair is at the
+    // pitch point (`ξ = e + L_AP/p_b`) when `s ≡ 1 + L_AP/p_b − c − e = 1 − L_PE/p_b − e`: the
+    // mesh runs at `γ_n − L_PE/p_b − e` (e = 0.01 with ETC, 0 without).
+    for (etc, e) in [("", 0.01), ("etc = false, ", 0.0)] {
+        let mut text = Consistent::new([20, 22, 64], 3).toml();
+        for name in ["sp1", "sp2", "sp3"] {
+            text = with_mesh_stiffness(&text, name, &geometry(20, 22, etc)).replace(
+                "stiffness = { kind = \"geometry\"",
+                "model = \"pairs\"\npairs = { kind = \"geometry\"",
+            );
+        }
+        let scene = Scene::from_toml_str(&text, "geometry pairs").unwrap();
+        let frac = |x: f64| x - x.floor();
+        let expected: Vec<(String, f64)> = gammas
+            .iter()
+            .enumerate()
+            .map(|(n, g)| (format!("sp{}", n + 1), frac(g - recess / p_b - e)))
+            .collect();
+        let expected: Vec<(&str, f64)> = expected.iter().map(|(n, p)| (n.as_str(), *p)).collect();
+        assert_phases(&scene, &expected);
+        // The ring meshes keep their stage phases (rectangular: origin taken as the pitch point).
+        assert_phases(&scene, &[("rp1", 0.5), ("rp2", 0.5 + 1.0 / 3.0)]);
     }
 }
 

@@ -134,3 +134,118 @@ fn waterfall_refuses_a_scene_without_a_runup() {
     let e = runup_waterfall(&scene, 0, RunupSignal::Dte, &WaterfallOptions::default()).unwrap_err();
     assert!(e.contains("operating.speed_profile"), "{e}");
 }
+
+/// The EV-like 3-planet stage (`examples/planetary/ev_reducer_3p.toml`: Z = 23/25/73, ring
+/// held, sun in) with a 5 µm tangential pin error on planet 1 (so that the sun moves), run up
+/// from `W0` to `W1` rad/s over `STOP` s.
+const EV_STAGE: &str = include_str!("../examples/planetary/ev_reducer_3p.toml");
+const W0: f64 = 500.0;
+const W1: f64 = 1500.0;
+const STOP: f64 = 0.05;
+const DT: f64 = 2e-5;
+
+fn stage_runup() -> Scene {
+    let text = EV_STAGE
+        .replacen(
+            "position_angle = 0.0\n",
+            "position_angle = 0.0\npin_error = [0.0, 5e-6]\n",
+            1,
+        )
+        .replace("input_speed = 1047.1975511965977\n", "")
+        + &format!(
+            "[operating.speed_profile]\nkind = \"ramp\"\nfrom = {W0:?}\nto = {W1:?}\n\
+             start = 0.0\nend = {STOP:?}\n[solver]\nstop_time = {STOP:?}\n\
+             output_interval = {DT:?}\n"
+        );
+    Scene::from_toml_str(&text, "stage runup").unwrap()
+}
+
+/// `waterfall --signal sun.x_fixed / sun.y_fixed` (`docs/planetary.md`, "Fixed-frame
+/// spectra"): the map equals the short-time spectra of the run's carrier-frame columns
+/// `sun.x`, `sun.y` rotated here by the carrier's nominal angle, written by hand for the ramp
+/// and Willis' ratio, `θ_c = (Z_s/(Z_s + Z_r))·(ω0 t + ½ a t²)` with `Z_s/(Z_s + Z_r) = 23/96`
+/// (ccw input): `X = x cos θ_c − y sin θ_c`, `Y = x sin θ_c + y cos θ_c`. The control (the
+/// unrotated x) differs. The report labels the planet-pass orders `k × 3 × 23/96`.
+#[test]
+fn fixed_frame_waterfall_is_the_rotated_carrier_frame_run() {
+    let scene = stage_runup();
+    let sun = scene.gear_index("sun").unwrap();
+    assert_eq!(scene.rotation[sun], 1.0, "the input turns ccw");
+    let run = geardyn::model::train::run_train(&scene, STOP, DT).unwrap();
+    let (cx, cy) = (run.column("sun.x").unwrap(), run.column("sun.y").unwrap());
+    let accel = (W1 - W0) / STOP;
+    let carrier = 23.0 / 96.0;
+    let options = WaterfallOptions::default();
+    let t: Vec<f64> = run.times.clone();
+    let rpm: Vec<f64> = t.iter().map(|&t| (W0 + accel * t) * 60.0 / TAU).collect();
+    let rotated = |axis: usize| -> Vec<f64> {
+        run.rows
+            .iter()
+            .zip(&t)
+            .map(|(row, &t)| {
+                let theta = carrier * (W0 * t + 0.5 * accel * t * t);
+                let (x, y) = (row[cx], row[cy]);
+                if axis == 0 {
+                    x * theta.cos() - y * theta.sin()
+                } else {
+                    x * theta.sin() + y * theta.cos()
+                }
+            })
+            .collect()
+    };
+    let diff = |a: &geardyn::analysis::spectrum::Waterfall,
+                b: &geardyn::analysis::spectrum::Waterfall| {
+        assert_eq!(a.amplitude.len(), b.amplitude.len());
+        let peak = a.amplitude.iter().flatten().fold(0.0_f64, |m, &v| m.max(v));
+        let worst = a
+            .amplitude
+            .iter()
+            .flatten()
+            .zip(b.amplitude.iter().flatten())
+            .fold(0.0_f64, |m, (p, q)| m.max((p - q).abs()));
+        worst / peak
+    };
+    for (axis, signal) in [(0, "sun.x_fixed"), (1, "sun.y_fixed")] {
+        let s = RunupSignal::parse_for(&scene, signal).unwrap();
+        let w = runup_waterfall(&scene, 0, s, &options).unwrap();
+        let oracle =
+            geardyn::analysis::spectrum::waterfall(&t, &rotated(axis), &rpm, &options).unwrap();
+        let d = diff(&w.map, &oracle);
+        assert!(d < 1e-9, "{signal}: {d:e} of the largest line");
+        if axis == 0 {
+            let x: Vec<f64> = run.rows.iter().map(|r| r[cx]).collect();
+            let control = geardyn::analysis::spectrum::waterfall(&t, &x, &rpm, &options).unwrap();
+            assert!(diff(&oracle, &control) > 0.1, "the rotation matters");
+        }
+    }
+    // Refusals name the signal; the report labels the planet pass.
+    let e = RunupSignal::parse_for(&scene, "planet1.x_fixed").unwrap_err();
+    assert!(e.contains("central member"), "{e}");
+    let dir = std::env::temp_dir().join(format!("geardyn-wf-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let request = geardyn::commands::runup::WaterfallRequest {
+        signal: "sun.x_fixed",
+        ..Default::default()
+    };
+    let text = geardyn::commands::runup::waterfall_command(
+        &scene,
+        &request,
+        &dir.join("wf.csv"),
+        None,
+        Default::default(),
+    )
+    .unwrap();
+    std::fs::remove_dir_all(&dir).ok();
+    let pass = 3.0 * 23.0 / 96.0;
+    for k in 1..=3 {
+        let want = format!(
+            "{k}×carrier_planet_pass = shaft order {} ",
+            geardyn::commands::runup::order_text(k as f64 * pass)
+        );
+        assert!(text.contains(&want), "{want:?} in {text}");
+    }
+    assert!(
+        text.contains("1×mesh-1×carrier = shaft order 17.25 "),
+        "{text}"
+    );
+}

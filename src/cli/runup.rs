@@ -20,7 +20,9 @@ pub struct WaterfallArgs {
     /// Mesh to analyse: its name in a drivetrain (default: the first mesh).
     #[arg(long)]
     pub mesh: Option<String>,
-    /// The signal: dte (m) or force (N).
+    /// The signal: dte (m) or force (N) of the mesh, or `<member>.x_fixed` / `<member>.y_fixed`
+    /// (m): a planetary stage's sun, ring or carrier translation seen from the fixed frame,
+    /// with the planet-pass orders labelled.
     #[arg(long, default_value = "dte")]
     pub signal: String,
     /// Samples per short-time window (frequency resolution 1/(segment·output_interval)).

@@ -14,21 +14,123 @@ use crate::simulation::stream::{Progress, ProgressDisplay};
 use crate::simulation::{DrivenModel, OutputGrid};
 use crate::with_drivetrain;
 
-/// Which mesh signal the waterfall analyses.
+/// Which signal the waterfall analyses: a mesh signal, or a planetary stage's central member
+/// seen from the fixed frame.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum RunupSignal {
     /// Dynamic transmission error, m.
     Dte,
     /// Dynamic mesh force, N.
     Force,
+    /// The translation of central member `member` (gear index) of a planetary stage along the
+    /// fixed frame's X (`axis` 0) or Y (1), m: `X = x cos θ_c − y sin θ_c`,
+    /// `Y = x sin θ_c + y cos θ_c` with `θ_c` the carrier's nominal angle over the run-up
+    /// (`docs/planetary.md`, "Fixed-frame spectra"; [`RunupSignal::parse_for`]).
+    FixedFrame { member: usize, axis: usize },
 }
 
 impl RunupSignal {
     /// The signal's unit (the amplitude column of the CSV).
     pub fn unit(self) -> &'static str {
         match self {
-            RunupSignal::Dte => "m",
+            RunupSignal::Dte | RunupSignal::FixedFrame { .. } => "m",
             RunupSignal::Force => "N",
+        }
+    }
+
+    /// `dte`, `force`, or `<member>.x_fixed` / `<member>.y_fixed` of a central member (sun,
+    /// ring, carrier) of a planetary stage of `scene` with a bearing.
+    pub fn parse_for(scene: &Scene, text: &str) -> Result<RunupSignal, String> {
+        let fixed = (text.strip_suffix(".x_fixed").map(|m| (m, 0)))
+            .or_else(|| text.strip_suffix(".y_fixed").map(|m| (m, 1)));
+        let Some((name, axis)) = fixed else {
+            return text.parse();
+        };
+        match scene.gear_index(name) {
+            Some(member)
+                if scene.planetary.iter().any(|st| st.is_central(member))
+                    && (scene.gears[member].bearing.is_some()
+                        || scene.planetary.iter().any(|st| st.carrier == member)) =>
+            {
+                Ok(RunupSignal::FixedFrame { member, axis })
+            }
+            _ => Err(format!(
+                "'{text}': a fixed-frame signal names a central member (sun, ring or carrier) of \
+                 a planetary stage with a bearing (translations x, y)"
+            )),
+        }
+    }
+}
+
+/// How one sample of the analysed signal is read from an output row at time `t`.
+enum Reader {
+    Column(usize),
+    /// Columns `x`, `y` rotated by the carrier's nominal angle `turns · φ_in(t)` (φ_in the
+    /// input gear's nominal angle, [`ShaftClock`]).
+    Fixed {
+        x: usize,
+        y: usize,
+        axis: usize,
+        turns: f64,
+        clock: crate::analysis::spectrum::ShaftClock,
+    },
+}
+
+impl Reader {
+    fn new(
+        scene: &Scene,
+        signal: RunupSignal,
+        names: &[String],
+        columns: crate::model::MeshColumns,
+        speed: &crate::scene::Profile,
+    ) -> Result<Reader, String> {
+        Ok(match signal {
+            RunupSignal::Dte => Reader::Column(columns.dte),
+            RunupSignal::Force => Reader::Column(columns.force),
+            RunupSignal::FixedFrame { member, axis } => {
+                let name = &scene.gears[member].name;
+                let column = |c: &str| {
+                    let want = format!("{name}.{c}");
+                    names
+                        .iter()
+                        .position(|n| *n == want)
+                        .ok_or_else(|| format!("{name}.{c}_fixed: the scene has no column {want}"))
+                };
+                let st = scene
+                    .planetary
+                    .iter()
+                    .find(|st| st.is_central(member))
+                    .ok_or_else(|| format!("{name}: not a central member of a planetary stage"))?;
+                let c = st.carrier;
+                Reader::Fixed {
+                    x: column("x")?,
+                    y: column("y")?,
+                    axis,
+                    turns: scene.rotation[c] * scene.speed_ratio[c],
+                    clock: crate::analysis::spectrum::ShaftClock::new(speed),
+                }
+            }
+        })
+    }
+
+    fn value(&self, t: f64, row: &[f64]) -> f64 {
+        match self {
+            Reader::Column(c) => row[*c],
+            Reader::Fixed {
+                x,
+                y,
+                axis,
+                turns,
+                clock,
+            } => {
+                let (sin, cos) = (turns * clock.angle_at(t)).sin_cos();
+                let (x, y) = (row[*x], row[*y]);
+                if *axis == 0 {
+                    x * cos - y * sin
+                } else {
+                    x * sin + y * cos
+                }
+            }
         }
     }
 }
@@ -87,13 +189,13 @@ pub fn runup_waterfall_reporting(
             return Err(format!("mesh {mesh}: the scene has {count} mesh(es)"));
         }
         crate::simulation::RunLimits::default().check(&sim.model().run_scales(), stop, interval)?;
-        let column = {
-            let c = sim.model().mesh_columns(mesh);
-            match signal {
-                RunupSignal::Dte => c.dte,
-                RunupSignal::Force => c.force,
-            }
-        };
+        let reader = Reader::new(
+            scene,
+            signal,
+            &sim.model().row_names(),
+            sim.model().mesh_columns(mesh),
+            &speed,
+        )?;
         let mut t = Vec::new();
         let mut x = Vec::new();
         let mut row = Vec::new();
@@ -105,7 +207,7 @@ pub fn runup_waterfall_reporting(
             }
             sim.model().output_row(time, sim.y(), &mut row);
             t.push(time);
-            x.push(row[column]);
+            x.push(reader.value(time, &row));
             Ok(())
         })?;
         // The last grid point may be the stop time off the grid: the spectrum needs one interval.
@@ -237,13 +339,13 @@ pub fn runup_angle_record(
             return Err(format!("mesh {mesh}: the scene has {count} mesh(es)"));
         }
         crate::simulation::RunLimits::default().check_work(&sim.model().run_scales(), stop)?;
-        let column = {
-            let c = sim.model().mesh_columns(mesh);
-            match signal {
-                RunupSignal::Dte => c.dte,
-                RunupSignal::Force => c.force,
-            }
-        };
+        let reader = Reader::new(
+            scene,
+            signal,
+            &sim.model().row_names(),
+            sim.model().mesh_columns(mesh),
+            &speed,
+        )?;
         let mut probe = sim.model().clone();
         probe.set_input_speed(0.0, 1.0)?;
         let mesh_order = probe.mesh_frequency(mesh) * TAU;
@@ -289,7 +391,7 @@ pub fn runup_angle_record(
                 });
             }
             sim.model().output_row(time, sim.y(), &mut row);
-            x.push(row[column]);
+            x.push(reader.value(time, &row));
             Ok(())
         })?;
         Ok(AngleRecord { samples: x, clock, options, names, mesh_order })
@@ -418,6 +520,31 @@ impl RunupOrderCuts {
     }
 }
 
+/// The orders a fixed sensor sees on a planetary stage's central member, in input-shaft
+/// orders, for a [`RunupSignal::FixedFrame`] (none for a mesh signal): the planet-pass orders
+/// `k×<carrier>_planet_pass`, `k N |o_c − o_r|` (k = 1…3, the planets passing a point of the
+/// ring), and the sidebands `1×mesh ± 1×<carrier>` of mesh order 1 (McFadden & Smith 1985;
+/// `docs/planetary.md`, "Fixed-frame spectra"), with `o_g` a member's signed speed over the
+/// input speed.
+fn fixed_frame_orders(scene: &Scene, signal: RunupSignal, mesh_order: f64) -> Vec<(String, f64)> {
+    let RunupSignal::FixedFrame { member, .. } = signal else {
+        return Vec::new();
+    };
+    let Some(st) = scene.planetary.iter().find(|st| st.is_central(member)) else {
+        return Vec::new();
+    };
+    let order = |g: usize| scene.rotation[g] * scene.speed_ratio[g];
+    let carrier = &scene.gears[st.carrier].name;
+    let pass = st.planets.len() as f64 * (order(st.carrier) - order(st.ring)).abs();
+    let mut orders: Vec<(String, f64)> = (1..=3)
+        .map(|k| (format!("{k}×{carrier}_planet_pass"), k as f64 * pass))
+        .collect();
+    let c = order(st.carrier).abs();
+    orders.push((format!("1×mesh-1×{carrier}"), mesh_order - c));
+    orders.push((format!("1×mesh+1×{carrier}"), mesh_order + c));
+    orders
+}
+
 /// An order as a column name takes it: `38`, `26.272727`.
 pub fn order_text(o: f64) -> String {
     let s = format!("{o:.6}");
@@ -537,10 +664,8 @@ pub fn waterfall_command(
             request.dynamic_range
         ));
     }
-    let signal: RunupSignal = request
-        .signal
-        .parse()
-        .map_err(|e| format!("--signal {e}"))?;
+    let signal =
+        RunupSignal::parse_for(scene, request.signal).map_err(|e| format!("--signal {e}"))?;
     let window = match request.window {
         "hann" => Window::Hann,
         "flattop" => Window::FlatTop,
@@ -573,10 +698,13 @@ pub fn waterfall_command(
         request.frequency_range,
         request.order_range,
     )?;
+    let stage_orders = fixed_frame_orders(scene, signal, w.mesh_order);
     if let Some(path) = plot {
-        let orders: Vec<(String, f64)> = (1..=3)
+        let mut orders: Vec<(String, f64)> = (1..=3)
             .map(|k| (format!("{k}×mesh"), k as f64 * w.mesh_order))
             .collect();
+        // The planet pass is far from the mesh orders; the sidebands would cover 1×mesh.
+        orders.extend(stage_orders.iter().take(1).cloned());
         let title = format!("{}: waterfall of the {}", scene.name, request.signal);
         let drawn = WaterfallPlot {
             orders,
@@ -605,6 +733,12 @@ pub fn waterfall_command(
         w.mesh_order,
         w.mesh_order
     );
+    for (name, order) in &stage_orders {
+        text.push_str(&format!(
+            "  {name} = shaft order {} of the input gear (fixed frame)\n",
+            order_text(*order)
+        ));
+    }
     if let (Some(c), Some(path)) = (&cuts, request.order_cuts) {
         c.write_csv(path, signal.unit())?;
         if let Some(plot) = request.order_plot {

@@ -349,6 +349,14 @@ impl Pair {
     pub fn rolls(&self, x: f64) -> (f64, f64) {
         (x, self.t1t2 - x)
     }
+
+    /// Where a pair passes the pitch point P in the mesh cycle of the stiffness curve, mesh
+    /// cycles: `(x_P − x_E)/p_b = −L_PE/p_b` with `x_P = T1P = r_b1 tan α_w` and `x_E` the pinion
+    /// tip (pair `k` of the curve sits at `x_E + p_b (s + k)`, `crate::mesh::geometry::curve`).
+    /// A stage's mesh phasing is referred to the pitch point (`docs/planetary.md`, eq. PL5).
+    pub fn pitch_point_phase(&self) -> f64 {
+        (self.pinion.r_base * self.alpha_w.tan() - self.x_end) / self.base_pitch
+    }
 }
 
 #[cfg(test)]

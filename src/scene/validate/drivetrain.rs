@@ -311,7 +311,15 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
             i,
             form,
             on_pair,
-            pinion_torque: input_torque * pinion_ratio[i],
+            pinion_torque: super::planetary::sun_mesh_torque(
+                &spec.gear,
+                &gears,
+                &mesh_specs,
+                i,
+                input_gear,
+                input_torque,
+            )
+            .unwrap_or(input_torque * pinion_ratio[i]),
             pinion_is_input: ends[i].0 == input_gear,
             planetary: super::planetary::is_planet_mesh(&spec.gear, m),
         };
@@ -373,6 +381,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
         (input_gear, input_torque),
     );
     super::planetary::phasing(&stages, &gears, &mut meshes, &mesh_specs)?;
+    super::planetary::geometry_origins(&stages, &mut meshes, &mesh_specs, form)?;
     if speed_ratio[output_gear] == 0.0 {
         return err(format!(
             "operating.output_gear = {:?}: not connected to the input gear {:?}",
@@ -593,7 +602,9 @@ struct MeshAt {
 impl MeshAt {
     /// The field a geometry stiffness' static torque comes from, as the user wrote it.
     fn torque_field(&self, pinion_field: &str) -> String {
-        if self.pinion_is_input {
+        if self.planetary {
+            format!("operating.input_torque (the sun's torque per planet, {pinion_field})")
+        } else if self.pinion_is_input {
             "operating.input_torque".to_owned()
         } else {
             format!("operating.input_torque (carried to {pinion_field})")

@@ -370,22 +370,21 @@ pub(crate) fn stages(
 }
 
 /// The stiffness sources from the gear geometry on a stage mesh (`docs/planetary.md`,
-/// "Geometry stiffness"), refused with the reason:
+/// "Geometry stiffness"):
 ///
-/// - ring (internal) mesh: the potential-energy method of `crate::mesh::geometry` (Liu 2007
-///   Ch. 2 / Liao et al. 2025 eq. (1)–(3) with the Sainsot et al. 2004 fillet foundation) is
-///   written for an external tooth: its bending, shear and compression energies integrate an
-///   involute flank from the base circle out to the tip of a tooth that narrows outwards, on a
-///   full-disc body whose fillet-foundation coefficients were fitted for external gears. An
-///   internal tooth is the space of such a tooth: its flank is concave, the tooth widens
-///   towards its root outside the pitch circle, and its rim is a thin ring whose bending
-///   (Chen & Shao 2013, "Mesh stiffness of an internal spur gear pair with ring gear rim
-///   deformation", Mech. Mach. Theory 69) is not a fillet foundation. None of those terms is
-///   in the method here;
-/// - sun (external) mesh: the method applies to the pair, but its curve starts its cycle where
-///   the pair count drops, while the stage's mesh phasing (PL1–PL3) is referred to the pitch
-///   point passing, and the stage's ring meshes could not take the same source; not
-///   available yet.
+/// - ring (internal) mesh: refused with the reason. The potential-energy method of
+///   `crate::mesh::geometry` (Liu 2007 Ch. 2 / Liao et al. 2025 eq. (1)–(3) with the Sainsot
+///   et al. 2004 fillet foundation) is written for an external tooth: its bending, shear and
+///   compression energies integrate an involute flank from the base circle out to the tip of a
+///   tooth that narrows outwards, on a full-disc body whose fillet-foundation coefficients were
+///   fitted for external gears. An internal tooth is the space of such a tooth: its flank is
+///   concave, the tooth widens towards its root outside the pitch circle, and its rim is a thin
+///   ring whose bending (Chen & Shao 2013, "Mesh stiffness of an internal spur gear pair with
+///   ring gear rim deformation", Mech. Mach. Theory 69) is not a fillet foundation. None of
+///   those terms is in the method here;
+/// - sun (external) mesh: `geometry` runs, its cycle origin moved to the pitch point
+///   ([`geometry_origins`], eq. PL5); `helical` pairs are refused (a helical pair's axial
+///   forces and sliding friction are outside the stage's planar model).
 fn check_geometry_source(form: MeshForm, n: usize, m: &MeshSpec, ring: bool) -> Result<()> {
     let (field, kind) = match (&m.stiffness, &m.pairs) {
         (Some(StiffnessSpec::Geometry { .. }), _) => ("stiffness", "geometry"),
@@ -394,15 +393,19 @@ fn check_geometry_source(form: MeshForm, n: usize, m: &MeshSpec, ring: bool) -> 
         (_, Some(PairStiffnessSpec::Helical { .. })) => ("pairs", "helical"),
         _ => return Ok(()),
     };
-    let why = if ring {
-        "an internal (ring) mesh: the potential-energy method here integrates an external \
-         tooth (an involute flank narrowing from the base circle to the tip, Sainsot's fillet \
-         foundation of a full gear body); the ring's concave tooth, which widens towards its \
-         root, and its thin rim (Chen & Shao 2013) are not in it"
-    } else {
-        "a sun mesh of a planetary stage: the geometry curves start their cycle where the pair \
-         count drops, not at the pitch point the stage's mesh phasing refers to, and the ring \
-         meshes cannot take them (internal teeth); not available yet"
+    let why = match (ring, kind) {
+        (true, _) => {
+            "an internal (ring) mesh: the potential-energy method here integrates an external \
+             tooth (an involute flank narrowing from the base circle to the tip, Sainsot's \
+             fillet foundation of a full gear body); the ring's concave tooth, which widens \
+             towards its root, and its thin rim (Chen & Shao 2013) are not in it"
+        }
+        (false, "geometry") => return Ok(()),
+        (false, _) => {
+            "a sun mesh of a planetary stage: a helical pair's axial forces and sliding \
+             friction are outside the stage's planar model (tooth friction is not available on \
+             stage meshes)"
+        }
     };
     err(format!(
         "{}: kind = \"{kind}\" on {why}; give the stiffness by values (constant, rectangular, \
@@ -411,10 +414,107 @@ fn check_geometry_source(form: MeshForm, n: usize, m: &MeshSpec, ring: bool) -> 
     ))
 }
 
+/// Whether a mesh's stiffness comes from the gear geometry (either source).
+fn geometry_source(m: &MeshSpec) -> bool {
+    matches!(m.stiffness, Some(StiffnessSpec::Geometry { .. }))
+        || matches!(m.pairs, Some(PairStiffnessSpec::Geometry { .. }))
+}
+
+/// Moves the cycle origin of every stage sun mesh with a geometry stiffness to the pitch point
+/// (`docs/planetary.md`, "Geometry stiffness", eq. PL5). The stage phase `γ` of a mesh
+/// (PL1–PL3, or its override) counts from a loaded pair passing the pitch point P; the
+/// geometry curve counts from its own origin: the lumped curve from a pair leaving at the
+/// pinion tip E (pair `k` at `x_E + p_b(s + k)`), the tooth-pair window from `e` mesh cycles
+/// before the path start A (slot `j` at `ξ = s + c + 2e − 1 − j`, `x = x_A + p_b(ξ − e)`). A
+/// pair is at P when `s ≡ s_P`, `s_P = (x_P − x_E)/p_b − e` (e = 0 for the lumped curve), so
+/// the mesh runs at `γ + s_P`.
+pub(crate) fn geometry_origins(
+    stages: &[PlanetaryStage],
+    meshes: &mut [Mesh],
+    mesh_specs: &[MeshSpec],
+    form: MeshForm,
+) -> Result<()> {
+    for n in stages
+        .iter()
+        .flat_map(|st| st.planets.iter().map(|p| p.sun_mesh))
+    {
+        let m = &mesh_specs[n];
+        let (geometry, field, extension) = match (&m.stiffness, &m.pairs) {
+            (Some(StiffnessSpec::Geometry { geometry, .. }), _) => (geometry, "stiffness", 0.0),
+            (_, Some(PairStiffnessSpec::Geometry { geometry, etc, .. })) => {
+                let e = if *etc {
+                    crate::mesh::geometry::pairs::ETC_EXTENSION
+                } else {
+                    0.0
+                };
+                (geometry, "pairs", e)
+            }
+            _ => continue,
+        };
+        let prefix = format!("{}.geometry.", mesh_field(form, n, field));
+        let pair = crate::mesh::geometry::Pair::new(geometry, &prefix).map_err(SceneError)?;
+        let phase = meshes[n].phase + pair.pitch_point_phase() - extension;
+        meshes[n].phase = phase - phase.floor();
+    }
+    Ok(())
+}
+
+/// The static pinion torque of a stage's sun mesh, the default load of its geometry stiffness
+/// (`docs/planetary.md`, "Geometry stiffness"): the sun's static torque shared by the stage's
+/// N planets, `T_s/N`, with `T_s = T_in |w_s/w_h|` (eq. P9) when the input gear `h` is a
+/// central member of the stage. `None` for any other mesh; `Some(0.0)` when the input is
+/// elsewhere (the mesh then names its `torque`).
+pub(crate) fn sun_mesh_torque(
+    specs: &[GearSpec],
+    gears: &[Gear],
+    mesh_specs: &[MeshSpec],
+    n: usize,
+    input: usize,
+    input_torque: f64,
+) -> Option<f64> {
+    let m = &mesh_specs[n];
+    let planet = specs
+        .iter()
+        .find(|g| g.name == m.gear && g.carrier.is_some())?;
+    let carrier = planet.carrier.as_deref()?;
+    let planets = specs
+        .iter()
+        .filter(|g| g.carrier.as_deref() == Some(carrier))
+        .count();
+    let ring_mesh = mesh_specs.iter().find(|r| r.pinion == planet.name)?;
+    let index = |name: &str| gears.iter().position(|g| g.name == name);
+    let (sun, ring, carrier) = (index(&m.pinion)?, index(&ring_mesh.gear)?, index(carrier)?);
+    let alpha_s = match m.pressure_angle {
+        Some(deg) => deg.to_radians(),
+        None => match &m.stiffness {
+            Some(spec) => super::geometry::working_pressure_angle(spec, "").ok()??.0,
+            None => {
+                super::geometry::pair_working_pressure_angle(m.pairs.as_ref()?, "")
+                    .ok()??
+                    .0
+            }
+        },
+    };
+    let alpha_r = ring_mesh.pressure_angle.map_or(alpha_s, f64::to_radians);
+    let w = torque_weights(
+        gears[sun].base_radius,
+        gears[ring].base_radius,
+        gears[carrier].base_radius,
+        alpha_s,
+        alpha_r,
+    );
+    let sun_torque = match [sun, ring, carrier].iter().position(|&h| h == input) {
+        Some(h) => input_torque * (w[0] / w[h]).abs(),
+        None => 0.0,
+    };
+    Some(sun_torque / planets as f64)
+}
+
 /// What the first stage of the planetary model carries on a stage mesh besides its stiffness
 /// source ([`check_geometry_source`]): the pressure angle, and no tooth friction yet.
 fn check_mesh(form: MeshForm, n: usize, m: &MeshSpec) -> Result<()> {
-    if m.pressure_angle.is_none() {
+    // A geometry source gives its working pressure angle.
+    if m.pressure_angle.is_none() && !geometry_source(m) {
         return err(format!(
             "{}: missing; a planetary mesh's line of action is set by the planet's position \
              angle and the pressure angle (degrees)",
