@@ -1,6 +1,6 @@
 //! Back flanks on their own line of action (issue 33; `docs/train.md`, "Back flanks"): closed
-//! forms for a spur pair on compliant bearings held in drive and in back contact, and the
-//! refusal of the frequency-domain force law. The time series against an independent scipy
+//! forms for a spur pair on compliant bearings held in drive and in back contact, by `simulate`
+//! and by harmonic balance. The time series against an independent scipy
 //! model (a planetary stage and this pair) are `tests/python/test_backflank_reference.py`.
 
 use std::path::{Path, PathBuf};
@@ -110,44 +110,37 @@ fn bearing_reaction_follows_the_flank_in_contact() {
     }
 }
 
-/// Harmonic balance condenses onto one deflection per mesh: a mesh whose back flanks have
-/// their own line of action is refused, naming it.
+/// Harmonic balance takes the back flanks' own deflection as a second coordinate of the mesh
+/// (`docs/train.md`, "Back flanks"): on the pair held at ±8 N·m (constant stiffness, so the
+/// orbit is the static state) its orbit puts the pinion's bearing reaction at `α + 180°` in
+/// drive contact and at `3α` in back contact (the mirrored line; on the drive line it would
+/// lie at `α`), with the mesh force `|T|/r_a`: the closed form of the test above.
 #[test]
-fn harmonic_balance_refuses_a_back_line() {
-    let scene = write("pair_hb.toml", &pair_scene(8.0));
-    let out = scene.with_extension("hb.csv");
-    let done = Command::new(env!("CARGO_BIN_EXE_geardyn"))
-        .args(["hb", scene.to_str().unwrap(), "--speed", "200:210"])
-        .args(["--out", out.to_str().unwrap()])
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&done.stderr);
-    assert!(!done.status.success());
-    assert!(
-        err.contains("mesh[0] (\"m\")") && err.contains("backlash") && err.contains("periodic"),
-        "{err}"
-    );
-    // Without backlash (no back contact) nothing is refused.
-    let flat = pair_scene(8.0).replace(
-        "contact = \"backlash\"\nbacklash = 2e-7",
-        "contact = \"contact_loss\"",
-    );
-    let scene = write("pair_hb_flat.toml", &flat);
-    let done = Command::new(env!("CARGO_BIN_EXE_geardyn"))
-        .args([
-            "hb",
-            scene.to_str().unwrap(),
-            "--speed",
-            "200:201",
-            "--harmonics",
-            "3",
-        ])
-        .args(["--out", out.to_str().unwrap()])
-        .output()
-        .unwrap();
-    assert!(
-        done.status.success(),
-        "{}",
-        String::from_utf8_lossy(&done.stderr)
-    );
+fn harmonic_balance_puts_the_back_force_on_the_back_line() {
+    use geardyn::analysis::hb::{self, HbOptions};
+    use geardyn::model::Drivetrain;
+    for (torque, angle) in [(8.0, ALPHA_DEG + 180.0), (-8.0, 3.0 * ALPHA_DEG)] {
+        let scene = geardyn::scene::Scene::from_toml_str(&pair_scene(torque), "pair").unwrap();
+        let sol = hb::solve(&scene, 200.0, None, &HbOptions::new(3)).unwrap();
+        let y = sol.state_at(0.0);
+        let row = geardyn::with_drivetrain!(scene.simulation().unwrap(), sim => {
+            let model = sim.model();
+            let mut row = Vec::new();
+            model.output_row(0.0, &y, &mut row);
+            model.row_names().into_iter().zip(row).collect::<Vec<_>>()
+        });
+        let (fx, fy) = (
+            K_X * column(&row, "pinion.x"),
+            K_Y * column(&row, "pinion.y"),
+        );
+        let got = fy.atan2(fx).to_degrees().rem_euclid(360.0);
+        let force = sol.meshes[0].peak_force;
+        println!("hb, torque {torque}: bearing reaction at {got:.12}° (expected {angle}°), mesh force {force} N");
+        assert!(
+            (got - angle).abs() < 1e-9,
+            "torque {torque}: {got}° against {angle}°"
+        );
+        assert!((fx.hypot(fy) - 8.0 / R_A).abs() < 1e-9 * 8.0 / R_A);
+        assert!((force - 8.0 / R_A).abs() < 1e-9 * force, "{force}");
+    }
 }

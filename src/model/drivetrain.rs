@@ -140,16 +140,49 @@ pub trait Drivetrain: DrivenModel {
     /// contact decided from that state and the mesh phase at `t` (the contact law as a static
     /// piecewise-linear function).
     fn mesh_law(&self, n: usize, t: f64, s: f64, s_rate: f64) -> MeshLaw;
-    /// Why the force of some mesh is not a function of its one deflection `S_n` (so that
-    /// [`Drivetrain::mesh_law`] does not describe it), naming the mesh: a mesh whose back
-    /// flanks act along their own line of action (`docs/train.md`, "Back flanks").
-    fn mesh_law_refusal(&self) -> Option<String> {
+    /// `ã_n`: the back flanks' own deflection row of mesh `n`, `S̃_n = ã_n·ξ`, where their
+    /// line of action is not the drive line's (backlash, a pressure angle and translations:
+    /// `docs/train.md`, "Back flanks"); `None` where the back flanks act on `S_n` itself. Such
+    /// a mesh's back-side force depends on `S̃_n`, a second deflection of the mesh: its law
+    /// is [`Drivetrain::mesh_law_with_back`], its force along `ã_n` the entry after those of
+    /// [`Drivetrain::mesh_force_directions`].
+    fn mesh_back_row(&self, _n: usize) -> Option<Vec<f64>> {
         None
+    }
+    /// [`Drivetrain::mesh_law`] of a mesh with a back row ([`Drivetrain::mesh_back_row`]):
+    /// the back flanks' contact decided by, and their force formed from, `back = (S̃_n,
+    /// dS̃_n/dt)`; that force (and its `∂/∂S̃`, `∂/∂(dS̃/dt)`, viscous part) is entry
+    /// `mesh_force_directions(n).len()`, acting along `ã_n`. The damper acts along the flanks
+    /// in contact: `ã_n` when only back flanks touch. The other entries depend on `S_n` only.
+    /// Without a back row, [`Drivetrain::mesh_law`].
+    fn mesh_law_with_back(
+        &self,
+        n: usize,
+        t: f64,
+        s: f64,
+        s_rate: f64,
+        _back: (f64, f64),
+    ) -> MeshLaw {
+        self.mesh_law(n, t, s, s_rate)
     }
     /// The switching functions of mesh `n`'s contact law at `(t, s, s_rate)` with their time
     /// derivatives: per tooth pair engaged at `t`, its deflection `δ_j` (and `δ_j + 2b` with
     /// backlash). A pair's contact changes where one changes sign; none for a linear law.
     fn contact_gaps(&self, n: usize, t: f64, s: f64, s_rate: f64, out: &mut Vec<(f64, f64)>);
+    /// [`Drivetrain::contact_gaps`] of a mesh with a back row: per engaged tooth pair `δ_j`
+    /// (on `S_n`, entry `2j`) and `δ̃_j + 2b` (on `back = (S̃_n, dS̃_n/dt)`, entry `2j + 1`).
+    /// Without a back row, [`Drivetrain::contact_gaps`].
+    fn contact_gaps_with_back(
+        &self,
+        n: usize,
+        t: f64,
+        s: f64,
+        s_rate: f64,
+        _back: (f64, f64),
+        out: &mut Vec<(f64, f64)>,
+    ) {
+        self.contact_gaps(n, t, s, s_rate, out)
+    }
     /// Mesh phases (cycles, in `[0, 1)`) at which mesh `n`'s stiffness or gap law changes its
     /// formula, once per mesh cycle: the quadrature of a frequency-domain method is split there.
     fn mesh_breakpoints(&self, n: usize) -> Vec<f64>;
@@ -160,9 +193,10 @@ pub trait Drivetrain: DrivenModel {
     fn external_force(&self, t: f64, out: &mut [f64]);
 }
 
-/// Largest number of force directions of one mesh ([`Drivetrain::mesh_force_directions`]):
-/// the mesh force, and the friction force and moment of a Model-1 mesh with tooth friction.
-pub const MAX_MESH_DIRECTIONS: usize = 3;
+/// Largest number of forces of one mesh ([`MeshLaw`]): the mesh force, the friction force and
+/// moment of a Model-1 mesh with tooth friction ([`Drivetrain::mesh_force_directions`]), and the
+/// back flanks' force along their own row ([`Drivetrain::mesh_back_row`]).
+pub const MAX_MESH_DIRECTIONS: usize = 4;
 
 /// The linear part of the equations of motion in the model's coordinates
 /// ([`Drivetrain::linear_part`]).
@@ -173,16 +207,18 @@ pub struct LinearPart {
     pub stiffness: DMatrix<f64>,
 }
 
-/// One mesh's forces at a state ([`Drivetrain::mesh_law`]), one entry per force direction.
+/// One mesh's forces at a state ([`Drivetrain::mesh_law`]), one entry per force direction
+/// (then, with a back row, the back flanks' force: [`Drivetrain::mesh_law_with_back`]).
 /// Every force is affine in the rates (viscous damping), so `viscous`, the part proportional to
 /// the rates, is what changes with the speed at a fixed mesh phase.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct MeshLaw {
-    /// Force along each direction, N (`force[0]`: the mesh force).
+    /// Force along each direction, N (`force[0]`: the mesh force on the drive row; the mesh's
+    /// total force is that plus the back flanks' force of a mesh with a back row).
     pub force: [f64; MAX_MESH_DIRECTIONS],
-    /// `∂force/∂S`, N/m.
+    /// `∂force/∂S` (of the back flanks' force: `∂/∂S̃`), N/m.
     pub stiffness: [f64; MAX_MESH_DIRECTIONS],
-    /// `∂force/∂Ṡ`, N·s/m.
+    /// `∂force/∂Ṡ` (of the back flanks' force: `∂/∂(dS̃/dt)`), N·s/m.
     pub damping: [f64; MAX_MESH_DIRECTIONS],
     /// The part of `force` proportional to the rates, N.
     pub viscous: [f64; MAX_MESH_DIRECTIONS],
@@ -312,10 +348,10 @@ impl Drivetrain for GearPair {
     fn mesh_law(&self, _n: usize, t: f64, s: f64, s_rate: f64) -> MeshLaw {
         let law = self.force_law(self.mesh_phase(t), 1.0 / self.mesh_period(), s, s_rate);
         MeshLaw {
-            force: [law.force, 0.0, 0.0],
-            stiffness: [law.stiffness, 0.0, 0.0],
-            damping: [law.damping, 0.0, 0.0],
-            viscous: [law.viscous, 0.0, 0.0],
+            force: [law.force, 0.0, 0.0, 0.0],
+            stiffness: [law.stiffness, 0.0, 0.0, 0.0],
+            damping: [law.damping, 0.0, 0.0, 0.0],
+            viscous: [law.viscous, 0.0, 0.0, 0.0],
             in_contact: usize::from(law.engaged),
             pattern: u64::from(law.engaged) << u32::from(law.back),
         }
@@ -448,11 +484,32 @@ impl Drivetrain for GearTrain {
     fn mesh_law(&self, n: usize, t: f64, s: f64, s_rate: f64) -> MeshLaw {
         self.free_mesh_law(n, t, s, s_rate)
     }
-    fn mesh_law_refusal(&self) -> Option<String> {
-        self.back_line_refusal()
+    fn mesh_back_row(&self, n: usize) -> Option<Vec<f64>> {
+        GearTrain::mesh_back_row(self, n).map(<[f64]>::to_vec)
+    }
+    fn mesh_law_with_back(
+        &self,
+        n: usize,
+        t: f64,
+        s: f64,
+        s_rate: f64,
+        back: (f64, f64),
+    ) -> MeshLaw {
+        self.free_mesh_law_with_back(n, t, s, s_rate, back)
     }
     fn contact_gaps(&self, n: usize, t: f64, s: f64, s_rate: f64, out: &mut Vec<(f64, f64)>) {
         self.free_contact_gaps(n, t, s, s_rate, out)
+    }
+    fn contact_gaps_with_back(
+        &self,
+        n: usize,
+        t: f64,
+        s: f64,
+        s_rate: f64,
+        back: (f64, f64),
+        out: &mut Vec<(f64, f64)>,
+    ) {
+        self.free_contact_gaps_with_back(n, t, s, s_rate, back, out)
     }
     fn mesh_breakpoints(&self, n: usize) -> Vec<f64> {
         GearTrain::mesh_breakpoints(self, n)

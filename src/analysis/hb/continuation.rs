@@ -215,7 +215,7 @@ fn continue_branch<M: Drivetrain + Send>(
         problem.frequency(options.from.max(options.to)),
     );
     let xs = problem.x_scale;
-    let dim = problem.meshes.len() * problem.len;
+    let dim = problem.coordinates() * problem.len;
 
     let seed = problem.seed(sim)?;
     let (start, _, iterations) = problem.newton(seed, f_ref, hb)?;

@@ -32,10 +32,53 @@ impl<M: Drivetrain> Problem<M> {
 
     /// Every mesh's law at `θ` for the coefficients `s` (`phi` the basis row at `θ`).
     pub(super) fn laws_at(&self, theta: f64, phi: &[f64], s: &DVector<f64>, out: &mut [MeshLaw]) {
-        let t = theta / self.f;
         for (n, law) in out.iter_mut().enumerate() {
-            let (x, dx) = self.deflection(s, n, phi);
-            *law = self.model.mesh_law(n, t, x, self.f * dx);
+            *law = self.law_at(n, theta, self.f, phi, s);
+        }
+    }
+
+    /// Mesh `n`'s law at `θ` of the HB period `1/f` for the coefficients `s` (`phi` the basis
+    /// row at `θ`): from `S_n`, and from the back flanks' own `S̃_n` for a mesh with a back
+    /// row ([`Drivetrain::mesh_law_with_back`]).
+    #[inline]
+    pub(super) fn law_at(
+        &self,
+        n: usize,
+        theta: f64,
+        f: f64,
+        phi: &[f64],
+        s: &DVector<f64>,
+    ) -> MeshLaw {
+        let (x, dx) = self.deflection(s, n, phi);
+        match self.meshes[n].back {
+            None => self.model.mesh_law(n, theta / f, x, f * dx),
+            Some(c) => {
+                let (xb, dxb) = self.deflection(s, c, phi);
+                self.model
+                    .mesh_law_with_back(n, theta / f, x, f * dx, (xb, f * dxb))
+            }
+        }
+    }
+
+    /// Mesh `n`'s switching functions at `θ` ([`Drivetrain::contact_gaps_with_back`] for a
+    /// mesh with a back row, [`Problem::gap_coordinate`] says on which deflection each is).
+    pub(super) fn gaps_at(
+        &self,
+        n: usize,
+        theta: f64,
+        f: f64,
+        phi: &[f64],
+        s: &DVector<f64>,
+        buf: &mut Vec<(f64, f64)>,
+    ) {
+        let (x, dx) = self.deflection(s, n, phi);
+        match self.meshes[n].back {
+            None => self.model.contact_gaps(n, theta / f, x, f * dx, buf),
+            Some(c) => {
+                let (xb, dxb) = self.deflection(s, c, phi);
+                self.model
+                    .contact_gaps_with_back(n, theta / f, x, f * dx, (xb, f * dxb), buf)
+            }
         }
     }
 
@@ -79,7 +122,8 @@ impl<M: Drivetrain> Problem<M> {
         let mut trig_ready = false;
         if want.samples {
             acc.sample_w.push(w);
-            acc.sample_force.extend(laws.iter().map(|l| l.force[0]));
+            acc.sample_force
+                .extend((laws.iter().enumerate()).map(|(n, l)| self.total_force(n, l)));
             acc.sample_lost
                 .extend(laws.iter().map(|l| l.in_contact == 0));
         }
@@ -141,9 +185,7 @@ impl<M: Drivetrain> Problem<M> {
         buf: &mut Vec<(f64, f64)>,
     ) -> (f64, f64) {
         self.basis_fast(theta, phi);
-        let (x, dx) = self.deflection(s, n, phi);
-        self.model
-            .contact_gaps(n, theta / self.f, x, self.f * dx, buf);
+        self.gaps_at(n, theta, self.f, phi, s, buf);
         buf.get(q).map_or((0.0, 0.0), |g| (g.0, g.1 / self.f))
     }
 
@@ -211,9 +253,7 @@ impl<M: Drivetrain> Problem<M> {
         for n in 0..nm {
             for (k, &theta) in points.iter().enumerate() {
                 self.basis_fast(theta, &mut phi);
-                let (x, dx) = self.deflection(s, n, &phi);
-                self.model
-                    .contact_gaps(n, theta / self.f, x, self.f * dx, &mut buf);
+                self.gaps_at(n, theta, self.f, &phi, s, &mut buf);
                 gaps[k].clear();
                 gaps[k].extend(buf.iter().map(|g| g.0));
             }
@@ -255,20 +295,36 @@ impl<M: Drivetrain> Problem<M> {
             let h = 1e-3 * eps.max(1e-14);
             let mut law_at = |theta: f64| {
                 self.basis_fast(theta, &mut phi);
-                let (x, dx) = self.deflection(s, n, &phi);
-                self.model.mesh_law(n, theta / self.f, x, self.f * dx)
+                self.law_at(n, theta, self.f, &phi, s)
             };
             let (left, right) = (law_at(theta - h), law_at(theta + h));
             self.basis_fast(theta, &mut phi);
+            let moving = self.gap_coordinate(n, q);
             for k in 0..mesh.outputs {
-                // Only the jump counts: remove the continuous part's change over 2h.
-                let slope = 0.5 * (right.stiffness[k] + left.stiffness[k]) * delta_theta;
+                // Only the jump counts: remove the continuous part's change over 2h (along
+                // the output's own deflection where the root is on the other one).
+                let own = self.output_coordinate(n, k);
+                let rate = if own == moving {
+                    delta_theta
+                } else {
+                    self.deflection(s, own, &phi).1
+                };
+                let slope = 0.5 * (right.stiffness[k] + left.stiffness[k]) * rate;
                 let jump = right.force[k] - left.force[k] - slope * 2.0 * h;
                 if jump.abs() <= 1e-9 * (right.force[k].abs() + left.force[k].abs()) {
                     continue;
                 }
-                acc.boundary
-                    .push((mesh.first + k, jump / delta_theta, phi.clone()));
+                if own == moving {
+                    acc.boundary
+                        .push((mesh.first + k, jump / delta_theta, phi.clone()));
+                } else {
+                    acc.cross_boundary.push((
+                        mesh.first + k,
+                        moving,
+                        jump / delta_theta,
+                        phi.clone(),
+                    ));
+                }
             }
         }
     }
@@ -299,6 +355,7 @@ impl<M: Drivetrain> Problem<M> {
             kap_s: zeros(2 * ns, want.jacobian),
             kap_v: zeros(2 * ns, want.jacobian),
             boundary: Vec::new(),
+            cross_boundary: Vec::new(),
             sample_w: Vec::new(),
             sample_force: Vec::new(),
             sample_lost: Vec::new(),
@@ -411,8 +468,10 @@ impl<M: Drivetrain> Problem<M> {
             }
             y
         };
-        let mut residual = DVector::zeros(nm * len);
-        for n in 0..nm {
+        // One block per condensed coordinate (the meshes', then the back flanks').
+        let nc = self.coordinates();
+        let mut residual = DVector::zeros(nc * len);
+        for n in 0..nc {
             let mut y = s.rows(n * len, len).into_owned() - lin_of(&rec.lin, n);
             for (out, go) in g.iter().enumerate() {
                 apply(&rec.r, n, out, go, &mut y);
@@ -429,8 +488,8 @@ impl<M: Drivetrain> Problem<M> {
             for (n, mesh) in self.meshes.iter().enumerate() {
                 dg[mesh.first] -= &ds[n] * mesh.c_mean;
             }
-            let mut d = DVector::zeros(nm * len);
-            for n in 0..nm {
+            let mut d = DVector::zeros(nc * len);
+            for n in 0..nc {
                 let mut y = -lin_of(&rec.dlin, n);
                 for out in 0..outs {
                     apply(&rec.dr, n, out, &g[out], &mut y);
@@ -442,7 +501,7 @@ impl<M: Drivetrain> Problem<M> {
         });
 
         let jacobian = want.jacobian.then(|| {
-            let mut jac = DMatrix::<f64>::identity(nm * len, nm * len);
+            let mut jac = DMatrix::<f64>::identity(nc * len, nc * len);
             let mut gs = DMatrix::<f64>::zeros(len, len);
             for (n, mesh) in self.meshes.iter().enumerate() {
                 for k in 0..mesh.outputs {
@@ -471,21 +530,25 @@ impl<M: Drivetrain> Problem<M> {
                             }
                         }
                     }
-                    // J[n', n] += R[n', out] ⊙ gs (per order, on the rows).
-                    for n2 in 0..nm {
-                        let mut block = jac.view_mut((n2 * len, n * len), (len, len));
-                        let r0 = rec.r[0][(n2, out)].re;
-                        for cl in 0..len {
-                            block[(0, cl)] += r0 * gs[(0, cl)];
-                        }
-                        for q in 1..self.orders.len() {
-                            let rq = rec.r[q][(n2, out)];
+                    // J[n', c] += R[n', out] ⊙ gs, c the output's own coordinate.
+                    self.add_receptance_block(
+                        &rec.r,
+                        out,
+                        self.output_coordinate(n, k),
+                        &gs,
+                        &mut jac,
+                    );
+                    // Split points on the mesh's other deflection (a mesh with a back row).
+                    for (_, c, coefficient, phi) in acc.cross_boundary.iter().filter(|b| b.0 == out)
+                    {
+                        gs.fill(0.0);
+                        for r in 0..len {
+                            let row = coefficient * factor(r) * phi[r];
                             for cl in 0..len {
-                                let (a, b) = cmul(rq, gs[(2 * q - 1, cl)], gs[(2 * q, cl)]);
-                                block[(2 * q - 1, cl)] += a;
-                                block[(2 * q, cl)] += b;
+                                gs[(r, cl)] += row * phi[cl];
                             }
                         }
+                        self.add_receptance_block(&rec.r, out, *c, &gs, &mut jac);
                     }
                 }
             }
@@ -501,6 +564,34 @@ impl<M: Drivetrain> Problem<M> {
             sample_force: acc.sample_force,
             sample_lost: acc.sample_lost,
         })
+    }
+
+    /// `J[n', c] += R[n', out] ⊙ gs` for every coordinate `n'` (per order, on the rows): the
+    /// receptance of output `out` times `gs = ∂g_out/∂s_c`.
+    fn add_receptance_block(
+        &self,
+        r: &[DMatrix<Complex<f64>>],
+        out: usize,
+        c: usize,
+        gs: &DMatrix<f64>,
+        jac: &mut DMatrix<f64>,
+    ) {
+        let len = self.len;
+        for n2 in 0..self.coordinates() {
+            let mut block = jac.view_mut((n2 * len, c * len), (len, len));
+            let r0 = r[0][(n2, out)].re;
+            for cl in 0..len {
+                block[(0, cl)] += r0 * gs[(0, cl)];
+            }
+            for q in 1..self.orders.len() {
+                let rq = r[q][(n2, out)];
+                for cl in 0..len {
+                    let (a, b) = cmul(rq, gs[(2 * q - 1, cl)], gs[(2 * q, cl)]);
+                    block[(2 * q - 1, cl)] += a;
+                    block[(2 * q, cl)] += b;
+                }
+            }
+        }
     }
 
     /// Adds `scale·T(κ)` to `gs`, or with `rate` `scale·T(κ)·D_θ` (`D_θ = d/dθ` on the

@@ -29,7 +29,11 @@
 //! the receptances `Aᵀ Z_j⁻¹ V`, exact in harmonic balance because the linear part couples no
 //! two harmonics). The Newton system is `n_mesh (2|J| − 1)` square instead of
 //! `m (2|J| − 1)`: 16× smaller for the 8-DOF idler, whose two meshes carry all nonlinearity.
-//! The coefficients of every coordinate are recovered from the converged `s`.
+//! The coefficients of every coordinate are recovered from the converged `s`. A mesh whose
+//! back flanks act along their own line of action (`docs/train.md`, "Back flanks") adds its
+//! back deflection `S̃_n = ã_n·ξ` as a further condensed coordinate and its back force along
+//! `ã_n` as a further output ([`crate::model::Drivetrain::mesh_back_row`]): the same
+//! equations with one more block each.
 //!
 //! **Galerkin projection.** `g = P[F(θ, S, Ṡ)] − k̄ s − c̄ Ṡ` is integrated by composite
 //! 3-point Gauss rules on cells split at every stiffness/gap breakpoint of every mesh

@@ -27,6 +27,10 @@ pub(super) struct MeshData {
     /// Mesh cycles per HB period.
     pub(super) cycles: f64,
     pub(super) static_force: f64,
+    /// The coordinate of the back flanks' own deflection `S̃_n = ã_n·ξ` (after the meshes'),
+    /// for a mesh with a back row ([`Drivetrain::mesh_back_row`]): the last of its outputs
+    /// is the back flanks' force along `ã_n`, which depends on `S̃_n`.
+    pub(super) back: Option<usize>,
 }
 
 /// Per-order data of the condensed linear part at one frequency.
@@ -61,6 +65,10 @@ pub(super) struct Accumulator {
     pub(super) kap_v: Vec<Vec<f64>>,
     /// Boundary terms `(output, coefficient, φ(θ*))` of the split points.
     pub(super) boundary: Vec<(usize, f64, Vec<f64>)>,
+    /// Boundary terms of split points on another coordinate than the output's own (a mesh
+    /// with a back row: a drive gap's root moving the back force, or the converse):
+    /// `(output, coordinate, coefficient, φ(θ*))`.
+    pub(super) cross_boundary: Vec<(usize, usize, f64, Vec<f64>)>,
     /// Node samples for the results: weight, and per mesh the mesh force and whether it has
     /// lost contact on every tooth pair.
     pub(super) sample_w: Vec<f64>,
@@ -94,7 +102,8 @@ pub(super) struct Problem<M: Drivetrain> {
     pub(super) speed_per_f: f64,
     pub(super) m: usize,
     pub(super) meshes: Vec<MeshData>,
-    /// Mesh deflection rows (m × meshes) and force directions (m × outputs).
+    /// Mesh deflection rows (m × coordinates: the meshes', then the back flanks' own rows of
+    /// the meshes that have one, [`MeshData::back`]) and force directions (m × outputs).
     pub(super) a: DMatrix<f64>,
     pub(super) v: DMatrix<f64>,
     pub(super) mass: DMatrix<f64>,
@@ -225,9 +234,6 @@ impl<M: Drivetrain> Problem<M> {
         options: &HbOptions,
     ) -> Result<Self, String> {
         options.validate()?;
-        if let Some(why) = model.mesh_law_refusal() {
-            return Err(format!("harmonic balance: {why}"));
-        }
         let meshes_n = model.mesh_count();
         let freqs: Vec<f64> = (0..meshes_n).map(|n| model.mesh_frequency(n)).collect();
         if !(freqs[0] > 0.0 && freqs[0].is_finite()) {
@@ -255,6 +261,7 @@ impl<M: Drivetrain> Problem<M> {
         let mut meshes = Vec::with_capacity(meshes_n);
         let mut a = DMatrix::zeros(m, meshes_n);
         let mut directions: Vec<Vec<f64>> = Vec::new();
+        let mut back_rows: Vec<Vec<f64>> = Vec::new();
         let mut bases = Vec::new();
         for (n, &frequency) in freqs.iter().enumerate() {
             let cycles = frequency * period;
@@ -266,7 +273,13 @@ impl<M: Drivetrain> Problem<M> {
                 ));
             }
             a.set_column(n, &DVector::from_vec(model.mesh_deflection_row(n)));
-            let dirs = model.mesh_force_directions(n);
+            let mut dirs = model.mesh_force_directions(n);
+            // The back flanks on their own row: a second coordinate and force of the mesh.
+            let back = model.mesh_back_row(n).map(|row| {
+                dirs.push(row.clone());
+                back_rows.push(row);
+                meshes_n + back_rows.len() - 1
+            });
             let (k_mean, c_mean) = model.mean_mesh_law(n);
             meshes.push(MeshData {
                 prefix: model.mesh_prefix(n),
@@ -277,6 +290,7 @@ impl<M: Drivetrain> Problem<M> {
                 c_mean,
                 cycles: rounded,
                 static_force: statics.get(n).copied().unwrap_or(f64::NAN),
+                back,
             });
             directions.extend(dirs);
             bases.push(rounded as usize / options.subharmonic as usize);
@@ -287,6 +301,13 @@ impl<M: Drivetrain> Problem<M> {
             let cycles = (f_rev * period).round() as usize;
             bases.push(cycles / options.subharmonic as usize);
         }
+        if !back_rows.is_empty() {
+            a = a.resize_horizontally(meshes_n + back_rows.len(), 0.0);
+            for (b, row) in back_rows.iter().enumerate() {
+                a.set_column(meshes_n + b, &DVector::from_column_slice(row));
+            }
+        }
+        let coordinates = a.ncols();
         let v = DMatrix::from_fn(m, directions.len(), |i, k| directions[k][i]);
         let lin = model.linear_part();
         let (mut stiffness, mut damping) = (lin.stiffness, lin.damping);
@@ -299,13 +320,17 @@ impl<M: Drivetrain> Problem<M> {
         let orders = combination_orders(&bases, options.harmonics);
         let j_max = *orders.last().expect("order 0");
         let len = 2 * orders.len() - 1;
-        if meshes_n * len > MAX_UNKNOWNS {
+        if coordinates * len > MAX_UNKNOWNS {
             return Err(format!(
-                "harmonics = {}: {} retained orders give {} unknowns over {meshes_n} meshes, more \
-                 than the {MAX_UNKNOWNS} a dense Newton system takes (lower harmonics)",
+                "harmonics = {}: {} retained orders give {} unknowns over {meshes_n} meshes{}, \
+                 more than the {MAX_UNKNOWNS} a dense Newton system takes (lower harmonics)",
                 options.harmonics,
                 orders.len(),
-                meshes_n * len
+                coordinates * len,
+                match coordinates - meshes_n {
+                    0 => String::new(),
+                    b => format!(" and {b} back-flank deflections"),
+                }
             ));
         }
         let samples = options.samples.unwrap_or((16 * (2 * j_max + 1)).max(256));
@@ -534,6 +559,43 @@ impl<M: Drivetrain> Problem<M> {
         self.v.ncols()
     }
 
+    /// The condensed coordinates: every mesh's deflection `S_n`, then the back flanks' own
+    /// deflections `S̃_n` ([`MeshData::back`]).
+    pub(super) fn coordinates(&self) -> usize {
+        self.a.ncols()
+    }
+
+    /// The coordinate output `k` of mesh `n` depends on: the back flanks' force (the last
+    /// output of a mesh with a back row) on `S̃_n`, every other on `S_n`.
+    pub(super) fn output_coordinate(&self, n: usize, k: usize) -> usize {
+        let mesh = &self.meshes[n];
+        match mesh.back {
+            Some(c) if k + 1 == mesh.outputs => c,
+            _ => n,
+        }
+    }
+
+    /// The coordinate gap `q` of mesh `n` ([`Drivetrain::contact_gaps_with_back`]) is a
+    /// function of: for a mesh with a back row the back gaps `δ̃_j + 2b` (odd `q`) of `S̃_n`,
+    /// every other gap of `S_n`.
+    pub(super) fn gap_coordinate(&self, n: usize, q: usize) -> usize {
+        match self.meshes[n].back {
+            Some(c) if q % 2 == 1 => c,
+            _ => n,
+        }
+    }
+
+    /// The mesh's total force from its law: the drive row's force, plus the back flanks'
+    /// of a mesh with a back row (`<mesh>.force` of the time-domain outputs).
+    #[inline]
+    pub(super) fn total_force(&self, n: usize, law: &MeshLaw) -> f64 {
+        let mesh = &self.meshes[n];
+        match mesh.back {
+            Some(_) => law.force[0] + law.force[mesh.outputs - 1],
+            None => law.force[0],
+        }
+    }
+
     /// Sets the HB fundamental frequency (and the model's input speed).
     pub(super) fn set_frequency(&mut self, f: f64) -> Result<(), String> {
         if f != self.f {
@@ -558,7 +620,7 @@ impl<M: Drivetrain> Problem<M> {
         }
         let m = self.m;
         let outs = self.outputs();
-        let nm = self.meshes.len();
+        let nm = self.coordinates();
         let cm = |a: &DMatrix<f64>| a.map(|x| Complex::new(x, 0.0));
         let (mass, damping, stiffness) = (cm(&self.mass), cm(&self.damping), cm(&self.stiffness));
         let at = cm(&self.a.transpose());
@@ -655,7 +717,7 @@ impl<M: Drivetrain> Problem<M> {
                 self.m
             ));
         }
-        let nm = self.meshes.len();
+        let nm = self.coordinates();
         let mut s = DVector::zeros(nm * len);
         for n in 0..nm {
             for i in 0..self.m {
@@ -682,7 +744,7 @@ impl<M: Drivetrain> Problem<M> {
         let mut order: Vec<usize> = (0..self.nodes.len()).collect();
         order.sort_by(|&a, &b| self.nodes[a].total_cmp(&self.nodes[b]));
         let len = self.len;
-        let nm = self.meshes.len();
+        let nm = self.coordinates();
         let mut s = DVector::zeros(nm * len);
         let mut row = vec![0.0; len];
         for i in order {
@@ -740,9 +802,9 @@ impl<M: Drivetrain> Problem<M> {
                 }
             }
         }
-        // The mesh-deflection coefficients S_n = a_n·ξ of the orbit.
-        let mut s = DVector::zeros(self.meshes.len() * len);
-        for n in 0..self.meshes.len() {
+        // The mesh-deflection coefficients S_n = a_n·ξ of the orbit (and S̃_n = ã_n·ξ).
+        let mut s = DVector::zeros(self.coordinates() * len);
+        for n in 0..self.coordinates() {
             for i in 0..m {
                 let a = self.a[(i, n)];
                 if a != 0.0 {

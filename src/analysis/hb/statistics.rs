@@ -82,9 +82,17 @@ impl<M: Drivetrain> Problem<M> {
         }
         let (mut force_grid, mut lost_grid) =
             (Vec::with_capacity(points), Vec::with_capacity(points));
+        let back = mesh.back.map(|c| self.grid_series(s, c));
         for (i, (&x, &dx)) in x.iter().zip(&dx).enumerate() {
-            let law = self.model.mesh_law(n, i as f64 * h / f, x, f * dx);
-            force_grid.push(law.force[0].abs());
+            let t = i as f64 * h / f;
+            let law = match &back {
+                None => self.model.mesh_law(n, t, x, f * dx),
+                Some((xb, dxb)) => {
+                    self.model
+                        .mesh_law_with_back(n, t, x, f * dx, (xb[i], f * dxb[i]))
+                }
+            };
+            force_grid.push(self.total_force(n, &law).abs());
             lost_grid.push(law.in_contact == 0);
         }
         // The refinements evaluate the series with one `sin_cos` and powers of it
@@ -99,11 +107,10 @@ impl<M: Drivetrain> Problem<M> {
         });
         let law_at = |theta: f64, phi: &mut [f64]| {
             self.basis_fast(theta, phi);
-            let (x, dx) = self.deflection(s, n, phi);
-            self.model.mesh_law(n, theta / f, x, f * dx)
+            self.law_at(n, theta, f, phi, s)
         };
         let peak = series_maximum(&force_grid, 1.0, &mut |centre| {
-            let force = |t: f64| law_at(t, &mut phi).force[0].abs();
+            let force = |t: f64| self.total_force(n, &law_at(t, &mut phi)).abs();
             brent_maximum(force, centre - h, centre + h, REFINE_TOL).1
         });
         let separation = self.separation(s, n, f, &lost_grid, &mut phi);
@@ -132,6 +139,31 @@ impl<M: Drivetrain> Problem<M> {
             dynamic_factor: peak / mesh.static_force,
             poincare: Vec::new(),
         }
+    }
+
+    /// Coordinate `c`'s series and its θ-derivative on the scan grid `θ_i = i/points`, summed
+    /// as in [`Problem::mesh_response`].
+    fn grid_series(&self, s: &DVector<f64>, c: usize) -> (Vec<f64>, Vec<f64>) {
+        let roots = &self.scan_roots;
+        let points = roots.len();
+        let coefficients = &s.as_slice()[c * self.len..(c + 1) * self.len];
+        let mut x = vec![coefficients[0]; points];
+        let mut dx = vec![0.0; points];
+        for (q, &j) in self.orders.iter().enumerate().skip(1) {
+            let (a, b) = (coefficients[2 * q - 1], coefficients[2 * q]);
+            let w = TAU * j as f64;
+            let mut entry = 0;
+            for (x, dx) in x.iter_mut().zip(&mut dx) {
+                let (cs, sn) = roots[entry];
+                *x += a * cs + b * sn;
+                *dx += w * (b * cs - a * sn);
+                entry += j;
+                if entry >= points {
+                    entry -= points;
+                }
+            }
+        }
+        (x, dx)
     }
 
     /// `sign` times the DTE series `dte` (about its mean) and its first two θ-derivatives at
@@ -215,14 +247,12 @@ impl<M: Drivetrain> Problem<M> {
     ) -> f64 {
         let lost = |theta: f64, phi: &mut [f64]| {
             self.basis_fast(theta, phi);
-            let (x, dx) = self.deflection(s, n, phi);
-            self.model.mesh_law(n, theta / f, x, f * dx).in_contact == 0
+            self.law_at(n, theta, f, phi, s).in_contact == 0
         };
         let mut buf = Vec::new();
         let gaps = |theta: f64, phi: &mut [f64], buf: &mut Vec<(f64, f64)>| {
             self.basis_fast(theta, phi);
-            let (x, dx) = self.deflection(s, n, phi);
-            self.model.contact_gaps(n, theta / f, x, f * dx, buf);
+            self.gaps_at(n, theta, f, phi, s, buf);
             buf.iter().map(|g| g.0 > 0.0).collect::<Vec<bool>>()
         };
         let (at_a, at_b) = (gaps(a, phi, &mut buf), gaps(b, phi, &mut buf));

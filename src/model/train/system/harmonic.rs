@@ -57,19 +57,11 @@ impl GearTrain {
         out
     }
 
-    /// The first mesh whose back flanks act along their own line of action (a mesh with
-    /// backlash, a pressure angle and translations): its back-side force depends on the back
-    /// deflection `ã_n·ξ`, not on `S_n`, so a method that condenses onto the mesh deflections
-    /// does not apply (`docs/train.md`, "Back flanks").
-    pub fn back_line_refusal(&self) -> Option<String> {
-        let n = self.meshes.iter().position(|mesh| mesh.a_back.is_some())?;
-        Some(format!(
-            "mesh[{n}] (\"{}\") has contact = \"backlash\" with translations and a pressure \
-             angle: its back flanks touch along their own line of action, a second deflection \
-             the frequency-domain force law does not take; use `periodic` (shooting), or \
-             contact = \"contact_loss\" if the back side never touches",
-            self.mesh_names[n]
-        ))
+    /// `ã_n = Qᵀd̃_n`, mesh `n`'s back flanks' own deflection row, where it differs from `a_n`
+    /// (a mesh with backlash, a pressure angle and translations: `docs/train.md`, "Back
+    /// flanks"); its back-side force depends on `ã_n·ξ`, not on `S_n`.
+    pub fn mesh_back_row(&self, n: usize) -> Option<&[f64]> {
+        self.meshes[n].a_back.as_deref()
     }
 
     /// Mesh phases (cycles, `[0, 1)`) of mesh `n`'s interval knots; none for a smooth
@@ -135,26 +127,71 @@ impl GearTrain {
     /// `GearTrain::classify` without the tie-break, which has measure zero): `Σ_j k_j(δ_j +
     /// o_j) + c(Ṡ − ė)` while any slot touches, and the friction of the slots in drive contact.
     pub fn free_mesh_law(&self, n: usize, t: f64, s: f64, s_rate: f64) -> MeshLaw {
+        self.free_flanks_law(n, t, s, s_rate, None)
+    }
+
+    /// [`GearTrain::free_mesh_law`] with the back flanks on their own row (`MeshRt::a_back`):
+    /// a slot not in drive contact is in back contact for `δ̃_j = S̃ − e − g_j < −2b`, with
+    /// the force `k_j(δ̃_j + 2b)`, and the damper `c(dS̃/dt − ė)` when only back flanks touch,
+    /// both in entry `k_b` (after the mesh's force directions), acting along `ã_n`
+    /// (`GearTrain::mesh_force_split_at`'s split). A mesh without its own back row:
+    /// [`GearTrain::free_mesh_law`].
+    pub fn free_mesh_law_with_back(
+        &self,
+        n: usize,
+        t: f64,
+        s: f64,
+        s_rate: f64,
+        back: (f64, f64),
+    ) -> MeshLaw {
+        let back = self.meshes[n].a_back.as_ref().map(|_| back);
+        self.free_flanks_law(n, t, s, s_rate, back)
+    }
+
+    /// The law of both: `back` the back row's deflection and rate, `None` to take the back
+    /// flanks on `S` (then every operation is that of the one-row law).
+    fn free_flanks_law(
+        &self,
+        n: usize,
+        t: f64,
+        s: f64,
+        s_rate: f64,
+        back: Option<(f64, f64)>,
+    ) -> MeshLaw {
         let mesh = &self.meshes[n];
         let (p, f) = mesh.clock.phase_and_frequency(t);
         let mut law = MeshLaw::default();
         let clearance = mesh.clearance_at(p).0;
+        // The back flanks' entry: after the mesh force and the friction's two.
+        let k_back = match back {
+            Some(_) => 1 + 2 * usize::from(mesh.friction.is_some()),
+            None => 0,
+        };
+        let s_back = back.map_or(s, |b| b.0);
+        let mut touching_drive = false;
         let mut j = 0;
         self.for_each_free_slot(n, p, f, |slot| {
             let bit = 2 * j;
             j += 1;
             let delta = s - slot.gap;
+            let delta_back = s_back - slot.gap;
             let (drive, offset) = match mesh.contact {
                 ContactLaw::Linear => (true, 0.0),
                 ContactLaw::ContactLoss if delta > 0.0 => (true, 0.0),
                 ContactLaw::Backlash { .. } if delta > 0.0 => (true, 0.0),
-                ContactLaw::Backlash { .. } if delta < -clearance => (false, clearance),
+                ContactLaw::Backlash { .. } if delta_back < -clearance => (false, clearance),
                 _ => return,
             };
-            law.force[0] += slot.k * (delta + offset);
-            law.stiffness[0] += slot.k;
+            let (k, deflection) = if drive {
+                (0, delta)
+            } else {
+                (k_back, delta_back)
+            };
+            law.force[k] += slot.k * (deflection + offset);
+            law.stiffness[k] += slot.k;
             law.in_contact += 1;
             law.pattern |= 1 << (bit + u32::from(!drive)).min(63);
+            touching_drive |= drive;
             if let (true, Some((w0, w1))) = (drive, slot.friction) {
                 law.force[1] -= w0 * delta;
                 law.force[2] -= w1 * delta;
@@ -164,10 +201,15 @@ impl GearTrain {
         });
         if law.in_contact > 0 && mesh.damping != 0.0 {
             let (_, e_slope) = mesh.ste_free(p);
-            let viscous = mesh.damping * (s_rate - e_slope * f);
-            law.force[0] += viscous;
-            law.viscous[0] = viscous;
-            law.damping[0] = mesh.damping;
+            // Along the flanks in contact: the back row when only back flanks touch.
+            let (k, rate) = match back {
+                Some((_, rate)) if !touching_drive => (k_back, rate),
+                _ => (0, s_rate),
+            };
+            let viscous = mesh.damping * (rate - e_slope * f);
+            law.force[k] += viscous;
+            law.viscous[k] = viscous;
+            law.damping[k] = mesh.damping;
         }
         law
     }
@@ -182,6 +224,33 @@ impl GearTrain {
         s_rate: f64,
         out: &mut Vec<(f64, f64)>,
     ) {
+        self.free_flanks_gaps(n, t, s, s_rate, None, out)
+    }
+
+    /// [`GearTrain::free_contact_gaps`] with the back flanks on their own row: `δ_j` and
+    /// `δ̃_j + 2b` per engaged slot, the latter from `back = (S̃, dS̃/dt)`.
+    pub fn free_contact_gaps_with_back(
+        &self,
+        n: usize,
+        t: f64,
+        s: f64,
+        s_rate: f64,
+        back: (f64, f64),
+        out: &mut Vec<(f64, f64)>,
+    ) {
+        let back = self.meshes[n].a_back.as_ref().map(|_| back);
+        self.free_flanks_gaps(n, t, s, s_rate, back, out)
+    }
+
+    fn free_flanks_gaps(
+        &self,
+        n: usize,
+        t: f64,
+        s: f64,
+        s_rate: f64,
+        back: Option<(f64, f64)>,
+        out: &mut Vec<(f64, f64)>,
+    ) {
         out.clear();
         let mesh = &self.meshes[n];
         if mesh.contact == ContactLaw::Linear {
@@ -189,11 +258,13 @@ impl GearTrain {
         }
         let (p, f) = mesh.clock.phase_and_frequency(t);
         let clearance = mesh.clearance_at(p).0;
+        let (s_back, s_back_rate) = back.unwrap_or((s, s_rate));
         self.for_each_free_slot(n, p, f, |slot| {
             let (delta, rate) = (s - slot.gap, s_rate - slot.gap_rate);
             out.push((delta, rate));
             if let ContactLaw::Backlash { .. } = mesh.contact {
-                out.push((delta + clearance, rate));
+                let (delta_back, rate_back) = (s_back - slot.gap, s_back_rate - slot.gap_rate);
+                out.push((delta_back + clearance, rate_back));
             }
         });
     }
