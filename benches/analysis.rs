@@ -12,8 +12,11 @@
 //! DTE and force, 40 mesh harmonics, integrated over each segment) against the shooting that
 //! finds the orbit, in thread CPU time.
 //!
-//! Run: `cargo bench --bench analysis` (or `scripts/bench.sh`); `-- spectrum` for the last
-//! rows alone.
+//! Then (issue 38) the countershaft's harmonic balance at H = 20 against the sweep of the
+//! same speeds.
+//!
+//! Run: `cargo bench --bench analysis` (or `scripts/bench.sh`); `-- spectrum` for the
+//! spectrum rows alone, `-- countershaft` for the countershaft rows alone.
 
 use std::hint::black_box;
 use std::time::Instant;
@@ -140,6 +143,58 @@ fn thread_cpu() -> f64 {
     ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
 }
 
+/// CPU time of the process (every thread), s: the continuation's stability step runs its
+/// period maps on all cores.
+fn process_cpu() -> f64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: writes the process' CPU clock into `ts`.
+    unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
+    ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
+}
+
+/// Issue 38 acceptance 1: `geardyn hb fmu/countershaft_gearset --speed from:to --harmonics 20`
+/// (continuation with the stability of every point) against the up sweep of the same speeds
+/// (the branch points'), in process CPU time, measured in one run (one round each: the HB
+/// branch takes tens of seconds).
+fn countershaft_hb_against_sweep(from: f64, to: f64) {
+    let scene = Scene::from_toml_str(
+        include_str!("../fmu/countershaft_gearset/scene.toml"),
+        "countershaft_gearset",
+    )
+    .expect("scene");
+    let t = process_cpu();
+    let branch = continuation(
+        &scene,
+        &HbOptions::new(20),
+        &ContinuationOptions::new(from, to),
+    )
+    .expect("continuation");
+    let hb = process_cpu() - t;
+    let mut speeds: Vec<f64> = branch.iter().map(|p| p.speed).collect();
+    speeds.sort_by(f64::total_cmp);
+    let t = process_cpu();
+    let swept = sweep(
+        &scene,
+        &SweepOptions::new(speeds.clone(), Direction::Up),
+        &|_, _| {},
+    )
+    .expect("sweep");
+    let sw = process_cpu() - t;
+    black_box(swept);
+    let folds = branch.iter().filter(|p| p.fold).count();
+    println!(
+        "countershaft_gearset {from}..{to} rad/s: hb H = 20 (total-order basis, with stability) \
+         {hb:.3} s CPU, {} points, {folds} folds; up sweep of the same {} speeds {sw:.4} s CPU \
+         → hb/sweep {:.0}×",
+        branch.len(),
+        speeds.len(),
+        hb / sw
+    );
+}
+
 /// Alternated rounds of [`spectrum_against_shooting`] (each a few milliseconds).
 const SPECTRUM_ROUNDS: usize = 21;
 
@@ -192,6 +247,12 @@ fn spectrum_against_shooting(name: &str, speed: f64, harmonics: usize) {
 }
 
 fn main() {
+    // `cargo bench --bench analysis -- countershaft`: these rows alone.
+    if std::env::args().any(|a| a == "countershaft") {
+        countershaft_hb_against_sweep(240.0, 250.0);
+        countershaft_hb_against_sweep(300.0, 320.0);
+        return;
+    }
     spectrum_against_shooting("idler_gearset", 420.0, 40);
     spectrum_against_shooting("idler_gearset", 390.0, 40);
     spectrum_against_shooting("countershaft_gearset", 232.0, 40);
@@ -278,4 +339,6 @@ fn main() {
             );
         }
     }
+    countershaft_hb_against_sweep(240.0, 250.0);
+    countershaft_hb_against_sweep(300.0, 320.0);
 }

@@ -201,7 +201,7 @@ fn idler_hb_error_against_shooting_falls_with_harmonics() {
 #[test]
 fn countershaft_hb_error_against_shooting_falls_with_harmonics() {
     // Two mesh frequencies at ratio 19/72: the response period is 72 mesh periods of the
-    // first mesh; HB keeps the combination tones a·f1 + b·f2 with 72|a| + 19|b| ≤ 72 H.
+    // first mesh; HB keeps the combination tones a·f1 + b·f2 of total order |a| + |b| ≤ H.
     // 200 rad/s: below the first mesh's resonance; 232 rad/s: on it, mesh 1 loses contact;
     // 246.4 rad/s: the scene's speed (mesh 1 at 2000 Hz).
     let errors = error_table(

@@ -2,13 +2,13 @@
 //! quadrature split at every breakpoint, the condensed linear part (receptances per order),
 //! Newton at a fixed speed, the time-domain seed and the orbit of a converged solution.
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
 use std::f64::consts::TAU;
 
 use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
 use super::scan::{scan_points, scan_roots};
-use super::{HbOptions, HbSolution};
+use super::{Basis, HbOptions, HbSolution};
 use crate::model::drivetrain::{response_frequencies, response_period_in_mesh_periods};
 use crate::model::{Drivetrain, MeshLaw};
 use crate::scene::SolverSettings;
@@ -152,6 +152,11 @@ pub(super) const GAUSS3: [(f64, f64); 3] = [
     (0.774_596_669_241_483_4, 5.0 / 9.0),
 ];
 
+/// Unknowns above which Newton and the continuation's corrector keep a factorised Jacobian
+/// over several iterates (the chord method): below, a Jacobian and its LU per iterate cost
+/// little, and Newton's iterates (so the branch points) stay those they have always been.
+pub(super) const CHORD_UNKNOWNS: usize = 512;
+
 /// Largest Newton system (its dense Jacobian is 128 MB and one LU ~4e10 flops).
 pub(super) const MAX_UNKNOWNS: usize = 4096;
 
@@ -167,34 +172,46 @@ pub(super) const TABLE_ENTRIES: usize = 1 << 22;
 /// engaged tooth pairs change).
 pub(super) const PROBE: f64 = 1e-9;
 
-/// The retained orders: 0 and the combination tones `|Σ a_n b_n|` of the distinct base orders
-/// `b_n` whose constituent frequencies add up to at most `h` times the highest base:
-/// `Σ |a_n| b_n ≤ h·max b`. For one base order `b` these are the harmonics `b, 2b, …, hb`; a
-/// slow mesh keeps as many harmonics as fit below `h` times the fastest mesh frequency (the
-/// countershaft's second stage, at 19/72 of the first, keeps `3.8h`: its high harmonics are
-/// what excites the modes above it).
-pub(super) fn combination_orders(bases: &[usize], h: usize) -> Vec<usize> {
-    fn walk(bases: &[usize], budget: usize, acc: i64, out: &mut BTreeSet<usize>) {
-        match bases.split_first() {
-            None => {
-                out.insert(acc.unsigned_abs() as usize);
-            }
-            Some((&b, rest)) => {
-                let most = (budget / b) as i64;
-                for a in -most..=most {
-                    let used = a.unsigned_abs() as usize * b;
-                    walk(rest, budget - used, acc + a * b as i64, out);
-                }
-            }
+/// The retained orders of `basis` for the base orders `bases` (the mesh and error
+/// frequencies in multiples of `1/T`) at order `h` ([`Basis`]).
+pub(super) fn retained_orders(basis: Basis, bases: &[usize], h: usize) -> Vec<usize> {
+    match basis {
+        Basis::TotalOrder => combination_orders(bases, h),
+        Basis::Full => {
+            let top = bases.iter().copied().max().expect("one mesh at least");
+            (0..=h * top).collect()
         }
     }
+}
+
+/// The retained orders: 0 and the combination tones `|Σ a_n b_n|` of the distinct base orders
+/// `b_n` of total order `Σ |a_n| ≤ h` (Krack & Gross 2019 §2.5, multi-frequency HB with a
+/// total-order truncation). For one base order `b` these are the harmonics `b, 2b, …, hb`;
+/// for the countershaft (`b = (72, 19)`) the tones `72a + 19b` with `|a| + |b| ≤ h`:
+/// `h² + h + 1` orders (421 at `h = 20`) instead of the `72h + 1` multiples of `1/T` up to
+/// `h f_1` (1441), with every harmonic up to `h` of each mesh and their intermodulation.
+pub(super) fn combination_orders(bases: &[usize], h: usize) -> Vec<usize> {
     let mut distinct: Vec<usize> = bases.to_vec();
     distinct.sort_unstable();
     distinct.dedup();
-    let top = *distinct.last().expect("one mesh at least");
-    let mut out = BTreeSet::new();
-    walk(&distinct, h * top, 0, &mut out);
-    out.into_iter().collect()
+    // The least total order that reaches each tone, base by base: the work is bounded by the
+    // number of tones (at most 2h·Σb + 1), not by the lattice points (exponential in the bases).
+    let mut least: BTreeMap<i64, usize> = BTreeMap::from([(0, 0)]);
+    for &b in &distinct {
+        let mut next = least.clone();
+        for (&tone, &used) in &least {
+            for a in 1..=(h - used) as i64 {
+                for t in [tone + a * b as i64, tone - a * b as i64] {
+                    let total = used + a as usize;
+                    let entry = next.entry(t).or_insert(total);
+                    *entry = (*entry).min(total);
+                }
+            }
+        }
+        least = next;
+    }
+    let set: BTreeSet<usize> = least.keys().map(|t| t.unsigned_abs() as usize).collect();
+    set.into_iter().collect()
 }
 
 /// `(cos, sin)` of order index `q` from a basis row.
@@ -317,7 +334,7 @@ impl<M: Drivetrain> Problem<M> {
             damping += mesh.c_mean * col * col.transpose();
         }
 
-        let orders = combination_orders(&bases, options.harmonics);
+        let orders = retained_orders(options.basis, &bases, options.harmonics);
         let j_max = *orders.last().expect("order 0");
         let len = 2 * orders.len() - 1;
         if coordinates * len > MAX_UNKNOWNS {
@@ -686,18 +703,32 @@ impl<M: Drivetrain> Problem<M> {
             samples: true,
             ..Want::default()
         };
+        // Large systems: the chord method (the LU kept while the updates shrink by ½ or more
+        // per iterate; docs/harmonic-balance.md "Solver"); small ones: Newton as always.
+        let chord = s.len() > CHORD_UNKNOWNS;
+        let mut factored: Option<LU<f64, Dyn, Dyn>> = None;
+        let mut previous = f64::INFINITY;
         for iteration in 1..=options.max_iterations {
+            let refresh = !chord || factored.is_none();
+            let want = Want {
+                jacobian: refresh,
+                ..want
+            };
             let mut e = self.evaluate(&s, f, want)?;
-            let delta = e
-                .jacobian
-                .take()
-                .expect("asked for")
-                .lu()
+            if refresh {
+                factored = Some(e.jacobian.take().expect("asked for").lu());
+            }
+            let delta = (factored.as_ref().expect("factorised"))
                 .solve(&(-&e.residual))
                 .ok_or_else(|| format!("harmonic balance at {speed} rad/s: singular Jacobian"))?;
-            if delta.amax() <= options.tolerance * self.x_scale {
+            let size = delta.amax();
+            if size <= options.tolerance * self.x_scale {
                 return Ok((s, e, iteration));
             }
+            if !(size <= 0.5 * previous) {
+                factored = None;
+            }
+            previous = size;
             s += &delta;
         }
         Err(format!(
