@@ -127,7 +127,41 @@ impl GearTrain {
     /// `GearTrain::classify` without the tie-break, which has measure zero): `Σ_j k_j(δ_j +
     /// o_j) + c(Ṡ − ė)` while any slot touches, and the friction of the slots in drive contact.
     pub fn free_mesh_law(&self, n: usize, t: f64, s: f64, s_rate: f64) -> MeshLaw {
-        self.free_flanks_law(n, t, s, s_rate, None)
+        let mesh = &self.meshes[n];
+        let (p, f) = mesh.clock.phase_and_frequency(t);
+        let mut law = MeshLaw::default();
+        let clearance = mesh.clearance_at(p).0;
+        let mut j = 0;
+        self.for_each_free_slot(n, p, f, |slot| {
+            let bit = 2 * j;
+            j += 1;
+            let delta = s - slot.gap;
+            let (drive, offset) = match mesh.contact {
+                ContactLaw::Linear => (true, 0.0),
+                ContactLaw::ContactLoss if delta > 0.0 => (true, 0.0),
+                ContactLaw::Backlash { .. } if delta > 0.0 => (true, 0.0),
+                ContactLaw::Backlash { .. } if delta < -clearance => (false, clearance),
+                _ => return,
+            };
+            law.force[0] += slot.k * (delta + offset);
+            law.stiffness[0] += slot.k;
+            law.in_contact += 1;
+            law.pattern |= 1 << (bit + u32::from(!drive)).min(63);
+            if let (true, Some((w0, w1))) = (drive, slot.friction) {
+                law.force[1] -= w0 * delta;
+                law.force[2] -= w1 * delta;
+                law.stiffness[1] -= w0;
+                law.stiffness[2] -= w1;
+            }
+        });
+        if law.in_contact > 0 && mesh.damping != 0.0 {
+            let (_, e_slope) = mesh.ste_free(p);
+            let viscous = mesh.damping * (s_rate - e_slope * f);
+            law.force[0] += viscous;
+            law.viscous[0] = viscous;
+            law.damping[0] = mesh.damping;
+        }
+        law
     }
 
     /// [`GearTrain::free_mesh_law`] with the back flanks on their own row (`MeshRt::a_back`):
@@ -144,12 +178,15 @@ impl GearTrain {
         s_rate: f64,
         back: (f64, f64),
     ) -> MeshLaw {
-        let back = self.meshes[n].a_back.as_ref().map(|_| back);
-        self.free_flanks_law(n, t, s, s_rate, back)
+        match self.meshes[n].a_back {
+            Some(_) => self.free_flanks_law(n, t, s, s_rate, Some(back)),
+            None => self.free_mesh_law(n, t, s, s_rate),
+        }
     }
 
-    /// The law of both: `back` the back row's deflection and rate, `None` to take the back
-    /// flanks on `S` (then every operation is that of the one-row law).
+    /// The law of both rows: `back` the back row's deflection and rate (`None` takes the back
+    /// flanks on `S`, the operations of [`GearTrain::free_mesh_law`], which stays separate:
+    /// it runs at every quadrature node of every HB evaluation).
     fn free_flanks_law(
         &self,
         n: usize,
@@ -224,7 +261,20 @@ impl GearTrain {
         s_rate: f64,
         out: &mut Vec<(f64, f64)>,
     ) {
-        self.free_flanks_gaps(n, t, s, s_rate, None, out)
+        out.clear();
+        let mesh = &self.meshes[n];
+        if mesh.contact == ContactLaw::Linear {
+            return;
+        }
+        let (p, f) = mesh.clock.phase_and_frequency(t);
+        let clearance = mesh.clearance_at(p).0;
+        self.for_each_free_slot(n, p, f, |slot| {
+            let (delta, rate) = (s - slot.gap, s_rate - slot.gap_rate);
+            out.push((delta, rate));
+            if let ContactLaw::Backlash { .. } = mesh.contact {
+                out.push((delta + clearance, rate));
+            }
+        });
     }
 
     /// [`GearTrain::free_contact_gaps`] with the back flanks on their own row: `δ_j` and
@@ -238,8 +288,10 @@ impl GearTrain {
         back: (f64, f64),
         out: &mut Vec<(f64, f64)>,
     ) {
-        let back = self.meshes[n].a_back.as_ref().map(|_| back);
-        self.free_flanks_gaps(n, t, s, s_rate, back, out)
+        match self.meshes[n].a_back {
+            Some(_) => self.free_flanks_gaps(n, t, s, s_rate, Some(back), out),
+            None => self.free_contact_gaps(n, t, s, s_rate, out),
+        }
     }
 
     fn free_flanks_gaps(
