@@ -378,9 +378,9 @@ fn continue_branch<M: Drivetrain + Send>(
         step = if chord {
             // Chord iterations converge linearly: more of them, and a refreshed Jacobian, are
             // what a step too long shows.
-            if refreshed == 0 && iterations <= 6 {
+            if refreshed == 0 && iterations <= 10 {
                 (step * 1.5).min(options.max_step)
-            } else if refreshed > 1 || iterations > 12 {
+            } else if refreshed > 1 || iterations > 18 {
                 step * 0.5
             } else {
                 step
