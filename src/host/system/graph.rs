@@ -199,7 +199,7 @@ mod tests {
     }
 }
 
-/// Per link: the producer ports (indices of `ports_of_links`) of the link's consumer whose
+/// Per link: the producer ports (as `port_of` indexes them) of the link's consumer whose
 /// output depends directly on the link's input (ModelStructure, [`feeds_through`]): where an
 /// input's error reaches within the same step.
 pub fn feedthrough<'m>(
