@@ -13,7 +13,9 @@
 //! * extrapolated, `y(t) + s·y'(t)`: its defect at the step's end, `|y(t+H) − y(t) − H·y'(t)|`
 //!   (≈ `H²|y''|/2`);
 //! * interpolated (Gauss–Seidel, the producer stepped first), the chord from `y(t)` to
-//!   `y(t+H)`: its largest distance from the signal, `H·|y'(t+H) − y'(t)|/8` (≈ `H²|y''|/8`);
+//!   `y(t+H)`: its largest distance from the signal, `H·|y'(t+H) − y'(t)|/8` (≈ `H²|y''|/8`),
+//!   plus, for a compliance's effort, how far the end it was given lies from the refreshed
+//!   one (below);
 //! * held: `|y(t+H) − y(t)|` (≈ `H|y'|`, first order).
 //!
 //! Each defect is divided by `tol` times the signal's scale, its largest magnitude so far
@@ -26,6 +28,17 @@
 //! `[h_min, h_max]`. A step an FMU refuses (`fmi2Discard`, `fmi2Error`) is undone and redone
 //! at a quarter; at `h_min` the refusal ends the run, and a step at `h_min` over the
 //! tolerance is accepted and counted.
+//!
+//! **Order: compliances first** ([`super::graph::compliances_first`]). The elements whose
+//! connected outputs depend directly on a connected input (ModelStructure: shafts, a gear
+//! stage's speed ports, whose torques follow the angles and speeds they are given) step
+//! first, so that their efforts reach the bodies interpolated, and the bodies' flows, which
+//! are integrals of those efforts and smooth, reach them extrapolated. After the step each
+//! compliance gets the flows its producers actually reached and its outputs are read again
+//! (`refresh`): the difference from what it returned is the flows' extrapolation error as
+//! the bodies felt it, counted in the effort's own tolerance; the impulse carried into the
+//! next step is taken against the refreshed efforts, and the next step starts from them.
+//! The fixed-step masters keep their order (`graph::order`) and their results.
 //!
 //! **Rows on the user's grid.** The steps land on every output point: the time to the next
 //! output point is split into `ceil(remaining / H)` equal steps, so each row is the FMUs'
@@ -137,6 +150,7 @@ fn estimate(
     plan: &Plan,
     ctl: &ErrorControl,
     scales: &Scales,
+    given: &[f64],
     st: &State,
     der_start: &[f64],
     h: f64,
@@ -152,9 +166,11 @@ fn estimate(
         let defect = match plan.coupling[l] {
             // As the consumer got it (master::State::set_inputs): an interpolated
             // connection's producer steps first, an extrapolated one's after or alongside.
+            // The chord ended at `given[p]`, what the producer returned with the inputs it
+            // was given; `y1` is its output refreshed with the actual ones (`refresh`).
             Coupling::Interpolate => {
                 if plan.needs_derivative[p] {
-                    h * (st.der[p] - der_start[p]).abs() / 8.0
+                    h * (st.der[p] - der_start[p]).abs() / 8.0 + (y1 - given[p]).abs()
                 } else {
                     // No derivative: the chord's distance from the line of the step before is
                     // not known; the change over the step bounds it at first order.
@@ -183,7 +199,14 @@ fn estimate(
 /// both ends minus the integral of the line the consumer was given; the next step adds it
 /// spread over that step, so that the impulses exchanged stay equal to that rule's accuracy
 /// (0 where a derivative is missing).
-fn impulse_deficits(plan: &Plan, st: &State, der_start: &[f64], h: f64, deficit: &mut [f64]) {
+fn impulse_deficits(
+    plan: &Plan,
+    st: &State,
+    given: &[f64],
+    der_start: &[f64],
+    h: f64,
+    deficit: &mut [f64],
+) {
     for (l, link) in plan.system.links.iter().enumerate() {
         let p = plan.port_of[l];
         if link.to.var_type != VarType::Real || !plan.needs_derivative[p] {
@@ -193,11 +216,47 @@ fn impulse_deficits(plan: &Plan, st: &State, der_start: &[f64], h: f64, deficit:
         let hermite = h / 2.0 * (y0 + y1) + h * h / 12.0 * (d0 - d1);
         let given = match plan.coupling[l] {
             Coupling::Extrapolate => h * y0 + h * h / 2.0 * d0,
-            Coupling::Interpolate => h / 2.0 * (y0 + y1),
+            Coupling::Interpolate => h / 2.0 * (y0 + given[p]),
             Coupling::Hold => continue,
         };
         deficit[l] = hermite - given;
     }
+}
+
+/// The elements whose connected outputs depend directly on a connected input
+/// ([`Plan::feedthrough`]): the error-controlled order steps them first
+/// ([`super::graph::compliances_first`]).
+fn compliances(plan: &Plan) -> Vec<usize> {
+    plan.order
+        .iter()
+        .copied()
+        .filter(|&e| {
+            plan.system
+                .links
+                .iter()
+                .zip(&plan.feedthrough)
+                .any(|(l, f)| l.to.element == e && !f.is_empty())
+        })
+        .collect()
+}
+
+/// After a step: each compliance, which stepped with its flows extrapolated, gets the flows
+/// its producers reached at the step's end, and its efforts are read again (they follow
+/// those inputs directly). Its consumers were given the chord to the efforts of the
+/// extrapolated flows; the difference is the error of that extrapolation as the consumers
+/// feel it, and the next step starts from the refreshed, consistent efforts.
+fn refresh(
+    compliances: &[usize],
+    st: &mut State,
+    insts: &mut [Instance],
+    time: f64,
+    stepped: &[bool],
+) -> Result<(), String> {
+    for &e in compliances {
+        st.set_inputs(e, &mut insts[e], time, 0.0, stepped)?;
+        st.read(e, &mut insts[e], time, true)?;
+    }
+    Ok(())
 }
 
 /// Undo a step: every instance back to its saved state, the ports to the step's start.
@@ -233,6 +292,8 @@ pub(super) fn run(
     let elements = &plan.system.elements;
     let mut watch = super::divergence::Watch::new(plan);
     let mut scales = Scales(st.cur.iter().map(|v| v.abs()).collect());
+    let compliances = compliances(plan);
+    let mut given = st.cur.clone();
     let mut der_start = st.der.clone();
     let mut stepped = vec![false; elements.len()];
     let (h_out, stop) = (plan.h, plan.stop_time);
@@ -314,7 +375,12 @@ pub(super) fn run(
                 continue;
             }
         }
-        let (err, order) = estimate(plan, ctl, &scales, &st, &der_start, step);
+        given.copy_from_slice(&st.cur);
+        if let Err(m) = refresh(&compliances, &mut st, insts, next, &stepped) {
+            out.failure = Some(m);
+            return out;
+        }
+        let (err, order) = estimate(plan, ctl, &scales, &given, &st, &der_start, step);
         let factor = |err: f64| {
             if err == 0.0 {
                 2.0
@@ -350,7 +416,7 @@ pub(super) fn run(
         });
         scales.accept(&st.cur);
         if conserve {
-            impulse_deficits(plan, &st, &der_start, step, &mut deficit);
+            impulse_deficits(plan, &st, &given, &der_start, step, &mut deficit);
         }
         // A step cut short to land on an output point does not shrink the next one.
         let base = if next == target { h.max(step) } else { step };

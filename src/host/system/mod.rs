@@ -313,9 +313,40 @@ fn plan<'a>(
             "algebraic loop between direct-feedthrough ports: {cycle} (every output on it depends directly on the input before it, ModelStructure/Outputs dependencies); a fixed-step master cannot solve it: break it with an element that has no direct feedthrough"
         ));
     }
+    let start_time = args.start_time.or(sys.start_time).unwrap_or(0.0);
+    let stop_time = args.stop_time.or(sys.stop_time).unwrap_or(start_time + 1.0);
+    if !start_time.is_finite() || !stop_time.is_finite() || stop_time <= start_time {
+        return Err(format!(
+            "stop time {stop_time} must be finite and after the start time {start_time}"
+        ));
+    }
+    let h = match args.output_interval {
+        Some(h) => h,
+        None => fmus
+            .fmu_of
+            .iter()
+            .map(|&i| runner::default_interval(&fmus.mds[i], start_time, stop_time))
+            .fold(f64::INFINITY, f64::min),
+    };
+    if !(h.is_finite() && h > 0.0) {
+        return Err(format!(
+            "--output-interval {h}: must be a finite number > 0"
+        ));
+    }
+    runner::check_grid(start_time, stop_time, h, args.max_rows)?;
+    let can_vary = fmus.mds.iter().all(|md| {
+        md.co_simulation
+            .as_ref()
+            .is_some_and(|c| c.can_handle_variable_communication_step_size)
+    });
+    let control = controlled::settings(args, h, can_vary, fmus, notes)?;
     let n = system.elements.len();
-    let (order, cut) = graph::order(n, &system.links);
     let (ports, port_of) = master::producer_ports(&system.links);
+    let feedthrough = graph::feedthrough(&system.links, &port_of, md_of);
+    let (mut order, mut cut) = graph::order(n, &system.links);
+    if control.is_some() {
+        (order, cut) = graph::compliances_first(&order, &system.links, &feedthrough);
+    }
     let mut needs_derivative = vec![false; ports.len()];
     let mut coupling = Vec::new();
     for (l, link) in system.links.iter().enumerate() {
@@ -414,32 +445,6 @@ fn plan<'a>(
         VarType::Boolean => 2,
         _ => 1,
     });
-    let start_time = args.start_time.or(sys.start_time).unwrap_or(0.0);
-    let stop_time = args.stop_time.or(sys.stop_time).unwrap_or(start_time + 1.0);
-    if !start_time.is_finite() || !stop_time.is_finite() || stop_time <= start_time {
-        return Err(format!(
-            "stop time {stop_time} must be finite and after the start time {start_time}"
-        ));
-    }
-    let h = match args.output_interval {
-        Some(h) => h,
-        None => fmus
-            .fmu_of
-            .iter()
-            .map(|&i| runner::default_interval(&fmus.mds[i], start_time, stop_time))
-            .fold(f64::INFINITY, f64::min),
-    };
-    if !(h.is_finite() && h > 0.0) {
-        return Err(format!(
-            "--output-interval {h}: must be a finite number > 0"
-        ));
-    }
-    runner::check_grid(start_time, stop_time, h, args.max_rows)?;
-    let can_vary = fmus.mds.iter().all(|md| {
-        md.co_simulation
-            .as_ref()
-            .is_some_and(|c| c.can_handle_variable_communication_step_size)
-    });
     let divergence_factor = args.divergence_factor.unwrap_or(DIVERGENCE_FACTOR);
     if !(divergence_factor == 0.0 || divergence_factor.is_finite() && divergence_factor > 1.0) {
         return Err(format!(
@@ -447,7 +452,6 @@ fn plan<'a>(
         ));
     }
     let watched = divergence::watched(&ports, &md_of);
-    let control = controlled::settings(args, h, can_vary, fmus, notes)?;
     if control.is_some() {
         // The error estimate of an interpolated connection uses its producer's derivative
         // at both ends of the step.
@@ -484,6 +488,7 @@ fn plan<'a>(
         ports,
         port_of,
         needs_derivative,
+        feedthrough,
         columns,
         start_time,
         stop_time,

@@ -41,6 +41,9 @@ pub struct Plan<'a> {
     pub port_of: Vec<usize>,
     /// Ports whose first derivative is read after each step (for [`Coupling::Extrapolate`]).
     pub needs_derivative: Vec<bool>,
+    /// Per link: the producer ports of its consumer that its input feeds directly
+    /// ([`super::graph::feedthrough`]).
+    pub feedthrough: Vec<Vec<usize>>,
     /// In fmpy's order: Reals, then Integers, then Booleans.
     pub columns: Vec<Column>,
     pub start_time: f64,
