@@ -140,6 +140,63 @@ pub fn algebraic_loop<'a>(
     None
 }
 
+/// Per link: the producer ports (as `port_of` indexes them) of the link's consumer whose
+/// output depends directly on the link's input (ModelStructure, [`feeds_through`]): where an
+/// input's error reaches within the same step.
+pub fn feedthrough<'m>(
+    links: &[Link],
+    port_of: &[usize],
+    md_of: impl Fn(usize) -> &'m ModelDescription,
+) -> Vec<Vec<usize>> {
+    links
+        .iter()
+        .map(|l| {
+            let mut ports: Vec<usize> = links
+                .iter()
+                .zip(port_of)
+                .filter(|(m, _)| {
+                    m.from.element == l.to.element
+                        && feeds_through(md_of(l.to.element), l.to.index, m.from.index)
+                })
+                .map(|(_, &p)| p)
+                .collect();
+            ports.sort_unstable();
+            ports.dedup();
+            ports
+        })
+        .collect()
+}
+
+/// The error-controlled master's order (`controlled`): the elements whose connected outputs
+/// depend directly on a connected input (compliances: shafts, a stage's speed ports, whose
+/// efforts follow the flows they are given within the step) step first, each group in
+/// `order`'s sequence; the per-link cut for that order. Their efforts reach the bodies
+/// interpolated (the chord, `H|Δy'|/8`, instead of the tangent's `H²|y''|/2`), and the
+/// flows they take extrapolated are checked through their effect on those efforts.
+pub fn compliances_first(
+    order: &[usize],
+    links: &[Link],
+    feedthrough: &[Vec<usize>],
+) -> (Vec<usize>, Vec<bool>) {
+    let compliant = |e: usize| {
+        links
+            .iter()
+            .zip(feedthrough)
+            .any(|(l, f)| l.to.element == e && !f.is_empty())
+    };
+    let mut first: Vec<usize> = order.iter().copied().filter(|&e| compliant(e)).collect();
+    first.extend(order.iter().copied().filter(|&e| !compliant(e)));
+    let mut pos = vec![0; first.len()];
+    for (i, &e) in first.iter().enumerate() {
+        pos[e] = i;
+    }
+    let cut = links
+        .iter()
+        .map(|l| pos[l.from.element] >= pos[l.to.element])
+        .collect();
+    (first, cut)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -197,61 +254,4 @@ mod tests {
         // Unconnected elements keep their document order.
         assert_eq!(order(3, &[]).0, [0, 1, 2]);
     }
-}
-
-/// Per link: the producer ports (as `port_of` indexes them) of the link's consumer whose
-/// output depends directly on the link's input (ModelStructure, [`feeds_through`]): where an
-/// input's error reaches within the same step.
-pub fn feedthrough<'m>(
-    links: &[Link],
-    port_of: &[usize],
-    md_of: impl Fn(usize) -> &'m ModelDescription,
-) -> Vec<Vec<usize>> {
-    links
-        .iter()
-        .map(|l| {
-            let mut ports: Vec<usize> = links
-                .iter()
-                .zip(port_of)
-                .filter(|(m, _)| {
-                    m.from.element == l.to.element
-                        && feeds_through(md_of(l.to.element), l.to.index, m.from.index)
-                })
-                .map(|(_, &p)| p)
-                .collect();
-            ports.sort_unstable();
-            ports.dedup();
-            ports
-        })
-        .collect()
-}
-
-/// The error-controlled master's order (`controlled`): the elements whose connected outputs
-/// depend directly on a connected input (compliances: shafts, a stage's speed ports, whose
-/// efforts follow the flows they are given within the step) step first, each group in
-/// `order`'s sequence; the per-link cut for that order. Their efforts reach the bodies
-/// interpolated (the chord, `H|Δy'|/8`, instead of the tangent's `H²|y''|/2`), and the
-/// flows they take extrapolated are checked through their effect on those efforts.
-pub fn compliances_first(
-    order: &[usize],
-    links: &[Link],
-    feedthrough: &[Vec<usize>],
-) -> (Vec<usize>, Vec<bool>) {
-    let compliant = |e: usize| {
-        links
-            .iter()
-            .zip(feedthrough)
-            .any(|(l, f)| l.to.element == e && !f.is_empty())
-    };
-    let mut first: Vec<usize> = order.iter().copied().filter(|&e| compliant(e)).collect();
-    first.extend(order.iter().copied().filter(|&e| !compliant(e)));
-    let mut pos = vec![0; first.len()];
-    for (i, &e) in first.iter().enumerate() {
-        pos[e] = i;
-    }
-    let cut = links
-        .iter()
-        .map(|l| pos[l.from.element] >= pos[l.to.element])
-        .collect();
-    (first, cut)
 }

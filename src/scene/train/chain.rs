@@ -259,7 +259,7 @@ fn write_mesh(
     ste: Option<f64>,
 ) {
     use std::fmt::Write;
-    let centre = std::f64::consts::FRAC_PI_6 * if n % 2 == 0 { 1.0 } else { -1.0 };
+    let centre = std::f64::consts::FRAC_PI_6 * if n.is_multiple_of(2) { 1.0 } else { -1.0 };
     let _ = writeln!(
         s,
         "[[mesh]]\nname = \"mesh{}\"\npinion = \"g{n}\"\ngear = \"g{}\"\ncontact = \"{contact}\"\n\
