@@ -77,6 +77,28 @@ enum Reader {
 }
 
 impl Reader {
+    /// The reader of `signal` of mesh `mesh` of `model` (the scene's drivetrain), the mesh
+    /// index checked.
+    fn for_mesh<M: Drivetrain>(
+        model: &M,
+        scene: &Scene,
+        signal: RunupSignal,
+        mesh: usize,
+        speed: &crate::scene::Profile,
+    ) -> Result<Reader, String> {
+        let count = model.mesh_count();
+        if mesh >= count {
+            return Err(format!("mesh {mesh}: the scene has {count} mesh(es)"));
+        }
+        Reader::new(
+            scene,
+            signal,
+            &model.row_names(),
+            model.mesh_columns(mesh),
+            speed,
+        )
+    }
+
     fn new(
         scene: &Scene,
         signal: RunupSignal,
@@ -184,18 +206,8 @@ pub fn runup_waterfall_reporting(
     let (stop, interval) = (scene.solver.stop_time, scene.solver.output_interval);
     with_drivetrain!(scene.simulation()?, sim => {
         let mut sim = sim;
-        let count = sim.model().mesh_count();
-        if mesh >= count {
-            return Err(format!("mesh {mesh}: the scene has {count} mesh(es)"));
-        }
         crate::simulation::RunLimits::default().check(&sim.model().run_scales(), stop, interval)?;
-        let reader = Reader::new(
-            scene,
-            signal,
-            &sim.model().row_names(),
-            sim.model().mesh_columns(mesh),
-            &speed,
-        )?;
+        let reader = Reader::for_mesh(sim.model(), scene, signal, mesh, &speed)?;
         let mut t = Vec::new();
         let mut x = Vec::new();
         let mut row = Vec::new();
@@ -334,18 +346,8 @@ pub fn runup_angle_record(
     let stop = scene.solver.stop_time;
     with_drivetrain!(scene.simulation()?, sim => {
         let mut sim = sim;
-        let count = sim.model().mesh_count();
-        if mesh >= count {
-            return Err(format!("mesh {mesh}: the scene has {count} mesh(es)"));
-        }
         crate::simulation::RunLimits::default().check_work(&sim.model().run_scales(), stop)?;
-        let reader = Reader::new(
-            scene,
-            signal,
-            &sim.model().row_names(),
-            sim.model().mesh_columns(mesh),
-            &speed,
-        )?;
+        let reader = Reader::for_mesh(sim.model(), scene, signal, mesh, &speed)?;
         let mut probe = sim.model().clone();
         probe.set_input_speed(0.0, 1.0)?;
         let mesh_order = probe.mesh_frequency(mesh) * TAU;
