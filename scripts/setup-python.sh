@@ -19,6 +19,9 @@ if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
   "$venv/bin/python" -m pip install --quiet --disable-pip-version-check -r "$req"
   echo "$want" > "$stamp"
 fi
+# The module is an abi3 extension (`_geardyn.abi3.so`, python/Cargo.toml); a version-tagged one
+# left by an older build would be imported before it, so it goes.
+rm -f "$root"/python/geardyn/_geardyn.cpython-*.so
 # Editable install: python/geardyn is imported in place, the extension is built into it.
 # `--skip-install` is not used: the first run must register the package (and the
 # geardyn-study console script) in the venv; later runs reinstall only the small wheel stub.

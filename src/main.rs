@@ -63,6 +63,8 @@ fn main() -> ExitCode {
             default_hook(info)
         }
     }));
+    #[cfg(geardyn_embedded_cdylib)]
+    geardyn::fmi::package::embed_cdylib(include_bytes!(env!("GEARDYN_EMBEDDED_CDYLIB")));
     let cli = Cli::parse();
     cli::set_verbose(cli.verbose);
     let result = match std::panic::catch_unwind(|| dispatch(cli)) {

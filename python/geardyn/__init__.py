@@ -451,16 +451,22 @@ def band(scene: Scene, speed: str, points: int = 400, mu: Optional[float] = None
 
 
 def _default_cdylib() -> Path:
-    """The FMU binary: ``$GEARDYN_CDYLIB``, else the source tree's ``target/release`` (the
-    module is installed from the source tree by scripts/setup-python.sh)."""
+    """The FMU binary: ``$GEARDYN_CDYLIB``; else, in the source tree (the editable install of
+    scripts/setup-python.sh), its ``target/release/libgeardyn.so``; else the copy an installed
+    wheel carries beside this module (scripts/build-wheel.sh)."""
     env = os.environ.get("GEARDYN_CDYLIB")
     if env:
         return Path(env)
-    lib = Path(__file__).resolve().parents[2] / "target" / "release" / "libgeardyn.so"
+    here = Path(__file__).resolve().parent
+    if (here.parents[1] / "Cargo.toml").is_file():
+        lib = here.parents[1] / "target" / "release" / "libgeardyn.so"
+        how = "build it with `cargo build --release`"
+    else:
+        lib = here / "libgeardyn.so"
+        how = "the wheel was built without it: use scripts/build-wheel.sh"
     if not lib.is_file():
         raise GeardynError(
-            f"libgeardyn.so not found at {lib} (build it with `cargo build --release`, "
-            "or pass cdylib= or set GEARDYN_CDYLIB)"
+            f"libgeardyn.so not found at {lib} ({how}, or pass cdylib= or set GEARDYN_CDYLIB)"
         )
     return lib
 

@@ -34,8 +34,19 @@ pub fn resolve_scene(input: &Path) -> Result<(PathBuf, Option<PathBuf>), String>
     }
 }
 
-/// `libgeardyn.so` next to the running executable (`target/<profile>/`), or one level up
-/// (test binaries live in `deps/`, examples in `examples/`).
+/// The cdylib the release binary carries (build.rs), for a binary installed without it.
+static EMBEDDED_CDYLIB: std::sync::OnceLock<&'static [u8]> = std::sync::OnceLock::new();
+
+/// Registers the cdylib bytes the binary carries; empty bytes (a `cargo check` build) are none.
+pub fn embed_cdylib(bytes: &'static [u8]) {
+    if !bytes.is_empty() {
+        let _ = EMBEDDED_CDYLIB.set(bytes);
+    }
+}
+
+/// The FMU binary: `libgeardyn.so` next to the running executable (`target/<profile>/`), or
+/// one level up (test binaries live in `deps/`, examples in `examples/`); else the copy the
+/// binary carries ([`embed_cdylib`]), written once to the user's cache folder.
 pub fn find_cdylib() -> Result<PathBuf, String> {
     let exe = std::env::current_exe().map_err(|e| format!("cannot locate executable: {e}"))?;
     let mut dir = exe.parent();
@@ -47,10 +58,49 @@ pub fn find_cdylib() -> Result<PathBuf, String> {
         }
         dir = d.parent();
     }
+    if let Some(bytes) = EMBEDDED_CDYLIB.get() {
+        return cached_cdylib(bytes);
+    }
     Err(format!(
         "libgeardyn.so not found next to {} (build it with `cargo build --release` or pass --cdylib)",
         exe.display()
     ))
+}
+
+/// Writes the embedded cdylib to `<cache>/geardyn/libgeardyn-<version>-<hash>.so` unless that
+/// file is there already. The content hash in the name keeps binaries of different builds
+/// apart; the file is written under a temporary name and renamed, so a reader never sees a
+/// partial one.
+fn cached_cdylib(bytes: &[u8]) -> Result<PathBuf, String> {
+    let home_cache = || std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache"));
+    let base = std::env::var_os("XDG_CACHE_HOME")
+        .map(PathBuf::from)
+        .filter(|p| p.is_absolute())
+        .or_else(home_cache)
+        .unwrap_or_else(std::env::temp_dir);
+    let dir = base.join("geardyn");
+    // FNV-1a: a fingerprint of the content, not a defence against a crafted file.
+    let hash = bytes.iter().fold(0xcbf2_9ce4_8422_2325_u64, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3)
+    });
+    let lib = dir.join(format!(
+        "libgeardyn-{}-{hash:016x}.so",
+        env!("CARGO_PKG_VERSION")
+    ));
+    if std::fs::metadata(&lib).is_ok_and(|m| m.len() == bytes.len() as u64) {
+        return Ok(lib);
+    }
+    let fail = |e: std::io::Error| {
+        format!(
+            "cannot write the FMU binary this executable carries to {}: {e} (pass --cdylib)",
+            lib.display()
+        )
+    };
+    std::fs::create_dir_all(&dir).map_err(fail)?;
+    let partial = dir.join(format!(".libgeardyn-{}.partial", std::process::id()));
+    std::fs::write(&partial, bytes).map_err(fail)?;
+    std::fs::rename(&partial, &lib).map_err(fail)?;
+    Ok(lib)
 }
 
 /// Builds `<out_dir>/<modelIdentifier>.fmu` and returns its path. The scene is loaded and
