@@ -60,9 +60,12 @@ __all__ = [
 
 
 def unit(name: str) -> Optional[str]:
-    """Unit of an output column (simulation, sweep, hb, stiffness), or None when the name is
-    not a known output: the table the CLI's ``--units`` headers use (``docs/units.md``)."""
-    return _geardyn.column_unit(name)
+    """Unit of a scene parameter by its path (``"operating.pinion_speed"`` → ``"rad/s"``,
+    ``"gear[0].inertia"`` → ``"kg.m^2"``) or of an output column (simulation, sweep, hb,
+    stiffness: the table the CLI's ``--units`` headers use), or None when the name is neither
+    a numeric parameter nor a known output (``docs/units.md``). The strings are UDUNITS and
+    pint units both (``pint.UnitRegistry().Unit(geardyn.unit(name))``)."""
+    return _geardyn.parameter_unit(name) or _geardyn.column_unit(name)
 
 
 def parse_speed(speed: Union[str, float]) -> float:
@@ -142,7 +145,7 @@ class Simulation(_TimeRows):
     units: Dict[str, Optional[str]] = field(init=False)
 
     def __post_init__(self) -> None:
-        self.units = {n: unit(n) for n in ["time", *self.names]}
+        self.units = {n: _geardyn.column_unit(n) for n in ["time", *self.names]}
 
     def _attrs(self) -> Dict[str, str]:
         return {"scene": self.scene_name, "method": self.method}
@@ -157,7 +160,7 @@ class Table:
     units: Dict[str, Optional[str]] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
-        self.units = {c: unit(c) for c in self.columns}
+        self.units = {c: _geardyn.column_unit(c) for c in self.columns}
 
     def __getitem__(self, name: str) -> np.ndarray:
         try:
@@ -508,7 +511,10 @@ class FmuRun(_TimeRows):
     def __post_init__(self) -> None:
         # The variable's own name after the element's (`gear.pinion_speed` → pinion_speed)
         # where geardyn knows it; a third-party FMU's variables have no unit here.
-        self.units = {n: unit(n) or unit(n.split(".", 1)[-1]) for n in ["time", *self.names]}
+        self.units = {
+            n: _geardyn.column_unit(n) or _geardyn.column_unit(n.split(".", 1)[-1])
+            for n in ["time", *self.names]
+        }
 
     def to_structured(self) -> np.ndarray:
         """The result as fmpy's ``simulate_fmu`` returns it: a structured array with a

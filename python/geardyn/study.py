@@ -61,7 +61,7 @@ RESULTS = {
     },
     "periodic": {
         "floquet_max": "largest Floquet multiplier magnitude (spectral radius), 1",
-        "stable": "1 if the orbit is stable, else 0",
+        "stable": "1 if the orbit is stable, else 0, 1",
         "period": "orbit period, s",
         "dte0": "DTE on the orbit at t = 0, m",
     },
@@ -145,6 +145,8 @@ class Study:
     # sweep's `Table`) returning a number; `[[output]]` entries of the file or `load(...,
     # outputs=)`.
     outputs: Dict[str, Callable] = field(default_factory=dict)
+    # Units of user outputs that have one (`[[output]] unit`, `load(outputs={name: (f, unit)})`).
+    output_units: Dict[str, str] = field(default_factory=dict)
 
     @property
     def kind(self) -> str:
@@ -185,11 +187,30 @@ class Study:
         blob = json.dumps(identity, sort_keys=True)
         return hashlib.sha256(blob.encode()).hexdigest()[:24]
 
+    def units(self) -> Dict[str, Optional[str]]:
+        """The unit of every parameter and result column (None where there is none): the
+        scene format's for a parameter (:func:`geardyn.unit`), the last part of the result's
+        description in :data:`RESULTS`, a user output's own. UDUNITS and pint read them."""
+        units = {p.path: geardyn.unit(p.path) for p in self.parameters}
+        for c in self.result_columns():
+            r = c.rsplit(".", 1)[-1]
+            if c in self.outputs:
+                units[c] = self.output_units.get(c)
+            elif r in RESULTS[self.kind]:
+                units[c] = result_unit(self.kind, r)
+        return units
+
     def result_columns(self) -> List[str]:
         if self.kind == "simulate" and self.base_scene().is_train:
             meshes = _train_meshes(self.base_scene())
             return [f"{m}.{r}" for m in meshes for r in self.results] + list(self.outputs)
         return list(self.results) + list(self.outputs)
+
+
+def result_unit(kind: str, name: str) -> str:
+    """The unit of a study result: by convention the last comma-separated part of its
+    description in :data:`RESULTS` (checked for every result by tests/python/test_study_units.py)."""
+    return RESULTS[kind][name].rsplit(", ", 1)[-1]
 
 
 def _need(table: dict, key: str, where: str):
@@ -261,6 +282,12 @@ def _number(v, where: str) -> float:
 
 def _qualified_name(f: Callable) -> str:
     return f"{getattr(f, '__module__', '?')}:{getattr(f, '__qualname__', repr(f))}"
+
+
+def _unit_text(unit, where: str) -> str:
+    if not isinstance(unit, str) or not unit.strip():
+        raise StudyError(f"{where} = {unit!r}: a unit is a non-empty string such as \"m\" or \"N.m\"")
+    return unit
 
 
 def _import_output(spec: str, where: str) -> Callable:
@@ -401,13 +428,19 @@ def load(path, outputs: Optional[Dict[str, Callable]] = None) -> Study:
         if r not in RESULTS[kind]:
             raise StudyError(f"results: {r!r} is not a result of {kind} ({', '.join(RESULTS[kind])})")
     user = {}
+    output_units: Dict[str, str] = {}
     for i, o in enumerate(data.get("output", [])):
         at = f"output[{i}]"
-        extra = sorted(set(o) - {"name", "function"})
+        extra = sorted(set(o) - {"name", "function", "unit"})
         if extra:
-            raise StudyError(f"{at}.{extra[0]}: unknown key (name, function)")
-        user[str(_need(o, "name", at))] = _import_output(str(_need(o, "function", at)), f"{at}.function")
+            raise StudyError(f"{at}.{extra[0]}: unknown key (name, function, unit)")
+        name = str(_need(o, "name", at))
+        user[name] = _import_output(str(_need(o, "function", at)), f"{at}.function")
+        if "unit" in o:
+            output_units[name] = _unit_text(o["unit"], f"{at}.unit")
     for name, f in (outputs or {}).items():
+        if isinstance(f, tuple) and len(f) == 2:
+            f, output_units[name] = f[0], _unit_text(f[1], f"outputs[{name!r}] unit")
         if not callable(f):
             raise StudyError(f"outputs[{name!r}] = {f!r}: not callable")
         if name in user:
@@ -427,7 +460,7 @@ def load(path, outputs: Optional[Dict[str, Callable]] = None) -> Study:
     if chunk is not None and (not isinstance(chunk, int) or chunk < 1):
         raise StudyError(f"chunk = {chunk!r}: must be a whole number >= 1 (points per task)")
     study = Study(path, scene_file, scene_text, method, parameters, samples, seed, analysis,
-                  list(results), store, chunk, user)
+                  list(results), store, chunk, user, output_units)
     # A misspelt path fails at every point: catch it now rather than store a study of
     # errors. Single bad points are data (stored with their error), so one good point of
     # the first 100 is enough.
@@ -572,14 +605,23 @@ def _failed(index: int, key: str, point: Dict[str, float], columns: Sequence[str
 
 
 def stored(store: Path):
-    """Everything stored so far as a DataFrame (empty if nothing is)."""
+    """Everything stored so far as a DataFrame (empty if nothing is); the columns' units, as
+    the store's field metadata has them, in ``df.attrs["units"]``."""
     import pandas as pd
     import pyarrow.parquet as pq
 
     parts = sorted(store.glob("part-*.parquet")) if store.is_dir() else []
     if not parts:
         return pd.DataFrame()
-    return pd.concat([pq.read_table(p).to_pandas() for p in parts], ignore_index=True)
+    tables = [pq.read_table(p) for p in parts]
+    units = {}
+    for t in tables:
+        for f in t.schema:
+            if f.metadata and b"unit" in f.metadata:
+                units[f.name] = f.metadata[b"unit"].decode()
+    df = pd.concat([t.to_pandas() for t in tables], ignore_index=True)
+    df.attrs["units"] = units
+    return df
 
 
 def stored_keys(store: Path) -> set:
@@ -593,17 +635,23 @@ def stored_keys(store: Path) -> set:
     return keys
 
 
-def _write_part(store: Path, records: List[dict], parameters: List[Parameter], columns: List[str]) -> None:
+def _write_part(store: Path, records: List[dict], parameters: List[Parameter], columns: List[str],
+                units: Dict[str, Optional[str]]) -> None:
     """One Parquet file per flush, renamed into place so a reader never sees half a file.
-    A parameter's column has the type of its values (:func:`_arrow_type`)."""
+    A parameter's column has the type of its values (:func:`_arrow_type`); a column with a
+    unit carries it in its field metadata (``unit``), where :func:`stored` reads it back."""
     import pyarrow as pa
     import pyarrow.parquet as pq
+
+    def column(name, type_):
+        u = units.get(name)
+        return pa.field(name, type_, metadata={"unit": u} if u else None)
 
     store.mkdir(parents=True, exist_ok=True)
     schema = pa.schema(
         [("index", pa.int64()), ("key", pa.string())]
-        + [(p.path, _arrow_type(p.values or [])) for p in parameters]
-        + [(c, pa.float64()) for c in columns]
+        + [column(p.path, _arrow_type(p.values or [])) for p in parameters]
+        + [column(c, pa.float64()) for c in columns]
         + [("error", pa.string())]
     )
     table = pa.Table.from_pylist(records, schema=schema)
@@ -775,6 +823,7 @@ def run(
     todo = [(i, k, p) for i, (k, p) in enumerate(zip(keys, points)) if k not in already]
     names = [p.path for p in study.parameters]
     columns = study.result_columns()
+    units = study.units()
 
     if not todo:
         return Summary(len(points), len(already), 0, 0, 0.0, [])
@@ -856,12 +905,12 @@ def run(
                 if on_result is not None:
                     on_result(r)
             if time.perf_counter() - last_flush >= flush_seconds:
-                _write_part(study.store, buffer, study.parameters, columns)
+                _write_part(study.store, buffer, study.parameters, columns, units)
                 buffer, last_flush = [], time.perf_counter()
             bar.update(computed, failed)
     finally:
         if buffer:
-            _write_part(study.store, buffer, study.parameters, columns)
+            _write_part(study.store, buffer, study.parameters, columns, units)
         bar.update(computed, failed, final=True)
         for f in futures:
             f.cancel()
@@ -882,9 +931,90 @@ def results(study):
     df = stored(study.store)
     if not len(df):
         return df
+    units = df.attrs["units"]
     keys = {study.key(p) for p in study.points()}
     df = df[df["key"].isin(keys)]
-    return df.sort_values("index").reset_index(drop=True)
+    df = df.sort_values("index").reset_index(drop=True)
+    df.attrs["units"] = units
+    return df
+
+
+def to_xarray(study):
+    """The study's stored results as an xarray Dataset, units in each variable's
+    ``attrs["units"]`` (from the store), a description in ``attrs["long_name"]``.
+
+    A grid's axes are its dimensions (the first path of each `[[parameter]]`; a linked path
+    is a coordinate along its axis), so a 2-D grid is a 2-D array per result; a point not
+    stored (yet) is NaN there. Latin hypercube and Monte Carlo points lie along ``point``,
+    their parameter values coordinates on it. ``error`` holds each failed point's message
+    ("" where it succeeded)."""
+    import xarray as xr
+
+    study = study if isinstance(study, Study) else load(study)
+    df = results(study)
+    units = df.attrs.get("units", {}) if len(df) else study.units()
+    columns = study.result_columns()
+    described = {**RESULTS[study.kind]}
+
+    def attrs(name):
+        a = {}
+        if units.get(name):
+            a["units"] = units[name]
+        r = name.rsplit(".", 1)[-1]
+        if r in described and name not in study.outputs:
+            a["long_name"] = described[r].rsplit(", ", 1)[0]
+        return a
+
+    points = study.points()
+    if study.method == "grid":
+        axes = [[p for p in study.parameters if p.group == g] for g in study.groups()]
+        dims = [axis[0].path for axis in axes]
+        shape = tuple(len(axis[0].values) for axis in axes)
+        coords = {}
+        for d, axis in zip(dims, axes):
+            for p in axis:
+                coords[p.path] = (d, np.asarray(p.values), attrs(p.path))
+        # Grid points are listed in row-major order over the axes (itertools.product).
+        at = {study.key(p): i for i, p in enumerate(points)}
+        flat = np.array([at[k] for k in df["key"]], dtype=np.int64) if len(df) else np.zeros(0, np.int64)
+        data = {}
+        for c in columns:
+            values = np.full(math.prod(shape), np.nan)
+            if len(df):
+                values[flat] = df[c].to_numpy(dtype=float)
+            data[c] = (dims, values.reshape(shape), attrs(c))
+        errors = np.full(math.prod(shape), "", dtype=object)
+        if len(df):
+            errors[flat] = df["error"].fillna("").to_numpy(dtype=object)
+        data["error"] = (dims, errors.reshape(shape))
+        return xr.Dataset(data, coords=coords, attrs={"study": str(study.path), "analysis": study.kind})
+    n = len(points)
+    coords = {p.path: ("point", np.array([pt[p.path] for pt in points]), attrs(p.path))
+              for p in study.parameters}
+    coords["point"] = ("point", np.arange(n))
+    data = {}
+    index = df["index"].to_numpy(dtype=np.int64) if len(df) else np.zeros(0, np.int64)
+    for c in columns:
+        values = np.full(n, np.nan)
+        if len(df):
+            values[index] = df[c].to_numpy(dtype=float)
+        data[c] = ("point", values, attrs(c))
+    errors = np.full(n, "", dtype=object)
+    if len(df):
+        errors[index] = df["error"].fillna("").to_numpy(dtype=object)
+    data["error"] = ("point", errors)
+    return xr.Dataset(data, coords=coords, attrs={"study": str(study.path), "analysis": study.kind})
+
+
+def to_zarr(study, path) -> Path:
+    """Writes :func:`to_xarray`'s Dataset to a Zarr store at ``path`` (replacing one there);
+    ``xarray.open_zarr(path)`` reads it back with its units. Needs ``zarr``. The store is
+    Zarr format 2 with consolidated metadata: every Zarr reader takes it, where format 3
+    has no specification yet for variable-length strings (the ``error`` messages) or for
+    consolidated metadata (zarr-python 3.1 warns of both)."""
+    path = Path(path)
+    to_xarray(study).to_zarr(path, mode="w", zarr_format=2)
+    return path
 
 
 # --------------------------------------------------------------------------------------
@@ -903,6 +1033,11 @@ def plot(study, out) -> Path:
     df = results(study)
     if not len(df):
         raise StudyError(f"{study.store}: no results to plot yet")
+    units = df.attrs.get("units", {})
+
+    def label(name):
+        return f"{name} [{units[name]}]" if units.get(name) else name
+
     ok = df[df["error"].isna()]
     columns = study.result_columns()
     names = study.axes()
@@ -910,18 +1045,18 @@ def plot(study, out) -> Path:
     for ax, c in zip(axes[0], columns):
         if study.method != "grid":
             ax.hist(ok[c], bins=max(10, int(np.sqrt(len(ok)))), color="#2471a3")
-            ax.set_xlabel(c)
+            ax.set_xlabel(label(c))
             ax.set_ylabel("points")
         elif len(names) == 1:
             ax.plot(ok[names[0]], ok[c], "o-", color="#c0392b")
-            ax.set_xlabel(names[0])
-            ax.set_ylabel(c)
+            ax.set_xlabel(label(names[0]))
+            ax.set_ylabel(label(c))
         elif len(names) == 2:
             grid = ok.pivot_table(index=names[1], columns=names[0], values=c)
             cs = ax.contourf(grid.columns, grid.index, grid.to_numpy(), levels=20)
-            fig.colorbar(cs, ax=ax, label=c)
-            ax.set_xlabel(names[0])
-            ax.set_ylabel(names[1])
+            fig.colorbar(cs, ax=ax, label=label(c))
+            ax.set_xlabel(label(names[0]))
+            ax.set_ylabel(label(names[1]))
         else:
             raise StudyError(f"plot: a response surface takes 1 or 2 varied parameters, this grid has {len(names)}")
         ax.set_title(c)

@@ -1314,6 +1314,12 @@ fn column_unit(name: &str) -> Option<&'static str> {
     geardyn::units::column_unit(name)
 }
 
+/// The unit of a scene parameter by its path (`geardyn::units::parameter_unit`), or None.
+#[pyfunction]
+fn parameter_unit(path: &str) -> Option<&'static str> {
+    geardyn::units::parameter_unit(path)
+}
+
 #[pymodule]
 fn _geardyn(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("GeardynError", m.py().get_type::<GeardynError>())?;
@@ -1335,5 +1341,6 @@ fn _geardyn(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(_pythonic, m)?)?;
     m.add_function(wrap_pyfunction!(parse_speed, m)?)?;
     m.add_function(wrap_pyfunction!(column_unit, m)?)?;
+    m.add_function(wrap_pyfunction!(parameter_unit, m)?)?;
     Ok(())
 }
