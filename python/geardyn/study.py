@@ -723,13 +723,21 @@ class _Progress:
 TASK_SECONDS = 0.25
 
 
-def local_cluster(workers: Optional[int] = None):
+def local_cluster(workers: Optional[int] = None, dashboard: Optional[str] = None):
     """The default cluster: ``workers`` single-threaded worker processes (default: one per
     core; the solves release the GIL, but processes also isolate a crashing solve). Dask's
     statistical profiler is off in them: it samples every worker thread every 10 ms, a cost
-    paid on every point for a dashboard nobody looks at here."""
+    paid on every point. ``dashboard`` is the address of Dask's dashboard (``":8787"``;
+    ``":0"`` a free port); off by default, and it needs bokeh."""
     import dask
     from distributed import LocalCluster
+
+    if dashboard is not None:
+        try:
+            import bokeh  # noqa: F401  (distributed serves its dashboard with it)
+        except ImportError:
+            raise StudyError(f"dashboard = {dashboard!r}: Dask's dashboard needs bokeh "
+                             "(pip install 'bokeh>=3.1')") from None
 
     # glibc gives each thread that allocates its own arena, and the solves run in the worker's
     # task thread: measured 3-8 % slower than the same solves in a main thread, 1-2 % with one
@@ -752,7 +760,7 @@ def local_cluster(workers: Optional[int] = None):
         with dask.config.set({"distributed.worker.profile.enabled": False,
                               "distributed.nanny.pre-spawn-environ": environ}):
             return LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1,
-                                processes=True, dashboard_address=None)
+                                processes=True, dashboard_address=dashboard)
     finally:
         if interactive:
             signal.signal(signal.SIGINT, previous)
@@ -805,13 +813,16 @@ def run(
     progress: bool = True,
     on_result: Optional[Callable[[dict], None]] = None,
     flush_seconds: float = 1.0,
+    dashboard: Optional[str] = None,
 ) -> Summary:
     """Runs the points of ``study`` (a path or :class:`Study`) that are not stored yet.
 
     The cluster is ``client`` if given, else the scheduler at ``scheduler``, else a new
-    ``LocalCluster`` with ``workers`` single-threaded worker processes (default: one per
-    core). ``on_result`` is called with every record as it arrives. Ctrl-C stops the study
-    after storing what has arrived; running it again continues it."""
+    core) and, with ``dashboard`` (an address, ``":8787"``), Dask's dashboard. The
+    dashboard's address is printed on stderr when the study starts its cluster with one, or
+    connects to ``scheduler``.
+    ``on_result`` is called with every record as it arrives. Ctrl-C stops the study after
+    storing what has arrived; running it again continues it."""
     from distributed import Client, as_completed
 
     study = study if isinstance(study, Study) else load(study)
@@ -832,7 +843,12 @@ def run(
         if scheduler is not None:
             client = own = Client(scheduler)
         else:
-            client = own = Client(local_cluster(workers))
+            client = own = Client(local_cluster(workers, dashboard))
+    # Dask's HTTP server answers on the dashboard's port with or without the dashboard, so
+    # the address is printed where one is known to be there: a LocalCluster started with it,
+    # or a scheduler started by `dask scheduler` (which serves it whenever bokeh is there).
+    if (own and dashboard is not None) or scheduler is not None:
+        print(f"Dask dashboard: {client.dashboard_link}", file=sys.stderr, flush=True)
     start = time.perf_counter()
     computed = failed = 0
     task_seconds = 0.0
@@ -1080,6 +1096,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     r.add_argument("--workers", type=int, help="LocalCluster worker processes (default: one per core)")
     r.add_argument("--no-progress", action="store_true")
     r.add_argument("--plot", type=Path, help="also draw the plot (PNG/SVG/PDF)")
+    r.add_argument("--dashboard", nargs="?", const=":8787", metavar="ADDRESS",
+                   help="serve Dask's dashboard from the LocalCluster (default address :8787; "
+                   "needs bokeh) and print its address")
     p = sub.add_parser("plot", help="response surface (grid) or histograms (lhs, monte_carlo)")
     p.add_argument("study", type=Path)
     p.add_argument("--out", type=Path, required=True)
@@ -1089,7 +1108,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         if args.command == "run":
             try:
                 summary = run(study, scheduler=args.scheduler, workers=args.workers,
-                              progress=not args.no_progress)
+                              progress=not args.no_progress, dashboard=args.dashboard)
             except KeyboardInterrupt:
                 print("interrupted: the points that arrived are stored; run again to continue",
                       file=sys.stderr)
