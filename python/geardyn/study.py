@@ -43,7 +43,7 @@ import numpy as np
 
 import geardyn
 
-ANALYSES = ("simulate", "periodic", "sweep")
+ANALYSES = ("simulate", "periodic", "sweep", "hb", "modes", "spectrum")
 
 # Scalar results per analysis, with what each means (also the docs' table).
 RESULTS = {
@@ -71,6 +71,29 @@ RESULTS = {
         "hysteresis": "largest |up − down| DTE RMS at one speed (jump region), m",
         "max_contact_loss_fraction": "largest contact-loss fraction over the sweep, 1",
         "unconverged": "points without a periodic steady state, 1",
+    },
+    # The harmonic-balance branch over `speed = "from:to"` (`geardyn hb`); over all meshes of
+    # a drivetrain.
+    "hb": {
+        "peak_dte_rms": "largest DTE RMS on the branch, m",
+        "peak_mesh_frequency": "mesh frequency of that largest DTE RMS, Hz",
+        "folds": "fold points (turning points) of the branch, 1",
+        "unstable_points": "branch points whose orbit is unstable (Hill's method), 1",
+    },
+    # Natural frequencies of the mean-stiffness modes (`geardyn modes`), rigid-body modes
+    # (zero frequency) left out.
+    "modes": {
+        "f1": "lowest natural frequency, Hz",
+        "f2": "second natural frequency, Hz",
+        "f3": "third natural frequency, Hz",
+        "f4": "fourth natural frequency, Hz",
+    },
+    # Lines of the exact steady-state DTE spectrum (`geardyn spectrum`), per mesh of a
+    # drivetrain (`<mesh>.mesh_order_1`, at that mesh's own orders).
+    "spectrum": {
+        "mesh_order_1": "DTE amplitude at the mesh frequency, m",
+        "mesh_order_2": "DTE amplitude at twice the mesh frequency, m",
+        "mesh_order_3": "DTE amplitude at three times the mesh frequency, m",
     },
 }
 
@@ -180,8 +203,11 @@ class Study:
         return [next(p.path for p in self.parameters if p.group == g) for g in self.groups()]
 
     def key(self, point: Dict[str, float]) -> str:
-        """The point's identity: base scene text, analysis and exact parameter values."""
-        identity = {"scene": self.scene_text, "analysis": self.analysis, "point": point}
+        """The point's identity: base scene text, analysis, the results kept and exact
+        parameter values. The results are part of it: a row stored for other results lacks
+        columns, and must not pass for this study's (its columns would read NaN)."""
+        identity = {"scene": self.scene_text, "analysis": self.analysis,
+                    "results": list(self.results), "point": point}
         if self.outputs:
             identity["outputs"] = {n: _qualified_name(f) for n, f in self.outputs.items()}
         blob = json.dumps(identity, sort_keys=True)
@@ -201,7 +227,7 @@ class Study:
         return units
 
     def result_columns(self) -> List[str]:
-        if self.kind == "simulate" and self.base_scene().is_train:
+        if self.kind in ("simulate", "spectrum") and self.base_scene().is_train:
             meshes = _train_meshes(self.base_scene())
             return [f"{m}.{r}" for m in meshes for r in self.results] + list(self.outputs)
         return list(self.results) + list(self.outputs)
@@ -407,8 +433,14 @@ def load(path, outputs: Optional[Dict[str, Callable]] = None) -> Study:
         "simulate": set(),
         "periodic": {"periods", "warmup", "speed"},
         "sweep": {"speed", "direction", "tolerance", "max_periods"},
+        "hb": {"speed", "harmonics", "subharmonic"},
+        "modes": {"rigid_bearings"},
+        "spectrum": {"samples", "periods"},
     }[kind]
-    allowed = allowed | {"timeout"}
+    # modes and spectrum take no time limit: modes is one eigenproblem, and spectrum's
+    # orbit is bounded by the scene's work budget.
+    if kind not in ("modes", "spectrum"):
+        allowed = allowed | {"timeout"}
     extra = sorted(set(analysis) - allowed - {"kind"})
     if extra:
         raise StudyError(f"analysis.{extra[0]}: not an option of {kind} ({', '.join(sorted(allowed)) or 'none'})")
@@ -420,6 +452,9 @@ def load(path, outputs: Optional[Dict[str, Callable]] = None) -> Study:
     if kind == "sweep" and "speed" not in analysis:
         raise StudyError("analysis.speed: a sweep needs speed = \"from:to:points\" "
                          "(e.g. \"1000rpm:5000rpm:41\"; bare numbers are rad/s)")
+    if kind == "hb" and "speed" not in analysis:
+        raise StudyError("analysis.speed: hb needs speed = \"from:to\" "
+                         "(e.g. \"3000rpm:6000rpm\"; bare numbers are rad/s)")
     if kind == "periodic" and "speed" in analysis and "operating.pinion_speed" in names:
         raise StudyError("analysis.speed: the pinion speed is also a varied parameter; give one of them")
 
@@ -537,6 +572,51 @@ def _sweep_results(table, results) -> Dict[str, float]:
     return {r: values[r] for r in results}
 
 
+def _hb_results(table, results) -> Dict[str, float]:
+    rms_columns = [c for c in table.columns if c == "dte_rms" or c.endswith(".dte_rms")]
+    rms = np.max(np.stack([table[c] for c in rms_columns]), axis=0)
+    i = int(np.argmax(rms))
+    values = {
+        "peak_dte_rms": float(rms[i]),
+        "peak_mesh_frequency": float(table["mesh_frequency"][i]),
+        "folds": float((table["fold"] != 0).sum()),
+        "unstable_points": float((table["stable"] == 0).sum()),
+    }
+    return {r: values[r] for r in results}
+
+
+def _modes_results(modes, results) -> Dict[str, float]:
+    f = np.sort(np.asarray(modes.frequencies, dtype=float))
+    # Rigid-body modes: zero up to the eigensolver's rounding against the largest frequency.
+    elastic = f[f > 1e-9 * f.max()] if f.size and f.max() > 0 else f[:0]
+    out = {}
+    for r in results:
+        k = int(r[1:])
+        if k > elastic.size:
+            raise StudyError(f"results: {r!r}: the scene has {elastic.size} elastic mode(s)")
+        out[r] = float(elastic[k - 1])
+    return out
+
+
+def _spectrum_results(scene, spectrum, results) -> Dict[str, float]:
+    """Each mesh's DTE line at k times its own mesh frequency. Lines are found by frequency,
+    not label: where orders coincide (the idler's two meshes share one frequency; a shaft
+    order may be a mesh order) the spectrum names the line once."""
+    frequency = np.asarray(spectrum["frequency_Hz"], dtype=float)
+    out = {}
+    for m, fm in scene.mesh_frequencies:
+        prefix = f"{m}." if scene.is_train else ""
+        amplitude = spectrum[f"{m}.dte_amplitude_m"]
+        for r in results:
+            k = int(r.rsplit("_", 1)[1])
+            j = int(np.argmin(np.abs(frequency - k * fm)))
+            if abs(frequency[j] - k * fm) > 1e-9 * k * fm:
+                raise StudyError(f"results: {r!r}: the spectrum has no line at {k} × {fm:.6g} Hz "
+                                 f"({m}); raise samples")
+            out[prefix + r] = float(amplitude[j])
+    return out
+
+
 def run_point(scene_text: str, origin: str, analysis: dict, results: Sequence[str],
               point: Dict[str, float], outputs: Optional[Dict[str, Callable]] = None) -> Dict[str, float]:
     """Runs one point and returns its scalar results and user outputs; raises what the
@@ -561,11 +641,22 @@ def run_point(scene_text: str, origin: str, analysis: dict, results: Sequence[st
             "dte0": float(result.y0[0]),
         }
         out = {r: values[r] for r in results}
-    else:
+    elif kind == "sweep":
         result = geardyn.sweep(scene, str(analysis["speed"]), str(analysis.get("direction", "both")),
                                float(analysis.get("tolerance", 1e-7)), int(analysis.get("max_periods", 3000)),
                                timeout=timeout)
         out = _sweep_results(result, results)
+    elif kind == "hb":
+        result = geardyn.hb(scene, str(analysis["speed"]), int(analysis.get("harmonics", 20)),
+                            int(analysis.get("subharmonic", 1)), timeout=timeout)
+        out = _hb_results(result, results)
+    elif kind == "modes":
+        result = geardyn.modes(scene, bool(analysis.get("rigid_bearings", False)))
+        out = _modes_results(result, results)
+    else:
+        result = geardyn.spectrum(scene, samples=int(analysis.get("samples", 64)),
+                                  periods=int(analysis.get("periods", 1)))
+        out = _spectrum_results(scene, result, results)
     for name, f in (outputs or {}).items():
         value = f(result)
         if not isinstance(value, (bool, int, float, np.bool_, np.integer, np.floating)):

@@ -582,6 +582,23 @@ impl PyScene {
         self.scene.name.clone()
     }
 
+    /// Each mesh's frequency at the scene's input speed, Hz, by mesh name (a single pair's
+    /// mesh is `mesh`): the base of the spectrum's mesh orders.
+    #[getter]
+    fn mesh_frequencies(&self) -> Vec<(String, f64)> {
+        let omega = self.scene.operating.input_speed;
+        (0..self.scene.meshes.len())
+            .map(|n| {
+                let name = if self.scene.kernel == KernelChoice::Pair {
+                    "mesh".to_string()
+                } else {
+                    self.scene.meshes[n].name.clone()
+                };
+                (name, self.scene.mesh_frequency(n, omega))
+            })
+            .collect()
+    }
+
     /// True for a drivetrain scene (docs/train.md), false for a single mesh (docs/model.md).
     #[getter]
     fn is_train(&self) -> bool {
