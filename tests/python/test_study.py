@@ -247,4 +247,4 @@ def test_console_script_on_an_existing_scheduler_with_plots(client, tmp_path):
     bad = subprocess.run([script, "run", write_study(tmp_path, GRID.replace("simulate", "nope"), "bad.toml")],
                          capture_output=True, text=True, timeout=120)
     assert bad.returncode == 1
-    assert bad.stderr == "error: analysis.kind = 'nope': must be one of simulate, periodic, sweep\n"
+    assert bad.stderr == "error: analysis.kind = 'nope': must be one of simulate, periodic, sweep, hb, modes, spectrum\n"
