@@ -255,11 +255,25 @@ def _grid_value(v, where: str):
     return _number(v, where)
 
 
-def _grid_values(raw, where: str) -> list:
-    """A grid's values, each with its type; all numbers, all strings or all booleans."""
+def _in_scene_units(path: str, v, where: str):
+    """A value written with a unit (``"4500rpm"``, ``"0.1 mm"``) for a parameter the scene
+    format gives a unit: the number in that unit, so the store holds SI values."""
+    from . import _quantity
+
+    if not isinstance(v, str) or geardyn._geardyn.parameter_unit(path) is None:
+        return v
+    try:
+        return _quantity.to_si(path, v)
+    except geardyn.GeardynError as e:
+        raise StudyError(f"{where}: {e}") from None
+
+
+def _grid_values(raw, where: str, path: str) -> list:
+    """A grid's values, each with its type; all numbers, all strings or all booleans.
+    Values with units are converted to the scene's unit for ``path``."""
     if not isinstance(raw, list):
         raise StudyError(f"{where} = {raw!r}: must be a list")
-    values = [_grid_value(v, where) for v in raw]
+    values = [_grid_value(_in_scene_units(path, v, where), where) for v in raw]
     kinds = {"boolean" if isinstance(v, bool) else "string" if isinstance(v, str) else "number" for v in values}
     if len(kinds) > 1:
         raise StudyError(f"{where} = {raw!r}: mixes {' and '.join(k + 's' for k in sorted(kinds))}")
@@ -282,7 +296,7 @@ def _linked(p: dict, paths: list, at: str, group: int, method: str) -> List["Par
     for k, row in enumerate(rows):
         if not isinstance(row, list) or len(row) != len(paths):
             raise StudyError(f"{at}.values[{k}] = {row!r}: must list {len(paths)} values, one per path {paths}")
-    return [Parameter(q, values=_grid_values([row[j] for row in rows], f"{at}.values[*][{j}] ({q})"), group=group)
+    return [Parameter(q, values=_grid_values([row[j] for row in rows], f"{at}.values[*][{j}] ({q})", q), group=group)
             for j, q in enumerate(paths)]
 
 
@@ -390,14 +404,15 @@ def load(path, outputs: Optional[Dict[str, Callable]] = None) -> Study:
             raise StudyError(f"{at}.path = {name!r}: must be a scene path or a list of them")
         if method == "grid":
             if "values" in p:
-                values = _grid_values(p["values"], f"{at}.values")
+                values = _grid_values(p["values"], f"{at}.values", name)
             elif {"from", "to", "points"} <= set(p):
                 points = p["points"]
                 if not isinstance(points, int) or isinstance(points, bool) or points < 1:
                     raise StudyError(f"{at}.points = {points!r}: must be a whole number >= 1")
                 if points > MAX_POINTS:
                     raise StudyError(f"{at}.points = {points}: more than the {MAX_POINTS} points a study may have")
-                lo, hi = _number(p["from"], f"{at}.from"), _number(p["to"], f"{at}.to")
+                lo = _number(_in_scene_units(name, p["from"], f"{at}.from"), f"{at}.from")
+                hi = _number(_in_scene_units(name, p["to"], f"{at}.to"), f"{at}.to")
                 values = [lo] if points == 1 else [lo + (hi - lo) * k / (points - 1) for k in range(points)]
             else:
                 raise StudyError(f"{at} ({name}): a grid parameter needs values = [...] or from, to, points")

@@ -342,6 +342,23 @@ impl Conversion {
 
 /// A Python value as TOML. `bool` is tested before `int` (it is a subclass); NumPy scalars
 /// come in through `__index__`/`__float__`.
+/// A value given with a unit (`"4500rpm"`, `("150", "N*m")`, a pint Quantity) for a path
+/// the scene format gives a unit: the number in that unit (`geardyn._quantity`); any other
+/// value as it is. A string for a path without a unit (`mesh.contact`) stays a string.
+fn in_scene_units<'py>(path: &str, value: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
+    if geardyn::units::parameter_unit(path).is_none() && !value.hasattr("units")? {
+        return Ok(value.clone());
+    }
+    let quantity = value.py().import("geardyn._quantity")?;
+    if !quantity
+        .call_method1("is_quantity", (value,))?
+        .is_truthy()?
+    {
+        return Ok(value.clone());
+    }
+    quantity.call_method1("to_si", (path, value))
+}
+
 fn to_toml(v: &Bound<'_, PyAny>) -> PyResult<toml::Value> {
     to_toml_in(v, &mut Conversion::default())
 }
@@ -507,7 +524,7 @@ impl PyScene {
 
     fn __setitem__(&mut self, path: &str, value: &Bound<'_, PyAny>) -> PyResult<()> {
         let mut table = self.table.clone();
-        let value = to_toml(value)?;
+        let value = to_toml(&in_scene_units(path, value)?)?;
         let shown = value.to_string();
         assign(&mut table, path, value)?;
         // The reader's message is the CLI's, and it names the field when it checks a value;
@@ -531,7 +548,7 @@ impl PyScene {
         let mut table = self.table.clone();
         for (k, v) in values.iter() {
             let path: String = k.extract()?;
-            assign(&mut table, &path, to_toml(&v)?)?;
+            assign(&mut table, &path, to_toml(&in_scene_units(&path, &v)?)?)?;
         }
         self.replace(table).map_err(err)
     }
