@@ -172,9 +172,29 @@ class Table:
         return self.data.shape[0]
 
     def to_pandas(self):
+        """A DataFrame of the rows; units in ``df.attrs["units"]`` (needs pandas)."""
         import pandas as pd
 
-        return pd.DataFrame(self.data, columns=self.columns)
+        df = pd.DataFrame(self.data, columns=self.columns)
+        df.attrs["units"] = dict(self.units)
+        return df
+
+    # Columns that label a row rather than measure it: coordinates of the Dataset.
+    _COORDINATES = ("speed", "speed_rpm", "direction", "frequency_Hz", "time_s", "rpm", "order",
+                    "phase", "block", "revolutions")
+
+    def to_xarray(self, dim: str = "point"):
+        """An xarray Dataset along ``dim`` (one entry per row): the speed, direction or
+        frequency columns as coordinates, every other column a variable, each with its unit
+        in ``attrs["units"]`` (needs xarray)."""
+        import xarray as xr
+
+        def attrs(c):
+            return {"units": self.units[c]} if self.units.get(c) else {}
+
+        coords = {c: (dim, self[c], attrs(c)) for c in self.columns if c in self._COORDINATES}
+        data = {c: (dim, self[c], attrs(c)) for c in self.columns if c not in self._COORDINATES}
+        return xr.Dataset(data, coords=coords)
 
 
 @dataclass
@@ -354,6 +374,25 @@ class Spectrum(Table):
 
     labels: List[str] = field(default_factory=list)
     report: str = ""
+
+    def __post_init__(self) -> None:
+        # The CSV's column names carry their units: <signal>_amplitude_<unit>, _phase_rad.
+        self.units = {}
+        for c in self.columns:
+            if c == "frequency_Hz":
+                self.units[c] = "Hz"
+            elif "_amplitude_" in c:
+                self.units[c] = c.rsplit("_amplitude_", 1)[1]
+            elif c.endswith("_phase_rad"):
+                self.units[c] = "rad"
+            else:
+                self.units[c] = _geardyn.column_unit(c)
+
+    def to_xarray(self, dim: str = "line"):
+        """The lines as a Dataset along ``line``, with ``frequency_Hz`` and each line's order
+        ``label`` as coordinates and units on every variable."""
+        ds = super().to_xarray(dim)
+        return ds.assign_coords(label=(dim, list(self.labels)))
 
 
 @dataclass
