@@ -23,7 +23,7 @@ import os
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Dict, List, Optional, Union
+from typing import Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
@@ -109,6 +109,13 @@ class _TimeRows:
         df.attrs.update(self._attrs())
         return df
 
+    def plot(self, signals: Optional[Sequence[str]] = None, ax=None):
+        """A matplotlib Figure of ``signals`` over time (default: the DTE columns), one axes
+        per unit, labelled with units (:func:`geardyn.plotting.simulation`)."""
+        from . import plotting
+
+        return plotting.simulation(self, signals, ax)
+
     def to_xarray(self):
         """An xarray Dataset over ``time``; each variable's unit in ``.attrs["units"]``."""
         import xarray as xr
@@ -182,6 +189,13 @@ class Table:
     # Columns that label a row rather than measure it: coordinates of the Dataset.
     _COORDINATES = ("speed", "speed_rpm", "direction", "frequency_Hz", "time_s", "rpm", "order",
                     "phase", "block", "revolutions")
+
+    def plot(self, y: Union[str, Sequence[str]] = "dte_rms", x: str = "speed", ax=None):
+        """A matplotlib Figure of columns ``y`` against ``x``, labelled with units; a sweep's
+        directions and an hb branch's unstable points apart (:func:`geardyn.plotting.table`)."""
+        from . import plotting
+
+        return plotting.table(self, y, x, ax)
 
     def to_xarray(self, dim: str = "point"):
         """An xarray Dataset along ``dim`` (one entry per row): the speed, direction or
@@ -387,6 +401,13 @@ class Spectrum(Table):
                 self.units[c] = "rad"
             else:
                 self.units[c] = _geardyn.column_unit(c)
+
+    def plot(self, signal: Optional[str] = None, lines: int = 8, ax=None):
+        """A matplotlib Figure: a stem plot of one signal's amplitudes, the largest lines
+        labelled with their orders (:func:`geardyn.plotting.spectrum`)."""
+        from . import plotting
+
+        return plotting.spectrum(self, signal, lines, ax)
 
     def to_xarray(self, dim: str = "line"):
         """The lines as a Dataset along ``line``, with ``frequency_Hz`` and each line's order
