@@ -456,6 +456,10 @@ def load(path, outputs: Optional[Dict[str, Callable]] = None) -> Study:
     # orbit is bounded by the scene's work budget.
     if kind not in ("modes", "spectrum"):
         allowed = allowed | {"timeout"}
+    # Columns of the analysis' result kept whole per point (a run's traces, a spectrum's
+    # lines, a sweep's curve), in the study's Zarr store.
+    if kind in ("simulate", "sweep", "hb", "spectrum"):
+        allowed = allowed | {"arrays"}
     extra = sorted(set(analysis) - allowed - {"kind"})
     if extra:
         raise StudyError(f"analysis.{extra[0]}: not an option of {kind} ({', '.join(sorted(allowed)) or 'none'})")
@@ -467,6 +471,11 @@ def load(path, outputs: Optional[Dict[str, Callable]] = None) -> Study:
     if kind == "sweep" and "speed" not in analysis:
         raise StudyError("analysis.speed: a sweep needs speed = \"from:to:points\" "
                          "(e.g. \"1000rpm:5000rpm:41\"; bare numbers are rad/s)")
+    arrays = analysis.get("arrays", [])
+    if not isinstance(arrays, list) or not all(isinstance(a, str) and a for a in arrays) \
+            or len(set(arrays)) != len(arrays):
+        raise StudyError(f"analysis.arrays = {arrays!r}: must be a list of distinct column names "
+                         "of the analysis' result (e.g. [\"time\", \"mesh.dte\"])")
     if kind == "hb" and "speed" not in analysis:
         raise StudyError("analysis.speed: hb needs speed = \"from:to\" "
                          "(e.g. \"3000rpm:6000rpm\"; bare numbers are rad/s)")
@@ -632,6 +641,10 @@ def _spectrum_results(scene, spectrum, results) -> Dict[str, float]:
     return out
 
 
+# The record key under which a point's arrays travel from the worker to the client.
+ARRAYS = "__arrays__"
+
+
 def run_point(scene_text: str, origin: str, analysis: dict, results: Sequence[str],
               point: Dict[str, float], outputs: Optional[Dict[str, Callable]] = None) -> Dict[str, float]:
     """Runs one point and returns its scalar results and user outputs; raises what the
@@ -672,11 +685,24 @@ def run_point(scene_text: str, origin: str, analysis: dict, results: Sequence[st
         result = geardyn.spectrum(scene, samples=int(analysis.get("samples", 64)),
                                   periods=int(analysis.get("periods", 1)))
         out = _spectrum_results(scene, result, results)
+    arrays = {}
+    for name in analysis.get("arrays", []):
+        columns = ["time", *result.names] if hasattr(result, "names") else result.columns
+        if name not in columns:
+            raise StudyError(f"analysis.arrays: {name!r} is not a column of the {kind} result "
+                             f"({', '.join(columns)})")
+        arrays[name] = np.asarray(result[name], dtype=float)
     for name, f in (outputs or {}).items():
         value = f(result)
-        if not isinstance(value, (bool, int, float, np.bool_, np.integer, np.floating)):
-            raise StudyError(f"output {name!r} returned {value!r} ({type(value).__name__}): must be a number")
-        out[name] = float(value)
+        if isinstance(value, (bool, int, float, np.bool_, np.integer, np.floating)):
+            out[name] = float(value)
+        elif isinstance(value, np.ndarray) and value.ndim == 1 and np.issubdtype(value.dtype, np.number):
+            arrays[name] = np.asarray(value, dtype=float)
+        else:
+            raise StudyError(f"output {name!r} returned {value!r} ({type(value).__name__}): must be a "
+                             "number or a one-dimensional numeric NumPy array")
+    if arrays:
+        out[ARRAYS] = arrays
     return out
 
 
@@ -693,7 +719,8 @@ def run_chunk(scene_text: str, origin: str, analysis: dict, results: Sequence[st
         try:
             values = run_point(scene_text, origin, analysis, results, point, outputs)
             records.append({"index": index, "key": key, **point,
-                            **{c: values[c] for c in columns}, "error": None})
+                            **{c: values[c] for c in columns if c in values}, "error": None,
+                            **({ARRAYS: values[ARRAYS]} if ARRAYS in values else {})})
         except (KeyboardInterrupt, SystemExit):
             raise
         except BaseException as e:  # noqa: BLE001 -- a failure (a Rust panic too) is data
@@ -1019,6 +1046,11 @@ def run(
                 done_iter.add(f)
             for r in records:
                 computed += 1
+                arrays = r.pop(ARRAYS, None)
+                if arrays is not None and r["error"] is None:
+                    # Before the row reaches the Parquet store: a row stored there is never
+                    # computed again, so its arrays must already be in.
+                    _write_arrays(study, r["index"], r["key"], arrays, len(points))
                 if r["error"] is not None:
                     failed += 1
                     if len(errors) < 5:  # the summary shows the first few; all are stored
@@ -1043,6 +1075,79 @@ def run(
                 cluster.close()
     return Summary(len(points), len(already), computed, failed, time.perf_counter() - start, errors,
                    task_seconds)
+
+
+def arrays_store(study) -> Path:
+    """The Zarr store of the study's per-point arrays (``analysis.arrays``, user outputs
+    that return arrays): ``<store>`` with the suffix ``.zarr``."""
+    return study.store.with_suffix(".zarr")
+
+
+def _write_arrays(study, index: int, key: str, arrays: Dict[str, np.ndarray], n: int) -> None:
+    """Writes one point's (one-dimensional) arrays as row ``index`` of one Zarr array per
+    name, shape ``(points, longest)``: a point's array fills the start of its row, NaN the
+    rest, and the array grows when a longer one arrives, so the store is the same whatever
+    the order the points finish in. The point's key and each array's length are stored
+    beside them."""
+    import zarr
+
+    path = arrays_store(study)
+    root = zarr.open_group(str(path), mode="a", zarr_format=2)
+    if "key" in root and root["key"].shape != (n,):
+        # Arrays of another version of the study (other points): their rows mean nothing now.
+        root = zarr.open_group(str(path), mode="w", zarr_format=2)
+    if "key" not in root:
+        root.create_array("key", shape=(n,), dtype=str, fill_value="")
+    for name, a in arrays.items():
+        if name not in root:
+            arr = root.create_array(name, shape=(n, a.size), chunks=(1, max(1, a.size)),
+                                    dtype="f8", fill_value=np.nan)
+            unit = study.output_units.get(name) if name in study.outputs else \
+                geardyn._geardyn.column_unit(name) or _array_unit(name)
+            if unit:
+                arr.attrs["units"] = unit
+            root.create_array(f"{name}.length", shape=(n,), dtype="i8", fill_value=-1)
+        arr = root[name]
+        if a.size > arr.shape[1]:
+            arr.resize((n, a.size))
+        row = np.full(arr.shape[1], np.nan)
+        row[:a.size] = a
+        arr[index] = row
+        root[f"{name}.length"][index] = a.size
+    root["key"][index] = key
+
+
+def _array_unit(name: str) -> Optional[str]:
+    """Units written in a spectrum column's name (``<signal>_amplitude_m``, ``frequency_Hz``)."""
+    if name == "frequency_Hz":
+        return "Hz"
+    if "_amplitude_" in name:
+        return name.rsplit("_amplitude_", 1)[1]
+    if name.endswith("_phase_rad"):
+        return "rad"
+    return None
+
+
+def _stored_arrays(study, keys: List[str]) -> Dict[str, tuple]:
+    """The per-point arrays stored for the points with ``keys`` (in point order): name ->
+    (values with NaN rows for points not stored, units)."""
+    path = arrays_store(study)
+    if not path.exists():
+        return {}
+    import zarr
+
+    root = zarr.open_group(str(path), mode="r", zarr_format=2)
+    if "key" not in root or root["key"].shape != (len(keys),):
+        return {}
+    valid = np.asarray(root["key"][:]) == np.asarray(keys)
+    out = {}
+    for name in root.array_keys():
+        if name == "key" or name.endswith(".length"):
+            continue
+        values = np.asarray(root[name][:], dtype=float)
+        values[~valid] = np.nan
+        out[name] = (values, root[name].attrs.get("units"))
+    return out
 
 
 def results(study):
@@ -1109,6 +1214,7 @@ def to_xarray(study):
         if len(df):
             errors[flat] = df["error"].fillna("").to_numpy(dtype=object)
         data["error"] = (dims, errors.reshape(shape))
+        _add_arrays(data, study, points, dims, shape)
         return xr.Dataset(data, coords=coords, attrs={"study": str(study.path), "analysis": study.kind})
     n = len(points)
     coords = {p.path: ("point", np.array([pt[p.path] for pt in points]), attrs(p.path))
@@ -1125,7 +1231,17 @@ def to_xarray(study):
     if len(df):
         errors[index] = df["error"].fillna("").to_numpy(dtype=object)
     data["error"] = ("point", errors)
+    _add_arrays(data, study, points, ["point"], (n,))
     return xr.Dataset(data, coords=coords, attrs={"study": str(study.path), "analysis": study.kind})
+
+
+def _add_arrays(data: dict, study, points, dims: List[str], shape: tuple) -> None:
+    """The per-point arrays as variables over the study's dimensions and their own axis
+    ``<name>_sample`` (as long as the longest; a shorter array is NaN after its end), in
+    place of a user output's empty scalar column."""
+    for name, (values, unit) in _stored_arrays(study, [study.key(p) for p in points]).items():
+        data[name] = ([*dims, f"{name}_sample"], values.reshape(*shape, values.shape[1]),
+                      {"units": unit} if unit else {})
 
 
 def to_zarr(study, path) -> Path:
