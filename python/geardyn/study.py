@@ -45,6 +45,9 @@ import geardyn
 
 ANALYSES = ("simulate", "periodic", "sweep", "hb", "modes", "spectrum")
 
+# Sweep results of the whole branch, not of one mesh of a drivetrain.
+BRANCH_WIDE = {"unconverged"}
+
 # Scalar results per analysis, with what each means (also the docs' table).
 RESULTS = {
     # Over the run, from the continuous solution: `geardyn simulate`'s summary (event times,
@@ -227,9 +230,13 @@ class Study:
         return units
 
     def result_columns(self) -> List[str]:
-        if self.kind in ("simulate", "spectrum") and self.base_scene().is_train:
+        """The stored result columns: per mesh of a drivetrain (``<mesh>.dte_rms``) for the
+        results that belong to a mesh, then the branch-wide ones and the user outputs."""
+        if self.kind in ("simulate", "spectrum", "sweep") and self.base_scene().is_train:
             meshes = _train_meshes(self.base_scene())
-            return [f"{m}.{r}" for m in meshes for r in self.results] + list(self.outputs)
+            per_mesh = [r for r in self.results if r not in BRANCH_WIDE]
+            return ([f"{m}.{r}" for m in meshes for r in per_mesh]
+                    + [r for r in self.results if r in BRANCH_WIDE] + list(self.outputs))
         return list(self.results) + list(self.outputs)
 
 
@@ -479,6 +486,10 @@ def load(path, outputs: Optional[Dict[str, Callable]] = None) -> Study:
     if kind == "hb" and "speed" not in analysis:
         raise StudyError("analysis.speed: hb needs speed = \"from:to\" "
                          "(e.g. \"3000rpm:6000rpm\"; bare numbers are rad/s)")
+    if kind == "periodic" and "dte0" in data.get("results", []) and \
+            geardyn.Scene.from_toml(scene_text, origin=str(scene_file)).is_train:
+        raise StudyError("results: 'dte0' (the DTE at the orbit's start) is a single pair's; a "
+                         "drivetrain's orbit has one per mesh: use a user output on the Orbit")
     if kind == "periodic" and "speed" in analysis and "operating.pinion_speed" in names:
         raise StudyError("analysis.speed: the pinion speed is also a varied parameter; give one of them")
 
@@ -579,21 +590,27 @@ def _series_results(dte, force, lost, results, prefix="") -> Dict[str, float]:
     return {prefix + r: values[r]() for r in results}
 
 
-def _sweep_results(table, results) -> Dict[str, float]:
-    rms, f, d = table["dte_rms"], table["mesh_frequency"], table["direction"]
-    i = int(np.argmax(rms))
-    up, down = {}, {}
-    for s, r, di in zip(table["speed"], rms, d):
-        (up if di > 0 else down)[s] = r
-    common = sorted(set(up) & set(down))
-    values = {
-        "peak_dte_rms": float(rms[i]),
-        "peak_mesh_frequency": float(f[i]),
-        "hysteresis": float(max((abs(up[s] - down[s]) for s in common), default=0.0)),
-        "max_contact_loss_fraction": float(table["contact_loss_fraction"].max()),
-        "unconverged": float((table["converged"] == 0).sum()),
-    }
-    return {r: values[r] for r in results}
+def _sweep_results(table, results, meshes: Sequence[str] = ()) -> Dict[str, float]:
+    """The sweep's results; for a drivetrain (``meshes``) per mesh, from its own columns."""
+    out = {}
+    if "unconverged" in results:
+        out["unconverged"] = float((table["converged"] == 0).sum())
+    for prefix in [f"{m}." for m in meshes] or [""]:
+        rms, d = table[prefix + "dte_rms"], table["direction"]
+        f = table[prefix + "mesh_frequency"]
+        i = int(np.argmax(rms))
+        up, down = {}, {}
+        for s, r, di in zip(table["speed"], rms, d):
+            (up if di > 0 else down)[s] = r
+        common = sorted(set(up) & set(down))
+        values = {
+            "peak_dte_rms": float(rms[i]),
+            "peak_mesh_frequency": float(f[i]),
+            "hysteresis": float(max((abs(up[s] - down[s]) for s in common), default=0.0)),
+            "max_contact_loss_fraction": float(table[prefix + "contact_loss_fraction"].max()),
+        }
+        out.update({prefix + r: values[r] for r in results if r in values})
+    return out
 
 
 def _hb_results(table, results) -> Dict[str, float]:
@@ -673,7 +690,7 @@ def run_point(scene_text: str, origin: str, analysis: dict, results: Sequence[st
         result = geardyn.sweep(scene, str(analysis["speed"]), str(analysis.get("direction", "both")),
                                float(analysis.get("tolerance", 1e-7)), int(analysis.get("max_periods", 3000)),
                                timeout=timeout)
-        out = _sweep_results(result, results)
+        out = _sweep_results(result, results, _train_meshes(scene) if scene.is_train else ())
     elif kind == "hb":
         result = geardyn.hb(scene, str(analysis["speed"]), int(analysis.get("harmonics", 20)),
                             int(analysis.get("subharmonic", 1)), timeout=timeout)

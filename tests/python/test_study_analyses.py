@@ -134,3 +134,41 @@ def test_analysis_options_are_checked(tmp_path):
                           if "spectrum" in analysis else ["peak_dte_rms"])
         with pytest.raises(gs.StudyError, match=needle):
             gs.load(path)
+
+
+def test_sweep_and_periodic_studies_on_drivetrains(client, tmp_path):
+    """A drivetrain's sweep results are per mesh, each from its own columns; `unconverged`
+    is the branch's. A periodic study gives the orbit's stability; `dte0` (one pair's DTE)
+    is refused for a drivetrain."""
+    for scene, speeds in [("idler_gearset", "300:310:3"), ("countershaft_gearset", "240:242:2")]:
+        results = ["peak_dte_rms", "peak_mesh_frequency", "hysteresis", "max_contact_loss_fraction",
+                   "unconverged"]
+        path = study_file(tmp_path, scene, 'path = "operating.input_torque"\nvalues = [90.0, 110.0]',
+                          f'kind = "sweep"\nspeed = "{speeds}"', results)
+        study = gs.load(path)
+        gs.run(study, client=client, progress=False)
+        ds = gs.to_xarray(study)
+        meshes = [m["name"] for m in geardyn.Scene.from_file(REPO / "fmu" / scene).to_dict()["mesh"]]
+        for i, point in enumerate(study.points()):
+            table = geardyn.sweep(plain(scene, point), speeds)
+            assert ds["unconverged"].values[i] == np.count_nonzero(table["converged"] == 0)
+            for m in meshes:
+                rms = table[f"{m}.dte_rms"]
+                j = int(np.argmax(rms))
+                assert ds[f"{m}.peak_dte_rms"].values[i] == rms[j]
+                assert ds[f"{m}.peak_mesh_frequency"].values[i] == table[f"{m}.mesh_frequency"][j]
+                assert ds[f"{m}.max_contact_loss_fraction"].values[i] == \
+                    table[f"{m}.contact_loss_fraction"].max()
+                assert ds[f"{m}.peak_dte_rms"].attrs["units"] == "m"
+            assert (ds["error"].values == "").all()
+
+        path = study_file(tmp_path, scene, 'path = "operating.input_torque"\nvalues = [90.0]',
+                          'kind = "periodic"', ["floquet_max", "stable", "period"])
+        study = gs.load(path)
+        gs.run(study, client=client, progress=False)
+        orbit = geardyn.periodic(plain(scene, study.points()[0]))
+        df = gs.results(study)
+        assert df["floquet_max"][0] == orbit.spectral_radius and df["period"][0] == orbit.period
+        with pytest.raises(gs.StudyError, match="dte0"):
+            gs.load(study_file(tmp_path, scene, 'path = "operating.input_torque"\nvalues = [90.0]',
+                               'kind = "periodic"', ["dte0"]))
