@@ -9,6 +9,9 @@
 //! - a backlash so large that the back flanks never touch gives the contact-loss HB;
 //! - up/down `sweep`s (time integration) leave the periodic branch at HB's fold.
 //!
+//! And the time integration through tooth wedging (both flanks pressed at once) on the same
+//! stage, where it once stopped.
+//!
 //! The stage is the shipped `examples/planetary/ev_reducer_3p.toml` at 10 N·m (static mesh
 //! deflection 0.58 µm) with a 1 µm cosine STE on every mesh (the excitation does not scale with
 //! the load, so the teeth rattle) and 2b = 1 µm.
@@ -23,6 +26,11 @@ use geardyn::with_drivetrain;
 
 /// The stage with `backlash` (2b, m; `None`: contact loss, no back side).
 fn stage(backlash: Option<f64>) -> Scene {
+    Scene::from_toml_str(&stage_text(backlash), "ev_reducer_3p at 10 N·m with STE").unwrap()
+}
+
+/// [`stage`]'s scene text.
+fn stage_text(backlash: Option<f64>) -> String {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/examples/planetary/ev_reducer_3p.toml"
@@ -39,7 +47,7 @@ fn stage(backlash: Option<f64>) -> Scene {
             &format!("contact = \"backlash\"\nbacklash = {b:e}"),
         );
     }
-    Scene::from_toml_str(&text, "ev_reducer_3p at 10 N·m with STE").unwrap()
+    text
 }
 
 /// Per mesh, the fraction of `samples` instants of the orbit through `y0` (at `t = 0`) spent in
@@ -229,4 +237,87 @@ fn sweep_leaves_the_branch_at_the_hb_fold() {
             }
         }
     }
+}
+
+/// Tooth wedging (`docs/planetary.md`, "Tooth wedging"): at 580 and 750 rad/s the planets
+/// swing radially by more than b / sin α and both flanks of the ring meshes are pressed at
+/// once. Before the wedged state was modelled, `simulate` stopped there with "65 state events
+/// without progress" (at 750 rad/s by both propagators), and so did the `sweep` points at 2260
+/// and 2270 rad/s. Now both propagators run through (the same DTE to 1e-6 of its scale,
+/// measured 1.5e-15 m), with rows in the wedged state (`contact_state` 2), and the sweep
+/// completes. The time series against an independent model with wedging:
+/// `tests/python/test_backflank_reference.py::test_wedged_stage_matches_geardyn`.
+#[test]
+fn wedged_stage_simulates_and_sweeps() {
+    let dir = std::env::temp_dir().join(format!("geardyn_wedging_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = stage_text(Some(1e-6));
+    let line = "input_speed = 1047.1975511965977";
+    assert_eq!(text.matches(line).count(), 1);
+    for speed in [580.0, 750.0] {
+        let scene = dir.join(format!("stage_{speed}.toml"));
+        std::fs::write(
+            &scene,
+            text.replace(line, &format!("input_speed = {speed:?}")),
+        )
+        .unwrap();
+        let mut runs = Vec::new();
+        for method in ["rk", "exact"] {
+            let out = dir.join(format!("run_{speed}_{method}.csv"));
+            let done = std::process::Command::new(env!("CARGO_BIN_EXE_geardyn"))
+                .args(["simulate", scene.to_str().unwrap(), "--out"])
+                .arg(&out)
+                .args(["--method", method, "--quiet"])
+                .output()
+                .unwrap();
+            let stderr = String::from_utf8_lossy(&done.stderr);
+            assert!(done.status.success(), "{speed} {method}: {stderr}");
+            let csv = std::fs::read_to_string(&out).unwrap();
+            let mut lines = csv.lines();
+            let names: Vec<&str> = lines.next().unwrap().split(',').collect();
+            let rows: Vec<Vec<f64>> = lines
+                .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+                .collect();
+            let columns = |suffix: &str| -> Vec<usize> {
+                (0..names.len())
+                    .filter(|&c| names[c].ends_with(suffix))
+                    .collect()
+            };
+            let wedged: usize = columns(".contact_state")
+                .iter()
+                .map(|&c| rows.iter().filter(|r| r[c] == 2.0).count())
+                .sum();
+            println!(
+                "{speed} rad/s, {method}: {} rows, {wedged} mesh rows wedged",
+                rows.len()
+            );
+            assert!(wedged > 0, "{speed} {method}");
+            let dte: Vec<Vec<f64>> = rows
+                .iter()
+                .map(|r| columns(".dte").iter().map(|&c| r[c]).collect())
+                .collect();
+            runs.push(dte);
+        }
+        let scale = runs[1]
+            .iter()
+            .flatten()
+            .fold(0.0, |m: f64, x| m.max(x.abs()));
+        let difference = (runs[0].iter().flatten().zip(runs[1].iter().flatten()))
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        println!(
+            "{speed} rad/s: RK and exact DTE differ by {difference:.2e} m (scale {scale:.2e})"
+        );
+        assert!(difference <= 1e-6 * scale, "{speed}: {difference:e}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+    let speeds = vec![2260.0, 2270.0];
+    let options = SweepOptions {
+        max_transient_periods: 200,
+        ..SweepOptions::new(speeds, Direction::Both)
+    };
+    let points = sweep(&stage(Some(1e-6)), &options, &|_, _| {})
+        .unwrap()
+        .points;
+    assert_eq!(points.len(), 4);
 }

@@ -152,8 +152,9 @@ pub trait Drivetrain: DrivenModel {
     /// [`Drivetrain::mesh_law`] of a mesh with a back row ([`Drivetrain::mesh_back_row`]):
     /// the back flanks' contact decided by, and their force formed from, `back = (S̃_n,
     /// dS̃_n/dt)`; that force (and its `∂/∂S̃`, `∂/∂(dS̃/dt)`, viscous part) is entry
-    /// `mesh_force_directions(n).len()`, acting along `ã_n`. The damper acts along the flanks
-    /// in contact: `ã_n` when only back flanks touch. The other entries depend on `S_n` only.
+    /// `mesh_force_directions(n).len()`, acting along `ã_n`. Both flanks can be pressed at once
+    /// (tooth wedging). The damper acts along each row whose flanks touch. The other entries
+    /// depend on `S_n` only.
     /// Without a back row, [`Drivetrain::mesh_law`].
     fn mesh_law_with_back(
         &self,
@@ -415,9 +416,7 @@ impl Drivetrain for GearTrain {
         MeshSample {
             dte: st.dte,
             force: st.force,
-            lost: !flags
-                .iter()
-                .any(|f| matches!(f, SlotContact::Drive | SlotContact::Back)),
+            lost: !flags.iter().any(|f| f.touches()),
             phase: st.phase,
             separated_pairs,
         }

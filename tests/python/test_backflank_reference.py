@@ -26,9 +26,11 @@ below are written from the geometry in their own notation, not from the Rust cod
   (rotations positive in each gear's own sense of rotation, docs/train.md).
 
 Each mesh: drive force k(t)δ + c δ' for δ > 0, back force k(t)(δ̃ + 2b) + c δ̃' for δ̃ < −2b,
-none between (`backflank_reference.run_hybrid`); no sample of either run has both flanks
-pressed at once (tooth wedging, which the model does not take: docs/train.md). Checked: every mesh's DTE to ≤ 1e-8 of the
-static deflection, and the same number of contact changes, with back contacts among them.
+both at once where both hold (tooth wedging), none between (`backflank_reference.run_hybrid`).
+The stage and the pair never wedge; a third model, the EV stage of `tests/hb_back_flanks.rs`
+with an STE at 750 rad/s, is wedged again and again. Checked: every mesh's DTE to ≤ 1e-8 of
+the static deflection, and the same number of contact changes of every kind, with back
+contacts (and wedged intervals) among them.
 """
 
 import math
@@ -46,15 +48,18 @@ STAGE_BACKLASH = 4e-7  # m, 2b: about 0.56 of the static deflection
 
 
 class StageWithBackFlanks(stage.Reference):
-    """The planetary reference with backlash and its back-flank rows."""
+    """The planetary reference with backlash and its back-flank rows (`p`: the stage's
+    parameters, those of `test_planetary_reference` unless given; `ste`: the amplitude of a
+    cosine STE `e_j = ste·cos 2πp_j` on every mesh at its mesh phase p_j)."""
 
-    def __init__(self):
-        super().__init__()
+    def __init__(self, p=None, clearance=STAGE_BACKLASH, ste=0.0):
+        super().__init__(p)
+        p = self.p
         col = {"r": 3, "s": 6}
         back = []
-        sa, ca = math.sin(stage.ALPHA), math.cos(stage.ALPHA)
-        for j in range(stage.N):
-            psi = 2 * math.pi * j / stage.N
+        sa, ca = math.sin(p.ALPHA), math.cos(p.ALPHA)
+        for j in range(p.N):
+            psi = 2 * math.pi * j / p.N
             z, e, u = 9 + 3 * j, 10 + 3 * j, 11 + 3 * j
             b = np.zeros(self.dof)  # sun mesh, back flanks
             b[col["s"]:col["s"] + 3] = -math.sin(psi + stage.ALPHA), math.cos(psi + stage.ALPHA), 1.0
@@ -65,8 +70,24 @@ class StageWithBackFlanks(stage.Reference):
             b[z], b[e], b[u] = -sa, -ca, -1.0
             back.append(b)
         self.back_rows = np.array(back)
-        self.clearance = STAGE_BACKLASH
-        self.c_mesh = stage.C_MESH
+        self.clearance = clearance
+        self.c_mesh = p.C_MESH
+        self.ste_amplitude = ste
+
+    def ste(self, j, t):
+        """`(e_j, de_j/dt)` at `t` (scalar or array)."""
+        w = 2 * math.pi * self.frequency
+        arg = 2 * math.pi * self.phases[j] + w * np.asarray(t)
+        return self.ste_amplitude * np.cos(arg), -self.ste_amplitude * w * np.sin(arg)
+
+    def start(self):
+        """The static start with the STE at t = 0: the mean stiffness, `K̄ q = F + Σ k̄ e_j(0)
+        rows[j]` (the start the scene's `initial.dte = "static"` states)."""
+        k = self.k + self.p.K_MESH * self.rows.T @ self.rows
+        f = self.force + self.p.K_MESH * sum(self.ste(j, 0.0)[0] * row
+                                             for j, row in enumerate(self.rows))
+        q = np.linalg.lstsq(k, f, rcond=1e-12)[0]
+        return np.concatenate([self.elastic(q), np.zeros(self.dof)])
 
     def breaks(self, t_end):
         meshes = len(self.rows)
@@ -180,7 +201,7 @@ def compare(tmp_path, geardyn_bin, method, ref, text, names, periods, samples):
     print(f"{method[1]}: events geardyn {counted}, reference {sum(counts.values())} {counts}; "
           f"rows in back contact {back_rows}; worst DTE {worst:.2e} of the static deflection")
     # Both flanks of a tooth pair pressed at once (tooth wedging: the centres approach by more
-    # than the backlash) is not modelled (docs/train.md, "Back flanks"): not in these runs.
+    # than the backlash): not in these runs (`test_wedged_stage_matches_geardyn` has it).
     assert counts.pop("wedged") == 0
     return worst, counted, counts, back_rows
 
@@ -220,3 +241,114 @@ def test_back_line_changes_the_answer(tmp_path, geardyn_bin):
         tmp_path, geardyn_bin, METHODS[0], ref, stage_scene(), stage.MESHES, stage.PERIODS,
         stage.SAMPLES_PER_PERIOD)
     assert worst > 1e-3 or counted != sum(counts.values()), (worst, counted, counts)
+
+
+# Tooth wedging: the EV stage of `tests/hb_back_flanks.rs` (`examples/planetary/ev_reducer_3p`
+# at 10 N·m, a 1 µm cosine STE on every mesh, 2b = 1 µm) at 750 rad/s, where `simulate`
+# stopped with "65 state events without progress" before both flanks pressed at once were
+# modelled: the planets swing radially by more than b / sin α, so the ring meshes are
+# wedged from the first mesh period on.
+EV_SPEED, EV_TORQUE, EV_STE, EV_BACKLASH = 750.0, 10.0, 1e-6, 1e-6
+EV_PERIODS, EV_SAMPLES = 26, 23
+
+
+def ev_stage(repo_root):
+    """The EV stage's scene text and its parameters for the reference, read from the shipped
+    scene (`p` in the notation of `test_planetary_reference`)."""
+    import tomllib
+    from types import SimpleNamespace
+
+    path = repo_root / "examples" / "planetary" / "ev_reducer_3p.toml"
+    text = path.read_text()
+    scene = tomllib.loads(text)
+    gears = {g["name"]: g for g in scene["gear"]}
+    carrier = scene["carrier"][0]
+    mesh = scene["mesh"][0]
+    sun, ring, planet = gears["sun"], gears["ring"], gears["planet1"]
+    members = {"s": sun, "r": ring, "p": planet}
+    radius = {h: g["base_radius"] for h, g in members.items()}
+    radius["c"] = carrier["radius"]
+    stiffness = mesh["stiffness"]
+    bearings = {tuple(g["bearing_stiffness"]) + tuple(g["bearing_damping"])
+                for g in [*gears.values(), carrier]}
+    assert len(bearings) == 1, bearings  # the reference has one bearing stiffness
+    k_bearing, _, c_bearing, _ = bearings.pop()
+    assert all(g["position_angle"] == 120.0 * j for j, g in
+               enumerate(gears[f"planet{i}"] for i in (1, 2, 3)))
+    p = SimpleNamespace(
+        TEETH={h: g["teeth"] for h, g in members.items()}, N=3,
+        ALPHA=math.radians(mesh["pressure_angle"]),
+        MASS={**{h: g["mass"] for h, g in members.items()}, "c": carrier["mass"]},
+        I_OVER_R2={**{h: g["inertia"] / radius[h] ** 2 for h, g in members.items()},
+                   "c": carrier["inertia"] / radius["c"] ** 2},
+        RADIUS=radius, K_BEARING=k_bearing, C_BEARING=c_bearing,
+        K_RING_U=ring["ground_stiffness"] / radius["r"] ** 2,
+        C_RING_U=ring["ground_damping"] / radius["r"] ** 2,
+        K_MESH=stiffness["mean"], PP_RATIO=stiffness["peak_to_peak_ratio"],
+        CONTACT_RATIO=stiffness["contact_ratio"], C_MESH=mesh["damping"],
+        SPEED=EV_SPEED, TORQUE=EV_TORQUE)
+    assert all(m["damping"] == p.C_MESH and m["stiffness"] == stiffness for m in scene["mesh"])
+    line = ('stiffness = { kind = "rectangular", mean = 4e8, peak_to_peak_ratio = 0.25, '
+            'contact_ratio = 1.55 }')
+    assert text.count(line) == 6
+    text = (text.replace("input_torque = 150.0", f"input_torque = {EV_TORQUE!r}")
+            .replace(line, f"{line}\nste = {{ cos = [{EV_STE!r}] }}")
+            .replace('contact = "contact_loss"',
+                     f'contact = "backlash"\nbacklash = {EV_BACKLASH!r}'))
+    text = re.sub(r"(?m)^input_speed = .*$", f"input_speed = {EV_SPEED!r}", text)
+    return text, p
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_wedged_stage_matches_geardyn(tmp_path, geardyn_bin, repo_root, method):
+    """Both flanks of a mesh pressed at once (docs/planetary.md, "Tooth wedging"): the EV
+    stage at 750 rad/s over 26 mesh periods (past the instant where the old model stopped,
+    11.9 ms), the ring meshes wedged again and again. Every mesh's DTE to ≤ 1e-8 of the static
+    deflection, the same contact changes, and rows in the wedged state (`contact_state` 2)."""
+    text, p = ev_stage(repo_root)
+    ref = StageWithBackFlanks(p, clearance=EV_BACKLASH, ste=EV_STE)
+    scene = tmp_path / "scene.toml"
+    scene.write_text(text)
+    period = 1.0 / ref.frequency
+    assert EV_PERIODS * period > 11.9e-3
+    csv = tmp_path / "run.csv"
+    done = subprocess.run(
+        [str(geardyn_bin), "simulate", str(scene), "--out", str(csv), "--stop-time",
+         repr(EV_PERIODS * period), "--output-interval", repr(period / EV_SAMPLES), "--verbose",
+         *method], check=True, capture_output=True, text=True)
+    data = np.genfromtxt(csv, delimiter=",", names=True, deletechars="")
+    ours, counts = run_hybrid(ref, data["time"], max_step=period / 200)
+    worst = max(np.max(np.abs(data[f"{name}.dte"] - ours[:, j])) / ref.static_deflection
+                for j, name in enumerate(stage.MESHES))
+    counted = int(re.search(r"(\d+) events", done.stdout + done.stderr).group(1))
+    wedged_rows = sum(int(np.sum(data[f"{name}.contact_state"] == 2)) for name in stage.MESHES)
+    wedged_samples = counts.pop("wedged")
+    print(f"{method[1]}: events geardyn {counted}, reference {sum(counts.values())} {counts}; "
+          f"mesh rows wedged {wedged_rows} (reference {wedged_samples}); "
+          f"worst DTE {worst:.2e} of the static deflection")
+    assert counts["D>W"] >= 10 and counts["W>D"] >= 10 and wedged_rows >= 100, counts
+    assert wedged_rows == wedged_samples
+    assert counted == sum(counts.values())
+    assert worst <= 1e-8, worst
+
+
+def test_wedging_changes_the_answer(tmp_path, geardyn_bin, repo_root):
+    """The control: the reference without the wedged state (a flank watched only while the
+    other is open, the old model) differs from geardyn by far more than the tolerance over
+    the same run, so the test above can fail."""
+    text, p = ev_stage(repo_root)
+    ref = StageWithBackFlanks(p, clearance=EV_BACKLASH, ste=EV_STE)
+    scene = tmp_path / "scene.toml"
+    scene.write_text(text)
+    period = 1.0 / ref.frequency
+    csv = tmp_path / "run.csv"
+    subprocess.run(
+        [str(geardyn_bin), "simulate", str(scene), "--out", str(csv), "--stop-time",
+         repr(EV_PERIODS * period), "--output-interval", repr(period / EV_SAMPLES),
+         *METHODS[0]], check=True, capture_output=True, text=True)
+    data = np.genfromtxt(csv, delimiter=",", names=True, deletechars="")
+    ours, counts = run_hybrid(ref, data["time"], max_step=period / 200, wedging=False)
+    worst = max(np.max(np.abs(data[f"{name}.dte"] - ours[:, j])) / ref.static_deflection
+                for j, name in enumerate(stage.MESHES))
+    print(f"without wedging: worst DTE {worst:.2e} of the static deflection, {counts}")
+    assert worst > 1e-2, worst

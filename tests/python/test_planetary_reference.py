@@ -25,6 +25,7 @@ and its per-mesh contact-loss fractions and event count.
 import math
 import re
 import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -90,17 +91,20 @@ def scene_text():
 class Reference:
     """The model of the module docstring; meshes ordered sp1, rp1, sp2, rp2, ..."""
 
-    def __init__(self):
-        dof = 9 + 3 * N
+    def __init__(self, p=None):
+        # `p`: the stage's parameters (this module's constants unless given).
+        p = p or sys.modules[__name__]
+        self.p = p
+        dof = 9 + 3 * p.N
         col = {"c": 0, "r": 3, "s": 6}
         planet = lambda j: 9 + 3 * j
         m = np.zeros(dof)
         for h, i in col.items():
-            m[i:i + 2] = MASS[h]
-            m[i + 2] = I_OVER_R2[h]
-        for j in range(N):
-            m[planet(j):planet(j) + 2] = MASS["p"]
-            m[planet(j) + 2] = I_OVER_R2["p"]
+            m[i:i + 2] = p.MASS[h]
+            m[i + 2] = p.I_OVER_R2[h]
+        for j in range(p.N):
+            m[planet(j):planet(j) + 2] = p.MASS["p"]
+            m[planet(j) + 2] = p.I_OVER_R2["p"]
         k = np.zeros((dof, dof))
         c = np.zeros((dof, dof))
 
@@ -114,27 +118,27 @@ class Reference:
             return b
 
         for h in "crs":
-            spring(unit(col[h]), K_BEARING, C_BEARING)
-            spring(unit(col[h] + 1), K_BEARING, C_BEARING)
-        spring(unit(col["r"] + 2), K_RING_U, C_RING_U)
+            spring(unit(col[h]), p.K_BEARING, p.C_BEARING)
+            spring(unit(col[h] + 1), p.K_BEARING, p.C_BEARING)
+        spring(unit(col["r"] + 2), p.K_RING_U, p.C_RING_U)
         rows, dte, phases = [], [], []
-        zs, zp, zr = TEETH["s"], TEETH["p"], TEETH["r"]
-        for j in range(N):
-            psi = 2 * math.pi * j / N
+        zs, zp, zr = p.TEETH["s"], p.TEETH["p"], p.TEETH["r"]
+        for j in range(p.N):
+            psi = 2 * math.pi * j / p.N
             z, e, u = planet(j), planet(j) + 1, planet(j) + 2
             b = np.zeros(dof)  # sun mesh
-            ps = psi - ALPHA
+            ps = psi - p.ALPHA
             b[col["s"]:col["s"] + 3] = -math.sin(ps), math.cos(ps), 1.0
-            b[z], b[e], b[u] = -math.sin(ALPHA), -math.cos(ALPHA), 1.0
+            b[z], b[e], b[u] = -math.sin(p.ALPHA), -math.cos(p.ALPHA), 1.0
             rows.append(b)
             d = np.zeros(dof)
             d[col["s"] + 2], d[u] = 1.0, 1.0
             dte.append(d)
             phases.append((-zs * psi / (2 * math.pi)) % 1.0)  # PL1
             b = np.zeros(dof)  # ring mesh
-            pr = psi + ALPHA
+            pr = psi + p.ALPHA
             b[col["r"]:col["r"] + 3] = -math.sin(pr), math.cos(pr), 1.0
-            b[z], b[e], b[u] = math.sin(ALPHA), -math.cos(ALPHA), -1.0
+            b[z], b[e], b[u] = math.sin(p.ALPHA), -math.cos(p.ALPHA), -1.0
             rows.append(b)
             d = np.zeros(dof)
             d[col["r"] + 2], d[u] = 1.0, -1.0
@@ -142,34 +146,34 @@ class Reference:
             phases.append((-(zp - 1) / 2 + zr * psi / (2 * math.pi)) % 1.0)  # PL3 + PL2
             b = np.zeros(dof)  # pin, radial
             b[col["c"]], b[col["c"] + 1], b[z] = math.cos(psi), math.sin(psi), -1.0
-            spring(b, K_BEARING, C_BEARING)
+            spring(b, p.K_BEARING, p.C_BEARING)
             b = np.zeros(dof)  # pin, tangential
             b[col["c"]:col["c"] + 3] = -math.sin(psi), math.cos(psi), 1.0
             b[e] = -1.0
-            spring(b, K_BEARING, C_BEARING)
+            spring(b, p.K_BEARING, p.C_BEARING)
         self.minv = 1.0 / m
         self.mass = m
         # The stage turns freely with the ring held (sun, planets and carrier rolling): one
         # rigid-body mode, the null vector of the mean stiffness. The DTE is the rotational
         # part of the elastic motion, mass-orthogonal to it (Liu 2007 eq. 3.2's split, which
         # geardyn's elastic coordinates use).
-        w, v = np.linalg.eigh(k + K_MESH * np.array(rows).T @ np.array(rows))
+        w, v = np.linalg.eigh(k + p.K_MESH * np.array(rows).T @ np.array(rows))
         assert w[0] < 1e-6 * w[1], w[:2]
         self.rigid = v[:, 0]
         self.k, self.c = k, c
         self.rows, self.dte = np.array(rows), np.array(dte)
         self.phases = np.array(phases)
         self.force = np.zeros(dof)
-        self.force[col["s"] + 2] = TORQUE / RADIUS["s"]
-        self.force[col["c"] + 2] = -2 * TORQUE * math.cos(ALPHA) / RADIUS["s"]  # eq. P9
-        w_s = SPEED
-        w_c = SPEED * zs / (zs + zr)
+        self.force[col["s"] + 2] = p.TORQUE / p.RADIUS["s"]
+        self.force[col["c"] + 2] = -2 * p.TORQUE * math.cos(p.ALPHA) / p.RADIUS["s"]  # eq. P9
+        w_s = p.SPEED
+        w_c = p.SPEED * zs / (zs + zr)
         self.frequency = zs * (w_s - w_c) / (2 * math.pi)
         self.dof = dof
-        self.static_deflection = TORQUE / RADIUS["s"] / N / K_MESH
-        f = CONTACT_RATIO - math.floor(CONTACT_RATIO)
-        self.low = K_MESH * (1 - f * PP_RATIO)
-        self.high = self.low + PP_RATIO * K_MESH
+        self.static_deflection = p.TORQUE / p.RADIUS["s"] / p.N / p.K_MESH
+        f = p.CONTACT_RATIO - math.floor(p.CONTACT_RATIO)
+        self.low = p.K_MESH * (1 - f * p.PP_RATIO)
+        self.high = self.low + p.PP_RATIO * p.K_MESH
         self.switch = 1.0 - f
 
     def stiffness(self, j, t):
@@ -181,7 +185,7 @@ class Reference:
         return q - r * (r @ (m * q)) / (r @ (m * r))
 
     def start(self):
-        k = self.k + K_MESH * self.rows.T @ self.rows
+        k = self.k + self.p.K_MESH * self.rows.T @ self.rows
         q = np.linalg.lstsq(k, self.force, rcond=1e-12)[0]
         return np.concatenate([self.elastic(q), np.zeros(self.dof)])
 
@@ -204,7 +208,7 @@ class Reference:
             while t < t_break:
                 mid = 0.5 * (t + t_break)
                 kk = np.array([self.stiffness(j, mid) if contact[j] else 0.0 for j in range(meshes)])
-                cc = np.array([C_MESH if contact[j] else 0.0 for j in range(meshes)])
+                cc = np.array([self.p.C_MESH if contact[j] else 0.0 for j in range(meshes)])
                 k_tot = self.k + rows.T @ (kk[:, None] * rows)
                 c_tot = self.c + rows.T @ (cc[:, None] * rows)
                 a = np.block([[np.zeros((dof, dof)), np.eye(dof)],

@@ -7,10 +7,7 @@ use super::*;
 impl GearTrain {
     /// Whether mesh n has lost contact on every pair.
     pub(super) fn totally_lost(&self, n: usize) -> bool {
-        !self.meshes[n]
-            .flags
-            .iter()
-            .any(|f| matches!(f, SlotContact::Drive | SlotContact::Back))
+        !self.meshes[n].flags.iter().any(|f| f.touches())
     }
 
     /// Books a possible change of mesh n's total contact loss at `t`.
@@ -92,12 +89,14 @@ impl GearTrain {
                         .map_or((delta, rate), |v| (v.0, v.1)),
                 };
                 let back = delta_back + self.meshes[n].clearance_at(self.phase_of(n, t, y)).0;
-                if delta > 0.0 || (delta == 0.0 && rate > 0.0) {
-                    SlotContact::Drive
-                } else if back < 0.0 || (back == 0.0 && rate_back < 0.0) {
-                    SlotContact::Back
-                } else {
-                    SlotContact::Separated
+                let drive = delta > 0.0 || (delta == 0.0 && rate > 0.0);
+                let back = back < 0.0 || (back == 0.0 && rate_back < 0.0);
+                match (drive, back) {
+                    // On one row (no back row) `δ > 0` and `δ < −2b` exclude each other.
+                    (true, true) if self.meshes[n].can_wedge() => SlotContact::Wedged,
+                    (true, _) => SlotContact::Drive,
+                    (false, true) => SlotContact::Back,
+                    (false, false) => SlotContact::Separated,
                 }
             }
         }
@@ -110,17 +109,34 @@ impl GearTrain {
                 continue;
             }
             let backlash = matches!(mesh.contact, ContactLaw::Backlash { .. });
+            // With the back flanks on their own row, the flank not in contact is watched too:
+            // it can close while the other is pressed (tooth wedging, `SlotContact::Wedged`).
+            let wedge = mesh.can_wedge();
             for (j, flag) in mesh.flags.iter().enumerate() {
                 match flag {
                     SlotContact::Inactive => {}
-                    SlotContact::Drive => self.guards.push((n, j, Surface::Drive)),
+                    SlotContact::Drive => {
+                        self.guards.push((n, j, Surface::Drive));
+                        if wedge {
+                            self.guards.push((n, j, Surface::SepBack));
+                        }
+                    }
                     SlotContact::Separated => {
                         self.guards.push((n, j, Surface::SepDrive));
                         if backlash {
                             self.guards.push((n, j, Surface::SepBack));
                         }
                     }
-                    SlotContact::Back => self.guards.push((n, j, Surface::Back)),
+                    SlotContact::Back => {
+                        self.guards.push((n, j, Surface::Back));
+                        if wedge {
+                            self.guards.push((n, j, Surface::SepDrive));
+                        }
+                    }
+                    SlotContact::Wedged => {
+                        self.guards.push((n, j, Surface::Drive));
+                        self.guards.push((n, j, Surface::Back));
+                    }
                 }
             }
         }
@@ -179,9 +195,10 @@ impl GearTrain {
     }
 
     /// [`GearTrain::mesh_force_at`] split by the row it acts along: `(F, F̃)`, the generalised
-    /// force `−a F − ã F̃`. `F̃` holds the back-flank slots of a mesh with its own back row
-    /// ([`MeshRt::on_back_line`], `docs/train.md`, "Back flanks"), and the damper when only
-    /// they touch; otherwise 0, and `F` is the mesh force as formed without a back row.
+    /// force `−a F − ã F̃`. `F̃` holds the back flanks of a mesh with its own back row
+    /// ([`MeshRt::pressed_flanks`], `docs/train.md`, "Back flanks"; a wedged slot adds to
+    /// both) and the damper on that row while back flanks touch; otherwise 0, and `F` is the
+    /// mesh force as formed without a back row.
     pub(super) fn mesh_force_split_at(
         &self,
         n: usize,
@@ -200,42 +217,36 @@ impl GearTrain {
         let clearance = mesh.clearance_at(p).0;
         let mut force = 0.0;
         let mut force_back = 0.0;
-        let mut touching = false;
-        let mut touching_drive = false;
+        let (mut touching_drive, mut touching_back) = (false, false);
         for (j, flag) in mesh.flags.iter().enumerate() {
-            let offset = match flag {
-                SlotContact::Inactive | SlotContact::Separated => {
-                    if let Some(out) = slots.as_deref_mut() {
-                        out[j] = 0.0;
-                    }
-                    continue;
+            let mut fj = 0.0;
+            for (on_back, back_flank) in mesh.pressed_flanks(*flag) {
+                let law = mesh.law(j).expect("a slot in contact is engaged");
+                let offset = if back_flank { clearance } else { 0.0 };
+                let delta = if on_back { s_back } else { s } - e - law.g(r);
+                let force_flank = mesh.k(j, p, &law) * (delta + offset);
+                fj += force_flank;
+                if on_back {
+                    force_back += force_flank;
+                    touching_back = true;
+                } else {
+                    force += force_flank;
+                    touching_drive = true;
                 }
-                SlotContact::Drive => 0.0,
-                SlotContact::Back => clearance,
-            };
-            let law = mesh.law(j).expect("a slot in contact is engaged");
-            let on_back = mesh.on_back_line(*flag);
-            let delta = if on_back { s_back } else { s } - e - law.g(r);
-            let fj = mesh.k(j, p, &law) * (delta + offset);
+            }
             if let Some(out) = slots.as_deref_mut() {
                 out[j] = fj;
             }
-            if on_back {
-                force_back += fj;
-            } else {
-                force += fj;
-                touching_drive = true;
-            }
-            touching = true;
         }
-        if touching && mesh.damping != 0.0 {
+        if mesh.damping != 0.0 {
             // The damper acts on Ṡ − ė, never on the rate of a gap: Models 2 and 3 put the
             // loaded STE / NLTE into the gap and damp the velocities only (eqs. 2.10, 2.11:
-            // `C U̇`), like Model-1's tooth pairs. It acts along the flanks in contact: the
-            // back row when only back flanks touch.
-            if touching_drive || mesh.a_back.is_none() {
+            // `C U̇`), like Model-1's tooth pairs. It acts along the flanks in contact, each
+            // row's while its flanks touch: both when the mesh is wedged.
+            if touching_drive {
                 force += mesh.damping * (sd - e_slope * f);
-            } else {
+            }
+            if touching_back {
                 force_back += mesh.damping * (sd_back - e_slope * f);
             }
         }
@@ -284,12 +295,8 @@ impl GearTrain {
             dte_rate,
             force: self.mesh_force(n, t, y, None),
             stiffness,
-            in_contact: mesh
-                .flags
-                .iter()
-                .filter(|f| matches!(f, SlotContact::Drive | SlotContact::Back))
-                .count(),
-            any_back: mesh.flags.contains(&SlotContact::Back),
+            in_contact: mesh.flags.iter().filter(|f| f.touches()).count(),
+            any_back: mesh.flags.iter().any(|f| f.touches_back()),
             phase: crate::mesh::output_phase(p),
         }
     }
@@ -431,13 +438,7 @@ impl GearTrain {
         out.clear();
         for n in 0..self.meshes.len() {
             let st = self.mesh_state(n, t, y);
-            let state = if st.in_contact == 0 {
-                0.0
-            } else if st.any_back && !self.meshes[n].flags.contains(&SlotContact::Drive) {
-                -1.0
-            } else {
-                1.0
-            };
+            let state = contact_state(&self.meshes[n].flags);
             out.extend([
                 st.dte,
                 st.dte_rate,
@@ -519,5 +520,19 @@ impl GearTrain {
                 self.meshes[n].flags[j] = self.classify(n, j, t, y);
             }
         }
+    }
+}
+
+/// The `<mesh>.contact_state` output of a mesh whose slots have `flags`: 0 total contact loss,
+/// 1 drive flanks only, −1 back flanks only, 2 both at once (a wedged slot, or one slot on
+/// each side).
+pub(super) fn contact_state(flags: &[SlotContact]) -> f64 {
+    let drive = flags.iter().any(|f| f.touches_drive());
+    let back = flags.iter().any(|f| f.touches_back());
+    match (drive, back) {
+        (false, false) => 0.0,
+        (true, false) => 1.0,
+        (false, true) => -1.0,
+        (true, true) => 2.0,
     }
 }

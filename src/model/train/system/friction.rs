@@ -1,6 +1,6 @@
 //! Generalised forces of the tooth friction of a Model-1 mesh ([`crate::model::train::friction`]).
 
-use super::{GearTrain, SlotContact};
+use super::GearTrain;
 
 impl GearTrain {
     /// Adds `−a_n F_n + Σ_j δ_j (w0_j b0 + w1_j b1)` of mesh n to the generalised force `acc`:
@@ -18,7 +18,7 @@ impl GearTrain {
         let r = mesh.local(p);
         let base = self.deflection(n, y).0 - mesh.ste_at(p).0;
         for (j, flag) in mesh.flags.iter().enumerate() {
-            if *flag != SlotContact::Drive {
+            if !flag.touches_drive() {
                 continue;
             }
             let (Some(law), Some(sf)) = (mesh.law(j), fr.intervals[mesh.interval][j]) else {
@@ -46,7 +46,7 @@ impl GearTrain {
         mesh.flags
             .iter()
             .enumerate()
-            .filter(|(_, f)| **f == SlotContact::Drive)
+            .filter(|(_, f)| f.touches_drive())
             .filter_map(|(j, _)| {
                 let law = mesh.law(j)?;
                 let sf = fr.intervals[mesh.interval][j]?;

@@ -165,10 +165,10 @@ impl GearTrain {
     }
 
     /// [`GearTrain::free_mesh_law`] with the back flanks on their own row (`MeshRt::a_back`):
-    /// a slot not in drive contact is in back contact for `δ̃_j = S̃ − e − g_j < −2b`, with
-    /// the force `k_j(δ̃_j + 2b)`, and the damper `c(dS̃/dt − ė)` when only back flanks touch,
-    /// both in entry `k_b` (after the mesh's force directions), acting along `ã_n`
-    /// (`GearTrain::mesh_force_split_at`'s split). A mesh without its own back row:
+    /// a slot's back flanks touch for `δ̃_j = S̃ − e − g_j < −2b`, whatever its drive flanks do
+    /// (both: wedged, `SlotContact::Wedged`), with the force `k_j(δ̃_j + 2b)`, and the damper
+    /// `c(dS̃/dt − ė)` while back flanks touch, both in entry `k_b` (after the mesh's force
+    /// directions), acting along `ã_n` (`GearTrain::mesh_force_split_at`'s split). A mesh without its own back row:
     /// [`GearTrain::free_mesh_law`].
     pub fn free_mesh_law_with_back(
         &self,
@@ -205,48 +205,56 @@ impl GearTrain {
             None => 0,
         };
         let s_back = back.map_or(s, |b| b.0);
-        let mut touching_drive = false;
+        // Whether the drive row's, the back row's flanks touch.
+        let mut touching = [false; 2];
         let mut j = 0;
         self.for_each_free_slot(n, p, f, |slot| {
             let bit = 2 * j;
             j += 1;
             let delta = s - slot.gap;
             let delta_back = s_back - slot.gap;
-            let (drive, offset) = match mesh.contact {
-                ContactLaw::Linear => (true, 0.0),
-                ContactLaw::ContactLoss if delta > 0.0 => (true, 0.0),
-                ContactLaw::Backlash { .. } if delta > 0.0 => (true, 0.0),
-                ContactLaw::Backlash { .. } if delta_back < -clearance => (false, clearance),
-                _ => return,
+            let drive = match mesh.contact {
+                ContactLaw::Linear => true,
+                ContactLaw::ContactLoss | ContactLaw::Backlash { .. } => delta > 0.0,
             };
-            let (k, deflection) = if drive {
-                (0, delta)
-            } else {
-                (k_back, delta_back)
-            };
-            law.force[k] += slot.k * (deflection + offset);
-            law.stiffness[k] += slot.k;
+            // With its own row the back flank closes whatever the drive flank does (both
+            // pressed: tooth wedging, `SlotContact::Wedged`); on `S` it cannot while `δ > 0`.
+            let back_flank = matches!(mesh.contact, ContactLaw::Backlash { .. })
+                && delta_back < -clearance
+                && (back.is_some() || !drive);
+            if !(drive || back_flank) {
+                return;
+            }
             law.in_contact += 1;
-            law.pattern |= 1 << (bit + u32::from(!drive)).min(63);
-            touching_drive |= drive;
-            if let (true, Some((w0, w1))) = (drive, slot.friction) {
-                law.force[1] -= w0 * delta;
-                law.force[2] -= w1 * delta;
-                law.stiffness[1] -= w0;
-                law.stiffness[2] -= w1;
+            if drive {
+                law.force[0] += slot.k * delta;
+                law.stiffness[0] += slot.k;
+                law.pattern |= 1 << bit.min(63);
+                touching[0] = true;
+                if let Some((w0, w1)) = slot.friction {
+                    law.force[1] -= w0 * delta;
+                    law.force[2] -= w1 * delta;
+                    law.stiffness[1] -= w0;
+                    law.stiffness[2] -= w1;
+                }
+            }
+            if back_flank {
+                law.force[k_back] += slot.k * (delta_back + clearance);
+                law.stiffness[k_back] += slot.k;
+                law.pattern |= 1 << (bit + 1).min(63);
+                touching[usize::from(back.is_some())] = true;
             }
         });
-        if law.in_contact > 0 && mesh.damping != 0.0 {
+        if mesh.damping != 0.0 {
             let (_, e_slope) = mesh.ste_free(p);
-            // Along the flanks in contact: the back row when only back flanks touch.
-            let (k, rate) = match back {
-                Some((_, rate)) if !touching_drive => (k_back, rate),
-                _ => (0, s_rate),
-            };
-            let viscous = mesh.damping * (rate - e_slope * f);
-            law.force[k] += viscous;
-            law.viscous[k] = viscous;
-            law.damping[k] = mesh.damping;
+            // Along each row whose flanks touch: both when wedged.
+            let rates = [(0, s_rate), (k_back, back.map_or(s_rate, |b| b.1))];
+            for (&(k, rate), _) in rates.iter().zip(touching).filter(|(_, on)| *on) {
+                let viscous = mesh.damping * (rate - e_slope * f);
+                law.force[k] += viscous;
+                law.viscous[k] = viscous;
+                law.damping[k] = mesh.damping;
+            }
         }
         law
     }

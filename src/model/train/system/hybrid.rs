@@ -89,19 +89,16 @@ impl HybridSystem for GearTrain {
                 .filter(move |mesh| !back || mesh.a_back.is_some())
                 .map(move |mesh| {
                     let p = mesh.clock.phase_at(t);
-                    let (mut kn, mut touching, mut touching_drive) = (0.0, false, false);
+                    let (mut kn, mut damped) = (0.0, false);
                     for (j, flag) in mesh.flags.iter().enumerate() {
-                        if matches!(flag, SlotContact::Drive | SlotContact::Back) {
-                            touching = true;
-                            let on_back = mesh.on_back_line(*flag);
-                            touching_drive |= !on_back;
+                        for (on_back, _) in mesh.pressed_flanks(*flag) {
                             if on_back == back {
+                                damped = true;
                                 let law = mesh.law(j).expect("a slot in contact is engaged");
                                 kn += mesh.k(j, p, &law);
                             }
                         }
                     }
-                    let damped = touching && (touching_drive || mesh.a_back.is_none()) != back;
                     (kn, if damped { mesh.damping } else { 0.0 })
                 })
         };

@@ -11,12 +11,12 @@ impl GearTrain {
     pub(super) fn switch_slot(&mut self, t: f64, z: Option<&[f64]>, y: &mut [f64], index: usize) {
         let (n, j, surface) = self.guards[index];
         let clearance = self.meshes[n].clearance();
-        let (level, next) = match surface {
-            Surface::Drive => (0.0, SlotContact::Separated),
-            Surface::SepDrive => (0.0, SlotContact::Drive),
-            Surface::SepBack => (-clearance, SlotContact::Back),
-            Surface::Back => (-clearance, SlotContact::Separated),
+        let level = if surface.back_flank() {
+            -clearance
+        } else {
+            0.0
         };
+        let next = surface.next(self.meshes[n].flags[j]);
         // Snap onto the surface δ = level (numerics-notes §2.1): the smallest mass-weighted
         // change of ξ that puts S_n − e_n − g_j at `level`.
         if let Some((delta, _, _)) = self.slot_gap_on(n, j, surface.back_flank(), t, y) {
@@ -119,45 +119,47 @@ impl GearTrain {
         if let Some(b) = back.as_deref_mut() {
             b.fill(0.0);
         }
-        let mut touching = false;
-        let mut touching_drive = false;
+        // Whether the drive row's, the back row's flanks touch (`MeshRt::pressed_flanks`).
+        let mut touching = [false; 2];
         for (j, flag) in mesh.flags.iter().enumerate() {
-            let offset = match flag {
-                SlotContact::Inactive | SlotContact::Separated => continue,
-                SlotContact::Drive => 0.0,
-                SlotContact::Back => mesh.clearance(),
-            };
-            let on_back = mesh.on_back_line(*flag);
-            let law = mesh.law(j).expect("engaged");
-            w.fill(0.0);
-            self.delta_row_on(n, j, on_back, base, w);
-            w[last] += offset;
-            let target = match back.as_deref_mut() {
-                Some(b) if on_back => b,
-                _ => &mut *row,
-            };
-            for (r, v) in target.iter_mut().zip(w.iter()) {
-                *r += law.k0 * v;
+            for (on_back, back_flank) in mesh.pressed_flanks(*flag) {
+                let law = mesh.law(j).expect("engaged");
+                w.fill(0.0);
+                self.delta_row_on(n, j, on_back, base, w);
+                if back_flank {
+                    w[last] += mesh.clearance();
+                }
+                let target = match back.as_deref_mut() {
+                    Some(b) if on_back => b,
+                    _ => &mut *row,
+                };
+                for (r, v) in target.iter_mut().zip(w.iter()) {
+                    *r += law.k0 * v;
+                }
+                touching[usize::from(on_back)] = true;
             }
-            touching = true;
-            touching_drive |= !on_back;
         }
-        if touching && mesh.damping != 0.0 {
+        if mesh.damping != 0.0 {
             let c = mesh.damping;
-            let on_back = !touching_drive && mesh.a_back.is_some();
-            let row = match back {
-                Some(b) if on_back => b,
-                _ => row,
-            };
-            let a = mesh.flank(on_back);
-            for i in 0..m {
-                row[m + i] += c * a[i];
-            }
-            for (i, &(ah, bh)) in mesh.ste.coefficients().iter().enumerate() {
-                let h = (i + 1) as f64;
-                // ė = Σ hω(−a_h sin + b_h cos).
-                row[base + 2 * i] -= c * h * omega * bh;
-                row[base + 2 * i + 1] += c * h * omega * ah;
+            // The damper along each row whose flanks touch (both when wedged).
+            for on_back in [false, true] {
+                if !touching[usize::from(on_back)] {
+                    continue;
+                }
+                let row = match back.as_deref_mut() {
+                    Some(b) if on_back => b,
+                    _ => &mut *row,
+                };
+                let a = mesh.flank(on_back);
+                for i in 0..m {
+                    row[m + i] += c * a[i];
+                }
+                for (i, &(ah, bh)) in mesh.ste.coefficients().iter().enumerate() {
+                    let h = (i + 1) as f64;
+                    // ė = Σ hω(−a_h sin + b_h cos).
+                    row[base + 2 * i] -= c * h * omega * bh;
+                    row[base + 2 * i + 1] += c * h * omega * ah;
+                }
             }
         }
     }
@@ -188,9 +190,7 @@ impl GearTrain {
             if mesh.eccentric.is_some() || !mesh.errors.is_empty() {
                 return false;
             }
-            let in_contact = (mesh.flags.iter())
-                .filter(|f| matches!(f, SlotContact::Drive | SlotContact::Back))
-                .count();
+            let in_contact = mesh.flags.iter().filter(|f| f.touches()).count();
             match column - first {
                 0 => (0..m).for_each(|i| w[i] = mesh.dte[i]),
                 1 => (0..m).for_each(|i| w[m + i] = mesh.dte[i]),
@@ -199,17 +199,7 @@ impl GearTrain {
                     let mut scratch = vec![0.0; w.len()];
                     self.mesh_force_row(n, bases[n], &mut scratch, w);
                 }
-                4 => {
-                    w[last] = if in_contact == 0 {
-                        0.0
-                    } else if mesh.flags.contains(&SlotContact::Back)
-                        && !mesh.flags.contains(&SlotContact::Drive)
-                    {
-                        -1.0
-                    } else {
-                        1.0
-                    }
-                }
+                4 => w[last] = super::contact::contact_state(&mesh.flags),
                 5 => w[last] = in_contact as f64,
                 _ => return false,
             }
@@ -486,8 +476,10 @@ impl PiecewiseLti for GearTrain {
         for mesh in &self.meshes {
             let intervals = mesh.table().map_or(1, |t| t.intervals.len()) as u64;
             key.push(mesh.interval as u64, intervals);
+            // A fifth flag only where a slot can wedge: the other meshes' keys stay as they were.
+            let radix = if mesh.can_wedge() { 5 } else { 4 };
             for f in &mesh.flags {
-                key.push(*f as u64, 4);
+                key.push(*f as u64, radix);
             }
         }
     }

@@ -63,6 +63,28 @@ pub enum SlotContact {
     Drive = 1,
     Separated = 0,
     Back = 2,
+    /// Both flanks pressed at once (tooth wedging): the drive flanks on the drive row and the
+    /// back flanks on their own row, each with its spring (`docs/train.md`, "Back flanks").
+    /// Only on a mesh with backlash whose back flanks have their own row
+    /// ([`MeshRt::can_wedge`]): on one row `δ > 0` and `δ < −2b` exclude each other.
+    Wedged = 4,
+}
+
+impl SlotContact {
+    /// Whether the slot's drive flanks carry load (drive contact or wedged).
+    pub fn touches_drive(self) -> bool {
+        matches!(self, SlotContact::Drive | SlotContact::Wedged)
+    }
+
+    /// Whether the slot's back flanks carry load (back contact or wedged).
+    pub fn touches_back(self) -> bool {
+        matches!(self, SlotContact::Back | SlotContact::Wedged)
+    }
+
+    /// Whether any flank of the slot carries load.
+    pub fn touches(self) -> bool {
+        self.touches_drive() || self.touches_back()
+    }
 }
 
 /// Operating inputs, held constant between communication points.
@@ -137,9 +159,19 @@ impl MeshRt {
         }
     }
 
-    /// Whether slot flag `flag` acts along the back flanks' own row `a_back`.
-    fn on_back_line(&self, flag: SlotContact) -> bool {
-        self.a_back.is_some() && flag == SlotContact::Back
+    /// Whether a slot of this mesh can have both flanks pressed at once
+    /// ([`SlotContact::Wedged`]): backlash, and the back flanks on their own row.
+    fn can_wedge(&self) -> bool {
+        self.a_back.is_some() && matches!(self.contact, ContactLaw::Backlash { .. })
+    }
+
+    /// The flanks slot flag `flag` presses, as `(on the back row, back flank)`: the back
+    /// flank's spring acts on `δ̃ + 2b` (`δ + 2b` without a back row), the drive flank's on
+    /// `δ`. A wedged slot presses both, each on its own row.
+    fn pressed_flanks(&self, flag: SlotContact) -> impl Iterator<Item = (bool, bool)> {
+        let back_row = self.a_back.is_some();
+        let (drive, back) = (flag.touches_drive(), flag.touches_back());
+        (drive.then_some((false, false)).into_iter()).chain(back.then_some((back_row, true)))
     }
 
     /// The nominal total backlash (without runout).
@@ -326,16 +358,19 @@ impl MeshRt {
     }
 }
 
-/// One guard: mesh, slot and which surface.
+/// One guard: mesh, slot and which surface. The names say the flag that watches them first;
+/// a mesh that can wedge ([`MeshRt::can_wedge`]) also watches the other flank in contact
+/// (`Drive` with `SepBack`, `Back` with `SepDrive`) and a wedged slot both flanks' ends
+/// (`Drive` and `Back`): [`Surface::next`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Surface {
-    /// In drive contact: `δ >= 0`.
+    /// The drive flanks touch: `δ >= 0`.
     Drive,
-    /// Separated, watching the drive side: `−δ >= 0`.
+    /// The drive flanks are apart: `−δ >= 0`.
     SepDrive,
-    /// Separated, watching the back side: `δ + 2b >= 0`.
+    /// The back flanks are apart: `δ̃ + 2b >= 0`.
     SepBack,
-    /// In back contact: `−(δ + 2b) >= 0`.
+    /// The back flanks touch: `−(δ̃ + 2b) >= 0`.
     Back,
 }
 
@@ -343,6 +378,24 @@ impl Surface {
     /// Whether the guard watches the back flanks (their deflection row, `MeshRt::flank`).
     fn back_flank(self) -> bool {
         matches!(self, Surface::SepBack | Surface::Back)
+    }
+
+    /// The slot's flag after this guard of a slot with flag `flag` crossed zero: the flank it
+    /// watches closes or opens, the other flank keeps its state.
+    fn next(self, flag: SlotContact) -> SlotContact {
+        let (drive, back) = (flag.touches_drive(), flag.touches_back());
+        let (drive, back) = match self {
+            Surface::Drive => (false, back),
+            Surface::SepDrive => (true, back),
+            Surface::SepBack => (drive, true),
+            Surface::Back => (drive, false),
+        };
+        match (drive, back) {
+            (true, true) => SlotContact::Wedged,
+            (true, false) => SlotContact::Drive,
+            (false, true) => SlotContact::Back,
+            (false, false) => SlotContact::Separated,
+        }
     }
 }
 

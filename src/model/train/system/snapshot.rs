@@ -51,6 +51,7 @@ impl SlotContact {
             SlotContact::Drive,
             SlotContact::Separated,
             SlotContact::Back,
+            SlotContact::Wedged,
         ]
         .into_iter()
         .find(|f| f.code() == code)
@@ -158,8 +159,10 @@ impl GearTrain {
                     (false, f, _) => f == SlotContact::Inactive,
                     (true, SlotContact::Inactive, _) => false,
                     (true, f, ContactLaw::Linear) => f == SlotContact::Drive,
-                    (true, f, ContactLaw::ContactLoss) => f != SlotContact::Back,
-                    (true, _, ContactLaw::Backlash { .. }) => true,
+                    (true, f, ContactLaw::ContactLoss) => !f.touches_back(),
+                    (true, f, ContactLaw::Backlash { .. }) => {
+                        f != SlotContact::Wedged || mesh.can_wedge()
+                    }
                 };
                 if !allowed {
                     return Err(format!(
