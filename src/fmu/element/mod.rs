@@ -569,15 +569,13 @@ impl CoSimModel for ElementFmu {
         let k = self
             .output_index(vr)
             .ok_or_else(|| format!("'{}' (vr {vr}) is not an output", name_of(&self.vars, vr)))?;
-        let mut out = Vec::with_capacity(6);
-        system::output_rates(
+        Ok(system::output_rate(
             &self.scene.element,
+            k,
             self.y(),
             &self.u,
             &self.du_now,
-            &mut out,
-        );
-        Ok(out[k])
+        ))
     }
 }
 
