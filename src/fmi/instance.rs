@@ -735,7 +735,8 @@ impl Instance {
         if max == 0 {
             return self.error(call, "not supported: maxOutputDerivativeOrder=\"0\"");
         }
-        for ((&vr, &order), slot) in vrs.iter().zip(orders).zip(out.iter_mut()) {
+        let n = vrs.len().min(orders.len()).min(out.len());
+        for (&vr, &order) in vrs[..n].iter().zip(orders) {
             let checked = self.lookup(vr, VarKind::Real).and_then(|var| {
                 // Formatted only on a refusal: this call comes with every step.
                 let who = || format!("'{}' (vr {vr})", var.name);
@@ -749,13 +750,14 @@ impl Instance {
                     Ok(())
                 }
             });
-            let value = checked.and_then(|()| self.model.output_derivative(vr));
-            match value {
-                Ok(x) => *slot = x,
-                Err(e) => return self.error(call, e),
+            if let Err(e) = checked {
+                return self.error(call, e);
             }
         }
-        Status::Ok
+        match self.model.output_derivatives(&vrs[..n], &mut out[..n]) {
+            Ok(()) => Status::Ok,
+            Err(e) => self.error(call, e),
+        }
     }
 
     /// Refusal of an unsupported capability, after the state check.

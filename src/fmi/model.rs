@@ -251,6 +251,15 @@ pub trait CoSimModel: Send {
             "output value reference {vr}: the model provides no output derivatives"
         ))
     }
+    /// Several first-order output derivatives at once (the layer has checked each value
+    /// reference and order). The default asks [`Self::output_derivative`] for each; a model
+    /// whose derivatives share a costly evaluation (the state derivative) may make it once.
+    fn output_derivatives(&self, vrs: &[u32], out: &mut [f64]) -> Result<(), String> {
+        for (&vr, slot) in vrs.iter().zip(out.iter_mut()) {
+            *slot = self.output_derivative(vr)?;
+        }
+        Ok(())
+    }
 }
 
 /// A model's co-simulation capabilities beyond zero-order hold ([`CoSimModel::capabilities`]).

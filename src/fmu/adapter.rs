@@ -558,6 +558,18 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
             .ok_or_else(|| format!("'{}' (vr {vr}) is not an output", name_of(&self.vars, vr)))?;
         K::output_rate(&self.sim, k, &self.current_outputs())
     }
+
+    /// The kernel answers the vector at once ([`Kernel::output_rates`]).
+    fn output_derivatives(&self, vrs: &[u32], out: &mut [f64]) -> Result<(), String> {
+        let ks = (vrs.iter())
+            .map(|&vr| {
+                self.output_index(vr).ok_or_else(|| {
+                    format!("'{}' (vr {vr}) is not an output", name_of(&self.vars, vr))
+                })
+            })
+            .collect::<Result<Vec<usize>, String>>()?;
+        K::output_rates(&self.sim, &ks, &self.current_outputs(), out)
+    }
 }
 
 /// The FMU's `documentation/index.html` body (FMI 2.0.x §2.3): the kernel's model part, then

@@ -321,6 +321,29 @@ impl Kernel for Drivetrain {
         }
     }
 
+    /// The port torques' rates share the state derivative: it is evaluated once per call.
+    fn output_rates(
+        sim: &TrainSimulation,
+        ks: &[usize],
+        outputs: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), String> {
+        let names = sim.output_names();
+        let mut dy: Option<Vec<f64>> = None;
+        for (&k, slot) in ks.iter().zip(out.iter_mut()) {
+            let (model, t, y) = (sim.model(), sim.t(), sim.state());
+            if model.is_port_torque(&names[k]) {
+                let dy = dy.get_or_insert_with(|| model.state_derivative(t, y));
+                if let Some(rate) = model.port_torque_rate_with(&names[k], t, y, dy) {
+                    *slot = rate;
+                    continue;
+                }
+            }
+            *slot = Self::output_rate(sim, k, outputs)?;
+        }
+        Ok(())
+    }
+
     /// The `<port>.torque` inputs of torque ports and the `<port>.angle`, `<port>.speed`
     /// inputs of speed ports (`docs/ports.md`); `operating.input_speed` and the torques of a train
     /// without ports stay held.
