@@ -467,13 +467,8 @@ impl Instance {
         as_f64: impl Fn(T) -> f64,
         set: impl Fn(&mut dyn CoSimModel, u32, T) -> Result<(), String>,
     ) -> Status {
-        if let Err(s) = self.check(call) {
+        if let Err(s) = self.check_values(call, kind, vrs, values, as_f64) {
             return s;
-        }
-        for (vr, x) in vrs.iter().zip(values) {
-            if let Err(e) = self.check_set(*vr, kind, as_f64(*x)) {
-                return self.error(call, e);
-            }
         }
         for (vr, x) in vrs.iter().zip(values) {
             if let Err(e) = set(self.model.as_mut(), *vr, *x) {
@@ -483,15 +478,36 @@ impl Instance {
         Status::Ok
     }
 
+    /// The setters' checks: the call's state, then every value before any is applied.
+    fn check_values<T: Copy>(
+        &mut self,
+        call: Call,
+        kind: VarKind,
+        vrs: &[u32],
+        values: &[T],
+        as_f64: impl Fn(T) -> f64,
+    ) -> Result<(), Status> {
+        self.check(call)?;
+        for (vr, x) in vrs.iter().zip(values) {
+            if let Err(e) = self.check_set(*vr, kind, as_f64(*x)) {
+                return Err(self.error(call, e));
+            }
+        }
+        Ok(())
+    }
+
+    /// Like [`Self::set_values`], but the model applies the whole vector in one call
+    /// ([`CoSimModel::set_reals`]): a host sets the inputs before every step.
     pub fn set_real(&mut self, vrs: &[u32], values: &[f64]) -> Status {
-        self.set_values(
-            Call::SetReal,
-            VarKind::Real,
-            vrs,
-            values,
-            |x| x,
-            |m, vr, x| m.set_real(vr, x),
-        )
+        let call = Call::SetReal;
+        if let Err(s) = self.check_values(call, VarKind::Real, vrs, values, |x| x) {
+            return s;
+        }
+        let n = vrs.len().min(values.len());
+        match self.model.set_reals(&vrs[..n], &values[..n]) {
+            Ok(()) => Status::Ok,
+            Err(e) => self.error(call, e),
+        }
     }
 
     pub fn set_integer(&mut self, vrs: &[u32], values: &[i32]) -> Status {
@@ -719,7 +735,8 @@ impl Instance {
         if max == 0 {
             return self.error(call, "not supported: maxOutputDerivativeOrder=\"0\"");
         }
-        for ((&vr, &order), slot) in vrs.iter().zip(orders).zip(out.iter_mut()) {
+        let n = vrs.len().min(orders.len()).min(out.len());
+        for (&vr, &order) in vrs[..n].iter().zip(orders) {
             let checked = self.lookup(vr, VarKind::Real).and_then(|var| {
                 // Formatted only on a refusal: this call comes with every step.
                 let who = || format!("'{}' (vr {vr})", var.name);
@@ -733,13 +750,14 @@ impl Instance {
                     Ok(())
                 }
             });
-            let value = checked.and_then(|()| self.model.output_derivative(vr));
-            match value {
-                Ok(x) => *slot = x,
-                Err(e) => return self.error(call, e),
+            if let Err(e) = checked {
+                return self.error(call, e);
             }
         }
-        Status::Ok
+        match self.model.output_derivatives(&vrs[..n], &mut out[..n]) {
+            Ok(()) => Status::Ok,
+            Err(e) => self.error(call, e),
+        }
     }
 
     /// Refusal of an unsupported capability, after the state check.

@@ -152,6 +152,16 @@ pub trait CoSimModel: Send {
         Ok(())
     }
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String>;
+    /// Several Real variables at once (`fmi2SetReal` with a vector; the layer has checked
+    /// every value first). The default sets them in order with [`Self::set_real`]; a model
+    /// whose inputs are set at every step may apply them in one change. The first failure is
+    /// the call's error.
+    fn set_reals(&mut self, vrs: &[u32], values: &[f64]) -> Result<(), String> {
+        for (&vr, &x) in vrs.iter().zip(values) {
+            self.set_real(vr, x)?;
+        }
+        Ok(())
+    }
 
     fn get_integer(&self, vr: u32) -> Result<i32, String> {
         Err(format!(
@@ -240,6 +250,15 @@ pub trait CoSimModel: Send {
         Err(format!(
             "output value reference {vr}: the model provides no output derivatives"
         ))
+    }
+    /// Several first-order output derivatives at once (the layer has checked each value
+    /// reference and order). The default asks [`Self::output_derivative`] for each; a model
+    /// whose derivatives share a costly evaluation (the state derivative) may make it once.
+    fn output_derivatives(&self, vrs: &[u32], out: &mut [f64]) -> Result<(), String> {
+        for (&vr, slot) in vrs.iter().zip(out.iter_mut()) {
+            *slot = self.output_derivative(vr)?;
+        }
+        Ok(())
     }
 }
 

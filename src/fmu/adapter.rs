@@ -99,6 +99,10 @@ pub struct Adapter<K: Kernel> {
     outputs_fresh: Cell<bool>,
     /// [`Adapter::params`] once initialized.
     params_cache: RecordedParams,
+    /// [`Kernel::rate_inputs`] of the loaded settings: which inputs take rates is fixed by the
+    /// scene's ports, which no parameter changes; looked up at every
+    /// `fmi2SetRealInputDerivatives`.
+    rate_inputs: Vec<bool>,
 }
 
 /// Why a set of parameter values was refused after it was applied: the model cannot be built
@@ -157,6 +161,7 @@ impl<K: Kernel> Adapter<K> {
             .iter()
             .filter(|v| v.causality == Causality::Output)
             .count();
+        let rate_inputs = K::rate_inputs(&settings);
         let model = Adapter {
             vars,
             base: settings.clone(),
@@ -167,6 +172,7 @@ impl<K: Kernel> Adapter<K> {
             outputs: RefCell::new(Vec::new()),
             outputs_fresh: Cell::new(false),
             params_cache: RecordedParams::default(),
+            rate_inputs,
         };
         Ok((model, info))
     }
@@ -397,6 +403,28 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
         K::set_inputs(self.sim_mut(), &u)
     }
 
+    /// After initialization the inputs of one call are applied in one change of the model
+    /// (one [`Kernel::set_inputs`]); the end state is that of setting them one by one.
+    fn set_reals(&mut self, vrs: &[u32], values: &[f64]) -> Result<(), String> {
+        if !self.lifecycle.initialized || vrs.len() < 2 {
+            for (&vr, &x) in vrs.iter().zip(values) {
+                self.set_real(vr, x)?;
+            }
+            return Ok(());
+        }
+        let mut u = K::inputs(self.sim.model());
+        for (&vr, &x) in vrs.iter().zip(values) {
+            let Some(k) = input_position::<K>(vr) else {
+                return Err(format!(
+                    "'{}' is fixed after initialization",
+                    name_of(&self.vars, vr)
+                ));
+            };
+            u[k] = x;
+        }
+        K::set_inputs(self.sim_mut(), &u)
+    }
+
     /// The Integer outputs (the layer has checked the base type).
     fn get_integer(&self, vr: u32) -> Result<i32, String> {
         match self.output_index(vr) {
@@ -501,13 +529,13 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
 
     fn capabilities(&self) -> Capabilities {
         Capabilities {
-            can_interpolate_inputs: K::rate_inputs(&self.base).contains(&true),
+            can_interpolate_inputs: self.rate_inputs.contains(&true),
             max_output_derivative_order: u32::from(K::output_derivatives(&self.base)),
         }
     }
 
     fn set_input_derivative(&mut self, vr: u32, rate: f64) -> Result<(), String> {
-        let takes = K::rate_inputs(&self.settings);
+        let takes = &self.rate_inputs;
         let Some(k) = input_position::<K>(vr).filter(|&k| takes[k]) else {
             let interpolated: Vec<String> = (0..takes.len())
                 .filter(|&k| takes[k])
@@ -529,6 +557,18 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
             .output_index(vr)
             .ok_or_else(|| format!("'{}' (vr {vr}) is not an output", name_of(&self.vars, vr)))?;
         K::output_rate(&self.sim, k, &self.current_outputs())
+    }
+
+    /// The kernel answers the vector at once ([`Kernel::output_rates`]).
+    fn output_derivatives(&self, vrs: &[u32], out: &mut [f64]) -> Result<(), String> {
+        let ks = (vrs.iter())
+            .map(|&vr| {
+                self.output_index(vr).ok_or_else(|| {
+                    format!("'{}' (vr {vr}) is not an output", name_of(&self.vars, vr))
+                })
+            })
+            .collect::<Result<Vec<usize>, String>>()?;
+        K::output_rates(&self.sim, &ks, &self.current_outputs(), out)
     }
 }
 

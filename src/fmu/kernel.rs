@@ -90,6 +90,19 @@ pub trait Kernel: 'static {
             "output {k}: the model provides no output derivatives"
         ))
     }
+    /// `d/dt` of the outputs `ks` at the current time into `out` ([`Self::output_rate`] of
+    /// each; a kernel whose rates share the state derivative may evaluate it once).
+    fn output_rates(
+        sim: &Driver<Self::Model>,
+        ks: &[usize],
+        outputs: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), String> {
+        for (&k, slot) in ks.iter().zip(out.iter_mut()) {
+            *slot = Self::output_rate(sim, k, outputs)?;
+        }
+        Ok(())
+    }
     /// Which inputs take first-order rates over the next step, in [`Self::INPUTS`] order
     /// (`canInterpolateInputs` when any does, FMI 2.0.x §4.2.1); none by default.
     fn rate_inputs(_s: &Self::Settings) -> Vec<bool> {

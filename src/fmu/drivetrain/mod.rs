@@ -70,7 +70,9 @@ fn load_sign(scene: &Scene) -> f64 {
 }
 
 fn inputs_array(u: TrainInputs, load_sign: f64, neighbours: [Option<Neighbour>; 2]) -> Vec<f64> {
-    let mut v = vec![u.input_speed, u.input_torque, u.load_torque * load_sign];
+    // Sized once: a host sets inputs at every communication step (no regrowth on the hot path).
+    let mut v = Vec::with_capacity(3 + 2 * neighbours.len());
+    v.extend([u.input_speed, u.input_torque, u.load_torque * load_sign]);
     for n in neighbours {
         v.extend(n.map_or([0.0; 2], |n| [n.angle, n.speed]));
     }
@@ -296,16 +298,19 @@ impl Kernel for Drivetrain {
     fn output_rate(sim: &TrainSimulation, k: usize, outputs: &[f64]) -> Result<f64, String> {
         let names = sim.output_names();
         let name = &names[k];
+        if let Some(rate) = sim.model().port_torque_rate(name, sim.t(), sim.state()) {
+            return Ok(rate);
+        }
+        // `<stem>angle` → `<stem>speed`, `<stem>speed` → `<stem>acceleration`, found without
+        // formatting a name (a host reads output derivatives at every communication step).
         let rate = [("angle", "speed"), ("speed", "acceleration")]
             .iter()
             .find_map(|(q, r)| {
                 let stem = name.strip_suffix(q)?;
-                let target = format!("{stem}{r}");
-                names.iter().position(|n| *n == target)
+                names
+                    .iter()
+                    .position(|n| n.strip_prefix(stem).is_some_and(|rest| rest == *r))
             });
-        if let Some(rate) = sim.model().port_torque_rate(name, sim.t(), sim.state()) {
-            return Ok(rate);
-        }
         match rate {
             Some(j) if sim.model().carries_rotation() => Ok(outputs[j]),
             _ => Err(format!(
@@ -314,6 +319,29 @@ impl Kernel for Drivetrain {
                  ports' torques, not for this output"
             )),
         }
+    }
+
+    /// The port torques' rates share the state derivative: it is evaluated once per call.
+    fn output_rates(
+        sim: &TrainSimulation,
+        ks: &[usize],
+        outputs: &[f64],
+        out: &mut [f64],
+    ) -> Result<(), String> {
+        let names = sim.output_names();
+        let mut dy: Option<Vec<f64>> = None;
+        for (&k, slot) in ks.iter().zip(out.iter_mut()) {
+            let (model, t, y) = (sim.model(), sim.t(), sim.state());
+            if model.is_port_torque(&names[k]) {
+                let dy = dy.get_or_insert_with(|| model.state_derivative(t, y));
+                if let Some(rate) = model.port_torque_rate_with(&names[k], t, y, dy) {
+                    *slot = rate;
+                    continue;
+                }
+            }
+            *slot = Self::output_rate(sim, k, outputs)?;
+        }
+        Ok(())
     }
 
     /// The `<port>.torque` inputs of torque ports and the `<port>.angle`, `<port>.speed`
@@ -335,7 +363,8 @@ impl Kernel for Drivetrain {
 
     fn input_rates(train: &GearTrain) -> Vec<f64> {
         let ([rate_in, rate_load], _) = train.torque_rates();
-        let mut du = vec![0.0, rate_in, rate_load * train_load_sign(train)];
+        let mut du = Vec::with_capacity(3 + 2 * ENDS.len());
+        du.extend([0.0, rate_in, rate_load * train_load_sign(train)]);
         for end in ENDS {
             du.extend(
                 train

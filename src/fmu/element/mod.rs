@@ -160,6 +160,8 @@ pub struct ElementFmu {
     scratch: RefCell<Vec<f64>>,
     /// [`ElementFmu::params`] once initialized.
     params_cache: RecordedParams,
+    /// How many outputs the variable table has (value references `VR_OUTPUT0 + k`).
+    n_outputs: usize,
 }
 
 impl ElementFmu {
@@ -185,6 +187,9 @@ impl ElementFmu {
             documentation: documentation::html(&scene.element),
         };
         let n = u.len();
+        let n_outputs = (vars.iter())
+            .filter(|v| v.causality == Causality::Output)
+            .count();
         let mut fmu = ElementFmu {
             vars,
             base: scene.clone(),
@@ -199,6 +204,7 @@ impl ElementFmu {
             du_now: vec![0.0; n],
             scratch: RefCell::new(Vec::with_capacity(n)),
             params_cache: RecordedParams::default(),
+            n_outputs,
         };
         fmu.rebuild()?;
         Ok((fmu, info))
@@ -235,14 +241,9 @@ impl ElementFmu {
     }
 
     fn output_index(&self, vr: u32) -> Option<usize> {
-        let n = self
-            .vars
-            .iter()
-            .filter(|v| v.causality == Causality::Output)
-            .count();
         vr.checked_sub(VR_OUTPUT0)
             .map(|k| k as usize)
-            .filter(|&k| k < n)
+            .filter(|&k| k < self.n_outputs)
     }
 
     fn param_name(&self, vr: u32) -> Option<&'static str> {
@@ -252,7 +253,8 @@ impl ElementFmu {
     }
 
     fn outputs(&self) -> Vec<f64> {
-        let mut out = Vec::new();
+        // At most six outputs (the inertia's): one allocation, no regrowth.
+        let mut out = Vec::with_capacity(6);
         system::outputs(&self.scene.element, self.y(), &self.u, &mut out);
         out
     }
@@ -434,19 +436,27 @@ impl CoSimModel for ElementFmu {
     /// `initial.angle` of -1e308 read back as a non-finite output): the check follows every
     /// accepted set, and the instance is restored on refusal.
     fn set_real(&mut self, vr: u32, value: f64) -> Result<(), String> {
+        if let Some(i) = self.input_index(vr) {
+            // An input, set at every communication step: only `u[i]` (and before
+            // initialization its start value) changes, so only they are kept for a refusal.
+            let before = (self.u[i], self.u_start[i]);
+            self.set_real_unchecked(vr, value)?;
+            let outputs = self.outputs();
+            let Some(k) = outputs.iter().position(|y| !y.is_finite()) else {
+                return Ok(());
+            };
+            (self.u[i], self.u_start[i]) = before;
+            if let Some(st) = &mut self.stepper {
+                st.invalidate();
+            }
+            return Err(self.refusal(vr, value, k, outputs[k]));
+        }
         let before = (self.scene.clone(), self.u.clone(), self.u_start.clone());
         self.set_real_unchecked(vr, value)?;
         let outputs = self.outputs();
         let Some(k) = outputs.iter().position(|y| !y.is_finite()) else {
             return Ok(());
         };
-        let output = self
-            .vars
-            .iter()
-            .find(|v| v.value_reference == VR_OUTPUT0 + k as u32)
-            .map_or("?", |v| v.name.as_str())
-            .to_string();
-        let name = name_of(&self.vars, vr).to_string();
         let (scene, u, u_start) = before;
         let rebuilt = self.scene != scene;
         (self.scene, self.u, self.u_start) = (scene, u, u_start);
@@ -457,10 +467,7 @@ impl CoSimModel for ElementFmu {
         } else if let Some(st) = &mut self.stepper {
             st.invalidate();
         }
-        Err(format!(
-            "'{name}' = {value:?}: the output '{output}' would be {}",
-            outputs[k]
-        ))
+        Err(self.refusal(vr, value, k, outputs[k]))
     }
 
     fn lifecycle_mut(&mut self) -> &mut Lifecycle {
@@ -562,19 +569,28 @@ impl CoSimModel for ElementFmu {
         let k = self
             .output_index(vr)
             .ok_or_else(|| format!("'{}' (vr {vr}) is not an output", name_of(&self.vars, vr)))?;
-        let mut out = Vec::new();
-        system::output_rates(
+        Ok(system::output_rate(
             &self.scene.element,
+            k,
             self.y(),
             &self.u,
             &self.du_now,
-            &mut out,
-        );
-        Ok(out[k])
+        ))
     }
 }
 
 impl ElementFmu {
+    /// Why `vr = value` was refused: output `k` would be `y`, which is not finite.
+    fn refusal(&self, vr: u32, value: f64, k: usize, y: f64) -> String {
+        let output = self
+            .vars
+            .iter()
+            .find(|v| v.value_reference == VR_OUTPUT0 + k as u32)
+            .map_or("?", |v| v.name.as_str());
+        let name = name_of(&self.vars, vr);
+        format!("'{name}' = {value:?}: the output '{output}' would be {y}")
+    }
+
     /// [`CoSimModel::set_real`] without the check of the outputs.
     fn set_real_unchecked(&mut self, vr: u32, value: f64) -> Result<(), String> {
         if let Some(k) = self.input_index(vr) {

@@ -128,6 +128,28 @@ pub fn output_rates(spec: &ElementSpec, y: &[f64], u: &[f64], du: &[f64], out: &
     }
 }
 
+/// Entry `k` of [`output_rates`], bit for bit, computing only what it needs where that is
+/// cheap: a body's angle rate (its speed) and speed rate (its acceleration), which a host
+/// reads at every communication step, without the jerk and torque rates.
+pub fn output_rate(spec: &ElementSpec, k: usize, y: &[f64], u: &[f64], du: &[f64]) -> f64 {
+    match (spec, k) {
+        (ElementSpec::Inertia(_), 0 | 3) | (ElementSpec::Motor(_) | ElementSpec::Load(_), 0) => {
+            y[1]
+        }
+        (ElementSpec::Inertia(s), 1 | 4) => s.acceleration(y[1], u[0], u[1]),
+        (ElementSpec::Motor(m), 1) => {
+            let (st, mu) = (motor_state(y), motor_inputs(m, u, m.start_inputs()));
+            m.acceleration(&st, &mu)
+        }
+        (ElementSpec::Load(s), 1) => s.acceleration(y[1], u[0]),
+        _ => {
+            let mut out = Vec::with_capacity(6);
+            output_rates(spec, y, u, du, &mut out);
+            out[k]
+        }
+    }
+}
+
 /// The element over one communication step: the inputs are `u + du·(t − t0)` (first-order
 /// input interpolation, FMI 2.0.x §4.2.1; `du = 0` is the zero-order hold), so the
 /// integrator sees the ramp.

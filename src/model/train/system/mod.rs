@@ -1058,6 +1058,27 @@ impl GearTrain {
         rot.port_torque_rate(name, t, y, &dy)
     }
 
+    /// Whether `name` is a speed port's `<port>.torque` output ([`Self::port_torque_rate`]).
+    pub fn is_port_torque(&self, name: &str) -> bool {
+        self.rotation
+            .as_ref()
+            .is_some_and(|rot| rot.is_port_torque(name))
+    }
+
+    /// The state derivative at `(t, y)` (the right-hand side), for
+    /// [`Self::port_torque_rate_with`].
+    pub fn state_derivative(&self, t: f64, y: &[f64]) -> Vec<f64> {
+        let mut dy = vec![0.0; y.len()];
+        self.rhs(t, y, &mut dy);
+        dy
+    }
+
+    /// [`Self::port_torque_rate`] with the state derivative `dy` at `(t, y)` given, so that
+    /// several ports' rates share one evaluation of it.
+    pub fn port_torque_rate_with(&self, name: &str, t: f64, y: &[f64], dy: &[f64]) -> Option<f64> {
+        self.rotation.as_ref()?.port_torque_rate(name, t, y, dy)
+    }
+
     /// Whether a torque port sits on the output gear: its port torque is `−load_torque`.
     pub fn has_output_port(&self) -> bool {
         self.rotation.as_ref().is_some_and(|r| r.output_port())

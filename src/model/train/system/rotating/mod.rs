@@ -255,6 +255,12 @@ impl Carried {
         coupling.map(|c| c.neighbour = motion).is_some()
     }
 
+    /// Whether `name` is a speed port's `<port>.torque` output.
+    pub(crate) fn is_port_torque(&self, name: &str) -> bool {
+        (self.ports.iter())
+            .any(|p| p.coupling.is_some() && name.strip_suffix(".torque") == Some(p.name.as_str()))
+    }
+
     /// `d/dt` of a speed port's `<port>.torque` output at `(t, y)`, `dy` the state
     /// derivative there; `None` if `name` is not one.
     pub(crate) fn port_torque_rate(
