@@ -1,6 +1,8 @@
 """Benchmark of the Python module and studies (docs/python.md), measured in one run:
 
-1. study throughput (points/s) on a LocalCluster with 1 and with 2 worker processes;
+1. study throughput (points/s) on a LocalCluster with 1, 2 and 4 worker processes, and on a
+   scheduler with 2 separate worker processes (`dask scheduler` + `dask worker`, started as
+   they would be on two machines; here on one);
 2. per-point overhead of the study machinery (Dask tasks, hashing, Parquet store) against a
    bare loop of `simulate` calls on the same points;
 3. the extension's `simulate` against `geardyn simulate` (CLI), process start excluded.
@@ -64,6 +66,43 @@ def study_seconds(path: Path, workers: int, warmup: Path):
     return seconds, summary.task_seconds
 
 
+def scheduler_seconds(path: Path, warmup: Path):
+    """Wall of one study run on a `dask scheduler` process with two `dask worker` processes
+    (one single-threaded worker each, MALLOC_ARENA_MAX=1 as docs/python.md says), after the
+    same warm-up; the processes are started before and stopped after (not timed)."""
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    address = f"tcp://127.0.0.1:{port}"
+    bin_dir = Path(os.sys.executable).parent
+    env = dict(os.environ, MALLOC_ARENA_MAX="1")
+    quiet = dict(stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    procs = [subprocess.Popen([bin_dir / "dask", "scheduler", "--host", "127.0.0.1", "--port", str(port),
+                               "--no-dashboard"], env=env, **quiet)]
+    try:
+        from distributed import Client
+
+        for _ in range(2):
+            procs.append(subprocess.Popen([bin_dir / "dask", "worker", address, "--nworkers", "1",
+                                           "--nthreads", "1", "--no-dashboard"], env=env, **quiet))
+        with Client(address, timeout=60) as client:
+            client.wait_for_workers(2, timeout=120)
+            gs.run(gs.load(warmup), client=client, progress=False)
+            study = gs.load(path)
+            start = time.perf_counter()
+            summary = gs.run(study, client=client, progress=False)
+            seconds = time.perf_counter() - start
+        assert summary.computed == len(study.points()) and summary.failed == 0
+        return seconds
+    finally:
+        for p in reversed(procs):
+            p.terminate()
+        for p in procs:
+            p.wait(timeout=60)
+
+
 def bare_seconds(path: Path) -> float:
     """The same points in a plain loop: copy the scene, set the point, simulate."""
     study = gs.load(path)
@@ -112,35 +151,44 @@ def main():
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
     scene = base_scene(args.stop_time)
-    walls = {"bare": [], "w1": [], "w2": []}
+    load_start = os.getloadavg()[0]
+    walls = {"bare": [], "w1": [], "w2": [], "w4": [], "sched": []}
     in_tasks = []
     for r in range(args.repeat):
         with tempfile.TemporaryDirectory() as tmp:
             # Fresh stores: every run computes every point.
             folders = {}
-            for name in [*walls, "warm1", "warm2"]:
+            # Warm-up studies, 20 points per worker, each in a store of its own.
+            warm = {"warm1": 20, "warm2": 40, "warm4": 80, "warm_sched": 40}
+            for name in [*walls, *warm]:
                 (Path(tmp) / name).mkdir()
-                n = args.points if name in walls else 20 * int(name[-1])
+                n = args.points if name in walls else warm[name]
                 folders[name] = write_study(Path(tmp) / name, scene, n)
             walls["bare"].append(bare_seconds(folders["bare"]))
             wall, busy = study_seconds(folders["w1"], 1, folders["warm1"])
             walls["w1"].append(wall)
             in_tasks.append((wall, busy))
             walls["w2"].append(study_seconds(folders["w2"], 2, folders["warm2"])[0])
-    bare, one, two = (statistics.median(walls[k]) for k in ("bare", "w1", "w2"))
+            walls["w4"].append(study_seconds(folders["w4"], 4, folders["warm4"])[0])
+            walls["sched"].append(scheduler_seconds(folders["sched"], folders["warm_sched"]))
+    bare, one, two, four, sched = (statistics.median(walls[k]) for k in ("bare", "w1", "w2", "w4", "sched"))
     # The 1-worker round of median wall, with its time inside the tasks.
     wall1, busy1 = sorted(in_tasks)[len(in_tasks) // 2]
     py, cli, start = cli_vs_extension()
     n = args.points
     per_point = bare / n
     load = os.getloadavg()[0]
-    print(f"machine: {os.cpu_count()} cores, load average {load:.1f} at the end; {n} points of spur_pair (RK, {args.stop_time} s of gear time)\n")
+    print(f"machine: {os.cpu_count()} cores, load average {load_start:.1f} at the start and {load:.1f} at the end; "
+          f"{n} points of spur_pair (RK, {args.stop_time} s of gear time)\n")
     print("| measure | value |")
     print("|---|---|")
     print(f"| bare loop of `simulate` | {per_point * 1e3:.2f} ms/point ({n / bare:.1f} points/s) |")
     print(f"| study, 1 worker | {n / one:.1f} points/s |")
     print(f"| study, 2 workers | {n / two:.1f} points/s |")
+    print(f"| study, 4 workers | {n / four:.1f} points/s |")
+    print(f"| study, scheduler + 2 separate worker processes | {n / sched:.1f} points/s |")
     print(f"| speedup 2 vs 1 worker | {one / two:.2f}× |")
+    print(f"| 4 workers vs 2 workers ({os.cpu_count()} cores) | {two / four:.2f}× |")
     print(f"| study overhead per point (1 worker vs bare loop) | {(one / n - per_point) * 1e3:.2f} ms = {(one / bare - 1) * 100:+.1f} % |")
     print(f"| of which outside the tasks (scheduling, transfer, store; 1 worker) | {(wall1 - busy1) / n * 1e3:.2f} ms = {(wall1 - busy1) / busy1 * 100:+.1f} % |")
     print(f"| extension `simulate`, 1.0 s RK run | {py * 1e3:.1f} ms |")

@@ -1007,6 +1007,7 @@ def run(
     last_flush = time.perf_counter()
     bar = _Progress(len(todo), progress)
     futures = []
+    interrupt = _Interrupt()
     try:
         slots = max(1, sum(client.nthreads().values()))
         # Points per task: few at first (about 16 tasks per worker thread, at most 8 points),
@@ -1050,6 +1051,7 @@ def run(
             batch = batch_of.pop(future.key)
             try:
                 records, seconds = future.result()
+                interrupt.check()
                 task_seconds += seconds
                 if not study.chunk and seconds > 0:
                     size = max(1, min(1024, int(TASK_SECONDS * len(batch) / seconds)))
@@ -1079,7 +1081,18 @@ def run(
                 _write_part(study.store, buffer, study.parameters, columns, units)
                 buffer, last_flush = [], time.perf_counter()
             bar.update(computed, failed)
+    except KeyboardInterrupt:
+        # Cancelling the tasks in flight and closing the cluster makes Dask's event loop log
+        # its own tracebacks (cancelled comms, a nanny closing its worker): an interrupt is
+        # told in one line by the caller, so Dask is quiet from here on.
+        _quiet_dask()
+        try:
+            client.run(_quiet_dask, wait=True)  # the workers log the cancelled tasks too
+        except Exception:  # noqa: BLE001 -- a worker gone already has nothing to log
+            pass
+        raise
     finally:
+        interrupt.restore()
         if buffer:
             _write_part(study.store, buffer, study.parameters, columns, units)
         bar.update(computed, failed, final=True)
@@ -1092,6 +1105,52 @@ def run(
                 cluster.close()
     return Summary(len(points), len(already), computed, failed, time.perf_counter() - start, errors,
                    task_seconds)
+
+
+class _Interrupt:
+    """Ctrl-C during a study, raised where it cannot break Dask: inside Dask's ``sync`` (a
+    blocking call into the client's event loop) a KeyboardInterrupt makes the loop log a
+    traceback of its own (distributed's cancel callback), so there the interrupt is held
+    until the call returns and :meth:`check` raises it; anywhere else it is raised at once.
+    Installed only in the main thread (the only one signals reach)."""
+
+    def __init__(self):
+        import signal
+
+        self.pending = False
+        self.previous = None
+        if threading.current_thread() is threading.main_thread():
+            self.previous = signal.signal(signal.SIGINT, self._handler)
+
+    def _handler(self, signum, frame):
+        sync = os.path.join("distributed", "utils.py")
+        f = frame
+        while f is not None:
+            if f.f_code.co_name == "sync" and f.f_code.co_filename.endswith(sync):
+                self.pending = True
+                return
+            f = f.f_back
+        raise KeyboardInterrupt
+
+    def check(self) -> None:
+        if self.pending:
+            self.pending = False
+            raise KeyboardInterrupt
+
+    def restore(self) -> None:
+        import signal
+
+        if self.previous is not None:
+            signal.signal(signal.SIGINT, self.previous)
+            self.previous = None
+
+
+def _quiet_dask() -> None:
+    """Dask's, tornado's and asyncio's loggers keep only critical messages."""
+    import logging
+
+    for name in ("distributed", "tornado", "asyncio", "bokeh"):
+        logging.getLogger(name).setLevel(logging.CRITICAL)
 
 
 def arrays_store(study) -> Path:
