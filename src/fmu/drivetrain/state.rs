@@ -234,7 +234,12 @@ mod tests {
             clock: PhaseClock::new(0.1 * k, 3.25 + k, 2000.0 / k),
             cycle: 3.0 + k,
             interval: 2,
-            flags: vec![SlotContact::Drive, SlotContact::Inactive, SlotContact::Back],
+            flags: vec![
+                SlotContact::Drive,
+                SlotContact::Inactive,
+                SlotContact::Back,
+                SlotContact::Wedged,
+            ],
             loss_total: 1e-4 * k,
             loss_since: (k > 1.0).then_some(0.0125),
         };
