@@ -32,7 +32,8 @@ pub const FORMAT_VERSION: u32 = 1;
 pub type TrainSnapshot = Snapshot<TrainSimState>;
 
 pub fn encode(s: &TrainSnapshot) -> Vec<u8> {
-    let mut out = Vec::with_capacity(256 + 8 * s.sim.y.len());
+    // Sized once, parameters included (a master saves a state before every step).
+    let mut out = Vec::with_capacity(256 + 12 * s.params.len() + 8 * s.sim.y.len());
     out.extend_from_slice(TAG);
     out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
     put_params(&mut out, &s.params);

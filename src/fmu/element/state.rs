@@ -33,7 +33,10 @@ pub struct ElementSnapshot {
 const MAX_LEN: usize = 16;
 
 pub fn encode(s: &ElementSnapshot) -> Vec<u8> {
-    let mut out = Vec::with_capacity(128);
+    // Sized once (a master saves a state before every communication step): the layout above,
+    // the controller memory at most 20 bytes.
+    let len = 4 + 12 * s.params.len() + 1 + 16 + 4 + 8 * s.y.len() + 4 + 24 * s.u.len() + 20;
+    let mut out = Vec::with_capacity(len);
     put_params(&mut out, &s.params);
     out.push(u8::from(s.initialized) | controller_bits(s.controller) << 1);
     put_f64s(&mut out, &[s.start_time, s.t]);
