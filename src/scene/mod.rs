@@ -126,6 +126,9 @@ pub struct SolverSettings {
     /// `solver.work_budget`: the most work one run (or one FMI call) may do, in work units
     /// ([`crate::simulation::budget`]); `None`: the default of the scope.
     pub work_budget: Option<f64>,
+    /// `solver.exact_memory_mb`: the heap the exact propagator's mode cache may hold, in
+    /// bytes ([`crate::solve::exact::ExactPropagator::set_memory_budget`]); `None`: 512 MiB.
+    pub exact_memory: Option<usize>,
 }
 
 /// Built-in single-pair scenes (`fmu/<name>/scene.toml`, `examples/<name>.toml`), compiled

@@ -182,6 +182,20 @@ impl<M: DrivenModel> Driver<M> {
         let propagator = if exact {
             let nz = model.lti_dim();
             let mut p = ExactPropagator::new(&model);
+            if let Some(bytes) = settings.exact_memory {
+                let one_mode = ExactPropagator::mode_bytes_estimate(nz);
+                if one_mode > bytes {
+                    return Err(format!(
+                        "solver.exact_memory_mb = {}: one mode of this scene ({nz} augmented \
+                         states) takes about {:.1} MiB in the exact propagator's mode cache \
+                         (its matrix, exponentials and duration bins), more than the cache may \
+                         hold: raise solver.exact_memory_mb or use solver.method = \"rk\"",
+                        bytes as f64 / (1u64 << 20) as f64,
+                        one_mode as f64 / (1u64 << 20) as f64
+                    ));
+                }
+                p.set_memory_budget(bytes);
+            }
             p.set_state(0.0, y0);
             p.set_work_prices(WorkPrices {
                 step: budget::segment_cost(nz),
@@ -632,6 +646,15 @@ impl<M: DrivenModel> Driver<M> {
         match &self.propagator {
             Propagator::Exact(p) => p.composite_counts(),
             Propagator::Rk(_) => (0, 0),
+        }
+    }
+
+    /// The exact propagator's mode-cache memory (`None` on the RK path): bytes held now
+    /// (recounted), the most held, and the budget (`solver.exact_memory_mb`).
+    pub fn cache_memory(&mut self) -> Option<crate::solve::exact::CacheMemory> {
+        match &mut self.propagator {
+            Propagator::Exact(p) => Some(p.memory()),
+            Propagator::Rk(_) => None,
         }
     }
 

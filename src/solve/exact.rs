@@ -237,26 +237,32 @@ struct ModeCache {
     max_rate: Option<f64>,
     /// Estimated heap bytes of the modes promoted to the full path.
     promoted_bytes: usize,
-    /// The budget in bytes ([`ModeCache::MEMORY_BUDGET`]; smaller in tests).
+    /// The budget in bytes ([`ModeCache::MEMORY_BUDGET`] unless the owner sets one:
+    /// `solver.exact_memory_mb`, smaller in tests).
     budget: Option<usize>,
+    /// The largest heap bytes one mode of this cache has held (at its build, promotion or a
+    /// recount): the room kept free for the next mode, so that building it cannot carry the
+    /// cache over its budget.
+    largest_mode: usize,
+    /// The most bytes the cache has held ([`ModeCache::held`], as counted; never reset).
+    peak: usize,
     /// Modes built and times the full cache was cleared (for benchmarks; never reset).
     builds: u64,
     clears: u64,
 }
 
 impl ModeCache {
-    /// Heap bytes the cached modes may hold before the cache is cleared. A drivetrain with
+    /// Heap bytes the cached modes and their composite products may hold: one bound at
+    /// every size (`docs/scaling.md`, "Memory"). Before a mode is built, the cache is
+    /// cleared if its bytes plus the largest mode's would exceed it. A drivetrain with
     /// contact loss meets many contact combinations (the 8-mesh benchmark chain all 4096 of
     /// its 16 stiffness patterns × 2⁸ contact states, ~70 kB each), and rebuilding a mode
     /// costs ~100 µs, so the bound is in bytes rather than modes: small modes are cheap to
-    /// keep, and a long co-simulation still cannot grow the cache without limit.
-    const MEMORY_BUDGET: usize = 512 << 20;
+    /// keep, and a long co-simulation still cannot grow the cache without limit. A scene
+    /// may raise or lower it (`solver.exact_memory_mb`).
+    pub const MEMORY_BUDGET: usize = 512 << 20;
     /// Modes at most, whatever their size (the index's own memory).
     const MAX_MODES: usize = 1 << 16;
-    /// Modes always kept, whatever their size: the stiffness pieces of one mesh period of a
-    /// 64-mesh chain (128 modes of 390 states, ~6 MB each) must stay cached together, or its
-    /// recurring sequences are rebuilt every period.
-    const MIN_MODES: usize = 256;
     /// New modes between two exact recounts of the bytes, at least (and a quarter of the
     /// cached modes: a recount visits every mode, so a cache of thousands of modes recounts
     /// in proportion to its size, O(1) per build).
@@ -269,40 +275,64 @@ impl ModeCache {
     /// (the 8-mesh chain with contact loss: 4096 modes; `docs/scaling.md`). A scene with few
     /// modes (the single pair, the idler) promotes every mode at its first meeting.
     const PROMOTED_BUDGET: usize = 4 << 20;
-    /// Heap bytes of the cache up to which a promoted mode gets room for more duration bins
-    /// ([`ModeTransitions::promote`]), counted as held from the grant on: a quarter of
-    /// [`ModeCache::MEMORY_BUDGET`], so that the grants never clear a cache that would not
-    /// have been cleared without them by much (scenes with few modes take a few MB).
-    const GROWTH_BUDGET: usize = Self::MEMORY_BUDGET / 4;
 
-    /// Whether building one more mode would exceed the budget (recounted exactly first when
-    /// the estimate says so), once the cache holds [`ModeCache::MIN_MODES`].
+    /// Whether building one more mode would carry the cache over its budget (its bytes plus
+    /// the largest mode's; recounted exactly first when the estimate says so).
     fn full(&mut self) -> bool {
         if self.modes.len() >= Self::MAX_MODES {
             return true;
         }
-        if self.modes.len() < Self::MIN_MODES {
+        if self.modes.is_empty() {
             return false;
         }
         // (No recount without a new mode since the last: the composite walk asks on every
         // segment while the cache is over its budget.)
         if self.since_recount > 0
-            && (self.bytes > self.budget()
+            && (self.held() + self.largest_mode > self.budget()
                 || self.since_recount as usize
                     >= (self.modes.len() / 4).max(Self::RECOUNT_EVERY as usize))
         {
             self.recount();
         }
-        self.bytes > self.budget()
+        self.held() + self.largest_mode > self.budget()
     }
 
     fn budget(&self) -> usize {
         self.budget.unwrap_or(Self::MEMORY_BUDGET)
     }
 
+    /// Heap bytes held: the modes' (as counted) and the composite products'.
+    fn held(&self) -> usize {
+        self.bytes + self.composites.heap_bytes()
+    }
+
+    /// Whether a composite product of `nz` states fits beside the cached modes (a product
+    /// is built where its modes recur, so no new mode is due: the next one clears the cache
+    /// if the room for it is gone).
+    fn product_fits(&self, nz: usize) -> bool {
+        self.held() + nz * nz * 8 <= self.budget()
+    }
+
+    /// Whether a mode may take `bytes` more (its promotion to the full path) within the
+    /// budget, beside the room kept for the next mode.
+    fn fits(&self, bytes: usize) -> bool {
+        self.held() + bytes + self.largest_mode <= self.budget()
+    }
+
+    /// Notes the bytes held now in [`ModeCache::peak`].
+    fn note_peak(&mut self) {
+        self.peak = self.peak.max(self.held());
+    }
+
     fn recount(&mut self) {
-        self.bytes = self.modes.iter().map(ModeTransitions::heap_bytes).sum();
+        self.bytes = 0;
+        for mode in &self.modes {
+            let bytes = mode.heap_bytes();
+            self.bytes += bytes;
+            self.largest_mode = self.largest_mode.max(bytes);
+        }
         self.since_recount = 0;
+        self.note_peak();
     }
 
     /// The current mode of `sys`, built on first use (its `A` from `lti_matrix`).
@@ -359,7 +389,9 @@ impl ModeCache {
                 self.builds += 1;
                 let rate = *self.max_rate.get_or_insert_with(|| sys.max_frequency());
                 let mode = Self::build(sys, rate);
-                self.bytes += mode.heap_bytes();
+                let bytes = mode.heap_bytes();
+                self.bytes += bytes;
+                self.largest_mode = self.largest_mode.max(bytes);
                 self.since_recount += 1;
                 self.modes.push(mode);
                 if sys.guard_count() == 0 {
@@ -371,6 +403,7 @@ impl ModeCache {
                 self.key_words.push(self.scratch.capacity);
                 self.key_ends.push(self.key_words.len() as u32);
                 let position = self.modes.len() - 1;
+                self.note_peak();
                 // The new mode heads its hash's chain.
                 let previous = self.index.insert(hash, position as u32);
                 self.same_hash_next.push(previous.unwrap_or(u32::MAX));
@@ -382,14 +415,21 @@ impl ModeCache {
     }
 
     /// Puts mode `position` on the full path, with room for its bins to grow
-    /// ([`ModeTransitions::promote`]) while the cache holds less than
-    /// [`ModeCache::GROWTH_BUDGET`] with it; the bytes it takes are counted at once.
+    /// ([`ModeTransitions::promote`]) while the cache holds less than a quarter of its
+    /// budget with it (so that the grants never clear a cache that would not have been
+    /// cleared without them by much; scenes with few modes take a few MB); the bytes it takes
+    /// are counted at once.
     fn promote(&mut self, position: usize) {
-        let room = Self::GROWTH_BUDGET.min(self.budget());
+        let room = self.budget() / 4;
         let mode = &mut self.modes[position];
         let before = mode.heap_bytes();
         mode.promote(self.bytes + mode.grown_bin_bytes() <= room);
-        self.bytes += mode.heap_bytes().saturating_sub(before);
+        // The full path's guard data (derivative rows, curvature weights, references) grows
+        // with use: counted at its estimate until the next recount.
+        let after = mode.heap_bytes().max(mode.full_bytes_estimate());
+        self.bytes += after.saturating_sub(before);
+        self.largest_mode = self.largest_mode.max(after);
+        self.note_peak();
     }
 
     fn clear(&mut self) {
@@ -433,8 +473,21 @@ impl ModeCache {
                 rows
             })
             .collect();
+        if !mode.guard_rows.is_empty() {
+            // What the series path takes of a mode, taken now: a mode that is never promoted
+            // then holds the bytes counted at its build ([`ModeCache::full`]).
+            mode.balanced_guard_rows();
+        }
         mode
     }
+}
+
+/// The heap bytes of an exact propagator's mode cache ([`ExactPropagator::memory`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CacheMemory {
+    pub held: usize,
+    pub peak: usize,
+    pub budget: usize,
 }
 
 /// The exact propagator: same stateful interface as the RK stepper.
@@ -758,6 +811,31 @@ impl ExactPropagator {
         (self.modes.builds, self.modes.clears)
     }
 
+    /// Bounds the mode cache (modes and composite products) to `bytes` of heap
+    /// (`solver.exact_memory_mb`; default [`ModeCache::MEMORY_BUDGET`]). The cache is
+    /// cleared first, so the bound holds from here on.
+    pub fn set_memory_budget(&mut self, bytes: usize) {
+        self.modes.clear();
+        self.modes.budget = Some(bytes);
+    }
+
+    /// Heap bytes one promoted mode of `nz` states holds in the mode cache at least: `A`,
+    /// its balanced copy, the sample step and two duration bins ([`ModeTransitions`]).
+    pub fn mode_bytes_estimate(nz: usize) -> usize {
+        5 * nz * nz * 8
+    }
+
+    /// The mode cache's memory: the heap bytes it holds now (recounted exactly), the most it
+    /// has held (as counted at each build, promotion, product and recount), and its budget.
+    pub fn memory(&mut self) -> CacheMemory {
+        self.modes.recount();
+        CacheMemory {
+            held: self.modes.held(),
+            peak: self.modes.peak,
+            budget: self.modes.budget(),
+        }
+    }
+
     /// Composite products built so far and sequences applied as one product (since the
     /// last invalidation or capture).
     pub fn composite_counts(&self) -> (u64, u64) {
@@ -1013,7 +1091,9 @@ impl ExactPropagator {
                 let mode = &self.modes.modes[position];
                 let series_ok = self.sensitivity.is_none() && series_segment::applies(mode);
                 if !mode.promoted()
-                    && (!series_ok || self.modes.promoted_bytes < ModeCache::PROMOTED_BUDGET)
+                    && (!series_ok
+                        || (self.modes.promoted_bytes < ModeCache::PROMOTED_BUDGET
+                            && self.modes.fits(mode.full_bytes_estimate())))
                 {
                     self.modes.promoted_bytes += mode.full_bytes_estimate();
                     self.modes.promote(position);
@@ -1309,6 +1389,9 @@ impl ExactPropagator {
                         }
                         std::mem::swap(&mut self.z, &mut self.z_next);
                     }
+                    // A product is built only where it fits the cache's budget beside
+                    // the modes (else the sequence goes segment by segment).
+                    let build = build.filter(|_| self.modes.product_fits(self.z.len()));
                     if let Some(slot) = build {
                         let recorded = self.modes.composites.steps(slot).to_vec();
                         let nz = self.z.len();
@@ -1324,6 +1407,7 @@ impl ExactPropagator {
                             product = phi * product;
                         }
                         self.modes.composites.set_product(slot, product);
+                        self.modes.note_peak();
                     }
                 }
             }

@@ -335,6 +335,9 @@ pub struct SolverSpec {
     pub output_interval: Option<f64>,
     /// The work budget (docs/fmu.md "Work budget"); default per scope.
     pub work_budget: Option<f64>,
+    /// The exact propagator's mode-cache bound in MiB (`docs/scaling.md`, "Memory");
+    /// default 512.
+    pub exact_memory_mb: Option<f64>,
 }
 
 impl SolverSpec {
@@ -365,6 +368,7 @@ impl Default for SolverSpec {
             stop_time: Self::default_stop_time(),
             output_interval: None,
             work_budget: None,
+            exact_memory_mb: None,
         }
     }
 }

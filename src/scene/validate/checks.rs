@@ -170,7 +170,19 @@ pub(crate) fn solver(s: &SolverSpec) -> Result<SolverSettings> {
             .map(|x| crate::simulation::budget::check_limit("solver.work_budget", x))
             .transpose()
             .map_err(SceneError)?,
+        exact_memory: s.exact_memory_mb.map(exact_memory).transpose()?,
     })
+}
+
+/// `solver.exact_memory_mb` in bytes: at least 1 MiB, at most 2^40 bytes (1 TiB).
+fn exact_memory(mb: f64) -> Result<usize> {
+    let mb = positive("solver.exact_memory_mb", mb)?;
+    if !(1.0..=(1u64 << 20) as f64).contains(&mb) {
+        return err(format!(
+            "solver.exact_memory_mb = {mb}: must be between 1 and 1048576 (MiB)"
+        ));
+    }
+    Ok((mb * (1u64 << 20) as f64) as usize)
 }
 
 /// `initial.dte`: `"static"` or a number in m (both scene formats).

@@ -143,6 +143,17 @@ impl Composites {
         &self.entries[slot].steps
     }
 
+    /// Heap bytes of the recorded sequences and their products.
+    pub fn heap_bytes(&self) -> usize {
+        self.entries
+            .iter()
+            .map(|c| {
+                c.steps.capacity() * std::mem::size_of::<Step>()
+                    + c.product.as_ref().map_or(0, |p| p.len() * 8)
+            })
+            .sum()
+    }
+
     pub fn set_product(&mut self, slot: usize, product: DMatrix<f64>) {
         self.builds += 1;
         self.entries[slot].product = Some(product);

@@ -69,6 +69,8 @@ struct Bins {
     /// the promotion, else [`Bins::slots`]); their capacity is reserved with the first slots
     /// ([`Bins::allocate`]) and filled as they are used.
     granted: usize,
+    /// One bin only, never grown: a large mode without guards ([`ModeTransitions::lean`]).
+    lean: bool,
 }
 
 impl Bins {
@@ -90,13 +92,14 @@ impl Bins {
     /// Takes the memory of the first [`Bins::slots`] of a mode of `n` states and reserves
     /// that of the granted ones (once per grant).
     fn allocate(&mut self, n: usize) {
-        self.granted = self.granted.max(Self::slots(n));
+        let first = if self.lean { 1 } else { Self::slots(n) };
+        self.granted = self.granted.max(first);
         self.centres
             .reserve_exact(self.granted.saturating_sub(self.centres.len()));
         self.matrices
             .reserve_exact((self.granted * n * n).saturating_sub(self.matrices.len()));
         if self.matrices.is_empty() {
-            self.matrices.resize(Self::slots(n) * n * n, 0.0);
+            self.matrices.resize(first * n * n, 0.0);
         }
     }
 
@@ -287,14 +290,31 @@ impl ModeTransitions {
             return;
         }
         self.promoted = true;
-        self.sample_increment();
         let n = self.a.nrows();
-        if grow {
+        if self.lean() {
+            // No guards to sample and products to apply the recurring sequences: one bin
+            // and no sample step (`docs/scaling.md`, "Memory").
+            self.recurring.lean = true;
+        } else {
+            self.sample_increment();
+        }
+        if grow && !self.recurring.lean {
             self.recurring.granted = self.recurring.granted.max(Bins::grown_slots(n));
         }
         // (A mode whose guards were all excluded so far has applied bins already; its
         // grant is reserved now.)
         self.recurring.allocate(n);
+    }
+
+    /// Whether the mode is kept lean on the full path: it has no guards (its recurring
+    /// sequences go by composite products, [`super::composite`]) and one matrix of it takes
+    /// more than [`BIN_BYTES_PER_MODE`] (more than 78 states: the 64-mesh chains' 128
+    /// stiffness pieces of 390 states then fit the mode cache's budget together). It keeps
+    /// `A`, its balanced copy and one duration bin; a duration met once goes by the Taylor
+    /// series in sub-steps instead of sample steps ([`ModeTransitions::apply_once`]).
+    fn lean(&self) -> bool {
+        let n = self.a.nrows();
+        self.guard_rows.is_empty() && 8 * n * n > BIN_BYTES_PER_MODE
     }
 
     /// Heap bytes the bins may grow by beyond their first [`Bins::slots`] (the cache's grant
@@ -309,6 +329,10 @@ impl ModeTransitions {
     /// bins grown for a fine output grid are not counted).
     pub fn full_bytes_estimate(&self) -> usize {
         let n = self.a.nrows();
+        if self.lean() {
+            // `A`, its balanced copy and one bin.
+            return 3 * n * n * 8;
+        }
         3 * n * n * 8 + Bins::slots(n) * n * n * 8 + self.guard_rows.len() * 24 * n * 8
     }
 
@@ -403,6 +427,9 @@ impl ModeTransitions {
     /// scaling-and-squaring; `false` when the duration spans more than
     /// [`MAX_ONE_OFF_STEPS`] sample steps or the rest's norm is too large for the series.
     fn apply_once(&mut self, tau: f64, z: &[f64], out: &mut [f64]) -> bool {
+        if self.recurring.lean && self.sample_increment.get().is_none() {
+            return self.apply_once_by_series(tau, z, out);
+        }
         let h = self.sample_step;
         let steps = (tau / h).floor();
         if !(0.0..=MAX_ONE_OFF_STEPS).contains(&steps) {
@@ -425,6 +452,31 @@ impl ModeTransitions {
         let done = self.balanced.exp_times(rest, &state, out, &mut self.taylor);
         self.taylor_state = state;
         self.taylor_next = next;
+        done
+    }
+
+    /// [`ModeTransitions::apply_once`] of a lean mode: the Taylor series in `k` equal
+    /// sub-steps of `θ = ‖B‖₁ τ/k ≤ 2` ([`BalancedMatrix::exp_times`], each with its rigorous
+    /// tail bound), no sample step built; `false` past [`MAX_ONE_OFF_STEPS`] sub-steps.
+    fn apply_once_by_series(&mut self, tau: f64, z: &[f64], out: &mut [f64]) -> bool {
+        let theta = self.balanced.norm() * tau;
+        let steps = (theta / 2.0).ceil().max(1.0);
+        if !(steps <= MAX_ONE_OFF_STEPS) {
+            return false;
+        }
+        let sub = tau / steps;
+        let mut state = std::mem::take(&mut self.taylor_state);
+        state.clear();
+        state.extend_from_slice(z);
+        let mut done = true;
+        for _ in 0..steps as u32 {
+            done = self.balanced.exp_times(sub, &state, out, &mut self.taylor);
+            if !done {
+                break;
+            }
+            state.copy_from_slice(out);
+        }
+        self.taylor_state = state;
         done
     }
 

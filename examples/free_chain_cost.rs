@@ -1,0 +1,115 @@
+//! CPU cost per mesh period of the exact propagator on the free compliant chains of issue 37
+//! (`ChainSpec::free`: 38/55-tooth gears alternating, no ground coupling, 2000 Hz), under the
+//! three conditions of its acceptance 1: the linear contact law, the contact-loss law while
+//! contact holds (the same chain without its STE, so no mesh separates), and contact loss
+//! (15 µm STE). A probe for `docs/scaling.md` ("Memory") beside the scaling benchmark, which
+//! does not cover the free chains yet.
+//!
+//! `cargo run --release --example free_chain_cost -- [MESHES ...]` (default 1 8 16 64).
+//! Each cell is one simulation: a warm-up of at least 100 periods (a guarded mode builds its
+//! recurring-segment references after 128 full searches), on until 5 periods in a row build
+//! no mode and no composite product (at most 1000 periods or 60 s of CPU), then up to 200
+//! timed periods (fewer where the last warm-up period says they would take above 20 s).
+//! Times are CPU time of this thread (`CLOCK_THREAD_CPUTIME_ID`), so a loaded machine
+//! changes them less than wall time; compare cells of one run only.
+
+use geardyn::model::train::TrainSimulation;
+use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec};
+use geardyn::scene::{MethodChoice, Scene};
+
+fn cpu_seconds() -> f64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: writes the calling thread's CPU clock into `ts`.
+    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+}
+
+/// The free compliant chain of `meshes` meshes under `condition`, exact.
+fn scene(meshes: usize, condition: &str) -> Scene {
+    let contact = match condition {
+        "linear" => ChainContact::Linear,
+        _ => ChainContact::ContactLoss,
+    };
+    let mut text = ChainSpec::free(meshes, ChainBearings::Compliant, contact)
+        .toml()
+        .expect("a free chain");
+    if condition == "holds" {
+        // Without the STE the loaded meshes never separate.
+        text = text
+            .lines()
+            .filter(|l| !l.starts_with("ste ="))
+            .map(|l| format!("{l}\n"))
+            .collect();
+    }
+    let mut s = Scene::from_toml_str(&text, "free_chain").expect("a free chain scene");
+    s.solver.method = MethodChoice::Exact;
+    s
+}
+
+fn main() {
+    let sizes: Vec<usize> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .collect();
+    let sizes = if sizes.is_empty() {
+        vec![1, 8, 16, 64]
+    } else {
+        sizes
+    };
+    println!(
+        "| meshes | condition | exact CPU µs/period | timed periods | events/period | modes built \
+         / products built / product hits (timed) | warm-up periods (CPU s) | cache held / peak MiB |"
+    );
+    println!("|---:|---|---:|---:|---:|---|---|---|");
+    for &meshes in &sizes {
+        for condition in ["linear", "holds", "loss"] {
+            let s = scene(meshes, condition);
+            let period = 1.0 / s.mesh_frequency(0, s.operating.input_speed);
+            let start = cpu_seconds();
+            let mut sim = TrainSimulation::new(&s).expect("a simulation");
+            let (mut done, mut settled) = (0usize, 0usize);
+            let mut last;
+            loop {
+                let before = (sim.mode_counts().0, sim.composite_counts().0);
+                let t0 = cpu_seconds();
+                done += 1;
+                sim.advance_to(done as f64 * period).expect("a period");
+                last = cpu_seconds() - t0;
+                let after = (sim.mode_counts().0, sim.composite_counts().0);
+                settled = if after == before { settled + 1 } else { 0 };
+                if (done >= 100 && settled >= 5) || done >= 1000 || cpu_seconds() - start > 60.0 {
+                    break;
+                }
+            }
+            let warm = cpu_seconds() - start;
+            let count = ((20.0 / last) as usize).clamp(1, 200);
+            let (modes0, (products0, hits0), events0) = (
+                sim.mode_counts().0,
+                sim.composite_counts(),
+                sim.stats().events,
+            );
+            let t0 = cpu_seconds();
+            for k in 1..=count {
+                sim.advance_to((done + k) as f64 * period)
+                    .expect("a period");
+            }
+            let per = (cpu_seconds() - t0) / count as f64 * 1e6;
+            let (products1, hits1) = sim.composite_counts();
+            let memory = sim.cache_memory().expect("the exact path");
+            let mib = |b: usize| b as f64 / f64::from(1u32 << 20);
+            println!(
+                "| {meshes} | {condition} | {per:.1} | {count} | {:.2} | {} / {} / {:.2} | {done} \
+                 ({warm:.1}) | {:.1} / {:.1} |",
+                (sim.stats().events - events0) as f64 / count as f64,
+                sim.mode_counts().0 - modes0,
+                products1 - products0,
+                (hits1 - hits0) as f64 / count as f64,
+                mib(memory.held),
+                mib(memory.peak)
+            );
+        }
+    }
+}
