@@ -1,8 +1,9 @@
 //! Pseudo-arclength continuation of the harmonic-balance orbit in the input speed, with fold
 //! detection and the Floquet multipliers of every point.
 
-use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
+use nalgebra::{Complex, DMatrix, DVector};
 
+use super::blocked_lu::Factorised;
 use super::problem::{Evaluation, Problem, Want, CHORD_UNKNOWNS};
 use super::{HbOptions, HbSolution};
 use crate::analysis::shooting::{newton, state_scale, PeriodMap, ShootingOptions, Stability};
@@ -245,7 +246,7 @@ fn continue_branch<M: Drivetrain + Send>(
         Ok((&e.residual / xs, a, e))
     };
     // The unit tangent of the bordered matrix `a` whose last row is the previous tangent.
-    let tangent_of = |a: &LU<f64, Dyn, Dyn>| -> Option<DVector<f64>> {
+    let tangent_of = |a: &Factorised| -> Option<DVector<f64>> {
         let mut rhs = DVector::zeros(dim + 1);
         rhs[dim] = 1.0;
         let t = a.solve(&rhs)?;
@@ -263,10 +264,10 @@ fn continue_branch<M: Drivetrain + Send>(
         },
     )?;
     a0.set_row(dim, &seed.transpose());
-    let lu0 = a0.lu();
-    let mut tangent = tangent_of(&lu0).ok_or("continuation: singular start")?;
     // Large systems: the chord corrector ([`chord_corrector`]) starts from this factorisation.
     let chord = dim > CHORD_UNKNOWNS;
+    let lu0 = Factorised::new(a0, chord);
+    let mut tangent = tangent_of(&lu0).ok_or("continuation: singular start")?;
     let mut factored = chord.then_some(lu0);
     if tangent[dim] * direction < 0.0 {
         tangent = -tangent;
@@ -333,7 +334,7 @@ fn continue_branch<M: Drivetrain + Send>(
                     break;
                 };
                 if delta.amax() <= hb.tolerance.max(1e-13) * 10.0 {
-                    last = Some((lu, e));
+                    last = Some((Factorised::Unblocked(lu), e));
                     break;
                 }
                 candidate += &delta;
@@ -425,7 +426,7 @@ const CHORD_REFRESHES: usize = 3;
 /// refreshes; None when it does not converge.
 fn chord_corrector<M: Drivetrain>(
     problem: &mut Problem<M>,
-    factored: &mut Option<LU<f64, Dyn, Dyn>>,
+    factored: &mut Option<Factorised>,
     candidate: &mut DVector<f64>,
     (predicted, tangent): (&DVector<f64>, &DVector<f64>),
     (xs, f_ref): (f64, f64),
@@ -456,7 +457,7 @@ fn chord_corrector<M: Drivetrain>(
                 .copy_from(&(e.d_frequency.take()? * (f_ref / xs)));
             a.set_row(dim, &tangent.transpose());
             e.jacobian = None;
-            *factored = Some(a.lu());
+            *factored = Some(Factorised::new(a, true));
         }
         let mut g = DVector::zeros(dim + 1);
         g.rows_mut(0, dim).copy_from(&(&e.residual / xs));

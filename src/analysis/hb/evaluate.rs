@@ -121,7 +121,8 @@ impl<M: Drivetrain> Problem<M> {
     ) {
         let mut trig_ready = false;
         if want.samples {
-            acc.sample_w.push(w);
+            // One weight per mesh ([`Accumulator::sample_w`]).
+            acc.sample_w.extend(std::iter::repeat_n(w, laws.len()));
             acc.sample_force
                 .extend((laws.iter().enumerate()).map(|(n, l)| self.total_force(n, l)));
             acc.sample_lost
@@ -349,7 +350,7 @@ impl<M: Drivetrain> Problem<M> {
                 Vec::new()
             }
         };
-        let mut acc = Accumulator {
+        let fresh = || Accumulator {
             gal: zeros(len, true),
             visc: zeros(len, want.frequency),
             kap_s: zeros(2 * ns, want.jacobian),
@@ -361,6 +362,16 @@ impl<M: Drivetrain> Problem<M> {
             sample_lost: Vec::new(),
             trig: vec![0.0; 2 * ns],
         };
+        let mut acc = fresh();
+        // A two-frequency train: the sums on the torus (torus.rs), unless a contact changes
+        // inside a smooth piece; from then on along the line.
+        if let Some(torus) = self.torus.take() {
+            if torus.accumulate(self, s, want, &mut acc) {
+                self.torus = Some(torus);
+                return Ok(self.finish(s, f, want, acc));
+            }
+            acc = fresh();
+        }
         // Pass 1: every mesh's law at every node.
         let nodes = self.nodes.len();
         let mut laws = std::mem::take(&mut self.node_laws);
@@ -422,7 +433,14 @@ impl<M: Drivetrain> Problem<M> {
             }
         }
         self.node_laws = laws;
+        Ok(self.finish(s, f, want, acc))
+    }
 
+    /// The residual, its derivatives and `g` from the quadrature sums `acc`.
+    fn finish(&self, s: &DVector<f64>, f: f64, want: Want, acc: Accumulator) -> Evaluation {
+        let len = self.len;
+        let outs = self.outputs();
+        let nm = self.meshes.len();
         // g per output: P[F] minus the moved linear part (exact in the coefficients).
         let mut g: Vec<DVector<f64>> = acc
             .gal
@@ -555,7 +573,7 @@ impl<M: Drivetrain> Problem<M> {
             jac
         });
 
-        Ok(Evaluation {
+        Evaluation {
             residual,
             jacobian,
             d_frequency,
@@ -563,7 +581,7 @@ impl<M: Drivetrain> Problem<M> {
             sample_w: acc.sample_w,
             sample_force: acc.sample_force,
             sample_lost: acc.sample_lost,
-        })
+        }
     }
 
     /// `J[n', c] += R[n', out] ⊙ gs` for every coordinate `n'` (per order, on the rows): the

@@ -62,11 +62,13 @@
 //! radius within [`SHOOTING_CHECK_MARGIN`] of 1 is checked by Newton shooting from the HB state
 //! ([`ShootingCheck`]). The period maps of a branch are independent and run on all cores.
 
+mod blocked_lu;
 mod continuation;
 mod evaluate;
 mod problem;
 mod scan;
 mod statistics;
+mod torus;
 
 pub use continuation::{
     continuation, continuation_reporting, BranchPoint, ContinuationOptions, ShootingCheck,

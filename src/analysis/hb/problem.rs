@@ -7,7 +7,9 @@ use std::f64::consts::TAU;
 
 use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
+use super::blocked_lu::Factorised;
 use super::scan::{scan_points, scan_roots};
+use super::torus::Torus;
 use super::{Basis, HbOptions, HbSolution};
 use crate::model::drivetrain::{response_frequencies, response_period_in_mesh_periods};
 use crate::model::{Drivetrain, MeshLaw};
@@ -69,8 +71,9 @@ pub(super) struct Accumulator {
     /// with a back row: a drive gap's root moving the back force, or the converse):
     /// `(output, coordinate, coefficient, φ(θ*))`.
     pub(super) cross_boundary: Vec<(usize, usize, f64, Vec<f64>)>,
-    /// Node samples for the results: weight, and per mesh the mesh force and whether it has
-    /// lost contact on every tooth pair.
+    /// Node samples for the results: per mesh the node's weight (zero for a torus node of
+    /// another mesh, [`super::torus`]), the mesh force and whether it has lost contact on
+    /// every tooth pair.
     pub(super) sample_w: Vec<f64>,
     pub(super) sample_force: Vec<f64>,
     pub(super) sample_lost: Vec<bool>,
@@ -143,6 +146,8 @@ pub(super) struct Problem<M: Drivetrain> {
     /// `(cos, sin)` of the roots of unity of the results' scan grid
     /// ([`super::scan::scan_points`]).
     pub(super) scan_roots: Vec<(f64, f64)>,
+    /// The torus quadrature of a two-frequency train ([`super::torus`]), while it applies.
+    pub(super) torus: Option<Torus>,
 }
 
 /// 3-point Gauss–Legendre rule on [−1, 1]: (node, weight).
@@ -424,6 +429,7 @@ impl<M: Drivetrain> Problem<M> {
             x_scale: 0.0,
             receptance: None,
             scan_roots: Vec::new(),
+            torus: None,
         };
         problem.speed_per_f = problem.model.input_speed() / f;
         // Displacement scale of convergence tests and of the arclength metric: the largest
@@ -459,6 +465,14 @@ impl<M: Drivetrain> Problem<M> {
             !buf.is_empty()
         });
         problem.build_sums();
+        // Two mesh frequencies and nothing else: the sums on the torus (issue 38).
+        if options.subharmonic == 1
+            && options.basis == Basis::TotalOrder
+            && options.samples.is_none()
+            && bases.len() == meshes_n
+        {
+            problem.torus = Torus::new(&problem, &bases, options.harmonics);
+        }
         problem.scan_roots = scan_roots(scan_points(&problem.orders));
         // External force: sampled once (it depends on the mesh phase only, not on the speed).
         let mut ext = vec![0.0; m];
@@ -706,7 +720,7 @@ impl<M: Drivetrain> Problem<M> {
         // Large systems: the chord method (the LU kept while the updates shrink by ½ or more
         // per iterate; docs/harmonic-balance.md "Solver"); small ones: Newton as always.
         let chord = s.len() > CHORD_UNKNOWNS;
-        let mut factored: Option<LU<f64, Dyn, Dyn>> = None;
+        let mut factored: Option<Factorised> = None;
         let mut previous = f64::INFINITY;
         for iteration in 1..=options.max_iterations {
             let refresh = !chord || factored.is_none();
@@ -716,7 +730,10 @@ impl<M: Drivetrain> Problem<M> {
             };
             let mut e = self.evaluate(&s, f, want)?;
             if refresh {
-                factored = Some(e.jacobian.take().expect("asked for").lu());
+                factored = Some(Factorised::new(
+                    e.jacobian.take().expect("asked for"),
+                    chord,
+                ));
             }
             let delta = (factored.as_ref().expect("factorised"))
                 .solve(&(-&e.residual))

@@ -116,7 +116,8 @@ impl<M: Drivetrain> Problem<M> {
         let separation = self.separation(s, n, f, &lost_grid, &mut phi);
         let nm = self.meshes.len();
         let force = |i: usize| e.sample_force[i * nm + n];
-        let w = &e.sample_w;
+        // Each mesh's own weights (the torus quadrature integrates each mesh on its own grid).
+        let w: Vec<f64> = (e.sample_w.iter().skip(n).step_by(nm)).copied().collect();
         let total = w.iter().fold(0.0, |a, b| a + b);
         let mean = (0..w.len()).fold(0.0, |a, i| a + w[i] * force(i)) / total;
         let var = (0..w.len()).fold(0.0, |a, i| a + w[i] * (force(i) - mean).powi(2)) / total;
