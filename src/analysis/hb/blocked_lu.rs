@@ -100,6 +100,32 @@ impl BlockedLu {
     }
 }
 
+/// A factorised Newton matrix: nalgebra's LU below [`super::problem::CHORD_UNKNOWNS`]
+/// unknowns (the small systems' iterates unchanged), the blocked LU above.
+pub(super) enum Factorised {
+    Unblocked(LU<f64, Dyn, Dyn>),
+    /// None when a pivot was zero.
+    Blocked(Option<BlockedLu>),
+}
+
+impl Factorised {
+    pub(super) fn new(a: DMatrix<f64>, blocked: bool) -> Factorised {
+        if blocked {
+            Factorised::Blocked(BlockedLu::new(a))
+        } else {
+            Factorised::Unblocked(a.lu())
+        }
+    }
+
+    /// `A⁻¹ b`; None when `A` is singular.
+    pub(super) fn solve(&self, b: &DVector<f64>) -> Option<DVector<f64>> {
+        match self {
+            Factorised::Unblocked(lu) => lu.solve(b),
+            Factorised::Blocked(lu) => lu.as_ref()?.solve(b),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -124,31 +150,5 @@ mod tests {
         assert!(error < 1e-10, "{error}");
         assert!((&a * &x - &b).amax() < 1e-10);
         assert!(BlockedLu::new(DMatrix::zeros(3, 3)).is_none());
-    }
-}
-
-/// A factorised Newton matrix: nalgebra's LU below [`super::problem::CHORD_UNKNOWNS`]
-/// unknowns (the small systems' iterates unchanged), the blocked LU above.
-pub(super) enum Factorised {
-    Unblocked(LU<f64, Dyn, Dyn>),
-    /// None when a pivot was zero.
-    Blocked(Option<BlockedLu>),
-}
-
-impl Factorised {
-    pub(super) fn new(a: DMatrix<f64>, blocked: bool) -> Factorised {
-        if blocked {
-            Factorised::Blocked(BlockedLu::new(a))
-        } else {
-            Factorised::Unblocked(a.lu())
-        }
-    }
-
-    /// `A⁻¹ b`; None when `A` is singular.
-    pub(super) fn solve(&self, b: &DVector<f64>) -> Option<DVector<f64>> {
-        match self {
-            Factorised::Unblocked(lu) => lu.solve(b),
-            Factorised::Blocked(lu) => lu.as_ref()?.solve(b),
-        }
     }
 }
