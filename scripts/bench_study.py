@@ -57,11 +57,17 @@ def study_seconds(path: Path, workers: int, warmup: Path):
     from distributed import Client
 
     with gs.local_cluster(workers) as cluster, Client(cluster) as client:
-        gs.run(gs.load(warmup), client=client, progress=False)
-        study = gs.load(path)
-        start = time.perf_counter()
-        summary = gs.run(study, client=client, progress=False)
-        seconds = time.perf_counter() - start
+        return timed_study(client, path, warmup)
+
+
+def timed_study(client, path: Path, warmup: Path):
+    """The warm-up study, then the wall and the workers' time in the points of the study at
+    ``path``, on ``client``; every point must be computed."""
+    gs.run(gs.load(warmup), client=client, progress=False)
+    study = gs.load(path)
+    start = time.perf_counter()
+    summary = gs.run(study, client=client, progress=False)
+    seconds = time.perf_counter() - start
     assert summary.computed == len(study.points()) and summary.failed == 0
     return seconds, summary.task_seconds
 
@@ -89,13 +95,7 @@ def scheduler_seconds(path: Path, warmup: Path):
                                            "--nthreads", "1", "--no-dashboard"], env=env, **quiet))
         with Client(address, timeout=60) as client:
             client.wait_for_workers(2, timeout=120)
-            gs.run(gs.load(warmup), client=client, progress=False)
-            study = gs.load(path)
-            start = time.perf_counter()
-            summary = gs.run(study, client=client, progress=False)
-            seconds = time.perf_counter() - start
-        assert summary.computed == len(study.points()) and summary.failed == 0
-        return seconds
+            return timed_study(client, path, warmup)[0]
     finally:
         for p in reversed(procs):
             p.terminate()
