@@ -68,7 +68,6 @@ mod evaluate;
 mod problem;
 mod scan;
 mod statistics;
-mod torus;
 
 pub use continuation::{
     continuation, continuation_reporting, BranchPoint, ContinuationOptions, ShootingCheck,

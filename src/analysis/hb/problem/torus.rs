@@ -6,7 +6,7 @@
 //! of total order `|a| + |b| ≤ H`. Along the orbit the HB phase `θ` sits on the torus at
 //! `(ϑ_1, ϑ_2) = (72θ, 19θ) mod 1`, and each mesh's law depends on its own angle only (its
 //! stiffness on its mesh phase, its force on its own deflection). So mesh `n` is integrated on a
-//! grid of its own angle (the composite Gauss rule of [`super::problem`], split at the mesh's
+//! grid of its own angle (the composite Gauss rule of [`super`], split at the mesh's
 //! stiffness breakpoints, over one mesh cycle: `16(2H + 1)` nodes) times a uniform grid of the
 //! other angle (a power of two above `4H`, exact for the trigonometric polynomials of degree
 //! `≤ 2H` the projections and the Jacobian's Toeplitz sums need there), with one FFT per own
@@ -30,7 +30,7 @@ use nalgebra::DVector;
 use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 
-use super::problem::{Accumulator, Problem, Want, GAUSS3, PROBE};
+use super::{Accumulator, Problem, Want, GAUSS3, PROBE};
 use crate::model::{Drivetrain, MeshLaw};
 
 /// One mesh's grid of its own angle.
@@ -47,7 +47,7 @@ struct OwnGrid {
 
 /// The torus quadrature of a two-frequency problem.
 #[derive(Clone)]
-pub(super) struct Torus {
+pub(in crate::analysis::hb) struct Torus {
     /// Tone `(a, b)` of each retained order and of each entry of [`Problem::sums`].
     tones: Vec<[i64; 2]>,
     sum_tones: Vec<[i64; 2]>,
@@ -94,7 +94,7 @@ impl Torus {
     /// The torus quadrature for `problem`, when it applies: two distinct base orders (the
     /// mesh frequencies, subharmonic 1, no gear errors, no back rows, the total-order basis),
     /// each mesh at one of them, and every retained order and every Toeplitz sum one tone.
-    pub(super) fn new<M: Drivetrain>(
+    pub(in crate::analysis::hb) fn new<M: Drivetrain>(
         problem: &Problem<M>,
         bases: &[usize],
         h: usize,
@@ -194,7 +194,7 @@ impl Torus {
     /// Adds every mesh's torus sums to `acc` (the same sums as the one-dimensional pass, over
     /// the torus): false, with `acc` partly filled, where a contact pattern changes inside a
     /// smooth piece on some grid line (the caller then integrates along the line).
-    pub(super) fn accumulate<M: Drivetrain>(
+    pub(in crate::analysis::hb) fn accumulate<M: Drivetrain>(
         &self,
         problem: &Problem<M>,
         s: &DVector<f64>,

@@ -9,12 +9,16 @@ use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
 use super::blocked_lu::Factorised;
 use super::scan::{scan_points, scan_roots};
-use super::torus::Torus;
 use super::{Basis, HbOptions, HbSolution};
 use crate::model::drivetrain::{response_frequencies, response_period_in_mesh_periods};
 use crate::model::{Drivetrain, MeshLaw};
 use crate::scene::SolverSettings;
 use crate::simulation::Driver;
+use torus::Torus;
+
+// The two-frequency quadrature (issue 38): a child, since it works on the problem's own
+// accumulator and node rules.
+mod torus;
 
 /// One mesh of the discretised problem.
 #[derive(Debug, Clone)]
@@ -72,7 +76,7 @@ pub(super) struct Accumulator {
     /// `(output, coordinate, coefficient, φ(θ*))`.
     pub(super) cross_boundary: Vec<(usize, usize, f64, Vec<f64>)>,
     /// Node samples for the results: per mesh the node's weight (zero for a torus node of
-    /// another mesh, [`super::torus`]), the mesh force and whether it has lost contact on
+    /// another mesh, [`torus`]), the mesh force and whether it has lost contact on
     /// every tooth pair.
     pub(super) sample_w: Vec<f64>,
     pub(super) sample_force: Vec<f64>,
@@ -146,7 +150,7 @@ pub(super) struct Problem<M: Drivetrain> {
     /// `(cos, sin)` of the roots of unity of the results' scan grid
     /// ([`super::scan::scan_points`]).
     pub(super) scan_roots: Vec<(f64, f64)>,
-    /// The torus quadrature of a two-frequency train ([`super::torus`]), while it applies.
+    /// The torus quadrature of a two-frequency train ([`torus`]), while it applies.
     pub(super) torus: Option<Torus>,
 }
 
