@@ -5,6 +5,7 @@ Speeds in rpm or rad/s are read as the CLI's ``--speed`` reads them (so ``"4500r
 same double on both); any other unit is converted by pint, which is then needed."""
 
 import functools
+import json
 import numbers
 
 from . import _geardyn
@@ -32,7 +33,13 @@ def is_quantity(value) -> bool:
 def to_si(path: str, value) -> float:
     """The number, in the scene format's unit for ``path``, of ``value`` given with a unit."""
     unit = _geardyn.parameter_unit(path)
-    shown = repr(value) if not hasattr(value, "units") else f"{value:~}"
+    # Shown as the scene reader shows values: a string in TOML's double quotes.
+    if isinstance(value, str):
+        shown = json.dumps(value)
+    elif hasattr(value, "units"):
+        shown = f"{value:~}"
+    else:
+        shown = repr(value)
     if unit is None:
         raise GeardynError(f"scene path '{path}' = {shown}: this parameter has no unit; give a "
                            "plain value (units: geardyn.unit(path))")
