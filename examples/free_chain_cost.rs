@@ -17,14 +17,11 @@ use geardyn::model::train::TrainSimulation;
 use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec};
 use geardyn::scene::{MethodChoice, Scene};
 
+#[path = "../tests/common/cpu.rs"]
+mod cpu;
+
 fn cpu_seconds() -> f64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: writes the calling thread's CPU clock into `ts`.
-    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+    cpu::thread_cpu().as_secs_f64()
 }
 
 /// The free compliant chain of `meshes` meshes under `condition`, exact.

@@ -5,6 +5,9 @@
 //! on its own) and DOP853 at rtol 1e-12 (an independent integrator); the composite path must
 //! actually be taken (else the comparison says nothing), and it must not be taken, or must be
 //! rebuilt, where its product would be stale (new inputs, moved output points, contact loss).
+//! The contact-loss law while contact holds goes by guarded products (src/solve/exact/
+//! guarded.rs), checked the same way, and must give way to the segment-wise path where contact
+//! is lost.
 
 use geardyn::model::train::system::TrainInputs;
 use geardyn::model::train::TrainSimulation;
@@ -205,16 +208,98 @@ fn restored_runs_continue_bit_for_bit() {
     assert!(a.composite_counts().1 > 50 && b.composite_counts().1 > 50);
 }
 
-/// Contact loss has guards: the composite path is never taken, and the run still agrees with
-/// DOP853 (the guarded segments go through the crossing search as before).
+/// The contact-loss law while contact holds (the free 8-mesh chain without STE): each
+/// mesh period is walked with its entering tooth pairs taken in contact and applied as one
+/// product where a certificate proves every guard positive (src/solve/exact/guarded.rs).
+/// The guarded sequence path must be taken, find no event, and agree with the segment-wise
+/// path (which decides every segment's guards on its own) and with DOP853.
+/// The free benchmark chain of issue 37 (`ChainSpec::free`, compliant bearings) on the
+/// contact-loss law without its STE: the loaded meshes never separate.
+fn holding_chain(meshes: usize) -> Scene {
+    use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec};
+    let text: String = ChainSpec::free(meshes, ChainBearings::Compliant, ChainContact::ContactLoss)
+        .toml()
+        .expect("a free chain")
+        .lines()
+        .filter(|l| !l.starts_with("ste ="))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    Scene::from_toml_str(&text, "free_chain").expect("a free chain scene")
+}
+
 #[test]
-fn guarded_chains_do_not_use_products() {
-    let scene = chain(3, "contact_loss");
+fn guarded_sequences_agree_with_segment_wise_propagation_and_dop853() {
+    let scene = holding_chain(8);
     let mut sims = [
         sim(&scene, MethodChoice::Exact, true),
+        sim(&scene, MethodChoice::Exact, false),
         sim(&scene, MethodChoice::Rk, false),
     ];
-    let worst = run_together(&mut sims, (1..=100).map(|k| k as f64 * PERIOD));
-    assert_eq!(sims[0].composite_counts(), (0, 0));
-    assert!(worst[0] < 1e-8, "vs DOP853: {:e}", worst[0]);
+    let worst = run_together(&mut sims, (1..=400).map(|k| k as f64 * PERIOD));
+    let (builds, hits) = sims[0].composite_counts();
+    println!(
+        "segment-wise {:e}, DOP853 {:e}; builds {builds}, hits {hits}",
+        worst[0], worst[1]
+    );
+    assert!(
+        hits >= 300,
+        "guarded products decided {hits} of 400 periods"
+    );
+    assert_eq!(sims[1].composite_counts(), (0, 0), "switched off");
+    for s in &sims {
+        assert_eq!(s.stats().events, 0, "contact holds");
+    }
+    assert!(worst[0] < 1e-11, "guarded vs segment-wise: {:e}", worst[0]);
+    assert!(worst[1] < 1e-8, "guarded vs DOP853: {:e}", worst[1]);
+}
+
+/// With contact loss (the free benchmark chain with its 15 µm STE: every mesh separates
+/// every period) no guarded sequence can be proved: the walks are taken back and the run is
+/// the segment-wise one, with the same contact events, within the exact solver's accuracy.
+#[test]
+fn guarded_walks_with_contact_loss_are_taken_back() {
+    use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec};
+    let text = ChainSpec::free(4, ChainBearings::Compliant, ChainContact::ContactLoss)
+        .toml()
+        .expect("a free chain");
+    let scene = Scene::from_toml_str(&text, "free_chain").expect("a free chain scene");
+    let period = 1.0 / scene.mesh_frequency(0, scene.operating.input_speed);
+    let mut sims = [
+        sim(&scene, MethodChoice::Exact, true),
+        sim(&scene, MethodChoice::Exact, false),
+    ];
+    let mut worst = 0.0f64;
+    for k in 1..=200 {
+        for s in sims.iter_mut() {
+            s.advance_to(k as f64 * period).expect("advance");
+        }
+        worst = worst.max(distance(sims[0].state(), sims[1].state()));
+    }
+    let events = [sims[0].stats().events, sims[1].stats().events];
+    println!("events {events:?}, distance {worst:e}");
+    assert!(events[1] >= 400, "contact is lost: {events:?}");
+    assert_eq!(events[0], events[1], "the same contact events");
+    assert!(worst < 1e-9, "guarded walks vs segment-wise: {worst:e}");
+}
+
+/// A captured state of a guarded chain continues bit for bit in a fresh simulation (the
+/// guarded products and certificates are dropped at capture with the modes).
+#[test]
+fn restored_guarded_runs_continue_bit_for_bit() {
+    let scene = holding_chain(3);
+    let mut a = sim(&scene, MethodChoice::Exact, true);
+    for k in 1..=50 {
+        a.advance_to(k as f64 * PERIOD).unwrap();
+    }
+    a.forget_recurrences();
+    let snap = a.snapshot();
+    let mut b = sim(&scene, MethodChoice::Exact, true);
+    b.restore(&snap).unwrap();
+    for k in 51..=150 {
+        let t = k as f64 * PERIOD;
+        a.advance_to(t).unwrap();
+        b.advance_to(t).unwrap();
+        assert_eq!(a.state(), b.state(), "at period {k}");
+    }
+    assert!(a.composite_counts().1 > 50 && b.composite_counts().1 > 50);
 }

@@ -32,7 +32,11 @@
 //! ([`PiecewiseLti::stops_independent_of_state`], e.g. a drivetrain with linear contact) is
 //! walked first and, when the same sequence of modes and switching instants recurs (a mesh
 //! period of a train), applied as one product of its transitions ([`composite`]): one mat-vec
-//! per recurring period instead of one per stiffness switch. If the state turns non-finite in
+//! per recurring period instead of one per stiffness switch. A recurring run of guarded
+//! segments whose stops the model can walk ahead of the state
+//! ([`PiecewiseLti::stops_assume_contact`]: a train on the contact-loss law) is applied the
+//! same way where a certificate from a reference run proves that no guard crosses in it
+//! ([`guarded`]); elsewhere the walk is taken back. If the state turns non-finite in
 //! such a run, the error is reported at the run's start while the model's stops have moved to
 //! its end (the run is then over anyway).
 
@@ -47,6 +51,7 @@ mod crossing;
 mod enclosure;
 mod expm;
 mod guard_series;
+mod guarded;
 pub mod mat_vec;
 mod recurrence;
 pub mod segment_series;
@@ -117,6 +122,26 @@ pub trait PiecewiseLti: HybridSystem {
     fn stops_independent_of_state(&self) -> bool {
         false
     }
+    /// Whether the model can walk its stops ahead of the state while its modes have guards
+    /// ([`PiecewiseLti::on_stop_assuming_contact`]), so that a recurring guarded sequence (a
+    /// mesh period of a train on the contact-loss law) can be decided whole ([`guarded`]).
+    /// `false` (the default) is always safe.
+    fn stops_assume_contact(&self) -> bool {
+        false
+    }
+    /// [`HybridSystem::on_stop`] without the state: every contact the stop would decide from
+    /// the state (a tooth pair that enters) is taken as closed. That contact's guard must be
+    /// a guard of the next mode, so that it is positive at the mode's start exactly when the
+    /// assumption holds ([`guarded`] proves it).
+    fn on_stop_assuming_contact(&mut self, _t: f64) {}
+    /// Writes into `out` (cleared first) what the stops change, for
+    /// [`PiecewiseLti::restore_stops`].
+    fn save_stops(&self, out: &mut Vec<u64>) {
+        out.clear();
+    }
+    /// Restores the stops' part of the model saved by [`PiecewiseLti::save_stops`] (a walk
+    /// of guarded stops that could not be proved is taken back).
+    fn restore_stops(&mut self, _saved: &[u64]) {}
 }
 
 /// Segments after which the propagator lifts `z` afresh even when the model's forcing states
@@ -518,6 +543,14 @@ pub struct ExactPropagator {
     composites: bool,
     /// The sequence being walked.
     sequence: Vec<Step>,
+    /// The model's stops before a guarded walk ([`PiecewiseLti::save_stops`]), the buffers
+    /// of its certification, and where the segment-wise path goes on after a walk that was
+    /// taken back (its span, times [`ExactPropagator::guarded_backoff`] after refused
+    /// certificates, so a scene that loses contact pays for few walks).
+    stop_state: Vec<u64>,
+    certify_work: guarded::CertifyWork,
+    segment_wise_until: f64,
+    guarded_backoff: u32,
     /// A capture asked to forget the history before the next advance
     /// ([`ExactPropagator::forget_before_next_advance`]).
     forget_pending: Cell<bool>,
@@ -729,6 +762,10 @@ impl ExactPropagator {
             sensitivity: None,
             composites: true,
             sequence: Vec::new(),
+            stop_state: Vec::new(),
+            certify_work: guarded::CertifyWork::default(),
+            segment_wise_until: f64::NEG_INFINITY,
+            guarded_backoff: 0,
             forget_pending: Cell::new(false),
             prices: WorkPrices::default(),
             work_limit: None,
@@ -760,12 +797,15 @@ impl ExactPropagator {
         self.y.copy_from_slice(y);
         self.stalled_events = 0;
         self.carried = None;
+        self.segment_wise_until = f64::NEG_INFINITY;
     }
 
     /// The system's parameters or inputs changed: drop every cached operator.
     pub fn invalidate(&mut self) {
         self.modes.clear();
         self.carried = None;
+        self.segment_wise_until = f64::NEG_INFINITY;
+        self.guarded_backoff = 0;
     }
 
     /// Switches the recurring-segment decisions ([`recurrence`]) on or off (then every
@@ -789,6 +829,8 @@ impl ExactPropagator {
     pub fn forget_recurrences(&mut self) {
         self.modes.clear();
         self.carried = None;
+        self.segment_wise_until = f64::NEG_INFINITY;
+        self.guarded_backoff = 0;
     }
 
     /// [`ExactPropagator::forget_recurrences`] at the start of the next advance: for a
@@ -836,8 +878,8 @@ impl ExactPropagator {
         }
     }
 
-    /// Composite products built so far and sequences applied as one product (since the
-    /// last invalidation or capture).
+    /// Composite products (and certificates of guarded sequences, [`guarded`]) built so far
+    /// and sequences applied as one product (since the last invalidation or capture).
     pub fn composite_counts(&self) -> (u64, u64) {
         (self.modes.composites.builds, self.modes.composites.hits)
     }
@@ -1040,6 +1082,20 @@ impl ExactPropagator {
             {
                 let walked = self.advance_sequence::<S, METERED>(sys, t_end, &mut budget, meter)?;
                 if walked {
+                    continue;
+                }
+            }
+            if self.composites
+                && !O::ACTIVE
+                && self.sensitivity.is_none()
+                && self.t >= self.segment_wise_until
+                && sys.guard_count() > 0
+                && sys.stops_assume_contact()
+                && sys.forcing_carries_over()
+            {
+                let decided =
+                    self.advance_guarded_sequence::<S, METERED>(sys, t_end, &mut budget, meter)?;
+                if decided {
                     continue;
                 }
             }
@@ -1424,6 +1480,183 @@ impl ExactPropagator {
             Some(e) => Err(e),
             None => Ok(walked),
         }
+    }
+
+    /// Walks the stops from `t` towards `t_end` ahead of the state, each entering contact
+    /// taken as closed ([`PiecewiseLti::on_stop_assuming_contact`]), and propagates the state
+    /// through the walked sequence with one mat-vec of its product where its certificate
+    /// proves that no guard crosses ([`guarded`]). The walk ends as the guard-free one
+    /// ([`ExactPropagator::advance_sequence`]) or at a zero-length stop. Otherwise (the
+    /// sequence seen once, its product over the memory budget, a guard that may cross) the
+    /// model's stops, the counters and the budget are taken back and `false` is returned:
+    /// the segment-wise path then goes over the walked span, and further on after refused
+    /// certificates. Nothing the segment-wise path reads is changed by a walk taken back.
+    fn advance_guarded_sequence<S: PiecewiseLti, const METERED: bool>(
+        &mut self,
+        sys: &mut S,
+        t_end: f64,
+        budget: &mut WorkBudget,
+        meter: &AdvanceMeter,
+    ) -> Result<bool, SolveError> {
+        /// Walked spans the segment-wise path goes over after refused certificates, at most.
+        const MAX_BACKOFF: u32 = 256;
+        let n = sys.dim();
+        let nz = self.z.len();
+        let start = self.t;
+        let mut saved = std::mem::take(&mut self.stop_state);
+        sys.save_stops(&mut saved);
+        let (stats_before, budget_before) = (self.stats, *budget);
+        let mut steps = std::mem::take(&mut self.sequence);
+        steps.clear();
+        let mut t = start;
+        while t < t_end && steps.len() < composite::MAX_LENGTH {
+            let stop = sys.next_stop();
+            let target = stop.min(t_end);
+            let tau = target - t;
+            if !(tau > 0.0) {
+                break;
+            }
+            let Some(mode) = self.modes.position(sys) else {
+                break;
+            };
+            if !steps.is_empty() && mode == steps[0].mode {
+                break;
+            }
+            if METERED && self.check_work_limit(t, meter).is_err() {
+                break;
+            }
+            if budget.charge(t).is_err() {
+                break;
+            }
+            self.stats.steps += 1;
+            steps.push(Step {
+                mode,
+                tau,
+                offset: target - start,
+            });
+            t = target;
+            if target == stop {
+                sys.on_stop_assuming_contact(t);
+                self.stats.stops += 1;
+                budget.stops += 1;
+            }
+        }
+        // `None`: taken back without a certificate refused (seen once, nothing walked).
+        let mut outcome = None;
+        if !steps.is_empty() {
+            // The start state, lifted afresh (the forcing states are continuous), in
+            // `z_next`: `z` and `carried` stay as the segment-wise path left them.
+            sys.lift(start, &self.y, &mut self.z_next);
+            let tol = composite::offset_tolerance(t);
+            let slot = match self.modes.composites.lookup_guarded(&steps, tol) {
+                Ok(slot) => Some(slot),
+                Err(Some(slot)) => {
+                    let rows: usize = (steps.iter())
+                        .map(|step| self.modes.modes[step.mode].guard_rows.len())
+                        .sum();
+                    let bytes = (nz * nz + rows * nz) * 8;
+                    if self.modes.held() + bytes <= self.modes.budget() {
+                        self.build_guarded(slot, nz);
+                        if METERED {
+                            force_check(&mut self.work_limit);
+                        }
+                        Some(slot)
+                    } else {
+                        outcome = Some(false);
+                        None
+                    }
+                }
+                Err(None) => None,
+            };
+            if let Some(slot) = slot {
+                let (product, data) = self.modes.composites.guarded(slot);
+                let start_state = &self.z_next;
+                let holds = data
+                    .certificate
+                    .as_ref()
+                    .is_some_and(|c| c.holds(start_state));
+                let proved = holds || {
+                    let certificate = guarded::certify(
+                        &self.modes.modes,
+                        steps.iter().map(|step| (step.mode, step.tau)),
+                        &data.spreads,
+                        start_state,
+                        &mut self.certify_work,
+                    );
+                    let proved = certificate.is_some();
+                    if proved {
+                        data.certificate = certificate;
+                    }
+                    proved
+                };
+                if proved {
+                    mat_vec::mat_vec(product.as_slice(), &self.z_next, &mut self.z);
+                    self.modes.composites.hits += 1;
+                    if !holds {
+                        // A certificate is built work, like a product: counted with them.
+                        self.modes.composites.builds += 1;
+                    }
+                    self.modes.note_peak();
+                }
+                outcome = Some(proved);
+            }
+        }
+        let accepted = outcome == Some(true);
+        if accepted {
+            if !self.z[..n].iter().all(|v| v.is_finite()) {
+                self.sequence = steps;
+                self.stop_state = saved;
+                return Err(SolveError::NonFinite { t: self.t });
+            }
+            self.y.copy_from_slice(&self.z[..n]);
+            self.t = t;
+            self.carried = None;
+            self.guarded_backoff = 0;
+        } else {
+            sys.restore_stops(&saved);
+            self.stats = stats_before;
+            *budget = budget_before;
+            if outcome == Some(false) {
+                self.guarded_backoff = (2 * self.guarded_backoff).clamp(1, MAX_BACKOFF);
+            }
+            // Nothing walked: on after the next segment (the stop at `t` is the
+            // segment-wise path's).
+            self.segment_wise_until = if steps.is_empty() {
+                sys.next_stop().min(t_end)
+            } else {
+                t + f64::from(self.guarded_backoff) * (t - start)
+            };
+        }
+        self.sequence = steps;
+        self.stop_state = saved;
+        Ok(accepted)
+    }
+
+    /// Builds the product and the spreads ([`guarded`]) of the guarded sequence in entry
+    /// `slot` from its recorded steps: the exponentials of the balanced matrices, no bins
+    /// (a guarded mode met by its series holds none).
+    fn build_guarded(&mut self, slot: usize, nz: usize) {
+        let recorded = self.modes.composites.steps(slot).to_vec();
+        let mut product = DMatrix::identity(nz, nz);
+        let mut spreads = Vec::new();
+        for step in &recorded {
+            let mode = &self.modes.modes[step.mode];
+            if !guarded::spread_rows(
+                mode,
+                step.tau,
+                &product,
+                &mut spreads,
+                &mut self.certify_work,
+            ) {
+                // No bound: the certificate will be refused (a row missing).
+                spreads.clear();
+                spreads.shrink_to_fit();
+                break;
+            }
+            product = mode.balanced().exp(step.tau) * product;
+        }
+        self.modes.composites.set_guarded(slot, product, spreads);
+        self.modes.note_peak();
     }
 
     /// `S ← Φ_yy S` over the segment starting now: each column of `S`, lifted with zero

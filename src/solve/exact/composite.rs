@@ -17,11 +17,18 @@
 //! ([`super::transition::ModeTransitions::transition_matrix`]), once a sequence has been seen
 //! [`BUILD_AFTER`] times, so a sequence that does not recur costs no matrix product.
 //!
+//! A sequence with guards (a mesh period on the contact-loss law while contact holds) is
+//! recorded here too, with its product and what decides it ([`Guarded`], built and used by
+//! [`super::guarded`]): it is applied whole only where its certificate proves that no guard
+//! crosses.
+//!
 //! Like the other caches, composites are dropped with the modes (new inputs, parameters) and
 //! with the recurring-segment references (state capture), so a restored run continues as the
 //! captured one does.
 
 use nalgebra::DMatrix;
+
+use super::guarded::Certificate;
 
 /// Sequences remembered (recorded or with their product); the least recently used is replaced.
 const CAPACITY: usize = 16;
@@ -53,6 +60,16 @@ struct Composite {
     last_used: u64,
     /// `Φ_k ⋯ Φ_1` once built, column-major.
     product: Option<DMatrix<f64>>,
+    /// A sequence with guards: what decides it ([`super::guarded`]), built with the product.
+    guarded: Option<Guarded>,
+}
+
+/// The data of a guarded sequence ([`super::guarded`]).
+pub struct Guarded {
+    /// The spreads `s_{k,l}`, segment `k` at `[k n, (k+1) n)`.
+    pub spreads: Vec<f64>,
+    /// The certificate of the last reference start, if one was proved.
+    pub certificate: Option<Certificate>,
 }
 
 /// The recorded sequences of one mode cache.
@@ -90,6 +107,36 @@ impl Composites {
 
     /// Looks `steps` up (switching instants within `tol`), recording it if new.
     pub fn lookup(&mut self, steps: &[Step], tol: f64) -> Lookup<'_> {
+        let Some(k) = self.sighting(steps, tol) else {
+            return Lookup::Segments { build: None };
+        };
+        let entry = &mut self.entries[k];
+        if entry.product.is_some() {
+            self.hits += 1;
+            return Lookup::Product(self.entries[k].product.as_ref().expect("built"));
+        }
+        entry.seen += 1;
+        let build = (entry.seen >= BUILD_AFTER).then_some(k);
+        Lookup::Segments { build }
+    }
+
+    /// [`Composites::lookup`] of a sequence with guards: its entry `Ok(slot)` if its product
+    /// (and spreads) are built, else whether to build them now in entry `slot`.
+    pub fn lookup_guarded(&mut self, steps: &[Step], tol: f64) -> Result<usize, Option<usize>> {
+        let Some(k) = self.sighting(steps, tol) else {
+            return Err(None);
+        };
+        let entry = &mut self.entries[k];
+        if entry.product.is_some() && entry.guarded.is_some() {
+            return Ok(k);
+        }
+        entry.seen += 1;
+        Err((entry.seen >= BUILD_AFTER).then_some(k))
+    }
+
+    /// The entry of `steps` if it was recorded before (its use noted), else `None` after
+    /// recording it (replacing the least recently used entry when the set is full).
+    fn sighting(&mut self, steps: &[Step], tol: f64) -> Option<usize> {
         self.clock += 1;
         let sig = signature(steps);
         let found = self.entries.iter().position(|c| {
@@ -100,41 +147,50 @@ impl Composites {
                     .zip(steps)
                     .all(|(a, b)| a.mode == b.mode && (a.offset - b.offset).abs() <= tol)
         });
-        match found {
-            Some(k) => {
-                let clock = self.clock;
-                let entry = &mut self.entries[k];
-                entry.last_used = clock;
-                if entry.product.is_some() {
-                    self.hits += 1;
-                    return Lookup::Product(self.entries[k].product.as_ref().expect("built"));
-                }
-                entry.seen += 1;
-                let build = (entry.seen >= BUILD_AFTER).then_some(k);
-                Lookup::Segments { build }
-            }
-            None => {
-                let entry = Composite {
-                    signature: sig,
-                    steps: steps.to_vec(),
-                    seen: 1,
-                    last_used: self.clock,
-                    product: None,
-                };
-                if self.entries.len() < CAPACITY {
-                    self.entries.push(entry);
-                } else {
-                    let (slot, _) = self
-                        .entries
-                        .iter()
-                        .enumerate()
-                        .min_by_key(|(_, c)| c.last_used)
-                        .expect("a full set");
-                    self.entries[slot] = entry;
-                }
-                Lookup::Segments { build: None }
-            }
+        if let Some(k) = found {
+            self.entries[k].last_used = self.clock;
+            return Some(k);
         }
+        let entry = Composite {
+            signature: sig,
+            steps: steps.to_vec(),
+            seen: 1,
+            last_used: self.clock,
+            product: None,
+            guarded: None,
+        };
+        if self.entries.len() < CAPACITY {
+            self.entries.push(entry);
+        } else {
+            let (slot, _) = self
+                .entries
+                .iter()
+                .enumerate()
+                .min_by_key(|(_, c)| c.last_used)
+                .expect("a full set");
+            self.entries[slot] = entry;
+        }
+        None
+    }
+
+    /// The product and the guarded data of entry `slot` (built: [`Composites::lookup_guarded`]).
+    pub fn guarded(&mut self, slot: usize) -> (&DMatrix<f64>, &mut Guarded) {
+        let entry = &mut self.entries[slot];
+        (
+            entry.product.as_ref().expect("built"),
+            entry.guarded.as_mut().expect("built"),
+        )
+    }
+
+    /// Sets the product and the spreads of the guarded entry `slot`.
+    pub fn set_guarded(&mut self, slot: usize, product: DMatrix<f64>, spreads: Vec<f64>) {
+        self.builds += 1;
+        let entry = &mut self.entries[slot];
+        entry.product = Some(product);
+        entry.guarded = Some(Guarded {
+            spreads,
+            certificate: None,
+        });
     }
 
     /// The recorded steps of entry `slot` (the product is built from these, so that it is a
@@ -150,6 +206,10 @@ impl Composites {
             .map(|c| {
                 c.steps.capacity() * std::mem::size_of::<Step>()
                     + c.product.as_ref().map_or(0, |p| p.len() * 8)
+                    + c.guarded.as_ref().map_or(0, |g| {
+                        g.spreads.capacity() * 8
+                            + g.certificate.as_ref().map_or(0, Certificate::heap_bytes)
+                    })
             })
             .sum()
     }

@@ -471,13 +471,37 @@ impl GearTrain {
         }
     }
 
-    pub(super) fn on_mesh_stop(&mut self, n: usize, t: f64, y: &[f64]) {
+    /// Switches every mesh whose interval ends at `t`, each past any interval that ends at `t`
+    /// too: an interval narrower than the time resolution (trapezoidal ramps that touch) lasts
+    /// no time. At most one cycle of intervals per mesh, as for the single pair. Without `y`
+    /// (a walk of the stops ahead of the state, [`PiecewiseLti::on_stop_assuming_contact`])
+    /// every slot that enters is taken in contact.
+    pub(super) fn stop_meshes(&mut self, t: f64, y: Option<&[f64]>) {
+        let due: Vec<usize> = (0..self.meshes.len())
+            .filter(|&n| self.meshes[n].next_stop() <= t)
+            .collect();
+        for n in due {
+            let count = self.meshes[n].table().map_or(1, |tb| tb.intervals.len());
+            for _ in 0..count {
+                self.on_mesh_stop(n, t, y);
+                if self.meshes[n].next_stop() > t {
+                    break;
+                }
+            }
+            self.book_loss(n, t);
+        }
+        self.refresh_guards();
+    }
+
+    pub(super) fn on_mesh_stop(&mut self, n: usize, t: f64, y: Option<&[f64]>) {
         let mesh = &mut self.meshes[n];
         let steps = mesh.errors.has_steps();
         let Stiffness::Table(table) = &mesh.stiffness else {
             // A smooth stiffness stops only at the pitch-error steps.
             mesh.cycle += 1.0;
-            self.reclassify_engaged(n, t, y);
+            if let Some(y) = y {
+                self.reclassify_engaged(n, t, y);
+            }
             return;
         };
         let count = table.intervals.len();
@@ -503,11 +527,14 @@ impl GearTrain {
             let flag = self.meshes[n].flags[j];
             self.meshes[n].flags[j] = match (engaged, flag) {
                 (false, _) => SlotContact::Inactive,
-                (true, SlotContact::Inactive) => self.classify(n, j, t, y),
+                (true, SlotContact::Inactive) => match y {
+                    Some(y) => self.classify(n, j, t, y),
+                    None => SlotContact::Drive,
+                },
                 (true, f) => f,
             };
         }
-        if wrapped && steps {
+        if let (true, true, Some(y)) = (wrapped, steps, y) {
             self.reclassify_engaged(n, t, y);
         }
     }

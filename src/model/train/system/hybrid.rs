@@ -225,20 +225,7 @@ impl HybridSystem for GearTrain {
     /// too: an interval narrower than the time resolution (trapezoidal ramps that touch) lasts
     /// no time. At most one cycle of intervals per mesh, as for the single pair.
     fn on_stop(&mut self, t: f64, y: &mut [f64]) {
-        let due: Vec<usize> = (0..self.meshes.len())
-            .filter(|&n| self.meshes[n].next_stop() <= t)
-            .collect();
-        for n in due {
-            let count = self.meshes[n].table().map_or(1, |tb| tb.intervals.len());
-            for _ in 0..count {
-                self.on_mesh_stop(n, t, y);
-                if self.meshes[n].next_stop() > t {
-                    break;
-                }
-            }
-            self.book_loss(n, t);
-        }
-        self.refresh_guards();
+        self.stop_meshes(t, Some(y));
     }
 
     fn on_event(&mut self, t: f64, y: &mut [f64], index: usize) {

@@ -302,6 +302,58 @@ impl PiecewiseLti for GearTrain {
             .all(|mesh| mesh.contact == ContactLaw::Linear)
     }
 
+    /// A stop reads the state only to classify the tooth pairs that enter on a mesh with
+    /// the contact-loss law (`contact.rs`, `on_mesh_stop`): in contact where the gap `δ > 0`,
+    /// which is the entering pair's drive guard, a guard of the next mode. Backlash (back
+    /// flanks, wedging), tooth friction, pitch-error steps (which classify every engaged
+    /// pair again) and the carried rotation (knots as events) are left to the segment-wise
+    /// path.
+    fn stops_assume_contact(&self) -> bool {
+        self.rotation.is_none()
+            && self.meshes.iter().all(|mesh| {
+                matches!(mesh.contact, ContactLaw::Linear | ContactLaw::ContactLoss)
+                    && mesh.friction.is_none()
+                    && !mesh.errors.has_steps()
+            })
+    }
+
+    fn on_stop_assuming_contact(&mut self, t: f64) {
+        self.stop_meshes(t, None);
+    }
+
+    /// Per mesh its cycle, interval and slot flags, then the contact-loss bookkeeping.
+    fn save_stops(&self, out: &mut Vec<u64>) {
+        out.clear();
+        for mesh in &self.meshes {
+            out.extend([mesh.cycle.to_bits(), mesh.interval as u64]);
+            out.extend(mesh.flags.iter().map(|f| u64::from(f.code())));
+        }
+        for &(total, since) in &self.loss {
+            out.extend([total.to_bits(), since.map_or(u64::MAX, f64::to_bits)]);
+        }
+    }
+
+    fn restore_stops(&mut self, saved: &[u64]) {
+        let mut words = saved.iter().copied();
+        let mut next = || words.next().expect("saved by save_stops");
+        for mesh in &mut self.meshes {
+            mesh.cycle = f64::from_bits(next());
+            mesh.interval = next() as usize;
+            for flag in &mut mesh.flags {
+                *flag = SlotContact::from_code(next() as u8).expect("a saved flag");
+            }
+        }
+        for loss in &mut self.loss {
+            let total = f64::from_bits(next());
+            let since = match next() {
+                u64::MAX => None,
+                bits => Some(f64::from_bits(bits)),
+            };
+            *loss = (total, since);
+        }
+        self.refresh_guards();
+    }
+
     fn lti_dim(&self) -> usize {
         self.dim()
             + self

@@ -528,7 +528,7 @@ impl GearTrain {
         let count = self.meshes[n].table().map_or(1, |tb| tb.intervals.len());
         for _ in 0..count {
             if forward {
-                self.on_mesh_stop(n, t, y);
+                self.on_mesh_stop(n, t, Some(y));
             } else {
                 self.on_mesh_stop_back(n, t, y);
             }
