@@ -482,6 +482,13 @@ impl ModeCache {
         Some(self.get_position(sys))
     }
 
+    /// The position of the current mode of `sys` if it is cached (nothing is built).
+    fn cached_position<S: PiecewiseLti>(&mut self, sys: &S) -> Option<usize> {
+        self.scratch.clear();
+        sys.mode_key(&mut self.scratch);
+        self.find_scratch()
+    }
+
     /// The operators of the current mode: `A` from `lti_matrix`, the guard rows (`rate`:
     /// the system's [`PiecewiseLti::max_frequency`]).
     fn build<S: PiecewiseLti>(sys: &S, rate: f64) -> ModeTransitions {
@@ -546,7 +553,7 @@ pub struct ExactPropagator {
     /// The model's stops before a guarded walk ([`PiecewiseLti::save_stops`]), the buffers
     /// of its certification, and where the segment-wise path goes on after a walk that was
     /// taken back (its span, times [`ExactPropagator::guarded_backoff`] after refused
-    /// certificates, so a scene that loses contact pays for few walks).
+    /// certificates, so a scene that loses contact pays for few certifications).
     stop_state: Vec<u64>,
     certify_work: guarded::CertifyWork,
     segment_wise_until: f64,
@@ -1486,11 +1493,13 @@ impl ExactPropagator {
     /// taken as closed ([`PiecewiseLti::on_stop_assuming_contact`]), and propagates the state
     /// through the walked sequence with one mat-vec of its product where its certificate
     /// proves that no guard crosses ([`guarded`]). The walk ends as the guard-free one
-    /// ([`ExactPropagator::advance_sequence`]) or at a zero-length stop. Otherwise (the
+    /// ([`ExactPropagator::advance_sequence`]), at a zero-length stop or at a mode not
+    /// cached (the segment-wise path builds the modes). Otherwise (the
     /// sequence seen once, its product over the memory budget, a guard that may cross) the
     /// model's stops, the counters and the budget are taken back and `false` is returned:
     /// the segment-wise path then goes over the walked span, and further on after refused
-    /// certificates. Nothing the segment-wise path reads is changed by a walk taken back.
+    /// certificates (doubling, up to 256 spans). Nothing the segment-wise path reads is
+    /// changed by a walk taken back.
     fn advance_guarded_sequence<S: PiecewiseLti, const METERED: bool>(
         &mut self,
         sys: &mut S,
@@ -1516,7 +1525,9 @@ impl ExactPropagator {
             if !(tau > 0.0) {
                 break;
             }
-            let Some(mode) = self.modes.position(sys) else {
+            // Only modes met before: a walk taken back builds none (with contact loss the
+            // assumed contacts give modes the run never meets).
+            let Some(mode) = self.modes.cached_position(sys) else {
                 break;
             };
             if !steps.is_empty() && mode == steps[0].mode {
