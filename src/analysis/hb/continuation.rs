@@ -313,40 +313,34 @@ fn continue_branch<M: Drivetrain + Send>(
         let next = if chord {
             // On the torus Newton–Krylov; where the torus declines (contact loss), the chord
             // method on the line quadrature from the predictor.
-            let outcome = if problem.torus.is_some() {
-                match krylov_corrector(
+            let krylov = if problem.torus.is_some() {
+                krylov_corrector(
                     &mut problem,
-                    &mut candidate,
-                    (&predicted, &tangent),
-                    (xs, f_ref),
-                    hb.tolerance,
-                ) {
-                    Corrected::Converged(e, its) => {
-                        newton_like = true;
-                        Some((*e, its, 0))
-                    }
-                    Corrected::Failed => None,
-                    Corrected::Declined => {
-                        candidate = predicted.clone();
-                        chord_corrector(
-                            &mut problem,
-                            &mut factored,
-                            &mut candidate,
-                            (&predicted, &tangent),
-                            (xs, f_ref),
-                            hb.tolerance,
-                        )
-                    }
-                }
-            } else {
-                chord_corrector(
-                    &mut problem,
-                    &mut factored,
                     &mut candidate,
                     (&predicted, &tangent),
                     (xs, f_ref),
                     hb.tolerance,
                 )
+            } else {
+                Corrected::Declined
+            };
+            let outcome = match krylov {
+                Corrected::Converged(e, its) => {
+                    newton_like = true;
+                    Some((*e, its, 0))
+                }
+                Corrected::Failed => None,
+                Corrected::Declined => {
+                    candidate = predicted.clone();
+                    chord_corrector(
+                        &mut problem,
+                        &mut factored,
+                        &mut candidate,
+                        (&predicted, &tangent),
+                        (xs, f_ref),
+                        hb.tolerance,
+                    )
+                }
             };
             let Some((e, its, refreshes)) = outcome else {
                 factored = None;
