@@ -7,7 +7,7 @@
    bare loop of `simulate` calls on the same points;
 3. the extension's `simulate` against `geardyn simulate` (CLI), process start excluded.
 
-Run: .venv/bin/python scripts/bench_study.py [--points 300] [--stop-time 0.1] [--repeat 3]
+Run: .venv/bin/python scripts/bench_study.py [--points 300] [--stop-time 0.06] [--repeat 5]
 Prints a Markdown table. Each wall is the median of `--repeat` rounds within this one run, the
 measured configurations alternating within each round (so a change of load from other processes
 hits all alike), after a warm-up; on a shared machine the 2-worker speedup needs a free core.
@@ -29,9 +29,10 @@ CLI = REPO / "target" / "release" / "geardyn"
 
 
 def base_scene(stop_time: float) -> "geardyn.Scene":
-    # The RK path: its cost per point is set by stop_time (10-20 ms at 0.1 s of gear time).
+    # The RK path: its cost per point is set by stop_time (about 10 ms at 0.06 s of gear time
+    # with 600 output rows; the scene's own 1e-5 s interval would make sampling the larger part).
     scene = geardyn.Scene.from_file(REPO / "fmu" / "spur_pair")
-    scene.update({"solver.method": "rk", "solver.stop_time": stop_time})
+    scene.update({"solver.method": "rk", "solver.stop_time": stop_time, "solver.output_interval": 1e-4})
     return scene
 
 
@@ -147,8 +148,8 @@ def cli_vs_extension(repeats: int = 7):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--points", type=int, default=300)
-    parser.add_argument("--stop-time", type=float, default=0.1)
-    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--stop-time", type=float, default=0.06)
+    parser.add_argument("--repeat", type=int, default=5)
     args = parser.parse_args()
     scene = base_scene(args.stop_time)
     load_start = os.getloadavg()[0]
@@ -172,6 +173,12 @@ def main():
             walls["w4"].append(study_seconds(folders["w4"], 4, folders["warm4"])[0])
             walls["sched"].append(scheduler_seconds(folders["sched"], folders["warm_sched"]))
     bare, one, two, four, sched = (statistics.median(walls[k]) for k in ("bare", "w1", "w2", "w4", "sched"))
+    # Ratios are paired within a round (the configurations ran minutes apart at most), then the
+    # median over rounds: the CPU time of one solve varies by up to 30 % over minutes on a
+    # virtual machine with nothing else running (measured 2026-11-30), and a ratio of medians
+    # would pair a fast round of one configuration with a slow round of another.
+    def paired(a, b):
+        return statistics.median(x / y for x, y in zip(walls[a], walls[b]))
     # The 1-worker round of median wall, with its time inside the tasks.
     wall1, busy1 = sorted(in_tasks)[len(in_tasks) // 2]
     py, cli, start = cli_vs_extension()
@@ -187,9 +194,9 @@ def main():
     print(f"| study, 2 workers | {n / two:.1f} points/s |")
     print(f"| study, 4 workers | {n / four:.1f} points/s |")
     print(f"| study, scheduler + 2 separate worker processes | {n / sched:.1f} points/s |")
-    print(f"| speedup 2 vs 1 worker | {one / two:.2f}× |")
-    print(f"| 4 workers vs 2 workers ({os.cpu_count()} cores) | {two / four:.2f}× |")
-    print(f"| study overhead per point (1 worker vs bare loop) | {(one / n - per_point) * 1e3:.2f} ms = {(one / bare - 1) * 100:+.1f} % |")
+    print(f"| speedup 2 vs 1 worker (median of the rounds' ratios) | {paired('w1', 'w2'):.2f}× |")
+    print(f"| 4 workers vs 2 workers ({os.cpu_count()} cores) | {paired('w2', 'w4'):.2f}× |")
+    print(f"| study overhead per point (1 worker vs bare loop) | {(paired('w1', 'bare') - 1) * per_point * 1e3:+.2f} ms = {(paired('w1', 'bare') - 1) * 100:+.1f} % |")
     print(f"| of which outside the tasks (scheduling, transfer, store; 1 worker) | {(wall1 - busy1) / n * 1e3:.2f} ms = {(wall1 - busy1) / busy1 * 100:+.1f} % |")
     print(f"| extension `simulate`, 1.0 s RK run | {py * 1e3:.1f} ms |")
     print(f"| CLI `simulate`, same run, minus process start ({start * 1e3:.1f} ms) | {cli * 1e3:.1f} ms |")

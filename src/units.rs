@@ -228,66 +228,15 @@ fn quantity_unit(q: &str) -> Option<&'static str> {
 }
 
 /// The unit of a scene parameter by its path (`operating.input_speed` → `rad/s`,
-/// `gear[1].inertia` → `kg.m^2`, `shaft[0].stiffness` → `N.m/rad`), as the scene format's doc
-/// comments give it (`src/scene/spec/`, `docs/units.md`); `1` for counts and ratios; None for a
-/// path that is not a number the format knows (a table, a name, a switch). Units are written
-/// as UDUNITS and pint both read them (`N.m`, `kg.m^2`, `degree`).
+/// `gear[1].inertia` → `kg.m^2`, `shaft[0].stiffness` → `N.m/rad`), as the scene format
+/// declares it beside each field (`x-unit` in [`crate::scene::schema`]); `1` for counts and
+/// ratios; None for a path that is not a number the format knows (a table, a name, a switch,
+/// a profile's values, whose unit is the profile's). Units are written as UDUNITS and pint
+/// both read them (`N.m`, `kg.m^2`, `degree`).
 pub fn parameter_unit(path: &str) -> Option<&'static str> {
-    // Indices do not change a unit: `gear[0].bearing_stiffness[1]` is `gear.bearing_stiffness`.
-    let mut plain = String::with_capacity(path.len());
-    let mut depth = 0usize;
-    for c in path.chars() {
-        match c {
-            '[' => depth += 1,
-            ']' => depth = depth.saturating_sub(1),
-            _ if depth == 0 => plain.push(c),
-            _ => {}
-        }
-    }
-    let keys: Vec<&str> = plain.split('.').collect();
-    let (table, key) = match keys.as_slice() {
-        [table @ .., key] => (table.last().copied().unwrap_or(""), *key),
-        [] => return None,
-    };
-    let in_profile = keys.iter().any(|k| k.ends_with("_profile"));
-    Some(match (table, key) {
-        _ if in_profile => return None,
-        ("operating", "input_speed" | "pinion_speed") => "rad/s",
-        ("operating", "input_torque" | "load_torque" | "torque_ripple") => "N.m",
-        ("solver", "stop_time" | "output_interval") => "s",
-        ("solver", "rtol") => "1",
-        ("mesh", "backlash") => "m",
-        ("mesh", "damping" | "damping_variation") => "N.s/m",
-        ("mesh", "damping_ratio") => "1",
-        ("mesh", "initial_phase" | "phase") => "cycles",
-        ("mesh", "pressure_angle") => "degree",
-        ("mesh", "centre_angle") => "rad",
-        ("stiffness", "mean" | "value") => "N/m",
-        ("stiffness", "peak_to_peak_ratio" | "contact_ratio" | "transition") => "1",
-        ("stiffness", "phase") => "cycles",
-        ("stiffness", "torque") => "N.m",
-        ("ste", "cos" | "sin") => "m",
-        ("friction", "coefficient" | "bending_factor") => "1",
-        ("friction", "pitch_point") => "cycles",
-        ("cubic", "stiffness_factor") => "m^-2",
-        ("cubic", "spring") => "N/m^3",
-        ("gear" | "carrier", "base_radius" | "radius") => "m",
-        ("gear" | "carrier", "inertia") => "kg.m^2",
-        ("gear" | "carrier", "mass") => "kg",
-        ("gear" | "carrier", "bearing_stiffness") => "N/m",
-        ("gear" | "carrier", "bearing_damping") => "N.s/m",
-        ("gear" | "carrier", "ground_stiffness") => "N.m/rad",
-        ("gear" | "carrier", "ground_damping") => "N.m.s/rad",
-        ("gear", "teeth") => "1",
-        ("gear", "pitch_errors" | "cumulative_pitch_errors" | "pin_error") => "m",
-        ("gear", "position_angle") => "degree",
-        ("runout", "amplitude") => "m",
-        ("runout", "phase") => "rad",
-        ("shaft", "stiffness") => "N.m/rad",
-        ("shaft", "damping") => "N.m.s/rad",
-        ("model", "modal_damping_ratio") => "1",
-        _ => return None,
-    })
+    crate::scene::schema::describe(path, None)
+        .ok()
+        .and_then(|p| p.unit)
 }
 
 /// Column names with their units, `dte [m]`; a column without a known unit is an error

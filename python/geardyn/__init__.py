@@ -27,12 +27,14 @@ from typing import Dict, List, Optional, Sequence, Union
 
 import numpy as np
 
-from ._geardyn import GeardynError, Scene, __version__
+from ._geardyn import GeardynError, Parameter, Scene, __version__
 from . import _geardyn
 
 __all__ = [
     "GeardynError",
+    "Parameter",
     "Scene",
+    "describe",
     "Simulation",
     "Table",
     "Orbit",
@@ -57,6 +59,13 @@ __all__ = [
     "parse_speed",
     "__version__",
 ]
+
+
+def describe(path: str) -> Parameter:
+    """What the scene format says about a parameter path, without a scene: default, unit,
+    bounds (those validation applies), choices and description (``Scene.describe`` adds a
+    scene's own value). ``geardyn.describe("solver.atol").default`` is ``1e-15``."""
+    return _geardyn.describe(path)
 
 
 def unit(name: str) -> Optional[str]:

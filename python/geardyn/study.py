@@ -1350,7 +1350,9 @@ def plot(study, out) -> Path:
     units = df.attrs.get("units", {})
 
     def label(name):
-        return f"{name} [{units[name]}]" if units.get(name) else name
+        from .plotting import _label
+
+        return _label(name, units.get(name))
 
     ok = df[df["error"].isna()]
     columns = study.result_columns()

@@ -15,6 +15,8 @@ use pyo3::exceptions::{
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyByteArray, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
 
+mod parameter;
+
 use geardyn::commands;
 use geardyn::scene::train::TRAIN_EXAMPLES;
 use geardyn::scene::KernelChoice;
@@ -551,6 +553,15 @@ impl PyScene {
             assign(&mut table, &path, to_toml(&in_scene_units(&path, &v)?)?)?;
         }
         self.replace(table).map_err(err)
+    }
+
+    /// What the scene format says about ``path`` (``"solver.atol"``, ``"gear[0].teeth"``): this
+    /// scene's value or the default, the unit, the bounds validation applies, the choices and
+    /// a description. A path the format does not know raises GeardynError naming the keys
+    /// its table has.
+    fn describe(&self, py: Python<'_>, path: &str) -> PyResult<parameter::PyParameter> {
+        let p = geardyn::scene::schema::describe(path, Some(&self.table)).map_err(err)?;
+        parameter::parameter(py, p, |py, v| Ok(to_python(py, v)?.unbind()))
     }
 
     /// Every parameter path of the scene as written (defaults not listed).
@@ -1348,6 +1359,13 @@ fn column_unit(name: &str) -> Option<&'static str> {
     geardyn::units::column_unit(name)
 }
 
+/// What the scene format says about a parameter path, without a scene (`Scene.describe`).
+#[pyfunction]
+fn describe(py: Python<'_>, path: &str) -> PyResult<parameter::PyParameter> {
+    let p = geardyn::scene::schema::describe(path, None).map_err(err)?;
+    parameter::parameter(py, p, |py, v| Ok(to_python(py, v)?.unbind()))
+}
+
 /// The unit of a scene parameter by its path (`geardyn::units::parameter_unit`), or None.
 #[pyfunction]
 fn parameter_unit(path: &str) -> Option<&'static str> {
@@ -1376,5 +1394,7 @@ fn _geardyn(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(parse_speed, m)?)?;
     m.add_function(wrap_pyfunction!(column_unit, m)?)?;
     m.add_function(wrap_pyfunction!(parameter_unit, m)?)?;
+    m.add_function(wrap_pyfunction!(describe, m)?)?;
+    m.add_class::<parameter::PyParameter>()?;
     Ok(())
 }

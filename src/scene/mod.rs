@@ -11,6 +11,7 @@ pub mod kernel;
 mod load;
 pub mod profile;
 mod resolved;
+pub mod schema;
 pub mod spec;
 pub mod train;
 pub(crate) mod validate;

@@ -2,12 +2,13 @@
 //! `[operating.torque_profile]`, both scene formats): a linear ramp or a table, linear between
 //! the knots and held constant outside them. Specified in `docs/runup.md`.
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 
 use super::SceneError;
 
 /// A profile as written in the scene file.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ProfileSpec {
     /// `from` until `start`, linear to `to` at `end`, `to` after.

@@ -276,6 +276,10 @@ struct ModeCache {
     clears: u64,
 }
 
+/// The default bound of the mode cache in MiB ([`ModeCache::MEMORY_BUDGET`]; a scene's
+/// `solver.exact_memory_mb`).
+pub const MEMORY_BUDGET_MB: usize = 512;
+
 impl ModeCache {
     /// Heap bytes the cached modes and their composite products may hold: one bound at
     /// every size (`docs/scaling.md`, "Memory"). Before a mode is built, the cache is
@@ -285,7 +289,7 @@ impl ModeCache {
     /// costs ~100 µs, so the bound is in bytes rather than modes: small modes are cheap to
     /// keep, and a long co-simulation still cannot grow the cache without limit. A scene
     /// may raise or lower it (`solver.exact_memory_mb`).
-    pub const MEMORY_BUDGET: usize = 512 << 20;
+    pub const MEMORY_BUDGET: usize = MEMORY_BUDGET_MB << 20;
     /// Modes at most, whatever their size (the index's own memory).
     const MAX_MODES: usize = 1 << 16;
     /// New modes between two exact recounts of the bytes, at least (and a quarter of the

@@ -4,6 +4,7 @@
 use nalgebra::{Complex, DMatrix, DVector};
 
 use super::blocked_lu::Factorised;
+use super::krylov::{krylov_corrector, krylov_tangent, Corrected};
 use super::problem::{Evaluation, Problem, Want, CHORD_UNKNOWNS};
 use super::{HbOptions, HbSolution};
 use crate::analysis::shooting::{newton, state_scale, PeriodMap, ShootingOptions, Stability};
@@ -228,6 +229,7 @@ fn continue_branch<M: Drivetrain + Send>(
         jacobian: true,
         frequency: true,
         samples: false,
+        linear: false,
     };
     // Scaled residual r/x_s and the bordered matrix [∂r/∂s, ∂r/∂λ · f_ref/x_s; 0]: its last
     // row is the caller's (the tangent), set before it is factorised.
@@ -253,22 +255,45 @@ fn continue_branch<M: Drivetrain + Send>(
         Some(t.normalize())
     };
     let direction = if options.to > options.from { 1.0 } else { -1.0 };
-    let mut seed = DVector::zeros(dim + 1);
-    seed[dim] = direction;
-    let (_, mut a0, e0) = scaled(
-        &mut problem,
-        &w,
-        Want {
-            samples: true,
-            ..all
-        },
-    )?;
-    a0.set_row(dim, &seed.transpose());
-    // Large systems: the chord corrector ([`chord_corrector`]) starts from this factorisation.
     let chord = dim > CHORD_UNKNOWNS;
-    let lu0 = Factorised::new(a0, chord);
-    let mut tangent = tangent_of(&lu0).ok_or("continuation: singular start")?;
-    let mut factored = chord.then_some(lu0);
+    // On the torus (krylov.rs): the start's tangent `[−J⁻¹ ∂r/∂λ; 1]` by GMRES, no matrix.
+    let mut on_torus = None;
+    if chord && problem.torus.is_some() {
+        let want = Want {
+            jacobian: false,
+            frequency: true,
+            samples: true,
+            linear: true,
+        };
+        let mut e = problem.evaluate(&start, f_ref, want)?;
+        if problem.torus.is_some() {
+            let d = e.d_frequency.take().expect("asked for") * (f_ref / xs);
+            let t = krylov_tangent(&problem, &d)
+                .ok_or("continuation: GMRES did not converge at the start")?;
+            on_torus = Some((e, t));
+        }
+    }
+    let (e0, mut tangent, mut factored) = match on_torus {
+        Some((e, t)) => (e, t, None),
+        None => {
+            let mut seed = DVector::zeros(dim + 1);
+            seed[dim] = direction;
+            let (_, mut a0, e0) = scaled(
+                &mut problem,
+                &w,
+                Want {
+                    samples: true,
+                    ..all
+                },
+            )?;
+            a0.set_row(dim, &seed.transpose());
+            // Large systems: the chord corrector ([`chord_corrector`]) starts from this
+            // factorisation.
+            let lu0 = Factorised::new(a0, chord);
+            let tangent = tangent_of(&lu0).ok_or("continuation: singular start")?;
+            (e0, tangent, chord.then_some(lu0))
+        }
+    };
     if tangent[dim] * direction < 0.0 {
         tangent = -tangent;
     }
@@ -284,15 +309,39 @@ fn continue_branch<M: Drivetrain + Send>(
         let mut candidate = predicted.clone();
         let mut iterations = 0;
         let mut refreshed = 0;
+        let mut newton_like = !chord;
         let next = if chord {
-            let outcome = chord_corrector(
-                &mut problem,
-                &mut factored,
-                &mut candidate,
-                (&predicted, &tangent),
-                (xs, f_ref),
-                hb.tolerance,
-            );
+            // On the torus Newton–Krylov; where the torus declines (contact loss), the chord
+            // method on the line quadrature from the predictor.
+            let krylov = if problem.torus.is_some() {
+                krylov_corrector(
+                    &mut problem,
+                    &mut candidate,
+                    (&predicted, &tangent),
+                    (xs, f_ref),
+                    hb.tolerance,
+                )
+            } else {
+                Corrected::Declined
+            };
+            let outcome = match krylov {
+                Corrected::Converged(e, its) => {
+                    newton_like = true;
+                    Some((*e, its, 0))
+                }
+                Corrected::Failed => None,
+                Corrected::Declined => {
+                    candidate = predicted.clone();
+                    chord_corrector(
+                        &mut problem,
+                        &mut factored,
+                        &mut candidate,
+                        (&predicted, &tangent),
+                        (xs, f_ref),
+                        hb.tolerance,
+                    )
+                }
+            };
             let Some((e, its, refreshes)) = outcome else {
                 factored = None;
                 step *= 0.5;
@@ -376,7 +425,7 @@ fn continue_branch<M: Drivetrain + Send>(
         if f < f_lo || f > f_hi {
             break;
         }
-        step = if chord {
+        step = if !newton_like {
             // Chord iterations converge linearly: more of them, and a refreshed Jacobian, are
             // what a step too long shows.
             if refreshed == 0 && iterations <= 10 {
@@ -446,6 +495,7 @@ fn chord_corrector<M: Drivetrain>(
             jacobian: refresh,
             frequency: refresh,
             samples: true,
+            linear: false,
         };
         let mut e = problem.evaluate(&s, f, want).ok()?;
         if refresh {

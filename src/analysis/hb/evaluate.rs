@@ -365,7 +365,7 @@ impl<M: Drivetrain> Problem<M> {
         let mut acc = fresh();
         // A two-frequency train: the sums on the torus (torus.rs), unless a contact changes
         // inside a smooth piece; from then on along the line.
-        if let Some(torus) = self.torus.take() {
+        if let Some(mut torus) = self.torus.take() {
             if torus.accumulate(self, s, want, &mut acc) {
                 self.torus = Some(torus);
                 return Ok(self.finish(s, f, want, acc));

@@ -17,8 +17,10 @@
 //! countershaft (`f_2/f_1 = 19/72`, `Q = (72, 19)`) the tones `a f_1 + b f_2` with
 //! `|a| + |b| ≤ H` — at `H = 20` 421 orders instead of the 1441 multiples of `1/T` up to
 //! `20 f_1` ([`Basis::Full`], kept as the reference the truncation is measured against:
-//! docs/harmonic-balance.md). Large systems (more than 512 unknowns) are corrected by the chord
-//! method with a Jacobian kept from earlier points (continuation.rs).
+//! docs/harmonic-balance.md). Large systems (more than 512 unknowns) are solved by
+//! Newton–Krylov with matrix-free products on the torus quadrature of a two-frequency train
+//! (krylov.rs), elsewhere by the chord method with a Jacobian kept from earlier points
+//! (continuation.rs).
 //!
 //! **Condensation.** The mesh forces depend on the state only through the mesh deflections
 //! `S_n = a_n·ξ` ([`crate::model::Drivetrain::mesh_law`]); the linear part, with each mesh's mean stiffness
@@ -65,6 +67,8 @@
 mod blocked_lu;
 mod continuation;
 mod evaluate;
+mod gmres;
+mod krylov;
 mod problem;
 mod scan;
 mod statistics;

@@ -50,36 +50,17 @@ impl<M: Drivetrain> Problem<M> {
                 .filter(|&q| q > 0)
                 .map_or(0.0, |q| dte[2 * q - 1].hypot(dte[2 * q]))
         };
-        // Every series on one grid `θ_i = i/points`, order by order (`cos, sin 2π j i/points`
-        // is entry `j i mod points` of the roots of unity: no trigonometry per point, and the
-        // points' sums are independent of each other); each sum takes its terms in the order
-        // of [`Problem::deflection`]. The DTE about its mean (`dte[0]`, which cancels in the
-        // peak to peak): its refinement then settles to a rounding unit of the oscillation, not
-        // of the mean.
-        let roots = &self.scan_roots;
-        let points = roots.len();
+        // Every series on one grid `θ_i = i/points` ([`super::scan::ScanGrid`]). The DTE about
+        // its mean (`dte[0]`, which cancels in the peak to peak): its refinement then settles
+        // to a rounding unit of the oscillation, not of the mean.
+        let points = self.scan.points();
         let h = 1.0 / points as f64;
         let coefficients = &s.as_slice()[n * self.len..(n + 1) * self.len];
-        let mut x = vec![coefficients[0]; points];
-        let mut dx = vec![0.0; points];
-        let mut dte_grid = vec![0.0; points];
-        for (q, &j) in self.orders.iter().enumerate().skip(1) {
-            let (a, b) = (coefficients[2 * q - 1], coefficients[2 * q]);
-            let (da, db) = (dte[2 * q - 1], dte[2 * q]);
-            let w = TAU * j as f64;
-            let mut entry = 0;
-            for ((x, dx), d) in x.iter_mut().zip(&mut dx).zip(&mut dte_grid) {
-                let (cs, sn) = roots[entry];
-                *x += a * cs + b * sn;
-                *dx += w * (b * cs - a * sn);
-                *d += da * cs;
-                *d += db * sn;
-                entry += j;
-                if entry >= points {
-                    entry -= points;
-                }
-            }
-        }
+        let x = self.scan.series(&self.orders, coefficients, false);
+        let dx = self.scan.series(&self.orders, coefficients, true);
+        let mut about_mean = dte.to_vec();
+        about_mean[0] = 0.0;
+        let dte_grid = self.scan.series(&self.orders, &about_mean, false);
         let (mut force_grid, mut lost_grid) =
             (Vec::with_capacity(points), Vec::with_capacity(points));
         let back = mesh.back.map(|c| self.grid_series(s, c));
@@ -142,29 +123,13 @@ impl<M: Drivetrain> Problem<M> {
         }
     }
 
-    /// Coordinate `c`'s series and its θ-derivative on the scan grid `θ_i = i/points`, summed
-    /// as in [`Problem::mesh_response`].
+    /// Coordinate `c`'s series and its θ-derivative on the scan grid `θ_i = i/points`.
     fn grid_series(&self, s: &DVector<f64>, c: usize) -> (Vec<f64>, Vec<f64>) {
-        let roots = &self.scan_roots;
-        let points = roots.len();
         let coefficients = &s.as_slice()[c * self.len..(c + 1) * self.len];
-        let mut x = vec![coefficients[0]; points];
-        let mut dx = vec![0.0; points];
-        for (q, &j) in self.orders.iter().enumerate().skip(1) {
-            let (a, b) = (coefficients[2 * q - 1], coefficients[2 * q]);
-            let w = TAU * j as f64;
-            let mut entry = 0;
-            for (x, dx) in x.iter_mut().zip(&mut dx) {
-                let (cs, sn) = roots[entry];
-                *x += a * cs + b * sn;
-                *dx += w * (b * cs - a * sn);
-                entry += j;
-                if entry >= points {
-                    entry -= points;
-                }
-            }
-        }
-        (x, dx)
+        (
+            self.scan.series(&self.orders, coefficients, false),
+            self.scan.series(&self.orders, coefficients, true),
+        )
     }
 
     /// `sign` times the DTE series `dte` (about its mean) and its first two θ-derivatives at

@@ -2,17 +2,23 @@
 //! `[mesh.stiffness.geometry]` table of a scene). Syntax only; [`super::gear`] derives and
 //! checks. Format: `docs/stiffness.md`.
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 
+use crate::scene::schema::positive;
+
 /// A spur gear pair: shared cutting data plus one table per gear.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct GearPairSpec {
     /// Module m, m.
+    #[schemars(transform = positive, extend("x-unit" = "m"))]
     pub module: f64,
     /// Pressure angle α of the generating rack, degrees.
+    #[schemars(extend("x-unit" = "degree"))]
     pub pressure_angle: f64,
     /// Face width L, m (common to both gears).
+    #[schemars(transform = positive, extend("x-unit" = "m"))]
     pub face_width: f64,
     /// The driving gear.
     pub pinion: GearSpec,
@@ -24,11 +30,14 @@ pub struct GearPairSpec {
 }
 
 /// One gear of the pair (rack-generated, ISO 53 style basic rack).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct GearSpec {
+    /// Number of teeth.
+    #[schemars(extend("x-unit" = "1"))]
     pub teeth: i64,
     /// Profile-shift coefficient x (default 0).
+    #[schemars(extend("x-unit" = "1"))]
     #[serde(default)]
     pub profile_shift: f64,
     /// Addendum coefficient h_a* (tip radius r + m(h_a* + x)), default 1.
@@ -41,14 +50,17 @@ pub struct GearSpec {
     /// `0.25/(1 − sin α)` (= 0.380 at 20°, ISO 53 profile A).
     pub cutter_tip_radius: Option<f64>,
     /// Bore (or rim inner) radius r_int, m (Sainsot fillet foundation).
+    #[schemars(extend("x-unit" = "m"))]
     pub bore_radius: f64,
     /// Material preset (`"steel"`, see [`super::material`]); explicit constants override it.
     pub material: Option<String>,
     /// Young's modulus E, Pa (default: the material's).
+    #[schemars(extend("x-unit" = "Pa"))]
     pub youngs_modulus: Option<f64>,
     /// Poisson's ratio ν (default: the material's).
     pub poisson_ratio: Option<f64>,
     /// Density ρ, kg/m³ (default: the material's); needed only for derived inertias/masses.
+    #[schemars(transform = positive, extend("x-unit" = "kg/m^3"))]
     pub density: Option<f64>,
 }
 
@@ -62,7 +74,7 @@ impl GearSpec {
 }
 
 /// Which Hertzian contact law.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, serde::Serialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum HertzLaw {
     /// Liao et al. 2025 eq. (3): `K_h = E^0.9 L^0.8 F^0.1 / 1.275` (load dependent).
@@ -73,9 +85,10 @@ pub enum HertzLaw {
 }
 
 /// Numerical and model options (`[model]`).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ModelSpec {
+    /// Hertzian contact law: `nonlinear` (Liao et al. 2025 eq. 3) or `linear`.
     #[serde(default)]
     pub hertz: HertzLaw,
     /// Gauss–Legendre points per tooth-beam integral.

@@ -2,6 +2,7 @@
 //! scene). Syntax only; [`super::geometry`] derives and checks. Lengths in one consistent unit
 //! (SI metres in scenes), angles in degrees. Format: `docs/helical.md`.
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 
 /// Which cylinder the given helix angle is measured on (He & Singh 2007 print "helix angle
@@ -15,7 +16,7 @@ pub enum HelixAngleReference {
 }
 
 /// A helical gear pair of standard (unshifted) involute gears on parallel axes.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct HelicalPairSpec {
     /// Transverse module m_t (pitch diameter = m_t z). Give this or `transverse_diametral_pitch`.
@@ -23,8 +24,10 @@ pub struct HelicalPairSpec {
     /// Transverse diametral pitch P_t = 1/m_t, teeth per unit length of pitch diameter.
     pub transverse_diametral_pitch: Option<f64>,
     /// Transverse pressure angle α_t, degrees.
+    #[schemars(extend("x-unit" = "degree"))]
     pub transverse_pressure_angle: f64,
     /// Helix angle, degrees, in [0, 90): 0 is a spur pair.
+    #[schemars(extend("x-unit" = "degree"))]
     pub helix_angle: f64,
     /// Where `helix_angle` is measured: `"pitch"` or `"base"` (required: the paper is
     /// ambiguous); parsed by [`HelixAngleReference::parse`] so a bad value is named.
@@ -40,9 +43,11 @@ pub struct HelicalPairSpec {
 }
 
 /// One gear of a helical pair.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct HelicalGearSpec {
+    /// Number of teeth.
+    #[schemars(extend("x-unit" = "1"))]
     pub teeth: i64,
     /// Outside (tip) diameter; default the standard addendum of one normal module,
     /// `m_t z + 2 m_n` with `m_n = m_t cos β` (β on the pitch cylinder).

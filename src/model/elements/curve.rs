@@ -1,16 +1,21 @@
 //! A motor's full-load curve `T_max(ω)`: piecewise linear between the points, held constant
 //! beyond the first and the last point (`docs/elements.md`).
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 
 use super::field;
 
 /// `[element.curve]`: `speed` (rad/s, strictly increasing, >= 2 points) and `torque`
 /// (N·m, >= 0), the same number of points.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TorqueCurve {
+    /// Speeds of the points, rad/s, strictly increasing.
+    #[schemars(extend("x-unit" = "rad/s"))]
     pub speed: Vec<f64>,
+    /// Full-load torque at the points, N·m (>= 0).
+    #[schemars(transform = crate::scene::schema::non_negative, extend("x-unit" = "N.m"))]
     pub torque: Vec<f64>,
 }
 

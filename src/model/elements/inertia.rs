@@ -1,17 +1,20 @@
 //! A rigid inertia with two flanges: `J ω' = T_a + T_b − d ω` (`docs/elements.md`).
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 
 use super::{kinetic_energy, non_negative, positive};
 
 /// `kind = "inertia"`: one rigid body between `flange_a` and `flange_b`, both torque
 /// causality, with optional viscous damping to ground.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct InertiaSpec {
     /// Polar moment of inertia J, kg·m² (> 0).
+    #[schemars(transform = crate::scene::schema::positive, extend("x-unit" = "kg.m^2"))]
     pub inertia: f64,
     /// Viscous damping to ground d, N·m·s/rad (>= 0, default 0).
+    #[schemars(transform = crate::scene::schema::non_negative, extend("x-unit" = "N.m.s/rad"))]
     #[serde(default)]
     pub damping: f64,
 }

@@ -1,24 +1,29 @@
 //! A vehicle-like load: inertia with a constant resisting torque, viscous and quadratic drag,
 //! `J_L ω' = T_flange − T_0 − c_v ω − c_d ω|ω|` (`docs/elements.md`).
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 
 use super::{kinetic_energy, non_negative, positive};
 
 /// `kind = "load"`: one flange `flange`, torque causality.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct LoadSpec {
     /// Inertia J_L, kg·m² (> 0).
+    #[schemars(transform = crate::scene::schema::positive, extend("x-unit" = "kg.m^2"))]
     pub inertia: f64,
     /// Constant resisting torque T_0, N·m (>= 0, default 0). It acts as written, whatever
     /// the speed (a rolling resistance that does not reverse; `docs/elements.md`).
+    #[schemars(transform = crate::scene::schema::non_negative, extend("x-unit" = "N.m"))]
     #[serde(default)]
     pub torque: f64,
     /// Viscous coefficient c_v, N·m·s/rad (>= 0, default 0).
+    #[schemars(transform = crate::scene::schema::non_negative, extend("x-unit" = "N.m.s/rad"))]
     #[serde(default)]
     pub viscous: f64,
     /// Quadratic drag coefficient c_d, N·m·s²/rad² (>= 0, default 0).
+    #[schemars(transform = crate::scene::schema::non_negative, extend("x-unit" = "N.m.s^2/rad^2"))]
     #[serde(default)]
     pub drag: f64,
 }

@@ -30,11 +30,12 @@ pub use load::LoadSpec;
 pub use motor::{ControllerSpec, MotorInputs, MotorSpec, MotorState, RippleSpec};
 pub use shaft::ShaftSpec;
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 
 /// One element of any kind, as written in a scene (`kind = "inertia" | "shaft" | "motor" |
 /// "load"`, the element's fields beside it).
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum ElementSpec {
     Inertia(InertiaSpec),

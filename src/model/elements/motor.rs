@@ -6,17 +6,20 @@
 //! `T_e = clamp(T_cmd, −T_max(ω), T_max(ω))`, `I' = e` except when `T_e` is saturated and
 //! `e` pushes further into saturation (conditional-integration anti-windup), then `I' = 0`.
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 
 use super::{field, kinetic_energy, non_negative, positive, require, TorqueCurve};
 
 /// `kind = "motor"`: flange `flange`, torque causality.
-#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MotorSpec {
     /// Rotor inertia J_m, kg·m² (> 0).
+    #[schemars(transform = crate::scene::schema::positive, extend("x-unit" = "kg.m^2"))]
     pub inertia: f64,
     /// Viscous rotor damping to ground d_m, N·m·s/rad (>= 0, default 0).
+    #[schemars(transform = crate::scene::schema::non_negative, extend("x-unit" = "N.m.s/rad"))]
     #[serde(default)]
     pub damping: f64,
     /// Full-load curve T_max(ω).
@@ -28,6 +31,7 @@ pub struct MotorSpec {
     #[serde(default)]
     pub ripple: Vec<RippleSpec>,
     /// Open-loop fraction f of the full-load torque, in [0, 1] (default 1; an FMU input).
+    #[schemars(transform = crate::scene::schema::fraction, extend("x-unit" = "1"))]
     #[serde(default = "one")]
     pub torque_fraction: f64,
 }
@@ -37,26 +41,32 @@ fn one() -> f64 {
 }
 
 /// `[element.controller]`: PI on the speed error.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ControllerSpec {
     /// Proportional gain k_p, N·m·s/rad (>= 0).
+    #[schemars(transform = crate::scene::schema::non_negative, extend("x-unit" = "N.m.s/rad"))]
     pub kp: f64,
     /// Integral gain k_i, N·m/rad (>= 0).
+    #[schemars(transform = crate::scene::schema::non_negative, extend("x-unit" = "N.m/rad"))]
     pub ki: f64,
     /// Speed reference ω_ref, rad/s (the start value of the FMU input).
+    #[schemars(extend("x-unit" = "rad/s"))]
     pub speed_reference: f64,
 }
 
 /// One ripple component `a cos(o θ + φ)`.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RippleSpec {
     /// Order o per revolution of the rotor (> 0).
+    #[schemars(transform = crate::scene::schema::positive, extend("x-unit" = "1"))]
     pub order: f64,
     /// Amplitude a, N·m (>= 0).
+    #[schemars(transform = crate::scene::schema::non_negative, extend("x-unit" = "N.m"))]
     pub amplitude: f64,
     /// Phase φ, rad (default 0).
+    #[schemars(extend("x-unit" = "rad"))]
     #[serde(default)]
     pub phase: f64,
 }

@@ -1,17 +1,20 @@
 //! A massless torsional shaft (spring-damper) between two speed-causality flanges:
 //! `τ = k (φ_a − φ_b) + c (ω_a − ω_b)` (`docs/elements.md`).
 
+use schemars::JsonSchema;
 use serde::Deserialize;
 
 use super::{non_negative, positive};
 
 /// `kind = "shaft"`: stateless, direct feedthrough from the angles and speeds of its ends.
-#[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ShaftSpec {
     /// Torsional stiffness k, N·m/rad (> 0).
+    #[schemars(transform = crate::scene::schema::positive, extend("x-unit" = "N.m/rad"))]
     pub stiffness: f64,
     /// Torsional damping c, N·m·s/rad (>= 0, default 0).
+    #[schemars(transform = crate::scene::schema::non_negative, extend("x-unit" = "N.m.s/rad"))]
     #[serde(default)]
     pub damping: f64,
 }

@@ -2,7 +2,11 @@
 //! `docs/ports.md`, "Elements in the scene"): a body name and the element's own fields, read
 //! by the element specs of `src/model/elements/`.
 
+use std::borrow::Cow;
+
+use schemars::{JsonSchema, Schema, SchemaGenerator};
 use serde::Deserialize;
+use serde_json::{json, Value};
 
 use crate::model::elements::{InertiaSpec, LoadSpec, MotorSpec};
 
@@ -78,3 +82,41 @@ fn split_name(mut table: toml::Table) -> Result<(String, toml::Table), String> {
         None => Err("missing field `name`".into()),
     }
 }
+
+/// The schema of an element table: the element's own fields and `name` beside them, as
+/// `split_name` reads it.
+fn named<T: JsonSchema>(generator: &mut SchemaGenerator, what: &str) -> Schema {
+    let mut schema = T::json_schema(generator);
+    if let Some(object) = schema.as_object_mut() {
+        if let Some(Value::Object(properties)) = object.get_mut("properties") {
+            properties.insert(
+                "name".into(),
+                json!({"type": "string", "description": format!("Name of the {what} body.")}),
+            );
+        }
+        match object.get_mut("required") {
+            Some(Value::Array(required)) => required.push("name".into()),
+            _ => {
+                object.insert("required".into(), json!(["name"]));
+            }
+        }
+    }
+    schema
+}
+
+macro_rules! named_schema {
+    ($body:ty, $spec:ty, $what:literal) => {
+        impl JsonSchema for $body {
+            fn schema_name() -> Cow<'static, str> {
+                stringify!($body).into()
+            }
+            fn json_schema(generator: &mut SchemaGenerator) -> Schema {
+                named::<$spec>(generator, $what)
+            }
+        }
+    };
+}
+
+named_schema!(MotorBodySpec, MotorSpec, "motor");
+named_schema!(LoadBodySpec, LoadSpec, "load");
+named_schema!(InertiaBodySpec, InertiaSpec, "inertia");

@@ -11,8 +11,11 @@ mod elements;
 mod mesh;
 mod planetary;
 
+use schemars::JsonSchema;
 use serde::de::DeserializeOwned;
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
+
+use super::schema::{non_negative, positive};
 
 use super::SceneError;
 
@@ -25,21 +28,29 @@ pub use planetary::CarrierSpec;
 
 /// A whole scene file with its meshes in the form `M`: `MeshSpec` for `[mesh]`,
 /// `Vec<MeshSpec>` for `[[mesh]]`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SceneFile<M> {
+    /// Scene name (output file names, FMU model name).
     pub name: String,
+    /// Free text shown in the FMU's model description.
     #[serde(default)]
     pub description: String,
     /// Scene-wide model switches of a drivetrain (`docs/train.md`).
     pub model: Option<ModelSpec>,
+    /// The gear bodies (`[[gear]]`).
     pub gear: Vec<GearSpec>,
+    /// Torsional shafts between coaxial gears (`[[shaft]]`).
     #[serde(default)]
     pub shaft: Vec<ShaftSpec>,
+    /// The meshes: `[mesh]` (one) or `[[mesh]]` (a drivetrain).
     pub mesh: M,
+    /// The operating point (`[operating]`).
     pub operating: OperatingSpec,
+    /// Initial conditions (`[initial]`).
     #[serde(default)]
     pub initial: InitialSpec,
+    /// Solver settings and the default experiment (`[solver]`).
     #[serde(default)]
     pub solver: SolverSpec,
     /// Mechanical ports (`docs/ports.md`): with any, the rigid-body rotation is carried.
@@ -159,7 +170,7 @@ impl<M> SceneFile<M> {
 }
 
 /// Scene-wide model switches.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ModelSpec {
     /// `"compliant"`: gears with `bearing_stiffness` get translational DOFs; `"rigid"`: none.
@@ -171,6 +182,7 @@ pub struct ModelSpec {
     pub input_rotation: String,
     /// Modal damping ratio on the mean-stiffness modes.
     #[serde(default)]
+    #[schemars(transform = non_negative, extend("x-unit" = "1"))]
     pub modal_damping_ratio: f64,
 }
 
@@ -194,33 +206,45 @@ impl Default for ModelSpec {
 }
 
 /// One gear body (`[[gear]]`).
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct GearSpec {
+    /// Gear name (meshes, shafts and output columns refer to it).
     pub name: String,
+    /// Number of teeth.
+    #[schemars(range(min = 1, max = 100_000), extend("x-unit" = "1"))]
     pub teeth: i64,
     /// Base-circle radius, m (default: from a `geometry` mesh stiffness).
+    #[schemars(transform = positive, extend("x-unit" = "m"))]
     pub base_radius: Option<f64>,
     /// Polar moment of inertia, kg·m² (default: from a `geometry` mesh stiffness with a
     /// density).
+    #[schemars(transform = positive, extend("x-unit" = "kg.m^2"))]
     pub inertia: Option<f64>,
     /// Mass, kg (needed when the gear has translational DOFs; default as `inertia`).
+    #[schemars(transform = positive, extend("x-unit" = "kg"))]
     pub mass: Option<f64>,
     /// Bearing stiffness `[k_x, k_y]`, N/m: the gear gets translational DOFs.
+    #[schemars(transform = positive, extend("x-unit" = "N/m"))]
     pub bearing_stiffness: Option<[f64; 2]>,
     /// Bearing damping `[c_x, c_y]`, N·s/m.
+    #[schemars(transform = non_negative, extend("x-unit" = "N.s/m"))]
     pub bearing_damping: Option<[f64; 2]>,
     /// Torsional coupling to ground `k_s`, N·m/rad (Liu 2007 Table 2.1).
     #[serde(default)]
+    #[schemars(transform = non_negative, extend("x-unit" = "N.m/rad"))]
     pub ground_stiffness: f64,
     /// Torsional damping to ground, N·m·s/rad.
     #[serde(default)]
+    #[schemars(transform = non_negative, extend("x-unit" = "N.m.s/rad"))]
     pub ground_damping: f64,
     /// Runout (eccentricity) of the gear (`docs/errors.md`).
     pub runout: Option<RunoutSpec>,
     /// Individual (single) pitch deviations, one per tooth, m (`docs/errors.md`).
+    #[schemars(extend("x-unit" = "m"))]
     pub pitch_errors: Option<Vec<f64>>,
     /// Cumulative pitch deviations, one per tooth, m (instead of `pitch_errors`).
+    #[schemars(extend("x-unit" = "m"))]
     pub cumulative_pitch_errors: Option<Vec<f64>>,
     /// Internal teeth: the ring of a planetary stage (`docs/planetary.md`).
     #[serde(default)]
@@ -229,40 +253,50 @@ pub struct GearSpec {
     /// `[k_radial, k_tangential]` of the pin in the carrier frame.
     pub carrier: Option<String>,
     /// A planet's position angle ψ on its carrier, degrees, ccw from the carrier's x axis.
+    #[schemars(extend("x-unit" = "degree"))]
     pub position_angle: Option<f64>,
     /// A planet's pin position error `[radial, tangential]`, m (load sharing).
+    #[schemars(extend("x-unit" = "m"))]
     pub pin_error: Option<[f64; 2]>,
 }
 
 /// `runout = { amplitude = …, phase = … }`: eccentricity of a gear's geometric centre, m, and
 /// its direction at t = 0 in the scene frame, rad.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RunoutSpec {
+    /// Eccentricity of the gear's geometric centre, m.
+    #[schemars(transform = non_negative, extend("x-unit" = "m"))]
     pub amplitude: f64,
+    /// Direction of the eccentricity at t = 0 in the scene frame, rad.
     #[serde(default)]
+    #[schemars(extend("x-unit" = "rad"))]
     pub phase: f64,
 }
 
 /// A shaft between two coaxial gears.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ShaftSpec {
     /// Name of a shaft to an element (its output column `<name>_torque`; default
     /// `<gears[0]>_<gears[1]>`).
     pub name: Option<String>,
+    /// The two gears (or element bodies) the shaft joins.
     pub gears: [String; 2],
     /// Torsional stiffness, N·m/rad (omit with `rigid = true`).
+    #[schemars(transform = positive, extend("x-unit" = "N.m/rad"))]
     pub stiffness: Option<f64>,
+    /// A rigid joint: the two gears turn as one body.
     #[serde(default)]
     pub rigid: bool,
     /// Torsional damping, N·m·s/rad.
     #[serde(default)]
+    #[schemars(transform = non_negative, extend("x-unit" = "N.m.s/rad"))]
     pub damping: f64,
 }
 
 /// Operating point; every field is an input.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct OperatingSpec {
     /// Gear whose speed and torque are inputs (default: the first mesh's pinion).
@@ -271,22 +305,26 @@ pub struct OperatingSpec {
     pub output_gear: Option<String>,
     /// Nominal speed of the input gear, rad/s (`pinion_speed` in a single-mesh scene).
     #[serde(alias = "pinion_speed")]
+    #[schemars(transform = non_negative, extend("x-unit" = "rad/s", "x-aliases" = ["pinion_speed"]))]
     pub input_speed: Option<f64>,
     /// Torque driving the input gear, N·m (or `torque_profile`).
+    #[schemars(extend("x-unit" = "N.m"))]
     pub input_torque: Option<f64>,
     /// Input-gear speed over time, rad/s (a run-up; `docs/runup.md`).
     pub speed_profile: Option<super::profile::ProfileSpec>,
     /// Input torque over time, N·m.
     pub torque_profile: Option<super::profile::ProfileSpec>,
     /// Load torque magnitude on the output gear, N·m; default: balanced by the kinematics.
+    #[schemars(extend("x-unit" = "N.m"))]
     pub load_torque: Option<f64>,
     /// Amplitude of an input-torque ripple at mesh frequency, `T1 + T̃1 cos 2πp`, N·m (pair
     /// kernel).
+    #[schemars(extend("x-unit" = "N.m"))]
     pub torque_ripple: Option<f64>,
 }
 
 /// Initial DTE: the mean static deflection or a value in metres.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize, JsonSchema)]
 #[serde(untagged)]
 pub enum InitialDteSpec {
     Value(f64),
@@ -294,12 +332,16 @@ pub enum InitialDteSpec {
 }
 
 /// Initial conditions.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct InitialSpec {
+    /// Initial DTE: `"static"` (the mean static deflection) or a value in m. (No unit is
+    /// declared: a string here is the keyword, not a quantity to convert.)
     #[serde(default = "InitialSpec::default_dte")]
     pub dte: InitialDteSpec,
+    /// Initial DTE rate, m/s.
     #[serde(default)]
+    #[schemars(extend("x-unit" = "m/s"))]
     pub dte_rate: f64,
 }
 
@@ -319,24 +361,37 @@ impl Default for InitialSpec {
 }
 
 /// Solver settings and the default experiment.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct SolverSpec {
+    /// `"auto"` (exact where the scene allows it, else RK), `"exact"` or `"rk"`.
     #[serde(default = "SolverSpec::default_method")]
+    #[schemars(extend("enum" = ["auto", "exact", "rk"]))]
     pub method: String,
+    /// The Runge–Kutta pair of the RK path: `"dop853"` or `"dp5"` (`docs/performance.md`).
     #[serde(default = "SolverSpec::default_rk_method")]
     pub rk_method: String,
+    /// Relative tolerance of the RK path and of event location.
     #[serde(default = "SolverSpec::default_rtol")]
+    #[schemars(transform = positive, extend("exclusiveMaximum" = 1.0, "x-unit" = "1"))]
     pub rtol: f64,
+    /// Absolute tolerance of the RK path, in the state's units (m, m/s, rad).
     #[serde(default = "SolverSpec::default_atol")]
+    #[schemars(transform = positive)]
     pub atol: f64,
+    /// End of the run, s.
     #[serde(default = "SolverSpec::default_stop_time")]
+    #[schemars(transform = positive, extend("x-unit" = "s"))]
     pub stop_time: f64,
+    /// Interval of the output rows, s (default: `stop_time / 500`).
+    #[schemars(transform = positive, extend("x-unit" = "s"))]
     pub output_interval: Option<f64>,
     /// The work budget (docs/fmu.md "Work budget"); default per scope.
+    #[schemars(range(min = 1.0))]
     pub work_budget: Option<f64>,
     /// The exact propagator's mode-cache bound in MiB (`docs/scaling.md`, "Memory");
     /// default 512.
+    #[schemars(range(min = 1.0, max = 1_048_576.0), extend("x-unit" = "MiB", "default" = crate::solve::exact::MEMORY_BUDGET_MB as f64))]
     pub exact_memory_mb: Option<f64>,
 }
 

@@ -5,12 +5,15 @@
 //! A scene with ports carries the rigid-body rotation (the mesh phase follows the actual
 //! pinion angle); one without runs the nominal-speed form of `docs/train.md`.
 
+use schemars::JsonSchema;
 use serde::Deserialize;
+
+use crate::scene::schema::{non_negative, positive};
 
 use crate::scene::SceneError;
 
 /// `[[port]]` as written.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PortSpec {
     /// Port name: the FMU variables are `<name>.torque|angle|speed|acceleration`.
@@ -24,16 +27,21 @@ pub struct PortSpec {
     /// torque the neighbour applies TO the gear stage at this shaft). With speed causality:
     /// the torque the coupling carries at the start (it pre-twists the coupling).
     #[serde(default)]
+    #[schemars(extend("x-unit" = "N.m"))]
     pub torque: f64,
     /// Speed causality: torsional stiffness of the coupling to the neighbour, N·m/rad (> 0).
+    #[schemars(transform = positive, extend("x-unit" = "N.m/rad"))]
     pub stiffness: Option<f64>,
     /// Speed causality: viscous damping of the coupling, N·m·s/rad (≥ 0).
+    #[schemars(transform = non_negative, extend("x-unit" = "N.m.s/rad"))]
     pub damping: Option<f64>,
     /// Speed causality: the neighbour's speed, rad/s (default: the gear's nominal speed).
+    #[schemars(extend("x-unit" = "rad/s"))]
     /// Natively the neighbour turns at it for the whole run; in the FMU it is the start value
     /// of `<name>.speed`.
     pub speed: Option<f64>,
     /// Speed causality: the neighbour's angle at the start, rad (default: the gear's start
+    #[schemars(extend("x-unit" = "rad"))]
     /// angle plus `torque / stiffness`, so the coupling carries `torque`). The start value of
     /// `<name>.angle` in the FMU.
     pub angle: Option<f64>,

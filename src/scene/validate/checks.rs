@@ -2,6 +2,7 @@
 //! the same in every scene (`[solver]`, `[initial]`). Each message names the field as a TOML
 //! path and its value; nothing is clamped.
 
+use crate::scene::schema;
 use crate::scene::spec::{InitialDteSpec, SolverSpec};
 use crate::scene::{InitialDte, MethodChoice, SceneError, SolverSettings};
 
@@ -11,20 +12,23 @@ pub(crate) fn err<T>(msg: String) -> Result<T> {
     Err(SceneError(msg))
 }
 
-/// `field = value: must be finite and > 0`.
-pub(crate) fn positive(field: &str, value: f64) -> Result<f64> {
-    if value.is_finite() && value > 0.0 {
-        Ok(value)
-    } else {
-        err(format!("{field} = {value}: must be a finite number > 0"))
+/// `field = value` within the bounds the scene format declares beside the field
+/// ([`crate::scene::schema`]: `> 0`, `>= 0 and <= 1`, …), so a bound is written once and
+/// `scene.describe` shows the one validation applies. A field without declared bounds is an
+/// error of the program, not of the scene: validating it here would let anything finite pass.
+pub(crate) fn bounded(field: &str, value: f64) -> Result<f64> {
+    let bounds = schema::bounds_of(field).map_err(|e| SceneError(format!("internal: {e}")))?;
+    if bounds.is_open() {
+        return err(format!(
+            "internal: {field} has no bounds in the scene format (src/scene/spec)"
+        ));
     }
-}
-
-pub(crate) fn non_negative(field: &str, value: f64) -> Result<f64> {
-    if value.is_finite() && value >= 0.0 {
+    if bounds.contains(value) {
         Ok(value)
     } else {
-        err(format!("{field} = {value}: must be a finite number >= 0"))
+        err(format!(
+            "{field} = {value}: must be a finite number {bounds}"
+        ))
     }
 }
 
@@ -149,20 +153,16 @@ pub(crate) fn solver(s: &SolverSpec) -> Result<SolverSettings> {
         .rk_method
         .parse()
         .map_err(|e| SceneError(format!("solver.rk_method = {:?}: {e}", s.rk_method)))?;
-    let stop_time = positive("solver.stop_time", s.stop_time)?;
+    let stop_time = bounded("solver.stop_time", s.stop_time)?;
     let output_interval = match s.output_interval {
-        Some(h) => positive("solver.output_interval", h)?,
+        Some(h) => bounded("solver.output_interval", h)?,
         None => stop_time / 500.0,
     };
-    let rtol = positive("solver.rtol", s.rtol)?;
-    if rtol >= 1.0 {
-        return err(format!("solver.rtol = {rtol}: must be < 1"));
-    }
     Ok(SolverSettings {
         method,
         rk_method,
-        rtol,
-        atol: positive("solver.atol", s.atol)?,
+        rtol: bounded("solver.rtol", s.rtol)?,
+        atol: bounded("solver.atol", s.atol)?,
         stop_time,
         output_interval,
         work_budget: s
@@ -174,14 +174,9 @@ pub(crate) fn solver(s: &SolverSpec) -> Result<SolverSettings> {
     })
 }
 
-/// `solver.exact_memory_mb` in bytes: at least 1 MiB, at most 2^40 bytes (1 TiB).
+/// `solver.exact_memory_mb` in bytes (its bounds, 1 MiB to 2^40 bytes, beside the field).
 fn exact_memory(mb: f64) -> Result<usize> {
-    let mb = positive("solver.exact_memory_mb", mb)?;
-    if !(1.0..=(1u64 << 20) as f64).contains(&mb) {
-        return err(format!(
-            "solver.exact_memory_mb = {mb}: must be between 1 and 1048576 (MiB)"
-        ));
-    }
+    let mb = bounded("solver.exact_memory_mb", mb)?;
     Ok((mb * (1u64 << 20) as f64) as usize)
 }
 

@@ -7,9 +7,7 @@
 
 use std::collections::VecDeque;
 
-use super::checks::{
-    err, finite, initial_dte, non_negative, positive, solver, valid_identifier as identifier,
-};
+use super::checks::{bounded, err, finite, initial_dte, solver, valid_identifier as identifier};
 use crate::mesh::PhaseSeries;
 use crate::scene::kernel::{choose, pair_only_field};
 use crate::scene::spec::{
@@ -79,7 +77,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
             ))
         }
     };
-    let modal = non_negative("model.modal_damping_ratio", model.modal_damping_ratio)?;
+    let modal = bounded("model.modal_damping_ratio", model.modal_damping_ratio)?;
 
     if on_pair && spec.gear.len() != 2 {
         return err(format!(
@@ -129,7 +127,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
         let table = format!("gear[{i}]");
         let derived = bodies.iter().find(|(n, _)| *n == g.name).map(|(_, b)| b);
         let mass = match (g.mass, derived) {
-            (Some(m), _) => Some(positive(&f("mass"), m)?),
+            (Some(m), _) => Some(bounded(&f("mass"), m)?),
             // A derived mass only where the translations need one.
             (None, Some(d)) if compliant && g.bearing_stiffness.is_some() => Some(
                 super::geometry::body_value(&table, "mass", None, Some((d, d.mass)))?,
@@ -149,8 +147,8 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
                     }
                 }
                 let c = g.bearing_damping.unwrap_or([0.0, 0.0]);
-                non_negative(&format!("{}[x]", f("bearing_damping")), c[0])?;
-                non_negative(&format!("{}[y]", f("bearing_damping")), c[1])?;
+                bounded(&format!("{}[x]", f("bearing_damping")), c[0])?;
+                bounded(&format!("{}[y]", f("bearing_damping")), c[1])?;
                 if mass.is_none() {
                     return err(format!(
                         "{}: missing; gear {:?} has bearing_stiffness, so its translations need a mass in kg",
@@ -183,8 +181,8 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
             )?,
             mass,
             bearing,
-            ground_stiffness: non_negative(&f("ground_stiffness"), g.ground_stiffness)?,
-            ground_damping: non_negative(&f("ground_damping"), g.ground_damping)?,
+            ground_stiffness: bounded(&f("ground_stiffness"), g.ground_stiffness)?,
+            ground_damping: bounded(&f("ground_damping"), g.ground_damping)?,
             errors: super::errors::gear_errors(&f, &g.name, teeth, g)?,
         });
         let gear = &gears[gears.len() - 1];
@@ -294,7 +292,7 @@ pub(crate) fn validate(parsed: ParsedScene, source: &str) -> Result<Scene> {
             profiles.torque.as_ref(),
         )?,
     };
-    let input_speed = non_negative(&speed_field, input_speed)?;
+    let input_speed = bounded(&speed_field, input_speed)?;
     let input_torque = finite("operating.input_torque", input_torque)?;
     let torque_ripple = match op.torque_ripple {
         Some(t) => finite("operating.torque_ripple", t)?,
@@ -563,8 +561,8 @@ fn shaft(i: usize, s: &ShaftSpec, find: &dyn Fn(&str, &str) -> Result<usize>) ->
             ShaftCoupling::Rigid
         }
         (false, Some(k)) => ShaftCoupling::Elastic {
-            stiffness: positive(&format!("shaft[{i}].stiffness"), k)?,
-            damping: non_negative(&format!("shaft[{i}].damping"), s.damping)?,
+            stiffness: bounded(&format!("shaft[{i}].stiffness"), k)?,
+            damping: bounded(&format!("shaft[{i}].damping"), s.damping)?,
         },
         (true, Some(k)) => {
             return err(format!(
@@ -964,11 +962,11 @@ fn pair_terms(
     };
     let smooth = SmoothTerms {
         cubic_factor: match &m.cubic {
-            Some(c) => non_negative(&f("cubic.stiffness_factor"), c.stiffness_factor)?,
+            Some(c) => bounded(&f("cubic.stiffness_factor"), c.stiffness_factor)?,
             None => 0.0,
         },
         cubic_spring: match &m.cubic {
-            Some(c) => non_negative(&f("cubic.spring"), c.spring)?,
+            Some(c) => bounded(&f("cubic.spring"), c.spring)?,
             None => 0.0,
         },
         damping_variation: match m.damping_variation {
@@ -1086,7 +1084,7 @@ fn helical_pair(
     density: f64,
     geometry: &crate::mesh::helical::HelicalPairSpec,
 ) -> Result<HelicalPair> {
-    positive(&format!("{field}.density"), density)?;
+    bounded(&format!("{field}.density"), density)?;
     let geometry =
         crate::mesh::helical::HelicalGeometry::new(geometry, &format!("{field}.geometry."))
             .map_err(SceneError)?;
@@ -1162,8 +1160,8 @@ fn pair_stiffness(field: &str, spec: &PairStiffnessSpec) -> Result<PairStiffness
             contact_ratio,
             load_share,
         } => {
-            positive(&format!("{field}.mean"), *mean)?;
-            non_negative(&format!("{field}.peak_to_peak_ratio"), *peak_to_peak_ratio)?;
+            bounded(&format!("{field}.mean"), *mean)?;
+            bounded(&format!("{field}.peak_to_peak_ratio"), *peak_to_peak_ratio)?;
             let c = *contact_ratio;
             if !(c.is_finite() && c > 1.0 && c < 2.0) {
                 return err(format!(
@@ -1228,7 +1226,7 @@ fn pair_stiffness(field: &str, spec: &PairStiffnessSpec) -> Result<PairStiffness
                 }
             }
             for (k, v) in values.iter().enumerate() {
-                non_negative(&format!("{field}.values[{k}]"), *v)?;
+                bounded(&format!("{field}.values[{k}]"), *v)?;
             }
             let pair = PairStiffness::table(c, points, values);
             if !(pair.mesh_mean() > 0.0) {
@@ -1286,10 +1284,10 @@ fn tip_relief(field: &str, m: &TrainMeshSpec, c: f64) -> Result<TipRelief> {
         return Ok(TipRelief::default());
     };
     let side = |name: &str, mag: f64, len: Option<f64>| -> Result<(f64, f64)> {
-        let mag = non_negative(&format!("{field}.{name}_magnitude"), mag)?;
+        let mag = bounded(&format!("{field}.{name}_magnitude"), mag)?;
         match (mag > 0.0, len) {
             (false, None) => Ok((0.0, 1.0)),
-            (false, Some(l)) => Ok((0.0, positive(&format!("{field}.{name}_length"), l)?)),
+            (false, Some(l)) => Ok((0.0, bounded(&format!("{field}.{name}_length"), l)?)),
             (true, None) => err(format!(
                 "{field}.{name}_length: missing; a relief of magnitude {mag:e} m needs its length \
                  in mesh cycles (c − 1 starts it at the highest point of single contact)"

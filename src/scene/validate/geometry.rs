@@ -6,7 +6,7 @@
 //! model, the solvers and the FMU see nothing new. Keys: `docs/model.md` ("Gears"),
 //! `docs/train.md` ("Gears and geometry meshes"), `docs/stiffness.md`.
 
-use super::checks::{finite, positive};
+use super::checks::{bounded, finite};
 use crate::mesh::geometry::{CurveOptions, MeshModel, Pair, PairCurve};
 use crate::mesh::MeshStiffness;
 use crate::scene::spec::{GeometryForm, PairStiffnessSpec, StiffnessSpec};
@@ -94,7 +94,7 @@ pub(crate) fn base_radius(
 ) -> Result<f64> {
     match (given, derived) {
         (Some(b), Some(d)) => {
-            let b = positive(&format!("{field}.base_radius"), b)?;
+            let b = bounded(&format!("{field}.base_radius"), b)?;
             if ((b - d.base_radius) / d.base_radius).abs() > BASE_RADIUS_TOL {
                 return Err(SceneError(format!(
                     "{field}.base_radius = {b}: differs from the base radius m·z·cos α/2 = {} m of \
@@ -105,7 +105,7 @@ pub(crate) fn base_radius(
             }
             Ok(b)
         }
-        (Some(b), None) => positive(&format!("{field}.base_radius"), b),
+        (Some(b), None) => bounded(&format!("{field}.base_radius"), b),
         (None, Some(d)) => Ok(d.base_radius),
         (None, None) => Err(SceneError(format!(
             "{field}.base_radius: missing; give the base-circle radius in m (it is derived only \
@@ -124,7 +124,7 @@ pub(crate) fn body_value(
 ) -> Result<f64> {
     let unit = if key == "mass" { "kg" } else { "kg·m²" };
     match (given, derived) {
-        (Some(v), _) => positive(&format!("{field}.{key}"), v),
+        (Some(v), _) => bounded(&format!("{field}.{key}"), v),
         (None, Some((_, Some(v)))) => Ok(v),
         (None, Some((d, None))) => Err(SceneError(format!(
             "{field}.{key}: missing; give it in {unit}, or a density (or material = \"steel\") in \
@@ -182,7 +182,7 @@ fn mesh_model(
 /// scene's static pinion torque `(source, value)`.
 fn geometry_torque(given: Option<f64>, field: &str, torque: (&str, f64)) -> Result<f64> {
     match given {
-        Some(t) => positive(&format!("{field}.torque"), t),
+        Some(t) => bounded(&format!("{field}.torque"), t),
         None => {
             let (source, t) = torque;
             let t = finite(source, t)?;

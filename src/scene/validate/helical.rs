@@ -3,7 +3,7 @@
 //! piecewise-linear K_e(t) (eq. 25) is computed once, at scene load, as linear pieces, so the
 //! dynamic model, the solvers and the FMU see nothing new.
 
-use super::checks::{finite, non_negative, positive};
+use super::checks::{bounded, finite};
 use crate::mesh::helical::{FrictionStiffness, HelicalGeometry};
 use crate::mesh::MeshStiffness;
 use crate::scene::spec::StiffnessSpec;
@@ -24,8 +24,8 @@ pub(super) fn stiffness(spec: &StiffnessSpec, pinion: &Gear, gear: &Gear) -> Res
     else {
         unreachable!("called for the helical source only");
     };
-    let density = positive(&format!("{FIELD}.stiffness_density"), *stiffness_density)?;
-    let friction = non_negative(
+    let density = bounded(&format!("{FIELD}.stiffness_density"), *stiffness_density)?;
+    let friction = bounded(
         &format!("{FIELD}.friction_coefficient"),
         *friction_coefficient,
     )?;

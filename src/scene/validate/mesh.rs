@@ -2,7 +2,7 @@
 //! clearance, and the mesh damping with the time scales it gives. `f` turns a key of the mesh
 //! table into its TOML path as the file wrote it (`mesh.backlash`, `mesh[1].backlash`).
 
-use super::checks::{damping_ratio_range, err, mesh_rates, non_negative};
+use super::checks::{bounded, damping_ratio_range, err, mesh_rates};
 use crate::scene::spec::{ContactLawSpec, MeshSpec};
 use crate::scene::{ContactLaw, SceneError};
 
@@ -12,7 +12,7 @@ type Result<T> = std::result::Result<T, SceneError>;
 pub(crate) fn contact_law(f: &dyn Fn(&str) -> String, m: &MeshSpec) -> Result<ContactLaw> {
     match (m.contact, m.backlash) {
         (ContactLawSpec::Backlash, Some(b)) => Ok(ContactLaw::Backlash {
-            clearance: non_negative(&f("backlash"), b)?,
+            clearance: bounded(&f("backlash"), b)?,
         }),
         (ContactLawSpec::Backlash, None) => err(format!(
             "{}: missing; contact = \"backlash\" needs the total clearance 2b in m",
@@ -38,8 +38,8 @@ pub(crate) fn damping(
     m_e: f64,
 ) -> Result<f64> {
     let damping = match (m.damping, m.damping_ratio) {
-        (Some(c), None) => non_negative(&f("damping"), c)?,
-        (None, Some(z)) => 2.0 * non_negative(&f("damping_ratio"), z)? * (k_mean * m_e).sqrt(),
+        (Some(c), None) => bounded(&f("damping"), c)?,
+        (None, Some(z)) => 2.0 * bounded(&f("damping_ratio"), z)? * (k_mean * m_e).sqrt(),
         (None, None) => 0.0,
         (Some(_), Some(_)) => {
             return err(format!(

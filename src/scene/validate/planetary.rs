@@ -4,7 +4,7 @@
 //! planet → ring meshes. Kinematics (Willis) and the balanced load of a stage are resolved
 //! here; what the planetary kernel does not carry yet is refused with the reason.
 
-use super::checks::{err, finite, non_negative, positive, valid_identifier as identifier};
+use super::checks::{bounded, err, finite, valid_identifier as identifier};
 use crate::scene::spec::{
     mesh_field, CarrierSpec, GearSpec, MeshForm, MeshSpec, PairStiffnessSpec, StiffnessSpec,
 };
@@ -42,10 +42,10 @@ pub(crate) fn carriers(
                 c.name
             ));
         }
-        let radius = positive(&f("radius"), c.radius)?;
-        let inertia = positive(&f("inertia"), c.inertia)?;
+        let radius = bounded(&f("radius"), c.radius)?;
+        let inertia = bounded(&f("inertia"), c.inertia)?;
         super::checks::gear_compliance(&format!("carrier[{i}]"), radius, inertia)?;
-        let mass = c.mass.map(|m| positive(&f("mass"), m)).transpose()?;
+        let mass = c.mass.map(|m| bounded(&f("mass"), m)).transpose()?;
         let bearing = match (c.bearing_stiffness, compliant) {
             (Some(k), true) => Some(central_bearing(
                 &f("bearing_stiffness"),
@@ -70,8 +70,8 @@ pub(crate) fn carriers(
             inertia,
             mass,
             bearing,
-            ground_stiffness: non_negative(&f("ground_stiffness"), c.ground_stiffness)?,
-            ground_damping: non_negative(&f("ground_damping"), c.ground_damping)?,
+            ground_stiffness: bounded(&f("ground_stiffness"), c.ground_stiffness)?,
+            ground_damping: bounded(&f("ground_damping"), c.ground_damping)?,
             errors: Default::default(),
         });
     }
@@ -97,8 +97,8 @@ fn central_bearing(
         }
     }
     let c = c.unwrap_or([0.0, 0.0]);
-    non_negative(&format!("{damping_field}[x]"), c[0])?;
-    non_negative(&format!("{damping_field}[y]"), c[1])?;
+    bounded(&format!("{damping_field}[x]"), c[0])?;
+    bounded(&format!("{damping_field}[y]"), c[1])?;
     if k[0] != k[1] || c[0] != c[1] {
         return err(format!(
             "{field} = [{}, {}] (damping [{}, {}]): a central member of a planetary stage \

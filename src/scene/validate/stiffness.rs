@@ -2,7 +2,7 @@
 //! `table`; `docs/model.md`) of any mesh; `geometry` and `helical` are resolved by their own
 //! files.
 
-use super::checks::{err, finite, harmonic_list, non_negative, positive};
+use super::checks::{bounded, err, finite, harmonic_list};
 use crate::mesh::MeshStiffness;
 use crate::scene::spec::StiffnessSpec;
 use crate::scene::SceneError;
@@ -23,8 +23,8 @@ pub(crate) fn stiffness_kind(spec: &StiffnessSpec) -> &'static str {
 
 /// Checks the contact ratio and the peak-to-peak ratio shared by the rectangular shapes.
 fn wave_parameters(mean: f64, ratio: f64, contact_ratio: f64) -> Result<()> {
-    positive("mesh.stiffness.mean", mean)?;
-    non_negative("mesh.stiffness.peak_to_peak_ratio", ratio)?;
+    bounded("mesh.stiffness.mean", mean)?;
+    bounded("mesh.stiffness.peak_to_peak_ratio", ratio)?;
     if !(contact_ratio.is_finite() && contact_ratio >= 1.0) {
         return err(format!(
             "mesh.stiffness.contact_ratio = {contact_ratio}: must be >= 1 (a contact ratio below 1 means the \
@@ -38,7 +38,7 @@ pub(crate) fn stiffness(spec: &StiffnessSpec) -> Result<MeshStiffness> {
     let phase = |p: f64| finite("mesh.stiffness.phase", p);
     Ok(match spec {
         StiffnessSpec::Constant { value } => {
-            MeshStiffness::constant(positive("mesh.stiffness.value", *value)?)
+            MeshStiffness::constant(bounded("mesh.stiffness.value", *value)?)
         }
         StiffnessSpec::Rectangular {
             mean,
@@ -82,7 +82,7 @@ pub(crate) fn stiffness(spec: &StiffnessSpec) -> Result<MeshStiffness> {
             sin,
             phase: p,
         } => {
-            positive("mesh.stiffness.mean", *mean)?;
+            bounded("mesh.stiffness.mean", *mean)?;
             harmonic_list("mesh.stiffness.cos", cos)?;
             harmonic_list("mesh.stiffness.sin", sin)?;
             MeshStiffness::fourier(*mean, cos, sin, phase(*p)?)
@@ -120,7 +120,7 @@ pub(crate) fn stiffness(spec: &StiffnessSpec) -> Result<MeshStiffness> {
                 }
             }
             for (i, &k) in values.iter().enumerate() {
-                positive(&format!("mesh.stiffness.values[{i}]"), k)?;
+                bounded(&format!("mesh.stiffness.values[{i}]"), k)?;
             }
             MeshStiffness::table(phase_points, values, phase(*p)?)
         }

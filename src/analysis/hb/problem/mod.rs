@@ -8,7 +8,7 @@ use std::f64::consts::TAU;
 use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
 use super::blocked_lu::Factorised;
-use super::scan::{scan_points, scan_roots};
+use super::scan::{uniform_coefficients, uniform_points, ScanGrid};
 use super::{Basis, HbOptions, HbSolution};
 use crate::model::drivetrain::{response_frequencies, response_period_in_mesh_periods};
 use crate::model::{Drivetrain, MeshLaw};
@@ -57,6 +57,9 @@ pub(super) struct Want {
     pub(super) jacobian: bool,
     pub(super) frequency: bool,
     pub(super) samples: bool,
+    /// Keep the torus linearisation for matrix-free Jacobian products (`torus::Torus::product`;
+    /// the torus quadrature only).
+    pub(super) linear: bool,
 }
 
 /// Sums over the quadrature nodes.
@@ -147,9 +150,8 @@ pub(super) struct Problem<M: Drivetrain> {
     pub(super) subharmonic: u32,
     pub(super) x_scale: f64,
     pub(super) receptance: Option<Receptance>,
-    /// `(cos, sin)` of the roots of unity of the results' scan grid
-    /// ([`super::scan::scan_points`]).
-    pub(super) scan_roots: Vec<(f64, f64)>,
+    /// The results' scan grid ([`ScanGrid`]).
+    pub(super) scan: ScanGrid,
     /// The torus quadrature of a two-frequency train ([`torus`]), while it applies.
     pub(super) torus: Option<Torus>,
 }
@@ -432,7 +434,7 @@ impl<M: Drivetrain> Problem<M> {
             subharmonic: options.subharmonic,
             x_scale: 0.0,
             receptance: None,
-            scan_roots: Vec::new(),
+            scan: ScanGrid::new(&[0]),
             torus: None,
         };
         problem.speed_per_f = problem.model.input_speed() / f;
@@ -477,17 +479,36 @@ impl<M: Drivetrain> Problem<M> {
         {
             problem.torus = Torus::new(&problem, &bases, options.harmonics);
         }
-        problem.scan_roots = scan_roots(scan_points(&problem.orders));
+        problem.scan = ScanGrid::new(&problem.orders);
         // External force: sampled once (it depends on the mesh phase only, not on the speed).
+        // On the torus (a two-frequency train, whose external force is its constant torques)
+        // by uniform samples, not along the line grid's nodes, whose every basis row costs
+        // `2|J|` entries (46 000 nodes × 841 on the countershaft at H = 20).
         let mut ext = vec![0.0; m];
         let mut external = DMatrix::zeros(m, len);
-        let mut row = vec![0.0; len];
-        for (i, (&theta, &w)) in problem.nodes.iter().zip(&problem.weights).enumerate() {
-            problem.model.external_force(theta / f, &mut ext);
-            let phi = problem.node_row(i, &mut row);
-            for (k, e) in ext.iter().enumerate() {
-                for r in 0..len {
-                    external[(k, r)] += factor(r) * w * e * phi[r];
+        if problem.torus.is_some() {
+            let points = uniform_points(&problem.orders);
+            let mut samples = vec![vec![0.0; points]; m];
+            let instants = (0..points).map(|i| i as f64 / points as f64 / f);
+            for (i, t) in instants.enumerate() {
+                problem.model.external_force(t, &mut ext);
+                for (k, e) in ext.iter().enumerate() {
+                    samples[k][i] = *e;
+                }
+            }
+            for (k, samples) in samples.iter().enumerate() {
+                let c = uniform_coefficients(&problem.orders, samples);
+                external.row_mut(k).copy_from_slice(&c);
+            }
+        } else {
+            let mut row = vec![0.0; len];
+            for (i, (&theta, &w)) in problem.nodes.iter().zip(&problem.weights).enumerate() {
+                problem.model.external_force(theta / f, &mut ext);
+                let phi = problem.node_row(i, &mut row);
+                for (k, e) in ext.iter().enumerate() {
+                    for r in 0..len {
+                        external[(k, r)] += factor(r) * w * e * phi[r];
+                    }
                 }
             }
         }
@@ -706,7 +727,6 @@ impl<M: Drivetrain> Problem<M> {
         Ok(())
     }
 
-    /// Newton at frequency `f` from `s`.
     /// Newton at frequency `f` from `s`: the iterate at which the Newton update falls below the
     /// tolerance, with its evaluation (node samples included), and the iteration count.
     pub(super) fn newton(
@@ -721,27 +741,46 @@ impl<M: Drivetrain> Problem<M> {
             samples: true,
             ..Want::default()
         };
-        // Large systems: the chord method (the LU kept while the updates shrink by ½ or more
-        // per iterate; docs/harmonic-balance.md "Solver"); small ones: Newton as always.
+        // Large systems: on the torus Newton–Krylov (krylov.rs), else the chord method (the LU
+        // kept while the updates shrink by ½ or more per iterate; docs/harmonic-balance.md
+        // "Solver"); small ones: Newton as always.
         let chord = s.len() > CHORD_UNKNOWNS;
         let mut factored: Option<Factorised> = None;
         let mut previous = f64::INFINITY;
         for iteration in 1..=options.max_iterations {
-            let refresh = !chord || factored.is_none();
-            let want = Want {
-                jacobian: refresh,
-                ..want
+            let krylov = chord && self.torus.is_some();
+            let refresh = !krylov && (!chord || factored.is_none());
+            let mut e = self.evaluate(
+                &s,
+                f,
+                Want {
+                    jacobian: refresh,
+                    linear: krylov,
+                    ..want
+                },
+            )?;
+            let delta = if krylov && self.torus.is_some() {
+                self.krylov_solve(&(-&e.residual)).ok_or_else(|| {
+                    format!("harmonic balance at {speed} rad/s: GMRES did not converge")
+                })?
+            } else {
+                if krylov {
+                    // The torus declined (a contact changes inside a smooth piece): the line
+                    // quadrature's Jacobian from here on.
+                    e = self.evaluate(&s, f, want)?;
+                }
+                if refresh || krylov {
+                    factored = Some(Factorised::new(
+                        e.jacobian.take().expect("asked for"),
+                        chord,
+                    ));
+                }
+                (factored.as_ref().expect("factorised"))
+                    .solve(&(-&e.residual))
+                    .ok_or_else(|| {
+                        format!("harmonic balance at {speed} rad/s: singular Jacobian")
+                    })?
             };
-            let mut e = self.evaluate(&s, f, want)?;
-            if refresh {
-                factored = Some(Factorised::new(
-                    e.jacobian.take().expect("asked for"),
-                    chord,
-                ));
-            }
-            let delta = (factored.as_ref().expect("factorised"))
-                .solve(&(-&e.residual))
-                .ok_or_else(|| format!("harmonic balance at {speed} rad/s: singular Jacobian"))?;
             let size = delta.amax();
             if size <= options.tolerance * self.x_scale {
                 return Ok((s, e, iteration));
@@ -793,11 +832,30 @@ impl<M: Drivetrain> Problem<M> {
         let k = self.mesh_periods;
         let warm = (SEED_WARMUP_PERIODS.div_ceil(k) * k) as f64 / self.mesh_periods as f64 * period;
         let t0 = sim.t();
-        let mut order: Vec<usize> = (0..self.nodes.len()).collect();
-        order.sort_by(|&a, &b| self.nodes[a].total_cmp(&self.nodes[b]));
         let len = self.len;
         let nm = self.coordinates();
         let mut s = DVector::zeros(nm * len);
+        if self.torus.is_some() {
+            // On the torus: uniform samples and one FFT per coordinate, not the line grid's
+            // nodes (each with a basis row of 2|J| entries).
+            let points = uniform_points(&self.orders);
+            let mut samples = vec![vec![0.0; points]; nm];
+            for i in 0..points {
+                sim.advance_to(t0 + warm + i as f64 / points as f64 * period)
+                    .map_err(|e| format!("harmonic balance seed: {e}"))?;
+                let y = sim.y();
+                for (n, samples) in samples.iter_mut().enumerate() {
+                    samples[i] = (0..self.m).map(|k| self.a[(k, n)] * y[k]).sum();
+                }
+            }
+            for (n, samples) in samples.iter().enumerate() {
+                let c = uniform_coefficients(&self.orders, samples);
+                s.rows_mut(n * len, len).copy_from_slice(&c);
+            }
+            return Ok(s);
+        }
+        let mut order: Vec<usize> = (0..self.nodes.len()).collect();
+        order.sort_by(|&a, &b| self.nodes[a].total_cmp(&self.nodes[b]));
         let mut row = vec![0.0; len];
         for i in order {
             sim.advance_to(t0 + warm + self.nodes[i] * period)
