@@ -303,3 +303,46 @@ fn restored_guarded_runs_continue_bit_for_bit() {
     }
     assert!(a.composite_counts().1 > 50 && b.composite_counts().1 > 50);
 }
+
+/// Total contact loss on Model-1 meshes (per-tooth-pair contact) without tip relief: every
+/// tooth pair of a mesh has the same gap, so a pair that enters while the mesh has lost
+/// contact on every pair enters apart. A guarded walk that ends at such a stop has assumed it
+/// in contact with no segment of its sequence to prove it; the stop must be taken again from
+/// the state (it was not: the Liu Ch. 2 orbit at 2715 Hz lost contact on mesh 1 for 0.155 of
+/// the time instead of 0.082).
+/// Oracle: the segment-wise path, the same contact events, states within the exact solver's
+/// accuracy, and the guarded path must be taken.
+#[test]
+fn guarded_walks_end_before_an_unproved_stop() {
+    use geardyn::scene::train::MeshForceModel;
+    let mut scene = Scene::example("idler_gearset").expect("the idler");
+    for m in &mut scene.meshes {
+        if let MeshForceModel::Pairs { relief, .. } = &mut m.force {
+            *relief = Default::default();
+        }
+    }
+    // Near the 2529 Hz mode with little damping (tests/train_dynamics.rs,
+    // model_1_without_relief_equals_lumped_mesh).
+    scene.operating.input_speed = std::f64::consts::TAU * 2450.0 / 38.0;
+    scene.modal_damping_ratio = 0.005;
+    let f1 = scene.mesh_frequency(0, scene.operating.input_speed);
+    let mut sims = [
+        sim(&scene, MethodChoice::Exact, true),
+        sim(&scene, MethodChoice::Exact, false),
+    ];
+    let mut worst = 0.0f64;
+    for k in 1..=40 * 16 {
+        let t = k as f64 / (16.0 * f1);
+        for s in sims.iter_mut() {
+            s.advance_to(t).expect("advance");
+        }
+        worst = worst.max(distance(sims[0].state(), sims[1].state()));
+    }
+    let events = [sims[0].stats().events, sims[1].stats().events];
+    let hits = sims[0].composite_counts().1;
+    println!("events {events:?}, guarded hits {hits}, distance {worst:e}");
+    assert!(events[1] >= 40, "contact is lost: {events:?}");
+    assert!(hits >= 10, "the guarded path decided {hits} sequences");
+    assert_eq!(events[0], events[1], "the same contact events");
+    assert!(worst < 1e-9, "guarded walks vs segment-wise: {worst:e}");
+}

@@ -559,6 +559,10 @@ pub struct ExactPropagator {
     /// taken back (its span, times [`ExactPropagator::guarded_backoff`] after refused
     /// certificates, so a scene that loses contact pays for few certifications).
     stop_state: Vec<u64>,
+    /// The model's stops before the last stop of a guarded walk: that stop's assumed
+    /// contacts are proved by no segment of the sequence, so an accepted walk takes it again
+    /// from the state ([`ExactPropagator::advance_guarded_sequence`]).
+    last_stop_state: Vec<u64>,
     certify_work: guarded::CertifyWork,
     segment_wise_until: f64,
     guarded_backoff: u32,
@@ -774,6 +778,7 @@ impl ExactPropagator {
             composites: true,
             sequence: Vec::new(),
             stop_state: Vec::new(),
+            last_stop_state: Vec::new(),
             certify_work: guarded::CertifyWork::default(),
             segment_wise_until: f64::NEG_INFINITY,
             guarded_backoff: 0,
@@ -1498,7 +1503,9 @@ impl ExactPropagator {
     /// through the walked sequence with one mat-vec of its product where its certificate
     /// proves that no guard crosses ([`guarded`]). The walk ends as the guard-free one
     /// ([`ExactPropagator::advance_sequence`]), at a zero-length stop or at a mode not
-    /// cached (the segment-wise path builds the modes). Otherwise (the
+    /// cached (the segment-wise path builds the modes). An accepted walk that ends with a
+    /// stop takes that stop again from the state: its assumed contacts would be proved by the
+    /// next mode's guards, which no certificate of the sequence covers. Otherwise (the
     /// sequence seen once, its product over the memory budget, a guard that may cross) the
     /// model's stops, the counters and the budget are taken back and `false` is returned:
     /// the segment-wise path then goes over the walked span, and further on after refused
@@ -1521,6 +1528,10 @@ impl ExactPropagator {
         let (stats_before, budget_before) = (self.stats, *budget);
         let mut steps = std::mem::take(&mut self.sequence);
         steps.clear();
+        let mut before_last_stop = std::mem::take(&mut self.last_stop_state);
+        // Whether the walk ends with a stop: the contacts it assumed there would be proved
+        // only by the guards of the mode after it, which is not in the sequence.
+        let mut ends_with_stop = false;
         let mut t = start;
         while t < t_end && steps.len() < composite::MAX_LENGTH {
             let stop = sys.next_stop();
@@ -1550,7 +1561,9 @@ impl ExactPropagator {
                 offset: target - start,
             });
             t = target;
-            if target == stop {
+            ends_with_stop = target == stop;
+            if ends_with_stop {
+                sys.save_stops(&mut before_last_stop);
                 sys.on_stop_assuming_contact(t);
                 self.stats.stops += 1;
                 budget.stops += 1;
@@ -1621,12 +1634,20 @@ impl ExactPropagator {
             if !self.z[..n].iter().all(|v| v.is_finite()) {
                 self.sequence = steps;
                 self.stop_state = saved;
+                self.last_stop_state = before_last_stop;
                 return Err(SolveError::NonFinite { t: self.t });
             }
             self.y.copy_from_slice(&self.z[..n]);
             self.t = t;
             self.carried = None;
             self.guarded_backoff = 0;
+            if ends_with_stop {
+                // The closing stop classifies its entering pairs from the state, as the
+                // segment-wise path does (a pair assumed in contact may enter apart: on a
+                // mesh that lost contact on every pair, without tip relief, it always does).
+                sys.restore_stops(&before_last_stop);
+                sys.on_stop(t, &mut self.y);
+            }
         } else {
             sys.restore_stops(&saved);
             self.stats = stats_before;
@@ -1644,6 +1665,7 @@ impl ExactPropagator {
         }
         self.sequence = steps;
         self.stop_state = saved;
+        self.last_stop_state = before_last_stop;
         Ok(accepted)
     }
 

@@ -5,9 +5,11 @@
 //! The model walks its stops ahead of the state, assuming every tooth pair that enters is
 //! in contact ([`super::PiecewiseLti::stops_assume_contact`]); the entering pair's contact
 //! guard is a guard of the next mode, so proving every guard of every segment positive
-//! from the segment's start on (`s = 0` included) also proves each assumption. Where it
-//! cannot be proved, the propagator restores the model's stops and takes the segments one
-//! by one, as without this path.
+//! from the segment's start on (`s = 0` included) also proves each assumption but the last:
+//! the stop that closes the walk leads to a mode outside the sequence, so an accepted walk
+//! takes that stop again from the propagated state. Where it cannot be proved, the
+//! propagator restores the model's stops and takes the segments one by one, as without this
+//! path.
 //!
 //! **The certificate** (`docs/scaling.md`, "Contact holds: guarded sequences"). For a
 //! reference start `z_r` the sequence's segments are propagated by their Taylor series on
