@@ -6,7 +6,7 @@
 //! ([`bounds_of`], `validate::checks::bounded`), so a bound is written once, beside the field.
 
 mod bounds;
-mod path;
+pub mod path;
 
 use std::fmt;
 use std::sync::OnceLock;
