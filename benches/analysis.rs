@@ -28,8 +28,11 @@ use geardyn::scene::PairScene;
 use geardyn::scene::Scene;
 use geardyn::with_drivetrain;
 
+#[path = "common/cpu.rs"]
+mod cpu;
 #[path = "common/stats.rs"]
 mod stats;
+use cpu::{process_cpu, thread_cpu};
 use stats::median;
 
 const POINTS: usize = 200;
@@ -131,29 +134,6 @@ fn bench(name: &str, from: f64, to: f64, transient: u32) {
 
 /// Timed rounds after the warm-up.
 const ROUNDS: usize = 3;
-
-/// CPU time of this thread, s (the machine is shared: wall time would count the others).
-fn thread_cpu() -> f64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: writes the calling thread's CPU clock into `ts`.
-    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
-}
-
-/// CPU time of the process (every thread), s: the continuation's stability step runs its
-/// period maps on all cores.
-fn process_cpu() -> f64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: writes the process' CPU clock into `ts`.
-    unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
-    ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
-}
 
 /// Issue 38 acceptance 1: `geardyn hb fmu/countershaft_gearset --speed from:to --harmonics 20`
 /// (continuation with the stability of every point) against the up sweep of the same speeds

@@ -18,22 +18,14 @@ use geardyn::analysis::hb::{continuation, BranchPoint, ContinuationOptions, HbOp
 use geardyn::scene::Scene;
 use nalgebra::{Complex, DMatrix};
 
+#[path = "common/cpu.rs"]
+mod cpu;
 #[path = "common/stats.rs"]
 mod stats;
+use cpu::process_cpu;
 use stats::median;
 
 const ROUNDS: usize = 5;
-
-/// CPU time of the process (every thread), s.
-fn process_cpu() -> f64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: writes the process' CPU clock into `ts`.
-    unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
-    ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
-}
 
 /// A deterministic dense matrix of uniform entries in (−1, 1) (a linear congruential
 /// generator: the cost of a dense factorisation does not depend on the values).
