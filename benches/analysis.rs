@@ -28,8 +28,11 @@ use geardyn::scene::PairScene;
 use geardyn::scene::Scene;
 use geardyn::with_drivetrain;
 
+#[path = "common/cpu.rs"]
+mod cpu;
 #[path = "common/stats.rs"]
 mod stats;
+use cpu::{process_cpu, thread_cpu};
 use stats::median;
 
 const POINTS: usize = 200;
@@ -132,29 +135,6 @@ fn bench(name: &str, from: f64, to: f64, transient: u32) {
 /// Timed rounds after the warm-up.
 const ROUNDS: usize = 3;
 
-/// CPU time of this thread, s (the machine is shared: wall time would count the others).
-fn thread_cpu() -> f64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: writes the calling thread's CPU clock into `ts`.
-    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
-}
-
-/// CPU time of the process (every thread), s: the continuation's stability step runs its
-/// period maps on all cores.
-fn process_cpu() -> f64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: writes the process' CPU clock into `ts`.
-    unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
-    ts.tv_sec as f64 + 1e-9 * ts.tv_nsec as f64
-}
-
 /// Issue 38 acceptance 1: `geardyn hb fmu/countershaft_gearset --speed from:to --harmonics 20`
 /// (continuation with the stability of every point) against the up sweep of the same speeds
 /// (the branch points'), in process CPU time, measured in one run (one round each: the HB
@@ -246,23 +226,8 @@ fn spectrum_against_shooting(name: &str, speed: f64, harmonics: usize) {
     );
 }
 
-fn main() {
-    // `cargo bench --bench analysis -- countershaft`: these rows alone.
-    if std::env::args().any(|a| a == "countershaft") {
-        countershaft_hb_against_sweep(240.0, 250.0);
-        countershaft_hb_against_sweep(300.0, 320.0);
-        return;
-    }
-    spectrum_against_shooting("idler_gearset", 420.0, 40);
-    spectrum_against_shooting("idler_gearset", 390.0, 40);
-    spectrum_against_shooting("countershaft_gearset", 232.0, 40);
-    // `cargo bench --bench analysis -- spectrum`: these rows alone.
-    if std::env::args().any(|a| a == "spectrum") {
-        return;
-    }
-    bench("spur_pair", 300.0, 600.0, 800);
-    bench("idler_gearset", 250.0, 760.0, 500);
-
+/// Issue 38 acceptance 2: the spur pair's HB continuation (H = 20, with stability), wall time.
+fn spur_pair_hb() {
     let scene = PairScene::example("spur_pair").expect("built-in scene");
     let spur_hb = || {
         continuation(
@@ -286,7 +251,11 @@ fn main() {
          {ROUNDS} after a warm-up), {} points, {folds} folds",
         branch.len()
     );
+}
 
+/// Issue 38 acceptance 2: the idler train's HB continuation at H = 10 and 20, with and without
+/// stability, wall time.
+fn idler_hb() {
     // The 8-DOF idler train across both fundamental resonances (mesh modes at 2529 and
     // 3851 Hz; 250..760 rad/s is 1512..4596 Hz of mesh frequency).
     let idler = Scene::example("idler_gearset").expect("built-in scene");
@@ -339,6 +308,32 @@ fn main() {
             );
         }
     }
+}
+
+fn main() {
+    // `cargo bench --bench analysis -- hb`: the spur pair's and the idler's HB rows alone.
+    if std::env::args().any(|a| a == "hb") {
+        spur_pair_hb();
+        idler_hb();
+        return;
+    }
+    // `cargo bench --bench analysis -- countershaft`: these rows alone.
+    if std::env::args().any(|a| a == "countershaft") {
+        countershaft_hb_against_sweep(240.0, 250.0);
+        countershaft_hb_against_sweep(300.0, 320.0);
+        return;
+    }
+    spectrum_against_shooting("idler_gearset", 420.0, 40);
+    spectrum_against_shooting("idler_gearset", 390.0, 40);
+    spectrum_against_shooting("countershaft_gearset", 232.0, 40);
+    // `cargo bench --bench analysis -- spectrum`: these rows alone.
+    if std::env::args().any(|a| a == "spectrum") {
+        return;
+    }
+    bench("spur_pair", 300.0, 600.0, 800);
+    bench("idler_gearset", 250.0, 760.0, 500);
+    spur_pair_hb();
+    idler_hb();
     countershaft_hb_against_sweep(240.0, 250.0);
     countershaft_hb_against_sweep(300.0, 320.0);
 }

@@ -50,8 +50,11 @@ use geardyn::simulation::Simulation;
 use geardyn::solve::rk::Method as Rk;
 use geardyn::solve::SolverStats;
 
+#[path = "common/cpu.rs"]
+mod cpu;
 #[path = "common/stats.rs"]
 mod stats;
+use cpu::thread_cpu;
 use stats::median;
 
 const SPUR_PAIR: &str = include_str!("../fmu/spur_pair/scene.toml");
@@ -135,16 +138,6 @@ struct Run {
     loss_fraction: f64,
     /// The exact propagator's (modes built, cache clears) and (products built, hits).
     counts: Option<((u64, u64), (u64, u64))>,
-}
-
-fn thread_cpu_seconds() -> f64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: writes the calling thread's CPU clock into `ts`.
-    unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
 }
 
 fn replace_once(text: &str, from: &str, to: &str) -> String {
@@ -322,14 +315,14 @@ fn run(row: &Row, method: Method, periods: u64, stops: Stops, metered: bool) -> 
             if metered {
                 sim.set_work_budget(1e15).expect("a valid budget");
             }
-            let started = thread_cpu_seconds();
+            let started = thread_cpu();
             for &t in &grid {
                 sim.advance_to(t).expect("pair run succeeds");
                 let out = black_box(sim.outputs());
                 dte.push(out[0]);
             }
             Run {
-                seconds: thread_cpu_seconds() - started,
+                seconds: thread_cpu() - started,
                 stats: sim.stats(),
                 dte,
                 loss_fraction: f64::NAN,
@@ -352,13 +345,13 @@ fn run(row: &Row, method: Method, periods: u64, stops: Stops, metered: bool) -> 
                 .filter(|&c| names[c].ends_with(".contact_loss_fraction"))
                 .collect();
             let mut out = Vec::new();
-            let started = thread_cpu_seconds();
+            let started = thread_cpu();
             for &t in &grid {
                 sim.advance_to(t).expect("stage run succeeds");
                 sim.outputs(&mut out);
                 dte.extend(dte_columns.iter().map(|&c| out[c]));
             }
-            let seconds = thread_cpu_seconds() - started;
+            let seconds = thread_cpu() - started;
             let loss_fraction = loss_columns.iter().map(|&c| out[c]).fold(0.0, f64::max);
             Run {
                 seconds,

@@ -8,7 +8,9 @@ use std::f64::consts::TAU;
 
 use geardyn::analysis::hb::{self, HbOptions};
 use geardyn::commands::steady::{periodic, periodic_responses};
+use geardyn::model::Drivetrain;
 use geardyn::scene::Scene;
+use geardyn::with_drivetrain;
 
 /// `fmu/spur_pair` (backlash, contact loss at these speeds) with a 5 µm runout and a pitch
 /// table of two tooth orders on the pinion.
@@ -78,24 +80,53 @@ fn errors_at(speed: f64) -> (f64, f64) {
     (e_rms, e_peak)
 }
 
-/// With contact loss (44 % and 25 % of the period): DTE RMS and peak force within 1e-3 of
-/// `periodic` (measured 3.3e-5 / 2.6e-4 at 440 rad/s, 4.8e-5 / 2.1e-4 at 520 rad/s).
+/// Acceptance 3 over the scene's speeds, not one point: DTE RMS and peak force within 1e-3 of
+/// `periodic` without contact loss (300–400 rad/s) and with it (440 and 520 rad/s: 44 % and
+/// 25 % of the period). Measured on 2026-11-30 (`-- --nocapture`): DTE RMS ≤ 6.3e-7; peak
+/// force 8.5e-4, 7.1e-4, 6.5e-4, 1.1e-5, 5.5e-5, 4.4e-5. At 380 rad/s the peak force erred by
+/// 1.8e-3 (DTE RMS 8.7e-5) while the quadratures of both HB and the oracle's statistics split
+/// at the nominal knots, which the runout moves by up to 2e-3 cycles (a rule across a
+/// stiffness jump); both now split where the knots lie ([`Drivetrain::mesh_knot_phase`]).
 #[test]
 fn hb_h20_with_runout_and_pitch_errors_agrees_with_periodic() {
-    for speed in [440.0, 520.0] {
+    let mut failed = Vec::new();
+    for speed in [300.0, 350.0, 380.0, 400.0, 440.0, 520.0] {
         let (e_rms, e_peak) = errors_at(speed);
-        assert!(e_rms <= 1e-3 && e_peak <= 1e-3, "{speed} rad/s");
+        if !(e_rms <= 1e-3 && e_peak <= 1e-3) {
+            failed.push(speed);
+        }
     }
+    assert!(failed.is_empty(), "beyond 1e-3 at {failed:?} rad/s");
 }
 
-/// Issue 38 acceptance 3 does NOT hold here yet: at 380 rad/s (no contact loss) the peak force
-/// errs by 1.8e-3 (DTE RMS 8.7e-5). Likely cause (not yet confirmed): HB's quadrature knots
-/// stay at the nominal stiffness phases while the runout moves the real ones
-/// (docs/errors.md "Moving centre"), and the peak sits at a stiffness jump. Run with
-/// `--ignored`.
+/// The knots the quadratures split at are where the law jumps: over one pinion revolution, the
+/// mesh stiffness (every engaged pair in contact) differs 1e-9 cycles either side of each
+/// knot [`Drivetrain::mesh_knot_phase`] places, and where the runout moved the knot by more
+/// than 1e-6 cycles it does not jump at the nominal knot.
 #[test]
-#[ignore]
-fn hb_h20_with_errors_without_contact_loss() {
-    let (e_rms, e_peak) = errors_at(380.0);
-    assert!(e_rms <= 1e-3 && e_peak <= 1e-3, "380 rad/s");
+fn moved_knots_are_where_the_mesh_law_jumps() {
+    let scene = spur_pair_with_errors();
+    with_drivetrain!(scene.simulation().unwrap(), sim => {
+        let m = sim.model();
+        let (f, p0) = (Drivetrain::mesh_frequency(m, 0), Drivetrain::mesh_phase(m, 0, 0.0));
+        // Well beyond the STE and the errors (a few µm): every engaged pair touches.
+        let s = 3.0 * Drivetrain::static_mesh_forces(m)[0] / Drivetrain::mean_mesh_law(m, 0).0;
+        let k = |p: f64| Drivetrain::mesh_law(m, 0, (p - p0) / f, s, 0.0).stiffness[0];
+        let jumps = |p: f64| k(p - 1e-9) != k(p + 1e-9);
+        let mut moved = 0;
+        let breakpoints = Drivetrain::mesh_breakpoints(m, 0);
+        assert_eq!(breakpoints.len(), 2, "rectangular stiffness");
+        for b in breakpoints {
+            for c in 0..38 {
+                let nominal = p0 + (b - p0).rem_euclid(1.0) + c as f64;
+                let knot = Drivetrain::mesh_knot_phase(m, 0, nominal);
+                assert!(jumps(knot), "no jump at the knot {knot} (nominal {nominal})");
+                if (knot - nominal).abs() > 1e-6 {
+                    moved += 1;
+                    assert!(!jumps(nominal), "a jump at the nominal knot {nominal}");
+                }
+            }
+        }
+        assert!(moved > 60, "{moved} of 76 knots moved");
+    })
 }

@@ -1,83 +1,234 @@
 //! Issue 38 acceptance 4: at every computed branch point whose spectral radius differs from 1
-//! by more than 1e-4, the stability verdict of `hb` (the monodromy along the trajectory from
-//! the HB state, checked by Newton shooting near |μ| = 1: `docs/harmonic-balance.md`) is that
-//! of `periodic` (Newton shooting from the default warm-up, Floquet multipliers of the converged
-//! orbit) at the same speed. The idler across its Neimark–Sacker interval is
-//! `tests/hb_stability.rs`; here the spur pair over its contact-loss range (folds and jumps)
-//! and the countershaft at H = 20 on the total-order basis.
+//! by more than 1e-4, the stability verdict of `hb` is that of shooting, on `spur_pair`,
+//! `idler_gearset` and `countershaft_gearset`.
+//!
+//! The oracle is this file's own Newton iteration on the period map (`analysis::period_map`:
+//! the exact propagator with saltation, the map `geardyn periodic` integrates), started from
+//! the HB state of each point and converged to a periodicity residual of 1e-11: the periodic
+//! orbit nearest the HB orbit, which is the same orbit by construction, checked by the distance
+//! of the two starts. Its Floquet multipliers are the eigenvalues of the converged monodromy.
+//! Nothing of the HB stability step (its monodromy from the unconverged HB state, its margin,
+//! its shooting check) is used, so the verdict of every point is compared, on the unstable
+//! branches too, where `periodic` from its warm-up would land on another (stable) orbit.
 
-use geardyn::analysis::hb::{continuation, ContinuationOptions, HbOptions};
-use geardyn::analysis::{shoot, ShootingOptions, Stability};
+use geardyn::analysis::hb::{continuation, BranchPoint, ContinuationOptions, HbOptions};
+use geardyn::analysis::shooting::state_scale;
+use geardyn::analysis::{period_map, Stability};
 use geardyn::scene::Scene;
+use geardyn::with_drivetrain;
+use nalgebra::{DMatrix, DVector};
 
-/// Every point of the branch against `periodic` where the latter's orbit is the branch's (the
-/// same DTE RMS to 1e-2: on a fold's overlap `periodic` may land on another branch, whose
-/// verdict says nothing about this one). Returns (compared, stable, unstable) counts.
-fn compare(scene: &Scene, from: f64, to: f64, h: usize) -> (usize, usize, usize) {
-    let branch = continuation(
-        scene,
-        &HbOptions::new(h),
-        &ContinuationOptions::new(from, to),
-    )
-    .unwrap();
-    let (mut compared, mut stable, mut unstable) = (0, 0, 0);
+/// Scaled periodicity residual the oracle's Newton converges to. The multipliers move by a few
+/// times the orbit's scaled displacement (docs of `RADIUS_SENSITIVITY`), so they are within
+/// ~1e-10 of the orbit's, far inside the 1e-4 the verdicts are compared at.
+const ORACLE_TOLERANCE: f64 = 1e-11;
+
+/// Largest scaled distance of the shooting orbit's start from the HB state: the HB truncation
+/// error at H = 20 is ~1e-4 of the state scale (docs of `SHOOTING_CHECK_MARGIN`); a start this
+/// far off is another orbit.
+const SAME_ORBIT: f64 = 1e-2;
+
+/// The residual scale of each state component (`analysis::shooting::state_scale`, the one
+/// `periodic` converges in): the displacement scale, times the fastest frequency for velocities.
+fn scale(scene: &Scene, y: &[f64]) -> Vec<f64> {
+    with_drivetrain!(scene.simulation().unwrap(), sim => state_scale(sim.model(), y))
+}
+
+fn scaled_max(d: &[f64], scale: &[f64]) -> f64 {
+    (d.iter().zip(scale))
+        .map(|(x, s)| (x / s).abs())
+        .fold(0.0, f64::max)
+}
+
+/// The oracle at one branch point: damped Newton on `P(y) − y` from the HB state at `t = 0`.
+/// Returns the scaled distance of the converged start from the HB state and the multipliers.
+fn shooting_from_hb(
+    scene: &Scene,
+    p: &BranchPoint,
+) -> Result<(f64, Vec<nalgebra::Complex<f64>>), String> {
+    let mut s = scene.clone();
+    s.set_input_speed(p.speed);
+    let periods = p.solution.subharmonic;
+    let hb_state = p.solution.state_at(0.0);
+    let scale = scale(&s, &hb_state);
+    let n = hb_state.len();
+    let mut y = DVector::from_vec(hb_state.clone());
+    let (py, mut m) = period_map(&s, y.as_slice(), periods)?;
+    let mut r = DVector::from_vec(py) - &y;
+    let mut residual = scaled_max(r.as_slice(), &scale);
+    let mut iterations = 0;
+    while residual > ORACLE_TOLERANCE {
+        iterations += 1;
+        if iterations > 20 {
+            return Err(format!("no convergence, scaled residual {residual:.2e}"));
+        }
+        let step = (&m - DMatrix::identity(n, n))
+            .lu()
+            .solve(&(-&r))
+            .ok_or("M − I singular")?;
+        // Halve the step until the residual decreases (the map is piecewise smooth at contact
+        // changes).
+        let mut lambda = 1.0;
+        loop {
+            let trial = &y + &step * lambda;
+            let (p_trial, m_trial) = period_map(&s, trial.as_slice(), periods)?;
+            let r_trial = DVector::from_vec(p_trial) - &trial;
+            let res = scaled_max(r_trial.as_slice(), &scale);
+            if res < residual || lambda < 1e-3 {
+                (y, m, r, residual) = (trial, m_trial, r_trial, res);
+                break;
+            }
+            lambda *= 0.5;
+        }
+    }
+    let distance: Vec<f64> = y.iter().zip(&hb_state).map(|(a, b)| a - b).collect();
+    let multipliers = geardyn::analysis::multipliers(&m)?;
+    Ok((scaled_max(&distance, &scale), multipliers))
+}
+
+fn radius(m: &[nalgebra::Complex<f64>]) -> f64 {
+    m.iter().map(|c| c.norm()).fold(0.0, f64::max)
+}
+
+/// What [`compare`] counted over a branch.
+#[derive(Debug, Default)]
+struct Tally {
+    points: usize,
+    compared: usize,
+    stable: usize,
+    unstable: usize,
+    /// Points whose oracle radius lies within 1e-4 of 1 (not compared: the rule's exception).
+    near_one: usize,
+    /// Largest distance of an oracle orbit's start from its HB state (scaled).
+    distance: f64,
+}
+
+/// Every point of the branch of `scene` over `from..to` at `h` harmonics against the oracle
+/// started from it: the oracle converges and lies on the HB orbit at every point, and the
+/// verdicts agree wherever the oracle's radius is more than 1e-4 from 1.
+fn compare(scene: &Scene, options: &ContinuationOptions, h: usize) -> Tally {
+    let (from, to) = (options.from, options.to);
+    let branch = continuation(scene, &HbOptions::new(h), options).unwrap();
+    let mut tally = Tally {
+        points: branch.len(),
+        ..Tally::default()
+    };
     for p in &branch {
         let hb_rho = p.spectral_radius().unwrap();
-        let mut s = scene.clone();
-        s.set_input_speed(p.speed);
-        let orbit = shoot(&s, &ShootingOptions::default()).unwrap();
-        let rho = orbit.spectral_radius();
-        let rms = geardyn::commands::steady::periodic_responses(&s, &orbit).unwrap()[0].dte_rms;
-        let same_orbit = (rms - p.solution.meshes[0].dte_rms).abs() <= 1e-2 * rms;
+        let (distance, multipliers) = shooting_from_hb(scene, p)
+            .unwrap_or_else(|e| panic!("{} at {} rad/s: oracle: {e}", scene.name, p.speed));
+        let (rho, verdict) = (radius(&multipliers), Stability::of(&multipliers));
         println!(
-            "{:.4} rad/s: hb |μ| {hb_rho:.8} {:?}, periodic {rho:.8} {:?}{}",
+            "{} {:.4} rad/s{}: hb |μ| {hb_rho:.8} {:?}{}, shooting {rho:.8} {verdict:?}, start \
+             {distance:.1e} from the HB state",
+            scene.name,
             p.speed,
+            if p.fold { " (fold)" } else { "" },
             p.stability().unwrap(),
-            orbit.stability(),
-            if same_orbit { "" } else { " (another orbit)" }
+            if p.shooting_checked() {
+                " (checked)"
+            } else {
+                ""
+            },
         );
-        if !same_orbit || (rho - 1.0).abs() <= 1e-4 {
+        assert!(
+            distance <= SAME_ORBIT,
+            "{} at {} rad/s: the shooting orbit starts {distance:.2e} from the HB state",
+            scene.name,
+            p.speed
+        );
+        tally.distance = tally.distance.max(distance);
+        if (rho - 1.0).abs() <= 1e-4 {
+            tally.near_one += 1;
             continue;
         }
         assert_eq!(
             p.stability().unwrap(),
-            orbit.stability(),
-            "{} rad/s",
+            verdict,
+            "{} at {} rad/s: hb |μ| {hb_rho}, shooting {rho}",
+            scene.name,
             p.speed
         );
-        compared += 1;
-        match orbit.stability() {
-            Stability::Stable => stable += 1,
-            _ => unstable += 1,
+        tally.compared += 1;
+        match verdict {
+            Stability::Stable => tally.stable += 1,
+            _ => tally.unstable += 1,
         }
     }
-    (compared, stable, unstable)
+    println!("{} {from}–{to} rad/s, H = {h}: {tally:?}", scene.name);
+    assert_eq!(tally.compared + tally.near_one, tally.points);
+    tally
 }
 
-/// The spur pair's branch over 300–600 rad/s at H = 20 folds twice (contact loss): measured
-/// 19 points compared, all stable and agreeing; the 107 points of the upper and the unstable
-/// middle branch are not compared, because `periodic` from its warm-up lands on the stable
-/// lower orbit there (another orbit). All three verdicts of the issue's rule on the unstable
-/// branch would need a shooting orbit started on it (the HB state: [`ShootingCheck`] does that
-/// near |μ| = 1 only).
-///
-/// [`ShootingCheck`]: geardyn::analysis::hb::ShootingCheck
-#[test]
-fn spur_pair_verdicts_agree_with_periodic() {
-    let scene = Scene::example("spur_pair").unwrap();
-    let (compared, stable, unstable) = compare(&scene, 300.0, 600.0, 20);
-    println!("spur_pair: {compared} points compared, {stable} stable, {unstable} unstable");
-    assert!(compared >= 15, "{compared}");
-}
-
-#[test]
-fn countershaft_verdicts_agree_with_periodic() {
-    let scene = Scene::from_toml_str(
+fn countershaft() -> Scene {
+    Scene::from_toml_str(
         include_str!("../fmu/countershaft_gearset/scene.toml"),
         "countershaft_gearset",
     )
-    .unwrap();
-    let (compared, stable, unstable) = compare(&scene, 240.0, 250.0, 20);
-    println!("countershaft: {compared} points compared, {stable} stable, {unstable} unstable");
-    assert!(compared >= 5, "{compared}");
+    .unwrap()
+}
+
+/// The spur pair over 300–600 rad/s at H = 20 folds twice (contact loss): the stable lower,
+/// the unstable middle and the stable upper branch, every point compared (measured: 126
+/// points, 23 stable, 103 unstable, |μ| up to 2.5; starts within 7.1e-4 of the HB states).
+#[test]
+fn spur_pair_verdicts_agree_with_shooting() {
+    let t = compare(
+        &Scene::example("spur_pair").unwrap(),
+        &ContinuationOptions::new(300.0, 600.0),
+        20,
+    );
+    assert!(t.stable > 0 && t.unstable > 0, "{t:?}");
+}
+
+/// The idler across its Neimark–Sacker interval (389.2–393.3 rad/s, `tests/hb_stability.rs`)
+/// and a fold at 378 rad/s, with a tenth of the default largest step so that the interval holds
+/// points more than 1e-4 outside the circle (measured: 54 points, 42 stable, 9 unstable, 3
+/// within 1e-4 of |μ| = 1).
+#[test]
+fn idler_verdicts_agree_with_shooting() {
+    let t = compare(
+        &Scene::example("idler_gearset").unwrap(),
+        &ContinuationOptions {
+            max_step: 0.005,
+            ..ContinuationOptions::new(380.0, 400.0)
+        },
+        20,
+    );
+    assert!(t.stable > 0 && t.unstable > 0, "{t:?}");
+}
+
+/// The countershaft at H = 20 on the total-order basis, at both of the issue's intervals
+/// (measured: 8 and 9 points, all stable, |μ| ≤ 4e-6: no contact loss there).
+#[test]
+fn countershaft_verdicts_agree_with_shooting() {
+    let scene = countershaft();
+    for (from, to) in [(240.0, 250.0), (300.0, 320.0)] {
+        let t = compare(&scene, &ContinuationOptions::new(from, to), 20);
+        assert!(t.compared > 0, "{t:?}");
+    }
+}
+
+/// The idler over both fundamental resonances at H = 20 (folds, contact loss, the
+/// Neimark–Sacker interval at the default step): measured 344 points, 199 stable and 145
+/// unstable, every one compared (the four default tests of this file: 3.9 s CPU, release build).
+/// The countershaft across its fundamental resonance with contact loss (200–400 rad/s) is not
+/// here: its continuation alone did not end within 12 minutes (the line quadrature's chord
+/// corrector, where the torus declines).
+#[test]
+fn idler_over_both_resonances_verdicts_agree_with_shooting() {
+    let idler = Scene::example("idler_gearset").unwrap();
+    let t = compare(&idler, &ContinuationOptions::new(250.0, 760.0), 20);
+    assert!(t.stable > 0 && t.unstable > 0, "{t:?}");
+}
+
+/// The countershaft with contact loss on mesh 1 (5–6 % of the period at 231–233 rad/s), where
+/// the monodromies carry saltation matrices: 7 points, all stable (|μ| ~ 1e-8). Ignored for its
+/// cost: the continuation takes the line quadrature with the chord corrector there (about
+/// 25 s CPU, release build).
+#[test]
+#[ignore]
+fn countershaft_contact_loss_verdicts_agree_with_shooting() {
+    let t = compare(&countershaft(), &ContinuationOptions::new(231.0, 233.0), 20);
+    assert!(t.compared > 0, "{t:?}");
 }

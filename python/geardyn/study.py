@@ -869,8 +869,23 @@ class _Progress:
         sys.stderr.flush()
 
 
-# Aimed-at solve time of one task, s (see `run`).
-TASK_SECONDS = 0.25
+# Aimed-at solve time of one task, s (see `run`). Each task costs the client and the
+# scheduler about 5 ms of CPU (measured 2026-11-30), taken from the workers on a machine with
+# as many workers as cores: at 0.25 s the client and a separate scheduler took 2.0-2.4 ms per
+# 10 ms point, at 1 s 1.2-1.3 ms. A task lost with its worker is computed again, so this is
+# also the most solving a killed worker costs per task.
+TASK_SECONDS = 1.0
+
+
+# Dask's servers wake every 20 ms to measure their event loop's latency (a warning when it
+# blocks for more than 3 s) and every 500 ms to sample the system for the dashboard: an idle
+# 4-worker LocalCluster takes 15 % of one core (measured 2026-11-30), time taken from the solves
+# on a machine with as many workers as cores. At 1 s and 2 s it takes 3 %; the latency warning
+# still fires, the dashboard's graphs are coarser. docs/python.md "Scale-out".
+QUIET_TICKS = {
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "2s",
+}
 
 
 def local_cluster(workers: Optional[int] = None, dashboard: Optional[str] = None):
@@ -908,7 +923,7 @@ def local_cluster(workers: Optional[int] = None, dashboard: Optional[str] = None
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if interactive else None
     try:
         with dask.config.set({"distributed.worker.profile.enabled": False,
-                              "distributed.nanny.pre-spawn-environ": environ}):
+                              "distributed.nanny.pre-spawn-environ": environ, **QUIET_TICKS}):
             return LocalCluster(n_workers=workers or os.cpu_count(), threads_per_worker=1,
                                 processes=True, dashboard_address=dashboard)
     finally:
@@ -1012,7 +1027,7 @@ def run(
         slots = max(1, sum(client.nthreads().values()))
         # Points per task: few at first (about 16 tasks per worker thread, at most 8 points),
         # then sized from the measured solve time so a task takes about TASK_SECONDS (the
-        # per-task cost of Dask, a millisecond or two, is then shared by many points), but
+        # per-task cost of Dask, a few milliseconds, is then shared by many points), but
         # never so large that fewer than 4 tasks per worker thread remain (the last tasks
         # must end together, or one worker idles through the tail).
         size = study.chunk or max(1, min(8, len(todo) // (16 * slots)))

@@ -18,6 +18,7 @@ use pyo3::types::{PyBool, PyByteArray, PyDict, PyFloat, PyInt, PyList, PyString,
 mod parameter;
 
 use geardyn::commands;
+use geardyn::scene::schema::path as scene_path;
 use geardyn::scene::train::TRAIN_EXAMPLES;
 use geardyn::scene::KernelChoice;
 use geardyn::scene::Scene;
@@ -131,59 +132,43 @@ impl PyScene {
     }
 }
 
-/// One step of a scene path: a table key, optionally followed by an array index.
-struct Step<'a> {
-    key: &'a str,
-    index: Option<usize>,
+/// Parses `mesh.stiffness.mean`, `gear[1].inertia` or `gear[0].bearing_stiffness[x]`: the
+/// scene format's one path syntax ([`scene_path::parse`], which the messages and
+/// `describe` use too).
+fn parse_path(path: &str) -> PyResult<Vec<scene_path::Step>> {
+    scene_path::parse(path).map_err(err)
 }
 
-/// Parses `mesh.stiffness.mean` or `gear[1].inertia`.
-fn parse_path(path: &str) -> PyResult<Vec<Step<'_>>> {
-    let bad = |why: &str| err(format!("scene path '{path}': {why}"));
-    path.split('.')
-        .map(|part| {
-            let (key, index) = match part.split_once('[') {
-                None => (part, None),
-                Some((key, rest)) => {
-                    let digits = rest
-                        .strip_suffix(']')
-                        .ok_or_else(|| bad("expected key[index]"))?;
-                    let i = digits
-                        .parse::<usize>()
-                        .map_err(|_| bad(&format!("'{digits}' is not an array index")))?;
-                    (key, Some(i))
-                }
-            };
-            if key.is_empty() {
-                return Err(bad("empty key"));
-            }
-            Ok(Step { key, index })
-        })
-        .collect()
+/// The array positions after a step's key (`[x]` is position 0 of a pair).
+fn positions(step: &scene_path::Step) -> impl Iterator<Item = usize> + '_ {
+    step.indices.iter().map(|i| match i {
+        scene_path::Index::At(n) | scene_path::Index::Named(n) => *n,
+        // `parse` never writes one: it stands for a list the file leaves out.
+        scene_path::Index::Implicit => 0,
+    })
 }
 
-/// The value at `steps` below `table`; `None` names the first step that does not exist.
+/// The value at `path` below `table`; an error names the first step that does not exist.
 fn lookup<'t>(table: &'t toml::Table, path: &str) -> PyResult<&'t toml::Value> {
     let steps = parse_path(path)?;
     let missing = |what: String| err(format!("scene path '{path}': {what}"));
-    let mut current: Option<&toml::Value> = None;
     let mut tab = table;
+    let last = steps.len() - 1;
     for (n, step) in steps.iter().enumerate() {
-        let v = tab
-            .get(step.key)
+        let mut v = tab
+            .get(&step.key)
             .ok_or_else(|| missing(format!("no key '{}'", step.key)))?;
-        let v = match step.index {
-            None => v,
-            Some(i) => index(v, i, step.key).map_err(missing)?,
-        };
-        if n + 1 < steps.len() {
-            tab = v
-                .as_table()
-                .ok_or_else(|| missing(format!("'{}' is not a table", step.key)))?;
+        for i in positions(step) {
+            v = index(v, i, &step.key).map_err(missing)?;
         }
-        current = Some(v);
+        if n == last {
+            return Ok(v);
+        }
+        tab = v
+            .as_table()
+            .ok_or_else(|| missing(format!("'{}' is not a table", step.key)))?;
     }
-    Ok(current.expect("a path has at least one step"))
+    unreachable!("the last step returns")
 }
 
 fn index<'v>(v: &'v toml::Value, i: usize, key: &str) -> Result<&'v toml::Value, String> {
@@ -205,34 +190,30 @@ fn assign(table: &mut toml::Table, path: &str, value: toml::Value) -> PyResult<(
     let mut tab = table;
     let last = steps.len() - 1;
     for (n, step) in steps.iter().enumerate() {
-        if n == last && step.index.is_none() {
-            let value = typed_like(tab.get(step.key), value, path)?;
-            tab.insert(step.key.to_string(), value);
+        if n == last && step.indices.is_empty() {
+            let value = typed_like(tab.get(&step.key), value, path)?;
+            tab.insert(step.key.clone(), value);
             return Ok(());
         }
-        let v = match step.index {
-            None => tab
-                .entry(step.key)
-                .or_insert_with(|| toml::Value::Table(toml::Table::new())),
-            Some(_) => tab
-                .get_mut(step.key)
-                .ok_or_else(|| missing(format!("no key '{}'", step.key)))?,
+        let mut v = if step.indices.is_empty() {
+            tab.entry(step.key.as_str())
+                .or_insert_with(|| toml::Value::Table(toml::Table::new()))
+        } else {
+            tab.get_mut(&step.key)
+                .ok_or_else(|| missing(format!("no key '{}'", step.key)))?
         };
-        let v = match step.index {
-            None => v,
-            Some(i) => {
-                let a = v
-                    .as_array_mut()
-                    .ok_or_else(|| missing(format!("'{}' is not an array", step.key)))?;
-                let len = a.len();
-                a.get_mut(i).ok_or_else(|| {
-                    missing(format!(
-                        "index {i} out of range ('{}' has {len} elements)",
-                        step.key
-                    ))
-                })?
-            }
-        };
+        for i in positions(step) {
+            let a = v
+                .as_array_mut()
+                .ok_or_else(|| missing(format!("'{}' is not an array", step.key)))?;
+            let len = a.len();
+            v = a.get_mut(i).ok_or_else(|| {
+                missing(format!(
+                    "index {i} out of range ('{}' has {len} elements)",
+                    step.key
+                ))
+            })?;
+        }
         if n == last {
             *v = typed_like(Some(v), value, path)?;
             return Ok(());

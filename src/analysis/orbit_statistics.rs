@@ -3,7 +3,8 @@
 //! `periodic` report.
 //!
 //! The stretch is cut into cells at every known switching instant (each mesh's stiffness and
-//! gap breakpoints, [`Drivetrain::mesh_breakpoints`]) and at a grid short enough for the
+//! gap breakpoints, [`Drivetrain::mesh_breakpoints`], where a runout moves them:
+//! [`Drivetrain::mesh_knot_phase`]) and at a grid short enough for the
 //! fastest mode (`h·ω_max ≤ 3`, at least four cells per period of the first mesh). Between
 //! switching instants the solution is smooth (analytic on an exact segment), so:
 //!
@@ -221,8 +222,11 @@ fn cells<M: Drivetrain>(model: &M, t0: f64, duration: f64) -> Cells {
         let mesh_cycles = (duration * fm).round() as i64;
         for b in model.mesh_breakpoints(m) {
             let first = (p0 - b).ceil() as i64;
-            for k in first..=first + mesh_cycles {
-                let t = t0 + (k as f64 + b - p0) / fm;
+            // One cycle either side: a runout moves a knot across the stretch's ends.
+            for k in first - 1..=first + mesh_cycles + 1 {
+                let nominal = k as f64 + b;
+                let shift = model.mesh_knot_phase(m, nominal) - nominal;
+                let t = t0 + (k as f64 + b - p0 + shift) / fm;
                 if t > t0 && t < t_end {
                     bounds.push((t, true, false));
                 }

@@ -187,6 +187,13 @@ pub trait Drivetrain: DrivenModel {
     /// Mesh phases (cycles, in `[0, 1)`) at which mesh `n`'s stiffness or gap law changes its
     /// formula, once per mesh cycle: the quadrature of a frequency-domain method is split there.
     fn mesh_breakpoints(&self, n: usize) -> Vec<f64>;
+    /// The mesh phase at which the knot of mesh `n` that lies at phase `nominal` by
+    /// [`Drivetrain::mesh_breakpoints`] (any cycle) really lies: a gear's runout moves the
+    /// mesh's knots once per revolution (`docs/errors.md`, "Runout as a moving centre").
+    /// `nominal` itself where nothing moves them.
+    fn mesh_knot_phase(&self, _n: usize, nominal: f64) -> f64 {
+        nominal
+    }
     /// Mean stiffness and viscous damping of mesh `n`'s force (the linear part a method may
     /// move into its linear operator), N/m and N·s/m.
     fn mean_mesh_law(&self, n: usize) -> (f64, f64);
@@ -512,6 +519,9 @@ impl Drivetrain for GearTrain {
     }
     fn mesh_breakpoints(&self, n: usize) -> Vec<f64> {
         GearTrain::mesh_breakpoints(self, n)
+    }
+    fn mesh_knot_phase(&self, n: usize, nominal: f64) -> f64 {
+        GearTrain::mesh_knot_phase(self, n, nominal)
     }
     fn mean_mesh_law(&self, n: usize) -> (f64, f64) {
         GearTrain::mean_mesh_law(self, n)

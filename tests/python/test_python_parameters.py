@@ -77,6 +77,23 @@ def test_whole_floats_set_integers_and_fractions_are_refused(name):
         scene[TORQUE] = "a lot"
 
 
+def test_paths_are_the_scene_formats_paths():
+    """`scene[...]` reads and writes the paths the messages and `describe` write: a pair's
+    component by position or by name (`[1]`, `[y]`), and refuses a malformed path with the
+    scene format's own wording."""
+    scene = geardyn.Scene.from_file(SCENES["idler_gearset"])
+    assert scene["gear[0].bearing_stiffness[y]"] == scene["gear[0].bearing_stiffness[1]"] == 1.27e8
+    scene["gear[0].bearing_stiffness[x]"] = 1.5e8
+    assert scene["gear[0].bearing_stiffness"] == [1.5e8, 1.27e8]
+    assert scene.describe("gear[0].bearing_stiffness[x]").value == 1.5e8
+    for path, why in [("gear[0]x", "an index must be written [n]"),
+                      ("gear[a].teeth", "index 'a' is not a whole number >= 0"),
+                      ("gear[9].teeth", "index 9 out of range ('gear' has 3 elements)"),
+                      ("mesh..x", "an empty key")]:
+        with pytest.raises(geardyn.GeardynError, match=re.escape(f"scene path '{path}': {why}")):
+            scene[path]
+
+
 @pytest.mark.parametrize("name", SCENES)
 def test_a_study_over_teeth_and_torque_is_the_separate_scenes(client, tmp_path, name):
     base = short_scene(tmp_path, name)

@@ -58,7 +58,9 @@
 //! **Stability.** Floquet multipliers of each continued orbit are the eigenvalues of the
 //! shooting monodromy (with saltation at contact changes,
 //! [`crate::analysis::shooting::PeriodMap`]) started from the HB state at `t = 0` (not Hill's
-//! method: no truncated Hill matrix, no sorting of its eigenvalues). Their error is that of the
+//! method: no truncated Hill matrix, no sorting of its eigenvalues; its least cost per point
+//! is measured against this in docs/harmonic-balance.md, "Stability: the monodromy from the HB
+//! state, not Hill's method", `benches/hb_stability.rs`). Their error is that of the
 //! trajectory from the HB state, which lies off the periodic orbit by the truncation error;
 //! where a contact switch is sensitive to that offset it reaches a few times the offset, so a
 //! radius within [`SHOOTING_CHECK_MARGIN`] of 1 is checked by Newton shooting from the HB state

@@ -48,6 +48,11 @@ impl GaussLegendre {
         self.nodes.is_empty()
     }
 
+    /// `(node, weight)` on `[−1, 1]`, ascending.
+    pub fn points(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
+        self.nodes.iter().copied().zip(self.weights.iter().copied())
+    }
+
     /// `∫_a^b f`.
     pub fn integrate<F: FnMut(f64) -> f64>(&self, a: f64, b: f64, mut f: F) -> f64 {
         let half = 0.5 * (b - a);

@@ -6,7 +6,7 @@
 //! ([`bounds_of`], `validate::checks::bounded`), so a bound is written once, beside the field.
 
 mod bounds;
-mod path;
+pub mod path;
 
 use std::fmt;
 use std::sync::OnceLock;
@@ -352,30 +352,21 @@ fn kind_of(forms: &[&Value]) -> &'static str {
 fn read_bounds(root: &Value, node: &Value) -> Bounds {
     let mut bounds = Bounds::default();
     for form in std::iter::once(node).chain(forms(root, node)) {
-        let number = |k: &str| form.get(k).and_then(Value::as_f64);
-        if let Some(v) = number("minimum") {
-            bounds.min = Some(Bound {
-                value: v,
-                inclusive: true,
-            });
-        }
-        if let Some(v) = number("exclusiveMinimum") {
-            bounds.min = Some(Bound {
-                value: v,
-                inclusive: false,
-            });
-        }
-        if let Some(v) = number("maximum") {
-            bounds.max = Some(Bound {
-                value: v,
-                inclusive: true,
-            });
-        }
-        if let Some(v) = number("exclusiveMaximum") {
-            bounds.max = Some(Bound {
-                value: v,
-                inclusive: false,
-            });
+        // An exclusive bound read after the inclusive one of the same side replaces it.
+        for (key, inclusive, lower) in [
+            ("minimum", true, true),
+            ("exclusiveMinimum", false, true),
+            ("maximum", true, false),
+            ("exclusiveMaximum", false, false),
+        ] {
+            if let Some(value) = form.get(key).and_then(Value::as_f64) {
+                let side = if lower {
+                    &mut bounds.min
+                } else {
+                    &mut bounds.max
+                };
+                *side = Some(Bound { value, inclusive });
+            }
         }
     }
     bounds

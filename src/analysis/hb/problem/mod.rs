@@ -369,14 +369,19 @@ impl<M: Drivetrain> Problem<M> {
             ));
         }
 
-        // Breakpoints of every mesh in θ: p_n(θ) = p_n(0) + c_n θ ≡ b (mod 1).
+        // Breakpoints of every mesh in θ: p_n(θ) = p_n(0) + c_n θ ≡ b (mod 1), each cycle's
+        // knot where it really lies (a runout moves it by a fraction of a cell:
+        // [`Drivetrain::mesh_knot_phase`]; a rule across a jump errs by the jump times the
+        // part of the cell beyond it).
         let mut breaks = vec![0.0, 1.0];
         for (n, mesh) in meshes.iter().enumerate() {
             let p0 = model.mesh_phase(n, 0.0);
             for b in model.mesh_breakpoints(n) {
                 let first = crate::mesh::cycle_fraction(b - p0);
                 for k in 0..mesh.cycles as u64 {
-                    let theta = (first + k as f64) / mesh.cycles;
+                    let nominal = p0 + first + k as f64;
+                    let shift = model.mesh_knot_phase(n, nominal) - nominal;
+                    let theta = ((first + k as f64 + shift) / mesh.cycles).rem_euclid(1.0);
                     if theta > 0.0 && theta < 1.0 {
                         breaks.push(theta);
                     }

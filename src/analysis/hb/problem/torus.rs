@@ -34,6 +34,7 @@ use rustfft::num_complex::Complex64;
 use rustfft::{Fft, FftPlanner};
 
 use super::{Accumulator, Problem, Want, PROBE};
+use crate::mesh::geometry::quadrature::GaussLegendre;
 use crate::model::Drivetrain;
 
 /// One mesh's grid of its own angle.
@@ -123,38 +124,9 @@ fn piece_nodes(top: i64, length: f64) -> usize {
     (0.5 * omega + 2.0 * omega.cbrt() + 8.0).ceil() as usize
 }
 
-/// The `n`-point Gauss–Legendre rule on `[−1, 1]`: (node, weight), ascending (Newton on the
-/// three-term recurrence of `P_n`; Press et al., *Numerical Recipes*, 3rd ed., §4.6.1).
+/// The `n`-point Gauss–Legendre rule on `[−1, 1]`: (node, weight), ascending.
 fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
-    let mut rule = vec![(0.0, 0.0); n];
-    for i in 0..n.div_ceil(2) {
-        let mut x = (std::f64::consts::PI * (i as f64 + 0.75) / (n as f64 + 0.5)).cos();
-        let mut slope = 1.0;
-        for _ in 0..100 {
-            // P_n(x) and P_{n−1}(x) by the recurrence, then P_n'(x).
-            let (mut p0, mut p1) = (1.0, x);
-            for k in 2..=n {
-                let k = k as f64;
-                let p2 = ((2.0 * k - 1.0) * x * p1 - (k - 1.0) * p0) / k;
-                p0 = p1;
-                p1 = p2;
-            }
-            if n == 1 {
-                p1 = x;
-                p0 = 1.0;
-            }
-            slope = n as f64 * (x * p1 - p0) / (x * x - 1.0);
-            let step = p1 / slope;
-            x -= step;
-            if step.abs() <= 1e-15 {
-                break;
-            }
-        }
-        let weight = 2.0 / ((1.0 - x * x) * slope * slope);
-        rule[i] = (-x, weight);
-        rule[n - 1 - i] = (x, weight);
-    }
-    rule
+    GaussLegendre::new(n).points().collect()
 }
 
 /// `e^{2πi a φ}` of every node `φ` for `a ∈ [−top, top]`, row-major (`2·top + 1` a row).

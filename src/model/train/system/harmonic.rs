@@ -64,8 +64,10 @@ impl GearTrain {
         self.meshes[n].a_back.as_deref()
     }
 
-    /// Mesh phases (cycles, `[0, 1)`) of mesh `n`'s interval knots; none for a smooth
-    /// stiffness.
+    /// Mesh phases (cycles, `[0, 1)`) of mesh `n`'s interval knots, and with pitch errors the
+    /// stiffness-cycle boundary (where a pitch error steps, `docs/errors.md`); none for a
+    /// smooth stiffness without pitch errors. Nominal: without runout (see
+    /// [`GearTrain::mesh_knot_phase`]).
     pub fn mesh_breakpoints(&self, n: usize) -> Vec<f64> {
         let mesh = &self.meshes[n];
         match &mesh.stiffness {
@@ -74,8 +76,41 @@ impl GearTrain {
                 .iter()
                 .map(|iv| crate::mesh::cycle_fraction(iv.start - mesh.offset))
                 .collect(),
+            _ if mesh.errors.has_steps() => vec![crate::mesh::cycle_fraction(-mesh.offset)],
             _ => Vec::new(),
         }
+    }
+
+    /// The mesh phase at which the knot of mesh `n` that lies at `nominal` without runout
+    /// ([`GearTrain::mesh_breakpoints`], any cycle) lies: where the contact phase
+    /// `q = p + δq(p)` reaches it, and for the interval where a tooth pair enters, where it
+    /// reaches the moved start of contact (`docs/errors.md`, "Runout as a moving centre";
+    /// the integrators stop there, `MeshRt::next_stop`). `nominal` itself without runout.
+    pub fn mesh_knot_phase(&self, n: usize, nominal: f64) -> f64 {
+        let mesh = &self.meshes[n];
+        let Some(ec) = &mesh.eccentric else {
+            return nominal;
+        };
+        // The interval the knot starts: the entry interval's start (the only knot whose
+        // place also moves with the contact ratio), or any other.
+        let moving = match (ec.entry, mesh.table()) {
+            (Some((i, _)), Some(table)) => {
+                let s = crate::mesh::cycle_fraction(nominal + mesh.offset);
+                let nearest = (0..table.intervals.len())
+                    .min_by(|&a, &b| {
+                        let distance = |k: usize| {
+                            let d = (s - table.intervals[k].start).abs();
+                            d.min(1.0 - d)
+                        };
+                        distance(a).total_cmp(&distance(b))
+                    })
+                    .expect("one interval at least");
+                nearest == i
+            }
+            _ => false,
+        };
+        ec.geometry
+            .solve_phase(nominal, if moving { 1.0 } else { 0.0 })
     }
 
     /// Visits the engaged slots of mesh `n` at phase `p` (mesh frequency `f`), from the table
