@@ -1226,6 +1226,24 @@ def ch2(model="rect"):
             "The thesis saw only 'a small hump just below f/f_1 = 2' from this instability "
             "(Fig. 2.8); with the rectangular pairs' stronger harmonics and ζ = 2 % (ζ is not "
             "given) it dominates, and mesh 2, not mesh 1, carries the long contact loss.")
+    if not geom:
+        note(S, "The rows at the mode-2 jump-down move with rounding (issue 37): above the jump "
+                "the down branch is transient chaos. From one state, a relative change of 1e-12 "
+                "grows to 1e-6 of the state within 160–220 mesh periods and to 1e-2 within "
+                "230–480; the orbit leaves for the lower branch after some thousand periods, at "
+                "a time that rounding decides. So whether the 2 715 Hz point is still on the "
+                "upper branch after the sweep's 8 000 periods is a draw: 16 down sweeps with the "
+                "code of commit 2da87e7 and of branch issue-37 (input torque 100 N·m, "
+                "× (1 ± 1e-12), × (1 ± 1e-13), × (1 + 1e-14), and 50, 75, 150, 200 N·m, to "
+                "which the model scales exactly) put the jump-down at 2 722 Hz 14 times and at "
+                "2 708 Hz twice (2da87e7 at 100 N·m, issue-37 at 150 N·m). The jump-down and "
+                "torque rows, the upper- and lower-branch rows and the hysteresis check read "
+                "that point; the tip-relief ratios take peaks at points that are not settled "
+                "(modification B's mode-1 ratio is 1.50, 1.88 or 1.80 for the torque × 1, "
+                "× (1 + 1e-12) and × (1 − 1e-12)). The exact propagator with and without its "
+                "guarded products and DOP853 (rtol 1e-12) agree to ≤ 2e-10 of the state over "
+                "the first 50 periods from the same state, with the same number of contact "
+                "events up to period 260 or later (docs/scaling.md, 'Sweeps through chaos').")
     return dict(f1=f1, f2=f2, h1=h1, h2=h2, d100=d100)
 
 
@@ -1530,6 +1548,11 @@ def ch3():
         "the sign of φ is ambiguous in the thesis (notes §2.3, §8 item 12); only the lagging "
         "reading shows the period-doubling cascade and aperiodic window near the thesis' range; "
         "'aperiodic' = no period ≤ 4 response periods and a stalled residual (1000 periods)")
+    note(S, "The aperiodic window's lower edge in the route-to-chaos row moves with rounding: the "
+            "down sweep reaches it through some 60 aperiodic points, and five such sweeps (the "
+            "code of 2da87e7 and of issue-37, the input torque × (1 ± 1e-12)) give 62 to 64 "
+            "points, the edge between ω = 0.715 and 0.720 (docs/scaling.md, 'Sweeps through "
+            "chaos').")
 
     # -- plots -----------------------------------------------------------------------------------
     fig, axs = plt.subplots(2, 1, figsize=(9, 6.5), sharex=True)
