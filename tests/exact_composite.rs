@@ -346,3 +346,125 @@ fn guarded_walks_end_before_an_unproved_stop() {
     assert_eq!(events[0], events[1], "the same contact events");
     assert!(worst < 1e-9, "guarded walks vs segment-wise: {worst:e}");
 }
+
+/// The Liu (2007) Ch. 2 idler above its mode-2 jump-down (examples/liu2007/ch2_idler.toml,
+/// 100 N·m), where the down sweep of the Liu report is on transient chaos with contact loss
+/// on both meshes: started from the state that sweep carries from 2730 Hz to 2715 Hz (the
+/// recorded state of commit 2da87e7's sweep at 2730 Hz, run over its 8 recorded periods).
+/// Oracles: the segment-wise path and DOP853 at rtol 1e-12 stay within rounding of the
+/// guarded path, with the same contact events, until chaos amplifies the rounding; and a
+/// relative change of 1e-12 of the start grows to 1e-2 within 500 periods, so sweep points
+/// that run thousands of periods there depend on rounding (the report's note; docs/scaling.md,
+/// "Sweeps through chaos").
+#[test]
+fn guarded_path_tracks_the_segment_wise_one_on_transient_chaos() {
+    use geardyn::model::{response_period, Drivetrain};
+    let path = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/liu2007/ch2_idler.toml"
+    );
+    let mut scene = Scene::from_path(std::path::Path::new(path)).expect("the Ch. 2 idler");
+    let hz = |f: f64| std::f64::consts::TAU * f / 38.0;
+    // `geardyn sweep --states` of the down sweep at 2730 Hz (speed, periods, phase, state).
+    let (speed, periods, phase) = (451.3972602263228, 8.0, 0.0);
+    assert!((speed - hz(2730.0)).abs() < 1e-9);
+    let y_rec = [
+        -1.2948031346218326e-5,
+        -1.6970027238611928e-5,
+        -6.880698105907316e-7,
+        0.07074641283230743,
+        0.02874422024571549,
+        -0.016743171399240968,
+    ];
+    scene.operating.input_speed = speed;
+    let mut warm = sim(&scene, MethodChoice::Exact, false);
+    let period = response_period(warm.model()).expect("period");
+    let f1 = warm.model().mesh_frequency(0);
+    let t_rec = (phase - warm.model().mesh_phase(0, 0.0)).rem_euclid((period * f1).round()) / f1;
+    warm.set_state(t_rec, &y_rec);
+    warm.advance_to(t_rec + periods * period)
+        .expect("recording");
+    let (t0, y0) = (warm.t(), warm.state().to_vec());
+    let start = |f: f64, method: MethodChoice, composites: bool, change: f64| {
+        let mut s = sim(&scene, method, composites);
+        let y: Vec<f64> = y0.iter().map(|v| v * (1.0 + change)).collect();
+        s.set_state(t0, &y);
+        s.change_model(|m, t| m.set_input_speed(t, hz(f)))
+            .expect("new speed");
+        s
+    };
+    // The report's 2715 Hz point (its upper branch ends there or one step above) and 5 Hz
+    // either side.
+    for f in [2710.0, 2715.0, 2720.0] {
+        // Guarded (the first), segment-wise, DOP853, segment-wise from the changed start.
+        let mut sims = [
+            start(f, MethodChoice::Exact, true, 0.0),
+            start(f, MethodChoice::Exact, false, 0.0),
+            start(f, MethodChoice::Rk, false, 0.0),
+            start(f, MethodChoice::Exact, false, 1e-12),
+        ];
+        let period = response_period(sims[0].model()).expect("period");
+        let mut at_50 = [0.0; 3];
+        let mut hits_50 = 0;
+        // The first period at which each differs from the guarded path by 1e-6.
+        let mut apart = [None; 3];
+        let mut same_events = [0u32; 2];
+        let mut changed = 0.0f64;
+        for k in 1..=500u32 {
+            for s in sims.iter_mut() {
+                s.advance_to(t0 + k as f64 * period).expect("advance");
+            }
+            let d: Vec<f64> = sims[1..]
+                .iter()
+                .map(|s| distance(s.state(), sims[0].state()))
+                .collect();
+            for (a, d) in apart.iter_mut().zip(&d) {
+                if a.is_none() && *d > 1e-6 {
+                    *a = Some(k);
+                }
+            }
+            if k == 50 {
+                at_50.copy_from_slice(&d);
+                hits_50 = sims[0].composite_counts().1;
+            }
+            for (j, same) in same_events.iter_mut().enumerate() {
+                if *same == k - 1 && sims[j + 1].stats().events == sims[0].stats().events {
+                    *same = k;
+                }
+            }
+            changed = changed.max(distance(sims[3].state(), sims[1].state()));
+        }
+        let hits = sims[0].composite_counts().1;
+        let events = sims[1].stats().events;
+        println!(
+            "{f} Hz, at 50 periods: segment-wise {:.1e}, DOP853 {:.1e}, changed start {:.1e}; \
+             same event count through period {same_events:?}; 1e-6 apart from period \
+             {apart:?}; changed start by 500 periods \
+             {changed:.1e}; {events} events, guarded hits {hits_50} by period 50, {hits} in all",
+            at_50[0], at_50[1], at_50[2]
+        );
+        assert!(
+            events >= 1000,
+            "{f} Hz: contact is lost every period: {events} events"
+        );
+        // The distances at 50 periods compare the paths only if products were applied.
+        assert!(
+            hits_50 >= 1 && hits >= 5,
+            "{f} Hz: the guarded path decided {hits_50} sequences by period 50, {hits} in all"
+        );
+        assert!(
+            at_50[0] < 1e-11,
+            "{f} Hz: guarded vs segment-wise {:e}",
+            at_50[0]
+        );
+        assert!(at_50[1] < 1e-9, "{f} Hz: guarded vs DOP853 {:e}", at_50[1]);
+        assert!(
+            same_events[0] >= 250 && same_events[1] >= 200,
+            "{f} Hz: {same_events:?}"
+        );
+        assert!(
+            changed > 1e-2,
+            "{f} Hz: a 1e-12 change grew to {changed:e} only"
+        );
+    }
+}
