@@ -13,7 +13,8 @@
 //! finds the orbit, in thread CPU time.
 //!
 //! Then (issue 38) the countershaft's harmonic balance at H = 20 against the sweep of the
-//! same speeds.
+//! same speeds: the issue's two ranges, and with contact loss on mesh 1 its fundamental
+//! resonance (231–233 rad/s) and 200–380 rad/s (the torus split at the contact switches).
 //!
 //! Run: `cargo bench --bench analysis` (or `scripts/bench.sh`); `-- spectrum` for the
 //! spectrum rows alone, `-- countershaft` for the countershaft rows alone.
@@ -321,6 +322,8 @@ fn main() {
     if std::env::args().any(|a| a == "countershaft") {
         countershaft_hb_against_sweep(240.0, 250.0);
         countershaft_hb_against_sweep(300.0, 320.0);
+        countershaft_hb_against_sweep(231.0, 233.0);
+        countershaft_hb_against_sweep(200.0, 380.0);
         return;
     }
     spectrum_against_shooting("idler_gearset", 420.0, 40);
@@ -336,4 +339,6 @@ fn main() {
     idler_hb();
     countershaft_hb_against_sweep(240.0, 250.0);
     countershaft_hb_against_sweep(300.0, 320.0);
+    countershaft_hb_against_sweep(231.0, 233.0);
+    countershaft_hb_against_sweep(200.0, 380.0);
 }

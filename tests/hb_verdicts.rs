@@ -212,9 +212,6 @@ fn countershaft_verdicts_agree_with_shooting() {
 /// The idler over both fundamental resonances at H = 20 (folds, contact loss, the
 /// Neimark–Sacker interval at the default step): measured 344 points, 199 stable and 145
 /// unstable, every one compared (the four default tests of this file: 3.9 s CPU, release build).
-/// The countershaft across its fundamental resonance with contact loss (200–400 rad/s) is not
-/// here: its continuation alone did not end within 12 minutes (the line quadrature's chord
-/// corrector, where the torus declines).
 #[test]
 fn idler_over_both_resonances_verdicts_agree_with_shooting() {
     let idler = Scene::example("idler_gearset").unwrap();
@@ -223,11 +220,9 @@ fn idler_over_both_resonances_verdicts_agree_with_shooting() {
 }
 
 /// The countershaft with contact loss on mesh 1 (5–6 % of the period at 231–233 rad/s), where
-/// the monodromies carry saltation matrices: 7 points, all stable (|μ| ~ 1e-8). Ignored for its
-/// cost: the continuation takes the line quadrature with the chord corrector there (about
-/// 25 s CPU, release build).
+/// the monodromies carry saltation matrices: all points stable (|μ| ~ 1e-8). The torus
+/// quadrature splits its pieces at the contact switches there (Newton–Krylov, ~1 s CPU).
 #[test]
-#[ignore]
 fn countershaft_contact_loss_verdicts_agree_with_shooting() {
     let t = compare(&countershaft(), &ContinuationOptions::new(231.0, 233.0), 20);
     assert!(t.compared > 0, "{t:?}");

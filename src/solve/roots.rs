@@ -1,4 +1,5 @@
-//! Bracketed scalar root finding shared by the integrators' event location.
+//! Bracketed scalar root finding shared by the integrators' event location and harmonic
+//! balance's split quadratures.
 
 /// An end of the bracket that is an exact zero, as `(x, x)` (the common start of the bracketed
 /// searches, which require `fa·fb <= 0`).
@@ -259,6 +260,49 @@ pub fn brent_maximum<F: FnMut(f64) -> f64>(mut f: F, a: f64, b: f64, tol: f64) -
         }
     }
     best
+}
+
+/// The root of `g` in `(lo, hi)`, where it changes sign (Illinois variant of regula falsi:
+/// superlinear and bracketing), to a few ulps of the bracket: the contact switches of
+/// harmonic balance's split quadratures (`analysis::hb`).
+pub fn illinois(mut g: impl FnMut(f64) -> f64, (mut lo, mut hi): (f64, f64)) -> f64 {
+    let mut glo = g(lo);
+    let mut ghi = g(hi);
+    let positive_lo = glo > 0.0;
+    let mut side = 0i8;
+    for _ in 0..200 {
+        if hi - lo <= 4.0 * f64::EPSILON * hi.abs().max(1e-3) {
+            break;
+        }
+        let mut mid = if glo != ghi {
+            (lo * ghi - hi * glo) / (ghi - glo)
+        } else {
+            0.5 * (lo + hi)
+        };
+        if !(mid > lo && mid < hi) {
+            mid = 0.5 * (lo + hi);
+        }
+        let gm = g(mid);
+        if gm == 0.0 {
+            return mid;
+        }
+        if (gm > 0.0) == positive_lo {
+            lo = mid;
+            glo = gm;
+            if side == -1 {
+                ghi *= 0.5;
+            }
+            side = -1;
+        } else {
+            hi = mid;
+            ghi = gm;
+            if side == 1 {
+                glo *= 0.5;
+            }
+            side = 1;
+        }
+    }
+    0.5 * (lo + hi)
 }
 
 #[cfg(test)]

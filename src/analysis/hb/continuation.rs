@@ -311,8 +311,8 @@ fn continue_branch<M: Drivetrain + Send>(
         let mut refreshed = 0;
         let mut newton_like = !chord;
         let next = if chord {
-            // On the torus Newton–Krylov; where the torus declines (contact loss), the chord
-            // method on the line quadrature from the predictor.
+            // On the torus Newton–Krylov; where the torus declines (a switch it cannot
+            // bracket), the chord method on the line quadrature from the predictor.
             let krylov = if problem.torus.is_some() {
                 krylov_corrector(
                     &mut problem,

@@ -9,6 +9,7 @@ use nalgebra::{Complex, DMatrix, DVector};
 
 use super::problem::{cmul, cs, factor, Accumulator, Evaluation, Problem, Want, GAUSS3, PROBE};
 use crate::model::{Drivetrain, MeshLaw};
+use crate::solve::roots::illinois;
 
 impl<M: Drivetrain> Problem<M> {
     /// `(S, dS/dθ)` of mesh `n` from the basis row.
@@ -190,53 +191,16 @@ impl<M: Drivetrain> Problem<M> {
         buf.get(q).map_or((0.0, 0.0), |g| (g.0, g.1 / self.f))
     }
 
-    /// The root of gap `q` of mesh `n` in `(lo, hi)`, where it changes sign (Illinois variant
-    /// of regula falsi: superlinear and bracketing).
+    /// The root of gap `q` of mesh `n` in `(lo, hi)`, where it changes sign ([`illinois`]).
     pub(super) fn root(
         &self,
         s: &DVector<f64>,
         which: (usize, usize),
-        (mut lo, mut hi): (f64, f64),
+        bracket: (f64, f64),
         phi: &mut [f64],
         buf: &mut Vec<(f64, f64)>,
     ) -> f64 {
-        let mut glo = self.gap(s, which, lo, phi, buf).0;
-        let mut ghi = self.gap(s, which, hi, phi, buf).0;
-        let positive_lo = glo > 0.0;
-        let mut side = 0i8;
-        for _ in 0..200 {
-            if hi - lo <= 4.0 * f64::EPSILON * hi.abs().max(1e-3) {
-                break;
-            }
-            let mut mid = if glo != ghi {
-                (lo * ghi - hi * glo) / (ghi - glo)
-            } else {
-                0.5 * (lo + hi)
-            };
-            if !(mid > lo && mid < hi) {
-                mid = 0.5 * (lo + hi);
-            }
-            let g = self.gap(s, which, mid, phi, buf).0;
-            if g == 0.0 {
-                return mid;
-            }
-            if (g > 0.0) == positive_lo {
-                lo = mid;
-                glo = g;
-                if side == -1 {
-                    ghi *= 0.5;
-                }
-                side = -1;
-            } else {
-                hi = mid;
-                ghi = g;
-                if side == 1 {
-                    glo *= 0.5;
-                }
-                side = 1;
-            }
-        }
-        0.5 * (lo + hi)
+        illinois(|theta| self.gap(s, which, theta, phi, buf).0, bracket)
     }
 
     /// A cell in which some contact changes: split at the switching instants, each part
@@ -363,8 +327,8 @@ impl<M: Drivetrain> Problem<M> {
             trig: vec![0.0; 2 * ns],
         };
         let mut acc = fresh();
-        // A two-frequency train: the sums on the torus (torus.rs), unless a contact changes
-        // inside a smooth piece; from then on along the line.
+        // A two-frequency train: the sums on the torus (torus.rs), unless it declines (a
+        // contact switch it cannot bracket); from then on along the line.
         if let Some(mut torus) = self.torus.take() {
             if torus.accumulate(self, s, want, &mut acc) {
                 self.torus = Some(torus);

@@ -41,7 +41,7 @@ pub(super) enum Corrected {
     Converged(Box<Evaluation>, usize),
     /// No convergence (a linear solve or the Newton iteration): halve the step.
     Failed,
-    /// The torus quadrature declined (a contact changes inside a smooth piece): the caller
+    /// The torus quadrature declined (a contact switch it cannot bracket): the caller
     /// continues on the line quadrature.
     Declined,
 }

@@ -8,7 +8,9 @@
 //! quadrature's split cells, [`Problem::root`]), or by bisection on the contact law where no
 //! single gap decides it; the force RMS and the contact-loss fraction by the Galerkin
 //! quadrature, whose cells are split at the switching instants (so both are exact for the
-//! series up to the rule's accuracy on smooth pieces).
+//! series up to the rule's accuracy on smooth pieces); on the torus quadrature, whose nodes
+//! weigh the torus rather than the orbit, the contact-loss fraction from the lost stretches of
+//! the scan grid, their ends refined like the separation.
 
 use std::f64::consts::TAU;
 
@@ -102,10 +104,17 @@ impl<M: Drivetrain> Problem<M> {
         let total = w.iter().fold(0.0, |a, b| a + b);
         let mean = (0..w.len()).fold(0.0, |a, i| a + w[i] * force(i)) / total;
         let var = (0..w.len()).fold(0.0, |a, i| a + w[i] * (force(i) - mean).powi(2)) / total;
-        let lost = (0..w.len())
-            .filter(|&i| e.sample_lost[i * nm + n])
-            .fold(0.0, |a, i| a + w[i])
-            / total;
+        // On the torus the samples weigh the torus, not the orbit's line through it: the lost
+        // stretches along the line (a kinked indicator, whose torus and line averages differ
+        // by ~1e-2 of the fraction at 64 lines) from the scan grid instead.
+        let lost = if self.torus.is_some() {
+            self.lost_fraction(s, n, f, &lost_grid, &mut phi)
+        } else {
+            (0..w.len())
+                .filter(|&i| e.sample_lost[i * nm + n])
+                .fold(0.0, |a, i| a + w[i])
+                / total
+        };
         MeshResponse {
             prefix: mesh.prefix.clone(),
             mesh_frequency: mesh.cycles * f,
@@ -177,7 +186,7 @@ impl<M: Drivetrain> Problem<M> {
 
     /// Mesh `n`'s phase (cycles) at the first instant of the HB period at which it loses
     /// contact on every tooth pair (found on the grid `lost_grid` of `θ_i = i/points`, then
-    /// located by [`Problem::loss_onset`]); NaN without loss.
+    /// located by [`Problem::loss_switch`]); NaN without loss.
     fn separation(
         &self,
         s: &DVector<f64>,
@@ -192,23 +201,50 @@ impl<M: Drivetrain> Problem<M> {
         // the last loss onset of the period (the orbit is periodic).
         let onset = (1..=points)
             .find(|&i| lost_grid[i % points] && !lost_grid[i - 1])
-            .map(|i| self.loss_onset(s, n, f, ((i - 1) as f64 * h, i as f64 * h), phi));
+            .map(|i| self.loss_switch(s, n, f, ((i - 1) as f64 * h, i as f64 * h), true, phi));
         onset.map_or(f64::NAN, |theta| {
             self.model.mesh_phase(n, theta / f).rem_euclid(1.0)
         })
     }
 
-    /// The instant in `(a, b)` at which mesh `n`, in contact at `a` and lost at `b`, loses
-    /// its last contact: the root of the one contact gap that changes sign between them
+    /// The fraction of the period in which mesh `n` has lost contact on every tooth pair,
+    /// along the orbit: the stretches lost on the grid `lost_grid` of `θ_i = i/points`, their
+    /// ends refined by [`Problem::loss_switch`].
+    fn lost_fraction(
+        &self,
+        s: &DVector<f64>,
+        n: usize,
+        f: f64,
+        lost_grid: &[bool],
+        phi: &mut [f64],
+    ) -> f64 {
+        let points = lost_grid.len();
+        let h = 1.0 / points as f64;
+        // Σ (end − onset) over the stretches; one lost at θ = 0 wraps around the period.
+        let mut lost = if lost_grid[0] { 1.0 } else { 0.0 };
+        for i in 0..points {
+            let (before, after) = (lost_grid[i], lost_grid[(i + 1) % points]);
+            if before != after {
+                let bracket = (i as f64 * h, (i + 1) as f64 * h);
+                let theta = self.loss_switch(s, n, f, bracket, after, phi);
+                lost += if after { -theta } else { theta };
+            }
+        }
+        lost
+    }
+
+    /// The instant in `(a, b)` at which mesh `n` loses its last contact (`begins`: in contact
+    /// at `a`, lost at `b`) or regains one (the converse): the root of the one contact gap that changes sign between them
     /// ([`Problem::root`]), checked by the contact law [`REFINE_TOL`] either side of it; else
     /// (several gaps change, the engaged pairs change, or the check fails) bisection on the
     /// contact law to [`REFINE_TOL`].
-    fn loss_onset(
+    fn loss_switch(
         &self,
         s: &DVector<f64>,
         n: usize,
         f: f64,
         (a, b): (f64, f64),
+        begins: bool,
         phi: &mut [f64],
     ) -> f64 {
         let lost = |theta: f64, phi: &mut [f64]| {
@@ -229,7 +265,7 @@ impl<M: Drivetrain> Problem<M> {
             if let (Some(q), None) = (changed.next(), changed.next()) {
                 let root = self.root(s, (n, q), (a, b), phi, &mut buf);
                 let (before, after) = ((root - REFINE_TOL).max(a), (root + REFINE_TOL).min(b));
-                if !lost(before, phi) && lost(after, phi) {
+                if lost(before, phi) != begins && lost(after, phi) == begins {
                     return root;
                 }
             }
@@ -237,7 +273,7 @@ impl<M: Drivetrain> Problem<M> {
         let (mut a, mut b) = (a, b);
         while b - a > REFINE_TOL {
             let m = 0.5 * (a + b);
-            if lost(m, phi) {
+            if lost(m, phi) == begins {
                 b = m;
             } else {
                 a = m;

@@ -770,7 +770,7 @@ impl<M: Drivetrain> Problem<M> {
                 })?
             } else {
                 if krylov {
-                    // The torus declined (a contact changes inside a smooth piece): the line
+                    // The torus declined (a contact switch it cannot bracket): the line
                     // quadrature's Jacobian from here on.
                     e = self.evaluate(&s, f, want)?;
                 }
