@@ -5,11 +5,14 @@
 //! (15 µm STE). A probe for `docs/scaling.md` ("Memory") beside the scaling benchmark, which
 //! does not cover the free chains yet.
 //!
-//! `cargo run --release --example free_chain_cost -- [MESHES ...]` (default 1 8 16 64).
-//! Each cell is one simulation: a warm-up of at least 100 periods (a guarded mode builds its
-//! recurring-segment references after 128 full searches), on until 5 periods in a row build
-//! no mode and no composite product (at most 1000 periods or 60 s of CPU), then up to 200
-//! timed periods (fewer where the last warm-up period says they would take above 20 s).
+//! `cargo run --release --example free_chain_cost -- [--warm-up P] [--cpu S] [--only C,..]
+//! [MESHES ...]` (default 1 8 16 64, P = 2000, S = 60, all three conditions). Each cell is one simulation: a warm-up of at least P periods (the
+//! free chains start away from their steady state and its transient decays slowly, about 10×
+//! per 300 periods at 16 meshes; a timed window inside it times the guarded sequences'
+//! certificates rebuilt for the transient, not the steady state), on until 5 periods in a
+//! row build no mode and no composite product (at most P + 1000 periods or S seconds of CPU),
+//! then up to 200 timed periods (fewer where the last warm-up period says they would take
+//! above 20 s).
 //! Times are CPU time of this thread (`CLOCK_THREAD_CPUTIME_ID`), so a loaded machine
 //! changes them less than wall time; compare cells of one run only.
 
@@ -47,10 +50,42 @@ fn scene(meshes: usize, condition: &str) -> Scene {
 }
 
 fn main() {
-    let sizes: Vec<usize> = std::env::args()
-        .skip(1)
-        .filter_map(|a| a.parse().ok())
-        .collect();
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut warm_up = 2000usize;
+    let mut cpu_limit = 60.0;
+    let mut conditions = vec!["linear", "holds", "loss"];
+    let mut sizes = Vec::new();
+    let mut k = 0;
+    while k < args.len() {
+        if args[k] == "--warm-up" {
+            k += 1;
+            warm_up = args
+                .get(k)
+                .and_then(|a| a.parse().ok())
+                .expect("--warm-up takes a number of periods");
+            // A guarded mode builds its recurring-segment references after 128 full searches.
+            warm_up = warm_up.max(100);
+        } else if args[k] == "--cpu" {
+            k += 1;
+            cpu_limit = args
+                .get(k)
+                .and_then(|a| a.parse().ok())
+                .expect("--cpu takes a number of seconds");
+        } else if args[k] == "--only" {
+            k += 1;
+            let only = args
+                .get(k)
+                .expect("--only takes conditions, e.g. linear,holds");
+            conditions.retain(|c| only.split(',').any(|o| o == *c));
+        } else {
+            sizes.push(
+                args[k]
+                    .parse()
+                    .unwrap_or_else(|_| panic!("not a mesh count: {:?}", args[k])),
+            );
+        }
+        k += 1;
+    }
     let sizes = if sizes.is_empty() {
         vec![1, 8, 16, 64]
     } else {
@@ -62,7 +97,7 @@ fn main() {
     );
     println!("|---:|---|---:|---:|---:|---|---|---|");
     for &meshes in &sizes {
-        for condition in ["linear", "holds", "loss"] {
+        for &condition in &conditions {
             let s = scene(meshes, condition);
             let period = 1.0 / s.mesh_frequency(0, s.operating.input_speed);
             let start = cpu_seconds();
@@ -77,7 +112,10 @@ fn main() {
                 last = cpu_seconds() - t0;
                 let after = (sim.mode_counts().0, sim.composite_counts().0);
                 settled = if after == before { settled + 1 } else { 0 };
-                if (done >= 100 && settled >= 5) || done >= 1000 || cpu_seconds() - start > 60.0 {
+                if (done >= warm_up && settled >= 5)
+                    || done >= warm_up + 1000
+                    || cpu_seconds() - start > cpu_limit
+                {
                     break;
                 }
             }
