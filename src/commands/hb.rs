@@ -297,9 +297,11 @@ impl HbBranch {
         s
     }
 
-    /// The lines on the points whose stability was checked by shooting (HB spectral radius
-    /// within the margin of 1): how many, each one whose verdict the check changed, and each
-    /// one where shooting found no orbit near the HB state.
+    /// The lines on the points whose verdict may be wrong (radius near 1 unchecked, or the HB
+    /// orbit far from the periodic orbit: [`BranchPoint::far_from_orbit`]) and on the points
+    /// whose stability was checked by shooting (HB spectral radius within the margin of 1):
+    /// how many, each one whose verdict the check changed, and each one where shooting found
+    /// no orbit near the HB state.
     fn shooting_check_summary(&self) -> String {
         let checked: Vec<&BranchPoint> = (self.points.iter())
             .filter(|p| p.shooting_check.is_some())
@@ -321,6 +323,25 @@ impl HbBranch {
                 last.speed,
                 crate::analysis::hb::RADIUS_SENSITIVITY,
                 crate::analysis::hb::SHOOTING_CHECK_MARGIN
+            );
+        }
+        let far: Vec<&BranchPoint> = (self.points.iter())
+            .filter(|p| p.far_from_orbit())
+            .collect();
+        if let (Some(first), Some(last)) = (far.first(), far.last()) {
+            let worst = (far.iter())
+                .filter_map(|p| p.orbit_error)
+                .fold(0.0, f64::max);
+            let _ = writeln!(
+                s,
+                "  {} points ({:.4} to {:.4} rad/s) have an HB orbit estimated up to {:.1e} of the \
+                 state scale from the periodic orbit (beyond {:.0e}): their statistics, folds \
+                 and verdicts may be wrong (raise --harmonics, or check with `geardyn periodic`)",
+                far.len(),
+                first.speed,
+                last.speed,
+                worst,
+                crate::analysis::hb::ORBIT_ERROR_WARNING
             );
         }
         if checked.is_empty() {

@@ -52,6 +52,16 @@ pub const SHOOTING_CHECK_MARGIN: f64 = 2e-3;
 /// (up to ~150 measured), but there the fold itself marks the change of stability.
 pub const RADIUS_SENSITIVITY: f64 = 5.0;
 
+/// An HB orbit whose estimated scaled distance from the periodic orbit
+/// ([`BranchPoint::orbit_error`]) exceeds this is a poor approximation of it: its statistics,
+/// its folds and its verdict may be wrong, and the summary of `geardyn hb` says so. Measured on
+/// `countershaft_gearset` at H = 20: 1.6e-3–2.4e-3 on the lower branch at 385–394 rad/s (the
+/// orbit Newton shooting finds from the HB state 1.6e-3–2.4e-3 away), 0.16–1.05 on the branch
+/// with 22–33 % contact loss on mesh 1 (at 384.64 rad/s estimated 0.165, found 0.170), where
+/// the HB branch turns at ~373.5 rad/s while the periodic orbit's branch ends at 382.0–382.5
+/// rad/s (shooting continuation, `tests/hb_verdicts.rs`); 1e-2 lies between the two.
+pub const ORBIT_ERROR_WARNING: f64 = 1e-2;
+
 /// A shooting orbit is taken as the HB orbit's when its start lies within this many times the
 /// first Newton step from the HB state (the step estimates the distance; measured within 5 %
 /// of it away from folds): farther away, Newton has found another orbit.
@@ -156,6 +166,13 @@ impl BranchPoint {
             }
             _ => false,
         }
+    }
+
+    /// Whether the HB orbit's estimated distance from the periodic orbit exceeds
+    /// [`ORBIT_ERROR_WARNING`] (false without an estimate, or where the shooting check found
+    /// the orbit: its multipliers are then the orbit's).
+    pub fn far_from_orbit(&self) -> bool {
+        !self.shooting_checked() && self.orbit_error.is_some_and(|e| e > ORBIT_ERROR_WARNING)
     }
 
     /// Whether the multipliers came from the shooting orbit of the check.

@@ -77,7 +77,7 @@ mod statistics;
 
 pub use continuation::{
     continuation, continuation_reporting, BranchPoint, ContinuationOptions, ShootingCheck,
-    RADIUS_SENSITIVITY, SHOOTING_CHECK_DISTANCE, SHOOTING_CHECK_MARGIN,
+    ORBIT_ERROR_WARNING, RADIUS_SENSITIVITY, SHOOTING_CHECK_DISTANCE, SHOOTING_CHECK_MARGIN,
 };
 
 use std::f64::consts::TAU;
