@@ -404,16 +404,7 @@ impl Torus {
         let (top, line) = (self.top, &self.lines[k]);
         for (t, c) in tones.iter().enumerate() {
             let sum = b[(c[u] + top) as usize] * line[(c[v] + top) as usize].conj();
-            // cos sum = Re, sin sum = −Im.
-            if paired {
-                out[2 * t] += sum.re;
-                out[2 * t + 1] -= sum.im;
-            } else if t == 0 {
-                out[0] += sum.re;
-            } else {
-                out[2 * t - 1] += sum.re;
-                out[2 * t] -= sum.im;
-            }
+            deposit(out, t, paired, sum);
         }
     }
 
@@ -470,16 +461,7 @@ impl Torus {
             for i in 0..rows {
                 sum += buf[i * np + slot] * self.e(grid, i, c[u]).conj();
             }
-            // cos sum = Re, sin sum = −Im.
-            if paired {
-                out[2 * t] += sum.re;
-                out[2 * t + 1] -= sum.im;
-            } else if t == 0 {
-                out[0] += sum.re;
-            } else {
-                out[2 * t - 1] += sum.re;
-                out[2 * t] -= sum.im;
-            }
+            deposit(out, t, paired, sum);
         }
     }
 
@@ -579,14 +561,7 @@ impl Torus {
             };
         }
         for (tp, &sum) in sums.iter().enumerate() {
-            let sum = 0.5 * sum;
-            // cos sum = Re, sin sum = −Im.
-            if tp == 0 {
-                out[0] += sum.re;
-            } else {
-                out[2 * tp - 1] += sum.re;
-                out[2 * tp] -= sum.im;
-            }
+            deposit(out, tp, false, 0.5 * sum);
         }
     }
 
@@ -948,6 +923,22 @@ impl Torus {
             self.split = kept;
         }
         true
+    }
+}
+
+/// Adds tone `t`'s complex sum `Σ y e^{−2πi c·ϑ}` to `out` as its (cos, sin) sums (cos = Re,
+/// sin = −Im): in the layout `[c_0, a_1, b_1, …]` over the retained orders, or (`paired`) as
+/// a (cos, sin) pair for every tone.
+#[inline]
+fn deposit(out: &mut [f64], t: usize, paired: bool, sum: Complex64) {
+    if paired {
+        out[2 * t] += sum.re;
+        out[2 * t + 1] -= sum.im;
+    } else if t == 0 {
+        out[0] += sum.re;
+    } else {
+        out[2 * t - 1] += sum.re;
+        out[2 * t] -= sum.im;
     }
 }
 
