@@ -190,22 +190,7 @@ fn moved_output_points_do_not_reuse_a_product() {
 /// capture, as the recurring-segment references are, and rebuilt from the same sequences).
 #[test]
 fn restored_runs_continue_bit_for_bit() {
-    let scene = chain(3, "linear");
-    let mut a = sim(&scene, MethodChoice::Exact, true);
-    for k in 1..=50 {
-        a.advance_to(k as f64 * PERIOD).unwrap();
-    }
-    a.forget_recurrences();
-    let snap = a.snapshot();
-    let mut b = sim(&scene, MethodChoice::Exact, true);
-    b.restore(&snap).unwrap();
-    for k in 51..=150 {
-        let t = k as f64 * PERIOD;
-        a.advance_to(t).unwrap();
-        b.advance_to(t).unwrap();
-        assert_eq!(a.state(), b.state(), "at period {k}");
-    }
-    assert!(a.composite_counts().1 > 50 && b.composite_counts().1 > 50);
+    restored_run_continues_bit_for_bit(&chain(3, "linear"));
 }
 
 /// The contact-loss law while contact holds (the free 8-mesh chain without STE): each
@@ -286,14 +271,19 @@ fn guarded_walks_with_contact_loss_are_taken_back() {
 /// guarded products and certificates are dropped at capture with the modes).
 #[test]
 fn restored_guarded_runs_continue_bit_for_bit() {
-    let scene = holding_chain(3);
-    let mut a = sim(&scene, MethodChoice::Exact, true);
+    restored_run_continues_bit_for_bit(&holding_chain(3));
+}
+
+/// Runs `scene` 50 periods, restores its snapshot in a fresh simulation and checks the two
+/// for 100 more periods, each taking > 50 products.
+fn restored_run_continues_bit_for_bit(scene: &Scene) {
+    let mut a = sim(scene, MethodChoice::Exact, true);
     for k in 1..=50 {
         a.advance_to(k as f64 * PERIOD).unwrap();
     }
     a.forget_recurrences();
     let snap = a.snapshot();
-    let mut b = sim(&scene, MethodChoice::Exact, true);
+    let mut b = sim(scene, MethodChoice::Exact, true);
     b.restore(&snap).unwrap();
     for k in 51..=150 {
         let t = k as f64 * PERIOD;
