@@ -126,6 +126,36 @@ impl Factorised {
     }
 }
 
+/// The preconditioner of the Newton–Krylov solves on the torus (`krylov.rs`) where GMRES on
+/// the Jacobian alone needs many products (contact loss): the factorised Newton matrix of an
+/// earlier iterate (the dense Jacobian of the torus sums, bordered in the continuation's
+/// corrector, factorised by the blocked LU), kept over iterates and branch points while it
+/// keeps the solves short and refreshed (`refresh`) when a solve takes many products; the
+/// identity until then. A preconditioner from the current contact pattern, applied on the
+/// right so that GMRES's residual stays the system's (Knoll & Keyes 2004, J. Comput. Phys.
+/// 193:357–397, §3.1, the frozen Jacobian as preconditioner).
+#[derive(Default)]
+pub(super) struct FrozenJacobian {
+    lu: Option<Factorised>,
+    /// Set by a solve that took many products: the next iterate factorises its Jacobian.
+    pub(super) refresh: bool,
+}
+
+impl FrozenJacobian {
+    /// Keeps the factorisation of `a` (the Newton matrix at the current iterate).
+    pub(super) fn factorise(&mut self, a: DMatrix<f64>) {
+        self.lu = Some(Factorised::new(a, true));
+        self.refresh = false;
+    }
+
+    /// `M⁻¹ v`: the identity without a factorisation (or where it is singular).
+    pub(super) fn apply(&self, v: &DVector<f64>) -> DVector<f64> {
+        (self.lu.as_ref())
+            .and_then(|lu| lu.solve(v))
+            .unwrap_or_else(|| v.clone())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -3,7 +3,7 @@
 
 use nalgebra::{Complex, DMatrix, DVector};
 
-use super::blocked_lu::Factorised;
+use super::blocked_lu::{Factorised, FrozenJacobian};
 use super::krylov::{krylov_corrector, krylov_tangent, Corrected};
 use super::problem::{Evaluation, Problem, Want, CHORD_UNKNOWNS};
 use super::{HbOptions, HbSolution};
@@ -315,6 +315,8 @@ fn continue_branch<M: Drivetrain + Send>(
         tangent = -tangent;
     }
     let mut points = vec![make_point(&problem, f_ref, &e0, iterations, false)];
+    // The Newton–Krylov corrector's preconditioner, kept over branch points.
+    let mut frozen = FrozenJacobian::default();
     let mut step = options.initial_step;
     while points.len() < options.max_points {
         // A study's per-point timeout (`budget::with_deadline`): the Newton solves run no
@@ -333,6 +335,7 @@ fn continue_branch<M: Drivetrain + Send>(
             let krylov = if problem.torus.is_some() {
                 krylov_corrector(
                     &mut problem,
+                    &mut frozen,
                     &mut candidate,
                     (&predicted, &tangent),
                     (xs, f_ref),

@@ -10,13 +10,18 @@
 //! slopes kept from the evaluation), then `R` per order: a pass over the grid costs about one
 //! residual without the law, where the dense Jacobian of the countershaft at H = 20 (1 682
 //! unknowns) took its Toeplitz sums and an LU of ~3·10⁹ flops. The mean part being inverted
-//! in `R`, `J` is the identity plus the stiffness variation's share, so GMRES needs no further
-//! preconditioner (docs/harmonic-balance.md, "Newton–Krylov").
+//! in `R`, `J` is the identity plus the stiffness variation's share, and GMRES needs no further
+//! preconditioner while no contact is lost (≤ 27 products a solve on the countershaft). With
+//! a third of the mesh period out of contact it needs 40–140, and the solves take the
+//! factorised Jacobian of an earlier iterate as preconditioner ([`FrozenJacobian`]; the mean
+//! slopes of the contact pattern, block-diagonal per order, were measured not to reduce the
+//! products: docs/harmonic-balance.md, "The whole range").
 
 use std::f64::consts::TAU;
 
-use nalgebra::DVector;
+use nalgebra::{DMatrix, DVector};
 
+use super::blocked_lu::FrozenJacobian;
 use super::gmres::gmres;
 use super::problem::{cmul, factor, Evaluation, Problem, Want};
 use crate::model::Drivetrain;
@@ -34,6 +39,12 @@ const KRYLOV_PRODUCTS: usize = 400;
 
 /// Newton iterations of the corrector before the step is halved.
 const KRYLOV_ITERATIONS: usize = 12;
+
+/// Products of one solve above which its [`FrozenJacobian`] is refreshed at the next iterate.
+/// Where no contact is lost a corrector solve takes at most 27 products on the countershaft at
+/// H = 20 (200–394 rad/s), so no Jacobian is built there; on the branch with 22–33 % contact
+/// loss on mesh 1 beyond the 394 rad/s fold it took 40–140.
+const KRYLOV_REFRESH_PRODUCTS: usize = 30;
 
 /// The outcome of [`krylov_corrector`].
 pub(super) enum Corrected {
@@ -91,15 +102,29 @@ impl<M: Drivetrain> Problem<M> {
 
     /// `J⁻¹ b` by GMRES at the last evaluation's torus linearisation; None when it does not
     /// converge.
-    pub(super) fn krylov_solve(&self, b: &DVector<f64>) -> Option<DVector<f64>> {
+    /// `frozen` preconditions the solve on the right and is marked for a refresh when the
+    /// solve takes more than [`KRYLOV_REFRESH_PRODUCTS`] products.
+    pub(super) fn krylov_solve(
+        &self,
+        b: &DVector<f64>,
+        frozen: &mut FrozenJacobian,
+    ) -> Option<DVector<f64>> {
+        let mut products = 0;
         let solved = gmres(
-            &mut |v| self.jacobian_product(v),
+            &mut |v| {
+                products += 1;
+                self.jacobian_product(&frozen.apply(v))
+            },
             b,
             KRYLOV_TOLERANCE,
             KRYLOV_RESTART,
             KRYLOV_PRODUCTS,
         );
-        (solved.converged && solved.x.iter().all(|x| x.is_finite())).then_some(solved.x)
+        if products > KRYLOV_REFRESH_PRODUCTS {
+            frozen.refresh = true;
+        }
+        let x = frozen.apply(&solved.x);
+        (solved.converged && x.iter().all(|x| x.is_finite())).then_some(x)
     }
 }
 
@@ -109,7 +134,7 @@ pub(super) fn krylov_tangent<M: Drivetrain>(
     problem: &Problem<M>,
     d: &DVector<f64>,
 ) -> Option<DVector<f64>> {
-    let y = problem.krylov_solve(d)?;
+    let y = problem.krylov_solve(d, &mut FrozenJacobian::default())?;
     let dim = y.len();
     let mut t = DVector::zeros(dim + 1);
     t.rows_mut(0, dim).copy_from(&(-y));
@@ -123,6 +148,7 @@ pub(super) fn krylov_tangent<M: Drivetrain>(
 /// about two Krylov vectors, and keeps the system regular at folds).
 pub(super) fn krylov_corrector<M: Drivetrain>(
     problem: &mut Problem<M>,
+    frozen: &mut FrozenJacobian,
     candidate: &mut DVector<f64>,
     (predicted, tangent): (&DVector<f64>, &DVector<f64>),
     (xs, f_ref): (f64, f64),
@@ -132,8 +158,9 @@ pub(super) fn krylov_corrector<M: Drivetrain>(
     for it in 1..=KRYLOV_ITERATIONS {
         let s = candidate.rows(0, dim) * xs;
         let f = candidate[dim] * f_ref;
+        let refresh = frozen.refresh;
         let want = Want {
-            jacobian: false,
+            jacobian: refresh,
             frequency: true,
             samples: true,
             linear: true,
@@ -148,16 +175,29 @@ pub(super) fn krylov_corrector<M: Drivetrain>(
             return Corrected::Failed;
         };
         let d = d * (f_ref / xs);
+        if refresh {
+            let Some(jacobian) = e.jacobian.take() else {
+                return Corrected::Failed;
+            };
+            let mut a = DMatrix::zeros(dim + 1, dim + 1);
+            a.view_mut((0, 0), (dim, dim)).copy_from(&jacobian);
+            a.view_mut((0, dim), (dim, 1)).copy_from(&d);
+            a.set_row(dim, &tangent.transpose());
+            frozen.factorise(a);
+        }
         let mut g = DVector::zeros(dim + 1);
         g.rows_mut(0, dim).copy_from(&(&e.residual / xs));
         g[dim] = tangent.dot(&(&*candidate - predicted));
         let linearised: &Problem<M> = problem;
+        let mut products = 0;
         let mut apply = |v: &DVector<f64>| {
+            products += 1;
+            let x = frozen.apply(v);
             let mut y = DVector::zeros(dim + 1);
-            let vs = v.rows(0, dim).into_owned();
+            let xs = x.rows(0, dim).into_owned();
             y.rows_mut(0, dim)
-                .copy_from(&(linearised.jacobian_product(&vs) + &d * v[dim]));
-            y[dim] = tangent.dot(v);
+                .copy_from(&(linearised.jacobian_product(&xs) + &d * x[dim]));
+            y[dim] = tangent.dot(&x);
             y
         };
         let solved = gmres(
@@ -167,7 +207,10 @@ pub(super) fn krylov_corrector<M: Drivetrain>(
             KRYLOV_RESTART,
             KRYLOV_PRODUCTS,
         );
-        let delta = solved.x;
+        if products > KRYLOV_REFRESH_PRODUCTS {
+            frozen.refresh = true;
+        }
+        let delta = frozen.apply(&solved.x);
         if !solved.converged || !delta.iter().all(|x| x.is_finite()) {
             return Corrected::Failed;
         }

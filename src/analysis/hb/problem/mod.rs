@@ -7,7 +7,7 @@ use std::f64::consts::TAU;
 
 use nalgebra::{Complex, DMatrix, DVector, Dyn, LU};
 
-use super::blocked_lu::Factorised;
+use super::blocked_lu::{Factorised, FrozenJacobian};
 use super::scan::{uniform_coefficients, uniform_points, ScanGrid};
 use super::{Basis, HbOptions, HbSolution};
 use crate::model::drivetrain::{response_frequencies, response_period_in_mesh_periods};
@@ -751,6 +751,7 @@ impl<M: Drivetrain> Problem<M> {
         // "Solver"); small ones: Newton as always.
         let chord = s.len() > CHORD_UNKNOWNS;
         let mut factored: Option<Factorised> = None;
+        let mut frozen = FrozenJacobian::default();
         let mut previous = f64::INFINITY;
         for iteration in 1..=options.max_iterations {
             let krylov = chord && self.torus.is_some();
@@ -759,15 +760,19 @@ impl<M: Drivetrain> Problem<M> {
                 &s,
                 f,
                 Want {
-                    jacobian: refresh,
+                    jacobian: refresh || (krylov && frozen.refresh),
                     linear: krylov,
                     ..want
                 },
             )?;
             let delta = if krylov && self.torus.is_some() {
-                self.krylov_solve(&(-&e.residual)).ok_or_else(|| {
-                    format!("harmonic balance at {speed} rad/s: GMRES did not converge")
-                })?
+                if let Some(jacobian) = e.jacobian.take() {
+                    frozen.factorise(jacobian);
+                }
+                self.krylov_solve(&(-&e.residual), &mut frozen)
+                    .ok_or_else(|| {
+                        format!("harmonic balance at {speed} rad/s: GMRES did not converge")
+                    })?
             } else {
                 if krylov {
                     // The torus declined (a contact switch it cannot bracket): the line
