@@ -279,13 +279,14 @@ impl Cell {
     }
 
     /// What the exact propagator did in the timed periods: `modes built / products built /
-    /// product hits per period`.
+    /// product hits per period` (the products held, so negative where a full cache was
+    /// cleared).
     pub fn reuse(&self) -> String {
         let (products, hits) = self.sim.composite_counts();
         format!(
             "{} / {} / {:.2}",
             self.sim.mode_counts().0 - self.modes0,
-            products - self.products0,
+            products as i64 - self.products0 as i64,
             (hits - self.hits0) as f64 / self.timed.max(1) as f64
         )
     }
