@@ -59,6 +59,15 @@ pub fn exp_work() -> f64 {
 /// harmonics; small drivetrains).
 const MAX_FIXED: usize = 11;
 
+/// States from which [`BalancedMatrix::exp_times`] takes its products by
+/// [`BalancedMatrix::times`] (dense rows blocked, sparse rows compressed) instead of the dense
+/// product: a chain's mode with a new contact combination meets its durations once, so its
+/// one-off durations go by this series (the free 16-mesh rigid chain with contact loss, 65
+/// states: 2.74–2.87 against 3.07–3.84 s CPU for 400 periods, `docs/scaling.md`). Below it,
+/// the single pair's unrolled products and the small drivetrains keep the dense product
+/// they were measured with (acceptance 4 of issue 37).
+const SERIES_ROWS_FROM: usize = 32;
+
 /// Most Taylor terms a series is summed to: `θ ≤ 8` settles within ~40.
 pub const MAX_TERMS: usize = 60;
 
@@ -359,6 +368,9 @@ impl BalancedMatrix {
         }
         // θ^k / k!, the bound of term k relative to ‖D⁻¹z‖₁.
         let mut bound = 1.0;
+        // The split rows where they pay most ([`SERIES_ROWS_FROM`]), the dense product below:
+        // the same bits either way.
+        let by_rows = n >= SERIES_ROWS_FROM;
         let b = self.b.as_slice();
         for k in 1..=MAX_TERMS {
             let tail = bound * theta / k as f64 / (1.0 - theta / (k + 1) as f64);
@@ -368,7 +380,11 @@ impl BalancedMatrix {
             if k == MAX_TERMS {
                 return false;
             }
-            super::mat_vec::mat_vec(b, &work.term, &mut work.next);
+            if by_rows {
+                self.times(&work.term, &mut work.next);
+            } else {
+                super::mat_vec::mat_vec(b, &work.term, &mut work.next);
+            }
             let factor = tau / k as f64;
             for ((t, o), &x) in work.term.iter_mut().zip(out.iter_mut()).zip(&work.next) {
                 *t = x * factor;
