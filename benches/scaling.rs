@@ -1,223 +1,215 @@
-//! Scaling benchmark of issue 20 (acceptance 1 and 3): µs per mesh period against DOF for the
-//! benchmark chains (`Scene::chain`, `src/scene/train/chain.rs`) of 1, 2, 4, 8, 16, 32
-//! and 64 meshes, rigid and compliant bearings, with and without contact loss, for the exact
-//! propagator, DP5, DOP853 and the stiff RODAS4 (rtol 1e-9, atol 1e-15), all in one run.
+//! Scaling benchmark of issue 37 (acceptance 1): CPU µs per mesh period of the free
+//! (ungrounded) chains (`ChainSpec::free`) of 1, 2, 4, 8, 16, 32 and 64 meshes, rigid and
+//! compliant bearings, under the three conditions (the linear contact law, the contact-loss
+//! law while contact holds, contact loss), for the exact propagator, DP5, DOP853 and RODAS4
+//! (rtol 1e-9, atol 1e-15), all in one run, and the four goal lines of the acceptance.
 //!
-//! `cargo bench --bench scaling` (full: 200 timed mesh periods, median of 3 alternated rounds)
-//! or `SCALING_QUICK=1 cargo bench --bench scaling` (20 periods, median of 3 rounds: one
-//! round of 20 periods is a few µs on the small chains, and one preemption of the shared
-//! machine then decides the cell);
-//! `SCALING_MAX_MESHES=16` stops at 16 meshes.
+//! `cargo bench --bench scaling` (full: 1–64 meshes, 10 alternated rounds of blocks of about
+//! 1 s CPU, exact warm-ups of up to 300 s CPU), or `SCALING_QUICK=1 cargo bench --bench
+//! scaling` (1–16 meshes, 5 rounds of about 0.2 s, a few minutes); `SCALING_MAX_MESHES=N`
+//! stops at N meshes.
 //!
-//! Set-up and steady state are measured apart. Each (chain, method) first runs an untimed
-//! warm-up, advanced one mesh period at a time: at least a tenth of the timed periods (the
-//! start-up transient), and for the exact propagator on until a period builds no new mode and
-//! no new composite product (`mode_counts`, `composite_counts`), i.e. until everything it
-//! reuses is built; capped at the timed period count or [`MAX_WARM_UP_SECONDS`]. Its wall time
-//! is printed as the one-off set-up. The same simulations then time their periods in
-//! alternated rounds (one mesh period per `advance_to`): the steady-state cost per period,
-//! on which the growth exponent is fitted.
+//! The chains, conditions, warm-up and timing are those of `examples/free_chain_cost.rs`
+//! (`benches/common/free_chain.rs`): each exact simulation is warmed up past the free chain's
+//! settling transient (at least 2000 periods and on until 5 periods in a row build no mode
+//! and no composite product, or the CPU limit: with contact loss at 32 and 64 meshes the limit
+//! ends it and the window still meets new contact combinations), and each RK simulation starts
+//! from the warmed exact state, so all methods time the same stretch of the motion. The cells
+//! of one chain (3 conditions × 4 methods) are timed side by side in alternated blocks (CPU
+//! time of this thread), and every ratio is paired within a round. A cell whose one period
+//! takes more than 5 blocks' CPU is timed in the first round only (marked `(k p)`: k periods
+//! timed). An RK cell whose cost, extrapolated from the previous size (DOF² for the explicit
+//! pairs, DOF³ for RODAS4), exceeds [`MAX_PERIOD_SECONDS`] per period is skipped with that
+//! estimate. Timings are comparable only within one run (the machine is shared).
 //!
-//! Nothing is skipped on a compliant chain: a method whose timed run would exceed
-//! [`MAX_RUN_SECONDS`] (estimated from its last warm-up period) times fewer periods (at
-//! least one, after at least one warm-up period), in the first round only, and its cell says
-//! how many, e.g. `123456.7 (2 p)`. On rigid chains a method whose cost per period,
-//! extrapolated from the previous size (DOF³ for exact and RODAS4, DOF² for the explicit
-//! pairs), puts its run above `5 ·` [`MAX_RUN_SECONDS`] is skipped with that estimate.
-//! Timings are comparable only within one run (the machine is shared).
-//!
-//! Last, the two contact-loss goals of acceptance 1 (the 8-mesh rigid chain and the shipped
-//! idler, exact at least 3× faster than the best RK) as whole runs from the start
-//! (`common/whole_run.rs`, the protocol of `exact_chain`): with contact loss a chain meets new
-//! contact combinations for thousands of periods, so the table's windows after a short warm-up
-//! still pay for new modes in every period.
+//! Last, the two contact-loss rows of issue 20 (the grounded 8-mesh rigid chain and the
+//! shipped idler, exact at least 3× faster than the best RK) as whole runs from the start
+//! (`common/whole_run.rs`, the protocol of `exact_chain`).
 
 use std::time::Instant;
 
-use geardyn::model::train::TrainSimulation;
 use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec};
 use geardyn::scene::MethodChoice;
 use geardyn::scene::Scene;
 
+#[path = "common/free_chain.rs"]
+mod free_chain;
+use free_chain::{median_of, paired, scene, spread, Cell, Condition, Method};
 #[path = "common/stats.rs"]
 mod stats;
 use stats::median;
 #[path = "common/whole_run.rs"]
 mod whole_run;
 
-/// Longest timed run of one (chain, method) per round; slower methods time fewer periods.
-const MAX_RUN_SECONDS: f64 = 20.0;
-/// The warm-up stops after this long even if the exact propagator still builds (contact
-/// loss: contact combinations that do not recur keep building modes in every period).
-const MAX_WARM_UP_SECONDS: f64 = 60.0;
+/// An RK cell whose extrapolated cost per period is above this is skipped.
+const MAX_PERIOD_SECONDS: f64 = 60.0;
 
-#[derive(Clone, Copy, PartialEq)]
-enum Method {
-    Exact,
-    Dp5,
-    Dop853,
-    Rodas4,
-}
-
-const METHODS: [Method; 4] = [Method::Exact, Method::Dp5, Method::Dop853, Method::Rodas4];
-
-impl Method {
-    fn name(self) -> &'static str {
-        match self {
-            Method::Exact => "exact",
-            Method::Dp5 => "dp5",
-            Method::Dop853 => "dop853",
-            Method::Rodas4 => "rodas4",
-        }
-    }
-
-    /// Growth of the cost per period with DOF for the skip estimate: an `n_z²` mat-vec per
-    /// segment and `2M ∝ DOF` segments (exact, before the composites), an LU per step
-    /// (RODAS4), `O(DOF)` right-hand sides of `O(DOF)` per step (explicit pairs).
-    fn growth_power(self) -> i32 {
-        match self {
-            Method::Exact | Method::Rodas4 => 3,
-            Method::Dp5 | Method::Dop853 => 2,
-        }
-    }
-}
-
-fn configure(mut s: Scene, method: Method) -> Scene {
+/// Growth of an RK method's cost per period with DOF, for the skip estimate: `O(DOF)` right-
+/// hand sides of `O(DOF)` per period (explicit pairs), an LU per step (RODAS4).
+fn growth_power(method: Method) -> i32 {
     match method {
-        Method::Exact => s.solver.method = MethodChoice::Exact,
-        Method::Dp5 | Method::Dop853 | Method::Rodas4 => {
-            s.solver.method = MethodChoice::Rk;
-            s.solver.rk_method = method.name().parse().unwrap();
-        }
-    }
-    s.solver.rtol = 1e-9;
-    s.solver.atol = 1e-15;
-    s
-}
-
-/// What the exact propagator built and reused (all zero on the RK path).
-#[derive(Clone, Copy, Default, PartialEq, Debug)]
-struct Reuse {
-    modes_built: u64,
-    products_built: u64,
-    product_hits: u64,
-}
-
-impl Reuse {
-    fn of(sim: &TrainSimulation) -> Reuse {
-        let (modes_built, _) = sim.mode_counts();
-        let (products_built, product_hits) = sim.composite_counts();
-        Reuse {
-            modes_built,
-            products_built,
-            product_hits,
-        }
-    }
-
-    fn since(self, before: Reuse) -> Reuse {
-        Reuse {
-            modes_built: self.modes_built - before.modes_built,
-            products_built: self.products_built - before.products_built,
-            product_hits: self.product_hits - before.product_hits,
-        }
+        Method::Rodas4 => 3,
+        _ => 2,
     }
 }
 
-/// A simulation after its warm-up, ready to time periods.
-struct Warmed {
-    sim: TrainSimulation,
-    period: f64,
-    /// Mesh periods advanced so far.
-    done: usize,
-    set_up_seconds: f64,
-    warm_up_periods: usize,
-    /// Wall time of the last warm-up period (the estimate of a timed one).
-    last_period_seconds: f64,
+/// The settings of one run.
+struct Settings {
+    rounds: usize,
+    /// CPU seconds per timed block.
+    block: f64,
+    warm_up: usize,
+    /// CPU limit of an exact warm-up, s.
+    warm_cpu: f64,
 }
 
-impl Warmed {
-    fn advance_period(&mut self) -> Result<(), String> {
-        let k = self.done + 1;
-        self.sim
-            .advance_to(k as f64 * self.period)
-            .map_err(|e| format!("{e} (period {k})"))?;
-        self.done = k;
-        Ok(())
+/// One chain's cells, by condition then method (`Err`: skipped or failed, with the reason).
+struct Chain {
+    bearings: ChainBearings,
+    meshes: usize,
+    dof: f64,
+    cells: Vec<(Condition, Vec<Result<Cell, String>>)>,
+}
+
+impl Chain {
+    fn slot(&self, condition: Condition, method: Method) -> Option<&Result<Cell, String>> {
+        let (_, cells) = self.cells.iter().find(|(c, _)| *c == condition)?;
+        let i = Method::ALL.iter().position(|&m| m == method)?;
+        cells.get(i)
     }
 
-    /// Seconds for `count` further periods, events in them and what the exact propagator
-    /// built and reused meanwhile.
-    fn time(&mut self, count: usize) -> Result<(f64, u64, Reuse), String> {
-        let events = self.sim.stats().events;
-        let before = Reuse::of(&self.sim);
-        let start = Instant::now();
-        for _ in 0..count {
-            self.advance_period()?;
-        }
-        let seconds = start.elapsed().as_secs_f64();
-        Ok((
-            seconds,
-            self.sim.stats().events - events,
-            Reuse::of(&self.sim).since(before),
-        ))
+    fn cell(&self, condition: Condition, method: Method) -> Option<&Cell> {
+        self.slot(condition, method)?.as_ref().ok()
+    }
+
+    /// Median of `a`'s block times over `b`'s, paired within rounds.
+    fn ratio(&self, a: (Condition, Method), b: (Condition, Method)) -> Option<f64> {
+        let r = paired(self.cell(a.0, a.1)?, self.cell(b.0, b.1)?);
+        (!r.is_empty()).then(|| median_of(&r))
+    }
+
+    /// The best RK method's time over exact's under `condition` (the smallest paired median).
+    fn best_rk_ratio(&self, condition: Condition) -> Option<(f64, Method)> {
+        Method::ALL[1..]
+            .iter()
+            .filter_map(|&m| {
+                self.ratio((condition, m), (condition, Method::Exact))
+                    .map(|r| (r, m))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0))
     }
 }
 
-/// Consecutive periods that must build nothing before the exact propagator counts as warm.
-/// One is not enough: where a mesh switches at the period boundary itself (mesh 0 of the
-/// chains), the rounding of that stop against `k·T` decides whether a period starts just
-/// before or just after it, so two or three sequence variants recur irregularly, and a
-/// variant first met in period 4 gets its product in period 6 (`composite.rs`:
-/// products are built on the second sighting).
-const SETTLED_PERIODS: usize = 5;
-
-/// A fresh simulation warmed up: at least `min_periods` periods, and on until
-/// [`SETTLED_PERIODS`] periods in a row build nothing the exact propagator reuses, up to
-/// `max_periods` or [`MAX_WARM_UP_SECONDS`] (at least one period); an RK method whose first
-/// period shows that `max_periods` would take above [`MAX_RUN_SECONDS`] stops after it (its
-/// timed run is shortened anyway). The set-up time includes the assembly.
-fn warm_up(scene: &Scene, min_periods: usize, max_periods: usize) -> Result<Warmed, String> {
-    let settle = if scene.solver.method == MethodChoice::Exact {
-        SETTLED_PERIODS
-    } else {
-        1
+/// The chain of `meshes` meshes with `bearings`: its exact cells warmed up, its RK cells
+/// started from them (or skipped by the estimate from `previous`, the last chain with these
+/// bearings), then all timed in alternated rounds.
+fn run_chain(
+    bearings: ChainBearings,
+    meshes: usize,
+    previous: Option<&Chain>,
+    settings: &Settings,
+) -> Chain {
+    let dof = ChainSpec::free(meshes, bearings, ChainContact::Linear).dof() as f64;
+    let mut chain = Chain {
+        bearings,
+        meshes,
+        dof,
+        cells: Vec::new(),
     };
-    let start = Instant::now();
-    let period = 1.0 / scene.mesh_frequency(0, scene.operating.input_speed);
-    let sim = TrainSimulation::new(scene)?;
-    let mut warmed = Warmed {
-        sim,
-        period,
-        done: 0,
-        set_up_seconds: 0.0,
-        warm_up_periods: 0,
-        last_period_seconds: 0.0,
-    };
-    let mut settled_run = 0;
-    loop {
-        let before = Reuse::of(&warmed.sim);
-        let period_start = Instant::now();
-        warmed.advance_period()?;
-        warmed.last_period_seconds = period_start.elapsed().as_secs_f64();
-        let built = Reuse::of(&warmed.sim).since(before);
-        settled_run = if built.modes_built == 0 && built.products_built == 0 {
-            settled_run + 1
-        } else {
-            0
+    for condition in Condition::ALL {
+        let exact = Cell::warm(
+            &scene(meshes, bearings, condition, Method::Exact),
+            condition,
+            settings.warm_up,
+            settings.warm_cpu,
+        );
+        let mut cells = Vec::new();
+        for &method in &Method::ALL[1..] {
+            let estimate = previous
+                .and_then(|p| p.cell(condition, method).map(|c| (c, p.dof)))
+                .map(|(c, prev_dof)| {
+                    c.seconds_per_period() * (dof / prev_dof).powi(growth_power(method))
+                });
+            let skipped_before = previous.is_some_and(
+                |p| matches!(p.slot(condition, method), Some(Err(e)) if e.starts_with("skipped")),
+            );
+            let cell = match (&exact, estimate) {
+                (Err(e), _) => Err(format!("no warm exact state: {e}")),
+                _ if skipped_before => Err("skipped (skipped at the last size)".into()),
+                (_, Some(est)) if est > MAX_PERIOD_SECONDS => {
+                    Err(format!("skipped (est. {est:.0} s/p)"))
+                }
+                (Ok(from), _) => {
+                    Cell::follow(&scene(meshes, bearings, condition, method), method, from)
+                }
+            };
+            cells.push(cell);
+        }
+        cells.insert(0, exact);
+        chain.cells.push((condition, cells));
+    }
+    for round in 0..settings.rounds {
+        for (_, cells) in chain.cells.iter_mut() {
+            for slot in cells.iter_mut() {
+                let Ok(cell) = slot else { continue };
+                let slow = cell.seconds_per_period() > 5.0 * settings.block;
+                if round > 0 && slow {
+                    continue;
+                }
+                if let Err(e) = cell.block(settings.block) {
+                    *slot = Err(format!("failed: {e}"));
+                }
+            }
+        }
+    }
+    chain
+}
+
+fn print_chain(chain: &Chain, settings: &Settings) {
+    let label = format!("{:?}", chain.bearings).to_lowercase();
+    for (condition, cells) in &chain.cells {
+        let us: Vec<String> = cells
+            .iter()
+            .map(|c| match c {
+                Err(e) => e.clone(),
+                Ok(c) if c.times.len() < settings.rounds => {
+                    format!("{:.1} ({} p)", median_of(&c.times), c.timed)
+                }
+                Ok(c) => format!("{:.1}", median_of(&c.times)),
+            })
+            .collect();
+        let exact = cells[0].as_ref().ok();
+        let holds = match condition {
+            Condition::Holds => chain
+                .cell(Condition::Holds, Method::Exact)
+                .zip(chain.cell(Condition::Linear, Method::Exact))
+                .map_or("–".into(), |(h, l)| {
+                    format!("{}×", spread(&paired(h, l), 2))
+                }),
+            _ => String::new(),
         };
-        // An RK method too slow for a full timed run has seen its start-up after one period.
-        let slow = settle == 1 && warmed.last_period_seconds * max_periods as f64 > MAX_RUN_SECONDS;
-        if (warmed.done >= min_periods && settled_run >= settle)
-            || slow
-            || warmed.done >= max_periods
-            || start.elapsed().as_secs_f64() > MAX_WARM_UP_SECONDS
-        {
-            break;
-        }
+        let best = chain
+            .best_rk_ratio(*condition)
+            .map_or("–".into(), |(r, m)| format!("{r:.2}× {}", m.name()));
+        println!(
+            "{label:<9} {:<6} {:>3} {:>4}  {:>14} {:>18} {:>18} {:>18}  {:>6}  {:>22}  {:>13}  {:>16}  {}",
+            condition.name(),
+            chain.meshes,
+            chain.dof,
+            us[0],
+            us[1],
+            us[2],
+            us[3],
+            exact.map_or("–".into(), |c| format!("{:.2}", c.events_per_period())),
+            holds,
+            best,
+            exact.map_or("–".into(), |c| format!(
+                "{} ({:.1})",
+                c.warm_periods, c.warm_seconds
+            )),
+            exact.map_or(String::new(), Cell::reuse),
+        );
     }
-    warmed.set_up_seconds = start.elapsed().as_secs_f64();
-    warmed.warm_up_periods = warmed.done;
-    Ok(warmed)
 }
 
 /// Least-squares slope of `ln y` against `ln x`.
@@ -238,90 +230,100 @@ fn growth_exponent(points: &[(f64, f64)]) -> Option<f64> {
     Some(sxy / sxx)
 }
 
-/// One method's cell of a row.
-enum Cell {
-    Skipped(f64),
-    Failed(String),
-    Timed {
-        warmed: Box<Warmed>,
-        /// Periods per timed round.
-        periods: usize,
-        samples: Vec<f64>,
-        events: u64,
-        reuse: Reuse,
-    },
-}
-
-impl Cell {
-    fn steady(&mut self, full_periods: usize) -> String {
-        match self {
-            Cell::Skipped(est) => format!("skipped (est. {est:.0} s)"),
-            Cell::Failed(e) => format!("failed: {e}"),
-            Cell::Timed {
-                periods, samples, ..
-            } => {
-                let per = median(samples) / *periods as f64 * 1e6;
-                if *periods < full_periods {
-                    format!("{per:.1} ({periods} p)")
-                } else {
-                    format!("{per:.1}")
-                }
-            }
-        }
-    }
-
-    fn seconds_per_period(&mut self) -> Option<f64> {
-        match self {
-            Cell::Timed {
-                periods, samples, ..
-            } => Some(median(samples) / *periods as f64),
-            _ => None,
-        }
-    }
-
-    fn set_up(&self) -> String {
-        match self {
-            Cell::Timed { warmed, .. } => {
-                format!("{:.2} ({})", warmed.set_up_seconds, warmed.warm_up_periods)
-            }
-            _ => "-".into(),
-        }
-    }
-}
-
-/// The steady-state exact cost and set-up time of a chain without contact loss.
-struct ExactPoint {
-    bearings: ChainBearings,
-    dof: f64,
-    steady: f64,
-    set_up: f64,
-}
-
-fn label(bearings: ChainBearings) -> String {
-    format!("{bearings:?}").to_lowercase()
-}
-
-fn print_growth(points: &[ExactPoint], what: &str, value: impl Fn(&ExactPoint) -> f64) {
+/// The four goal lines of acceptance 1.
+fn print_goals(chains: &[Chain]) {
+    println!("\ngoals of issue 37, acceptance 1 (paired medians of this run):");
     for bearings in [ChainBearings::Rigid, ChainBearings::Compliant] {
-        let all: Vec<(f64, f64)> = points
-            .iter()
-            .filter(|p| p.bearings == bearings)
-            .map(|p| (p.dof, value(p)))
+        let label = format!("{bearings:?}").to_lowercase();
+        let of = || chains.iter().filter(move |c| c.bearings == bearings);
+        let ratios: Vec<(usize, f64)> = of()
+            .filter_map(|c| {
+                c.ratio(
+                    (Condition::Holds, Method::Exact),
+                    (Condition::Linear, Method::Exact),
+                )
+                .map(|r| (c.meshes, r))
+            })
             .collect();
-        // The smallest chains are dominated by fixed costs; also fit from 4 meshes on.
-        let four_meshes = ChainSpec::new(4, bearings, ChainContact::Linear).dof() as f64;
-        let big: Vec<(f64, f64)> = all
-            .iter()
-            .copied()
-            .filter(|&(dof, _)| dof >= four_meshes)
-            .collect();
-        let fmt = |e: Option<f64>| e.map_or("-".to_string(), |e| format!("DOF^{e:.2}"));
+        let worst = ratios.iter().map(|r| r.1).fold(0.0, f64::max);
         println!(
-            "exact {what} growth without contact loss, {} bearings: {} (all sizes), {} (4 meshes \
-             and up)",
-            label(bearings),
-            fmt(growth_exponent(&all)),
-            fmt(growth_exponent(&big))
+            "1. contact-loss law while contact holds ÷ linear law, {label}: {} (goal <= 2x at \
+             every N: {})",
+            ratios
+                .iter()
+                .map(|(m, r)| format!("{m}: {r:.2}x"))
+                .collect::<Vec<_>>()
+                .join(", "),
+            if ratios.is_empty() {
+                "-"
+            } else if worst <= 2.0 {
+                "met"
+            } else {
+                "NOT met"
+            }
+        );
+    }
+    for bearings in [ChainBearings::Rigid, ChainBearings::Compliant] {
+        let label = format!("{bearings:?}").to_lowercase();
+        for condition in [Condition::Linear, Condition::Holds] {
+            // The smallest chains are dominated by fixed costs: fitted from 4 meshes on.
+            let points: Vec<(f64, f64)> = chains
+                .iter()
+                .filter(|c| c.bearings == bearings && c.meshes >= 4)
+                .filter_map(|c| {
+                    let cell = c.cell(condition, Method::Exact)?;
+                    (cell.times.len() > 1).then(|| (c.dof, median_of(&cell.times)))
+                })
+                .collect();
+            println!(
+                "2. exact cost growth, {label}, {} (4 meshes and up): {} (goal <= DOF^2)",
+                condition.name(),
+                growth_exponent(&points).map_or("-".into(), |e| format!(
+                    "DOF^{e:.2}{}",
+                    if e <= 2.0 { ", met" } else { ", NOT met" }
+                ))
+            );
+        }
+    }
+    if let Some(c) = chains
+        .iter()
+        .find(|c| c.bearings == ChainBearings::Compliant && c.meshes == 16)
+    {
+        let r = c.ratio(
+            (Condition::Holds, Method::Dop853),
+            (Condition::Holds, Method::Exact),
+        );
+        println!(
+            "3. DOP853 ÷ exact, 16-mesh compliant chain (51 DOF), contact-loss law while contact \
+             holds: {} (goal >= 30x)",
+            r.map_or("-".into(), |r| format!(
+                "{r:.1}x{}",
+                if r >= 30.0 { ", met" } else { ", NOT met" }
+            ))
+        );
+    }
+    for bearings in [ChainBearings::Rigid, ChainBearings::Compliant] {
+        let label = format!("{bearings:?}").to_lowercase();
+        let rows: Vec<String> = chains
+            .iter()
+            .filter(|c| c.bearings == bearings && c.meshes <= 32)
+            .map(|c| {
+                let goal = if c.meshes <= 8 { 3.0 } else { 1.0 };
+                c.best_rk_ratio(Condition::Loss)
+                    .map_or(format!("{}: -", c.meshes), |(r, m)| {
+                        format!(
+                            "{}: {r:.2}x {} ({})",
+                            c.meshes,
+                            m.name(),
+                            if r >= goal { "met" } else { "NOT met" }
+                        )
+                    })
+            })
+            .collect();
+        println!(
+            "4. best RK ÷ exact with contact loss, {label}: {} (goal >= 3x up to 8 meshes, >= 1x \
+             up to 32)",
+            rows.join(", ")
         );
     }
 }
@@ -332,23 +334,35 @@ fn main() {
     let max_meshes: usize = std::env::var("SCALING_MAX_MESHES")
         .ok()
         .and_then(|v| v.parse().ok())
-        .unwrap_or(64);
-    let (periods, rounds) = if quick { (20, 3) } else { (200, 3) };
-    let min_warm = (periods / 10).max(1);
+        .unwrap_or(if quick { 16 } else { 64 });
+    let settings = if quick {
+        Settings {
+            rounds: 5,
+            block: 0.2,
+            warm_up: 2000,
+            warm_cpu: 30.0,
+        }
+    } else {
+        Settings {
+            rounds: 10,
+            block: 1.0,
+            warm_up: 2000,
+            warm_cpu: 300.0,
+        }
+    };
     println!(
-        "geardyn scaling benchmark: benchmark chains at 2000 Hz, rtol 1e-9; steady state: µs per \
-         mesh period over {periods} timed periods, median of {rounds} alternated round(s), \
-         `(k p)`: only k periods timed, one round (run above {MAX_RUN_SECONDS} s); set-up: \
-         seconds of the untimed warm-up (periods), at least {min_warm} periods, exact until \
-         {SETTLED_PERIODS} periods in a row build no mode and no product (cap {periods} periods or {MAX_WARM_UP_SECONDS} \
-         s); exact reuse in the timed periods: modes built / products built / product hits per \
-         period"
+        "geardyn scaling benchmark (issue 37, acceptance 1): free chains at 2000 Hz, rtol 1e-9; \
+         CPU µs per mesh period, median of {} alternated rounds of blocks of about {} s CPU \
+         (`(k p)`: a slow cell timed in the first round only, k periods); exact warmed up for \
+         at least {} periods and until 5 periods build nothing (CPU limit {} s), RK from the \
+         warmed exact state; holds÷linear and best RK÷exact paired within rounds; exact reuse \
+         in the timed periods: modes built / products built / product hits per period",
+        settings.rounds, settings.block, settings.warm_up, settings.warm_cpu
     );
     println!(
-        "{:<10} {:<12} {:>3} {:>4}  {:>16} {:>16} {:>16} {:>16}  {:>6}  {:>12} {:>12} {:>12} \
-         {:>12}  exact reuse",
+        "{:<9} {:<6} {:>3} {:>4}  {:>14} {:>18} {:>18} {:>18}  {:>6}  {:>22}  {:>13}  {:>16}  exact reuse",
         "bearings",
-        "contact",
+        "cond.",
         "M",
         "DOF",
         "exact µs",
@@ -356,176 +370,32 @@ fn main() {
         "dop853 µs",
         "rodas4 µs",
         "ev/p",
-        "exact set-up",
-        "dp5 set-up",
-        "dop853 set-up",
-        "rodas4 set-up"
+        "holds÷linear",
+        "best RK÷exact",
+        "warm-up p (CPU s)",
     );
-    let mut exact_linear: Vec<ExactPoint> = Vec::new();
-    let mut ratio_51_dof: Option<(f64, f64)> = None;
+    let mut chains: Vec<Chain> = Vec::new();
     for bearings in [ChainBearings::Rigid, ChainBearings::Compliant] {
-        for contact in [ChainContact::Linear, ChainContact::ContactLoss] {
-            // Cost per period at the previous size, per method (for the rigid skip estimate).
-            let mut previous: [Option<(f64, f64)>; 4] = [None; 4];
-            for meshes in [1, 2, 4, 8, 16, 32, 64] {
-                if meshes > max_meshes {
-                    continue;
-                }
-                let spec = ChainSpec::new(meshes, bearings, contact);
-                let dof = spec.dof() as f64;
-                let base = Scene::chain(spec).expect("benchmark chain");
-                let mut cells: Vec<Cell> = Vec::new();
-                for (i, &method) in METHODS.iter().enumerate() {
-                    if bearings == ChainBearings::Rigid {
-                        if let Some((cost, prev_dof)) = previous[i] {
-                            let est = cost
-                                * (dof / prev_dof).powi(method.growth_power())
-                                * periods as f64;
-                            if est > 5.0 * MAX_RUN_SECONDS {
-                                cells.push(Cell::Skipped(est));
-                                previous[i] = Some((est / periods as f64, dof));
-                                continue;
-                            }
-                        }
-                    }
-                    let scene = configure(base.clone(), method);
-                    let cell = match warm_up(&scene, min_warm, periods) {
-                        Err(e) => Cell::Failed(e),
-                        Ok(warmed) => {
-                            let fit = (MAX_RUN_SECONDS / warmed.last_period_seconds) as usize;
-                            Cell::Timed {
-                                warmed: Box::new(warmed),
-                                periods: fit.clamp(1, periods),
-                                samples: Vec::new(),
-                                events: 0,
-                                reuse: Reuse::default(),
-                            }
-                        }
-                    };
-                    cells.push(cell);
-                }
-                for round in 0..rounds {
-                    for cell in cells.iter_mut() {
-                        let Cell::Timed {
-                            warmed,
-                            periods: count,
-                            samples,
-                            events,
-                            reuse,
-                        } = cell
-                        else {
-                            continue;
-                        };
-                        if round > 0 && *count < periods {
-                            continue;
-                        }
-                        match warmed.time(*count) {
-                            Ok((seconds, ev, r)) => {
-                                samples.push(seconds);
-                                if round == 0 {
-                                    *events = ev;
-                                    *reuse = r;
-                                }
-                            }
-                            Err(e) => *cell = Cell::Failed(e),
-                        }
-                    }
-                }
-                for (i, cell) in cells.iter_mut().enumerate() {
-                    if let Some(per) = cell.seconds_per_period() {
-                        previous[i] = Some((per, dof));
-                    }
-                }
-                let steady: Vec<String> = cells.iter_mut().map(|c| c.steady(periods)).collect();
-                let set_up: Vec<String> = cells.iter().map(Cell::set_up).collect();
-                let events = cells
-                    .iter()
-                    .find_map(|c| match c {
-                        Cell::Timed {
-                            periods, events, ..
-                        } => Some(format!("{:.2}", *events as f64 / *periods as f64)),
-                        _ => None,
-                    })
-                    .unwrap_or_default();
-                let reuse = match &cells[0] {
-                    Cell::Timed { periods, reuse, .. } => format!(
-                        "{} / {} / {:.2}",
-                        reuse.modes_built,
-                        reuse.products_built,
-                        reuse.product_hits as f64 / *periods as f64
-                    ),
-                    _ => String::new(),
-                };
-                println!(
-                    "{:<10} {:<12} {:>3} {:>4}  {:>16} {:>16} {:>16} {:>16}  {:>6}  {:>12} \
-                     {:>12} {:>12} {:>12}  {}",
-                    label(bearings),
-                    match contact {
-                        ChainContact::Linear => "linear",
-                        ChainContact::ContactLoss => "contact loss",
-                    },
-                    meshes,
-                    dof,
-                    steady[0],
-                    steady[1],
-                    steady[2],
-                    steady[3],
-                    events,
-                    set_up[0],
-                    set_up[1],
-                    set_up[2],
-                    set_up[3],
-                    reuse
-                );
-                if contact == ChainContact::Linear {
-                    if let (
-                        Some(steady),
-                        Cell::Timed {
-                            warmed, periods: n, ..
-                        },
-                    ) = (cells[0].seconds_per_period(), &cells[0])
-                    {
-                        if *n == periods {
-                            exact_linear.push(ExactPoint {
-                                bearings,
-                                dof,
-                                steady,
-                                set_up: warmed.set_up_seconds,
-                            });
-                        }
-                    }
-                    if bearings == ChainBearings::Compliant && meshes == 16 {
-                        if let (Some(exact), Some(dop853)) =
-                            (cells[0].seconds_per_period(), cells[2].seconds_per_period())
-                        {
-                            ratio_51_dof = Some((exact, dop853));
-                        }
-                    }
-                }
+        for meshes in [1, 2, 4, 8, 16, 32, 64] {
+            if meshes > max_meshes {
+                continue;
             }
+            let previous = chains.iter().rev().find(|c| c.bearings == bearings);
+            let chain = run_chain(bearings, meshes, previous, &settings);
+            print_chain(&chain, &settings);
+            chains.push(chain);
         }
     }
-    print_growth(&exact_linear, "steady-state cost", |p| p.steady);
-    print_growth(&exact_linear, "set-up time", |p| p.set_up);
-    if let Some((exact, dop853)) = ratio_51_dof {
-        println!(
-            "DOP853/exact on the 16-mesh compliant linear chain (51 DOF), steady state: {:.1}x \
-             ({:.1} against {:.1} µs per period; goal >= 30x)",
-            dop853 / exact,
-            dop853 * 1e6,
-            exact * 1e6
-        );
-    }
-    contact_loss_goals(rounds);
+    print_goals(&chains);
+    contact_loss_goals(3);
     println!("total wall time {:.0} s", run_start.elapsed().as_secs_f64());
 }
 
-/// The two contact-loss rows of acceptance 1 (exact at least 3× faster than the best RK): the
-/// 8-mesh rigid chain with contact loss on every mesh and the shipped `idler_gearset` at
-/// 2000 Hz, each timed as whole runs from the start (`common/whole_run.rs`: 2000 mesh periods
-/// exact, 400 per RK method; the table's 20-period windows still meet new contact
-/// combinations in every period, which a run pays once), median of `rounds` alternated rounds
-/// after a warm-up run.
+/// The two contact-loss rows of issue 20 (exact at least 3× faster than the best RK): the
+/// grounded 8-mesh rigid chain with contact loss on every mesh and the shipped
+/// `idler_gearset` at 2000 Hz, each timed as whole runs from the start
+/// (`common/whole_run.rs`: 2000 mesh periods exact, 400 per RK method), median of `rounds`
+/// alternated rounds after a warm-up run.
 fn contact_loss_goals(rounds: usize) {
     use geardyn::solve::rk::Method as Rk;
     use whole_run::micros_per_period;
@@ -538,7 +408,10 @@ fn contact_loss_goals(rounds: usize) {
     let mut idler = Scene::example("idler_gearset").unwrap();
     idler.operating.input_speed = std::f64::consts::TAU * 2000.0 / 38.0;
     for (label, scene) in [
-        ("8-mesh rigid chain with contact loss (9 DOF)", chain),
+        (
+            "grounded 8-mesh rigid chain with contact loss (9 DOF)",
+            chain,
+        ),
         ("idler_gearset with contact loss (8 DOF)", idler),
     ] {
         let run = |method, rk, periods| {
@@ -553,8 +426,8 @@ fn contact_loss_goals(rounds: usize) {
         }
         let (exact, dop853, dp5) = (median(&mut exact), median(&mut dop853), median(&mut dp5));
         println!(
-            "best RK/exact on the {label}, whole runs: {:.1}x (exact {exact:.1}, DOP853 \
-             {dop853:.1}, DP5 {dp5:.1} µs per period; goal >= 3x)",
+            "issue 20: best RK/exact on the {label}, whole runs (wall time): {:.1}x (exact \
+             {exact:.1}, DOP853 {dop853:.1}, DP5 {dp5:.1} µs per period; goal >= 3x)",
             dop853.min(dp5) / exact
         );
     }

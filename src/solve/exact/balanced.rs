@@ -59,6 +59,15 @@ pub fn exp_work() -> f64 {
 /// harmonics; small drivetrains).
 const MAX_FIXED: usize = 11;
 
+/// States from which [`BalancedMatrix::exp_times`] takes its products by
+/// [`BalancedMatrix::times`] (dense rows blocked, sparse rows compressed) instead of the dense
+/// product: a chain's mode with a new contact combination meets its durations once, so its
+/// one-off durations go by this series (the free 16-mesh rigid chain with contact loss, 65
+/// states: 2.74–2.87 against 3.07–3.84 s CPU for 400 periods, `docs/scaling.md`). Below it,
+/// the single pair's unrolled products and the small drivetrains keep the dense product
+/// they were measured with (acceptance 4 of issue 37).
+const SERIES_ROWS_FROM: usize = 32;
+
 /// Most Taylor terms a series is summed to: `θ ≤ 8` settles within ~40.
 pub const MAX_TERMS: usize = 60;
 
@@ -78,46 +87,104 @@ pub struct BalancedMatrix {
     scale: Vec<f64>,
     /// `‖B‖₁`, for the remainder bound of [`BalancedMatrix::exp_times`].
     norm: f64,
-    /// `B` by rows, its non-zeros only, when they are few enough to pay
-    /// ([`BalancedMatrix::times`]).
+    /// `B` by rows, the non-zeros of its sparse rows and the runs of its dense rows, when that
+    /// pays ([`BalancedMatrix::times`]).
     sparse: Option<SparseRows>,
 }
 
-/// A matrix by rows, non-zeros only (compressed sparse rows).
+/// A matrix by rows: the rows with few non-zeros as their non-zeros only (compressed sparse
+/// rows), the others as runs of dense rows for the blocked kernel
+/// ([`super::mat_vec::mat_vec_rows`]). A gear mode's matrix is mostly sparse rows (the
+/// identity block of the velocities, the harmonics' rotations) around one band of dense rows
+/// (the accelerations, dense over the elastic coordinates of a free train).
 #[derive(Clone)]
 struct SparseRows {
-    /// Row `i`'s entries are `[starts[i], starts[i + 1])`.
+    /// Row `i`'s entries are `[starts[i], starts[i + 1])` (none for a dense row).
     starts: Vec<u32>,
     columns: Vec<u32>,
     values: Vec<f64>,
+    /// The runs `[start, end)` of dense rows.
+    dense: Vec<(u32, u32)>,
 }
 
 impl SparseRows {
-    /// The rows of `b` if at most a third of its entries are non-zero (a gear mode: the
-    /// identity block, and mass-coupled stiffness and damping rows of a few gears each).
+    /// The rows of `b` if that is cheaper than the dense product: a row with more than a
+    /// third of its entries non-zero is dense (the blocked kernel's cost per entry is about
+    /// a third of a compressed row's per non-zero: the threshold at which the whole matrix
+    /// went by its sparse rows before), and the split is taken when its cost, `3 ×` the
+    /// sparse rows' non-zeros plus `n ×` the dense rows, is below the dense product's `n²`.
     fn of(b: &DMatrix<f64>) -> Option<SparseRows> {
         let n = b.nrows();
-        let nonzeros = b.iter().filter(|v| **v != 0.0).count();
-        if n < 8 || 3 * nonzeros > n * n {
+        if n < 8 {
+            return None;
+        }
+        // Counted column by column (contiguous in the column-major `b`).
+        let mut counts = vec![0usize; n];
+        for column in b.as_slice().chunks_exact(n) {
+            for (count, &v) in counts.iter_mut().zip(column) {
+                *count += usize::from(v != 0.0);
+            }
+        }
+        let is_dense = |i: usize| 3 * counts[i] > n;
+        let dense_rows = (0..n).filter(|&i| is_dense(i)).count();
+        let sparse_nonzeros: usize = (0..n).filter(|&i| !is_dense(i)).map(|i| counts[i]).sum();
+        if dense_rows == n || 3 * sparse_nonzeros + n * dense_rows > n * n {
             return None;
         }
         let mut rows = SparseRows {
             starts: Vec::with_capacity(n + 1),
-            columns: Vec::with_capacity(nonzeros),
-            values: Vec::with_capacity(nonzeros),
+            columns: Vec::with_capacity(sparse_nonzeros),
+            values: Vec::with_capacity(sparse_nonzeros),
+            dense: Vec::new(),
         };
         rows.starts.push(0);
         for i in 0..n {
-            for j in 0..n {
-                let v = b[(i, j)];
-                if v != 0.0 {
-                    rows.columns.push(j as u32);
-                    rows.values.push(v);
+            if is_dense(i) {
+                match rows.dense.last_mut() {
+                    Some((_, end)) if *end as usize == i => *end += 1,
+                    _ => rows.dense.push((i as u32, i as u32 + 1)),
+                }
+            } else {
+                for j in 0..n {
+                    let v = b[(i, j)];
+                    if v != 0.0 {
+                        rows.columns.push(j as u32);
+                        rows.values.push(v);
+                    }
                 }
             }
             rows.starts.push(rows.columns.len() as u32);
         }
         Some(rows)
+    }
+}
+
+/// The positions of a square matrix's non-zeros by line (row or column), ascending.
+struct Pattern {
+    /// Line `i`'s positions are `indices[starts[i]..starts[i + 1]]`.
+    starts: Vec<u32>,
+    indices: Vec<u32>,
+}
+
+impl Pattern {
+    /// Line `i` holds the `j` with `nonzero(i, j)`.
+    fn of(n: usize, nonzero: impl Fn(usize, usize) -> bool) -> Pattern {
+        let mut pattern = Pattern {
+            starts: Vec::with_capacity(n + 1),
+            indices: Vec::new(),
+        };
+        pattern.starts.push(0);
+        for i in 0..n {
+            pattern
+                .indices
+                .extend((0..n).filter(|&j| nonzero(i, j)).map(|j| j as u32));
+            pattern.starts.push(pattern.indices.len() as u32);
+        }
+        pattern
+    }
+
+    fn of_line(&self, i: usize) -> &[u32] {
+        &self.indices[self.starts[i] as usize..self.starts[i + 1] as usize]
     }
 }
 
@@ -137,16 +204,29 @@ impl BalancedMatrix {
                 sparse: None,
             };
         }
+        // The off-diagonal non-zeros by column and by row, ascending: a sum over them is the
+        // sum over the whole column or row (the terms skipped are exact zeros, and the sums
+        // start at +0), and a scaling by a power of two keeps a zero the same zero, so the
+        // sweeps below give the dense sweeps' `D` and `B` bit for bit at the cost of the
+        // non-zeros (a drivetrain's `A` is mostly zeros; every new contact combination of a
+        // long chain balances a new mode, `docs/scaling.md`).
+        let (by_column, by_row) = {
+            let nonzero = |i: usize, j: usize| i != j && b[(i, j)] != 0.0;
+            let column_rows = Pattern::of(n, |col, row| nonzero(row, col));
+            let row_columns = Pattern::of(n, nonzero);
+            (column_rows, row_columns)
+        };
+        let data = b.as_mut_slice();
         // LAPACK gebal converges in a few sweeps; the cap only guards against cycling.
         for _sweep in 0..32 {
             let mut converged = true;
             for i in 0..n {
                 let (mut c, mut r) = (0.0f64, 0.0f64);
-                for j in 0..n {
-                    if j != i {
-                        c += b[(j, i)].abs();
-                        r += b[(i, j)].abs();
-                    }
+                for &j in by_column.of_line(i) {
+                    c += data[i * n + j as usize].abs();
+                }
+                for &j in by_row.of_line(i) {
+                    r += data[j as usize * n + i].abs();
                 }
                 if c == 0.0 || r == 0.0 {
                     continue;
@@ -171,11 +251,16 @@ impl BalancedMatrix {
                 if (cc + rr) < 0.95 * (c + r) {
                     converged = false;
                     scale[i] *= f;
-                    // B ← F⁻¹ B F with F = diag(.., f, ..): column i times f, row i over f.
-                    for j in 0..n {
-                        b[(j, i)] *= f;
-                        b[(i, j)] /= f;
+                    // B ← F⁻¹ B F with F = diag(.., f, ..): column i times f, row i over f
+                    // (the diagonal entry both, in that order, as the dense update).
+                    for &j in by_column.of_line(i) {
+                        data[i * n + j as usize] *= f;
                     }
+                    for &j in by_row.of_line(i) {
+                        data[j as usize * n + i] /= f;
+                    }
+                    data[i * n + i] *= f;
+                    data[i * n + i] /= f;
                 }
             }
             if converged {
@@ -194,9 +279,10 @@ impl BalancedMatrix {
         }
     }
 
-    /// `out = B u`. With few non-zeros by rows, each row's products in ascending column
-    /// order, as the dense product sums them (the skipped terms are exact zeros), so the
-    /// result is the same; otherwise the dense product.
+    /// `out = B u`. The sparse rows' products in ascending column order, as the dense
+    /// product sums them (the skipped terms are exact zeros), and the dense rows by the dense
+    /// product's own kernel, so the result is the same bit for bit; without sparse rows the
+    /// dense product.
     pub fn times(&self, u: &[f64], out: &mut [f64]) {
         match &self.sparse {
             Some(rows) => {
@@ -208,6 +294,14 @@ impl BalancedMatrix {
                     }
                     *o = sum;
                 }
+                for &(start, end) in &rows.dense {
+                    super::mat_vec::mat_vec_rows(
+                        self.b.as_slice(),
+                        u,
+                        start as usize..end as usize,
+                        out,
+                    );
+                }
             }
             None => super::mat_vec::mat_vec(self.b.as_slice(), u, out),
         }
@@ -216,7 +310,10 @@ impl BalancedMatrix {
     /// Heap bytes of the sparse rows (the dense matrix is counted by the mode).
     pub fn sparse_bytes(&self) -> usize {
         self.sparse.as_ref().map_or(0, |r| {
-            r.starts.capacity() * 4 + r.columns.capacity() * 4 + r.values.capacity() * 8
+            r.starts.capacity() * 4
+                + r.columns.capacity() * 4
+                + r.values.capacity() * 8
+                + r.dense.capacity() * 8
         })
     }
 
@@ -271,6 +368,9 @@ impl BalancedMatrix {
         }
         // θ^k / k!, the bound of term k relative to ‖D⁻¹z‖₁.
         let mut bound = 1.0;
+        // The split rows where they pay most ([`SERIES_ROWS_FROM`]), the dense product below:
+        // the same bits either way.
+        let by_rows = n >= SERIES_ROWS_FROM;
         let b = self.b.as_slice();
         for k in 1..=MAX_TERMS {
             let tail = bound * theta / k as f64 / (1.0 - theta / (k + 1) as f64);
@@ -280,7 +380,11 @@ impl BalancedMatrix {
             if k == MAX_TERMS {
                 return false;
             }
-            super::mat_vec::mat_vec(b, &work.term, &mut work.next);
+            if by_rows {
+                self.times(&work.term, &mut work.next);
+            } else {
+                super::mat_vec::mat_vec(b, &work.term, &mut work.next);
+            }
             let factor = tau / k as f64;
             for ((t, o), &x) in work.term.iter_mut().zip(out.iter_mut()).zip(&work.next) {
                 *t = x * factor;

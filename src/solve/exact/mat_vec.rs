@@ -32,6 +32,65 @@ unsafe fn mat_vec_blocked_avx(m: &[f64], z: &[f64], out: &mut [f64]) {
     mat_vec_blocked(m, z, out);
 }
 
+/// `out[rows] = m[rows, :] · z` for a column-major `n × n` matrix (`n = z.len()`): the rows
+/// of `rows` only, each summed in ascending column order exactly as [`mat_vec`] sums it, so
+/// the entries are bit for bit those of the whole product (the dense rows of a mode whose
+/// other rows have few non-zeros: [`super::balanced::BalancedMatrix::times`]).
+#[inline]
+pub fn mat_vec_rows(m: &[f64], z: &[f64], rows: std::ops::Range<usize>, out: &mut [f64]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx") {
+        // SAFETY: the CPU has AVX (checked just above).
+        unsafe { rows_blocked_avx(m, z, rows, out) };
+        return;
+    }
+    rows_blocked(m, z, rows, out);
+}
+
+/// [`rows_blocked`] compiled for AVX (the same operations in the same order).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx")]
+unsafe fn rows_blocked_avx(m: &[f64], z: &[f64], rows: std::ops::Range<usize>, out: &mut [f64]) {
+    rows_blocked(m, z, rows, out);
+}
+
+/// [`mat_vec_blocked`] restricted to `rows`: blocks of rows in registers, or streamed column
+/// by column beyond [`BLOCKED_ROWS`], as the whole product is.
+#[inline(always)]
+fn rows_blocked(m: &[f64], z: &[f64], rows: std::ops::Range<usize>, out: &mut [f64]) {
+    let n = z.len();
+    let m = &m[..n * n];
+    if n > BLOCKED_ROWS {
+        let out = &mut out[rows.clone()];
+        out.fill(0.0);
+        for (column, &zj) in m.chunks_exact(n).zip(z) {
+            for (o, &mij) in out.iter_mut().zip(&column[rows.clone()]) {
+                *o += mij * zj;
+            }
+        }
+        return;
+    }
+    let mut row = rows.start;
+    while row + 16 <= rows.end {
+        rows_block::<16>(m, z, row, out);
+        row += 16;
+    }
+    if row + 8 <= rows.end {
+        rows_block::<8>(m, z, row, out);
+        row += 8;
+    }
+    if row + 4 <= rows.end {
+        rows_block::<4>(m, z, row, out);
+        row += 4;
+    }
+    match rows.end - row {
+        1 => rows_block::<1>(m, z, row, out),
+        2 => rows_block::<2>(m, z, row, out),
+        3 => rows_block::<3>(m, z, row, out),
+        _ => {}
+    }
+}
+
 /// Rows up to which [`mat_vec_blocked`] holds blocks of rows in registers; a larger matrix
 /// is streamed column by column instead (a block's pass reads every column at a stride of
 /// `8n` bytes, one page per column or so once `n` is in the hundreds).
@@ -106,7 +165,7 @@ fn mat_vec_fixed<const N: usize>(m: &[f64], z: &[f64], out: &mut [f64]) {
 
 #[cfg(test)]
 mod tests {
-    use super::mat_vec;
+    use super::{mat_vec, mat_vec_rows};
 
     /// Every size from 1 to past the streamed ones against the plain sums, row by row in
     /// ascending column order, bit for bit (the blocking only changes which sums share a
@@ -134,6 +193,19 @@ mod tests {
                     sum += m[j * n + i] * z[j];
                 }
                 assert_eq!(out[i].to_bits(), sum.to_bits(), "n = {n}, row {i}");
+            }
+            // Every range of rows of the same matrix: the same bits, nothing else written.
+            for (start, end) in [(0, n), (0, n / 2), (n / 3, n), (n / 4, n / 4 + n / 2 + 1)] {
+                let end = end.min(n);
+                let mut part = vec![f64::NAN; n];
+                mat_vec_rows(&m, &z, start..end, &mut part);
+                for i in 0..n {
+                    if (start..end).contains(&i) {
+                        assert_eq!(part[i].to_bits(), out[i].to_bits(), "n = {n}, row {i}");
+                    } else {
+                        assert!(part[i].is_nan(), "n = {n}, row {i} written");
+                    }
+                }
             }
         }
     }

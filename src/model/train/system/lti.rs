@@ -255,21 +255,33 @@ impl GearTrain {
         let nz = a.ncols();
         let last = nz - 1;
         let (k_b, c) = (self.jacobian_parts.minv_k(), self.jacobian_parts.minv_c());
+        // Column by column (contiguous in the column-major `A`); every entry takes the same
+        // operations in the same order as row by row: the torques, then `M̂⁻¹K̂_b`, `M̂⁻¹Ĉ`.
         for i in 0..m {
             a[(i, m + i)] = 1.0;
-            match torque_rows {
-                Some([t_in, t_load]) => {
-                    for col in 0..nz {
+        }
+        match torque_rows {
+            Some([t_in, t_load]) => {
+                for col in 0..nz {
+                    for i in 0..m {
                         a[(m + i, col)] += per_in[i] * t_in[col] + per_load[i] * t_load[col];
                     }
                 }
-                None => {
+            }
+            None => {
+                for i in 0..m {
                     a[(m + i, last)] += per_in[i] * self.inputs.input_torque
                         + per_load[i] * self.inputs.load_torque;
                 }
             }
-            for k in 0..m {
+        }
+        for k in 0..m {
+            for i in 0..m {
                 a[(m + i, k)] -= k_b[i * m + k];
+            }
+        }
+        for k in 0..m {
+            for i in 0..m {
                 a[(m + i, m + k)] -= c[i * m + k];
             }
         }
@@ -393,11 +405,14 @@ impl PiecewiseLti for GearTrain {
         let nz = a.nrows();
         let last = nz - 1;
         let m = self.m;
-        // Generalised force rows over z (before M̂⁻¹): f_ext − K_b ξ − C ξ' − Σ a_n F_n.
-        let mut force = DMatrix::<f64>::zeros(m, nz);
         let torque_rows =
             (self.rotation.as_ref()).map(|rot| rot.torque_rows(self, nz, self.ramp_time_index()));
-        for i in 0..m {
+        // A free train takes every product with M̂⁻¹ from its Jacobian parts
+        // (`free_train_rows`, issue 37), so it needs no force rows.
+        let solved = self.jacobian_parts.torque_columns();
+        // Generalised force rows over z (before M̂⁻¹): f_ext − K_b ξ − C ξ' − Σ a_n F_n.
+        let mut force = DMatrix::<f64>::zeros(if solved.is_some() { 0 } else { m }, nz);
+        for i in 0..force.nrows() {
             match &torque_rows {
                 // The port or shaft torques over z, through the same map as `external_force`.
                 Some([t_in, t_load]) => {
@@ -416,9 +431,6 @@ impl PiecewiseLti for GearTrain {
                 force[(i, m + k)] -= self.c[i * m + k];
             }
         }
-        // A free train takes every product with M̂⁻¹ from its Jacobian parts
-        // (`free_train_rows`, issue 37); `force` then stays unused.
-        let solved = self.jacobian_parts.torque_columns();
         let bases = self.harmonic_base();
         let mut w = vec![0.0; nz];
         let mut row = vec![0.0; nz];
@@ -439,10 +451,14 @@ impl PiecewiseLti for GearTrain {
             if solved.is_some() {
                 // −M̂⁻¹a_n F_n (and −M̂⁻¹ã_n F̃_n) straight into the acceleration rows.
                 let parts = std::iter::once((n, &row)).chain(back_part.map(|b| (b, &back)));
+                // Column by column: the acceleration rows of a column are contiguous (`A` is
+                // column-major; a new contact combination of a long chain builds a mode every
+                // few segments), and every entry takes the same subtraction as row by row.
                 for (part, force_row) in parts {
-                    for (i, &g) in self.jacobian_parts.minv_a(part).iter().enumerate() {
-                        for col in 0..nz {
-                            a[(m + i, col)] -= g * force_row[col];
+                    let g = self.jacobian_parts.minv_a(part);
+                    for (column, &f) in a.as_mut_slice().chunks_exact_mut(nz).zip(force_row) {
+                        for (x, &gi) in column[m..2 * m].iter_mut().zip(g) {
+                            *x -= gi * f;
                         }
                     }
                 }
