@@ -16,7 +16,7 @@ cargo test --release --locked --test ssd_fuzz -- --ignored --nocapture --exact s
 # The FMI call-sequence fuzzer's long variant (issue 17, 34): 1e6 seeded calls over the C ABI
 # and every shipped FMU, none over 1 s of CPU.
 cargo test --release --locked --test fmi_fuzz -- --ignored --nocapture --exact fmi_call_sequences_long
-# The free 64-mesh compliant chain, exact against DOP853 at rtol 1e-12 over 3 mesh periods
+# The free 64-mesh compliant chain, exact against DOP853 at rtol 1e-12 over one mesh period
 # (issue 37 acceptance 2; CI runs 4 and 16 meshes): minutes of DOP853.
 cargo test --release --locked --test chains -- --ignored --nocapture --exact free_compliant_chain_of_64_meshes_matches_dop853
 # The exact propagator's memory bound on the free 64-mesh compliant chain with contact loss
