@@ -11,25 +11,8 @@ pub fn mat_vec(m: &[f64], z: &[f64], out: &mut [f64]) {
         5 => mat_vec_fixed::<5>(m, z, out),
         7 => mat_vec_fixed::<7>(m, z, out),
         9 => mat_vec_fixed::<9>(m, z, out),
-        _ => {
-            #[cfg(target_arch = "x86_64")]
-            if std::arch::is_x86_feature_detected!("avx") {
-                // SAFETY: the CPU has AVX (checked just above).
-                unsafe { mat_vec_blocked_avx(m, z, out) };
-                return;
-            }
-            mat_vec_blocked(m, z, out);
-        }
+        n => mat_vec_rows(m, z, 0..n, out),
     }
-}
-
-/// [`mat_vec_blocked`] compiled for AVX: four lanes per instruction instead of two. The same
-/// multiplications and additions in the same order (no fused multiply-add), so the result is
-/// bit for bit that of the baseline build.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx")]
-unsafe fn mat_vec_blocked_avx(m: &[f64], z: &[f64], out: &mut [f64]) {
-    mat_vec_blocked(m, z, out);
 }
 
 /// `out[rows] = m[rows, :] · z` for a column-major `n × n` matrix (`n = z.len()`): the rows
@@ -47,15 +30,17 @@ pub fn mat_vec_rows(m: &[f64], z: &[f64], rows: std::ops::Range<usize>, out: &mu
     rows_blocked(m, z, rows, out);
 }
 
-/// [`rows_blocked`] compiled for AVX (the same operations in the same order).
+/// [`rows_blocked`] compiled for AVX: four lanes per instruction instead of two. The same
+/// multiplications and additions in the same order (no fused multiply-add), so the result is
+/// bit for bit that of the baseline build.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
 unsafe fn rows_blocked_avx(m: &[f64], z: &[f64], rows: std::ops::Range<usize>, out: &mut [f64]) {
     rows_blocked(m, z, rows, out);
 }
 
-/// [`mat_vec_blocked`] restricted to `rows`: blocks of rows in registers, or streamed column
-/// by column beyond [`BLOCKED_ROWS`], as the whole product is.
+/// The rows `rows` of the product: blocks of rows in registers, or streamed column by column
+/// beyond [`BLOCKED_ROWS`].
 #[inline(always)]
 fn rows_blocked(m: &[f64], z: &[f64], rows: std::ops::Range<usize>, out: &mut [f64]) {
     let n = z.len();
@@ -70,6 +55,12 @@ fn rows_blocked(m: &[f64], z: &[f64], rows: std::ops::Range<usize>, out: &mut [f
         }
         return;
     }
+    // Blocks of sixteen rows, their sums held in registers across the columns (a running
+    // `out` would be loaded and stored once per column): four independent chains of vector
+    // additions per column rather than the two of eight rows, whose add latency bounded the
+    // pass. The rows left go by eight, four and one to three, in registers too. Every row
+    // sums its products in ascending column order whatever its block, so the result does
+    // not depend on the blocking.
     let mut row = rows.start;
     while row + 16 <= rows.end {
         rows_block::<16>(m, z, row, out);
@@ -91,50 +82,10 @@ fn rows_blocked(m: &[f64], z: &[f64], rows: std::ops::Range<usize>, out: &mut [f
     }
 }
 
-/// Rows up to which [`mat_vec_blocked`] holds blocks of rows in registers; a larger matrix
+/// Rows up to which [`rows_blocked`] holds blocks of rows in registers; a larger matrix
 /// is streamed column by column instead (a block's pass reads every column at a stride of
 /// `8n` bytes, one page per column or so once `n` is in the hundreds).
 const BLOCKED_ROWS: usize = 128;
-
-#[inline(always)]
-fn mat_vec_blocked(m: &[f64], z: &[f64], out: &mut [f64]) {
-    let n = z.len();
-    let m = &m[..n * n];
-    if n > BLOCKED_ROWS {
-        out.fill(0.0);
-        for (column, &zj) in m.chunks_exact(n).zip(z) {
-            for (o, &mij) in out.iter_mut().zip(column) {
-                *o += mij * zj;
-            }
-        }
-        return;
-    }
-    // Blocks of sixteen rows, their sums held in registers across the columns (a running
-    // `out` would be loaded and stored once per column): four independent chains of vector
-    // additions per column rather than the two of eight rows, whose add latency bounded the
-    // pass. The rows left go by eight, four and one to three, in registers too. Every row
-    // sums its products in ascending column order whatever its block, so the result does
-    // not depend on the blocking.
-    let mut row = 0;
-    while row + 16 <= n {
-        rows_block::<16>(m, z, row, out);
-        row += 16;
-    }
-    if row + 8 <= n {
-        rows_block::<8>(m, z, row, out);
-        row += 8;
-    }
-    if row + 4 <= n {
-        rows_block::<4>(m, z, row, out);
-        row += 4;
-    }
-    match n - row {
-        1 => rows_block::<1>(m, z, row, out),
-        2 => rows_block::<2>(m, z, row, out),
-        3 => rows_block::<3>(m, z, row, out),
-        _ => {}
-    }
-}
 
 /// `out[row..row + R] = m[row..row + R, :] · z`, the `R` sums in registers.
 #[inline(always)]
