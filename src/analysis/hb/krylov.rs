@@ -109,23 +109,34 @@ impl<M: Drivetrain> Problem<M> {
         b: &DVector<f64>,
         frozen: &mut FrozenJacobian,
     ) -> Option<DVector<f64>> {
-        let mut products = 0;
-        let solved = gmres(
-            &mut |v| {
-                products += 1;
-                self.jacobian_product(&frozen.apply(v))
-            },
-            b,
-            KRYLOV_TOLERANCE,
-            KRYLOV_RESTART,
-            KRYLOV_PRODUCTS,
-        );
-        if products > KRYLOV_REFRESH_PRODUCTS {
-            frozen.refresh = true;
-        }
-        let x = frozen.apply(&solved.x);
-        (solved.converged && x.iter().all(|x| x.is_finite())).then_some(x)
+        preconditioned_gmres(frozen, &mut |v| self.jacobian_product(v), b)
     }
+}
+
+/// `A⁻¹ b` by GMRES on `product` (`v ↦ A v`), preconditioned on the right by `frozen`, which
+/// is marked for a refresh when the solve takes more than [`KRYLOV_REFRESH_PRODUCTS`]
+/// products; None when it does not converge or is not finite.
+fn preconditioned_gmres(
+    frozen: &mut FrozenJacobian,
+    product: &mut dyn FnMut(&DVector<f64>) -> DVector<f64>,
+    b: &DVector<f64>,
+) -> Option<DVector<f64>> {
+    let mut products = 0;
+    let solved = gmres(
+        &mut |v| {
+            products += 1;
+            product(&frozen.apply(v))
+        },
+        b,
+        KRYLOV_TOLERANCE,
+        KRYLOV_RESTART,
+        KRYLOV_PRODUCTS,
+    );
+    if products > KRYLOV_REFRESH_PRODUCTS {
+        frozen.refresh = true;
+    }
+    let x = frozen.apply(&solved.x);
+    (solved.converged && x.iter().all(|x| x.is_finite())).then_some(x)
 }
 
 /// The unit tangent `[−J⁻¹d; 1]/‖·‖` of the branch `r(s, λ) = 0` (`d = ∂r/∂λ` in the scaled
@@ -189,31 +200,17 @@ pub(super) fn krylov_corrector<M: Drivetrain>(
         g.rows_mut(0, dim).copy_from(&(&e.residual / xs));
         g[dim] = tangent.dot(&(&*candidate - predicted));
         let linearised: &Problem<M> = problem;
-        let mut products = 0;
-        let mut apply = |v: &DVector<f64>| {
-            products += 1;
-            let x = frozen.apply(v);
+        let mut bordered = |x: &DVector<f64>| {
             let mut y = DVector::zeros(dim + 1);
             let xs = x.rows(0, dim).into_owned();
             y.rows_mut(0, dim)
                 .copy_from(&(linearised.jacobian_product(&xs) + &d * x[dim]));
-            y[dim] = tangent.dot(&x);
+            y[dim] = tangent.dot(x);
             y
         };
-        let solved = gmres(
-            &mut apply,
-            &(-g),
-            KRYLOV_TOLERANCE,
-            KRYLOV_RESTART,
-            KRYLOV_PRODUCTS,
-        );
-        if products > KRYLOV_REFRESH_PRODUCTS {
-            frozen.refresh = true;
-        }
-        let delta = frozen.apply(&solved.x);
-        if !solved.converged || !delta.iter().all(|x| x.is_finite()) {
+        let Some(delta) = preconditioned_gmres(frozen, &mut bordered, &(-g)) else {
             return Corrected::Failed;
-        }
+        };
         if delta.amax() <= tolerance.max(1e-13) * 10.0 {
             return Corrected::Converged(Box::new(e), it);
         }
