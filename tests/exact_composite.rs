@@ -202,13 +202,9 @@ fn restored_runs_continue_bit_for_bit() {
 /// contact-loss law without its STE: the loaded meshes never separate.
 fn holding_chain(meshes: usize) -> Scene {
     use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec};
-    let text: String = ChainSpec::free(meshes, ChainBearings::Compliant, ChainContact::ContactLoss)
+    let text = ChainSpec::free(meshes, ChainBearings::Compliant, ChainContact::ContactHolds)
         .toml()
-        .expect("a free chain")
-        .lines()
-        .filter(|l| !l.starts_with("ste ="))
-        .map(|l| format!("{l}\n"))
-        .collect();
+        .expect("a free chain");
     Scene::from_toml_str(&text, "free_chain").expect("a free chain scene")
 }
 

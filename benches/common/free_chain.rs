@@ -77,19 +77,12 @@ pub fn scene(
 ) -> Scene {
     let contact = match condition {
         Condition::Linear => ChainContact::Linear,
-        Condition::Holds | Condition::Loss => ChainContact::ContactLoss,
+        Condition::Holds => ChainContact::ContactHolds,
+        Condition::Loss => ChainContact::ContactLoss,
     };
-    let mut text = ChainSpec::free(meshes, bearings, contact)
+    let text = ChainSpec::free(meshes, bearings, contact)
         .toml()
         .expect("a free chain");
-    if condition == Condition::Holds {
-        // Without the STE the loaded meshes never separate.
-        text = text
-            .lines()
-            .filter(|l| !l.starts_with("ste ="))
-            .map(|l| format!("{l}\n"))
-            .collect();
-    }
     let mut s = Scene::from_toml_str(&text, "free_chain").expect("a free chain scene");
     match method {
         Method::Exact => s.solver.method = MethodChoice::Exact,

@@ -40,6 +40,11 @@ pub enum ChainContact {
     Linear,
     /// Contact loss without back-side contact, tuned so that contact is lost every period.
     ContactLoss,
+    /// The contact-loss law with nothing that separates the teeth: the free chain
+    /// ([`ChainLayout::Free`]) without its STE, so that no loaded mesh separates (issue 37's
+    /// "contact-loss law while contact holds"). The grounded chain has no such variant: it
+    /// is tuned to lose contact.
+    ContactHolds,
 }
 
 /// Which chain: the benchmark chain of issue 20 or the free chain of issue 37.
@@ -112,6 +117,7 @@ impl ChainSpec {
             match self.contact {
                 ChainContact::Linear => "linear",
                 ChainContact::ContactLoss => "contact_loss",
+                ChainContact::ContactHolds => "contact_holds",
             }
         )
     }
@@ -146,6 +152,13 @@ impl ChainSpec {
         let (contact, modal_zeta) = match self.contact {
             ChainContact::Linear => ("linear", 0.02),
             ChainContact::ContactLoss => ("contact_loss", CONTACT_LOSS_MODAL_DAMPING),
+            ChainContact::ContactHolds => {
+                return Err(SceneError(
+                    "chain.contact = contact_holds: only on the free chain (ChainSpec::free); \
+                     the grounded chain is tuned to lose contact"
+                        .into(),
+                ))
+            }
         };
         let mut s = String::new();
         let _ = writeln!(s, "name = \"{}\"", self.name());
@@ -193,6 +206,7 @@ impl ChainSpec {
         let (contact, ste) = match self.contact {
             ChainContact::Linear => ("linear", None),
             ChainContact::ContactLoss => ("contact_loss", Some(FREE_STE)),
+            ChainContact::ContactHolds => ("contact_loss", None),
         };
         let mut s = String::new();
         let _ = writeln!(s, "name = \"{}\"", self.name());
