@@ -17,7 +17,7 @@
 
 use geardyn::model::train::TrainSimulation;
 use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec};
-use geardyn::scene::{MethodChoice, Scene};
+use geardyn::scene::Scene;
 use std::io::Write;
 
 const PERIOD: f64 = 1.0 / 2000.0;
@@ -39,13 +39,9 @@ fn main() {
     };
     let mut s = Scene::chain(ChainSpec::free(meshes, ChainBearings::Compliant, contact))
         .expect("a free chain");
-    match method.as_str() {
-        "exact" => s.solver.method = MethodChoice::Exact,
-        rk => {
-            s.solver.method = MethodChoice::Rk;
-            s.solver.rk_method = rk.parse().expect("exact, dp5, dop853 or rodas4");
-        }
-    }
+    s.solver
+        .set_propagator(method)
+        .expect("exact, dp5, dop853 or rodas4");
     s.solver.rtol = rtol;
     s.solver.atol = 1e-15;
     let delta = s.operating.input_torque / s.gears[0].base_radius / s.meshes[0].mean_stiffness();

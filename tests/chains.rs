@@ -13,13 +13,7 @@ fn scene(m: usize, b: ChainBearings, c: ChainContact) -> Scene {
 }
 
 fn with_method(mut s: Scene, method: &str, rtol: f64) -> Scene {
-    match method {
-        "exact" => s.solver.method = MethodChoice::Exact,
-        rk => {
-            s.solver.method = MethodChoice::Rk;
-            s.solver.rk_method = rk.parse().unwrap();
-        }
-    }
+    s.solver.set_propagator(method).unwrap();
     s.solver.rtol = rtol;
     s.solver.atol = 1e-15;
     s

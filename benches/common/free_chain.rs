@@ -17,7 +17,7 @@
 
 use geardyn::model::train::TrainSimulation;
 use geardyn::scene::train::{ChainBearings, ChainContact, ChainSpec};
-use geardyn::scene::{MethodChoice, Scene};
+use geardyn::scene::Scene;
 
 #[path = "cpu.rs"]
 mod cpu;
@@ -84,13 +84,9 @@ pub fn scene(
         .toml()
         .expect("a free chain");
     let mut s = Scene::from_toml_str(&text, "free_chain").expect("a free chain scene");
-    match method {
-        Method::Exact => s.solver.method = MethodChoice::Exact,
-        _ => {
-            s.solver.method = MethodChoice::Rk;
-            s.solver.rk_method = method.name().parse().expect("an RK method");
-        }
-    }
+    s.solver
+        .set_propagator(method.name())
+        .expect("exact or an RK method");
     s.solver.rtol = 1e-9;
     s.solver.atol = 1e-15;
     s

@@ -132,6 +132,26 @@ pub struct SolverSettings {
     pub exact_memory: Option<usize>,
 }
 
+impl SolverSettings {
+    /// Chooses the propagator by one name: `auto`, `exact`, `rk` (with the RK method already
+    /// set), or an RK method (`dp5`, `dop853`, `rodas4`), which also selects `rk`. Benchmarks
+    /// and tests that compare the propagators side by side name them this way.
+    pub fn set_propagator(&mut self, name: &str) -> Result<(), String> {
+        match name.parse::<MethodChoice>() {
+            Ok(method) => self.method = method,
+            Err(_) => {
+                self.rk_method = name.parse().map_err(|_| {
+                    format!(
+                        "'{name}' is not a propagator (auto | rk | exact | dp5 | dop853 | rodas4)"
+                    )
+                })?;
+                self.method = MethodChoice::Rk;
+            }
+        }
+        Ok(())
+    }
+}
+
 /// Built-in single-pair scenes (`fmu/<name>/scene.toml`, `examples/<name>.toml`), compiled
 /// into the binary.
 pub const EXAMPLES: &[(&str, &str)] = &[
@@ -166,4 +186,31 @@ pub fn read_scene_file(file: &Path) -> Result<(String, String), SceneError> {
     let text = std::fs::read_to_string(file)
         .map_err(|e| SceneError(format!("cannot read scene file '{}': {e}", file.display())))?;
     Ok((text, file.display().to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn set_propagator_takes_a_method_or_an_rk_method_and_names_a_bad_one() {
+        let mut s = Scene::example("spur_pair").unwrap().solver;
+        s.set_propagator("dop853").unwrap();
+        assert_eq!(
+            (s.method, s.rk_method),
+            (MethodChoice::Rk, crate::solve::rk::Method::Dop853)
+        );
+        s.set_propagator("exact").unwrap();
+        assert_eq!(
+            (s.method, s.rk_method),
+            (MethodChoice::Exact, crate::solve::rk::Method::Dop853)
+        );
+        let e = s.set_propagator("rk45").unwrap_err();
+        assert!(e.contains("'rk45'"), "{e}");
+        assert_eq!(
+            s.method,
+            MethodChoice::Exact,
+            "a refused name changes nothing"
+        );
+    }
 }
