@@ -454,9 +454,17 @@ impl PiecewiseLti for GearTrain {
                 // Column by column: the acceleration rows of a column are contiguous (`A` is
                 // column-major; a new contact combination of a long chain builds a mode every
                 // few segments), and every entry takes the same subtraction as row by row.
+                // A column where the force row is zero (most of them: a mesh's row reaches
+                // only its own gears' coordinates, a few harmonics and the constant) is
+                // skipped: `x − g·0` is `x`, as the entries here are never `−0` (they start
+                // at `+0` and `x − y` is `−0` only for `x = −0`), unless `g` is not finite.
                 for (part, force_row) in parts {
                     let g = self.jacobian_parts.minv_a(part);
+                    let skip_zeros = g.iter().all(|gi| gi.is_finite());
                     for (column, &f) in a.as_mut_slice().chunks_exact_mut(nz).zip(force_row) {
+                        if f == 0.0 && skip_zeros {
+                            continue;
+                        }
                         for (x, &gi) in column[m..2 * m].iter_mut().zip(g) {
                             *x -= gi * f;
                         }
