@@ -187,10 +187,12 @@ impl Pattern {
         by_column.starts.push(0);
         let mut row_counts = vec![0u32; n];
         for j in 0..n {
-            for (i, &v) in data[j * n..(j + 1) * n].iter().enumerate() {
-                if !v.is_finite() {
-                    return None;
-                }
+            let column = &data[j * n..(j + 1) * n];
+            // Without an early exit, so that the check vectorises.
+            if !column.iter().fold(true, |finite, v| finite & v.is_finite()) {
+                return None;
+            }
+            for (i, &v) in column.iter().enumerate() {
                 if v != 0.0 && i != j {
                     by_column.indices.push(i as u32);
                     row_counts[i] += 1;

@@ -401,7 +401,9 @@ impl PiecewiseLti for GearTrain {
     }
 
     fn lti_matrix(&self, a: &mut DMatrix<f64>) {
-        a.fill(0.0);
+        // By the slice (one `memset`): the matrix's own `fill` goes entry by entry through its
+        // strided iterator, which was three quarters of this function on a 16-mesh chain.
+        a.as_mut_slice().fill(0.0);
         let nz = a.nrows();
         let last = nz - 1;
         let m = self.m;
