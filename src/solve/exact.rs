@@ -41,6 +41,8 @@
 //! its end (the run is then over anyway).
 
 mod balanced;
+#[cfg(test)]
+mod balanced_tests;
 pub use balanced::exp_work;
 #[cfg(test)]
 mod budget_tests;

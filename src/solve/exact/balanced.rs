@@ -113,49 +113,56 @@ impl SparseRows {
     /// a third of a compressed row's per non-zero: the threshold at which the whole matrix
     /// went by its sparse rows before), and the split is taken when its cost, `3 ×` the
     /// sparse rows' non-zeros plus `n ×` the dense rows, is below the dense product's `n²`.
-    fn of(b: &DMatrix<f64>) -> Option<SparseRows> {
+    /// `rows` holds every off-diagonal non-zero of `b` by row (it may hold entries that are
+    /// zero now: they are skipped), so the rows are read at their non-zeros only.
+    fn of(b: &DMatrix<f64>, rows: &Pattern) -> Option<SparseRows> {
         let n = b.nrows();
         if n < 8 {
             return None;
         }
-        // Counted column by column (contiguous in the column-major `b`).
-        let mut counts = vec![0usize; n];
-        for column in b.as_slice().chunks_exact(n) {
-            for (count, &v) in counts.iter_mut().zip(column) {
-                *count += usize::from(v != 0.0);
-            }
-        }
+        let data = b.as_slice();
+        // Row `i`'s non-zeros in ascending column order, its diagonal in its place.
+        let row_entries = |i: usize| {
+            let line = rows.of_line(i);
+            let split = line.partition_point(|&j| (j as usize) < i);
+            let columns = line[..split]
+                .iter()
+                .map(|&j| j as usize)
+                .chain(std::iter::once(i))
+                .chain(line[split..].iter().map(|&j| j as usize));
+            columns
+                .map(move |j| (j, data[j * n + i]))
+                .filter(|&(_, v)| v != 0.0)
+        };
+        let counts: Vec<usize> = (0..n).map(|i| row_entries(i).count()).collect();
         let is_dense = |i: usize| 3 * counts[i] > n;
         let dense_rows = (0..n).filter(|&i| is_dense(i)).count();
         let sparse_nonzeros: usize = (0..n).filter(|&i| !is_dense(i)).map(|i| counts[i]).sum();
         if dense_rows == n || 3 * sparse_nonzeros + n * dense_rows > n * n {
             return None;
         }
-        let mut rows = SparseRows {
+        let mut sparse = SparseRows {
             starts: Vec::with_capacity(n + 1),
             columns: Vec::with_capacity(sparse_nonzeros),
             values: Vec::with_capacity(sparse_nonzeros),
             dense: Vec::new(),
         };
-        rows.starts.push(0);
+        sparse.starts.push(0);
         for i in 0..n {
             if is_dense(i) {
-                match rows.dense.last_mut() {
+                match sparse.dense.last_mut() {
                     Some((_, end)) if *end as usize == i => *end += 1,
-                    _ => rows.dense.push((i as u32, i as u32 + 1)),
+                    _ => sparse.dense.push((i as u32, i as u32 + 1)),
                 }
             } else {
-                for j in 0..n {
-                    let v = b[(i, j)];
-                    if v != 0.0 {
-                        rows.columns.push(j as u32);
-                        rows.values.push(v);
-                    }
+                for (j, v) in row_entries(i) {
+                    sparse.columns.push(j as u32);
+                    sparse.values.push(v);
                 }
             }
-            rows.starts.push(rows.columns.len() as u32);
+            sparse.starts.push(sparse.columns.len() as u32);
         }
-        Some(rows)
+        Some(sparse)
     }
 }
 
@@ -167,20 +174,49 @@ struct Pattern {
 }
 
 impl Pattern {
-    /// Line `i` holds the `j` with `nonzero(i, j)`.
-    fn of(n: usize, nonzero: impl Fn(usize, usize) -> bool) -> Pattern {
-        let mut pattern = Pattern {
+    /// The off-diagonal non-zeros of `b` by column and by row, both ascending, from one pass
+    /// over its columns (contiguous in the column-major `b`; the rows are sorted by counting);
+    /// `None` if an entry is not finite.
+    fn off_diagonal(b: &DMatrix<f64>) -> Option<(Pattern, Pattern)> {
+        let n = b.nrows();
+        let data = b.as_slice();
+        let mut by_column = Pattern {
             starts: Vec::with_capacity(n + 1),
             indices: Vec::new(),
         };
-        pattern.starts.push(0);
-        for i in 0..n {
-            pattern
-                .indices
-                .extend((0..n).filter(|&j| nonzero(i, j)).map(|j| j as u32));
-            pattern.starts.push(pattern.indices.len() as u32);
+        by_column.starts.push(0);
+        let mut row_counts = vec![0u32; n];
+        for j in 0..n {
+            let column = &data[j * n..(j + 1) * n];
+            // Without an early exit, so that the check vectorises.
+            if !column.iter().fold(true, |finite, v| finite & v.is_finite()) {
+                return None;
+            }
+            for (i, &v) in column.iter().enumerate() {
+                if v != 0.0 && i != j {
+                    by_column.indices.push(i as u32);
+                    row_counts[i] += 1;
+                }
+            }
+            by_column.starts.push(by_column.indices.len() as u32);
         }
-        pattern
+        let mut by_row = Pattern {
+            starts: Vec::with_capacity(n + 1),
+            indices: vec![0; by_column.indices.len()],
+        };
+        by_row.starts.push(0);
+        for (i, &count) in row_counts.iter().enumerate() {
+            by_row.starts.push(by_row.starts[i] + count);
+        }
+        // The columns in ascending order, so each row's list comes out ascending.
+        let mut next = by_row.starts[..n].to_vec();
+        for j in 0..n {
+            for &i in by_column.of_line(j) {
+                by_row.indices[next[i as usize] as usize] = j as u32;
+                next[i as usize] += 1;
+            }
+        }
+        Some((by_column, by_row))
     }
 
     fn of_line(&self, i: usize) -> &[u32] {
@@ -193,28 +229,22 @@ impl BalancedMatrix {
         let n = a.nrows();
         let mut b = a.clone();
         let mut scale = vec![1.0f64; n];
-        if !b.iter().all(|v| v.is_finite()) {
-            // Nothing to balance; the exponential is non-finite and the caller detects the
-            // non-finite state.
-            let norm = f64::INFINITY;
-            return BalancedMatrix {
-                b,
-                scale,
-                norm,
-                sparse: None,
-            };
-        }
         // The off-diagonal non-zeros by column and by row, ascending: a sum over them is the
         // sum over the whole column or row (the terms skipped are exact zeros, and the sums
         // start at +0), and a scaling by a power of two keeps a zero the same zero, so the
         // sweeps below give the dense sweeps' `D` and `B` bit for bit at the cost of the
         // non-zeros (a drivetrain's `A` is mostly zeros; every new contact combination of a
-        // long chain balances a new mode, `docs/scaling.md`).
-        let (by_column, by_row) = {
-            let nonzero = |i: usize, j: usize| i != j && b[(i, j)] != 0.0;
-            let column_rows = Pattern::of(n, |col, row| nonzero(row, col));
-            let row_columns = Pattern::of(n, nonzero);
-            (column_rows, row_columns)
+        // long chain balances a new mode, `docs/scaling.md`). The norm and the sparse rows
+        // after the sweeps are read through the same lists, so `A` is read whole only once.
+        let Some((by_column, by_row)) = Pattern::off_diagonal(&b) else {
+            // Nothing to balance; the exponential is non-finite and the caller detects the
+            // non-finite state.
+            return BalancedMatrix {
+                b,
+                scale,
+                norm: f64::INFINITY,
+                sparse: None,
+            };
         };
         let data = b.as_mut_slice();
         // LAPACK gebal converges in a few sweeps; the cap only guards against cycling.
@@ -267,10 +297,26 @@ impl BalancedMatrix {
                 break;
             }
         }
+        // Each column's sum in ascending row order, its diagonal in its place (the entries
+        // not listed are zeros, whose `+0` leaves a sum of absolute values as it is).
+        let data = b.as_slice();
         let norm = (0..n)
-            .map(|j| b.column(j).iter().map(|x| x.abs()).sum::<f64>())
+            .map(|j| {
+                let column = &data[j * n..(j + 1) * n];
+                let line = by_column.of_line(j);
+                let split = line.partition_point(|&i| (i as usize) < j);
+                let mut sum = 0.0f64;
+                for &i in &line[..split] {
+                    sum += column[i as usize].abs();
+                }
+                sum += column[j].abs();
+                for &i in &line[split..] {
+                    sum += column[i as usize].abs();
+                }
+                sum
+            })
             .fold(0.0, f64::max);
-        let sparse = SparseRows::of(&b);
+        let sparse = SparseRows::of(&b, &by_row);
         BalancedMatrix {
             b,
             scale,
