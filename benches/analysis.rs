@@ -14,7 +14,8 @@
 //!
 //! Then (issue 38) the countershaft's harmonic balance at H = 20 against the sweep of the
 //! same speeds: the issue's two ranges, and with contact loss on mesh 1 its fundamental
-//! resonance (231–233 rad/s) and 200–380 rad/s (the torus split at the contact switches).
+//! resonance (231–233 rad/s), 200–380 rad/s (the torus split at the contact switches) and
+//! 200–400 rad/s (the branch ends where H = 20 no longer resolves the orbit).
 //!
 //! Run: `cargo bench --bench analysis` (or `scripts/bench.sh`); `-- spectrum` for the
 //! spectrum rows alone, `-- countershaft` for the countershaft rows alone.
@@ -166,10 +167,15 @@ fn countershaft_hb_against_sweep(from: f64, to: f64) {
     let sw = process_cpu() - t;
     black_box(swept);
     let folds = branch.iter().filter(|p| p.fold).count();
+    let end = (branch.last())
+        .filter(|p| p.unresolved)
+        .map_or(String::new(), |p| {
+            format!(" (ends unresolved at {:.4} rad/s)", p.speed)
+        });
     println!(
         "countershaft_gearset {from}..{to} rad/s: hb H = 20 (total-order basis, with stability) \
-         {hb:.3} s CPU, {} points, {folds} folds; up sweep of the same {} speeds {sw:.4} s CPU \
-         → hb/sweep {:.0}×",
+         {hb:.3} s CPU, {} points{end}, {folds} folds; up sweep of the same {} speeds {sw:.4} s \
+         CPU → hb/sweep {:.0}×",
         branch.len(),
         speeds.len(),
         hb / sw
@@ -324,6 +330,9 @@ fn main() {
         countershaft_hb_against_sweep(300.0, 320.0);
         countershaft_hb_against_sweep(231.0, 233.0);
         countershaft_hb_against_sweep(200.0, 380.0);
+        // The whole range: the branch ends where H = 20 no longer resolves the orbit (past the
+        // lower branch's last point before the 394 rad/s jump).
+        countershaft_hb_against_sweep(200.0, 400.0);
         return;
     }
     spectrum_against_shooting("idler_gearset", 420.0, 40);

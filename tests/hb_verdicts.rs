@@ -13,7 +13,7 @@
 
 use geardyn::analysis::hb::{continuation, BranchPoint, ContinuationOptions, HbOptions};
 use geardyn::analysis::shooting::state_scale;
-use geardyn::analysis::{period_map, Stability};
+use geardyn::analysis::{self, period_map, Direction, Stability, SweepOptions};
 use geardyn::scene::Scene;
 use geardyn::with_drivetrain;
 use nalgebra::{DMatrix, DVector};
@@ -246,6 +246,55 @@ fn countershaft_hysteresis_lower_branch_radius_agrees_with_shooting() {
     assert!(t.radius_error <= 5e-2, "{t:?}");
 }
 
+/// The countershaft's branch from 385 rad/s upward at H = 20 with the default
+/// `defect_limit`: it ends at its first point that the oracle finds more than [`SAME_ORBIT`]
+/// from its periodic orbit, inside the up sweep's jump (the time-domain sweep, independent of
+/// HB), and every earlier point lies within [`SAME_ORBIT`] of its orbit. Measured:
+/// 13 points, the last at 394.389 rad/s (HB state 0.30 of the state scale from the orbit the
+/// oracle finds, defect 0.297; the points before within 6.2e-3), the up sweep jumping to the
+/// branch with a third of mesh 1's period out of contact between 394.0 and 394.5 rad/s.
+#[test]
+fn countershaft_branch_ends_where_h20_does_not_resolve_the_orbit() {
+    let scene = countershaft();
+    let branch = continuation(
+        &scene,
+        &HbOptions::new(20),
+        &ContinuationOptions::new(385.0, 400.0),
+    )
+    .unwrap();
+    let (last, resolved) = branch.split_last().unwrap();
+    assert!(last.unresolved, "{} rad/s", last.speed);
+    assert!(last.periodicity_defect.unwrap() > geardyn::analysis::hb::PERIODICITY_DEFECT_LIMIT);
+    assert!(resolved.iter().all(|p| !p.unresolved));
+    for p in resolved {
+        let (d, _) = shooting_from_hb(&scene, p).unwrap();
+        assert!(d <= SAME_ORBIT, "{} rad/s: {d:.2e}", p.speed);
+    }
+    let far = shooting_from_hb(&scene, last).map_or(f64::INFINITY, |(d, _)| d);
+    assert!(far > SAME_ORBIT, "{} rad/s: {far:.2e}", last.speed);
+    // The up sweep in 0.5 rad/s steps: the jump to heavy contact loss on mesh 1.
+    let speeds: Vec<f64> = (0..=30).map(|k| 385.0 + 0.5 * f64::from(k)).collect();
+    let sweep = analysis::sweep(
+        &scene,
+        &SweepOptions::new(speeds, Direction::Up),
+        &|_, _| {},
+    )
+    .unwrap();
+    let jump = sweep
+        .points
+        .windows(2)
+        .find(|w| w[1].meshes[0].contact_loss_fraction > 0.2)
+        .map(|w| (w[0].speed, w[1].speed))
+        .unwrap();
+    println!(
+        "last point {:.4} rad/s, defect {:.3e}, oracle distance {far:.3e}; \
+         up sweep jumps at {jump:?}",
+        last.speed,
+        last.periodicity_defect.unwrap()
+    );
+    assert!(jump.0 <= last.speed && last.speed <= jump.1, "{jump:?}");
+}
+
 /// Newton on the period map at `speed` from `y` (damped as in [`shooting_from_hb`]): the
 /// converged start and its multipliers, or None after 30 iterations.
 fn newton_at(
@@ -295,20 +344,22 @@ fn newton_at(
 #[ignore]
 fn countershaft_hysteresis_far_points_are_marked() {
     let scene = countershaft();
-    let branch = continuation(
-        &scene,
-        &HbOptions::new(20),
-        &ContinuationOptions::new(385.0, 400.0),
-    )
-    .unwrap();
+    // The H = 20 branch past the 394 rad/s fold, where the default `defect_limit` ends it, and
+    // back below 385 rad/s.
+    let options = ContinuationOptions {
+        defect_limit: f64::INFINITY,
+        ..ContinuationOptions::new(385.0, 400.0)
+    };
+    let branch = continuation(&scene, &HbOptions::new(20), &options).unwrap();
     let (mut near, mut far) = (0, 0);
     for (i, p) in branch.iter().enumerate() {
         let oracle = shooting_from_hb(&scene, p);
         println!(
-            "{:.4} rad/s: hb |μ| {:.3e}, orbit error {:.2e}, oracle {:?}",
+            "{:.4} rad/s: hb |μ| {:.3e}, orbit error {:.2e}, defect {:.2e}, oracle {:?}",
             p.speed,
             p.spectral_radius().unwrap(),
             p.orbit_error.unwrap(),
+            p.periodicity_defect.unwrap(),
             oracle.as_ref().map(|(d, m)| (*d, radius(m)))
         );
         match oracle {

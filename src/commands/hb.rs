@@ -269,7 +269,8 @@ impl HbBranch {
     }
 
     /// The text `geardyn hb` prints after writing `out`: point and fold counts, then one line
-    /// per fold with every mesh's DTE RMS.
+    /// per fold with every mesh's DTE RMS, and where the branch ended short of the interval
+    /// because the harmonics do not resolve the orbit ([`BranchPoint::unresolved`]).
     pub fn summary(&self, scene: &Scene, out: &Path) -> String {
         let branch = &self.points;
         let folds = branch.iter().filter(|p| p.fold).count();
@@ -292,6 +293,19 @@ impl HbBranch {
                 let _ = write!(s, "{sep}{name} {:.4e} m", m.dte_rms);
             }
             s.push('\n');
+        }
+        if let Some(p) = branch.last().filter(|p| p.unresolved) {
+            let _ = writeln!(
+                s,
+                "  the branch ends at {:.4} rad/s, short of {} rad/s: there the HB state misses \
+                 its period map by {:.1e} of the state scale (beyond {:.0e}), so the retained \
+                 harmonics do not resolve the orbit and the branch would follow the truncation \
+                 (raise --harmonics, or follow the orbit with `geardyn sweep`)",
+                p.speed,
+                self.to,
+                p.periodicity_defect.unwrap_or(f64::NAN),
+                crate::analysis::hb::PERIODICITY_DEFECT_LIMIT
+            );
         }
         s.push_str(&self.shooting_check_summary());
         s

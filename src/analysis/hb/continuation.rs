@@ -31,6 +31,10 @@ pub struct ContinuationOptions {
     /// Newton shooting from the HB state ([`ShootingCheck`]); default
     /// [`SHOOTING_CHECK_MARGIN`], 0 never checks, infinity checks every point.
     pub shooting_check_margin: f64,
+    /// A large system's branch (more than 512 unknowns, `CHORD_UNKNOWNS`) ends at its first point
+    /// whose [`BranchPoint::periodicity_defect`] exceeds this ([`BranchPoint::unresolved`]);
+    /// default [`PERIODICITY_DEFECT_LIMIT`], infinity never ends it.
+    pub defect_limit: f64,
 }
 
 /// Default [`ContinuationOptions::shooting_check_margin`]. The HB radius is that of the
@@ -62,6 +66,19 @@ pub const RADIUS_SENSITIVITY: f64 = 5.0;
 /// rad/s (shooting continuation, `tests/hb_verdicts.rs`); 1e-2 lies between the two.
 pub const ORBIT_ERROR_WARNING: f64 = 1e-2;
 
+/// Default [`ContinuationOptions::defect_limit`]: the scaled periodicity defect of the HB state
+/// beyond which a large system's branch is not continued, because its course would be the
+/// truncation's, not the orbit's. The defect, unlike the Newton step of
+/// [`BranchPoint::orbit_error`], stays finite at a fold (the step divides by `M − I`, singular
+/// where a multiplier passes +1). Measured on `countershaft_gearset` at H = 20 (docs/
+/// harmonic-balance.md, "Where H = 20 does not resolve the orbit"): within 2 % of the distance
+/// of the orbit Newton shooting converges to from the HB state at all 31 points of 385–400
+/// rad/s; 1.6e-3–6.2e-3 on the lower branch up to the 394 rad/s fold, 0.3 beside it (Newton
+/// step 104), 0.02–0.034 and 0.14–0.29 beyond it, where the H = 20 branch turns at 373.5 rad/s
+/// and the orbit's at 382.0–382.5. 1e-2 is the distance at which `tests/hb_verdicts.rs` takes a
+/// shooting orbit for another orbit.
+pub const PERIODICITY_DEFECT_LIMIT: f64 = 1e-2;
+
 /// A shooting orbit is taken as the HB orbit's when its start lies within this many times the
 /// first Newton step from the HB state (the step estimates the distance; measured within 5 %
 /// of it away from folds): farther away, Newton has found another orbit.
@@ -88,6 +105,7 @@ impl ContinuationOptions {
             max_points: 2000,
             stability: true,
             shooting_check_margin: SHOOTING_CHECK_MARGIN,
+            defect_limit: PERIODICITY_DEFECT_LIMIT,
         }
     }
 }
@@ -110,6 +128,12 @@ pub struct BranchPoint {
     /// monodromy, no integration): the estimate of the HB orbit's distance from the periodic
     /// orbit in the shooting residual's scale ([`state_scale`]); None without multipliers.
     pub orbit_error: Option<f64>,
+    /// The largest scaled component of `P(y) − y`, the HB state `y` against its period map
+    /// `P` (shooting residual scale, [`state_scale`]); None without the period map.
+    pub periodicity_defect: Option<f64>,
+    /// Whether the branch ended at this point because its periodicity defect exceeded
+    /// [`ContinuationOptions::defect_limit`]: H does not resolve the orbit here.
+    pub unresolved: bool,
     /// Whether the step to this point passed a fold (turning point in speed).
     pub fold: bool,
 }
@@ -315,10 +339,15 @@ fn continue_branch<M: Drivetrain + Send>(
         tangent = -tangent;
     }
     let mut points = vec![make_point(&problem, f_ref, &e0, iterations, false)];
+    // A large system's points take their stability step as the branch goes (its period map
+    // costs a small part of a corrector there), so that the branch ends where H no longer
+    // resolves the orbit instead of following the truncation (`defect_limit`).
+    let watch = chord && (options.stability || options.defect_limit.is_finite());
+    let mut ended = watch && watch_point(&problem, &mut points[0], options);
     // The Newton–Krylov corrector's preconditioner, kept over branch points.
     let mut frozen = FrozenJacobian::default();
     let mut step = options.initial_step;
-    while points.len() < options.max_points {
+    while !ended && points.len() < options.max_points {
         // A study's per-point timeout (`budget::with_deadline`): the Newton solves run no
         // driver, so the branch looks at the clock once per point.
         if let Some(message) = crate::simulation::budget::deadline_passed(f64::NAN) {
@@ -430,7 +459,9 @@ fn continue_branch<M: Drivetrain + Send>(
         tangent = next;
         let f = w[dim] * f_ref;
         points.push(make_point(&problem, f, &e, iterations, fold));
-        let speed = points[points.len() - 1].speed;
+        let last = points.len() - 1;
+        ended = watch && watch_point(&problem, &mut points[last], options);
+        let speed = points[last].speed;
         report(
             ((speed - options.from) / (options.to - options.from)).clamp(0.0, 1.0),
             &|| {
@@ -442,7 +473,7 @@ fn continue_branch<M: Drivetrain + Send>(
                 )
             },
         );
-        if f < f_lo || f > f_hi {
+        if ended || f < f_lo || f > f_hi {
             break;
         }
         step = if !newton_like {
@@ -463,7 +494,7 @@ fn continue_branch<M: Drivetrain + Send>(
             step
         };
     }
-    if options.stability {
+    if options.stability && !watch {
         report(f64::NAN, &|| {
             format!(
                 "hb: Floquet multipliers of {} branch points (shooting)",
@@ -564,20 +595,37 @@ fn make_point<M: Drivetrain>(
         multipliers: None,
         shooting_check: None,
         orbit_error: None,
+        periodicity_defect: None,
+        unresolved: false,
         fold,
     }
 }
 
-/// A point's multipliers, its shooting check and the HB orbit's estimated error.
-type StabilityResult = (
-    Option<Vec<Complex<f64>>>,
-    Option<ShootingCheck>,
-    Option<f64>,
-);
+/// A point's multipliers, its shooting check, the HB orbit's estimated error and its
+/// periodicity defect (all None when the period map fails).
+#[derive(Default)]
+struct PointStability {
+    multipliers: Option<Vec<Complex<f64>>>,
+    check: Option<ShootingCheck>,
+    orbit_error: Option<f64>,
+    defect: Option<f64>,
+}
+
+impl PointStability {
+    /// Stores the result in `point`; the multipliers and the check only `with_multipliers`.
+    fn store(self, point: &mut BranchPoint, with_multipliers: bool) {
+        if with_multipliers {
+            point.multipliers = self.multipliers;
+            point.shooting_check = self.check;
+        }
+        point.orbit_error = self.orbit_error;
+        point.periodicity_defect = self.defect;
+    }
+}
 
 /// Floquet multipliers of an orbit of `model` (at the orbit's speed) over `period` seconds from
 /// its state at `t = 0`: the shooting monodromy with saltation at contact changes
-/// ([`PeriodMap`]); `None` when the period map fails. When their spectral radius is within
+/// ([`PeriodMap`]); empty when the period map fails. When their spectral radius is within
 /// `margin` of 1, Newton shooting from the HB state finds the periodic orbit and its
 /// multipliers replace the HB ones (kept in the [`ShootingCheck`]).
 fn multipliers<M: Drivetrain>(
@@ -586,33 +634,41 @@ fn multipliers<M: Drivetrain>(
     period: f64,
     solution: &HbSolution,
     margin: f64,
-) -> StabilityResult {
+) -> PointStability {
     let Ok(mut map) = PeriodMap::new(model, settings, period) else {
-        return (None, None, None);
+        return PointStability::default();
     };
     let y = solution.state_at(0.0);
     let Ok((py, monodromy)) = map.eval(&y) else {
-        return (None, None, None);
+        return PointStability::default();
     };
     let Ok(hb) = crate::analysis::multipliers(&monodromy) else {
-        return (None, None, None);
+        return PointStability::default();
     };
     let radius = |m: &[Complex<f64>]| m.iter().map(|c| c.norm()).fold(0.0, f64::max);
     let hb_radius = radius(&hb);
     let scale = state_scale(map.model(), &y);
+    let scaled = |d: &mut dyn Iterator<Item = f64>| {
+        d.zip(&scale)
+            .map(|(d, s)| (d / s).abs())
+            .fold(0.0, f64::max)
+    };
+    let defect = Some(scaled(&mut y.iter().zip(&py).map(|(a, b)| b - a)));
     // The Newton step from the HB state, from its map and monodromy (no integration).
     let n = y.len();
     let step = (&monodromy - DMatrix::identity(n, n))
         .lu()
         .solve(&(DVector::from_column_slice(&y) - &py));
-    let newton_step = step.as_ref().map_or(f64::INFINITY, |s| {
-        s.iter()
-            .zip(&scale)
-            .map(|(d, s)| (d / s).abs())
-            .fold(0.0, f64::max)
-    });
+    let newton_step = step
+        .as_ref()
+        .map_or(f64::INFINITY, |s| scaled(&mut s.iter().copied()));
     if !((hb_radius - 1.0).abs() <= margin) {
-        return (Some(hb), None, Some(newton_step));
+        return PointStability {
+            multipliers: Some(hb),
+            check: None,
+            orbit_error: Some(newton_step),
+            defect,
+        };
     }
     let options = ShootingOptions {
         periods: solution.subharmonic,
@@ -625,9 +681,7 @@ fn multipliers<M: Drivetrain>(
         _ => y.clone(),
     };
     let orbit = newton(&mut map, start, &options).ok().map(|orbit| {
-        let distance = (y.iter().zip(&orbit.y0).zip(&scale))
-            .map(|((a, b), s)| ((a - b) / s).abs())
-            .fold(0.0, f64::max);
+        let distance = scaled(&mut y.iter().zip(&orbit.y0).map(|(a, b)| a - b));
         (orbit, distance)
     });
     match orbit {
@@ -640,7 +694,12 @@ fn multipliers<M: Drivetrain>(
                 newton_step,
                 iterations: orbit.residuals.len(),
             };
-            (Some(orbit.multipliers), Some(check), Some(newton_step))
+            PointStability {
+                multipliers: Some(orbit.multipliers),
+                check: Some(check),
+                orbit_error: Some(newton_step),
+                defect,
+            }
         }
         other => {
             let check = ShootingCheck {
@@ -651,9 +710,45 @@ fn multipliers<M: Drivetrain>(
                 newton_step,
                 iterations: 0,
             };
-            (Some(hb), Some(check), Some(newton_step))
+            PointStability {
+                multipliers: Some(hb),
+                check: Some(check),
+                orbit_error: Some(newton_step),
+                defect,
+            }
         }
     }
+}
+
+/// The model at `point`'s speed and its HB period (NaN when the speed cannot be set): the
+/// arguments of [`multipliers`].
+fn at_point<M: Drivetrain>(problem: &Problem<M>, point: &BranchPoint) -> (M, f64) {
+    let mut model = problem.model.clone();
+    let f = problem.frequency(point.speed);
+    let ok = model.set_input_speed(0.0, point.speed).is_ok();
+    (model, if ok { 1.0 / f } else { f64::NAN })
+}
+
+/// The stability step of a large system's point as the branch goes
+/// ([`ContinuationOptions::defect_limit`]); returns whether the branch ends at it.
+fn watch_point<M: Drivetrain>(
+    problem: &Problem<M>,
+    point: &mut BranchPoint,
+    options: &ContinuationOptions,
+) -> bool {
+    let (model, period) = at_point(problem, point);
+    let result = multipliers(
+        model,
+        &problem.settings,
+        period,
+        &point.solution,
+        options.shooting_check_margin,
+    );
+    result.store(point, options.stability);
+    point.unresolved = point
+        .periodicity_defect
+        .is_some_and(|d| d > options.defect_limit);
+    point.unresolved
 }
 
 /// The multipliers of every point of a branch. The period maps are independent of each
@@ -672,14 +767,12 @@ fn branch_stability<M: Drivetrain + Send>(
         .iter()
         .enumerate()
         .map(|(i, p)| {
-            let mut model = problem.model.clone();
-            let f = problem.frequency(p.speed);
-            let ok = model.set_input_speed(0.0, p.speed).is_ok();
-            (i, model, if ok { 1.0 / f } else { f64::NAN }, &p.solution)
+            let (model, period) = at_point(problem, p);
+            (i, model, period, &p.solution)
         })
         .collect();
     let settings = &problem.settings;
-    let mut results: Vec<(usize, StabilityResult)> = Vec::with_capacity(jobs.len());
+    let mut results: Vec<(usize, PointStability)> = Vec::with_capacity(jobs.len());
     let mut queues: Vec<Vec<_>> = (0..threads).map(|_| Vec::new()).collect();
     for (k, job) in jobs.into_iter().enumerate() {
         queues[k % threads].push(job);
@@ -705,9 +798,7 @@ fn branch_stability<M: Drivetrain + Send>(
             results.extend(h.join().expect("stability thread"));
         }
     });
-    for (i, (m, check, error)) in results {
-        points[i].multipliers = m;
-        points[i].shooting_check = check;
-        points[i].orbit_error = error;
+    for (i, result) in results {
+        result.store(&mut points[i], true);
     }
 }

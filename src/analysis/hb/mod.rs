@@ -77,7 +77,8 @@ mod statistics;
 
 pub use continuation::{
     continuation, continuation_reporting, BranchPoint, ContinuationOptions, ShootingCheck,
-    ORBIT_ERROR_WARNING, RADIUS_SENSITIVITY, SHOOTING_CHECK_DISTANCE, SHOOTING_CHECK_MARGIN,
+    ORBIT_ERROR_WARNING, PERIODICITY_DEFECT_LIMIT, RADIUS_SENSITIVITY, SHOOTING_CHECK_DISTANCE,
+    SHOOTING_CHECK_MARGIN,
 };
 
 use std::f64::consts::TAU;
