@@ -344,7 +344,10 @@ def hb(
 ) -> Table:
     """Harmonic balance with arclength continuation over ``speed = "from:to"``
     (``"3000rpm:6000rpm"``; bare numbers are rad/s); the
-    table of ``geardyn hb``. ``work_budget`` and ``timeout`` as in :func:`sweep`."""
+    table of ``geardyn hb``. ``work_budget`` and ``timeout`` as in :func:`sweep`. What the
+    CLI's summary says the table cannot be trusted for (a branch that ends short of the
+    interval because the harmonics do not resolve the orbit there, verdicts or statistics
+    that may be wrong) is raised as a ``RuntimeWarning``."""
     return Table(*_geardyn.hb(scene, speed, harmonics, subharmonic, work_budget, timeout))
 
 

@@ -1054,6 +1054,13 @@ fn hb<'py>(
     let branch = py
         .detach(|| with_deadline(timeout, || request.run(&s)))
         .map_err(err)?;
+    // What `geardyn hb` prints as caveats in its summary (a branch that ends short because the
+    // harmonics do not resolve the orbit, verdicts or statistics that may be wrong) reaches
+    // Python as RuntimeWarnings, so a shortened table is never silent.
+    for caveat in branch.caveats() {
+        let message = CString::new(format!("hb: {caveat}")).unwrap_or_default();
+        PyErr::warn(py, &py.get_type::<PyRuntimeWarning>(), &message, 1)?;
+    }
     let columns = branch.columns();
     table(py, &columns, &branch.rows())
 }

@@ -294,10 +294,24 @@ impl HbBranch {
             }
             s.push('\n');
         }
-        if let Some(p) = branch.last().filter(|p| p.unresolved) {
-            let _ = writeln!(
-                s,
-                "  the branch ends at {:.4} rad/s, short of {} rad/s: there the HB state misses \
+        for caveat in self.caveats() {
+            let _ = writeln!(s, "  {caveat}");
+        }
+        s.push_str(&self.shooting_check_summary());
+        s
+    }
+
+    /// What the branch's numbers cannot be trusted for, one sentence each (the CLI prints them
+    /// in its summary, Python raises each as a `RuntimeWarning`): where the branch ended short
+    /// of the interval because the harmonics do not resolve the orbit
+    /// ([`BranchPoint::unresolved`]), the points whose verdict may be wrong (radius near 1
+    /// unchecked: [`BranchPoint::verdict_uncertain`]) and those whose HB orbit is far from
+    /// the periodic orbit ([`BranchPoint::far_from_orbit`]).
+    pub fn caveats(&self) -> Vec<String> {
+        let mut caveats = Vec::new();
+        if let Some(p) = self.points.last().filter(|p| p.unresolved) {
+            caveats.push(format!(
+                "the branch ends at {:.4} rad/s, short of {} rad/s: there the HB state misses \
                  its period map by {:.1e} of the state scale (beyond {:.0e}), so the retained \
                  harmonics do not resolve the orbit and the branch would follow the truncation \
                  (raise --harmonics, or follow the orbit with `geardyn sweep`)",
@@ -305,31 +319,14 @@ impl HbBranch {
                 self.to,
                 p.periodicity_defect.unwrap_or(f64::NAN),
                 crate::analysis::hb::PERIODICITY_DEFECT_LIMIT
-            );
+            ));
         }
-        s.push_str(&self.shooting_check_summary());
-        s
-    }
-
-    /// The lines on the points whose verdict may be wrong (radius near 1 unchecked, or the HB
-    /// orbit far from the periodic orbit: [`BranchPoint::far_from_orbit`]) and on the points
-    /// whose stability was checked by shooting (HB spectral radius within the margin of 1):
-    /// how many, each one whose verdict the check changed, and each one where shooting found
-    /// no orbit near the HB state.
-    fn shooting_check_summary(&self) -> String {
-        let checked: Vec<&BranchPoint> = (self.points.iter())
-            .filter(|p| p.shooting_check.is_some())
-            .collect();
-        let uncertain: Vec<&BranchPoint> = self
-            .points
-            .iter()
+        let uncertain: Vec<&BranchPoint> = (self.points.iter())
             .filter(|p| p.verdict_uncertain())
             .collect();
-        let mut s = String::new();
         if let (Some(first), Some(last)) = (uncertain.first(), uncertain.last()) {
-            let _ = writeln!(
-                s,
-                "  {} points ({:.4} to {:.4} rad/s) have an HB spectral radius within {} times \
+            caveats.push(format!(
+                "{} points ({:.4} to {:.4} rad/s) have an HB spectral radius within {} times \
                  the HB orbit's error estimate of 1 but beyond the {:.0e} checked: their \
                  verdict may be wrong (raise --harmonics, or check with `geardyn periodic`)",
                 uncertain.len(),
@@ -337,7 +334,7 @@ impl HbBranch {
                 last.speed,
                 crate::analysis::hb::RADIUS_SENSITIVITY,
                 crate::analysis::hb::SHOOTING_CHECK_MARGIN
-            );
+            ));
         }
         let far: Vec<&BranchPoint> = (self.points.iter())
             .filter(|p| p.far_from_orbit())
@@ -346,9 +343,8 @@ impl HbBranch {
             let worst = (far.iter())
                 .filter_map(|p| p.orbit_error)
                 .fold(0.0, f64::max);
-            let _ = writeln!(
-                s,
-                "  {} points ({:.4} to {:.4} rad/s) have an HB orbit estimated up to {:.1e} of the \
+            caveats.push(format!(
+                "{} points ({:.4} to {:.4} rad/s) have an HB orbit estimated up to {:.1e} of the \
                  state scale from the periodic orbit (beyond {:.0e}): their statistics, folds \
                  and verdicts may be wrong (raise --harmonics, or check with `geardyn periodic`)",
                 far.len(),
@@ -356,8 +352,19 @@ impl HbBranch {
                 last.speed,
                 worst,
                 crate::analysis::hb::ORBIT_ERROR_WARNING
-            );
+            ));
         }
+        caveats
+    }
+
+    /// The lines on the points whose stability was checked by shooting (HB spectral radius
+    /// within the margin of 1): how many, each one whose verdict the check changed, and each
+    /// one where shooting found no orbit near the HB state.
+    fn shooting_check_summary(&self) -> String {
+        let checked: Vec<&BranchPoint> = (self.points.iter())
+            .filter(|p| p.shooting_check.is_some())
+            .collect();
+        let mut s = String::new();
         if checked.is_empty() {
             return s;
         }

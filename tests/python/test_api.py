@@ -181,6 +181,26 @@ def test_hb_matches_cli(tmp_path):
     identical(table.data, rows)
 
 
+def test_hb_caveats_are_warnings_with_the_cli_summary_text(tmp_path):
+    """The countershaft's H = 20 branch from 385 rad/s ends at its first point that H does not
+    resolve (just past the 394 rad/s fold): the CLI says so in its summary, and Python must
+    raise the same sentence as a RuntimeWarning, not return the shortened table silently."""
+    shaft = REPO / "fmu" / "countershaft_gearset"
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        table = geardyn.hb(geardyn.Scene.from_file(shaft), "385:400")
+    said = [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)]
+    out = run_geardyn("hb", shaft, "--speed", "385:400", "--out", tmp_path / "h.csv").stdout
+    ends = [line.strip() for line in out.splitlines() if "the branch ends at" in line]
+    assert len(ends) == 1, out
+    assert f"hb: {ends[0]}" in said, said
+    header, rows = read_csv(tmp_path / "h.csv")
+    identical(table.data, rows)
+    last = float(re.search(r"ends at ([0-9.]+) rad/s", ends[0]).group(1))
+    assert abs(table.data[-1][header.index("speed")] - last) < 1e-4
+    assert last < 400.0
+
+
 def test_modes_matches_cli():
     scene = geardyn.Scene.from_file(IDLER)
     m = geardyn.modes(scene)
