@@ -103,7 +103,7 @@ fn input_derivatives_give_the_ramp_exactly() {
         set(m, "flange_a.torque", t0);
         init(m);
         if ramp {
-            m.set_input_derivative(vr(m, "flange_a.torque"), t1)
+            m.set_input_derivative(vr(m, "flange_a.torque"), 1, t1)
                 .unwrap();
         }
         m.do_step(0.0, h).unwrap();
@@ -126,6 +126,55 @@ fn input_derivatives_give_the_ramp_exactly() {
     }
 }
 
+/// One big step with the cubic torque T(s) = T0 + T1 s + T2 s²/2 + T3 s³/6 given as input
+/// derivatives of orders 1 to 3: the speed and angle are the exact quartic and quintic
+/// (DOP853 integrates a polynomial right-hand side of degree ≤ 7 exactly up to rounding), the
+/// input ends at T(h) and the output derivatives at the end see the slope T'(h). An FMU state
+/// taken with the derivatives set redoes the step bit for bit; order 4 is refused.
+#[test]
+fn input_derivatives_of_order_three_give_the_cubic_exactly() {
+    let (j, h) = (0.25, 0.75);
+    let [t0, t1, t2, t3] = [2.0, 8.0, -30.0, 90.0];
+    let mut loaded = model(INERTIA);
+    let m = loaded.model.as_mut();
+    assert_eq!(m.capabilities().max_input_derivative_order, 3);
+    set(m, "flange_a.torque", t0);
+    init(m);
+    let r = vr(m, "flange_a.torque");
+    for (order, x) in [(1, t1), (2, t2), (3, t3)] {
+        m.set_input_derivative(r, order, x).unwrap();
+    }
+    assert!(m.set_input_derivative(r, 4, 1.0).is_err());
+    let saved = m.save_state();
+    m.do_step(0.0, h).unwrap();
+    let w =
+        12.0 + (t0 * h + t1 * h.powi(2) / 2.0 + t2 * h.powi(3) / 6.0 + t3 * h.powi(4) / 24.0) / j;
+    let theta = 0.3
+        + 12.0 * h
+        + (t0 * h.powi(2) / 2.0
+            + t1 * h.powi(3) / 6.0
+            + t2 * h.powi(4) / 24.0
+            + t3 * h.powi(5) / 120.0)
+            / j;
+    assert!(
+        close(get(m, "flange_a.speed"), w, 1e-14),
+        "{}",
+        get(m, "flange_a.speed") - w
+    );
+    assert!(close(get(m, "flange_a.angle"), theta, 1e-14));
+    let u_end = t0 + t1 * h + t2 * h * h / 2.0 + t3 * h.powi(3) / 6.0;
+    assert!(close(get(m, "flange_a.torque"), u_end, 1e-15));
+    let jerk = m.output_derivative(vr(m, "flange_a.acceleration")).unwrap();
+    assert!(close(jerk, (t1 + t2 * h + t3 * h * h / 2.0) / j, 1e-14));
+    let first = (get(m, "flange_a.speed"), get(m, "flange_a.angle"));
+    m.load_state(&saved).unwrap();
+    m.do_step(0.0, h).unwrap();
+    assert_eq!((get(m, "flange_a.speed"), get(m, "flange_a.angle")), first);
+    // The next step holds the input: the derivatives were used for one step only.
+    m.do_step(h, h).unwrap();
+    assert!(close(get(m, "flange_a.speed"), w + u_end * h / j, 1e-14));
+}
+
 /// Order-1 output derivatives: d/dt angle = speed, d/dt speed = acceleration, d/dt
 /// acceleration = (T_a' + T_b')/J with the rates set.
 #[test]
@@ -134,7 +183,7 @@ fn output_derivatives_follow_the_equations() {
     let m = loaded.model.as_mut();
     set(m, "flange_a.torque", 1.0);
     init(m);
-    m.set_input_derivative(vr(m, "flange_b.torque"), 3.0)
+    m.set_input_derivative(vr(m, "flange_b.torque"), 1, 3.0)
         .unwrap();
     let d = |m: &dyn CoSimModel, n: &str| m.output_derivative(vr(m, n)).unwrap();
     assert_eq!(d(m, "flange_a.angle"), 12.0);
@@ -169,7 +218,7 @@ fn shaft_static_torque_and_its_rate() {
     assert!(close(get(m, "shaft.torque"), tau, 1e-15));
     assert_eq!(get(m, "flange_a.torque"), -get(m, "shaft.torque"));
     assert_eq!(get(m, "flange_b.torque"), get(m, "shaft.torque"));
-    m.set_input_derivative(vr(m, "flange_a.speed"), 50.0)
+    m.set_input_derivative(vr(m, "flange_a.speed"), 1, 50.0)
         .unwrap();
     let rate = 2.0e4 * 1.0 + 1.5 * 50.0;
     let d = m.output_derivative(vr(m, "flange_b.torque")).unwrap();
@@ -185,7 +234,7 @@ fn shaft_static_torque_and_its_rate() {
     assert!(close(d, rate, 1e-15), "{d}");
     // and a state saved there gives the same rate back.
     let saved = m.save_state();
-    m.set_input_derivative(vr(m, "flange_a.speed"), -7.0)
+    m.set_input_derivative(vr(m, "flange_a.speed"), 1, -7.0)
         .unwrap();
     m.load_state(&saved).unwrap();
     assert!(close(
@@ -268,14 +317,14 @@ speed = 10.0
     }
     // A fraction ramp over the plateau: T_e = 150 (f0 + f' t), a cubic in the angle again.
     let w = get(m, "flange.speed");
-    m.set_input_derivative(vr(m, "torque_fraction"), 2.0)
+    m.set_input_derivative(vr(m, "torque_fraction"), 1, 2.0)
         .unwrap();
     m.do_step(t, 0.02).unwrap();
     assert!(get(m, "flange.speed") < 400.0, "stays on the plateau");
     let want = w + (a * 0.02 + 150.0 * 2.0 * 0.02 * 0.02 / 2.0 / 0.01);
     assert!(close(get(m, "flange.speed"), want, 1e-13));
     // A ramp that would leave [0, 1] within the step is refused, naming the input.
-    m.set_input_derivative(vr(m, "torque_fraction"), 30.0)
+    m.set_input_derivative(vr(m, "torque_fraction"), 1, 30.0)
         .unwrap();
     let e = m.do_step(t + 0.02, 0.1).unwrap_err();
     assert!(format!("{e:?}").contains("torque_fraction"), "{e:?}");
@@ -323,7 +372,7 @@ fn state_with_input_rates_restores_bit_identically() {
         t += h;
     }
     set(m, "flange.torque", -30.0);
-    m.set_input_derivative(vr(m, "flange.torque"), -500.0)
+    m.set_input_derivative(vr(m, "flange.torque"), 1, -500.0)
         .unwrap();
     let saved = m.save_state();
     let run = |m: &mut dyn CoSimModel| -> Vec<u64> {
@@ -383,7 +432,7 @@ fn shipped_element_scenes_reproduce_their_references() {
                 ];
                 for (n, x, rate) in signals {
                     set(m, n, x);
-                    m.set_input_derivative(vr(m, n), rate).unwrap();
+                    m.set_input_derivative(vr(m, n), 1, rate).unwrap();
                 }
             }
         };

@@ -221,6 +221,19 @@ pub fn model_description(
     }
     de.push(("stepSize", real(d.step_size)));
     empty(&mut w, "DefaultExperiment", &de)?;
+    // §2.2.6: FMI 2.0 declares no highest order of fmi2SetRealInputDerivatives; a model that
+    // takes more than order 1 says so here, so that a master can give it polynomial inputs.
+    if caps.can_interpolate_inputs && caps.max_input_derivative_order > 1 {
+        start(&mut w, "VendorAnnotations", &[])?;
+        start(&mut w, "Tool", &[("name", "geardyn".into())])?;
+        empty(
+            &mut w,
+            "InputDerivatives",
+            &[("maxOrder", caps.max_input_derivative_order.to_string())],
+        )?;
+        end(&mut w, "Tool")?;
+        end(&mut w, "VendorAnnotations")?;
+    }
 
     start(&mut w, "ModelVariables", &[])?;
     for (i, v) in vars.iter().enumerate() {

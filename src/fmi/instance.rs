@@ -671,8 +671,9 @@ impl Instance {
         }
     }
 
-    /// `fmi2SetRealInputDerivatives` (FMI 2.0.x §4.2.1): first-order rates of continuous Real
-    /// inputs, used by the model during the next `fmi2DoStep`
+    /// `fmi2SetRealInputDerivatives` (FMI 2.0.x §4.2.1): derivatives of continuous Real inputs
+    /// (orders 1 to the model's [`Capabilities::max_input_derivative_order`]), used by the
+    /// model during the next `fmi2DoStep`
     /// ([`CoSimModel::set_input_derivative`]). Everything is checked before the model sees a
     /// value, so a refused call changes nothing.
     pub fn set_real_input_derivatives(
@@ -691,15 +692,16 @@ impl Instance {
                 "not supported: inputs are held constant over a step (canInterpolateInputs=\"false\")",
             );
         }
+        let max = self.caps.max_input_derivative_order.max(1);
         for ((&vr, &order), &x) in vrs.iter().zip(orders).zip(values) {
             let checked = self.lookup(vr, VarKind::Real).and_then(|var| {
                 // Formatted only on a refusal: this call comes with every step.
                 let who = || format!("'{}' (vr {vr})", var.name);
                 if var.causality != Causality::Input || var.variability != Variability::Continuous {
                     Err(format!("{} is not a continuous Real input", who()))
-                } else if order != 1 {
+                } else if order < 1 || order as u32 > max {
                     Err(format!(
-                        "{}: derivative order {order} is not supported (only order 1: the input is interpolated linearly over the step)", who()
+                        "{}: derivative order {order} is not supported (orders 1 to {max}: the input follows its Taylor polynomial over the step)", who()
                     ))
                 } else if !x.is_finite() {
                     Err(format!("{}: derivative {x} is not finite", who()))
@@ -711,8 +713,8 @@ impl Instance {
                 return self.error(call, e);
             }
         }
-        for (&vr, &x) in vrs.iter().zip(values) {
-            if let Err(e) = self.model.set_input_derivative(vr, x) {
+        for ((&vr, &order), &x) in vrs.iter().zip(orders).zip(values) {
+            if let Err(e) = self.model.set_input_derivative(vr, order as u32, x) {
                 return self.error(call, e);
             }
         }

@@ -231,13 +231,15 @@ pub trait CoSimModel: Send {
         Capabilities::default()
     }
 
-    /// `fmi2SetRealInputDerivatives` of order 1 for one continuous Real input (the layer has
-    /// checked the order, the causality, variability and finiteness): the input's rate from
-    /// the current communication point `tc` on. The model stores it and, during the next
-    /// `do_step` only, uses `u(t) = u + u'·(t − tc)` (FMI 2.0.x §4.2.1); at the end of that
-    /// step the input's value becomes `u + u'·h` and its rate 0 (zero-order hold again until
-    /// the master sets another rate). The rate is part of the FMU state.
-    fn set_input_derivative(&mut self, vr: u32, _rate: f64) -> Result<(), String> {
+    /// `fmi2SetRealInputDerivatives` of `order` (1 to
+    /// [`Capabilities::max_input_derivative_order`]) for one continuous Real input (the layer
+    /// has checked the order, the causality, variability and finiteness): the input's
+    /// derivative of that order from the current communication point `tc` on. The model
+    /// stores it and, during the next `do_step` only, uses the Taylor polynomial
+    /// `u(t) = u + Σₖ u⁽ᵏ⁾·(t − tc)ᵏ/k!` (FMI 2.0.x §4.2.1); at the end of that step the
+    /// input's value becomes the polynomial's end value and every derivative 0 (zero-order
+    /// hold again until the master sets others). The derivatives are part of the FMU state.
+    fn set_input_derivative(&mut self, vr: u32, _order: u32, _value: f64) -> Result<(), String> {
         Err(format!(
             "input value reference {vr}: inputs are held constant over a step"
         ))
@@ -267,6 +269,10 @@ pub trait CoSimModel: Send {
 pub struct Capabilities {
     /// `canInterpolateInputs`: first-order input derivatives are used during a step.
     pub can_interpolate_inputs: bool,
+    /// The highest order of `fmi2SetRealInputDerivatives` the model takes when it
+    /// interpolates (FMI 2.0 declares none in `modelDescription.xml`; a higher order is
+    /// refused, naming the input): 1 unless the model says more.
+    pub max_input_derivative_order: u32,
     /// `maxOutputDerivativeOrder`: 0 or 1 (the layer supports first-order derivatives).
     pub max_output_derivative_order: u32,
 }

@@ -531,10 +531,13 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
         Capabilities {
             can_interpolate_inputs: self.rate_inputs.contains(&true),
             max_output_derivative_order: u32::from(K::output_derivatives(&self.base)),
+            // The piecewise-LTI solver takes a ramp of the torques as its forcing.
+            max_input_derivative_order: 1,
         }
     }
 
-    fn set_input_derivative(&mut self, vr: u32, rate: f64) -> Result<(), String> {
+    /// Order 1 only (the layer refuses others: [`Capabilities::max_input_derivative_order`]).
+    fn set_input_derivative(&mut self, vr: u32, _order: u32, rate: f64) -> Result<(), String> {
         let takes = &self.rate_inputs;
         let Some(k) = input_position::<K>(vr).filter(|&k| takes[k]) else {
             let interpolated: Vec<String> = (0..takes.len())
@@ -619,20 +622,20 @@ mod tests {
         assert_eq!(a.vars[k].name, "input.torque");
         a.vars[k].max = Some(150.0);
         a.lifecycle_mut().initialized = true;
-        a.set_input_derivative(31, 2e5).unwrap();
+        a.set_input_derivative(31, 1, 2e5).unwrap();
         match a.do_step(0.0, 5e-4) {
             Err(StepFailure::Error(e)) => assert!(e.contains("'input.torque'"), "{e}"),
             other => panic!("{other:?}"),
         }
         assert_eq!(a.sim.t(), 0.0);
-        a.set_input_derivative(31, 1e5).unwrap();
+        a.set_input_derivative(31, 1, 1e5).unwrap();
         a.do_step(0.0, 5e-4).unwrap();
         assert_eq!(a.get_real(31).unwrap(), 100.0 + 1e5 * 5e-4);
         assert!(Drivetrain::input_rates(a.sim.model())
             .iter()
             .all(|&r| r == 0.0));
         // operating.input_speed is a parameter with ports: no rate.
-        assert!(a.set_input_derivative(30, 1.0).is_err());
+        assert!(a.set_input_derivative(30, 1, 1.0).is_err());
     }
 
     /// For every shipped scene (both kernels): a batched read of the outputs, the one the

@@ -62,6 +62,10 @@ pub struct CoSimulation {
     pub can_handle_variable_communication_step_size: bool,
     pub can_interpolate_inputs: bool,
     pub max_output_derivative_order: u32,
+    /// The highest order of `fmi2SetRealInputDerivatives` the FMU takes: geardyn's vendor
+    /// annotation `<InputDerivatives maxOrder>` (FMI 2.0 declares none); else 1 with
+    /// `canInterpolateInputs`, 0 without.
+    pub max_input_derivative_order: u32,
     pub can_run_asynchronuously: bool,
     pub can_be_instantiated_only_once_per_process: bool,
     pub can_not_use_memory_management_functions: bool,

@@ -7,9 +7,11 @@ const COMMON: &str = r#"<h2>Co-simulation behaviour</h2>
 <ul>
 <li><code>fmi2DoStep</code> integrates exactly to <code>tc + h</code> (DOP853 at the scene's
 tolerances) for any positive <code>h</code>.</li>
-<li>Inputs are held constant over a step unless <code>fmi2SetRealInputDerivatives</code> (order 1)
-gave rates: then the next step uses <code>u(t) = u + u'&middot;(t &minus; tc)</code>, and at its end the
-input holds <code>u + u'&middot;h</code> with rate 0 again (<code>canInterpolateInputs="true"</code>).</li>
+<li>Inputs are held constant over a step unless <code>fmi2SetRealInputDerivatives</code> (orders 1
+to 3, the vendor annotation <code>InputDerivatives maxOrder="3"</code>) gave derivatives: then the
+next step uses the Taylor polynomial <code>u(t) = u + u'&middot;s + u''&middot;s&sup2;/2 +
+u'''&middot;s&sup3;/6</code>, <code>s = t &minus; tc</code>, and at its end the input holds the
+polynomial's end value with derivatives 0 again (<code>canInterpolateInputs="true"</code>).</li>
 <li><code>fmi2GetRealOutputDerivatives</code> answers order 1 for every output
 (<code>maxOutputDerivativeOrder="1"</code>): d/dt angle = speed, d/dt speed = acceleration, the
 rates of accelerations and torques from the equations with the current input rates.</li>

@@ -8,8 +8,11 @@
 //!
 //! Integration: DOP853 ([`crate::solve::rk`]) at the scene's tolerances, landing exactly on
 //! `tc + h`; the shaft is stateless. The inputs are held over a step, or, after
-//! `fmi2SetRealInputDerivatives`, follow `u + u'·(t − tc)` during the next step (the
-//! right-hand side reads them at `t`, so the integrator sees the ramp); output derivatives of
+//! `fmi2SetRealInputDerivatives` (orders 1 to 3), follow their Taylor polynomial
+//! `u + u'·s + u''·s²/2 + u⁽³⁾·s³/6`, `s = t − tc`, during the next step (the right-hand
+//! side reads them at `t`, so the integrator sees the polynomial: a master that knows the
+//! producer's values and slopes at both ends gives the cubic Hermite interpolant, whose
+//! error is fourth order where a line's is second); output derivatives of
 //! order 1 are answered for every output ([`system::output_rates`]), with the inputs' rates
 //! at `tc` (`du_now`): those of the ramp that ended there, until new ones are set. Reading
 //! them with the rates reset to 0 would drop every term of an output's derivative that comes
@@ -154,6 +157,8 @@ pub struct ElementFmu {
     u: Vec<f64>,
     /// First-order input rates for the next step (0: zero-order hold).
     du: Vec<f64>,
+    /// Second and third input derivatives for the next step (0: a ramp or a hold).
+    du_higher: Vec<[f64; 2]>,
     /// The inputs' rates at `t`, for the output derivatives: the last rates set, kept when a
     /// step ends (where `du` returns to 0) so they are the slope of the ramp that ended at `t`.
     du_now: Vec<f64>,
@@ -201,6 +206,7 @@ impl ElementFmu {
             u_start: u.clone(),
             u,
             du: vec![0.0; n],
+            du_higher: vec![[0.0; 2]; n],
             du_now: vec![0.0; n],
             scratch: RefCell::new(Vec::with_capacity(n)),
             params_cache: RecordedParams::default(),
@@ -226,6 +232,7 @@ impl ElementFmu {
         self.t = 0.0;
         self.u.clone_from(&self.u_start);
         self.du.iter_mut().for_each(|d| *d = 0.0);
+        self.du_higher.iter_mut().for_each(|d| *d = [0.0; 2]);
         self.du_now.iter_mut().for_each(|d| *d = 0.0);
         Ok(())
     }
@@ -296,6 +303,7 @@ impl ElementFmu {
             y: self.y().to_vec(),
             u: self.u.clone(),
             du: self.du.clone(),
+            du_higher: self.du_higher.clone(),
             du_now: self.du_now.clone(),
             controller: self.stepper.as_ref().map(RkStepper::controller_memory),
         }
@@ -308,7 +316,10 @@ impl ElementFmu {
             .map(|(k, &x)| (VR_INPUT0 + k as u32, x))
             .collect();
         check_snapshot_values(&self.vars, &s.params, &inputs, s.start_time)?;
-        if s.u.len() != self.u.len() || s.du.len() != self.u.len() || s.du_now.len() != self.u.len()
+        if s.u.len() != self.u.len()
+            || s.du.len() != self.u.len()
+            || s.du_higher.len() != self.u.len()
+            || s.du_now.len() != self.u.len()
         {
             return Err(format!(
                 "the state holds {} inputs and {} and {} rates; the model has {} inputs",
@@ -318,7 +329,13 @@ impl ElementFmu {
                 self.u.len()
             ));
         }
-        if let Some(d) = s.du.iter().chain(&s.du_now).find(|d| !d.is_finite()) {
+        let higher = s.du_higher.iter().flatten();
+        if let Some(d) =
+            s.du.iter()
+                .chain(&s.du_now)
+                .chain(higher)
+                .find(|d| !d.is_finite())
+        {
             return Err(format!("the state holds an input rate {d}"));
         }
         if !(s.t.is_finite() && s.t >= 0.0) || s.y.iter().any(|y| !y.is_finite()) {
@@ -395,6 +412,7 @@ impl ElementFmu {
         self.t = s.t;
         self.u.clone_from(&s.u);
         self.du.clone_from(&s.du);
+        self.du_higher.clone_from(&s.du_higher);
         self.du_now.clone_from(&s.du_now);
         self.lifecycle = Lifecycle {
             start_time: s.start_time,
@@ -461,9 +479,11 @@ impl CoSimModel for ElementFmu {
         let rebuilt = self.scene != scene;
         (self.scene, self.u, self.u_start) = (scene, u, u_start);
         if rebuilt {
-            let (u, du, du_now) = (self.u.clone(), self.du.clone(), self.du_now.clone());
+            let kept = (self.u.clone(), self.du.clone(), self.du_higher.clone());
+            let du_now = self.du_now.clone();
             self.rebuild().ok();
-            (self.u, self.du, self.du_now) = (u, du, du_now);
+            (self.u, self.du, self.du_higher) = kept;
+            self.du_now = du_now;
         } else if let Some(st) = &mut self.stepper {
             st.invalidate();
         }
@@ -478,17 +498,19 @@ impl CoSimModel for ElementFmu {
         let start_time = self.lifecycle.start_time;
         let target = ((t + h) - start_time).max(self.t);
         let dt = target - self.t;
-        // A ramp must stay within the inputs' bounds over the whole step.
-        for (k, (&u, &du)) in self.u.iter().zip(&self.du).enumerate() {
-            if du != 0.0 {
+        // A ramp must stay within the inputs' bounds at the end of the step.
+        for k in 0..self.u.len() {
+            if self.du[k] != 0.0 || self.du_higher[k] != [0.0; 2] {
                 let var = &self.vars[self
                     .vars
                     .iter()
                     .position(|v| v.value_reference == VR_INPUT0 + k as u32)
                     .unwrap_or(0)];
-                var.check_value(u + du * dt).map_err(|e| {
+                let end = system::input_at(self.u[k], self.du[k], self.du_higher[k], dt);
+                var.check_value(end).map_err(|e| {
                     StepFailure::Error(format!(
-                        "the input ramp leaves the bounds by the end of the step: {e} (rate {du})"
+                        "the input ramp leaves the bounds by the end of the step: {e} (rate {})",
+                        self.du[k]
                     ))
                 })?;
             }
@@ -498,6 +520,7 @@ impl CoSimModel for ElementFmu {
                 spec: &self.scene.element,
                 u: &self.u,
                 du: &self.du,
+                du_higher: &self.du_higher,
                 t0: self.t,
                 scratch: std::mem::take(&mut self.scratch),
             };
@@ -506,8 +529,9 @@ impl CoSimModel for ElementFmu {
             if let Err(e) = result {
                 // The inputs follow the state to where the integrator stopped.
                 let reached = st.t();
-                for (u, du) in self.u.iter_mut().zip(&self.du) {
-                    *u += du * (reached - self.t);
+                for k in 0..self.u.len() {
+                    let (du, higher) = (self.du[k], self.du_higher[k]);
+                    self.u[k] = system::input_at(self.u[k], du, higher, reached - self.t);
                 }
                 self.t = reached;
                 return Err(StepFailure::Discard {
@@ -518,11 +542,15 @@ impl CoSimModel for ElementFmu {
             }
         }
         // The output derivatives at the new time see the rates of the ramp that ended here.
-        self.du_now.clone_from(&self.du);
-        if self.du.iter().any(|&d| d != 0.0) {
-            for (u, du) in self.u.iter_mut().zip(self.du.iter_mut()) {
-                *u += *du * dt;
-                *du = 0.0;
+        for k in 0..self.u.len() {
+            self.du_now[k] = system::input_rate_at(self.du[k], self.du_higher[k], dt);
+        }
+        let higher = self.du_higher.iter().any(|d| *d != [0.0; 2]);
+        if higher || self.du.iter().any(|&d| d != 0.0) {
+            for k in 0..self.u.len() {
+                self.u[k] = system::input_at(self.u[k], self.du[k], self.du_higher[k], dt);
+                self.du[k] = 0.0;
+                self.du_higher[k] = [0.0; 2];
             }
             // The inputs at the new time come from the ramp: f(t, y) is recomputed from them.
             if let Some(st) = &mut self.stepper {
@@ -553,15 +581,23 @@ impl CoSimModel for ElementFmu {
         Capabilities {
             can_interpolate_inputs: true,
             max_output_derivative_order: 1,
+            max_input_derivative_order: 3,
         }
     }
 
-    fn set_input_derivative(&mut self, vr: u32, rate: f64) -> Result<(), String> {
+    /// The output derivatives at `tc` read the first derivative set (`du_now`).
+    fn set_input_derivative(&mut self, vr: u32, order: u32, value: f64) -> Result<(), String> {
         let k = self
             .input_index(vr)
             .ok_or_else(|| format!("'{}' (vr {vr}) is not an input", name_of(&self.vars, vr)))?;
-        self.du[k] = rate;
-        self.du_now[k] = rate;
+        match order {
+            1 => {
+                self.du[k] = value;
+                self.du_now[k] = value;
+            }
+            2 | 3 => self.du_higher[k][order as usize - 2] = value,
+            _ => return Err(format!("input derivative order {order} (orders 1 to 3)")),
+        }
         Ok(())
     }
 
@@ -615,6 +651,7 @@ impl ElementFmu {
         apply(&mut scene, name, value)?;
         let old = std::mem::replace(&mut self.scene, scene);
         let (u, du, du_now) = (self.u.clone(), self.du.clone(), self.du_now.clone());
+        let du_higher = self.du_higher.clone();
         if let Err(e) = self.rebuild() {
             self.scene = old;
             self.rebuild().ok();
@@ -623,6 +660,7 @@ impl ElementFmu {
         // Inputs set so far stay set.
         self.u = u;
         self.du = du;
+        self.du_higher = du_higher;
         self.du_now = du_now;
         Ok(())
     }

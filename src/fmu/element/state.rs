@@ -3,9 +3,11 @@
 //!
 //! Layout, little-endian: `u32 n` then `n × (u32 vr, f64 value)` (parameters and start
 //! inputs), `u8 flags` (bit 0 initialized, bits 1–3 the RK controller bits of
-//! [`crate::fmu::payload::controller_bits`]), `f64` start time, `f64` t, `u32 n_y` and the
-//! states, `u32 n_u`, the inputs, their rates for the next step and their rates at `t` (for
-//! the output derivatives), and the RK controller memory.
+//! [`crate::fmu::payload::controller_bits`], bit 4 higher input derivatives follow),
+//! `f64` start time, `f64` t, `u32 n_y` and the states, `u32 n_u`, the inputs, their rates
+//! for the next step and their rates at `t` (for the output derivatives), with bit 4 their
+//! second and third derivatives for the next step (`n_u` pairs; a state without them, as
+//! written before they existed, has none), and the RK controller memory.
 
 use crate::fmi::bytes::{put_f64s, Reader};
 use crate::fmu::payload::{
@@ -24,6 +26,8 @@ pub struct ElementSnapshot {
     pub u: Vec<f64>,
     /// Input rates for the next step (first-order input interpolation).
     pub du: Vec<f64>,
+    /// Second and third input derivatives for the next step.
+    pub du_higher: Vec<[f64; 2]>,
     /// The inputs' rates at `t` (the output derivatives read them).
     pub du_now: Vec<f64>,
     pub controller: Option<ControllerMemory>,
@@ -35,10 +39,11 @@ const MAX_LEN: usize = 16;
 pub fn encode(s: &ElementSnapshot) -> Vec<u8> {
     // Sized once (a master saves a state before every communication step): the layout above,
     // the controller memory at most 20 bytes.
-    let len = 4 + 12 * s.params.len() + 1 + 16 + 4 + 8 * s.y.len() + 4 + 24 * s.u.len() + 20;
+    let higher = s.du_higher.iter().any(|d| *d != [0.0; 2]);
+    let len = 4 + 12 * s.params.len() + 1 + 16 + 4 + 8 * s.y.len() + 4 + 40 * s.u.len() + 20;
     let mut out = Vec::with_capacity(len);
     put_params(&mut out, &s.params);
-    out.push(u8::from(s.initialized) | controller_bits(s.controller) << 1);
+    out.push(u8::from(s.initialized) | controller_bits(s.controller) << 1 | u8::from(higher) << 4);
     put_f64s(&mut out, &[s.start_time, s.t]);
     out.extend_from_slice(&(s.y.len() as u32).to_le_bytes());
     put_f64s(&mut out, &s.y);
@@ -46,6 +51,11 @@ pub fn encode(s: &ElementSnapshot) -> Vec<u8> {
     put_f64s(&mut out, &s.u);
     put_f64s(&mut out, &s.du);
     put_f64s(&mut out, &s.du_now);
+    if higher {
+        for d in &s.du_higher {
+            put_f64s(&mut out, d);
+        }
+    }
     put_controller(&mut out, s.controller);
     out
 }
@@ -66,7 +76,7 @@ pub fn decode(bytes: &[u8]) -> Result<ElementSnapshot, String> {
     let mut r = Reader::new(bytes);
     let params = read_counted_params(&mut r, bytes.len())?;
     let flags = r.u8()?;
-    if flags >> 4 != 0 {
+    if flags >> 5 != 0 {
         return Err(format!("model state has unknown flags {flags:#04x}"));
     }
     let start_time = r.f64()?;
@@ -77,7 +87,14 @@ pub fn decode(bytes: &[u8]) -> Result<ElementSnapshot, String> {
     let u = read_vec(&mut r, nu)?;
     let du = read_vec(&mut r, nu)?;
     let du_now = read_vec(&mut r, nu)?;
-    let controller = read_controller(&mut r, flags >> 1)?;
+    let du_higher = if flags & 1 << 4 != 0 {
+        (0..nu)
+            .map(|_| Ok([r.f64()?, r.f64()?]))
+            .collect::<Result<_, String>>()?
+    } else {
+        vec![[0.0; 2]; nu]
+    };
+    let controller = read_controller(&mut r, flags >> 1 & 7)?;
     r.finish("model state")?;
     Ok(ElementSnapshot {
         params,
@@ -87,6 +104,7 @@ pub fn decode(bytes: &[u8]) -> Result<ElementSnapshot, String> {
         y,
         u,
         du,
+        du_higher,
         du_now,
         controller,
     })
@@ -111,6 +129,11 @@ mod tests {
                 },
                 u: vec![-4.0, 0.5],
                 du: vec![10.0, 0.0],
+                du_higher: if controller.is_some() {
+                    vec![[0.0; 2]; 2]
+                } else {
+                    vec![[1e3, 0.0], [0.0, -2e6]]
+                },
                 du_now: vec![0.0, -3.0],
                 controller,
             },

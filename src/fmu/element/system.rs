@@ -150,13 +150,34 @@ pub fn output_rate(spec: &ElementSpec, k: usize, y: &[f64], u: &[f64], du: &[f64
     }
 }
 
-/// The element over one communication step: the inputs are `u + du·(t − t0)` (first-order
-/// input interpolation, FMI 2.0.x §4.2.1; `du = 0` is the zero-order hold), so the
-/// integrator sees the ramp.
+/// An input at `dt` into a step from its value `u`, first derivative `du` and second and
+/// third derivatives `higher`: the Taylor polynomial `u + du·dt + u''·dt²/2 + u⁽³⁾·dt³/6`
+/// (FMI 2.0.x §4.2.1, `fmi2SetRealInputDerivatives`). Without higher derivatives it is the
+/// ramp `u + du·dt`, evaluated as before they existed (the same bits).
+pub fn input_at(u: f64, du: f64, higher: [f64; 2], dt: f64) -> f64 {
+    if higher == [0.0; 2] {
+        return u + du * dt;
+    }
+    u + dt * (du + dt * (higher[0] / 2.0 + dt * higher[1] / 6.0))
+}
+
+/// The derivative of [`input_at`] at `dt`: `du + u''·dt + u⁽³⁾·dt²/2` (`du` itself without
+/// higher derivatives).
+pub fn input_rate_at(du: f64, higher: [f64; 2], dt: f64) -> f64 {
+    if higher == [0.0; 2] {
+        return du;
+    }
+    du + dt * (higher[0] + dt * higher[1] / 2.0)
+}
+
+/// The element over one communication step: the inputs follow [`input_at`] (input
+/// interpolation up to order 3, FMI 2.0.x §4.2.1; no derivatives is the zero-order hold), so
+/// the integrator sees the polynomial.
 pub struct StepSystem<'a> {
     pub spec: &'a ElementSpec,
     pub u: &'a [f64],
     pub du: &'a [f64],
+    pub du_higher: &'a [[f64; 2]],
     pub t0: f64,
     /// Scratch for the interpolated inputs (interior mutability: `rhs` takes `&self`).
     pub scratch: std::cell::RefCell<Vec<f64>>,
@@ -171,7 +192,8 @@ impl HybridSystem for StepSystem<'_> {
         let mut ut = self.scratch.borrow_mut();
         ut.clear();
         let dt = t - self.t0;
-        ut.extend(self.u.iter().zip(self.du).map(|(u, du)| u + du * dt));
+        let inputs = self.u.iter().zip(self.du).zip(self.du_higher);
+        ut.extend(inputs.map(|((&u, &du), &higher)| input_at(u, du, higher, dt)));
         rhs(self.spec, y, &ut, dy);
     }
 }

@@ -69,10 +69,18 @@ pub(super) fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription,
         .guid
         .ok_or("fmiModelDescription: required attribute guid is missing")?;
 
+    let input_order = (raw.vendor_annotations.iter())
+        .flat_map(|v| &v.tools)
+        .filter(|t| t.name == "geardyn")
+        .find_map(|t| t.input_derivatives.as_ref())
+        .and_then(|a| a.get("maxOrder"))
+        .map(|s| parse_u32(s, &|| "<InputDerivatives>: maxOrder".to_string()))
+        .transpose()?;
     let co_simulation = raw
         .co_simulation
         .map(|a| -> Result<CoSimulation, String> {
             let c = "<CoSimulation>";
+            let can_interpolate_inputs = opt_bool(&a, "canInterpolateInputs", c)?;
             Ok(CoSimulation {
                 model_identifier: a
                     .get("modelIdentifier")
@@ -84,7 +92,11 @@ pub(super) fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription,
                     "canHandleVariableCommunicationStepSize",
                     c,
                 )?,
-                can_interpolate_inputs: opt_bool(&a, "canInterpolateInputs", c)?,
+                can_interpolate_inputs,
+                max_input_derivative_order: match (can_interpolate_inputs, input_order) {
+                    (false, _) => 0,
+                    (true, order) => order.unwrap_or(1).max(1),
+                },
                 max_output_derivative_order: a
                     .get("maxOutputDerivativeOrder")
                     .map(|s| parse_u32(s, &|| format!("{c}: maxOutputDerivativeOrder")))

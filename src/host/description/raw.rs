@@ -39,10 +39,28 @@ pub(super) struct RawRoot {
     pub(super) log_categories: Option<RawLogCategories>,
     #[serde(rename = "DefaultExperiment")]
     pub(super) default_experiment: Option<RawAttrs>,
+    #[serde(rename = "VendorAnnotations")]
+    pub(super) vendor_annotations: Option<RawVendorAnnotations>,
     #[serde(rename = "ModelVariables")]
     pub(super) model_variables: Option<RawModelVariables>,
     #[serde(rename = "ModelStructure")]
     pub(super) model_structure: Option<RawModelStructure>,
+}
+
+/// `<VendorAnnotations>` (FMI 2.0.5 §2.2.6): only geardyn's `<InputDerivatives maxOrder>` is
+/// read; any other tool's content is accepted and dropped.
+#[derive(Deserialize, Default)]
+pub(super) struct RawVendorAnnotations {
+    #[serde(rename = "Tool", default)]
+    pub(super) tools: Vec<RawTool>,
+}
+
+#[derive(Deserialize, Default)]
+pub(super) struct RawTool {
+    #[serde(rename = "@name", default)]
+    pub(super) name: String,
+    #[serde(rename = "InputDerivatives")]
+    pub(super) input_derivatives: Option<RawAttrs>,
 }
 
 /// Any element whose attributes we read generically (names kept for messages).

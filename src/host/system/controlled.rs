@@ -16,7 +16,15 @@
 //!   `y(t+H)`: its largest distance from the signal, `H·|y'(t+H) − y'(t)|/8` (≈ `H²|y''|/8`),
 //!   plus, for a compliance's effort, how far the end it was given lies from the refreshed
 //!   one (below);
-//! * held: `|y(t+H) − y(t)|` (≈ `H|y'|`, first order).
+//! * held: `|y(t+H) − y(t)|` (≈ `H|y'|`, first order);
+//! * interpolated into a consumer that takes input derivatives up to order 3 (its vendor
+//!   annotation, [`Plan::hermite`]): the cubic Hermite interpolant of `y`, `y'` at both ends
+//!   (`master::hermite`), whose own error is fourth order. Its estimate is that of an embedded
+//!   pair: the distance of the quadratic through `y(t)`, `y'(t)`, `y(t+H)` from the cubic,
+//!   `4H/27·|y'(t) + y'(t+H) − 2Δ/H|` (third order, so an upper bound of the cubic's error
+//!   where the signal is smooth), plus, as for the chord, how far the end value and slope it
+//!   was given lie from the refreshed ones (`4H/27` is the largest value of the end-slope
+//!   basis function). The step's exponent is then 3.
 //!
 //! Each defect is divided by `tol` times the signal's scale, its largest magnitude so far
 //! (the step's own values included): a relative tolerance as an ODE solver's `rtol·|y|`. An
@@ -145,18 +153,27 @@ impl Scales {
     }
 }
 
+/// Per producer port: its value and derivative at the step's end as its consumers were given
+/// them (before [`refresh`]).
+struct Given {
+    value: Vec<f64>,
+    der: Vec<f64>,
+}
+
 /// The step's error relative to the tolerance (module doc), and the order of its defects.
 fn estimate(
     plan: &Plan,
     ctl: &ErrorControl,
     scales: &Scales,
-    given: &[f64],
+    given: &Given,
     st: &State,
-    der_start: &[f64],
     h: f64,
 ) -> (f64, i32) {
+    let der_start = &st.der_prev;
     let mut err: f64 = 0.0;
     let mut order = 2;
+    // The link with the largest ratio, if its defect is a Hermite pair's (third order).
+    let mut third = false;
     for (l, link) in plan.system.links.iter().enumerate() {
         if link.to.var_type != VarType::Real {
             continue;
@@ -168,9 +185,19 @@ fn estimate(
             // connection's producer steps first, an extrapolated one's after or alongside.
             // The chord ended at `given[p]`, what the producer returned with the inputs it
             // was given; `y1` is its output refreshed with the actual ones (`refresh`).
+            Coupling::Interpolate if plan.hermite[l] => {
+                let (d0, d1) = (der_start[p], st.der[p]);
+                // The quadratic through y0, d0, y1 is the lower-order member of the pair:
+                // its distance from the cubic, `4h/27·|d0 + d1 − 2Δ/h|`, bounds the cubic's
+                // error from above (the cubic's own is fourth order). Then the refresh: the
+                // cubic the consumer got ended at `given`, with slope `given_der`.
+                let pair = 4.0 * h / 27.0 * (d0 + d1 - 2.0 * (y1 - y0) / h).abs();
+                let moved = 4.0 * h / 27.0 * (d1 - given.der[p]).abs();
+                pair + (y1 - given.value[p]).abs() + moved
+            }
             Coupling::Interpolate => {
                 if plan.needs_derivative[p] {
-                    h * (st.der[p] - der_start[p]).abs() / 8.0 + (y1 - given[p]).abs()
+                    h * (st.der[p] - der_start[p]).abs() / 8.0 + (y1 - given.value[p]).abs()
                 } else {
                     // No derivative: the chord's distance from the line of the step before is
                     // not known; the change over the step bounds it at first order.
@@ -188,8 +215,20 @@ fn estimate(
             continue;
         }
         let sc = ctl.tolerance * scales.of(p, y0, y1);
-        let r = defect / sc;
-        err = err.max(if r.is_nan() { f64::INFINITY } else { r });
+        let r = if (defect / sc).is_nan() {
+            f64::INFINITY
+        } else {
+            defect / sc
+        };
+        if r > err {
+            err = r;
+            third = plan.hermite[l];
+        }
+    }
+    // The step's exponent is that of the defect that decides; a held connection's first
+    // order keeps its say (as before the Hermite inputs).
+    if third && order == 2 {
+        order = 3;
     }
     (err, order)
 }
@@ -199,14 +238,8 @@ fn estimate(
 /// both ends minus the integral of the line the consumer was given; the next step adds it
 /// spread over that step, so that the impulses exchanged stay equal to that rule's accuracy
 /// (0 where a derivative is missing).
-fn impulse_deficits(
-    plan: &Plan,
-    st: &State,
-    given: &[f64],
-    der_start: &[f64],
-    h: f64,
-    deficit: &mut [f64],
-) {
+fn impulse_deficits(plan: &Plan, st: &State, given: &Given, h: f64, deficit: &mut [f64]) {
+    let der_start = &st.der_prev;
     for (l, link) in plan.system.links.iter().enumerate() {
         let p = plan.port_of[l];
         if link.to.var_type != VarType::Real || !plan.needs_derivative[p] {
@@ -216,7 +249,10 @@ fn impulse_deficits(
         let hermite = h / 2.0 * (y0 + y1) + h * h / 12.0 * (d0 - d1);
         let given = match plan.coupling[l] {
             Coupling::Extrapolate => h * y0 + h * h / 2.0 * d0,
-            Coupling::Interpolate => h / 2.0 * (y0 + given[p]),
+            Coupling::Interpolate if plan.hermite[l] => {
+                h / 2.0 * (y0 + given.value[p]) + h * h / 12.0 * (d0 - given.der[p])
+            }
+            Coupling::Interpolate => h / 2.0 * (y0 + given.value[p]),
             Coupling::Hold => continue,
         };
         deficit[l] = hermite - given;
@@ -260,19 +296,13 @@ fn refresh(
 }
 
 /// Undo a step: every instance back to its saved state, the ports to the step's start.
-fn roll_back(
-    insts: &mut [Instance],
-    plan: &Plan,
-    st: &mut State,
-    der_start: &[f64],
-    time: f64,
-) -> Result<(), String> {
+fn roll_back(insts: &mut [Instance], plan: &Plan, st: &mut State, time: f64) -> Result<(), String> {
     for (e, inst) in insts.iter_mut().enumerate() {
         inst.restore_state()
             .map_err(|err| super::master::at(&plan.system.elements[e].name, time, err))?;
     }
     st.cur.copy_from_slice(&st.prev);
-    st.der.copy_from_slice(der_start);
+    st.der.copy_from_slice(&st.der_prev);
     Ok(())
 }
 
@@ -293,8 +323,10 @@ pub(super) fn run(
     let mut watch = super::divergence::Watch::new(plan);
     let mut scales = Scales(st.cur.iter().map(|v| v.abs()).collect());
     let compliances = compliances(plan);
-    let mut given = st.cur.clone();
-    let mut der_start = st.der.clone();
+    let mut given = Given {
+        value: st.cur.clone(),
+        der: st.der.clone(),
+    };
     let mut stepped = vec![false; elements.len()];
     let (h_out, stop) = (plan.h, plan.stop_time);
     let mut time = t0;
@@ -340,7 +372,7 @@ pub(super) fn run(
             }
         }
         st.prev.copy_from_slice(&st.cur);
-        der_start.copy_from_slice(&st.der);
+        st.der_prev.copy_from_slice(&st.der);
         stepped.iter_mut().for_each(|s| *s = false);
         for (o, d) in st.offset.iter_mut().zip(&deficit) {
             *o = d / step;
@@ -367,7 +399,7 @@ pub(super) fn run(
                     error: f64::INFINITY,
                     accepted: false,
                 });
-                if let Err(m) = roll_back(insts, plan, &mut st, &der_start, time) {
+                if let Err(m) = roll_back(insts, plan, &mut st, time) {
                     out.failure = Some(m);
                     return out;
                 }
@@ -375,12 +407,13 @@ pub(super) fn run(
                 continue;
             }
         }
-        given.copy_from_slice(&st.cur);
+        given.value.copy_from_slice(&st.cur);
+        given.der.copy_from_slice(&st.der);
         if let Err(m) = refresh(&compliances, &mut st, insts, next, &stepped) {
             out.failure = Some(m);
             return out;
         }
-        let (err, order) = estimate(plan, ctl, &scales, &given, &st, &der_start, step);
+        let (err, order) = estimate(plan, ctl, &scales, &given, &st, step);
         let factor = |err: f64| {
             if err == 0.0 {
                 2.0
@@ -397,7 +430,7 @@ pub(super) fn run(
                 error: err,
                 accepted: false,
             });
-            if let Err(m) = roll_back(insts, plan, &mut st, &der_start, time) {
+            if let Err(m) = roll_back(insts, plan, &mut st, time) {
                 out.failure = Some(m);
                 return out;
             }
@@ -416,7 +449,7 @@ pub(super) fn run(
         });
         scales.accept(&st.cur);
         if conserve {
-            impulse_deficits(plan, &st, &given, &der_start, step, &mut deficit);
+            impulse_deficits(plan, &st, &given, step, &mut deficit);
         }
         // A step cut short to land on an output point does not shrink the next one.
         let base = if next == target { h.max(step) } else { step };

@@ -105,6 +105,7 @@ impl Inputs {
         self.bx.clear();
         self.dv.clear();
         self.dx.clear();
+        self.order.clear();
     }
 }
 
@@ -117,6 +118,9 @@ pub(super) struct State<'p, 'a> {
     pub(super) cur: Vec<f64>,
     pub(super) prev: Vec<f64>,
     pub(super) der: Vec<f64>,
+    /// Per producer port: its first derivative at the step's start (where read; the
+    /// error-controlled master's Hermite inputs, [`Plan::hermite`]).
+    pub(super) der_prev: Vec<f64>,
     /// Per link: a constant added to an interpolated or extrapolated input over the next
     /// step (the impulse correction of the error-controlled master; 0 with fixed steps, where
     /// adding it leaves every value's bits unchanged).
@@ -135,6 +139,17 @@ fn corrected(v: f64, o: f64) -> f64 {
     } else {
         v + o
     }
+}
+
+/// The derivatives of orders 1, 2, 3 at `s = 0` of the cubic Hermite interpolant on
+/// `[0, h]` of values `y0`, `y1` and slopes `d0`, `d1` at its ends (the cubic
+/// `y0 + d0·s + c₂s² + c₃s³` with `c₂ = (3Δ/h − 2d0 − d1)/h`, `c₃ = (d0 + d1 − 2Δ/h)/h²`,
+/// `Δ = y1 − y0`; de Boor, A Practical Guide to Splines, ch. IV).
+pub(super) fn hermite(y0: f64, y1: f64, d0: f64, d1: f64, h: f64) -> [f64; 3] {
+    let secant = (y1 - y0) / h;
+    let c2 = (3.0 * secant - 2.0 * d0 - d1) / h;
+    let c3 = (d0 + d1 - 2.0 * secant) / (h * h);
+    [d0, 2.0 * c2, 6.0 * c3]
 }
 
 pub(super) fn at(e: &str, t: f64, err: CallError) -> String {
@@ -232,6 +247,7 @@ impl<'p, 'a> State<'p, 'a> {
             cur: vec![0.0; np],
             prev: vec![0.0; np],
             der: vec![0.0; np],
+            der_prev: vec![0.0; np],
             offset: vec![0.0; plan.system.links.len()],
             row: vec![0.0; plan.columns.len()],
             buf_f: Vec::new(),
@@ -320,13 +336,25 @@ impl<'p, 'a> State<'p, 'a> {
                         Coupling::Interpolate if stepped[link.from.element] => {
                             rv.push(link.to.vr);
                             rx.push(corrected(affine(self.prev[p]), slope(self.offset[l])));
-                            dv.push(link.to.vr);
-                            dx.push(slope((self.cur[p] - self.prev[p]) / h));
+                            if plan.hermite[l] {
+                                let (d0, d1) = (self.der_prev[p], self.der[p]);
+                                let c = hermite(self.prev[p], self.cur[p], d0, d1, h);
+                                for (k, c) in c.into_iter().enumerate() {
+                                    dv.push(link.to.vr);
+                                    order.push(k as i32 + 1);
+                                    dx.push(slope(c));
+                                }
+                            } else {
+                                dv.push(link.to.vr);
+                                order.push(1);
+                                dx.push(slope((self.cur[p] - self.prev[p]) / h));
+                            }
                         }
                         Coupling::Extrapolate if !stepped[link.from.element] => {
                             rv.push(link.to.vr);
                             rx.push(corrected(affine(self.cur[p]), slope(self.offset[l])));
                             dv.push(link.to.vr);
+                            order.push(1);
                             dx.push(slope(self.der[p]));
                         }
                         _ => {
@@ -357,7 +385,6 @@ impl<'p, 'a> State<'p, 'a> {
                 inst.set_boolean(bv, bx).map_err(err)?;
             }
             if !dv.is_empty() {
-                order.resize(dv.len(), 1);
                 inst.set_real_input_derivatives(dv, order, dx)
                     .map_err(err)?;
             }

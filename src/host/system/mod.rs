@@ -466,6 +466,21 @@ fn plan<'a>(
             }
         }
     }
+    // The error-controlled master gives the cubic Hermite input over an interpolated
+    // connection whose consumer takes input derivatives up to order 3 (its producer's
+    // derivative is read at both ends).
+    let hermite: Vec<bool> = (system.links.iter().enumerate())
+        .map(|(l, link)| {
+            let takes = md_of(link.to.element)
+                .co_simulation
+                .as_ref()
+                .is_some_and(|c| c.max_input_derivative_order >= 3);
+            control.is_some()
+                && coupling[l] == Coupling::Interpolate
+                && needs_derivative[port_of[l]]
+                && takes
+        })
+        .collect();
     let threads = match (&control, args.threads) {
         (Some(_), Some(k)) if k > 1 => {
             return Err(format!(
@@ -488,6 +503,7 @@ fn plan<'a>(
         ports,
         port_of,
         needs_derivative,
+        hermite,
         feedthrough,
         columns,
         start_time,

@@ -41,6 +41,10 @@ pub struct Plan<'a> {
     pub port_of: Vec<usize>,
     /// Ports whose first derivative is read after each step (for [`Coupling::Extrapolate`]).
     pub needs_derivative: Vec<bool>,
+    /// Per link: its consumer is given the cubic Hermite interpolant of the producer's values
+    /// and derivatives at both ends of the step (input derivatives of orders 1 to 3) instead of
+    /// the chord (an interpolated connection of the error-controlled master).
+    pub hermite: Vec<bool>,
     /// Per link: the producer ports of its consumer that its input feeds directly
     /// ([`super::graph::feedthrough`]).
     pub feedthrough: Vec<Vec<usize>>,
