@@ -22,11 +22,11 @@ impl<M: Drivetrain> Problem<M> {
         let pairs = coefficients[1..]
             .chunks_exact(2)
             .zip(phi[1..].chunks_exact(2));
-        for (&j, (ab, row)) in self.orders[1..].iter().zip(pairs) {
+        for (&w, (ab, row)) in self.order_rates[1..].iter().zip(pairs) {
             let (a, b) = (ab[0], ab[1]);
             let (c, sn) = (row[0], row[1]);
             x += a * c + b * sn;
-            dx += TAU * j as f64 * (b * c - a * sn);
+            dx += w * (b * c - a * sn);
         }
         (x, dx)
     }

@@ -120,6 +120,9 @@ pub(super) struct Problem<M: Drivetrain> {
     pub(super) damping: DMatrix<f64>,
     pub(super) stiffness: DMatrix<f64>,
     pub(super) orders: Vec<usize>,
+    /// `2π j` of every retained order `j` (as `TAU * j as f64`, so the same bits), read at every
+    /// quadrature node by [`Problem::deflection`].
+    pub(super) order_rates: Vec<f64>,
     /// `2|J| − 1`.
     pub(super) len: usize,
     pub(super) cells: Vec<(f64, f64)>,
@@ -421,6 +424,7 @@ impl<M: Drivetrain> Problem<M> {
             mass: lin.mass,
             damping,
             stiffness,
+            order_rates: orders.iter().map(|&j| TAU * j as f64).collect(),
             orders,
             len,
             cells,
