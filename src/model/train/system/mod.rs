@@ -848,8 +848,8 @@ impl GearTrain {
     /// The generalised force of torque derivatives `[input, load]` of one order into `out`
     /// (the map of `f_ext` from the torques, linear in them).
     fn force_of_rates(&self, torque_rate: f64, load_rate: f64, out: &mut [f64]) {
-        for i in 0..self.m {
-            out[i] = self.f_in[i] * torque_rate + self.f_out[i] * load_rate;
+        for ((o, f_in), f_out) in out.iter_mut().zip(&self.f_in).zip(&self.f_out) {
+            *o = f_in * torque_rate + f_out * load_rate;
         }
         if let Some([(d_in, j_in), (d_out, j_out)]) = self.pair_form {
             out[0] = self.m_hat[0] * (d_in * torque_rate / j_in + d_out * -load_rate / j_out);
