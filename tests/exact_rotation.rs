@@ -69,6 +69,18 @@ fn run(text: &str, exact: bool, stop: f64, dt: f64) -> Run {
 /// [`run`] with the input and load torques ramping at `rates` (N·m/s) from t = 0, as the
 /// FMU's input derivatives make them over a step.
 fn run_with_rates(text: &str, exact: bool, stop: f64, dt: f64, rates: [f64; 2]) -> Run {
+    run_with_derivatives(
+        text,
+        exact,
+        stop,
+        dt,
+        [[rates[0], 0.0, 0.0], [rates[1], 0.0, 0.0]],
+    )
+}
+
+/// [`run`] with the input and load torques following cubics of derivatives `d` (orders 1–3,
+/// input then load) from t = 0, as the FMU's input derivatives of orders 1–3 make them.
+fn run_with_derivatives(text: &str, exact: bool, stop: f64, dt: f64, d: [[f64; 3]; 2]) -> Run {
     let mut scene = Scene::from_toml_str(text, "test").unwrap();
     scene.solver.method = if exact {
         MethodChoice::Exact
@@ -80,8 +92,8 @@ fn run_with_rates(text: &str, exact: bool, stop: f64, dt: f64, rates: [f64; 2]) 
     scene.solver.atol = 1e-18;
     let mut sim = TrainSimulation::new(&scene).unwrap();
     sim.model_mut().record_events();
-    if rates != [0.0; 2] {
-        sim.change_model(|train, t| train.set_torque_rates(t, rates))
+    if d != [[0.0; 3]; 2] {
+        sim.change_model(|train, t| train.set_torque_derivatives(t, d))
             .unwrap();
     }
     let steps = (stop / dt).round() as usize;
@@ -264,6 +276,34 @@ fn torque_ramps_of_the_fmu_inputs_run_exact() {
     assert!(
         ramp_effect > 0.1,
         "the ramp changes the answer: {ramp_effect:e}"
+    );
+    assert!(dte <= 1e-9 && speed <= 1e-8, "{dte:e} {speed:e}");
+}
+
+#[test]
+fn cubic_torques_of_the_fmu_inputs_run_exact() {
+    // Input derivatives of orders 1–3 (issue 32, `docs/cosimulation.md`): the exact
+    // propagator carries the cubic on the nilpotent chain τ, τ²/2, τ³/6; DOP853 at rtol 1e-12
+    // evaluates the cubic in the right-hand side. The elastic coordinates (the DTE) see the
+    // forcing through the same rows as the rigid ones (`tests/stage_input_derivatives.rs`
+    // checks those against the momentum balance).
+    let text = stage("backlash");
+    let d = [[2e5, -4e8, 1e12], [-1.5e5, 6e8, -2e12]];
+    let exact = run_with_derivatives(&text, true, 5e-4, 1e-5, d);
+    let rk = run_with_derivatives(&text, false, 5e-4, 1e-5, d);
+    let ramp = run_with_rates(&text, true, 5e-4, 1e-5, [d[0][0], d[1][0]]);
+    let x0 = static_deflection(100.0, 0.04535, 2.9831e8);
+    let dte = error(&exact, &rk, "mesh1.dte", x0);
+    let speed = error(&exact, &rk, "pinion.speed", 1.0).max(error(&exact, &rk, "gear.speed", 1.0));
+    let cubic_effect = error(&exact, &ramp, "mesh1.dte", x0);
+    println!(
+        "cubic torques: DTE {dte:.2e} of the static deflection (orders 2–3 move it by \
+         {cubic_effect:.2e}), speeds {speed:.2e} rad/s"
+    );
+    assert_eq!(exact.method, "exact");
+    assert!(
+        cubic_effect > 0.1,
+        "orders 2–3 change the answer: {cubic_effect:e}"
     );
     assert!(dte <= 1e-9 && speed <= 1e-8, "{dte:e} {speed:e}");
 }

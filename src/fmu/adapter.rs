@@ -5,7 +5,7 @@
 //! for the usual `startTime = 0` is the host's time bit for bit.
 //!
 //! Inputs are held constant over a communication step, except those a kernel interpolates
-//! ([`Kernel::rate_inputs`]: `canInterpolateInputs`, `u + u'·(t − tc)` over the next step,
+//! ([`Kernel::rate_inputs`]: `canInterpolateInputs`, the Taylor polynomial over the next step,
 //! FMI 2.0.x §4.2.1); a change re-anchors the mesh-phase clocks at the current time, so the phases stay
 //! continuous. Before initialization is finished the inputs are part of the initial
 //! operating point (a static initial state is computed from them).
@@ -197,7 +197,7 @@ impl<K: Kernel> Adapter<K> {
         let (mut sim, outputs) = self.build(&settings).map_err(|e| e.naming(&name, x))?;
         // Input rates set so far stay set (they are not parameters of the build).
         let du = K::input_rates(self.sim.model());
-        if du.iter().any(|&r| r != 0.0) {
+        if du.iter().any(|&r| r != [0.0; 3]) {
             K::set_input_rates(&mut sim, &du)?;
         }
         self.settings = settings;
@@ -456,11 +456,12 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
     /// point. A failing integrator discards the step at the last good state it holds (the
     /// outputs then show that state) and ends the run.
     ///
-    /// With input rates ([`CoSimModel::set_input_derivative`]) the model reads
-    /// `u + u'·(t − tc)` during the step; a ramp that leaves an input's bounds by the end of
-    /// the step refuses the step, naming the input. At the end the inputs are where the model
-    /// moved them ([`Kernel::inputs_after`]: `u + u'·h`, a speed port's angle the integral of
-    /// its speed) and the rates 0 again.
+    /// With input derivatives ([`CoSimModel::set_input_derivative`], orders 1–3) the model
+    /// reads their Taylor polynomial `u + u'·s + u''·s²/2 + u'''·s³/6` during the step; one
+    /// that leaves an input's bounds by the end of the step refuses the step, naming the
+    /// input. At the end the inputs are where the model moved them ([`Kernel::inputs_after`]:
+    /// the polynomial at `h`, a speed port's held angle the integral of its speed) and the
+    /// derivatives 0 again.
     fn do_step(&mut self, t: f64, h: f64) -> Result<(), StepFailure> {
         // The budget bounds each call (docs/fmu.md "Work budget").
         self.sim.reset_work();
@@ -475,15 +476,15 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
         let u = K::inputs(self.sim.model());
         let t0 = self.sim.t();
         let target = ((t + h) - start_time).max(t0);
-        let ramp = du.iter().any(|&r| r != 0.0);
+        let ramp = du.iter().any(|&r| r != [0.0; 3]);
         if ramp {
             let end = K::inputs_after(&self.sim, &u, &du, target - t0);
-            for k in (0..du.len()).filter(|&k| du[k] != 0.0) {
+            for k in (0..du.len()).filter(|&k| du[k] != [0.0; 3]) {
                 let var = self.vars.iter().find(|v| v.value_reference == K::INPUTS[k]);
                 if let Some(Err(e)) = var.map(|v| v.check_value(end[k])) {
                     return Err(StepFailure::Error(format!(
                         "the input ramp leaves the bounds by the end of the step: {e} (rate {})",
-                        du[k]
+                        du[k][0]
                     )));
                 }
             }
@@ -505,7 +506,7 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
             K::set_inputs(sim, &end).map_err(fail)?;
         }
         if ramp {
-            K::set_input_rates(sim, &vec![0.0; du.len()]).map_err(fail)?;
+            K::set_input_rates(sim, &vec![[0.0; 3]; du.len()]).map_err(fail)?;
         }
         Ok(())
     }
@@ -531,13 +532,22 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
         Capabilities {
             can_interpolate_inputs: self.rate_inputs.contains(&true),
             max_output_derivative_order: u32::from(K::output_derivatives(&self.base)),
-            // The piecewise-LTI solver takes a ramp of the torques as its forcing.
-            max_input_derivative_order: 1,
+            // The drivetrain's cubic forcing (`GearTrain::set_torque_derivatives`, a speed
+            // port's cubic neighbour), the pair none.
+            max_input_derivative_order: K::MAX_INPUT_DERIVATIVE_ORDER,
         }
     }
 
-    /// Order 1 only (the layer refuses others: [`Capabilities::max_input_derivative_order`]).
-    fn set_input_derivative(&mut self, vr: u32, _order: u32, rate: f64) -> Result<(), String> {
+    /// Orders 1 to [`Kernel::MAX_INPUT_DERIVATIVE_ORDER`] (the layer refuses others:
+    /// [`Capabilities::max_input_derivative_order`]; checked here again, as a safety net).
+    fn set_input_derivative(&mut self, vr: u32, order: u32, rate: f64) -> Result<(), String> {
+        if !(1..=K::MAX_INPUT_DERIVATIVE_ORDER).contains(&order) {
+            return Err(format!(
+                "'{}': input derivative of order {order} (this model takes orders 1 to {})",
+                name_of(&self.vars, vr),
+                K::MAX_INPUT_DERIVATIVE_ORDER
+            ));
+        }
         let takes = &self.rate_inputs;
         let Some(k) = input_position::<K>(vr).filter(|&k| takes[k]) else {
             let interpolated: Vec<String> = (0..takes.len())
@@ -551,7 +561,7 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
             ));
         };
         let mut du = K::input_rates(self.sim.model());
-        du[k] = rate;
+        du[k][order as usize - 1] = rate;
         K::set_input_rates(self.sim_mut(), &du)
     }
 
@@ -577,11 +587,11 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
 
 /// The FMU's `documentation/index.html` body (FMI 2.0.x §2.3): the kernel's model part, then
 /// the co-simulation behaviour, which is the adapter's (the packager adds the variable table).
-/// `interpolates`: the kernel takes first-order input rates ([`Kernel::rate_inputs`]).
+/// `interpolates`: the kernel takes input derivatives ([`Kernel::rate_inputs`]).
 fn documentation(model: &str, start: &str, interpolates: bool) -> String {
     let (held, unsupported) = if interpolates {
         (
-            "the port torques follow <code>u + u'·(t − tc)</code> over the step after <code>fmi2SetRealInputDerivatives</code> (order 1), then become <code>u + u'·h</code> with rate 0; every other input is held constant over the step.",
+            "the port inputs (torques, a speed port's angle and speed) follow their Taylor polynomial <code>u + u'·s + u''·s²/2 + u'''·s³/6</code> (s = t − tc) over the step after <code>fmi2SetRealInputDerivatives</code> (orders 1–3), then become its value at h with the derivatives 0; every other input is held constant over the step.",
             "directional derivatives and asynchronous stepping are not",
         )
     } else {
@@ -633,7 +643,7 @@ mod tests {
         assert_eq!(a.get_real(31).unwrap(), 100.0 + 1e5 * 5e-4);
         assert!(Drivetrain::input_rates(a.sim.model())
             .iter()
-            .all(|&r| r == 0.0));
+            .all(|&r| r == [0.0; 3]));
         // operating.input_speed is a parameter with ports: no rate.
         assert!(a.set_input_derivative(30, 1, 1.0).is_err());
     }

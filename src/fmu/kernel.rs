@@ -103,30 +103,39 @@ pub trait Kernel: 'static {
         }
         Ok(())
     }
-    /// Which inputs take first-order rates over the next step, in [`Self::INPUTS`] order
+    /// The highest order of input derivatives the inputs of [`Self::rate_inputs`] take
+    /// ([`crate::fmi::model::Capabilities::max_input_derivative_order`]).
+    const MAX_INPUT_DERIVATIVE_ORDER: u32 = 1;
+    /// Which inputs take input derivatives over the next step, in [`Self::INPUTS`] order
     /// (`canInterpolateInputs` when any does, FMI 2.0.x §4.2.1); none by default.
     fn rate_inputs(_s: &Self::Settings) -> Vec<bool> {
         vec![false; Self::INPUTS.len()]
     }
-    /// The input rates set for the next step, in [`Self::INPUTS`] order (0: held).
-    fn input_rates(_model: &Self::Model) -> Vec<f64> {
-        vec![0.0; Self::INPUTS.len()]
+    /// The input derivatives of orders 1–3 set for the next step, in [`Self::INPUTS`]
+    /// order (0: held).
+    fn input_rates(_model: &Self::Model) -> Vec<[f64; 3]> {
+        vec![[0.0; 3]; Self::INPUTS.len()]
     }
-    /// Sets input rates from the current time on: the model reads `u + u'·(t − tc)` until
-    /// the rates change (only for the inputs of [`Self::rate_inputs`]).
-    fn set_input_rates(_sim: &mut Driver<Self::Model>, _du: &[f64]) -> Result<(), String> {
+    /// Sets input derivatives of orders 1–3 from the current time on: the model reads the
+    /// Taylor polynomial `u + u'·s + u''·s²/2 + u'''·s³/6`, `s = t − tc`, until they change
+    /// (only for the inputs of [`Self::rate_inputs`], orders up to
+    /// [`Self::MAX_INPUT_DERIVATIVE_ORDER`]).
+    fn set_input_rates(_sim: &mut Driver<Self::Model>, _du: &[[f64; 3]]) -> Result<(), String> {
         Err("the model takes no input derivatives".into())
     }
     /// Whether a step leaves the inputs as they are (no rate set, nothing the model moves
     /// over a step): the common case, in which a step only advances the model.
     fn inputs_held(model: &Self::Model) -> bool {
-        Self::input_rates(model).iter().all(|&r| r == 0.0)
+        Self::input_rates(model).iter().all(|&r| r == [0.0; 3])
     }
-    /// The inputs at the end of a step of `dt` that started from inputs `u` with rates `du`:
-    /// `u + du·dt`, unless the model moves an input otherwise over the step (a speed port's
-    /// neighbour angle follows its speed).
-    fn inputs_after(_sim: &Driver<Self::Model>, u: &[f64], du: &[f64], dt: f64) -> Vec<f64> {
-        u.iter().zip(du).map(|(u, du)| u + du * dt).collect()
+    /// The inputs at the end of a step of `dt` that started from inputs `u` with derivatives
+    /// `du`: their Taylor polynomials ([`taylor`]), unless the model moves an input otherwise
+    /// over the step (a speed port's neighbour angle follows its speed).
+    fn inputs_after(_sim: &Driver<Self::Model>, u: &[f64], du: &[[f64; 3]], dt: f64) -> Vec<f64> {
+        u.iter()
+            .zip(du)
+            .map(|(&u, &du)| taylor(u, du, dt))
+            .collect()
     }
     /// The inputs of a run state, in [`Self::INPUTS`] order, as the variables read them
     /// (the settings say how: a drivetrain's output port reads minus the load torque).
@@ -138,4 +147,13 @@ pub trait Kernel: 'static {
     /// The payload bytes of a snapshot (the kernel's own layout, stable across versions).
     fn encode(s: &KernelSnapshot<Self>) -> Vec<u8>;
     fn decode(bytes: &[u8]) -> Result<KernelSnapshot<Self>, String>;
+}
+
+/// `u + u'·s + u''·s²/2 + u'''·s³/6` of derivatives `d = [u', u'', u''']`: a ramp alone
+/// (`u'' = u''' = 0`) is `u + u'·s`, as before the higher orders, bit for bit.
+pub fn taylor(u: f64, d: [f64; 3], s: f64) -> f64 {
+    if d[1] == 0.0 && d[2] == 0.0 {
+        return u + d[0] * s;
+    }
+    u + s * (d[0] + s * (d[1] / 2.0 + s * d[2] / 6.0))
 }

@@ -111,6 +111,10 @@ impl Kernel for Drivetrain {
     const FALLBACK_DESCRIPTION: &'static str = "Drivetrain of gears, shafts and meshes: per-mesh dynamic transmission error, mesh force and contact loss (geardyn)";
     const DOCUMENTATION: &'static str = documentation::DOCUMENTATION;
     const START_DOCUMENTATION: &'static str = documentation::START;
+    /// Orders 1–3: the torques' cubic is a nilpotent chain of the exact propagator's lifted
+    /// state ([`GearTrain::set_torque_derivatives`]), a speed port's neighbour moves on its
+    /// cubic ([`Neighbour::at`]).
+    const MAX_INPUT_DERIVATIVE_ORDER: u32 = 3;
     const INPUTS: &'static [u32] = &[
         VR_INPUT_SPEED,
         VR_INPUT_TORQUE,
@@ -361,36 +365,48 @@ impl Kernel for Drivetrain {
         takes
     }
 
-    fn input_rates(train: &GearTrain) -> Vec<f64> {
-        let ([rate_in, rate_load], _) = train.torque_rates();
+    fn input_rates(train: &GearTrain) -> Vec<[f64; 3]> {
+        let [d_in, d_load] = train.torque_derivatives();
+        let sign = train_load_sign(train);
         let mut du = Vec::with_capacity(3 + 2 * ENDS.len());
-        du.extend([0.0, rate_in, rate_load * train_load_sign(train)]);
+        du.extend([[0.0; 3], d_in, d_load.map(|d| d * sign)]);
         for end in ENDS {
-            du.extend(
-                train
-                    .neighbour(end)
-                    .map_or([0.0; 2], |n| [n.angle_rate, n.speed_rate]),
-            );
+            // No speed port there: held (the default neighbour's derivatives are 0).
+            let n = train.neighbour(end).unwrap_or_default();
+            let h = n.higher;
+            du.extend([[n.angle_rate, h[0], h[1]], [n.speed_rate, h[2], h[3]]]);
         }
         du
     }
 
-    /// A speed port's neighbour takes its rates from the current time on, re-anchored there.
-    fn set_input_rates(sim: &mut TrainSimulation, du: &[f64]) -> Result<(), String> {
+    /// A speed port's neighbour takes its derivatives from the current time on, re-anchored
+    /// there.
+    fn set_input_rates(sim: &mut TrainSimulation, du: &[[f64; 3]]) -> Result<(), String> {
         let sign = train_load_sign(sim.model());
-        sim.change_model(|train, t| train.set_torque_rates(t, [du[1], du[2] * sign]))?;
+        sim.change_model(|train, t| {
+            train.set_torque_derivatives(t, [du[1], du[2].map(|d| d * sign)])
+        })?;
         for (k, end) in ENDS.into_iter().enumerate() {
             let Some(n) = sim.model().neighbour(end) else {
                 continue;
             };
-            let (angle_rate, speed_rate) = (du[3 + 2 * k], du[4 + 2 * k]);
-            if (n.angle_rate, n.speed_rate) == (angle_rate, speed_rate) {
+            let (angle_d, speed_d) = (du[3 + 2 * k], du[4 + 2 * k]);
+            let (angle_rate, speed_rate) = (angle_d[0], speed_d[0]);
+            let higher = [angle_d[1], angle_d[2], speed_d[1], speed_d[2]];
+            if (n.angle_rate, n.speed_rate, n.higher) == (angle_rate, speed_rate, higher) {
                 continue;
             }
             sim.change_model(|train, t| {
-                // The motion up to now stays: re-anchor at t before the rates change.
-                let [angle, speed, _, _] = n.at(t);
-                let reset = (angle_rate, speed_rate) == (0.0, 0.0);
+                // The motion up to now stays: re-anchor at t before the derivatives change.
+                let [angle, speed, angle_now, speed_now] = n.at(t);
+                let reset = (angle_rate, speed_rate, higher) == (0.0, 0.0, [0.0; 4]);
+                // The slope at the communication point for the output derivatives: a ramp's
+                // rates (as before the higher orders), a cubic's derivatives at its end.
+                let ended = match (reset, n.higher == [0.0; 4]) {
+                    (false, _) => n.ended,
+                    (true, true) => [n.angle_rate, n.speed_rate],
+                    (true, false) => [angle_now, speed_now],
+                };
                 train.set_neighbour(
                     end,
                     Neighbour {
@@ -399,11 +415,8 @@ impl Kernel for Drivetrain {
                         angle_rate,
                         speed_rate,
                         anchor: t,
-                        ended: if reset {
-                            [n.angle_rate, n.speed_rate]
-                        } else {
-                            n.ended
-                        },
+                        ended,
+                        higher,
                     },
                 )
             })?;
@@ -415,12 +428,14 @@ impl Kernel for Drivetrain {
     /// follows the speed unless the angle has a rate).
     /// A speed port's neighbour moves its angle over every step.
     fn inputs_held(train: &GearTrain) -> bool {
-        let ([rate_in, rate_load], _) = train.torque_rates();
-        rate_in == 0.0 && rate_load == 0.0 && ENDS.iter().all(|&e| train.neighbour(e).is_none())
+        train.torque_derivatives() == [[0.0; 3]; 2]
+            && ENDS.iter().all(|&e| train.neighbour(e).is_none())
     }
 
-    fn inputs_after(sim: &TrainSimulation, u: &[f64], du: &[f64], dt: f64) -> Vec<f64> {
-        let mut end: Vec<f64> = u.iter().zip(du).map(|(u, du)| u + du * dt).collect();
+    fn inputs_after(sim: &TrainSimulation, u: &[f64], du: &[[f64; 3]], dt: f64) -> Vec<f64> {
+        let mut end: Vec<f64> = (u.iter().zip(du))
+            .map(|(&u, &du)| crate::fmu::kernel::taylor(u, du, dt))
+            .collect();
         for (k, e) in ENDS.into_iter().enumerate() {
             if let Some(n) = sim.model().neighbour(e) {
                 let [angle, speed, _, _] = n.at(n.anchor + dt);

@@ -6,11 +6,16 @@
 //! which starts with its parameter count, is never read as a drivetrain one), `u32 n` then
 //! `n × (u32 vr, f64 value)`, `u8 flags` (bit 0 initialized, bit 1 RK controller present,
 //! bit 2 controller step proposal present, bit 3 last step rejected, bit 4 torque rates
-//! present, bit 5 speed-port neighbours present), `f64` start time, t, the three inputs, loss start; with bit 4 `f64` input and
+//! present, bit 5 speed-port neighbours present, bit 6 input derivatives of orders 2–3
+//! present), `f64` start time, t, the three inputs, loss start; with bit 4 `f64` input and
 //! load torque rates and the time they start from (`fmi2SetRealInputDerivatives`; held
 //! torques write no bit and no bytes, so such states keep the version-1 bytes); with bit 5
-//! `u32 n` and `n × f64` angle, speed, angle rate, speed rate, anchor, the ended ramp's two rates of each speed port's
-//! neighbour (input port first); `u32 dim` and `dim × f64` state; `u32` meshes, each
+//! `u32 n` and `n × f64` angle, speed, angle rate, speed rate, anchor, the ended ramp's two
+//! rates of each speed port's neighbour (input port first); with bit 6 `4 × f64` the input
+//! and load torques' derivatives of orders 2 and 3 (`T''_in, T'''_in, T''_load, T'''_load`)
+//! and, per neighbour of bit 5, `4 × f64` `φ'', φ''', ω'', ω'''` (only a state saved between
+//! setting orders 2–3 and the step has the bit: states without it, older ones included,
+//! read these as 0); `u32 dim` and `dim × f64` state; `u32` meshes, each
 //! `f64` clock t0, p0, f, cycle, loss total, `u8` loss-since present, `f64` loss since,
 //! `u64` interval, `u32` slots and `slots × u8` flag codes; for RK `f64` proposal, `f64`
 //! previous error, `u32` non-finite trials.
@@ -41,11 +46,14 @@ pub fn encode(s: &TrainSnapshot) -> Vec<u8> {
     let tr = &s.sim.train;
     let rates = tr.torque_rates != [0.0; 2];
     let neighbours = !tr.neighbours.is_empty();
+    let higher =
+        tr.torque_higher != [[0.0; 2]; 2] || tr.neighbours.iter().any(|n| n.higher != [0.0; 4]);
     out.push(
         u8::from(s.initialized)
             | controller_bits(c) << 1
             | u8::from(rates) << 4
-            | u8::from(neighbours) << 5,
+            | u8::from(neighbours) << 5
+            | u8::from(higher) << 6,
     );
     let u = tr.inputs;
     put_f64s(
@@ -80,6 +88,13 @@ pub fn encode(s: &TrainSnapshot) -> Vec<u8> {
                     n.ended[1],
                 ],
             );
+        }
+    }
+    if higher {
+        let h = tr.torque_higher;
+        put_f64s(&mut out, &[h[0][0], h[0][1], h[1][0], h[1][1]]);
+        for n in &tr.neighbours {
+            put_f64s(&mut out, &n.higher);
         }
     }
     out.extend_from_slice(&(s.sim.y.len() as u32).to_le_bytes());
@@ -132,7 +147,7 @@ pub fn decode(bytes: &[u8]) -> Result<TrainSnapshot, String> {
     let n = count(&mut r, "parameters", 12)?;
     let params = read_params(&mut r, n)?;
     let flags = r.u8()?;
-    if flags & !0b11_1111 != 0 {
+    if flags & !0b111_1111 != 0 {
         return Err(format!("drivetrain state has unknown flags {flags:#04x}"));
     }
     let mut f = [0.0; 6];
@@ -160,7 +175,19 @@ pub fn decode(bytes: &[u8]) -> Result<TrainSnapshot, String> {
                 speed_rate,
                 anchor,
                 ended: [e0, e1],
+                higher: [0.0; 4],
             });
+        }
+    }
+    let mut torque_higher = [[0.0; 2]; 2];
+    if flags & 0b100_0000 != 0 {
+        for x in torque_higher.as_flattened_mut() {
+            *x = r.f64()?;
+        }
+        for n in &mut neighbours {
+            for x in &mut n.higher {
+                *x = r.f64()?;
+            }
         }
     }
     let dim = count(&mut r, "state entries", 8)?;
@@ -218,6 +245,7 @@ pub fn decode(bytes: &[u8]) -> Result<TrainSnapshot, String> {
                 meshes: ms,
                 torque_rates: [rates[0], rates[1]],
                 torque_anchor: rates[2],
+                torque_higher,
                 neighbours,
             },
             controller,
@@ -266,6 +294,11 @@ mod tests {
                         [0.0; 2]
                     },
                     torque_anchor: if controller.is_some() { 0.125 } else { 0.0 },
+                    torque_higher: if controller.is_some() {
+                        [[4.0e4, -2.5e6], [0.0, 7.0]]
+                    } else {
+                        [[0.0; 2]; 2]
+                    },
                     neighbours: if controller.is_some() {
                         vec![Neighbour {
                             angle: 0.005,
@@ -274,6 +307,7 @@ mod tests {
                             speed_rate: -30.0,
                             anchor: 0.125,
                             ended: [470.0, 12.5],
+                            higher: [-3.0e3, 0.0, 1.5e4, -8.0e5],
                         }]
                     } else {
                         Vec::new()

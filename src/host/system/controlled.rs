@@ -11,7 +11,10 @@
 //! over the step is known too:
 //!
 //! * extrapolated, `y(t) + s·y'(t)`: its defect at the step's end, `|y(t+H) − y(t) − H·y'(t)|`
-//!   (≈ `H²|y''|/2`);
+//!   (≈ `H²|y''|/2`); into a consumer that takes input derivatives of order `q` = 2 or 3
+//!   ([`Plan::extrapolation_order`]) the polynomial of degree `q` whose higher derivatives
+//!   come from the last accepted step ([`super::extrapolation`]), its defect `|y(t+H) − p(H)|`
+//!   of order `q + 1`;
 //! * interpolated (Gauss–Seidel, the producer stepped first), the chord from `y(t)` to
 //!   `y(t+H)`: its largest distance from the signal, `H·|y'(t+H) − y'(t)|/8` (≈ `H²|y''|/8`),
 //!   plus, for a compliance's effort, how far the end it was given lies from the refreshed
@@ -32,7 +35,8 @@
 //! speeds then decide (an angle measured against its advance over the step instead would
 //! reject any held angle at any step: its defect is that advance). The step's error `err` is
 //! the largest ratio over the connections; `err ≤ 1` accepts the step. The next step is
-//! `H·clamp(0.9·err^(−1/p), 0.2, 2)` with `p` = 2 (1 with a held connection), within
+//! `H·clamp(0.9·err^(−1/p), 0.2, 2)` with `p` the order of the deciding defect (2; 3 for a
+//! Hermite pair, `q + 1` for an extrapolation of degree `q`; 1 with a held connection), within
 //! `[h_min, h_max]`. A step an FMU refuses (`fmi2Discard`, `fmi2Error`) is undone and redone
 //! at a quarter; at `h_min` the refusal ends the run, and a step at `h_min` over the
 //! tolerance is accepted and counted.
@@ -55,6 +59,7 @@
 //! **The step sequence** (every attempt: its start, length, error, accepted or not) is
 //! returned with the outcome and written to `<out>.steps.csv`.
 
+use super::extrapolation::{self, History};
 use super::master::{output_point, serial_step, start, terminate, Outcome, State};
 pub use super::plan::StepRecord;
 use super::plan::{Coupling, ErrorControl, Plan};
@@ -172,14 +177,17 @@ fn estimate(
     let der_start = &st.der_prev;
     let mut err: f64 = 0.0;
     let mut order = 2;
-    // The link with the largest ratio, if its defect is a Hermite pair's (third order).
-    let mut third = false;
+    // The order of the link with the largest ratio: 3 for a Hermite pair's defect, that of
+    // its polynomial for a higher-order extrapolation, else 2.
+    let mut deciding = 2;
     for (l, link) in plan.system.links.iter().enumerate() {
         if link.to.var_type != VarType::Real {
             continue;
         }
         let p = plan.port_of[l];
         let (y0, y1) = (st.prev[p], st.cur[p]);
+        let q = plan.extrapolation_order[l];
+        let higher = extrapolation::up_to(st.higher[p], q);
         let defect = match plan.coupling[l] {
             // As the consumer got it (master::State::set_inputs): an interpolated
             // connection's producer steps first, an extrapolated one's after or alongside.
@@ -205,6 +213,9 @@ fn estimate(
                     (y1 - y0).abs()
                 }
             }
+            Coupling::Extrapolate if higher != [0.0; 2] => {
+                (y1 - extrapolation::value_at(y0, der_start[p], higher, h)).abs()
+            }
             Coupling::Extrapolate => (y1 - y0 - h * der_start[p]).abs(),
             Coupling::Hold => {
                 order = 1;
@@ -222,13 +233,18 @@ fn estimate(
         };
         if r > err {
             err = r;
-            third = plan.hermite[l];
+            deciding = match plan.coupling[l] {
+                Coupling::Interpolate if plan.hermite[l] => 3,
+                // The polynomial of degree q is off by O(H^(q+1)).
+                Coupling::Extrapolate if higher != [0.0; 2] => 1 + i32::from(q),
+                _ => 2,
+            };
         }
     }
     // The step's exponent is that of the defect that decides; a held connection's first
     // order keeps its say (as before the Hermite inputs).
-    if third && order == 2 {
-        order = 3;
+    if order == 2 {
+        order = deciding;
     }
     (err, order)
 }
@@ -248,7 +264,10 @@ fn impulse_deficits(plan: &Plan, st: &State, given: &Given, h: f64, deficit: &mu
         let (y0, y1, d0, d1) = (st.prev[p], st.cur[p], der_start[p], st.der[p]);
         let hermite = h / 2.0 * (y0 + y1) + h * h / 12.0 * (d0 - d1);
         let given = match plan.coupling[l] {
-            Coupling::Extrapolate => h * y0 + h * h / 2.0 * d0,
+            Coupling::Extrapolate => {
+                let higher = extrapolation::up_to(st.higher[p], plan.extrapolation_order[l]);
+                extrapolation::integral(y0, d0, higher, h)
+            }
             Coupling::Interpolate if plan.hermite[l] => {
                 h / 2.0 * (y0 + given.value[p]) + h * h / 12.0 * (d0 - given.der[p])
             }
@@ -335,6 +354,14 @@ pub(super) fn run(
     let (mut over, mut refused) = (0u64, 0u64);
     let mut deficit = vec![0.0; plan.system.links.len()];
     let conserve = ctl.impulse_correction;
+    // Per producer port: the highest degree its extrapolated connections take, and the last
+    // accepted step that gives its higher derivatives (`extrapolation`).
+    let mut degree = vec![1u8; plan.ports.len()];
+    for (l, &q) in plan.extrapolation_order.iter().enumerate() {
+        let p = plan.port_of[l];
+        degree[p] = degree[p].max(q);
+    }
+    let mut history = History::new(plan.ports.len());
     // The error of the last undone attempt from `time`: an error that does not fall with
     // the step is a jump at the step's start (a feed-through output recomputed from its
     // exact inputs at t), which no smaller step cures: that step is taken.
@@ -376,6 +403,11 @@ pub(super) fn run(
         stepped.iter_mut().for_each(|s| *s = false);
         for (o, d) in st.offset.iter_mut().zip(&deficit) {
             *o = d / step;
+        }
+        for (p, &q) in degree.iter().enumerate() {
+            if q >= 2 {
+                st.higher[p] = history.higher(p, st.cur[p], st.der[p], q);
+            }
         }
         let at_min = step <= ctl.h_min * (1.0 + 1e-9);
         match serial_step(&mut st, insts, (time, next), &mut stepped, None) {
@@ -448,6 +480,7 @@ pub(super) fn run(
             accepted: true,
         });
         scales.accept(&st.cur);
+        history.accept(&st.prev, &st.der_prev, step);
         if conserve {
             impulse_deficits(plan, &st, &given, step, &mut deficit);
         }

@@ -121,6 +121,10 @@ pub(super) struct State<'p, 'a> {
     /// Per producer port: its first derivative at the step's start (where read; the
     /// error-controlled master's Hermite inputs, [`Plan::hermite`]).
     pub(super) der_prev: Vec<f64>,
+    /// Per producer port: the second and third derivatives its extrapolated connections of
+    /// [`Plan::extrapolation_order`] ≥ 2 follow over the next step (the error-controlled
+    /// master's [`super::extrapolation`]; zeros with fixed steps: the line).
+    pub(super) higher: Vec<[f64; 2]>,
     /// Per link: a constant added to an interpolated or extrapolated input over the next
     /// step (the impulse correction of the error-controlled master; 0 with fixed steps, where
     /// adding it leaves every value's bits unchanged).
@@ -248,6 +252,7 @@ impl<'p, 'a> State<'p, 'a> {
             prev: vec![0.0; np],
             der: vec![0.0; np],
             der_prev: vec![0.0; np],
+            higher: vec![[0.0; 2]; np],
             offset: vec![0.0; plan.system.links.len()],
             row: vec![0.0; plan.columns.len()],
             buf_f: Vec::new(),
@@ -356,6 +361,15 @@ impl<'p, 'a> State<'p, 'a> {
                             dv.push(link.to.vr);
                             order.push(1);
                             dx.push(slope(self.der[p]));
+                            // Orders 2 and 3 where the consumer takes them (the
+                            // error-controlled master's `extrapolation`).
+                            let q = plan.extrapolation_order[l];
+                            let orders = usize::from(q).saturating_sub(1);
+                            for (k, c) in self.higher[p].into_iter().enumerate().take(orders) {
+                                dv.push(link.to.vr);
+                                order.push(k as i32 + 2);
+                                dx.push(slope(c));
+                            }
                         }
                         _ => {
                             rv.push(link.to.vr);

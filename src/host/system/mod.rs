@@ -16,6 +16,7 @@
 pub mod check;
 pub mod controlled;
 pub mod divergence;
+mod extrapolation;
 pub mod graph;
 pub mod master;
 mod parallel;
@@ -481,6 +482,21 @@ fn plan<'a>(
                 && takes
         })
         .collect();
+    // The error-controlled master extrapolates a flow into a consumer that takes input
+    // derivatives of order 2 or 3 with a quadratic or cubic (`extrapolation`).
+    let extrapolation_order: Vec<u8> = (system.links.iter().enumerate())
+        .map(|(l, link)| {
+            let takes = md_of(link.to.element)
+                .co_simulation
+                .as_ref()
+                .map_or(1, |c| c.max_input_derivative_order.clamp(1, 3));
+            if control.is_some() && coupling[l] == Coupling::Extrapolate {
+                takes as u8
+            } else {
+                1
+            }
+        })
+        .collect();
     let threads = match (&control, args.threads) {
         (Some(_), Some(k)) if k > 1 => {
             return Err(format!(
@@ -504,6 +520,7 @@ fn plan<'a>(
         port_of,
         needs_derivative,
         hermite,
+        extrapolation_order,
         feedthrough,
         columns,
         start_time,

@@ -45,6 +45,10 @@ pub struct Plan<'a> {
     /// and derivatives at both ends of the step (input derivatives of orders 1 to 3) instead of
     /// the chord (an interpolated connection of the error-controlled master).
     pub hermite: Vec<bool>,
+    /// Per link: the degree of the polynomial an extrapolated connection gives its consumer,
+    /// 1 (the line) to 3: the consumer's highest input derivative order, capped at 3, under
+    /// the error-controlled master ([`super::extrapolation`]); 1 with fixed steps.
+    pub extrapolation_order: Vec<u8>,
     /// Per link: the producer ports of its consumer that its input feeds directly
     /// ([`super::graph::feedthrough`]).
     pub feedthrough: Vec<Vec<usize>>,

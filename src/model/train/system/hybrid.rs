@@ -43,6 +43,14 @@ impl HybridSystem for GearTrain {
             for (a, r) in acc.iter_mut().zip(&self.f_rate) {
                 *a += r * (t - self.f_anchor);
             }
+            if self.cubic_torques() {
+                // Separate from the ramp, so a ramp alone keeps its bits.
+                let dt = t - self.f_anchor;
+                let (q2, q3) = (dt * dt / 2.0, dt * dt * dt / 6.0);
+                for ((a, r2), r3) in acc.iter_mut().zip(&self.f_higher[0]).zip(&self.f_higher[1]) {
+                    *a += r2 * q2 + r3 * q3;
+                }
+            }
         }
         for n in 0..self.meshes.len() {
             if self.meshes[n].friction.is_some() {

@@ -78,10 +78,28 @@ impl GearTrain {
         mesh.ramp || self.rotation.is_some()
     }
 
-    /// Lifted entry of `t − f_anchor` (the time along a torque ramp of the carried rotation:
-    /// the FMU's input derivatives), if the lifted state has it; the constant is after it.
+    /// Lifted entry of `τ = t − f_anchor` (the time along a torque ramp of the carried
+    /// rotation: the FMU's input derivatives), if the lifted state has it; the rest of the
+    /// chain ([`GearTrain::forcing_chain`]) and the constant are after it.
     pub(super) fn ramp_time_index(&self) -> Option<usize> {
-        (self.rotation.is_some() && self.force_ramp).then(|| self.lti_dim() - 2)
+        let chain = self.forcing_chain();
+        (chain > 0).then(|| self.lti_dim() - 1 - chain)
+    }
+
+    /// Length of the nilpotent chain `τ, τ²/2, τ³/6` (`τ' = 1`, `(τ²/2)' = τ`, `(τ³/6)' =
+    /// τ²/2`) the lifted state carries for the torque forcing of the carried rotation: 0 for
+    /// held torques, 1 for a ramp, 3 for a cubic ([`GearTrain::set_torque_derivatives`]). With
+    /// it the cubic forcing is an exact row of the propagator `exp(A h)` (Moler & Van Loan
+    /// 2003, §10: a polynomial input as an augmented nilpotent block).
+    pub(super) fn forcing_chain(&self) -> usize {
+        match (
+            self.rotation.is_some() && self.force_ramp,
+            self.cubic_torques(),
+        ) {
+            (false, _) => 0,
+            (true, false) => 1,
+            (true, true) => 3,
+        }
     }
 
     /// Row of mesh n's force over the augmented state in the current mode (its forcing block
@@ -373,7 +391,7 @@ impl PiecewiseLti for GearTrain {
                 .iter()
                 .map(|m| 2 * m.ste.harmonics() + usize::from(self.phase_ramp(m)))
                 .sum::<usize>()
-            + usize::from(self.rotation.is_some() && self.force_ramp)
+            + self.forcing_chain()
             + 1
     }
 
@@ -394,7 +412,12 @@ impl PiecewiseLti for GearTrain {
             }
         }
         if let Some(u) = self.ramp_time_index() {
-            z[u] = t - self.f_anchor;
+            let tau = t - self.f_anchor;
+            z[u] = tau;
+            if self.forcing_chain() == 3 {
+                z[u + 1] = tau * tau / 2.0;
+                z[u + 2] = tau * tau * tau / 6.0;
+            }
         }
         let last = z.len() - 1;
         z[last] = 1.0;
@@ -503,6 +526,10 @@ impl PiecewiseLti for GearTrain {
             rot.lti_rows(self, rows, &ramps, a);
             if let Some(u) = self.ramp_time_index() {
                 a[(u, last)] = 1.0;
+                if self.forcing_chain() == 3 {
+                    a[(u + 1, u)] = 1.0;
+                    a[(u + 2, u + 1)] = 1.0;
+                }
             }
         }
         if let Some([per_in, per_load]) = solved {

@@ -436,6 +436,12 @@ pub struct GearTrain {
     /// First-order rates of the input and load torques from `f_anchor`, N·m/s: the FMU's
     /// input derivatives over one communication step (`docs/ports.md`); 0 otherwise.
     torque_rates: [f64; 2],
+    /// Second and third derivatives `[[T'', T'''] of the input, of the load]` from
+    /// `f_anchor` (N·m/s², N·m/s³): the FMU's input derivatives of orders 2 and 3 (a cubic
+    /// Hermite input, `docs/cosimulation.md`); all 0 for a ramp or held torques.
+    torque_higher: [[f64; 2]; 2],
+    /// `d²F̂/dt²`, `d³F̂/dt³` of [`GearTrain::torque_higher`], formed as `f_rate` is.
+    f_higher: [Vec<f64>; 2],
     /// `Qᵀ M v`: the elastic force per rad/s² of nominal input acceleration is its negative.
     inertial: Vec<f64>,
     /// The scene's speed and torque profiles (a run-up), followed by the driver.
@@ -678,6 +684,8 @@ impl GearTrain {
             force_ramp: false,
             f_anchor: 0.0,
             torque_rates: [0.0; 2],
+            torque_higher: [[0.0; 2]; 2],
+            f_higher: [vec![0.0; m], vec![0.0; m]],
             inertial,
             profiles: scene
                 .profiles
@@ -832,12 +840,19 @@ impl GearTrain {
 
     /// `dF̂/dt` of torque rates, formed as `f_ext` is from the torques.
     fn set_force_rate(&mut self, torque_rate: f64, load_rate: f64) {
-        for i in 0..self.m {
-            self.f_rate[i] = self.f_in[i] * torque_rate + self.f_out[i] * load_rate;
+        let mut f_rate = std::mem::take(&mut self.f_rate);
+        self.force_of_rates(torque_rate, load_rate, &mut f_rate);
+        self.f_rate = f_rate;
+    }
+
+    /// The generalised force of torque derivatives `[input, load]` of one order into `out`
+    /// (the map of `f_ext` from the torques, linear in them).
+    fn force_of_rates(&self, torque_rate: f64, load_rate: f64, out: &mut [f64]) {
+        for ((o, f_in), f_out) in out.iter_mut().zip(&self.f_in).zip(&self.f_out) {
+            *o = f_in * torque_rate + f_out * load_rate;
         }
         if let Some([(d_in, j_in), (d_out, j_out)]) = self.pair_form {
-            self.f_rate[0] =
-                self.m_hat[0] * (d_in * torque_rate / j_in + d_out * -load_rate / j_out);
+            out[0] = self.m_hat[0] * (d_in * torque_rate / j_in + d_out * -load_rate / j_out);
         }
     }
 
@@ -846,17 +861,47 @@ impl GearTrain {
     /// `fmi2SetRealInputDerivatives`, used by the drivetrain FMU with torque ports). Rates
     /// `[0, 0]` restore held torques. Not with torque profiles, which own the force ramp.
     pub fn set_torque_rates(&mut self, t: f64, rates: [f64; 2]) -> Result<(), String> {
+        self.set_torque_derivatives(t, [[rates[0], 0.0, 0.0], [rates[1], 0.0, 0.0]])
+    }
+
+    /// Derivatives of orders 1–3 `[[T', T'', T'''] of the input, of the load]` of the torques
+    /// from `t` on: the right-hand side reads the cubic `T + T'τ + T''τ²/2 + T'''τ³/6`,
+    /// `τ = t' − t` (FMI 2.0.x §4.2.1, `fmi2SetRealInputDerivatives` of orders 1–3). The exact
+    /// propagator carries `τ, τ²/2, τ³/6` as a nilpotent chain in the lifted state
+    /// ([`GearTrain::forcing_chain`]). All 0 restore held torques; without orders 2 and 3 this
+    /// is [`GearTrain::set_torque_rates`] bit for bit. Not with torque profiles.
+    pub fn set_torque_derivatives(&mut self, t: f64, d: [[f64; 3]; 2]) -> Result<(), String> {
         if self.profiles.is_some() {
             return Err("torque rates cannot be combined with [profile] run-ups".into());
         }
-        if let Some(r) = rates.iter().find(|r| !r.is_finite()) {
-            return Err(format!("torque rate {r} is not finite"));
+        for (which, row) in ["input", "load"].iter().zip(&d) {
+            for (order, x) in row.iter().enumerate() {
+                if !x.is_finite() {
+                    return Err(format!(
+                        "{which} torque derivative of order {} = {x} is not finite",
+                        order + 1
+                    ));
+                }
+            }
         }
+        let rates = [d[0][0], d[1][0]];
         self.torque_rates = rates;
+        self.torque_higher = [[d[0][1], d[0][2]], [d[1][1], d[1][2]]];
         self.set_force_rate(rates[0], rates[1]);
-        self.force_ramp = rates != [0.0; 2];
+        let mut f_higher = std::mem::take(&mut self.f_higher);
+        for (k, out) in f_higher.iter_mut().enumerate() {
+            self.force_of_rates(d[0][k + 1], d[1][k + 1], out);
+        }
+        self.f_higher = f_higher;
+        self.force_ramp = rates != [0.0; 2] || self.cubic_torques();
         self.f_anchor = t;
         Ok(())
+    }
+
+    /// Whether the torques have derivatives of order 2 or 3
+    /// ([`GearTrain::set_torque_derivatives`]).
+    pub(crate) fn cubic_torques(&self) -> bool {
+        self.torque_higher != [[0.0; 2]; 2]
     }
 
     /// The rates of [`GearTrain::set_torque_rates`] and the time they start from.
@@ -864,16 +909,29 @@ impl GearTrain {
         (self.torque_rates, self.f_anchor)
     }
 
+    /// The derivatives of orders 1–3 of [`GearTrain::set_torque_derivatives`] (input, load).
+    pub fn torque_derivatives(&self) -> [[f64; 3]; 2] {
+        let (r, h) = (self.torque_rates, self.torque_higher);
+        [[r[0], h[0][0], h[0][1]], [r[1], h[1][0], h[1][1]]]
+    }
+
     /// Input and load torque at `t` (the held torques plus their rates, if any).
     pub(crate) fn torques_at(&self, t: f64) -> (f64, f64) {
         let (t_in, t_load) = (self.inputs.input_torque, self.inputs.load_torque);
-        if self.torque_rates == [0.0; 2] {
+        if self.torque_rates == [0.0; 2] && !self.cubic_torques() {
             return (t_in, t_load);
         }
         let dt = t - self.f_anchor;
+        if !self.cubic_torques() {
+            return (
+                t_in + self.torque_rates[0] * dt,
+                t_load + self.torque_rates[1] * dt,
+            );
+        }
+        let [[r_in, s_in, u_in], [r_load, s_load, u_load]] = self.torque_derivatives();
         (
-            t_in + self.torque_rates[0] * dt,
-            t_load + self.torque_rates[1] * dt,
+            t_in + dt * (r_in + dt * (s_in / 2.0 + dt * u_in / 6.0)),
+            t_load + dt * (r_load + dt * (s_load / 2.0 + dt * u_load / 6.0)),
         )
     }
 

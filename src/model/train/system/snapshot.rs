@@ -34,6 +34,9 @@ pub struct TrainRunState {
     /// ([`GearTrain::set_torque_rates`]); `[0, 0]` and 0 when the torques are held.
     pub torque_rates: [f64; 2],
     pub torque_anchor: f64,
+    /// Second and third derivatives `[[T'', T'''] input, load]` from the same anchor
+    /// ([`GearTrain::set_torque_derivatives`]); all 0 for a ramp or held torques.
+    pub torque_higher: [[f64; 2]; 2],
     /// The neighbours' motion at the speed ports, input port first (`docs/ports.md`); empty
     /// without speed ports.
     pub neighbours: Vec<Neighbour>,
@@ -78,8 +81,9 @@ impl GearTrain {
                 })
                 .collect(),
             torque_rates: self.torque_rates,
+            torque_higher: self.torque_higher,
             // The anchor means nothing for held torques: one canonical value.
-            torque_anchor: if self.torque_rates == [0.0; 2] {
+            torque_anchor: if self.torque_rates == [0.0; 2] && !self.cubic_torques() {
                 0.0
             } else {
                 self.f_anchor
@@ -116,14 +120,23 @@ impl GearTrain {
         // the interval and slot counts the mode is checked against.
         let mut train = self.clone();
         train.apply_inputs(0.0, s.inputs)?;
-        if s.torque_rates != [0.0; 2] || train.torque_rates != [0.0; 2] {
+        let higher = s.torque_higher != [[0.0; 2]; 2];
+        if s.torque_rates != [0.0; 2]
+            || train.torque_rates != [0.0; 2]
+            || higher
+            || train.cubic_torques()
+        {
             if !s.torque_anchor.is_finite() {
                 return Err(format!(
                     "torque rate anchor {} is not finite",
                     s.torque_anchor
                 ));
             }
-            train.set_torque_rates(s.torque_anchor, s.torque_rates)?;
+            let (r, h) = (s.torque_rates, s.torque_higher);
+            train.set_torque_derivatives(
+                s.torque_anchor,
+                [[r[0], h[0][0], h[0][1]], [r[1], h[1][0], h[1][1]]],
+            )?;
         }
         for (n, (mesh, ms)) in train.meshes.iter_mut().zip(&s.meshes).enumerate() {
             let (t0, p0) = ms.clock.anchor();

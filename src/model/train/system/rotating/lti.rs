@@ -51,13 +51,17 @@ impl Carried {
         if let Some(a) = &self.attached {
             return a.train_torque_rows(self, nz);
         }
-        let (held, rates) = (train.inputs, train.torque_rates);
+        let held = train.inputs;
         let mut rows = [vec![0.0; nz], vec![0.0; nz]];
         rows[0][nz - 1] = held.input_torque;
         rows[1][nz - 1] = held.load_torque;
         if let Some(u) = ramp_time {
-            rows[0][u] = rates[0];
-            rows[1][u] = rates[1];
+            // The derivatives of orders 1–3 on the chain `τ, τ²/2, τ³/6` (only as long as
+            // the chain is: a ramp has `τ` alone).
+            let chain = train.forcing_chain();
+            for (row, d) in rows.iter_mut().zip(train.torque_derivatives()) {
+                row[u..u + chain].copy_from_slice(&d[..chain]);
+            }
         }
         rows
     }
