@@ -4,10 +4,18 @@
 //! law while contact holds, contact loss), for the exact propagator, DP5, DOP853 and RODAS4
 //! (rtol 1e-9, atol 1e-15), all in one run, and the four goal lines of the acceptance.
 //!
-//! `cargo bench --bench scaling` (full: 1–64 meshes, 10 alternated rounds of blocks of about
-//! 1 s CPU, exact warm-ups of up to 300 s CPU), or `SCALING_QUICK=1 cargo bench --bench
-//! scaling` (1–16 meshes, 5 rounds of about 0.2 s, a few minutes); `SCALING_MAX_MESHES=N`
-//! stops at N meshes.
+//! `cargo bench --bench scaling` (full: 1–64 meshes; about 30–40 min CPU on a quiet machine),
+//! or `SCALING_QUICK=1 cargo bench --bench scaling` (1–16 meshes, 5 rounds of blocks of about
+//! 0.2 s CPU, exact warm-ups of up to 30 s CPU, a few minutes); `SCALING_MAX_MESHES=N` stops
+//! at N meshes. The full run's settings ([`Settings::full`]) keep it within about 45 min CPU
+//! while every cell is still timed past its warm-up: 1–16 meshes 10 rounds of blocks of about
+//! 0.5 s and warm-ups of up to 60 s CPU; 32 and 64 meshes 5 rounds of 0.5 s and warm-ups of up
+//! to 120 and 240 s (a cap that grows with the chain: only the contact-loss cells reach it,
+//! which never settle there, so a longer warm-up would only time later in the same
+//! transient). Estimated from the quick runs: the timed blocks about 16 min (12 cells × rounds
+//! × blocks, or one period where that is longer), the warm-ups of the four contact-loss cells
+//! of 32 and 64 meshes 12 min, the other warm-ups, the RK starts and the issue-20 rows a few
+//! minutes.
 //!
 //! The chains, conditions, warm-up and timing are those of `examples/free_chain_cost.rs`
 //! (`benches/common/free_chain.rs`): each exact simulation is warmed up past the free chain's
@@ -53,7 +61,7 @@ fn growth_power(method: Method) -> i32 {
     }
 }
 
-/// The settings of one run.
+/// The settings of one chain.
 struct Settings {
     rounds: usize,
     /// CPU seconds per timed block.
@@ -61,6 +69,37 @@ struct Settings {
     warm_up: usize,
     /// CPU limit of an exact warm-up, s.
     warm_cpu: f64,
+}
+
+impl Settings {
+    /// The quick run's: 5 rounds of 0.2 s, warm-ups of up to 30 s CPU.
+    fn quick() -> Settings {
+        Settings {
+            rounds: 5,
+            block: 0.2,
+            warm_up: 2000,
+            warm_cpu: 30.0,
+        }
+    }
+
+    /// The full run's for a chain of `meshes` meshes (module doc: about 45 min CPU at most).
+    fn full(meshes: usize) -> Settings {
+        if meshes <= 16 {
+            Settings {
+                rounds: 10,
+                block: 0.5,
+                warm_up: 2000,
+                warm_cpu: 60.0,
+            }
+        } else {
+            Settings {
+                rounds: 5,
+                block: 0.5,
+                warm_up: 2000,
+                warm_cpu: 120.0 * (meshes as f64 / 32.0),
+            }
+        }
+    }
 }
 
 /// One chain's cells, by condition then method (`Err`: skipped or failed, with the reason).
@@ -335,29 +374,23 @@ fn main() {
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(if quick { 16 } else { 64 });
-    let settings = if quick {
-        Settings {
-            rounds: 5,
-            block: 0.2,
-            warm_up: 2000,
-            warm_cpu: 30.0,
-        }
-    } else {
-        Settings {
-            rounds: 10,
-            block: 1.0,
-            warm_up: 2000,
-            warm_cpu: 300.0,
+    let settings = |meshes| {
+        if quick {
+            Settings::quick()
+        } else {
+            Settings::full(meshes)
         }
     };
+    let (small, large) = (settings(16), settings(64));
     println!(
         "geardyn scaling benchmark (issue 37, acceptance 1): free chains at 2000 Hz, rtol 1e-9; \
          CPU µs per mesh period, median of {} alternated rounds of blocks of about {} s CPU \
-         (`(k p)`: a slow cell timed in the first round only, k periods); exact warmed up for \
-         at least {} periods and until 5 periods build nothing (CPU limit {} s), RK from the \
-         warmed exact state; holds÷linear and best RK÷exact paired within rounds; exact reuse \
-         in the timed periods: modes built / products built / product hits per period",
-        settings.rounds, settings.block, settings.warm_up, settings.warm_cpu
+         ({} rounds from 32 meshes on; `(k p)`: a slow cell timed in the first round only, k \
+         periods); exact warmed up for at least {} periods and until 5 periods build nothing \
+         (CPU limit {} s, {} s at 64 meshes), RK from the warmed exact state; holds÷linear and \
+         best RK÷exact paired within rounds; exact reuse in the timed periods: modes built / \
+         products built / product hits per period",
+        small.rounds, small.block, large.rounds, small.warm_up, small.warm_cpu, large.warm_cpu
     );
     println!(
         "{:<9} {:<6} {:>3} {:>4}  {:>14} {:>18} {:>18} {:>18}  {:>6}  {:>22}  {:>13}  {:>16}  exact reuse",
@@ -381,6 +414,7 @@ fn main() {
                 continue;
             }
             let previous = chains.iter().rev().find(|c| c.bearings == bearings);
+            let settings = settings(meshes);
             let chain = run_chain(bearings, meshes, previous, &settings);
             print_chain(&chain, &settings);
             chains.push(chain);
