@@ -191,22 +191,6 @@ impl<M: Drivetrain> PeriodMap<M> {
         &self.model
     }
 
-    /// `P(y0)` alone. The exact path does not track the sensitivity; the RK path has no
-    /// plain integration of its own here and drops the monodromy of [`Self::eval`].
-    pub fn image(&mut self, y0: &[f64]) -> Result<DVector<f64>, String> {
-        let MapPropagator::Exact(p) = &mut self.propagator else {
-            return self.eval(y0).map(|(y, _)| y);
-        };
-        let (t0, t1) = (self.start, self.start + self.duration);
-        self.model.resynchronise(t0, y0);
-        p.invalidate();
-        p.set_state(t0, y0);
-        p.track_sensitivity(false);
-        p.advance_to(&mut self.model, t1)
-            .map_err(|e| format!("period map: {e}"))?;
-        Ok(DVector::from_column_slice(p.y()))
-    }
-
     /// `P(y0)` and `∂P/∂y0`.
     pub fn eval(&mut self, y0: &[f64]) -> Result<(DVector<f64>, DMatrix<f64>), String> {
         let (t0, t1) = (self.start, self.start + self.duration);

@@ -341,13 +341,12 @@ impl HbBranch {
             .collect();
         if let (Some(first), Some(last)) = (far.first(), far.last()) {
             let worst = (far.iter())
-                .filter_map(|p| p.periodicity_defect)
+                .filter_map(|p| p.orbit_error)
                 .fold(0.0, f64::max);
             caveats.push(format!(
-                "{} points ({:.4} to {:.4} rad/s) have an HB orbit that misses its own period \
-                 map by up to {:.1e} of the state scale (beyond {:.0e}), so it is about that far \
-                 from the periodic orbit: their statistics, folds and verdicts may be wrong \
-                 (raise --harmonics, or check with `geardyn periodic`)",
+                "{} points ({:.4} to {:.4} rad/s) have an HB orbit estimated up to {:.1e} of the \
+                 state scale from the periodic orbit (beyond {:.0e}): their statistics, folds \
+                 and verdicts may be wrong (raise --harmonics, or check with `geardyn periodic`)",
                 far.len(),
                 first.speed,
                 last.speed,

@@ -56,16 +56,14 @@ pub const SHOOTING_CHECK_MARGIN: f64 = 2e-3;
 /// (up to ~150 measured), but there the fold itself marks the change of stability.
 pub const RADIUS_SENSITIVITY: f64 = 5.0;
 
-/// An HB orbit whose scaled periodicity defect ([`BranchPoint::periodicity_defect`], within 2 %
-/// of its distance from the periodic orbit where measured) exceeds this is a poor approximation
-/// of it: its statistics, its folds and its verdict may be wrong, and the summary of `geardyn
-/// hb` says so ([`BranchPoint::far_from_orbit`]). Measured on `countershaft_gearset` at
-/// H = 20 (docs/harmonic-balance.md, "The defect, not the Newton step"): 1.6e-3–6.2e-3 on the
-/// lower branch at 385–394.3 rad/s (the orbit Newton shooting finds from the HB state as far
-/// away), 0.30 beside the 394 rad/s fold, 0.02–0.034 and 0.14–0.29 beyond it, on the branch
-/// that reaches 22–33 % contact loss on mesh 1, where the HB branch turns at ~373.5 rad/s while
-/// the periodic orbit's branch ends at 382.0–382.5 rad/s (shooting continuation,
-/// `tests/hb_verdicts.rs`); 1e-2 lies between the two.
+/// An HB orbit whose estimated scaled distance from the periodic orbit
+/// ([`BranchPoint::orbit_error`]) exceeds this is a poor approximation of it: its statistics,
+/// its folds and its verdict may be wrong, and the summary of `geardyn hb` says so. Measured on
+/// `countershaft_gearset` at H = 20: 1.6e-3–2.4e-3 on the lower branch at 385–394 rad/s (the
+/// orbit Newton shooting finds from the HB state 1.6e-3–2.4e-3 away), 0.16–1.05 on the branch
+/// with 22–33 % contact loss on mesh 1 (at 384.64 rad/s estimated 0.165, found 0.170), where
+/// the HB branch turns at ~373.5 rad/s while the periodic orbit's branch ends at 382.0–382.5
+/// rad/s (shooting continuation, `tests/hb_verdicts.rs`); 1e-2 lies between the two.
 pub const ORBIT_ERROR_WARNING: f64 = 1e-2;
 
 /// Default [`ContinuationOptions::defect_limit`]: the scaled periodicity defect of the HB state
@@ -194,17 +192,11 @@ impl BranchPoint {
         }
     }
 
-    /// Whether the HB orbit is far from the periodic one: its periodicity defect exceeds
-    /// [`ORBIT_ERROR_WARNING`] (false without the period map, or where the shooting check
-    /// found the orbit: its multipliers are then the orbit's). The defect, not the Newton step
-    /// of [`Self::orbit_error`]: both follow the distance of the orbit away from folds, but the
-    /// step divides by `M − I` and overstates it beside a fold (104 where the orbit was 0.30
-    /// away, docs/harmonic-balance.md "The defect, not the Newton step").
+    /// Whether the HB orbit's estimated distance from the periodic orbit exceeds
+    /// [`ORBIT_ERROR_WARNING`] (false without an estimate, or where the shooting check found
+    /// the orbit: its multipliers are then the orbit's).
     pub fn far_from_orbit(&self) -> bool {
-        !self.shooting_checked()
-            && self
-                .periodicity_defect
-                .is_some_and(|d| d > ORBIT_ERROR_WARNING)
+        !self.shooting_checked() && self.orbit_error.is_some_and(|e| e > ORBIT_ERROR_WARNING)
     }
 
     /// Whether the multipliers came from the shooting orbit of the check.
@@ -620,10 +612,12 @@ struct PointStability {
 }
 
 impl PointStability {
-    /// Stores the result in `point`.
-    fn store(self, point: &mut BranchPoint) {
-        point.multipliers = self.multipliers;
-        point.shooting_check = self.check;
+    /// Stores the result in `point`; the multipliers and the check only `with_multipliers`.
+    fn store(self, point: &mut BranchPoint, with_multipliers: bool) {
+        if with_multipliers {
+            point.multipliers = self.multipliers;
+            point.shooting_check = self.check;
+        }
         point.orbit_error = self.orbit_error;
         point.periodicity_defect = self.defect;
     }
@@ -654,8 +648,12 @@ fn multipliers<M: Drivetrain>(
     let radius = |m: &[Complex<f64>]| m.iter().map(|c| c.norm()).fold(0.0, f64::max);
     let hb_radius = radius(&hb);
     let scale = state_scale(map.model(), &y);
-    let scaled = |d: &mut dyn Iterator<Item = f64>| largest_scaled(d, &scale);
-    let defect = Some(periodicity_defect(map.model(), &y, py.as_slice()));
+    let scaled = |d: &mut dyn Iterator<Item = f64>| {
+        d.zip(&scale)
+            .map(|(d, s)| (d / s).abs())
+            .fold(0.0, f64::max)
+    };
+    let defect = Some(scaled(&mut y.iter().zip(&py).map(|(a, b)| b - a)));
     // The Newton step from the HB state, from its map and monodromy (no integration).
     let n = y.len();
     let step = (&monodromy - DMatrix::identity(n, n))
@@ -731,45 +729,22 @@ fn at_point<M: Drivetrain>(problem: &Problem<M>, point: &BranchPoint) -> (M, f64
     (model, if ok { 1.0 / f } else { f64::NAN })
 }
 
-/// The largest `|d_i / s_i|` of `d` against the state scale `s`.
-fn largest_scaled(d: &mut dyn Iterator<Item = f64>, scale: &[f64]) -> f64 {
-    d.zip(scale).map(|(d, s)| (d / s).abs()).fold(0.0, f64::max)
-}
-
-/// [`BranchPoint::periodicity_defect`] of the HB state `y` with period map image `py`.
-fn periodicity_defect<M: Drivetrain>(model: &M, y: &[f64], py: &[f64]) -> f64 {
-    let scale = state_scale(model, y);
-    largest_scaled(&mut y.iter().zip(py).map(|(a, b)| b - a), &scale)
-}
-
 /// The stability step of a large system's point as the branch goes
-/// ([`ContinuationOptions::defect_limit`]); returns whether the branch ends at it. Without
-/// [`ContinuationOptions::stability`] only the periodicity defect is wanted: the period map's
-/// image, without its monodromy, multipliers or shooting check.
+/// ([`ContinuationOptions::defect_limit`]); returns whether the branch ends at it.
 fn watch_point<M: Drivetrain>(
     problem: &Problem<M>,
     point: &mut BranchPoint,
     options: &ContinuationOptions,
 ) -> bool {
     let (model, period) = at_point(problem, point);
-    if options.stability {
-        multipliers(
-            model,
-            &problem.settings,
-            period,
-            &point.solution,
-            options.shooting_check_margin,
-        )
-        .store(point);
-    } else {
-        let y = point.solution.state_at(0.0);
-        point.periodicity_defect = PeriodMap::new(model, &problem.settings, period)
-            .and_then(|mut map| {
-                let py = map.image(&y)?;
-                Ok(periodicity_defect(map.model(), &y, py.as_slice()))
-            })
-            .ok();
-    }
+    let result = multipliers(
+        model,
+        &problem.settings,
+        period,
+        &point.solution,
+        options.shooting_check_margin,
+    );
+    result.store(point, options.stability);
     point.unresolved = point
         .periodicity_defect
         .is_some_and(|d| d > options.defect_limit);
@@ -824,6 +799,6 @@ fn branch_stability<M: Drivetrain + Send>(
         }
     });
     for (i, result) in results {
-        result.store(&mut points[i]);
+        result.store(&mut points[i], true);
     }
 }
