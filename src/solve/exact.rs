@@ -280,9 +280,9 @@ struct ModeCache {
     /// recount): the room kept free for the next mode, so that building it cannot carry the
     /// cache over its budget.
     largest_mode: usize,
-    /// The balancing `D` of the first mode of each class of modes met since the last clear
-    /// ([`PiecewiseLti::balance_key`]), the start of its other modes' sweeps, by the class
-    /// key's words and capacity; their bytes are in `scale_bytes`.
+    /// The balancing `D` of each class of modes met since the last clear
+    /// ([`PiecewiseLti::balance_key`]), by the class key's words and capacity; its bytes are
+    /// in `scale_bytes`.
     scales: HashMap<Vec<u64>, Vec<f64>>,
     scale_bytes: usize,
     /// The key of the current mode's balancing class, reused.
@@ -522,12 +522,12 @@ impl ModeCache {
     /// the system's [`PiecewiseLti::max_frequency`]).
     ///
     /// From [`ModeCache::SHARED_BALANCE_FROM`] states on, a mode of a balancing class met
-    /// before ([`PiecewiseLti::balance_key`]) starts its balancing sweeps from that class's
-    /// `D` ([`BalancedMatrix::from_scale`]) instead of the identity: the sweeps dominated the
-    /// cost of a new contact combination on long chains (`docs/scaling.md`, "A pattern's
-    /// balancing"); the first mode of a class since the last clear balances from the
-    /// identity and lends its `D`. So, as the path a mode takes, a mode's `D` depends only
-    /// on the order in which modes were met since the cache was last cleared.
+    /// before ([`PiecewiseLti::balance_key`]) takes that class's `D`
+    /// ([`BalancedMatrix::with_scale`]) instead of its own sweeps, which dominated the cost
+    /// of a new contact combination on long chains (`docs/scaling.md`, "A pattern's
+    /// balancing"); the first mode of a class since the last clear balances by its sweeps and
+    /// lends its `D`. So, as the path a mode takes, a mode's `D` depends only on the order
+    /// in which modes were met since the cache was last cleared.
     fn build<S: PiecewiseLti>(&mut self, sys: &S, rate: f64) -> ModeTransitions {
         let nz = sys.lti_dim();
         let mut a = DMatrix::zeros(nz, nz);
@@ -539,11 +539,12 @@ impl ModeCache {
         let balanced = if shared {
             let mut class = self.class_scratch.words().to_vec();
             class.push(self.class_scratch.capacity);
-            match self.scales.get(&class) {
-                // The sweeps from the class's `D`; from the identity if that start does not
-                // scale exactly.
-                Some(start) => BalancedMatrix::from_scale(&a, Some(start))
-                    .unwrap_or_else(|| BalancedMatrix::new(&a)),
+            let lent = self
+                .scales
+                .get(&class)
+                .and_then(|scale| BalancedMatrix::with_scale(&a, scale));
+            match lent {
+                Some(balanced) => balanced,
                 None => {
                     let balanced = BalancedMatrix::new(&a);
                     self.scale_bytes += (class.len() + nz) * 8;

@@ -192,19 +192,13 @@ impl Pattern {
             if !column.iter().fold(true, |finite, v| finite & v.is_finite()) {
                 return None;
             }
-            // Branch-free: every row index is written and kept only where the entry is an
-            // off-diagonal non-zero (a mode's zeros fall in no pattern a branch predictor
-            // learns; this pass reads all `n²` entries of every new mode).
-            let mut len = by_column.indices.len();
-            by_column.indices.resize(len + n, 0);
             for (i, &v) in column.iter().enumerate() {
-                let keep = (v != 0.0) & (i != j);
-                by_column.indices[len] = i as u32;
-                len += usize::from(keep);
-                row_counts[i] += u32::from(keep);
+                if v != 0.0 && i != j {
+                    by_column.indices.push(i as u32);
+                    row_counts[i] += 1;
+                }
             }
-            by_column.indices.truncate(len);
-            by_column.starts.push(len as u32);
+            by_column.starts.push(by_column.indices.len() as u32);
         }
         let mut by_row = Pattern {
             starts: Vec::with_capacity(n + 1),
@@ -232,21 +226,6 @@ impl Pattern {
 
 impl BalancedMatrix {
     pub fn new(a: &DMatrix<f64>) -> BalancedMatrix {
-        Self::from_scale(a, None).expect("the identity scales every entry exactly")
-    }
-
-    /// The sweeps of [`BalancedMatrix::new`] from `B = D₀⁻¹ A D₀` with a given start `D₀`
-    /// (`start`, powers of two; the identity when `None`, which is [`BalancedMatrix::new`]
-    /// bit for bit): the balancing of another mode of the same stiffness pattern, which
-    /// differs from this one in a few meshes' contact terms (rank-one parts of `A`, issue
-    /// 37), so that the sweeps start near their end and a new contact combination costs
-    /// about one sweep of sums instead of several (`docs/scaling.md`, "A pattern's
-    /// balancing"). The sweeps run to their own convergence, so a start that fits this mode
-    /// badly (a contact change that splits a rigid chain into free parts) only costs more
-    /// sweeps, and `B` is exactly `D⁻¹ A D` for the `D` returned (powers of two). `None`
-    /// where a start's scaling takes an entry out of the normal range (the caller then
-    /// balances from the identity) or `start` has another size.
-    pub fn from_scale(a: &DMatrix<f64>, start: Option<&[f64]>) -> Option<BalancedMatrix> {
         let n = a.nrows();
         let mut b = a.clone();
         let mut scale = vec![1.0f64; n];
@@ -260,31 +239,14 @@ impl BalancedMatrix {
         let Some((by_column, by_row)) = Pattern::off_diagonal(&b) else {
             // Nothing to balance; the exponential is non-finite and the caller detects the
             // non-finite state.
-            return Some(BalancedMatrix {
+            return BalancedMatrix {
                 b,
                 scale,
                 norm: f64::INFINITY,
                 sparse: None,
-            });
+            };
         };
         let data = b.as_mut_slice();
-        if let Some(start) = start {
-            if start.len() != n {
-                return None;
-            }
-            for j in 0..n {
-                for &i in by_column.of_line(j) {
-                    let i = i as usize;
-                    let v = data[j * n + i] * (start[j] / start[i]);
-                    // A subnormal or infinite entry would not be `a_ij d_j / d_i` exactly.
-                    if !v.is_normal() {
-                        return None;
-                    }
-                    data[j * n + i] = v;
-                }
-            }
-            scale.copy_from_slice(start);
-        }
         // LAPACK gebal converges in a few sweeps; the cap only guards against cycling.
         for _sweep in 0..32 {
             let mut converged = true;
@@ -335,7 +297,38 @@ impl BalancedMatrix {
                 break;
             }
         }
-        Some(Self::finish(b, scale, &by_column, &by_row))
+        Self::finish(b, scale, &by_column, &by_row)
+    }
+
+    /// `A` balanced by a given `D` (`scale`, powers of two) instead of its own sweeps: the
+    /// balancing of another mode of the same stiffness pattern, which differs from this one
+    /// in a few meshes' contact terms (rank-one parts of `A`, issue 37), so that a new
+    /// contact combination costs one pass over `A` instead of several sweeps
+    /// (`docs/scaling.md`, "A pattern's balancing"). `B = D⁻¹ A D` is exact entry by entry
+    /// (a scaling by a power of two) and `‖B‖₁` is that of this `B`, so the exponentials and
+    /// the series' tail bounds stay rigorous; the `D` is only less tuned to this mode
+    /// (a larger norm takes more terms). `None` where a scaled entry leaves the normal range
+    /// (the caller then balances by [`BalancedMatrix::new`]).
+    pub fn with_scale(a: &DMatrix<f64>, scale: &[f64]) -> Option<BalancedMatrix> {
+        let n = a.nrows();
+        if scale.len() != n {
+            return None;
+        }
+        let mut b = a.clone();
+        let (by_column, by_row) = Pattern::off_diagonal(&b)?;
+        let data = b.as_mut_slice();
+        for j in 0..n {
+            for &i in by_column.of_line(j) {
+                let i = i as usize;
+                let v = data[j * n + i] * (scale[j] / scale[i]);
+                // A subnormal or infinite entry would not be `a_ij d_j / d_i` exactly.
+                if !v.is_normal() {
+                    return None;
+                }
+                data[j * n + i] = v;
+            }
+        }
+        Some(Self::finish(b, scale.to_vec(), &by_column, &by_row))
     }
 
     /// The balanced matrix from its `B` and `D`: `‖B‖₁` and the rows of [`BalancedMatrix::times`],
