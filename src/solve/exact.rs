@@ -70,7 +70,6 @@ use nalgebra::DMatrix;
 
 use super::work::WorkPrices;
 use super::{HybridSystem, SolveError, SolverStats};
-use balanced::BalancedMatrix;
 use composite::{Composites, Lookup, Step};
 use crossing::{first_crossing, root_tolerance, Crossing, Workspace};
 use guard_series::DerivativeRows;
@@ -93,14 +92,6 @@ pub trait PiecewiseLti: HybridSystem {
     /// (its matrix, its guard count and its guard rows) into `key`, which is cleared first.
     /// Any number of digits fits: there is no limit on meshes or contact states.
     fn mode_key(&self, key: &mut ModeKey);
-    /// Writes a key of the current mode's balancing class into `key` (cleared first) and
-    /// returns `true` if the modes of one class may share one balancing `D`: modes whose `A`
-    /// differ only in a few rank-one terms (a train's contact combinations of one stiffness
-    /// pattern), so that one class's `D` balances its other modes almost as well
-    /// (the mode cache's `build`). `false` (the default): every mode is balanced by its own sweeps.
-    fn balance_key(&self, _key: &mut ModeKey) -> bool {
-        false
-    }
     /// An upper bound of the fastest angular frequency in any mode, rad/s.
     fn max_frequency(&self) -> f64;
     /// Whether guard `index` of the current mode provably stays positive for all time from the
@@ -280,13 +271,6 @@ struct ModeCache {
     /// recount): the room kept free for the next mode, so that building it cannot carry the
     /// cache over its budget.
     largest_mode: usize,
-    /// The balancing `D` of each class of modes met since the last clear
-    /// ([`PiecewiseLti::balance_key`]), by the class key's words and capacity; its bytes are
-    /// in `scale_bytes`.
-    scales: HashMap<Vec<u64>, Vec<f64>>,
-    scale_bytes: usize,
-    /// The key of the current mode's balancing class, reused.
-    class_scratch: ModeKey,
     /// The most bytes the cache has held ([`ModeCache::held`], as counted; never reset).
     peak: usize,
     /// Modes built and times the full cache was cleared (for benchmarks; never reset).
@@ -322,11 +306,6 @@ impl ModeCache {
     /// (the 8-mesh chain with contact loss: 4096 modes; `docs/scaling.md`). A scene with few
     /// modes (the single pair, the idler) promotes every mode at its first meeting.
     const PROMOTED_BUDGET: usize = 4 << 20;
-    /// States from which modes of one balancing class share its `D` ([`ModeCache::build`]):
-    /// the long chains, where a new contact combination is met every few segments; below it
-    /// (the single pair, the idler, the small drivetrains) every mode keeps its own sweeps,
-    /// with the bits they were measured with.
-    const SHARED_BALANCE_FROM: usize = 32;
 
     /// Whether building one more mode would carry the cache over its budget (its bytes plus
     /// the largest mode's; recounted exactly first when the estimate says so).
@@ -355,7 +334,7 @@ impl ModeCache {
 
     /// Heap bytes held: the modes' (as counted) and the composite products'.
     fn held(&self) -> usize {
-        self.bytes + self.composites.heap_bytes() + self.scale_bytes
+        self.bytes + self.composites.heap_bytes()
     }
 
     /// Whether a composite product of `nz` states fits beside the cached modes (a product
@@ -440,7 +419,7 @@ impl ModeCache {
                 }
                 self.builds += 1;
                 let rate = *self.max_rate.get_or_insert_with(|| sys.max_frequency());
-                let mode = self.build(sys, rate);
+                let mode = Self::build(sys, rate);
                 let bytes = mode.heap_bytes();
                 self.bytes += bytes;
                 self.largest_mode = self.largest_mode.max(bytes);
@@ -492,8 +471,6 @@ impl ModeCache {
         self.same_hash_next.clear();
         self.recent = Default::default();
         self.composites.clear();
-        self.scales.clear();
-        self.scale_bytes = 0;
         self.bytes = 0;
         self.since_recount = 0;
         self.promoted_bytes = 0;
@@ -520,42 +497,11 @@ impl ModeCache {
 
     /// The operators of the current mode: `A` from `lti_matrix`, the guard rows (`rate`:
     /// the system's [`PiecewiseLti::max_frequency`]).
-    ///
-    /// From [`ModeCache::SHARED_BALANCE_FROM`] states on, a mode of a balancing class met
-    /// before ([`PiecewiseLti::balance_key`]) takes that class's `D`
-    /// ([`BalancedMatrix::with_scale`]) instead of its own sweeps, which dominated the cost
-    /// of a new contact combination on long chains (`docs/scaling.md`, "A pattern's
-    /// balancing"); the first mode of a class since the last clear balances by its sweeps and
-    /// lends its `D`. So, as the path a mode takes, a mode's `D` depends only on the order
-    /// in which modes were met since the cache was last cleared.
-    fn build<S: PiecewiseLti>(&mut self, sys: &S, rate: f64) -> ModeTransitions {
+    fn build<S: PiecewiseLti>(sys: &S, rate: f64) -> ModeTransitions {
         let nz = sys.lti_dim();
         let mut a = DMatrix::zeros(nz, nz);
         sys.lti_matrix(&mut a);
-        self.class_scratch.clear();
-        let shared = nz >= Self::SHARED_BALANCE_FROM
-            && sys.guard_count() > 0
-            && sys.balance_key(&mut self.class_scratch);
-        let balanced = if shared {
-            let mut class = self.class_scratch.words().to_vec();
-            class.push(self.class_scratch.capacity);
-            let lent = self
-                .scales
-                .get(&class)
-                .and_then(|scale| BalancedMatrix::with_scale(&a, scale));
-            match lent {
-                Some(balanced) => balanced,
-                None => {
-                    let balanced = BalancedMatrix::new(&a);
-                    self.scale_bytes += (class.len() + nz) * 8;
-                    self.scales.insert(class, balanced.scale().to_vec());
-                    balanced
-                }
-            }
-        } else {
-            BalancedMatrix::new(&a)
-        };
-        let mut mode = ModeTransitions::with_balanced(a, balanced, rate);
+        let mut mode = ModeTransitions::new(a, rate);
         let mut w = vec![0.0; nz];
         mode.guard_rows = (0..sys.guard_count())
             .map(|i| {

@@ -297,49 +297,6 @@ impl BalancedMatrix {
                 break;
             }
         }
-        Self::finish(b, scale, &by_column, &by_row)
-    }
-
-    /// `A` balanced by a given `D` (`scale`, powers of two) instead of its own sweeps: the
-    /// balancing of another mode of the same stiffness pattern, which differs from this one
-    /// in a few meshes' contact terms (rank-one parts of `A`, issue 37), so that a new
-    /// contact combination costs one pass over `A` instead of several sweeps
-    /// (`docs/scaling.md`, "A pattern's balancing"). `B = D⁻¹ A D` is exact entry by entry
-    /// (a scaling by a power of two) and `‖B‖₁` is that of this `B`, so the exponentials and
-    /// the series' tail bounds stay rigorous; the `D` is only less tuned to this mode
-    /// (a larger norm takes more terms). `None` where a scaled entry leaves the normal range
-    /// (the caller then balances by [`BalancedMatrix::new`]).
-    pub fn with_scale(a: &DMatrix<f64>, scale: &[f64]) -> Option<BalancedMatrix> {
-        let n = a.nrows();
-        if scale.len() != n {
-            return None;
-        }
-        let mut b = a.clone();
-        let (by_column, by_row) = Pattern::off_diagonal(&b)?;
-        let data = b.as_mut_slice();
-        for j in 0..n {
-            for &i in by_column.of_line(j) {
-                let i = i as usize;
-                let v = data[j * n + i] * (scale[j] / scale[i]);
-                // A subnormal or infinite entry would not be `a_ij d_j / d_i` exactly.
-                if !v.is_normal() {
-                    return None;
-                }
-                data[j * n + i] = v;
-            }
-        }
-        Some(Self::finish(b, scale.to_vec(), &by_column, &by_row))
-    }
-
-    /// The balanced matrix from its `B` and `D`: `‖B‖₁` and the rows of [`BalancedMatrix::times`],
-    /// read through the non-zero lists of `A` (those of `B`).
-    fn finish(
-        b: DMatrix<f64>,
-        scale: Vec<f64>,
-        by_column: &Pattern,
-        by_row: &Pattern,
-    ) -> BalancedMatrix {
-        let n = b.nrows();
         // Each column's sum in ascending row order, its diagonal in its place (the entries
         // not listed are zeros, whose `+0` leaves a sum of absolute values as it is).
         let data = b.as_slice();
@@ -359,7 +316,7 @@ impl BalancedMatrix {
                 sum
             })
             .fold(0.0, f64::max);
-        let sparse = SparseRows::of(&b, by_row);
+        let sparse = SparseRows::of(&b, &by_row);
         BalancedMatrix {
             b,
             scale,

@@ -168,14 +168,7 @@ pub struct ModeTransitions {
 
 impl ModeTransitions {
     /// The operators of the mode `a` whose fastest rate is bounded by `rate` (rad/s).
-    #[cfg(test)]
     pub fn new(a: DMatrix<f64>, rate: f64) -> ModeTransitions {
-        let balanced = BalancedMatrix::new(&a);
-        Self::with_balanced(a, balanced, rate)
-    }
-
-    /// [`ModeTransitions::new`] with `A` already balanced (`balanced` of this `a`).
-    pub fn with_balanced(a: DMatrix<f64>, balanced: BalancedMatrix, rate: f64) -> ModeTransitions {
         let n = a.nrows();
         // The system's bound may miss a fast real eigenvalue (heavy damping): the diagonals
         // of A and A² estimate it from the mode itself.
@@ -191,6 +184,7 @@ impl ModeTransitions {
             // No dynamics at all (A nilpotent and zero rates): any step is exact.
             1.0
         };
+        let balanced = BalancedMatrix::new(&a);
         ModeTransitions {
             a,
             balanced,

@@ -589,17 +589,6 @@ impl PiecewiseLti for GearTrain {
         }
     }
 
-    /// The stiffness pattern (every mesh's interval) without the contact flags: a contact
-    /// combination differs from the pattern's others by the rank-one terms of the meshes
-    /// whose contact changed (`docs/scaling.md`, "A pattern's balancing").
-    fn balance_key(&self, key: &mut crate::solve::exact::ModeKey) -> bool {
-        for mesh in &self.meshes {
-            let intervals = mesh.table().map_or(1, |t| t.intervals.len()) as u64;
-            key.push(mesh.interval as u64, intervals);
-        }
-        true
-    }
-
     fn max_frequency(&self) -> f64 {
         // ‖M̂⁻¹ K_max‖_∞ bounds the largest ω² of any mode.
         let m = self.m;
