@@ -446,6 +446,18 @@ pub fn validate_variables(vars: &[Variable]) -> Result<(), String> {
     Ok(())
 }
 
+/// The input of `fmi2SetRealInputDerivatives` over a step (FMI 2.0.x §4.2.1, the Taylor
+/// polynomial of [`CoSimModel::set_input_derivative`]): `u + u'·s + u''·s²/2 + u'''·s³/6` with
+/// `higher = [u'', u''']`, `s = t − tc`. A ramp alone (`higher` zero) is `u + u'·s`, bit for
+/// bit as before the higher orders. The models evaluate their inputs by it, and the master the
+/// polynomials it gives (`host::system::extrapolation`).
+pub fn input_polynomial(u: f64, du: f64, higher: [f64; 2], s: f64) -> f64 {
+    if higher == [0.0; 2] {
+        return u + du * s;
+    }
+    u + s * (du + s * (higher[0] / 2.0 + s * higher[1] / 6.0))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -4,7 +4,7 @@
 //! cycle, the rebuild on every parameter change, the output cache, stepping, reset, the
 //! snapshot and its checks) is the adapter's and the same for every kernel.
 
-use crate::fmi::model::Variable;
+use crate::fmi::model::{input_polynomial, Variable};
 use crate::fmu::payload::Snapshot;
 use crate::scene::SolverSettings;
 use crate::simulation::{DrivenModel, Driver};
@@ -129,12 +129,12 @@ pub trait Kernel: 'static {
         Self::input_rates(model).iter().all(|&r| r == [0.0; 3])
     }
     /// The inputs at the end of a step of `dt` that started from inputs `u` with derivatives
-    /// `du`: their Taylor polynomials ([`taylor`]), unless the model moves an input otherwise
+    /// `du`: their Taylor polynomials ([`input_polynomial`]), unless the model moves an input otherwise
     /// over the step (a speed port's neighbour angle follows its speed).
     fn inputs_after(_sim: &Driver<Self::Model>, u: &[f64], du: &[[f64; 3]], dt: f64) -> Vec<f64> {
         u.iter()
             .zip(du)
-            .map(|(&u, &du)| taylor(u, du, dt))
+            .map(|(&u, &du)| input_polynomial(u, du[0], [du[1], du[2]], dt))
             .collect()
     }
     /// The inputs of a run state, in [`Self::INPUTS`] order, as the variables read them
@@ -147,13 +147,4 @@ pub trait Kernel: 'static {
     /// The payload bytes of a snapshot (the kernel's own layout, stable across versions).
     fn encode(s: &KernelSnapshot<Self>) -> Vec<u8>;
     fn decode(bytes: &[u8]) -> Result<KernelSnapshot<Self>, String>;
-}
-
-/// `u + u'·s + u''·s²/2 + u'''·s³/6` of derivatives `d = [u', u'', u''']`: a ramp alone
-/// (`u'' = u''' = 0`) is `u + u'·s`, as before the higher orders, bit for bit.
-pub fn taylor(u: f64, d: [f64; 3], s: f64) -> f64 {
-    if d[1] == 0.0 && d[2] == 0.0 {
-        return u + d[0] * s;
-    }
-    u + s * (d[0] + s * (d[1] / 2.0 + s * d[2] / 6.0))
 }

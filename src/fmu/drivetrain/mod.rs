@@ -434,7 +434,7 @@ impl Kernel for Drivetrain {
 
     fn inputs_after(sim: &TrainSimulation, u: &[f64], du: &[[f64; 3]], dt: f64) -> Vec<f64> {
         let mut end: Vec<f64> = (u.iter().zip(du))
-            .map(|(&u, &du)| crate::fmu::kernel::taylor(u, du, dt))
+            .map(|(&u, &du)| crate::fmi::model::input_polynomial(u, du[0], [du[1], du[2]], dt))
             .collect();
         for (k, e) in ENDS.into_iter().enumerate() {
             if let Some(n) = sim.model().neighbour(e) {

@@ -26,6 +26,7 @@ pub mod state;
 pub mod system;
 pub mod variables;
 
+use crate::fmi::model::input_polynomial;
 use std::cell::RefCell;
 
 use crate::fmi::model::{
@@ -506,7 +507,7 @@ impl CoSimModel for ElementFmu {
                     .iter()
                     .position(|v| v.value_reference == VR_INPUT0 + k as u32)
                     .unwrap_or(0)];
-                let end = system::input_at(self.u[k], self.du[k], self.du_higher[k], dt);
+                let end = input_polynomial(self.u[k], self.du[k], self.du_higher[k], dt);
                 var.check_value(end).map_err(|e| {
                     StepFailure::Error(format!(
                         "the input ramp leaves the bounds by the end of the step: {e} (rate {})",
@@ -531,7 +532,7 @@ impl CoSimModel for ElementFmu {
                 let reached = st.t();
                 for k in 0..self.u.len() {
                     let (du, higher) = (self.du[k], self.du_higher[k]);
-                    self.u[k] = system::input_at(self.u[k], du, higher, reached - self.t);
+                    self.u[k] = input_polynomial(self.u[k], du, higher, reached - self.t);
                 }
                 self.t = reached;
                 return Err(StepFailure::Discard {
@@ -548,7 +549,7 @@ impl CoSimModel for ElementFmu {
         let higher = self.du_higher.iter().any(|d| *d != [0.0; 2]);
         if higher || self.du.iter().any(|&d| d != 0.0) {
             for k in 0..self.u.len() {
-                self.u[k] = system::input_at(self.u[k], self.du[k], self.du_higher[k], dt);
+                self.u[k] = input_polynomial(self.u[k], self.du[k], self.du_higher[k], dt);
                 self.du[k] = 0.0;
                 self.du_higher[k] = [0.0; 2];
             }

@@ -3,6 +3,7 @@
 //! time derivatives. The physics is [`crate::model::elements`]; this module only maps it onto
 //! the FMU's state, input and output vectors (orders as in [`super::variables`]).
 
+use crate::fmi::model::input_polynomial;
 use crate::model::elements::{ElementSpec, MotorInputs, MotorSpec, MotorState};
 use crate::solve::HybridSystem;
 
@@ -150,18 +151,7 @@ pub fn output_rate(spec: &ElementSpec, k: usize, y: &[f64], u: &[f64], du: &[f64
     }
 }
 
-/// An input at `dt` into a step from its value `u`, first derivative `du` and second and
-/// third derivatives `higher`: the Taylor polynomial `u + du·dt + u''·dt²/2 + u⁽³⁾·dt³/6`
-/// (FMI 2.0.x §4.2.1, `fmi2SetRealInputDerivatives`). Without higher derivatives it is the
-/// ramp `u + du·dt`, evaluated as before they existed (the same bits).
-pub fn input_at(u: f64, du: f64, higher: [f64; 2], dt: f64) -> f64 {
-    if higher == [0.0; 2] {
-        return u + du * dt;
-    }
-    u + dt * (du + dt * (higher[0] / 2.0 + dt * higher[1] / 6.0))
-}
-
-/// The derivative of [`input_at`] at `dt`: `du + u''·dt + u⁽³⁾·dt²/2` (`du` itself without
+/// The derivative of [`input_polynomial`] at `dt`: `du + u''·dt + u⁽³⁾·dt²/2` (`du` itself without
 /// higher derivatives).
 pub fn input_rate_at(du: f64, higher: [f64; 2], dt: f64) -> f64 {
     if higher == [0.0; 2] {
@@ -170,7 +160,7 @@ pub fn input_rate_at(du: f64, higher: [f64; 2], dt: f64) -> f64 {
     du + dt * (higher[0] + dt * higher[1] / 2.0)
 }
 
-/// The element over one communication step: the inputs follow [`input_at`] (input
+/// The element over one communication step: the inputs follow [`input_polynomial`] (input
 /// interpolation up to order 3, FMI 2.0.x §4.2.1; no derivatives is the zero-order hold), so
 /// the integrator sees the polynomial.
 pub struct StepSystem<'a> {
@@ -193,7 +183,7 @@ impl HybridSystem for StepSystem<'_> {
         ut.clear();
         let dt = t - self.t0;
         let inputs = self.u.iter().zip(self.du).zip(self.du_higher);
-        ut.extend(inputs.map(|((&u, &du), &higher)| input_at(u, du, higher, dt)));
+        ut.extend(inputs.map(|((&u, &du), &higher)| input_polynomial(u, du, higher, dt)));
         rhs(self.spec, y, &ut, dy);
     }
 }

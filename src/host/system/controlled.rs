@@ -64,6 +64,7 @@ use super::master::{output_point, serial_step, start, terminate, Outcome, State}
 pub use super::plan::StepRecord;
 use super::plan::{Coupling, ErrorControl, Plan};
 use super::step::StepEnd;
+use crate::fmi::model::input_polynomial;
 use crate::host::cli::RunArgs;
 use crate::host::description::VarType;
 use crate::host::input::isclose;
@@ -214,7 +215,7 @@ fn estimate(
                 }
             }
             Coupling::Extrapolate if higher != [0.0; 2] => {
-                (y1 - extrapolation::value_at(y0, der_start[p], higher, h)).abs()
+                (y1 - input_polynomial(y0, der_start[p], higher, h)).abs()
             }
             Coupling::Extrapolate => (y1 - y0 - h * der_start[p]).abs(),
             Coupling::Hold => {

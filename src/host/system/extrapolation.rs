@@ -70,16 +70,8 @@ pub(super) fn up_to(c: [f64; 2], order: u8) -> [f64; 2] {
     }
 }
 
-/// The extrapolated polynomial at `s`: `y + d·s + c[0]·s²/2 + c[1]·s³/6` (`y + s·d`, the
-/// same bits as the line, without higher derivatives).
-pub(super) fn value_at(y: f64, d: f64, c: [f64; 2], s: f64) -> f64 {
-    if c == [0.0; 2] {
-        return y + s * d;
-    }
-    y + s * (d + s * (c[0] / 2.0 + s * c[1] / 6.0))
-}
-
-/// The integral of [`value_at`] over `[0, h]`.
+/// The integral over `[0, h]` of the extrapolated polynomial
+/// ([`crate::fmi::model::input_polynomial`]) `y + d·s + c[0]·s²/2 + c[1]·s³/6`.
 pub(super) fn integral(y: f64, d: f64, c: [f64; 2], h: f64) -> f64 {
     if c == [0.0; 2] {
         return h * y + h * h / 2.0 * d;
@@ -90,6 +82,7 @@ pub(super) fn integral(y: f64, d: f64, c: [f64; 2], h: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fmi::model::input_polynomial as value_at;
 
     /// A cubic `y(t) = a + b·t + c·t² + e·t³` and its derivatives (the closed form).
     fn cubic(t: f64) -> [f64; 4] {
