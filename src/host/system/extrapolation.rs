@@ -15,12 +15,12 @@
 //! has to undo (the refresh term of `controlled::estimate`); docs/cosimulation.md, section
 //! "The master's extrapolation into the compliances".
 
-/// Per producer port: its value and first derivative at the start of the last accepted step,
-/// and that step's length (0: no step accepted yet).
+/// Per producer port: its value and first derivative at the start of the last accepted step;
+/// and that step's length, the same for every port (0: no step accepted yet).
 pub(super) struct History {
     value: Vec<f64>,
     der: Vec<f64>,
-    step: Vec<f64>,
+    step: f64,
 }
 
 impl History {
@@ -28,7 +28,7 @@ impl History {
         History {
             value: vec![0.0; ports],
             der: vec![0.0; ports],
-            step: vec![0.0; ports],
+            step: 0.0,
         }
     }
 
@@ -36,14 +36,14 @@ impl History {
     pub(super) fn accept(&mut self, start: &[f64], der_start: &[f64], h: f64) {
         self.value.copy_from_slice(start);
         self.der.copy_from_slice(der_start);
-        self.step.iter_mut().for_each(|s| *s = h);
+        self.step = h;
     }
 
     /// The second and third derivatives at the current point of port `p`, whose value and
     /// derivative there are `y` and `d`, up to `order` (2: the second only; below 2 or
     /// without an accepted step or with a non-finite result: zeros, the line).
     pub(super) fn higher(&self, p: usize, y: f64, d: f64, order: u8) -> [f64; 2] {
-        let hb = self.step[p];
+        let hb = self.step;
         if order < 2 || hb <= 0.0 {
             return [0.0; 2];
         }
