@@ -713,12 +713,10 @@ impl Instance {
                 return self.error(call, e);
             }
         }
-        for ((&vr, &order), &x) in vrs.iter().zip(orders).zip(values) {
-            if let Err(e) = self.model.set_input_derivative(vr, order as u32, x) {
-                return self.error(call, e);
-            }
+        match self.model.set_input_derivatives(vrs, orders, values) {
+            Ok(()) => Status::Ok,
+            Err(e) => self.error(call, e),
         }
-        Status::Ok
     }
 
     /// `fmi2GetRealOutputDerivatives` (FMI 2.0.x §4.2.1): first-order time derivatives of

@@ -244,6 +244,24 @@ pub trait CoSimModel: Send {
             "input value reference {vr}: inputs are held constant over a step"
         ))
     }
+    /// Several input derivatives at once (`fmi2SetRealInputDerivatives` with a vector; the
+    /// layer has checked every value reference, order and value first; `orders` as the call
+    /// passes them, each 1 to [`Capabilities::max_input_derivative_order`]). The default sets
+    /// them in order with [`Self::set_input_derivative`]; a model for which a change of its
+    /// inputs' derivatives is costly may apply the call's values in one change, as the
+    /// derivatives of the next step together (a master sets them all before every step).
+    /// The first failure is the call's error.
+    fn set_input_derivatives(
+        &mut self,
+        vrs: &[u32],
+        orders: &[i32],
+        values: &[f64],
+    ) -> Result<(), String> {
+        for ((&vr, &order), &x) in vrs.iter().zip(orders).zip(values) {
+            self.set_input_derivative(vr, order as u32, x)?;
+        }
+        Ok(())
+    }
 
     /// `fmi2GetRealOutputDerivatives` of order 1 for one Real output (the layer has checked
     /// the order and the causality): `dy/dt` at the current time, with the input rates

@@ -310,6 +310,32 @@ impl<K: Kernel> Adapter<K> {
         "the state's parameters do not build a model".into()
     }
 
+    /// The position in [`Kernel::INPUTS`] of an input that takes a derivative of `order`:
+    /// orders 1 to [`Kernel::MAX_INPUT_DERIVATIVE_ORDER`] (the layer refuses others:
+    /// [`Capabilities::max_input_derivative_order`]; checked here again, as a safety net) of
+    /// the inputs of [`Kernel::rate_inputs`].
+    fn rate_slot(&self, vr: u32, order: i32) -> Result<usize, String> {
+        if !(1..=K::MAX_INPUT_DERIVATIVE_ORDER as i32).contains(&order) {
+            return Err(format!(
+                "'{}': input derivative of order {order} (this model takes orders 1 to {})",
+                name_of(&self.vars, vr),
+                K::MAX_INPUT_DERIVATIVE_ORDER
+            ));
+        }
+        let takes = &self.rate_inputs;
+        input_position::<K>(vr).filter(|&k| takes[k]).ok_or_else(|| {
+            let interpolated: Vec<String> = (0..takes.len())
+                .filter(|&k| takes[k])
+                .map(|k| format!("'{}'", name_of(&self.vars, K::INPUTS[k])))
+                .collect();
+            format!(
+                "'{}' (vr {vr}) is held over a step and takes no input derivative (only {} do)",
+                name_of(&self.vars, vr),
+                interpolated.join(", ")
+            )
+        })
+    }
+
     /// Index into the outputs of an output value reference.
     #[inline]
     fn output_index(&self, vr: u32) -> Option<usize> {
@@ -538,30 +564,25 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
         }
     }
 
-    /// Orders 1 to [`Kernel::MAX_INPUT_DERIVATIVE_ORDER`] (the layer refuses others:
-    /// [`Capabilities::max_input_derivative_order`]; checked here again, as a safety net).
     fn set_input_derivative(&mut self, vr: u32, order: u32, rate: f64) -> Result<(), String> {
-        if !(1..=K::MAX_INPUT_DERIVATIVE_ORDER).contains(&order) {
-            return Err(format!(
-                "'{}': input derivative of order {order} (this model takes orders 1 to {})",
-                name_of(&self.vars, vr),
-                K::MAX_INPUT_DERIVATIVE_ORDER
-            ));
-        }
-        let takes = &self.rate_inputs;
-        let Some(k) = input_position::<K>(vr).filter(|&k| takes[k]) else {
-            let interpolated: Vec<String> = (0..takes.len())
-                .filter(|&k| takes[k])
-                .map(|k| format!("'{}'", name_of(&self.vars, K::INPUTS[k])))
-                .collect();
-            return Err(format!(
-                "'{}' (vr {vr}) is held over a step and takes no input derivative (only {} do)",
-                name_of(&self.vars, vr),
-                interpolated.join(", ")
-            ));
-        };
+        self.set_input_derivatives(&[vr], &[order as i32], &[rate])
+    }
+
+    /// The call's derivatives are applied in one change of the model (one
+    /// [`Kernel::set_input_rates`], whose re-anchoring and dropped propagator caches a master
+    /// would otherwise pay once per value: 12 values per step into a gear stage with two speed
+    /// ports); on a refused value nothing changes.
+    fn set_input_derivatives(
+        &mut self,
+        vrs: &[u32],
+        orders: &[i32],
+        values: &[f64],
+    ) -> Result<(), String> {
         let mut du = K::input_rates(self.sim.model());
-        du[k][order as usize - 1] = rate;
+        for ((&vr, &order), &rate) in vrs.iter().zip(orders).zip(values) {
+            let k = self.rate_slot(vr, order)?;
+            du[k][order as usize - 1] = rate;
+        }
         K::set_input_rates(self.sim_mut(), &du)
     }
 
