@@ -11,6 +11,7 @@ use std::ffi::{c_char, c_int, c_void, CStr, CString};
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::PathBuf;
 
+use super::blob;
 use super::instance::{Instance, StateBox, StatusAnswer, INSTANCE_MAGIC, STATE_MAGIC};
 use super::logger::{CallbackFunctions, Logger, Status};
 use super::model::validate_variables;
@@ -541,16 +542,24 @@ pub unsafe extern "C" fn fmi2GetFMUstate(c: Component, state: *mut FmuStatePtr) 
         if !existing.is_null() && unsafe { state_box(existing) }.is_none() {
             return inst.error(call, "*FMUstate is neither NULL nor a state of this FMU");
         }
-        let bytes = match inst.snapshot() {
-            Ok(b) => b,
-            Err(s) => return s,
-        };
         match unsafe { state_box(existing) } {
-            Some(b) => b.bytes = bytes,
+            // Overwritten in place: a master that saves a state before every step passes
+            // the same object each time, so its buffer is reused.
+            Some(b) => {
+                if let Err(s) = inst.snapshot(&mut b.bytes) {
+                    return s;
+                }
+                b.sealed = false;
+            }
             None => {
+                let mut bytes = Vec::new();
+                if let Err(s) = inst.snapshot(&mut bytes) {
+                    return s;
+                }
                 let b = Box::new(StateBox {
                     magic: STATE_MAGIC,
                     bytes,
+                    sealed: false,
                 });
                 unsafe { *state = Box::into_raw(b) as FmuStatePtr };
             }
@@ -666,6 +675,10 @@ pub unsafe extern "C" fn fmi2SerializeFMUstate(
         let Some(out) = (unsafe { slice_mut(serialized as *mut u8, size) }) else {
             return inst.error(call, "serializedState is NULL");
         };
+        if !b.sealed {
+            blob::seal(&mut b.bytes);
+            b.sealed = true;
+        }
         out.copy_from_slice(&b.bytes);
         Status::Ok
     })
@@ -700,11 +713,16 @@ pub unsafe extern "C" fn fmi2DeSerializeFMUstate(
             return s;
         }
         match unsafe { state_box(existing) } {
-            Some(b) => b.bytes = bytes.to_vec(),
+            Some(b) => {
+                b.bytes.clear();
+                b.bytes.extend_from_slice(bytes);
+                b.sealed = true;
+            }
             None => {
                 let b = Box::new(StateBox {
                     magic: STATE_MAGIC,
                     bytes: bytes.to_vec(),
+                    sealed: true,
                 });
                 unsafe { *state = Box::into_raw(b) as FmuStatePtr };
             }

@@ -12,7 +12,12 @@
 //!
 //! all little-endian. A blob with a wrong magic, version, length, checksum or GUID (a
 //! "foreign" blob from another FMU) is rejected before anything reaches the model. The same
-//! bytes are the in-memory `fmi2FMUstate`, so get/set and (de)serialize share one path.
+//! bytes are the in-memory `fmi2FMUstate`, so get/set and (de)serialize share one path; only
+//! the checksum is written when the state leaves the process ([`seal`], at
+//! `fmi2SerializeFMUstate`), and `fmi2SetFMUstate` of a state object does not verify it
+//! ([`open`]): the object was made by `fmi2GetFMUstate` in this process or verified by
+//! `fmi2DeSerializeFMUstate` ([`decode`]). An error-controlled master saves a state before
+//! every step and restores one at every undone step, none of which is ever serialized.
 
 use super::bytes::Reader;
 use super::state::FmuState;
@@ -71,8 +76,11 @@ pub struct LayerSnapshot {
     pub setup_done: bool,
 }
 
-pub fn encode(guid: &str, layer: &LayerSnapshot, model: &[u8]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(96 + guid.len() + model.len());
+/// The envelope of a state into `out` (cleared first; its buffer is reused: a master saves a
+/// state before every step), its checksum slot 0 until [`seal`].
+pub fn encode_unsealed(out: &mut Vec<u8>, guid: &str, layer: &LayerSnapshot, model: &[u8]) {
+    out.clear();
+    out.reserve(96 + guid.len() + model.len());
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
     out.extend_from_slice(&0u64.to_le_bytes()); // total length, patched below
@@ -95,15 +103,44 @@ pub fn encode(guid: &str, layer: &LayerSnapshot, model: &[u8]) -> Vec<u8> {
     out.extend_from_slice(model);
     let total = (out.len() + 8) as u64;
     out[12..20].copy_from_slice(&total.to_le_bytes());
-    let sum = fnv1a64(&out);
-    out.extend_from_slice(&sum.to_le_bytes());
+    out.extend_from_slice(&0u64.to_le_bytes());
+}
+
+/// Writes the checksum of an envelope from [`encode_unsealed`] into its last 8 bytes.
+pub fn seal(bytes: &mut [u8]) {
+    let n = bytes.len() - 8;
+    let sum = fnv1a64(&bytes[..n]);
+    bytes[n..].copy_from_slice(&sum.to_le_bytes());
+}
+
+/// A sealed envelope ([`encode_unsealed`] then [`seal`]).
+#[cfg(test)]
+pub fn encode(guid: &str, layer: &LayerSnapshot, model: &[u8]) -> Vec<u8> {
+    let mut out = Vec::new();
+    encode_unsealed(&mut out, guid, layer, model);
+    seal(&mut out);
     out
 }
 
-/// Checks and unpacks an envelope. `expected_guid` is this FMU's GUID.
+/// Checks and unpacks an envelope that comes from outside (`fmi2DeSerializeFMUstate`).
+/// `expected_guid` is this FMU's GUID.
 pub fn decode<'a>(
     bytes: &'a [u8],
     expected_guid: &str,
+) -> Result<(LayerSnapshot, &'a [u8]), String> {
+    unpack(bytes, expected_guid, true)
+}
+
+/// Unpacks the envelope of a state object ([`decode`] without the checksum, which a state
+/// made in this process does not carry until [`seal`]); the other checks stay.
+pub fn open<'a>(bytes: &'a [u8], expected_guid: &str) -> Result<(LayerSnapshot, &'a [u8]), String> {
+    unpack(bytes, expected_guid, false)
+}
+
+fn unpack<'a>(
+    bytes: &'a [u8],
+    expected_guid: &str,
+    verify: bool,
 ) -> Result<(LayerSnapshot, &'a [u8]), String> {
     if bytes.len() < MAGIC.len() || &bytes[..MAGIC.len()] != MAGIC {
         return Err("not a geardyn FMU state (bad magic)".into());
@@ -124,12 +161,14 @@ pub fn decode<'a>(
         ));
     }
     let body = &bytes[..bytes.len() - 8];
-    let stored = u64::from_le_bytes(bytes[bytes.len() - 8..].try_into().unwrap_or([0; 8]));
-    let sum = fnv1a64(body);
-    if stored != sum {
-        return Err(format!(
-            "FMU state checksum mismatch (stored {stored:016x}, computed {sum:016x}): corrupt"
-        ));
+    if verify {
+        let stored = u64::from_le_bytes(bytes[bytes.len() - 8..].try_into().unwrap_or([0; 8]));
+        let sum = fnv1a64(body);
+        if stored != sum {
+            return Err(format!(
+                "FMU state checksum mismatch (stored {stored:016x}, computed {sum:016x}): corrupt"
+            ));
+        }
     }
     let glen = r.u32()? as usize;
     let g = r.take(glen)?;
@@ -208,6 +247,22 @@ mod tests {
         let (l, m) = decode(&b, "{g}").unwrap();
         assert_eq!(l, snap());
         assert_eq!(m, &[1, 2, 3]);
+    }
+
+    /// A state object's envelope opens without its checksum, is refused by `decode` until
+    /// sealed, and sealed is the envelope `encode` writes, bit for bit; a reused buffer holds
+    /// exactly the new envelope.
+    #[test]
+    fn unsealed_envelopes_open_and_seal() {
+        let mut b = vec![7; 500];
+        encode_unsealed(&mut b, "{g}", &snap(), &[1, 2, 3]);
+        let (l, m) = open(&b, "{g}").unwrap();
+        assert_eq!((l, m), (snap(), &[1u8, 2, 3][..]));
+        assert!(decode(&b, "{g}").unwrap_err().contains("checksum"));
+        assert!(open(&b, "{other}").unwrap_err().contains("another FMU"));
+        seal(&mut b);
+        assert_eq!(b, encode("{g}", &snap(), &[1, 2, 3]));
+        assert_eq!(decode(&b, "{g}").unwrap(), (snap(), &[1u8, 2, 3][..]));
     }
 
     #[test]

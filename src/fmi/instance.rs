@@ -26,10 +26,13 @@ pub const PENDING_STATUS: i32 = 1;
 pub const LAST_SUCCESSFUL_TIME: i32 = 2;
 pub const TERMINATED: i32 = 3;
 
-/// The object behind an `fmi2FMUstate`: an envelope from [`blob::encode`].
+/// The object behind an `fmi2FMUstate`: an envelope from [`blob::encode_unsealed`].
 pub struct StateBox {
     pub magic: u64,
     pub bytes: Vec<u8>,
+    /// Whether `bytes` carry their checksum ([`blob::seal`]): written when the state is
+    /// serialized, not when it is taken.
+    pub sealed: bool,
 }
 
 /// Why [`Instance::lookup`] failed: `found` is the variable with that value reference, if any.
@@ -814,24 +817,24 @@ impl Instance {
         }
     }
 
-    /// `fmi2GetFMUstate`: the complete state as an envelope.
-    pub fn snapshot(&mut self) -> Result<Vec<u8>, Status> {
+    /// `fmi2GetFMUstate`: the complete state as an envelope into `out` (its buffer reused),
+    /// unsealed ([`blob::encode_unsealed`]).
+    pub fn snapshot(&mut self, out: &mut Vec<u8>) -> Result<(), Status> {
         self.check(Call::GetFMUstate)?;
-        Ok(blob::encode(
-            &self.info.guid,
-            &self.layer_snapshot(),
-            &self.model.save_state(),
-        ))
+        let model = self.model.save_state();
+        blob::encode_unsealed(out, &self.info.guid, &self.layer_snapshot(), &model);
+        Ok(())
     }
 
-    /// `fmi2SetFMUstate`: checks the envelope, then restores model and layer state
-    /// ("transitions to the given state", §4.2.4).
+    /// `fmi2SetFMUstate`: checks the envelope of a state object (all but its checksum:
+    /// [`blob::open`]), then restores model and layer state ("transitions to the given
+    /// state", §4.2.4).
     pub fn restore(&mut self, bytes: &[u8]) -> Status {
         let call = Call::SetFMUstate;
         if let Err(s) = self.check(call) {
             return s;
         }
-        let (layer, payload) = match blob::decode(bytes, &self.info.guid) {
+        let (layer, payload) = match blob::open(bytes, &self.info.guid) {
             Ok(x) => x,
             Err(e) => return self.error(call, e),
         };
