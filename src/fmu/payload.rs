@@ -150,10 +150,21 @@ impl RecordedParams {
         initialized: bool,
         current: impl FnOnce() -> Vec<(u32, f64)>,
     ) -> Vec<(u32, f64)> {
+        self.with(initialized, current, <[(u32, f64)]>::to_vec)
+    }
+
+    /// `read` of the recorded values ([`RecordedParams::get`] without the copy: a state is
+    /// saved before every step).
+    pub fn with<R>(
+        &self,
+        initialized: bool,
+        current: impl FnOnce() -> Vec<(u32, f64)>,
+        read: impl FnOnce(&[(u32, f64)]) -> R,
+    ) -> R {
         if !initialized {
-            return current();
+            return read(&current());
         }
-        self.0.borrow_mut().get_or_insert_with(current).clone()
+        read(self.0.borrow_mut().get_or_insert_with(current))
     }
 
     /// Forget the kept values (the parameters may change).

@@ -294,22 +294,6 @@ impl ElementFmu {
         params
     }
 
-    /// The model part of an FMU state.
-    fn snapshot(&self) -> ElementSnapshot {
-        ElementSnapshot {
-            params: self.params(),
-            start_time: self.lifecycle.start_time,
-            initialized: self.lifecycle.initialized,
-            t: self.t,
-            y: self.y().to_vec(),
-            u: self.u.clone(),
-            du: self.du.clone(),
-            du_higher: self.du_higher.clone(),
-            du_now: self.du_now.clone(),
-            controller: self.stepper.as_ref().map(RkStepper::controller_memory),
-        }
-    }
-
     /// Rebuilds the instance from a snapshot with the checks of `fmi2SetReal`; on failure
     /// nothing changes.
     fn restore(&mut self, s: &ElementSnapshot) -> Result<(), String> {
@@ -570,8 +554,24 @@ impl CoSimModel for ElementFmu {
         self.rebuild()
     }
 
+    /// The state encoded from the instance's own fields (no snapshot copied first).
     fn save_state(&mut self) -> Vec<u8> {
-        state::encode(&self.snapshot())
+        let params = || self.current_params();
+        self.params_cache
+            .with(self.lifecycle.initialized, params, |params| {
+                state::encode(&state::ElementStateRef {
+                    params,
+                    start_time: self.lifecycle.start_time,
+                    initialized: self.lifecycle.initialized,
+                    t: self.t,
+                    y: self.y(),
+                    u: &self.u,
+                    du: &self.du,
+                    du_higher: &self.du_higher,
+                    du_now: &self.du_now,
+                    controller: self.stepper.as_ref().map(RkStepper::controller_memory),
+                })
+            })
     }
 
     fn load_state(&mut self, bytes: &[u8]) -> Result<(), String> {

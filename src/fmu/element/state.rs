@@ -33,26 +33,60 @@ pub struct ElementSnapshot {
     pub controller: Option<ControllerMemory>,
 }
 
+/// An element's state as [`encode`] writes it, borrowed from the instance (a master saves a
+/// state before every step: nothing is copied on the way to the bytes). The fields are those
+/// of [`ElementSnapshot`].
+pub struct ElementStateRef<'a> {
+    pub params: &'a [(u32, f64)],
+    pub start_time: f64,
+    pub initialized: bool,
+    pub t: f64,
+    pub y: &'a [f64],
+    pub u: &'a [f64],
+    pub du: &'a [f64],
+    pub du_higher: &'a [[f64; 2]],
+    pub du_now: &'a [f64],
+    pub controller: Option<ControllerMemory>,
+}
+
+impl ElementSnapshot {
+    /// The snapshot as [`encode`] takes it.
+    pub fn borrowed(&self) -> ElementStateRef<'_> {
+        ElementStateRef {
+            params: &self.params,
+            start_time: self.start_time,
+            initialized: self.initialized,
+            t: self.t,
+            y: &self.y,
+            u: &self.u,
+            du: &self.du,
+            du_higher: &self.du_higher,
+            du_now: &self.du_now,
+            controller: self.controller,
+        }
+    }
+}
+
 /// At most this many states or inputs (an element has at most 3 and 4).
 const MAX_LEN: usize = 16;
 
-pub fn encode(s: &ElementSnapshot) -> Vec<u8> {
+pub fn encode(s: &ElementStateRef) -> Vec<u8> {
     // Sized once (a master saves a state before every communication step): the layout above,
     // the controller memory at most 20 bytes.
     let higher = s.du_higher.iter().any(|d| *d != [0.0; 2]);
     let len = 4 + 12 * s.params.len() + 1 + 16 + 4 + 8 * s.y.len() + 4 + 40 * s.u.len() + 20;
     let mut out = Vec::with_capacity(len);
-    put_params(&mut out, &s.params);
+    put_params(&mut out, s.params);
     out.push(u8::from(s.initialized) | controller_bits(s.controller) << 1 | u8::from(higher) << 4);
     put_f64s(&mut out, &[s.start_time, s.t]);
     out.extend_from_slice(&(s.y.len() as u32).to_le_bytes());
-    put_f64s(&mut out, &s.y);
+    put_f64s(&mut out, s.y);
     out.extend_from_slice(&(s.u.len() as u32).to_le_bytes());
-    put_f64s(&mut out, &s.u);
-    put_f64s(&mut out, &s.du);
-    put_f64s(&mut out, &s.du_now);
+    put_f64s(&mut out, s.u);
+    put_f64s(&mut out, s.du);
+    put_f64s(&mut out, s.du_now);
     if higher {
-        for d in &s.du_higher {
+        for d in s.du_higher {
             put_f64s(&mut out, d);
         }
     }
@@ -137,7 +171,7 @@ mod tests {
                 du_now: vec![0.0, -3.0],
                 controller,
             },
-            encode,
+            |s| encode(&s.borrowed()),
             decode,
         );
     }
