@@ -41,6 +41,9 @@ use crate::solve::rk::RkStepper;
 
 pub use scene::{is_element_text, ElementScene};
 use state::ElementSnapshot;
+
+/// The most inputs [`CoSimModel::set_reals`] sets together (an element has at most 4).
+const MAX_INPUTS: usize = 8;
 use variables::{VR_INPUT0, VR_OUTPUT0, VR_PARAM0};
 
 /// The value of the parameter `name` in a scene (`None`: the element has no such parameter).
@@ -473,6 +476,40 @@ impl CoSimModel for ElementFmu {
             st.invalidate();
         }
         Err(self.refusal(vr, value, k, outputs[k]))
+    }
+
+    /// After initialization the inputs of one call (a master sets them before every step)
+    /// are set together and the outputs checked once, not once per value. Should an output
+    /// then not be finite, the inputs go back to where they were and are set one by one with
+    /// [`CoSimModel::set_real`], which names the value that makes it so (the earlier ones
+    /// stay set, as in that sequence).
+    fn set_reals(&mut self, vrs: &[u32], values: &[f64]) -> Result<(), String> {
+        let n = self.u.len();
+        let together = self.lifecycle.initialized
+            && vrs.len() > 1
+            && n <= MAX_INPUTS
+            && vrs.iter().all(|&vr| self.input_index(vr).is_some());
+        if together {
+            let mut before = [0.0; MAX_INPUTS];
+            before[..n].copy_from_slice(&self.u);
+            for (&vr, &x) in vrs.iter().zip(values) {
+                if let Some(k) = self.input_index(vr) {
+                    self.u[k] = x;
+                }
+            }
+            // The right-hand side changed at the current time.
+            if let Some(st) = &mut self.stepper {
+                st.invalidate();
+            }
+            if self.outputs().iter().all(|y| y.is_finite()) {
+                return Ok(());
+            }
+            self.u.copy_from_slice(&before[..n]);
+        }
+        for (&vr, &x) in vrs.iter().zip(values) {
+            self.set_real(vr, x)?;
+        }
+        Ok(())
     }
 
     fn lifecycle_mut(&mut self) -> &mut Lifecycle {
