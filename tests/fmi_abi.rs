@@ -484,6 +484,36 @@ fn rollback_is_bit_identical() {
     assert_eq!(second, first, "serialize/deserialize");
 }
 
+/// A state object overwritten by `fmi2GetFMUstate` (a master saving before every step) holds
+/// the new state: serialized after it was serialized once before (the checksum is written at
+/// serialization), it gives the bytes of a fresh object, which load.
+#[test]
+fn an_overwritten_state_object_serializes_as_a_fresh_one() {
+    let f = Fmu::ready();
+    let h = 3.3e-5;
+    let serialize = |st: *mut c_void| {
+        let mut n = 0usize;
+        assert_eq!(unsafe { fmi2SerializedFMUstateSize(f.0, st, &mut n) }, OK);
+        let mut buf = vec![0u8; n];
+        let s = unsafe { fmi2SerializeFMUstate(f.0, st, buf.as_mut_ptr() as *mut c_char, n) };
+        assert_eq!(s, OK);
+        buf
+    };
+    let mut st: *mut c_void = null_mut();
+    assert_eq!(unsafe { fmi2GetFMUstate(f.0, &mut st) }, OK);
+    let before = serialize(st);
+    assert_eq!(f.step(0.0, h), OK);
+    let kept = st;
+    assert_eq!(unsafe { fmi2GetFMUstate(f.0, &mut st) }, OK);
+    assert_eq!(st, kept, "the object is overwritten, not replaced");
+    let after = serialize(st);
+    assert_ne!(after, before);
+    assert_eq!(after, f.state_bytes());
+    let g = Fmu::new();
+    assert_eq!(g.load_bytes(&after), OK);
+    unsafe { fmi2FreeFMUstate(f.0, &mut st) };
+}
+
 #[test]
 fn corrupt_and_foreign_blobs_are_rejected() {
     let f = Fmu::ready();

@@ -113,8 +113,7 @@ pub fn seal(bytes: &mut [u8]) {
     bytes[n..].copy_from_slice(&sum.to_le_bytes());
 }
 
-/// A sealed envelope ([`encode_unsealed`] then [`seal`]).
-#[cfg(test)]
+/// A sealed envelope ([`encode_unsealed`] then [`seal`]): the bytes of a serialized state.
 pub fn encode(guid: &str, layer: &LayerSnapshot, model: &[u8]) -> Vec<u8> {
     let mut out = Vec::new();
     encode_unsealed(&mut out, guid, layer, model);
