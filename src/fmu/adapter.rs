@@ -323,17 +323,19 @@ impl<K: Kernel> Adapter<K> {
             ));
         }
         let takes = &self.rate_inputs;
-        input_position::<K>(vr).filter(|&k| takes[k]).ok_or_else(|| {
-            let interpolated: Vec<String> = (0..takes.len())
-                .filter(|&k| takes[k])
-                .map(|k| format!("'{}'", name_of(&self.vars, K::INPUTS[k])))
-                .collect();
-            format!(
-                "'{}' (vr {vr}) is held over a step and takes no input derivative (only {} do)",
-                name_of(&self.vars, vr),
-                interpolated.join(", ")
-            )
-        })
+        input_position::<K>(vr)
+            .filter(|&k| takes[k])
+            .ok_or_else(|| {
+                let interpolated: Vec<String> = (0..takes.len())
+                    .filter(|&k| takes[k])
+                    .map(|k| format!("'{}'", name_of(&self.vars, K::INPUTS[k])))
+                    .collect();
+                format!(
+                    "'{}' (vr {vr}) is held over a step and takes no input derivative (only {} do)",
+                    name_of(&self.vars, vr),
+                    interpolated.join(", ")
+                )
+            })
     }
 
     /// Index into the outputs of an output value reference.
