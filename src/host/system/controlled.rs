@@ -367,6 +367,8 @@ pub(super) fn run(
     // the step is a jump at the step's start (a feed-through output recomputed from its
     // exact inputs at t), which no smaller step cures: that step is taken.
     let mut undone: Option<(f64, f64)> = None;
+    // Whether the instances were just rolled back to the states saved at `time`.
+    let mut restored = false;
     while !(time > stop || isclose(time, stop)) {
         if plan
             .interrupt
@@ -393,12 +395,17 @@ pub(super) fn run(
             ));
             return out;
         }
-        for (e, inst) in insts.iter_mut().enumerate() {
-            if let Err(err) = inst.save_state() {
-                out.failure = Some(super::master::at(&elements[e].name, time, err));
-                return out;
+        // After an undone attempt every instance is in the state saved at `time` (restored
+        // from it): saving it again would give the same state.
+        if !restored {
+            for (e, inst) in insts.iter_mut().enumerate() {
+                if let Err(err) = inst.save_state() {
+                    out.failure = Some(super::master::at(&elements[e].name, time, err));
+                    return out;
+                }
             }
         }
+        restored = false;
         st.prev.copy_from_slice(&st.cur);
         st.der_prev.copy_from_slice(&st.der);
         stepped.iter_mut().for_each(|s| *s = false);
@@ -436,6 +443,7 @@ pub(super) fn run(
                     out.failure = Some(m);
                     return out;
                 }
+                restored = true;
                 h = (step / 4.0).max(ctl.h_min);
                 continue;
             }
@@ -467,6 +475,7 @@ pub(super) fn run(
                 out.failure = Some(m);
                 return out;
             }
+            restored = true;
             h = (step * factor(err).min(0.9)).max(ctl.h_min);
             continue;
         }
