@@ -725,24 +725,31 @@ impl<M: DrivenModel> Driver<M> {
         if !(t.is_finite() && y.iter().all(|v| v.is_finite())) {
             return Err(format!("state (t = {t}, y = {y:?}) is not finite"));
         }
-        // The run state goes to a copy first: its clocks must also hold at `t` (phase and
-        // time within the limits of an advance), and on failure nothing may change.
-        let restored = || -> Result<M, String> {
-            let mut model = self.model.clone();
+        // The run state's clocks must also hold at `t` (phase and time within the limits of
+        // an advance), and on failure nothing may change. `restore_run_state` changes nothing
+        // when it fails; a state its clocks refuse is undone by the run state taken before,
+        // which is cheaper than restoring into a copy of the whole model (an FMU master
+        // restores at every undone communication step, docs/cosimulation.md).
+        let model = &mut self.model;
+        let mut restored = || -> Result<(), String> {
+            let before = model.run_state();
             model.restore_run_state(run)?;
-            model
-                .check_advance(t, t)
-                .map_err(|e| format!("at the state's time t = {t:e} s: {e}"))?;
-            Ok(model)
+            if let Err(e) = model.check_advance(t, t) {
+                model
+                    .restore_run_state(&before)
+                    .map_err(|back| format!("the model's own run state did not restore: {back}"))?;
+                return Err(format!("at the state's time t = {t:e} s: {e}"));
+            }
+            Ok(())
         };
         match (&mut self.propagator, controller) {
             (Propagator::Rk(p), Some(memory)) => {
-                self.model = restored()?;
+                restored()?;
                 p.invalidate();
                 p.restore(t, y, memory);
             }
             (Propagator::Exact(p), None) => {
-                self.model = restored()?;
+                restored()?;
                 p.invalidate();
                 p.set_state(t, y);
             }
