@@ -302,12 +302,8 @@ impl Kernel for Drivetrain {
     fn output_rate(sim: &TrainSimulation, k: usize, outputs: &[f64]) -> Result<f64, String> {
         let names = sim.output_names();
         let name = &names[k];
-        // The name is tested first: the rate evaluates the state derivative, which the
-        // angles and speeds of a torque port (read at every communication step) do not need.
-        if sim.model().is_port_torque(name) {
-            if let Some(rate) = sim.model().port_torque_rate(name, sim.t(), sim.state()) {
-                return Ok(rate);
-            }
+        if let Some(rate) = sim.model().port_torque_rate(name, sim.t(), sim.state()) {
+            return Ok(rate);
         }
         // `<stem>angle` → `<stem>speed`, `<stem>speed` → `<stem>acceleration`, found without
         // formatting a name (a host reads output derivatives at every communication step).

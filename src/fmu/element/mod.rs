@@ -41,10 +41,10 @@ use crate::solve::rk::RkStepper;
 
 pub use scene::{is_element_text, ElementScene};
 use state::ElementSnapshot;
+use variables::{VR_INPUT0, VR_OUTPUT0, VR_PARAM0};
 
 /// The most inputs [`CoSimModel::set_reals`] sets together (an element has at most 4).
 const MAX_INPUTS: usize = 8;
-use variables::{VR_INPUT0, VR_OUTPUT0, VR_PARAM0};
 
 /// The value of the parameter `name` in a scene (`None`: the element has no such parameter).
 pub fn parameter(scene: &ElementScene, name: &str) -> Option<f64> {

@@ -1111,6 +1111,11 @@ impl GearTrain {
     /// `d/dt` of a speed port's `<port>.torque` output at `(t, y)`; `None` for other names.
     pub fn port_torque_rate(&self, name: &str, t: f64, y: &[f64]) -> Option<f64> {
         let rot = self.rotation.as_ref()?;
+        // The name first: the state derivative below is not needed for any other output (a
+        // host reads every output's derivative at every communication step).
+        if !rot.is_port_torque(name) {
+            return None;
+        }
         let mut dy = vec![0.0; y.len()];
         self.rhs(t, y, &mut dy);
         rot.port_torque_rate(name, t, y, &dy)
