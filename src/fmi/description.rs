@@ -223,14 +223,24 @@ pub fn model_description(
     empty(&mut w, "DefaultExperiment", &de)?;
     // §2.2.6: FMI 2.0 declares no highest order of fmi2SetRealInputDerivatives; a model that
     // takes more than order 1 says so here, so that a master can give it polynomial inputs.
-    if caps.can_interpolate_inputs && caps.max_input_derivative_order > 1 {
+    // A model that announces the times of its switches names the variable that holds them.
+    let higher_inputs = caps.can_interpolate_inputs && caps.max_input_derivative_order > 1;
+    let switch_time = caps
+        .switch_time
+        .and_then(|vr| vars.iter().find(|v| v.value_reference == vr));
+    if higher_inputs || switch_time.is_some() {
         start(&mut w, "VendorAnnotations", &[])?;
         start(&mut w, "Tool", &[("name", "geardyn".into())])?;
-        empty(
-            &mut w,
-            "InputDerivatives",
-            &[("maxOrder", caps.max_input_derivative_order.to_string())],
-        )?;
+        if higher_inputs {
+            empty(
+                &mut w,
+                "InputDerivatives",
+                &[("maxOrder", caps.max_input_derivative_order.to_string())],
+            )?;
+        }
+        if let Some(v) = switch_time {
+            empty(&mut w, "SwitchTimes", &[("variable", v.name.clone())])?;
+        }
         end(&mut w, "Tool")?;
         end(&mut w, "VendorAnnotations")?;
     }

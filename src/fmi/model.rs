@@ -293,6 +293,11 @@ pub struct Capabilities {
     pub max_input_derivative_order: u32,
     /// `maxOutputDerivativeOrder`: 0 or 1 (the layer supports first-order derivatives).
     pub max_output_derivative_order: u32,
+    /// The Real variable that holds the time of the model's next known switch of its
+    /// equations (a stiffness knot, where its outputs' slopes jump), announced in the vendor
+    /// annotation `<SwitchTimes variable=…>`: geardyn's master ends a controlled step there
+    /// (`host::system::controlled`). FMI 2.0 has no such notion (FMI 3.0's event mode).
+    pub switch_time: Option<u32>,
 }
 
 /// Where a model instance stands in its life cycle: the start time of `fmi2SetupExperiment`

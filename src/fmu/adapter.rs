@@ -17,8 +17,8 @@
 use std::cell::{Cell, Ref, RefCell};
 
 use crate::fmi::model::{
-    Capabilities, Causality, CoSimModel, DefaultExperiment, Lifecycle, ModelInfo, StepFailure,
-    Variable,
+    Capabilities, Causality, CoSimModel, DefaultExperiment, Initial, Lifecycle, ModelInfo,
+    StepFailure, Variability, Variable,
 };
 use crate::fmu::checks::check_snapshot_values;
 use crate::fmu::kernel::{Kernel, KernelSnapshot};
@@ -31,6 +31,10 @@ use crate::solve::SolveError;
 /// Value reference of the parameter `solver.work_budget` (docs/fmu.md "Work budget"), which
 /// every gear FMU has; free in both kernels' tables.
 pub const VR_WORK_BUDGET: u32 = 29;
+
+/// Value reference of `solver.next_switch_time` (docs/cosimulation.md, "Steps that end at
+/// the stage's knots"), which every gear FMU has; free in both kernels' tables.
+pub const VR_NEXT_SWITCH_TIME: u32 = 28;
 
 /// A step the integrator stopped at `reached`. Not the FMU ending the simulation
 /// (fmi2Terminated stays false, so hosts report it); an exhausted work budget leaves a valid
@@ -55,6 +59,28 @@ fn advance_to_communication_point<M: DrivenModel>(
         None => Ok(()),
     }
 }
+
+/// The local variable `solver.next_switch_time`: the time of the model's next known switch
+/// of its equations, announced to the master by the vendor annotation
+/// ([`Capabilities::switch_time`]).
+fn next_switch_time_variable() -> Variable {
+    Variable::real(
+        NEXT_SWITCH_TIME,
+        VR_NEXT_SWITCH_TIME,
+        Causality::Local,
+        Variability::Discrete,
+        Some(Initial::Calculated),
+        None,
+        Some("s"),
+        "Time of the model's next known switch of its equations (a mesh stiffness or STE \
+         knot, where the outputs' slopes jump; the largest double when none is known): a master may end a \
+         communication step there, so that no input polynomial spans the kink \
+         (docs/cosimulation.md)",
+    )
+}
+
+/// The name of [`VR_NEXT_SWITCH_TIME`].
+pub const NEXT_SWITCH_TIME: &str = "solver.next_switch_time";
 
 /// The simulation of `settings` with the budget of one FMI call: the scene's
 /// `solver.work_budget`, else [`DEFAULT_CALL_BUDGET`].
@@ -135,6 +161,7 @@ impl<K: Kernel> Adapter<K> {
         vars.push(work_budget_variable(
             sim.work_limit().unwrap_or(DEFAULT_CALL_BUDGET),
         ));
+        vars.push(next_switch_time_variable());
         let (name, description, solver) = K::header(&settings);
         let info = ModelInfo {
             model_name: name.to_string(),
@@ -394,6 +421,10 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
         if vr == VR_WORK_BUDGET {
             return Ok(self.sim.work_limit().unwrap_or(DEFAULT_CALL_BUDGET));
         }
+        if vr == VR_NEXT_SWITCH_TIME {
+            // FMI values are finite: none is the largest double.
+            return Ok(self.sim.next_switch().min(f64::MAX));
+        }
         let model = self.sim.model();
         if let Some(k) = input_position::<K>(vr) {
             return Ok(K::inputs(model)[k]);
@@ -563,6 +594,7 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
             // The drivetrain's cubic forcing (`GearTrain::set_torque_derivatives`, a speed
             // port's cubic neighbour), the pair none.
             max_input_derivative_order: K::MAX_INPUT_DERIVATIVE_ORDER,
+            switch_time: Some(VR_NEXT_SWITCH_TIME),
         }
     }
 

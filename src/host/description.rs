@@ -66,6 +66,10 @@ pub struct CoSimulation {
     /// annotation `<InputDerivatives maxOrder>` (FMI 2.0 declares none); else 1 with
     /// `canInterpolateInputs`, 0 without.
     pub max_input_derivative_order: u32,
+    /// The value reference of the Real variable that holds the time of the FMU's next known
+    /// switch of its equations (geardyn's vendor annotation `<SwitchTimes variable>`): the
+    /// error-controlled master ends a step there (`host::system::controlled`).
+    pub switch_time: Option<u32>,
     pub can_run_asynchronuously: bool,
     pub can_be_instantiated_only_once_per_process: bool,
     pub can_not_use_memory_management_functions: bool,

@@ -46,6 +46,12 @@ pub trait DrivenModel: PiecewiseLti + Clone {
     /// Why this run-up is not piecewise LTI although its constant-speed scene would be (the
     /// excitation a profile makes time-varying within a segment), or `None`.
     fn runup_not_lti(&self) -> Option<String>;
+    /// The time of the next switch that is a state event known ahead only by the motion (a
+    /// stiffness knot on a carried angle), predicted from `(t, y)`; `+inf` (the default)
+    /// where the model has none.
+    fn predicted_switch(&self, _t: f64, _y: &[f64]) -> f64 {
+        f64::INFINITY
+    }
 }
 
 /// Largest augmented state the exact propagator accepts: its mode cache holds dense `n × n`
@@ -258,6 +264,21 @@ impl<M: DrivenModel> Driver<M> {
             Propagator::Rk(p) => p.t(),
             Propagator::Exact(p) => p.t(),
         }
+    }
+
+    /// The model's next known switch of its equations (a stiffness or gap breakpoint; a
+    /// time, not a state event) after the current segment's start, `+inf` when none: a
+    /// co-simulation master may end a communication step there (`docs/cosimulation.md`,
+    /// "Steps that end at the stage's knots").
+    pub fn next_stop(&self) -> f64 {
+        self.model.next_stop()
+    }
+
+    /// The earlier of [`Driver::next_stop`] and the model's predicted next state-event switch
+    /// ([`DrivenModel::predicted_switch`]).
+    pub fn next_switch(&self) -> f64 {
+        self.next_stop()
+            .min(self.model.predicted_switch(self.t(), self.y()))
     }
 
     /// The model's next stop (a stiffness or gap breakpoint) when it lies within the rounding

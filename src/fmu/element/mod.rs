@@ -620,6 +620,8 @@ impl CoSimModel for ElementFmu {
             can_interpolate_inputs: true,
             max_output_derivative_order: 1,
             max_input_derivative_order: 3,
+            // Elements are smooth: no switches a master could step to.
+            switch_time: None,
         }
     }
 

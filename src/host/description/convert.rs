@@ -76,7 +76,17 @@ pub(super) fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription,
         .and_then(|a| a.get("maxOrder"))
         .map(|s| parse_u32(s, &|| "<InputDerivatives>: maxOrder".to_string()))
         .transpose()?;
-    let co_simulation = raw
+    let switch_time_name = (raw.vendor_annotations.iter())
+        .flat_map(|v| &v.tools)
+        .filter(|t| t.name == "geardyn")
+        .find_map(|t| t.switch_times.as_ref())
+        .map(|a| {
+            a.get("variable")
+                .map(str::to_string)
+                .ok_or("<SwitchTimes>: required attribute variable is missing")
+        })
+        .transpose()?;
+    let mut co_simulation = raw
         .co_simulation
         .map(|a| -> Result<CoSimulation, String> {
             let c = "<CoSimulation>";
@@ -97,6 +107,8 @@ pub(super) fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription,
                     (false, _) => 0,
                     (true, order) => order.unwrap_or(1).max(1),
                 },
+                // Resolved below, once the variables are read.
+                switch_time: None,
                 max_output_derivative_order: a
                     .get("maxOutputDerivativeOrder")
                     .map(|s| parse_u32(s, &|| format!("{c}: maxOutputDerivativeOrder")))
@@ -298,6 +310,16 @@ pub(super) fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription,
             i + 1,
             lines.get(i).copied().unwrap_or(0),
         )?);
+    }
+
+    if let (Some(name), Some(cs)) = (&switch_time_name, co_simulation.as_mut()) {
+        let v = variables
+            .iter()
+            .find(|v| &v.name == name && v.var_type == VarType::Real)
+            .ok_or_else(|| {
+                format!("<SwitchTimes>: variable '{name}' is not a Real variable of the model")
+            })?;
+        cs.switch_time = Some(v.value_reference);
     }
 
     let ms = raw

@@ -47,8 +47,8 @@ pub(super) struct RawRoot {
     pub(super) model_structure: Option<RawModelStructure>,
 }
 
-/// `<VendorAnnotations>` (FMI 2.0.5 §2.2.6): only geardyn's `<InputDerivatives maxOrder>` is
-/// read; any other tool's content is accepted and dropped.
+/// `<VendorAnnotations>` (FMI 2.0.5 §2.2.6): only geardyn's `<InputDerivatives maxOrder>` and
+/// `<SwitchTimes variable>` are read; any other tool's content is accepted and dropped.
 #[derive(Deserialize, Default)]
 pub(super) struct RawVendorAnnotations {
     #[serde(rename = "Tool", default)]
@@ -61,6 +61,8 @@ pub(super) struct RawTool {
     pub(super) name: String,
     #[serde(rename = "InputDerivatives")]
     pub(super) input_derivatives: Option<RawAttrs>,
+    #[serde(rename = "SwitchTimes")]
+    pub(super) switch_times: Option<RawAttrs>,
 }
 
 /// Any element whose attributes we read generically (names kept for messages).

@@ -44,6 +44,9 @@ impl DrivenModel for GearTrain {
     fn runup_not_lti(&self) -> Option<String> {
         GearTrain::runup_not_lti(self)
     }
+    fn predicted_switch(&self, t: f64, y: &[f64]) -> f64 {
+        GearTrain::predicted_knot_time(self, t, y)
+    }
 }
 
 impl Driver<GearTrain> {

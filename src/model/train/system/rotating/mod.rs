@@ -36,6 +36,7 @@ use super::super::assembly::Reduction;
 use super::{GearTrain, SlotContact, Stiffness};
 use crate::scene::train::PortEnd;
 use crate::scene::Scene;
+use crate::solve::HybridSystem;
 
 /// Angle of one body as a row over the state.
 #[derive(Debug, Clone)]
@@ -403,6 +404,51 @@ impl Carried {
         }
     }
 
+    /// The time at which the next stiffness knot of any knot mesh is reached if every mesh
+    /// phase follows its quadratic Taylor polynomial at `(t, y)` (`dy` the state derivative
+    /// there): the knots are state events on the carried angles (`knot_guards`), so their
+    /// times are known only ahead of the motion; `+inf` when none is reached. The error is
+    /// the phase's third-order term, `|p⃛|τ³/6` over `|ṗ|`.
+    pub(crate) fn predicted_knot_time(
+        &self,
+        train: &GearTrain,
+        t: f64,
+        y: &[f64],
+        dy: &[f64],
+    ) -> f64 {
+        // The smallest τ > 0 with `rate·τ + ½·accel·τ² = distance` (distance ≥ 0), in the form
+        // that does not cancel (`PhaseClock::time_of`).
+        let first = |distance: f64, rate: f64, accel: f64| {
+            let disc = rate * rate + 2.0 * accel * distance;
+            if distance < 0.0 || disc < 0.0 {
+                return f64::INFINITY;
+            }
+            let denom = rate + disc.sqrt();
+            if denom > 0.0 {
+                2.0 * distance / denom
+            } else {
+                f64::INFINITY
+            }
+        };
+        let mut soonest = f64::INFINITY;
+        for &n in &self.knot_meshes {
+            let mesh = &train.meshes[n];
+            let (p, rate) = self.mesh_phase(n, t, y);
+            let z = self.mesh_teeth[n];
+            let mut accel = z * self.body_acceleration(self.mesh_body[n], dy);
+            if let Some((carrier, zc)) = self.mesh_carrier[n] {
+                accel += zc * self.body_acceleration(carrier, dy);
+            }
+            accel /= TAU;
+            let (start, end) = mesh.current().map_or((0.0, 1.0), |iv| (iv.start, iv.end));
+            let base = mesh.cycle - mesh.offset;
+            let forward = first(base + end - p, rate, accel);
+            let backward = first(p - (base + start), -rate, -accel);
+            soonest = soonest.min(forward).min(backward);
+        }
+        t + soonest
+    }
+
     /// Output names (`<owner>.<quantity>`, `docs/fmu.md`): per body `<gear>.angle`, `.speed`,
     /// `.acceleration`, then per port `<port>.angle`, `.speed`, `.acceleration`.
     pub(crate) fn names(&self) -> Vec<String> {
@@ -516,6 +562,21 @@ fn stage_phase_terms(scene: &Scene, n: usize) -> Option<(f64, (usize, f64))> {
 }
 
 impl GearTrain {
+    /// The predicted time of the next stiffness knot of a rotating train
+    /// ([`Carried::predicted_knot_time`]); `+inf` without a rotation (its knots are stops of
+    /// the nominal clock, [`HybridSystem::next_stop`]).
+    pub fn predicted_knot_time(&self, t: f64, y: &[f64]) -> f64 {
+        let Some(rot) = &self.rotation else {
+            return f64::INFINITY;
+        };
+        if rot.knot_meshes.is_empty() {
+            return f64::INFINITY;
+        }
+        let mut dy = vec![0.0; y.len()];
+        self.rhs(t, y, &mut dy);
+        rot.predicted_knot_time(self, t, y, &dy)
+    }
+
     /// A stiffness knot of mesh `knot_meshes[k / 2]` crossed: forward (even k) or backward.
     /// Intervals of zero width are passed at once, as the nominal form's stops do.
     pub(super) fn knot_event(&mut self, t: f64, y: &[f64], k: usize) {
