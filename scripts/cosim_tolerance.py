@@ -13,6 +13,7 @@ the CPU time of the co-simulation and of the monolithic run at its default toler
 Usage (build the FMUs first: bash scripts/build-fmus.sh):
   .venv/bin/python scripts/cosim_tolerance.py --stop 1 --tolerances 1e-2,1e-3,1e-4,1e-5
   .venv/bin/python scripts/cosim_tolerance.py --cases 3:4500 --tolerances 1e-4 --no-correction
+  .venv/bin/python scripts/cosim_tolerance.py --grid 5 --stop 0.02   (the tolerance, not the grid, decides)
 Not a test: the bound is asserted in tests/python/test_cosim_tolerance.py.
 """
 from __future__ import annotations
@@ -92,8 +93,11 @@ def main():
     ap.add_argument("--tolerances", default="1e-2,1e-3,1e-4,1e-5")
     ap.add_argument("--stop", type=float, default=1.0)
     ap.add_argument("--no-correction", action="store_true", help="pass --no-impulse-correction")
+    ap.add_argument("--no-switch-steps", action="store_true", help="pass --no-switch-steps")
+    ap.add_argument("--grid", type=int, default=20, help="output interval (largest step) T_mesh/GRID")
     a = ap.parse_args()
     extra = ["--no-impulse-correction"] if a.no_correction else []
+    extra += ["--no-switch-steps"] if a.no_switch_steps else []
     print("| system | rpm | tolerance | DTE max error / RMS | speeds, max rel. error | pinion angle error at end (rad)"
           " | steps accepted / undone | CPU (s) | monolithic CPU (s) |")
     print("|---|---|---|---|---|---|---|---|---|")
@@ -102,7 +106,7 @@ def main():
         for case in a.cases.split(","):
             system, rpm = case.split(":")
             point = dr.SteadyPoint(float(rpm), 10.0)
-            h = point.t_mesh / 20
+            h = point.t_mesh / a.grid
             r, mono_cpu = monolithic(point, tmp, h, a.stop)
             for tol in map(float, a.tolerances.split(",")):
                 d, err, cpu = controlled(system, point, tmp, h, a.stop, tol, extra)

@@ -122,6 +122,11 @@ pub struct RunArgs {
     /// (for comparison; the correction keeps the drivetrain's angle from drifting).
     #[arg(long)]
     pub no_impulse_correction: bool,
+    /// Systems with --tolerance: do not end steps at the switch times an FMU announces (its
+    /// mesh stiffness knots; for comparison: the master then finds the kinks by its error
+    /// estimate alone).
+    #[arg(long)]
+    pub no_switch_steps: bool,
     /// Report where the time went: the step loop, the part inside the FMU's calls, CSV writing.
     #[arg(long)]
     pub timing: bool,

@@ -52,6 +52,18 @@
 //! next step is taken against the refreshed efforts, and the next step starts from them.
 //! The fixed-step masters keep their order (`graph::order`) and their results.
 //!
+//! **Steps that end at a switch.** An FMU may announce the time of its next switch (the
+//! vendor annotation `<SwitchTimes>`: geardyn's gear FMUs, their mesh stiffness knots, where
+//! the outputs' slopes jump). A step that would pass it ends [`SWITCH_MARGIN`] of the step
+//! after it (a predicted switch is off by a little), so no input polynomial spans the kink:
+//! over that step an interpolated input follows the quadratic through the values at both
+//! ends and the slope at the start ([`super::master::quadratic`]; the slope at the end is
+//! the one after the switch), its defect and impulse are the quadratic's, the compliances'
+//! refresh gives them the slopes after the switch, and no history of higher derivatives
+//! spans it (the next step takes those of the step before, carried to the switch). Without
+//! it the master found each knot by halving its steps toward it, about fifteen attempts a
+//! knot (docs/cosimulation.md, "Steps that end at the stage's knots").
+//!
 //! **Rows on the user's grid.** The steps land on every output point: the time to the next
 //! output point is split into `ceil(remaining / H)` equal steps, so each row is the FMUs'
 //! own output at its time, no interpolation.
@@ -85,6 +97,7 @@ pub(super) fn settings(
             ("--min-step", args.min_step.is_some()),
             ("--max-step", args.max_step.is_some()),
             ("--no-impulse-correction", args.no_impulse_correction),
+            ("--no-switch-steps", args.no_switch_steps),
         ] {
             if given {
                 return Err(format!(
@@ -133,11 +146,21 @@ pub(super) fn settings(
         ));
         return Ok(None);
     }
+    let switch_times = (fmus.fmu_of.iter())
+        .map(|&i| {
+            let announced = fmus.mds[i]
+                .co_simulation
+                .as_ref()
+                .and_then(|c| c.switch_time);
+            announced.filter(|_| !args.no_switch_steps)
+        })
+        .collect();
     Ok(Some(ErrorControl {
         tolerance: tol,
         h_min,
         h_max,
         impulse_correction: !args.no_impulse_correction,
+        switch_times,
     }))
 }
 
@@ -173,6 +196,7 @@ fn estimate(
     scales: &Scales,
     given: &Given,
     st: &State,
+    history: &History,
     h: f64,
 ) -> (f64, i32) {
     let der_start = &st.der_prev;
@@ -194,6 +218,18 @@ fn estimate(
             // connection's producer steps first, an extrapolated one's after or alongside.
             // The chord ended at `given[p]`, what the producer returned with the inputs it
             // was given; `y1` is its output refreshed with the actual ones (`refresh`).
+            // A step that ends at a switch gave the quadratic through y0, d0, y1 (the slope
+            // at its end is the one after the switch): its error is that of a quadratic,
+            // `2h³|y‴|/81` at most for a cubic signal, y‴ from the last accepted step.
+            Coupling::Interpolate if plan.hermite[l] && st.switch_at_end => {
+                let third = history.higher(p, y0, der_start[p], 3)[1];
+                2.0 * h * h * h * third.abs() / 81.0 + (y1 - given.value[p]).abs()
+            }
+            // The chord's distance from the quadratic through y0, d0, y1, without the slope
+            // at the end (a switch there).
+            Coupling::Interpolate if plan.needs_derivative[p] && st.switch_at_end => {
+                (y1 - y0 - h * der_start[p]).abs() / 4.0 + (y1 - given.value[p]).abs()
+            }
             Coupling::Interpolate if plan.hermite[l] => {
                 let (d0, d1) = (der_start[p], st.der[p]);
                 // The quadratic through y0, d0, y1 is the lower-order member of the pair:
@@ -250,11 +286,12 @@ fn estimate(
     (err, order)
 }
 
-/// Per link: the impulse (time integral) its consumer missed over the step just taken, the
-/// producer's output integrated by the cubic Hermite rule from its values and derivatives at
-/// both ends minus the integral of the line the consumer was given; the next step adds it
-/// spread over that step, so that the impulses exchanged stay equal to that rule's accuracy
-/// (0 where a derivative is missing).
+/// Per link: adds the impulse (time integral) its consumer missed over the step just taken,
+/// the producer's output integrated by the cubic Hermite rule from its values and derivatives
+/// at both ends (the quadratic's rule at a switch) minus the integral of the polynomial the
+/// consumer was given; the next step adds it spread over that step (at most at the rate of
+/// this one, the rest carried), so that the impulses exchanged stay equal to that rule's
+/// accuracy (nothing where a derivative is missing).
 fn impulse_deficits(plan: &Plan, st: &State, given: &Given, h: f64, deficit: &mut [f64]) {
     let der_start = &st.der_prev;
     for (l, link) in plan.system.links.iter().enumerate() {
@@ -263,11 +300,21 @@ fn impulse_deficits(plan: &Plan, st: &State, given: &Given, h: f64, deficit: &mu
             continue;
         }
         let (y0, y1, d0, d1) = (st.prev[p], st.cur[p], der_start[p], st.der[p]);
-        let hermite = h / 2.0 * (y0 + y1) + h * h / 12.0 * (d0 - d1);
+        // At a switch the end slope is the one after it: the quadratic through y0, d0, y1
+        // is the rule then, and what an interpolated consumer was given.
+        let quadratic = |end: f64| h / 3.0 * (2.0 * y0 + end) + h * h / 6.0 * d0;
+        let hermite = if st.switch_at_end {
+            quadratic(y1)
+        } else {
+            h / 2.0 * (y0 + y1) + h * h / 12.0 * (d0 - d1)
+        };
         let given = match plan.coupling[l] {
             Coupling::Extrapolate => {
                 let higher = extrapolation::up_to(st.higher[p], plan.extrapolation_order[l]);
                 extrapolation::integral(y0, d0, higher, h)
+            }
+            Coupling::Interpolate if plan.hermite[l] && st.switch_at_end => {
+                quadratic(given.value[p])
             }
             Coupling::Interpolate if plan.hermite[l] => {
                 h / 2.0 * (y0 + given.value[p]) + h * h / 12.0 * (d0 - given.der[p])
@@ -275,7 +322,7 @@ fn impulse_deficits(plan: &Plan, st: &State, given: &Given, h: f64, deficit: &mu
             Coupling::Interpolate => h / 2.0 * (y0 + given.value[p]),
             Coupling::Hold => continue,
         };
-        deficit[l] = hermite - given;
+        deficit[l] += hermite - given;
     }
 }
 
@@ -311,6 +358,43 @@ fn refresh(
     for &e in compliances {
         st.set_inputs(e, &mut insts[e], time, 0.0, stepped)?;
         st.read(e, &mut insts[e], time, true)?;
+    }
+    Ok(())
+}
+
+/// How far past a step's end an announced switch may lie and still be the step's end: the
+/// FMU reports the state after a switch that lies within its rounding of a communication
+/// point (`Driver::switch_at_now`, 64 ulp).
+const SWITCH_ROUNDING: f64 = 64.0 * f64::EPSILON;
+
+/// How many of the largest steps ahead an announced switch is read again after every step.
+const SWITCH_REACH: f64 = 4.0;
+
+/// How far past an announced switch a step ends, relative to the step the controller would
+/// take (at least the smallest step and a billionth of the time): a predicted switch (a stiffness knot on a carried angle)
+/// is off by the phase's third-order term, up to ~1e-4 of the time to it at a drivetrain's
+/// grid step (`tests/switch_times.rs`), and a switch just ahead is passed by a step of this
+/// length, not one at the time's resolution. The kink then lies this far before the step's
+/// end, where it moves the inputs by its slope's jump times this margin: ~5 % of the
+/// tolerance at `1e-4` on the drivetrains.
+pub const SWITCH_MARGIN: f64 = 1e-3;
+
+/// Reads each announcing element's next switch time ([`ErrorControl::switch_times`]) at
+/// `time`; the largest double (or more) is none.
+fn read_switch_times(
+    insts: &mut [Instance],
+    plan: &Plan,
+    ctl: &ErrorControl,
+    time: f64,
+    switch_at: &mut [f64],
+) -> Result<(), String> {
+    for (e, vr) in ctl.switch_times.iter().enumerate() {
+        let Some(vr) = *vr else { continue };
+        let mut t = [f64::INFINITY];
+        insts[e]
+            .get_real(&[vr], &mut t)
+            .map_err(|err| super::master::at(&plan.system.elements[e].name, time, err))?;
+        switch_at[e] = if t[0] < f64::MAX { t[0] } else { f64::INFINITY };
     }
     Ok(())
 }
@@ -354,6 +438,18 @@ pub(super) fn run(
     let mut h = ctl.h_max;
     let (mut over, mut refused) = (0u64, 0u64);
     let mut deficit = vec![0.0; plan.system.links.len()];
+    // The length of the step whose impulses `deficit` holds: the next step spreads them at
+    // most at that rate, so a step much shorter than it (one that ends at an output point
+    // just after a switch) is not given an offset many times the step's own error; the
+    // rest is carried into the step after.
+    let mut deficit_step = 0.0_f64;
+    let mut carry = vec![0.0; plan.system.links.len()];
+    // After a switch: per port, the higher derivatives carried across it.
+    let mut across: Option<Vec<[f64; 2]>> = None;
+    // The first step after a switch, as a fraction of the largest step: its inputs start
+    // without higher derivatives (no history spans the switch), so the step the controller
+    // would take after it may be too long; learned from the steps after the switches before.
+    let mut after_switch = 1.0_f64;
     let conserve = ctl.impulse_correction;
     // Per producer port: the highest degree its extrapolated connections take, and the last
     // accepted step that gives its higher derivatives (`extrapolation`).
@@ -369,6 +465,12 @@ pub(super) fn run(
     let mut undone: Option<(f64, f64)> = None;
     // Whether the instances were just rolled back to the states saved at `time`.
     let mut restored = false;
+    // Per element: the time of its next switch it announced (∞: none).
+    let mut switch_at = vec![f64::INFINITY; elements.len()];
+    if let Err(m) = read_switch_times(insts, plan, ctl, time, &mut switch_at) {
+        out.failure = Some(m);
+        return out;
+    }
     while !(time > stop || isclose(time, stop)) {
         if plan
             .interrupt
@@ -383,11 +485,26 @@ pub(super) fn run(
         }
         let remaining = target - time;
         let parts = (remaining / h * (1.0 - 1e-12)).ceil().max(1.0);
-        let next = if parts <= 1.0 {
+        let mut next = if parts <= 1.0 {
             target
         } else {
             time + remaining / parts
         };
+        // The step ends just past the first announced switch it would pass (a predicted
+        // switch is off by the prediction's error, and a step that ends short of it starts
+        // the next one with the slopes before it), or at its own end when the switch lies
+        // within that margin before it or within rounding after it (the FMU then reports
+        // the state after it).
+        let switch = switch_at.iter().copied().fold(f64::INFINITY, f64::min);
+        st.switch_at_end = switch > time && switch - next <= SWITCH_ROUNDING * next.abs();
+        if st.switch_at_end {
+            // Not below a billionth of the time: a step at the smallest step of a long run
+            // may be below an FMU's time resolution (geardyn's: 2^20 ulps of the time).
+            let margin = (SWITCH_MARGIN * (next - time))
+                .max(ctl.h_min)
+                .max(1e-9 * next.abs());
+            next = next.min(switch + margin);
+        }
         let step = next - time;
         if !(step > 0.0) {
             out.failure = Some(format!(
@@ -409,12 +526,23 @@ pub(super) fn run(
         st.prev.copy_from_slice(&st.cur);
         st.der_prev.copy_from_slice(&st.der);
         stepped.iter_mut().for_each(|s| *s = false);
-        for (o, d) in st.offset.iter_mut().zip(&deficit) {
-            *o = d / step;
+        let spread = step.max(deficit_step);
+        for ((o, c), d) in st.offset.iter_mut().zip(&mut carry).zip(&deficit) {
+            *o = d / spread;
+            *c = if spread > step { d - *o * step } else { 0.0 };
         }
+        // Higher derivatives from a step much shorter than this one (the short step to an
+        // output point just after a switch) would be extrapolated far beyond their span.
+        let reach = history.reaches(step);
         for (p, &q) in degree.iter().enumerate() {
             if q >= 2 {
-                st.higher[p] = history.higher(p, st.cur[p], st.der[p], q);
+                st.higher[p] = if let Some(c) = &across {
+                    c[p]
+                } else if reach {
+                    history.higher(p, st.cur[p], st.der[p], q)
+                } else {
+                    [0.0; 2]
+                };
             }
         }
         let at_min = step <= ctl.h_min * (1.0 + 1e-9);
@@ -454,7 +582,7 @@ pub(super) fn run(
             out.failure = Some(m);
             return out;
         }
-        let (err, order) = estimate(plan, ctl, &scales, &given, &st, step);
+        let (err, order) = estimate(plan, ctl, &scales, &given, &st, &history, step);
         let factor = |err: f64| {
             if err == 0.0 {
                 2.0
@@ -463,6 +591,15 @@ pub(super) fn run(
             }
         };
         let stuck = undone.is_some_and(|(t, e)| t == time && err >= 0.9 * e);
+        if !reach {
+            // A step without higher derivatives (after a switch): what it says of the first
+            // steps after the next switch.
+            if err > 1.0 {
+                after_switch = (step / ctl.h_max * factor(err)).clamp(0.1, after_switch);
+            } else if err < 0.3 {
+                after_switch = (after_switch * 1.1).min(1.0);
+            }
+        }
         if err > 1.0 && !at_min && !stuck {
             undone = Some((time, err));
             out.steps.push(StepRecord {
@@ -490,13 +627,52 @@ pub(super) fn run(
             accepted: true,
         });
         scales.accept(&st.cur);
-        history.accept(&st.prev, &st.der_prev, step);
-        if conserve {
-            impulse_deficits(plan, &st, &given, step, &mut deficit);
+        if st.switch_at_end {
+            // The slopes jumped at the step's end: no history spans it. The next step takes
+            // the higher derivatives of the one before it, carried to the switch.
+            history.forget();
+            across = Some(
+                st.higher
+                    .iter()
+                    .map(|&[c2, c3]| [c2 + c3 * step, c3])
+                    .collect(),
+            );
+        } else {
+            history.accept(&st.prev, &st.der_prev, step);
+            across = None;
         }
-        // A step cut short to land on an output point does not shrink the next one.
-        let base = if next == target { h.max(step) } else { step };
+        // A switch predicted from afar moves as the motion goes on; it is read again once
+        // it is near (within a few of the largest steps) or passed.
+        let near = next + SWITCH_REACH * ctl.h_max;
+        if switch_at.iter().any(|&s| s <= near) || st.switch_at_end {
+            if let Err(m) = read_switch_times(insts, plan, ctl, next, &mut switch_at) {
+                out.failure = Some(m);
+                return out;
+            }
+        }
+        if conserve {
+            // What the offsets did not carry over this step, and this step's own deficits.
+            deficit.copy_from_slice(&carry);
+            impulse_deficits(plan, &st, &given, step, &mut deficit);
+            // While a deficit is carried, the rate it is delivered at stays that of the step
+            // that made it.
+            deficit_step = if carry.iter().any(|&c| c != 0.0) {
+                deficit_step.max(step)
+            } else {
+                step
+            };
+        }
+        // A step cut short to land on an output point or a switch does not shrink the next
+        // one.
+        let base = if next == target || st.switch_at_end {
+            h.max(step)
+        } else {
+            step
+        };
         h = (base * factor(err)).clamp(ctl.h_min, ctl.h_max);
+        if st.switch_at_end {
+            h = h.min(after_switch * ctl.h_max);
+        }
         time = next;
         if next == target {
             if let Err(m) = output_point(&mut st, insts, sink, &mut watch, time, &mut out) {

@@ -39,6 +39,19 @@ impl History {
         self.step = h;
     }
 
+    /// Whether the last accepted step is long enough for its higher derivatives to be
+    /// extrapolated over a step of length `h`: at least an eighth of it (the polynomial's
+    /// error grows as `(h/H_b)³` beyond its span).
+    pub(super) fn reaches(&self, h: f64) -> bool {
+        self.step * 8.0 >= h
+    }
+
+    /// The accepted step's end was a switch of the signals' slopes: no step gives higher
+    /// derivatives until the next one is accepted.
+    pub(super) fn forget(&mut self) {
+        self.step = 0.0;
+    }
+
     /// The second and third derivatives at the current point of port `p`, whose value and
     /// derivative there are `y` and `d`, up to `order` (2: the second only; below 2 or
     /// without an accepted step or with a non-finite result: zeros, the line).

@@ -129,6 +129,12 @@ pub(super) struct State<'p, 'a> {
     /// step (the impulse correction of the error-controlled master; 0 with fixed steps, where
     /// adding it leaves every value's bits unchanged).
     pub(super) offset: Vec<f64>,
+    /// The step ends at a switch an FMU announced (the error-controlled master's
+    /// [`super::controlled`], "Steps that end at a switch"): the outputs' slopes at its end
+    /// are those after the switch, so an interpolated input follows the quadratic through
+    /// the values at both ends and the slope at the start, and the refresh at its end gives
+    /// the compliances the slopes after the switch. Always `false` with fixed steps.
+    pub(super) switch_at_end: bool,
     /// The row being assembled, per column.
     row: Vec<f64>,
     buf_f: Vec<f64>,
@@ -154,6 +160,14 @@ pub(super) fn hermite(y0: f64, y1: f64, d0: f64, d1: f64, h: f64) -> [f64; 3] {
     let c2 = (3.0 * secant - 2.0 * d0 - d1) / h;
     let c3 = (d0 + d1 - 2.0 * secant) / (h * h);
     [d0, 2.0 * c2, 6.0 * c3]
+}
+
+/// The derivatives of orders 1, 2, 3 at `s = 0` of the quadratic on `[0, h]` through the
+/// values `y0`, `y1` at its ends with slope `d0` at its start, `y0 + d0·s + (Δ/h − d0)·s²/h`:
+/// the interpolant of a step whose end slope is not that of the signal over it (a switch at
+/// its end, [`State::switch_at_end`]).
+pub(super) fn quadratic(y0: f64, y1: f64, d0: f64, h: f64) -> [f64; 3] {
+    [d0, 2.0 * ((y1 - y0) / h - d0) / h, 0.0]
 }
 
 pub(super) fn at(e: &str, t: f64, err: CallError) -> String {
@@ -254,6 +268,7 @@ impl<'p, 'a> State<'p, 'a> {
             der_prev: vec![0.0; np],
             higher: vec![[0.0; 2]; np],
             offset: vec![0.0; plan.system.links.len()],
+            switch_at_end: false,
             row: vec![0.0; plan.columns.len()],
             buf_f: Vec::new(),
             buf_i: Vec::new(),
@@ -343,7 +358,11 @@ impl<'p, 'a> State<'p, 'a> {
                             rx.push(corrected(affine(self.prev[p]), slope(self.offset[l])));
                             if plan.hermite[l] {
                                 let (d0, d1) = (self.der_prev[p], self.der[p]);
-                                let c = hermite(self.prev[p], self.cur[p], d0, d1, h);
+                                let c = if self.switch_at_end {
+                                    quadratic(self.prev[p], self.cur[p], d0, h)
+                                } else {
+                                    hermite(self.prev[p], self.cur[p], d0, d1, h)
+                                };
                                 for (k, c) in c.into_iter().enumerate() {
                                     dv.push(link.to.vr);
                                     order.push(k as i32 + 1);
@@ -374,6 +393,17 @@ impl<'p, 'a> State<'p, 'a> {
                         _ => {
                             rv.push(link.to.vr);
                             rx.push(affine(self.cur[p]));
+                            // The refresh at a switch: the slope after it, which the
+                            // consumer's output derivatives at this point follow.
+                            if h == 0.0
+                                && self.switch_at_end
+                                && plan.coupling[l] != Coupling::Hold
+                                && plan.needs_derivative[p]
+                            {
+                                dv.push(link.to.vr);
+                                order.push(1);
+                                dx.push(slope(self.der[p]));
+                            }
                         }
                     }
                 }

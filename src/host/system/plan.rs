@@ -81,6 +81,10 @@ pub struct ErrorControl {
     /// Carry each step's impulse deficit into the next step (`controlled::impulse_deficits`;
     /// off with `--no-impulse-correction`).
     pub impulse_correction: bool,
+    /// Per element: the value reference of its announced next switch time (the FMU's vendor
+    /// annotation `<SwitchTimes>`), where a step ends (`controlled`, "Steps that end at a
+    /// switch"); all `None` with `--no-switch-steps`.
+    pub switch_times: Vec<Option<u32>>,
 }
 
 /// One attempted communication step.
