@@ -1,6 +1,7 @@
 //! One naming convention (issue 18, `docs/fmu.md` "Names"): every output of every shipped FMU
 //! and every native CSV column is `<owner>.<quantity>` with an owner the scene defines, every
-//! parameter and input is a key path of the scene, and the FMU output of a quantity is the
+//! parameter and input is a key path of the scene (the one local, the announced switch time,
+//! beside the solver settings), and the FMU output of a quantity is the
 //! native column of it, so no name mapping is needed between them anywhere.
 //!
 //! The owner sets are read from the scene files here with the `toml` crate, independently of
@@ -128,7 +129,9 @@ fn check(name: &str, causality: Causality, names: &SceneNames) -> Option<String>
             (!ok).then(|| format!("{causality:?} '{name}' is not a key path of the scene"))
         }
         Causality::Independent => (name != "time").then(|| format!("independent '{name}'")),
-        Causality::Local => Some(format!("local '{name}' in a shipped FMU")),
+        // The announced switch time, beside the solver settings (docs/fmu.md "Names").
+        Causality::Local => (name != geardyn::fmu::adapter::NEXT_SWITCH_TIME)
+            .then(|| format!("local '{name}' in a shipped FMU")),
     }
 }
 

@@ -1320,6 +1320,7 @@ fn run(
         min_step,
         max_step,
         no_impulse_correction: false,
+        no_switch_steps: false,
         timing: false,
     };
     // `run`'s options are this function's arguments, none of them a scene parameter.

@@ -371,12 +371,12 @@ const SWITCH_ROUNDING: f64 = 64.0 * f64::EPSILON;
 const SWITCH_REACH: f64 = 4.0;
 
 /// How far past an announced switch a step ends, relative to the step the controller would
-/// take (at least the smallest step and a billionth of the time): a predicted switch (a stiffness knot on a carried angle)
-/// is off by the phase's third-order term, up to ~1e-4 of the time to it at a drivetrain's
-/// grid step (`tests/switch_times.rs`), and a switch just ahead is passed by a step of this
-/// length, not one at the time's resolution. The kink then lies this far before the step's
-/// end, where it moves the inputs by its slope's jump times this margin: ~5 % of the
-/// tolerance at `1e-4` on the drivetrains.
+/// take (at least the smallest step and a billionth of the time): a predicted switch (a
+/// stiffness knot on a carried angle) is off by the phase's third-order term, up to ~1e-4 of
+/// the time to it at a drivetrain's grid step (`tests/switch_times.rs`), and a switch just
+/// ahead is passed by a step of this length, not one at the time's resolution. The kink then
+/// lies this far before the step's end, where it moves the inputs by its slope's jump times
+/// this margin: ~5 % of the tolerance at `1e-4` on the drivetrains.
 pub const SWITCH_MARGIN: f64 = 1e-3;
 
 /// Reads each announcing element's next switch time ([`ErrorControl::switch_times`]) at
