@@ -13,8 +13,10 @@
 //! integral of the speed's cubic, a quintic in closed form) and the step is the same as two
 //! half steps whose second half is given the same cubic re-expanded about the midpoint.
 
+mod common;
+
+use common::fmu::{initialized, vr};
 use geardyn::fmi::model::{CoSimModel, LoadedModel};
-use geardyn::fmu::entry::load_scene;
 
 fn read(path: &str) -> String {
     std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(path)).unwrap()
@@ -25,18 +27,7 @@ fn model(text: &str) -> LoadedModel {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scene.toml");
     std::fs::write(&path, text).unwrap();
-    let mut loaded = load_scene(&path).unwrap();
-    let m = loaded.model.as_mut();
-    m.setup_experiment(0.0, None, None).unwrap();
-    m.exit_initialization().unwrap();
-    loaded
-}
-
-fn vr(m: &dyn CoSimModel, name: &str) -> u32 {
-    (m.variables().iter())
-        .find(|v| v.name == name)
-        .unwrap_or_else(|| panic!("no variable {name}"))
-        .value_reference
+    initialized(&path)
 }
 
 fn get(m: &dyn CoSimModel, name: &str) -> f64 {

@@ -11,28 +11,16 @@
 //! period on). The prediction is off by up to ~1e-4 of the time to the knot here (a margin of
 //! 3e-5 of it fails), a tenth of the margin.
 
+mod common;
+
+use common::fmu::{initialized, vr};
 use geardyn::fmi::model::{CoSimModel, LoadedModel};
 use geardyn::fmu::adapter::NEXT_SWITCH_TIME;
-use geardyn::fmu::entry::load_scene;
 use geardyn::host::system::controlled::SWITCH_MARGIN;
 
 fn loaded(name: &str) -> LoadedModel {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("fmu")
-        .join(name)
-        .join("scene.toml");
-    let mut loaded = load_scene(&path).unwrap();
-    let m = loaded.model.as_mut();
-    m.setup_experiment(0.0, None, None).unwrap();
-    m.exit_initialization().unwrap();
-    loaded
-}
-
-fn vr(m: &dyn CoSimModel, name: &str) -> u32 {
-    (m.variables().iter())
-        .find(|v| v.name == name)
-        .unwrap_or_else(|| panic!("no variable {name}"))
-        .value_reference
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR"));
+    initialized(&root.join("fmu").join(name).join("scene.toml"))
 }
 
 /// The stage's mesh period at its shipped speed (38 pinion teeth).

@@ -6,6 +6,7 @@
 
 #![allow(dead_code)]
 
+pub mod fmu;
 pub mod idler2;
 pub mod idler3;
 pub mod meissner;
