@@ -99,6 +99,10 @@ fn end(w: &mut W, name: &str) -> Result<(), String> {
     w.write_event(Event::End(BytesEnd::new(name))).map_err(io)
 }
 
+/// The vendor-annotation tool that carries `<SwitchTimes variable>` (docs/fmu.md "Switch
+/// times"): one of its own beside `geardyn`'s `<InputDerivatives>`.
+pub const SWITCH_TIMES_TOOL: &str = "geardyn.switch_times";
+
 /// Writes the complete `modelDescription.xml`.
 pub fn model_description(
     info: &ModelInfo,
@@ -223,25 +227,29 @@ pub fn model_description(
     empty(&mut w, "DefaultExperiment", &de)?;
     // §2.2.6: FMI 2.0 declares no highest order of fmi2SetRealInputDerivatives; a model that
     // takes more than order 1 says so here, so that a master can give it polynomial inputs.
-    // A model that announces the times of its switches names the variable that holds them.
+    // A model that announces the times of its switches names the variable that holds them,
+    // under a tool of its own (the schema allows one element per `Tool`, and a tool's name
+    // once).
     let higher_inputs = caps.can_interpolate_inputs && caps.max_input_derivative_order > 1;
     let switch_time = caps
         .switch_time
         .and_then(|vr| vars.iter().find(|v| v.value_reference == vr));
     if higher_inputs || switch_time.is_some() {
         start(&mut w, "VendorAnnotations", &[])?;
-        start(&mut w, "Tool", &[("name", "geardyn".into())])?;
         if higher_inputs {
+            start(&mut w, "Tool", &[("name", "geardyn".into())])?;
             empty(
                 &mut w,
                 "InputDerivatives",
                 &[("maxOrder", caps.max_input_derivative_order.to_string())],
             )?;
+            end(&mut w, "Tool")?;
         }
         if let Some(v) = switch_time {
+            start(&mut w, "Tool", &[("name", SWITCH_TIMES_TOOL.into())])?;
             empty(&mut w, "SwitchTimes", &[("variable", v.name.clone())])?;
+            end(&mut w, "Tool")?;
         }
-        end(&mut w, "Tool")?;
         end(&mut w, "VendorAnnotations")?;
     }
 

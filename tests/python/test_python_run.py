@@ -92,8 +92,10 @@ def test_system_matches_cli(tmp_path):
 
 def test_error_controlled_system_returns_its_steps(tmp_path):
     system = REPO / "examples" / "systems" / "drivetrain3"
-    got = geardyn.run(system, stop_time=2e-3, tolerance=1e-4)
-    run_geardyn("run", system, "--stop-time", "2e-3", "--tolerance", "1e-4", "--out", tmp_path / "cli.csv")
+    # 1e-5: at 1e-4 the master's steps that end at the stage's knots leave no step undone in
+    # the first 2 ms.
+    got = geardyn.run(system, stop_time=2e-3, tolerance=1e-5)
+    run_geardyn("run", system, "--stop-time", "2e-3", "--tolerance", "1e-5", "--out", tmp_path / "cli.csv")
     header, rows = cli_rows(tmp_path / "cli.csv")
     identical(np.column_stack([got.time, got.data]), rows)
     s_header, s_rows = cli_rows(tmp_path / "cli.csv.steps.csv")

@@ -78,7 +78,7 @@ pub(super) fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription,
         .transpose()?;
     let switch_time_name = (raw.vendor_annotations.iter())
         .flat_map(|v| &v.tools)
-        .filter(|t| t.name == "geardyn")
+        .filter(|t| t.name == crate::fmi::description::SWITCH_TIMES_TOOL)
         .find_map(|t| t.switch_times.as_ref())
         .map(|a| {
             a.get("variable")

@@ -48,7 +48,7 @@ pub(super) struct RawRoot {
 }
 
 /// `<VendorAnnotations>` (FMI 2.0.5 §2.2.6): only geardyn's `<InputDerivatives maxOrder>` and
-/// `<SwitchTimes variable>` are read; any other tool's content is accepted and dropped.
+/// `<SwitchTimes variable>` (tool `geardyn.switch_times`) are read; any other tool's content is accepted and dropped.
 #[derive(Deserialize, Default)]
 pub(super) struct RawVendorAnnotations {
     #[serde(rename = "Tool", default)]

@@ -438,10 +438,10 @@ pub(super) fn run(
     let mut h = ctl.h_max;
     let (mut over, mut refused) = (0u64, 0u64);
     let mut deficit = vec![0.0; plan.system.links.len()];
-    // The length of the step whose impulses `deficit` holds: the next step spreads them at
-    // most at that rate, so a step much shorter than it (one that ends at an output point
-    // just after a switch) is not given an offset many times the step's own error; the
-    // rest is carried into the step after.
+    // The length of the switch step whose impulses `deficit` holds (0 after any other
+    // step): the next step spreads them at most at that rate, so a step much shorter than
+    // it (one that ends at an output point just after a switch) is not given an offset many
+    // times the step's own error; the rest is carried into the step after.
     let mut deficit_step = 0.0_f64;
     let mut carry = vec![0.0; plan.system.links.len()];
     // After a switch: per port, the higher derivatives carried across it.
@@ -654,13 +654,11 @@ pub(super) fn run(
             // What the offsets did not carry over this step, and this step's own deficits.
             deficit.copy_from_slice(&carry);
             impulse_deficits(plan, &st, &given, step, &mut deficit);
-            // While a deficit is carried, the rate it is delivered at stays that of the step
-            // that made it.
-            deficit_step = if carry.iter().any(|&c| c != 0.0) {
-                deficit_step.max(step)
-            } else {
-                step
-            };
+            // Only a switch step's deficit is held to its rate (the short step to an output
+            // point after it); any other goes whole into the next step, as it always did: a
+            // deficit carried on at a long step's rate through many short ones (after undone
+            // attempts) is an offset that no smaller step removes.
+            deficit_step = if st.switch_at_end { step } else { 0.0 };
         }
         // A step cut short to land on an output point or a switch does not shrink the next
         // one.
