@@ -9,7 +9,7 @@ mod driver;
 mod scales;
 pub mod stream;
 
-pub use driver::{DrivenModel, Driver, Propagator};
+pub use driver::{DrivenModel, Driver, Propagator, SWITCH_AT_NOW};
 pub use scales::RunScales;
 pub use stream::{
     stream, stream_with, ColumnStats, OutputGrid, Progress, ProgressDisplay, RowSink, RunLimits,

@@ -85,7 +85,7 @@ impl ScopeCounts {
 /// A stop this close after the current time (relative to the time) is a switch at the current
 /// time: an output grid's `k·h` and a clock's `t = (k + b − p₀)/f` carry a few roundings of `t`
 /// each.
-const SWITCH_AT_NOW: f64 = 64.0 * f64::EPSILON;
+pub const SWITCH_AT_NOW: f64 = 64.0 * f64::EPSILON;
 
 /// The propagator actually used.
 pub enum Propagator {

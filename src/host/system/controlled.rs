@@ -82,6 +82,9 @@ use crate::host::description::VarType;
 use crate::host::input::isclose;
 use crate::host::instance::Instance;
 use crate::host::runner::RowSink;
+// How far past a step's end an announced switch may lie and still be the step's end: the FMU
+// reports the state after a switch within this rounding of a communication point.
+use crate::simulation::SWITCH_AT_NOW;
 
 /// The settings of `--tolerance`, `--min-step`, `--max-step`; `None` without `--tolerance`
 /// or where the system cannot roll back (a note says so: fixed steps).
@@ -362,11 +365,6 @@ fn refresh(
     Ok(())
 }
 
-/// How far past a step's end an announced switch may lie and still be the step's end: the
-/// FMU reports the state after a switch that lies within its rounding of a communication
-/// point (`Driver::switch_at_now`, 64 ulp).
-const SWITCH_ROUNDING: f64 = 64.0 * f64::EPSILON;
-
 /// How many of the largest steps ahead an announced switch is read again after every step.
 const SWITCH_REACH: f64 = 4.0;
 
@@ -496,7 +494,7 @@ pub(super) fn run(
         // within that margin before it or within rounding after it (the FMU then reports
         // the state after it).
         let switch = switch_at.iter().copied().fold(f64::INFINITY, f64::min);
-        st.switch_at_end = switch > time && switch - next <= SWITCH_ROUNDING * next.abs();
+        st.switch_at_end = switch > time && switch - next <= SWITCH_AT_NOW * next.abs();
         if st.switch_at_end {
             // Not below a billionth of the time: a step at the smallest step of a long run
             // may be below an FMU's time resolution (geardyn's: 2^20 ulps of the time).
