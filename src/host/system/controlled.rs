@@ -442,6 +442,8 @@ pub(super) fn run(
     // times the step's own error; the rest is carried into the step after.
     let mut deficit_step = 0.0_f64;
     let mut carry = vec![0.0; plan.system.links.len()];
+    // The length of the last accepted step.
+    let mut last_step = 0.0_f64;
     // After a switch: per port, the higher derivatives carried across it.
     let mut across: Option<Vec<[f64; 2]>> = None;
     // The first step after a switch, as a fraction of the largest step: its inputs start
@@ -524,7 +526,14 @@ pub(super) fn run(
         st.prev.copy_from_slice(&st.cur);
         st.der_prev.copy_from_slice(&st.der);
         stepped.iter_mut().for_each(|s| *s = false);
-        let spread = step.max(deficit_step);
+        // A step cut short to end at a switch takes the deficit of the step before at most
+        // at that step's rate too: given whole over a step a hundredth as long, it would be
+        // an offset that makes the inputs jump at the step's start.
+        let spread = if st.switch_at_end {
+            step.max(deficit_step).max(last_step)
+        } else {
+            step.max(deficit_step)
+        };
         for ((o, c), d) in st.offset.iter_mut().zip(&mut carry).zip(&deficit) {
             *o = d / spread;
             *c = if spread > step { d - *o * step } else { 0.0 };
@@ -624,6 +633,7 @@ pub(super) fn run(
             error: err,
             accepted: true,
         });
+        last_step = step;
         scales.accept(&st.cur);
         if st.switch_at_end {
             // The slopes jumped at the step's end: no history spans it. The next step takes
