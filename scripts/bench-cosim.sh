@@ -11,10 +11,13 @@
 # writing the CSV of its own columns. Jacobi runs on one thread (--threads 1), and the five-FMU
 # system's Jacobi/hold also on two (parallel Jacobi, issue 32: bit-identical results; its
 # speedup is the ratio of the two rows). The error-controlled master (--tolerance, issue 32)
-# runs Gauss–Seidel/linear at 1e-3 and 1e-4 on the same output grid (the grid bounds its step).
+# runs Gauss–Seidel/linear at 1e-3 and 1e-4 on the same output grid (the grid bounds its step),
+# at 1e-4 also with --no-shared-binaries (a copy of the one geardyn binary per FMU, as FMI 2.0
+# masters load them; docs/fmu.md "One binary for several FMUs").
 # The commands run in alternating rounds so that a change of machine load hits all of them
 # alike; reported: median wall and CPU time (user + system, children included: `geardyn run`
-# runs the FMUs in a child process) and the ratio to the native run of the same point.
+# runs the FMUs in a child process), their ratios to the native run of the same point, and the
+# median over the rounds of each round's CPU ratio (the run and its native run seconds apart).
 # Not a test: timings depend on the machine and its load.
 # Usage: bash scripts/bench-cosim.sh [ROUNDS]   (default 7)
 set -euo pipefail
@@ -52,9 +55,10 @@ def grid(system):
     return h, ["--stop-time", "1", "--output-interval", repr(h)]
 
 
-def run(system, out, grid, algorithm, extrapolation, threads, tol):
+def run(system, out, grid, algorithm, extrapolation, threads, tol, copies=False):
     cmd = [exe, "run", system, "--out", out, *grid, "--algorithm", algorithm, "--extrapolation", extrapolation]
     cmd += ["--tolerance", tol] if tol else []
+    cmd += ["--no-shared-binaries"] if copies else []
     return cmd + (["--threads", str(threads)] if algorithm == "jacobi" else [])
 
 
@@ -62,10 +66,12 @@ groups = []
 for system, n_fmus, couplings in (
         ("examples/systems/drivetrain3", 3, [("jacobi", "none", 1, None), ("jacobi", "linear", 1, None),
                                              ("gauss-seidel", "linear", 1, None), ("gauss-seidel", "linear", 1, "1e-3"),
-                                             ("gauss-seidel", "linear", 1, "1e-4")]),
+                                             ("gauss-seidel", "linear", 1, "1e-4"),
+                                             ("gauss-seidel", "linear", 1, "1e-4 copies")]),
         ("examples/systems/drivetrain", 5, [("jacobi", "none", 1, None), ("jacobi", "none", 2, None),
                                             ("gauss-seidel", "none", 1, None), ("gauss-seidel", "linear", 1, None),
-                                            ("gauss-seidel", "linear", 1, "1e-3"), ("gauss-seidel", "linear", 1, "1e-4")])):
+                                            ("gauss-seidel", "linear", 1, "1e-3"), ("gauss-seidel", "linear", 1, "1e-4"),
+                                            ("gauss-seidel", "linear", 1, "1e-4 copies")])):
     h, g = grid(system)
     rpm = pinion_speed(system) * 30 / math.pi
     point = dr.SteadyPoint(rpm, 10.0)
@@ -73,11 +79,14 @@ for system, n_fmus, couplings in (
     with open(scene, "w") as fh:
         fh.write(point.monolithic_scene(open(native).read()))
     commands = {f"monolithic drivetrain (native), {rpm:.0f} rpm": [exe, "simulate", scene, "--out", f"{tmp}/n{n_fmus}.csv", *g, "--quiet"]}
-    for alg, ex, threads, tol in couplings:
+    for alg, ex, threads, spec in couplings:
+        tol, _, copies = (spec or "").partition(" ")
         label = f"{n_fmus} FMUs, geardyn run {'GS' if alg == 'gauss-seidel' else 'Jacobi'}/{'hold' if ex == 'none' else 'linear'}"
         label += ", 2 threads" if threads == 2 else ""
         label += f", --tolerance {tol}" if tol else ""
-        commands[label] = run(system, f"{tmp}/{n_fmus}{alg}{ex}{threads}{tol}.csv", g, alg, ex, threads, tol)
+        label += ", a binary per FMU" if copies else ""
+        out = f"{tmp}/{n_fmus}{alg}{ex}{threads}{tol}{copies}.csv"
+        commands[label] = run(system, out, g, alg, ex, threads, tol, bool(copies))
     groups.append((system, h, commands))
 
 
@@ -102,13 +111,14 @@ med = statistics.median
 print(f"median of {rounds} alternating rounds, output interval (fixed communication step) T_mesh/20, stop 1 s;"
       f" load average (1 min) before: {load_before:.2f}, after each run: median {med(loads):.2f},"
       f" {min(loads):.2f} to {max(loads):.2f}:")
-print(f"  {'':48}  {'wall':>8}  {'ratio':>6}  {'CPU':>8}  {'ratio':>6}")
+print(f"  {'':60}  {'wall':>8}  {'ratio':>6}  {'CPU':>8}  {'ratio':>6}  {'per round':>9}")
 for system, h, commands in groups:
     print(f"{system} (h = {h:.4e} s):")
     base = next(iter(commands))
     bw, bc = med([w for w, _ in samples[base]]), med([c for _, c in samples[base]])
     for name in commands:
         w, c = med([w for w, _ in samples[name]]), med([c for _, c in samples[name]])
-        print(f"  {name:48}  {w:7.3f}s  {w / bw:6.3f}  {c:7.3f}s  {c / bc:6.3f}")
+        per_round = med([s[1] / b[1] for s, b in zip(samples[name], samples[base])])
+        print(f"  {name:60}  {w:7.3f}s  {w / bw:6.3f}  {c:7.3f}s  {c / bc:6.3f}  {per_round:9.3f}")
 print(f"load average after: {os.getloadavg()[0]:.2f}")
 EOF_PY

@@ -22,11 +22,12 @@
 
 #[path = "common/cpu.rs"]
 mod cpu;
+#[path = "common/files.rs"]
+mod files;
 mod fmu_harness;
 
 use std::ffi::{c_char, c_int, c_void, CString};
 use std::os::unix::process::ExitStatusExt;
-use std::path::PathBuf;
 use std::process::Command;
 use std::ptr::{null, null_mut};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -267,24 +268,12 @@ struct Target {
     _dir: tempfile::TempDir,
 }
 
-/// The cdylib of this build: next to the test executable (`target/<profile>/deps`).
-fn cdylib() -> PathBuf {
-    let deps = std::env::current_exe()
-        .unwrap()
-        .parent()
-        .unwrap()
-        .to_path_buf();
-    let so = deps.join("libgeardyn.so");
-    assert!(so.is_file(), "{} not built", so.display());
-    so
-}
-
 impl Target {
     fn new(name: &'static str) -> Target {
         let dir = tempfile::tempdir().unwrap();
         let bin = dir.path().join("binaries/linux64");
         std::fs::create_dir_all(&bin).unwrap();
-        std::os::unix::fs::symlink(cdylib(), bin.join(format!("{name}.so"))).unwrap();
+        std::os::unix::fs::symlink(files::cdylib(), bin.join(format!("{name}.so"))).unwrap();
         let lib = FmuLibrary::load(dir.path(), name).unwrap();
         let loaded = geardyn::fmu::entry::load_scene(&scene_dir(name).join("scene.toml")).unwrap();
         let vars = loaded.model.variables();

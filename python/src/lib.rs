@@ -1321,6 +1321,7 @@ fn run(
         max_step,
         no_impulse_correction: false,
         no_switch_steps: false,
+        no_shared_binaries: false,
         timing: false,
     };
     // `run`'s options are this function's arguments, none of them a scene parameter.

@@ -103,6 +103,12 @@ fn end(w: &mut W, name: &str) -> Result<(), String> {
 /// times"): one of its own beside `geardyn`'s `<InputDerivatives>`.
 pub const SWITCH_TIMES_TOOL: &str = "geardyn.switch_times";
 
+/// The vendor-annotation tool that carries `<SharedBinary/>` (docs/fmu.md "One binary for
+/// several FMUs"): every geardyn FMU's binary is the same library, which keeps no state
+/// outside its instances, so a host may load one copy of it for all the FMUs of a system
+/// whose binaries are byte-identical (FMI 2.0 gives each FMU its own).
+pub const SHARED_BINARY_TOOL: &str = "geardyn.shared_binary";
+
 /// Writes the complete `modelDescription.xml`.
 pub fn model_description(
     info: &ModelInfo,
@@ -229,29 +235,30 @@ pub fn model_description(
     // takes more than order 1 says so here, so that a master can give it polynomial inputs.
     // A model that announces the times of its switches names the variable that holds them,
     // under a tool of its own (the schema allows one element per `Tool`, and a tool's name
-    // once).
+    // once). Every geardyn FMU announces that its binary may be shared ([`SHARED_BINARY_TOOL`]).
     let higher_inputs = caps.can_interpolate_inputs && caps.max_input_derivative_order > 1;
     let switch_time = caps
         .switch_time
         .and_then(|vr| vars.iter().find(|v| v.value_reference == vr));
-    if higher_inputs || switch_time.is_some() {
-        start(&mut w, "VendorAnnotations", &[])?;
-        if higher_inputs {
-            start(&mut w, "Tool", &[("name", "geardyn".into())])?;
-            empty(
-                &mut w,
-                "InputDerivatives",
-                &[("maxOrder", caps.max_input_derivative_order.to_string())],
-            )?;
-            end(&mut w, "Tool")?;
-        }
-        if let Some(v) = switch_time {
-            start(&mut w, "Tool", &[("name", SWITCH_TIMES_TOOL.into())])?;
-            empty(&mut w, "SwitchTimes", &[("variable", v.name.clone())])?;
-            end(&mut w, "Tool")?;
-        }
-        end(&mut w, "VendorAnnotations")?;
+    start(&mut w, "VendorAnnotations", &[])?;
+    if higher_inputs {
+        start(&mut w, "Tool", &[("name", "geardyn".into())])?;
+        empty(
+            &mut w,
+            "InputDerivatives",
+            &[("maxOrder", caps.max_input_derivative_order.to_string())],
+        )?;
+        end(&mut w, "Tool")?;
     }
+    if let Some(v) = switch_time {
+        start(&mut w, "Tool", &[("name", SWITCH_TIMES_TOOL.into())])?;
+        empty(&mut w, "SwitchTimes", &[("variable", v.name.clone())])?;
+        end(&mut w, "Tool")?;
+    }
+    start(&mut w, "Tool", &[("name", SHARED_BINARY_TOOL.into())])?;
+    empty(&mut w, "SharedBinary", &[])?;
+    end(&mut w, "Tool")?;
+    end(&mut w, "VendorAnnotations")?;
 
     start(&mut w, "ModelVariables", &[])?;
     for (i, v) in vars.iter().enumerate() {

@@ -141,8 +141,51 @@ pub fn refuse_duplicates<R: io::Read + io::Seek>(
     Ok(())
 }
 
+/// Binaries extracted before in this process that other FMUs may share (they announce
+/// `<SharedBinary/>`): each file with its ZIP entry's CRC-32 and size.
+#[derive(Default)]
+pub struct SharedBinaries(Vec<(u32, u64, PathBuf)>);
+
+/// [`unpack`], except the entry `binary` (`binaries/linux64/<id>.so`): where a binary in
+/// `shared` has the same CRC-32 and size, this FMU's is a hard link to that file, not
+/// inflated and written again; otherwise it is extracted and added to `shared`. `true` when
+/// linked. A link is the same file, so `dlopen` gives the library already loaded from it
+/// (glibc knows a loaded object by its device and inode): one copy of the code serves both
+/// FMUs, which frees the processor's caches of a second copy of the same hot paths
+/// (docs/cosimulation.md, "One binary for the system's FMUs"). The CRC-32 and size of the ZIP
+/// directory stand for the bytes: only FMUs whose model description announces the sharing
+/// come here, and an entry that matched them by accident (odds 2⁻³² at equal size) would run
+/// the announcing library, not bytes of its own.
+pub fn unpack_sharing(
+    fmu: &Path,
+    binary: &str,
+    shared: &mut SharedBinaries,
+) -> Result<(Unpacked, bool), String> {
+    unpack_with(fmu, MAX_UNPACKED_BYTES, Some((Path::new(binary), shared)))
+}
+
+/// `modelDescription.xml` of the FMU archive `fmu`, read without unpacking it; `None` where
+/// it cannot be read that way (not a ZIP file, no such entry, not UTF-8): [`unpack`] then
+/// says why.
+pub fn model_description_in(fmu: &Path) -> Option<String> {
+    let file = fs::File::open(fmu).ok()?;
+    let mut zip = zip::ZipArchive::new(io::BufReader::new(file)).ok()?;
+    let mut entry = zip.by_name("modelDescription.xml").ok()?;
+    let mut text = String::new();
+    entry.read_to_string(&mut text).ok()?;
+    Some(text)
+}
+
 /// [`unpack`] with an explicit limit on the bytes extracted.
 pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
+    unpack_with(fmu, max_bytes, None).map(|(u, _)| u)
+}
+
+fn unpack_with(
+    fmu: &Path,
+    max_bytes: u64,
+    mut share: Option<(&Path, &mut SharedBinaries)>,
+) -> Result<(Unpacked, bool), String> {
     let meta = fs::metadata(fmu).map_err(|e| match e.kind() {
         io::ErrorKind::NotFound => format!("{}: no such file", fmu.display()),
         _ => format!("{}: cannot access: {e}", fmu.display()),
@@ -157,11 +200,14 @@ pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
         // Absolute, because the resource location passed to the FMU is a file:// URI.
         let root = fs::canonicalize(fmu)
             .map_err(|e| format!("{}: cannot resolve the path: {e}", fmu.display()))?;
-        return Ok(Unpacked {
-            _temp: None,
-            root,
-            zip_problems: Vec::new(),
-        });
+        return Ok((
+            Unpacked {
+                _temp: None,
+                root,
+                zip_problems: Vec::new(),
+            },
+            false,
+        ));
     }
     let file = fs::File::open(fmu).map_err(|e| format!("{}: cannot open: {e}", fmu.display()))?;
     let mut zip = zip::ZipArchive::new(io::BufReader::new(file)).map_err(|e| {
@@ -179,6 +225,7 @@ pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
     let mut written: u64 = 0;
     let mut zip_problems = Vec::new();
     let mut chunk = vec![0; COPY_CHUNK];
+    let mut linked = false;
     for i in 0..zip.len() {
         let mut entry = zip
             .by_index(i)
@@ -241,6 +288,20 @@ pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
                 format!("{}: cannot create {}: {e}", fmu.display(), parent.display())
             })?;
         }
+        // The shared binary: linked where an identical one was extracted before (a failed
+        // link, say across file systems, extracts it after all), else recorded once written.
+        let mut record = None;
+        if let Some((binary, shared)) = &share {
+            if rel == *binary {
+                let key = (entry.crc32(), entry.size());
+                let earlier = shared.0.iter().find(|(c, s, _)| (*c, *s) == key);
+                if earlier.is_some_and(|(_, _, file)| fs::hard_link(file, &out).is_ok()) {
+                    linked = true;
+                    continue;
+                }
+                record = Some(key);
+            }
+        }
         let mut f = fs::File::create(&out)
             .map_err(|e| format!("{}: cannot create {}: {e}", fmu.display(), out.display()))?;
         // Count actual bytes (the sizes in the ZIP headers can lie), stop one past the limit.
@@ -259,6 +320,9 @@ pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
             ));
         }
         written += n;
+        if let (Some((crc, size)), Some((_, shared))) = (record, share.as_mut()) {
+            shared.0.push((crc, size, out.clone()));
+        }
         // Keep the executable bit of shared libraries (dlopen does not need it, but tools
         // that exec helper binaries from resources/ do).
         #[cfg(unix)]
@@ -274,11 +338,14 @@ pub fn unpack_limited(fmu: &Path, max_bytes: u64) -> Result<Unpacked, String> {
         ));
     }
     let root = temp.path().to_path_buf();
-    Ok(Unpacked {
-        _temp: Some(temp),
-        root,
-        zip_problems,
-    })
+    Ok((
+        Unpacked {
+            _temp: Some(temp),
+            root,
+            zip_problems,
+        },
+        linked,
+    ))
 }
 
 #[cfg(test)]

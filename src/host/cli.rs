@@ -127,6 +127,11 @@ pub struct RunArgs {
     /// estimate alone).
     #[arg(long)]
     pub no_switch_steps: bool,
+    /// Systems: load every FMU's own binary, also where FMUs with byte-identical binaries
+    /// announce that one loaded copy may serve them all (geardyn's `<SharedBinary/>`,
+    /// docs/fmu.md "One binary for several FMUs"; for comparison).
+    #[arg(long)]
+    pub no_shared_binaries: bool,
     /// Report where the time went: the step loop, the part inside the FMU's calls, CSV writing.
     #[arg(long)]
     pub timing: bool,

@@ -70,6 +70,10 @@ pub struct CoSimulation {
     /// switch of its equations (geardyn's vendor annotation `<SwitchTimes variable>`): the
     /// error-controlled master ends a step there (`host::system::controlled`).
     pub switch_time: Option<u32>,
+    /// The FMU's binary keeps no state outside its instances, so one loaded copy may serve
+    /// every FMU of a system whose binary is byte-identical (geardyn's vendor annotation
+    /// `<SharedBinary/>`; `host::library::FmuLibrary::load_identical`).
+    pub shares_binary: bool,
     pub can_run_asynchronuously: bool,
     pub can_be_instantiated_only_once_per_process: bool,
     pub can_not_use_memory_management_functions: bool,

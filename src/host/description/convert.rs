@@ -86,6 +86,10 @@ pub(super) fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription,
                 .ok_or("<SwitchTimes>: required attribute variable is missing")
         })
         .transpose()?;
+    let shares_binary = (raw.vendor_annotations.iter())
+        .flat_map(|v| &v.tools)
+        .filter(|t| t.name == crate::fmi::description::SHARED_BINARY_TOOL)
+        .any(|t| t.shared_binary.is_some());
     let mut co_simulation = raw
         .co_simulation
         .map(|a| -> Result<CoSimulation, String> {
@@ -109,6 +113,7 @@ pub(super) fn convert(raw: RawRoot, lines: &[usize]) -> Result<ModelDescription,
                 },
                 // Resolved below, once the variables are read.
                 switch_time: None,
+                shares_binary,
                 max_output_derivative_order: a
                     .get("maxOutputDerivativeOrder")
                     .map(|s| parse_u32(s, &|| format!("{c}: maxOutputDerivativeOrder")))

@@ -48,7 +48,8 @@ pub(super) struct RawRoot {
 }
 
 /// `<VendorAnnotations>` (FMI 2.0.5 §2.2.6): only geardyn's `<InputDerivatives maxOrder>` and
-/// `<SwitchTimes variable>` (tool `geardyn.switch_times`) are read; any other tool's content is accepted and dropped.
+/// `<SwitchTimes variable>` (tool `geardyn.switch_times`) and `<SharedBinary/>` (tool
+/// `geardyn.shared_binary`) are read; any other tool's content is accepted and dropped.
 #[derive(Deserialize, Default)]
 pub(super) struct RawVendorAnnotations {
     #[serde(rename = "Tool", default)]
@@ -63,6 +64,8 @@ pub(super) struct RawTool {
     pub(super) input_derivatives: Option<RawAttrs>,
     #[serde(rename = "SwitchTimes")]
     pub(super) switch_times: Option<RawAttrs>,
+    #[serde(rename = "SharedBinary")]
+    pub(super) shared_binary: Option<RawAttrs>,
 }
 
 /// Any element whose attributes we read generically (names kept for messages).

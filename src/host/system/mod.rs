@@ -27,12 +27,12 @@ mod step;
 pub mod units;
 pub mod xml;
 
-use crate::host::archive::{unpack, Unpacked};
+use crate::host::archive::{self, unpack, Unpacked};
 use crate::host::cli::{self, RunArgs};
 use crate::host::csv::{CsvWriter, CutBack};
 use crate::host::description::{parse as parse_md, ModelDescription, VarType};
 use crate::host::instance::Instance;
-use crate::host::library::{FmuLibrary, Status};
+use crate::host::library::{FmuLibrary, Status, PLATFORM};
 use crate::host::logger::Logger;
 use crate::host::runner;
 use crate::host::supervise::{Activity, ChildEnd, HostPhase, SharedActivity, Supervisor};
@@ -199,15 +199,46 @@ struct Fmus {
     sources: Vec<String>,
     /// Per component: its FMU.
     fmu_of: Vec<usize>,
+    /// The FMUs whose binary is a link to an identical one unpacked before them
+    /// ([`archive::unpack_sharing`]).
+    shared: Vec<String>,
 }
 
-fn load_fmus(opened: &Opened, sys: &ssd::Ssd) -> Result<Fmus, String> {
+/// Unpacks the FMU at `p` and parses its model description. With `shared`, an FMU whose
+/// description announces `<SharedBinary/>` gets its binary linked to an identical one
+/// unpacked before (`true` then).
+fn unpack_fmu(
+    p: &Path,
+    source: &str,
+    shared: Option<&mut archive::SharedBinaries>,
+) -> Result<(Unpacked, ModelDescription, bool), String> {
+    let md_name = format!("{source}/modelDescription.xml");
+    // The description is read first only to see whether the binary may be shared; unpacking
+    // checks the archive either way and says what is wrong with it.
+    let announced = shared.and_then(|sh| {
+        let md = parse_md(&archive::model_description_in(p)?, &md_name).ok()?;
+        let cs = md.co_simulation.as_ref().filter(|c| c.shares_binary)?;
+        let binary = format!("binaries/{PLATFORM}/{}.so", cs.model_identifier);
+        Some((sh, binary, md))
+    });
+    if let Some((sh, binary, md)) = announced {
+        let (u, linked) = archive::unpack_sharing(p, &binary, sh)?;
+        return Ok((u, md, linked));
+    }
+    let u = unpack(p)?;
+    let md = parse_md(&u.model_description_text()?, &md_name)?;
+    Ok((u, md, false))
+}
+
+fn load_fmus(opened: &Opened, sys: &ssd::Ssd, share_binaries: bool) -> Result<Fmus, String> {
     let mut f = Fmus {
         unpacked: Vec::new(),
         mds: Vec::new(),
         sources: Vec::new(),
         fmu_of: Vec::new(),
+        shared: Vec::new(),
     };
+    let mut binaries = archive::SharedBinaries::default();
     let mut paths: Vec<PathBuf> = Vec::new();
     for c in &sys.components {
         let p = source_path(&opened.root, &c.source, opened._temp.is_some())
@@ -230,12 +261,11 @@ fn load_fmus(opened: &Opened, sys: &ssd::Ssd) -> Result<Fmus, String> {
             f.fmu_of.push(i);
             continue;
         }
-        let u = unpack(&p).map_err(|e| format!("component \"{}\": {e}", c.name))?;
-        let md = parse_md(
-            &u.model_description_text()?,
-            &format!("{}/modelDescription.xml", c.source),
-        )
-        .map_err(|e| format!("component \"{}\": {e}", c.name))?;
+        let (u, md, linked) = unpack_fmu(&p, &c.source, share_binaries.then_some(&mut binaries))
+            .map_err(|e| format!("component \"{}\": {e}", c.name))?;
+        if linked {
+            f.shared.push(c.source.clone());
+        }
         if md.co_simulation.is_none() {
             return Err(format!(
                 "component \"{}\": {} declares no <CoSimulation> interface (geardyn runs FMI 2.0 Co-Simulation FMUs)",
@@ -590,7 +620,7 @@ pub fn run(args: &RunArgs) -> Result<u8, String> {
     let supervisor = Supervisor::new()?;
     let opened = open(&args.fmu)?;
     let sys = ssd::parse(&opened.ssd_text, &opened)?;
-    let fmus = load_fmus(&opened, &sys)?;
+    let fmus = load_fmus(&opened, &sys, !args.no_shared_binaries)?;
     let shared = SharedActivity::new()?;
     let activity = shared.get();
     let mut notes = Vec::new();
@@ -671,6 +701,12 @@ fn child_run(
         libs.push(
             FmuLibrary::load(u.root(), &cs.model_identifier)
                 .map_err(|e| format!("{}: {e}", fmus.sources[i]))?,
+        );
+    }
+    if !fmus.shared.is_empty() && Logger::new(log_level).prints_all() {
+        eprintln!(
+            "note: {} load the identical binary of an FMU before them (<SharedBinary/>; --no-shared-binaries loads each its own)",
+            fmus.shared.join(", ")
         );
     }
     let mut insts: Vec<Instance> = Vec::new();
