@@ -435,6 +435,16 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
 
     /// The outputs without a search per value reference: a host reads them after every step.
     fn get_reals(&self, vrs: &[u32], out: &mut [f64]) -> Result<(), String> {
+        // After a change of the inputs, outputs the kernel evaluates on their own (a speed
+        // port's torque, refreshed by the master) cost less than the whole vector.
+        if !self.outputs_fresh.get()
+            && vrs.iter().zip(out.iter_mut()).all(|(&vr, slot)| {
+                let alone = self.output_index(vr).and_then(|i| K::output(&self.sim, i));
+                alone.map(|v| *slot = v).is_some()
+            })
+        {
+            return Ok(());
+        }
         // Fetched once per call, not per value reference.
         let mut outputs = None;
         for (&vr, slot) in vrs.iter().zip(out.iter_mut()) {
@@ -636,7 +646,7 @@ impl<K: Kernel> CoSimModel for Adapter<K> {
                 })
             })
             .collect::<Result<Vec<usize>, String>>()?;
-        K::output_rates(&self.sim, &ks, &self.current_outputs(), out)
+        K::output_rates(&self.sim, &ks, &|| self.current_outputs(), out)
     }
 }
 

@@ -4,6 +4,8 @@
 //! cycle, the rebuild on every parameter change, the output cache, stepping, reset, the
 //! snapshot and its checks) is the adapter's and the same for every kernel.
 
+use std::cell::Ref;
+
 use crate::fmi::model::{input_polynomial, Variable};
 use crate::fmu::payload::Snapshot;
 use crate::scene::SolverSettings;
@@ -75,6 +77,13 @@ pub trait Kernel: 'static {
     fn set_inputs(sim: &mut Driver<Self::Model>, u: &[f64]) -> Result<(), String>;
     /// The outputs at the current time, in value-reference order (cleared first).
     fn outputs(sim: &Driver<Self::Model>, out: &mut Vec<f64>);
+    /// Output `k` (an index into [`Kernel::outputs`]) on its own, where the kernel evaluates
+    /// it without the others (the same value); `None` otherwise. A master that refreshes a
+    /// compliance's efforts after its new inputs reads only those (the drivetrain's speed-port
+    /// torques), and the whole vector costs a right-hand side and every mesh's quantities.
+    fn output(_sim: &Driver<Self::Model>, _k: usize) -> Option<f64> {
+        None
+    }
 
     fn extra(s: &Self::Settings) -> Self::Extra;
     fn set_extra(s: &mut Self::Settings, extra: &Self::Extra);
@@ -92,14 +101,16 @@ pub trait Kernel: 'static {
     }
     /// `d/dt` of the outputs `ks` at the current time into `out` ([`Self::output_rate`] of
     /// each; a kernel whose rates share the state derivative may evaluate it once).
-    fn output_rates(
+    /// `outputs` gives the current outputs, evaluated only when first asked for (a rate that
+    /// does not need them, a speed port torque's, costs no evaluation of the others).
+    fn output_rates<'a>(
         sim: &Driver<Self::Model>,
         ks: &[usize],
-        outputs: &[f64],
+        outputs: &dyn Fn() -> Ref<'a, [f64]>,
         out: &mut [f64],
     ) -> Result<(), String> {
         for (&k, slot) in ks.iter().zip(out.iter_mut()) {
-            *slot = Self::output_rate(sim, k, outputs)?;
+            *slot = Self::output_rate(sim, k, &outputs())?;
         }
         Ok(())
     }

@@ -10,6 +10,8 @@ mod documentation;
 pub mod state;
 mod variables;
 
+use std::cell::Ref;
+
 use crate::fmi::model::Variable;
 use crate::fmu::checks::check;
 use crate::fmu::kernel::{Kernel, KernelSnapshot};
@@ -285,6 +287,11 @@ impl Kernel for Drivetrain {
         train_row(sim, out);
     }
 
+    fn output(sim: &TrainSimulation, k: usize) -> Option<f64> {
+        sim.model()
+            .port_torque(sim.output_names().get(k)?, sim.t(), sim.state())
+    }
+
     fn extra(_: &Scene) {}
 
     fn set_extra(_: &mut Scene, _: &()) {}
@@ -326,10 +333,10 @@ impl Kernel for Drivetrain {
     }
 
     /// The port torques' rates share the state derivative: it is evaluated once per call.
-    fn output_rates(
+    fn output_rates<'a>(
         sim: &TrainSimulation,
         ks: &[usize],
-        outputs: &[f64],
+        outputs: &dyn Fn() -> Ref<'a, [f64]>,
         out: &mut [f64],
     ) -> Result<(), String> {
         let names = sim.output_names();
@@ -343,7 +350,7 @@ impl Kernel for Drivetrain {
                     continue;
                 }
             }
-            *slot = Self::output_rate(sim, k, outputs)?;
+            *slot = Self::output_rate(sim, k, &outputs())?;
         }
         Ok(())
     }

@@ -1121,6 +1121,12 @@ impl GearTrain {
         rot.port_torque_rate(name, t, y, &dy)
     }
 
+    /// A speed port's `<port>.torque` output at `(t, y)` on its own, without the other
+    /// outputs (the same value as in [`Self::outputs`]); `None` if `name` is not one.
+    pub fn port_torque(&self, name: &str, t: f64, y: &[f64]) -> Option<f64> {
+        self.rotation.as_ref()?.port_torque(name, t, y)
+    }
+
     /// Whether `name` is a speed port's `<port>.torque` output ([`Self::port_torque_rate`]).
     pub fn is_port_torque(&self, name: &str) -> bool {
         self.rotation

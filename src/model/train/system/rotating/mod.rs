@@ -262,6 +262,14 @@ impl Carried {
             .any(|p| p.coupling.is_some() && name.strip_suffix(".torque") == Some(p.name.as_str()))
     }
 
+    /// A speed port's `<port>.torque` output at `(t, y)` on its own (the value of
+    /// [`Carried::outputs`]); `None` if `name` is not one.
+    pub(crate) fn port_torque(&self, name: &str, t: f64, y: &[f64]) -> Option<f64> {
+        let p = (self.ports.iter()).find(|p| name.strip_suffix(".torque") == Some(&p.name))?;
+        let c = p.coupling.as_ref()?;
+        Some(port_torque(c, t, self.body_motion(p.body, t, y)))
+    }
+
     /// `d/dt` of a speed port's `<port>.torque` output at `(t, y)`, `dy` the state
     /// derivative there; `None` if `name` is not one.
     pub(crate) fn port_torque_rate(
@@ -524,8 +532,7 @@ impl Carried {
         for p in &self.ports {
             let i = start + 3 * p.body;
             match &p.coupling {
-                // The torque the stage applies to the neighbour (its flange.torque input).
-                Some(c) => out.push(-c.torque_on_gear(t, (out[i], out[i + 1]))),
+                Some(c) => out.push(port_torque(c, t, (out[i], out[i + 1]))),
                 None => out.extend_from_within(i..i + 3),
             }
         }
@@ -533,6 +540,12 @@ impl Carried {
             a.outputs(t, y, dy, self, out);
         }
     }
+}
+
+/// A speed port's `<port>.torque` output: the torque the stage applies to the neighbour (its
+/// `flange.torque` input), from the gear's angle and speed.
+fn port_torque(c: &Coupling, t: f64, gear: (f64, f64)) -> f64 {
+    -c.torque_on_gear(t, gear)
 }
 
 /// The phase terms of mesh `n` if it belongs to a planetary stage: `(z, (carrier, z_c))` with
