@@ -522,7 +522,7 @@ pub fn run<'a>(insts: &mut [Instance<'a>], plan: &Plan, sink: &mut dyn RowSink) 
         .map(|e| e.name.clone())
         .collect();
     std::thread::scope(|s| {
-        let mut pool = Pool::<'a>::start(s, plan.threads, &names);
+        let mut pool = Pool::<'a>::start(s, plan.threads, plan.threads_asked, &names);
         run_with(insts, plan, sink, Some(&mut pool))
     })
 }

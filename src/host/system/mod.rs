@@ -538,6 +538,7 @@ fn plan<'a>(
     };
     Ok(Plan {
         threads,
+        threads_asked: args.threads.is_some(),
         watched,
         divergence_factor,
         control,

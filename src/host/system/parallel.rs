@@ -10,14 +10,19 @@
 //!
 //! The workers live for the whole run (a thread per step would cost ~26 µs, more than a step
 //! of the shipped drivetrain); each macro step costs one channel round trip per worker
-//! (~3 µs measured). The elements are assigned to the threads after [`MEASURED`] serial
-//! steps, longest measured `fmi2DoStep` time first, each to the least loaded thread (the
-//! master's own thread is one of them).
+//! (~3 µs measured on 2026-11-29, ~60 µs on the same kind of virtual machine on 2026-12-01:
+//! a wake-up across its processors costs what the machine makes it cost). The elements are
+//! assigned to the threads after [`MEASURED`] serial steps, longest measured `fmi2DoStep`
+//! time first, each to the least loaded thread (the master's own thread is one of them).
+//! Unless `--threads` asked for the threads, the assignment is kept only if the step it gives
+//! (the most loaded thread's work plus a measured round trip) is shorter than the serial
+//! step; otherwise every element stays on the master's thread, so that the default never
+//! makes a run slower than the serial one.
 
 use super::step::{do_step, StepEnd};
 use crate::host::instance::Instance;
 use std::sync::mpsc::{channel, Receiver, Sender};
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// Serial steps whose `fmi2DoStep` times decide the assignment.
 pub const MEASURED: u64 = 32;
@@ -48,6 +53,8 @@ pub(super) struct Pool<'a> {
     thread_of: Vec<usize>,
     /// Per element: measured `fmi2DoStep` time over the first [`MEASURED`] steps.
     measured: Vec<Duration>,
+    /// `--threads` asked for the threads: they are used whatever the measurements say.
+    asked: bool,
 }
 
 impl<'a> Pool<'a> {
@@ -55,6 +62,7 @@ impl<'a> Pool<'a> {
     pub(super) fn start<'scope>(
         scope: &'scope std::thread::Scope<'scope, '_>,
         threads: usize,
+        asked: bool,
         names: &'scope [String],
     ) -> Pool<'a>
     where
@@ -86,6 +94,7 @@ impl<'a> Pool<'a> {
             done,
             thread_of: vec![0; names.len()],
             measured: vec![Duration::ZERO; names.len()],
+            asked,
         }
     }
 
@@ -94,8 +103,34 @@ impl<'a> Pool<'a> {
         self.measured[e] += took;
     }
 
+    /// The time of one round trip to every worker with no work: the median of a few.
+    fn round_trip(&self) -> Duration {
+        let mut took: Vec<Duration> = (0..9)
+            .map(|_| {
+                let start = Instant::now();
+                let sent = (self.jobs.iter())
+                    .filter(|tx| {
+                        let empty = Job {
+                            items: Vec::new(),
+                            time: 0.0,
+                            step: 0.0,
+                        };
+                        tx.send(empty).is_ok()
+                    })
+                    .count();
+                for _ in 0..sent {
+                    let _ = self.done.recv();
+                }
+                start.elapsed()
+            })
+            .collect();
+        took.sort();
+        took[took.len() / 2]
+    }
+
     /// Assign the elements to the threads from the measured times (longest first, each to
-    /// the least loaded thread).
+    /// the least loaded thread); unless `--threads` asked for them, back to the master's
+    /// thread alone when that step would not be shorter than the serial one (module doc).
     pub(super) fn assign(&mut self) {
         let threads = self.jobs.len() + 1;
         let mut order: Vec<usize> = (0..self.measured.len()).collect();
@@ -105,6 +140,17 @@ impl<'a> Pool<'a> {
             let t = (0..threads).min_by_key(|&t| (load[t], t)).unwrap_or(0);
             load[t] += self.measured[e];
             self.thread_of[e] = t;
+        }
+        if self.asked {
+            return;
+        }
+        // Over the measured steps: the serial work against the busiest thread's plus a
+        // round trip per step.
+        let serial: Duration = self.measured.iter().sum();
+        let busiest = load.iter().copied().max().unwrap_or_default();
+        let parallel = busiest + self.round_trip() * MEASURED as u32;
+        if parallel >= serial {
+            self.thread_of.fill(0);
         }
     }
 
@@ -148,5 +194,33 @@ impl<'a> Pool<'a> {
             }
         }
         results
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The default keeps the threads only where they shorten the step: elements whose
+    /// measured steps took a nanosecond stay on the master's thread (any handoff costs more),
+    /// elements of a second each go to both threads; `--threads` keeps them on threads
+    /// whatever the measurements say.
+    #[test]
+    fn threads_are_kept_only_where_they_pay_unless_asked_for() {
+        let names: Vec<String> = (0..3).map(|e| format!("e{e}")).collect();
+        std::thread::scope(|s| {
+            let assigned = |asked: bool, each: Duration| {
+                let mut pool = Pool::start(s, 2, asked, &names);
+                for e in 0..names.len() {
+                    pool.measure(e, each);
+                }
+                pool.assign();
+                pool.thread_of.clone()
+            };
+            let tiny = Duration::from_nanos(1);
+            assert_eq!(assigned(false, tiny), vec![0, 0, 0]);
+            assert_eq!(assigned(false, Duration::from_secs(1)), vec![0, 1, 0]);
+            assert_eq!(assigned(true, tiny), vec![0, 1, 0]);
+        });
     }
 }

@@ -61,6 +61,9 @@ pub struct Plan<'a> {
     pub can_vary: bool,
     /// Threads for the `fmi2DoStep` calls of a Jacobi step ([`super::parallel`]; 1: serial).
     pub threads: usize,
+    /// Whether `--threads` asked for them: otherwise they are used only where a measured
+    /// handoff to a thread costs less than the work it moves ([`super::parallel::Pool::assign`]).
+    pub threads_asked: bool,
     /// The ports watched for divergence, with their units ([`super::divergence`]), and the
     /// growth factor that stops the run (0: off).
     pub watched: Vec<(usize, String)>,
