@@ -96,7 +96,8 @@ pub struct RunArgs {
     pub extrapolation: Option<String>,
     /// Systems with --algorithm jacobi: threads for the FMUs' steps (results bit-identical
     /// to one thread). Default: the number of cores for ≥ 3 FMUs that all allow several
-    /// instances per process, else 1.
+    /// instances per process, kept only where a measured handoff to the threads costs less
+    /// than the work it moves (docs/systems.md), else 1.
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
     /// Systems: stop when a connected speed, torque or force grows more than this factor
