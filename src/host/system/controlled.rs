@@ -436,14 +436,10 @@ pub(super) fn run(
     let mut h = ctl.h_max;
     let (mut over, mut refused) = (0u64, 0u64);
     let mut deficit = vec![0.0; plan.system.links.len()];
-    // The length of the switch step whose impulses `deficit` holds (0 after any other
-    // step): the next step spreads them at most at that rate, so a step much shorter than
-    // it (one that ends at an output point just after a switch) is not given an offset many
-    // times the step's own error; the rest is carried into the step after.
-    let mut deficit_step = 0.0_f64;
     let mut carry = vec![0.0; plan.system.links.len()];
-    // The length of the last accepted step.
-    let mut last_step = 0.0_f64;
+    // The last accepted step, whose impulse deficits `deficit` holds, and whether it ended
+    // at a switch (the rate at which they are given, below).
+    let (mut last_step, mut last_at_switch) = (0.0_f64, false);
     // After a switch: per port, the higher derivatives carried across it.
     let mut across: Option<Vec<[f64; 2]>> = None;
     // The first step after a switch, as a fraction of the largest step: its inputs start
@@ -526,13 +522,17 @@ pub(super) fn run(
         st.prev.copy_from_slice(&st.cur);
         st.der_prev.copy_from_slice(&st.der);
         stepped.iter_mut().for_each(|s| *s = false);
-        // A step cut short to end at a switch takes the deficit of the step before at most
-        // at that step's rate too: given whole over a step a hundredth as long, it would be
-        // an offset that makes the inputs jump at the step's start.
-        let spread = if st.switch_at_end {
-            step.max(deficit_step).max(last_step)
+        // Where the step before or this one ends at a switch, the deficit is given at most
+        // at the rate of the step that made it and the rest carried: a step much shorter
+        // than that one (the short step to an output point after a switch, or to a switch
+        // just after a grid point) would otherwise take an offset many times its own error,
+        // a jump of its inputs. Any other deficit goes whole into the next step: carried on
+        // through the short steps after undone attempts, it would be an offset that no
+        // smaller step removes.
+        let spread = if st.switch_at_end || last_at_switch {
+            step.max(last_step)
         } else {
-            step.max(deficit_step)
+            step
         };
         for ((o, c), d) in st.offset.iter_mut().zip(&mut carry).zip(&deficit) {
             *o = d / spread;
@@ -633,7 +633,7 @@ pub(super) fn run(
             error: err,
             accepted: true,
         });
-        last_step = step;
+        (last_step, last_at_switch) = (step, st.switch_at_end);
         scales.accept(&st.cur);
         if st.switch_at_end {
             // The slopes jumped at the step's end: no history spans it. The next step takes
@@ -662,11 +662,6 @@ pub(super) fn run(
             // What the offsets did not carry over this step, and this step's own deficits.
             deficit.copy_from_slice(&carry);
             impulse_deficits(plan, &st, &given, step, &mut deficit);
-            // Only a switch step's deficit is held to its rate (the short step to an output
-            // point after it); any other goes whole into the next step, as it always did: a
-            // deficit carried on at a long step's rate through many short ones (after undone
-            // attempts) is an offset that no smaller step removes.
-            deficit_step = if st.switch_at_end { step } else { 0.0 };
         }
         // A step cut short to land on an output point or a switch does not shrink the next
         // one.

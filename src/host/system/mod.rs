@@ -213,21 +213,27 @@ fn unpack_fmu(
     shared: Option<&mut archive::SharedBinaries>,
 ) -> Result<(Unpacked, ModelDescription, bool), String> {
     let md_name = format!("{source}/modelDescription.xml");
-    // The description is read first only to see whether the binary may be shared; unpacking
-    // checks the archive either way and says what is wrong with it.
-    let announced = shared.and_then(|sh| {
-        let md = parse_md(&archive::model_description_in(p)?, &md_name).ok()?;
-        let cs = md.co_simulation.as_ref().filter(|c| c.shares_binary)?;
-        let binary = format!("binaries/{PLATFORM}/{}.so", cs.model_identifier);
-        Some((sh, binary, md))
-    });
-    if let Some((sh, binary, md)) = announced {
-        let (u, linked) = archive::unpack_sharing(p, &binary, sh)?;
-        return Ok((u, md, linked));
+    // With sharing, the description is read from the archive first, to see whether the
+    // binary may be shared; where that read fails, unpacking checks the archive and the
+    // description is read from the unpacked folder, whose errors say what is wrong.
+    let read_first = shared
+        .is_some()
+        .then(|| parse_md(&archive::model_description_in(p)?, &md_name).ok())
+        .flatten();
+    let Some(md) = read_first else {
+        let u = unpack(p)?;
+        let md = parse_md(&u.model_description_text()?, &md_name)?;
+        return Ok((u, md, false));
+    };
+    let announced = md.co_simulation.as_ref().filter(|c| c.shares_binary);
+    match (announced, shared) {
+        (Some(cs), Some(sh)) => {
+            let binary = format!("binaries/{PLATFORM}/{}.so", cs.model_identifier);
+            let (u, linked) = archive::unpack_sharing(p, &binary, sh)?;
+            Ok((u, md, linked))
+        }
+        _ => Ok((unpack(p)?, md, false)),
     }
-    let u = unpack(p)?;
-    let md = parse_md(&u.model_description_text()?, &md_name)?;
-    Ok((u, md, false))
 }
 
 fn load_fmus(opened: &Opened, sys: &ssd::Ssd, share_binaries: bool) -> Result<Fmus, String> {

@@ -256,18 +256,23 @@ impl Carried {
         coupling.map(|c| c.neighbour = motion).is_some()
     }
 
+    /// The speed port whose `<port>.torque` output is `name`: its gear and coupling.
+    fn speed_port(&self, name: &str) -> Option<(usize, &Coupling)> {
+        let port = name.strip_suffix(".torque")?;
+        let p = self.ports.iter().find(|p| p.name == port)?;
+        Some((p.body, p.coupling.as_ref()?))
+    }
+
     /// Whether `name` is a speed port's `<port>.torque` output.
     pub(crate) fn is_port_torque(&self, name: &str) -> bool {
-        (self.ports.iter())
-            .any(|p| p.coupling.is_some() && name.strip_suffix(".torque") == Some(p.name.as_str()))
+        self.speed_port(name).is_some()
     }
 
     /// A speed port's `<port>.torque` output at `(t, y)` on its own (the value of
     /// [`Carried::outputs`]); `None` if `name` is not one.
     pub(crate) fn port_torque(&self, name: &str, t: f64, y: &[f64]) -> Option<f64> {
-        let p = (self.ports.iter()).find(|p| name.strip_suffix(".torque") == Some(&p.name))?;
-        let c = p.coupling.as_ref()?;
-        Some(port_torque(c, t, self.body_motion(p.body, t, y)))
+        let (body, c) = self.speed_port(name)?;
+        Some(port_torque(c, t, self.body_motion(body, t, y)))
     }
 
     /// `d/dt` of a speed port's `<port>.torque` output at `(t, y)`, `dy` the state
@@ -279,10 +284,9 @@ impl Carried {
         y: &[f64],
         dy: &[f64],
     ) -> Option<f64> {
-        let p = (self.ports.iter()).find(|p| name.strip_suffix(".torque") == Some(&p.name))?;
-        let c = p.coupling.as_ref()?;
-        let speed = self.body_motion(p.body, t, y).1;
-        Some(-c.torque_rate(t, speed, self.body_acceleration(p.body, dy)))
+        let (body, c) = self.speed_port(name)?;
+        let speed = self.body_motion(body, t, y).1;
+        Some(-c.torque_rate(t, speed, self.body_acceleration(body, dy)))
     }
 
     /// `θ_b''` from the state derivative (the reference rotation has no acceleration).
