@@ -106,6 +106,10 @@ pub struct SolverStats {
     /// Segments propagated by their Taylor series, their mode not built (exact propagator,
     /// a mode beyond the memory budget of the full path: `exact::series_segment`).
     pub series_segments: u64,
+    /// Modes built from their band of rows alone, balanced by the band frame of their
+    /// contact combinations (exact propagator, a free train's modes beyond the memory budget
+    /// of the full path: `exact::balanced::BandFrame`).
+    pub frame_modes: u64,
     /// Transition matrices built (exact propagator: Padé exponentials of a duration bin), in
     /// the advances under a work limit: the meter's sign that an exponential was paid for
     /// (its full check, [`crate::simulation::budget`]). An unbounded advance meters nothing,
@@ -125,6 +129,7 @@ impl SolverStats {
         self.guard_exclusions += other.guard_exclusions;
         self.recurring_segments += other.recurring_segments;
         self.series_segments += other.series_segments;
+        self.frame_modes += other.frame_modes;
         self.transitions += other.transitions;
     }
 }

@@ -8,9 +8,12 @@
 //! LAPACK `gebal`; `D` a diagonal of powers of two, so the scaling is exact). Balancing is
 //! invariant under `A → Aτ` (it compares row and column sums), so `D` and `B` belong to the
 //! mode and every duration costs only the exponential itself: on the stack
-//! ([`super::expm`]) for the small augmented sizes, nalgebra's `exp` otherwise.
+//! ([`super::expm`]) for the small augmented sizes, nalgebra's `exp` otherwise. The modes of a
+//! free train met once each share one `D` instead ([`BandFrame`]).
 
-use std::cell::Cell;
+use std::cell::{Cell, OnceCell};
+use std::ops::Range;
+use std::sync::Arc;
 
 use nalgebra::DMatrix;
 
@@ -81,8 +84,9 @@ pub struct TaylorWork {
 /// The balanced form of one mode matrix.
 #[derive(Clone)]
 pub struct BalancedMatrix {
-    /// `B = D⁻¹ A D`.
-    b: DMatrix<f64>,
+    /// `B = D⁻¹ A D`: at once for a mode balanced on its own, at its first use for a mode
+    /// of a [`BandFrame`] (its series needs only [`BalancedMatrix::times`]).
+    b: OnceCell<DMatrix<f64>>,
     /// The diagonal of `D`.
     scale: Vec<f64>,
     /// `‖B‖₁`, for the remainder bound of [`BalancedMatrix::exp_times`].
@@ -90,6 +94,135 @@ pub struct BalancedMatrix {
     /// `B` by rows, the non-zeros of its sparse rows and the runs of its dense rows, when that
     /// pays ([`BalancedMatrix::times`]).
     sparse: Option<SparseRows>,
+    /// A mode of a [`BandFrame`]: its band of rows of `B`, the rest the frame's.
+    band: Option<Band>,
+}
+
+/// The rows of `B` in which a mode of a [`BandFrame`] differs from the others.
+#[derive(Clone)]
+struct Band {
+    frame: Arc<BandFrame>,
+    /// The band's rows of `B`, column-major (columns of the band's height).
+    rows: Vec<f64>,
+}
+
+/// The modes of a system that differ only in a band of rows of `A`
+/// ([`super::PiecewiseLti::lti_band`]: a free gear train's accelerations, where a contact
+/// combination adds or drops a mesh's rank-one terms), balanced by one `D`. A mode of the
+/// frame costs the writing and scaling of its band, `O(band · n)`, instead of its whole
+/// matrix written, scanned and balanced, `O(n²)` several times over; its series products
+/// take the frame's shared rows by their non-zeros and the band by the blocked kernel. Any
+/// `D` of powers of two gives `e^{Aτ} = D e^{Bτ} D⁻¹` exactly; what `D` decides is `‖B‖₁`,
+/// and with it the series' terms. `D` is that of the envelope `max |A|` of the modes built
+/// whole since the frame began (the mode cache's `widen_frame`), so every mode within the
+/// envelope has `‖B‖₁` at most the envelope's; on the free chains of issue 37 that is within
+/// 1.6× of each mode's own balancing (`docs/scaling.md`, "One balancing for the contact
+/// combinations"). A mode whose `‖B‖₁` exceeds [`BandFrame::NORM_LIMIT`] times the
+/// envelope's is built whole and widens the envelope.
+pub struct BandFrame {
+    /// `D` of every mode of the frame.
+    scale: Vec<f64>,
+    /// The rows written per mode.
+    band: Range<usize>,
+    /// The other rows of `B` by their non-zeros (the band's rows empty).
+    shared: SparseRows,
+    /// Per column, `Σ |b_ij|` over the shared rows.
+    column_sums: Vec<f64>,
+    /// `‖B‖₁` of the envelope the frame was balanced by.
+    norm: f64,
+}
+
+impl BandFrame {
+    /// Largest `‖B‖₁` of a mode of the frame over the envelope's: beyond it the mode is built
+    /// whole and balanced on its own (a contact combination outside the envelope would pay
+    /// the difference in series terms on every segment).
+    pub const NORM_LIMIT: f64 = 4.0;
+
+    /// The frame of the modes whose rows outside `band` are those of `a`, balanced by the
+    /// `D` of `envelope` (a matrix that bounds the modes' entries, balanced on its own, whose
+    /// `‖B‖₁` the modes are compared with); `None` if `envelope` is not finite.
+    pub fn of(
+        a: &DMatrix<f64>,
+        envelope: &BalancedMatrix,
+        band: Range<usize>,
+    ) -> Option<BandFrame> {
+        if !envelope.norm.is_finite() || envelope.band.is_some() {
+            return None;
+        }
+        let n = a.nrows();
+        let scale = &envelope.scale;
+        let mut shared = SparseRows {
+            starts: Vec::with_capacity(n + 1),
+            columns: Vec::new(),
+            values: Vec::new(),
+            dense: Vec::new(),
+        };
+        let mut column_sums = vec![0.0; n];
+        shared.starts.push(0);
+        for i in 0..n {
+            if !band.contains(&i) {
+                for j in 0..n {
+                    // A ratio of powers of two: the scaling is exact.
+                    let v = a[(i, j)] * (scale[j] / scale[i]);
+                    if v != 0.0 {
+                        shared.columns.push(j as u32);
+                        shared.values.push(v);
+                        column_sums[j] += v.abs();
+                    }
+                }
+            }
+            shared.starts.push(shared.columns.len() as u32);
+        }
+        Some(BandFrame {
+            scale: scale.clone(),
+            band,
+            shared,
+            column_sums,
+            norm: envelope.norm,
+        })
+    }
+
+    /// Heap bytes of the frame.
+    pub fn heap_bytes(&self) -> usize {
+        (self.scale.capacity() + self.column_sums.capacity()) * 8 + self.shared.heap_bytes()
+    }
+
+    /// The rows written per mode.
+    pub fn band(&self) -> Range<usize> {
+        self.band.clone()
+    }
+
+    /// The balanced mode whose band of `A` is `rows` (column-major, columns of the band's
+    /// height; scaled in place to `B`'s), or `None` if an entry is not finite or its `‖B‖₁`
+    /// exceeds [`BandFrame::NORM_LIMIT`] times the envelope's.
+    pub fn balance(self: &Arc<Self>, mut rows: Vec<f64>) -> Option<BalancedMatrix> {
+        let height = self.band.len();
+        let mut norm = 0.0f64;
+        for (j, column) in rows.chunks_exact_mut(height).enumerate() {
+            let dj = self.scale[j];
+            let mut sum = self.column_sums[j];
+            for (v, &di) in column.iter_mut().zip(&self.scale[self.band.clone()]) {
+                // A ratio of powers of two: the scaling is exact.
+                *v *= dj / di;
+                sum += v.abs();
+            }
+            // (A NaN fails the comparison.)
+            if !(sum <= self.norm * Self::NORM_LIMIT) {
+                return None;
+            }
+            norm = norm.max(sum);
+        }
+        Some(BalancedMatrix {
+            b: OnceCell::new(),
+            scale: self.scale.clone(),
+            norm,
+            sparse: None,
+            band: Some(Band {
+                frame: Arc::clone(self),
+                rows,
+            }),
+        })
+    }
 }
 
 /// A matrix by rows: the rows with few non-zeros as their non-zeros only (compressed sparse
@@ -108,6 +241,13 @@ struct SparseRows {
 }
 
 impl SparseRows {
+    fn heap_bytes(&self) -> usize {
+        self.starts.capacity() * 4
+            + self.columns.capacity() * 4
+            + self.values.capacity() * 8
+            + self.dense.capacity() * 8
+    }
+
     /// The rows of `b` if that is cheaper than the dense product: a row with more than a
     /// third of its entries non-zero is dense (the blocked kernel's cost per entry is about
     /// a third of a compressed row's per non-zero: the threshold at which the whole matrix
@@ -240,10 +380,11 @@ impl BalancedMatrix {
             // Nothing to balance; the exponential is non-finite and the caller detects the
             // non-finite state.
             return BalancedMatrix {
-                b,
+                b: OnceCell::from(b),
                 scale,
                 norm: f64::INFINITY,
                 sparse: None,
+                band: None,
             };
         };
         let data = b.as_mut_slice();
@@ -318,11 +459,27 @@ impl BalancedMatrix {
             .fold(0.0, f64::max);
         let sparse = SparseRows::of(&b, &by_row);
         BalancedMatrix {
-            b,
+            b: OnceCell::from(b),
             scale,
             norm,
             sparse,
+            band: None,
         }
+    }
+
+    /// The number of states.
+    pub fn dim(&self) -> usize {
+        self.scale.len()
+    }
+
+    /// Whether the mode is one of a [`BandFrame`].
+    pub fn in_band_frame(&self) -> bool {
+        self.band.is_some()
+    }
+
+    /// `A = D B D⁻¹` (exact: `D` holds powers of two).
+    pub fn unbalanced(&self) -> DMatrix<f64> {
+        self.unbalance(self.matrix().clone())
     }
 
     /// `out = B u`. The sparse rows' products in ascending column order, as the dense
@@ -330,6 +487,23 @@ impl BalancedMatrix {
     /// product's own kernel, so the result is the same bit for bit; without sparse rows the
     /// dense product.
     pub fn times(&self, u: &[f64], out: &mut [f64]) {
+        if let Some(band) = &self.band {
+            let frame = &band.frame;
+            let shared = &frame.shared;
+            for (i, o) in out.iter_mut().enumerate() {
+                let range = shared.starts[i] as usize..shared.starts[i + 1] as usize;
+                let mut sum = 0.0;
+                for (&j, &v) in shared.columns[range.clone()]
+                    .iter()
+                    .zip(&shared.values[range])
+                {
+                    sum += v * u[j as usize];
+                }
+                *o = sum;
+            }
+            super::mat_vec::mat_vec_band(&band.rows, u, &mut out[frame.band.clone()]);
+            return;
+        }
         match &self.sparse {
             Some(rows) => {
                 for (i, o) in out.iter_mut().enumerate() {
@@ -342,30 +516,49 @@ impl BalancedMatrix {
                 }
                 for &(start, end) in &rows.dense {
                     super::mat_vec::mat_vec_rows(
-                        self.b.as_slice(),
+                        self.matrix().as_slice(),
                         u,
                         start as usize..end as usize,
                         out,
                     );
                 }
             }
-            None => super::mat_vec::mat_vec(self.b.as_slice(), u, out),
+            None => super::mat_vec::mat_vec(self.matrix().as_slice(), u, out),
         }
     }
 
-    /// Heap bytes of the sparse rows (the dense matrix is counted by the mode).
-    pub fn sparse_bytes(&self) -> usize {
-        self.sparse.as_ref().map_or(0, |r| {
-            r.starts.capacity() * 4
-                + r.columns.capacity() * 4
-                + r.values.capacity() * 8
-                + r.dense.capacity() * 8
-        })
+    /// Heap bytes of `B` (as far as it is built), its sparse rows and its band (a frame's
+    /// shared rows are counted once, by the cache).
+    pub fn heap_bytes(&self) -> usize {
+        self.b.get().map_or(0, |b| b.len() * 8)
+            + self.sparse.as_ref().map_or(0, SparseRows::heap_bytes)
+            + self
+                .band
+                .as_ref()
+                .map_or(0, |band| band.rows.capacity() * 8)
     }
 
-    /// `B = D⁻¹ A D`.
+    /// `B = D⁻¹ A D` (assembled at its first use for a mode of a [`BandFrame`]).
     pub fn matrix(&self) -> &DMatrix<f64> {
-        &self.b
+        self.b.get_or_init(|| {
+            let band = self.band.as_ref().expect("a mode without B is in a frame");
+            let (frame, n) = (&band.frame, self.scale.len());
+            let mut b = DMatrix::zeros(n, n);
+            for i in 0..n {
+                let range = frame.shared.starts[i] as usize..frame.shared.starts[i + 1] as usize;
+                for (&j, &v) in frame.shared.columns[range.clone()]
+                    .iter()
+                    .zip(&frame.shared.values[range])
+                {
+                    b[(i, j as usize)] = v;
+                }
+            }
+            let height = frame.band.len();
+            for (j, column) in band.rows.chunks_exact(height).enumerate() {
+                b.column_mut(j).as_mut_slice()[frame.band.clone()].copy_from_slice(column);
+            }
+            b
+        })
     }
 
     /// The diagonal of `D`.
@@ -416,8 +609,12 @@ impl BalancedMatrix {
         let mut bound = 1.0;
         // The split rows where they pay most ([`SERIES_ROWS_FROM`]), the dense product below:
         // the same bits either way.
-        let by_rows = n >= SERIES_ROWS_FROM;
-        let b = self.b.as_slice();
+        let by_rows = n >= SERIES_ROWS_FROM || self.band.is_some();
+        let b = if by_rows {
+            &[][..]
+        } else {
+            self.matrix().as_slice()
+        };
         for k in 1..=MAX_TERMS {
             let tail = bound * theta / k as f64 / (1.0 - theta / (k + 1) as f64);
             if theta < (k + 1) as f64 && tail <= f64::EPSILON / 4.0 {
@@ -485,7 +682,7 @@ impl BalancedMatrix {
 
     /// `e^{Aτ}`: Padé on the stack for the small sizes, nalgebra's `exp` otherwise.
     pub fn exp(&self, tau: f64) -> DMatrix<f64> {
-        let n = self.b.nrows();
+        let n = self.dim();
         let fixed = match n {
             1 => self.fixed::<1>(tau),
             2 => self.fixed::<2>(tau),
@@ -507,7 +704,7 @@ impl BalancedMatrix {
             }
             // nalgebra's exponential (also where the stack one found no finite result: its
             // cost then follows the actual norm, not the balanced one).
-            None => self.unbalance(metered_exp(&(&self.b * tau))),
+            None => self.unbalance(metered_exp(&(self.matrix() * tau))),
         }
     }
 
@@ -525,7 +722,7 @@ impl BalancedMatrix {
         let mut bt: Square<N> = [[0.0; N]; N];
         for (j, column) in bt.iter_mut().enumerate() {
             for (i, x) in column.iter_mut().enumerate() {
-                *x = self.b[(i, j)] * tau;
+                *x = self.matrix()[(i, j)] * tau;
             }
         }
         let e = expm(&bt)?;

@@ -1,7 +1,8 @@
 //! [`BalancedMatrix::new`] against the dense Parlett–Reinsch sweeps it replaces (every
 //! entry of every column and row, as LAPACK `gebal` and this crate's balancing before it read
 //! only the non-zeros): the same `D`, `B` and `‖B‖₁` bit for bit, and [`BalancedMatrix::times`]
-//! the plain row sums of that `B`.
+//! the plain row sums of that `B`; and the modes of a band frame against `D⁻¹AD` of their
+//! frame's `D`.
 
 use nalgebra::DMatrix;
 
@@ -103,6 +104,18 @@ fn sparse_matrix(
     })
 }
 
+/// `balanced.times(u)` for a random `u` is the plain row sums of `b`, bit for bit.
+fn assert_times_is_the_plain_row_sums(balanced: &BalancedMatrix, b: &DMatrix<f64>, seed: &mut u64) {
+    let n = b.nrows();
+    let u: Vec<f64> = (0..n).map(|_| uniform(seed) - 0.5).collect();
+    let mut out = vec![f64::NAN; n];
+    balanced.times(&u, &mut out);
+    for (i, &o) in out.iter().enumerate() {
+        let sum = (0..n).fold(0.0, |s, j| s + b[(i, j)] * u[j]);
+        assert_eq!(o.to_bits(), sum.to_bits(), "B u, n = {n}, row {i}");
+    }
+}
+
 #[test]
 fn the_sparse_sweeps_give_the_dense_balancing_bit_for_bit() {
     let mut seed = 0x9e37_79b9_7f4a_7c15u64;
@@ -131,13 +144,7 @@ fn the_sparse_sweeps_give_the_dense_balancing_bit_for_bit() {
             assert_eq!(balanced.norm().to_bits(), norm.to_bits(), "‖B‖₁, n = {n}");
             // The product by rows (sparse rows compressed, dense rows blocked) against the
             // plain row sums of the dense `B`.
-            let u: Vec<f64> = (0..n).map(|_| uniform(&mut seed) - 0.5).collect();
-            let mut out = vec![f64::NAN; n];
-            balanced.times(&u, &mut out);
-            for (i, &o) in out.iter().enumerate() {
-                let sum = (0..n).fold(0.0, |s, j| s + b[(i, j)] * u[j]);
-                assert_eq!(o.to_bits(), sum.to_bits(), "B u, n = {n}, row {i}");
-            }
+            assert_times_is_the_plain_row_sums(&balanced, &b, &mut seed);
             cases += 1;
         }
     }
@@ -152,4 +159,94 @@ fn a_matrix_with_a_non_finite_entry_is_left_as_it_is() {
     assert!(balanced.norm().is_infinite());
     assert_eq!(balanced.scale(), &[1.0; 9]);
     assert_eq!(balanced.matrix()[(2, 3)], a[(2, 3)]);
+}
+
+/// The modes of a [`BandFrame`]: matrices that share every row outside a band, balanced by
+/// the `D` of their envelope `max |A|`. Each mode's `B` is `D⁻¹ A D` bit for bit, its
+/// product by rows the plain row sums of that `B`, its `A` recovered exactly, its `‖B‖₁` the
+/// column sums of its `B`, and its exponential that of the mode balanced on its own; a mode
+/// far outside the envelope, or with an entry that is not finite, is refused.
+#[test]
+fn a_band_frame_balances_every_mode_of_its_rows_exactly() {
+    use super::balanced::BandFrame;
+    use std::sync::Arc;
+    let mut seed = 0x2545_f491_4f6c_dd1du64;
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    for n in [2, 5, 9, 33, 65, 129] {
+        let band = n / 3..(n / 3 + n / 4).max(n / 3 + 1);
+        let base = sparse_matrix(n, 0.2, 4.0, false, &mut seed);
+        // Modes: the band rows dense and random, some entries dropped (a lost contact).
+        let modes: Vec<DMatrix<f64>> = (0..6)
+            .map(|_| {
+                let mut a = base.clone();
+                for i in band.clone() {
+                    for j in 0..n {
+                        a[(i, j)] = if uniform(&mut seed) < 0.2 {
+                            0.0
+                        } else {
+                            (uniform(&mut seed) - 0.5) * 10f64.powf(uniform(&mut seed) * 4.0)
+                        };
+                    }
+                }
+                a
+            })
+            .collect();
+        let envelope = (modes.iter()).fold(DMatrix::<f64>::zeros(n, n), |e, a| {
+            e.zip_map(a, |x: f64, y: f64| x.max(y.abs()))
+        });
+        let frame = Arc::new(
+            BandFrame::of(&modes[0], &BalancedMatrix::new(&envelope), band.clone())
+                .expect("a finite envelope"),
+        );
+        let d = BalancedMatrix::new(&envelope).scale().to_vec();
+        let h = band.len();
+        for a in &modes {
+            let rows: Vec<f64> = (0..n)
+                .flat_map(|j| band.clone().map(move |i| (i, j)))
+                .map(|(i, j)| a[(i, j)])
+                .collect();
+            assert_eq!(rows.len(), h * n);
+            let balanced = frame.balance(rows).expect("a mode within the envelope");
+            assert!(balanced.in_band_frame());
+            assert_eq!(bits(balanced.scale()), bits(&d), "D, n = {n}");
+            let b = DMatrix::from_fn(n, n, |i, j| a[(i, j)] * (d[j] / d[i]));
+            assert_eq!(
+                bits(balanced.matrix().as_slice()),
+                bits(b.as_slice()),
+                "B, n = {n}"
+            );
+            assert_eq!(
+                bits(balanced.unbalanced().as_slice()),
+                bits(a.as_slice()),
+                "A, n = {n}"
+            );
+            let norm = (0..n)
+                .map(|j| b.column(j).iter().map(|x| x.abs()).sum::<f64>())
+                .fold(0.0, f64::max);
+            assert!(
+                (balanced.norm() - norm).abs() <= 1e-14 * norm,
+                "‖B‖₁ {} against {norm}, n = {n}",
+                balanced.norm()
+            );
+            assert_times_is_the_plain_row_sums(&balanced, &b, &mut seed);
+            let tau = 0.5 / norm;
+            let (x, y) = (balanced.exp(tau), BalancedMatrix::new(a).exp(tau));
+            let scale = y.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let diff = (&x - &y).iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            assert!(
+                diff <= 1e-12 * scale,
+                "e^(Aτ), n = {n}: {diff:e} of {scale:e}"
+            );
+        }
+        // Far outside the envelope, or not finite: refused.
+        let mut far: Vec<f64> = (0..n)
+            .flat_map(|j| band.clone().map(move |i| (i, j)))
+            .map(|(i, j)| modes[0][(i, j)])
+            .collect();
+        let mut nan = far.clone();
+        far[h * (n - 1)] = 1e300;
+        assert!(frame.balance(far).is_none(), "n = {n}");
+        nan[0] = f64::NAN;
+        assert!(frame.balance(nan).is_none(), "n = {n}");
+    }
 }

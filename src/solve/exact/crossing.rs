@@ -96,18 +96,18 @@ pub fn first_crossing(
             if i < 64 && excluded & (1 << i) != 0 {
                 continue;
             }
-            let rows = &mut mode.guard_rows[i];
+            let (rows, a, null_space) = mode.guard_rows_with_a(i);
             let (g_left, d_left) = if k == 0 {
                 stats.guard_evals += 2;
                 (
                     dot(rows.row(0), &ws.z_left),
-                    rows.coefficient(&mode.a, 1, &ws.z_left),
+                    rows.coefficient(a, 1, &ws.z_left),
                 )
             } else {
                 ws.right_ends[i]
             };
             let g_right = dot(rows.row(0), &ws.z_right);
-            let d_right = rows.coefficient(&mode.a, 1, &ws.z_right);
+            let d_right = rows.coefficient(a, 1, &ws.z_right);
             stats.guard_evals += 2;
             ws.right_ends[i] = (g_right, d_right);
             if g_left <= 0.0 && d_left <= 0.0 {
@@ -131,7 +131,7 @@ pub fn first_crossing(
             };
             // First with the weights alone: if that holds, the tightened bound (never larger)
             // would hold too, so the decision is the same.
-            let plain = rows.plain_curvature_bound(&mode.a, &mode.null_space, h, &ws.z_left);
+            let plain = rows.plain_curvature_bound(a, null_space, h, &ws.z_left);
             stats.guard_evals += 1;
             if let Some(p) = plain.filter(|_| g_right >= 0.0) {
                 if proves_free(p * width * width) {
@@ -149,7 +149,7 @@ pub fn first_crossing(
                     continue;
                 }
             }
-            let series = GuardSeries::from_rows(rows, &mode.a, &ws.z_left, width);
+            let series = GuardSeries::from_rows(rows, a, &ws.z_left, width);
             stats.guard_evals += series.terms() as u64;
             let start = Point {
                 at: 0.0,

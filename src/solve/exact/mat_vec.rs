@@ -21,13 +21,35 @@ pub fn mat_vec(m: &[f64], z: &[f64], out: &mut [f64]) {
 /// other rows have few non-zeros: [`super::balanced::BalancedMatrix::times`]).
 #[inline]
 pub fn mat_vec_rows(m: &[f64], z: &[f64], rows: std::ops::Range<usize>, out: &mut [f64]) {
+    strided_rows(m, z.len(), z, rows, out);
+}
+
+/// `out = m · z` for a column-major matrix of `out.len()` rows and `z.len()` columns (the
+/// band of rows in which the modes of a system differ,
+/// [`super::balanced::BandFrame`]), each row summed in ascending column order as
+/// [`mat_vec`] sums it.
+#[inline]
+pub fn mat_vec_band(m: &[f64], z: &[f64], out: &mut [f64]) {
+    let rows = out.len();
+    strided_rows(m, rows, z, 0..rows, out);
+}
+
+/// `out[rows] = m[rows, :] · z` for a column-major matrix with columns of `stride` entries.
+#[inline]
+fn strided_rows(
+    m: &[f64],
+    stride: usize,
+    z: &[f64],
+    rows: std::ops::Range<usize>,
+    out: &mut [f64],
+) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx") {
         // SAFETY: the CPU has AVX (checked just above).
-        unsafe { rows_blocked_avx(m, z, rows, out) };
+        unsafe { rows_blocked_avx(m, stride, z, rows, out) };
         return;
     }
-    rows_blocked(m, z, rows, out);
+    rows_blocked(m, stride, z, rows, out);
 }
 
 /// [`rows_blocked`] compiled for AVX: four lanes per instruction instead of two. The same
@@ -35,16 +57,29 @@ pub fn mat_vec_rows(m: &[f64], z: &[f64], rows: std::ops::Range<usize>, out: &mu
 /// bit for bit that of the baseline build.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx")]
-unsafe fn rows_blocked_avx(m: &[f64], z: &[f64], rows: std::ops::Range<usize>, out: &mut [f64]) {
-    rows_blocked(m, z, rows, out);
+unsafe fn rows_blocked_avx(
+    m: &[f64],
+    stride: usize,
+    z: &[f64],
+    rows: std::ops::Range<usize>,
+    out: &mut [f64],
+) {
+    rows_blocked(m, stride, z, rows, out);
 }
 
-/// The rows `rows` of the product: blocks of rows in registers, or streamed column by column
-/// beyond [`BLOCKED_ROWS`].
+/// The rows `rows` of the product of a column-major matrix with columns of `stride`
+/// entries: blocks of rows in registers, or streamed column by column beyond
+/// [`BLOCKED_ROWS`].
 #[inline(always)]
-fn rows_blocked(m: &[f64], z: &[f64], rows: std::ops::Range<usize>, out: &mut [f64]) {
-    let n = z.len();
-    let m = &m[..n * n];
+fn rows_blocked(
+    m: &[f64],
+    stride: usize,
+    z: &[f64],
+    rows: std::ops::Range<usize>,
+    out: &mut [f64],
+) {
+    let n = stride;
+    let m = &m[..n * z.len()];
     if n > BLOCKED_ROWS {
         let out = &mut out[rows.clone()];
         out.fill(0.0);
@@ -63,21 +98,21 @@ fn rows_blocked(m: &[f64], z: &[f64], rows: std::ops::Range<usize>, out: &mut [f
     // not depend on the blocking.
     let mut row = rows.start;
     while row + 16 <= rows.end {
-        rows_block::<16>(m, z, row, out);
+        rows_block::<16>(m, n, z, row, out);
         row += 16;
     }
     if row + 8 <= rows.end {
-        rows_block::<8>(m, z, row, out);
+        rows_block::<8>(m, n, z, row, out);
         row += 8;
     }
     if row + 4 <= rows.end {
-        rows_block::<4>(m, z, row, out);
+        rows_block::<4>(m, n, z, row, out);
         row += 4;
     }
     match rows.end - row {
-        1 => rows_block::<1>(m, z, row, out),
-        2 => rows_block::<2>(m, z, row, out),
-        3 => rows_block::<3>(m, z, row, out),
+        1 => rows_block::<1>(m, n, z, row, out),
+        2 => rows_block::<2>(m, n, z, row, out),
+        3 => rows_block::<3>(m, n, z, row, out),
         _ => {}
     }
 }
@@ -87,12 +122,12 @@ fn rows_blocked(m: &[f64], z: &[f64], rows: std::ops::Range<usize>, out: &mut [f
 /// `8n` bytes, one page per column or so once `n` is in the hundreds).
 const BLOCKED_ROWS: usize = 128;
 
-/// `out[row..row + R] = m[row..row + R, :] · z`, the `R` sums in registers.
+/// `out[row..row + R] = m[row..row + R, :] · z`, the `R` sums in registers (columns of
+/// `stride` entries).
 #[inline(always)]
-fn rows_block<const R: usize>(m: &[f64], z: &[f64], row: usize, out: &mut [f64]) {
-    let n = z.len();
+fn rows_block<const R: usize>(m: &[f64], stride: usize, z: &[f64], row: usize, out: &mut [f64]) {
     let mut acc = [0.0f64; R];
-    for (column, &zj) in m.chunks_exact(n).zip(z) {
+    for (column, &zj) in m.chunks_exact(stride).zip(z) {
         let column: &[f64; R] = column[row..row + R].try_into().expect("R rows");
         for (a, &mij) in acc.iter_mut().zip(column) {
             *a += mij * zj;
@@ -116,7 +151,7 @@ fn mat_vec_fixed<const N: usize>(m: &[f64], z: &[f64], out: &mut [f64]) {
 
 #[cfg(test)]
 mod tests {
-    use super::{mat_vec, mat_vec_rows};
+    use super::{mat_vec, mat_vec_band, mat_vec_rows};
 
     /// Every size from 1 to past the streamed ones against the plain sums, row by row in
     /// ascending column order, bit for bit (the blocking only changes which sums share a
@@ -144,6 +179,18 @@ mod tests {
                     sum += m[j * n + i] * z[j];
                 }
                 assert_eq!(out[i].to_bits(), sum.to_bits(), "n = {n}, row {i}");
+            }
+            // A band of rows stored alone (columns of the band's height): the same bits.
+            for (start, end) in [(0, n), (n / 3, n / 3 + n / 2 + 1), (n - 1, n)] {
+                let end = end.min(n);
+                let band: Vec<f64> = (0..n)
+                    .flat_map(|j| m[j * n + start..j * n + end].iter().copied())
+                    .collect();
+                let mut part = vec![f64::NAN; end - start];
+                mat_vec_band(&band, &z, &mut part);
+                for (i, p) in (start..end).zip(&part) {
+                    assert_eq!(p.to_bits(), out[i].to_bits(), "n = {n}, band row {i}");
+                }
             }
             // Every range of rows of the same matrix: the same bits, nothing else written.
             for (start, end) in [(0, n), (0, n / 2), (n / 3, n), (n / 4, n / 4 + n / 2 + 1)] {

@@ -226,7 +226,7 @@ mod tests {
     /// The state at `s` by nalgebra's Padé `expm` of the unbalanced `A s` (independent of the
     /// series and of the balancing).
     fn expm_state(mode: &ModeTransitions, z: &[f64], s: f64) -> DVector<f64> {
-        (&mode.a * s).exp() * DVector::from_column_slice(z)
+        (mode.a() * s).exp() * DVector::from_column_slice(z)
     }
 
     /// The first time in `(0, tau]` where `row · z(s) < 0`, from 4000 samples of the `expm`

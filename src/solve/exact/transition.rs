@@ -127,8 +127,11 @@ impl Bins {
 
 /// Everything the propagator needs of one mode.
 pub struct ModeTransitions {
-    /// `A` of the mode.
-    pub a: DMatrix<f64>,
+    /// `A` of the mode (built at its first use for a mode of a band frame,
+    /// [`super::balanced::BandFrame`]).
+    a: OnceCell<DMatrix<f64>>,
+    /// The system's bound of the fastest rate ([`super::PiecewiseLti::max_frequency`]).
+    rate: f64,
     /// `A` balanced, for its exponentials.
     balanced: BalancedMatrix,
     /// Guard sample spacing `h`: a quarter of the fastest period of the mode (`|λh| ≤ π/2`,
@@ -169,6 +172,21 @@ pub struct ModeTransitions {
 impl ModeTransitions {
     /// The operators of the mode `a` whose fastest rate is bounded by `rate` (rad/s).
     pub fn new(a: DMatrix<f64>, rate: f64) -> ModeTransitions {
+        let sample_step = Self::own_sample_step(&a, rate);
+        let balanced = BalancedMatrix::new(&a);
+        Self::with(OnceCell::from(a), balanced, rate, sample_step)
+    }
+
+    /// The operators of a mode balanced by its band frame
+    /// ([`super::balanced::BandFrame::balance`]): `A` and the sample step are built if the
+    /// mode is promoted to the full path; until then its segments go by their series.
+    pub fn in_frame(balanced: BalancedMatrix, rate: f64) -> ModeTransitions {
+        Self::with(OnceCell::new(), balanced, rate, f64::NAN)
+    }
+
+    /// The guard sample step of mode `a`: a quarter of its fastest period, from `rate` or
+    /// the mode's own estimate if faster.
+    fn own_sample_step(a: &DMatrix<f64>, rate: f64) -> f64 {
         let n = a.nrows();
         // The system's bound may miss a fast real eigenvalue (heavy damping): the diagonals
         // of A and A² estimate it from the mode itself.
@@ -178,15 +196,23 @@ impl ModeTransitions {
             .map(|i| a[(i, i)].abs().max(a2_diagonal(i).abs().sqrt()))
             .fold(0.0, f64::max);
         let rate = rate.max(own);
-        let sample_step = if rate > 0.0 && rate.is_finite() {
+        if rate > 0.0 && rate.is_finite() {
             std::f64::consts::FRAC_PI_2 / rate
         } else {
             // No dynamics at all (A nilpotent and zero rates): any step is exact.
             1.0
-        };
-        let balanced = BalancedMatrix::new(&a);
+        }
+    }
+
+    fn with(
+        a: OnceCell<DMatrix<f64>>,
+        balanced: BalancedMatrix,
+        rate: f64,
+        sample_step: f64,
+    ) -> ModeTransitions {
         ModeTransitions {
             a,
+            rate,
             balanced,
             sample_step,
             sample_increment: OnceCell::new(),
@@ -208,18 +234,51 @@ impl ModeTransitions {
         }
     }
 
-    /// Heap bytes held by the mode's operators, bins, guard rows and references (the mode
-    /// cache's memory budget, [`super::ModeCache`]).
+    /// `A` of the mode.
+    pub fn a(&self) -> &DMatrix<f64> {
+        self.a.get_or_init(|| self.balanced.unbalanced())
+    }
+
+    /// Guard `i`'s rows, with `A` and the equilibrium directions they are read with (the
+    /// crossing search of the full path).
+    pub fn guard_rows_with_a(
+        &mut self,
+        i: usize,
+    ) -> (&mut DerivativeRows, &DMatrix<f64>, &NullSpace) {
+        let a = self.a.get_or_init(|| self.balanced.unbalanced());
+        (&mut self.guard_rows[i], a, &self.null_space)
+    }
+
+    /// The number of states.
+    pub fn dim(&self) -> usize {
+        self.balanced.dim()
+    }
+
+    /// The fastest rate the guard sampling assumes, rad/s (a mode of a band frame before its
+    /// promotion: the system's bound).
+    pub fn fastest_rate(&self) -> f64 {
+        if self.sample_step.is_nan() {
+            self.rate
+        } else {
+            std::f64::consts::FRAC_PI_2 / self.sample_step
+        }
+    }
+
     /// Duration bins built so far (each a Padé exponential of the mode's matrix).
     pub fn bin_builds(&self) -> u64 {
         self.builds
     }
 
+    /// Heap bytes held by the mode's operators, bins, guard rows and references (the mode
+    /// cache's memory budget, [`super::ModeCache`]).
     pub fn heap_bytes(&self) -> usize {
-        let n = self.a.nrows();
+        let n = self.dim();
         // `a`, the balanced matrix and the sample increment.
-        (2 + usize::from(self.sample_increment.get().is_some())) * n * n * 8
-            + self.balanced.sparse_bytes()
+        (usize::from(self.a.get().is_some()) + usize::from(self.sample_increment.get().is_some()))
+            * n
+            * n
+            * 8
+            + self.balanced.heap_bytes()
             + self
                 .balanced_guard_rows
                 .get()
@@ -252,7 +311,7 @@ impl ModeTransitions {
     /// reference for recurring ones.
     pub fn learn_recurring(&mut self, z: &[f64], tau: f64, outcome: Option<(f64, usize)>) {
         let mode = ModeOperators {
-            a: &self.a,
+            a: self.a.get_or_init(|| self.balanced.unbalanced()),
             balanced: &self.balanced,
             null_space: &self.null_space,
             sample_step: self.sample_step,
@@ -290,7 +349,11 @@ impl ModeTransitions {
             return;
         }
         self.promoted = true;
-        let n = self.a.nrows();
+        let n = self.dim();
+        if self.sample_step.is_nan() {
+            // A mode of a band frame: its `A` and sample step now.
+            self.sample_step = Self::own_sample_step(self.a(), self.rate);
+        }
         if self.lean() {
             // No guards to sample and products to apply the recurring sequences: one bin
             // and no sample step (`docs/scaling.md`, "Memory").
@@ -313,14 +376,14 @@ impl ModeTransitions {
     /// `A`, its balanced copy and one duration bin; a duration met once goes by the Taylor
     /// series in sub-steps instead of sample steps ([`ModeTransitions::apply_once`]).
     fn lean(&self) -> bool {
-        let n = self.a.nrows();
+        let n = self.dim();
         self.guard_rows.is_empty() && 8 * n * n > BIN_BYTES_PER_MODE
     }
 
     /// Heap bytes the bins may grow by beyond their first [`Bins::slots`] (the cache's grant
     /// at the promotion).
     pub fn grown_bin_bytes(&self) -> usize {
-        let n = self.a.nrows();
+        let n = self.dim();
         (Bins::grown_slots(n) - Bins::slots(n)) * n * n * 8
     }
 
@@ -328,7 +391,7 @@ impl ModeTransitions {
     /// rows: what it keeps near the core in a steady run at one stop per mesh period; the
     /// bins grown for a fine output grid are not counted).
     pub fn full_bytes_estimate(&self) -> usize {
-        let n = self.a.nrows();
+        let n = self.dim();
         if self.lean() {
             // `A`, its balanced copy and one bin.
             return 3 * n * n * 8;
@@ -340,7 +403,7 @@ impl ModeTransitions {
     pub fn sample_increment(&self) -> &[f64] {
         self.sample_increment
             .get_or_init(|| {
-                let n = self.a.nrows();
+                let n = self.dim();
                 self.balanced.exp(self.sample_step) - DMatrix::identity(n, n)
             })
             .as_slice()
@@ -410,9 +473,10 @@ impl ModeTransitions {
             mat_vec(phi, z, out);
         } else {
             // e^{A(τ_c+δ)} z = e^{Aτ_c}(z + δ A z) + O(δ²): A commutes with its exponential.
+            let a = self.a.get_or_init(|| self.balanced.unbalanced());
             let shifted = &mut self.taylor_next;
             shifted.resize(n, 0.0);
-            mat_vec(self.a.as_slice(), z, shifted);
+            mat_vec(a.as_slice(), z, shifted);
             for (s, &x) in shifted.iter_mut().zip(z) {
                 *s = x + delta * *s;
             }
@@ -427,7 +491,10 @@ impl ModeTransitions {
     /// scaling-and-squaring; `false` when the duration spans more than
     /// [`MAX_ONE_OFF_STEPS`] sample steps or the rest's norm is too large for the series.
     fn apply_once(&mut self, tau: f64, z: &[f64], out: &mut [f64]) -> bool {
-        if self.recurring.lean && self.sample_increment.get().is_none() {
+        // (A mode of a band frame has no sample step before its promotion.)
+        if (self.recurring.lean || self.sample_step.is_nan())
+            && self.sample_increment.get().is_none()
+        {
             return self.apply_once_by_series(tau, z, out);
         }
         let h = self.sample_step;
@@ -487,13 +554,13 @@ impl ModeTransitions {
             Some(slot) => slot,
             None => self.build_bin(tau),
         };
-        let n = self.a.nrows();
+        let n = self.dim();
         let delta = tau - f64::from_bits(self.recurring.centres[slot]);
         let phi = DMatrix::from_column_slice(n, n, self.recurring.phi(slot, n));
         if delta == 0.0 {
             phi
         } else {
-            let phi_a = &phi * &self.a;
+            let phi_a = &phi * self.a();
             phi + phi_a * delta
         }
     }
@@ -534,7 +601,7 @@ impl ModeTransitions {
         self.builds += 1;
         let centre_bits = Self::centre_bits(tau);
         let phi = self.balanced.exp(f64::from_bits(centre_bits));
-        let n = self.a.nrows();
+        let n = self.dim();
         let bins = &mut self.recurring;
         // A mode used before its promotion: its guards all excluded by the model, or the
         // unit tests of the transitions alone.

@@ -267,42 +267,97 @@ impl GearTrain {
         per_in: &[f64],
         per_load: &[f64],
         torque_rows: Option<&[Vec<f64>; 2]>,
-        a: &mut DMatrix<f64>,
+        mut rows: AccelerationRows,
     ) {
         let m = self.m;
-        let nz = a.ncols();
+        let nz = rows.columns;
         let last = nz - 1;
         let (k_b, c) = (self.jacobian_parts.minv_k(), self.jacobian_parts.minv_c());
         // Column by column (contiguous in the column-major `A`); every entry takes the same
         // operations in the same order as row by row: the torques, then `M̂⁻¹K̂_b`, `M̂⁻¹Ĉ`.
-        for i in 0..m {
-            a[(i, m + i)] = 1.0;
-        }
         match torque_rows {
             Some([t_in, t_load]) => {
                 for col in 0..nz {
-                    for i in 0..m {
-                        a[(m + i, col)] += per_in[i] * t_in[col] + per_load[i] * t_load[col];
+                    for (i, x) in rows.column(col).iter_mut().enumerate() {
+                        *x += per_in[i] * t_in[col] + per_load[i] * t_load[col];
                     }
                 }
             }
             None => {
-                for i in 0..m {
-                    a[(m + i, last)] += per_in[i] * self.inputs.input_torque
+                for (i, x) in rows.column(last).iter_mut().enumerate() {
+                    *x += per_in[i] * self.inputs.input_torque
                         + per_load[i] * self.inputs.load_torque;
                 }
             }
         }
         for k in 0..m {
-            for i in 0..m {
-                a[(m + i, k)] -= k_b[i * m + k];
+            for (x, &v) in rows.column(k).iter_mut().zip(k_b[k..].iter().step_by(m)) {
+                *x -= v;
             }
         }
         for k in 0..m {
-            for i in 0..m {
-                a[(m + i, m + k)] -= c[i * m + k];
+            for (x, &v) in rows.column(m + k).iter_mut().zip(c[k..].iter().step_by(m)) {
+                *x -= v;
             }
         }
+    }
+
+    /// `−M̂⁻¹a_n F_n` (and `−M̂⁻¹ã_n F̃_n` of back flanks) of every mesh of a free train, from
+    /// the Jacobian parts, subtracted from its acceleration rows.
+    fn subtract_free_mesh_terms(&self, mut rows: AccelerationRows) {
+        let nz = rows.columns;
+        let mut w = vec![0.0; nz];
+        let mut row = vec![0.0; nz];
+        let mut back = vec![0.0; nz];
+        let mut backs_before = 0;
+        for (n, (mesh, base)) in self.meshes.iter().zip(self.harmonic_base()).enumerate() {
+            let split = mesh.a_back.is_some().then_some(&mut back[..]);
+            self.mesh_force_rows(n, base, &mut w, &mut row, split);
+            // The back flanks' rows follow the drive rows in the Jacobian parts, in mesh order
+            // (`GearTrain::new`).
+            let back_part = mesh.a_back.as_ref().map(|_| {
+                backs_before += 1;
+                self.meshes.len() + backs_before - 1
+            });
+            let parts = std::iter::once((n, &row)).chain(back_part.map(|b| (b, &back)));
+            // Column by column: the acceleration rows of a column are contiguous (`A` is
+            // column-major; a new contact combination of a long chain builds a mode every
+            // few segments), and every entry takes the same subtraction as row by row.
+            // A column where the force row is zero (most of them: a mesh's row reaches
+            // only its own gears' coordinates, a few harmonics and the constant) is
+            // skipped: `x − g·0` is `x`, as the entries here are never `−0` (they start
+            // at `+0` and `x − y` is `−0` only for `x = −0`), unless `g` is not finite.
+            for (part, force_row) in parts {
+                let g = self.jacobian_parts.minv_a(part);
+                let skip_zeros = g.iter().all(|gi| gi.is_finite());
+                for (col, &f) in force_row.iter().enumerate() {
+                    if f == 0.0 && skip_zeros {
+                        continue;
+                    }
+                    for (x, &gi) in rows.column(col).iter_mut().zip(g) {
+                        *x -= gi * f;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The acceleration rows `m..2m` of a free train's segment matrix in a column-major store:
+/// `A` itself (columns of `n_z` entries, the rows from `m`) or a band of its own (columns of
+/// `m` entries, [`PiecewiseLti::lti_band_rows`]).
+struct AccelerationRows<'a> {
+    data: &'a mut [f64],
+    stride: usize,
+    offset: usize,
+    m: usize,
+    columns: usize,
+}
+
+impl AccelerationRows<'_> {
+    fn column(&mut self, col: usize) -> &mut [f64] {
+        let start = col * self.stride + self.offset;
+        &mut self.data[start..start + self.m]
     }
 }
 
@@ -460,42 +515,23 @@ impl PiecewiseLti for GearTrain {
         let mut w = vec![0.0; nz];
         let mut row = vec![0.0; nz];
         let mut back = vec![0.0; nz];
-        let mut backs_before = 0;
+        if solved.is_some() {
+            // −M̂⁻¹a_n F_n (and −M̂⁻¹ã_n F̃_n) straight into the acceleration rows.
+            self.subtract_free_mesh_terms(AccelerationRows {
+                data: a.as_mut_slice(),
+                stride: nz,
+                offset: m,
+                m,
+                columns: nz,
+            });
+        }
         for (n, mesh) in self.meshes.iter().enumerate() {
             let base = bases[n];
             let omega = TAU * mesh.clock.mesh_frequency();
             let f = mesh.clock.mesh_frequency();
-            let split = mesh.a_back.is_some().then_some(&mut back[..]);
-            self.mesh_force_rows(n, base, &mut w, &mut row, split);
-            // The back flanks' rows follow the drive rows in the Jacobian parts, in mesh order
-            // (`GearTrain::new`).
-            let back_part = mesh.a_back.as_ref().map(|_| {
-                backs_before += 1;
-                self.meshes.len() + backs_before - 1
-            });
-            if solved.is_some() {
-                // −M̂⁻¹a_n F_n (and −M̂⁻¹ã_n F̃_n) straight into the acceleration rows.
-                let parts = std::iter::once((n, &row)).chain(back_part.map(|b| (b, &back)));
-                // Column by column: the acceleration rows of a column are contiguous (`A` is
-                // column-major; a new contact combination of a long chain builds a mode every
-                // few segments), and every entry takes the same subtraction as row by row.
-                // A column where the force row is zero (most of them: a mesh's row reaches
-                // only its own gears' coordinates, a few harmonics and the constant) is
-                // skipped: `x − g·0` is `x`, as the entries here are never `−0` (they start
-                // at `+0` and `x − y` is `−0` only for `x = −0`), unless `g` is not finite.
-                for (part, force_row) in parts {
-                    let g = self.jacobian_parts.minv_a(part);
-                    let skip_zeros = g.iter().all(|gi| gi.is_finite());
-                    for (column, &f) in a.as_mut_slice().chunks_exact_mut(nz).zip(force_row) {
-                        if f == 0.0 && skip_zeros {
-                            continue;
-                        }
-                        for (x, &gi) in column[m..2 * m].iter_mut().zip(g) {
-                            *x -= gi * f;
-                        }
-                    }
-                }
-            } else {
+            if solved.is_none() {
+                let split = mesh.a_back.is_some().then_some(&mut back[..]);
+                self.mesh_force_rows(n, base, &mut w, &mut row, split);
                 for i in 0..m {
                     for col in 0..nz {
                         force[(i, col)] -= mesh.a[i] * row[col];
@@ -533,7 +569,17 @@ impl PiecewiseLti for GearTrain {
             }
         }
         if let Some([per_in, per_load]) = solved {
-            self.free_train_rows(per_in, per_load, torque_rows.as_ref(), a);
+            for i in 0..m {
+                a[(i, m + i)] = 1.0;
+            }
+            let rows = AccelerationRows {
+                data: a.as_mut_slice(),
+                stride: nz,
+                offset: m,
+                m,
+                columns: nz,
+            };
+            self.free_train_rows(per_in, per_load, torque_rows.as_ref(), rows);
             return;
         }
         for i in 0..m {
@@ -546,6 +592,36 @@ impl PiecewiseLti for GearTrain {
                 };
             }
         }
+    }
+
+    /// A free train without the carried rotation: its modes differ only in the mesh terms of
+    /// its acceleration rows `m..2m` (the velocities' identity, the harmonics' rotations and
+    /// the phase ramps are the same in every mode).
+    fn lti_band(&self) -> Option<std::ops::Range<usize>> {
+        (self.jacobian_parts.torque_columns().is_some() && self.rotation.is_none())
+            .then_some(self.m..2 * self.m)
+    }
+
+    fn lti_band_rows(&self, rows: &mut [f64]) {
+        let Some([per_in, per_load]) = self.jacobian_parts.torque_columns() else {
+            return;
+        };
+        let (m, nz) = (self.m, self.lti_dim());
+        self.subtract_free_mesh_terms(AccelerationRows {
+            data: rows,
+            stride: m,
+            offset: 0,
+            m,
+            columns: nz,
+        });
+        let rows = AccelerationRows {
+            data: rows,
+            stride: m,
+            offset: 0,
+            m,
+            columns: nz,
+        };
+        self.free_train_rows(per_in, per_load, None, rows);
     }
 
     fn guard_row(&self, index: usize, w: &mut [f64]) {
@@ -561,7 +637,7 @@ impl PiecewiseLti for GearTrain {
             return;
         }
         let (n, j, surface) = self.guards[index];
-        let base = self.harmonic_base()[n];
+        let base = self.forcing_base(n);
         self.delta_row_on(n, j, surface.back_flank(), base, w);
         let last = w.len() - 1;
         let clearance = self.meshes[n].clearance();
