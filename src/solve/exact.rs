@@ -577,26 +577,11 @@ impl ModeCache {
         self.frame = BandFrame::of(a, &balanced, band).map(Arc::new);
     }
 
-    /// Whether a mode built now will go by its series: it has guards and will not be
-    /// promoted ([`ModeCache::may_promote`]; the full path then takes it only where the series
-    /// cannot go, which builds its `A` then).
+    /// Whether a mode built now will go by its series: it has guards and the promoted modes
+    /// have taken their budget (the full path then takes it only where the series cannot go,
+    /// which builds its `A` then).
     fn series_from_birth<S: PiecewiseLti>(&self, sys: &S) -> bool {
-        let guards = sys.guard_count();
-        guards > 0 && !self.may_promote(ModeTransitions::full_bytes_for(sys.lti_dim(), guards))
-    }
-
-    /// Whether a mode with guards whose full path takes `estimate` bytes is promoted to it at
-    /// its first meeting: while the promoted modes' data stays near the core
-    /// ([`ModeCache::PROMOTED_BUDGET`]) and the cache has room. A mode larger than that budget
-    /// on its own is promoted only until the cache is first cleared: once a scene's contact
-    /// combinations outnumber the cache, such a mode's full path (the SVD of its equilibrium
-    /// directions, Padé exponentials of `n³` each) was rebuilt after every clear for a
-    /// handful of segments (the free 64-mesh compliant chain with contact loss, 519 states:
-    /// about a third of its time, `docs/scaling.md`).
-    fn may_promote(&self, estimate: usize) -> bool {
-        self.promoted_bytes < Self::PROMOTED_BUDGET
-            && self.fits(estimate)
-            && !(self.clears > 0 && estimate > Self::PROMOTED_BUDGET)
+        sys.guard_count() > 0 && self.promoted_bytes >= Self::PROMOTED_BUDGET
     }
 
     /// The guard rows of the current mode of `sys`.
@@ -1265,7 +1250,9 @@ impl ExactPropagator {
                 let mode = &self.modes.modes[position];
                 let series_ok = self.sensitivity.is_none() && series_segment::applies(mode);
                 if !mode.promoted()
-                    && (!series_ok || self.modes.may_promote(mode.full_bytes_estimate()))
+                    && (!series_ok
+                        || (self.modes.promoted_bytes < ModeCache::PROMOTED_BUDGET
+                            && self.modes.fits(mode.full_bytes_estimate())))
                 {
                     self.modes.promoted_bytes += mode.full_bytes_estimate();
                     self.modes.promote(position);

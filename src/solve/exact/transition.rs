@@ -391,17 +391,12 @@ impl ModeTransitions {
     /// rows: what it keeps near the core in a steady run at one stop per mesh period; the
     /// bins grown for a fine output grid are not counted).
     pub fn full_bytes_estimate(&self) -> usize {
-        Self::full_bytes_for(self.dim(), self.guard_rows.len())
-    }
-
-    /// [`ModeTransitions::full_bytes_estimate`] of a mode of `n` states and `guards` guards,
-    /// before it is built.
-    pub fn full_bytes_for(n: usize, guards: usize) -> usize {
-        if guards == 0 && 8 * n * n > BIN_BYTES_PER_MODE {
-            // Lean: `A`, its balanced copy and one bin.
+        let n = self.dim();
+        if self.lean() {
+            // `A`, its balanced copy and one bin.
             return 3 * n * n * 8;
         }
-        3 * n * n * 8 + Bins::slots(n) * n * n * 8 + guards * 24 * n * 8
+        3 * n * n * 8 + Bins::slots(n) * n * n * 8 + self.guard_rows.len() * 24 * n * 8
     }
 
     /// `e^{A h} − I` (one guard sample step), column-major.
