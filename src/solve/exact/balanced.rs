@@ -146,7 +146,7 @@ impl BandFrame {
         envelope: &BalancedMatrix,
         band: Range<usize>,
     ) -> Option<BandFrame> {
-        if !envelope.norm.is_finite() || envelope.band.is_some() {
+        if !envelope.norm.is_finite() {
             return None;
         }
         let n = a.nrows();
@@ -241,6 +241,26 @@ struct SparseRows {
 }
 
 impl SparseRows {
+    /// Row `i`'s stored entries `(column, value)`, ascending (none for a dense row).
+    fn row(&self, i: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let range = self.starts[i] as usize..self.starts[i + 1] as usize;
+        (self.columns[range.clone()].iter())
+            .zip(&self.values[range])
+            .map(|(&j, &v)| (j as usize, v))
+    }
+
+    /// `out[i] = Σ_j b_ij u_j` over every row's stored entries, in ascending column order
+    /// (a dense row's is `0`, overwritten by the caller).
+    fn sparse_products(&self, u: &[f64], out: &mut [f64]) {
+        for (i, o) in out.iter_mut().enumerate() {
+            let mut sum = 0.0;
+            for (j, v) in self.row(i) {
+                sum += v * u[j];
+            }
+            *o = sum;
+        }
+    }
+
     fn heap_bytes(&self) -> usize {
         self.starts.capacity() * 4
             + self.columns.capacity() * 4
@@ -488,32 +508,13 @@ impl BalancedMatrix {
     /// dense product.
     pub fn times(&self, u: &[f64], out: &mut [f64]) {
         if let Some(band) = &self.band {
-            let frame = &band.frame;
-            let shared = &frame.shared;
-            for (i, o) in out.iter_mut().enumerate() {
-                let range = shared.starts[i] as usize..shared.starts[i + 1] as usize;
-                let mut sum = 0.0;
-                for (&j, &v) in shared.columns[range.clone()]
-                    .iter()
-                    .zip(&shared.values[range])
-                {
-                    sum += v * u[j as usize];
-                }
-                *o = sum;
-            }
-            super::mat_vec::mat_vec_band(&band.rows, u, &mut out[frame.band.clone()]);
+            band.frame.shared.sparse_products(u, out);
+            super::mat_vec::mat_vec_band(&band.rows, u, &mut out[band.frame.band.clone()]);
             return;
         }
         match &self.sparse {
             Some(rows) => {
-                for (i, o) in out.iter_mut().enumerate() {
-                    let range = rows.starts[i] as usize..rows.starts[i + 1] as usize;
-                    let mut sum = 0.0;
-                    for (&j, &v) in rows.columns[range.clone()].iter().zip(&rows.values[range]) {
-                        sum += v * u[j as usize];
-                    }
-                    *o = sum;
-                }
+                rows.sparse_products(u, out);
                 for &(start, end) in &rows.dense {
                     super::mat_vec::mat_vec_rows(
                         self.matrix().as_slice(),
@@ -545,12 +546,8 @@ impl BalancedMatrix {
             let (frame, n) = (&band.frame, self.scale.len());
             let mut b = DMatrix::zeros(n, n);
             for i in 0..n {
-                let range = frame.shared.starts[i] as usize..frame.shared.starts[i + 1] as usize;
-                for (&j, &v) in frame.shared.columns[range.clone()]
-                    .iter()
-                    .zip(&frame.shared.values[range])
-                {
-                    b[(i, j as usize)] = v;
+                for (j, v) in frame.shared.row(i) {
+                    b[(i, j)] = v;
                 }
             }
             let height = frame.band.len();

@@ -125,6 +125,13 @@ impl Bins {
     }
 }
 
+/// `A` of a mode, assembled from its balanced form at the first use where it was not kept
+/// (a mode of a band frame). A function of the two fields rather than a method, so that a
+/// caller may hold `A` beside a mutable borrow of the mode's other fields.
+fn a_of<'a>(a: &'a OnceCell<DMatrix<f64>>, balanced: &BalancedMatrix) -> &'a DMatrix<f64> {
+    a.get_or_init(|| balanced.unbalanced())
+}
+
 /// Everything the propagator needs of one mode.
 pub struct ModeTransitions {
     /// `A` of the mode (built at its first use for a mode of a band frame,
@@ -236,7 +243,7 @@ impl ModeTransitions {
 
     /// `A` of the mode.
     pub fn a(&self) -> &DMatrix<f64> {
-        self.a.get_or_init(|| self.balanced.unbalanced())
+        a_of(&self.a, &self.balanced)
     }
 
     /// Guard `i`'s rows, with `A` and the equilibrium directions they are read with (the
@@ -245,7 +252,7 @@ impl ModeTransitions {
         &mut self,
         i: usize,
     ) -> (&mut DerivativeRows, &DMatrix<f64>, &NullSpace) {
-        let a = self.a.get_or_init(|| self.balanced.unbalanced());
+        let a = a_of(&self.a, &self.balanced);
         (&mut self.guard_rows[i], a, &self.null_space)
     }
 
@@ -311,7 +318,7 @@ impl ModeTransitions {
     /// reference for recurring ones.
     pub fn learn_recurring(&mut self, z: &[f64], tau: f64, outcome: Option<(f64, usize)>) {
         let mode = ModeOperators {
-            a: self.a.get_or_init(|| self.balanced.unbalanced()),
+            a: a_of(&self.a, &self.balanced),
             balanced: &self.balanced,
             null_space: &self.null_space,
             sample_step: self.sample_step,
@@ -473,7 +480,7 @@ impl ModeTransitions {
             mat_vec(phi, z, out);
         } else {
             // e^{A(τ_c+δ)} z = e^{Aτ_c}(z + δ A z) + O(δ²): A commutes with its exponential.
-            let a = self.a.get_or_init(|| self.balanced.unbalanced());
+            let a = a_of(&self.a, &self.balanced);
             let shifted = &mut self.taylor_next;
             shifted.resize(n, 0.0);
             mat_vec(a.as_slice(), z, shifted);

@@ -354,7 +354,30 @@ struct AccelerationRows<'a> {
     columns: usize,
 }
 
-impl AccelerationRows<'_> {
+impl<'a> AccelerationRows<'a> {
+    /// Rows `m..2m` of `A` itself.
+    fn of_matrix(a: &'a mut DMatrix<f64>, m: usize) -> Self {
+        let columns = a.ncols();
+        AccelerationRows {
+            data: a.as_mut_slice(),
+            stride: columns,
+            offset: m,
+            m,
+            columns,
+        }
+    }
+
+    /// A band of `m` rows and `columns` columns of its own.
+    fn band(data: &'a mut [f64], m: usize, columns: usize) -> Self {
+        AccelerationRows {
+            data,
+            stride: m,
+            offset: 0,
+            m,
+            columns,
+        }
+    }
+
     fn column(&mut self, col: usize) -> &mut [f64] {
         let start = col * self.stride + self.offset;
         &mut self.data[start..start + self.m]
@@ -517,13 +540,7 @@ impl PiecewiseLti for GearTrain {
         let mut back = vec![0.0; nz];
         if solved.is_some() {
             // −M̂⁻¹a_n F_n (and −M̂⁻¹ã_n F̃_n) straight into the acceleration rows.
-            self.subtract_free_mesh_terms(AccelerationRows {
-                data: a.as_mut_slice(),
-                stride: nz,
-                offset: m,
-                m,
-                columns: nz,
-            });
+            self.subtract_free_mesh_terms(AccelerationRows::of_matrix(a, m));
         }
         for (n, mesh) in self.meshes.iter().enumerate() {
             let base = bases[n];
@@ -572,13 +589,7 @@ impl PiecewiseLti for GearTrain {
             for i in 0..m {
                 a[(i, m + i)] = 1.0;
             }
-            let rows = AccelerationRows {
-                data: a.as_mut_slice(),
-                stride: nz,
-                offset: m,
-                m,
-                columns: nz,
-            };
+            let rows = AccelerationRows::of_matrix(a, m);
             self.free_train_rows(per_in, per_load, torque_rows.as_ref(), rows);
             return;
         }
@@ -607,21 +618,8 @@ impl PiecewiseLti for GearTrain {
             return;
         };
         let (m, nz) = (self.m, self.lti_dim());
-        self.subtract_free_mesh_terms(AccelerationRows {
-            data: rows,
-            stride: m,
-            offset: 0,
-            m,
-            columns: nz,
-        });
-        let rows = AccelerationRows {
-            data: rows,
-            stride: m,
-            offset: 0,
-            m,
-            columns: nz,
-        };
-        self.free_train_rows(per_in, per_load, None, rows);
+        self.subtract_free_mesh_terms(AccelerationRows::band(rows, m, nz));
+        self.free_train_rows(per_in, per_load, None, AccelerationRows::band(rows, m, nz));
     }
 
     fn guard_row(&self, index: usize, w: &mut [f64]) {
